@@ -1,0 +1,68 @@
+# fleetmap — two commands: `make demo` and `make test`.
+#
+# `make` installs what the build needs on a fresh Debian machine that has only the Rust
+# toolchain: system packages with apt-get (sudo when not root), and a Python virtual
+# environment (.venv) with the third-party reference implementations the tests compare
+# fleetmap against (pymavlink, MAVSDK, OpenCV, pyproj).
+
+SHELL := /bin/bash
+CARGO ?= cargo
+PYTHON ?= python3
+VENV := .venv
+PY := $(VENV)/bin/python
+# cmake + a C++ compiler build HiGHS (good_lp's solver); libclang-dev is for its bindgen.
+APT_PACKAGES := cmake g++ libclang-dev pkg-config
+BIN := target/debug/fleetmap
+
+.PHONY: all build test demo sysdeps venv bench ci clean-venv
+
+all: build
+
+## Install missing system packages (says what it installs; does nothing when all are present).
+sysdeps:
+	@missing=""; \
+	for p in $(APT_PACKAGES); do \
+	  dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q "install ok installed" || missing="$$missing $$p"; \
+	done; \
+	if [ -n "$$missing" ]; then \
+	  echo "make: installing system packages:$$missing"; \
+	  SUDO=""; if [ "$$(id -u)" != 0 ]; then SUDO=sudo; fi; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
+	fi
+	@if ! $(PYTHON) -c 'import venv, ensurepip' 2>/dev/null; then \
+	  echo "make: installing system package: python3-venv"; \
+	  SUDO=""; if [ "$$(id -u)" != 0 ]; then SUDO=sudo; fi; \
+	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq python3-venv; \
+	fi
+
+## The Python reference implementations used by the conformance tests.
+venv: $(VENV)/.installed
+$(VENV)/.installed: tests/py/requirements.txt | sysdeps
+	@echo "make: creating the Python environment $(VENV) (pymavlink, MAVSDK, OpenCV, pyproj, pytest)"
+	$(PYTHON) -m venv $(VENV)
+	$(PY) -m pip install -q --disable-pip-version-check -r tests/py/requirements.txt
+	@touch $@
+
+build: sysdeps
+	$(CARGO) build --bins
+
+## The whole test suite: Rust unit, property and end-to-end tests, then the Python
+## conformance tests against the built binary.
+test: build venv
+	$(CARGO) test --all-targets --no-fail-fast
+	FLEETMAP_BIN=$(abspath $(BIN)) $(PY) -m pytest -q tests/py
+
+## The main job on the embedded simulator (the TUI on a terminal, headless otherwise).
+demo: build
+	@if [ -t 0 ] && [ -t 1 ]; then $(BIN) demo; else $(BIN) demo --headless; fi
+
+bench: sysdeps
+	$(CARGO) bench
+
+## What CI runs (.ci/run).
+ci: test
+	$(CARGO) fmt --check
+	$(CARGO) clippy --all-targets -- -D warnings
+
+clean-venv:
+	rm -rf $(VENV)

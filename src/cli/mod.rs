@@ -1,0 +1,65 @@
+//! The `fleetmap` command line: one subcommand per user task.
+//!
+//! Each subcommand's arguments and entry point live in a file of this module
+//! (`src/cli/<task>.rs`); this file only declares the command tree and dispatches.
+//! Commands return an [`ExitCode`]; an `Err` is printed by `main` as one line on stderr
+//! and exits with status 1.
+
+use clap::{Parser, Subcommand};
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// fleetmap: map regions of interest with fleets of PX4 and ArduPilot vehicles over MAVLink.
+#[derive(Debug, Parser)]
+#[command(name = "fleetmap", version, about, long_about = None)]
+pub struct Cli {
+    /// More log output on stderr (-v info, -vv debug, -vvv trace). `RUST_LOG` overrides.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    pub verbose: u8,
+    /// Write logs to this file instead of stderr.
+    #[arg(long, global = true, value_name = "FILE")]
+    pub log_file: Option<PathBuf>,
+    /// What to do.
+    #[command(subcommand)]
+    pub command: Command,
+}
+
+/// The subcommands.
+#[derive(Debug, Subcommand)]
+pub enum Command {}
+
+/// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
+pub fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::Result<()> {
+    use tracing_subscriber::EnvFilter;
+    let default = match verbose {
+        0 => "warn",
+        1 => "info",
+        2 => "debug",
+        _ => "trace",
+    };
+    let filter = EnvFilter::try_from_default_env().unwrap_or_else(|_| EnvFilter::new(default));
+    let builder = tracing_subscriber::fmt().with_env_filter(filter);
+    let result = match log_file {
+        Some(path) => {
+            let file = std::fs::OpenOptions::new()
+                .create(true)
+                .append(true)
+                .open(path)
+                .map_err(|e| anyhow::anyhow!("cannot open log file {}: {e}", path.display()))?;
+            builder
+                .with_ansi(false)
+                .with_writer(std::sync::Mutex::new(file))
+                .try_init()
+        }
+        None => builder.with_writer(std::io::stderr).try_init(),
+    };
+    // A second initialisation (tests calling `run` twice) keeps the first subscriber.
+    let _ = result;
+    Ok(())
+}
+
+/// Run the parsed command line.
+pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
+    init_logging(cli.verbose, cli.log_file.as_deref())?;
+    match cli.command {}
+}

@@ -1,0 +1,1 @@
+//! Monte Carlo studies that reproduce the papers' tables and figures (CSV, JSON, PNG).

@@ -1,0 +1,1 @@
+//! Image sources: MAVLink image transmission, a watched directory and the simulated camera.

@@ -1,0 +1,44 @@
+//! fleetmap — a terminal ground-control station that maps regions of interest with fleets of
+//! PX4 and ArduPilot vehicles over MAVLink.
+//!
+//! The crate follows the layering of `DESIGN.md`: a pure core (no sockets, no files, no clock
+//! reads; time is a [`time::Time`] parameter) and a thin async shell (link, fleet, app, UI)
+//! built on tokio. Module responsibilities:
+//!
+//! | module | layer | responsibility |
+//! |---|---|---|
+//! | [`geo`] | core | mission grid, cell ↔ UTM ↔ WGS84, polygons → cells |
+//! | [`mission`] | core | mission items, mission definition files, QGC file formats |
+//! | [`proto`] | core | sans-IO MAVLink micro-services and autopilot flavours |
+//! | [`vision`] | core | the runway classifier, votes, green-pixel measurements, camera geometry |
+//! | [`explore`] | core | lawnmower sweep and the multi-robot recursive DFS |
+//! | [`planner`] | core | UCB bandit, the integer program, linear assignment, baselines |
+//! | [`store`] | core + files | the crash-safe run directory |
+//! | [`sim`] | core + thin server | the simulated autopilot, camera and worlds |
+//! | [`link`] | shell | transports, framing, signing, tlogs |
+//! | [`fleet`] | shell | the fleet actor and per-vehicle async operations |
+//! | [`imagery`] | shell | image sources (MAVLink image transfer, directories, simulated camera) |
+//! | [`app`] | shell | mission runners (runway mapping, bandit sorties, resume) |
+//! | [`tui`] | shell | the ratatui operator interface |
+//! | [`experiment`] | batch | Monte Carlo studies reproducing the papers |
+//! | [`cli`] | entry | the `fleetmap` command line |
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod app;
+pub mod cli;
+pub mod experiment;
+pub mod explore;
+pub mod fleet;
+pub mod geo;
+pub mod imagery;
+pub mod link;
+pub mod mission;
+pub mod planner;
+pub mod proto;
+pub mod sim;
+pub mod store;
+pub mod time;
+pub mod tui;
+pub mod vision;

@@ -1,0 +1,1 @@
+//! MAVLink transports (UDP, TCP, serial), framing, routing, signing and `.tlog` recording.

@@ -1,0 +1,269 @@
+//! One MAVLink mission item, independent of the wire message that carries it.
+//!
+//! This is the payload of MISSION_ITEM_INT without the addressing and sequence fields: the
+//! position of an item in its `Vec` is its sequence number in the *user's* numbering (no
+//! ArduPilot home item at seq 0: the protocol layer adds and strips it). Latitude and
+//! longitude are integers in degrees × 10⁷ exactly as on the wire, so a mission survives an
+//! upload/download round trip bit for bit.
+
+use serde::{Deserialize, Serialize};
+
+/// MAV_CMD values used by fleetmap (MAVLink common.xml).
+pub mod cmd {
+    /// Fly to a position (param1 hold time s, param2 acceptance radius m, param4 yaw deg).
+    pub const NAV_WAYPOINT: u16 = 16;
+    /// Loiter at a position for param1 seconds.
+    pub const NAV_LOITER_TIME: u16 = 19;
+    /// Return to the launch position.
+    pub const NAV_RETURN_TO_LAUNCH: u16 = 20;
+    /// Land at a position (or here when lat/lon are 0).
+    pub const NAV_LAND: u16 = 21;
+    /// Take off to the item's altitude.
+    pub const NAV_TAKEOFF: u16 = 22;
+    /// Jump to item param1, param2 times (−1 = forever).
+    pub const DO_JUMP: u16 = 177;
+    /// Change speed: param1 speed type, param2 speed m/s.
+    pub const DO_CHANGE_SPEED: u16 = 178;
+    /// Set home: param1 = 1 uses the current position, 0 the item's position.
+    pub const DO_SET_HOME: u16 = 179;
+    /// Go to a position now (guided), as a command.
+    pub const DO_REPOSITION: u16 = 192;
+    /// Legacy camera trigger (param5 = 1 takes one picture).
+    pub const DO_DIGICAM_CONTROL: u16 = 203;
+    /// Trigger the camera every param1 metres travelled (0 stops).
+    pub const DO_SET_CAM_TRIGG_DIST: u16 = 206;
+    /// Arm (param1 = 1) or disarm (param1 = 0).
+    pub const COMPONENT_ARM_DISARM: u16 = 400;
+    /// Start capturing images: param2 interval s, param3 count, param4 sequence number.
+    pub const IMAGE_START_CAPTURE: u16 = 2000;
+    /// Stop capturing images.
+    pub const IMAGE_STOP_CAPTURE: u16 = 2001;
+    /// Fence polygon vertex, inclusion (param1 = vertex count).
+    pub const NAV_FENCE_POLYGON_VERTEX_INCLUSION: u16 = 5001;
+    /// Fence polygon vertex, exclusion (param1 = vertex count).
+    pub const NAV_FENCE_POLYGON_VERTEX_EXCLUSION: u16 = 5002;
+    /// Rally point.
+    pub const NAV_RALLY_POINT: u16 = 5100;
+}
+
+/// MAV_FRAME values used by fleetmap.
+pub mod frame {
+    /// Global frame, altitude AMSL (lat/lon as float degrees in MISSION_ITEM).
+    pub const GLOBAL: u8 = 0;
+    /// Not a position (commands without coordinates).
+    pub const MISSION: u8 = 2;
+    /// Global frame, altitude relative to home.
+    pub const GLOBAL_RELATIVE_ALT: u8 = 3;
+    /// Global frame, altitude above terrain.
+    pub const GLOBAL_TERRAIN_ALT: u8 = 10;
+}
+
+/// MAV_MISSION_TYPE: which of the autopilot's lists an item belongs to.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MissionType {
+    /// The flight plan (MAV_MISSION_TYPE_MISSION = 0).
+    #[default]
+    Mission,
+    /// The geofence (MAV_MISSION_TYPE_FENCE = 1).
+    Fence,
+    /// Rally points (MAV_MISSION_TYPE_RALLY = 2).
+    Rally,
+}
+
+impl MissionType {
+    /// The MAV_MISSION_TYPE number.
+    pub const fn as_u8(self) -> u8 {
+        match self {
+            MissionType::Mission => 0,
+            MissionType::Fence => 1,
+            MissionType::Rally => 2,
+        }
+    }
+
+    /// The mission type for a MAV_MISSION_TYPE number (255 = ALL is not a list).
+    pub const fn from_u8(v: u8) -> Option<MissionType> {
+        match v {
+            0 => Some(MissionType::Mission),
+            1 => Some(MissionType::Fence),
+            2 => Some(MissionType::Rally),
+            _ => None,
+        }
+    }
+}
+
+/// One mission item (the payload of MISSION_ITEM_INT without addressing and sequence).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct MissionItem {
+    /// MAV_FRAME of the coordinates.
+    pub frame: u8,
+    /// MAV_CMD.
+    pub command: u16,
+    /// Whether this is the current item (only meaningful on download).
+    pub current: bool,
+    /// Continue to the next item when this one completes.
+    pub autocontinue: bool,
+    /// Command parameter 1 (meaning depends on `command`).
+    pub param1: f32,
+    /// Command parameter 2.
+    pub param2: f32,
+    /// Command parameter 3.
+    pub param3: f32,
+    /// Command parameter 4.
+    pub param4: f32,
+    /// Latitude in degrees × 10⁷ (or parameter 5 for non-position commands).
+    pub x: i32,
+    /// Longitude in degrees × 10⁷ (or parameter 6).
+    pub y: i32,
+    /// Altitude in metres in `frame` (or parameter 7).
+    pub z: f32,
+}
+
+/// Degrees → the wire's degrees × 10⁷ (rounded to nearest, as QGroundControl does).
+pub fn deg_to_e7(deg: f64) -> i32 {
+    (deg * 1e7).round() as i32
+}
+
+/// The wire's degrees × 10⁷ → degrees.
+pub fn e7_to_deg(e7: i32) -> f64 {
+    f64::from(e7) / 1e7
+}
+
+impl MissionItem {
+    /// A command item without coordinates (frame MISSION), all parameters zero.
+    pub fn command(command: u16) -> MissionItem {
+        MissionItem {
+            frame: frame::MISSION,
+            command,
+            current: false,
+            autocontinue: true,
+            param1: 0.0,
+            param2: 0.0,
+            param3: 0.0,
+            param4: 0.0,
+            x: 0,
+            y: 0,
+            z: 0.0,
+        }
+    }
+
+    /// A position item at (`lat`, `lon`) degrees, `alt` metres relative to home.
+    pub fn at(command: u16, lat: f64, lon: f64, alt: f32) -> MissionItem {
+        MissionItem {
+            frame: frame::GLOBAL_RELATIVE_ALT,
+            x: deg_to_e7(lat),
+            y: deg_to_e7(lon),
+            z: alt,
+            ..MissionItem::command(command)
+        }
+    }
+
+    /// NAV_WAYPOINT at (`lat`, `lon`) degrees, `alt` metres relative to home, no hold.
+    pub fn waypoint(lat: f64, lon: f64, alt: f32) -> MissionItem {
+        MissionItem::at(cmd::NAV_WAYPOINT, lat, lon, alt)
+    }
+
+    /// NAV_TAKEOFF to `alt` metres relative to home, at the current position.
+    pub fn takeoff(alt: f32) -> MissionItem {
+        MissionItem {
+            frame: frame::GLOBAL_RELATIVE_ALT,
+            z: alt,
+            ..MissionItem::command(cmd::NAV_TAKEOFF)
+        }
+    }
+
+    /// NAV_LAND at (`lat`, `lon`) degrees.
+    pub fn land(lat: f64, lon: f64) -> MissionItem {
+        MissionItem::at(cmd::NAV_LAND, lat, lon, 0.0)
+    }
+
+    /// NAV_RETURN_TO_LAUNCH.
+    pub fn return_to_launch() -> MissionItem {
+        MissionItem::command(cmd::NAV_RETURN_TO_LAUNCH)
+    }
+
+    /// NAV_LOITER_TIME for `seconds` at (`lat`, `lon`, `alt` relative to home).
+    pub fn loiter_time(seconds: f32, lat: f64, lon: f64, alt: f32) -> MissionItem {
+        MissionItem {
+            param1: seconds,
+            ..MissionItem::at(cmd::NAV_LOITER_TIME, lat, lon, alt)
+        }
+    }
+
+    /// DO_CHANGE_SPEED to `speed` m/s ground speed (speed type 1).
+    pub fn change_speed(speed: f32) -> MissionItem {
+        MissionItem {
+            param1: 1.0,
+            param2: speed,
+            param3: -1.0,
+            ..MissionItem::command(cmd::DO_CHANGE_SPEED)
+        }
+    }
+
+    /// IMAGE_START_CAPTURE: `count` images `interval` seconds apart (count 1 = one image).
+    pub fn image_start_capture(interval: f32, count: u32) -> MissionItem {
+        MissionItem {
+            param2: interval,
+            param3: count as f32,
+            ..MissionItem::command(cmd::IMAGE_START_CAPTURE)
+        }
+    }
+
+    /// DO_JUMP to user item `target` (0-based, no home item), `repeat` times.
+    pub fn jump(target: u16, repeat: i16) -> MissionItem {
+        MissionItem {
+            param1: f32::from(target),
+            param2: f32::from(repeat),
+            ..MissionItem::command(cmd::DO_JUMP)
+        }
+    }
+
+    /// Latitude in degrees.
+    pub fn lat(&self) -> f64 {
+        e7_to_deg(self.x)
+    }
+
+    /// Longitude in degrees.
+    pub fn lon(&self) -> f64 {
+        e7_to_deg(self.y)
+    }
+
+    /// Whether this command carries a position in x/y/z.
+    pub fn has_position(&self) -> bool {
+        matches!(
+            self.command,
+            cmd::NAV_WAYPOINT
+                | cmd::NAV_LOITER_TIME
+                | cmd::NAV_LAND
+                | cmd::NAV_TAKEOFF
+                | cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION
+                | cmd::NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+                | cmd::NAV_RALLY_POINT
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn e7_round_trip() {
+        for deg in [0.0, 38.9807312, -77.0366456, 179.9999999, -89.9999999] {
+            let e7 = deg_to_e7(deg);
+            assert!((e7_to_deg(e7) - deg).abs() < 0.6e-7);
+            assert_eq!(deg_to_e7(e7_to_deg(e7)), e7);
+        }
+    }
+
+    #[test]
+    fn builders() {
+        let w = MissionItem::waypoint(1.5, -2.25, 12.0);
+        assert_eq!((w.x, w.y, w.z), (15_000_000, -22_500_000, 12.0));
+        assert_eq!(w.frame, frame::GLOBAL_RELATIVE_ALT);
+        assert!(w.has_position());
+        assert!(!MissionItem::image_start_capture(0.0, 5).has_position());
+        assert_eq!(MissionType::from_u8(1), Some(MissionType::Fence));
+        assert_eq!(MissionType::from_u8(255), None);
+    }
+}

@@ -1,0 +1,1 @@
+//! Sans-IO MAVLink micro-services (heartbeat, command, mission transfer) and autopilot flavours.

@@ -1,0 +1,1 @@
+//! The embedded simulated autopilot: vehicles, battery, camera and worlds, stepped by time.
