@@ -5,6 +5,9 @@
 //! Commands return an [`ExitCode`]; an `Err` is printed by `main` as one line on stderr
 //! and exits with status 1.
 
+pub mod bench;
+pub mod experiment;
+
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -26,7 +29,12 @@ pub struct Cli {
 
 /// The subcommands.
 #[derive(Debug, Subcommand)]
-pub enum Command {}
+pub enum Command {
+    /// Measure speed and print the figures.
+    Bench(bench::BenchArgs),
+    /// Run one of the papers' Monte Carlo studies.
+    Experiment(experiment::ExperimentArgs),
+}
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
 pub fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::Result<()> {
@@ -61,5 +69,8 @@ pub fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::
 /// Run the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     init_logging(cli.verbose, cli.log_file.as_deref())?;
-    match cli.command {}
+    match cli.command {
+        Command::Bench(args) => bench::run(args),
+        Command::Experiment(args) => experiment::run(args),
+    }
 }

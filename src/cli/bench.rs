@@ -1,0 +1,22 @@
+//! `fleetmap bench …`: measure speed and print the figures (performance is measured by
+//! commands and criterion benches, never asserted in tests).
+
+use clap::{Args, Subcommand};
+use std::process::ExitCode;
+
+/// Arguments of `fleetmap bench`.
+#[derive(Debug, Args)]
+pub struct BenchArgs {
+    /// What to measure.
+    #[command(subcommand)]
+    pub what: BenchCommand,
+}
+
+/// The benchmarks.
+#[derive(Debug, Subcommand)]
+pub enum BenchCommand {}
+
+/// Run a benchmark.
+pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
+    match args.what {}
+}
