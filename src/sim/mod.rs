@@ -9,3 +9,5 @@ pub mod mission_server;
 
 pub use flavour::{Autopilot, Flavour, Mode, VehicleKind};
 pub use mission_server::{MissionEvent, MissionServer};
+pub mod render;
+pub mod world;
