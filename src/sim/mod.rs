@@ -11,3 +11,5 @@ pub use flavour::{Autopilot, Flavour, Mode, VehicleKind};
 pub use mission_server::{MissionEvent, MissionServer};
 pub mod render;
 pub mod world;
+pub mod battery;
+pub mod motion;
