@@ -1,1 +1,5 @@
-//! Image sources: MAVLink image transmission, a watched directory and the simulated camera.
+//! Image sources on the GCS side: MAVLink image transmission (DATA_TRANSMISSION_HANDSHAKE +
+//! ENCAPSULATED_DATA reassembled into JPEG bytes), images announced by CAMERA_IMAGE_CAPTURED
+//! file URLs, and the metadata the simulated camera embeds in its JPEGs.
+
+pub mod meta;

@@ -13,3 +13,5 @@ pub mod render;
 pub mod world;
 pub mod battery;
 pub mod motion;
+pub mod camera;
+pub mod vehicle;
