@@ -245,7 +245,10 @@ impl SimCamera {
             width: model.width_px,
             height: model.height_px,
         };
-        let file_name = format!("sys{:03}_boot{:03}_img{:05}.jpg", self.sysid, self.boot, index);
+        let file_name = format!(
+            "sys{:03}_boot{:03}_img{:05}.jpg",
+            self.sysid, self.boot, index
+        );
         let mut jpeg = None;
         if let Some(w) = world {
             let seed = self
@@ -254,7 +257,13 @@ impl SimCamera {
                 .wrapping_add(u64::from(self.sysid) << 40)
                 .wrapping_add(u64::from(self.boot) << 24)
                 .wrapping_add(index as u64);
-            let img = render(w, &ctx.true_pose, &model, ctx.world_t_s, &Disturbances::draw(seed));
+            let img = render(
+                w,
+                &ctx.true_pose,
+                &model,
+                ctx.world_t_s,
+                &Disturbances::draw(seed),
+            );
             let mut raw = Vec::new();
             let ok = image::codecs::jpeg::JpegEncoder::new_with_quality(
                 &mut raw,
@@ -273,8 +282,8 @@ impl SimCamera {
         // Quaternion of the camera (w, x, y, z) with only the heading, as ArduPilot/PX4 fill it
         // for a nadir camera without a gimbal report.
         let h = ctx.true_pose.heading_deg.to_radians() / 2.0;
-        self.outbox
-            .push_back(MavMessage::CAMERA_IMAGE_CAPTURED(mav::CAMERA_IMAGE_CAPTURED_DATA {
+        self.outbox.push_back(MavMessage::CAMERA_IMAGE_CAPTURED(
+            mav::CAMERA_IMAGE_CAPTURED_DATA {
                 time_utc: 0,
                 time_boot_ms: ctx.time_boot_ms,
                 lat: (ctx.reported.0 * 1e7).round() as i32,
@@ -290,7 +299,8 @@ impl SimCamera {
                     mav::MavBool::MAV_BOOL_FALSE
                 },
                 file_url: url.as_str().into(),
-            }));
+            },
+        ));
         if let Some(j) = &jpeg {
             if self.config.mavlink_transfer {
                 self.queue_transfer(j);

@@ -9,9 +9,11 @@ pub mod mission_server;
 
 pub use flavour::{Autopilot, Flavour, Mode, VehicleKind};
 pub use mission_server::{MissionEvent, MissionServer};
-pub mod render;
-pub mod world;
 pub mod battery;
-pub mod motion;
 pub mod camera;
+pub mod faults;
+pub mod harness;
+pub mod motion;
+pub mod render;
 pub mod vehicle;
+pub mod world;

@@ -168,7 +168,9 @@ pub fn step(s: &mut State, cmd: &Command, lim: &Limits, wind_ne: (f64, f64), rov
         rover_step(s, de, dn, dist, speed, lim, dt);
     } else {
         // desired velocity: trapezoidal profile, proportional near the target
-        let vmax = speed.min((2.0 * lim.accel_mps2 * dist).sqrt()).min(1.5 * dist);
+        let vmax = speed
+            .min((2.0 * lim.accel_mps2 * dist).sqrt())
+            .min(1.5 * dist);
         let (mut vde, mut vdn) = if dist > 1e-9 {
             (de / dist * vmax, dn / dist * vmax)
         } else {
@@ -210,8 +212,14 @@ pub fn step(s: &mut State, cmd: &Command, lim: &Limits, wind_ne: (f64, f64), rov
             Some(r) => -r,
             None => {
                 let dz = tgt.2 - s.u;
-                let cap = if dz > 0.0 { lim.climb_mps } else { lim.descent_mps };
-                let v = cap.min((2.0 * lim.accel_z_mps2 * dz.abs()).sqrt()).min(1.5 * dz.abs());
+                let cap = if dz > 0.0 {
+                    lim.climb_mps
+                } else {
+                    lim.descent_mps
+                };
+                let v = cap
+                    .min((2.0 * lim.accel_z_mps2 * dz.abs()).sqrt())
+                    .min(1.5 * dz.abs());
                 v * dz.signum()
             }
         };
@@ -265,8 +273,15 @@ fn rover_step(s: &mut State, de: f64, dn: f64, dist: f64, speed: f64, lim: &Limi
         turn_toward(s, bearing, lim.yaw_rate_dps, dt);
         let err = ((bearing - s.heading_deg + 540.0).rem_euclid(360.0) - 180.0).abs();
         // slow down while the heading error is large (pivot turns above 60°)
-        let align = if err > 60.0 { 0.0 } else { err.to_radians().cos() };
-        v_des = speed.min((2.0 * lim.accel_mps2 * dist).sqrt()).min(1.5 * dist) * align;
+        let align = if err > 60.0 {
+            0.0
+        } else {
+            err.to_radians().cos()
+        };
+        v_des = speed
+            .min((2.0 * lim.accel_mps2 * dist).sqrt())
+            .min(1.5 * dist)
+            * align;
     }
     let dv = (v_des - v).clamp(-lim.accel_mps2 * dt, lim.accel_mps2 * dt);
     let nv = (v + dv).max(0.0);
@@ -281,7 +296,14 @@ fn rover_step(s: &mut State, de: f64, dn: f64, dist: f64, speed: f64, lim: &Limi
 mod tests {
     use super::*;
 
-    fn fly(s: &mut State, cmd: Command, lim: &Limits, wind: (f64, f64), rover: bool, secs: f64) -> f64 {
+    fn fly(
+        s: &mut State,
+        cmd: Command,
+        lim: &Limits,
+        wind: (f64, f64),
+        rover: bool,
+        secs: f64,
+    ) -> f64 {
         let dt = 0.05;
         let mut t = 0.0;
         while t < secs {
@@ -303,7 +325,10 @@ mod tests {
             yaw_deg: None,
         };
         fly(&mut s, cmd, &lim, (0.0, 0.0), false, 30.0);
-        assert!((s.e - 30.0).abs() < 0.05 && (s.n - 40.0).abs() < 0.05, "{s:?}");
+        assert!(
+            (s.e - 30.0).abs() < 0.05 && (s.n - 40.0).abs() < 0.05,
+            "{s:?}"
+        );
         assert!((s.u - 12.0).abs() < 0.05);
         assert!(s.ground_speed() < 0.05);
         assert!((s.heading_deg - 36.87).abs() < 1.0, "{}", s.heading_deg);
@@ -331,7 +356,11 @@ mod tests {
         // wind from the north at 6 m/s: air moves south
         fly(&mut windy, cmd, &lim, (-6.0, 0.0), false, 20.0);
         assert!(windy.n < calm.n - 50.0, "{} vs {}", windy.n, calm.n);
-        assert!(windy.pitch_deg < -20.0, "nose down into the wind: {}", windy.pitch_deg);
+        assert!(
+            windy.pitch_deg < -20.0,
+            "nose down into the wind: {}",
+            windy.pitch_deg
+        );
         // hovering in wind: tilted into the wind
         let mut hover = State {
             u: 10.0,
@@ -346,7 +375,11 @@ mod tests {
         };
         fly(&mut hover, hold, &lim, (0.0, 3.6), false, 5.0);
         // wind toward the east: the copter leans west (left side down, negative roll)
-        assert!(hover.roll_deg < -1.5 && hover.roll_deg > -4.0, "{}", hover.roll_deg);
+        assert!(
+            hover.roll_deg < -1.5 && hover.roll_deg > -4.0,
+            "{}",
+            hover.roll_deg
+        );
     }
 
     #[test]

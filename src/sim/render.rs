@@ -126,8 +126,7 @@ pub fn pixel_ground(
 
 #[inline]
 fn hash2(ix: i64, iy: i64, salt: u64) -> f64 {
-    let mut z = (ix as u64)
-        .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+    let mut z = (ix as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
         ^ (iy as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
         ^ salt.wrapping_mul(0x1656_67B1_9E37_79F9);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
@@ -203,7 +202,11 @@ fn texture(
             let patch = 0.6 * value_noise(e / 0.3, n / 0.3, world_salt ^ 16)
                 + 0.4 * value_noise(e, n, world_salt ^ 3);
             let tone = value_noise(e * 0.25, n * 0.25, world_salt ^ 4);
-            let stripe = if ((e * 0.6 + n * 0.8) / 1.5).rem_euclid(2.0) < 1.0 { 1.03 } else { 0.97 };
+            let stripe = if ((e * 0.6 + n * 0.8) / 1.5).rem_euclid(2.0) < 1.0 {
+                1.03
+            } else {
+                0.97
+            };
             let b = 0.5 + 0.17 * acc / norm.sqrt().max(1e-9);
             let lit = ((b - 0.41) / 0.14).clamp(0.0, 1.0);
             let dark = [40.0, 70.0, 28.0];
@@ -222,7 +225,11 @@ fn texture(
                 return scale([232.0, 232.0, 226.0], w);
             }
             let grain = value_noise(e * 60.0, n * 60.0, world_salt ^ 6);
-            let stone = hash2((e * 40.0).floor() as i64, (n * 40.0).floor() as i64, world_salt ^ 7);
+            let stone = hash2(
+                (e * 40.0).floor() as i64,
+                (n * 40.0).floor() as i64,
+                world_salt ^ 7,
+            );
             let wear = value_noise(e * 0.4, n * 0.4, world_salt ^ 8);
             let mut g = 78.0 + 22.0 * grain + 12.0 * wear;
             if stone > 0.97 {
@@ -256,7 +263,11 @@ fn texture(
             // small white triangles along the road cell's edges
             let (x, y) = rel;
             let edge = x.min(1.0 - x).min(y.min(1.0 - y));
-            let along = if x.min(1.0 - x) < y.min(1.0 - y) { y } else { x };
+            let along = if x.min(1.0 - x) < y.min(1.0 - y) {
+                y
+            } else {
+                x
+            };
             let phase = (along * 10.0).fract();
             if edge < 0.05 && edge < 0.05 * (1.0 - (2.0 * phase - 1.0).abs()) {
                 [225.0, 225.0, 220.0]
@@ -295,7 +306,10 @@ fn on_centreline(world: &World, region_idx: usize, e: f64, n: f64, t_s: f64) -> 
         let b = r.bbox();
         ((b.0 + b.2) / 2.0, (b.1 + b.3) / 2.0)
     };
-    let (de, dn) = (e - r.velocity_ne.1 * t_s - cx, n - r.velocity_ne.0 * t_s - cy);
+    let (de, dn) = (
+        e - r.velocity_ne.1 * t_s - cx,
+        n - r.velocity_ne.0 * t_s - cy,
+    );
     let hr = h.to_radians();
     let along = de * hr.sin() + dn * hr.cos();
     let across = de * hr.cos() - dn * hr.sin();
@@ -311,10 +325,9 @@ pub fn render(
     dist: &Disturbances,
 ) -> RgbImage {
     let (w, h) = (camera.width_px, camera.height_px);
-    let world_salt = world
-        .name
-        .bytes()
-        .fold(0xcbf2_9ce4_8422_2325_u64, |a, b| (a ^ u64::from(b)).wrapping_mul(0x100_0000_01b3));
+    let world_salt = world.name.bytes().fold(0xcbf2_9ce4_8422_2325_u64, |a, b| {
+        (a ^ u64::from(b)).wrapping_mul(0x100_0000_01b3)
+    });
     let (ce, cn) = footprint_center(world, pose);
     let gsd = camera.ground_sample_distance(pose.alt_agl_m.max(0.01));
     let hr = pose.heading_deg.to_radians();
@@ -432,7 +445,10 @@ mod tests {
         let (ce, cn) = footprint_center(&w, &pose);
         // top-centre pixel is 6 m ahead = east when heading east
         let (e, n) = pixel_ground(&w, &pose, &cam, 239.5, -0.5);
-        assert!((e - ce - 6.0).abs() < 1e-6 && (n - cn).abs() < 1e-6, "{e} {n}");
+        assert!(
+            (e - ce - 6.0).abs() < 1e-6 && (n - cn).abs() < 1e-6,
+            "{e} {n}"
+        );
         // nose-up pitch looks forward
         let tilted = CameraPose {
             pitch_deg: 5.0,
@@ -449,7 +465,12 @@ mod tests {
         for seed in 0..4u64 {
             let d = Disturbances::draw(seed);
             // over the runway, clear of the centreline: heading along the axis, 5 m to the side
-            let (lat, lon) = crate::geo::local::offset(37.1968, -80.5781, -5.0 * 58f64.to_radians().sin(), 5.0 * 58f64.to_radians().cos());
+            let (lat, lon) = crate::geo::local::offset(
+                37.1968,
+                -80.5781,
+                -5.0 * 58f64.to_radians().sin(),
+                5.0 * 58f64.to_radians().cos(),
+            );
             let pose = CameraPose {
                 lat,
                 lon,
@@ -468,7 +489,10 @@ mod tests {
             let grays: Vec<u8> = img.pixels().map(gray_bt601).collect();
             let bright = grays.iter().filter(|g| **g >= 150).count() as f64 / grays.len() as f64;
             let dark = grays.iter().filter(|g| **g < 150).count() as f64 / grays.len() as f64;
-            assert!(bright > 0.08 && dark > 0.3, "grass bright {bright} dark {dark}");
+            assert!(
+                bright > 0.08 && dark > 0.3,
+                "grass bright {bright} dark {dark}"
+            );
         }
     }
 
@@ -505,8 +529,20 @@ mod tests {
             let d = Disturbances::draw(seed * 7 + 1);
             for alt in [8.0, 12.0, 16.0] {
                 let side = 5.0;
-                let (lat, lon) = crate::geo::local::offset(37.1968, -80.5781, -side * 58f64.to_radians().sin(), side * 58f64.to_radians().cos());
-                let pose = CameraPose { lat, lon, alt_agl_m: alt, heading_deg: 58.0, roll_deg: 0.0, pitch_deg: 0.0 };
+                let (lat, lon) = crate::geo::local::offset(
+                    37.1968,
+                    -80.5781,
+                    -side * 58f64.to_radians().sin(),
+                    side * 58f64.to_radians().cos(),
+                );
+                let pose = CameraPose {
+                    lat,
+                    lon,
+                    alt_agl_m: alt,
+                    heading_deg: 58.0,
+                    roll_deg: 0.0,
+                    pitch_deg: 0.0,
+                };
                 let img = render(&w, &pose, &cam, 0.0, &d);
                 let f = black_fraction_after_dilation(&img);
                 if seed == 0 && alt == 12.0 {
@@ -535,8 +571,16 @@ mod tests {
             let mut br = 0.0;
             for seed in 0..10u64 {
                 let d = Disturbances::draw(seed * 7 + 1);
-                let (lat, lon) = crate::geo::local::offset(37.1968, -80.5781, -60.0 - seed as f64 * 13.0, -60.0);
-                let pose = CameraPose { lat, lon, alt_agl_m: alt, heading_deg: 58.0, roll_deg: 0.0, pitch_deg: 0.0 };
+                let (lat, lon) =
+                    crate::geo::local::offset(37.1968, -80.5781, -60.0 - seed as f64 * 13.0, -60.0);
+                let pose = CameraPose {
+                    lat,
+                    lon,
+                    alt_agl_m: alt,
+                    heading_deg: 58.0,
+                    roll_deg: 0.0,
+                    pitch_deg: 0.0,
+                };
                 let img = render(&w, &pose, &cam, 0.0, &d);
                 let f = black_fraction_after_dilation(&img);
                 worst = worst.max(f);

@@ -410,7 +410,12 @@ impl SimVehicle {
 
     /// True position (lat, lon) degrees and height above ground, metres.
     pub fn true_position(&self) -> (f64, f64, f64) {
-        let (lat, lon) = local::offset(self.cfg.reference.0, self.cfg.reference.1, self.m.n, self.m.e);
+        let (lat, lon) = local::offset(
+            self.cfg.reference.0,
+            self.cfg.reference.1,
+            self.m.n,
+            self.m.e,
+        );
         (lat, lon, self.m.u)
     }
 
@@ -552,7 +557,12 @@ impl SimVehicle {
             }
             MavMessage::REQUEST_DATA_STREAM(r) => {
                 if r.target_system == self.cfg.sysid && self.cfg.flavour.is_ardupilot() {
-                    self.request_data_stream(r.req_stream_id as u8, r.req_message_rate, r.start_stop != 0, now);
+                    self.request_data_stream(
+                        r.req_stream_id as u8,
+                        r.req_message_rate,
+                        r.start_stop != 0,
+                        now,
+                    );
                 }
             }
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => {
@@ -631,13 +641,15 @@ impl SimVehicle {
             }
             Autopilot::Px4 => {}
         }
-        self.events.push_back(VehicleEvent::Booted { boot: self.boots });
+        self.events
+            .push_back(VehicleEvent::Booted { boot: self.boots });
     }
 
     fn power_cycle(&mut self, now: Time, new_battery: bool) {
         self.powered = false;
         self.power_on_at = Some(now + Duration::from_secs_f64(self.cfg.power_off_s.max(0.0)));
-        self.outbox.clear();
+        // what was already queued (e.g. the ACK of the command that cut the power) still
+        // leaves; nothing else does
         while self.mission.poll_transmit().is_some() {}
         if let Some(c) = self.camera.as_mut() {
             while c.poll_transmit().is_some() {}
@@ -690,7 +702,10 @@ impl SimVehicle {
             self.set_home_here(now);
             match self.cfg.flavour.autopilot {
                 Autopilot::ArduPilot => {
-                    self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "EKF3 IMU0 is using GPS");
+                    self.text(
+                        mav::MavSeverity::MAV_SEVERITY_INFO,
+                        "EKF3 IMU0 is using GPS",
+                    );
                 }
                 Autopilot::Px4 => {
                     self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Ready for takeoff!");
@@ -834,11 +849,16 @@ impl SimVehicle {
                         speed,
                         yaw_deg: Some(self.m.heading_deg),
                     },
+                    RtlPhase::Done if self.cfg.flavour.is_copter() => Command::Ground,
                     RtlPhase::Return | RtlPhase::Descend | RtlPhase::Loiter(_) | RtlPhase::Done => {
                         Command::Goto {
                             e: h.0,
                             n: h.1,
-                            u: if self.cfg.flavour.is_copter() { ret_u } else { 0.0 },
+                            u: if self.cfg.flavour.is_copter() {
+                                ret_u
+                            } else {
+                                0.0
+                            },
                             speed: self.rtl_speed(),
                             yaw_deg: None,
                         }
@@ -847,7 +867,11 @@ impl SimVehicle {
                         if self.landed {
                             Command::Ground
                         } else {
-                            let rate = if self.m.u > 10.0 { lim.descent_mps } else { lim.land_mps };
+                            let rate = if self.m.u > 10.0 {
+                                lim.descent_mps
+                            } else {
+                                lim.land_mps
+                            };
                             Command::Descend {
                                 e: h.0,
                                 n: h.1,
@@ -866,9 +890,7 @@ impl SimVehicle {
     }
 
     fn home_local(&self) -> (f64, f64) {
-        self.home
-            .map(|h| (h.e, h.n))
-            .unwrap_or_else(|| self.est())
+        self.home.map(|h| (h.e, h.n)).unwrap_or_else(|| self.est())
     }
 
     fn here(&self) -> Point {
@@ -921,7 +943,10 @@ impl SimVehicle {
                 {
                     let (e, n) = self.est();
                     if (p.e - e).hypot(p.n - n) < 1.0 {
-                        self.nav = Nav::Land { p, descending: true };
+                        self.nav = Nav::Land {
+                            p,
+                            descending: true,
+                        };
                     }
                 }
             }
@@ -932,7 +957,10 @@ impl SimVehicle {
                         .guided_target_at
                         .is_none_or(|t| now.saturating_since(t) > Duration::from_secs(1))
                 {
-                    self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Failsafe activated: offboard control lost");
+                    self.text(
+                        mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                        "Failsafe activated: offboard control lost",
+                    );
                     self.enter_mode(Mode::Hold, now);
                 }
             }
@@ -951,7 +979,9 @@ impl SimVehicle {
         let ap = self.cfg.flavour.is_ardupilot();
         let next = match phase {
             RtlPhase::Climb if !copter || self.m.u >= ret_u - 0.5 => Some(RtlPhase::Return),
-            RtlPhase::Return if dist < if copter { 0.5 } else { 2.0 } && self.m.ground_speed() < 0.3 => {
+            RtlPhase::Return
+                if dist < if copter { 0.5 } else { 2.0 } && self.m.ground_speed() < 0.3 =>
+            {
                 if !copter {
                     if ap {
                         self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Reached destination");
@@ -1003,7 +1033,10 @@ impl SimVehicle {
         }
         let ap = self.cfg.flavour.is_ardupilot();
         if self.landed {
-            let since = self.landed_at.map(|t| t.max(self.armed_at)).unwrap_or(self.armed_at);
+            let since = self
+                .landed_at
+                .map(|t| t.max(self.armed_at))
+                .unwrap_or(self.armed_at);
             let taking_off = matches!(self.nav, Nav::Takeoff(_))
                 || (self.mode == Mode::Auto && self.exec.px4_takeoff.is_some())
                 || (self.mode == Mode::Auto
@@ -1018,7 +1051,11 @@ impl SimVehicle {
                 10.0 // DISARM_DELAY / COM_DISARM_PRFLT
             };
             if !taking_off && now.saturating_since(since).as_secs_f64() >= limit {
-                let reason = if self.took_off { "landing" } else { "auto preflight disarming" };
+                let reason = if self.took_off {
+                    "landing"
+                } else {
+                    "auto preflight disarming"
+                };
                 self.disarm(now, reason);
             }
         }
@@ -1045,14 +1082,19 @@ impl SimVehicle {
                 );
                 self.text(mav::MavSeverity::MAV_SEVERITY_WARNING, &msg);
             } else {
-                self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Critical battery level! Executing RTL");
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Critical battery level! Executing RTL",
+                );
             }
             if self.armed && !self.landed {
                 if self.home.is_some() && self.enter_mode(Mode::Rtl, now) {
-                    self.events.push_back(VehicleEvent::BatteryFailsafe(Mode::Rtl));
+                    self.events
+                        .push_back(VehicleEvent::BatteryFailsafe(Mode::Rtl));
                 } else if self.cfg.flavour.is_copter() {
                     self.enter_mode(Mode::Land, now);
-                    self.events.push_back(VehicleEvent::BatteryFailsafe(Mode::Land));
+                    self.events
+                        .push_back(VehicleEvent::BatteryFailsafe(Mode::Land));
                 }
             }
         }
@@ -1066,14 +1108,25 @@ impl SimVehicle {
                 );
                 self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, &msg);
             } else {
-                self.text(mav::MavSeverity::MAV_SEVERITY_EMERGENCY, "Emergency battery level! Landing immediately");
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_EMERGENCY,
+                    "Emergency battery level! Landing immediately",
+                );
             }
-            if self.armed && !self.landed && self.cfg.flavour.is_copter() && self.mode != Mode::Land {
+            if self.armed && !self.landed && self.cfg.flavour.is_copter() && self.mode != Mode::Land
+            {
                 // already descending at home in RTL's landing phase: keep it
-                let landing_home = matches!(self.nav, Nav::Rtl { phase: RtlPhase::Land, .. });
+                let landing_home = matches!(
+                    self.nav,
+                    Nav::Rtl {
+                        phase: RtlPhase::Land,
+                        ..
+                    }
+                );
                 if !landing_home {
                     self.enter_mode(Mode::Land, now);
-                    self.events.push_back(VehicleEvent::BatteryFailsafe(Mode::Land));
+                    self.events
+                        .push_back(VehicleEvent::BatteryFailsafe(Mode::Land));
                 }
             }
         }
@@ -1087,9 +1140,15 @@ impl SimVehicle {
                 .is_some_and(|t| now.saturating_since(t) > Duration::from_secs(10))
         {
             self.datalink_lost = true;
-            self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Connection to ground station lost");
+            self.text(
+                mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Connection to ground station lost",
+            );
             if !self.landed && self.mode != Mode::Rtl && self.mode != Mode::Land {
-                self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Failsafe activated: Return");
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Failsafe activated: Return",
+                );
                 self.enter_mode(Mode::Rtl, now);
             }
         }
@@ -1115,7 +1174,12 @@ impl SimVehicle {
         let here = self.here();
         let copter = self.cfg.flavour.is_copter();
         match mode {
-            Mode::Hold | Mode::Loiter | Mode::Brake | Mode::Stabilize | Mode::AltHold | Mode::Manual => {
+            Mode::Hold
+            | Mode::Loiter
+            | Mode::Brake
+            | Mode::Stabilize
+            | Mode::AltHold
+            | Mode::Manual => {
                 self.nav = if self.landed && copter {
                     Nav::Idle
                 } else {
@@ -1146,7 +1210,11 @@ impl SimVehicle {
                     // RTL_RETURN_ALT 60 m, RTL_DESCEND_ALT 30 m, RTL_CONE_ANG 45°
                     self.m.u.max(dist.clamp(30.0, 60.0))
                 };
-                let phase = if copter { RtlPhase::Climb } else { RtlPhase::Return };
+                let phase = if copter {
+                    RtlPhase::Climb
+                } else {
+                    RtlPhase::Return
+                };
                 self.nav = Nav::Rtl { phase, ret_u };
             }
             Mode::Takeoff => {
@@ -1180,13 +1248,20 @@ impl SimVehicle {
         let f = self.cfg.flavour;
         if base_mode & 1 == 0 {
             // only custom modes are supported by the simulator (PX4 maps a few base modes)
-            return if f.is_ardupilot() { R::MAV_RESULT_FAILED } else { R::MAV_RESULT_TEMPORARILY_REJECTED };
+            return if f.is_ardupilot() {
+                R::MAV_RESULT_FAILED
+            } else {
+                R::MAV_RESULT_TEMPORARILY_REJECTED
+            };
         }
         let Some(mode) = f.mode_from_custom(custom_mode) else {
             return if f.is_ardupilot() {
                 R::MAV_RESULT_FAILED
             } else {
-                self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Unsupported auto mode");
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Unsupported auto mode",
+                );
                 R::MAV_RESULT_TEMPORARILY_REJECTED
             };
         };
@@ -1204,7 +1279,10 @@ impl SimVehicle {
                     self.text(mav::MavSeverity::MAV_SEVERITY_WARNING, &msg);
                     R::MAV_RESULT_FAILED
                 } else {
-                    let msg = format!("Switching to {} is currently not possible", f.mode_name(mode));
+                    let msg = format!(
+                        "Switching to {} is currently not possible",
+                        f.mode_name(mode)
+                    );
                     self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, &msg);
                     R::MAV_RESULT_TEMPORARILY_REJECTED
                 }
@@ -1221,11 +1299,18 @@ impl SimVehicle {
             (Autopilot::ArduPilot, Mode::Auto) => {
                 let n = self.mission.items(MissionType::Mission).len();
                 if n <= 1 {
-                    self.text(mav::MavSeverity::MAV_SEVERITY_WARNING, "AutoMode: Mission is empty");
+                    self.text(
+                        mav::MavSeverity::MAV_SEVERITY_WARNING,
+                        "AutoMode: Mission is empty",
+                    );
                     return Err("init failed");
                 }
-                if f.is_copter() && self.armed && self.landed && !self.mission_starts_with_takeoff() {
-                    self.text(mav::MavSeverity::MAV_SEVERITY_WARNING, "Auto: Missing Takeoff Cmd");
+                if f.is_copter() && self.armed && self.landed && !self.mission_starts_with_takeoff()
+                {
+                    self.text(
+                        mav::MavSeverity::MAV_SEVERITY_WARNING,
+                        "Auto: Missing Takeoff Cmd",
+                    );
                     return Err("init failed");
                 }
                 Ok(())
@@ -1254,7 +1339,11 @@ impl SimVehicle {
     fn mission_starts_with_takeoff(&self) -> bool {
         // AP_Mission::starts_with_takeoff_cmd: next nav command from the resume point (or 1)
         let items = self.mission.items(MissionType::Mission);
-        let start = self.exec.nav_index.filter(|_| !self.exec.complete).unwrap_or(1) as usize;
+        let start = self
+            .exec
+            .nav_index
+            .filter(|_| !self.exec.complete)
+            .unwrap_or(1) as usize;
         for it in items.iter().skip(start).take(16) {
             match it.command {
                 22 | 84 => return true,
@@ -1325,7 +1414,10 @@ impl SimVehicle {
             });
         }
         if self.cfg.flavour.is_copter() && ap && !self.mode_can_arm(self.mode) {
-            self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Arm: Mode not armable");
+            self.text(
+                mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                "Arm: Mode not armable",
+            );
             return Err(mav::MavResult::MAV_RESULT_FAILED);
         }
         self.armed = true;
@@ -1340,7 +1432,10 @@ impl SimVehicle {
         if ap {
             self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Arming motors");
         } else {
-            self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Armed by external command");
+            self.text(
+                mav::MavSeverity::MAV_SEVERITY_INFO,
+                "Armed by external command",
+            );
         }
         self.events.push_back(VehicleEvent::Armed(true));
         // modes that start moving when armed
@@ -1349,7 +1444,11 @@ impl SimVehicle {
             Mode::Takeoff => {
                 let h = self.here();
                 if let Nav::Takeoff(p) = self.nav {
-                    self.nav = Nav::Takeoff(Point { e: h.e, n: h.n, u: p.u });
+                    self.nav = Nav::Takeoff(Point {
+                        e: h.e,
+                        n: h.n,
+                        u: p.u,
+                    });
                 } else {
                     self.nav = Nav::Takeoff(Point { u: 2.5, ..h });
                 }
@@ -1419,8 +1518,13 @@ impl SimVehicle {
         while let Some(ev) = self.mission.poll_event() {
             match ev {
                 MissionEvent::SetCurrent { seq } => self.set_current_item(seq, now),
-                MissionEvent::Uploaded { mission_type: MissionType::Mission, .. }
-                | MissionEvent::Cleared { mission_type: MissionType::Mission } => {
+                MissionEvent::Uploaded {
+                    mission_type: MissionType::Mission,
+                    ..
+                }
+                | MissionEvent::Cleared {
+                    mission_type: MissionType::Mission,
+                } => {
                     if self.cfg.flavour.autopilot == Autopilot::Px4 {
                         // navigator reloads the new mission from its current item
                         self.exec.nav_index = None;
@@ -1491,7 +1595,11 @@ impl SimVehicle {
             0 | 5 => f64::from(it.z) - self.ground_amsl(),
             _ => f64::from(it.z),
         };
-        let u = if self.cfg.flavour.is_copter() { u.max(0.0) } else { 0.0 };
+        let u = if self.cfg.flavour.is_copter() {
+            u.max(0.0)
+        } else {
+            0.0
+        };
         Point { e, n, u }
     }
 
@@ -1577,7 +1685,11 @@ impl SimVehicle {
         let target = item.param1 as i64;
         let repeat = item.param2 as i32;
         let n = self.mission.items(MissionType::Mission).len() as i64;
-        let first = if self.cfg.flavour.is_ardupilot() { 1 } else { 0 };
+        let first = if self.cfg.flavour.is_ardupilot() {
+            1
+        } else {
+            0
+        };
         if target < first || target >= n {
             self.advance_item(idx, item, false, now);
             return;
@@ -1677,7 +1789,10 @@ impl SimVehicle {
                     // PX4 navigator: vertical takeoff to the item's altitude first
                     self.exec.px4_takeoff = Some(p.u.max(2.5));
                     let here = self.here();
-                    self.nav = Nav::Takeoff(Point { u: p.u.max(2.5), ..here });
+                    self.nav = Nav::Takeoff(Point {
+                        u: p.u.max(2.5),
+                        ..here
+                    });
                 } else {
                     self.nav = Nav::Goto { p, speed: None };
                 }
@@ -1687,7 +1802,11 @@ impl SimVehicle {
                 if !copter {
                     return false;
                 }
-                let p = if item.x == 0 && item.y == 0 { self.here() } else { p };
+                let p = if item.x == 0 && item.y == 0 {
+                    self.here()
+                } else {
+                    p
+                };
                 self.nav = Nav::Land {
                     p,
                     descending: false,
@@ -1696,12 +1815,20 @@ impl SimVehicle {
             }
             20 => {
                 let ret_u = if copter {
-                    if px4 { self.m.u.max(30.0) } else { self.m.u.max(15.0) }
+                    if px4 {
+                        self.m.u.max(30.0)
+                    } else {
+                        self.m.u.max(15.0)
+                    }
                 } else {
                     0.0
                 };
                 self.nav = Nav::Rtl {
-                    phase: if copter { RtlPhase::Climb } else { RtlPhase::Return },
+                    phase: if copter {
+                        RtlPhase::Climb
+                    } else {
+                        RtlPhase::Return
+                    },
                     ret_u,
                 };
             }
@@ -1752,7 +1879,8 @@ impl SimVehicle {
                     2.0 // WP_RADIUS
                 };
                 let vert_ok = !copter || (self.m.u - p.u).abs() < if px4 { 0.8 } else { 0.3 };
-                let arrived = dist <= radius && vert_ok && (px4 || !copter || self.m.ground_speed() < 0.5);
+                let arrived =
+                    dist <= radius && vert_ok && (px4 || !copter || self.m.ground_speed() < 0.5);
                 if self.exec.nav_arrived.is_none() {
                     if !arrived {
                         return false;
@@ -1769,7 +1897,9 @@ impl SimVehicle {
                     self.nav = Nav::Hold(p);
                 }
                 let hold = self.hold_time(item);
-                now.saturating_since(self.exec.nav_arrived.unwrap_or(now)).as_secs_f64() >= hold
+                now.saturating_since(self.exec.nav_arrived.unwrap_or(now))
+                    .as_secs_f64()
+                    >= hold
             }
             21 => {
                 if let Nav::Land { p, descending } = self.nav
@@ -1777,7 +1907,10 @@ impl SimVehicle {
                 {
                     let (e, n) = self.est();
                     if (p.e - e).hypot(p.n - n) < 1.0 {
-                        self.nav = Nav::Land { p, descending: true };
+                        self.nav = Nav::Land {
+                            p,
+                            descending: true,
+                        };
                     }
                 }
                 self.landed && self.took_off
@@ -1785,12 +1918,21 @@ impl SimVehicle {
             20 => {
                 self.run_rtl(now);
                 if !copter {
-                    return matches!(self.nav, Nav::Rtl { phase: RtlPhase::Done, .. });
+                    return matches!(
+                        self.nav,
+                        Nav::Rtl {
+                            phase: RtlPhase::Done,
+                            ..
+                        }
+                    );
                 }
                 self.landed && self.took_off
             }
-            93 => now.saturating_since(self.exec.nav_arrived.unwrap_or(now)).as_secs_f64()
-                >= f64::from(item.param1.max(0.0)),
+            93 => {
+                now.saturating_since(self.exec.nav_arrived.unwrap_or(now))
+                    .as_secs_f64()
+                    >= f64::from(item.param1.max(0.0))
+            }
             _ => true,
         }
     }
@@ -1818,7 +1960,12 @@ impl SimVehicle {
         }
         // keep holding where the item ended until the next nav command starts
         if !self.landed {
-            self.nav = Nav::Hold(self.exec.nav_point.filter(|_| item.command != 20).unwrap_or(self.here()));
+            self.nav = Nav::Hold(
+                self.exec
+                    .nav_point
+                    .filter(|_| item.command != 20)
+                    .unwrap_or(self.here()),
+            );
         }
         if (item.command == 21 || item.command == 20) && self.landed {
             self.advance_item(idx, item, false, now);
@@ -1864,7 +2011,10 @@ impl SimVehicle {
         if self.landed {
             if self.armed {
                 if px4 {
-                    self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Mission finished, landed");
+                    self.text(
+                        mav::MavSeverity::MAV_SEVERITY_INFO,
+                        "Mission finished, landed",
+                    );
                 }
                 if self.cfg.flavour.is_copter() {
                     self.disarm(now, "landing");
@@ -1874,7 +2024,10 @@ impl SimVehicle {
             }
         } else {
             if px4 {
-                self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Mission finished, loitering");
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_INFO,
+                    "Mission finished, loitering",
+                );
             }
             self.nav = Nav::Hold(self.here());
         }
@@ -1905,6 +2058,14 @@ impl SimVehicle {
             world_t_s: now.as_secs_f64(),
         };
         let pos = (self.m.e, self.m.n);
+        if self.world.is_none() {
+            // no world file: the camera sees plain grass
+            self.world = Some(Arc::new(World::flat(
+                crate::sim::world::Surface::Grass,
+                self.cfg.reference,
+                self.cfg.ground_alt_amsl_m,
+            )));
+        }
         let world = self.world.clone();
         if let Some(c) = self.camera.as_mut() {
             c.update(&ctx, pos, world.as_deref());
@@ -1933,16 +2094,30 @@ impl SimVehicle {
         let cmd = c.command as u16;
         let stores_location = matches!(cmd, 179 | 201 | 195 | 192 | 43003);
         let (x, y) = if stores_location {
-            ((f64::from(c.param5) * 1e7) as i32, (f64::from(c.param6) * 1e7) as i32)
+            (
+                (f64::from(c.param5) * 1e7) as i32,
+                (f64::from(c.param6) * 1e7) as i32,
+            )
         } else {
             (
-                if c.param5.is_nan() { 0 } else { c.param5 as i32 },
-                if c.param6.is_nan() { 0 } else { c.param6 as i32 },
+                if c.param5.is_nan() {
+                    0
+                } else {
+                    c.param5 as i32
+                },
+                if c.param6.is_nan() {
+                    0
+                } else {
+                    c.param6 as i32
+                },
             )
         };
-        let frame = match cmd {
-            22 | 84 => mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
-            195 | 201 => mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+        // ArduPilot: mav_frame_for_command_long (takeoff altitudes are relative); PX4 reads
+        // COMMAND_LONG position altitudes (takeoff, reposition) as AMSL
+        let frame = match (self.cfg.flavour.autopilot, cmd) {
+            (Autopilot::ArduPilot, 22 | 84 | 195 | 201) => {
+                mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+            }
             _ => mav::MavFrame::MAV_FRAME_GLOBAL,
         };
         let ci = mav::COMMAND_INT_DATA {
@@ -1969,7 +2144,14 @@ impl SimVehicle {
         self.command(from, c, false, false, now);
     }
 
-    fn command(&mut self, from: (u8, u8), c: &mav::COMMAND_INT_DATA, long: bool, nan_pos: bool, now: Time) {
+    fn command(
+        &mut self,
+        from: (u8, u8),
+        c: &mav::COMMAND_INT_DATA,
+        long: bool,
+        nan_pos: bool,
+        now: Time,
+    ) {
         use mav::MavResult as R;
         let cmd = c.command as u16;
         let to_camera = c.target_component == CAMERA_COMPID;
@@ -1997,7 +2179,10 @@ impl SimVehicle {
                     if ap {
                         R::MAV_RESULT_FAILED
                     } else {
-                        self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Disarming denied: not landed");
+                        self.text(
+                            mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                            "Disarming denied: not landed",
+                        );
                         R::MAV_RESULT_TEMPORARILY_REJECTED
                     }
                 } else {
@@ -2032,7 +2217,10 @@ impl SimVehicle {
                     }
                 } else {
                     self.enter_mode(Mode::Land, now);
-                    self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Landing at current position");
+                    self.text(
+                        mav::MavSeverity::MAV_SEVERITY_INFO,
+                        "Landing at current position",
+                    );
                     R::MAV_RESULT_ACCEPTED
                 }
             }
@@ -2066,7 +2254,11 @@ impl SimVehicle {
             192 => self.cmd_reposition(c, long, nan_pos, now),
             178 => {
                 if c.param2 <= 0.0 {
-                    if ap { R::MAV_RESULT_DENIED } else { R::MAV_RESULT_ACCEPTED }
+                    if ap {
+                        R::MAV_RESULT_DENIED
+                    } else {
+                        R::MAV_RESULT_ACCEPTED
+                    }
                 } else {
                     self.speed_override = Some(f64::from(c.param2));
                     R::MAV_RESULT_ACCEPTED
@@ -2114,15 +2306,28 @@ impl SimVehicle {
                 } else {
                     let lat = f64::from(c.x) * 1e-7;
                     let lon = f64::from(c.y) * 1e-7;
-                    if !(-90.0..=90.0).contains(&lat) || !(-180.0..=180.0).contains(&lon) || (c.x == 0 && c.y == 0) {
+                    if !(-90.0..=90.0).contains(&lat)
+                        || !(-180.0..=180.0).contains(&lon)
+                        || (c.x == 0 && c.y == 0)
+                    {
                         R::MAV_RESULT_DENIED
                     } else {
-                        let (n, e) = local::delta(self.cfg.reference.0, self.cfg.reference.1, lat, lon);
+                        let (n, e) =
+                            local::delta(self.cfg.reference.0, self.cfg.reference.1, lat, lon);
                         let alt = match c.frame as u8 {
-                            3 | 6 => self.home.map(|h| h.alt_amsl).unwrap_or(self.ground_amsl()) + f64::from(c.z),
+                            3 | 6 => {
+                                self.home.map(|h| h.alt_amsl).unwrap_or(self.ground_amsl())
+                                    + f64::from(c.z)
+                            }
                             _ => f64::from(c.z),
                         };
-                        self.home = Some(Home { lat, lon, alt_amsl: alt, e, n });
+                        self.home = Some(Home {
+                            lat,
+                            lon,
+                            alt_amsl: alt,
+                            e,
+                            n,
+                        });
                         self.mission.set_home(Some(HomeItem {
                             lat_e7: c.x,
                             lon_e7: c.y,
@@ -2201,7 +2406,11 @@ impl SimVehicle {
         use mav::MavResult as R;
         let ap = self.cfg.flavour.is_ardupilot();
         if !self.cfg.flavour.is_copter() {
-            return if ap { R::MAV_RESULT_UNSUPPORTED } else { R::MAV_RESULT_TEMPORARILY_REJECTED };
+            return if ap {
+                R::MAV_RESULT_UNSUPPORTED
+            } else {
+                R::MAV_RESULT_TEMPORARILY_REJECTED
+            };
         }
         if ap {
             // GCS_MAVLINK_Copter::handle_MAV_CMD_NAV_TAKEOFF / Mode::do_user_takeoff
@@ -2229,14 +2438,19 @@ impl SimVehicle {
             let alt = if c.z.is_finite() {
                 match c.frame as u8 {
                     3 | 6 => f64::from(c.z),
-                    _ => f64::from(c.z) - self.home.map(|h| h.alt_amsl).unwrap_or(self.ground_amsl()),
+                    _ => {
+                        f64::from(c.z) - self.home.map(|h| h.alt_amsl).unwrap_or(self.ground_amsl())
+                    }
                 }
             } else {
                 2.5
             };
             self.enter_mode(Mode::Takeoff, now);
             let here = self.here();
-            self.nav = Nav::Takeoff(Point { u: alt.max(1.0), ..here });
+            self.nav = Nav::Takeoff(Point {
+                u: alt.max(1.0),
+                ..here
+            });
             R::MAV_RESULT_ACCEPTED
         }
     }
@@ -2247,8 +2461,11 @@ impl SimVehicle {
             if c.param1 != 0.0 || c.param2 != 0.0 {
                 return R::MAV_RESULT_DENIED;
             }
-            if self.set_mode_request(1, self.cfg.flavour.custom_mode(Mode::Auto).unwrap_or(3), now)
-                != R::MAV_RESULT_ACCEPTED
+            if self.set_mode_request(
+                1,
+                self.cfg.flavour.custom_mode(Mode::Auto).unwrap_or(3),
+                now,
+            ) != R::MAV_RESULT_ACCEPTED
             {
                 return R::MAV_RESULT_FAILED;
             }
@@ -2258,11 +2475,17 @@ impl SimVehicle {
             R::MAV_RESULT_ACCEPTED
         } else {
             if self.mission.items(MissionType::Mission).is_empty() {
-                self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Mission start denied! No valid mission");
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Mission start denied! No valid mission",
+                );
                 return R::MAV_RESULT_DENIED;
             }
             if self.check_mode_allowed(Mode::Auto, now).is_err() {
-                self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Switching to Mission is currently not possible");
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Switching to Mission is currently not possible",
+                );
                 return R::MAV_RESULT_TEMPORARILY_REJECTED;
             }
             if !self.armed && self.arm(now, false).is_err() {
@@ -2305,14 +2528,28 @@ impl SimVehicle {
                 }
             }
         };
-        let u = if self.cfg.flavour.is_copter() { u.max(0.0) } else { 0.0 };
+        let u = if self.cfg.flavour.is_copter() {
+            u.max(0.0)
+        } else {
+            0.0
+        };
         Point { e, n, u }
     }
 
-    fn cmd_reposition(&mut self, c: &mav::COMMAND_INT_DATA, long: bool, nan_pos: bool, now: Time) -> mav::MavResult {
+    fn cmd_reposition(
+        &mut self,
+        c: &mav::COMMAND_INT_DATA,
+        long: bool,
+        nan_pos: bool,
+        now: Time,
+    ) -> mav::MavResult {
         use mav::MavResult as R;
         let change_mode = (c.param2 as i32) & 1 == 1;
-        let speed = if c.param1 > 0.0 { Some(f64::from(c.param1)) } else { None };
+        let speed = if c.param1 > 0.0 {
+            Some(f64::from(c.param1))
+        } else {
+            None
+        };
         if self.cfg.flavour.is_ardupilot() {
             // GCS_MAVLINK_Copter::handle_command_int_do_reposition
             if self.mode != Mode::Guided && !change_mode {
@@ -2325,7 +2562,13 @@ impl SimVehicle {
                 return R::MAV_RESULT_FAILED;
             }
             let p = self.target_from_command(c, long, nan_pos);
-            if self.mode != Mode::Guided && self.set_mode_request(1, self.cfg.flavour.custom_mode(Mode::Guided).unwrap_or(4), now) != R::MAV_RESULT_ACCEPTED {
+            if self.mode != Mode::Guided
+                && self.set_mode_request(
+                    1,
+                    self.cfg.flavour.custom_mode(Mode::Guided).unwrap_or(4),
+                    now,
+                ) != R::MAV_RESULT_ACCEPTED
+            {
                 return R::MAV_RESULT_FAILED;
             }
             self.guided_target_at = Some(now);
@@ -2339,7 +2582,10 @@ impl SimVehicle {
                 return R::MAV_RESULT_UNSUPPORTED;
             }
             if self.check_mode_allowed(Mode::Hold, now).is_err() {
-                let msg = format!("Switching to {} is currently not possible", self.cfg.flavour.mode_name(Mode::Hold));
+                let msg = format!(
+                    "Switching to {} is currently not possible",
+                    self.cfg.flavour.mode_name(Mode::Hold)
+                );
                 self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, &msg);
                 return R::MAV_RESULT_TEMPORARILY_REJECTED;
             }
@@ -2376,9 +2622,15 @@ impl SimVehicle {
         let target = self.target_from_command(&c, false, false);
         self.guided_target_at = Some(now);
         if self.mode == Mode::Guided && !(self.landed && self.cfg.flavour.is_copter()) {
-            self.nav = Nav::Goto { p: target, speed: None };
+            self.nav = Nav::Goto {
+                p: target,
+                speed: None,
+            };
         } else if !ap && self.mode == Mode::Guided {
-            self.nav = Nav::Goto { p: target, speed: None };
+            self.nav = Nav::Goto {
+                p: target,
+                speed: None,
+            };
         }
     }
 
@@ -2543,13 +2795,17 @@ impl SimVehicle {
             }
         } else {
             let us = f64::from(interval_us).max(10_000.0); // at most 100 Hz
-            self.streams.insert(id, (Duration::from_secs_f64(us / 1e6), now));
+            self.streams
+                .insert(id, (Duration::from_secs_f64(us / 1e6), now));
         }
         mav::MavResult::MAV_RESULT_ACCEPTED
     }
 
     fn message_supported(&self, id: u32) -> bool {
-        matches!(id, 0 | 1 | 2 | 24 | 30 | 33 | 42 | 74 | 147 | 148 | 242 | 245)
+        matches!(
+            id,
+            0 | 1 | 2 | 24 | 30 | 33 | 42 | 74 | 147 | 148 | 242 | 245
+        )
     }
 
     fn cmd_request_message(&mut self, id: u32, now: Time) -> mav::MavResult {
@@ -2688,9 +2944,19 @@ impl SimVehicle {
             L::MAV_LANDED_STATE_ON_GROUND
         } else if matches!(self.nav, Nav::Takeoff(_)) || self.exec.px4_takeoff.is_some() {
             L::MAV_LANDED_STATE_TAKEOFF
-        } else if matches!(self.nav, Nav::Land { descending: true, .. })
-            || matches!(self.nav, Nav::Rtl { phase: RtlPhase::Land, .. })
-        {
+        } else if matches!(
+            self.nav,
+            Nav::Land {
+                descending: true,
+                ..
+            }
+        ) || matches!(
+            self.nav,
+            Nav::Rtl {
+                phase: RtlPhase::Land,
+                ..
+            }
+        ) {
             L::MAV_LANDED_STATE_LANDING
         } else {
             L::MAV_LANDED_STATE_IN_AIR
@@ -2719,7 +2985,10 @@ impl SimVehicle {
                         if self.mode.requires_position() {
                             base |= mav::MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED;
                         }
-                        if matches!(self.mode, Mode::Auto | Mode::Rtl | Mode::Land | Mode::Takeoff | Mode::Hold) {
+                        if matches!(
+                            self.mode,
+                            Mode::Auto | Mode::Rtl | Mode::Land | Mode::Takeoff | Mode::Hold
+                        ) {
                             base |= mav::MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
                         }
                     }
@@ -2748,7 +3017,8 @@ impl SimVehicle {
                 };
                 MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
                     custom_mode: f.custom_mode(self.mode).unwrap_or(0),
-                    mavtype: mav::MavType::from_u8(f.mav_type()).unwrap_or(mav::MavType::MAV_TYPE_QUADROTOR),
+                    mavtype: mav::MavType::from_u8(f.mav_type())
+                        .unwrap_or(mav::MavType::MAV_TYPE_QUADROTOR),
                     autopilot: mav::MavAutopilot::from_u8(f.mav_autopilot())
                         .unwrap_or(mav::MavAutopilot::MAV_AUTOPILOT_GENERIC),
                     base_mode: base,
@@ -2780,8 +3050,12 @@ impl SimVehicle {
                     onboard_control_sensors_enabled: present,
                     onboard_control_sensors_health: health,
                     load: 250,
-                    voltage_battery: (self.battery.voltage() * 1000.0).round().clamp(0.0, 65534.0) as u16,
-                    current_battery: (self.battery.current_a * 100.0).round().clamp(-32767.0, 32767.0) as i16,
+                    voltage_battery: (self.battery.voltage() * 1000.0)
+                        .round()
+                        .clamp(0.0, 65534.0) as u16,
+                    current_battery: (self.battery.current_a * 100.0)
+                        .round()
+                        .clamp(-32767.0, 32767.0) as i16,
                     drop_rate_comm: 0,
                     errors_comm: 0,
                     errors_count1: 0,
@@ -2789,9 +3063,12 @@ impl SimVehicle {
                     errors_count3: 0,
                     errors_count4: 0,
                     battery_remaining: self.battery.percent(),
-                    onboard_control_sensors_present_extended: mav::MavSysStatusSensorExtended::empty(),
-                    onboard_control_sensors_enabled_extended: mav::MavSysStatusSensorExtended::empty(),
-                    onboard_control_sensors_health_extended: mav::MavSysStatusSensorExtended::empty(),
+                    onboard_control_sensors_present_extended:
+                        mav::MavSysStatusSensorExtended::empty(),
+                    onboard_control_sensors_enabled_extended:
+                        mav::MavSysStatusSensorExtended::empty(),
+                    onboard_control_sensors_health_extended: mav::MavSysStatusSensorExtended::empty(
+                    ),
                 })
             }
             2 => MavMessage::SYSTEM_TIME(mav::SYSTEM_TIME_DATA {
@@ -2804,7 +3081,11 @@ impl SimVehicle {
                     time_usec: u64::from(tb) * 1000,
                     lat: if fix { (lat * 1e7).round() as i32 } else { 0 },
                     lon: if fix { (lon * 1e7).round() as i32 } else { 0 },
-                    alt: if fix { (amsl * 1000.0).round() as i32 } else { 0 },
+                    alt: if fix {
+                        (amsl * 1000.0).round() as i32
+                    } else {
+                        0
+                    },
                     eph: if fix { 80 } else { u16::MAX },
                     epv: if fix { 120 } else { u16::MAX },
                     vel: (self.m.ground_speed() * 100.0).round() as u16,
@@ -2829,7 +3110,11 @@ impl SimVehicle {
                 pitch: self.m.pitch_deg.to_radians() as f32,
                 yaw: {
                     let y = self.m.heading_deg.to_radians();
-                    (if y > std::f64::consts::PI { y - 2.0 * std::f64::consts::PI } else { y }) as f32
+                    (if y > std::f64::consts::PI {
+                        y - 2.0 * std::f64::consts::PI
+                    } else {
+                        y
+                    }) as f32
                 },
                 rollspeed: 0.0,
                 pitchspeed: 0.0,
@@ -2899,13 +3184,17 @@ impl SimVehicle {
                     *v = cell_mv;
                 }
                 let rate = self.battery.current_a.max(0.1);
-                let remaining_s = (self.cfg.battery.capacity_mah - self.battery.consumed_mah) / 1000.0 / rate * 3600.0;
+                let remaining_s =
+                    (self.cfg.battery.capacity_mah - self.battery.consumed_mah) / 1000.0 / rate
+                        * 3600.0;
                 MavMessage::BATTERY_STATUS(mav::BATTERY_STATUS_DATA {
                     current_consumed: self.battery.consumed_mah.round() as i32,
                     energy_consumed: -1,
                     temperature: i16::MAX,
                     voltages,
-                    current_battery: (self.battery.current_a * 100.0).round().clamp(-32767.0, 32767.0) as i16,
+                    current_battery: (self.battery.current_a * 100.0)
+                        .round()
+                        .clamp(-32767.0, 32767.0) as i16,
                     id: 0,
                     battery_function: mav::MavBatteryFunction::MAV_BATTERY_FUNCTION_ALL,
                     mavtype: mav::MavBatteryType::MAV_BATTERY_TYPE_LIPO,

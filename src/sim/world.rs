@@ -337,7 +337,10 @@ pub fn rectangle_corners(
 }
 
 fn valid_latlon(lat: f64, lon: f64) -> bool {
-    lat.is_finite() && lon.is_finite() && (-90.0..=90.0).contains(&lat) && (-180.0..=180.0).contains(&lon)
+    lat.is_finite()
+        && lon.is_finite()
+        && (-90.0..=90.0).contains(&lat)
+        && (-180.0..=180.0).contains(&lon)
 }
 
 impl World {
@@ -383,10 +386,14 @@ impl World {
         };
         let mut polys: Vec<(RegionFile, Vec<(f64, f64)>, Option<f64>)> = Vec::new();
         for r in f.region {
-            let given = [r.polygon.is_some(), r.rectangle.is_some(), r.cells.is_some()]
-                .iter()
-                .filter(|x| **x)
-                .count();
+            let given = [
+                r.polygon.is_some(),
+                r.rectangle.is_some(),
+                r.cells.is_some(),
+            ]
+            .iter()
+            .filter(|x| **x)
+            .count();
             if given != 1 {
                 return Err(invalid(format!(
                     "region {:?} needs exactly one of polygon, rectangle, cells",
@@ -395,7 +402,10 @@ impl World {
             }
             if let Some(p) = &r.polygon {
                 if p.len() < 3 {
-                    return Err(invalid(format!("region {:?}: a polygon needs 3 or more vertices", r.name)));
+                    return Err(invalid(format!(
+                        "region {:?}: a polygon needs 3 or more vertices",
+                        r.name
+                    )));
                 }
                 if p.iter().any(|v| !valid_latlon(v[0], v[1])) {
                     return Err(invalid(format!("region {:?}: invalid vertex", r.name)));
@@ -453,7 +463,9 @@ impl World {
         } else if let Some(h) = &f.homes {
             (h.reference[0], h.reference[1])
         } else {
-            return Err(invalid("a world needs at least a region, a grid or a home".into()));
+            return Err(invalid(
+                "a world needs at least a region, a grid or a home".into(),
+            ));
         };
         let regions = polys
             .into_iter()
@@ -465,10 +477,11 @@ impl World {
                         (e, n)
                     })
                     .collect();
-                let bbox = local_pts.iter().fold(
-                    (f64::MAX, f64::MAX, f64::MIN, f64::MIN),
-                    |b, &(e, n)| (b.0.min(e), b.1.min(n), b.2.max(e), b.3.max(n)),
-                );
+                let bbox = local_pts
+                    .iter()
+                    .fold((f64::MAX, f64::MAX, f64::MIN, f64::MIN), |b, &(e, n)| {
+                        (b.0.min(e), b.1.min(n), b.2.max(e), b.3.max(n))
+                    });
                 let v = r.velocity_ne_mps.unwrap_or([0.0, 0.0]);
                 Region {
                     name: r.name,
@@ -512,7 +525,9 @@ impl World {
         if let Some(w) = &f.wind
             && !(w.speed_mps.is_finite() && w.speed_mps >= 0.0 && w.from_deg.is_finite())
         {
-            return Err(invalid("wind speed must be ≥ 0 and direction finite".into()));
+            return Err(invalid(
+                "wind speed must be ≥ 0 and direction finite".into(),
+            ));
         }
         Ok(World {
             name: f.name,
@@ -525,6 +540,22 @@ impl World {
             grid,
             homes,
         })
+    }
+
+    /// A featureless world: `surface` everywhere around `reference` (what a camera sees when
+    /// no world file is given).
+    pub fn flat(surface: Surface, reference: (f64, f64), ground_alt_amsl_m: f64) -> World {
+        World {
+            name: "flat".into(),
+            description: String::new(),
+            background: surface,
+            ground_alt_amsl_m,
+            regions: Vec::new(),
+            wind: None,
+            reference,
+            grid: None,
+            homes: HomeRule::None,
+        }
     }
 
     /// The default home (lat, lon) of vehicle `k` (1-based, in `--vehicles` order), if the
@@ -645,11 +676,16 @@ mod tests {
         // UTM cell centres vs the local tangent plane: the meridian convergence (≈0.25° here)
         // moves a point 15 m away by ≈7 cm
         assert!((e - 5.0).abs() < 0.1 && (n - 15.0).abs() < 0.1, "{e} {n}");
-        let (ce, cn) = w.to_local(grid_cell_center((37.195, -80.58), 5.0, 5, 0).0, grid_cell_center((37.195, -80.58), 5.0, 5, 0).1);
+        let (ce, cn) = w.to_local(
+            grid_cell_center((37.195, -80.58), 5.0, 5, 0).0,
+            grid_cell_center((37.195, -80.58), 5.0, 5, 0).1,
+        );
         assert_eq!(w.surface_at_local(ce, cn, 0.0).0, Surface::GreenTile);
         assert_eq!(w.surface_at_local(ce + 5.0, cn, 0.0).0, Surface::Floor);
         assert!(w.default_home(3).is_none());
-        assert!(World::from_toml("name = \"x\"\n[[region]]\nname=\"a\"\nsurface=\"grass\"\n").is_err());
+        assert!(
+            World::from_toml("name = \"x\"\n[[region]]\nname=\"a\"\nsurface=\"grass\"\n").is_err()
+        );
         assert!(World::from_toml("name = \"x\"\nbogus = 1\n").is_err());
     }
 

@@ -1,0 +1,605 @@
+//! End-to-end tests of the simulated autopilots on the virtual clock: a minimal GCS (written
+//! here from the MAVLink protocol descriptions, independent of the simulator's code) uploads
+//! and downloads missions, arms, takes off and flies them in AUTO for every flavour and
+//! vehicle type; the low-battery failsafe and battery swaps; determinism.
+
+#![allow(deprecated)]
+
+use fleetmap::mission::MissionItem;
+use fleetmap::sim::harness::{Sim, SimConfig};
+use fleetmap::sim::vehicle::CMD_BATTERY_SWAP;
+use fleetmap::sim::{Flavour, Mode};
+use fleetmap::time::Time;
+use mavlink::MavHeader;
+use mavlink::dialects::ardupilotmega as mav;
+use mavlink::dialects::ardupilotmega::MavMessage;
+use num_traits::FromPrimitive;
+use std::time::Duration;
+
+const HOME: (f64, f64) = (37.1965, -80.5785);
+
+struct Gcs {
+    sim: Sim,
+    sysid: u8,
+    seq: u8,
+    last_hb: Time,
+    log: Vec<(Time, MavHeader, MavMessage)>,
+}
+
+impl Gcs {
+    fn new(spec: &str, seed: u64) -> Gcs {
+        Gcs::with(spec, seed, |_| {})
+    }
+
+    fn with(spec: &str, seed: u64, edit: impl FnOnce(&mut SimConfig)) -> Gcs {
+        let mut cfg = SimConfig::from_spec(spec, None, Some(HOME), seed).unwrap();
+        edit(&mut cfg);
+        Gcs {
+            sim: Sim::new(cfg, Time::ZERO).unwrap(),
+            sysid: 1,
+            seq: 0,
+            last_hb: Time::ZERO,
+            log: Vec::new(),
+        }
+    }
+
+    fn send(&mut self, msg: MavMessage) {
+        let h = MavHeader {
+            system_id: 255,
+            component_id: 190,
+            sequence: self.seq,
+        };
+        self.seq = self.seq.wrapping_add(1);
+        self.sim.send(self.sysid, &h, &msg);
+    }
+
+    fn heartbeat(&mut self) {
+        self.send(MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
+            custom_mode: 0,
+            mavtype: mav::MavType::MAV_TYPE_GCS,
+            autopilot: mav::MavAutopilot::MAV_AUTOPILOT_INVALID,
+            base_mode: mav::MavModeFlag::empty(),
+            system_status: mav::MavState::MAV_STATE_ACTIVE,
+            mavlink_version: 3,
+        }));
+    }
+
+    /// Step the simulation until `pred` accepts a received message or `secs` pass.
+    fn wait<F: FnMut(&MavMessage) -> bool>(
+        &mut self,
+        secs: f64,
+        mut pred: F,
+    ) -> Option<MavMessage> {
+        let end = self.sim.now() + Duration::from_secs_f64(secs);
+        loop {
+            while let Some((h, m)) = self.sim.recv(self.sysid) {
+                self.log.push((self.sim.now(), h, m.clone()));
+                if h.component_id == 1 && pred(&m) {
+                    return Some(m);
+                }
+            }
+            if self.sim.now() >= end {
+                return None;
+            }
+            if self.sim.now().saturating_since(self.last_hb) >= Duration::from_secs(1) {
+                self.last_hb = self.sim.now();
+                self.heartbeat();
+            }
+            let t = self.sim.now() + Duration::from_millis(50);
+            self.sim.advance_to(t);
+        }
+    }
+
+    fn command(&mut self, cmd: u16, p: [f32; 7]) -> mav::MavResult {
+        self.send(MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+            param1: p[0],
+            param2: p[1],
+            param3: p[2],
+            param4: p[3],
+            param5: p[4],
+            param6: p[5],
+            param7: p[6],
+            command: mav::MavCmd::from_u16(cmd).unwrap(),
+            target_system: self.sysid,
+            target_component: 1,
+            confirmation: 0,
+        }));
+        match self.wait(
+            3.0,
+            |m| matches!(m, MavMessage::COMMAND_ACK(a) if a.command as u16 == cmd),
+        ) {
+            Some(MavMessage::COMMAND_ACK(a)) => a.result,
+            other => panic!("no COMMAND_ACK for {cmd}: {other:?}"),
+        }
+    }
+
+    fn set_mode(&mut self, flavour: Flavour, mode: Mode) -> mav::MavResult {
+        let c = flavour.custom_mode(mode).unwrap();
+        if flavour.is_ardupilot() {
+            self.command(176, [1.0, c as f32, 0.0, 0.0, 0.0, 0.0, 0.0])
+        } else {
+            self.command(
+                176,
+                [
+                    1.0,
+                    ((c >> 16) & 0xff) as f32,
+                    (c >> 24) as f32,
+                    0.0,
+                    0.0,
+                    0.0,
+                    0.0,
+                ],
+            )
+        }
+    }
+
+    fn upload(&mut self, items: &[MissionItem]) -> mav::MavMissionResult {
+        self.send(MavMessage::MISSION_COUNT(mav::MISSION_COUNT_DATA {
+            count: items.len() as u16,
+            target_system: self.sysid,
+            target_component: 1,
+            mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        }));
+        loop {
+            let m = self
+                .wait(5.0, |m| {
+                    matches!(
+                        m,
+                        MavMessage::MISSION_REQUEST(_)
+                            | MavMessage::MISSION_REQUEST_INT(_)
+                            | MavMessage::MISSION_ACK(_)
+                    )
+                })
+                .expect("vehicle stopped answering the upload");
+            let seq = match m {
+                MavMessage::MISSION_ACK(a) => return a.mavtype,
+                MavMessage::MISSION_REQUEST(r) => r.seq,
+                MavMessage::MISSION_REQUEST_INT(r) => r.seq,
+                _ => unreachable!(),
+            };
+            let it = items[seq as usize];
+            self.send(MavMessage::MISSION_ITEM_INT(mav::MISSION_ITEM_INT_DATA {
+                param1: it.param1,
+                param2: it.param2,
+                param3: it.param3,
+                param4: it.param4,
+                x: it.x,
+                y: it.y,
+                z: it.z,
+                seq,
+                command: mav::MavCmd::from_u16(it.command).unwrap(),
+                target_system: self.sysid,
+                target_component: 1,
+                frame: mav::MavFrame::from_u8(it.frame).unwrap(),
+                current: 0,
+                autocontinue: 1,
+                mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
+            }));
+        }
+    }
+
+    fn download(&mut self) -> Vec<MissionItem> {
+        self.send(MavMessage::MISSION_REQUEST_LIST(
+            mav::MISSION_REQUEST_LIST_DATA {
+                target_system: self.sysid,
+                target_component: 1,
+                mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
+            },
+        ));
+        let n = match self.wait(3.0, |m| matches!(m, MavMessage::MISSION_COUNT(_))) {
+            Some(MavMessage::MISSION_COUNT(c)) => c.count,
+            other => panic!("{other:?}"),
+        };
+        let mut out = Vec::new();
+        for seq in 0..n {
+            self.send(MavMessage::MISSION_REQUEST_INT(
+                mav::MISSION_REQUEST_INT_DATA {
+                    seq,
+                    target_system: self.sysid,
+                    target_component: 1,
+                    mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
+                },
+            ));
+            match self.wait(
+                3.0,
+                |m| matches!(m, MavMessage::MISSION_ITEM_INT(i) if i.seq == seq),
+            ) {
+                Some(MavMessage::MISSION_ITEM_INT(i)) => out.push(MissionItem {
+                    frame: i.frame as u8,
+                    command: i.command as u16,
+                    current: i.current != 0,
+                    autocontinue: i.autocontinue != 0,
+                    param1: i.param1,
+                    param2: i.param2,
+                    param3: i.param3,
+                    param4: i.param4,
+                    x: i.x,
+                    y: i.y,
+                    z: i.z,
+                }),
+                other => panic!("{other:?}"),
+            }
+        }
+        self.send(MavMessage::MISSION_ACK(mav::MISSION_ACK_DATA {
+            target_system: self.sysid,
+            target_component: 1,
+            mavtype: mav::MavMissionResult::MAV_MISSION_ACCEPTED,
+            mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        }));
+        out
+    }
+
+    fn heartbeat_of(&mut self) -> mav::HEARTBEAT_DATA {
+        match self.wait(2.0, |m| matches!(m, MavMessage::HEARTBEAT(_))) {
+            Some(MavMessage::HEARTBEAT(h)) => h,
+            other => panic!("{other:?}"),
+        }
+    }
+
+    fn texts(&self) -> Vec<String> {
+        self.log
+            .iter()
+            .filter_map(|(_, _, m)| match m {
+                MavMessage::STATUSTEXT(s) => Some(
+                    s.text
+                        .to_str()
+                        .unwrap_or("")
+                        .trim_end_matches('\0')
+                        .to_string(),
+                ),
+                _ => None,
+            })
+            .collect()
+    }
+}
+
+fn at(north: f64, east: f64) -> (f64, f64) {
+    fleetmap::geo::local::offset(HOME.0, HOME.1, north, east)
+}
+
+fn mission(copter: bool) -> Vec<MissionItem> {
+    let (a, b, c) = (at(20.0, 0.0), at(20.0, 20.0), at(0.0, 20.0));
+    let mut v = Vec::new();
+    if copter {
+        v.push(MissionItem::takeoff(10.0));
+    }
+    v.push(MissionItem::change_speed(4.0));
+    v.push(MissionItem::waypoint(a.0, a.1, 10.0));
+    v.push(MissionItem::image_start_capture(0.0, 1));
+    v.push(MissionItem::waypoint(b.0, b.1, 10.0));
+    v.push(MissionItem::waypoint(c.0, c.1, 10.0));
+    v.push(MissionItem::return_to_launch());
+    v
+}
+
+fn fly(flavour: Flavour) {
+    let spec = format!("1x{flavour}");
+    let mut g = Gcs::new(&spec, 7);
+    let copter = flavour.is_copter();
+    let ap = flavour.is_ardupilot();
+    // arming before the position estimate is refused with the autopilot's result
+    let early = g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+    assert_eq!(
+        early,
+        if ap {
+            mav::MavResult::MAV_RESULT_FAILED
+        } else {
+            mav::MavResult::MAV_RESULT_TEMPORARILY_REJECTED
+        },
+        "{flavour}"
+    );
+    assert!(
+        g.texts()
+            .iter()
+            .any(|t| t.starts_with("PreArm") || t.starts_with("Preflight Fail")),
+        "{:?}",
+        g.texts()
+    );
+    // position estimate, home
+    g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+        .expect("home");
+    // ArduPilot streams on request
+    g.send(MavMessage::REQUEST_DATA_STREAM(
+        mav::REQUEST_DATA_STREAM_DATA {
+            req_message_rate: 4,
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: mav::MavDataStream::MAV_DATA_STREAM_ALL,
+            start_stop: 1,
+        },
+    ));
+    g.wait(3.0, |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(_)))
+        .expect("position stream");
+
+    let mut items = mission(copter);
+    if ap {
+        items.insert(0, MissionItem::waypoint(HOME.0, HOME.1, 0.0));
+    }
+    assert_eq!(
+        g.upload(&items),
+        mav::MavMissionResult::MAV_MISSION_ACCEPTED
+    );
+    let back = g.download();
+    assert_eq!(back.len(), items.len());
+    for (i, (a, b)) in items.iter().zip(&back).enumerate().skip(usize::from(ap)) {
+        assert_eq!(a.command, b.command, "item {i}");
+        assert_eq!((a.x, a.y), (b.x, b.y), "item {i}");
+    }
+
+    // arm and fly
+    if copter {
+        if ap {
+            assert_eq!(
+                g.set_mode(flavour, Mode::Guided),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            g.wait(
+                20.0,
+                |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(p) if p.relative_alt > 9_500),
+            )
+            .expect("takeoff");
+            assert_eq!(
+                g.set_mode(flavour, Mode::Auto),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+        } else {
+            assert_eq!(
+                g.command(300, [0.0; 7]),
+                mav::MavResult::MAV_RESULT_ACCEPTED,
+                "PX4 MISSION_START arms"
+            );
+        }
+    } else {
+        assert_eq!(
+            g.set_mode(flavour, Mode::Auto),
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        );
+        assert_eq!(
+            g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        );
+        if ap {
+            // ArduRover starts the mission when armed in AUTO
+        }
+    }
+    let first = usize::from(ap);
+    let mut reached = std::collections::BTreeSet::new();
+    let last = (items.len() - 1) as u16;
+    g.wait(240.0, |m| {
+        if let MavMessage::MISSION_ITEM_REACHED(r) = m {
+            reached.insert(r.seq);
+            return r.seq == last;
+        }
+        false
+    })
+    .unwrap_or_else(|| panic!("{flavour}: mission not finished, reached {reached:?}"));
+    // every navigation item was reported (ArduPilot: not the camera do-item)
+    for (i, it) in items.iter().enumerate().skip(first) {
+        let expect = if ap {
+            it.command <= 95 || it.command == 178
+        } else {
+            true
+        };
+        let expect = expect && !(it.command == 22 && !copter);
+        assert_eq!(
+            reached.contains(&(i as u16)),
+            expect,
+            "{flavour} item {i} ({}) reached {reached:?}",
+            it.command
+        );
+    }
+    if copter {
+        // RTL ends on the ground at home, disarmed
+        let hb = g.wait(30.0, |m| matches!(m, MavMessage::HEARTBEAT(h) if !h.base_mode.contains(mav::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)));
+        assert!(hb.is_some(), "{flavour}: not disarmed after RTL");
+        let v = g.sim.vehicle(1).unwrap();
+        assert!(v.landed());
+        let (lat, lon, _) = v.true_position();
+        let d = fleetmap::geo::local::distance(lat, lon, HOME.0, HOME.1);
+        assert!(d < 2.0, "{flavour}: landed {d} m from home");
+        // a camera image was taken at the second waypoint
+        let (_, img) = g.sim.poll_image().expect("an image");
+        let (a, b) = at(20.0, 0.0);
+        let d = fleetmap::geo::local::distance(img.true_pose.lat, img.true_pose.lon, a, b);
+        assert!(d < 2.0, "{flavour}: image {d} m from the waypoint");
+        assert!(image::load_from_memory(&img.jpeg).is_ok());
+    }
+}
+
+#[test]
+fn ardupilot_copter_flies_a_mission() {
+    fly(Flavour::ARDU_COPTER);
+}
+
+#[test]
+fn px4_copter_flies_a_mission() {
+    fly(Flavour::PX4_COPTER);
+}
+
+#[test]
+fn ardupilot_rover_drives_a_mission() {
+    fly(Flavour::ARDU_ROVER);
+}
+
+#[test]
+fn px4_rover_drives_a_mission() {
+    fly(Flavour::PX4_ROVER);
+}
+
+#[test]
+fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
+    for flavour in [Flavour::ARDU_COPTER, Flavour::PX4_COPTER] {
+        // the configured levels: RTL at 25 %, land at 8 % (ArduPilot BATT_LOW_MAH /
+        // BATT_CRT_MAH, PX4 BAT_CRIT_THR / BAT_EMERGEN_THR)
+        let mut g = Gcs::with(&format!("1x{flavour}"), 3, |c| {
+            c.vehicles[0].failsafe = fleetmap::sim::vehicle::BatteryFailsafe {
+                rtl_pct: 25.0,
+                land_pct: 8.0,
+            };
+        });
+        g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+            .unwrap();
+        let items = if flavour.is_ardupilot() {
+            vec![
+                MissionItem::waypoint(HOME.0, HOME.1, 0.0),
+                MissionItem::takeoff(10.0),
+            ]
+        } else {
+            vec![MissionItem::takeoff(10.0)]
+        };
+        assert_eq!(
+            g.upload(&items),
+            mav::MavMissionResult::MAV_MISSION_ACCEPTED
+        );
+        g.send(MavMessage::REQUEST_DATA_STREAM(
+            mav::REQUEST_DATA_STREAM_DATA {
+                req_message_rate: 2,
+                target_system: 1,
+                target_component: 1,
+                req_stream_id: mav::MavDataStream::MAV_DATA_STREAM_ALL,
+                start_stop: 1,
+            },
+        ));
+        // hover 20 m east of home
+        if flavour.is_ardupilot() {
+            assert_eq!(
+                g.set_mode(flavour, Mode::Guided),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+        } else {
+            assert_eq!(
+                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            let amsl = g.sim.vehicle(1).unwrap().home().unwrap().2 as f32 + 10.0;
+            assert_eq!(
+                g.command(22, [0.0, 0.0, 0.0, f32::NAN, f32::NAN, f32::NAN, amsl]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+        }
+        g.wait(
+            20.0,
+            |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(p) if p.relative_alt > 9_000),
+        )
+        .unwrap_or_else(|| panic!("{flavour}: not airborne: {:?}", g.texts()));
+        let (lat, lon) = at(0.0, 20.0);
+        let r = g.command(
+            192,
+            [
+                -1.0,
+                1.0,
+                0.0,
+                f32::NAN,
+                lat as f32,
+                lon as f32,
+                g.sim.vehicle(1).unwrap().home().unwrap().2 as f32 + 10.0,
+            ],
+        );
+        assert_eq!(r, mav::MavResult::MAV_RESULT_ACCEPTED, "{flavour}");
+        // hover until the failsafe (12 minutes of battery)
+        let rtl = flavour.custom_mode(Mode::Rtl).unwrap();
+        let hb = g.wait(
+            900.0,
+            |m| matches!(m, MavMessage::HEARTBEAT(h) if h.custom_mode == rtl),
+        );
+        assert!(hb.is_some(), "{flavour}: no RTL");
+        let pct = g.sim.vehicle(1).unwrap().battery().fraction() * 100.0;
+        assert!((pct - 25.0).abs() < 0.5, "{flavour}: failsafe at {pct} %");
+        // ... lands at home and disarms
+        g.wait(120.0, |m| matches!(m, MavMessage::HEARTBEAT(h) if !h.base_mode.contains(mav::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)))
+            .unwrap_or_else(|| panic!("{flavour}: not disarmed after landing: {:?} {:?}", g.texts(), g.sim.vehicle(1).unwrap().true_position()));
+        let v = g.sim.vehicle(1).unwrap();
+        let (lat, lon, u) = v.true_position();
+        assert!(u < 0.01);
+        let d = fleetmap::geo::local::distance(lat, lon, HOME.0, HOME.1);
+        assert!(
+            d < 2.0,
+            "{flavour}: landed {d} m from home: {:?}",
+            g.texts()
+        );
+        let boot_ms = |g: &mut Gcs| match g.wait(3.0, |m| {
+            matches!(
+                m,
+                MavMessage::SYS_STATUS(_)
+                    | MavMessage::ATTITUDE(_)
+                    | MavMessage::GLOBAL_POSITION_INT(_)
+            )
+        }) {
+            Some(MavMessage::GLOBAL_POSITION_INT(p)) => p.time_boot_ms,
+            Some(MavMessage::ATTITUDE(a)) => a.time_boot_ms,
+            _ => 0,
+        };
+        let _ = boot_ms;
+        // the operator swaps the battery: the vehicle reboots
+        assert_eq!(
+            g.command(CMD_BATTERY_SWAP, [0.0; 7]),
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        );
+        let silent_from = g.sim.now();
+        let hb = g.wait(10.0, |m| matches!(m, MavMessage::HEARTBEAT(_)));
+        assert!(hb.is_some());
+        assert!(
+            g.sim.now().saturating_since(silent_from) >= Duration::from_secs(2),
+            "power off"
+        );
+        let last = g.log.last().unwrap();
+        assert!(
+            last.1.sequence < 5,
+            "sequence numbers restart: {}",
+            last.1.sequence
+        );
+        let v = g.sim.vehicle(1).unwrap();
+        assert_eq!(v.boots(), 2);
+        assert_eq!(v.battery().percent(), 100);
+        // the mission survived the power cycle, the current item went back to the start
+        assert_eq!(
+            v.mission()
+                .items(fleetmap::mission::MissionType::Mission)
+                .len(),
+            items.len()
+        );
+        assert_eq!(
+            v.mission().current(),
+            if flavour.is_ardupilot() { 1 } else { 0 }
+        );
+        // and the position estimate takes time again
+        assert_eq!(
+            g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+                == mav::MavResult::MAV_RESULT_ACCEPTED,
+            false
+        );
+    }
+}
+
+#[test]
+fn same_seed_same_stream() {
+    let run = |seed: u64| {
+        let mut g = Gcs::new("1xcopter:ardupilot,1xrover:px4", seed);
+        g.wait(30.0, |_| false);
+        g.sim.sysids();
+        let mut bytes = Vec::new();
+        for (t, h, m) in &g.log {
+            bytes.push(format!("{t} {} {} {m:?}", h.component_id, h.sequence));
+        }
+        bytes
+    };
+    assert_eq!(run(5), run(5));
+}
