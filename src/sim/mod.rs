@@ -15,5 +15,6 @@ pub mod faults;
 pub mod harness;
 pub mod motion;
 pub mod render;
+pub mod server;
 pub mod vehicle;
 pub mod world;

@@ -1,0 +1,239 @@
+//! `fleetmap sim …`: serve simulated ArduPilot / PX4 copters and rovers over MAVLink.
+
+use crate::sim::faults::{LinkFaults, parse_blackouts};
+use crate::sim::harness::{Sim, SimConfig};
+use crate::sim::server::{Endpoint, ServeOptions, serve};
+use crate::sim::world::{Wind, World};
+use crate::time::Time;
+use anyhow::{Context, bail};
+use clap::Args;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `fleetmap sim`.
+#[derive(Debug, Args)]
+pub struct SimArgs {
+    /// Vehicles, e.g. `3xcopter:ardupilot,1xrover:ardupilot`; vehicle k gets system id k.
+    #[arg(long, default_value = "1xcopter:ardupilot")]
+    pub vehicles: String,
+    /// Where to serve them: `udpout:HOST:PORT` (each vehicle from its own socket),
+    /// `udpin:HOST:PORT` / `tcpin:HOST:PORT` (vehicle k on PORT+k−1); repeat once per
+    /// vehicle for explicit endpoints.
+    #[arg(long, required = true)]
+    pub connect: Vec<String>,
+    /// World file (ground truth and default homes), e.g. assets/worlds/runway.toml.
+    #[arg(long)]
+    pub world: Option<PathBuf>,
+    /// Home of vehicle 1 as LAT,LON (the others 3 m east of each other); overrides the
+    /// world's homes.
+    #[arg(long, value_name = "LAT,LON")]
+    pub home: Option<String>,
+    /// Simulated seconds per wall second.
+    #[arg(long, default_value_t = 1.0)]
+    pub speedup: f64,
+    /// Probability of losing a frame, each way.
+    #[arg(long, default_value_t = 0.0)]
+    pub loss: f64,
+    /// Probability of duplicating a frame.
+    #[arg(long, default_value_t = 0.0)]
+    pub dup: f64,
+    /// Probability of delaying a frame behind later ones.
+    #[arg(long, default_value_t = 0.0)]
+    pub reorder: f64,
+    /// One-way latency, milliseconds.
+    #[arg(long, default_value_t = 0.0)]
+    pub latency_ms: f64,
+    /// Uniform latency jitter, milliseconds.
+    #[arg(long, default_value_t = 0.0)]
+    pub jitter_ms: f64,
+    /// Probability of corrupting a frame (one byte flipped: bad CRC).
+    #[arg(long, default_value_t = 0.0)]
+    pub corrupt: f64,
+    /// Link blackouts as START+DURATION seconds of simulated time, comma separated.
+    #[arg(long, value_name = "S+D,…")]
+    pub blackout: Option<String>,
+    /// Swap the battery this many seconds after a vehicle is landed and disarmed with a
+    /// used battery (it then reboots). Without it the GCS asks with MAV_CMD_USER_1 (31010).
+    #[arg(long, value_name = "SECONDS")]
+    pub swap_after: Option<f64>,
+    /// Minutes of hover on a full copter battery.
+    #[arg(long, default_value_t = 12.0)]
+    pub battery_minutes: f64,
+    /// Battery level (percent) that triggers the failsafe RTL (default: the autopilot's).
+    #[arg(long, value_name = "PCT")]
+    pub low_battery: Option<f64>,
+    /// Wind as SPEED@FROM (m/s, degrees the wind blows from), e.g. 3.6@270.
+    #[arg(long, value_name = "SPEED@FROM")]
+    pub wind: Option<String>,
+    /// Write camera images here and announce their file:// URLs in CAMERA_IMAGE_CAPTURED.
+    #[arg(long)]
+    pub image_dir: Option<PathBuf>,
+    /// Do not push images over MAVLink image transmission.
+    #[arg(long)]
+    pub no_image_transfer: bool,
+    /// Stop after this many simulated seconds.
+    #[arg(long)]
+    pub duration: Option<f64>,
+    /// Seed of every random process (same seed, same run).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print the endpoints as one JSON object per line.
+    #[arg(long)]
+    pub json: bool,
+}
+
+fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
+    let (a, b) = s
+        .split_once([',', '@'])
+        .with_context(|| format!("{what}: expected two numbers, got {s:?}"))?;
+    let a: f64 = a
+        .trim()
+        .parse()
+        .with_context(|| format!("{what}: {a:?} is not a number"))?;
+    let b: f64 = b
+        .trim()
+        .parse()
+        .with_context(|| format!("{what}: {b:?} is not a number"))?;
+    if !a.is_finite() || !b.is_finite() {
+        bail!("{what}: numbers must be finite");
+    }
+    Ok((a, b))
+}
+
+/// Build the simulation `fleetmap sim` would serve (also used by tests).
+pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
+    let world = match &args.world {
+        Some(p) => Some(World::load(p)?),
+        None => None,
+    };
+    let home = match &args.home {
+        Some(h) => {
+            let (lat, lon) = parse_pair(h, "--home")?;
+            if !(-90.0..=90.0).contains(&lat) || !(-180.0..=180.0).contains(&lon) {
+                bail!("--home: {lat},{lon} is not a valid position");
+            }
+            Some((lat, lon))
+        }
+        None => None,
+    };
+    if !(args.speedup.is_finite() && args.speedup > 0.0) {
+        bail!("--speedup must be positive");
+    }
+    if !(args.battery_minutes.is_finite() && args.battery_minutes > 0.0) {
+        bail!("--battery-minutes must be positive");
+    }
+    let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?;
+    let faults = LinkFaults {
+        loss: args.loss,
+        duplicate: args.dup,
+        reorder: args.reorder,
+        latency_ms: args.latency_ms,
+        jitter_ms: args.jitter_ms,
+        corrupt: args.corrupt,
+        blackouts: match &args.blackout {
+            Some(b) => parse_blackouts(b)?,
+            None => Vec::new(),
+        },
+    };
+    faults.validate()?;
+    cfg = cfg.with_faults(faults);
+    if let Some(w) = &args.wind {
+        let (speed, from) = parse_pair(w, "--wind")?;
+        if speed < 0.0 {
+            bail!("--wind: speed must be ≥ 0");
+        }
+        cfg = cfg.with_wind(Some(Wind {
+            speed_mps: speed,
+            from_deg: from,
+        }));
+    }
+    let image_dir = match &args.image_dir {
+        Some(d) => {
+            std::fs::create_dir_all(d).with_context(|| format!("cannot create {}", d.display()))?;
+            Some(
+                d.canonicalize()
+                    .with_context(|| format!("cannot resolve {}", d.display()))?,
+            )
+        }
+        None => None,
+    };
+    for v in &mut cfg.vehicles {
+        if v.flavour.is_copter() {
+            v.battery.minutes = args.battery_minutes;
+        }
+        if let Some(p) = args.low_battery {
+            if !(0.0..100.0).contains(&p) {
+                bail!("--low-battery must be between 0 and 100");
+            }
+            v.failsafe.rtl_pct = p;
+            v.failsafe.land_pct = v.failsafe.land_pct.min(p / 2.0);
+        }
+        v.swap_after_s = args.swap_after;
+        if let Some(c) = v.camera.as_mut() {
+            c.mavlink_transfer = !args.no_image_transfer;
+            c.file_dir = image_dir.as_ref().map(|d| d.display().to_string());
+        }
+    }
+    Ok(cfg)
+}
+
+/// Run `fleetmap sim`.
+pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
+    let endpoints = args
+        .connect
+        .iter()
+        .map(|c| Endpoint::parse(c))
+        .collect::<Result<Vec<_>, _>>()?;
+    let cfg = build(&args)?;
+    let descr: Vec<String> = cfg
+        .vehicles
+        .iter()
+        .map(|v| format!("{} at {:.7},{:.7}", v.flavour, v.start.0, v.start.1))
+        .collect();
+    let sim = Sim::new(cfg, Time::ZERO)?;
+    let opts = ServeOptions {
+        endpoints,
+        speedup: args.speedup,
+        image_dir: args.image_dir.clone(),
+        duration_s: args.duration,
+    };
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?;
+    let json = args.json;
+    rt.block_on(async move {
+        let shutdown = async {
+            let _ = tokio::signal::ctrl_c().await;
+        };
+        serve(
+            sim,
+            opts,
+            |bound| {
+                for (b, d) in bound.iter().zip(&descr) {
+                    if json {
+                        println!(
+                            "{}",
+                            serde_json::json!({
+                                "sysid": b.sysid,
+                                "vehicle": d,
+                                "endpoint": b.endpoint.to_string(),
+                                "local": b.local.to_string(),
+                            })
+                        );
+                    } else {
+                        println!(
+                            "vehicle {} ({d}) on {} (local {})",
+                            b.sysid, b.endpoint, b.local
+                        );
+                    }
+                }
+                use std::io::Write;
+                let _ = std::io::stdout().flush();
+            },
+            shutdown,
+        )
+        .await
+    })?;
+    Ok(ExitCode::SUCCESS)
+}

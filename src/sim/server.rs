@@ -1,0 +1,405 @@
+//! The simulator's thin async shell: serves each simulated vehicle on its own MAVLink
+//! endpoint over UDP or TCP, on a clock that may run faster than wall time.
+//!
+//! Endpoints, as MAVProxy writes them:
+//! - `udpout:HOST:PORT` — every vehicle sends to HOST:PORT from its own socket (an ephemeral
+//!   port), as several SITL instances would, and listens for replies on it;
+//! - `udpin:HOST:PORT` — vehicle k listens on HOST:(PORT + k − 1) and answers whoever spoke
+//!   to it last;
+//! - `tcpin:HOST:PORT` — vehicle k accepts TCP clients on HOST:(PORT + k − 1) and sends to
+//!   all of them.
+//!
+//! One endpoint is shared out this way; or give one endpoint per vehicle. Captured images
+//! are written (atomically) to the image directory before the frames that announce them are
+//! sent.
+
+use crate::sim::harness::Sim;
+use crate::time::MonotonicClock;
+use std::net::SocketAddr;
+use std::path::PathBuf;
+use std::sync::{Arc, Mutex};
+use thiserror::Error;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+use tokio::net::{TcpListener, UdpSocket};
+use tokio::sync::mpsc;
+
+/// Errors of the socket server.
+#[derive(Debug, Error)]
+pub enum ServerError {
+    /// A connection string is malformed.
+    #[error(
+        "invalid endpoint {0:?}: expected udpout:HOST:PORT, udpin:HOST:PORT or tcpin:HOST:PORT"
+    )]
+    Endpoint(String),
+    /// The number of endpoints does not match the vehicles.
+    #[error("{endpoints} endpoints for {vehicles} vehicles: give one, or one per vehicle")]
+    Count {
+        /// Endpoints given.
+        endpoints: usize,
+        /// Vehicles.
+        vehicles: usize,
+    },
+    /// A socket could not be opened.
+    #[error("cannot open {what}: {source}")]
+    Io {
+        /// Which socket.
+        what: String,
+        /// Why.
+        source: std::io::Error,
+    },
+}
+
+/// How one vehicle is reached.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Endpoint {
+    /// Send to this address from an own socket.
+    UdpOut(String),
+    /// Listen on this address.
+    UdpIn(String),
+    /// Accept TCP clients on this address.
+    TcpIn(String),
+}
+
+impl Endpoint {
+    /// Parse `udpout:HOST:PORT`, `udpin:HOST:PORT` or `tcpin:HOST:PORT`.
+    pub fn parse(s: &str) -> Result<Endpoint, ServerError> {
+        let (kind, addr) = s
+            .split_once(':')
+            .ok_or_else(|| ServerError::Endpoint(s.to_string()))?;
+        let (host, port) = addr
+            .rsplit_once(':')
+            .ok_or_else(|| ServerError::Endpoint(s.to_string()))?;
+        if host.is_empty() || port.parse::<u16>().is_err() {
+            return Err(ServerError::Endpoint(s.to_string()));
+        }
+        match kind {
+            "udpout" | "udp" => Ok(Endpoint::UdpOut(addr.to_string())),
+            "udpin" => Ok(Endpoint::UdpIn(addr.to_string())),
+            "tcpin" => Ok(Endpoint::TcpIn(addr.to_string())),
+            _ => Err(ServerError::Endpoint(s.to_string())),
+        }
+    }
+
+    /// The endpoint of vehicle number `k` (0-based) when this one is shared among vehicles.
+    pub fn for_vehicle(&self, k: usize) -> Result<Endpoint, ServerError> {
+        let shift = |a: &str| -> Result<String, ServerError> {
+            let (h, p) = a
+                .rsplit_once(':')
+                .ok_or_else(|| ServerError::Endpoint(a.to_string()))?;
+            let p: u16 = p
+                .parse()
+                .map_err(|_| ServerError::Endpoint(a.to_string()))?;
+            let p = p
+                .checked_add(k as u16)
+                .ok_or_else(|| ServerError::Endpoint(a.to_string()))?;
+            Ok(format!("{h}:{p}"))
+        };
+        Ok(match self {
+            Endpoint::UdpOut(a) => Endpoint::UdpOut(a.clone()),
+            Endpoint::UdpIn(a) => Endpoint::UdpIn(shift(a)?),
+            Endpoint::TcpIn(a) => Endpoint::TcpIn(shift(a)?),
+        })
+    }
+}
+
+impl std::fmt::Display for Endpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Endpoint::UdpOut(a) => write!(f, "udpout:{a}"),
+            Endpoint::UdpIn(a) => write!(f, "udpin:{a}"),
+            Endpoint::TcpIn(a) => write!(f, "tcpin:{a}"),
+        }
+    }
+}
+
+/// Serving options.
+#[derive(Clone, Debug)]
+pub struct ServeOptions {
+    /// One endpoint shared by all vehicles, or one per vehicle.
+    pub endpoints: Vec<Endpoint>,
+    /// Simulated seconds per wall second.
+    pub speedup: f64,
+    /// Directory the camera images are written to (None: images only over MAVLink).
+    pub image_dir: Option<PathBuf>,
+    /// Stop after this much simulated time (None: until shut down).
+    pub duration_s: Option<f64>,
+}
+
+/// A bound vehicle endpoint, as reported when serving starts.
+#[derive(Clone, Debug)]
+pub struct Bound {
+    /// Vehicle system id.
+    pub sysid: u8,
+    /// Its endpoint.
+    pub endpoint: Endpoint,
+    /// The local address of its socket / listener.
+    pub local: SocketAddr,
+}
+
+enum Io {
+    Udp {
+        sock: Arc<UdpSocket>,
+        peer: Arc<Mutex<Option<SocketAddr>>>,
+    },
+    Tcp {
+        out: mpsc::UnboundedSender<Vec<u8>>,
+    },
+}
+
+fn io_err(what: String) -> impl FnOnce(std::io::Error) -> ServerError {
+    move |source| ServerError::Io { what, source }
+}
+
+async fn resolve(a: &str) -> Result<SocketAddr, ServerError> {
+    tokio::net::lookup_host(a)
+        .await
+        .map_err(io_err(a.to_string()))?
+        .next()
+        .ok_or_else(|| ServerError::Endpoint(a.to_string()))
+}
+
+/// Open every vehicle's endpoint. Returns the bound sockets (for printing) and the I/O
+/// plumbing; received datagrams / TCP bytes arrive on `rx` as (vehicle index, bytes).
+async fn open(
+    sysids: &[u8],
+    endpoints: &[Endpoint],
+    tx: mpsc::Sender<(usize, Vec<u8>)>,
+) -> Result<(Vec<Bound>, Vec<Io>), ServerError> {
+    let n = sysids.len();
+    if endpoints.len() != 1 && endpoints.len() != n {
+        return Err(ServerError::Count {
+            endpoints: endpoints.len(),
+            vehicles: n,
+        });
+    }
+    let mut bound = Vec::new();
+    let mut ios = Vec::new();
+    for (k, &sysid) in sysids.iter().enumerate() {
+        let ep = if endpoints.len() == 1 {
+            endpoints[0].for_vehicle(k)?
+        } else {
+            endpoints[k].clone()
+        };
+        match &ep {
+            Endpoint::UdpOut(a) | Endpoint::UdpIn(a) => {
+                let target = resolve(a).await?;
+                let (bind, peer) = match &ep {
+                    Endpoint::UdpOut(_) => {
+                        let any: SocketAddr = if target.is_ipv4() {
+                            "0.0.0.0:0"
+                                .parse()
+                                .map_err(|_| ServerError::Endpoint(a.clone()))?
+                        } else {
+                            "[::]:0"
+                                .parse()
+                                .map_err(|_| ServerError::Endpoint(a.clone()))?
+                        };
+                        (any, Some(target))
+                    }
+                    _ => (target, None),
+                };
+                let sock = Arc::new(
+                    UdpSocket::bind(bind)
+                        .await
+                        .map_err(io_err(ep.to_string()))?,
+                );
+                let local = sock.local_addr().map_err(io_err(ep.to_string()))?;
+                let peer = Arc::new(Mutex::new(peer));
+                let fixed = matches!(ep, Endpoint::UdpOut(_));
+                let (s2, p2, tx2) = (sock.clone(), peer.clone(), tx.clone());
+                tokio::spawn(async move {
+                    let mut buf = vec![0u8; 65536];
+                    loop {
+                        match s2.recv_from(&mut buf).await {
+                            Ok((len, from)) => {
+                                if !fixed && let Ok(mut p) = p2.lock() {
+                                    *p = Some(from);
+                                }
+                                if tx2.send((k, buf[..len].to_vec())).await.is_err() {
+                                    return;
+                                }
+                            }
+                            // ICMP port unreachable on Linux surfaces here; keep listening
+                            Err(_) => tokio::task::yield_now().await,
+                        }
+                    }
+                });
+                bound.push(Bound {
+                    sysid,
+                    endpoint: ep.clone(),
+                    local,
+                });
+                ios.push(Io::Udp { sock, peer });
+            }
+            Endpoint::TcpIn(a) => {
+                let addr = resolve(a).await?;
+                let listener = TcpListener::bind(addr)
+                    .await
+                    .map_err(io_err(ep.to_string()))?;
+                let local = listener.local_addr().map_err(io_err(ep.to_string()))?;
+                let (out_tx, mut out_rx) = mpsc::unbounded_channel::<Vec<u8>>();
+                let (client_tx, mut client_rx) = mpsc::unbounded_channel();
+                let tx2 = tx.clone();
+                tokio::spawn(async move {
+                    loop {
+                        let Ok((stream, _)) = listener.accept().await else {
+                            continue;
+                        };
+                        let _ = stream.set_nodelay(true);
+                        let (mut r, w) = stream.into_split();
+                        if client_tx.send(w).is_err() {
+                            return;
+                        }
+                        let tx3 = tx2.clone();
+                        tokio::spawn(async move {
+                            let mut buf = vec![0u8; 8192];
+                            loop {
+                                match r.read(&mut buf).await {
+                                    Ok(0) | Err(_) => return,
+                                    Ok(n) => {
+                                        if tx3.send((k, buf[..n].to_vec())).await.is_err() {
+                                            return;
+                                        }
+                                    }
+                                }
+                            }
+                        });
+                    }
+                });
+                tokio::spawn(async move {
+                    let mut clients: Vec<tokio::net::tcp::OwnedWriteHalf> = Vec::new();
+                    loop {
+                        tokio::select! {
+                            c = client_rx.recv() => match c {
+                                Some(c) => clients.push(c),
+                                None => return,
+                            },
+                            d = out_rx.recv() => {
+                                let Some(d) = d else { return };
+                                let mut alive = Vec::new();
+                                for mut c in clients.drain(..) {
+                                    if c.write_all(&d).await.is_ok() {
+                                        alive.push(c);
+                                    }
+                                }
+                                clients = alive;
+                            }
+                        }
+                    }
+                });
+                bound.push(Bound {
+                    sysid,
+                    endpoint: ep.clone(),
+                    local,
+                });
+                ios.push(Io::Tcp { out: out_tx });
+            }
+        }
+    }
+    Ok((bound, ios))
+}
+
+/// Serve `sim` until `shutdown` resolves (or the configured duration passes). `on_bound`
+/// is called once every endpoint is open.
+pub async fn serve<F>(
+    mut sim: Sim,
+    opts: ServeOptions,
+    on_bound: impl FnOnce(&[Bound]),
+    shutdown: F,
+) -> Result<Sim, ServerError>
+where
+    F: std::future::Future<Output = ()>,
+{
+    let sysids = sim.sysids();
+    let (tx, mut rx) = mpsc::channel::<(usize, Vec<u8>)>(4096);
+    let (bound, ios) = open(&sysids, &opts.endpoints, tx).await?;
+    on_bound(&bound);
+    if let Some(dir) = &opts.image_dir {
+        std::fs::create_dir_all(dir).map_err(io_err(dir.display().to_string()))?;
+    }
+    let clock = MonotonicClock::with_speedup(opts.speedup);
+    let start = sim.now();
+    let end = opts
+        .duration_s
+        .map(|d| start + std::time::Duration::from_secs_f64(d.max(0.0)));
+    tokio::pin!(shutdown);
+    loop {
+        let now = start + std::time::Duration::from_micros(clock.now().as_micros());
+        sim.advance_to(now);
+        // files first, so a CAMERA_IMAGE_CAPTURED never names a missing file
+        while let Some((_, img)) = sim.poll_image() {
+            if let Some(dir) = &opts.image_dir {
+                let path = dir.join(&img.file_name);
+                if let Err(e) = crate::store::atomic_write(&path, &img.jpeg) {
+                    tracing::warn!("cannot write image {}: {e}", path.display());
+                }
+            }
+        }
+        while sim.poll_event().is_some() {}
+        for (k, &sysid) in sysids.iter().enumerate() {
+            while let Some(d) = sim.recv_bytes(sysid) {
+                match &ios[k] {
+                    Io::Udp { sock, peer } => {
+                        let to = peer.lock().ok().and_then(|p| *p);
+                        if let Some(to) = to {
+                            let _ = sock.try_send_to(&d, to);
+                        }
+                    }
+                    Io::Tcp { out } => {
+                        let _ = out.send(d);
+                    }
+                }
+            }
+        }
+        if end.is_some_and(|e| now >= e) {
+            return Ok(sim);
+        }
+        let next = sim.poll_timeout();
+        let wait = clock.wall_until(next - std::time::Duration::from_micros(start.as_micros()));
+        tokio::select! {
+            r = rx.recv() => {
+                if let Some((k, bytes)) = r {
+                    let now = start + std::time::Duration::from_micros(clock.now().as_micros());
+                    sim.advance_to(now);
+                    sim.send_bytes(sysids[k], &bytes);
+                    // take everything else that is already waiting
+                    while let Ok((k, bytes)) = rx.try_recv() {
+                        sim.send_bytes(sysids[k], &bytes);
+                    }
+                }
+            }
+            _ = tokio::time::sleep(wait) => {}
+            _ = &mut shutdown => return Ok(sim),
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn endpoints() {
+        assert_eq!(
+            Endpoint::parse("udpout:127.0.0.1:14550").unwrap(),
+            Endpoint::UdpOut("127.0.0.1:14550".into())
+        );
+        assert_eq!(
+            Endpoint::parse("tcpin:0.0.0.0:5760")
+                .unwrap()
+                .for_vehicle(2)
+                .unwrap(),
+            Endpoint::TcpIn("0.0.0.0:5762".into())
+        );
+        assert_eq!(
+            Endpoint::parse("udpout:localhost:14550")
+                .unwrap()
+                .for_vehicle(3)
+                .unwrap(),
+            Endpoint::UdpOut("localhost:14550".into())
+        );
+        assert!(Endpoint::parse("serial:/dev/ttyUSB0:57600").is_err());
+        assert!(Endpoint::parse("udpin:14550").is_err());
+        assert!(Endpoint::parse("udpin::x").is_err());
+    }
+}
