@@ -3,3 +3,4 @@
 //! file URLs, and the metadata the simulated camera embeds in its JPEGs.
 
 pub mod meta;
+pub mod transfer;
