@@ -220,7 +220,7 @@ impl Gcs {
         while self.sim.now() < end {
             let t = self.sim.now() + Duration::from_millis(50);
             self.sim.advance_to(t);
-            if (t.as_millis() / 50) % 20 == 0 {
+            if (t.as_millis() / 50).is_multiple_of(20) {
                 self.send(MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
                     custom_mode: 0,
                     mavtype: mav::MavType::MAV_TYPE_GCS,

@@ -36,7 +36,7 @@ pub enum Command {
     /// Run one of the papers' Monte Carlo studies.
     Experiment(experiment::ExperimentArgs),
     /// Serve simulated ArduPilot / PX4 copters and rovers over MAVLink.
-    Sim(sim::SimArgs),
+    Sim(Box<sim::SimArgs>),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
@@ -75,6 +75,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Experiment(args) => experiment::run(args),
-        Command::Sim(args) => sim::run(args),
+        Command::Sim(args) => sim::run(*args),
     }
 }

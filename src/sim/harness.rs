@@ -397,36 +397,35 @@ impl Sim {
     }
 
     fn dock(&mut self, before: &[(f64, f64, f64)]) {
-        let rovers: Vec<(usize, (f64, f64), (f64, f64))> = self
+        // (rover position before this step, after it)
+        type Move = ((f64, f64), (f64, f64));
+        let rovers: Vec<Move> = self
             .slots
             .iter()
             .enumerate()
             .filter(|(_, s)| s.v.config().flavour.kind == VehicleKind::Rover)
             .map(|(i, s)| {
                 let (e, n, _) = s.v.true_local();
-                (i, (before[i].0, before[i].1), (e, n))
+                ((before[i].0, before[i].1), (e, n))
             })
             .collect();
         if rovers.is_empty() {
             return;
         }
-        for i in 0..self.slots.len() {
-            let v = &self.slots[i].v;
+        for (slot, b) in self.slots.iter_mut().zip(before) {
+            let v = &mut slot.v;
             if v.config().flavour.kind != VehicleKind::Copter || !v.landed() || !v.powered() {
                 continue;
             }
-            let (e, n, _) = v.true_local();
-            // attached to the rover it stood on before this step
-            let on = rovers.iter().find(|(_, b, _)| {
-                (b.0 - before[i].0).hypot(b.1 - before[i].1) <= self.dock_radius_m
-            });
-            if let Some((_, b, a)) = on {
-                let (de, dn) = (a.0 - b.0, a.1 - b.1);
-                let v = &mut self.slots[i].v;
+            // carried by the rover it stood on before this step
+            let on = rovers
+                .iter()
+                .find(|(rb, _)| (rb.0 - b.0).hypot(rb.1 - b.1) <= self.dock_radius_m);
+            if let Some((rb, ra)) = on {
+                let (de, dn) = (ra.0 - rb.0, ra.1 - rb.1);
                 if de != 0.0 || dn != 0.0 {
                     v.carry(de, dn);
                 }
-                let _ = (e, n);
                 v.charge(DT);
             }
         }

@@ -466,7 +466,7 @@ impl SimVehicle {
     /// `VehicleConfig::power_off_s` and boots again with a full battery.
     pub fn swap_battery(&mut self, now: Time) -> bool {
         self.advance(now);
-        if !(self.landed && !self.armed) {
+        if !self.landed || self.armed {
             return false;
         }
         self.power_cycle(now, true);
@@ -555,20 +555,18 @@ impl SimVehicle {
                     self.ack(from, mav::MavCmd::MAV_CMD_DO_SET_MODE, result);
                 }
             }
-            MavMessage::REQUEST_DATA_STREAM(r) => {
-                if r.target_system == self.cfg.sysid && self.cfg.flavour.is_ardupilot() {
-                    self.request_data_stream(
-                        r.req_stream_id as u8,
-                        r.req_message_rate,
-                        r.start_stop != 0,
-                        now,
-                    );
-                }
+            MavMessage::REQUEST_DATA_STREAM(r)
+                if r.target_system == self.cfg.sysid && self.cfg.flavour.is_ardupilot() =>
+            {
+                self.request_data_stream(
+                    r.req_stream_id as u8,
+                    r.req_message_rate,
+                    r.start_stop != 0,
+                    now,
+                );
             }
-            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) => {
-                if p.target_system == self.cfg.sysid {
-                    self.position_target(p, now);
-                }
+            MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) if p.target_system == self.cfg.sysid => {
+                self.position_target(p, now);
             }
             MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) => {
                 if let Some(c) = self.camera.as_mut() {
@@ -950,19 +948,18 @@ impl SimVehicle {
                     }
                 }
             }
-            Mode::Guided => {
-                // PX4 offboard needs a setpoint stream (COM_OF_LOSS_T 1 s)
+            // PX4 offboard needs a setpoint stream (COM_OF_LOSS_T 1 s)
+            Mode::Guided
                 if self.cfg.flavour.autopilot == Autopilot::Px4
                     && self
                         .guided_target_at
-                        .is_none_or(|t| now.saturating_since(t) > Duration::from_secs(1))
-                {
-                    self.text(
-                        mav::MavSeverity::MAV_SEVERITY_CRITICAL,
-                        "Failsafe activated: offboard control lost",
-                    );
-                    self.enter_mode(Mode::Hold, now);
-                }
+                        .is_none_or(|t| now.saturating_since(t) > Duration::from_secs(1)) =>
+            {
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Failsafe activated: offboard control lost",
+                );
+                self.enter_mode(Mode::Hold, now);
             }
             _ => {}
         }
@@ -1423,7 +1420,7 @@ impl SimVehicle {
         self.armed = true;
         self.armed_at = now;
         self.took_off = false;
-        self.failsafe_level = self.failsafe_level.min(0);
+        // a battery failsafe stays latched until the next boot (as ArduPilot's and PX4's do)
         self.disarmed_landed_since = None;
         // home moves to where the vehicle arms (ArduPilot unless locked; PX4 COM_HOME_EN)
         if self.position_ok(now) {
@@ -1724,12 +1721,10 @@ impl SimVehicle {
                     self.speed_override = None;
                 }
             }
-            203 => {
-                // DO_DIGICAM_CONTROL: shooting command in param5 (x)
-                if item.x == 1 || item.param5_as_shoot() {
-                    if let Some(c) = self.camera.as_mut() {
-                        c.trigger();
-                    }
+            // DO_DIGICAM_CONTROL: shooting command in param5 (x)
+            203 if item.x == 1 => {
+                if let Some(c) = self.camera.as_mut() {
+                    c.trigger();
                 }
             }
             206 => {
@@ -1751,11 +1746,7 @@ impl SimVehicle {
                     c.stop_capture();
                 }
             }
-            179 => {
-                if item.param1 >= 0.5 {
-                    self.set_home_here(now);
-                }
-            }
+            179 if item.param1 >= 0.5 => self.set_home_here(now),
             _ => {}
         }
     }
@@ -1954,8 +1945,6 @@ impl SimVehicle {
             self.text(mav::MavSeverity::MAV_SEVERITY_INFO, &msg);
         }
         if !arrived_msg_already {
-            self.item_reached(idx, now);
-        } else if !ap {
             self.item_reached(idx, now);
         }
         // keep holding where the item ended until the next nav command starts
@@ -2572,7 +2561,7 @@ impl SimVehicle {
                 return R::MAV_RESULT_FAILED;
             }
             self.guided_target_at = Some(now);
-            if !(self.landed && self.cfg.flavour.is_copter()) || !self.cfg.flavour.is_copter() {
+            if !(self.landed && self.cfg.flavour.is_copter()) {
                 self.nav = Nav::Goto { p, speed };
             }
             R::MAV_RESULT_ACCEPTED
@@ -2621,12 +2610,8 @@ impl SimVehicle {
         }
         let target = self.target_from_command(&c, false, false);
         self.guided_target_at = Some(now);
-        if self.mode == Mode::Guided && !(self.landed && self.cfg.flavour.is_copter()) {
-            self.nav = Nav::Goto {
-                p: target,
-                speed: None,
-            };
-        } else if !ap && self.mode == Mode::Guided {
+        // ArduCopter does not take off for a position target; PX4 offboard does
+        if self.mode == Mode::Guided && !(ap && self.landed && self.cfg.flavour.is_copter()) {
             self.nav = Nav::Goto {
                 p: target,
                 speed: None,
@@ -3222,17 +3207,6 @@ impl SimVehicle {
             }),
             _ => return None,
         })
-    }
-}
-
-trait Param5 {
-    fn param5_as_shoot(&self) -> bool;
-}
-
-impl Param5 for MissionItem {
-    /// DO_DIGICAM_CONTROL's shooting command lives in param5 (x) as an integer.
-    fn param5_as_shoot(&self) -> bool {
-        self.x == 1
     }
 }
 

@@ -384,7 +384,9 @@ impl World {
             }
             None => None,
         };
-        let mut polys: Vec<(RegionFile, Vec<(f64, f64)>, Option<f64>)> = Vec::new();
+        // (region, its polygon, the long-axis heading of rectangles)
+        type Parsed = (RegionFile, Vec<(f64, f64)>, Option<f64>);
+        let mut polys: Vec<Parsed> = Vec::new();
         for r in f.region {
             let given = [
                 r.polygon.is_some(),
@@ -416,10 +418,11 @@ impl World {
                 }
                 polys.push((r, pts, None));
             } else if let Some(rect) = &r.rectangle {
-                if !valid_latlon(rect.center[0], rect.center[1])
-                    || !(rect.length_m > 0.0 && rect.width_m > 0.0)
-                    || !rect.heading_deg.is_finite()
-                {
+                let ok = valid_latlon(rect.center[0], rect.center[1])
+                    && rect.length_m > 0.0
+                    && rect.width_m > 0.0
+                    && rect.heading_deg.is_finite();
+                if !ok {
                     return Err(invalid(format!("region {:?}: invalid rectangle", r.name)));
                 }
                 let pts = rectangle_corners(
