@@ -595,3 +595,268 @@ fn same_seed_same_stream() {
     };
     assert_eq!(run(5), run(5));
 }
+
+#[test]
+fn a_copter_landed_on_a_rover_rides_with_it_and_charges() {
+    let mut g = Gcs::new("1xcopter:ardupilot,1xrover:ardupilot", 9);
+    // the rover starts 3 m east of the copter (from_spec with --home)
+    g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+        .unwrap();
+    g.send(MavMessage::REQUEST_DATA_STREAM(
+        mav::REQUEST_DATA_STREAM_DATA {
+            req_message_rate: 2,
+            target_system: 1,
+            target_component: 1,
+            req_stream_id: mav::MavDataStream::MAV_DATA_STREAM_ALL,
+            start_stop: 1,
+        },
+    ));
+    let f = Flavour::ARDU_COPTER;
+    assert_eq!(
+        g.set_mode(f, Mode::Guided),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    assert_eq!(
+        g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    assert_eq!(
+        g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 5.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    g.wait(
+        15.0,
+        |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(p) if p.relative_alt > 4_500),
+    )
+    .expect("airborne");
+    // fly over the rover and land on it
+    let (rlat, rlon, _) = g.sim.vehicle(2).unwrap().reported_position();
+    let amsl = g.sim.vehicle(1).unwrap().home().unwrap().2 as f32 + 5.0;
+    assert_eq!(
+        g.command(
+            192,
+            [-1.0, 1.0, 0.0, f32::NAN, rlat as f32, rlon as f32, amsl]
+        ),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    g.wait(20.0, |_| false);
+    assert_eq!(g.command(21, [0.0; 7]), mav::MavResult::MAV_RESULT_ACCEPTED);
+    g.wait(30.0, |m| matches!(m, MavMessage::HEARTBEAT(h) if !h.base_mode.contains(mav::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)))
+        .expect("landed and disarmed on the rover");
+    let before = g.sim.vehicle(1).unwrap().battery().fraction();
+    let (lat0, lon0, _) = g.sim.vehicle(1).unwrap().true_position();
+    // the rover drives 20 m north (GUIDED via DO_REPOSITION)
+    g.sysid = 2;
+    let (tlat, tlon) = fleetmap::geo::local::offset(rlat, rlon, 20.0, 0.0);
+    assert_eq!(
+        g.set_mode(Flavour::ARDU_ROVER, Mode::Guided),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    assert_eq!(
+        g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    assert_eq!(
+        g.command(
+            192,
+            [-1.0, 1.0, 0.0, f32::NAN, tlat as f32, tlon as f32, 0.0]
+        ),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    g.wait(60.0, |_| false);
+    let (lat1, lon1, u) = g.sim.vehicle(1).unwrap().true_position();
+    let (rlat1, rlon1, _) = g.sim.vehicle(2).unwrap().true_position();
+    let moved = fleetmap::geo::local::distance(lat0, lon0, lat1, lon1);
+    assert!((moved - 20.0).abs() < 2.0, "the copter rode {moved} m");
+    assert!(fleetmap::geo::local::distance(lat1, lon1, rlat1, rlon1) < 1.5);
+    assert_eq!(u, 0.0);
+    let after = g.sim.vehicle(1).unwrap().battery().fraction();
+    assert!(after > before, "charging: {before} → {after}");
+}
+
+#[test]
+fn worlds_match_the_fixture_sheet() {
+    use fleetmap::sim::world::{Surface, World};
+    let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/worlds/");
+    let w = World::load(std::path::Path::new(&format!("{dir}runway.toml"))).unwrap();
+    let c = (37.196800, -80.578100);
+    // homes: offset(C, −32 m, −18 m + 3 m·(k−1)), about 7 m from the runway's long side
+    for k in 1..=4 {
+        let h = w.default_home(k).unwrap();
+        let want = fleetmap::geo::local::offset(c.0, c.1, -32.0, -18.0 + 3.0 * (k - 1) as f64);
+        assert!(fleetmap::geo::local::distance(h.0, h.1, want.0, want.1) < 1e-6);
+        assert_eq!(w.surface_at(h.0, h.1, 0.0), Surface::Grass);
+    }
+    let h = w.default_home(1).unwrap();
+    let (he, hn) = w.to_local(h.0, h.1);
+    let mut nearest = f64::MAX;
+    for i in -200..200 {
+        for j in -200..200 {
+            let (e, n) = (he + f64::from(i) * 0.1, hn + f64::from(j) * 0.1);
+            if w.surface_at_local(e, n, 0.0).0 == Surface::Asphalt {
+                nearest = nearest.min((e - he).hypot(n - hn));
+            }
+        }
+    }
+    assert!(
+        (nearest - 7.0).abs() < 1.0,
+        "nearest runway point {nearest} m"
+    );
+    let poly = &w.polygons_of(Surface::Asphalt, 0.0)[0];
+    let area = {
+        let pts: Vec<(f64, f64)> = poly.iter().map(|p| w.to_local(p.0, p.1)).collect();
+        let mut a = 0.0;
+        for i in 0..pts.len() {
+            let (x0, y0) = pts[i];
+            let (x1, y1) = pts[(i + 1) % pts.len()];
+            a += x0 * y1 - x1 * y0;
+        }
+        a.abs() / 2.0
+    };
+    assert!((area - 92.0 * 21.0).abs() < 0.5, "runway area {area}");
+
+    let w = World::load(std::path::Path::new(&format!("{dir}hardware-6x6.toml"))).unwrap();
+    assert_eq!(w.cells_of(Surface::Obstacle).len(), 11);
+    assert_eq!(
+        w.cells_of(Surface::GreenTile),
+        vec![(5, 0), (4, 4), (2, 5), (1, 2)]
+    );
+    assert_eq!(w.cells_of(Surface::GreyTile).len(), 10);
+    assert_eq!(w.cells_of(Surface::Road).len(), 11);
+    let rows = ["GRO.O.", "OR.OGO", "RRRRRR", ".RO.OG", "ORGO..", ".RO.O."];
+    for (i, row) in rows.iter().enumerate() {
+        let r = 5 - i as i32;
+        for (c, ch) in row.chars().enumerate() {
+            let (lat, lon) =
+                fleetmap::sim::world::grid_cell_center((37.195, -80.58), 5.0, r, c as i32);
+            let want = match ch {
+                'G' => Surface::GreenTile,
+                'R' => Surface::Road,
+                'O' => Surface::Obstacle,
+                _ => Surface::GreyTile,
+            };
+            assert_eq!(w.surface_at(lat, lon, 0.0), want, "cell ({r},{c})");
+        }
+    }
+    // drones 1, 2 and station 5 on (3,1); drones 3, 4 and station 6 on (3,4)
+    for (k, cell) in [
+        (1, (3, 1)),
+        (2, (3, 1)),
+        (3, (3, 4)),
+        (4, (3, 4)),
+        (5, (3, 1)),
+        (6, (3, 4)),
+    ] {
+        let h = w.default_home(k).unwrap();
+        let want = fleetmap::sim::world::grid_cell_center((37.195, -80.58), 5.0, cell.0, cell.1);
+        assert!(fleetmap::geo::local::distance(h.0, h.1, want.0, want.1) < 1e-6);
+    }
+}
+
+#[test]
+fn ardupilot_needs_a_takeoff_item_to_start_auto_on_the_ground_and_message_intervals_work() {
+    let mut g = Gcs::new("1xcopter:ardupilot", 2);
+    g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+        .unwrap();
+    // no stream before asking (ArduCopter), then GLOBAL_POSITION_INT at 5 Hz on request
+    assert!(
+        !g.log
+            .iter()
+            .any(|(_, _, m)| matches!(m, MavMessage::GLOBAL_POSITION_INT(_)))
+    );
+    assert_eq!(
+        g.command(511, [33.0, 200_000.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    let n0 = g.log.len();
+    g.wait(10.0, |_| false);
+    let n = g.log[n0..]
+        .iter()
+        .filter(|(_, _, m)| matches!(m, MavMessage::GLOBAL_POSITION_INT(_)))
+        .count();
+    assert!((48..=52).contains(&n), "{n} positions in 10 s at 5 Hz");
+    let wp = at(10.0, 0.0);
+    let items = vec![
+        MissionItem::waypoint(HOME.0, HOME.1, 0.0),
+        MissionItem::waypoint(wp.0, wp.1, 10.0),
+    ];
+    assert_eq!(
+        g.upload(&items),
+        mav::MavMissionResult::MAV_MISSION_ACCEPTED
+    );
+    assert_eq!(
+        g.set_mode(Flavour::ARDU_COPTER, Mode::Guided),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    assert_eq!(
+        g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    assert_eq!(
+        g.set_mode(Flavour::ARDU_COPTER, Mode::Auto),
+        mav::MavResult::MAV_RESULT_FAILED
+    );
+    assert!(
+        g.texts().iter().any(|t| t == "Auto: Missing Takeoff Cmd"),
+        "{:?}",
+        g.texts()
+    );
+    // a takeoff with the wrong frame is DENIED, in flight a second takeoff FAILS
+    g.send(MavMessage::COMMAND_INT(mav::COMMAND_INT_DATA {
+        command: mav::MavCmd::MAV_CMD_NAV_TAKEOFF,
+        target_system: 1,
+        target_component: 1,
+        frame: mav::MavFrame::MAV_FRAME_GLOBAL,
+        z: 10.0,
+        ..mav::COMMAND_INT_DATA::default()
+    }));
+    let ack = g.wait(2.0, |m| matches!(m, MavMessage::COMMAND_ACK(_)));
+    assert!(
+        matches!(ack, Some(MavMessage::COMMAND_ACK(a)) if a.result == mav::MavResult::MAV_RESULT_DENIED)
+    );
+    assert_eq!(
+        g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    g.wait(2.0, |_| false);
+    assert_eq!(
+        g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]),
+        mav::MavResult::MAV_RESULT_FAILED
+    );
+    // disarming in flight is refused
+    assert_eq!(g.command(400, [0.0; 7]), mav::MavResult::MAV_RESULT_FAILED);
+    // unknown commands are unsupported
+    assert_eq!(
+        g.command(31011, [0.0; 7]),
+        mav::MavResult::MAV_RESULT_UNSUPPORTED
+    );
+}
+
+#[test]
+fn armed_copter_on_the_ground_disarms_itself() {
+    for f in [Flavour::ARDU_COPTER, Flavour::PX4_COPTER] {
+        let mut g = Gcs::new(&format!("1x{f}"), 4);
+        g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+            .unwrap();
+        if f.is_ardupilot() {
+            assert_eq!(
+                g.set_mode(f, Mode::Guided),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+        }
+        assert_eq!(
+            g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        );
+        let t0 = g.sim.now();
+        g.wait(15.0, |_| false);
+        assert!(!g.sim.vehicle(1).unwrap().armed(), "{f}: still armed");
+        let t = g
+            .log
+            .iter()
+            .find(|(t, _, m)| *t > t0 && matches!(m, MavMessage::STATUSTEXT(s) if s.text.to_str().unwrap_or("").starts_with("Disarm")))
+            .map(|(t, _, _)| t.saturating_since(t0).as_secs_f64())
+            .unwrap();
+        assert!((9.5..=11.0).contains(&t), "{f}: disarmed after {t} s");
+    }
+}
