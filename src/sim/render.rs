@@ -125,14 +125,18 @@ pub fn pixel_ground(
 }
 
 #[inline]
-fn hash2(ix: i64, iy: i64, salt: u64) -> f64 {
+fn hash_u64(ix: i64, iy: i64, salt: u64) -> u64 {
     let mut z = (ix as u64).wrapping_mul(0x9E37_79B9_7F4A_7C15)
         ^ (iy as u64).wrapping_mul(0xC2B2_AE3D_27D4_EB4F)
         ^ salt.wrapping_mul(0x1656_67B1_9E37_79F9);
     z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
     z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
-    z ^= z >> 31;
-    (z >> 11) as f64 / (1u64 << 53) as f64
+    z ^ (z >> 31)
+}
+
+#[inline]
+fn hash2(ix: i64, iy: i64, salt: u64) -> f64 {
+    (hash_u64(ix, iy, salt) >> 11) as f64 / (1u64 << 53) as f64
 }
 
 /// Smooth value noise in [0, 1) at (x, y) in units of the noise cell.
@@ -336,66 +340,73 @@ pub fn render(
     let x0 = 0.5 - f64::from(w) / 2.0;
     let y0 = 0.5 - f64::from(h) / 2.0;
     let cloud_t = t_s * 0.05; // clouds drift slowly
-    let mut img = RgbImage::new(w, h);
     let cx = f64::from(w) / 2.0;
     let cy = f64::from(h) / 2.0;
     let rmax2 = cx * cx + cy * cy;
-    for v in 0..h {
-        let fv = f64::from(v) + y0;
-        for u in 0..w {
-            let fu = f64::from(u) + x0;
-            let e = ce + fu * re + fv * de;
-            let n = cn + fu * rn + fv * dn;
-            let mut surface = world.background;
-            let mut rel = (0.5, 0.5);
-            let mut marking = false;
-            for (i, r) in world.regions.iter().enumerate().rev() {
-                if r.contains_local(e, n, t_s) {
-                    surface = r.surface;
-                    let b = r.bbox();
-                    let (le, ln) = (e - r.velocity_ne.1 * t_s, n - r.velocity_ne.0 * t_s);
-                    rel = (
-                        (le - b.0) / (b.2 - b.0).max(1e-9),
-                        (ln - b.1) / (b.3 - b.1).max(1e-9),
-                    );
-                    marking = r.markings
-                        && r.surface == Surface::Asphalt
-                        && on_centreline(world, i, e, n, t_s);
-                    break;
+    let mut buf = vec![0u8; w as usize * h as usize * 3];
+    // rows are independent: render them in parallel (the result does not depend on the
+    // number of threads)
+    use rayon::prelude::*;
+    buf.par_chunks_mut(w as usize * 3)
+        .enumerate()
+        .for_each(|(v, row)| {
+            let v = v as u32;
+            let fv = f64::from(v) + y0;
+            for u in 0..w {
+                let fu = f64::from(u) + x0;
+                let e = ce + fu * re + fv * de;
+                let n = cn + fu * rn + fv * dn;
+                let mut surface = world.background;
+                let mut rel = (0.5, 0.5);
+                let mut marking = false;
+                for (i, r) in world.regions.iter().enumerate().rev() {
+                    if r.contains_local(e, n, t_s) {
+                        surface = r.surface;
+                        let b = r.bbox();
+                        let (le, ln) = (e - r.velocity_ne.1 * t_s, n - r.velocity_ne.0 * t_s);
+                        rel = (
+                            (le - b.0) / (b.2 - b.0).max(1e-9),
+                            (ln - b.1) / (b.3 - b.1).max(1e-9),
+                        );
+                        marking = r.markings
+                            && r.surface == Surface::Asphalt
+                            && on_centreline(world, i, e, n, t_s);
+                        break;
+                    }
                 }
+                let mut c = texture(surface, e, n, world_salt, rel, marking, gsd);
+                let mut k = dist.exposure;
+                if dist.cloud_shadow > 0.0 {
+                    let cl = value_noise(e * 0.05 + cloud_t, n * 0.05, dist.seed ^ 77);
+                    k *= 1.0 - dist.cloud_shadow * (cl - 0.3).max(0.0) / 0.7;
+                }
+                if dist.vignetting > 0.0 {
+                    let (du, dv) = (f64::from(u) + 0.5 - cx, f64::from(v) + 0.5 - cy);
+                    k *= 1.0 - dist.vignetting * (du * du + dv * dv) / rmax2;
+                }
+                c = scale(c, k);
+                let o = u as usize * 3;
+                row[o] = c[0].clamp(0.0, 255.0) as u8;
+                row[o + 1] = c[1].clamp(0.0, 255.0) as u8;
+                row[o + 2] = c[2].clamp(0.0, 255.0) as u8;
             }
-            let mut c = texture(surface, e, n, world_salt, rel, marking, gsd);
-            let mut k = dist.exposure;
-            if dist.cloud_shadow > 0.0 {
-                let cl = value_noise(e * 0.05 + cloud_t, n * 0.05, dist.seed ^ 77);
-                k *= 1.0 - dist.cloud_shadow * (cl - 0.3).max(0.0) / 0.7;
-            }
-            if dist.vignetting > 0.0 {
-                let (du, dv) = (f64::from(u) + 0.5 - cx, f64::from(v) + 0.5 - cy);
-                k *= 1.0 - dist.vignetting * (du * du + dv * dv) / rmax2;
-            }
-            c = scale(c, k);
-            img.put_pixel(
-                u,
-                v,
-                Rgb([
-                    c[0].clamp(0.0, 255.0) as u8,
-                    c[1].clamp(0.0, 255.0) as u8,
-                    c[2].clamp(0.0, 255.0) as u8,
-                ]),
-            );
-        }
-    }
+        });
+    let mut img = RgbImage::from_raw(w, h, buf).unwrap_or_else(|| RgbImage::new(w, h));
     if dist.blur_px > 0.05 {
         img = imageproc::filter::gaussian_blur_f32(&img, dist.blur_px);
     }
     if dist.noise_sigma > 0.0 {
-        let mut rng = ChaCha8Rng::seed_from_u64(dist.seed);
-        for p in img.pixels_mut() {
-            for ch in p.0.iter_mut() {
-                // Irwin–Hall approximation of a Gaussian: cheap and deterministic
-                let s: f64 = (0..4).map(|_| rng.random::<f64>()).sum::<f64>() - 2.0;
-                let x = f64::from(*ch) + s * dist.noise_sigma * 1.732;
+        // Irwin–Hall sum of four uniform bytes per channel (≈ Gaussian), from a counter-based
+        // hash of (seed, pixel): deterministic and cheap
+        let k = dist.noise_sigma * 1.732 / 127.5;
+        for (i, p) in img.pixels_mut().enumerate() {
+            let a = hash_u64(i as i64, 0, dist.seed ^ 0x0015_E77E);
+            let b = hash_u64(i as i64, 1, dist.seed ^ 0x0015_E77E);
+            let words = [a as u32, (a >> 32) as u32, b as u32];
+            for (ch, w) in p.0.iter_mut().zip(words) {
+                let s = f64::from((w & 0xff) + ((w >> 8) & 0xff) + ((w >> 16) & 0xff) + (w >> 24))
+                    - 510.0;
+                let x = f64::from(*ch) + s * k;
                 *ch = x.round().clamp(0.0, 255.0) as u8;
             }
         }

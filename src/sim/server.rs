@@ -89,6 +89,9 @@ impl Endpoint {
             let p: u16 = p
                 .parse()
                 .map_err(|_| ServerError::Endpoint(a.to_string()))?;
+            if p == 0 {
+                return Ok(a.to_string()); // ephemeral ports for everyone
+            }
             let p = p
                 .checked_add(k as u16)
                 .ok_or_else(|| ServerError::Endpoint(a.to_string()))?;
@@ -371,6 +374,67 @@ where
             _ = tokio::time::sleep(wait) => {}
             _ = &mut shutdown => return Ok(sim),
         }
+    }
+}
+
+/// A simulation served in the background (see [`spawn`]).
+#[derive(Debug)]
+pub struct SimHandle {
+    /// Where each vehicle can be reached.
+    pub bound: Vec<Bound>,
+    stop: Option<tokio::sync::oneshot::Sender<()>>,
+    task: tokio::task::JoinHandle<Result<Sim, ServerError>>,
+}
+
+impl SimHandle {
+    /// Stop serving and get the simulation back (for inspection).
+    pub async fn stop(mut self) -> Result<Sim, ServerError> {
+        if let Some(s) = self.stop.take() {
+            let _ = s.send(());
+        }
+        match self.task.await {
+            Ok(r) => r,
+            Err(e) => Err(ServerError::Io {
+                what: "simulator task".into(),
+                source: std::io::Error::other(e.to_string()),
+            }),
+        }
+    }
+}
+
+/// Serve `sim` on a background task of the current tokio runtime; returns once every
+/// endpoint is open. This is how `fleetmap demo` and end-to-end tests run the simulator
+/// in-process: e.g. `udpin:127.0.0.1:0` gives each vehicle an ephemeral port (read them from
+/// [`SimHandle::bound`]) that a GCS link reaches with `udpout:` to that address.
+pub async fn spawn(sim: Sim, opts: ServeOptions) -> Result<SimHandle, ServerError> {
+    let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
+    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let task = tokio::spawn(async move {
+        serve(
+            sim,
+            opts,
+            move |b| {
+                let _ = bound_tx.send(b.to_vec());
+            },
+            async move {
+                let _ = stop_rx.await;
+            },
+        )
+        .await
+    });
+    match bound_rx.await {
+        Ok(bound) => Ok(SimHandle {
+            bound,
+            stop: Some(stop_tx),
+            task,
+        }),
+        Err(_) => match task.await {
+            Ok(Err(e)) => Err(e),
+            _ => Err(ServerError::Io {
+                what: "simulator task".into(),
+                source: std::io::Error::other("the simulator stopped before serving"),
+            }),
+        },
     }
 }
 

@@ -1,0 +1,162 @@
+//! The simulator's socket server on loopback: every vehicle on its own UDP or TCP endpoint,
+//! speaking MAVLink 2 frames that an independent codec decodes; commands get answered;
+//! captured images are written before they are announced.
+
+use fleetmap::link::codec::Codec;
+use fleetmap::sim::harness::{Sim, SimConfig};
+use fleetmap::sim::server::{Endpoint, ServeOptions, spawn};
+use fleetmap::time::Time;
+use mavlink::MavHeader;
+use mavlink::dialects::ardupilotmega as mav;
+use mavlink::dialects::ardupilotmega::MavMessage;
+use std::time::Duration;
+use tokio::io::{AsyncReadExt, AsyncWriteExt};
+
+const HOME: (f64, f64) = (37.1965, -80.5785);
+
+fn arm_cmd() -> MavMessage {
+    MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+        param1: 1.0,
+        command: mav::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        target_system: 2,
+        target_component: 1,
+        ..mav::COMMAND_LONG_DATA::default()
+    })
+}
+
+fn gcs() -> MavHeader {
+    MavHeader {
+        system_id: 255,
+        component_id: 190,
+        sequence: 0,
+    }
+}
+
+#[tokio::test]
+async fn udp_endpoints_per_vehicle() {
+    let cfg = SimConfig::from_spec("2xcopter:px4", None, Some(HOME), 1).unwrap();
+    let sim = Sim::new(cfg, Time::ZERO).unwrap();
+    let h = spawn(
+        sim,
+        ServeOptions {
+            endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0").unwrap()],
+            speedup: 20.0,
+            image_dir: None,
+            duration_s: None,
+        },
+    )
+    .await
+    .unwrap();
+    assert_eq!(h.bound.len(), 2);
+    assert_ne!(h.bound[0].local, h.bound[1].local);
+    // talk to vehicle 2 only: it answers (and only it)
+    let sock = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let to = h.bound[1].local;
+    let mut codec = Codec::new();
+    let mut buf = vec![0u8; 65536];
+    let hb = fleetmap::link::codec::encode_frame(
+        &gcs(),
+        &MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
+            mavtype: mav::MavType::MAV_TYPE_GCS,
+            ..mav::HEARTBEAT_DATA::default()
+        }),
+        mavlink::MavlinkVersion::V2,
+        None,
+        0,
+    );
+    sock.send_to(&hb, to).await.unwrap();
+    let arm = fleetmap::link::codec::encode_frame(
+        &gcs(),
+        &arm_cmd(),
+        mavlink::MavlinkVersion::V2,
+        None,
+        0,
+    );
+    sock.send_to(&arm, to).await.unwrap();
+    let mut got_ack = None;
+    let mut sysids = std::collections::BTreeSet::new();
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    while tokio::time::Instant::now() < deadline && got_ack.is_none() {
+        let Ok(Ok((n, _))) =
+            tokio::time::timeout(Duration::from_millis(500), sock.recv_from(&mut buf)).await
+        else {
+            continue;
+        };
+        for f in codec.decode(&buf[..n], 0) {
+            sysids.insert(f.sysid());
+            if let Ok(MavMessage::COMMAND_ACK(a)) = f.message {
+                got_ack = Some(a.result);
+            }
+        }
+    }
+    // not armable yet (no position estimate in the first simulated seconds)
+    assert_eq!(
+        got_ack,
+        Some(mav::MavResult::MAV_RESULT_TEMPORARILY_REJECTED)
+    );
+    assert_eq!(sysids.into_iter().collect::<Vec<_>>(), vec![2]);
+    let sim = h.stop().await.unwrap();
+    assert!(sim.now() > Time::ZERO);
+}
+
+#[tokio::test]
+async fn tcp_endpoint_and_image_files() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut cfg = SimConfig::from_spec("1xcopter:ardupilot", None, Some(HOME), 2).unwrap();
+    cfg.vehicles[0].camera.as_mut().unwrap().file_dir = Some(dir.path().display().to_string());
+    let sim = Sim::new(cfg, Time::ZERO).unwrap();
+    let h = spawn(
+        sim,
+        ServeOptions {
+            endpoints: vec![Endpoint::parse("tcpin:127.0.0.1:0").unwrap()],
+            speedup: 10.0,
+            image_dir: Some(dir.path().to_path_buf()),
+            duration_s: None,
+        },
+    )
+    .await
+    .unwrap();
+    let mut stream = tokio::net::TcpStream::connect(h.bound[0].local)
+        .await
+        .unwrap();
+    let cmd = MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+        param2: 0.0,
+        param3: 1.0,
+        command: mav::MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+        target_system: 1,
+        target_component: 100,
+        ..mav::COMMAND_LONG_DATA::default()
+    });
+    let frame =
+        fleetmap::link::codec::encode_frame(&gcs(), &cmd, mavlink::MavlinkVersion::V2, None, 0);
+    stream.write_all(&frame).await.unwrap();
+    let mut codec = Codec::new();
+    let mut buf = vec![0u8; 65536];
+    let mut url = None;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    while tokio::time::Instant::now() < deadline && url.is_none() {
+        let Ok(Ok(n)) =
+            tokio::time::timeout(Duration::from_millis(500), stream.read(&mut buf)).await
+        else {
+            continue;
+        };
+        for f in codec.decode(&buf[..n], 0) {
+            if let Ok(MavMessage::CAMERA_IMAGE_CAPTURED(c)) = f.message {
+                url = Some(
+                    c.file_url
+                        .to_str()
+                        .unwrap_or("")
+                        .trim_end_matches('\0')
+                        .to_string(),
+                );
+            }
+        }
+    }
+    let url = url.expect("CAMERA_IMAGE_CAPTURED over TCP");
+    // the file exists by the time it is announced
+    let bytes = fleetmap::imagery::transfer::read_file_url(&url, 10 << 20).unwrap();
+    let meta = fleetmap::imagery::meta::read_meta(&bytes).unwrap();
+    assert_eq!(meta.sysid, 1);
+    assert!(image::load_from_memory(&bytes).is_ok());
+    h.stop().await.unwrap();
+}
