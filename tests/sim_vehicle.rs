@@ -715,6 +715,13 @@ fn worlds_match_the_fixture_sheet() {
     };
     assert!((area - 92.0 * 21.0).abs() < 0.5, "runway area {area}");
 
+    // the moving plume world loads and moves
+    let p = World::load(std::path::Path::new(&format!("{dir}plume.toml"))).unwrap();
+    let a = &p.polygons_of(Surface::Plume, 0.0)[0][0];
+    let b = &p.polygons_of(Surface::Plume, 100.0)[0][0];
+    let (dn, de) = fleetmap::geo::local::delta(a.0, a.1, b.0, b.1);
+    assert!(dn.abs() < 1e-6 && (de - 30.0).abs() < 1e-3, "{dn} {de}");
+
     let w = World::load(std::path::Path::new(&format!("{dir}hardware-6x6.toml"))).unwrap();
     assert_eq!(w.cells_of(Surface::Obstacle).len(), 11);
     assert_eq!(

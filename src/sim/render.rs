@@ -572,32 +572,4 @@ mod tests {
         }
     }
 
-    #[test]
-    #[ignore]
-    fn print_grass_stats() {
-        let w = runway_world();
-        let cam = CameraModel::paper();
-        for alt in [5.0, 8.0, 12.0, 20.0, 30.0] {
-            let mut worst: f64 = 0.0;
-            let mut br = 0.0;
-            for seed in 0..10u64 {
-                let d = Disturbances::draw(seed * 7 + 1);
-                let (lat, lon) =
-                    crate::geo::local::offset(37.1968, -80.5781, -60.0 - seed as f64 * 13.0, -60.0);
-                let pose = CameraPose {
-                    lat,
-                    lon,
-                    alt_agl_m: alt,
-                    heading_deg: 58.0,
-                    roll_deg: 0.0,
-                    pitch_deg: 0.0,
-                };
-                let img = render(&w, &pose, &cam, 0.0, &d);
-                let f = black_fraction_after_dilation(&img);
-                worst = worst.max(f);
-                br += img.pixels().filter(|p| gray_bt601(p) > 150).count() as f64 / 230400.0 / 10.0;
-            }
-            println!("alt {alt}: worst black after dilation {worst:.4}, mean bright {br:.3}");
-        }
-    }
 }
