@@ -263,6 +263,9 @@ fn mission(copter: bool) -> Vec<MissionItem> {
     v.push(MissionItem::image_start_capture(0.0, 1));
     v.push(MissionItem::waypoint(b.0, b.1, 10.0));
     v.push(MissionItem::waypoint(c.0, c.1, 10.0));
+    // once more around the last two waypoints (jump targets in the autopilot's numbering;
+    // `fly` shifts them for ArduPilot's home slot)
+    v.push(MissionItem::jump(v.len() as u16 - 2, 1));
     v.push(MissionItem::return_to_launch());
     v
 }
@@ -309,6 +312,11 @@ fn fly(flavour: Flavour) {
     let mut items = mission(copter);
     if ap {
         items.insert(0, MissionItem::waypoint(HOME.0, HOME.1, 0.0));
+        for it in &mut items {
+            if it.command == 177 {
+                it.param1 += 1.0;
+            }
+        }
     }
     assert_eq!(
         g.upload(&items),
@@ -376,12 +384,20 @@ fn fly(flavour: Flavour) {
         false
     })
     .unwrap_or_else(|| panic!("{flavour}: mission not finished, reached {reached:?}"));
+    // the jump flew the last two waypoints twice
+    let jump_at = items.iter().position(|it| it.command == 177).unwrap();
+    let twice = g
+        .log
+        .iter()
+        .filter(|(_, _, m)| matches!(m, MavMessage::MISSION_ITEM_REACHED(r) if usize::from(r.seq) == jump_at - 1))
+        .count();
+    assert!(twice >= 2, "{flavour}: waypoint before the jump reached {twice} times");
     // every navigation item was reported (ArduPilot: not the camera do-item)
     for (i, it) in items.iter().enumerate().skip(first) {
         let expect = if ap {
             it.command <= 95 || it.command == 178
         } else {
-            true
+            it.command != 177
         };
         let expect = expect && (copter || it.command != 22);
         assert_eq!(
@@ -866,4 +882,80 @@ fn armed_copter_on_the_ground_disarms_itself() {
             .unwrap();
         assert!((9.5..=11.0).contains(&t), "{f}: disarmed after {t} s");
     }
+}
+
+#[test]
+fn signed_vehicles_ignore_unsigned_commands_and_setup_signing_installs_a_key() {
+    use fleetmap::link::codec::{Codec, encode_frame};
+    use fleetmap::link::signing::{Signing, SigningKey};
+    let key = SigningKey::from_passphrase("field-team");
+    let mut cfg = SimConfig::from_spec("1xcopter:ardupilot,1xcopter:ardupilot", None, Some(HOME), 1).unwrap();
+    cfg.signing_key = Some(key.clone());
+    let epoch = cfg.unix_epoch_us;
+    let mut sim = Sim::new(cfg, Time::ZERO).unwrap();
+    sim.advance_to(Time::from_secs(2));
+    let h = MavHeader {
+        system_id: 255,
+        component_id: 190,
+        sequence: 0,
+    };
+    let arm = MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+        param1: 1.0,
+        command: mav::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        target_system: 1,
+        target_component: 1,
+        ..mav::COMMAND_LONG_DATA::default()
+    });
+    let acks = |sim: &mut Sim, sysid: u8, codec: &mut Codec| -> usize {
+        let mut n = 0;
+        while let Some(d) = sim.recv_bytes(sysid) {
+            for f in codec.decode(&d, epoch + sim.now().as_micros()) {
+                assert!(f.signature.is_some(), "every frame from a signed vehicle is signed");
+                if matches!(f.message, Ok(MavMessage::COMMAND_ACK(_))) {
+                    n += 1;
+                }
+            }
+        }
+        n
+    };
+    let mut gcs = Codec::with_signing(Signing::new(key.clone(), 7));
+    // an unsigned command is ignored
+    sim.send(1, &h, &arm);
+    sim.advance(Duration::from_millis(200));
+    assert_eq!(acks(&mut sim, 1, &mut gcs), 0);
+    // a signed one is answered
+    let signed = gcs.encode_with_header(&h, &arm, mavlink::MavlinkVersion::V2, epoch + sim.now().as_micros());
+    sim.send_bytes(1, &signed);
+    sim.advance(Duration::from_millis(200));
+    assert_eq!(acks(&mut sim, 1, &mut gcs), 1);
+    // SETUP_SIGNING with zeros (signed with the current key) turns signing off on vehicle 2
+    let setup = MavMessage::SETUP_SIGNING(mav::SETUP_SIGNING_DATA {
+        initial_timestamp: 0,
+        target_system: 2,
+        target_component: 1,
+        secret_key: [0; 32],
+    });
+    let f = gcs.encode_with_header(&h, &setup, mavlink::MavlinkVersion::V2, epoch + sim.now().as_micros());
+    sim.send_bytes(2, &f);
+    sim.advance(Duration::from_millis(200));
+    while sim.recv_bytes(2).is_some() {}
+    let arm2 = MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+        param1: 1.0,
+        command: mav::MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        target_system: 2,
+        target_component: 1,
+        ..mav::COMMAND_LONG_DATA::default()
+    });
+    let plain = encode_frame(&h, &arm2, mavlink::MavlinkVersion::V2, None, 0);
+    sim.send_bytes(2, &plain);
+    sim.advance(Duration::from_millis(200));
+    let mut any = Codec::new();
+    let mut got = false;
+    while let Some(d) = sim.recv_bytes(2) {
+        for f in any.decode(&d, 0) {
+            assert!(f.signature.is_none());
+            got |= matches!(f.message, Ok(MavMessage::COMMAND_ACK(_)));
+        }
+    }
+    assert!(got, "vehicle 2 answers unsigned commands once signing is off");
 }

@@ -74,6 +74,10 @@ pub struct SimArgs {
     /// Stop after this many simulated seconds.
     #[arg(long)]
     pub duration: Option<f64>,
+    /// MAVLink 2 signing key file (as `fleetmap signing` / MAVProxy write it): vehicles sign
+    /// what they send and ignore unsigned frames.
+    #[arg(long, value_name = "FILE")]
+    pub signing_key: Option<PathBuf>,
     /// Seed of every random process (same seed, same run).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
@@ -137,6 +141,14 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     };
     faults.validate()?;
     cfg = cfg.with_faults(faults);
+    if let Some(k) = &args.signing_key {
+        cfg.signing_key = Some(crate::link::signing::SigningKey::read(k)?);
+    }
+    // signature timestamps follow the wall clock when serving sockets
+    cfg.unix_epoch_us = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_micros() as u64)
+        .unwrap_or(crate::sim::harness::DEFAULT_EPOCH_US);
     if let Some(w) = &args.wind {
         let (speed, from) = parse_pair(w, "--wind")?;
         if speed < 0.0 {

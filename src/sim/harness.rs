@@ -22,6 +22,7 @@
 //! mobile charging stations).
 
 use crate::link::codec::Codec;
+use crate::link::signing::{Signing, SigningKey};
 use crate::sim::camera::CapturedImage;
 use crate::sim::faults::{FaultError, FaultyChannel, LinkFaults};
 use crate::sim::flavour::{Flavour, VehicleKind};
@@ -102,7 +103,17 @@ pub struct SimConfig {
     pub dock_radius_m: f64,
     /// Seed of the links.
     pub seed: u64,
+    /// MAVLink 2 signing key of every vehicle (None: unsigned, until a GCS sends
+    /// SETUP_SIGNING). With a key, vehicles sign what they send and ignore unsigned frames,
+    /// as ArduPilot does once signing is set up.
+    pub signing_key: Option<SigningKey>,
+    /// Wall-clock microseconds since the Unix epoch at simulation time 0 (signature
+    /// timestamps); fixed by default so runs stay reproducible.
+    pub unix_epoch_us: u64,
 }
+
+/// The default `SimConfig::unix_epoch_us`: 2025-01-01T00:00:00Z.
+pub const DEFAULT_EPOCH_US: u64 = 1_735_689_600_000_000;
 
 impl SimConfig {
     /// Vehicles from a `--vehicles` spec at the world's default homes (or at `home` plus
@@ -155,6 +166,8 @@ impl SimConfig {
             downlink: Vec::new(),
             dock_radius_m: 1.5,
             seed,
+            signing_key: None,
+            unix_epoch_us: DEFAULT_EPOCH_US,
         })
     }
 
@@ -178,6 +191,7 @@ impl SimConfig {
 #[derive(Debug)]
 struct Slot {
     v: SimVehicle,
+    key: Option<SigningKey>,
     codec: Codec,
     gcs_codec: Codec,
     up: FaultyChannel,
@@ -194,6 +208,36 @@ pub struct Sim {
     dock_radius_m: f64,
     images: VecDeque<(u8, CapturedImage)>,
     events: VecDeque<(u8, VehicleEvent)>,
+    epoch_us: u64,
+}
+
+fn vehicle_codec(key: &Option<SigningKey>) -> Codec {
+    match key {
+        Some(k) => Codec::with_signing(Signing::new(k.clone(), 0)),
+        None => Codec::new(),
+    }
+}
+
+/// Decode a datagram for a vehicle: frames that fail signing are dropped by the codec;
+/// SETUP_SIGNING addressed to the vehicle installs (or, all zeros, removes) its key.
+fn receive(s: &mut Slot, bytes: &[u8], t: Time, unix_us: u64) {
+    for f in s.codec.decode(bytes, unix_us) {
+        let Ok(m) = f.message else { continue };
+        if let MavMessage::SETUP_SIGNING(ss) = &m {
+            if ss.target_system == s.v.sysid() {
+                let key = if ss.secret_key.iter().all(|b| *b == 0) {
+                    None
+                } else {
+                    Some(SigningKey(ss.secret_key))
+                };
+                s.codec
+                    .set_signing(key.as_ref().map(|k| Signing::new(k.clone(), 0)));
+                s.key = key;
+            }
+            continue;
+        }
+        s.v.handle_message(&f.header, &m, t);
+    }
 }
 
 impl Sim {
@@ -212,7 +256,8 @@ impl Sim {
             let seed = cfg.seed ^ (u64::from(vc.sysid) << 32);
             slots.push(Slot {
                 v: SimVehicle::new(vc, cfg.world.clone(), start),
-                codec: Codec::new(),
+                key: cfg.signing_key.clone(),
+                codec: vehicle_codec(&cfg.signing_key),
                 gcs_codec: Codec::new(),
                 up: FaultyChannel::new(up_f, seed ^ 0x0055),
                 down: FaultyChannel::new(down_f, seed ^ 0x00AA),
@@ -226,6 +271,7 @@ impl Sim {
             dock_radius_m: cfg.dock_radius_m,
             images: VecDeque::new(),
             events: VecDeque::new(),
+            epoch_us: cfg.unix_epoch_us,
         };
         sim.collect_outputs(start);
         Ok(sim)
@@ -342,14 +388,15 @@ impl Sim {
         self.advance_to(t);
     }
 
+    fn unix_us(&self, t: Time) -> u64 {
+        self.epoch_us + t.as_micros()
+    }
+
     fn deliver(&mut self, t: Time) {
+        let unix = self.unix_us(t);
         for s in &mut self.slots {
             while let Some(bytes) = s.up.poll(t) {
-                for f in s.codec.decode(&bytes, 0) {
-                    if let Ok(m) = f.message {
-                        s.v.handle_message(&f.header, &m, t);
-                    }
-                }
+                receive(s, &bytes, t, unix);
             }
             while let Some(d) = s.down.poll(t) {
                 s.delivered.push_back(d);
@@ -366,13 +413,10 @@ impl Sim {
     fn tick(&mut self, t: Time) {
         self.now = t;
         // uplink deliveries first: commands act at this tick
+        let unix = self.unix_us(t);
         for s in &mut self.slots {
             while let Some(bytes) = s.up.poll(t) {
-                for f in s.codec.decode(&bytes, 0) {
-                    if let Ok(m) = f.message {
-                        s.v.handle_message(&f.header, &m, t);
-                    }
-                }
+                receive(s, &bytes, t, unix);
             }
         }
         // step: rovers first, so copters standing on them ride along
@@ -432,19 +476,21 @@ impl Sim {
     }
 
     fn collect_outputs(&mut self, t: Time) {
+        let unix = self.unix_us(t);
         for s in &mut self.slots {
             while let Some(img) = s.v.poll_image() {
                 self.images.push_back((s.v.sysid(), img));
             }
             while let Some(ev) = s.v.poll_event() {
                 if matches!(ev, VehicleEvent::Booted { boot } if boot > 1) {
-                    // a power cycle: the link's sequence numbers restart with the vehicle's
-                    s.codec = Codec::new();
+                    // a power cycle: the link restarts with the vehicle (the signing key
+                    // is kept in persistent storage, as ArduPilot keeps it)
+                    s.codec = vehicle_codec(&s.key);
                 }
                 self.events.push_back((s.v.sysid(), ev));
             }
             while let Some((h, m)) = s.v.poll_transmit() {
-                let frame = s.codec.encode_with_header(&h, &m, MavlinkVersion::V2, 0);
+                let frame = s.codec.encode_with_header(&h, &m, MavlinkVersion::V2, unix);
                 s.down.push(frame, t);
             }
         }

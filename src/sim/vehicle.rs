@@ -1691,23 +1691,19 @@ impl SimVehicle {
             self.advance_item(idx, item, false, now);
             return;
         }
+        // Jumps are followed while looking for the next item and are never "reached"
+        // themselves: AP_Mission::get_next_cmd, PX4 Mission::read_mission_item (which instead
+        // re-sends the DO_JUMP item with its new counter when it changes).
         let done = self.exec.jumps.entry(idx).or_insert(0);
         if repeat < 0 || *done < repeat {
             *done += 1;
-            if self.cfg.flavour.autopilot == Autopilot::ArduPilot {
-                let msg = format!("Mission: {} Jump to {}", idx, target);
-                let _ = msg;
-            }
-            if self.cfg.flavour.autopilot == Autopilot::Px4 {
-                self.item_reached(idx, now);
-            }
             self.exec.nav_index = Some(target as u16);
             self.exec.nav_started = false;
             self.exec.nav_arrived = None;
             self.mission.set_current(target as u16);
             self.send_mission_current(now);
         } else {
-            self.advance_item(idx, item, self.cfg.flavour.autopilot == Autopilot::Px4, now);
+            self.advance_item(idx, item, false, now);
         }
     }
 
