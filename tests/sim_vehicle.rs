@@ -134,11 +134,19 @@ impl Gcs {
     }
 
     fn upload(&mut self, items: &[MissionItem]) -> mav::MavMissionResult {
+        self.upload_type(items, mav::MavMissionType::MAV_MISSION_TYPE_MISSION)
+    }
+
+    fn upload_type(
+        &mut self,
+        items: &[MissionItem],
+        mission_type: mav::MavMissionType,
+    ) -> mav::MavMissionResult {
         self.send(MavMessage::MISSION_COUNT(mav::MISSION_COUNT_DATA {
             count: items.len() as u16,
             target_system: self.sysid,
             target_component: 1,
-            mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
+            mission_type,
             opaque_id: 0,
         }));
         loop {
@@ -174,7 +182,7 @@ impl Gcs {
                 frame: mav::MavFrame::from_u8(it.frame).unwrap(),
                 current: 0,
                 autocontinue: 1,
-                mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
+                mission_type,
             }));
         }
     }
@@ -391,7 +399,10 @@ fn fly(flavour: Flavour) {
         .iter()
         .filter(|(_, _, m)| matches!(m, MavMessage::MISSION_ITEM_REACHED(r) if usize::from(r.seq) == jump_at - 1))
         .count();
-    assert!(twice >= 2, "{flavour}: waypoint before the jump reached {twice} times");
+    assert!(
+        twice >= 2,
+        "{flavour}: waypoint before the jump reached {twice} times"
+    );
     // every navigation item was reported (ArduPilot: not the camera do-item)
     for (i, it) in items.iter().enumerate().skip(first) {
         let expect = if ap {
@@ -889,7 +900,8 @@ fn signed_vehicles_ignore_unsigned_commands_and_setup_signing_installs_a_key() {
     use fleetmap::link::codec::{Codec, encode_frame};
     use fleetmap::link::signing::{Signing, SigningKey};
     let key = SigningKey::from_passphrase("field-team");
-    let mut cfg = SimConfig::from_spec("1xcopter:ardupilot,1xcopter:ardupilot", None, Some(HOME), 1).unwrap();
+    let mut cfg =
+        SimConfig::from_spec("1xcopter:ardupilot,1xcopter:ardupilot", None, Some(HOME), 1).unwrap();
     cfg.signing_key = Some(key.clone());
     let epoch = cfg.unix_epoch_us;
     let mut sim = Sim::new(cfg, Time::ZERO).unwrap();
@@ -910,7 +922,10 @@ fn signed_vehicles_ignore_unsigned_commands_and_setup_signing_installs_a_key() {
         let mut n = 0;
         while let Some(d) = sim.recv_bytes(sysid) {
             for f in codec.decode(&d, epoch + sim.now().as_micros()) {
-                assert!(f.signature.is_some(), "every frame from a signed vehicle is signed");
+                assert!(
+                    f.signature.is_some(),
+                    "every frame from a signed vehicle is signed"
+                );
                 if matches!(f.message, Ok(MavMessage::COMMAND_ACK(_))) {
                     n += 1;
                 }
@@ -924,7 +939,12 @@ fn signed_vehicles_ignore_unsigned_commands_and_setup_signing_installs_a_key() {
     sim.advance(Duration::from_millis(200));
     assert_eq!(acks(&mut sim, 1, &mut gcs), 0);
     // a signed one is answered
-    let signed = gcs.encode_with_header(&h, &arm, mavlink::MavlinkVersion::V2, epoch + sim.now().as_micros());
+    let signed = gcs.encode_with_header(
+        &h,
+        &arm,
+        mavlink::MavlinkVersion::V2,
+        epoch + sim.now().as_micros(),
+    );
     sim.send_bytes(1, &signed);
     sim.advance(Duration::from_millis(200));
     assert_eq!(acks(&mut sim, 1, &mut gcs), 1);
@@ -935,7 +955,12 @@ fn signed_vehicles_ignore_unsigned_commands_and_setup_signing_installs_a_key() {
         target_component: 1,
         secret_key: [0; 32],
     });
-    let f = gcs.encode_with_header(&h, &setup, mavlink::MavlinkVersion::V2, epoch + sim.now().as_micros());
+    let f = gcs.encode_with_header(
+        &h,
+        &setup,
+        mavlink::MavlinkVersion::V2,
+        epoch + sim.now().as_micros(),
+    );
     sim.send_bytes(2, &f);
     sim.advance(Duration::from_millis(200));
     while sim.recv_bytes(2).is_some() {}
@@ -957,5 +982,98 @@ fn signed_vehicles_ignore_unsigned_commands_and_setup_signing_installs_a_key() {
             got |= matches!(f.message, Ok(MavMessage::COMMAND_ACK(_)));
         }
     }
-    assert!(got, "vehicle 2 answers unsigned commands once signing is off");
+    assert!(
+        got,
+        "vehicle 2 answers unsigned commands once signing is off"
+    );
+}
+
+fn exclusion_square(north: f64, east: f64, half: f64) -> Vec<MissionItem> {
+    [(-half, -half), (-half, half), (half, half), (half, -half)]
+        .iter()
+        .map(|(dn, de)| {
+            let (lat, lon) = at(north + dn, east + de);
+            MissionItem {
+                param1: 4.0,
+                ..MissionItem::at(5002, lat, lon, 0.0)
+            }
+        })
+        .collect()
+}
+
+#[test]
+fn geofences_are_enforced() {
+    // PX4: a mission through an exclusion zone is not valid (mission feasibility check)
+    let mut g = Gcs::new("1xcopter:px4", 5);
+    g.wait(12.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+        .unwrap();
+    let fence = exclusion_square(20.0, 0.0, 3.0);
+    assert_eq!(
+        g.upload_type(&fence, mav::MavMissionType::MAV_MISSION_TYPE_FENCE),
+        mav::MavMissionResult::MAV_MISSION_ACCEPTED
+    );
+    let (a, b) = (at(20.0, 0.0), at(20.0, 20.0));
+    let items = vec![
+        MissionItem::takeoff(10.0),
+        MissionItem::waypoint(a.0, a.1, 10.0),
+        MissionItem::waypoint(b.0, b.1, 10.0),
+    ];
+    assert_eq!(
+        g.upload(&items),
+        mav::MavMissionResult::MAV_MISSION_ACCEPTED
+    );
+    assert!(
+        g.texts()
+            .iter()
+            .any(|t| t == "Geofence violation for waypoint 2"),
+        "{:?}",
+        g.texts()
+    );
+    assert_eq!(g.command(300, [0.0; 7]), mav::MavResult::MAV_RESULT_DENIED);
+    assert!(!g.sim.vehicle(1).unwrap().armed());
+
+    // ArduCopter with the fence enabled: flying into the zone triggers RTL
+    let mut g = Gcs::new("1xcopter:ardupilot", 5);
+    g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+        .unwrap();
+    assert_eq!(
+        g.upload_type(&fence, mav::MavMissionType::MAV_MISSION_TYPE_FENCE),
+        mav::MavMissionResult::MAV_MISSION_ACCEPTED
+    );
+    assert_eq!(
+        g.command(207, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    let f = Flavour::ARDU_COPTER;
+    assert_eq!(
+        g.set_mode(f, Mode::Guided),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    assert_eq!(
+        g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    assert_eq!(
+        g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    g.wait(10.0, |_| false);
+    let amsl = g.sim.vehicle(1).unwrap().home().unwrap().2 as f32 + 10.0;
+    assert_eq!(
+        g.command(
+            192,
+            [-1.0, 1.0, 0.0, f32::NAN, a.0 as f32, a.1 as f32, amsl]
+        ),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    let rtl = f.custom_mode(Mode::Rtl).unwrap();
+    g.wait(
+        30.0,
+        |m| matches!(m, MavMessage::HEARTBEAT(h) if h.custom_mode == rtl),
+    )
+    .expect("fence breach → RTL");
+    assert!(g.texts().iter().any(|t| t == "Fence Breached"));
+    let (lat, lon, _) = g.sim.vehicle(1).unwrap().reported_position();
+    let (n, _) = fleetmap::geo::local::delta(HOME.0, HOME.1, lat, lon);
+    assert!(n < 18.0, "stopped near the fence, {n} m north");
 }

@@ -12,6 +12,7 @@ pub use mission_server::{MissionEvent, MissionServer};
 pub mod battery;
 pub mod camera;
 pub mod faults;
+pub mod fence;
 pub mod harness;
 pub mod motion;
 pub mod render;

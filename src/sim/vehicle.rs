@@ -49,6 +49,7 @@ use crate::geo::local;
 use crate::mission::{MissionItem, MissionType};
 use crate::sim::battery::{Battery, BatteryConfig};
 use crate::sim::camera::{CAMERA_COMPID, CameraConfig, CaptureContext, CapturedImage, SimCamera};
+use crate::sim::fence::Fence;
 use crate::sim::flavour::{Autopilot, Flavour, Mode, VehicleKind};
 use crate::sim::mission_server::{HomeItem, MissionEvent, MissionServer};
 use crate::sim::motion::{self, Command, Limits};
@@ -294,6 +295,10 @@ pub struct SimVehicle {
     events: VecDeque<VehicleEvent>,
     camera: Option<SimCamera>,
     charging: bool,
+    fence: Fence,
+    fence_enabled: bool,
+    fence_breached: bool,
+    mission_valid: bool,
 }
 
 fn header(sysid: u8, compid: u8, seq: u8) -> MavHeader {
@@ -359,6 +364,10 @@ impl SimVehicle {
             events: VecDeque::new(),
             camera,
             charging: false,
+            fence: Fence::default(),
+            fence_enabled: false,
+            fence_breached: false,
+            mission_valid: true,
         };
         let s = v.cfg.gps_error_sigma_m;
         v.gps_err = (gauss(&mut v.rng) * s, gauss(&mut v.rng) * s);
@@ -624,6 +633,10 @@ impl SimVehicle {
         }
         self.streams.clear();
         self.default_streams(now);
+        // ArduPilot: FENCE_ENABLE 0 until the GCS enables it; PX4: any uploaded fence applies
+        self.fence_enabled = !self.cfg.flavour.is_ardupilot();
+        self.fence_breached = false;
+        self.rebuild_fence(false);
         self.disarmed_landed_since = Some(now);
         match self.cfg.flavour.autopilot {
             Autopilot::ArduPilot => {
@@ -715,6 +728,7 @@ impl SimVehicle {
         self.move_vehicle(now);
         self.drain_battery();
         self.check_failsafes(now);
+        self.check_fence(now);
         self.check_auto_disarm(now);
         self.update_camera(now);
         self.update_mission_reached(now);
@@ -1314,8 +1328,8 @@ impl SimVehicle {
             }
             (Autopilot::ArduPilot, Mode::Rtl | Mode::Land) if self.landed && !self.armed => Ok(()),
             (Autopilot::Px4, Mode::Auto) => {
-                if self.mission.items(MissionType::Mission).is_empty() {
-                    return Err("no mission");
+                if self.mission.items(MissionType::Mission).is_empty() || !self.mission_valid {
+                    return Err("no valid mission");
                 }
                 Ok(())
             }
@@ -1511,9 +1525,82 @@ impl SimVehicle {
 
     // ------------------------------------------------------------------ mission execution
 
+    /// Rebuild the geofence from the stored fence list; PX4 also re-checks the mission
+    /// against it (MissionFeasibilityChecker::checkGeofence) and says which item violates it.
+    fn rebuild_fence(&mut self, report: bool) {
+        self.fence = Fence::from_items(self.mission.items(MissionType::Fence), self.cfg.reference);
+        self.mission_valid = true;
+        if self.cfg.flavour.autopilot == Autopilot::Px4 && !self.fence.is_empty() {
+            let bad = self
+                .mission
+                .items(MissionType::Mission)
+                .iter()
+                .position(|it| {
+                    matches!(it.frame, 0 | 3 | 5 | 6)
+                        && it.has_position()
+                        && (it.x != 0 || it.y != 0)
+                        && {
+                            let (n, e) = local::delta(
+                                self.cfg.reference.0,
+                                self.cfg.reference.1,
+                                it.lat(),
+                                it.lon(),
+                            );
+                            self.fence.breached(e, n)
+                        }
+                });
+            if let Some(i) = bad {
+                self.mission_valid = false;
+                if report {
+                    let msg = format!("Geofence violation for waypoint {}", i + 1);
+                    self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, &msg);
+                }
+            }
+        }
+    }
+
+    fn check_fence(&mut self, now: Time) {
+        if !self.fence_enabled || self.fence.is_empty() || !self.armed || self.landed {
+            self.fence_breached = false;
+            return;
+        }
+        let (e, n) = self.est();
+        let breached = self.fence.breached(e, n);
+        if breached && !self.fence_breached {
+            if self.cfg.flavour.is_ardupilot() {
+                // FENCE_ACTION 1: RTL, or land when RTL is impossible
+                self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Fence Breached");
+                if !matches!(self.mode, Mode::Rtl | Mode::Land) {
+                    if self.home.is_some() {
+                        self.enter_mode(Mode::Rtl, now);
+                    } else if self.cfg.flavour.is_copter() {
+                        self.enter_mode(Mode::Land, now);
+                    }
+                }
+            } else {
+                // GF_ACTION 2: Hold
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Geofence breached, holding",
+                );
+                if !matches!(self.mode, Mode::Rtl | Mode::Land | Mode::Hold) {
+                    self.enter_mode(Mode::Hold, now);
+                }
+            }
+        }
+        self.fence_breached = breached;
+    }
+
     fn drain_mission_events(&mut self, now: Time) {
         while let Some(ev) = self.mission.poll_event() {
             match ev {
+                MissionEvent::Uploaded {
+                    mission_type: MissionType::Fence,
+                    ..
+                }
+                | MissionEvent::Cleared {
+                    mission_type: MissionType::Fence,
+                } => self.rebuild_fence(true),
                 MissionEvent::SetCurrent { seq } => self.set_current_item(seq, now),
                 MissionEvent::Uploaded {
                     mission_type: MissionType::Mission,
@@ -1522,6 +1609,7 @@ impl SimVehicle {
                 | MissionEvent::Cleared {
                     mission_type: MissionType::Mission,
                 } => {
+                    self.rebuild_fence(true);
                     if self.cfg.flavour.autopilot == Autopilot::Px4 {
                         // navigator reloads the new mission from its current item
                         self.exec.nav_index = None;
@@ -2265,6 +2353,21 @@ impl SimVehicle {
                     R::MAV_RESULT_DENIED
                 }
             }
+            207 if ap => {
+                // DO_FENCE_ENABLE: 0 disable, 1 enable, 2 disable the floor only
+                match c.param1 as i32 {
+                    0 => {
+                        self.fence_enabled = false;
+                        R::MAV_RESULT_ACCEPTED
+                    }
+                    1 => {
+                        self.fence_enabled = true;
+                        R::MAV_RESULT_ACCEPTED
+                    }
+                    2 => R::MAV_RESULT_ACCEPTED,
+                    _ => R::MAV_RESULT_FAILED,
+                }
+            }
             511 => self.cmd_message_interval(c.param1 as u32, c.param2, now),
             512 => self.cmd_request_message(c.param1 as u32, now),
             410 => {
@@ -2459,7 +2562,7 @@ impl SimVehicle {
             }
             R::MAV_RESULT_ACCEPTED
         } else {
-            if self.mission.items(MissionType::Mission).is_empty() {
+            if self.mission.items(MissionType::Mission).is_empty() || !self.mission_valid {
                 self.text(
                     mav::MavSeverity::MAV_SEVERITY_CRITICAL,
                     "Mission start denied! No valid mission",
