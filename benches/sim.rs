@@ -1,6 +1,9 @@
 //! Simulator speed: simulated flight time per CPU second (the 20-minute flight must take well
 //! under a second) and camera images per second.
 
+// REQUEST_DATA_STREAM is deprecated but is what ArduPilot GCSs send.
+#![allow(deprecated)]
+
 use criterion::{Criterion, criterion_group, criterion_main};
 use fleetmap::sim::harness::{Sim, SimConfig};
 use fleetmap::sim::render::{CameraPose, Disturbances, render};
