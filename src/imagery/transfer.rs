@@ -259,7 +259,7 @@ pub enum FileUrlError {
     #[error("unsupported image URL {0:?}: only file:// URLs are read")]
     Unsupported(String),
     /// The file could not be read.
-    #[error("cannot read image {path}: {source}")]
+    #[error("cannot read image {path}")]
     Io {
         /// The path.
         path: String,

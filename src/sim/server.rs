@@ -40,7 +40,7 @@ pub enum ServerError {
         vehicles: usize,
     },
     /// A socket could not be opened.
-    #[error("cannot open {what}: {source}")]
+    #[error("cannot open {what}")]
     Io {
         /// Which socket.
         what: String,

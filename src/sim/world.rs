@@ -27,7 +27,7 @@ use thiserror::Error;
 #[derive(Debug, Error)]
 pub enum WorldError {
     /// The file could not be read.
-    #[error("cannot read world file {path}: {source}")]
+    #[error("cannot read world file {path}")]
     Io {
         /// The file.
         path: String,

@@ -56,7 +56,9 @@ class Sim:
             BIN, "sim", "--vehicles", f"1x{vehicle}",
             "--connect", f"udpout:127.0.0.1:{self.port}",
             "--home", f"{HOME[0]},{HOME[1]}",
-            "--speedup", str(SPEEDUP), "--seed", "3", *extra,
+            "--speedup", str(SPEEDUP), "--seed", "3",
+            # a safety net: the simulator stops by itself if this test dies without stopping it
+            "--duration", "1200", *extra,
         ]
         self.master = mavutil.mavlink_connection(
             f"udpin:127.0.0.1:{self.port}", source_system=255, source_component=190, dialect="ardupilotmega"
@@ -238,7 +240,7 @@ def test_mavsdk_mission_raw_round_trip():
         port = free_udp_port()
         proc = subprocess.Popen(
             [BIN, "sim", "--vehicles", "1xcopter:px4", "--connect", f"udpout:127.0.0.1:{port}",
-             "--home", f"{HOME[0]},{HOME[1]}", "--speedup", "5", "--seed", "4"],
+             "--home", f"{HOME[0]},{HOME[1]}", "--speedup", "5", "--seed", "4", "--duration", "600"],
             stdout=subprocess.PIPE, stderr=subprocess.PIPE)
         try:
             sdk = Mavsdk(Configuration.create_with_component_type(ComponentType.GROUND_STATION))
