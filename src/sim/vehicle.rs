@@ -1239,6 +1239,9 @@ impl SimVehicle {
         }
         if self.mode != mode {
             self.mode = mode;
+            // entering a mode re-initialises the navigation speed (ArduCopter
+            // wp_and_spline_init → WPNAV_SPEED; PX4 navigator reset_cruising_speed)
+            self.speed_override = None;
             if mode != Mode::Auto {
                 self.exec.running = false;
                 self.mission.set_mission_running(false);
@@ -2633,7 +2636,9 @@ impl SimVehicle {
     ) -> mav::MavResult {
         use mav::MavResult as R;
         let change_mode = (c.param2 as i32) & 1 == 1;
-        let speed = if c.param1 > 0.0 {
+        // PX4's navigator flies a reposition at param1 (ground speed) when positive;
+        // ArduCopter ignores it (GUIDED keeps WPNAV_SPEED or the last DO_CHANGE_SPEED)
+        let speed = if c.param1 > 0.0 && !self.cfg.flavour.is_ardupilot() {
             Some(f64::from(c.param1))
         } else {
             None
