@@ -160,3 +160,104 @@ async fn tcp_endpoint_and_image_files() {
     assert!(image::load_from_memory(&bytes).is_ok());
     h.stop().await.unwrap();
 }
+
+/// `fleetmap sim --camera-only`: a simulated camera for a real autopilot. The "autopilot"
+/// here is this test, sending what ArduPilot's AP_Camera sends for a picture.
+#[tokio::test]
+#[allow(deprecated)]
+async fn camera_for_a_real_autopilot() {
+    let dir = tempfile::tempdir().unwrap();
+    let world = std::sync::Arc::new(
+        fleetmap::sim::world::World::load(std::path::Path::new(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/assets/worlds/runway.toml"
+        )))
+        .unwrap(),
+    );
+    let cfg = fleetmap::sim::camera::CameraConfig {
+        file_dir: Some(dir.path().display().to_string()),
+        mavlink_transfer: false,
+        ..Default::default()
+    };
+    let cams = fleetmap::sim::paired::PairedCameras::new(world.clone(), cfg, 3);
+    let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
+    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let image_dir = dir.path().to_path_buf();
+    let task = tokio::spawn(fleetmap::sim::server::serve_paired(
+        cams,
+        Endpoint::parse("udpin:127.0.0.1:0").unwrap(),
+        Some(image_dir),
+        None,
+        move |b| {
+            let _ = bound_tx.send(b[0].local);
+        },
+        async move {
+            let _ = stop_rx.await;
+        },
+    ));
+    let to = bound_rx.await.unwrap();
+    let sock = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let ap = MavHeader {
+        system_id: 1,
+        component_id: 1,
+        sequence: 0,
+    };
+    let (lat, lon) = world.default_home(1).unwrap();
+    let send = |m: MavMessage| {
+        fleetmap::link::codec::encode_frame(&ap, &m, mavlink::MavlinkVersion::V2, None, 0)
+    };
+    sock.send_to(
+        &send(MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
+            autopilot: mav::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            mavtype: mav::MavType::MAV_TYPE_QUADROTOR,
+            ..mav::HEARTBEAT_DATA::default()
+        })),
+        to,
+    )
+    .await
+    .unwrap();
+    sock.send_to(
+        &send(MavMessage::CAMERA_FEEDBACK(mav::CAMERA_FEEDBACK_DATA {
+            lat: (lat * 1e7) as i32,
+            lng: (lon * 1e7) as i32,
+            alt_msl: 622.0,
+            alt_rel: 12.0,
+            target_system: 1,
+            ..mav::CAMERA_FEEDBACK_DATA::default()
+        })),
+        to,
+    )
+    .await
+    .unwrap();
+    let mut codec = Codec::new();
+    let mut buf = vec![0u8; 65536];
+    let mut url = None;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(10);
+    while tokio::time::Instant::now() < deadline && url.is_none() {
+        let Ok(Ok((n, _))) =
+            tokio::time::timeout(Duration::from_millis(500), sock.recv_from(&mut buf)).await
+        else {
+            continue;
+        };
+        for f in codec.decode(&buf[..n], 0) {
+            if let Ok(MavMessage::CAMERA_IMAGE_CAPTURED(ref c)) = f.message {
+                assert_eq!((f.sysid(), f.compid()), (1, 100));
+                assert_eq!(c.lat, (lat * 1e7) as i32);
+                url = Some(
+                    c.file_url
+                        .to_str()
+                        .unwrap_or("")
+                        .trim_end_matches('\0')
+                        .to_string(),
+                );
+            }
+        }
+    }
+    let url = url.expect("CAMERA_IMAGE_CAPTURED from the camera component");
+    let bytes = fleetmap::imagery::transfer::read_file_url(&url, 10 << 20).unwrap();
+    let meta = fleetmap::imagery::meta::read_meta(&bytes).unwrap();
+    assert_eq!(meta.sysid, 1);
+    assert!((meta.alt_rel_m - 12.0).abs() < 0.01, "{meta:?}");
+    let _ = stop_tx.send(());
+    task.await.unwrap().unwrap();
+}

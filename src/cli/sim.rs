@@ -84,6 +84,12 @@ pub struct SimArgs {
     /// Print the endpoints as one JSON object per line.
     #[arg(long)]
     pub json: bool,
+    /// Simulate only the cameras, for the real autopilots (SITL) heard on --connect (e.g.
+    /// `udpin:0.0.0.0:14552` where the SITL sends): a picture the autopilot takes
+    /// (CAMERA_FEEDBACK, CAMERA_TRIGGER, IMAGE_START_CAPTURE to component 100) is rendered
+    /// from --world at the autopilot's reported pose. --vehicles is ignored.
+    #[arg(long)]
+    pub camera_only: bool,
 }
 
 fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
@@ -189,6 +195,51 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     Ok(cfg)
 }
 
+/// `fleetmap sim --camera-only`: cameras for real autopilots.
+fn run_camera_only(args: SimArgs, endpoints: Vec<Endpoint>) -> anyhow::Result<ExitCode> {
+    let [endpoint] = <[Endpoint; 1]>::try_from(endpoints)
+        .map_err(|_| anyhow::anyhow!("--camera-only takes one --connect endpoint"))?;
+    let Some(world) = &args.world else {
+        bail!("--camera-only needs --world");
+    };
+    let world = std::sync::Arc::new(World::load(world)?);
+    let mut cfg = crate::sim::camera::CameraConfig {
+        mavlink_transfer: !args.no_image_transfer,
+        ..crate::sim::camera::CameraConfig::default()
+    };
+    if let Some(d) = &args.image_dir {
+        std::fs::create_dir_all(d).with_context(|| format!("cannot create {}", d.display()))?;
+        cfg.file_dir = Some(
+            d.canonicalize()
+                .with_context(|| format!("cannot resolve {}", d.display()))?
+                .display()
+                .to_string(),
+        );
+    }
+    let cams = crate::sim::paired::PairedCameras::new(world, cfg, args.seed);
+    let rt = tokio::runtime::Builder::new_current_thread()
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?;
+    rt.block_on(crate::sim::server::serve_paired(
+        cams,
+        endpoint,
+        args.image_dir.clone(),
+        args.duration,
+        |bound| {
+            for b in bound {
+                println!("cameras listening on {} (local {})", b.endpoint, b.local);
+            }
+            use std::io::Write;
+            let _ = std::io::stdout().flush();
+        },
+        async {
+            let _ = tokio::signal::ctrl_c().await;
+        },
+    ))?;
+    Ok(ExitCode::SUCCESS)
+}
+
 /// Run `fleetmap sim`.
 pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
     let endpoints = args
@@ -196,6 +247,9 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
         .iter()
         .map(|c| Endpoint::parse(c))
         .collect::<Result<Vec<_>, _>>()?;
+    if args.camera_only {
+        return run_camera_only(args, endpoints);
+    }
     let cfg = build(&args)?;
     let descr: Vec<String> = cfg
         .vehicles

@@ -15,6 +15,7 @@ pub mod faults;
 pub mod fence;
 pub mod harness;
 pub mod motion;
+pub mod paired;
 pub mod render;
 pub mod server;
 pub mod vehicle;

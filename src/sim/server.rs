@@ -438,6 +438,83 @@ pub async fn spawn(sim: Sim, opts: ServeOptions) -> Result<SimHandle, ServerErro
     }
 }
 
+/// Serve simulated cameras for real autopilots (see [`crate::sim::paired`]): listen on
+/// `endpoint` (typically `udpin:` where a SITL or MAVProxy sends its telemetry), render an
+/// image for every picture the autopilots take and answer as their camera components, on
+/// the wall clock. Images go to `image_dir` (and over MAVLink if the camera config says so).
+pub async fn serve_paired<F>(
+    mut cams: crate::sim::paired::PairedCameras,
+    endpoint: Endpoint,
+    image_dir: Option<PathBuf>,
+    duration_s: Option<f64>,
+    on_bound: impl FnOnce(&[Bound]),
+    shutdown: F,
+) -> Result<crate::sim::paired::PairedCameras, ServerError>
+where
+    F: std::future::Future<Output = ()>,
+{
+    use crate::link::codec::Codec;
+    use crate::time::Time;
+    let (tx, mut rx) = mpsc::channel::<(usize, Vec<u8>)>(4096);
+    let (bound, ios) = open(&[0], std::slice::from_ref(&endpoint), tx).await?;
+    on_bound(&bound);
+    if let Some(dir) = &image_dir {
+        std::fs::create_dir_all(dir).map_err(io_err(dir.display().to_string()))?;
+    }
+    let clock = MonotonicClock::with_speedup(1.0);
+    let unix0 = std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_micros() as u64)
+        .unwrap_or(0);
+    let mut codec = Codec::new();
+    let end = duration_s.map(|d| Time::ZERO + std::time::Duration::from_secs_f64(d.max(0.0)));
+    tokio::pin!(shutdown);
+    loop {
+        let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
+        cams.step(now);
+        while let Some((_, img)) = cams.poll_image() {
+            if let Some(dir) = &image_dir {
+                let path = dir.join(&img.file_name);
+                if let Err(e) = crate::store::atomic_write(&path, &img.jpeg) {
+                    tracing::warn!("cannot write image {}: {e}", path.display());
+                }
+            }
+        }
+        while let Some((h, m)) = cams.poll_transmit() {
+            let unix = unix0 + now.as_micros();
+            let d = codec.encode_with_header(&h, &m, mavlink::MavlinkVersion::V2, unix);
+            match &ios[0] {
+                Io::Udp { sock, peer } => {
+                    let to = peer.lock().ok().and_then(|p| *p);
+                    if let Some(to) = to {
+                        let _ = sock.try_send_to(&d, to);
+                    }
+                }
+                Io::Tcp { out } => {
+                    let _ = out.send(d);
+                }
+            }
+        }
+        if end.is_some_and(|e| now >= e) {
+            return Ok(cams);
+        }
+        tokio::select! {
+            r = rx.recv() => {
+                if let Some((_, bytes)) = r {
+                    let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
+                    for f in codec.decode(&bytes, unix0 + now.as_micros()) {
+                        if let Ok(m) = f.message {
+                            cams.handle_message(&f.header, &m, now);
+                        }
+                    }
+                }
+            }
+            _ = tokio::time::sleep(std::time::Duration::from_millis(20)) => {}
+            _ = &mut shutdown => return Ok(cams),
+        }
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
