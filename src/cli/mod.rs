@@ -7,6 +7,7 @@
 
 pub mod bench;
 pub mod experiment;
+pub mod grid;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -34,6 +35,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Run one of the papers' Monte Carlo studies.
     Experiment(experiment::ExperimentArgs),
+    /// Convert between mission-grid cells and GPS/UTM coordinates; export cells as GeoJSON/KML.
+    Grid(grid::GridArgs),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
@@ -72,5 +75,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Experiment(args) => experiment::run(args),
+        Command::Grid(args) => grid::run(args),
     }
 }

@@ -40,7 +40,7 @@ impl LatLon {
         LatLon { lat, lon }
     }
 
-    /// Check that both numbers are finite, the latitude is within −90..=90° and the
+    /// Check that both numbers are finite, the latitude is within -90..=90° and the
     /// longitude within −180..=180°.
     pub fn validate(self) -> Result<LatLon, GeoError> {
         if !self.lat.is_finite() {
@@ -196,13 +196,13 @@ pub enum GeoError {
         value: f64,
     },
     /// Latitude outside −90..=90°.
-    #[error("latitude {lat}° is out of range: expected −90..=90°")]
+    #[error("latitude {lat}° is out of range: expected -90..=90°")]
     LatitudeOutOfRange {
         /// The latitude received, degrees.
         lat: f64,
     },
     /// Longitude outside −180..=180°.
-    #[error("longitude {lon}° is out of range: expected −180..=180°")]
+    #[error("longitude {lon}° is out of range: expected -180..=180°")]
     LongitudeOutOfRange {
         /// The longitude received, degrees.
         lon: f64,
