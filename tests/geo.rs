@@ -36,7 +36,10 @@ fn golden() -> Vec<Row> {
         }
         let f: Vec<&str> = line.split(',').collect();
         assert_eq!(f.len(), 8, "line {}: {line}", i + 1);
-        let num = |s: &str| s.parse::<f64>().unwrap_or_else(|_| panic!("line {}: {s}", i + 1));
+        let num = |s: &str| {
+            s.parse::<f64>()
+                .unwrap_or_else(|_| panic!("line {}: {s}", i + 1))
+        };
         rows.push(Row {
             kind: f[0].to_string(),
             p: LatLon::new(num(f[1]), num(f[2])),
@@ -81,8 +84,8 @@ impl MaxErr {
 fn forward_matches_proj_within_1mm() {
     let mut errs = MaxErr::default();
     for r in golden() {
-        let u = utm::to_utm_in_zone(r.p, r.zone, r.hemisphere)
-            .unwrap_or_else(|e| panic!("{r:?}: {e}"));
+        let u =
+            utm::to_utm_in_zone(r.p, r.zone, r.hemisphere).unwrap_or_else(|e| panic!("{r:?}: {e}"));
         let err = (u.easting - r.easting).hypot(u.northing - r.northing);
         assert!(err < TOL_M, "{r:?}: got {u:?}, error {err} m");
         errs.add(&r.kind, err);
@@ -197,11 +200,8 @@ fn grid_reaching_into_the_next_zone() {
 
 fn inside_point(g: &Grid, c: Cell, fx: f64, fy: f64) -> LatLon {
     let s = g.cell_size();
-    g.from_xy(
-        (f64::from(c.col) + fx) * s,
-        (f64::from(c.row) + fy) * s,
-    )
-    .unwrap()
+    g.from_xy((f64::from(c.col) + fx) * s, (f64::from(c.row) + fy) * s)
+        .unwrap()
 }
 
 proptest! {
@@ -338,7 +338,10 @@ fn check_coverage(g: &Grid, xy: &[(f64, f64)], exact_area: f64) {
                 s,
             ) / (s * s);
             let got = listed.get(&Cell::new(row, col)).copied().unwrap_or(0.0);
-            assert!((got - a).abs() < 1e-6, "cell ({row}, {col}): geo {got}, clipper {a}");
+            assert!(
+                (got - a).abs() < 1e-6,
+                "cell ({row}, {col}): geo {got}, clipper {a}"
+            );
         }
     }
 }
@@ -373,7 +376,10 @@ fn coverage_across_negative_indices() {
     assert_eq!(g.zone(), 32);
     let rect = rotated_rect(-6.0, -9.0, 21.0, 8.0, -58.0);
     check_coverage(&g, &rect, 168.0);
-    let poly: Vec<LatLon> = rect.iter().map(|&(e, n)| g.from_xy(e, n).unwrap()).collect();
+    let poly: Vec<LatLon> = rect
+        .iter()
+        .map(|&(e, n)| g.from_xy(e, n).unwrap())
+        .collect();
     let cov = g.polygon_coverage(&poly).unwrap();
     assert!(cov.iter().any(|(c, _)| c.row < 0 && c.col < 0));
     assert!(cov.iter().any(|(c, _)| c.row >= 0 || c.col >= 0));
@@ -414,7 +420,11 @@ fn coverage_of_the_runway_in_gps_coordinates() {
     let expect = 92.0 * 21.0 * k * k;
     assert!((total - expect).abs() < 0.01, "{total} vs {expect}");
     let full = cov.iter().filter(|(_, f)| *f > 0.999_999).count();
-    assert!(full > 80 && cov.len() > full, "{} cells, {full} full", cov.len());
+    assert!(
+        full > 80 && cov.len() > full,
+        "{} cells, {full} full",
+        cov.len()
+    );
 }
 
 // ---------------------------------------------------------------------------------------
@@ -439,13 +449,29 @@ fn json(s: &str) -> serde_json::Value {
 #[test]
 fn cli_to_gps_and_from_gps() {
     let (code, out, err) = fleetmap(&[
-        "grid", "--origin", "-33.8688,151.2093", "--cell-size", "4", "to-gps", "-3", "-7",
+        "grid",
+        "--origin",
+        "-33.8688,151.2093",
+        "--cell-size",
+        "4",
+        "to-gps",
+        "-3",
+        "-7",
     ]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(out.lines().count(), 1, "{out}");
     let v = json(&out);
     let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
-    let mut expect = vec!["row", "col", "lat", "lon", "easting", "northing", "zone", "hemisphere"];
+    let mut expect = vec![
+        "row",
+        "col",
+        "lat",
+        "lon",
+        "easting",
+        "northing",
+        "zone",
+        "hemisphere",
+    ];
     expect.sort();
     let mut keys_sorted = keys.clone();
     keys_sorted.sort();
@@ -465,14 +491,29 @@ fn cli_to_gps_and_from_gps() {
     let inside = inside_point(&g, Cell::new(-3, -7), 0.3, -0.4);
     let (lat, lon) = (inside.lat.to_string(), inside.lon.to_string());
     let (code, out2, err) = fleetmap(&[
-        "grid", "--origin", "-33.8688,151.2093", "--cell-size", "4", "from-gps", &lat, &lon,
+        "grid",
+        "--origin",
+        "-33.8688,151.2093",
+        "--cell-size",
+        "4",
+        "from-gps",
+        &lat,
+        &lon,
     ]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(json(&out2), v);
 
     // --origin=… and a forced zone.
     let (code, out, err) = fleetmap(&[
-        "grid", "--origin=-33.8688,151.2093", "--cell-size", "4", "--zone", "55S", "to-gps", "0", "0",
+        "grid",
+        "--origin=-33.8688,151.2093",
+        "--cell-size",
+        "4",
+        "--zone",
+        "55S",
+        "to-gps",
+        "0",
+        "0",
     ]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(json(&out)["zone"], 55);
@@ -481,47 +522,174 @@ fn cli_to_gps_and_from_gps() {
 #[test]
 fn cli_export_geojson() {
     let (code, out, err) = fleetmap(&[
-        "grid", "--origin", "37.1968,-80.5781", "--cell-size", "4", "export", "--rows", "-1:1",
-        "--cols", "-2:0",
+        "grid",
+        "--origin",
+        "37.1968,-80.5781",
+        "--cell-size",
+        "4",
+        "export",
+        "--rows",
+        "-1:1",
+        "--cols",
+        "-2:0",
     ]);
     assert_eq!(code, 0, "{err}");
     let v = json(&out);
     assert_eq!(v["type"], "FeatureCollection");
     let f = v["features"].as_array().unwrap();
     assert_eq!(f.len(), 9);
-    assert_eq!(f[0]["properties"], serde_json::json!({"row": -1, "col": -2}));
+    assert_eq!(
+        f[0]["properties"],
+        serde_json::json!({"row": -1, "col": -2})
+    );
 }
 
 #[test]
 fn cli_bad_arguments_fail_with_one_line() {
     let o = "37.1968,-80.5781";
     let cases: Vec<(Vec<&str>, &str)> = vec![
-        (vec!["--origin", "95,10", "--cell-size", "4", "to-gps", "0", "0"], "latitude 95"),
-        (vec!["--origin", "85,10", "--cell-size", "4", "to-gps", "0", "0"], "outside UTM"),
-        (vec!["--origin", "10,200", "--cell-size", "4", "to-gps", "0", "0"], "longitude 200"),
-        (vec!["--origin", o, "--cell-size", "0", "to-gps", "0", "0"], "greater than 0"),
-        (vec!["--origin", o, "--cell-size", "-4", "to-gps", "0", "0"], "greater than 0"),
-        (vec!["--origin", o, "--cell-size", "NaN", "to-gps", "0", "0"], "finite"),
-        (vec!["--origin", "NaN,3", "--cell-size", "4", "to-gps", "0", "0"], "finite"),
-        (vec!["--origin", o, "--cell-size", "four", "to-gps", "0", "0"], "not a number"),
-        (vec!["--origin", "north,west", "--cell-size", "4", "to-gps", "0", "0"], "LAT,LON"),
-        (vec!["--origin", "37.1", "--cell-size", "4", "to-gps", "0", "0"], "LAT,LON"),
-        (vec!["--origin", o, "--cell-size", "4", "to-gps", "abc", "0"], "row \"abc\""),
-        (vec!["--origin", o, "--cell-size", "4", "to-gps", "1.5", "0"], "not an integer"),
-        (vec!["--origin", o, "--cell-size", "4", "to-gps", "0"], "missing COL"),
-        (vec!["--origin", o, "--cell-size", "4", "to-gps"], "missing ROW"),
-        (vec!["--cell-size", "4", "to-gps", "0", "0"], "missing --origin"),
-        (vec!["--origin", o, "to-gps", "0", "0"], "missing --cell-size"),
+        (
+            vec!["--origin", "95,10", "--cell-size", "4", "to-gps", "0", "0"],
+            "latitude 95",
+        ),
+        (
+            vec!["--origin", "85,10", "--cell-size", "4", "to-gps", "0", "0"],
+            "outside UTM",
+        ),
+        (
+            vec!["--origin", "10,200", "--cell-size", "4", "to-gps", "0", "0"],
+            "longitude 200",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "0", "to-gps", "0", "0"],
+            "greater than 0",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "-4", "to-gps", "0", "0"],
+            "greater than 0",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "NaN", "to-gps", "0", "0"],
+            "finite",
+        ),
+        (
+            vec!["--origin", "NaN,3", "--cell-size", "4", "to-gps", "0", "0"],
+            "finite",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "four", "to-gps", "0", "0"],
+            "not a number",
+        ),
+        (
+            vec![
+                "--origin",
+                "north,west",
+                "--cell-size",
+                "4",
+                "to-gps",
+                "0",
+                "0",
+            ],
+            "LAT,LON",
+        ),
+        (
+            vec!["--origin", "37.1", "--cell-size", "4", "to-gps", "0", "0"],
+            "LAT,LON",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "4", "to-gps", "abc", "0"],
+            "row \"abc\"",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "4", "to-gps", "1.5", "0"],
+            "not an integer",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "4", "to-gps", "0"],
+            "missing COL",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "4", "to-gps"],
+            "missing ROW",
+        ),
+        (
+            vec!["--cell-size", "4", "to-gps", "0", "0"],
+            "missing --origin",
+        ),
+        (
+            vec!["--origin", o, "to-gps", "0", "0"],
+            "missing --cell-size",
+        ),
         (vec!["--origin", o, "--cell-size", "4"], "missing action"),
-        (vec!["--origin", o, "--cell-size", "4", "from-gps", "95", "10"], "latitude 95"),
-        (vec!["--origin", o, "--cell-size", "4", "from-gps", "NaN", "10"], "finite"),
-        (vec!["--origin", o, "--cell-size", "4", "from-gps", "37.2", "text"], "not a number"),
-        (vec!["--origin", o, "--cell-size", "4", "from-gps", "37.2"], "missing LON"),
+        (
+            vec!["--origin", o, "--cell-size", "4", "from-gps", "95", "10"],
+            "latitude 95",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "4", "from-gps", "NaN", "10"],
+            "finite",
+        ),
+        (
+            vec![
+                "--origin",
+                o,
+                "--cell-size",
+                "4",
+                "from-gps",
+                "37.2",
+                "text",
+            ],
+            "not a number",
+        ),
+        (
+            vec!["--origin", o, "--cell-size", "4", "from-gps", "37.2"],
+            "missing LON",
+        ),
         // 2° of longitude east of zone 17's edge is fine; 40° is not.
-        (vec!["--origin", o, "--cell-size", "4", "from-gps", "37.2", "-40"], "central meridian"),
-        (vec!["--origin", o, "--cell-size", "4", "--zone", "61", "to-gps", "0", "0"], "zone"),
-        (vec!["--origin", o, "--cell-size", "4", "to-gps", "0", "100000000"], "no GPS position"),
-        (vec!["--origin", o, "--cell-size", "4", "export", "--rows", "3:1", "--cols", "0:0"], "FIRST"),
+        (
+            vec!["--origin", o, "--cell-size", "4", "from-gps", "37.2", "-40"],
+            "central meridian",
+        ),
+        (
+            vec![
+                "--origin",
+                o,
+                "--cell-size",
+                "4",
+                "--zone",
+                "61",
+                "to-gps",
+                "0",
+                "0",
+            ],
+            "zone",
+        ),
+        (
+            vec![
+                "--origin",
+                o,
+                "--cell-size",
+                "4",
+                "to-gps",
+                "0",
+                "100000000",
+            ],
+            "no GPS position",
+        ),
+        (
+            vec![
+                "--origin",
+                o,
+                "--cell-size",
+                "4",
+                "export",
+                "--rows",
+                "3:1",
+                "--cols",
+                "0:0",
+            ],
+            "FIRST",
+        ),
     ];
     for (args, needle) in cases {
         let mut full = vec!["grid"];
@@ -535,7 +703,14 @@ fn cli_bad_arguments_fail_with_one_line() {
     }
     // A point 2° into zone 18 is converted in the grid's zone 17.
     let (code, out, err) = fleetmap(&[
-        "grid", "--origin", o, "--cell-size", "4", "from-gps", "37.2", "-76.0",
+        "grid",
+        "--origin",
+        o,
+        "--cell-size",
+        "4",
+        "from-gps",
+        "37.2",
+        "-76.0",
     ]);
     assert_eq!(code, 0, "{err}");
     assert_eq!(json(&out)["zone"], 17);

@@ -197,7 +197,9 @@ pub fn cell_report(grid: &Grid, c: Cell) -> anyhow::Result<CellReport> {
 /// Run `fleetmap grid`.
 pub fn run(args: GridArgs) -> anyhow::Result<ExitCode> {
     let Some(what) = &args.what else {
-        bail!("missing action: to-gps ROW COL, from-gps LAT LON or export (see fleetmap grid --help)");
+        bail!(
+            "missing action: to-gps ROW COL, from-gps LAT LON or export (see fleetmap grid --help)"
+        );
     };
     let grid = grid_from_args(&args)?;
     match what {
@@ -235,7 +237,10 @@ pub fn run(args: GridArgs) -> anyhow::Result<ExitCode> {
             }
             match format {
                 ExportFormat::Geojson => {
-                    let cells: Vec<_> = cells.into_iter().map(|c| (c, serde_json::Value::Null)).collect();
+                    let cells: Vec<_> = cells
+                        .into_iter()
+                        .map(|c| (c, serde_json::Value::Null))
+                        .collect();
                     let v = export::cells_geojson(&grid, &cells, &[]);
                     println!("{}", serde_json::to_string(&v)?);
                 }

@@ -256,9 +256,15 @@ mod tests {
         assert_eq!(fc["grid"]["hemisphere"], "S");
         let f = fc["features"].as_array().unwrap();
         assert_eq!(f.len(), 4);
-        assert_eq!(f[0]["properties"], json!({"state": "positive", "row": 0, "col": 0}));
+        assert_eq!(
+            f[0]["properties"],
+            json!({"state": "positive", "row": 0, "col": 0})
+        );
         assert_eq!(f[1]["properties"], json!({"row": -1, "col": 2}));
-        assert_eq!(f[2]["properties"], json!({"value": 0.7, "row": 3, "col": -4}));
+        assert_eq!(
+            f[2]["properties"],
+            json!({"value": 0.7, "row": 3, "col": -4})
+        );
         let ring = f[1]["geometry"]["coordinates"][0].as_array().unwrap();
         assert_eq!(ring.len(), 5);
         assert_eq!(ring[0], ring[4]);
@@ -301,6 +307,9 @@ mod tests {
         assert!(k.contains("<Data name=\"row\"><value>2</value></Data>"));
         let sw = g.cell_corners(Cell::new(0, 0))[0];
         assert!(k.contains(&format!("<coordinates>{},{},0 ", sw.lon, sw.lat)));
-        assert_eq!(k.matches("<Placemark>").count(), k.matches("</Placemark>").count());
+        assert_eq!(
+            k.matches("<Placemark>").count(),
+            k.matches("</Placemark>").count()
+        );
     }
 }

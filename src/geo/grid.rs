@@ -277,9 +277,8 @@ impl Grid {
     pub fn cell_corners(&self, c: Cell) -> [LatLon; 4] {
         let h = self.cell_size / 2.0;
         let ctr = self.cell_center_utm(c);
-        [(-h, -h), (h, -h), (h, h), (-h, h)].map(|(de, dn)| {
-            utm::raw_from_utm(&self.utm_at(ctr.easting + de, ctr.northing + dn))
-        })
+        [(-h, -h), (h, -h), (h, h), (-h, h)]
+            .map(|(de, dn)| utm::raw_from_utm(&self.utm_at(ctr.easting + de, ctr.northing + dn)))
     }
 
     /// Meridian convergence (degrees, clockwise from true north to grid north) and UTM scale
@@ -413,8 +412,14 @@ impl Grid {
             };
             for col in index_of(pb.min().x, s)..=index_of(pb.max().x, s) {
                 let x0 = (f64::from(col) - 0.5) * s;
-                let cell = Rect::new(Coord { x: x0, y: y0 }, Coord { x: x0 + s, y: y0 + s })
-                    .to_polygon();
+                let cell = Rect::new(
+                    Coord { x: x0, y: y0 },
+                    Coord {
+                        x: x0 + s,
+                        y: y0 + s,
+                    },
+                )
+                .to_polygon();
                 let a = part.intersection(&cell).unsigned_area();
                 let frac = (a / cell_area).min(1.0);
                 if frac > COVERAGE_EPS {
@@ -616,7 +621,12 @@ mod tests {
         let cells = g.cells_in_xy_rect(-2.1, 0.0, 6.5, 1.0).unwrap();
         assert_eq!(
             cells,
-            vec![Cell::new(0, -1), Cell::new(0, 0), Cell::new(0, 1), Cell::new(0, 2)]
+            vec![
+                Cell::new(0, -1),
+                Cell::new(0, 0),
+                Cell::new(0, 1),
+                Cell::new(0, 2)
+            ]
         );
     }
 }

@@ -80,9 +80,7 @@ impl FromStr for LatLon {
             input: s.to_string(),
             expected: format!("LAT,LON in decimal degrees, e.g. 37.1968,-80.5781 ({why})"),
         };
-        let (lat, lon) = s
-            .split_once(',')
-            .ok_or_else(|| parse_err("no comma"))?;
+        let (lat, lon) = s.split_once(',').ok_or_else(|| parse_err("no comma"))?;
         let lat: f64 = lat
             .trim()
             .parse()

@@ -61,8 +61,7 @@ const BET: [f64; 7] = [
     N * (N * (N * (N * (N * (384796.0 * N - 382725.0) - 6720.0) + 932400.0) - 1612800.0)
         + 1209600.0)
         / 2419200.0,
-    N2 * (N * (N * ((1695744.0 - 1118711.0 * N) * N - 1174656.0) + 258048.0) + 80640.0)
-        / 3870720.0,
+    N2 * (N * (N * ((1695744.0 - 1118711.0 * N) * N - 1174656.0) + 258048.0) + 80640.0) / 3870720.0,
     N3 * (N * (N * (22276.0 * N - 16929.0) - 15984.0) + 12852.0) / 362880.0,
     N4 * ((-830251.0 * N - 158400.0) * N + 197865.0) / 7257600.0,
     (453717.0 - 435388.0 * N) * N5 / 15966720.0,
@@ -102,7 +101,7 @@ fn tauf(taup: f64) -> f64 {
         taup / E2M
     };
     let stol = tol * 1f64.max(taup.abs());
-    if !(tau.abs() < taumax) {
+    if tau.is_nan() || tau.abs() >= taumax {
         return tau;
     }
     for _ in 0..NUMIT {
@@ -110,7 +109,7 @@ fn tauf(taup: f64) -> f64 {
         let dtau =
             (taup - taupa) * (1.0 + E2M * tau * tau) / (E2M * 1f64.hypot(tau) * 1f64.hypot(taupa));
         tau += dtau;
-        if !(dtau.abs() >= stol) {
+        if dtau.is_nan() || dtau.abs() < stol {
             break;
         }
     }
@@ -214,7 +213,14 @@ pub(crate) fn forward(lat_deg: f64, dlon_deg: f64) -> Forward {
     k *= B1 * d.0.hypot(d.1);
     let mut gamma_deg = gamma.to_degrees();
     let a1 = WGS84_A * B1;
-    let y = a1 * K0 * (if backside { std::f64::consts::PI - xi } else { xi }) * latsign;
+    let y = a1
+        * K0
+        * (if backside {
+            std::f64::consts::PI - xi
+        } else {
+            xi
+        })
+        * latsign;
     let x = a1 * K0 * eta * lonsign;
     if backside {
         gamma_deg = 180.0 - gamma_deg;
@@ -277,7 +283,11 @@ mod tests {
         assert!((f.k - K0).abs() < 1e-15);
         // Quarter meridian of WGS84: 10 001 965.729 m (GeographicLib / Karney 2011).
         let pole = forward(90.0, 0.0);
-        assert!((pole.y / K0 - 10_001_965.729_2).abs() < 1e-3, "{}", pole.y / K0);
+        assert!(
+            (pole.y / K0 - 10_001_965.729_2).abs() < 1e-3,
+            "{}",
+            pole.y / K0
+        );
     }
 
     #[test]

@@ -239,14 +239,20 @@ mod tests {
             zone_for(84.0001, 0.0),
             Err(GeoError::OutsideUtm { lat: 84.0001 })
         );
-        assert_eq!(zone_for(-80.5, 0.0), Err(GeoError::OutsideUtm { lat: -80.5 }));
+        assert_eq!(
+            zone_for(-80.5, 0.0),
+            Err(GeoError::OutsideUtm { lat: -80.5 })
+        );
         assert_eq!(
             to_utm(LatLon::new(95.0, 0.0)),
             Err(GeoError::LatitudeOutOfRange { lat: 95.0 })
         );
         assert!(matches!(
             to_utm(LatLon::new(f64::NAN, 0.0)),
-            Err(GeoError::NotFinite { what: "latitude", .. })
+            Err(GeoError::NotFinite {
+                what: "latitude",
+                ..
+            })
         ));
         assert!(matches!(
             to_utm(LatLon::new(0.0, 181.0)),
@@ -273,7 +279,10 @@ mod tests {
         };
         assert!(matches!(
             from_utm(&nan),
-            Err(GeoError::NotFinite { what: "easting", .. })
+            Err(GeoError::NotFinite {
+                what: "easting",
+                ..
+            })
         ));
         // The messages say what was expected.
         let msg = to_utm(LatLon::new(85.0, 0.0)).unwrap_err().to_string();
