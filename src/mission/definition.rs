@@ -58,8 +58,13 @@ mod validate;
 use crate::geo::Cell;
 use crate::vision::camera::CameraModel;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::collections::HashSet;
 use std::fmt;
 use std::path::Path;
+
+/// The most cells a mission's search area or sweep box may hold (validation limits the
+/// area to 1000 × 1000).
+pub const MAX_CELLS: u64 = 10_000_000;
 
 /// Which field mission a definition describes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -582,7 +587,8 @@ impl MissionDef {
 
     /// Parse and validate mission-file `text`; `file_name` is used in error messages.
     pub fn parse(text: &str, file_name: &str) -> Result<MissionDef, DefErrors> {
-        let (def, mut ctx) = reader::read(text, file_name)?;
+        let (mut def, mut ctx) = reader::read(text, file_name)?;
+        def.fill_defaults();
         let issues = validate::check(&def);
         ctx.report(issues);
         ctx.finish().map(|()| def)
@@ -623,13 +629,16 @@ impl MissionDef {
     }
 
     /// The search area G (spatial classification): every cell of rows × cols, row-major
-    /// from (0, 0); empty when the mission has no bounded area.
+    /// from (0, 0); empty when the mission has no bounded area, or one larger than
+    /// [`MAX_CELLS`] (which validation rejects).
     pub fn area_cells(&self) -> Vec<Cell> {
         let (Some(rows), Some(cols)) = (self.area.rows, self.area.cols) else {
             return Vec::new();
         };
-        let rows = i32::try_from(rows).unwrap_or(i32::MAX);
-        let cols = i32::try_from(cols).unwrap_or(i32::MAX);
+        if u64::from(rows) * u64::from(cols) > MAX_CELLS {
+            return Vec::new();
+        }
+        let (rows, cols) = (rows as i32, cols as i32); // ≤ MAX_CELLS, so they fit
         (0..rows)
             .flat_map(|r| (0..cols).map(move |c| Cell::new(r, c)))
             .collect()
@@ -652,22 +661,27 @@ impl MissionDef {
     pub fn station_cells(&self) -> Vec<Cell> {
         match &self.area.roads {
             Some(r) => r.clone(),
-            None => self
-                .area_cells()
-                .into_iter()
-                .filter(|c| !self.area.obstacles.contains(c))
-                .collect(),
+            None => {
+                let obstacles: HashSet<Cell> = self.area.obstacles.iter().copied().collect();
+                self.area_cells()
+                    .into_iter()
+                    .filter(|c| !obstacles.contains(c))
+                    .collect()
+            }
         }
     }
 
     /// The candidate cells C to classify: G \ O, minus the roads when
     /// `roads_are_candidates = false`.
     pub fn candidate_cells(&self) -> Vec<Cell> {
-        let roads = self.area.roads.as_deref().unwrap_or(&[]);
+        let obstacles: HashSet<Cell> = self.area.obstacles.iter().copied().collect();
+        let roads: HashSet<Cell> = match (&self.area.roads, self.area.roads_are_candidates) {
+            (Some(r), false) => r.iter().copied().collect(),
+            _ => HashSet::new(),
+        };
         self.area_cells()
             .into_iter()
-            .filter(|c| !self.area.obstacles.contains(c))
-            .filter(|c| self.area.roads_are_candidates || !roads.contains(c))
+            .filter(|c| !obstacles.contains(c) && !roads.contains(c))
             .collect()
     }
 
@@ -679,24 +693,28 @@ impl MissionDef {
         Some(self.flight.speed_m_s * f64::from(c.station_cycle_steps) / td)
     }
 
-    /// Cells whose centres lie in a [`SweepBox::Local`] sweep box (`None` for WGS84 corners,
-    /// which need the origin's position, or without a runway table).
+    /// Cells whose centres lie in a [`SweepBox::Local`] sweep box, row-major from the
+    /// south-west (`None` for WGS84 corners, which need the origin's position, without a
+    /// runway table, or when the box holds more than [`MAX_CELLS`] cells).
     pub fn sweep_cells(&self) -> Option<Vec<Cell>> {
         let SweepBox::Local { north_m, east_m } = self.runway.as_ref()?.sweep else {
             return None;
         };
         let s = self.grid.cell_size_m;
-        if !(s > 0.0) {
+        let finite = north_m.iter().chain(&east_m).all(|x| x.is_finite());
+        if !(s > 0.0 && s.is_finite() && finite) {
             return None;
         }
-        let span = |lo: f64, hi: f64| {
-            let a = (lo / s).ceil().max(-1e6) as i32;
-            let b = (hi / s).floor().min(1e6) as i32;
-            a..=b
-        };
-        let (rows, cols) = (span(north_m[0], north_m[1]), span(east_m[0], east_m[1]));
+        let span = |lo: f64, hi: f64| ((lo / s).ceil(), (hi / s).floor());
+        let ((r0, r1), (c0, c1)) = (span(north_m[0], north_m[1]), span(east_m[0], east_m[1]));
+        let count = (r1 - r0 + 1.0).max(0.0) * (c1 - c0 + 1.0).max(0.0);
+        if count > MAX_CELLS as f64 || r0.abs().max(r1.abs()).max(c0.abs()).max(c1.abs()) > 1e9 {
+            return None;
+        }
+        let (r0, r1, c0, c1) = (r0 as i32, r1 as i32, c0 as i32, c1 as i32);
         Some(
-            rows.flat_map(|r| cols.clone().map(move |c| Cell::new(r, c)))
+            (r0..=r1)
+                .flat_map(|r| (c0..=c1).map(move |c| Cell::new(r, c)))
                 .collect(),
         )
     }

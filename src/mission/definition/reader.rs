@@ -144,8 +144,13 @@ impl<'t> Ctx<'t> {
         self.poisoned.push(path.to_string());
     }
 
+    /// Whether a rule about `path` depends on a value that failed to read: `path` lies
+    /// under a poisoned path, or a poisoned path lies under `path` (a rule about `vehicles`
+    /// depends on every vehicle).
     fn is_poisoned(&self, path: &str) -> bool {
-        self.poisoned.iter().any(|p| is_under(path, p))
+        self.poisoned
+            .iter()
+            .any(|p| is_under(path, p) || is_under(p, path))
     }
 
     /// Report a type error at `v` and poison `path`.

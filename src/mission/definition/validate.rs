@@ -3,7 +3,7 @@
 //! table turns it into a line and column.
 
 use super::*;
-use std::collections::HashMap;
+use std::collections::{HashMap, HashSet};
 
 /// One problem found by validation.
 pub(super) struct Issue {
@@ -477,8 +477,8 @@ fn check_classification(c: &mut Checker, def: &MissionDef) {
     if !bounded {
         return;
     }
-    let obstacles: Vec<Cell> = area.obstacles.clone();
-    let station_ok = def.station_cells();
+    let obstacles: HashSet<Cell> = area.obstacles.iter().copied().collect();
+    let station_ok: HashSet<Cell> = def.station_cells().into_iter().collect();
     let deps = [
         "area.rows",
         "area.cols",
@@ -558,6 +558,9 @@ fn check_classification(c: &mut Checker, def: &MissionDef) {
             );
             continue;
         };
+        if stations == 0 {
+            continue; // reported once above: no station at all
+        }
         if !station_at.contains_key(&s) {
             let mut cells: Vec<Cell> = station_at.keys().copied().collect();
             cells.sort();
