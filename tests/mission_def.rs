@@ -342,6 +342,12 @@ const BROKEN: &[Expected] = &[
                 "vehicles[1].start",
                 "expected a cell [row, col] (two integers), found string \"3, 1\"",
             ),
+            (
+                26,
+                22,
+                "area.obstacles[1]",
+                "expected a cell [row, col] (two integers), found an array of 3 values",
+            ),
         ],
     ),
     (

@@ -92,7 +92,8 @@ fn describe(v: &DeValue<'_>) -> String {
         DeValue::Float(f) => format!("float {f}"),
         DeValue::Boolean(b) => format!("boolean {b}"),
         DeValue::Datetime(d) => format!("datetime {d}"),
-        DeValue::Array(_) => "an array".into(),
+        DeValue::Array(a) if a.len() == 1 => "an array of 1 value".into(),
+        DeValue::Array(a) => format!("an array of {} values", a.len()),
         DeValue::Table(_) => "a table".into(),
     }
 }
@@ -339,16 +340,13 @@ impl<'t> Ctx<'t> {
     fn cell_of(&mut self, path: &str, v: &Val<'_>) -> Option<Cell> {
         const EXPECTED: &str = "a cell [row, col] (two integers)";
         self.record(path, v);
-        let DeValue::Array(a) = v.get_ref() else {
-            self.wrong(path, v, EXPECTED);
-            return None;
+        let a = match v.get_ref() {
+            DeValue::Array(a) if a.len() == 2 => a,
+            _ => {
+                self.wrong(path, v, EXPECTED);
+                return None;
+            }
         };
-        if a.len() != 2 {
-            let msg = format!("expected {EXPECTED}, found an array of {} values", a.len());
-            self.push(v.span().start, path, msg);
-            self.poison(path);
-            return None;
-        }
         let row = self.int_of::<i32>(&format!("{path}[0]"), &a[0], "an integer row");
         let col = self.int_of::<i32>(&format!("{path}[1]"), &a[1], "an integer column");
         match (row, col) {
