@@ -111,7 +111,7 @@ fn sigkill_at_100_random_moments_loses_nothing_acknowledged() {
     let mut torn_rounds = 0;
     let mut total_acks = 0u64;
     for round in 0..100 {
-        let kill_after_acks = rng.random_range(0..24u32);
+        let kill_after_acks = rng.random_range(0..16u32);
         let extra_delay = Duration::from_micros(rng.random_range(0..4_000u64));
 
         let mut child = spawn_writer(&dir);
