@@ -6,6 +6,7 @@
 //! and exits with status 1.
 
 pub mod bench;
+pub mod check;
 pub mod experiment;
 pub mod grid;
 
@@ -33,6 +34,8 @@ pub struct Cli {
 pub enum Command {
     /// Measure speed and print the figures.
     Bench(bench::BenchArgs),
+    /// Validate a mission definition file and print a summary (or every error).
+    Check(check::CheckArgs),
     /// Run one of the papers' Monte Carlo studies.
     Experiment(experiment::ExperimentArgs),
     /// Convert between mission-grid cells and GPS/UTM coordinates; export cells as GeoJSON/KML.
@@ -74,6 +77,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     init_logging(cli.verbose, cli.log_file.as_deref())?;
     match cli.command {
         Command::Bench(args) => bench::run(args),
+        Command::Check(args) => check::run(args),
         Command::Experiment(args) => experiment::run(args),
         Command::Grid(args) => grid::run(args),
     }
