@@ -6,6 +6,7 @@
 //! and exits with status 1.
 
 pub mod bench;
+pub mod classify;
 pub mod experiment;
 
 use clap::{Parser, Subcommand};
@@ -34,6 +35,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Run one of the papers' Monte Carlo studies.
     Experiment(experiment::ExperimentArgs),
+    /// Classify images with the runway sensing model (and the green-pixel measurement).
+    Classify(classify::ClassifyArgs),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
@@ -72,5 +75,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Experiment(args) => experiment::run(args),
+        Command::Classify(args) => classify::run(args),
     }
 }

@@ -156,11 +156,12 @@ pub fn render_runway(scene: &RunwayScene) -> RgbImage {
     let (w, h, seed) = (scene.width, scene.height, scene.seed);
     // Sunlit grass: light yellow-green, grey ≈ 160..200.
     let mut img = RgbImage::from_fn(w, h, |x, y| {
-        let t = jitter(seed, x, y, 1, 14);
+        let t = jitter(seed, x, y, 1, 12);
+        let u = jitter(seed, x, y, 2, 4);
         Rgb([
-            (176 + t + jitter(seed, x, y, 2, 8)).clamp(0, 255) as u8,
-            (196 + t + jitter(seed, x, y, 3, 8)).clamp(0, 255) as u8,
-            (118 + t / 2 + jitter(seed, x, y, 4, 10)).clamp(0, 255) as u8,
+            (176 + t + u).clamp(0, 255) as u8,
+            (196 + t).clamp(0, 255) as u8,
+            (118 + t / 2 - u).clamp(0, 255) as u8,
         ])
     });
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -198,7 +199,7 @@ pub fn render_runway(scene: &RunwayScene) -> RgbImage {
                 } else {
                     // Asphalt, grey ≈ 55..95 with a slow blotchy variation.
                     let blotch = jitter(seed, x / 16, y / 16, 7, 12);
-                    let t = blotch + jitter(seed, x, y, 8, 12);
+                    let t = blotch + jitter(seed, x, y, 8, 8);
                     Rgb([
                         (74 + t).clamp(0, 255) as u8,
                         (75 + t).clamp(0, 255) as u8,
