@@ -156,7 +156,12 @@ fn save_png_best(img: &RgbImage, path: &Path) {
     use image::codecs::png::{CompressionType, FilterType, PngEncoder};
     let mut bytes = Vec::new();
     PngEncoder::new_with_quality(&mut bytes, CompressionType::Best, FilterType::Adaptive)
-        .write_image(img.as_raw(), img.width(), img.height(), image::ExtendedColorType::Rgb8)
+        .write_image(
+            img.as_raw(),
+            img.width(),
+            img.height(),
+            image::ExtendedColorType::Rgb8,
+        )
         .expect("encode sample image");
     fleetmap::store::atomic_write(path, &bytes).expect("write sample image");
 }
@@ -366,7 +371,7 @@ fn classify_command_reports_each_image() {
     };
     let good = assets().join("runway-centre-markings.png");
     let good_bytes = std::fs::read(&good).unwrap();
-    let bad = vec![
+    let bad = [
         write("empty.png", b""),
         write("truncated.png", &good_bytes[..good_bytes.len() / 2]),
         write("huge.png", &png_header_only(30000, 30000)),

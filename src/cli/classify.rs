@@ -335,7 +335,7 @@ pub fn bench_scene(
             width_px: side * (0.35 + 0.1 * ((k * 0.43) % 1.0)),
             length_px: None,
             along_px: 0.0,
-            markings: i % 2 == 0,
+            markings: i.is_multiple_of(2),
         });
     }
     scene

@@ -69,6 +69,7 @@ impl BitImage {
     }
 
     /// The words of row `y` (bit `j` of word `i` is pixel `64·i + j`).
+    #[inline(always)]
     pub fn row(&self, y: u32) -> &[u64] {
         let s = y as usize * self.words_per_row;
         &self.words[s..s + self.words_per_row]
@@ -123,7 +124,7 @@ impl BitImage {
 /// Threshold one row of RGB bytes into bits: bit = `gray(pixel) > threshold`, where
 /// `k = color::gray_sum_above(threshold)`. `out` has `⌈pixels / 64⌉` words; the bits past
 /// the last pixel are left 0.
-#[inline]
+#[inline(always)]
 pub fn threshold_row(rgb: &[u8], k: u32, out: &mut [u64]) {
     let mut chunks = rgb.chunks_exact(192);
     let mut i = 0;
@@ -149,7 +150,7 @@ pub fn threshold_row(rgb: &[u8], k: u32, out: &mut [u64]) {
 
 /// `buf[p] |= buf[p + s]` for every pixel `p` of a bit row (pixels past the end are 0).
 /// Runs in place in ascending order: every word read is still unmodified.
-#[inline]
+#[inline(always)]
 fn or_ahead(buf: &mut [u64], s: usize) {
     let n = buf.len();
     let (q, b) = (s / 64, (s % 64) as u32);
@@ -167,7 +168,7 @@ fn or_ahead(buf: &mut [u64], s: usize) {
 
 /// `buf[p] |= buf[p − s]` for every pixel `p` of a bit row (pixels before 0 are 0).
 /// Runs in place in descending order.
-#[inline]
+#[inline(always)]
 fn or_behind(buf: &mut [u64], s: usize) {
     let n = buf.len();
     let (q, b) = (s / 64, (s % 64) as u32);
@@ -185,6 +186,7 @@ fn or_behind(buf: &mut [u64], s: usize) {
 
 /// OR-window of length `len` (≥ 1) by doubling: after the call `buf[p]` is the OR of the
 /// original `buf[p .. p + len]` (`ahead = true`) or `buf[p − len + 1 ..= p]` (`false`).
+#[inline(always)]
 fn one_sided_window(buf: &mut [u64], len: usize, ahead: bool) {
     let op = if ahead { or_ahead } else { or_behind };
     let mut cover = 1;
@@ -198,19 +200,75 @@ fn one_sided_window(buf: &mut [u64], len: usize, ahead: bool) {
     }
 }
 
+/// OR of each bit with the `len − 1` bits above it inside one word (bits past bit 63
+/// count as 0): bit j of the result is `x[j] | … | x[j + len − 1]`. `1 <= len <= 64`.
+#[inline(always)]
+fn word_window_ahead(x: u64, len: usize) -> u64 {
+    let mut v = x;
+    let mut cover = 1;
+    while cover * 2 <= len {
+        v |= v >> cover;
+        cover *= 2;
+    }
+    if cover < len {
+        v |= v >> (len - cover);
+    }
+    v
+}
+
+/// The mirror of [`word_window_ahead`]: bit j is `x[j − len + 1] | … | x[j]`.
+#[inline(always)]
+fn word_window_behind(x: u64, len: usize) -> u64 {
+    let mut v = x;
+    let mut cover = 1;
+    while cover * 2 <= len {
+        v |= v << cover;
+        cover *= 2;
+    }
+    if cover < len {
+        v |= v << (len - cover);
+    }
+    v
+}
+
 /// Horizontal dilation of one row by radius `r` (window [p−r, p+r]), into `out`;
 /// `tmp` is scratch of the same length. `last_mask` clears bits past the row's end.
+///
+/// For r < 64 each word needs only its two neighbours: with A(x) and B(x) the one-sided
+/// windows of length r+1 inside a word ([`word_window_ahead`], [`word_window_behind`]),
+/// `out[i] = A(x[i]) | B(x[i]) | B(x[i+1]) << (64 − r) | A(x[i−1]) >> (64 − r)` — the
+/// low r bits of B(x[i+1]) are prefix ORs of the next word, the high r bits of A(x[i−1])
+/// suffix ORs of the previous one. Larger radii use whole-row doubling passes.
+#[inline(always)]
 fn dilate_row(row: &[u64], r: usize, last_mask: u64, tmp: &mut [u64], out: &mut [u64]) {
-    if r == 0 {
+    let n = row.len();
+    if r == 0 || n == 0 {
         out.copy_from_slice(row);
         return;
     }
-    out.copy_from_slice(row);
-    tmp.copy_from_slice(row);
-    one_sided_window(out, r + 1, true);
-    one_sided_window(tmp, r + 1, false);
-    for (o, t) in out.iter_mut().zip(tmp.iter()) {
-        *o |= *t;
+    if r < 64 {
+        let len = r + 1;
+        let shift = (64 - r) as u32;
+        let mut prev_a = 0u64;
+        let mut cur_a = word_window_ahead(row[0], len);
+        let mut cur_b = word_window_behind(row[0], len);
+        for i in 0..n {
+            let next = if i + 1 < n { row[i + 1] } else { 0 };
+            let next_a = word_window_ahead(next, len);
+            let next_b = word_window_behind(next, len);
+            out[i] = cur_a | cur_b | (next_b << shift) | (prev_a >> shift);
+            prev_a = cur_a;
+            cur_a = next_a;
+            cur_b = next_b;
+        }
+    } else {
+        out.copy_from_slice(row);
+        tmp.copy_from_slice(row);
+        one_sided_window(out, r + 1, true);
+        one_sided_window(tmp, r + 1, false);
+        for (o, t) in out.iter_mut().zip(tmp.iter()) {
+            *o |= *t;
+        }
     }
     if let Some(last) = out.last_mut() {
         *last &= last_mask;
@@ -223,43 +281,46 @@ fn effective_radius(width: u32, height: u32, radius: u32) -> usize {
     radius.min(width.max(height)) as usize
 }
 
+/// One vertical doubling step over whole rows, in place: row y ← row y | row y+s
+/// (`ahead`, ascending, so row y+s is still the old one) or row y ← row y | row y−s
+/// (descending). Rows outside the image count as 0.
+#[inline(always)]
+fn vertical_step(words: &mut [u64], wpr: usize, h: usize, s: usize, ahead: bool) {
+    if s >= h || wpr == 0 {
+        return;
+    }
+    if ahead {
+        for y in 0..h - s {
+            let (a, b) = words.split_at_mut((y + s) * wpr);
+            for (d, v) in a[y * wpr..(y + 1) * wpr].iter_mut().zip(&b[..wpr]) {
+                *d |= *v;
+            }
+        }
+    } else {
+        for y in (s..h).rev() {
+            let (a, b) = words.split_at_mut(y * wpr);
+            for (d, v) in b[..wpr]
+                .iter_mut()
+                .zip(&a[(y - s) * wpr..(y - s + 1) * wpr])
+            {
+                *d |= *v;
+            }
+        }
+    }
+}
+
 /// Vertical one-sided windows of length `len` over whole rows, in place.
+#[inline(always)]
 fn vertical_window(img: &mut BitImage, len: usize, ahead: bool) {
     let h = img.height as usize;
     let wpr = img.words_per_row;
-    let words = &mut img.words;
-    let mut step = |s: usize| {
-        if s >= h {
-            return;
-        }
-        if ahead {
-            // rows y ← y | y+s, ascending: row y+s is still the old one.
-            for y in 0..h - s {
-                let (a, b) = words.split_at_mut((y + s) * wpr);
-                for (d, v) in a[y * wpr..(y + 1) * wpr].iter_mut().zip(&b[..wpr]) {
-                    *d |= *v;
-                }
-            }
-        } else {
-            // rows y ← y | y−s, descending.
-            for y in (s..h).rev() {
-                let (a, b) = words.split_at_mut(y * wpr);
-                for (d, v) in b[..wpr]
-                    .iter_mut()
-                    .zip(&a[(y - s) * wpr..(y - s + 1) * wpr])
-                {
-                    *d |= *v;
-                }
-            }
-        }
-    };
     let mut cover = 1;
     while cover * 2 <= len {
-        step(cover);
+        vertical_step(&mut img.words, wpr, h, cover, ahead);
         cover *= 2;
     }
     if cover < len {
-        step(len - cover);
+        vertical_step(&mut img.words, wpr, h, len - cover, ahead);
     }
 }
 
@@ -303,6 +364,7 @@ pub fn dilate_bits(src: &BitImage, radius: u32) -> BitImage {
 
 /// Per region: (first word, last word, mask of the first word, mask of the last word) for
 /// the columns `c0..c1` (non-empty).
+#[inline(always)]
 fn column_masks(c0: u32, c1: u32) -> (usize, usize, u64, u64) {
     let (w0, w1) = ((c0 / 64) as usize, ((c1 - 1) / 64) as usize);
     let m0 = u64::MAX << (c0 % 64);
@@ -310,6 +372,7 @@ fn column_masks(c0: u32, c1: u32) -> (usize, usize, u64, u64) {
     (w0, w1, m0, m1)
 }
 
+#[inline(always)]
 fn count_range(row: &[u64], (w0, w1, m0, m1): (usize, usize, u64, u64)) -> u64 {
     if w0 == w1 {
         return u64::from((row[w0] & m0 & m1).count_ones());
@@ -326,6 +389,7 @@ pub fn count_regions(bits: &BitImage) -> RegionCounts {
     count_regions_with(bits.width, bits.height, |y| bits.row(y))
 }
 
+#[inline(always)]
 fn count_regions_with<'a>(width: u32, height: u32, row: impl Fn(u32) -> &'a [u64]) -> RegionCounts {
     let grid = RegionGrid::new(width, height);
     let mut counts = RegionCounts::default();
@@ -385,11 +449,151 @@ pub fn region_counts(img: &RgbImage, threshold: u8, radius: u32) -> RegionCounts
 }
 
 /// [`region_counts`] with caller-provided buffers.
+///
+/// On an x86-64 CPU with AVX2 (x86-64-v3, detected at run time) the fused loop runs inside
+/// `pulp`'s dispatch, compiled for that instruction set, with the grey + threshold step done
+/// by [`x86::threshold_row_v3`] (8 pixels per step with `vpshufb` / `vpmaddwd`); elsewhere
+/// the portable code runs. Both give the same bits (checked by the property tests).
 pub fn region_counts_in(
     ws: &mut Workspace,
     img: &RgbImage,
     threshold: u8,
     radius: u32,
+) -> RegionCounts {
+    #[cfg(target_arch = "x86_64")]
+    if let Some(simd) = pulp::x86::V3::try_new() {
+        struct Run<'a> {
+            simd: pulp::x86::V3,
+            ws: &'a mut Workspace,
+            img: &'a RgbImage,
+            threshold: u8,
+            radius: u32,
+        }
+        impl pulp::WithSimd for Run<'_> {
+            type Output = RegionCounts;
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _: S) -> RegionCounts {
+                let simd = self.simd;
+                region_counts_fused(
+                    self.ws,
+                    self.img,
+                    self.threshold,
+                    self.radius,
+                    #[inline(always)]
+                    |rgb: &[u8], k: u32, out: &mut [u64]| x86::threshold_row_v3(simd, rgb, k, out),
+                )
+            }
+        }
+        return pulp::Simd::vectorize(
+            simd,
+            Run {
+                simd,
+                ws,
+                img,
+                threshold,
+                radius,
+            },
+        );
+    }
+    region_counts_fused(ws, img, threshold, radius, threshold_row)
+}
+
+/// The AVX2 grey + threshold kernel.
+#[cfg(target_arch = "x86_64")]
+pub mod x86 {
+    use core::arch::x86_64::{__m128i, __m256i};
+    use pulp::x86::V3;
+
+    /// Per 128-bit lane: 4 pixels (12 bytes) → four 32-bit lanes holding (r, g) as two
+    /// 16-bit values; 0x80 makes a zero byte.
+    const RG: [u8; 16] = [
+        0, 128, 1, 128, 3, 128, 4, 128, 6, 128, 7, 128, 9, 128, 10, 128,
+    ];
+    /// Per 128-bit lane: 4 pixels → four 32-bit lanes holding b.
+    const B: [u8; 16] = [
+        2, 128, 128, 128, 5, 128, 128, 128, 8, 128, 128, 128, 11, 128, 128, 128,
+    ];
+
+    #[inline(always)]
+    fn lanes(x: [u8; 16]) -> __m256i {
+        let mut both = [0u8; 32];
+        both[..16].copy_from_slice(&x);
+        both[16..].copy_from_slice(&x);
+        pulp::cast(both)
+    }
+
+    #[inline(always)]
+    fn load16(bytes: &[u8; 196], at: usize) -> __m128i {
+        let mut a = [0u8; 16];
+        a.copy_from_slice(&bytes[at..at + 16]);
+        pulp::cast(a)
+    }
+
+    /// [`super::threshold_row`] with AVX2: for each group of 8 pixels, two 16-byte loads
+    /// (pixels 0–3 and 4–7, one per 128-bit lane), `vpshufb` into (r, g) and (b, 0) 16-bit
+    /// pairs, `vpmaddwd` with (RY15, GY15) and (BY15, 0) — the exact 32-bit sum of
+    /// OpenCV's fixed-point grey — a compare with the bound and `vmovmskps` for 8 bits;
+    /// eight groups make one 64-pixel word. A word whose last group would read past the
+    /// row (the loads take 4 bytes beyond each 4-pixel half) is done pixel by pixel.
+    #[inline(always)]
+    pub fn threshold_row_v3(simd: V3, rgb: &[u8], k: u32, out: &mut [u64]) {
+        let avx = simd.avx;
+        let avx2 = simd.avx2;
+        let rg_mask = lanes(RG);
+        let b_mask = lanes(B);
+        let w_rg = avx
+            ._mm256_set1_epi32(super::color::GRAY_R as i32 | ((super::color::GRAY_G as i32) << 16));
+        let w_b = avx._mm256_set1_epi32(super::color::GRAY_B as i32);
+        // s >= k ⇔ s > k − 1 (k >= 2¹⁴, so k − 1 is a positive i32).
+        let bound = avx._mm256_set1_epi32(k as i32 - 1);
+        let group = |chunk: &[u8; 196], g: usize| -> u64 {
+            let v = avx._mm256_set_m128i(load16(chunk, 24 * g + 12), load16(chunk, 24 * g));
+            let rg = avx2._mm256_shuffle_epi8(v, rg_mask);
+            let b = avx2._mm256_shuffle_epi8(v, b_mask);
+            let s = avx2._mm256_add_epi32(
+                avx2._mm256_madd_epi16(rg, w_rg),
+                avx2._mm256_madd_epi16(b, w_b),
+            );
+            let white = avx2._mm256_cmpgt_epi32(s, bound);
+            u64::from(avx._mm256_movemask_ps(avx._mm256_castsi256_ps(white)) as u8)
+        };
+        for (i, o) in out.iter_mut().enumerate() {
+            let start = 192 * i;
+            *o = match rgb
+                .get(start..start + 196)
+                .and_then(|c| <&[u8; 196]>::try_from(c).ok())
+            {
+                Some(chunk) => {
+                    group(chunk, 0)
+                        | group(chunk, 1) << 8
+                        | group(chunk, 2) << 16
+                        | group(chunk, 3) << 24
+                        | group(chunk, 4) << 32
+                        | group(chunk, 5) << 40
+                        | group(chunk, 6) << 48
+                        | group(chunk, 7) << 56
+                }
+                None => {
+                    let mut word = 0u64;
+                    let end = (start + 192).min(rgb.len());
+                    for (j, px) in rgb[start.min(end)..end].chunks_exact(3).enumerate() {
+                        word |= u64::from(super::color::gray_sum(px[0], px[1], px[2]) >= k) << j;
+                    }
+                    word
+                }
+            };
+        }
+    }
+}
+
+/// The fused pipeline itself (see [`region_counts_in`]).
+#[inline(always)]
+fn region_counts_fused(
+    ws: &mut Workspace,
+    img: &RgbImage,
+    threshold: u8,
+    radius: u32,
+    threshold_row: impl Fn(&[u8], u32, &mut [u64]),
 ) -> RegionCounts {
     let (width, height) = img.dimensions();
     let wpr = (width as usize).div_ceil(64);
@@ -434,7 +638,7 @@ pub fn region_counts_in(
         for (a, b) in down.words.iter_mut().zip(&up.words) {
             *a |= *b;
         }
-        let counts = count_regions(&down);
+        let counts = count_regions_with(width, height, |y| down.row(y));
         ws.down = down.words;
         ws.up = up.words;
         counts
@@ -445,7 +649,7 @@ pub fn region_counts_in(
             words_per_row: wpr,
             words: std::mem::take(&mut ws.down),
         };
-        let counts = count_regions(&bits);
+        let counts = count_regions_with(width, height, |y| bits.row(y));
         ws.down = bits.words;
         counts
     }
@@ -561,6 +765,8 @@ mod tests {
                 prop_assert_eq!(region_counts(&img, threshold, radius), counts);
                 let mut ws = Workspace::default();
                 prop_assert_eq!(region_counts_in(&mut ws, &img, threshold, radius), counts);
+                // The same code outside the CPU dispatch (the baseline instruction set).
+                prop_assert_eq!(region_counts_fused(&mut ws, &img, threshold, radius, threshold_row), counts);
                 // Reusing the workspace for another size gives the same answer too.
                 let other = sparse_image(h, w, bright, seed ^ 1);
                 prop_assert_eq!(
