@@ -13,6 +13,7 @@ across images; fleetmap is timed on the same PNG files; finally the fractions ar
 agree. Usage:
 
     scripts/bench-vs-opencv.py [--images 16] [--seconds 3] [--bin target/release/fleetmap]
+                               [--code-path best|x86-v2|portable] [--json]
 
 Without --bin it builds `cargo build --release --bin fleetmap` and uses that binary.
 Needs opencv-python-headless and numpy (make venv, or /work/venv).
@@ -93,6 +94,8 @@ def main():
     ap.add_argument("--height", type=int, default=1080)
     ap.add_argument("--seconds", type=float, default=3.0, help="measuring time per figure")
     ap.add_argument("--bin", help="fleetmap binary (default: build target/release/fleetmap)")
+    ap.add_argument("--code-path", default="best", choices=["best", "x86-v2", "portable"],
+                    help="fleetmap's code path (default: the best this CPU offers)")
     ap.add_argument("--json", action="store_true", help="print one JSON object")
     args = ap.parse_args()
     fleetmap = find_binary(args)
@@ -110,7 +113,8 @@ def main():
         cv_parallel = time_parallel(images, args.seconds, threads)
 
         out = subprocess.run([fleetmap, "bench", "classify", "--seconds", str(args.seconds),
-                              "--json", *files], check=True, capture_output=True, text=True)
+                              "--code-path", args.code_path, "--json", *files],
+                             check=True, capture_output=True, text=True)
         fm = json.loads(out.stdout)
 
         # Same answers: fleetmap's fractions equal OpenCV's on every image.
@@ -133,6 +137,7 @@ def main():
         "fleetmap_single_thread_images_per_second": fm["images_per_second"],
         "fleetmap_parallel_images_per_second": fm["images_per_second_parallel"],
         "threads": threads,
+        "fleetmap_code_path": fm.get("code_path"),
         "single_thread_ratio": fm["images_per_second"] / cv_single,
         "parallel_ratio": fm["images_per_second_parallel"] / cv_parallel,
     }
@@ -142,6 +147,7 @@ def main():
         print(f"{args.width}×{args.height}, {len(files)} images, fractions identical")
         print(f"  OpenCV {cv2.__version__} single thread : {cv_single:8.1f} images/s")
         print(f"  fleetmap single thread    : {fm['images_per_second']:8.1f} images/s"
+              f"  [{fm.get('code_path')}]"
               f"  ({result['single_thread_ratio']:.2f}× OpenCV)")
         print(f"  OpenCV {threads} threads       : {cv_parallel:8.1f} images/s")
         print(f"  fleetmap {threads} threads        : {fm['images_per_second_parallel']:8.1f} images/s"

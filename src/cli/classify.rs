@@ -300,6 +300,10 @@ pub struct BenchClassifyArgs {
     /// Also time the plain reference implementation (slow).
     #[arg(long)]
     pub reference: bool,
+    /// Code path: `best` (AVX2, then SSSE3/SSE4, chosen at run time), `x86-v2` (at most
+    /// SSSE3/SSE4) or `portable` (baseline instruction set).
+    #[arg(long, value_enum, default_value_t = PathArg::Best)]
+    pub code_path: PathArg,
     /// Write the synthetic images as PNG into this directory (`bench-000.png` …), e.g. to
     /// time OpenCV on the same pixels (`scripts/bench-vs-opencv.py`).
     #[arg(long, value_name = "DIR")]
@@ -310,6 +314,18 @@ pub struct BenchClassifyArgs {
     /// Print one JSON object.
     #[arg(long)]
     pub json: bool,
+}
+
+/// `--code-path` of `fleetmap bench classify`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum PathArg {
+    /// The best the CPU offers.
+    Best,
+    /// At most the x86-64-v2 kernel.
+    #[value(name = "x86-v2")]
+    X86V2,
+    /// The portable code.
+    Portable,
 }
 
 /// The synthetic runway scenes of `fleetmap bench classify` (image `i` of `n`).
@@ -402,6 +418,20 @@ pub fn bench(args: BenchClassifyArgs) -> anyhow::Result<ExitCode> {
         runway::analyse(img, &params).context("image cannot be classified")?;
     }
     let budget = args.seconds;
+    let path = match args.code_path {
+        PathArg::Best => fast::CodePath::Best,
+        PathArg::X86V2 => fast::CodePath::X86V2,
+        PathArg::Portable => fast::CodePath::Portable,
+    };
+    let analyse = |ws: &mut fast::Workspace, img: &image::RgbImage| {
+        fast::region_counts_on(
+            path,
+            ws,
+            img,
+            params.intensity_threshold,
+            params.dilation_iterations,
+        )
+    };
     // Single-threaded: one workspace, images one after the other.
     let single = {
         let mut ws = fast::Workspace::default();
@@ -409,7 +439,7 @@ pub fn bench(args: BenchClassifyArgs) -> anyhow::Result<ExitCode> {
         let mut done = 0u64;
         loop {
             for img in &images {
-                black_box(runway::analyse_in(&mut ws, black_box(img), &params).ok());
+                black_box(analyse(&mut ws, black_box(img)));
             }
             done += images.len() as u64;
             if start.elapsed().as_secs_f64() >= budget {
@@ -427,7 +457,7 @@ pub fn bench(args: BenchClassifyArgs) -> anyhow::Result<ExitCode> {
             images
                 .par_iter()
                 .for_each_init(fast::Workspace::default, |ws, img| {
-                    black_box(runway::analyse_in(ws, black_box(img), &params).ok());
+                    black_box(analyse(ws, black_box(img)));
                 });
             done += images.len() as u64;
             if start.elapsed().as_secs_f64() >= budget {
@@ -466,6 +496,7 @@ pub fn bench(args: BenchClassifyArgs) -> anyhow::Result<ExitCode> {
             "height": h,
             "images": images.len(),
             "pipeline": "gray>150, 7x 3x3 dilation, 5 region counts (decoding excluded)",
+            "code_path": path,
         });
         if let Some(r) = reference_ips {
             v["reference_images_per_second"] = json!(r);

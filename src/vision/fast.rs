@@ -129,11 +129,15 @@ pub fn threshold_row(rgb: &[u8], k: u32, out: &mut [u64]) {
     let mut chunks = rgb.chunks_exact(192);
     let mut i = 0;
     for chunk in &mut chunks {
-        // 64 pixels: compute the 64 comparisons first (vectorisable), then pack them.
+        // 64 pixels: the 64 comparisons into a byte array first (the compiler vectorises
+        // this loop for the target), then packed into the word.
+        let mut white = [0u8; 64];
+        for (w, px) in white.iter_mut().zip(chunk.chunks_exact(3)) {
+            *w = u8::from(color::gray_sum(px[0], px[1], px[2]) >= k);
+        }
         let mut word = 0u64;
-        for (j, px) in chunk.chunks_exact(3).enumerate() {
-            let s = color::gray_sum(px[0], px[1], px[2]);
-            word |= u64::from(s >= k) << j;
+        for (j, w) in white.iter().enumerate() {
+            word |= u64::from(*w) << j;
         }
         out[i] = word;
         i += 1;
@@ -327,6 +331,23 @@ fn vertical_window(img: &mut BitImage, len: usize, ahead: bool) {
 /// Grey + threshold of a whole image: bit = `gray > threshold` (`cv2.threshold`,
 /// `THRESH_BINARY`: strictly greater gives the maximum value).
 pub fn threshold_bits(img: &RgbImage, threshold: u8) -> BitImage {
+    struct Op<'a>(&'a RgbImage, u8);
+    impl KernelUser for Op<'_> {
+        type Output = BitImage;
+        #[inline(always)]
+        fn run(self, threshold_row: impl Fn(&[u8], u32, &mut [u64])) -> BitImage {
+            threshold_bits_with(self.0, self.1, threshold_row)
+        }
+    }
+    dispatch(Op(img, threshold))
+}
+
+#[inline(always)]
+fn threshold_bits_with(
+    img: &RgbImage,
+    threshold: u8,
+    threshold_row: impl Fn(&[u8], u32, &mut [u64]),
+) -> BitImage {
     let mut out = BitImage::new(img.width(), img.height());
     let k = color::gray_sum_above(threshold);
     let row_bytes = img.width() as usize * 3;
@@ -337,6 +358,77 @@ pub fn threshold_bits(img: &RgbImage, threshold: u8) -> BitImage {
         threshold_row(rgb, k, out.row_mut(y as u32));
     }
     out
+}
+
+/// Code that runs with a grey + threshold row kernel; see [`dispatch`].
+trait KernelUser {
+    type Output;
+    fn run(self, threshold_row: impl Fn(&[u8], u32, &mut [u64])) -> Self::Output;
+}
+
+/// Run `user` with the best row kernel for this CPU, detected at run time: on x86-64 with
+/// AVX2 (x86-64-v3) inside `pulp`'s dispatch, so that `user` (inlined) is compiled for that
+/// instruction set, with [`x86::threshold_row_v3`]; with SSSE3/SSE4 (x86-64-v2) likewise
+/// with [`x86::threshold_row_v2`]; elsewhere with the portable [`threshold_row`] (which
+/// the compiler vectorises for the target, e.g. NEON on aarch64). All kernels give the
+/// same bits (checked by the property tests).
+#[inline(always)]
+fn dispatch<U: KernelUser>(user: U) -> U::Output {
+    dispatch_up_to(CodePath::Best, user)
+}
+
+/// Which row kernel to use (for benchmarks and comparisons; normal calls use the best).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Default, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum CodePath {
+    /// The best the CPU offers (AVX2, then SSSE3/SSE4, then portable).
+    #[default]
+    Best,
+    /// At most the x86-64-v2 (SSSE3/SSE4) kernel.
+    X86V2,
+    /// The portable code compiled for the baseline instruction set.
+    Portable,
+}
+
+#[inline(always)]
+fn dispatch_up_to<U: KernelUser>(max: CodePath, user: U) -> U::Output {
+    #[cfg(target_arch = "x86_64")]
+    if max == CodePath::Best
+        && let Some(simd) = pulp::x86::V3::try_new()
+    {
+        struct Run<U>(pulp::x86::V3, U);
+        impl<U: KernelUser> pulp::WithSimd for Run<U> {
+            type Output = U::Output;
+            #[inline(always)]
+            fn with_simd<S: pulp::Simd>(self, _: S) -> U::Output {
+                let simd = self.0;
+                self.1.run(
+                    #[inline(always)]
+                    |rgb: &[u8], k: u32, out: &mut [u64]| x86::threshold_row_v3(simd, rgb, k, out),
+                )
+            }
+        }
+        return pulp::Simd::vectorize(simd, Run(simd, user));
+    }
+    #[cfg(target_arch = "x86_64")]
+    if max != CodePath::Portable
+        && let Some(simd) = pulp::x86::V2::try_new()
+    {
+        struct Run<U>(pulp::x86::V2, U);
+        impl<U: KernelUser> pulp::NullaryFnOnce for Run<U> {
+            type Output = U::Output;
+            #[inline(always)]
+            fn call(self) -> U::Output {
+                let simd = self.0;
+                self.1.run(
+                    #[inline(always)]
+                    |rgb: &[u8], k: u32, out: &mut [u64]| x86::threshold_row_v2(simd, rgb, k, out),
+                )
+            }
+        }
+        return simd.vectorize(Run(simd, user));
+    }
+    user.run(threshold_row)
 }
 
 /// Dilation of a binary image by the (2·`radius`+1)² square, the outside of the image
@@ -448,61 +540,60 @@ pub fn region_counts(img: &RgbImage, threshold: u8, radius: u32) -> RegionCounts
     region_counts_in(&mut Workspace::default(), img, threshold, radius)
 }
 
-/// [`region_counts`] with caller-provided buffers.
-///
-/// On an x86-64 CPU with AVX2 (x86-64-v3, detected at run time) the fused loop runs inside
-/// `pulp`'s dispatch, compiled for that instruction set, with the grey + threshold step done
-/// by [`x86::threshold_row_v3`] (8 pixels per step with `vpshufb` / `vpmaddwd`); elsewhere
-/// the portable code runs. Both give the same bits (checked by the property tests).
+/// [`region_counts`] with caller-provided buffers, on the best kernel for this CPU
+/// (see [`dispatch`]).
 pub fn region_counts_in(
     ws: &mut Workspace,
     img: &RgbImage,
     threshold: u8,
     radius: u32,
 ) -> RegionCounts {
-    #[cfg(target_arch = "x86_64")]
-    if let Some(simd) = pulp::x86::V3::try_new() {
-        struct Run<'a> {
-            simd: pulp::x86::V3,
-            ws: &'a mut Workspace,
-            img: &'a RgbImage,
-            threshold: u8,
-            radius: u32,
-        }
-        impl pulp::WithSimd for Run<'_> {
-            type Output = RegionCounts;
-            #[inline(always)]
-            fn with_simd<S: pulp::Simd>(self, _: S) -> RegionCounts {
-                let simd = self.simd;
-                region_counts_fused(
-                    self.ws,
-                    self.img,
-                    self.threshold,
-                    self.radius,
-                    #[inline(always)]
-                    |rgb: &[u8], k: u32, out: &mut [u64]| x86::threshold_row_v3(simd, rgb, k, out),
-                )
-            }
-        }
-        return pulp::Simd::vectorize(
-            simd,
-            Run {
-                simd,
-                ws,
-                img,
-                threshold,
-                radius,
-            },
-        );
+    region_counts_on(CodePath::Best, ws, img, threshold, radius)
+}
+
+/// [`region_counts_in`] on at most the given code path (for benchmarks and comparisons).
+pub fn region_counts_on(
+    path: CodePath,
+    ws: &mut Workspace,
+    img: &RgbImage,
+    threshold: u8,
+    radius: u32,
+) -> RegionCounts {
+    struct Op<'a> {
+        ws: &'a mut Workspace,
+        img: &'a RgbImage,
+        threshold: u8,
+        radius: u32,
     }
-    region_counts_fused(ws, img, threshold, radius, threshold_row)
+    impl KernelUser for Op<'_> {
+        type Output = RegionCounts;
+        #[inline(always)]
+        fn run(self, threshold_row: impl Fn(&[u8], u32, &mut [u64])) -> RegionCounts {
+            region_counts_fused(
+                self.ws,
+                self.img,
+                self.threshold,
+                self.radius,
+                threshold_row,
+            )
+        }
+    }
+    dispatch_up_to(
+        path,
+        Op {
+            ws,
+            img,
+            threshold,
+            radius,
+        },
+    )
 }
 
 /// The AVX2 grey + threshold kernel.
 #[cfg(target_arch = "x86_64")]
 pub mod x86 {
     use core::arch::x86_64::{__m128i, __m256i};
-    use pulp::x86::V3;
+    use pulp::x86::{V2, V3};
 
     /// Per 128-bit lane: 4 pixels (12 bytes) → four 32-bit lanes holding (r, g) as two
     /// 16-bit values; 0x80 makes a zero byte.
@@ -527,6 +618,56 @@ pub mod x86 {
         let mut a = [0u8; 16];
         a.copy_from_slice(&bytes[at..at + 16]);
         pulp::cast(a)
+    }
+
+    /// [`threshold_row_v3`] with 128-bit SSSE3 registers: 4 pixels per step (one 16-byte
+    /// load, `pshufb`, `pmaddwd`, `movmskps`), sixteen steps per 64-pixel word.
+    #[inline(always)]
+    pub fn threshold_row_v2(simd: V2, rgb: &[u8], k: u32, out: &mut [u64]) {
+        let sse = simd.sse;
+        let sse2 = simd.sse2;
+        let ssse3 = simd.ssse3;
+        let rg_mask: __m128i = pulp::cast(RG);
+        let b_mask: __m128i = pulp::cast(B);
+        let w_rg = sse2
+            ._mm_set1_epi32(super::color::GRAY_R as i32 | ((super::color::GRAY_G as i32) << 16));
+        let w_b = sse2._mm_set1_epi32(super::color::GRAY_B as i32);
+        let bound = sse2._mm_set1_epi32(k as i32 - 1);
+        let group = |chunk: &[u8; 196], g: usize| -> u64 {
+            let v = load16(chunk, 12 * g);
+            let rg = ssse3._mm_shuffle_epi8(v, rg_mask);
+            let b = ssse3._mm_shuffle_epi8(v, b_mask);
+            let s = sse2._mm_add_epi32(sse2._mm_madd_epi16(rg, w_rg), sse2._mm_madd_epi16(b, w_b));
+            let white = sse2._mm_cmpgt_epi32(s, bound);
+            u64::from(sse._mm_movemask_ps(sse2._mm_castsi128_ps(white)) as u8)
+        };
+        for (i, o) in out.iter_mut().enumerate() {
+            let start = 192 * i;
+            *o = match rgb
+                .get(start..start + 196)
+                .and_then(|c| <&[u8; 196]>::try_from(c).ok())
+            {
+                Some(chunk) => {
+                    let mut word = 0u64;
+                    for g in 0..16 {
+                        word |= group(chunk, g) << (4 * g);
+                    }
+                    word
+                }
+                None => scalar_word(rgb, start, k),
+            };
+        }
+    }
+
+    /// The pixels of one 64-pixel word one by one (the end of a row).
+    #[inline(always)]
+    fn scalar_word(rgb: &[u8], start: usize, k: u32) -> u64 {
+        let mut word = 0u64;
+        let end = (start + 192).min(rgb.len());
+        for (j, px) in rgb[start.min(end)..end].chunks_exact(3).enumerate() {
+            word |= u64::from(super::color::gray_sum(px[0], px[1], px[2]) >= k) << j;
+        }
+        word
     }
 
     /// [`super::threshold_row`] with AVX2: for each group of 8 pixels, two 16-byte loads
@@ -573,14 +714,7 @@ pub mod x86 {
                         | group(chunk, 6) << 48
                         | group(chunk, 7) << 56
                 }
-                None => {
-                    let mut word = 0u64;
-                    let end = (start + 192).min(rgb.len());
-                    for (j, px) in rgb[start.min(end)..end].chunks_exact(3).enumerate() {
-                        word |= u64::from(super::color::gray_sum(px[0], px[1], px[2]) >= k) << j;
-                    }
-                    word
-                }
+                None => scalar_word(rgb, start, k),
             };
         }
     }
@@ -759,12 +893,28 @@ mod tests {
                 let dilated = reference::dilate(&binary, radius);
                 let ours = run_with_intermediates(&img, threshold, radius);
                 prop_assert_eq!(ours.binary.to_gray_image(), binary);
+                prop_assert_eq!(&threshold_bits_with(&img, threshold, threshold_row), &ours.binary);
+                // Each CPU-specific kernel this machine has, called directly.
+                #[cfg(target_arch = "x86_64")]
+                {
+                    if let Some(v2) = pulp::x86::V2::try_new() {
+                        let bits = v2.vectorize(|| threshold_bits_with(&img, threshold, |a: &[u8], k, o: &mut [u64]| x86::threshold_row_v2(v2, a, k, o)));
+                        prop_assert_eq!(&bits, &ours.binary);
+                    }
+                    if let Some(v3) = pulp::x86::V3::try_new() {
+                        let bits = v3.vectorize(|| threshold_bits_with(&img, threshold, |a: &[u8], k, o: &mut [u64]| x86::threshold_row_v3(v3, a, k, o)));
+                        prop_assert_eq!(&bits, &ours.binary);
+                    }
+                }
                 prop_assert_eq!(ours.dilated.to_gray_image(), dilated.clone());
                 let counts = reference::count_regions(&dilated);
                 prop_assert_eq!(ours.counts, counts);
                 prop_assert_eq!(region_counts(&img, threshold, radius), counts);
                 let mut ws = Workspace::default();
                 prop_assert_eq!(region_counts_in(&mut ws, &img, threshold, radius), counts);
+                for path in [CodePath::Best, CodePath::X86V2, CodePath::Portable] {
+                    prop_assert_eq!(region_counts_on(path, &mut ws, &img, threshold, radius), counts);
+                }
                 // The same code outside the CPU dispatch (the baseline instruction set).
                 prop_assert_eq!(region_counts_fused(&mut ws, &img, threshold, radius, threshold_row), counts);
                 // Reusing the workspace for another size gives the same answer too.
