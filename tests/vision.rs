@@ -548,3 +548,31 @@ fn votes_from_classified_images_map_a_runway() {
     let back: VoteBook = serde_json::from_str(&json).unwrap();
     assert_eq!(back, book);
 }
+
+/// JPEG camera images load and classify like their lossless originals (JPEG decoders
+/// differ by a grey level here and there, so only the labels are compared).
+#[test]
+fn jpeg_images_classify_like_png() {
+    use image::codecs::jpeg::JpegEncoder;
+    let p = RunwayParams::default();
+    for name in ["runway-centre-markings", "runway-right-half", "grass"] {
+        let png = load_image_file(
+            &assets().join(format!("{name}.png")),
+            &LoadLimits::default(),
+        )
+        .unwrap();
+        let mut jpeg = Vec::new();
+        JpegEncoder::new_with_quality(&mut jpeg, 95)
+            .encode_image(&png)
+            .unwrap();
+        let img = load_image_bytes(&jpeg, &LoadLimits::default()).unwrap();
+        assert_eq!(img.dimensions(), png.dimensions());
+        let a = runway::classify(&png, 0.0, &p).unwrap();
+        let b = runway::classify(&img, 0.0, &p).unwrap();
+        assert_eq!(a.labels, b.labels, "{name}");
+        assert!(
+            (a.fractions.center - b.fractions.center).abs() < 0.05,
+            "{name}"
+        );
+    }
+}
