@@ -493,6 +493,41 @@ mod tests {
     }
 
     #[test]
+    fn classify_many_equals_one_by_one() {
+        use crate::vision::synth::{RunwayScene, RunwayStrip, render_runway};
+        let p = RunwayParams::default();
+        let imgs: Vec<RgbImage> = (0..6)
+            .map(|i| {
+                render_runway(&RunwayScene::grass(90 + i, 60, u64::from(i)).with_runway(
+                    RunwayStrip {
+                        angle_deg: f64::from(i) * 30.0,
+                        offset_px: 10.0,
+                        width_px: 40.0,
+                        length_px: None,
+                        along_px: 0.0,
+                        markings: false,
+                    },
+                ))
+            })
+            .chain([RgbImage::new(2, 2)])
+            .collect();
+        let jobs: Vec<(&RgbImage, f64)> = imgs
+            .iter()
+            .enumerate()
+            .map(|(i, img)| (img, i as f64 * 90.0))
+            .collect();
+        let many = classify_many(&jobs, &p);
+        assert_eq!(many.len(), imgs.len());
+        for ((img, heading), got) in jobs.iter().zip(&many) {
+            match (classify(img, *heading, &p), got) {
+                (Ok(want), Ok(got)) => assert_eq!(&want, got),
+                (Err(_), Err(VisionError::TooSmall { .. })) => {}
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+
+    #[test]
     fn tiny_images_and_bad_params_are_errors() {
         let img = RgbImage::new(2, 10);
         assert!(matches!(
