@@ -7,6 +7,7 @@
 
 pub mod bench;
 pub mod check;
+pub mod classify;
 pub mod experiment;
 pub mod grid;
 
@@ -40,6 +41,8 @@ pub enum Command {
     Experiment(experiment::ExperimentArgs),
     /// Convert between mission-grid cells and GPS/UTM coordinates; export cells as GeoJSON/KML.
     Grid(grid::GridArgs),
+    /// Classify images with the runway sensing model (and the green-pixel measurement).
+    Classify(classify::ClassifyArgs),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
@@ -80,5 +83,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check(args) => check::run(args),
         Command::Experiment(args) => experiment::run(args),
         Command::Grid(args) => grid::run(args),
+        Command::Classify(args) => classify::run(args),
     }
 }
