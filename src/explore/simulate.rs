@@ -36,7 +36,7 @@ impl Default for SimConfig {
     fn default() -> Self {
         SimConfig {
             robots: 1,
-            sharing: Sharing::Meet,
+            sharing: Sharing::Gcs,
             robot_speed: 1.0,
             roi_velocity: (0.0, 0.0),
             observe_time: 0.0,
@@ -250,39 +250,29 @@ pub fn simulate(
 /// adding, `cells − 1` times, a uniformly random 4-neighbour of the region that is not yet in
 /// it (Eden growth). Returns the cells (always 4-connected) and a uniformly random start cell
 /// among them.
-pub fn random_roi<R: rand::Rng + ?Sized>(rng: &mut R, cells: usize) -> (HashSet<Cell>, Cell) {
+pub fn random_roi<R: rand::RngExt + ?Sized>(rng: &mut R, cells: usize) -> (HashSet<Cell>, Cell) {
     let mut roi: HashSet<Cell> = HashSet::with_capacity(cells);
+    if cells == 0 {
+        return (roi, Cell::new(0, 0));
+    }
     let mut order: Vec<Cell> = Vec::with_capacity(cells);
     let mut frontier: Vec<Cell> = Vec::new();
     let mut in_frontier: HashSet<Cell> = HashSet::new();
-    let mut add = |cell: Cell,
-                   roi: &mut HashSet<Cell>,
-                   order: &mut Vec<Cell>,
-                   frontier: &mut Vec<Cell>,
-                   in_frontier: &mut HashSet<Cell>| {
-        roi.insert(cell);
-        order.push(cell);
-        for n in cell.neighbours4() {
+    let mut next = Cell::new(0, 0);
+    loop {
+        roi.insert(next);
+        order.push(next);
+        for n in next.neighbours4() {
             if !roi.contains(&n) && in_frontier.insert(n) {
                 frontier.push(n);
             }
         }
-    };
-    if cells == 0 {
-        return (roi, Cell::new(0, 0));
-    }
-    add(
-        Cell::new(0, 0),
-        &mut roi,
-        &mut order,
-        &mut frontier,
-        &mut in_frontier,
-    );
-    while roi.len() < cells {
+        if roi.len() >= cells {
+            break;
+        }
         let k = rng.random_range(0..frontier.len());
-        let cell = frontier.swap_remove(k);
-        in_frontier.remove(&cell);
-        add(cell, &mut roi, &mut order, &mut frontier, &mut in_frontier);
+        next = frontier.swap_remove(k);
+        in_frontier.remove(&next);
     }
     let start = order[rng.random_range(0..order.len())];
     (roi, start)

@@ -29,6 +29,18 @@
 //!   at the same time, or pass each other on the same edge;
 //! - [`Sharing::Gcs`]: every robot decides on the global states (the GCS hears every robot).
 //!
+//! Lemma 1 needs more than meetings. Its proof (the reward argument of Higashikawa et al.)
+//! counts on every robot collecting reward while it moves: never walking again where others
+//! already went. With meeting-only sharing, a robot that finished its branch and goes to
+//! help a sibling branch under exploration does not know which sub-branch the robots there
+//! took, so it follows them instead of opening the untouched one. Smallest case found
+//! (`tests::meeting_sharing_can_exceed_lemma_1`): 7 cells, 2 robots, the start with three
+//! children; the robot back from the short branch follows the other into the branch it is
+//! already doing, and the team is home at t = 10 where eq. (2) allows 9 (GCS sharing: 6).
+//! `fleetmap experiment dfs --sharing meet` measures it on random ROIs (above the bound in
+//! most trials); with [`Sharing::Gcs`] the bound held on every trial we ran. So the GCS's
+//! global view is the default, and the meeting model is kept for the study.
+//!
 //! # Driving it (per robot)
 //! ```text
 //! loop {
@@ -76,9 +88,11 @@ impl fmt::Display for RobotId {
 #[serde(rename_all = "lowercase")]
 pub enum Sharing {
     /// Robots exchange states when they meet at a vertex or on an edge (the paper's model).
-    #[default]
     Meet,
-    /// Every robot uses the global states held by the GCS.
+    /// Every robot uses the global states held by the GCS (the default: it is what a GCS
+    /// that hears every robot has, and the only one of the two under which Lemma 1 holds
+    /// in our measurements — see the module documentation).
+    #[default]
     Gcs,
 }
 

@@ -322,7 +322,14 @@ fn explored_state_propagates_up_like_fig_3() {
 #[test]
 fn meeting_sharing_only_learns_on_meeting() {
     let roi = roi(&[(0, 0), (1, 0), (0, 1)]);
-    let mut ex = Explorer::new(ExplorerConfig::default(), c(0, 0), &ids(2)).unwrap();
+    let mut ex = Explorer::new(
+        ExplorerConfig {
+            sharing: Sharing::Meet,
+        },
+        c(0, 0),
+        &ids(2),
+    )
+    .unwrap();
     gather(&mut ex, &roi);
     assert_eq!(ex.next_action(RobotId(1)).unwrap(), Action::MoveTo(c(1, 0)));
     assert_eq!(ex.next_action(RobotId(2)).unwrap(), Action::MoveTo(c(0, 1)));
@@ -602,4 +609,32 @@ fn moves_only_over_tree_cells_between_neighbours() {
             }
         }
     }
+}
+
+/// The smallest instance (found by search over random ROIs) where meeting-only sharing
+/// exceeds Lemma 1's bound while GCS sharing stays well within it (see the module docs).
+#[test]
+fn meeting_sharing_can_exceed_lemma_1() {
+    use crate::explore::bounds::lemma1_upper_bound;
+    let roi = roi(&[(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (1, 3), (2, 1)]);
+    let run = |sharing| {
+        simulate(
+            &roi,
+            c(1, 1),
+            &SimConfig {
+                robots: 2,
+                sharing,
+                ..SimConfig::default()
+            },
+        )
+        .unwrap()
+    };
+    let meet = run(Sharing::Meet);
+    let gcs = run(Sharing::Gcs);
+    assert_eq!(meet.d_max, 2);
+    let bound = lemma1_upper_bound(7, meet.d_max, 2, 1.0, 0.0);
+    assert_eq!(bound, 9.0);
+    assert_eq!(meet.cost, 10.0);
+    assert_eq!(gcs.cost, 6.0);
+    assert!(gcs.cost <= lemma1_upper_bound(7, gcs.d_max, 2, 1.0, 0.0));
 }
