@@ -142,6 +142,9 @@ pub struct DfsArgs {
     /// How robots share vertex states.
     #[arg(long, value_enum, default_value_t = SharingChoice::Gcs)]
     pub sharing: SharingChoice,
+    /// Which sweeps to run (comma-separated).
+    #[arg(long, value_delimiter = ',', value_enum, default_value = "cells,robots,ratio")]
+    pub sweeps: Vec<Sweep>,
     /// Numbers of ROI cells for Fig. 7b (comma-separated).
     #[arg(long, value_delimiter = ',', default_value = "40,60,80,100,120,140,160,180,200")]
     pub cells: Vec<usize>,
@@ -173,6 +176,7 @@ impl DfsArgs {
             seed,
             out,
             sharing: SharingChoice::Gcs,
+            sweeps: vec![Sweep::Cells, Sweep::Robots, Sweep::Ratio],
             cells: vec![40, 60, 80, 100, 120, 140, 160, 180, 200],
             robots: vec![1, 2, 4, 8, 12, 16, 20, 24, 28, 32],
             ratios: [1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0]
@@ -202,15 +206,15 @@ impl DfsArgs {
                 return bad(format!("{r} robots: expected 1 to 255"));
             }
         }
-        if self.cells.is_empty() && self.robots.is_empty() && self.ratios.is_empty() {
-            return bad("nothing to sweep: --cells, --robots and --ratios are all empty".into());
+        if configurations(self).is_empty() {
+            return bad("nothing to sweep: no --sweeps, or their value lists are empty".into());
         }
         Ok(())
     }
 }
 
 /// Which variable a configuration sweeps (Fig. 7b, c, d).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Sweep {
     /// Number of ROI cells (Fig. 7b).
@@ -375,19 +379,20 @@ pub fn configurations(args: &DfsArgs) -> Vec<Configuration> {
             robots: args.base_robots,
             speed_ratio: args.base_ratio,
         };
-        for &cells in &args.cells {
+        let on = |s| args.sweeps.contains(&s);
+        for &cells in args.cells.iter().filter(|_| on(Sweep::Cells)) {
             out.push(Configuration {
                 cells,
                 ..base(Sweep::Cells)
             });
         }
-        for &robots in &args.robots {
+        for &robots in args.robots.iter().filter(|_| on(Sweep::Robots)) {
             out.push(Configuration {
                 robots,
                 ..base(Sweep::Robots)
             });
         }
-        for &speed_ratio in &args.ratios {
+        for &speed_ratio in args.ratios.iter().filter(|_| on(Sweep::Ratio)) {
             out.push(Configuration {
                 speed_ratio,
                 ..base(Sweep::Ratio)
