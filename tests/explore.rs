@@ -196,16 +196,20 @@ fn experiment_dfs_writes_csv_json_and_plots() {
         .unwrap();
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(out.status.success(), "{stderr}");
-    assert!(stderr.contains("stayed within the Lemma 1 upper bound"), "{stderr}");
+    assert!(
+        stderr.contains("stayed within the Lemma 1 upper bound"),
+        "{stderr}"
+    );
     let stdout = String::from_utf8_lossy(&out.stdout);
     assert!(stdout.contains("ALG/LM"), "{stdout}");
     let csv = std::fs::read_to_string(dir.path().join("dfs_trials.csv")).unwrap();
     // 6 configurations × 4 trials + header.
     assert_eq!(csv.lines().count(), 25);
     assert!(csv.lines().skip(1).all(|l| l.ends_with(",true")));
-    let summary: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(dir.path().join("dfs_summary.json")).unwrap())
-            .unwrap();
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("dfs_summary.json")).unwrap(),
+    )
+    .unwrap();
     let confs = summary["summaries"].as_array().unwrap();
     assert_eq!(confs.len(), 6);
     for c in confs {
@@ -213,7 +217,12 @@ fn experiment_dfs_writes_csv_json_and_plots() {
         assert_eq!(c["violations"], 0);
         assert!(c["cost"]["min"].as_f64().unwrap() <= c["cost"]["max"].as_f64().unwrap());
     }
-    for png in ["fig7a_roi.png", "fig7b_cells.png", "fig7c_robots.png", "fig7d_ratio.png"] {
+    for png in [
+        "fig7a_roi.png",
+        "fig7b_cells.png",
+        "fig7c_robots.png",
+        "fig7d_ratio.png",
+    ] {
         let img = image::open(dir.path().join(png)).unwrap().to_rgb8();
         assert!(img.width() >= 640, "{png}");
         // Not blank: the plot has colour in it (lines, cells, text).
@@ -222,7 +231,16 @@ fn experiment_dfs_writes_csv_json_and_plots() {
     }
     // --json prints the summary.
     let out = fleetmap()
-        .args(["experiment", "dfs", "--trials", "1", "--cells", "20", "--robots", "2"])
+        .args([
+            "experiment",
+            "dfs",
+            "--trials",
+            "1",
+            "--cells",
+            "20",
+            "--robots",
+            "2",
+        ])
         .args(["--ratios", "3", "--json", "--out"])
         .arg(dir.path().join("j"))
         .output()

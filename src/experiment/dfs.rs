@@ -143,16 +143,33 @@ pub struct DfsArgs {
     #[arg(long, value_enum, default_value_t = SharingChoice::Gcs)]
     pub sharing: SharingChoice,
     /// Which sweeps to run (comma-separated).
-    #[arg(long, value_delimiter = ',', value_enum, default_value = "cells,robots,ratio")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_enum,
+        default_value = "cells,robots,ratio"
+    )]
     pub sweeps: Vec<Sweep>,
     /// Numbers of ROI cells for Fig. 7b (comma-separated).
-    #[arg(long, value_delimiter = ',', default_value = "40,60,80,100,120,140,160,180,200")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "40,60,80,100,120,140,160,180,200"
+    )]
     pub cells: Vec<usize>,
     /// Numbers of robots for Fig. 7c (comma-separated, 1..=255).
-    #[arg(long, value_delimiter = ',', default_value = "1,2,4,8,12,16,20,24,28,32")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1,2,4,8,12,16,20,24,28,32"
+    )]
     pub robots: Vec<usize>,
     /// Speed ratios S_r/S_p for Fig. 7d (comma-separated; `static` for S_p = 0).
-    #[arg(long, value_delimiter = ',', default_value = "1.5,2,2.5,3,3.5,4,4.5,5,static")]
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1.5,2,2.5,3,3.5,4,4.5,5,static"
+    )]
     pub ratios: Vec<SpeedRatio>,
     /// ROI cells when another variable is swept.
     #[arg(long, default_value_t = 120)]
@@ -479,13 +496,12 @@ pub fn run(args: &DfsArgs, tick: &(dyn Fn() + Sync)) -> Result<Study, DfsStudyEr
     let records = jobs
         .par_iter()
         .map(|&(ci, t)| {
-            let r = run_trial(args.seed, ci, &configs[ci], t).map_err(|source| {
-                DfsStudyError::Trial {
+            let r =
+                run_trial(args.seed, ci, &configs[ci], t).map_err(|source| DfsStudyError::Trial {
                     config: configs[ci].to_string(),
                     trial: t,
                     source,
-                }
-            });
+                });
             tick();
             r
         })

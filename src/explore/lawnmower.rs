@@ -408,7 +408,12 @@ mod tests {
 
     #[test]
     fn along_track_covers_within_its_heading_error() {
-        let c = cfg(vec![12.0], HeadingPolicy::AlongTrack { max_error_deg: 10.0 });
+        let c = cfg(
+            vec![12.0],
+            HeadingPolicy::AlongTrack {
+                max_error_deg: 10.0,
+            },
+        );
         let sweeps = plan(&c, latlon).unwrap();
         // Lanes run north–south (the box is square: height ≥ width); headings 0 or 180 ± 10°.
         assert!(sweeps[0].lanes_north_south);
@@ -470,8 +475,15 @@ mod tests {
         let err = plan(&c, failing).unwrap_err();
         assert!(err.to_string().contains("outside the UTM zone"));
         assert!(
-            capture_spacing(&c.camera, 12.0, HeadingPolicy::AlongTrack { max_error_deg: 50.0 }, 0.0)
-                .is_err()
+            capture_spacing(
+                &c.camera,
+                12.0,
+                HeadingPolicy::AlongTrack {
+                    max_error_deg: 50.0
+                },
+                0.0
+            )
+            .is_err()
         );
     }
 

@@ -79,7 +79,9 @@ pub enum ExploreError {
     #[error("robot {0} is not paused")]
     NotPaused(RobotId),
     /// A speed that makes the problem ill-posed (paper §3 requires S_r > S_p ≥ 0).
-    #[error("robot speed {robot_speed} must be positive and greater than the ROI speed {roi_speed}")]
+    #[error(
+        "robot speed {robot_speed} must be positive and greater than the ROI speed {roi_speed}"
+    )]
     Speeds {
         /// S_r.
         robot_speed: f64,
@@ -90,7 +92,9 @@ pub enum ExploreError {
     #[error("lawnmower: {0}")]
     Lawnmower(String),
     /// The xy → lat/lon conversion failed.
-    #[error("cannot convert east {east_m:.2} m, north {north_m:.2} m to latitude/longitude: {reason}")]
+    #[error(
+        "cannot convert east {east_m:.2} m, north {north_m:.2} m to latitude/longitude: {reason}"
+    )]
     Projection {
         /// East offset from the grid origin, metres.
         east_m: f64,

@@ -195,7 +195,10 @@ mod tests {
         assert_eq!(m.cell_centre(Cell::new(2, 1), t, 4.0), (14.0, 3.0));
         // Before the epoch the ROI was behind.
         assert_eq!(m.displacement(Time::ZERO), (-5.0, 2.5));
-        assert_eq!(RoiMotion::STATIC.cell_at(5.9, -6.1, t, 4.0), Cell::new(-2, 1));
+        assert_eq!(
+            RoiMotion::STATIC.cell_at(5.9, -6.1, t, 4.0),
+            Cell::new(-2, 1)
+        );
     }
 
     #[test]
@@ -209,20 +212,28 @@ mod tests {
         assert!((against - 3.5).abs() < 1e-12);
         assert!((across - (sr * sr - 1.0f64).sqrt()).abs() < 1e-12);
         assert!(
-            (m.travel_time(Cell::new(0, 0), Cell::new(1, 0), 1.0, sr).unwrap() - 1.0 / 1.5).abs()
+            (m.travel_time(Cell::new(0, 0), Cell::new(1, 0), 1.0, sr)
+                .unwrap()
+                - 1.0 / 1.5)
+                .abs()
                 < 1e-12
         );
         assert!(m.relative_speed(1.0, 1.0, 0.0).is_err());
         assert!(m.relative_speed(f64::NAN, 1.0, 0.0).is_err());
         // Static: everything at S_r.
-        assert_eq!(RoiMotion::STATIC.relative_speed(2.0, 0.3, 0.4).unwrap(), 2.0);
+        assert_eq!(
+            RoiMotion::STATIC.relative_speed(2.0, 0.3, 0.4).unwrap(),
+            2.0
+        );
     }
 
     #[test]
     fn intercept_meets_the_moving_cell() {
         let m = RoiMotion::new(0.3, 0.4, Time::from_secs(5));
         let now = Time::from_secs(12);
-        let (tau, (e, n)) = m.intercept(-7.0, 3.0, now, Cell::new(3, -2), 4.0, 2.0).unwrap();
+        let (tau, (e, n)) = m
+            .intercept(-7.0, 3.0, now, Cell::new(3, -2), 4.0, 2.0)
+            .unwrap();
         // The robot flies |p − q| in τ at 2 m/s ...
         assert!(((e + 7.0).hypot(n - 3.0) - 2.0 * tau).abs() < 1e-9);
         // ... and the cell centre is there at now + τ.

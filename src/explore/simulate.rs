@@ -7,9 +7,9 @@
 //!
 //! The cost is the time at which the last robot is back at the start (Problem 1).
 
+use super::ExploreError;
 use super::dfs::{Action, Explorer, ExplorerConfig, RobotId, Sharing};
 use super::motion::RoiMotion;
-use super::ExploreError;
 use crate::geo::{Cell, Dir4};
 use crate::time::Time;
 use std::cmp::{Ordering, Reverse};
@@ -93,9 +93,7 @@ impl PartialOrd for Event {
 }
 impl Ord for Event {
     fn cmp(&self, o: &Self) -> Ordering {
-        self.time
-            .total_cmp(&o.time)
-            .then(self.seq.cmp(&o.seq))
+        self.time.total_cmp(&o.time).then(self.seq.cmp(&o.seq))
     }
 }
 

@@ -67,9 +67,11 @@ fn line_chart(
     {
         let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(name, e))?;
-        let (x0, x1) = xs.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (x, _)| {
-            (a.min(*x), b.max(*x))
-        });
+        let (x0, x1) = xs
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), (x, _)| {
+                (a.min(*x), b.max(*x))
+            });
         let pad = ((x1 - x0) * 0.05).max(0.5);
         let ymax = series
             .iter()
@@ -117,9 +119,11 @@ fn line_chart(
                     PathElement::new(vec![(x, y), (x + 24, y)], color.stroke_width(3))
                 });
             chart
-                .draw_series(s.points.iter().map(|p| {
-                    ErrorBar::new_vertical(p.0, p.2, p.1, p.3, color.stroke_width(1), 8)
-                }))
+                .draw_series(
+                    s.points.iter().map(|p| {
+                        ErrorBar::new_vertical(p.0, p.2, p.1, p.3, color.stroke_width(1), 8)
+                    }),
+                )
                 .map_err(|e| err(name, e))?;
             chart
                 .draw_series(

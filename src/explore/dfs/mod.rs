@@ -419,9 +419,10 @@ impl Explorer {
             // Line 2: observe N(v) (once per cell, by the first robot there).
             let real = self.tree.real_of(v);
             if !self.tree.node(real).observed {
-                let busy = self.robots.iter().any(|r| {
-                    r.phase == Phase::Observing && self.tree.node(r.node).cell == vcell
-                });
+                let busy = self
+                    .robots
+                    .iter()
+                    .any(|r| r.phase == Phase::Observing && self.tree.node(r.node).cell == vcell);
                 if busy {
                     return Action::Wait;
                 }

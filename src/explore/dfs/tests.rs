@@ -196,7 +196,11 @@ fn three_children_get_a_dummy_and_robots_split_evenly() {
         .find(|&n| t.node(n).kind == NodeKind::Dummy)
         .expect("a dummy vertex");
     assert_eq!(t.node(dummy).cell, c(1, 0));
-    assert_eq!(t.node(dummy).depth, t.node(v).depth, "dummy edges have length 0");
+    assert_eq!(
+        t.node(dummy).depth,
+        t.node(v).depth,
+        "dummy edges have length 0"
+    );
     let dc: Vec<Cell> = t
         .node(dummy)
         .children
@@ -246,7 +250,9 @@ fn four_children_at_the_root_get_two_dummies() {
 
 #[test]
 fn every_vertex_ends_with_at_most_two_children() {
-    let cells: Vec<(i32, i32)> = (-2..=2).flat_map(|r| (-2..=2).map(move |q| (r, q))).collect();
+    let cells: Vec<(i32, i32)> = (-2..=2)
+        .flat_map(|r| (-2..=2).map(move |q| (r, q)))
+        .collect();
     let out = simulate(
         &roi(&cells),
         c(0, 0),
@@ -276,20 +282,29 @@ fn explored_state_propagates_up_like_fig_3() {
     )
     .unwrap();
     gather(&mut ex, &roi);
-    assert_eq!(ex.vertex_state(c(0, 0)), Some(VertexState::UnderExploration));
+    assert_eq!(
+        ex.vertex_state(c(0, 0)),
+        Some(VertexState::UnderExploration)
+    );
     assert_eq!(ex.vertex_state(c(3, 0)), None, "not yet discovered");
     // Split: robot 1 north, robot 2 east.
     assert_eq!(ex.next_action(RobotId(1)).unwrap(), Action::MoveTo(c(1, 0)));
     assert_eq!(ex.next_action(RobotId(2)).unwrap(), Action::MoveTo(c(0, 1)));
     // Claimed by a group, nobody there yet: under exploration.
-    assert_eq!(ex.vertex_state(c(1, 0)), Some(VertexState::UnderExploration));
+    assert_eq!(
+        ex.vertex_state(c(1, 0)),
+        Some(VertexState::UnderExploration)
+    );
     ex.arrived(RobotId(2), c(0, 1)).unwrap();
     assert_eq!(ex.next_action(RobotId(2)).unwrap(), Action::Observe);
     ex.observe(RobotId(2), c(0, 1), labels(&roi, c(0, 1)))
         .unwrap();
     // A leaf: explored as soon as it is imaged; the root is not (north arm open).
     assert_eq!(ex.vertex_state(c(0, 1)), Some(VertexState::Explored));
-    assert_eq!(ex.vertex_state(c(0, 0)), Some(VertexState::UnderExploration));
+    assert_eq!(
+        ex.vertex_state(c(0, 0)),
+        Some(VertexState::UnderExploration)
+    );
     // Robot 2 goes back to the root, then helps in the north arm (under exploration).
     assert_eq!(ex.next_action(RobotId(2)).unwrap(), Action::MoveTo(c(0, 0)));
     ex.arrived(RobotId(2), c(0, 0)).unwrap();
@@ -306,7 +321,10 @@ fn explored_state_propagates_up_like_fig_3() {
                 ex.next_action(RobotId(1)).unwrap(),
                 Action::MoveTo(c(row + 1, 0))
             );
-            assert_eq!(ex.vertex_state(c(row, 0)), Some(VertexState::UnderExploration));
+            assert_eq!(
+                ex.vertex_state(c(row, 0)),
+                Some(VertexState::UnderExploration)
+            );
         }
     }
     // The last leaf is visited: the whole branch and the root become explored at once.
@@ -477,7 +495,10 @@ fn pause_and_resume_at_the_saved_vertex() {
     let saved = ex.robot_cell(RobotId(1)).unwrap();
     assert_eq!(saved, c(3, 0));
     // Battery low while flying on: pause; its vertex stays (3,0).
-    assert!(matches!(ex.next_action(RobotId(1)).unwrap(), Action::MoveTo(_)));
+    assert!(matches!(
+        ex.next_action(RobotId(1)).unwrap(),
+        Action::MoveTo(_)
+    ));
     ex.pause(RobotId(1)).unwrap();
     assert_eq!(ex.next_action(RobotId(1)).unwrap(), Action::ReturnHome);
     assert_eq!(ex.robot_cell(RobotId(1)).unwrap(), saved);
@@ -549,8 +570,12 @@ fn bad_calls_are_errors() {
         ExploreError::NoRobots
     );
     assert_eq!(
-        Explorer::new(ExplorerConfig::default(), c(0, 0), &[RobotId(1), RobotId(1)])
-            .unwrap_err(),
+        Explorer::new(
+            ExplorerConfig::default(),
+            c(0, 0),
+            &[RobotId(1), RobotId(1)]
+        )
+        .unwrap_err(),
         ExploreError::DuplicateRobot(RobotId(1))
     );
     let mut ex = Explorer::new(ExplorerConfig::default(), c(0, 0), &ids(1)).unwrap();
