@@ -14,9 +14,14 @@ pub struct BenchArgs {
 
 /// The benchmarks.
 #[derive(Debug, Subcommand)]
-pub enum BenchCommand {}
+pub enum BenchCommand {
+    /// Terminal UI: full-frame redraws of a generated fleet, frames per second.
+    Tui(super::tui::TuiBenchArgs),
+}
 
 /// Run a benchmark.
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
-    match args.what {}
+    match args.what {
+        BenchCommand::Tui(a) => super::tui::bench(a),
+    }
 }
