@@ -130,7 +130,7 @@ fn load_config(args: &TuiArgs) -> anyhow::Result<UiConfig> {
 enum Source {
     Replay(PathBuf, Vec<ReplayFrame>),
     Animated(usize),
-    Static(Model),
+    Static(Box<Model>),
 }
 
 impl Source {
@@ -163,7 +163,7 @@ impl Source {
                 run.step(Duration::from_secs(at.unwrap_or(300.0).max(0.0) as u64));
                 run.model()
             }
-            Source::Static(m) => m.clone(),
+            Source::Static(m) => (**m).clone(),
         }
     }
 }
@@ -200,7 +200,9 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
         Some(p) => Source::Replay(p.clone(), read_replay(p)?),
         None => match args.sample {
             SampleKind::Runway => Source::Animated(args.vehicles),
-            SampleKind::Classification => Source::Static(sample::classification_fixture()),
+            SampleKind::Classification => {
+                Source::Static(Box::new(sample::classification_fixture()))
+            }
         },
     };
     let mut config = config;
@@ -263,7 +265,7 @@ async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
     let producer = tokio::spawn(async move {
         match source {
             Source::Static(m) => {
-                snap_tx.send_replace(m);
+                snap_tx.send_replace(*m);
                 // Keep the channel open so the UI does not report a closed source.
                 snap_tx.closed().await;
             }

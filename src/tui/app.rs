@@ -331,7 +331,7 @@ impl App {
         let limit = self.config.thresholds.stale_after()?;
         let last = self.last_snapshot?;
         let age = self.now.saturating_since(last);
-        (age > limit).then(|| age.as_secs_f64())
+        (age > limit).then_some(age.as_secs_f64())
     }
 
     fn select_index(&mut self, i: usize) {

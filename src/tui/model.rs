@@ -340,6 +340,22 @@ impl CellState {
         }
     }
 
+    /// One-word legend text for narrow screens.
+    pub fn short_name(self) -> &'static str {
+        match self {
+            CellState::Unknown => "unknown",
+            CellState::Negative => "negative",
+            CellState::PositiveUnexplored => "positive",
+            CellState::UnderExploration => "exploring",
+            CellState::Explored => "explored",
+            CellState::Unclassified => "unclassified",
+            CellState::Keep => "keep",
+            CellState::Reject => "reject",
+            CellState::Obstacle => "obstacle",
+            CellState::Road => "road",
+        }
+    }
+
     /// The states a map of `kind` uses, in legend order.
     pub fn for_kind(kind: MapKind) -> &'static [CellState] {
         match kind {

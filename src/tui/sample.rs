@@ -414,15 +414,13 @@ impl SampleRun {
         let drones = (0..n)
             .map(|i| {
                 let mut path = Vec::new();
-                let mut lane = 0;
-                for r in (i as i32..SampleRun::ROWS as i32).step_by(n) {
+                for (lane, r) in (i as i32..SampleRun::ROWS as i32).step_by(n).enumerate() {
                     let cols: Vec<i32> = if lane % 2 == 0 {
                         (0..SampleRun::COLS as i32).collect()
                     } else {
                         (0..SampleRun::COLS as i32).rev().collect()
                     };
                     path.extend(cols.into_iter().map(|c| Cell::new(r, c)));
-                    lane += 1;
                 }
                 path.reverse(); // pop() from the back
                 SampleDrone {

@@ -181,15 +181,11 @@ pub async fn run_loop<B: Backend>(
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut snapshots_open = true;
     loop {
+        // Biased: results and snapshots first, so a key acts on the freshest state; keys
+        // before ticks. (A watch fires once per new value, so keys cannot starve.)
         let event = tokio::select! {
-            Some(ev) = input.recv() => match ev {
-                TermEvent::Key(k) if k.kind != KeyEventKind::Release => Event::Key(k),
-                TermEvent::Resize(w, h) => {
-                    terminal.autoresize().map_err(|e| TuiError::Draw(e.to_string()))?;
-                    Event::Resize(w, h)
-                }
-                _ => continue,
-            },
+            biased;
+            Some(result) = io.job_results.recv() => Event::JobResult(result),
             changed = io.snapshots.changed(), if snapshots_open => match changed {
                 Ok(()) => {
                     let model = io.snapshots.borrow_and_update().clone();
@@ -201,7 +197,14 @@ pub async fn run_loop<B: Backend>(
                     continue;
                 }
             },
-            Some(result) = io.job_results.recv() => Event::JobResult(result),
+            Some(ev) = input.recv() => match ev {
+                TermEvent::Key(k) if k.kind != KeyEventKind::Release => Event::Key(k),
+                TermEvent::Resize(w, h) => {
+                    terminal.autoresize().map_err(|e| TuiError::Draw(e.to_string()))?;
+                    Event::Resize(w, h)
+                }
+                _ => continue,
+            },
             _ = tick.tick() => Event::Tick(options.clock.now()),
         };
         let mut effects: VecDeque<Effect> = update(&mut app, event).into();

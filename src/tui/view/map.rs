@@ -396,18 +396,25 @@ fn draw_legend(app: &App, vp: &Viewport, area: Rect, compact: bool, frame: &mut 
         return;
     }
     let map = &app.model.map;
+    let name = |s: CellState| {
+        if compact { s.short_name() } else { s.name() }
+    };
     let mut items: Vec<(String, Style, String)> = CellState::for_kind(map.kind)
         .iter()
         .map(|&s| {
             (
                 format!("{0}{0}", s.glyph()),
                 theme::cell(s),
-                s.name().to_string(),
+                name(s).to_string(),
             )
         })
         .collect();
-    items.push(("1 ".into(), theme::drone(), "drone (sysid)".into()));
-    if app.model.vehicles.iter().any(|v| v.role == Role::Station) || compact {
+    items.push((
+        "1 ".into(),
+        theme::drone(),
+        if compact { "drone" } else { "drone (sysid)" }.into(),
+    ));
+    if app.model.vehicles.iter().any(|v| v.role == Role::Station) {
         items.push(("S1".into(), theme::station(), "station".into()));
     }
     items.push(("1 ".into(), theme::selected_vehicle(), "selected".into()));
@@ -421,19 +428,19 @@ fn draw_legend(app: &App, vp: &Viewport, area: Rect, compact: bool, frame: &mut 
     if compact {
         let mut lines: Vec<Vec<Span>> = vec![Vec::new()];
         let mut used = 0usize;
+        items.push((String::new(), Style::new(), scale));
         for (sample, style, name) in items {
-            let w = sample.chars().count() + 1 + name.chars().count() + 2;
+            let w = sample.chars().count() + 1 + name.chars().count() + 1;
             if used + w > area.width as usize && used > 0 {
                 lines.push(Vec::new());
                 used = 0;
             }
             used += w;
             let line = lines.last_mut().expect("at least one line");
-            line.push(Span::styled(sample, style));
-            line.push(Span::styled(format!(" {name}  "), theme::text()));
-        }
-        if let Some(line) = lines.last_mut() {
-            line.push(Span::styled(scale, theme::text()));
+            if !sample.is_empty() {
+                line.push(Span::styled(sample, style));
+            }
+            line.push(Span::styled(format!(" {name} "), theme::text()));
         }
         let text: Vec<Line> = lines.into_iter().map(Line::from).collect();
         frame.render_widget(Paragraph::new(text), area);

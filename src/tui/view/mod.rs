@@ -258,7 +258,7 @@ fn title_bar(app: &App, frame: &mut Frame, area: Rect) {
     let long_source = format!(" {} ", app.source);
     let room = (area.width as usize).saturating_sub(fixed);
     let mut spans = vec![head, Span::raw(" ")];
-    let source = if long_source.chars().count() + 1 <= room {
+    let source = if long_source.chars().count() < room {
         long_source
     } else {
         format!(" {short_source} ")
@@ -305,11 +305,17 @@ fn hints_bar(app: &App, frame: &mut Frame, area: Rect) {
         used += s.len();
         spans.push(Span::styled(s, theme::strong()));
     }
+    let overlay = app.overlay != Overlay::None;
     for (action, label) in items {
-        let Some(key) = keys.keys(action).first() else {
-            continue;
+        // In an overlay every key of the few actions; otherwise the first key of each.
+        let k = if overlay {
+            format!(" {} ", keys.keys_label(action))
+        } else {
+            match keys.keys(action).first() {
+                Some(key) => format!(" {key} "),
+                None => continue,
+            }
         };
-        let k = format!(" {key} ");
         let l = format!(" {label} ");
         let w = k.chars().count() + l.chars().count();
         if used + w > area.width as usize {
