@@ -127,6 +127,13 @@ impl Key {
                 _ => return Err(bad()),
             }
         };
+        // Terminals report Shift+Tab as BackTab.
+        let code = if code == KeyCode::Tab && mods.contains(KeyModifiers::SHIFT) {
+            mods.remove(KeyModifiers::SHIFT);
+            KeyCode::BackTab
+        } else {
+            code
+        };
         if matches!(code, KeyCode::Char(_)) && mods.contains(KeyModifiers::SHIFT) {
             // "shift-t" is "T": refuse rather than silently bind something else.
             return Err(bad());
@@ -755,6 +762,7 @@ mod tests {
         }
         assert_eq!(Key::parse("ctrl-C"), Ok(Key::ctrl('c')));
         assert_eq!(Key::parse("Space"), Ok(Key::char(' ')));
+        assert_eq!(Key::parse("shift-tab"), Ok(Key::plain(KeyCode::BackTab)));
         for bad in ["", "ctrl-", "shift-t", "f13", "f0", "hyper-x", "upp"] {
             assert!(Key::parse(bad).is_err(), "{bad:?} should not parse");
         }
