@@ -827,6 +827,58 @@ fn the_panic_hook_restores_first_and_the_restore_sequence_is_right() {
     assert!(s.contains("\x1b[?25h"), "shows the cursor: {s:?}");
 }
 
+/// Child half of the test below: enters UI mode on a real (pseudo-)terminal and panics.
+/// Does nothing unless started by that test.
+#[test]
+#[ignore = "child process of the_panic_hook_restores_the_real_terminal"]
+fn pty_child_panics_inside_the_ui() {
+    if std::env::var_os("FLEETMAP_PTY_CHILD").is_none() {
+        return;
+    }
+    let _guard = TerminalGuard::enter().expect("a terminal");
+    panic!("deliberate panic inside the UI");
+}
+
+/// A panic while the UI owns a real terminal leaves the alternate screen before the panic
+/// message is printed, and turns raw mode off (`stty` shows canonical mode and echo again).
+#[test]
+fn the_panic_hook_restores_the_real_terminal() {
+    if std::process::Command::new("script")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
+        eprintln!("skipped: util-linux `script` is not installed");
+        return;
+    }
+    let exe = std::env::current_exe().expect("test binary");
+    let cmd = format!(
+        "stty cols 80 rows 24; stty -a | head -c 0; FLEETMAP_PTY_CHILD=1 {} --ignored --exact pty_child_panics_inside_the_ui --nocapture --test-threads=1; echo; echo AFTER; stty -a",
+        exe.display()
+    );
+    let out = std::process::Command::new("script")
+        .args(["-qfec", &cmd, "/dev/null"])
+        .env("TERM", "xterm-256color")
+        .stdin(std::process::Stdio::null())
+        .output()
+        .expect("script runs");
+    let s = String::from_utf8_lossy(&out.stdout);
+    let entered = s.find("\x1b[?1049h").expect("entered the alternate screen");
+    let left = s.find("\x1b[?1049l").expect("left the alternate screen");
+    let message = s
+        .find("deliberate panic inside the UI")
+        .expect("the panic message");
+    assert!(
+        entered < left && left < message,
+        "restore happens before the message:\n{s:?}"
+    );
+    let after = &s[s.find("AFTER").expect("stty ran after the child")..];
+    assert!(
+        after.contains(" icanon") && after.contains(" echo"),
+        "raw mode is off: {after}"
+    );
+}
+
 // ---------------------------------------------------------------- the command
 
 /// The binary under test: `$FLEETMAP_BIN` when set (the convention of the Python tests),

@@ -51,4 +51,4 @@ pub use model::{
     MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity,
     Stat, Track, VehicleRow, VehicleType,
 };
-pub use shell::{ShellIo, ShellOptions, TuiError, run, run_loop};
+pub use shell::{ShellIo, ShellOptions, TerminalGuard, TuiError, run, run_loop};

@@ -92,18 +92,23 @@ where
     }));
 }
 
-/// Restores the terminal when dropped (normal return, `?` errors).
-struct TerminalGuard;
+/// The terminal in UI mode (raw, alternate screen, cursor hidden) for as long as it lives:
+/// dropping it restores the terminal, and a panic hook installed by [`TerminalGuard::enter`]
+/// restores it on a panic too. [`run`] uses it; a caller with its own loop can as well.
+pub struct TerminalGuard {
+    _private: (),
+}
 
 impl TerminalGuard {
-    fn enter() -> io::Result<TerminalGuard> {
+    /// Install the panic hook, then enter raw mode and the alternate screen.
+    pub fn enter() -> io::Result<TerminalGuard> {
         install_panic_hook(|| {
             if let Err(e) = restore_terminal() {
                 eprintln!("fleetmap: could not restore the terminal: {e}");
             }
         });
         crossterm::terminal::enable_raw_mode()?;
-        let guard = TerminalGuard;
+        let guard = TerminalGuard { _private: () };
         crossterm::execute!(
             io::stdout(),
             crossterm::terminal::EnterAlternateScreen,
