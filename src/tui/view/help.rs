@@ -90,21 +90,9 @@ pub fn line_count(keys: &KeyMap) -> usize {
     lines(keys).len()
 }
 
-/// Draw the help over `area`.
+/// Draw the help over `area`: as many columns as needed (and fit), scrolled by `scroll`
+/// lines when even that is not enough.
 pub fn render(app: &App, frame: &mut Frame, area: Rect, scroll: u16) {
-    let popup = area.inner(Margin::new(2, 1));
-    frame.render_widget(Clear, popup);
-    let mut bottom = String::from(" Esc or ? close · up/down scroll ");
-    if let Some(path) = &app.log_file {
-        bottom.push_str(&format!("· log file {path} "));
-    }
-    let block = Block::bordered()
-        .border_type(BorderType::Double)
-        .border_style(theme::border_focused())
-        .title(Span::styled(" Help: every key ", theme::selected()))
-        .title_bottom(Line::styled(bottom, theme::strong()));
-    let inner = block.inner(popup);
-    frame.render_widget(block, popup);
     let all = lines(&app.config.keys);
     let key_w = all
         .iter()
@@ -115,11 +103,46 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, scroll: u16) {
         .max()
         .unwrap_or(0)
         .min(20);
-    let desc_w = 42usize;
-    let col_w = key_w + 2 + desc_w + 2;
-    let ncols = (inner.width as usize / col_w).max(1);
+    let desc_w = all
+        .iter()
+        .map(|l| match l {
+            HelpLine::Entry { desc, .. } => desc.chars().count(),
+            HelpLine::Heading(t) => t.chars().count().saturating_sub(key_w + 2),
+        })
+        .max()
+        .unwrap_or(0);
+    let col_w = key_w + 2 + desc_w + 3;
+    let max = area.inner(Margin::new(2, 1));
+    let max_rows = (max.height as usize).saturating_sub(2).max(1);
+    let max_cols = ((max.width as usize).saturating_sub(2) / col_w).max(1);
+    let ncols = all.len().div_ceil(max_rows).clamp(1, max_cols);
+    let rows = all.len().div_ceil(ncols).min(max_rows);
+    let log_note = app
+        .log_file
+        .as_ref()
+        .map(|p| format!(" log file {p} "))
+        .unwrap_or_default();
+    let bottom = " Esc or ? close · up/down scroll ";
+    let want_w = (ncols * col_w + 2)
+        .max(bottom.len() + 4)
+        .max(log_note.chars().count() + 4) as u16;
+    let popup = max.centered(
+        ratatui::layout::Constraint::Length(want_w.min(max.width)),
+        ratatui::layout::Constraint::Length((rows as u16 + 2).min(max.height)),
+    );
+    frame.render_widget(Clear, popup);
+    let mut block = Block::bordered()
+        .border_type(BorderType::Double)
+        .border_style(theme::border_focused())
+        .title(Span::styled(" Help: every key ", theme::selected()))
+        .title_bottom(Line::styled(bottom, theme::strong()));
+    if !log_note.is_empty() {
+        block = block.title_bottom(Line::styled(log_note, theme::text()).right_aligned());
+    }
+    let inner = block.inner(popup);
+    frame.render_widget(block, popup);
     let h = inner.height as usize;
-    if h == 0 {
+    if h == 0 || inner.width == 0 {
         return;
     }
     let max_scroll = all.len().saturating_sub(h * ncols);
@@ -156,7 +179,7 @@ pub fn render(app: &App, frame: &mut Frame, area: Rect, scroll: u16) {
             all.len()
         );
         let w = more.len() as u16;
-        if w < popup.width {
+        if w + 2 < popup.width {
             let r = Rect::new(popup.x + popup.width - w - 1, popup.y, w, 1);
             frame.render_widget(Paragraph::new(Span::styled(more, theme::warn())), r);
         }
