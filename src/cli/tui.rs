@@ -178,6 +178,14 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
     if !(args.speed.is_finite() && args.speed > 0.0) {
         bail!("--speed {}: must be a positive number", args.speed);
     }
+    if !(1..=20).contains(&args.vehicles) {
+        bail!("--vehicles {}: the sample has 1 to 20 drones", args.vehicles);
+    }
+    if let Some(at) = args.at
+        && !(at.is_finite() && at >= 0.0)
+    {
+        bail!("--at {at}: must be a time in seconds, 0 or more");
+    }
     if let Some(path) = &args.export_sample {
         let mut run = SampleRun::new(args.vehicles);
         let mut frames = vec![ReplayFrame {
