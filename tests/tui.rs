@@ -987,7 +987,12 @@ fn tui_snapshot_replay_config_and_errors_from_the_command_line() {
     assert_eq!(out.status.code(), Some(1));
     assert!(String::from_utf8_lossy(&out.stderr).contains("needs an interactive terminal"));
 
-    for bad in [["--snapshot", "80"], ["--speed", "0"], ["--vehicles", "0"], ["--at", "-3"]] {
+    for bad in [
+        ["--snapshot", "80"],
+        ["--speed", "0"],
+        ["--vehicles", "0"],
+        ["--snapshot=80x24", "--at=-3"],
+    ] {
         let out = bin().arg("tui").args(bad).output().expect("run");
         assert_eq!(out.status.code(), Some(1), "{bad:?}");
     }

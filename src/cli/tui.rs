@@ -179,7 +179,10 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
         bail!("--speed {}: must be a positive number", args.speed);
     }
     if !(1..=20).contains(&args.vehicles) {
-        bail!("--vehicles {}: the sample has 1 to 20 drones", args.vehicles);
+        bail!(
+            "--vehicles {}: the sample has 1 to 20 drones",
+            args.vehicles
+        );
     }
     if let Some(at) = args.at
         && !(at.is_finite() && at >= 0.0)
