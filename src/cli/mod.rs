@@ -10,6 +10,7 @@ pub mod check;
 pub mod classify;
 pub mod experiment;
 pub mod grid;
+pub mod tui;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -43,6 +44,8 @@ pub enum Command {
     Grid(grid::GridArgs),
     /// Classify images with the runway sensing model (and the green-pixel measurement).
     Classify(classify::ClassifyArgs),
+    /// The operator's terminal UI (for now on the built-in sample or a replay file).
+    Tui(tui::TuiArgs),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
@@ -77,12 +80,18 @@ pub fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::
 
 /// Run the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
-    init_logging(cli.verbose, cli.log_file.as_deref())?;
+    // The terminal UI owns the screen: its default log goes to a file, not stderr.
+    let log_file = match &cli.command {
+        Command::Tui(args) if cli.log_file.is_none() => tui::default_log_file(args),
+        _ => cli.log_file.clone(),
+    };
+    init_logging(cli.verbose, log_file.as_deref())?;
     match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Check(args) => check::run(args),
         Command::Experiment(args) => experiment::run(args),
         Command::Grid(args) => grid::run(args),
         Command::Classify(args) => classify::run(args),
+        Command::Tui(args) => tui::run(args, log_file.as_deref()),
     }
 }
