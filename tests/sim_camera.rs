@@ -1,5 +1,5 @@
 //! The simulated camera: images of the runway world classified by the runway paper's
-//! pipeline (grey, threshold 150, 7 dilations, 3×3 regions — §7) give the labels the ground
+//! pipeline (`vision::runway::classify`: grey, threshold 150, 7 dilations, 3×3 regions — §7) give the labels the ground
 //! truth calls for on the runway, off it and on its edge; images arrive intact over MAVLink
 //! image transmission on a lossy link and as files; the same seed gives the same images.
 
@@ -10,10 +10,11 @@ use fleetmap::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig, rea
 use fleetmap::link::codec::Codec;
 use fleetmap::sim::faults::LinkFaults;
 use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::render::{CameraPose, Disturbances, gray_bt601, render};
+use fleetmap::sim::render::{CameraPose, Disturbances, render};
 use fleetmap::sim::world::{Surface, World, grid_cell_center};
 use fleetmap::time::Time;
 use fleetmap::vision::camera::CameraModel;
+use fleetmap::vision::runway::{Classification, NeighbourLabels, RunwayParams, classify};
 use image::RgbImage;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
@@ -29,29 +30,15 @@ fn runway() -> World {
     .unwrap()
 }
 
-/// Black fraction of the centre ninth after the paper's pipeline: grey > 150 is white, then
-/// a 15×15 maximum (seven 3×3 dilations; pixels outside the image never count).
-fn centre_black_fraction(img: &RgbImage) -> f64 {
-    let (w, h) = (img.width() as usize, img.height() as usize);
-    let white: Vec<bool> = img.pixels().map(|p| gray_bt601(p) > 150).collect();
-    let mut rows = vec![false; w * h];
-    for y in 0..h {
-        for x in 0..w {
-            let (a, b) = (x.saturating_sub(7), (x + 7).min(w - 1));
-            rows[y * w + x] = (a..=b).any(|i| white[y * w + i]);
-        }
-    }
-    let (x0, x1, y0, y1) = (w / 3, 2 * w / 3, h / 3, 2 * h / 3);
-    let mut black = 0usize;
-    for y in y0..y1 {
-        for x in x0..x1 {
-            let (a, b) = (y.saturating_sub(7), (y + 7).min(h - 1));
-            if !(a..=b).any(|j| rows[j * w + x]) {
-                black += 1;
-            }
-        }
-    }
-    black as f64 / ((x1 - x0) * (y1 - y0)) as f64
+/// The runway paper's classifier (src/vision, §7: grey, threshold 150, 7 dilations, 3×3
+/// regions) on the image as the GCS receives it: JPEG at the camera's quality, decoded.
+fn classify_as_received(img: &RgbImage, heading_deg: f64) -> Classification {
+    let mut jpeg = Vec::new();
+    image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 85)
+        .encode_image(img)
+        .unwrap();
+    let decoded = image::load_from_memory(&jpeg).unwrap().to_rgb8();
+    classify(&decoded, heading_deg, &RunwayParams::default()).unwrap()
 }
 
 /// Fraction of grid cell (r, c) (4 m cells, origin = vehicle 1's home) covered by asphalt.
@@ -109,54 +96,96 @@ fn runway_images_classify_as_the_ground_truth_says() {
         v.iter().step_by(step).take(n).copied().collect()
     };
     let mut k = 0u64;
-    let mut shoot = |r: i32, c: i32| -> f64 {
+    let mut shoot = |r: i32, c: i32, heading_deg: f64| -> Classification {
         k += 1;
         let (lat, lon) = grid_cell_center(origin, 4.0, r, c);
         let pose = CameraPose {
             lat,
             lon,
             alt_agl_m: 12.0,
-            heading_deg: 0.0,
+            heading_deg,
             roll_deg: 0.0,
             pitch_deg: 0.0,
         };
-        centre_black_fraction(&render(
-            &world,
-            &pose,
-            &cam,
-            0.0,
-            &Disturbances::draw(1000 + k),
-        ))
+        classify_as_received(
+            &render(&world, &pose, &cam, 0.0, &Disturbances::draw(1000 + k)),
+            heading_deg,
+        )
     };
-    for (r, c, _) in pick(&on, 10) {
-        let f = shoot(r, c);
+    // the ground truth's labels of a cell and its neighbours (None: too close to call)
+    let truth = |r: i32, c: i32| -> [Option<bool>; 5] {
+        [(0, 0), (1, 0), (0, -1), (-1, 0), (0, 1)].map(|(dr, dc)| {
+            let cov = coverage(&world, origin, r + dr, c + dc);
+            (!(0.4..=0.6).contains(&cov)).then_some(cov > 0.5)
+        })
+    };
+    let as_array = |l: &NeighbourLabels| [l.center, l.north, l.west, l.south, l.east];
+    let (mut agree, mut decided) = (0, 0);
+    let mut tally = |r: i32, c: i32, got: &Classification| {
+        for (want, got) in truth(r, c).iter().zip(as_array(&got.labels)) {
+            if let Some(w) = want {
+                decided += 1;
+                agree += usize::from(*w == got);
+            }
+        }
+    };
+    for (i, (r, c, _)) in pick(&on, 10).into_iter().enumerate() {
+        // headings: the labels are turned into grid directions by the classifier
+        let got = shoot(r, c, 90.0 * (i % 4) as f64);
         // the dashed white centreline can take up to ~35 % of a cell after dilation
-        assert!(f >= 0.6, "runway cell ({r},{c}) black {f}");
+        assert!(
+            got.fractions.center >= 0.6 && got.labels.center,
+            "runway cell ({r},{c}): {:?}",
+            got.fractions
+        );
+        tally(r, c, &got);
     }
-    for (r, c, _) in pick(&off, 10) {
-        let f = shoot(r, c);
-        assert!(f <= 0.03, "grass cell ({r},{c}) black {f}");
+    for (i, (r, c, _)) in pick(&off, 10).into_iter().enumerate() {
+        let got = shoot(r, c, 90.0 * (i % 4) as f64);
+        assert!(
+            got.fractions.center <= 0.03 && !got.labels.center,
+            "grass cell ({r},{c}): {:?}",
+            got.fractions
+        );
+        assert_eq!(
+            got.labels,
+            NeighbourLabels::default(),
+            "grass cell ({r},{c})"
+        );
+        tally(r, c, &got);
     }
-    let mut agree = 0;
-    let mut decided = 0;
     for (r, c, cov) in pick(&edge, 16) {
-        let f = shoot(r, c);
+        let got = shoot(r, c, 0.0);
         // dilation eats ≈ 7 px = 17 cm into the asphalt along the edge; markings more
+        let f = got.fractions.center;
         assert!(
             (f - cov).abs() <= 0.25,
             "edge cell ({r},{c}) coverage {cov:.2} black {f:.2}"
         );
-        if !(0.4..=0.6).contains(&cov) {
-            decided += 1;
-            if (f >= 0.5) == (cov >= 0.5) {
-                agree += 1;
-            }
-        }
+        tally(r, c, &got);
     }
     assert!(
-        decided >= 8 && agree * 10 >= decided * 9,
-        "{agree}/{decided} edge labels agree"
+        decided >= 150 && agree * 100 >= decided * 97,
+        "{agree}/{decided} labels agree with the ground truth"
     );
+    // golden: four cells of the runway world, labels (centre, N, W, S, E) as the paper's
+    // pipeline gives them on this renderer (seeded disturbances)
+    let golden = [
+        ((5, 0), [true, true, true, true, true]),
+        ((-4, -10), [false, false, false, false, false]),
+        // edges: a cell on the runway's north-west edge, one just north-west of it
+        ((5, -5), [true, false, false, true, true]),
+        ((8, -1), [false, false, false, true, true]),
+    ];
+    for ((r, c), want) in golden {
+        let got = shoot(r, c, 0.0);
+        assert_eq!(
+            as_array(&got.labels),
+            want,
+            "cell ({r},{c}): {:?}",
+            got.fractions
+        );
+    }
 }
 
 #[test]

@@ -267,51 +267,42 @@ struct RegionFile {
     markings: bool,
 }
 
-/// The four corners (lat, lon) of grid cell (`row`, `col`) of a grid whose cell (0, 0) is
-/// centred on `origin` with `size` metre cells aligned with the UTM grid of the origin's zone
-/// (DESIGN.md §4), counter-clockwise from the south-west corner.
+/// The four corners (lat, lon) of grid cell (`row`, `col`) of the mission grid
+/// ([`crate::geo::Grid`], DESIGN.md §4: cell (0, 0) centred on `origin`, `size` metre cells
+/// aligned with the UTM grid of the origin's zone), counter-clockwise from the south-west
+/// corner. An origin or size the grid rejects falls back to the tangent plane.
 pub fn grid_cell_corners(origin: (f64, f64), size: f64, row: i32, col: i32) -> Vec<(f64, f64)> {
-    let zone = utm::lat_lon_to_zone_number(origin.0, origin.1);
-    let (n0, e0, _) = utm::to_utm_wgs84(origin.0, origin.1, zone);
-    let letter = utm::lat_to_zone_letter(origin.0).unwrap_or('N');
-    let cn = n0 + f64::from(row) * size;
-    let ce = e0 + f64::from(col) * size;
-    let h = size / 2.0;
-    [(-h, -h), (-h, h), (h, h), (h, -h)]
-        .iter()
-        .map(|&(dn, de)| {
-            utm::wsg84_utm_to_lat_lon(ce + de, cn + dn, zone, letter).unwrap_or_else(|_| {
-                // outside the UTM domain: fall back to the tangent plane around the origin
-                local::offset(
-                    origin.0,
-                    origin.1,
-                    f64::from(row) * size + dn,
-                    f64::from(col) * size + de,
-                )
-            })
-        })
-        .collect()
+    match crate::geo::Grid::new(crate::geo::LatLon::new(origin.0, origin.1), size) {
+        Ok(g) => g
+            .cell_corners(crate::geo::Cell::new(row, col))
+            .iter()
+            .map(|p| (p.lat, p.lon))
+            .collect(),
+        Err(_) => {
+            let h = size / 2.0;
+            let (cn, ce) = (f64::from(row) * size, f64::from(col) * size);
+            [(-h, -h), (-h, h), (h, h), (h, -h)]
+                .iter()
+                .map(|&(dn, de)| local::offset(origin.0, origin.1, cn + dn, ce + de))
+                .collect()
+        }
+    }
 }
 
 /// The centre (lat, lon) of grid cell (`row`, `col`) (see [`grid_cell_corners`]).
 pub fn grid_cell_center(origin: (f64, f64), size: f64, row: i32, col: i32) -> (f64, f64) {
-    let zone = utm::lat_lon_to_zone_number(origin.0, origin.1);
-    let (n0, e0, _) = utm::to_utm_wgs84(origin.0, origin.1, zone);
-    let letter = utm::lat_to_zone_letter(origin.0).unwrap_or('N');
-    utm::wsg84_utm_to_lat_lon(
-        e0 + f64::from(col) * size,
-        n0 + f64::from(row) * size,
-        zone,
-        letter,
-    )
-    .unwrap_or_else(|_| {
-        local::offset(
+    match crate::geo::Grid::new(crate::geo::LatLon::new(origin.0, origin.1), size) {
+        Ok(g) => {
+            let p = g.cell_center(crate::geo::Cell::new(row, col));
+            (p.lat, p.lon)
+        }
+        Err(_) => local::offset(
             origin.0,
             origin.1,
             f64::from(row) * size,
             f64::from(col) * size,
-        )
-    })
+        ),
+    }
 }
 
 /// The corners (lat, lon) of a rectangle centred on `center` with its long axis along
