@@ -7,6 +7,7 @@
 
 pub mod bench;
 pub mod experiment;
+pub mod plan;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -34,6 +35,8 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Run one of the papers' Monte Carlo studies.
     Experiment(experiment::ExperimentArgs),
+    /// Solve one epoch of the bandit planner's integer program for a scenario file.
+    Plan(plan::PlanArgs),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
@@ -72,5 +75,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Experiment(args) => experiment::run(args),
+        Command::Plan(args) => plan::run(args),
     }
 }

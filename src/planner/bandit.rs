@@ -163,7 +163,9 @@ impl BanditState {
 
     /// The unclassified cells C \ (K ∪ R), by index.
     pub fn unclassified(&self) -> Vec<usize> {
-        (0..self.len()).filter(|&l| self.is_unclassified(l)).collect()
+        (0..self.len())
+            .filter(|&l| self.is_unclassified(l))
+            .collect()
     }
 
     /// Whether K ∪ R = C (Algorithm 1 terminates).
@@ -272,11 +274,7 @@ pub fn epoch_goals(state: &BanditState, d: usize) -> Vec<Cell> {
 
 /// Step 5 of Algorithm 1: apply (4) and advance the epoch; returns the newly classified cells.
 pub fn update(state: &mut BanditState) -> Vec<Cell> {
-    state
-        .update()
-        .into_iter()
-        .map(|l| state.cells[l])
-        .collect()
+    state.update().into_iter().map(|l| state.cells[l]).collect()
 }
 
 /// Δ_l = |μ_l − θ| + ε (14).
@@ -365,7 +363,11 @@ mod tests {
     fn goals_are_top_d_by_j_with_index_ties_and_sets_are_monotone() {
         let cells: Vec<Cell> = (0..6).map(|i| Cell::new(0, i)).collect();
         let mut s = BanditState::new(cells, 0.5, 0.05, 0.1).unwrap();
-        assert_eq!(s.ucb_goal_indices(3), vec![0, 1, 2], "all J = ∞: index order");
+        assert_eq!(
+            s.ucb_goal_indices(3),
+            vec![0, 1, 2],
+            "all J = ∞: index order"
+        );
         s.record(0, 10, 10);
         s.record(1, 0, 10);
         assert_eq!(s.ucb_goal_indices(4), vec![2, 3, 4, 5]);

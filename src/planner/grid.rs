@@ -13,7 +13,9 @@ use std::collections::VecDeque;
 #[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
 pub enum GridError {
     /// `rows` or `cols` is zero or the grid is unreasonably large.
-    #[error("the grid must have 1 to 1,000,000 cells in 1 to 10,000 rows and columns, got {rows}×{cols}")]
+    #[error(
+        "the grid must have 1 to 1,000,000 cells in 1 to 10,000 rows and columns, got {rows}×{cols}"
+    )]
     BadSize {
         /// Requested rows.
         rows: i64,
@@ -35,7 +37,9 @@ pub enum GridError {
         cols: usize,
     },
     /// A station-admissible cell is an obstacle (the paper requires R ⊆ G \ O).
-    #[error("station cell [{row}, {col}] is an obstacle (the station-admissible set must avoid obstacles)")]
+    #[error(
+        "station cell [{row}, {col}] is an obstacle (the station-admissible set must avoid obstacles)"
+    )]
     StationCellOnObstacle {
         /// Row index.
         row: i32,
@@ -293,10 +297,17 @@ mod tests {
         assert!(g.station_moves(3).is_empty());
         assert!(g.is_move(0, 1) && !g.is_move(0, 4) && !g.is_move(0, 2));
         let d = g.distances(&[0], false);
-        assert_eq!(d[8], 3, "around the centre obstacle: (0,0)→(0,1)→(1,2)→(2,2)");
+        assert_eq!(
+            d[8], 3,
+            "around the centre obstacle: (0,0)→(0,1)→(1,2)→(2,2)"
+        );
         let ds = g.distances(&[0], true);
         assert_eq!(ds[1], 1);
-        assert_eq!(ds[8], u32::MAX, "(2,2) is a road cell but not connected by roads");
+        assert_eq!(
+            ds[8],
+            u32::MAX,
+            "(2,2) is a road cell but not connected by roads"
+        );
         assert!(g.free_cells_connected());
     }
 

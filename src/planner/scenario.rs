@@ -133,7 +133,9 @@ impl Instance {
             format!("[{}, {}]", c.row, c.col)
         };
         if td < 2 || tc < 2 {
-            return bad(format!("Td and Tc must be at least 2, got Td={td}, Tc={tc}"));
+            return bad(format!(
+                "Td and Tc must be at least 2, got Td={td}, Tc={tc}"
+            ));
         }
         if td % tc != 0 {
             return bad(format!(
@@ -152,7 +154,11 @@ impl Instance {
         if stations.is_empty() {
             return bad("stations: at least one station is needed".into());
         }
-        for (list, what) in [(&drones, "drones"), (&stations, "stations"), (&goals, "goals")] {
+        for (list, what) in [
+            (&drones, "drones"),
+            (&stations, "stations"),
+            (&goals, "goals"),
+        ] {
             for (n, &i) in list.iter().enumerate() {
                 if i >= grid.len() {
                     return bad(format!("{what}[{n}] is outside the grid"));
@@ -329,7 +335,11 @@ mod tests {
         let s = Scenario::from_json(SMALL).unwrap();
         assert_eq!(s.drones, vec![Cell::new(0, 0); 2]);
         let inst = s.instance().unwrap();
-        assert_eq!(inst.goals, vec![8], "duplicates removed, row-major index 2·4+0");
+        assert_eq!(
+            inst.goals,
+            vec![8],
+            "duplicates removed, row-major index 2·4+0"
+        );
         assert_eq!((inst.td, inst.tc, inst.k_max), (4, 2, 2));
         let back = Scenario::from_json(&inst.to_scenario("t").to_json()).unwrap();
         assert_eq!(back.instance().unwrap(), inst);
@@ -351,10 +361,13 @@ mod tests {
         assert!(err(|s| s.drones[1] = Cell::new(0, 1)).contains("not on a station"));
         assert!(err(|s| s.capacity = Some(1)).contains("capacity is 1"));
         assert!(
-            err(|s| s.station_cells = Some(vec![Cell::new(0, 0)])).contains("outside station_cells")
+            err(|s| s.station_cells = Some(vec![Cell::new(0, 0)]))
+                .contains("outside station_cells")
         );
         assert!(err(|s| s.obstacles.push(Cell::new(0, 9))).contains("outside the 3×4 grid"));
-        let e = Scenario::from_json(r#"{"rows": 2}"#).unwrap_err().to_string();
+        let e = Scenario::from_json(r#"{"rows": 2}"#)
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("missing field"), "{e}");
     }
 }

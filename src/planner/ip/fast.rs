@@ -62,9 +62,7 @@ pub(crate) fn solve(
 ) -> (PlanStatus, Option<Timelines>, Vec<Attempt>, String) {
     let mut attempts = Vec::new();
     for kc in 1..=inst.k_max {
-        let time_left = opts
-            .time_limit
-            .map(|t| t - start.elapsed().as_secs_f64());
+        let time_left = opts.time_limit.map(|t| t - start.elapsed().as_secs_f64());
         if time_left.is_some_and(|t| t <= 0.0) {
             return (PlanStatus::TimeLimit, None, attempts, String::new());
         }
@@ -74,7 +72,12 @@ pub(crate) fn solve(
             // All K' < kc are infeasible, so a kc-cycle plan is optimal even if HiGHS hit
             // its time limit after finding it (the model has no objective).
             RawResult::Solved { timelines, .. } => {
-                return (PlanStatus::Optimal, Some(timelines), attempts, String::new());
+                return (
+                    PlanStatus::Optimal,
+                    Some(timelines),
+                    attempts,
+                    String::new(),
+                );
             }
             RawResult::Infeasible => continue,
             RawResult::TimeLimit => return (PlanStatus::TimeLimit, None, attempts, String::new()),
@@ -232,8 +235,13 @@ pub(crate) fn solve_cycles(
             }
         }
     }
-    let n_vars = darcs.iter().map(Vec::len).sum::<usize>() + sarcs.iter().map(Vec::len).sum::<usize>();
-    let mut p = configure(vars.minimise(Expression::from(0.0)).using(highs), opts, time_left);
+    let n_vars =
+        darcs.iter().map(Vec::len).sum::<usize>() + sarcs.iter().map(Vec::len).sum::<usize>();
+    let mut p = configure(
+        vars.minimise(Expression::from(0.0)).using(highs),
+        opts,
+        time_left,
+    );
     let mut rows = 0usize;
     let mut add = |p: &mut good_lp::solvers::highs::HighsProblem, c: good_lp::Constraint| {
         p.add_constraint(c);

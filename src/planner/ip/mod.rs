@@ -181,7 +181,10 @@ impl PlanOutcome {
         PlanOutput {
             status: self.status.as_str().to_string(),
             cycles: self.plan.as_ref().map_or(0, |p| p.cycles),
-            drones: self.plan.as_ref().map_or_else(Vec::new, |p| conv(&p.drones)),
+            drones: self
+                .plan
+                .as_ref()
+                .map_or_else(Vec::new, |p| conv(&p.drones)),
             stations: self
                 .plan
                 .as_ref()
@@ -288,10 +291,7 @@ pub(crate) fn configure(
 #[derive(Debug)]
 pub(crate) enum RawResult {
     /// A solution (proven optimal or feasible at the time limit).
-    Solved {
-        optimal: bool,
-        timelines: Timelines,
-    },
+    Solved { optimal: bool, timelines: Timelines },
     /// Proven infeasible.
     Infeasible,
     /// Time limit without any solution.

@@ -32,9 +32,7 @@
 use super::{
     Attempt, Instance, PlanOptions, PlanStatus, RawResult, Timelines, classify, configure,
 };
-use good_lp::{
-    Expression, ProblemVariables, Solution, SolverModel, Variable, highs, variable,
-};
+use good_lp::{Expression, ProblemVariables, Solution, SolverModel, Variable, highs, variable};
 use std::time::Instant;
 
 /// Solve the paper's model with K = `inst.k_max` cycles.
