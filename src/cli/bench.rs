@@ -14,9 +14,14 @@ pub struct BenchArgs {
 
 /// The benchmarks.
 #[derive(Debug, Subcommand)]
-pub enum BenchCommand {}
+pub enum BenchCommand {
+    /// Per-epoch solve time of the bandit planner's IP on the 10×10 default.
+    Plan(super::bandit::BenchPlanArgs),
+}
 
 /// Run a benchmark.
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
-    match args.what {}
+    match args.what {
+        BenchCommand::Plan(a) => super::bandit::run_bench(a),
+    }
 }

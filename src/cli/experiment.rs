@@ -13,9 +13,14 @@ pub struct ExperimentArgs {
 
 /// The studies.
 #[derive(Debug, Subcommand)]
-pub enum ExperimentCommand {}
+pub enum ExperimentCommand {
+    /// The bandit paper's Monte Carlo study (Tables I–IV, Fig. 5, Fig. 6).
+    Bandit(super::bandit::ExperimentBanditArgs),
+}
 
 /// Run a study.
 pub fn run(args: ExperimentArgs) -> anyhow::Result<ExitCode> {
-    match args.which {}
+    match args.which {
+        ExperimentCommand::Bandit(a) => super::bandit::run_experiment(a),
+    }
 }

@@ -5,6 +5,7 @@
 //! Commands return an [`ExitCode`]; an `Err` is printed by `main` as one line on stderr
 //! and exits with status 1.
 
+pub mod bandit;
 pub mod bench;
 pub mod experiment;
 pub mod plan;

@@ -70,16 +70,41 @@ pub struct BanditState {
     pub classified_at: Vec<Option<u64>>,
     /// The current epoch p (number of updates so far).
     pub epoch: u64,
+    /// The base of `log` in (3b) (natural unless a study asks otherwise).
+    #[serde(default)]
+    pub log_base: LogBase,
 }
 
-/// U_l(p, δ) of (3b) for a cell with `n = |H_l|` samples among `n_cells = |C|` candidates;
-/// ∞ when `n = 0`.
+/// The base of the logarithms written `log` in (3b).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LogBase {
+    /// Natural logarithms: the mathematical reading of the paper's `log`, and the default.
+    #[default]
+    Natural,
+    /// Base-10 logarithms: a sensitivity option only (see the README's Planner section —
+    /// the paper's Table I numbers are much closer to what this base gives). The `log₂` in
+    /// (3b) stays base 2. Prop. 1's guarantee is stated for natural logarithms.
+    Ten,
+}
+
+/// U_l(p, δ) of (3b) for a cell with `n = |H_l|` samples among `n_cells = |C|` candidates,
+/// natural logarithms; ∞ when `n = 0`.
 pub fn ucb_width(n: u64, n_cells: usize, delta: f64) -> f64 {
+    ucb_width_base(n, n_cells, delta, LogBase::Natural)
+}
+
+/// U_l(p, δ) of (3b) with the given base for `log` (`log₂` is always base 2).
+pub fn ucb_width_base(n: u64, n_cells: usize, delta: f64, base: LogBase) -> f64 {
     if n == 0 {
         return f64::INFINITY;
     }
     let n = n as f64;
-    let inner = 2.0 * (2.0 * n).log2().ln() + (12.0 * n_cells as f64 / delta).ln();
+    let log = |x: f64| match base {
+        LogBase::Natural => x.ln(),
+        LogBase::Ten => x.log10(),
+    };
+    let inner = 2.0 * log((2.0 * n).log2()) + log(12.0 * n_cells as f64 / delta);
     2.0 * (inner / (2.0 * n)).sqrt()
 }
 
@@ -119,6 +144,7 @@ impl BanditState {
             labels: vec![Label::Unclassified; n],
             classified_at: vec![None; n],
             epoch: 0,
+            log_base: LogBase::Natural,
         })
     }
 
@@ -148,7 +174,7 @@ impl BanditState {
 
     /// U_l(p, δ) (3b).
     pub fn width(&self, l: usize) -> f64 {
-        ucb_width(self.samples[l], self.len(), self.delta)
+        ucb_width_base(self.samples[l], self.len(), self.delta, self.log_base)
     }
 
     /// J(l, p, δ) = μ̂_l + U_l (3a); ∞ without samples.
