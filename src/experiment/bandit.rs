@@ -26,11 +26,11 @@
 
 pub mod plot;
 
+use crate::geo::Cell;
 use crate::planner::bandit::{BanditState, Label, LogBase};
 use crate::planner::baselines::{GoalRule, choose_goals};
 use crate::planner::grid::Grid;
 use crate::planner::ip::{Instance, PlanOptions, PlanStatus, Timelines, solve_instance};
-use crate::geo::Cell;
 use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -750,7 +750,11 @@ mod tests {
         assert_eq!(w.interesting.iter().filter(|&&b| b).count(), 10);
         for i in w.grid.free_cells() {
             let m = w.mu[i];
-            assert!(if w.interesting[i] { m >= 0.8 } else { m <= 0.2 + 1e-12 });
+            assert!(if w.interesting[i] {
+                m >= 0.8
+            } else {
+                m <= 0.2 + 1e-12
+            });
         }
         assert_eq!(w.drones.len(), 10);
         assert!(w.drones.iter().all(|d| w.stations.contains(d)));

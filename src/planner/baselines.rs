@@ -92,7 +92,13 @@ pub fn choose_goals<R: rand::Rng + ?Sized>(
     }
 }
 
-fn greedy(state: &BanditState, d: usize, grid: &Grid, team: &[usize], coverage: bool) -> Vec<usize> {
+fn greedy(
+    state: &BanditState,
+    d: usize,
+    grid: &Grid,
+    team: &[usize],
+    coverage: bool,
+) -> Vec<usize> {
     let mut open: Vec<(usize, usize)> = state
         .unclassified()
         .into_iter()

@@ -75,8 +75,16 @@ pub fn progress_png(
                 let mut chart = $chart;
                 chart
                     .configure_mesh()
-                    .x_desc(if log_x { "epoch (log scale)" } else { "epoch" })
-                    .y_desc("cells classified (%)")
+                    .x_desc(if log_x {
+                        "epoch (log scale); solid: interesting cells, dashed: uninteresting cells"
+                    } else {
+                        "epoch; solid: interesting cells, dashed: uninteresting cells"
+                    })
+                    .y_desc("cells classified (%, mean over trials)")
+                    .x_labels(12)
+                    .x_label_formatter(&|x| format!("{x:.0}"))
+                    .y_label_formatter(&|y| format!("{y:.0}"))
+                    .light_line_style(RGBColor(238, 238, 238))
                     .label_style(("sans-serif", 16))
                     .draw()
                     .map_err(|e| err(&e))?;
@@ -85,7 +93,7 @@ pub fn progress_png(
                     chart
                         .draw_series(LineSeries::new(series(v, true), colour.stroke_width(2)))
                         .map_err(|e| err(&e))?
-                        .label(format!("{} (interesting: solid, uninteresting: dashed)", v.config.label))
+                        .label(v.config.label.clone())
                         .legend(move |(x, y)| {
                             PathElement::new(vec![(x, y), (x + 20, y)], colour.stroke_width(2))
                         });
@@ -115,13 +123,17 @@ pub fn progress_png(
             .x_label_area_size(45)
             .y_label_area_size(60);
         if log_x {
-            draw!(builder
-                .build_cartesian_2d((1f64..longest).log_scale(), 0f64..100f64)
-                .map_err(|e| err(&e))?);
+            draw!(
+                builder
+                    .build_cartesian_2d((1f64..longest).log_scale(), 0f64..100f64)
+                    .map_err(|e| err(&e))?
+            );
         } else {
-            draw!(builder
-                .build_cartesian_2d(1f64..longest, 0f64..100f64)
-                .map_err(|e| err(&e))?);
+            draw!(
+                builder
+                    .build_cartesian_2d(1f64..longest, 0f64..100f64)
+                    .map_err(|e| err(&e))?
+            );
         }
         root.present().map_err(|e| err(&e))?;
     }
