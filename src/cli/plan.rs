@@ -65,7 +65,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         threads: args.threads.max(1),
         time_limit: args.time_limit,
         repair: !args.no_repair,
-        verbose: false,
+        ..PlanOptions::default()
     };
     let outcome = solve_instance(&inst, &opts);
     if let Some(plan) = &outcome.plan {

@@ -81,6 +81,10 @@ pub struct StudyConfig {
     pub sensing: Sensing,
     /// The base of `log` in (3b) (natural = the paper as written).
     pub log_base: LogBase,
+    /// Informative paths (improvement, not in the paper): among the plans with the fewest
+    /// cycles, prefer those whose drones arrive often at unclassified cells
+    /// ([`PlanOptions::visit_weights`] = 1 on unclassified cells).
+    pub informative: bool,
 }
 
 /// What counts as one cell visit (B measurements) along a drone's path.
@@ -120,6 +124,7 @@ impl Default for StudyConfig {
             rule: GoalRule::Ucb,
             sensing: Sensing::Visits,
             log_base: LogBase::Natural,
+            informative: false,
         }
     }
 }
@@ -138,7 +143,8 @@ pub enum Preset {
     Table4,
     /// Fig. 6: D = N_d = 10; UCB against Random, GreedyCov, GreedyTrav, and the improved APT.
     Fig6,
-    /// The improved high level next to the faithful one: UCB and APT at Table I's default row.
+    /// The improvements next to the faithful planner at Table I's default row: UCB (the
+    /// paper), APT goals, informative paths, and both.
     Compare,
 }
 
@@ -204,10 +210,25 @@ impl Preset {
                 })
             })
             .collect(),
-            Preset::Compare => [GoalRule::Ucb, GoalRule::Apt]
-                .iter()
-                .map(|&r| with(r.name().to_string(), &|c| c.rule = r))
-                .collect(),
+            Preset::Compare => [
+                (GoalRule::Ucb, false),
+                (GoalRule::Apt, false),
+                (GoalRule::Ucb, true),
+                (GoalRule::Apt, true),
+            ]
+            .iter()
+            .map(|&(r, info)| {
+                let label = if info {
+                    format!("{}+informative", r.name())
+                } else {
+                    r.name().to_string()
+                };
+                with(label, &|c| {
+                    c.rule = r;
+                    c.informative = info
+                })
+            })
+            .collect(),
         }
     }
 
@@ -473,10 +494,19 @@ pub fn run_trial(
         cand_of[i] = l;
     }
     let (mut drones, mut stations) = (world.drones.clone(), world.stations.clone());
-    let opts = PlanOptions::default();
+    let mut opts = PlanOptions::default();
     for epoch in 0..cfg.max_epochs {
         if state.is_done() {
             break;
+        }
+        if cfg.informative {
+            let mut w = vec![0.0; g.len()];
+            for (l, &i) in dense.iter().enumerate() {
+                if state.is_unclassified(l) {
+                    w[i] = 1.0;
+                }
+            }
+            opts.visit_weights = Some(w);
         }
         let team: Vec<usize> = drones.iter().chain(&stations).copied().collect();
         let goals: Vec<usize> = choose_goals(cfg.rule, &state, cfg.d, g, &team, &mut rng)

@@ -46,6 +46,14 @@
 //! 4. **Cheap infeasibility.** If after pruning a goal has no variable (no drone can reach it
 //!    and get back to a station within K' cycles), or a drone's start cell has none, the K'
 //!    model is infeasible without calling HiGHS.
+//!
+//! 5. **Informative paths (optional, not in the paper).** With
+//!    [`PlanOptions::visit_weights`], each K' model gets the objective "maximise the weighted
+//!    number of drone arrivals", with a relative gap and a time limit of its own. The cycle count
+//!    is unaffected: K' is still the first K for which a plan exists (infeasibility is proven
+//!    whatever the objective, and any plan found for K' has K' cycles); only *which* K'-cycle
+//!    plan is returned changes. If the objective's time limit passes before any plan is found,
+//!    the K' model is solved again without objective.
 
 use super::{
     Attempt, Instance, PlanOptions, PlanStatus, RawResult, Timelines, classify, configure,
@@ -66,8 +74,20 @@ pub(crate) fn solve(
         if time_left.is_some_and(|t| t <= 0.0) {
             return (PlanStatus::TimeLimit, None, attempts, String::new());
         }
-        let (raw, attempt) = solve_cycles(inst, kc, opts, time_left);
+        let (mut raw, attempt) = solve_cycles(inst, kc, opts, time_left, opts.visit_weights.as_deref());
         attempts.push(attempt);
+        if opts.visit_weights.is_some()
+            && matches!(raw, RawResult::TimeLimit | RawResult::Error(_))
+        {
+            // The informative objective ran out of time before any plan: decide feasibility
+            // without it (item 5).
+            let time_left = opts
+                .time_limit
+                .map(|t| t - start.elapsed().as_secs_f64());
+            let (r, a) = solve_cycles(inst, kc, opts, time_left, None);
+            attempts.push(a);
+            raw = r;
+        }
         match raw {
             // All K' < kc are infeasible, so a kc-cycle plan is optimal even if HiGHS hit
             // its time limit after finding it (the model has no objective).
@@ -162,6 +182,7 @@ pub(crate) fn solve_cycles(
     kc: usize,
     opts: &PlanOptions,
     time_left: Option<f64>,
+    weights: Option<&[f64]>,
 ) -> (RawResult, Attempt) {
     let t0 = Instant::now();
     let g = &inst.grid;
@@ -237,11 +258,27 @@ pub(crate) fn solve_cycles(
     }
     let n_vars =
         darcs.iter().map(Vec::len).sum::<usize>() + sarcs.iter().map(Vec::len).sum::<usize>();
-    let mut p = configure(
-        vars.minimise(Expression::from(0.0)).using(highs),
-        opts,
-        time_left,
-    );
+    // Item 5 (optional): reward drone arrivals at valuable cells (moves, not passes).
+    let mut objective = Expression::with_capacity(if weights.is_some() { n_vars } else { 0 });
+    if let Some(w) = weights {
+        for layer in &darcs {
+            for a in layer {
+                let wl = w.get(a.to).copied().unwrap_or(0.0);
+                if a.from != a.to && wl != 0.0 {
+                    objective.add_mul(-wl, a.var);
+                }
+            }
+        }
+    }
+    let limit = match (weights.is_some(), time_left) {
+        (true, Some(t)) => Some(t.min(opts.secondary_time_limit)),
+        (true, None) => Some(opts.secondary_time_limit),
+        (false, t) => t,
+    };
+    let mut p = configure(vars.minimise(objective).using(highs), opts, limit);
+    if weights.is_some() {
+        p = p.set_option("mip_rel_gap", opts.secondary_gap.max(0.0));
+    }
     let mut rows = 0usize;
     let mut add = |p: &mut good_lp::solvers::highs::HighsProblem, c: good_lp::Constraint| {
         p.add_constraint(c);

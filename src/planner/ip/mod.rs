@@ -55,6 +55,17 @@ pub struct PlanOptions {
     pub repair: bool,
     /// HiGHS log on the console.
     pub verbose: bool,
+    /// *Informative paths* (an improvement, not in the paper; fast model only): reward
+    /// `visit_weights[l]` (per dense cell index) for every drone arrival at cell l. Among the
+    /// plans with the fewest sensing cycles — that number is still decided exactly first, see
+    /// [`fast`] — the solver then prefers plans whose drones fly over valuable (e.g.
+    /// unclassified) cells instead of arbitrary ones. `None`: the paper's IP, any optimal plan.
+    pub visit_weights: Option<Vec<f64>>,
+    /// Relative MIP gap accepted for the informative-paths objective (the cycle count is exact
+    /// regardless).
+    pub secondary_gap: f64,
+    /// Seconds HiGHS may spend improving informative paths before it keeps its best plan.
+    pub secondary_time_limit: f64,
 }
 
 impl Default for PlanOptions {
@@ -65,6 +76,9 @@ impl Default for PlanOptions {
             time_limit: None,
             repair: true,
             verbose: false,
+            visit_weights: None,
+            secondary_gap: 0.02,
+            secondary_time_limit: 2.0,
         }
     }
 }
