@@ -61,19 +61,19 @@ fn random_instance(rng: &mut ChaCha8Rng) -> Instance {
 }
 
 fn check_strict(inst: &Instance, outcome: &fleetmap::planner::ip::PlanOutcome, what: &str) {
-    if let Some(plan) = &outcome.plan {
-        if let Err(e) = check_plan_with(
+    if let Some(plan) = &outcome.plan
+        && let Err(e) = check_plan_with(
             inst,
             plan,
             CheckOptions {
                 no_head_on_swaps: true,
             },
-        ) {
-            panic!(
-                "{what} plan fails the checker: {e}\n{}",
-                inst.to_scenario("").to_json()
-            );
-        }
+        )
+    {
+        panic!(
+            "{what} plan fails the checker: {e}\n{}",
+            inst.to_scenario("").to_json()
+        );
     }
 }
 

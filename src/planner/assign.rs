@@ -28,12 +28,13 @@
 //! **Integer weights and exactness.** `kuhn_munkres` needs integers. A legal move costs 0, 1 or
 //! √2 cell widths; we use the weights 0, M and R = round(√2·M) with M = 2³⁰. Two assignments
 //! with a and b unit moves, and a' and b' diagonal ones, differ in real cost by
-//! Δ = (a − a') + (b − b')√2 and in scaled cost by M·Δ + (b − b')(R − √2·M). As √2 is
-//! irrational, Δ = 0 only if both counts agree (then the scaled costs agree too), and otherwise
-//! |Δ| = |p² − 2q²| / |p − q√2 conj.| ≥ 1 / ((1 + √2)·N) for N vehicles (|p|, |q| ≤ N), while
-//! the rounding term is at most N/2. For M > (1 + √2)N²/2, i.e. N ≤ 29,000 vehicles, the
-//! scaled comparison therefore orders assignments exactly as the real one: the integer optimum
-//! is a Euclidean optimum. Forbidden pairs weigh more than any legal assignment can.
+//! Δ = p + q√2 (p = a − a', q = b − b', |p|, |q| ≤ N for N vehicles) and in scaled cost by
+//! M·Δ + q·(R − √2·M), where |R − √2·M| ≤ 1/2. As √2 is irrational, Δ = 0 only if p = q = 0
+//! (and then the scaled costs agree too). Otherwise |p + q√2|·|p − q√2| = |p² − 2q²| ≥ 1, so
+//! |Δ| ≥ 1/|p − q√2| ≥ 1/((1 + √2)N), while the rounding term is at most N/2. For
+//! M > (1 + √2)N²/2 — with M = 2³⁰, up to N = 29,000 vehicles — the scaled comparison
+//! therefore orders assignments exactly as the Euclidean one: the integer optimum is a
+//! Euclidean optimum. Forbidden pairs weigh more than any legal assignment can.
 
 use super::grid::Grid;
 use super::ip::{Instance, Timelines};
@@ -57,7 +58,7 @@ pub fn repair(inst: &Instance, timelines: &mut Timelines) {
 /// is one move.
 pub fn repair_paths(g: &Grid, paths: &mut [Vec<usize>], legal: impl Fn(usize, usize) -> bool) {
     let n = paths.len();
-    if n < 2 || n > MAX_VEHICLES {
+    if !(2..=MAX_VEHICLES).contains(&n) {
         return;
     }
     let len = paths[0].len();

@@ -137,7 +137,7 @@ impl Instance {
                 "Td and Tc must be at least 2, got Td={td}, Tc={tc}"
             ));
         }
-        if td % tc != 0 {
+        if !td.is_multiple_of(tc) {
             return bad(format!(
                 "Td must be a multiple of Tc (Td = γ·Tc with an integer speed ratio γ), got Td={td}, Tc={tc}"
             ));
@@ -301,7 +301,7 @@ impl Scenario {
         let stations = idx("stations", &self.stations)?;
         let goals = idx("goals", &self.goals)?;
         let pos = |name: &str, v: i64| -> Result<usize, ScenarioError> {
-            if v < 1 || v > 1_000_000 {
+            if !(1..=1_000_000).contains(&v) {
                 Err(ScenarioError::Invalid(format!(
                     "{name} must be an integer from 1 to 1000000, got {v}"
                 )))

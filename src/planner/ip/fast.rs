@@ -25,6 +25,7 @@
 //!      (7d), each arc entering from a mid-cycle time carries at most one drone by (7e)). At
 //!      k = 0 it holds by validation of the start configuration;
 //!    * every goal has positive inflow at some time, or is a start cell (8a).
+//!
 //!    A plain-model plan maps to such flows by counting drones per arc; conversely integral
 //!    flows decompose into N_d drone paths and N_c station paths (follow any arc with remaining
 //!    flow out of the current cell: conservation guarantees one exists), and those paths satisfy
@@ -74,16 +75,14 @@ pub(crate) fn solve(
         if time_left.is_some_and(|t| t <= 0.0) {
             return (PlanStatus::TimeLimit, None, attempts, String::new());
         }
-        let (mut raw, attempt) = solve_cycles(inst, kc, opts, time_left, opts.visit_weights.as_deref());
+        let (mut raw, attempt) =
+            solve_cycles(inst, kc, opts, time_left, opts.visit_weights.as_deref());
         attempts.push(attempt);
-        if opts.visit_weights.is_some()
-            && matches!(raw, RawResult::TimeLimit | RawResult::Error(_))
+        if opts.visit_weights.is_some() && matches!(raw, RawResult::TimeLimit | RawResult::Error(_))
         {
             // The informative objective ran out of time before any plan: decide feasibility
             // without it (item 5).
-            let time_left = opts
-                .time_limit
-                .map(|t| t - start.elapsed().as_secs_f64());
+            let time_left = opts.time_limit.map(|t| t - start.elapsed().as_secs_f64());
             let (r, a) = solve_cycles(inst, kc, opts, time_left, None);
             attempts.push(a);
             raw = r;
@@ -117,6 +116,8 @@ pub struct Reach {
 }
 
 /// Forward/backward reachability of item 3 for a plan of `kc` cycles.
+// Cell loops index several parallel per-layer arrays at once.
+#[allow(clippy::needless_range_loop)]
 pub fn reach(inst: &Instance, kc: usize) -> Reach {
     let g = &inst.grid;
     let ng = g.len();
@@ -136,7 +137,7 @@ pub fn reach(inst: &Instance, kc: usize) -> Reach {
             }
         }
     }
-    let boundary_ok = |t: usize, l: usize| t % dt != 0 || station[t / dt * ct][l];
+    let boundary_ok = |t: usize, l: usize| !t.is_multiple_of(dt) || station[t / dt * ct][l];
     let mut fwd = vec![vec![false; ng]; tmax + 1];
     for &d in &inst.drones {
         fwd[0][d] = true;
@@ -177,6 +178,8 @@ struct Arc {
 }
 
 /// Build and solve the feasibility model with exactly `kc` cycles.
+// Cell and time loops index several parallel arrays at once.
+#[allow(clippy::needless_range_loop)]
 pub(crate) fn solve_cycles(
     inst: &Instance,
     kc: usize,
@@ -210,7 +213,7 @@ pub(crate) fn solve_cycles(
         attempt.seconds = t0.elapsed().as_secs_f64();
         return (RawResult::Infeasible, attempt);
     }
-    let boundary = |t: usize| t % dt == 0;
+    let boundary = |t: usize| t.is_multiple_of(dt);
     let cap = inst.capacity.unwrap_or(nd).min(nd);
     let mut vars = ProblemVariables::new();
     // Drone arcs per time t ∈ [1, tmax] (arc from time t − 1 to t).
