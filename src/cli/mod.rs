@@ -44,7 +44,8 @@ pub enum Command {
 pub fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::Result<()> {
     use tracing_subscriber::EnvFilter;
     let default = match verbose {
-        0 => "warn",
+        // HiGHS logs every time-limited solve as a warning; the planner reports those itself.
+        0 => "warn,highs=error",
         1 => "info",
         2 => "debug",
         _ => "trace",
