@@ -19,6 +19,8 @@ pub enum BenchCommand {
     Classify(crate::cli::classify::BenchClassifyArgs),
     /// Terminal UI: full-frame redraws of a generated fleet, frames per second.
     Tui(super::tui::TuiBenchArgs),
+    /// Per-epoch solve time of the bandit planner's IP on the 10×10 default.
+    Plan(super::bandit::BenchPlanArgs),
 }
 
 /// Run a benchmark.
@@ -26,5 +28,6 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     match args.what {
         BenchCommand::Classify(a) => crate::cli::classify::bench(a),
         BenchCommand::Tui(a) => super::tui::bench(a),
+        BenchCommand::Plan(a) => super::bandit::run_bench(a),
     }
 }

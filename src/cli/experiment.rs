@@ -17,6 +17,8 @@ pub enum ExperimentCommand {
     /// Runway paper §6, Fig. 7: Algorithm 1 on random grid ROIs against Lemma 1, Lemma 2 and
     /// the lawnmower baseline (CSV, JSON summary, PNG plots in --out).
     Dfs(crate::experiment::dfs::DfsArgs),
+    /// The bandit paper's Monte Carlo study (Tables I–IV, Fig. 5, Fig. 6).
+    Bandit(super::bandit::ExperimentBanditArgs),
 }
 
 /// Run a study.
@@ -73,5 +75,6 @@ fn run_dfs(args: crate::experiment::dfs::DfsArgs) -> anyhow::Result<ExitCode> {
             eprintln!("  … and {} more (see dfs_trials.csv)", lines.len() - 20);
         }
         Ok(ExitCode::FAILURE)
+        ExperimentCommand::Bandit(a) => super::bandit::run_experiment(a),
     }
 }

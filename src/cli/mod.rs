@@ -5,6 +5,7 @@
 //! Commands return an [`ExitCode`]; an `Err` is printed by `main` as one line on stderr
 //! and exits with status 1.
 
+pub mod bandit;
 pub mod bench;
 pub mod check;
 pub mod classify;
@@ -12,6 +13,7 @@ pub mod experiment;
 pub mod grid;
 pub mod sim;
 pub mod tui;
+pub mod plan;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -49,13 +51,16 @@ pub enum Command {
     Classify(classify::ClassifyArgs),
     /// The operator's terminal UI (for now on the built-in sample or a replay file).
     Tui(tui::TuiArgs),
+    /// Solve one epoch of the bandit planner's integer program for a scenario file.
+    Plan(plan::PlanArgs),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
 pub fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::Result<()> {
     use tracing_subscriber::EnvFilter;
     let default = match verbose {
-        0 => "warn",
+        // HiGHS logs every time-limited solve as a warning; the planner reports those itself.
+        0 => "warn,highs=error",
         1 => "info",
         2 => "debug",
         _ => "trace",
@@ -97,5 +102,6 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Grid(args) => grid::run(args),
         Command::Classify(args) => classify::run(args),
         Command::Tui(args) => tui::run(args, log_file.as_deref()),
+        Command::Plan(args) => plan::run(args),
     }
 }

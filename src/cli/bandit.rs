@@ -1,0 +1,533 @@
+//! `fleetmap experiment bandit` (the bandit paper's Monte Carlo study, §VI) and
+//! `fleetmap bench plan` (per-epoch IP solve time on the 10×10 default).
+
+use crate::experiment::bandit::{
+    self as study, Preset, Sensing, Spread, StudyConfig, TrialResult, VariantSummary, World, plot,
+};
+use crate::planner::bandit::LogBase;
+use crate::planner::baselines::GoalRule;
+use crate::planner::ip::{Model, PlanOptions, solve_instance};
+use crate::store::atomic_write;
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// The presets of `fleetmap experiment bandit`.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum PresetArg {
+    /// Table I and Fig. 5: worst-case sensor accuracy 0.6, 0.8, 1.0.
+    Table1,
+    /// Table II: epoch goals D = 5, 8, 10, 15.
+    Table2,
+    /// Table III: nine (Td, Tc) agility settings.
+    Table3,
+    /// Table IV: team sizes (Nd, Nc).
+    Table4,
+    /// Fig. 6: UCB against Random, GreedyCov, GreedyTrav (and the improved APT), D = 10.
+    Fig6,
+    /// The faithful UCB high level next to the improved APT one (Table I's default row).
+    Compare,
+}
+
+impl PresetArg {
+    fn preset(self) -> Preset {
+        match self {
+            PresetArg::Table1 => Preset::Table1,
+            PresetArg::Table2 => Preset::Table2,
+            PresetArg::Table3 => Preset::Table3,
+            PresetArg::Table4 => Preset::Table4,
+            PresetArg::Fig6 => Preset::Fig6,
+            PresetArg::Compare => Preset::Compare,
+        }
+    }
+}
+
+/// A goal rule on the command line.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum RuleArg {
+    /// The paper's UCB rule (3).
+    Ucb,
+    /// The improved APT rule (most ambiguous cells).
+    Apt,
+    /// Baseline: random unclassified cells.
+    Random,
+    /// Baseline: least-sampled cells, spread out.
+    GreedyCov,
+    /// Baseline: cells nearest the team.
+    GreedyTrav,
+}
+
+impl RuleArg {
+    fn rule(self) -> GoalRule {
+        match self {
+            RuleArg::Ucb => GoalRule::Ucb,
+            RuleArg::Apt => GoalRule::Apt,
+            RuleArg::Random => GoalRule::Random,
+            RuleArg::GreedyCov => GoalRule::GreedyCov,
+            RuleArg::GreedyTrav => GoalRule::GreedyTrav,
+        }
+    }
+}
+
+/// What counts as a cell visit.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum SensingArg {
+    /// Each arrival at a cell (hovering in place is one visit).
+    Visits,
+    /// Each time step on a cell.
+    Steps,
+}
+
+/// The base of `log` in (3b).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum LogBaseArg {
+    /// Natural logarithms (the paper as written).
+    E,
+    /// Base-10 logarithms.
+    #[value(name = "10")]
+    Ten,
+}
+
+/// Arguments of `fleetmap experiment bandit`.
+#[derive(Debug, Args)]
+pub struct ExperimentBanditArgs {
+    /// Which table or figure of the paper to reproduce.
+    #[arg(long, value_enum, default_value_t = PresetArg::Table1)]
+    pub preset: PresetArg,
+    /// Monte Carlo trials per variant (the paper: 100 for Table I, 50 for the others).
+    #[arg(long)]
+    pub trials: Option<usize>,
+    /// Study seed (trial t uses the same world in every variant).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Output directory for trials.csv, epochs.csv, summary.json and progress.png.
+    #[arg(long, value_name = "DIR")]
+    pub out: Option<PathBuf>,
+    /// Only the variants whose label contains this text (e.g. `mu_worst=0.8`).
+    #[arg(long, value_name = "TEXT")]
+    pub only: Option<String>,
+    /// Choose epoch goals with this rule in every variant (not for fig6/compare).
+    #[arg(long, value_enum)]
+    pub rule: Option<RuleArg>,
+    /// Stop a trial after this many epochs (reported as censored).
+    #[arg(long, default_value_t = 1000)]
+    pub max_epochs: usize,
+    /// Trials run in parallel (default: the number of CPU cores). HiGHS uses one thread each.
+    #[arg(long)]
+    pub jobs: Option<usize>,
+    /// δ, the labelling error probability (the paper's Fig. 2 value by default).
+    #[arg(long, default_value_t = 1e-4)]
+    pub delta: f64,
+    /// ε, the labelling tolerance (the paper's Fig. 2 value by default).
+    #[arg(long, default_value_t = 0.05)]
+    pub epsilon: f64,
+    /// What counts as a cell visit giving B measurements (sensitivity option).
+    #[arg(long, value_enum, default_value_t = SensingArg::Visits)]
+    pub sensing: SensingArg,
+    /// Base of `log` in (3b): e as written in the paper, or 10 (sensitivity option).
+    #[arg(long, value_enum, default_value_t = LogBaseArg::E)]
+    pub log_base: LogBaseArg,
+    /// Print the summary as JSON on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
+    /// No progress bar.
+    #[arg(long)]
+    pub quiet: bool,
+}
+
+/// The summary file of a study.
+#[derive(Debug, Serialize)]
+struct StudySummary<'a> {
+    preset: &'a str,
+    seed: u64,
+    trials: usize,
+    /// How the quantiles are computed.
+    quantiles: &'a str,
+    variants: &'a [VariantSummary],
+}
+
+fn fmt_spread(s: &Option<Spread>, digits: usize) -> String {
+    match s {
+        None => "n/a".into(),
+        Some(s) => format!(
+            "{:.d$} ({:.d$}, {:.d$})",
+            s.median,
+            s.q10,
+            s.q90,
+            d = digits
+        ),
+    }
+}
+
+/// Run `fleetmap experiment bandit`.
+pub fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitCode> {
+    let preset = args.preset.preset();
+    let mut variants: Vec<StudyConfig> = preset.variants();
+    if let Some(only) = &args.only {
+        variants.retain(|v| v.label.contains(only.as_str()));
+        if variants.is_empty() {
+            anyhow::bail!(
+                "--only {only:?} matches no variant of {} (labels: {})",
+                preset.name(),
+                preset
+                    .variants()
+                    .iter()
+                    .map(|v| v.label.clone())
+                    .collect::<Vec<_>>()
+                    .join(", ")
+            );
+        }
+    }
+    if let Some(rule) = args.rule {
+        if matches!(preset, Preset::Fig6 | Preset::Compare) {
+            anyhow::bail!(
+                "--rule cannot be combined with --preset {} (it compares rules)",
+                preset.name()
+            );
+        }
+        for v in &mut variants {
+            v.rule = rule.rule();
+            v.label = format!("{} [{}]", v.label, rule.rule().name());
+        }
+    }
+    if args.max_epochs == 0 {
+        anyhow::bail!("--max-epochs must be at least 1");
+    }
+    if !(args.delta > 0.0 && args.delta < 1.0) {
+        anyhow::bail!("--delta must be in (0, 1), got {}", args.delta);
+    }
+    if !(args.epsilon > 0.0 && args.epsilon < 1.0) {
+        anyhow::bail!("--epsilon must be in (0, 1), got {}", args.epsilon);
+    }
+    for v in &mut variants {
+        v.max_epochs = args.max_epochs;
+        v.delta = args.delta;
+        v.epsilon = args.epsilon;
+        v.sensing = match args.sensing {
+            SensingArg::Visits => Sensing::Visits,
+            SensingArg::Steps => Sensing::Steps,
+        };
+        v.log_base = match args.log_base {
+            LogBaseArg::E => LogBase::Natural,
+            LogBaseArg::Ten => LogBase::Ten,
+        };
+    }
+    let trials = args
+        .trials
+        .unwrap_or(if preset == Preset::Table1 { 100 } else { 50 });
+    if trials == 0 {
+        anyhow::bail!("--trials must be at least 1");
+    }
+    let out_dir = args
+        .out
+        .clone()
+        .unwrap_or_else(|| PathBuf::from(format!("results/bandit-{}", preset.name())));
+    std::fs::create_dir_all(&out_dir)
+        .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
+    let jobs = args
+        .jobs
+        .unwrap_or_else(|| std::thread::available_parallelism().map_or(1, |n| n.get()))
+        .max(1);
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(jobs)
+        .build()
+        .context("cannot start the worker threads")?;
+    let tasks: Vec<(usize, usize)> = (0..variants.len())
+        .flat_map(|v| (0..trials).map(move |t| (v, t)))
+        .collect();
+    let bar = if args.quiet {
+        ProgressBar::hidden()
+    } else {
+        let b =
+            ProgressBar::with_draw_target(Some(tasks.len() as u64), ProgressDrawTarget::stderr());
+        b.set_style(
+            ProgressStyle::with_template(
+                "{prefix} [{elapsed_precise}] {wide_bar} {pos}/{len} trials (eta {eta})",
+            )
+            .unwrap_or_else(|_| ProgressStyle::default_bar()),
+        );
+        b.set_prefix(format!("bandit {}", preset.name()));
+        b
+    };
+    let results: Vec<TrialResult> = pool.install(|| {
+        tasks
+            .par_iter()
+            .map(|&(v, t)| {
+                let r = study::run_seeded(&variants[v], args.seed, t, v);
+                bar.inc(1);
+                r
+            })
+            .collect()
+    });
+    bar.finish_and_clear();
+    let summaries: Vec<VariantSummary> = variants
+        .iter()
+        .map(|cfg| {
+            let mine: Vec<TrialResult> = results
+                .iter()
+                .filter(|r| r.label == cfg.label)
+                .cloned()
+                .collect();
+            study::summarise(cfg, &mine)
+        })
+        .collect();
+    // CSV files.
+    let mut trials_csv = String::from(
+        "variant,trial,world_seed,epochs_interesting,epochs_all,label_errors,epochs_run,median_solve_seconds,failure\n",
+    );
+    let mut epochs_csv = String::from(
+        "variant,trial,epoch,solve_seconds,cycles,goals,variables,interesting_classified,uninteresting_classified,batches\n",
+    );
+    let opt = |x: Option<usize>| x.map_or(String::new(), |v| v.to_string());
+    for r in &results {
+        let solve: Vec<f64> = r.epochs.iter().map(|e| e.solve_seconds).collect();
+        writeln!(
+            trials_csv,
+            "\"{}\",{},{},{},{},{},{},{},\"{}\"",
+            r.label,
+            r.trial,
+            r.world_seed,
+            opt(r.epochs_interesting),
+            opt(r.epochs_all),
+            r.label_errors,
+            r.epochs.len(),
+            study::quantile(&solve, 0.5).map_or(String::new(), |s| format!("{s:.4}")),
+            r.failure.clone().unwrap_or_default().replace('"', "'")
+        )?;
+        for e in &r.epochs {
+            writeln!(
+                epochs_csv,
+                "\"{}\",{},{},{:.5},{},{},{},{},{},{}",
+                r.label,
+                r.trial,
+                e.epoch,
+                e.solve_seconds,
+                e.cycles,
+                e.goals,
+                e.variables,
+                e.interesting_classified,
+                e.uninteresting_classified,
+                e.batches
+            )?;
+        }
+    }
+    let write = |name: &str, bytes: &[u8]| -> anyhow::Result<()> {
+        let p = out_dir.join(name);
+        atomic_write(&p, bytes).with_context(|| format!("cannot write {}", p.display()))
+    };
+    write("trials.csv", trials_csv.as_bytes())?;
+    write("epochs.csv", epochs_csv.as_bytes())?;
+    let summary = StudySummary {
+        preset: preset.name(),
+        seed: args.seed,
+        trials,
+        quantiles: "linear interpolation between order statistics (numpy default); epochs over finished trials; solve time over all epochs of all trials",
+        variants: &summaries,
+    };
+    let summary_json = serde_json::to_string_pretty(&summary)?;
+    write("summary.json", summary_json.as_bytes())?;
+    let title = match preset {
+        Preset::Table1 => {
+            "Classification progress vs worst-case sensor accuracy (Fig. 5)".to_string()
+        }
+        Preset::Fig6 => "Classification progress: Algorithm 1 vs baselines (Fig. 6)".to_string(),
+        p => format!("Classification progress ({})", p.name()),
+    };
+    let png = plot::progress_png(&title, &summaries, preset == Preset::Table1, 1100, 700)?;
+    write("progress.png", &png)?;
+    let mut out = String::new();
+    if args.json {
+        out.push_str(&summary_json);
+        out.push('\n');
+    } else {
+        writeln!(
+            out,
+            "bandit study, preset {} ({trials} trials per variant, seed {}), results in {}",
+            preset.name(),
+            args.seed,
+            out_dir.display()
+        )?;
+        writeln!(
+            out,
+            "{:<24} {:>26} {:>22} {:>22} {:>8} {:>6}",
+            "variant",
+            "solve s/epoch med (q10,q90)",
+            "epochs: interesting",
+            "epochs: all cells",
+            "censored",
+            "errors"
+        )?;
+        for s in &summaries {
+            writeln!(
+                out,
+                "{:<24} {:>26} {:>22} {:>22} {:>8} {:>6}",
+                s.config.label,
+                fmt_spread(&s.solve_seconds, 3),
+                fmt_spread(&s.epochs_interesting, 1),
+                fmt_spread(&s.epochs_all, 1),
+                s.censored,
+                s.label_errors
+            )?;
+        }
+    }
+    super::plan::emit(&out)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Arguments of `fleetmap bench plan`.
+#[derive(Debug, Args)]
+pub struct BenchPlanArgs {
+    /// How many epochs to time.
+    #[arg(long, default_value_t = 100)]
+    pub epochs: usize,
+    /// Seed of the μ draws and the sensing.
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// HiGHS threads per solve.
+    #[arg(long, default_value_t = 1)]
+    pub threads: u32,
+    /// The IP formulation to time.
+    #[arg(long, value_enum, default_value_t = super::plan::ModelArg::Fast)]
+    pub model: super::plan::ModelArg,
+    /// Time limit per epoch in seconds (for the plain model).
+    #[arg(long, value_name = "SECONDS")]
+    pub time_limit: Option<f64>,
+    /// Print the figures as JSON.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// The output of `fleetmap bench plan --json`.
+#[derive(Debug, Serialize)]
+struct BenchPlanOutput {
+    scenario: &'static str,
+    model: &'static str,
+    epochs: usize,
+    threads: u32,
+    median_seconds: f64,
+    q10_seconds: f64,
+    q90_seconds: f64,
+    max_seconds: f64,
+    mean_seconds: f64,
+    multi_cycle_epochs: usize,
+    max_variables: usize,
+}
+
+/// Run `fleetmap bench plan`: the epochs of Algorithm 1 on the 10×10 default of FIXTURES.md
+/// (Nd = 10, Nc = 5, Td = 8, Tc = 4, D = 8, 16 obstacles; μ drawn as in §VI with
+/// μ_worst = 0.8; the team carried over between epochs), solved one after the other, the
+/// solve time of each epoch recorded. Trials restart with new μ until `--epochs` are timed.
+pub fn run_bench(args: BenchPlanArgs) -> anyhow::Result<ExitCode> {
+    if args.epochs == 0 {
+        anyhow::bail!("--epochs must be at least 1");
+    }
+    let cfg = StudyConfig::default();
+    let opts = PlanOptions {
+        model: match args.model {
+            super::plan::ModelArg::Fast => Model::Fast,
+            super::plan::ModelArg::Plain => Model::Plain,
+        },
+        threads: args.threads.max(1),
+        time_limit: args.time_limit,
+        ..PlanOptions::default()
+    };
+    let mut times: Vec<f64> = Vec::new();
+    let mut multi = 0;
+    let mut max_vars = 0;
+    let mut trial = 0u64;
+    let bar = if args.json {
+        ProgressBar::hidden()
+    } else {
+        ProgressBar::with_draw_target(Some(args.epochs as u64), ProgressDrawTarget::stderr())
+    };
+    while times.len() < args.epochs {
+        let seed = study::mix(args.seed ^ study::mix(trial));
+        let mut rng = ChaCha8Rng::seed_from_u64(seed);
+        let world = World::default_10x10(cfg.mu_worst, cfg.theta, &mut rng);
+        let mut cfg_t = cfg.clone();
+        cfg_t.max_epochs = args.epochs - times.len();
+        // Epochs are generated by the fast model (what Algorithm 1 runs); each epoch's
+        // instance is then timed with the requested model.
+        study::run_trial(
+            &cfg_t,
+            &world,
+            "bench",
+            trial as usize,
+            seed,
+            seed ^ 1,
+            |inst, out| {
+                let o = if opts.model == Model::Fast && opts.threads == 1 {
+                    out.clone()
+                } else {
+                    // The plain model with K = (fast optimum + 1), so that it still has to prove
+                    // the optimum over λ, and a time limit (it is the slow reference).
+                    let mut inst = inst.clone();
+                    if opts.model == Model::Plain {
+                        inst.k_max = out.plan.as_ref().map_or(1, |p| p.cycles) + 1;
+                    }
+                    solve_instance(&inst, &opts)
+                };
+                times.push(o.solve_seconds);
+                max_vars = max_vars.max(o.variables);
+                if o.plan.as_ref().is_some_and(|p| p.cycles > 1) {
+                    multi += 1;
+                }
+                bar.inc(1);
+            },
+        );
+        trial += 1;
+    }
+    bar.finish_and_clear();
+    times.truncate(args.epochs);
+    let q = |p: f64| study::quantile(&times, p).unwrap_or(f64::NAN);
+    let result = BenchPlanOutput {
+        scenario: "sim-10x10 default (FIXTURES.md), Algorithm 1 epochs, mu_worst = 0.8",
+        model: match opts.model {
+            Model::Fast => "fast",
+            Model::Plain => "plain",
+        },
+        epochs: times.len(),
+        threads: opts.threads,
+        median_seconds: q(0.5),
+        q10_seconds: q(0.1),
+        q90_seconds: q(0.9),
+        max_seconds: times.iter().copied().fold(0.0, f64::max),
+        mean_seconds: times.iter().sum::<f64>() / times.len() as f64,
+        multi_cycle_epochs: multi,
+        max_variables: max_vars,
+    };
+    let mut out = String::new();
+    if args.json {
+        out.push_str(&serde_json::to_string(&result)?);
+        out.push('\n');
+    } else {
+        writeln!(
+            out,
+            "IP solve per epoch, {} model, {} epochs of Algorithm 1 on the 10×10 default, HiGHS threads {}:",
+            result.model, result.epochs, result.threads
+        )?;
+        writeln!(
+            out,
+            "  median {:.3} s   q0.1 {:.3} s   q0.9 {:.3} s   max {:.3} s   mean {:.3} s",
+            result.median_seconds,
+            result.q10_seconds,
+            result.q90_seconds,
+            result.max_seconds,
+            result.mean_seconds
+        )?;
+        writeln!(
+            out,
+            "  {} epochs needed 2+ sensing cycles; largest model {} variables",
+            result.multi_cycle_epochs, result.max_variables
+        )?;
+    }
+    super::plan::emit(&out)?;
+    Ok(ExitCode::SUCCESS)
+}

@@ -1,0 +1,162 @@
+//! `fleetmap plan --scenario FILE.json [--json]`: solve one epoch of the bandit paper's
+//! low-level planner (the IP (11), Algorithm 2) for a scenario file (specs/ip-scenario.md).
+
+use crate::planner::check::{CheckOptions, check_plan_with};
+use crate::planner::ip::{Model, PlanOptions, PlanStatus, Scenario, solve_instance};
+use anyhow::Context;
+use clap::{Args, ValueEnum};
+use std::fmt::Write as _;
+use std::io::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Which formulation to solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum ModelArg {
+    /// The reformulated model (same optimum, much faster).
+    Fast,
+    /// The paper's model exactly as written (slow; the reference).
+    Plain,
+}
+
+/// Arguments of `fleetmap plan`.
+#[derive(Debug, Args)]
+pub struct PlanArgs {
+    /// The scenario file (JSON, specs/ip-scenario.md).
+    #[arg(long, value_name = "FILE.json")]
+    pub scenario: PathBuf,
+    /// Print the result as JSON (the spec's output object) instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// The IP formulation.
+    #[arg(long, value_enum, default_value_t = ModelArg::Fast)]
+    pub model: ModelArg,
+    /// HiGHS threads.
+    #[arg(long, default_value_t = 1)]
+    pub threads: u32,
+    /// Give up after this many seconds (status "time_limit").
+    #[arg(long, value_name = "SECONDS")]
+    pub time_limit: Option<f64>,
+    /// Skip the linear-assignment re-pairing of §III-C.
+    #[arg(long)]
+    pub no_repair: bool,
+}
+
+/// Run `fleetmap plan`. Exit status 0 for "optimal", "infeasible" and "time_limit" (the answer
+/// is in the output), 1 for a malformed scenario or a solver error.
+pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
+    let text = std::fs::read_to_string(&args.scenario)
+        .with_context(|| format!("cannot read scenario {}", args.scenario.display()))?;
+    let scenario = Scenario::from_json(&text)
+        .with_context(|| format!("scenario {}", args.scenario.display()))?;
+    let inst = scenario
+        .instance()
+        .with_context(|| format!("scenario {}", args.scenario.display()))?;
+    if let Some(t) = args.time_limit
+        && !(t > 0.0 && t.is_finite())
+    {
+        anyhow::bail!("--time-limit must be a positive number of seconds, got {t}");
+    }
+    let opts = PlanOptions {
+        model: match args.model {
+            ModelArg::Fast => Model::Fast,
+            ModelArg::Plain => Model::Plain,
+        },
+        threads: args.threads.max(1),
+        time_limit: args.time_limit,
+        repair: !args.no_repair,
+        ..PlanOptions::default()
+    };
+    let outcome = solve_instance(&inst, &opts);
+    if let Some(plan) = &outcome.plan {
+        // Defence in depth: an independent check of every plan we print.
+        check_plan_with(
+            &inst,
+            plan,
+            CheckOptions {
+                no_head_on_swaps: opts.repair,
+            },
+        )
+        .context("internal error: the solver's plan fails the independent checker")?;
+    }
+    let mut out = String::new();
+    if args.json {
+        out.push_str(&serde_json::to_string(&outcome.output())?);
+        out.push('\n');
+    } else {
+        let name = if scenario.name.is_empty() {
+            args.scenario.display().to_string()
+        } else {
+            scenario.name.clone()
+        };
+        writeln!(out, "scenario: {name}")?;
+        writeln!(
+            out,
+            "status: {}   cycles: {}   solve: {:.3} s   variables: {}   constraints: {}",
+            outcome.status.as_str(),
+            outcome.plan.as_ref().map_or(0, |p| p.cycles),
+            outcome.solve_seconds,
+            outcome.variables,
+            outcome.constraints
+        )?;
+        for a in &outcome.attempts {
+            writeln!(
+                out,
+                "  model with {} cycle(s): {}{} in {:.3} s ({} variables, {} constraints)",
+                a.cycles,
+                a.status.as_str(),
+                if a.presolved { " by reachability" } else { "" },
+                a.seconds,
+                a.variables,
+                a.constraints
+            )?;
+        }
+        if outcome.status == PlanStatus::Infeasible {
+            writeln!(
+                out,
+                "no plan visits every goal within K = {} cycles",
+                inst.k_max
+            )?;
+        }
+        if !outcome.message.is_empty() {
+            writeln!(out, "solver: {}", outcome.message)?;
+        }
+        if let Some(plan) = &outcome.plan {
+            let fmt = |cells: &[crate::geo::Cell]| {
+                cells
+                    .iter()
+                    .map(|c| format!("[{},{}]", c.row, c.col))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            };
+            for (i, cycles) in plan.drones.iter().enumerate() {
+                for (k, steps) in cycles.iter().enumerate() {
+                    writeln!(out, "drone {i} cycle {k}: {}", fmt(steps))?;
+                }
+            }
+            for (a, cycles) in plan.stations.iter().enumerate() {
+                for (k, steps) in cycles.iter().enumerate() {
+                    writeln!(out, "station {a} cycle {k}: {}", fmt(steps))?;
+                }
+            }
+        }
+    }
+    emit(&out)?;
+    Ok(if outcome.status == PlanStatus::Error {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
+}
+
+/// Write `text` to stdout; a closed pipe (`fleetmap plan … | head`) is not an error.
+pub(crate) fn emit(text: &str) -> anyhow::Result<()> {
+    let mut stdout = std::io::stdout().lock();
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|_| stdout.flush())
+    {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
+}

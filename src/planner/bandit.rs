@@ -1,0 +1,438 @@
+//! The high-level planner of the bandit paper (§III-A, Algorithm 1): upper confidence bounds
+//! (3a, 3b), the top-D epoch goals among the unclassified cells, the keep and reject sets
+//! (4a, 4b), and the completion bound P_max of Proposition 2 (12)–(14).
+//!
+//! Conventions:
+//! * **Logarithms.** (3b) writes `log` and `log₂`: `log` is the natural logarithm, `log₂` the
+//!   binary one, exactly where written; (13) writes `log` only: natural logarithms.
+//! * **No samples.** A cell without samples has μ̂ = U = ∞, hence J = ∞ (3a): it is chosen
+//!   before any sampled cell.
+//! * **Ties.** Cells with equal J (in particular all the unsampled ones, J = ∞) are ranked by
+//!   their index in the candidate list, which is sorted row-major (by row, then column): the
+//!   result is deterministic and independent of hashing or sort stability.
+//! * **|C|.** U uses the number of candidate cells |C| given to [`BanditState::new`].
+//! * **Monotone sets.** The paper argues K and R are monotone because U is non-increasing in
+//!   |H_l|. That is not enough on its own (μ̂ moves with new data, and U(n) increases between
+//!   n = 1 and 2 when log(12|C|/δ) < 2/ln 2), so monotonicity is *enforced*: a cell classified
+//!   at some epoch stays in its set, and [`BanditState::record`] ignores measurements of
+//!   classified cells (Algorithm 1 only measures unclassified cells, §V). With that, (4) is
+//!   evaluated only for unclassified cells, which is exactly what the paper's sets become.
+//!   Prop. 1 is unaffected: its proof bounds, for each cell, the probability that the
+//!   confidence interval ever misses μ_l, whatever the sampling rule.
+//! * **Both (4a) and (4b).** A cell can satisfy both only when U ≤ ε, i.e. μ̂ − U ≥ θ − ε and
+//!   μ̂ + U ≤ θ + ε put μ_l in (θ − ε, θ + ε) on the good event of Prop. 1, where either label
+//!   is correct (Assumption 1). It is labelled by the side of θ its mean is on (keep if
+//!   μ̂ ≥ θ, as in the definition (1) of S_θ; reject otherwise).
+
+use crate::geo::Cell;
+use serde::{Deserialize, Serialize};
+
+/// Why bandit parameters are rejected.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+pub enum BanditError {
+    /// A parameter is outside its range.
+    #[error("{0}")]
+    Invalid(String),
+}
+
+/// The classification of one candidate cell.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Label {
+    /// In neither set yet.
+    Unclassified,
+    /// In the keep set K (classified interesting, eq. 4a).
+    Keep,
+    /// In the reject set R (classified uninteresting, eq. 4b).
+    Reject,
+}
+
+/// The bandit's state (serialisable for crash-safe runs): the candidate cells C, the
+/// measurement history H_l summarised by its size and its number of ones, the labels, and
+/// the epoch each cell was classified at.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct BanditState {
+    /// θ ∈ (0, 1): the interest threshold (1).
+    pub theta: f64,
+    /// ε > 0: the labelling tolerance (Assumption 1).
+    pub epsilon: f64,
+    /// δ ∈ (0, 1): the labelling error probability (2).
+    pub delta: f64,
+    /// C: the candidate cells, sorted row-major.
+    pub cells: Vec<Cell>,
+    /// Σ_{h ∈ H_l} h: the positive measurements of each cell.
+    pub ones: Vec<u64>,
+    /// |H_l|: the measurements of each cell.
+    pub samples: Vec<u64>,
+    /// The label of each cell.
+    pub labels: Vec<Label>,
+    /// The epoch p at whose end (update to p + 1) each cell was classified.
+    pub classified_at: Vec<Option<u64>>,
+    /// The current epoch p (number of updates so far).
+    pub epoch: u64,
+    /// The base of `log` in (3b) (natural unless a study asks otherwise).
+    #[serde(default)]
+    pub log_base: LogBase,
+}
+
+/// The base of the logarithms written `log` in (3b).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum LogBase {
+    /// Natural logarithms: the mathematical reading of the paper's `log`, and the default.
+    #[default]
+    Natural,
+    /// Base-10 logarithms: a sensitivity option only (see the README's Planner section —
+    /// the paper's Table I numbers are much closer to what this base gives). The `log₂` in
+    /// (3b) stays base 2. Prop. 1's guarantee is stated for natural logarithms.
+    Ten,
+}
+
+/// U_l(p, δ) of (3b) for a cell with `n = |H_l|` samples among `n_cells = |C|` candidates,
+/// natural logarithms; ∞ when `n = 0`.
+pub fn ucb_width(n: u64, n_cells: usize, delta: f64) -> f64 {
+    ucb_width_base(n, n_cells, delta, LogBase::Natural)
+}
+
+/// U_l(p, δ) of (3b) with the given base for `log` (`log₂` is always base 2).
+pub fn ucb_width_base(n: u64, n_cells: usize, delta: f64, base: LogBase) -> f64 {
+    if n == 0 {
+        return f64::INFINITY;
+    }
+    let n = n as f64;
+    let log = |x: f64| match base {
+        LogBase::Natural => x.ln(),
+        LogBase::Ten => x.log10(),
+    };
+    let inner = 2.0 * log((2.0 * n).log2()) + log(12.0 * n_cells as f64 / delta);
+    2.0 * (inner / (2.0 * n)).sqrt()
+}
+
+impl BanditState {
+    /// A fresh state (p = 0, K = R = ∅, no measurements) over the candidate cells `cells`
+    /// (duplicates removed, sorted row-major).
+    pub fn new(
+        cells: Vec<Cell>,
+        theta: f64,
+        epsilon: f64,
+        delta: f64,
+    ) -> Result<BanditState, BanditError> {
+        let bad = |m: &str| Err(BanditError::Invalid(m.into()));
+        if !(theta > 0.0 && theta < 1.0) {
+            return bad("θ must be in (0, 1)");
+        }
+        if !(epsilon > 0.0 && epsilon.is_finite()) {
+            return bad("ε must be positive");
+        }
+        if !(delta > 0.0 && delta < 1.0) {
+            return bad("δ must be in (0, 1)");
+        }
+        let mut cells = cells;
+        cells.sort_unstable();
+        cells.dedup();
+        if cells.is_empty() {
+            return bad("there must be at least one candidate cell");
+        }
+        let n = cells.len();
+        Ok(BanditState {
+            theta,
+            epsilon,
+            delta,
+            cells,
+            ones: vec![0; n],
+            samples: vec![0; n],
+            labels: vec![Label::Unclassified; n],
+            classified_at: vec![None; n],
+            epoch: 0,
+            log_base: LogBase::Natural,
+        })
+    }
+
+    /// |C|.
+    pub fn len(&self) -> usize {
+        self.cells.len()
+    }
+
+    /// Whether there are no candidates (never true for a built state).
+    pub fn is_empty(&self) -> bool {
+        self.cells.is_empty()
+    }
+
+    /// The candidate index of `cell`, if it is a candidate.
+    pub fn index_of(&self, cell: Cell) -> Option<usize> {
+        self.cells.binary_search(&cell).ok()
+    }
+
+    /// μ̂_l (3a); ∞ without samples.
+    pub fn mean(&self, l: usize) -> f64 {
+        if self.samples[l] == 0 {
+            f64::INFINITY
+        } else {
+            self.ones[l] as f64 / self.samples[l] as f64
+        }
+    }
+
+    /// U_l(p, δ) (3b).
+    pub fn width(&self, l: usize) -> f64 {
+        ucb_width_base(self.samples[l], self.len(), self.delta, self.log_base)
+    }
+
+    /// J(l, p, δ) = μ̂_l + U_l (3a); ∞ without samples.
+    pub fn score(&self, l: usize) -> f64 {
+        self.mean(l) + self.width(l)
+    }
+
+    /// Whether cell `l` is still unclassified.
+    pub fn is_unclassified(&self, l: usize) -> bool {
+        self.labels[l] == Label::Unclassified
+    }
+
+    /// The unclassified cells C \ (K ∪ R), by index.
+    pub fn unclassified(&self) -> Vec<usize> {
+        (0..self.len())
+            .filter(|&l| self.is_unclassified(l))
+            .collect()
+    }
+
+    /// Whether K ∪ R = C (Algorithm 1 terminates).
+    pub fn is_done(&self) -> bool {
+        self.labels.iter().all(|&l| l != Label::Unclassified)
+    }
+
+    /// The keep set K (cells classified interesting).
+    pub fn keep(&self) -> Vec<Cell> {
+        self.with_label(Label::Keep)
+    }
+
+    /// The reject set R (cells classified uninteresting).
+    pub fn reject(&self) -> Vec<Cell> {
+        self.with_label(Label::Reject)
+    }
+
+    fn with_label(&self, label: Label) -> Vec<Cell> {
+        (0..self.len())
+            .filter(|&l| self.labels[l] == label)
+            .map(|l| self.cells[l])
+            .collect()
+    }
+
+    /// Step 3 of Algorithm 1: the indices of the top-`d` unclassified cells by J (3),
+    /// ties by candidate index.
+    pub fn ucb_goal_indices(&self, d: usize) -> Vec<usize> {
+        let mut cand: Vec<(f64, usize)> = self
+            .unclassified()
+            .into_iter()
+            .map(|l| (self.score(l), l))
+            .collect();
+        cand.sort_by(|a, b| b.0.total_cmp(&a.0).then(a.1.cmp(&b.1)));
+        cand.into_iter().take(d).map(|(_, l)| l).collect()
+    }
+
+    /// The improved high level offered next to the faithful one: the `d` *most ambiguous*
+    /// unclassified cells by the APT index of Locatelli, Gutzeit and Carpentier (ICML 2016,
+    /// the paper's ref. [18]), B_l = √|H_l| · (|μ̂_l − θ| + ε), smallest first (unsampled cells,
+    /// B = 0, first; ties by candidate index). It spends visits where (4) still needs data
+    /// rather than on cells that merely look interesting, and keeps the labelling guarantee:
+    /// Prop. 1 depends only on (3b) and (4), not on which cells are sampled.
+    pub fn apt_goal_indices(&self, d: usize) -> Vec<usize> {
+        let mut cand: Vec<(f64, usize)> = self
+            .unclassified()
+            .into_iter()
+            .map(|l| {
+                let n = self.samples[l];
+                let b = if n == 0 {
+                    0.0
+                } else {
+                    (n as f64).sqrt() * ((self.mean(l) - self.theta).abs() + self.epsilon)
+                };
+                (b, l)
+            })
+            .collect();
+        cand.sort_by(|a, b| a.0.total_cmp(&b.0).then(a.1.cmp(&b.1)));
+        cand.into_iter().take(d).map(|(_, l)| l).collect()
+    }
+
+    /// Add `total` measurements of which `ones` are positive to cell `l` (one visit gives B
+    /// of them). Ignored, returning `false`, if `l` is already classified or `ones > total`.
+    pub fn record(&mut self, l: usize, ones: u64, total: u64) -> bool {
+        if l >= self.len() || !self.is_unclassified(l) || ones > total {
+            return false;
+        }
+        self.ones[l] += ones;
+        self.samples[l] += total;
+        true
+    }
+
+    /// Step 5 of Algorithm 1: update K and R by (4a), (4b) from the history so far, then
+    /// p ← p + 1. Returns the cells classified by this update.
+    pub fn update(&mut self) -> Vec<usize> {
+        let mut newly = Vec::new();
+        let (lo, hi) = (self.theta - self.epsilon, self.theta + self.epsilon);
+        for l in 0..self.len() {
+            if !self.is_unclassified(l) || self.samples[l] == 0 {
+                continue;
+            }
+            let (m, u) = (self.mean(l), self.width(l));
+            let label = match (m - u >= lo, m + u <= hi) {
+                (true, true) if m >= self.theta => Label::Keep,
+                (true, true) => Label::Reject,
+                (true, false) => Label::Keep,
+                (false, true) => Label::Reject,
+                (false, false) => continue,
+            };
+            self.labels[l] = label;
+            self.classified_at[l] = Some(self.epoch);
+            newly.push(l);
+        }
+        self.epoch += 1;
+        newly
+    }
+}
+
+/// Step 3 of Algorithm 1 as cells: the top-`d` unclassified cells by J (3).
+pub fn epoch_goals(state: &BanditState, d: usize) -> Vec<Cell> {
+    state
+        .ucb_goal_indices(d)
+        .into_iter()
+        .map(|l| state.cells[l])
+        .collect()
+}
+
+/// Step 5 of Algorithm 1: apply (4) and advance the epoch; returns the newly classified cells.
+pub fn update(state: &mut BanditState) -> Vec<Cell> {
+    state.update().into_iter().map(|l| state.cells[l]).collect()
+}
+
+/// Δ_l = |μ_l − θ| + ε (14).
+pub fn gap(mu: f64, theta: f64, epsilon: f64) -> f64 {
+    (mu - theta).abs() + epsilon
+}
+
+/// P_l of (13): visits of cell l after which (4) classifies it (w.p. 1 − δ), with batch B and
+/// |C| = `n_cells`; natural logarithms.
+pub fn visits_needed(delta_l: f64, batch: u32, n_cells: usize, delta: f64) -> f64 {
+    let s = (3.0 * n_cells as f64 / delta).sqrt();
+    16.0 / (batch as f64 * delta_l * delta_l)
+        * (4.0 * s * (192.0 / (delta_l * delta_l) * s).ln()).ln()
+}
+
+/// P_max of Proposition 2, eq. (12)–(14) (the issue text calls it "(18–20)"; the paper
+/// numbers it (12)–(14)): with probability ≥ 1 − δ, Algorithm 1 terminates within this many
+/// epochs, for true means `mu` (one per candidate cell), batch B and D epoch goals.
+/// D_Δ is the cell with the smallest Δ_l together with the D − 1 cells with the largest Δ_l.
+pub fn p_max(mu: &[f64], theta: f64, epsilon: f64, delta: f64, batch: u32, d: usize) -> f64 {
+    let n = mu.len();
+    if n == 0 || d == 0 {
+        return 0.0;
+    }
+    let mut by_gap: Vec<(f64, f64)> = mu
+        .iter()
+        .map(|&m| {
+            let g = gap(m, theta, epsilon);
+            (g, visits_needed(g, batch, n, delta))
+        })
+        .collect();
+    // Ascending Δ: index 0 is the smallest; the last D − 1 are the largest.
+    by_gap.sort_by(|a, b| a.0.total_cmp(&b.0));
+    let mut in_d = vec![false; n];
+    in_d[0] = true;
+    for flag in in_d.iter_mut().skip(1).rev().take(d.saturating_sub(1)) {
+        *flag = true;
+    }
+    let rest: f64 = (0..n).filter(|&i| !in_d[i]).map(|i| by_gap[i].1).sum();
+    let worst = (0..n)
+        .filter(|&i| in_d[i])
+        .map(|i| by_gap[i].1)
+        .fold(0.0, f64::max);
+    rest / d as f64 + worst
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn width_matches_3b_by_hand() {
+        // n = 10, |C| = 100, δ = 1e-4: 2·ln(log2 20) + ln(1.2e7) = 2·1.4638 + 16.3004 = 19.228.
+        let inner: f64 = 2.0 * 20f64.log2().ln() + (1.2e7f64).ln();
+        assert!((ucb_width(10, 100, 1e-4) - 2.0 * (inner / 20.0).sqrt()).abs() < 1e-12);
+        assert!((ucb_width(10, 100, 1e-4) - 1.9610).abs() < 1e-3);
+        assert!(ucb_width(0, 100, 1e-4).is_infinite());
+        // Non-increasing in n from one batch on (Fig. 2 regime).
+        let mut prev = f64::INFINITY;
+        for n in (10..5000).step_by(10) {
+            let u = ucb_width(n, 100, 1e-4);
+            assert!(u <= prev);
+            prev = u;
+        }
+    }
+
+    #[test]
+    fn fig2_classifies_the_three_example_cells() {
+        // Fig. 2: μ ∈ {0.05, 0.5, 0.95}, θ = 0.5, ε = 0.05, |G| = 100, δ = 1e-4: 0.05 and 0.5
+        // go to R, 0.95 to K. Empirical means 0.05, 0.49 (the figure's μ = 0.5 run ends just
+        // below θ) and 0.95, in batches of 100.
+        for (ones, want) in [(5, Label::Reject), (49, Label::Reject), (95, Label::Keep)] {
+            let cells: Vec<Cell> = (0..100).map(|i| Cell::new(i / 10, i % 10)).collect();
+            let mut s = BanditState::new(cells, 0.5, 0.05, 1e-4).unwrap();
+            let mut n = 0u64;
+            while s.labels[0] == Label::Unclassified && n < 1_000_000 {
+                n += 100;
+                s.record(0, ones, 100);
+                s.update();
+            }
+            assert_eq!(s.labels[0], want, "{ones} ones per 100");
+        }
+    }
+
+    #[test]
+    fn goals_are_top_d_by_j_with_index_ties_and_sets_are_monotone() {
+        let cells: Vec<Cell> = (0..6).map(|i| Cell::new(0, i)).collect();
+        let mut s = BanditState::new(cells, 0.5, 0.05, 0.1).unwrap();
+        assert_eq!(
+            s.ucb_goal_indices(3),
+            vec![0, 1, 2],
+            "all J = ∞: index order"
+        );
+        s.record(0, 10, 10);
+        s.record(1, 0, 10);
+        assert_eq!(s.ucb_goal_indices(4), vec![2, 3, 4, 5]);
+        assert_eq!(s.ucb_goal_indices(6)[4..], [0, 1], "higher μ̂ + U first");
+        for _ in 0..100 {
+            s.record(0, 10, 10);
+            s.record(1, 0, 10);
+        }
+        let newly = s.update();
+        assert_eq!(newly, vec![0, 1]);
+        assert_eq!(s.keep(), vec![Cell::new(0, 0)]);
+        assert_eq!(s.reject(), vec![Cell::new(0, 1)]);
+        // Classified cells take no more data and stay classified.
+        assert!(!s.record(0, 0, 1000));
+        s.update();
+        assert_eq!(s.labels[0], Label::Keep);
+        assert!(!s.ucb_goal_indices(6).contains(&0));
+        assert_eq!(s.classified_at[0], Some(0));
+        let json = serde_json::to_string(&s).unwrap();
+        assert_eq!(serde_json::from_str::<BanditState>(&json).unwrap(), s);
+    }
+
+    #[test]
+    fn apt_prefers_the_most_ambiguous_cells() {
+        let cells: Vec<Cell> = (0..3).map(|i| Cell::new(0, i)).collect();
+        let mut s = BanditState::new(cells, 0.5, 0.05, 0.1).unwrap();
+        s.record(0, 10, 10); // μ̂ = 1: far from θ
+        s.record(1, 5, 10); // μ̂ = 0.5: ambiguous
+        assert_eq!(s.apt_goal_indices(3), vec![2, 1, 0]);
+    }
+
+    #[test]
+    fn p_max_follows_12_to_14() {
+        let mu = [0.9, 0.1, 0.45, 0.0];
+        let (theta, eps, delta, b) = (0.5, 0.05, 1e-4, 10);
+        let p = |m: f64| visits_needed(gap(m, theta, eps), b, 4, delta);
+        // Δ: 0.45, 0.45, 0.1, 0.55. D = 2: D_Δ = {μ = 0.45 (smallest Δ), μ = 0 (largest)}.
+        let want = (p(0.9) + p(0.1)) / 2.0 + p(0.45).max(p(0.0));
+        assert!((p_max(&mu, theta, eps, delta, b, 2) - want).abs() < 1e-9);
+        assert!(p(0.45) > p(0.9), "smaller gaps need more visits");
+    }
+}

@@ -1,0 +1,364 @@
+//! The low-level planner of the bandit paper: the integer program (11) — minimise the number of
+//! sensing cycles subject to the motion constraints (7a)–(7g), the visit constraints (8a)–(8c),
+//! the battery constraints (9a)–(9d) and the optional charger capacity (10) — solved with
+//! good_lp on HiGHS (Algorithm 2).
+//!
+//! Two models of the same problem are offered:
+//!
+//! * [`Model::Plain`] ([`plain`]): the IP exactly as written in the paper, one model with K
+//!   cycles and all K(1 + |G|(N_d T_d + N_c T_c)) binaries. It is the reference.
+//! * [`Model::Fast`] ([`fast`]): the same optimum, reformulated (each step argued in
+//!   [`fast`]'s documentation): drones and stations aggregated into flows on a time-expanded
+//!   graph (which removes every symmetry between interchangeable vehicles), variables only where
+//!   a vehicle can be (forward reachability from the starts, backward reachability to a cell a
+//!   station can occupy at the end of each cycle), and K = 1, 2, … solved in turn as
+//!   feasibility problems, the first feasible one being optimal.
+//!
+//! After the solve, the plan is re-paired by linear assignment (§III-C, [`super::assign`]).
+//!
+//! Clock reads: this module reads `std::time::Instant` for the solve statistics only
+//! (`solve_seconds`); the plan never depends on it except through HiGHS's own time limit,
+//! which is a clock by nature. It is a CPU-bound batch computation, to be run on
+//! `spawn_blocking` or rayon by async callers (DESIGN.md §2).
+
+pub mod fast;
+pub mod plain;
+
+pub use super::scenario::{Instance, Scenario, ScenarioError};
+
+use crate::geo::Cell;
+use serde::{Deserialize, Serialize};
+use std::time::Instant;
+
+/// Which formulation of (11) to solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Model {
+    /// The reformulated model of [`fast`] (same optimum, much smaller).
+    #[default]
+    Fast,
+    /// The paper's model, written exactly as in eq. (6)–(11).
+    Plain,
+}
+
+/// Solver settings.
+#[derive(Debug, Clone, PartialEq)]
+pub struct PlanOptions {
+    /// The formulation.
+    pub model: Model,
+    /// HiGHS `threads` (1 for one solve per core when many run in parallel). HiGHS keeps one
+    /// scheduler per process, so the first value used in a process wins.
+    pub threads: u32,
+    /// HiGHS `time_limit` in seconds for the whole solve (all K tried), `None` = no limit.
+    pub time_limit: Option<f64>,
+    /// Re-pair drones (and stations) between consecutive steps by linear assignment (§III-C).
+    pub repair: bool,
+    /// HiGHS log on the console.
+    pub verbose: bool,
+    /// *Informative paths* (an improvement, not in the paper; fast model only): reward
+    /// `visit_weights[l]` (per dense cell index) for every drone arrival at cell l. Among the
+    /// plans with the fewest sensing cycles — that number is still decided exactly first, see
+    /// [`fast`] — the solver then prefers plans whose drones fly over valuable (e.g.
+    /// unclassified) cells instead of arbitrary ones. `None`: the paper's IP, any optimal plan.
+    pub visit_weights: Option<Vec<f64>>,
+    /// Relative MIP gap accepted for the informative-paths objective (the cycle count is exact
+    /// regardless).
+    pub secondary_gap: f64,
+    /// Seconds HiGHS may spend improving informative paths before it keeps its best plan.
+    pub secondary_time_limit: f64,
+}
+
+impl Default for PlanOptions {
+    fn default() -> Self {
+        PlanOptions {
+            model: Model::Fast,
+            threads: 1,
+            time_limit: None,
+            repair: true,
+            verbose: false,
+            visit_weights: None,
+            secondary_gap: 0.02,
+            secondary_time_limit: 2.0,
+        }
+    }
+}
+
+/// The result class of a solve (the spec's `status`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum PlanStatus {
+    /// A plan with the fewest sensing cycles (proven).
+    Optimal,
+    /// No plan exists within K sensing cycles (proven).
+    Infeasible,
+    /// The time limit stopped the solver; a plan may be attached but is not proven optimal.
+    TimeLimit,
+    /// The solver failed (message in [`PlanOutcome::message`]).
+    Error,
+}
+
+impl PlanStatus {
+    /// The spec's string for this status.
+    pub fn as_str(self) -> &'static str {
+        match self {
+            PlanStatus::Optimal => "optimal",
+            PlanStatus::Infeasible => "infeasible",
+            PlanStatus::TimeLimit => "time_limit",
+            PlanStatus::Error => "error",
+        }
+    }
+}
+
+/// Drone and station paths per sensing cycle.
+#[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Plan {
+    /// The number of sensing cycles (Σ λ_k).
+    pub cycles: usize,
+    /// `drones[i][k][j]`: where drone i is at step j ∈ [0, T_d − 1] of cycle k. The last cell of
+    /// cycle k is the first of cycle k + 1 (eq. 9b).
+    pub drones: Vec<Vec<Vec<Cell>>>,
+    /// `stations[a][k][b]`: where station a is at step b ∈ [0, T_c − 1] of cycle k.
+    pub stations: Vec<Vec<Vec<Cell>>>,
+}
+
+/// Statistics of one model handed to HiGHS.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Attempt {
+    /// The number of sensing cycles the model allows (K for the plain model, the fixed cycle
+    /// count for the fast model).
+    pub cycles: usize,
+    /// What the solver said.
+    pub status: PlanStatus,
+    /// Wall time of this model, building included, in seconds.
+    pub seconds: f64,
+    /// Integer (binary, or bounded general integer for boundary arcs of the fast model when
+    /// T_d = 2) variables in the model.
+    pub variables: usize,
+    /// Constraints (rows) in the model.
+    pub constraints: usize,
+    /// Whether the model was decided without calling HiGHS (reachability showed a goal out of
+    /// reach within this many cycles).
+    pub presolved: bool,
+}
+
+/// The result of [`solve`]: status, the plan when one was found, and solve statistics.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanOutcome {
+    /// Optimal, infeasible within K, time limit, or error.
+    pub status: PlanStatus,
+    /// The plan (with `Optimal`, and with `TimeLimit` when an incumbent exists).
+    pub plan: Option<Plan>,
+    /// Wall time of the whole solve, every model and the re-pairing included, in seconds.
+    pub solve_seconds: f64,
+    /// Integer variables of the model that decided the answer (the last one solved).
+    pub variables: usize,
+    /// Constraints of that model.
+    pub constraints: usize,
+    /// Every model tried, in order.
+    pub attempts: Vec<Attempt>,
+    /// The solver's message for `Error`, empty otherwise.
+    pub message: String,
+}
+
+/// The `--json` output of `fleetmap plan` (specs/ip-scenario.md), with exactly its keys.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanOutput {
+    /// "optimal" | "infeasible" | "time_limit" | "error".
+    pub status: String,
+    /// Σ λ_k of the returned plan; 0 when there is no plan.
+    pub cycles: usize,
+    /// `drones[i][k][j] = [r, c]`; empty when there is no plan.
+    pub drones: Vec<Vec<Vec<[i32; 2]>>>,
+    /// `stations[a][k][b] = [r, c]`; empty when there is no plan.
+    pub stations: Vec<Vec<Vec<[i32; 2]>>>,
+    /// Wall time of the whole solve, model building included, in seconds.
+    pub solve_seconds: f64,
+    /// Integer variables in the model actually solved (after pruning).
+    pub variables: usize,
+    /// Constraints in that model.
+    pub constraints: usize,
+}
+
+impl PlanOutcome {
+    /// The spec's output object.
+    pub fn output(&self) -> PlanOutput {
+        let conv = |v: &Vec<Vec<Vec<Cell>>>| -> Vec<Vec<Vec<[i32; 2]>>> {
+            v.iter()
+                .map(|cycles| {
+                    cycles
+                        .iter()
+                        .map(|steps| steps.iter().map(|c| [c.row, c.col]).collect())
+                        .collect()
+                })
+                .collect()
+        };
+        PlanOutput {
+            status: self.status.as_str().to_string(),
+            cycles: self.plan.as_ref().map_or(0, |p| p.cycles),
+            drones: self
+                .plan
+                .as_ref()
+                .map_or_else(Vec::new, |p| conv(&p.drones)),
+            stations: self
+                .plan
+                .as_ref()
+                .map_or_else(Vec::new, |p| conv(&p.stations)),
+            solve_seconds: self.solve_seconds,
+            variables: self.variables,
+            constraints: self.constraints,
+        }
+    }
+}
+
+/// Paths in dense cell indices, as the models produce them: `drones[i][t]` on the drone
+/// timeline t = k(T_d − 1) + j, `stations[a][s]` on the station timeline s = k(T_c − 1) + b.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct Timelines {
+    /// Number of sensing cycles.
+    pub cycles: usize,
+    /// Drone positions, `cycles·(T_d − 1) + 1` per drone.
+    pub drones: Vec<Vec<usize>>,
+    /// Station positions, `cycles·(T_c − 1) + 1` per station.
+    pub stations: Vec<Vec<usize>>,
+}
+
+impl Timelines {
+    /// Cut the timelines into sensing cycles of T_d (T_c) cells each.
+    pub fn to_plan(&self, inst: &Instance) -> Plan {
+        let g = &inst.grid;
+        let cut = |paths: &[Vec<usize>], len: usize| -> Vec<Vec<Vec<Cell>>> {
+            paths
+                .iter()
+                .map(|p| {
+                    (0..self.cycles)
+                        .map(|k| {
+                            (0..len)
+                                .map(|j| g.cell(p[k * (len - 1) + j]))
+                                .collect::<Vec<_>>()
+                        })
+                        .collect()
+                })
+                .collect()
+        };
+        Plan {
+            cycles: self.cycles,
+            drones: cut(&self.drones, inst.td),
+            stations: cut(&self.stations, inst.tc),
+        }
+    }
+
+    /// Timelines of a plan (`None` if a cell is outside the grid or the cycles do not chain).
+    pub fn from_plan(plan: &Plan, inst: &Instance) -> Option<Timelines> {
+        let g = &inst.grid;
+        let join = |paths: &[Vec<Vec<Cell>>], len: usize| -> Option<Vec<Vec<usize>>> {
+            paths
+                .iter()
+                .map(|cycles| {
+                    let mut out: Vec<usize> = Vec::new();
+                    for (k, steps) in cycles.iter().enumerate() {
+                        if steps.len() != len {
+                            return None;
+                        }
+                        for (j, &c) in steps.iter().enumerate() {
+                            let i = g.index(c)?;
+                            if k > 0 && j == 0 {
+                                if out.last() != Some(&i) {
+                                    return None;
+                                }
+                            } else {
+                                out.push(i);
+                            }
+                        }
+                    }
+                    Some(out)
+                })
+                .collect()
+        };
+        Some(Timelines {
+            cycles: plan.cycles,
+            drones: join(&plan.drones, inst.td)?,
+            stations: join(&plan.stations, inst.tc)?,
+        })
+    }
+}
+
+/// HiGHS settings shared by both models: `threads`, `time_limit`, `mip_rel_gap = 0` (the
+/// objective is a small integer, so any positive gap could accept a non-optimal cycle count),
+/// and `mip_abs_gap = 0`.
+pub(crate) fn configure(
+    mut p: good_lp::solvers::highs::HighsProblem,
+    opts: &PlanOptions,
+    time_left: Option<f64>,
+) -> good_lp::solvers::highs::HighsProblem {
+    p.set_verbose(opts.verbose);
+    let mut p = p
+        .set_threads(opts.threads.max(1))
+        .set_option("mip_rel_gap", 0.0)
+        .set_option("mip_abs_gap", 0.0);
+    if let Some(t) = time_left {
+        p = p.set_time_limit(t.max(0.0));
+    }
+    p
+}
+
+/// What one HiGHS model returned.
+#[derive(Debug)]
+pub(crate) enum RawResult {
+    /// A solution (proven optimal or feasible at the time limit).
+    Solved { optimal: bool, timelines: Timelines },
+    /// Proven infeasible.
+    Infeasible,
+    /// Time limit without any solution.
+    TimeLimit,
+    /// Solver failure.
+    Error(String),
+}
+
+/// Map good_lp's result of a HiGHS solve.
+pub(crate) fn classify<S: good_lp::Solution>(
+    r: Result<S, good_lp::ResolutionError>,
+) -> Result<(S, bool), RawResult> {
+    use good_lp::solvers::SolutionStatus;
+    match r {
+        Ok(s) => {
+            let optimal = matches!(s.status(), SolutionStatus::Optimal);
+            Ok((s, optimal))
+        }
+        Err(good_lp::ResolutionError::Infeasible) => Err(RawResult::Infeasible),
+        // good_lp reports a time limit without an incumbent as "NoSolutionFound".
+        Err(good_lp::ResolutionError::Other("NoSolutionFound")) => Err(RawResult::TimeLimit),
+        Err(e) => Err(RawResult::Error(e.to_string())),
+    }
+}
+
+/// Solve one epoch given as a scenario: validate it, then [`solve_instance`].
+pub fn solve(scenario: &Scenario, opts: &PlanOptions) -> Result<PlanOutcome, ScenarioError> {
+    let inst = scenario.instance()?;
+    Ok(solve_instance(&inst, opts))
+}
+
+/// Solve one epoch: the fewest sensing cycles (≤ K) in which the team visits every goal, with
+/// the paths; infeasibility within K is a normal outcome, not an error.
+pub fn solve_instance(inst: &Instance, opts: &PlanOptions) -> PlanOutcome {
+    let start = Instant::now();
+    let (status, timelines, attempts, message) = match opts.model {
+        Model::Plain => plain::solve(inst, opts),
+        Model::Fast => fast::solve(inst, opts, start),
+    };
+    let plan = timelines.map(|mut t| {
+        if opts.repair {
+            super::assign::repair(inst, &mut t);
+        }
+        t.to_plan(inst)
+    });
+    let last = attempts.last();
+    PlanOutcome {
+        status,
+        plan,
+        solve_seconds: start.elapsed().as_secs_f64(),
+        variables: last.map_or(0, |a| a.variables),
+        constraints: last.map_or(0, |a| a.constraints),
+        attempts,
+        message,
+    }
+}

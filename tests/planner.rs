@@ -1,0 +1,225 @@
+//! End-to-end tests of the bandit/IP planner (issue 7): the fast model against the paper's
+//! plain model on random scenarios, every plan through the independent checker, the shipped
+//! scenario files through `fleetmap plan`, and a small bandit study.
+
+use fleetmap::geo::Cell;
+use fleetmap::planner::check::{CheckOptions, check_plan_with};
+use fleetmap::planner::grid::Grid;
+use fleetmap::planner::ip::{Instance, Model, PlanOptions, PlanStatus, Scenario, solve_instance};
+use rand::seq::SliceRandom;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use std::path::PathBuf;
+use std::process::Command;
+
+/// A random small scenario: 3×3 to 5×5 grids, some obstacles, sometimes roads, 1–3 drones on
+/// 1–2 stations, 1–4 goals, (Td, Tc) ∈ {(4, 2), (4, 4), (6, 3), (2, 2)}, K = 3, sometimes a
+/// charger capacity. Goals may be unreachable (then both models must say infeasible).
+fn random_instance(rng: &mut ChaCha8Rng) -> Instance {
+    loop {
+        let rows = rng.random_range(3..=5i64);
+        let cols = rng.random_range(3..=5i64);
+        let n = (rows * cols) as usize;
+        let cell = |i: usize| Cell::new((i / cols as usize) as i32, (i % cols as usize) as i32);
+        let mut order: Vec<usize> = (0..n).collect();
+        order.shuffle(rng);
+        let n_obst = rng.random_range(0..=n / 4);
+        let obstacles: Vec<Cell> = order[..n_obst].iter().map(|&i| cell(i)).collect();
+        let free: Vec<usize> = order[n_obst..].to_vec();
+        let roads: Option<Vec<Cell>> = if rng.random_bool(0.4) {
+            let k = rng.random_range(2..=free.len().max(2)).min(free.len());
+            Some(free[..k].iter().map(|&i| cell(i)).collect())
+        } else {
+            None
+        };
+        let grid = match Grid::new(rows, cols, &obstacles, roads.as_deref()) {
+            Ok(g) => g,
+            Err(_) => continue,
+        };
+        let admissible: Vec<usize> = free
+            .iter()
+            .copied()
+            .filter(|&i| grid.is_station_ok(i))
+            .collect();
+        let nc = rng.random_range(1..=2usize).min(admissible.len());
+        if nc == 0 {
+            continue;
+        }
+        let stations: Vec<usize> = admissible[..nc].to_vec();
+        let nd = rng.random_range(1..=3usize);
+        let drones: Vec<usize> = (0..nd).map(|_| stations[rng.random_range(0..nc)]).collect();
+        let n_goals = rng.random_range(1..=4usize).min(free.len());
+        let mut goal_pool = free.clone();
+        goal_pool.shuffle(rng);
+        let goals = goal_pool[..n_goals].to_vec();
+        let (td, tc) = [(4, 2), (4, 4), (6, 3), (2, 2)][rng.random_range(0..4usize)];
+        let capacity = if rng.random_bool(0.3) { Some(1) } else { None };
+        if let Ok(inst) = Instance::new(grid, drones, stations, goals, td, tc, 3, capacity) {
+            return inst;
+        }
+    }
+}
+
+fn check_strict(inst: &Instance, outcome: &fleetmap::planner::ip::PlanOutcome, what: &str) {
+    if let Some(plan) = &outcome.plan
+        && let Err(e) = check_plan_with(
+            inst,
+            plan,
+            CheckOptions {
+                no_head_on_swaps: true,
+            },
+        )
+    {
+        panic!(
+            "{what} plan fails the checker: {e}\n{}",
+            inst.to_scenario("").to_json()
+        );
+    }
+}
+
+#[test]
+fn fast_model_has_the_plain_models_optimum_on_100_random_scenarios() {
+    let mut rng = ChaCha8Rng::seed_from_u64(7);
+    let plain = PlanOptions {
+        model: Model::Plain,
+        ..PlanOptions::default()
+    };
+    let fast = PlanOptions::default();
+    let (mut feasible, mut infeasible, mut multi) = (0, 0, 0);
+    for n in 0..100 {
+        let inst = random_instance(&mut rng);
+        let a = solve_instance(&inst, &plain);
+        let b = solve_instance(&inst, &fast);
+        let scen = inst.to_scenario(&format!("random {n}")).to_json();
+        assert!(
+            matches!(a.status, PlanStatus::Optimal | PlanStatus::Infeasible),
+            "plain model: {:?} {}\n{scen}",
+            a.status,
+            a.message
+        );
+        assert_eq!(a.status, b.status, "scenario {n}:\n{scen}");
+        let cycles = |o: &fleetmap::planner::ip::PlanOutcome| o.plan.as_ref().map(|p| p.cycles);
+        assert_eq!(cycles(&a), cycles(&b), "scenario {n}:\n{scen}");
+        check_strict(&inst, &a, "plain");
+        check_strict(&inst, &b, "fast");
+        match cycles(&a) {
+            None => infeasible += 1,
+            Some(1) => feasible += 1,
+            Some(_) => {
+                feasible += 1;
+                multi += 1
+            }
+        }
+    }
+    eprintln!("{feasible} feasible ({multi} with ≥ 2 cycles), {infeasible} infeasible");
+    // The sample must exercise every outcome, or the comparison proves little.
+    assert!(
+        feasible >= 20 && infeasible >= 5 && multi >= 5,
+        "{feasible} feasible ({multi} with ≥ 2 cycles), {infeasible} infeasible"
+    );
+}
+
+fn bin() -> PathBuf {
+    PathBuf::from(env!("CARGO_BIN_EXE_fleetmap"))
+}
+
+fn scenarios() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/scenarios")
+}
+
+fn plan_json(file: &str) -> serde_json::Value {
+    let out = Command::new(bin())
+        .args(["plan", "--json", "--scenario"])
+        .arg(scenarios().join(file))
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    serde_json::from_slice(&out.stdout).unwrap()
+}
+
+#[test]
+fn cli_solves_the_shipped_scenarios_in_the_spec_format() {
+    for (file, status, cycles) in [
+        ("hardware-6x6.json", "optimal", 1),
+        ("sim-10x10.json", "optimal", 1),
+        ("corridor-two-cycles.json", "optimal", 2),
+        ("corridor-infeasible.json", "infeasible", 0),
+    ] {
+        let v = plan_json(file);
+        let keys: Vec<&str> = v.as_object().unwrap().keys().map(String::as_str).collect();
+        let mut want = vec![
+            "constraints",
+            "cycles",
+            "drones",
+            "solve_seconds",
+            "stations",
+            "status",
+            "variables",
+        ];
+        want.sort();
+        let mut keys = keys;
+        keys.sort();
+        assert_eq!(keys, want, "{file}");
+        assert_eq!(v["status"], status, "{file}");
+        assert_eq!(v["cycles"], cycles, "{file}");
+        // Rebuild the plan from the JSON and check it independently.
+        let text = std::fs::read_to_string(scenarios().join(file)).unwrap();
+        let inst = Scenario::from_json(&text).unwrap().instance().unwrap();
+        if status == "optimal" {
+            let parse = |x: &serde_json::Value| -> Vec<Vec<Vec<Cell>>> {
+                let raw: Vec<Vec<Vec<[i32; 2]>>> = serde_json::from_value(x.clone()).unwrap();
+                raw.into_iter()
+                    .map(|v| {
+                        v.into_iter()
+                            .map(|s| s.into_iter().map(|[r, c]| Cell::new(r, c)).collect())
+                            .collect()
+                    })
+                    .collect()
+            };
+            let plan = fleetmap::planner::ip::Plan {
+                cycles: cycles as usize,
+                drones: parse(&v["drones"]),
+                stations: parse(&v["stations"]),
+            };
+            assert_eq!(
+                plan.drones[0][0].len(),
+                inst.td,
+                "{file}: Td cells per cycle"
+            );
+            check_plan_with(
+                &inst,
+                &plan,
+                CheckOptions {
+                    no_head_on_swaps: true,
+                },
+            )
+            .unwrap_or_else(|e| panic!("{file}: {e}"));
+        }
+    }
+}
+
+#[test]
+fn cli_rejects_malformed_scenarios_with_one_line() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(scenarios().join("hardware-6x6.json")).unwrap();
+    let mut v: serde_json::Value = serde_json::from_str(&text).unwrap();
+    v["stations"][1] = serde_json::json!([0, 0]);
+    let bad = dir.path().join("bad.json");
+    std::fs::write(&bad, v.to_string()).unwrap();
+    let out = Command::new(bin())
+        .args(["plan", "--scenario"])
+        .arg(&bad)
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        err.contains("stations[1] at [0, 0] is outside station_cells"),
+        "{err}"
+    );
+    assert_eq!(err.trim().lines().count(), 1, "{err}");
+}
