@@ -1,0 +1,321 @@
+//! Which autopilot and which airframe a simulated vehicle imitates, and the flight modes with
+//! the numbers each autopilot puts on the wire.
+//!
+//! Mode numbers:
+//! - ArduCopter `Mode::Number` (ArduPilot `ArduCopter/mode.h`): STABILIZE 0, ALT_HOLD 2,
+//!   AUTO 3, GUIDED 4, LOITER 5, RTL 6, LAND 9, BRAKE 17, SMART_RTL 21.
+//! - ArduRover `Mode::Number` (ArduPilot `Rover/mode.h`): MANUAL 0, HOLD 4, LOITER 5, AUTO 10,
+//!   RTL 11, SMART_RTL 12, GUIDED 15, INITIALISING 16.
+//! - PX4 packs `custom_mode` as `main_mode << 16 | sub_mode << 24` (PX4
+//!   `src/modules/commander/px4_custom_mode.h`): main MANUAL 1, ALTCTL 2, POSCTL 3, AUTO 4,
+//!   OFFBOARD 6, STABILIZED 7; AUTO sub modes READY 1, TAKEOFF 2, LOITER 3, MISSION 4, RTL 5,
+//!   LAND 6.
+
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// The autopilot firmware a simulated vehicle behaves like.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Autopilot {
+    /// ArduPilot (ArduCopter / ArduRover).
+    ArduPilot,
+    /// PX4.
+    Px4,
+}
+
+/// The airframe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum VehicleKind {
+    /// A multicopter (MAV_TYPE_QUADROTOR).
+    Copter,
+    /// A ground rover (MAV_TYPE_GROUND_ROVER); it never leaves the ground.
+    Rover,
+}
+
+/// Autopilot + airframe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Flavour {
+    /// The firmware.
+    pub autopilot: Autopilot,
+    /// The airframe.
+    pub kind: VehicleKind,
+}
+
+impl Flavour {
+    /// ArduCopter.
+    pub const ARDU_COPTER: Flavour = Flavour {
+        autopilot: Autopilot::ArduPilot,
+        kind: VehicleKind::Copter,
+    };
+    /// ArduRover.
+    pub const ARDU_ROVER: Flavour = Flavour {
+        autopilot: Autopilot::ArduPilot,
+        kind: VehicleKind::Rover,
+    };
+    /// PX4 multicopter.
+    pub const PX4_COPTER: Flavour = Flavour {
+        autopilot: Autopilot::Px4,
+        kind: VehicleKind::Copter,
+    };
+    /// PX4 rover.
+    pub const PX4_ROVER: Flavour = Flavour {
+        autopilot: Autopilot::Px4,
+        kind: VehicleKind::Rover,
+    };
+
+    /// Whether this is an ArduPilot vehicle.
+    pub fn is_ardupilot(self) -> bool {
+        self.autopilot == Autopilot::ArduPilot
+    }
+
+    /// Whether this vehicle flies.
+    pub fn is_copter(self) -> bool {
+        self.kind == VehicleKind::Copter
+    }
+
+    /// The flight mode a vehicle boots into: STABILIZE (ArduCopter), HOLD (ArduRover; real
+    /// rovers boot in MANUAL, but without an RC transmitter HOLD is what field setups
+    /// configure with INITIAL_MODE), AUTO_LOITER ("Hold") for PX4.
+    pub fn boot_mode(self) -> Mode {
+        match (self.autopilot, self.kind) {
+            (Autopilot::ArduPilot, VehicleKind::Copter) => Mode::Stabilize,
+            (Autopilot::ArduPilot, VehicleKind::Rover) => Mode::Hold,
+            (Autopilot::Px4, _) => Mode::Hold,
+        }
+    }
+
+    /// The HEARTBEAT `custom_mode` of `mode` for this flavour, or `None` when this flavour
+    /// has no such mode.
+    pub fn custom_mode(self, mode: Mode) -> Option<u32> {
+        match (self.autopilot, self.kind) {
+            (Autopilot::ArduPilot, VehicleKind::Copter) => match mode {
+                Mode::Stabilize => Some(0),
+                Mode::AltHold => Some(2),
+                Mode::Auto => Some(3),
+                Mode::Guided => Some(4),
+                Mode::Hold => Some(5), // LOITER
+                Mode::Rtl => Some(6),
+                Mode::Land => Some(9),
+                Mode::Brake => Some(17),
+                _ => None,
+            },
+            (Autopilot::ArduPilot, VehicleKind::Rover) => match mode {
+                Mode::Manual => Some(0),
+                Mode::Hold => Some(4),
+                Mode::Loiter => Some(5),
+                Mode::Auto => Some(10),
+                Mode::Rtl => Some(11),
+                Mode::Guided => Some(15),
+                Mode::Initialising => Some(16),
+                _ => None,
+            },
+            (Autopilot::Px4, kind) => {
+                let (main, sub) = match mode {
+                    Mode::Manual => (1, 0),
+                    Mode::AltHold if kind == VehicleKind::Copter => (2, 0),
+                    Mode::Stabilize => (7, 0),
+                    Mode::Loiter => (3, 0), // POSCTL
+                    Mode::Takeoff => (4, 2),
+                    Mode::Hold => (4, 3),
+                    Mode::Auto => (4, 4),
+                    Mode::Rtl => (4, 5),
+                    Mode::Land if kind == VehicleKind::Copter => (4, 6),
+                    Mode::Guided => (6, 0), // OFFBOARD
+                    _ => return None,
+                };
+                Some((main << 16) | (sub << 24))
+            }
+        }
+    }
+
+    /// The mode a HEARTBEAT/SET_MODE `custom_mode` names for this flavour.
+    pub fn mode_from_custom(self, custom_mode: u32) -> Option<Mode> {
+        Mode::ALL
+            .iter()
+            .copied()
+            .find(|m| self.custom_mode(*m) == Some(custom_mode))
+    }
+
+    /// MAV_TYPE of the HEARTBEAT.
+    pub fn mav_type(self) -> u8 {
+        match self.kind {
+            VehicleKind::Copter => 2, // MAV_TYPE_QUADROTOR
+            VehicleKind::Rover => 10, // MAV_TYPE_GROUND_ROVER
+        }
+    }
+
+    /// MAV_AUTOPILOT of the HEARTBEAT.
+    pub fn mav_autopilot(self) -> u8 {
+        match self.autopilot {
+            Autopilot::ArduPilot => 3, // MAV_AUTOPILOT_ARDUPILOTMEGA
+            Autopilot::Px4 => 12,      // MAV_AUTOPILOT_PX4
+        }
+    }
+
+    /// The name this flavour gives `mode` (as the autopilot's GCS shows it).
+    pub fn mode_name(self, mode: Mode) -> &'static str {
+        match (self.autopilot, self.kind, mode) {
+            (Autopilot::ArduPilot, VehicleKind::Copter, Mode::Hold) => "LOITER",
+            (Autopilot::Px4, _, Mode::Hold) => "HOLD",
+            (Autopilot::Px4, _, Mode::Auto) => "MISSION",
+            (Autopilot::Px4, _, Mode::Guided) => "OFFBOARD",
+            (Autopilot::Px4, _, Mode::Loiter) => "POSCTL",
+            _ => mode.generic_name(),
+        }
+    }
+}
+
+impl fmt::Display for Flavour {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let k = match self.kind {
+            VehicleKind::Copter => "copter",
+            VehicleKind::Rover => "rover",
+        };
+        let a = match self.autopilot {
+            Autopilot::ArduPilot => "ardupilot",
+            Autopilot::Px4 => "px4",
+        };
+        write!(f, "{k}:{a}")
+    }
+}
+
+impl FromStr for Flavour {
+    type Err = String;
+    /// `copter:ardupilot`, `rover:px4`, … (the `--vehicles` syntax without the count).
+    fn from_str(s: &str) -> Result<Flavour, String> {
+        let (k, a) = s
+            .split_once(':')
+            .ok_or_else(|| format!("expected TYPE:AUTOPILOT (e.g. copter:ardupilot), got {s:?}"))?;
+        let kind = match k.trim().to_ascii_lowercase().as_str() {
+            "copter" | "quad" | "multicopter" => VehicleKind::Copter,
+            "rover" => VehicleKind::Rover,
+            other => return Err(format!("unknown vehicle type {other:?} (copter or rover)")),
+        };
+        let autopilot = match a.trim().to_ascii_lowercase().as_str() {
+            "ardupilot" | "apm" => Autopilot::ArduPilot,
+            "px4" => Autopilot::Px4,
+            other => return Err(format!("unknown autopilot {other:?} (ardupilot or px4)")),
+        };
+        Ok(Flavour { autopilot, kind })
+    }
+}
+
+/// A flight mode, independent of the numbers an autopilot gives it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Mode {
+    /// ArduCopter STABILIZE / PX4 STABILIZED: pilot-controlled; the simulator holds still.
+    Stabilize,
+    /// ArduCopter ALT_HOLD / PX4 ALTCTL.
+    AltHold,
+    /// ArduRover MANUAL / PX4 MANUAL.
+    Manual,
+    /// Hold position: ArduCopter LOITER, ArduRover HOLD, PX4 AUTO_LOITER ("Hold").
+    Hold,
+    /// ArduRover LOITER / PX4 POSCTL.
+    Loiter,
+    /// Fly the uploaded mission (ArduPilot AUTO, PX4 AUTO_MISSION).
+    Auto,
+    /// Go to positions given by the GCS (ArduPilot GUIDED, PX4 OFFBOARD).
+    Guided,
+    /// Return to launch.
+    Rtl,
+    /// Land here.
+    Land,
+    /// PX4 AUTO_TAKEOFF.
+    Takeoff,
+    /// ArduCopter BRAKE.
+    Brake,
+    /// ArduRover INITIALISING (boot).
+    Initialising,
+}
+
+impl Mode {
+    /// Every mode.
+    pub const ALL: [Mode; 12] = [
+        Mode::Stabilize,
+        Mode::AltHold,
+        Mode::Manual,
+        Mode::Hold,
+        Mode::Loiter,
+        Mode::Auto,
+        Mode::Guided,
+        Mode::Rtl,
+        Mode::Land,
+        Mode::Takeoff,
+        Mode::Brake,
+        Mode::Initialising,
+    ];
+
+    fn generic_name(self) -> &'static str {
+        match self {
+            Mode::Stabilize => "STABILIZE",
+            Mode::AltHold => "ALT_HOLD",
+            Mode::Manual => "MANUAL",
+            Mode::Hold => "HOLD",
+            Mode::Loiter => "LOITER",
+            Mode::Auto => "AUTO",
+            Mode::Guided => "GUIDED",
+            Mode::Rtl => "RTL",
+            Mode::Land => "LAND",
+            Mode::Takeoff => "TAKEOFF",
+            Mode::Brake => "BRAKE",
+            Mode::Initialising => "INITIALISING",
+        }
+    }
+
+    /// Whether the autopilot needs a position estimate to enter this mode.
+    pub fn requires_position(self) -> bool {
+        matches!(
+            self,
+            Mode::Hold
+                | Mode::Loiter
+                | Mode::Auto
+                | Mode::Guided
+                | Mode::Rtl
+                | Mode::Takeoff
+                | Mode::Brake
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mode_numbers_round_trip() {
+        for f in [
+            Flavour::ARDU_COPTER,
+            Flavour::ARDU_ROVER,
+            Flavour::PX4_COPTER,
+            Flavour::PX4_ROVER,
+        ] {
+            for m in Mode::ALL {
+                if let Some(c) = f.custom_mode(m) {
+                    assert_eq!(f.mode_from_custom(c), Some(m), "{f} {m:?}");
+                }
+            }
+        }
+        assert_eq!(Flavour::ARDU_COPTER.custom_mode(Mode::Guided), Some(4));
+        assert_eq!(Flavour::ARDU_ROVER.custom_mode(Mode::Auto), Some(10));
+        assert_eq!(
+            Flavour::PX4_COPTER.custom_mode(Mode::Auto),
+            Some((4 << 16) | (4 << 24))
+        );
+        assert_eq!(Flavour::PX4_ROVER.custom_mode(Mode::Land), None);
+    }
+
+    #[test]
+    fn parses_vehicle_specs() {
+        assert_eq!(
+            "copter:ardupilot".parse::<Flavour>(),
+            Ok(Flavour::ARDU_COPTER)
+        );
+        assert_eq!("Rover:PX4".parse::<Flavour>(), Ok(Flavour::PX4_ROVER));
+        assert!("plane:px4".parse::<Flavour>().is_err());
+        assert!("copter".parse::<Flavour>().is_err());
+    }
+}
