@@ -400,11 +400,27 @@ fn same_f32(a: f32, b: f32, tol: f32) -> bool {
     (a.is_nan() && b.is_nan()) || a == b || (a - b).abs() <= tol * a.abs().max(b.abs()).max(1.0)
 }
 
-/// Compare what was sent with what was read back: command, frame (the `_INT` synonyms
-/// folded), autocontinue, x and y exactly, z within 5 mm (ArduPilot stores centimetres),
-/// parameters within 1e-4 relative (NaN equals NaN). The `current` flag is ignored (the
-/// vehicle sets it). Returns a description of the first difference.
-pub fn compare_items(sent: &[MissionItem], got: &[MissionItem]) -> Result<(), String> {
+/// Compare what was sent with what was read back, as far as autopilots store items:
+///
+/// * the command must be the same;
+/// * a position item (sent in a global frame) must come back in the same kind of frame
+///   (absolute / relative to home / terrain, the `_INT` synonyms folded: PX4 answers in the
+///   `_INT` frames, ArduPilot in the plain ones) with x and y exactly and z within 1 cm
+///   (ArduPilot stores centimetres); for other commands the frame is not compared
+///   (ArduPilot returns 0 for them, `AP_Mission::mission_cmd_to_mavlink_int`);
+/// * parameters must match within 1e-4 (relative), except that a NaN sent may come back
+///   as 0 (neither autopilot stores NaN "unchanged" markers) and, when `drops_params`
+///   (ArduPilot: `AP_Mission` keeps only the parameters its packed 15-byte command has,
+///   e.g. a waypoint keeps its delay but not its acceptance radius or yaw), a parameter
+///   may come back as 0;
+/// * `current` and `autocontinue` are not compared (the vehicle sets them).
+///
+/// Returns a description of the first difference.
+pub fn compare_items(
+    sent: &[MissionItem],
+    got: &[MissionItem],
+    drops_params: bool,
+) -> Result<(), String> {
     if sent.len() != got.len() {
         return Err(format!(
             "{} items sent, {} read back",
@@ -419,17 +435,17 @@ pub fn compare_items(sent: &[MissionItem], got: &[MissionItem]) -> Result<(), St
         if a.command != b.command {
             return diff("command", a.command.to_string(), b.command.to_string());
         }
-        if normalize_frame(a.frame) != normalize_frame(b.frame) {
+        if is_global_frame(a.frame) && normalize_frame(a.frame) != normalize_frame(b.frame) {
             return diff("frame", a.frame.to_string(), b.frame.to_string());
         }
         if a.x != b.x || a.y != b.y {
             return diff(
                 "x/y",
-                format!("{}/{}", a.x, b.y),
+                format!("{}/{}", a.x, a.y),
                 format!("{}/{}", b.x, b.y),
             );
         }
-        if !(same_f32(a.z, b.z, 0.0) || (a.z - b.z).abs() <= 0.005) {
+        if !(same_f32(a.z, b.z, 0.0) || (a.z - b.z).abs() <= 0.01) {
             return diff("z", a.z.to_string(), b.z.to_string());
         }
         for (k, (p, q)) in [
@@ -441,16 +457,10 @@ pub fn compare_items(sent: &[MissionItem], got: &[MissionItem]) -> Result<(), St
         .into_iter()
         .enumerate()
         {
-            if !same_f32(p, q, 1e-4) {
+            let dropped = q == 0.0 && (p.is_nan() || drops_params);
+            if !same_f32(p, q, 1e-4) && !dropped {
                 return diff(&format!("param{}", k + 1), p.to_string(), q.to_string());
             }
-        }
-        if a.autocontinue != b.autocontinue {
-            return diff(
-                "autocontinue",
-                a.autocontinue.to_string(),
-                b.autocontinue.to_string(),
-            );
         }
     }
     Ok(())
@@ -509,7 +519,16 @@ fn from_wire_list(
     home_item: bool,
 ) -> (Vec<MissionItem>, Option<MissionItem>) {
     let offset = home_item && kind == MissionType::Mission;
-    let mut items: Vec<MissionItem> = wire.iter().map(item_from_wire).collect();
+    // The deprecated `_INT` frames (PX4 answers in them) are folded onto their synonyms,
+    // as QGroundControl does on download (`PlanManager::_handleMissionItem`).
+    let mut items: Vec<MissionItem> = wire
+        .iter()
+        .map(|w| {
+            let mut it = item_from_wire(w);
+            it.frame = normalize_frame(it.frame);
+            it
+        })
+        .collect();
     let home = if offset && !items.is_empty() {
         Some(items.remove(0))
     } else {
@@ -1087,7 +1106,7 @@ impl MissionClient {
         wire: &[MISSION_ITEM_INT_DATA],
     ) -> Result<MissionOutcome, MissionError> {
         let (items, _home) = from_wire_list(u.kind, wire, self.home_item);
-        match compare_items(&u.user, &items) {
+        match compare_items(&u.user, &items, self.home_item) {
             Ok(()) => Ok(MissionOutcome::Uploaded {
                 count: u.user.len(),
                 verified_by_download: true,
