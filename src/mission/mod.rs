@@ -2,5 +2,7 @@
 //! field teams edit, and the QGroundControl file formats.
 
 pub mod item;
+pub mod plan;
+pub mod wpl;
 
 pub use item::{MissionItem, MissionType};
