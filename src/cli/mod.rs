@@ -6,7 +6,11 @@
 //! and exits with status 1.
 
 pub mod bench;
+pub mod command;
 pub mod experiment;
+pub mod mission;
+pub mod signing;
+pub mod vehicles;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -34,6 +38,14 @@ pub enum Command {
     Bench(bench::BenchArgs),
     /// Run one of the papers' Monte Carlo studies.
     Experiment(experiment::ExperimentArgs),
+    /// List the vehicles heard on MAVLink connections and their state.
+    Vehicles(vehicles::VehiclesArgs),
+    /// Upload, download, clear or fly a mission (also fence and rally lists).
+    Mission(mission::MissionArgs),
+    /// Arm, disarm, change mode, take off, go to, return, land.
+    Command(command::CommandArgs),
+    /// MAVLink 2 signing keys: make one, install one on a vehicle.
+    Signing(signing::SigningArgs),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
@@ -72,5 +84,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Experiment(args) => experiment::run(args),
+        Command::Vehicles(args) => vehicles::run(args),
+        Command::Mission(args) => mission::run(args),
+        Command::Command(args) => command::run(args),
+        Command::Signing(args) => signing::run(args),
     }
 }

@@ -1,0 +1,378 @@
+//! End-to-end tests of the link layer, the fleet and the `fleetmap` CLI over real sockets on
+//! loopback.
+//!
+//! `Responder` is a minimal vehicle endpoint (heartbeat, position, home, GPS, the
+//! simulator's vehicle-side mission server, ARM / DO_SET_MODE acknowledgements) used to test
+//! transports, routing, signing and tlogs without the full simulator.
+
+#![allow(deprecated)]
+
+use fleetmap::fleet::{self, FleetConfig};
+use fleetmap::link::codec::Codec;
+use fleetmap::link::signing::{Signing, SigningKey};
+use fleetmap::link::tlog::{read_tlog, spawn_tlog};
+use fleetmap::link::transport::{LinkOptions, unix_now_us};
+use fleetmap::link::ConnSpec;
+use fleetmap::mission::{MissionItem, MissionType};
+use fleetmap::proto::Endpoint;
+use fleetmap::sim::flavour::Autopilot;
+use fleetmap::sim::mission_server::{HomeItem, MissionServer};
+use fleetmap::time::{MonotonicClock, Time};
+use mavlink::MavHeader;
+use mavlink::dialects::ardupilotmega::*;
+use std::net::SocketAddr;
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use tokio::net::UdpSocket;
+
+/// What a `Responder` saw and did.
+#[derive(Default, Debug)]
+struct Seen {
+    armed: bool,
+    custom_mode: u32,
+    commands: Vec<MavCmd>,
+    signing_drops: u64,
+    unsigned_dropped: u64,
+    bad_signature: u64,
+}
+
+/// A minimal ArduCopter-like endpoint on a UDP socket: answers whoever spoke last.
+async fn responder(
+    sock: UdpSocket,
+    sysid: u8,
+    signing: Option<Signing>,
+    seen: Arc<Mutex<Seen>>,
+    stop: tokio::sync::watch::Receiver<bool>,
+) {
+    let mut codec = match signing {
+        Some(s) => Codec::with_signing(s),
+        None => Codec::new(),
+    };
+    let clock = MonotonicClock::new();
+    let mut server = MissionServer::new(Autopilot::ArduPilot, sysid, 1);
+    server.set_home(Some(HomeItem {
+        lat_e7: 371_950_000,
+        lon_e7: -805_800_000,
+        alt_amsl_m: 600.0,
+    }));
+    let mut peer: Option<SocketAddr> = None;
+    let mut buf = vec![0u8; 4096];
+    let mut tick = tokio::time::interval(Duration::from_millis(100));
+    let mut n = 0u64;
+    loop {
+        let mut out: Vec<MavMessage> = Vec::new();
+        tokio::select! {
+            _ = tick.tick() => {
+                if *stop.borrow() { break; }
+                n += 1;
+                let now = clock.now();
+                if server.poll_timeout().is_some_and(|t| t <= now) {
+                    server.handle_timeout(now);
+                }
+                let (armed, mode) = {
+                    let s = seen.lock().unwrap();
+                    (s.armed, s.custom_mode)
+                };
+                if n % 10 == 1 {
+                    out.push(MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+                        custom_mode: mode,
+                        mavtype: MavType::MAV_TYPE_QUADROTOR,
+                        autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+                        base_mode: if armed { MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED | MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED } else { MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED },
+                        system_status: MavState::MAV_STATE_STANDBY,
+                        mavlink_version: 3,
+                    }));
+                    out.push(MavMessage::HOME_POSITION(HOME_POSITION_DATA {
+                        latitude: 371_950_000,
+                        longitude: -805_800_000,
+                        altitude: 600_000,
+                        ..Default::default()
+                    }));
+                    out.push(MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
+                        fix_type: GpsFixType::GPS_FIX_TYPE_3D_FIX,
+                        satellites_visible: 12,
+                        ..Default::default()
+                    }));
+                    out.push(MavMessage::SYS_STATUS(SYS_STATUS_DATA {
+                        voltage_battery: 12_600,
+                        battery_remaining: 87,
+                        ..Default::default()
+                    }));
+                }
+                out.push(MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                    time_boot_ms: (now.as_micros() / 1000) as u32,
+                    lat: 371_950_000,
+                    lon: -805_800_000,
+                    alt: 600_000,
+                    relative_alt: 0,
+                    hdg: 9000,
+                    ..Default::default()
+                }));
+            }
+            r = sock.recv_from(&mut buf) => {
+                let Ok((len, from)) = r else { continue };
+                peer = Some(from);
+                let now = clock.now();
+                for f in codec.decode(&buf[..len], unix_now_us()) {
+                    let Ok(msg) = &f.message else { continue };
+                    if server.handle_message(&f.header, msg, now) {
+                        continue;
+                    }
+                    if let MavMessage::COMMAND_LONG(c) = msg {
+                        if c.target_system != sysid { continue; }
+                        let mut s = seen.lock().unwrap();
+                        s.commands.push(c.command);
+                        let result = match c.command {
+                            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => { s.armed = c.param1 == 1.0; MavResult::MAV_RESULT_ACCEPTED }
+                            MavCmd::MAV_CMD_DO_SET_MODE => { s.custom_mode = c.param2 as u32; MavResult::MAV_RESULT_ACCEPTED }
+                            MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => MavResult::MAV_RESULT_ACCEPTED,
+                            _ => MavResult::MAV_RESULT_UNSUPPORTED,
+                        };
+                        out.push(MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+                            command: c.command,
+                            result,
+                            progress: 0,
+                            result_param2: 0,
+                            target_system: f.sysid(),
+                            target_component: f.compid(),
+                        }));
+                    }
+                }
+                let st = codec.stats();
+                let mut s = seen.lock().unwrap();
+                s.signing_drops = st.signing_drops();
+                s.unsigned_dropped = st.unsigned_dropped;
+                s.bad_signature = st.bad_signature;
+            }
+        }
+        while let Some(m) = server.poll_transmit() {
+            out.push(m);
+        }
+        while server.poll_event().is_some() {}
+        if let Some(p) = peer {
+            for m in out {
+                let bytes = codec.encode(sysid, 1, &m, unix_now_us());
+                let _ = sock.send_to(&bytes, p).await;
+            }
+        }
+    }
+}
+
+struct Vehicle {
+    addr: SocketAddr,
+    seen: Arc<Mutex<Seen>>,
+    stop: tokio::sync::watch::Sender<bool>,
+}
+
+async fn spawn_responder(sysid: u8, signing: Option<Signing>) -> Vehicle {
+    let sock = UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let addr = sock.local_addr().unwrap();
+    let seen = Arc::new(Mutex::new(Seen::default()));
+    let (stop, stop_rx) = tokio::sync::watch::channel(false);
+    tokio::spawn(responder(sock, sysid, signing, seen.clone(), stop_rx));
+    Vehicle { addr, seen, stop }
+}
+
+fn udpout(a: SocketAddr) -> ConnSpec {
+    format!("udpout:{a}").parse().unwrap()
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn fleet_over_udp_sees_two_vehicles_routes_commands_and_transfers_missions() {
+    let v1 = spawn_responder(1, None).await;
+    let v2 = spawn_responder(2, None).await;
+    let dir = tempfile::tempdir().unwrap();
+    let tlog_path = dir.path().join("run.tlog");
+    let (tlog, tlog_task) = spawn_tlog(&tlog_path).unwrap();
+    let opts = LinkOptions {
+        signing: None,
+        tlog: Some(tlog),
+    };
+    let f = fleet::start(&[udpout(v1.addr), udpout(v2.addr)], &opts, FleetConfig::default())
+        .await
+        .unwrap();
+    drop(opts);
+    let a = f.wait_vehicle(1, Duration::from_secs(5)).await.unwrap();
+    let b = f.wait_vehicle(2, Duration::from_secs(5)).await.unwrap();
+    assert_eq!((a.link, b.link), (0, 1), "each vehicle routed to its own link");
+    assert_eq!(a.flavour, fleetmap::proto::flavour::Flavour::ARDU_COPTER);
+    // Telemetry reaches the snapshot.
+    let a = f
+        .wait_until(1, Duration::from_secs(5), |v| v.home.is_some() && v.gps_fix == Some(3))
+        .await
+        .unwrap();
+    assert_eq!(a.battery_pct, Some(87));
+    // Commands are routed to the right vehicle only.
+    f.set_mode(2, "GUIDED").await.unwrap();
+    assert_eq!(v2.seen.lock().unwrap().custom_mode, 4);
+    assert_eq!(v1.seen.lock().unwrap().custom_mode, 0);
+    f.arm(2).await.unwrap();
+    assert!(v2.seen.lock().unwrap().armed);
+    assert!(!v1.seen.lock().unwrap().armed);
+    // Missions round-trip through ArduPilot's home item.
+    let items = vec![
+        MissionItem::takeoff(10.0),
+        MissionItem::waypoint(37.196, -80.579, 12.0),
+        MissionItem::waypoint(37.197, -80.578, 12.0),
+        MissionItem::return_to_launch(),
+    ];
+    f.upload_mission(1, MissionType::Mission, items.clone()).await.unwrap();
+    let (back, home) = f.download_mission(1, MissionType::Mission).await.unwrap();
+    fleetmap::proto::mission::compare_items(&items, &back, true).unwrap();
+    assert!(home.is_some());
+    // Unknown vehicle: a typed error.
+    assert!(matches!(
+        f.arm(9).await,
+        Err(fleetmap::fleet::FleetError::NoVehicle { sysid: 9 })
+    ));
+    let stats = f.links()[0].status();
+    assert!(stats.stats.frames_in > 10 && stats.stats.frames_out > 5);
+    f.shutdown().await;
+    drop(f);
+    let records = tokio::time::timeout(Duration::from_secs(5), tlog_task)
+        .await
+        .unwrap()
+        .unwrap()
+        .unwrap();
+    assert!(records > 20);
+    let rec = read_tlog(&tlog_path).unwrap();
+    assert_eq!(rec.len() as u64, records);
+    assert!(rec.iter().any(|(_, fr)| fr.sysid() == 255), "outgoing frames logged");
+    assert!(rec.iter().any(|(_, fr)| fr.sysid() == 2), "incoming frames logged");
+    assert!(rec.windows(2).all(|w| w[0].0 <= w[1].0 + 1_000_000));
+    let _ = (v1.stop.send(true), v2.stop.send(true));
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn signing_drops_unsigned_third_parties_and_wrong_keys() {
+    let key = SigningKey::from_passphrase("field team 7");
+    let v = spawn_responder(1, Some(Signing::new(key.clone(), 0))).await;
+
+    // GCS with the right key: everything works.
+    let opts = LinkOptions {
+        signing: Some(Signing::new(key.clone(), 0)),
+        tlog: None,
+    };
+    let f = fleet::start(&[udpout(v.addr)], &opts, FleetConfig::default()).await.unwrap();
+    f.wait_vehicle(1, Duration::from_secs(5)).await.unwrap();
+    f.set_mode(1, "LOITER").await.unwrap();
+    assert_eq!(v.seen.lock().unwrap().custom_mode, 5);
+
+    // A third party without the key sends an ARM command: ignored.
+    let third = UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let mut c = Codec::new();
+    let arm = MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
+        command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        param1: 1.0,
+        target_system: 1,
+        target_component: 1,
+        ..Default::default()
+    });
+    for _ in 0..3 {
+        third.send_to(&c.encode(250, 190, &arm, 0), v.addr).await.unwrap();
+    }
+    tokio::time::sleep(Duration::from_millis(300)).await;
+    {
+        let s = v.seen.lock().unwrap();
+        assert!(!s.armed, "an unsigned ARM from a third party must be ignored");
+        assert!(!s.commands.contains(&MavCmd::MAV_CMD_COMPONENT_ARM_DISARM));
+        assert!(s.unsigned_dropped >= 3, "the vehicle counts the drops: {s:?}");
+    }
+    f.shutdown().await;
+    drop(f);
+
+    // A GCS with a wrong key: nothing is accepted either way.
+    let opts = LinkOptions {
+        signing: Some(Signing::new(SigningKey::from_passphrase("wrong"), 0)),
+        tlog: None,
+    };
+    let g = fleet::start(&[udpout(v.addr)], &opts, FleetConfig::default()).await.unwrap();
+    // Its heartbeat reaches the responder, which answers: the answers must be dropped.
+    assert!(g.wait_vehicle(1, Duration::from_secs(3)).await.is_err());
+    let st = g.links()[0].status();
+    assert!(st.stats.bad_signature > 0, "GCS counts bad signatures: {:?}", st.stats);
+    assert_eq!(st.stats.frames_in, 0);
+    assert!(v.seen.lock().unwrap().bad_signature > 0, "vehicle counts bad signatures");
+    g.shutdown().await;
+    let _ = v.stop.send(true);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
+    // udpin: the fleet listens; a vehicle sends to it; the fleet answers that address.
+    let listen = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let port = listen.local_addr().unwrap().port();
+    drop(listen);
+    let spec: ConnSpec = format!("udpin:127.0.0.1:{port}").parse().unwrap();
+    let f = fleet::start(&[spec], &LinkOptions::default(), FleetConfig::default()).await.unwrap();
+    let veh = UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let mut c = Codec::new();
+    let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_GROUND_ROVER,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_PX4,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+    });
+    veh.send_to(&c.encode(7, 1, &hb, 0), ("127.0.0.1", port)).await.unwrap();
+    let v = f.wait_vehicle(7, Duration::from_secs(3)).await.unwrap();
+    assert_eq!(v.flavour, fleetmap::proto::flavour::Flavour::PX4_ROVER);
+    // The GCS heartbeat (1 Hz) comes back to the vehicle's address.
+    let mut buf = [0u8; 512];
+    let (n, _) = tokio::time::timeout(Duration::from_secs(3), veh.recv_from(&mut buf))
+        .await
+        .unwrap()
+        .unwrap();
+    let mut rx = Codec::new();
+    let frames = rx.decode(&buf[..n], 0);
+    assert!(frames.iter().any(|fr| fr.sysid() == 255));
+    f.shutdown().await;
+
+    // tcp: connect, lose the server, get it back.
+    let l = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
+    let addr = l.local_addr().unwrap();
+    let spec: ConnSpec = format!("tcp:{addr}").parse().unwrap();
+    let g = fleet::start(&[spec], &LinkOptions::default(), FleetConfig::default()).await.unwrap();
+    let (s1, _) = l.accept().await.unwrap();
+    drop(s1); // peer goes away
+    let (s2, _) = tokio::time::timeout(Duration::from_secs(5), l.accept())
+        .await
+        .expect("the link reconnects")
+        .unwrap();
+    use tokio::io::AsyncWriteExt;
+    let mut s2 = s2;
+    s2.write_all(&c.encode(8, 1, &hb, 0)).await.unwrap();
+    g.wait_vehicle(8, Duration::from_secs(3)).await.unwrap();
+    assert!(g.links()[0].status().connects >= 2);
+    g.shutdown().await;
+}
+
+#[test]
+fn unknown_frames_and_garbage_do_not_break_the_fleet_state() {
+    // Pure check of the lenient heartbeat path used by the fleet: a MAV_TYPE newer than
+    // our dialect still yields a vehicle.
+    let mut c = Codec::new();
+    let mut hb = c.encode(
+        3,
+        1,
+        &MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+            custom_mode: 4,
+            mavtype: MavType::MAV_TYPE_QUADROTOR,
+            autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            base_mode: MavModeFlag::empty(),
+            system_status: MavState::MAV_STATE_STANDBY,
+            mavlink_version: 3,
+        }),
+        0,
+    );
+    hb[14] = 77; // MAV_TYPE 77: unknown
+    let n = hb.len();
+    let crc = fleetmap::link::codec::frame_crc(&hb[1..n - 2], 50);
+    hb[n - 2..].copy_from_slice(&crc.to_le_bytes());
+    let frames = Codec::new().decode(&hb, 0);
+    assert!(frames[0].message.is_err());
+    let beat = fleetmap::proto::heartbeat::Beat::from_payload(frames[0].payload());
+    assert_eq!((beat.mav_type, beat.custom_mode), (77, 4));
+    let _ = (Time::ZERO, Endpoint::gcs(), MavHeader::default());
+}
