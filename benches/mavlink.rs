@@ -80,17 +80,21 @@ fn decode(c: &mut Criterion) {
     let mut g = c.benchmark_group("decode");
     g.throughput(Throughput::Bytes(stream.len() as u64));
     for chunk in [64usize, 1500, 65_536] {
-        g.bench_with_input(BenchmarkId::new("frames_10k_chunk", chunk), &chunk, |b, &chunk| {
-            b.iter(|| {
-                let mut codec = Codec::new();
-                let mut count = 0;
-                for part in stream.chunks(chunk) {
-                    count += codec.decode(part, 0).len();
-                }
-                assert_eq!(count, n);
-                black_box(count)
-            })
-        });
+        g.bench_with_input(
+            BenchmarkId::new("frames_10k_chunk", chunk),
+            &chunk,
+            |b, &chunk| {
+                b.iter(|| {
+                    let mut codec = Codec::new();
+                    let mut count = 0;
+                    for part in stream.chunks(chunk) {
+                        count += codec.decode(part, 0).len();
+                    }
+                    assert_eq!(count, n);
+                    black_box(count)
+                })
+            },
+        );
     }
     g.finish();
 }
@@ -157,7 +161,9 @@ fn upload(c: &mut Criterion) {
     let mut g = c.benchmark_group("mission_upload_200_items");
     g.throughput(Throughput::Elements(items.len() as u64));
     g.measurement_time(Duration::from_secs(5));
-    g.bench_function("ardupilot", |b| b.iter(|| black_box(upload_once(true, &items))));
+    g.bench_function("ardupilot", |b| {
+        b.iter(|| black_box(upload_once(true, &items)))
+    });
     g.bench_function("px4", |b| b.iter(|| black_box(upload_once(false, &items))));
     g.finish();
 }

@@ -8,11 +8,11 @@
 #![allow(deprecated)]
 
 use fleetmap::fleet::{self, FleetConfig};
+use fleetmap::link::ConnSpec;
 use fleetmap::link::codec::Codec;
 use fleetmap::link::signing::{Signing, SigningKey};
 use fleetmap::link::tlog::{read_tlog, spawn_tlog};
 use fleetmap::link::transport::{LinkOptions, unix_now_us};
-use fleetmap::link::ConnSpec;
 use fleetmap::mission::{MissionItem, MissionType};
 use fleetmap::proto::Endpoint;
 use fleetmap::sim::flavour::Autopilot;
@@ -188,17 +188,27 @@ async fn fleet_over_udp_sees_two_vehicles_routes_commands_and_transfers_missions
         signing: None,
         tlog: Some(tlog),
     };
-    let f = fleet::start(&[udpout(v1.addr), udpout(v2.addr)], &opts, FleetConfig::default())
-        .await
-        .unwrap();
+    let f = fleet::start(
+        &[udpout(v1.addr), udpout(v2.addr)],
+        &opts,
+        FleetConfig::default(),
+    )
+    .await
+    .unwrap();
     drop(opts);
     let a = f.wait_vehicle(1, Duration::from_secs(5)).await.unwrap();
     let b = f.wait_vehicle(2, Duration::from_secs(5)).await.unwrap();
-    assert_eq!((a.link, b.link), (0, 1), "each vehicle routed to its own link");
+    assert_eq!(
+        (a.link, b.link),
+        (0, 1),
+        "each vehicle routed to its own link"
+    );
     assert_eq!(a.flavour, fleetmap::proto::flavour::Flavour::ARDU_COPTER);
     // Telemetry reaches the snapshot.
     let a = f
-        .wait_until(1, Duration::from_secs(5), |v| v.home.is_some() && v.gps_fix == Some(3))
+        .wait_until(1, Duration::from_secs(5), |v| {
+            v.home.is_some() && v.gps_fix == Some(3)
+        })
         .await
         .unwrap();
     assert_eq!(a.battery_pct, Some(87));
@@ -216,7 +226,9 @@ async fn fleet_over_udp_sees_two_vehicles_routes_commands_and_transfers_missions
         MissionItem::waypoint(37.197, -80.578, 12.0),
         MissionItem::return_to_launch(),
     ];
-    f.upload_mission(1, MissionType::Mission, items.clone()).await.unwrap();
+    f.upload_mission(1, MissionType::Mission, items.clone())
+        .await
+        .unwrap();
     let (back, home) = f.download_mission(1, MissionType::Mission).await.unwrap();
     fleetmap::proto::mission::compare_items(&items, &back, true).unwrap();
     assert!(home.is_some());
@@ -237,8 +249,14 @@ async fn fleet_over_udp_sees_two_vehicles_routes_commands_and_transfers_missions
     assert!(records > 20);
     let rec = read_tlog(&tlog_path).unwrap();
     assert_eq!(rec.len() as u64, records);
-    assert!(rec.iter().any(|(_, fr)| fr.sysid() == 255), "outgoing frames logged");
-    assert!(rec.iter().any(|(_, fr)| fr.sysid() == 2), "incoming frames logged");
+    assert!(
+        rec.iter().any(|(_, fr)| fr.sysid() == 255),
+        "outgoing frames logged"
+    );
+    assert!(
+        rec.iter().any(|(_, fr)| fr.sysid() == 2),
+        "incoming frames logged"
+    );
     assert!(rec.windows(2).all(|w| w[0].0 <= w[1].0 + 1_000_000));
     let _ = (v1.stop.send(true), v2.stop.send(true));
 }
@@ -253,7 +271,9 @@ async fn signing_drops_unsigned_third_parties_and_wrong_keys() {
         signing: Some(Signing::new(key.clone(), 0)),
         tlog: None,
     };
-    let f = fleet::start(&[udpout(v.addr)], &opts, FleetConfig::default()).await.unwrap();
+    let f = fleet::start(&[udpout(v.addr)], &opts, FleetConfig::default())
+        .await
+        .unwrap();
     f.wait_vehicle(1, Duration::from_secs(5)).await.unwrap();
     f.set_mode(1, "LOITER").await.unwrap();
     assert_eq!(v.seen.lock().unwrap().custom_mode, 5);
@@ -269,14 +289,23 @@ async fn signing_drops_unsigned_third_parties_and_wrong_keys() {
         ..Default::default()
     });
     for _ in 0..3 {
-        third.send_to(&c.encode(250, 190, &arm, 0), v.addr).await.unwrap();
+        third
+            .send_to(&c.encode(250, 190, &arm, 0), v.addr)
+            .await
+            .unwrap();
     }
     tokio::time::sleep(Duration::from_millis(300)).await;
     {
         let s = v.seen.lock().unwrap();
-        assert!(!s.armed, "an unsigned ARM from a third party must be ignored");
+        assert!(
+            !s.armed,
+            "an unsigned ARM from a third party must be ignored"
+        );
         assert!(!s.commands.contains(&MavCmd::MAV_CMD_COMPONENT_ARM_DISARM));
-        assert!(s.unsigned_dropped >= 3, "the vehicle counts the drops: {s:?}");
+        assert!(
+            s.unsigned_dropped >= 3,
+            "the vehicle counts the drops: {s:?}"
+        );
     }
     f.shutdown().await;
     drop(f);
@@ -286,13 +315,22 @@ async fn signing_drops_unsigned_third_parties_and_wrong_keys() {
         signing: Some(Signing::new(SigningKey::from_passphrase("wrong"), 0)),
         tlog: None,
     };
-    let g = fleet::start(&[udpout(v.addr)], &opts, FleetConfig::default()).await.unwrap();
+    let g = fleet::start(&[udpout(v.addr)], &opts, FleetConfig::default())
+        .await
+        .unwrap();
     // Its heartbeat reaches the responder, which answers: the answers must be dropped.
     assert!(g.wait_vehicle(1, Duration::from_secs(3)).await.is_err());
     let st = g.links()[0].status();
-    assert!(st.stats.bad_signature > 0, "GCS counts bad signatures: {:?}", st.stats);
+    assert!(
+        st.stats.bad_signature > 0,
+        "GCS counts bad signatures: {:?}",
+        st.stats
+    );
     assert_eq!(st.stats.frames_in, 0);
-    assert!(v.seen.lock().unwrap().bad_signature > 0, "vehicle counts bad signatures");
+    assert!(
+        v.seen.lock().unwrap().bad_signature > 0,
+        "vehicle counts bad signatures"
+    );
     g.shutdown().await;
     let _ = v.stop.send(true);
 }
@@ -304,7 +342,9 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
     let port = listen.local_addr().unwrap().port();
     drop(listen);
     let spec: ConnSpec = format!("udpin:127.0.0.1:{port}").parse().unwrap();
-    let f = fleet::start(&[spec], &LinkOptions::default(), FleetConfig::default()).await.unwrap();
+    let f = fleet::start(&[spec], &LinkOptions::default(), FleetConfig::default())
+        .await
+        .unwrap();
     let veh = UdpSocket::bind("127.0.0.1:0").await.unwrap();
     let mut c = Codec::new();
     let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
@@ -315,7 +355,9 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
         system_status: MavState::MAV_STATE_STANDBY,
         mavlink_version: 3,
     });
-    veh.send_to(&c.encode(7, 1, &hb, 0), ("127.0.0.1", port)).await.unwrap();
+    veh.send_to(&c.encode(7, 1, &hb, 0), ("127.0.0.1", port))
+        .await
+        .unwrap();
     let v = f.wait_vehicle(7, Duration::from_secs(3)).await.unwrap();
     assert_eq!(v.flavour, fleetmap::proto::flavour::Flavour::PX4_ROVER);
     // The GCS heartbeat (1 Hz) comes back to the vehicle's address.
@@ -333,7 +375,9 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
     let l = tokio::net::TcpListener::bind("127.0.0.1:0").await.unwrap();
     let addr = l.local_addr().unwrap();
     let spec: ConnSpec = format!("tcp:{addr}").parse().unwrap();
-    let g = fleet::start(&[spec], &LinkOptions::default(), FleetConfig::default()).await.unwrap();
+    let g = fleet::start(&[spec], &LinkOptions::default(), FleetConfig::default())
+        .await
+        .unwrap();
     let (s1, _) = l.accept().await.unwrap();
     drop(s1); // peer goes away
     let (s2, _) = tokio::time::timeout(Duration::from_secs(5), l.accept())

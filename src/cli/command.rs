@@ -98,7 +98,10 @@ pub fn run(args: CommandArgs) -> anyhow::Result<ExitCode> {
                 }
                 Action::Mode { name } => {
                     f.set_mode(sysid, name).await?;
-                    format!("mode {}", f.vehicle(sysid).map(|v| v.mode).unwrap_or_default())
+                    format!(
+                        "mode {}",
+                        f.vehicle(sysid).map(|v| v.mode).unwrap_or_default()
+                    )
                 }
                 Action::Takeoff { alt } => {
                     f.takeoff(sysid, *alt).await?;
@@ -131,7 +134,10 @@ pub fn run(args: CommandArgs) -> anyhow::Result<ExitCode> {
                 }
             };
             if args.conn.json {
-                println!("{}", serde_json::json!({"sysid": sysid, "ok": true, "result": done}));
+                println!(
+                    "{}",
+                    serde_json::json!({"sysid": sysid, "ok": true, "result": done})
+                );
             } else {
                 println!("vehicle {sysid}: {done}");
             }

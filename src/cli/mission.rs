@@ -111,10 +111,16 @@ pub enum MissionCommand {
 }
 
 /// Items of list `kind` from a file, with the file's home if it has one.
-pub fn read_list(path: &Path, kind: MissionType) -> anyhow::Result<(Vec<MissionItem>, Option<MissionItem>)> {
-    let text = std::fs::read_to_string(path)
-        .with_context(|| format!("cannot read {}", path.display()))?;
-    if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("plan")) {
+pub fn read_list(
+    path: &Path,
+    kind: MissionType,
+) -> anyhow::Result<(Vec<MissionItem>, Option<MissionItem>)> {
+    let text =
+        std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
+    if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("plan"))
+    {
         let p = parse_plan(&text).with_context(|| format!("{}", path.display()))?;
         let home = p.home.map(|(lat, lon, alt)| MissionItem {
             frame: frame::GLOBAL,
@@ -140,7 +146,10 @@ pub fn write_list(
     home: Option<&MissionItem>,
     v: &VehicleSnapshot,
 ) -> anyhow::Result<()> {
-    let text = if path.extension().is_some_and(|e| e.eq_ignore_ascii_case("plan")) {
+    let text = if path
+        .extension()
+        .is_some_and(|e| e.eq_ignore_ascii_case("plan"))
+    {
         let mut p = Plan {
             firmware_type: v.autopilot,
             vehicle_type: v.mav_type,
@@ -221,9 +230,16 @@ pub fn run(args: MissionArgs) -> anyhow::Result<ExitCode> {
                         Some(path) => {
                             write_list(path, kind, &items, home.as_ref(), &v)?;
                             if target.conn.json {
-                                println!("{}", serde_json::json!({"downloaded": items.len(), "file": path}));
+                                println!(
+                                    "{}",
+                                    serde_json::json!({"downloaded": items.len(), "file": path})
+                                );
                             } else {
-                                println!("downloaded {} item(s) to {}", items.len(), path.display());
+                                println!(
+                                    "downloaded {} item(s) to {}",
+                                    items.len(),
+                                    path.display()
+                                );
                             }
                         }
                         None if target.conn.json => {
@@ -246,9 +262,16 @@ pub fn run(args: MissionArgs) -> anyhow::Result<ExitCode> {
                     s.vehicle(target.sysid, wait_of(&target)?).await?;
                     s.fleet.clear_mission(target.sysid, kind).await?;
                     if target.conn.json {
-                        println!("{}", serde_json::json!({"cleared": format!("{kind:?}").to_lowercase()}));
+                        println!(
+                            "{}",
+                            serde_json::json!({"cleared": format!("{kind:?}").to_lowercase()})
+                        );
                     } else {
-                        println!("cleared the {} of vehicle {}", format!("{kind:?}").to_lowercase(), target.sysid);
+                        println!(
+                            "cleared the {} of vehicle {}",
+                            format!("{kind:?}").to_lowercase(),
+                            target.sysid
+                        );
                     }
                     anyhow::Ok(())
                 }
@@ -275,7 +298,14 @@ pub fn run(args: MissionArgs) -> anyhow::Result<ExitCode> {
             }
             block_on(async move {
                 let s = Session::open(&target.conn).await?;
-                let r = fly(&s.fleet, &target, items, takeoff_alt, Duration::from_secs_f64(timeout)).await;
+                let r = fly(
+                    &s.fleet,
+                    &target,
+                    items,
+                    takeoff_alt,
+                    Duration::from_secs_f64(timeout),
+                )
+                .await;
                 s.close().await?;
                 r.map(|_| ExitCode::SUCCESS)
             })?
@@ -324,15 +354,32 @@ async fn fly(
         .wait_vehicle(sysid, wait_of(target)?)
         .await
         .with_context(|| format!("no heartbeat from system {sysid}"))?;
-    say(json, "vehicle", format!("vehicle {sysid}: {} in {}", v.flavour, v.mode), serde_json::json!({"sysid": sysid}));
+    say(
+        json,
+        "vehicle",
+        format!("vehicle {sysid}: {} in {}", v.flavour, v.mode),
+        serde_json::json!({"sysid": sysid}),
+    );
 
     // 1. Upload and verify by download.
-    fleet.upload_mission(sysid, MissionType::Mission, items.clone()).await?;
-    say(json, "uploaded", format!("uploaded {} items", items.len()), serde_json::json!({"count": items.len()}));
+    fleet
+        .upload_mission(sysid, MissionType::Mission, items.clone())
+        .await?;
+    say(
+        json,
+        "uploaded",
+        format!("uploaded {} items", items.len()),
+        serde_json::json!({"count": items.len()}),
+    );
     let (back, _) = fleet.download_mission(sysid, MissionType::Mission).await?;
     compare_items(&items, &back, v.flavour.home_item())
         .map_err(|d| anyhow::anyhow!("the mission read back from the vehicle differs: {d}"))?;
-    say(json, "verified", "verified: the vehicle holds the same mission".into(), serde_json::json!({}));
+    say(
+        json,
+        "verified",
+        "verified: the vehicle holds the same mission".into(),
+        serde_json::json!({}),
+    );
     let nav: Vec<u16> = items
         .iter()
         .enumerate()
@@ -358,7 +405,12 @@ async fn fly(
             })
             .filter(|a| *a > 0.5)
             .unwrap_or(10.0);
-        say(json, "takeoff", format!("arming and taking off to {alt:.1} m"), serde_json::json!({"alt": alt}));
+        say(
+            json,
+            "takeoff",
+            format!("arming and taking off to {alt:.1} m"),
+            serde_json::json!({"alt": alt}),
+        );
         fleet.takeoff(sysid, alt).await?;
         let t = remaining("climbing")?;
         fleet
@@ -369,16 +421,28 @@ async fn fly(
             .map_err(|v| {
                 anyhow::anyhow!(
                     "vehicle {sysid} did not climb to {alt:.1} m (at {})",
-                    v.and_then(|v| v.alt_rel).map(|a| format!("{a:.1} m")).unwrap_or_else(|| "unknown altitude".into())
+                    v.and_then(|v| v.alt_rel)
+                        .map(|a| format!("{a:.1} m"))
+                        .unwrap_or_else(|| "unknown altitude".into())
                 )
             })?;
-        say(json, "airborne", format!("at {alt:.1} m"), serde_json::json!({}));
+        say(
+            json,
+            "airborne",
+            format!("at {alt:.1} m"),
+            serde_json::json!({}),
+        );
     } else {
         say(json, "arm", "arming".into(), serde_json::json!({}));
         fleet.arm(sysid).await?;
     }
     fleet.start_mission(sysid).await?;
-    say(json, "started", "mission started".into(), serde_json::json!({}));
+    say(
+        json,
+        "started",
+        "mission started".into(),
+        serde_json::json!({}),
+    );
 
     // 3. Follow it.
     let total = items.len();
@@ -420,17 +484,29 @@ async fn fly(
                 say(
                     json,
                     "reached",
-                    format!("item {}/{} reached ({}) — {done}/{} navigation items", i + 1, total, command_name(items[i].command), nav.len()),
+                    format!(
+                        "item {}/{} reached ({}) — {done}/{} navigation items",
+                        i + 1,
+                        total,
+                        command_name(items[i].command),
+                        nav.len()
+                    ),
                     serde_json::json!({"item": i, "done": done, "nav_items": nav.len()}),
                 );
             }
         }
         let all_flown = nav.iter().all(|&k| flown[usize::from(k)]);
         let complete = s.mission_state == Some(5);
-        if all_flown && (last_nav.is_none() || complete || last_nav.is_some_and(|l| flown[usize::from(l)])) {
+        if all_flown
+            && (last_nav.is_none() || complete || last_nav.is_some_and(|l| flown[usize::from(l)]))
+        {
             break;
         }
-        if ends_on_ground && s.on_ground() && !s.armed && nav.iter().rev().skip(1).all(|&k| flown[usize::from(k)]) {
+        if ends_on_ground
+            && s.on_ground()
+            && !s.armed
+            && nav.iter().rev().skip(1).all(|&k| flown[usize::from(k)])
+        {
             // The mission's own landing finished it.
             if let Some(l) = last_nav {
                 flown[usize::from(l)] = true;
@@ -443,17 +519,31 @@ async fn fly(
                 "vehicle {sysid} is on the ground and disarmed after {done} of {} navigation items (mode {}{})",
                 nav.len(),
                 s.mode,
-                s.last_text.map(|t| format!(", last message: {}", t.text)).unwrap_or_default()
+                s.last_text
+                    .map(|t| format!(", last message: {}", t.text))
+                    .unwrap_or_default()
             );
         }
     }
-    say(json, "mission_done", "every mission item flown".into(), serde_json::json!({}));
+    say(
+        json,
+        "mission_done",
+        "every mission item flown".into(),
+        serde_json::json!({}),
+    );
 
     // 4. Return and land.
-    let s = fleet.vehicle(sysid).ok_or(FleetError::NoVehicle { sysid })?;
+    let s = fleet
+        .vehicle(sysid)
+        .ok_or(FleetError::NoVehicle { sysid })?;
     let down = |s: &VehicleSnapshot| s.on_ground() && !s.armed;
     if !(flies && down(&s)) {
-        say(json, "rtl", "returning to launch".into(), serde_json::json!({}));
+        say(
+            json,
+            "rtl",
+            "returning to launch".into(),
+            serde_json::json!({}),
+        );
         fleet.rtl(sysid).await?;
         let t = remaining("returning")?;
         if flies {
@@ -461,7 +551,12 @@ async fn fly(
                 .wait_until(sysid, t, down)
                 .await
                 .map_err(|_| anyhow::anyhow!("vehicle {sysid} did not land within --timeout"))?;
-            say(json, "landed", "landed and disarmed".into(), serde_json::json!({}));
+            say(
+                json,
+                "landed",
+                "landed and disarmed".into(),
+                serde_json::json!({}),
+            );
         } else {
             let home = s.home;
             fleet
@@ -473,11 +568,18 @@ async fn fly(
                     _ => false,
                 })
                 .await
-                .map_err(|_| anyhow::anyhow!("vehicle {sysid} did not arrive home within --timeout"))?;
+                .map_err(|_| {
+                    anyhow::anyhow!("vehicle {sysid} did not arrive home within --timeout")
+                })?;
             say(json, "home", "back at home".into(), serde_json::json!({}));
         }
     } else {
-        say(json, "landed", "landed and disarmed".into(), serde_json::json!({}));
+        say(
+            json,
+            "landed",
+            "landed and disarmed".into(),
+            serde_json::json!({}),
+        );
     }
     Ok(())
 }

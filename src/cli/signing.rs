@@ -77,7 +77,11 @@ pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
                         std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600))
                             .with_context(|| format!("cannot restrict {}", path.display()))?;
                     }
-                    println!("key written to {} (fingerprint {})", path.display(), key.fingerprint());
+                    println!(
+                        "key written to {} (fingerprint {})",
+                        path.display(),
+                        key.fingerprint()
+                    );
                 }
                 None => println!("{}", key.to_hex()),
             }

@@ -89,10 +89,12 @@ impl Session {
 
     /// Wait for vehicle `sysid` (its first heartbeat).
     pub async fn vehicle(&self, sysid: u8, wait: Duration) -> anyhow::Result<VehicleSnapshot> {
-        self.fleet
-            .wait_vehicle(sysid, wait)
-            .await
-            .with_context(|| format!("no heartbeat from system {sysid} within {:.0} s", wait.as_secs_f64()))
+        self.fleet.wait_vehicle(sysid, wait).await.with_context(|| {
+            format!(
+                "no heartbeat from system {sysid} within {:.0} s",
+                wait.as_secs_f64()
+            )
+        })
     }
 
     /// Stop the fleet and the links; flush the tlog.

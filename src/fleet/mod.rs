@@ -215,16 +215,16 @@ enum Request {
     },
 }
 
+/// A mission operation's reply channel and optional progress channel.
+type PendingMission = (
+    Reply<Result<MissionOutcome, FleetError>>,
+    Option<mpsc::UnboundedSender<(usize, usize)>>,
+);
+
 struct VehicleEntry {
     snap: VehicleSnapshot,
     mission: MissionClient,
-    pending: HashMap<
-        OpId,
-        (
-            Reply<Result<MissionOutcome, FleetError>>,
-            Option<mpsc::UnboundedSender<(usize, usize)>>,
-        ),
-    >,
+    pending: HashMap<OpId, PendingMission>,
     rate_frames: u64,
     rate_at: Time,
     rate_hz: f64,
@@ -470,7 +470,7 @@ impl Actor {
         }
         self.routes.insert(from, link);
         self.sys_routes.insert(from.sysid, link);
-        let frame = Arc::new(frame);
+        let frame: Arc<Frame> = Arc::from(frame);
         let _ = self.incoming.send(Incoming {
             link,
             unix_us,

@@ -42,7 +42,7 @@ pub enum LinkEvent {
         /// Which link.
         link: LinkId,
         /// The frame.
-        frame: Frame,
+        frame: Box<Frame>,
         /// Reception time, µs since the Unix epoch.
         unix_us: u64,
     },
@@ -500,7 +500,7 @@ impl LinkTask {
                     }
                     let ev = LinkEvent::Frame {
                         link: self.id,
-                        frame,
+                        frame: Box::new(frame),
                         unix_us: now,
                     };
                     if self.events.send(ev).await.is_err() {

@@ -2,9 +2,9 @@
 //! (`wp save`) and QGroundControl's text import/export.
 //!
 //! ```text
-//! QGC WPL 110
-//! 0	1	0	16	0	0	0	0	-35.363262	149.165237	584.090000	1
-//! 1	0	3	22	0	0	0	0	0	0	20	1
+//! QGC WPL 110 (fields separated by tabs)
+//! 0  1  0  16  0  0  0  0  -35.363262  149.165237  584.090000  1
+//! 1  0  3  22  0  0  0  0  0  0  20  1
 //! ```
 //!
 //! One item per line, whitespace (tab) separated: INDEX, CURRENT, FRAME, COMMAND, PARAM1–4,
