@@ -43,12 +43,14 @@ async fn responder(
     signing: Option<Signing>,
     seen: Arc<Mutex<Seen>>,
     stop: tokio::sync::watch::Receiver<bool>,
+    speedup: f64,
 ) {
     let mut codec = match signing {
         Some(s) => Codec::with_signing(s),
         None => Codec::new(),
     };
-    let clock = MonotonicClock::new();
+    // The vehicle's protocol timers run `speedup` times faster than wall time.
+    let clock = MonotonicClock::with_speedup(speedup);
     let mut server = MissionServer::new(Autopilot::ArduPilot, sysid, 1);
     server.set_home(Some(HomeItem {
         lat_e7: 371_950_000,
@@ -57,23 +59,36 @@ async fn responder(
     }));
     let mut peer: Option<SocketAddr> = None;
     let mut buf = vec![0u8; 4096];
-    let mut tick = tokio::time::interval(Duration::from_millis(100));
+    let mut tick = tokio::time::interval(Duration::from_millis(10));
     let mut n = 0u64;
     loop {
         let mut out: Vec<MavMessage> = Vec::new();
         tokio::select! {
             _ = tick.tick() => {
                 if *stop.borrow() { break; }
-                n += 1;
                 let now = clock.now();
                 if server.poll_timeout().is_some_and(|t| t <= now) {
                     server.handle_timeout(now);
+                }
+                n += 1;
+                if !n.is_multiple_of(10) {
+                    // Telemetry at 10 Hz, heartbeat at 1 Hz (wall time); timers every tick.
+                    while let Some(m) = server.poll_transmit() {
+                        out.push(m);
+                    }
+                    if let Some(p) = peer {
+                        for m in out.drain(..) {
+                            let bytes = codec.encode(sysid, 1, &m, unix_now_us());
+                            let _ = sock.send_to(&bytes, p).await;
+                        }
+                    }
+                    continue;
                 }
                 let (armed, mode) = {
                     let s = seen.lock().unwrap();
                     (s.armed, s.custom_mode)
                 };
-                if n % 10 == 1 {
+                if n % 100 == 10 {
                     out.push(MavMessage::HEARTBEAT(HEARTBEAT_DATA {
                         custom_mode: mode,
                         mavtype: MavType::MAV_TYPE_QUADROTOR,
@@ -165,11 +180,22 @@ struct Vehicle {
 }
 
 async fn spawn_responder(sysid: u8, signing: Option<Signing>) -> Vehicle {
+    spawn_responder_fast(sysid, signing, 1.0).await
+}
+
+async fn spawn_responder_fast(sysid: u8, signing: Option<Signing>, speedup: f64) -> Vehicle {
     let sock = UdpSocket::bind("127.0.0.1:0").await.unwrap();
     let addr = sock.local_addr().unwrap();
     let seen = Arc::new(Mutex::new(Seen::default()));
     let (stop, stop_rx) = tokio::sync::watch::channel(false);
-    tokio::spawn(responder(sock, sysid, signing, seen.clone(), stop_rx));
+    tokio::spawn(responder(
+        sock,
+        sysid,
+        signing,
+        seen.clone(),
+        stop_rx,
+        speedup,
+    ));
     Vehicle { addr, seen, stop }
 }
 
@@ -390,6 +416,103 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
     g.wait_vehicle(8, Duration::from_secs(3)).await.unwrap();
     assert!(g.links()[0].status().connects >= 2);
     g.shutdown().await;
+}
+
+/// A UDP relay between `listen` (the GCS side) and `vehicle` that drops each datagram with
+/// probability `loss`, independently in each direction.
+async fn lossy_proxy(vehicle: SocketAddr, loss: f64, seed: u64) -> SocketAddr {
+    use rand::{RngExt, SeedableRng};
+    let front = Arc::new(UdpSocket::bind("127.0.0.1:0").await.unwrap());
+    let back = Arc::new(UdpSocket::bind("127.0.0.1:0").await.unwrap());
+    let addr = front.local_addr().unwrap();
+    let gcs: Arc<Mutex<Option<SocketAddr>>> = Arc::new(Mutex::new(None));
+    let (f2, b2, g2) = (front.clone(), back.clone(), gcs.clone());
+    tokio::spawn(async move {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
+        let mut buf = vec![0u8; 65536];
+        while let Ok((n, from)) = f2.recv_from(&mut buf).await {
+            *g2.lock().unwrap() = Some(from);
+            if !rng.random_bool(loss) {
+                let _ = b2.send_to(&buf[..n], vehicle).await;
+            }
+        }
+    });
+    tokio::spawn(async move {
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed ^ 0xABCD);
+        let mut buf = vec![0u8; 65536];
+        while let Ok((n, _)) = back.recv_from(&mut buf).await {
+            let to = *gcs.lock().unwrap();
+            if let Some(to) = to
+                && !rng.random_bool(loss)
+            {
+                let _ = front.send_to(&buf[..n], to).await;
+            }
+        }
+    });
+    addr
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn uploads_and_downloads_over_udp_with_30_percent_loss_each_way() {
+    // Real sockets, the simulator's ArduPilot mission server behind a lossy relay. The
+    // vehicle's protocol timers (1 s re-request, 8 s upload timeout) run 8 times faster
+    // than wall time and our timeouts are scaled the same way (1500 ms → 190 ms, 250 ms →
+    // 31 ms); retries are raised for a link that loses half of all round trips.
+    let cfg = FleetConfig {
+        mission: fleetmap::proto::mission::MissionConfig {
+            timeout: Duration::from_millis(190),
+            item_timeout: Duration::from_millis(31),
+            retries: 30,
+            settle: Duration::from_millis(30),
+            restarts: 2,
+        },
+        ..FleetConfig::default()
+    };
+    let mut specs = Vec::new();
+    let mut vehicles = Vec::new();
+    for k in 0..3u8 {
+        let v = spawn_responder_fast(k + 1, None, 8.0).await;
+        let front = lossy_proxy(v.addr, 0.3, u64::from(k)).await;
+        specs.push(udpout(front));
+        vehicles.push(v);
+    }
+    let f = fleet::start(&specs, &LinkOptions::default(), cfg)
+        .await
+        .unwrap();
+    for k in 1..=3 {
+        f.wait_vehicle(k, Duration::from_secs(10)).await.unwrap();
+    }
+    let items: Vec<MissionItem> = (0..200)
+        .map(|i| MissionItem::waypoint(37.19 + f64::from(i) * 1e-5, -80.58, 10.0 + (i % 9) as f32))
+        .collect();
+    let mut tasks = Vec::new();
+    for k in 1..=3u8 {
+        let (f, items) = (f.clone(), items.clone());
+        tasks.push(tokio::spawn(async move {
+            for round in 0..1 {
+                f.upload_mission(k, MissionType::Mission, items.clone())
+                    .await
+                    .unwrap_or_else(|e| panic!("vehicle {k} upload {round}: {e}"));
+                let (back, _) = f
+                    .download_mission(k, MissionType::Mission)
+                    .await
+                    .unwrap_or_else(|e| panic!("vehicle {k} download {round}: {e}"));
+                fleetmap::proto::mission::compare_items(&items, &back, true).unwrap();
+            }
+        }));
+    }
+    for t in tasks {
+        t.await.unwrap();
+    }
+    let st = f.links()[0].status();
+    assert!(
+        st.stats.sources[&(1, 1)].lost > 0,
+        "the relay did lose frames"
+    );
+    f.shutdown().await;
+    for v in vehicles {
+        let _ = v.stop.send(true);
+    }
 }
 
 #[test]

@@ -149,6 +149,12 @@ enum Reader {
         addr: String,
         half: Option<tokio::net::tcp::OwnedReadHalf>,
         backoff: Duration,
+        /// The connection attempt in flight: a task of its own, so that the link's
+        /// `select!` (which drops this future whenever a message is sent) cannot cancel a
+        /// half-open connection.
+        pending: Option<tokio::task::JoinHandle<std::io::Result<TcpStream>>>,
+        /// Earliest time of the next attempt after a failure.
+        retry_at: Option<tokio::time::Instant>,
     },
     TcpServer {
         listener: TcpListener,
@@ -185,6 +191,8 @@ impl Reader {
                 addr,
                 half,
                 backoff,
+                pending,
+                retry_at,
             } => match half {
                 Some(h) => match h.read(buf).await {
                     Ok(0) => {
@@ -198,8 +206,20 @@ impl Reader {
                     }
                 },
                 None => loop {
-                    match TcpStream::connect(addr.as_str()).await {
-                        Ok(s) => {
+                    // Every await below is cancel-safe: state lives in `pending` and
+                    // `retry_at`, so a dropped future resumes where it was.
+                    if let Some(t) = *retry_at {
+                        tokio::time::sleep_until(t).await;
+                        *retry_at = None;
+                    }
+                    let task = pending.get_or_insert_with(|| {
+                        let a = addr.clone();
+                        tokio::spawn(async move { TcpStream::connect(a.as_str()).await })
+                    });
+                    let result = task.await;
+                    *pending = None;
+                    match result {
+                        Ok(Ok(s)) => {
                             let _ = s.set_nodelay(true);
                             let peer = s.peer_addr().map(|a| a.to_string()).unwrap_or_default();
                             let (r, w) = s.into_split();
@@ -207,8 +227,8 @@ impl Reader {
                             *backoff = Duration::from_millis(500);
                             return ReadOutcome::Connected(w, peer);
                         }
-                        Err(_) => {
-                            tokio::time::sleep(*backoff).await;
+                        _ => {
+                            *retry_at = Some(tokio::time::Instant::now() + *backoff);
                             *backoff = (*backoff * 2).min(Duration::from_secs(5));
                         }
                     }
@@ -353,6 +373,8 @@ pub async fn open_link(
                 addr: format!("{host}:{port}"),
                 half: None,
                 backoff: Duration::from_millis(500),
+                pending: None,
+                retry_at: None,
             },
             Writer::Tcp(None),
         ),

@@ -29,6 +29,17 @@
 //!   after every item was sent) we read the list back and compare it with what we sent:
 //!   success only if it matches exactly, otherwise a precise error. Never success with
 //!   wrong items.
+//! * A lost request: when no request or ACK follows an item within the timeout, the
+//!   highest item requested so far is sent again *and the next one is offered unrequested*.
+//!   The first covers a lost item, the second a lost request. Both autopilots store an
+//!   item whose seq is the one they expect whether or not they asked for it, and answer a
+//!   wrong one harmlessly (ArduPilot MAV_MISSION_INVALID_SEQUENCE, PX4 silence). Without
+//!   this, a lost request is only recovered by the vehicle's own re-request, and ArduPilot
+//!   re-requests once a second but cancels the upload after 8 s without an item
+//!   (`MissionItemProtocol::update`: `wp_recv_timeout_ms` 1000, `upload_timeout_ms`
+//!   8000): on a link that loses 30 % each way that leaves 8 tries at 49 % success, so a
+//!   200-item upload would be cancelled more often than not. QGroundControl and MAVSDK
+//!   only wait (they do not resend items on their own at all).
 //! * ArduPilot keeps the home position as item 0 of the *mission* list (not of fence or
 //!   rally). On upload we send a home placeholder at seq 0 (QGroundControl sends its planned
 //!   home there, `PlanManager::writeMissionItems`, `sendHomePositionToVehicle()` is true for
@@ -581,6 +592,9 @@ struct Upload {
     wire: Vec<MISSION_ITEM_INT_DATA>,
     requested: Vec<bool>,
     n_requested: usize,
+    /// Items sent at least once (requested or offered).
+    sent: Vec<bool>,
+    n_sent: usize,
     last_sent: Option<u16>,
     phase: UpPhase,
     deadline: Time,
@@ -779,6 +793,8 @@ impl MissionClient {
                             requested: vec![false; n],
                             wire,
                             n_requested: 0,
+                            sent: vec![false; n],
+                            n_sent: 0,
                             last_sent: None,
                             phase: UpPhase::Count,
                             deadline: now + self.cfg.timeout,
@@ -1038,6 +1054,7 @@ impl MissionClient {
                 });
             }
             u.last_sent = Some(seq);
+            u.mark_sent(i);
             self.out
                 .push_back(MavMessage::MISSION_ITEM_INT(u.wire[i].clone()));
             return None;
@@ -1055,7 +1072,9 @@ impl MissionClient {
         if ack.mission_type != kind {
             return None;
         }
-        let all_sent = u.n_requested == u.wire.len();
+        // Every item reached the vehicle at least once as far as we know: requested ones
+        // were answered, offered ones may have been taken.
+        let all_sent = u.n_sent == u.wire.len();
         match ack.mavtype {
             MavMissionResult::MAV_MISSION_ACCEPTED if all_sent => {
                 Some(Ok(MissionOutcome::Uploaded {
@@ -1347,7 +1366,7 @@ impl MissionClient {
             return None;
         }
         u.attempts += 1;
-        let all_sent = u.n_requested == u.wire.len();
+        let all_sent = u.n_sent == u.wire.len();
         if u.attempts > self.cfg.retries {
             if all_sent {
                 self.begin_verify(u, now);
@@ -1369,11 +1388,19 @@ impl MissionClient {
             }));
         }
         u.deadline = now + self.cfg.timeout;
-        match (&u.phase, u.last_sent) {
-            (UpPhase::Items, Some(seq)) => {
-                self.out.push_back(MavMessage::MISSION_ITEM_INT(
-                    u.wire[usize::from(seq)].clone(),
-                ));
+        let highest = u.requested.iter().rposition(|r| *r);
+        match (&u.phase, highest) {
+            (UpPhase::Items, Some(h)) => {
+                // Resend the highest item requested (our answer may have been lost) and,
+                // if the vehicle's request for the next one may have been lost instead,
+                // offer that one too. See "A lost request" in the module docs.
+                self.out
+                    .push_back(MavMessage::MISSION_ITEM_INT(u.wire[h].clone()));
+                if h + 1 < u.wire.len() {
+                    u.mark_sent(h + 1);
+                    self.out
+                        .push_back(MavMessage::MISSION_ITEM_INT(u.wire[h + 1].clone()));
+                }
             }
             _ => {
                 self.out
@@ -1381,6 +1408,15 @@ impl MissionClient {
             }
         }
         None
+    }
+}
+
+impl Upload {
+    fn mark_sent(&mut self, i: usize) {
+        if !self.sent[i] {
+            self.sent[i] = true;
+            self.n_sent += 1;
+        }
     }
 }
 
