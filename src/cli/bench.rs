@@ -14,9 +14,17 @@ pub struct BenchArgs {
 
 /// The benchmarks.
 #[derive(Debug, Subcommand)]
-pub enum BenchCommand {}
+pub enum BenchCommand {
+    /// Images per second of the runway classifier (`--width 1920 --height 1080 --images N`).
+    Classify(crate::cli::classify::BenchClassifyArgs),
+    /// Terminal UI: full-frame redraws of a generated fleet, frames per second.
+    Tui(super::tui::TuiBenchArgs),
+}
 
 /// Run a benchmark.
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
-    match args.what {}
+    match args.what {
+        BenchCommand::Classify(a) => crate::cli::classify::bench(a),
+        BenchCommand::Tui(a) => super::tui::bench(a),
+    }
 }

@@ -6,10 +6,14 @@
 //! and exits with status 1.
 
 pub mod bench;
+pub mod check;
+pub mod classify;
 pub mod command;
 pub mod experiment;
+pub mod grid;
 pub mod mission;
 pub mod signing;
+pub mod tui;
 pub mod vehicles;
 
 use clap::{Parser, Subcommand};
@@ -36,8 +40,16 @@ pub struct Cli {
 pub enum Command {
     /// Measure speed and print the figures.
     Bench(bench::BenchArgs),
+    /// Validate a mission definition file and print a summary (or every error).
+    Check(check::CheckArgs),
     /// Run one of the papers' Monte Carlo studies.
     Experiment(experiment::ExperimentArgs),
+    /// Convert between mission-grid cells and GPS/UTM coordinates; export cells as GeoJSON/KML.
+    Grid(grid::GridArgs),
+    /// Classify images with the runway sensing model (and the green-pixel measurement).
+    Classify(classify::ClassifyArgs),
+    /// The operator's terminal UI (for now on the built-in sample or a replay file).
+    Tui(tui::TuiArgs),
     /// List the vehicles heard on MAVLink connections and their state.
     Vehicles(vehicles::VehiclesArgs),
     /// Upload, download, clear or fly a mission (also fence and rally lists).
@@ -80,10 +92,19 @@ pub fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::
 
 /// Run the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
-    init_logging(cli.verbose, cli.log_file.as_deref())?;
+    // The terminal UI owns the screen: its default log goes to a file, not stderr.
+    let log_file = match &cli.command {
+        Command::Tui(args) if cli.log_file.is_none() => tui::default_log_file(args),
+        _ => cli.log_file.clone(),
+    };
+    init_logging(cli.verbose, log_file.as_deref())?;
     match cli.command {
         Command::Bench(args) => bench::run(args),
+        Command::Check(args) => check::run(args),
         Command::Experiment(args) => experiment::run(args),
+        Command::Grid(args) => grid::run(args),
+        Command::Classify(args) => classify::run(args),
+        Command::Tui(args) => tui::run(args, log_file.as_deref()),
         Command::Vehicles(args) => vehicles::run(args),
         Command::Mission(args) => mission::run(args),
         Command::Command(args) => command::run(args),

@@ -1,1 +1,3 @@
 //! Monte Carlo studies that reproduce the papers' tables and figures (CSV, JSON, PNG).
+
+pub mod dfs;

@@ -4,11 +4,284 @@
 //! Conventions (DESIGN.md §4): the origin is the centre of cell (0, 0); rows grow north and
 //! columns grow east; cell (row, col) has its centre at origin + (col·s, row·s) in
 //! (easting, northing); indices may be negative.
+//!
+//! Modules:
+//! - [`utm`]: WGS84 ↔ UTM with Krüger's series to n⁶ (agrees with PROJ to nanometres; the
+//!   measured numbers are in the README's Geo section), zone rules with the Norway/Svalbard
+//!   exceptions, and forced-zone conversion for grids that reach into the next zone.
+//! - [`Grid`] (in `grid.rs`): cells ↔ UTM ↔ WGS84, point → cell, polygon → covered cells.
+//! - [`export`]: cells and polygons → GeoJSON (RFC 7946) and KML (Google Earth, QGIS).
+//! - [`local`]: tangent-plane offsets for vehicle motion (not for cells).
 
+pub mod export;
+mod grid;
 pub mod local;
+mod tm;
+pub mod utm;
+
+pub use grid::Grid;
 
 use serde::{Deserialize, Serialize};
 use std::fmt;
+use std::str::FromStr;
+
+/// A WGS84 position: latitude and longitude in degrees (north and east positive).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct LatLon {
+    /// Latitude in degrees, −90..=90 (UTM needs −80..=84).
+    pub lat: f64,
+    /// Longitude in degrees, −180..=180.
+    pub lon: f64,
+}
+
+impl LatLon {
+    /// The position (`lat`, `lon`) in degrees (not validated; see [`LatLon::validate`]).
+    pub const fn new(lat: f64, lon: f64) -> LatLon {
+        LatLon { lat, lon }
+    }
+
+    /// Check that both numbers are finite, the latitude is within -90..=90° and the
+    /// longitude within −180..=180°.
+    pub fn validate(self) -> Result<LatLon, GeoError> {
+        if !self.lat.is_finite() {
+            return Err(GeoError::NotFinite {
+                what: "latitude",
+                value: self.lat,
+            });
+        }
+        if !self.lon.is_finite() {
+            return Err(GeoError::NotFinite {
+                what: "longitude",
+                value: self.lon,
+            });
+        }
+        if !(-90.0..=90.0).contains(&self.lat) {
+            return Err(GeoError::LatitudeOutOfRange { lat: self.lat });
+        }
+        if !(-180.0..=180.0).contains(&self.lon) {
+            return Err(GeoError::LongitudeOutOfRange { lon: self.lon });
+        }
+        Ok(self)
+    }
+}
+
+impl fmt::Display for LatLon {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{},{}", self.lat, self.lon)
+    }
+}
+
+impl FromStr for LatLon {
+    type Err = GeoError;
+
+    /// Parse `"LAT,LON"` in degrees (spaces allowed around the numbers), validated.
+    fn from_str(s: &str) -> Result<LatLon, GeoError> {
+        let parse_err = |why: &str| GeoError::Parse {
+            input: s.to_string(),
+            expected: format!("LAT,LON in decimal degrees, e.g. 37.1968,-80.5781 ({why})"),
+        };
+        let (lat, lon) = s.split_once(',').ok_or_else(|| parse_err("no comma"))?;
+        let lat: f64 = lat
+            .trim()
+            .parse()
+            .map_err(|_| parse_err("the latitude is not a number"))?;
+        let lon: f64 = lon
+            .trim()
+            .parse()
+            .map_err(|_| parse_err("the longitude is not a number"))?;
+        LatLon::new(lat, lon).validate()
+    }
+}
+
+/// The UTM hemisphere: selects the false northing (0 m north, 10 000 000 m south).
+/// Written `"N"` / `"S"` in JSON and on the command line.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Hemisphere {
+    /// Northern hemisphere (false northing 0 m).
+    #[serde(rename = "N", alias = "north")]
+    North,
+    /// Southern hemisphere (false northing 10 000 000 m).
+    #[serde(rename = "S", alias = "south")]
+    South,
+}
+
+impl Hemisphere {
+    /// The hemisphere of a latitude in degrees (the equator is north, as in PROJ/EPSG).
+    pub fn of_lat(lat: f64) -> Hemisphere {
+        if lat >= 0.0 {
+            Hemisphere::North
+        } else {
+            Hemisphere::South
+        }
+    }
+
+    /// The false northing in metres: 0 north, 10 000 000 south.
+    pub const fn false_northing(self) -> f64 {
+        match self {
+            Hemisphere::North => 0.0,
+            Hemisphere::South => 10_000_000.0,
+        }
+    }
+
+    /// `'N'` or `'S'`.
+    pub const fn letter(self) -> char {
+        match self {
+            Hemisphere::North => 'N',
+            Hemisphere::South => 'S',
+        }
+    }
+}
+
+impl fmt::Display for Hemisphere {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.letter())
+    }
+}
+
+impl FromStr for Hemisphere {
+    type Err = GeoError;
+
+    /// `N`/`S` or `north`/`south` (any case).
+    fn from_str(s: &str) -> Result<Hemisphere, GeoError> {
+        match s.trim().to_ascii_lowercase().as_str() {
+            "n" | "north" => Ok(Hemisphere::North),
+            "s" | "south" => Ok(Hemisphere::South),
+            _ => Err(GeoError::Parse {
+                input: s.to_string(),
+                expected: "a hemisphere: N or S".to_string(),
+            }),
+        }
+    }
+}
+
+/// A UTM coordinate: easting and northing in metres (false easting 500 000 m, false northing
+/// per [`Hemisphere`]), in `zone` (1..=60).
+///
+/// A grid keeps its origin's zone and hemisphere for all its cells, so a `Utm` produced by a
+/// [`Grid`] may lie outside its zone's 6° band (forced zone) or have a negative northing (a
+/// northern grid reaching south of the equator).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+pub struct Utm {
+    /// Easting in metres (500 000 m on the central meridian).
+    pub easting: f64,
+    /// Northing in metres (0 m at the equator north, 10 000 000 m at the equator south).
+    pub northing: f64,
+    /// UTM zone number, 1..=60.
+    pub zone: u8,
+    /// Hemisphere (false northing).
+    pub hemisphere: Hemisphere,
+}
+
+impl fmt::Display for Utm {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{}{} {:.3} E {:.3} N",
+            self.zone, self.hemisphere, self.easting, self.northing
+        )
+    }
+}
+
+/// What went wrong in a geodetic conversion or a grid operation.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum GeoError {
+    /// A number that must be finite is NaN or infinite.
+    #[error("{what} must be a finite number, got {value}")]
+    NotFinite {
+        /// Which quantity (e.g. "latitude").
+        what: &'static str,
+        /// The value received.
+        value: f64,
+    },
+    /// Latitude outside −90..=90°.
+    #[error("latitude {lat}° is out of range: expected -90..=90°")]
+    LatitudeOutOfRange {
+        /// The latitude received, degrees.
+        lat: f64,
+    },
+    /// Longitude outside −180..=180°.
+    #[error("longitude {lon}° is out of range: expected -180..=180°")]
+    LongitudeOutOfRange {
+        /// The longitude received, degrees.
+        lon: f64,
+    },
+    /// Latitude outside the UTM domain 80°S..=84°N (UPS covers the poles; fleetmap does not).
+    #[error("latitude {lat}° is outside UTM, which is defined from 80°S to 84°N")]
+    OutsideUtm {
+        /// The latitude, degrees.
+        lat: f64,
+    },
+    /// A zone number outside 1..=60.
+    #[error("UTM zone {zone} does not exist: expected 1..=60")]
+    InvalidZone {
+        /// The zone received.
+        zone: u8,
+    },
+    /// A point too far from the central meridian of a forced zone.
+    #[error(
+        "longitude {lon}° is {offset_deg:.3}° from the central meridian of UTM zone {zone}: \
+         at most {max_deg}° is supported"
+    )]
+    TooFarFromZone {
+        /// The longitude, degrees.
+        lon: f64,
+        /// The zone.
+        zone: u8,
+        /// Distance from the central meridian, degrees.
+        offset_deg: f64,
+        /// The limit, degrees ([`utm::MAX_ZONE_OFFSET_DEG`]).
+        max_deg: f64,
+    },
+    /// A UTM coordinate in a different zone or hemisphere than required.
+    #[error("UTM coordinate is in zone {got_zone}{got_hemisphere}, expected {zone}{hemisphere}")]
+    ZoneMismatch {
+        /// The zone required (the grid's).
+        zone: u8,
+        /// The hemisphere required.
+        hemisphere: Hemisphere,
+        /// The zone received.
+        got_zone: u8,
+        /// The hemisphere received.
+        got_hemisphere: Hemisphere,
+    },
+    /// A cell size that is zero or negative.
+    #[error("cell size must be greater than 0 m, got {size} m")]
+    CellSizeNotPositive {
+        /// The size received, metres.
+        size: f64,
+    },
+    /// A cell size outside the supported range.
+    #[error(
+        "cell size {size} m is out of range: expected {min}..={max} m",
+        min = grid::MIN_CELL_SIZE_M,
+        max = grid::MAX_CELL_SIZE_M
+    )]
+    CellSizeOutOfRange {
+        /// The size received, metres.
+        size: f64,
+    },
+    /// A polygon that cannot be used.
+    #[error("invalid polygon: {0}")]
+    Polygon(String),
+    /// A request that would enumerate too many cells.
+    #[error("{what} spans {count} cells, more than the limit of {max}")]
+    TooManyCells {
+        /// What was asked.
+        what: &'static str,
+        /// How many cells it would take.
+        count: u64,
+        /// The limit.
+        max: u64,
+    },
+    /// Text that does not parse.
+    #[error("cannot parse {input:?}: expected {expected}")]
+    Parse {
+        /// The text received.
+        input: String,
+        /// What was expected.
+        expected: String,
+    },
+}
 
 /// A grid cell index: `row` grows north, `col` grows east; both may be negative.
 #[derive(

@@ -1,6 +1,7 @@
 //! Missions: the items uploaded to autopilots, the mission definition files (TOML) that
 //! field teams edit, and the QGroundControl file formats.
 
+pub mod definition;
 pub mod item;
 pub mod plan;
 pub mod wpl;

@@ -1,1 +1,54 @@
-//! The terminal user interface (ratatui): app state, a pure update function and one view per pane.
+//! The terminal user interface (ratatui): app state, a pure update function and one view per
+//! pane.
+//!
+//! Layers (DESIGN.md §2): the UI reads [`Model`] snapshots from a `watch` channel and sends
+//! [`CommandRequest`]s; it never touches the fleet actor or the network itself.
+//!
+//! - [`model`] — the view-model: plain `serde` data an adapter fills from fleet snapshots and
+//!   runner progress (or a replay file, or a test);
+//! - [`app`] — [`App`] state and the pure [`update`]`(&mut App, Event) -> Vec<Effect>`;
+//! - [`view`] — one render function per pane (fleet, map, mission, log, help, dialogs);
+//! - [`keymap`] / [`config`] — the key table (shared by key handling and help) and the
+//!   TOML config file (keys and warning thresholds);
+//! - [`shell`] — crossterm terminal setup, the tokio event loop, the panic hook;
+//! - [`replay`] — JSON Lines recordings of models; [`sample`] — fixtures, generated fleets
+//!   and a synthetic animation.
+//!
+//! An adapter drives it like this:
+//!
+//! ```no_run
+//! # async fn demo() -> Result<(), Box<dyn std::error::Error>> {
+//! use fleetmap::tui::{App, Model, ShellIo, ShellOptions, UiConfig};
+//! use tokio::sync::{mpsc, watch};
+//! let (snap_tx, snap_rx) = watch::channel(Model::default());
+//! let (cmd_tx, mut cmd_rx) = mpsc::channel(32);
+//! let (result_tx, result_rx) = mpsc::channel(32);
+//! // elsewhere: snap_tx.send_replace(model) on every fleet change; for every request from
+//! // cmd_rx, run it and result_tx.send(JobResult { id: req.id, outcome }).
+//! let io = ShellIo { snapshots: snap_rx, job_results: result_rx, commands: cmd_tx };
+//! let app = App::new(UiConfig::default(), "LIVE udpin:0.0.0.0:14550");
+//! fleetmap::tui::run(app, io, ShellOptions::default()).await?;
+//! # drop((snap_tx, result_tx)); Ok(()) }
+//! ```
+
+pub mod app;
+pub mod config;
+pub mod keymap;
+pub mod model;
+pub mod replay;
+pub mod sample;
+pub mod shell;
+pub mod view;
+
+pub use app::{
+    App, Command, CommandRequest, Effect, Event, JobResult, MapMode, Overlay, Pane, Pending,
+    Target, update,
+};
+pub use config::{Thresholds, UiConfig};
+pub use keymap::{Action, Context, Key, KeyMap};
+pub use model::{
+    Autopilot, Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind,
+    MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity,
+    Stat, Track, VehicleRow, VehicleType,
+};
+pub use shell::{ShellIo, ShellOptions, TerminalGuard, TuiError, run, run_loop};

@@ -6,6 +6,7 @@
 //! the paper's GoPro images were cropped to this view, which is the deviation we make
 //! explicit by modelling the camera as square.
 
+use super::VisionError;
 use serde::{Deserialize, Serialize};
 
 /// A nadir-pointing pinhole camera with square pixels.
@@ -50,6 +51,68 @@ impl CameraModel {
         self.footprint(altitude).0 / f64::from(self.width_px.max(1))
     }
 
+    /// A camera with horizontal field of view `hfov_deg` and `width_px × height_px`
+    /// square pixels, checked: 0 < hfov < 180, and at least one pixel each way.
+    pub fn new(hfov_deg: f64, width_px: u32, height_px: u32) -> Result<CameraModel, VisionError> {
+        let cam = CameraModel {
+            hfov_deg,
+            width_px,
+            height_px,
+        };
+        cam.validate()?;
+        Ok(cam)
+    }
+
+    /// Check the model (see [`CameraModel::new`]).
+    pub fn validate(&self) -> Result<(), VisionError> {
+        if !(self.hfov_deg.is_finite() && self.hfov_deg > 0.0 && self.hfov_deg < 180.0) {
+            return Err(VisionError::InvalidParams(format!(
+                "camera field of view must be in (0, 180) degrees, got {}",
+                self.hfov_deg
+            )));
+        }
+        if self.width_px == 0 || self.height_px == 0 {
+            return Err(VisionError::InvalidParams(format!(
+                "camera image must have pixels, got {}×{}",
+                self.width_px, self.height_px
+            )));
+        }
+        Ok(())
+    }
+
+    /// Ground footprint (metres, along x and y) of the centre region of the 3×3 split — the
+    /// part of the image that decides the label of the cell under the vehicle.
+    pub fn centre_region_footprint(&self, altitude: f64) -> (f64, f64) {
+        let (w, h) = self.footprint(altitude);
+        (w / 3.0, h / 3.0)
+    }
+
+    /// Ground offset (north, east) in metres from the point under the camera to the centre
+    /// of pixel (`x`, `y`) (pixel units, 0 = left / top edge; pixel centres at +0.5), for
+    /// a nadir camera at `altitude` metres whose image top points to `heading_deg`
+    /// (degrees clockwise from north) and whose image right is the vehicle's right.
+    pub fn ground_offset(&self, x: f64, y: f64, altitude: f64, heading_deg: f64) -> (f64, f64) {
+        let gsd = self.ground_sample_distance(altitude);
+        // Forward (towards the top of the image) and right, metres.
+        let right = (x - f64::from(self.width_px) / 2.0) * gsd;
+        let forward = (f64::from(self.height_px) / 2.0 - y) * gsd;
+        let (s, c) = heading_deg.to_radians().sin_cos();
+        (forward * c - right * s, forward * s + right * c)
+    }
+
+    /// Inverse of [`CameraModel::ground_offset`]: the image position (pixel units) that
+    /// sees the ground point `north`, `east` metres from the point under the camera.
+    pub fn pixel_of(&self, north: f64, east: f64, altitude: f64, heading_deg: f64) -> (f64, f64) {
+        let gsd = self.ground_sample_distance(altitude);
+        let (s, c) = heading_deg.to_radians().sin_cos();
+        let forward = north * c + east * s;
+        let right = -north * s + east * c;
+        (
+            right / gsd + f64::from(self.width_px) / 2.0,
+            f64::from(self.height_px) / 2.0 - forward / gsd,
+        )
+    }
+
     /// The altitude (metres) at which the larger side of the centre ninth of the image
     /// equals `cell_size` metres, so that the centre region sees one cell and nothing of
     /// the cells beside it. For [`CameraModel::paper`] and 4 m cells this is 12 m.
@@ -70,6 +133,29 @@ mod tests {
         let (w, h) = cam.footprint(12.0);
         assert!((w - 12.0).abs() < 1e-9 && (h - 12.0).abs() < 1e-9);
         assert!((cam.vfov_deg() - cam.hfov_deg).abs() < 1e-9);
+    }
+
+    #[test]
+    fn pixels_map_to_ground_and_back() {
+        let cam = CameraModel::paper();
+        // At 12 m a 480 px image covers 12 m: 40 px per metre.
+        let (n, e) = cam.ground_offset(240.0, 0.0, 12.0, 0.0);
+        assert!((n - 6.0).abs() < 1e-9 && e.abs() < 1e-9);
+        // Heading east: the top of the image is east, the right is south.
+        let (n, e) = cam.ground_offset(240.0, 0.0, 12.0, 90.0);
+        assert!(n.abs() < 1e-9 && (e - 6.0).abs() < 1e-9);
+        let (n, e) = cam.ground_offset(480.0, 240.0, 12.0, 90.0);
+        assert!((n + 6.0).abs() < 1e-9 && e.abs() < 1e-9);
+        for h in [0.0, 33.0, 90.0, 200.0] {
+            let (x, y) = cam.pixel_of(1.5, -2.0, 12.0, h);
+            let (n, e) = cam.ground_offset(x, y, 12.0, h);
+            assert!((n - 1.5).abs() < 1e-9 && (e + 2.0).abs() < 1e-9);
+        }
+        let (cw, ch) = cam.centre_region_footprint(12.0);
+        assert!((cw - 4.0).abs() < 1e-9 && (ch - 4.0).abs() < 1e-9);
+        assert!(CameraModel::new(180.0, 10, 10).is_err());
+        assert!(CameraModel::new(60.0, 0, 10).is_err());
+        assert!(CameraModel::new(60.0, 640, 480).is_ok());
     }
 
     #[test]

@@ -1,3 +1,80 @@
-//! The sensing models of both papers: the runway classifier and green-pixel measurements.
+//! The sensing models of both papers: the runway classifier and green-pixel measurements,
+//! the per-cell vote book, camera footprint geometry, and image loading with limits.
+//!
+//! Public entry points (all pure: no clock, no sockets; only [`load_image`] reads a file):
+//!
+//! | item | what |
+//! |---|---|
+//! | [`runway::classify`] | one image + heading → black fractions of the 5 regions and labels of the cell and its 4 neighbours (runway paper §7) |
+//! | [`runway::classify_many`] | the same for several images in parallel (rayon) |
+//! | [`votes::VoteBook`] | 3-of-5 votes per cell and visit, sticky positives, every detection kept |
+//! | [`green::green_fraction`], [`green::measure`] | share of green pixels, one Bernoulli measurement per image (bandit paper §V) |
+//! | [`camera::CameraModel`] | footprint and the altitude at which the centre ninth covers one cell |
+//! | [`load_image`] | PNG/JPEG file or bytes → RGB image, dimensions checked before decoding |
+//! | [`synth`] | deterministic synthetic runway / grass / green-tile images for tests and benches |
+//!
+//! Every step that OpenCV also does is pixel-exact with OpenCV (see [`color`] and
+//! [`runway`]); `tests/py/test_vision_opencv.py` checks it against `cv2`.
 
 pub mod camera;
+pub mod color;
+pub mod fast;
+pub mod green;
+pub mod load;
+pub mod reference;
+pub mod runway;
+pub mod synth;
+pub mod votes;
+
+pub use load::{LoadLimits, load_image, load_image_bytes, load_image_file};
+
+/// Errors of the vision module.
+#[derive(Debug, thiserror::Error)]
+pub enum VisionError {
+    /// The image file could not be read.
+    #[error("cannot read image file: {0}")]
+    Io(#[from] std::io::Error),
+    /// The file is larger than the configured limit.
+    #[error("image file is {bytes} bytes, more than the limit of {limit} bytes")]
+    FileTooLarge {
+        /// Size of the file (bytes), or a lower bound of it.
+        bytes: u64,
+        /// The limit (bytes).
+        limit: u64,
+    },
+    /// The file or buffer is empty.
+    #[error("image is empty (0 bytes)")]
+    Empty,
+    /// Not a PNG or JPEG image.
+    #[error("unsupported image format: {0} (expected PNG or JPEG)")]
+    UnsupportedFormat(String),
+    /// The header announces more pixels than allowed; nothing was decoded.
+    #[error(
+        "image is {width}×{height} pixels, more than the limit of {limit} pixels (checked from the header, not decoded)"
+    )]
+    TooManyPixels {
+        /// Width from the header (pixels).
+        width: u32,
+        /// Height from the header (pixels).
+        height: u32,
+        /// The limit (pixels).
+        limit: u64,
+    },
+    /// The image data is corrupt or truncated.
+    #[error("cannot decode image: {0}")]
+    Decode(String),
+    /// The image is too small to be split into 3×3 regions.
+    #[error("image is {width}×{height} pixels; at least 3×3 is needed for the 3×3 regions")]
+    TooSmall {
+        /// Width (pixels).
+        width: u32,
+        /// Height (pixels).
+        height: u32,
+    },
+    /// The heading is not a finite number.
+    #[error("heading must be a finite number of degrees, got {0}")]
+    InvalidHeading(f64),
+    /// A parameter is out of range.
+    #[error("invalid vision parameter: {0}")]
+    InvalidParams(String),
+}

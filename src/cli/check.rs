@@ -1,0 +1,227 @@
+//! `fleetmap check MISSION.toml`: validate a mission definition file and print a short
+//! summary (exit 0), or every error as `file:line:column: key: message` (exit 1).
+//! `--json` prints the parsed definition as JSON instead (or `{"errors": [...]}`).
+
+use crate::mission::definition::{DefErrors, MissionDef, MissionKind, Origin, SweepBox};
+use clap::Args;
+use std::fmt::Write as _;
+use std::path::PathBuf;
+use std::process::ExitCode;
+
+/// Arguments of `fleetmap check`.
+#[derive(Debug, Args)]
+pub struct CheckArgs {
+    /// The mission definition file (TOML).
+    pub mission: PathBuf,
+    /// Print the parsed definition (defaults filled in) as JSON; on errors, print
+    /// `{"errors": [{"file", "line", "column", "path", "message"}, ...]}`.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// Validate the file and report.
+pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
+    match MissionDef::load(&args.mission) {
+        Ok(def) => {
+            if args.json {
+                println!("{}", serde_json::to_string_pretty(&def)?);
+            } else {
+                print!("{}", summary(&def, &args.mission.display().to_string()));
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        Err(errors) => {
+            if args.json {
+                println!("{}", serde_json::to_string_pretty(&errors_json(&errors))?);
+            }
+            for e in &errors.errors {
+                eprintln!("{e}");
+            }
+            let n = errors.errors.len();
+            eprintln!(
+                "fleetmap: {}: {n} error{}",
+                args.mission.display(),
+                if n == 1 { "" } else { "s" }
+            );
+            Ok(ExitCode::FAILURE)
+        }
+    }
+}
+
+fn errors_json(errors: &DefErrors) -> serde_json::Value {
+    let list: Vec<serde_json::Value> = errors
+        .errors
+        .iter()
+        .map(|e| {
+            serde_json::json!({
+                "file": e.file,
+                "line": e.line,
+                "column": e.column,
+                "path": e.path,
+                "message": e.message,
+            })
+        })
+        .collect();
+    serde_json::json!({ "errors": list })
+}
+
+fn sysids<'a>(it: impl Iterator<Item = &'a crate::mission::definition::VehicleDef>) -> String {
+    it.map(|v| v.sysid.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+fn plural(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
+}
+
+/// The human summary printed on success.
+pub fn summary(def: &MissionDef, file: &str) -> String {
+    let mut s = String::new();
+    let _ = writeln!(s, "{file}: ok");
+    let _ = writeln!(s, "  name        {}", def.name);
+    if let Some(d) = &def.description {
+        let _ = writeln!(s, "              {d}");
+    }
+    let _ = writeln!(s, "  kind        {}", def.kind);
+    let origin = match def.grid.origin {
+        Origin::Vehicle => match def.vehicles.first() {
+            Some(v) => format!("home of the first vehicle (sysid {})", v.sysid),
+            None => "home of the first vehicle".to_string(),
+        },
+        Origin::Coordinates(p) => format!("{:.6}, {:.6}", p.lat, p.lon),
+    };
+    let extent = match (def.area.rows, def.area.cols) {
+        (Some(r), Some(c)) => format!(
+            "{r} x {c} cells (rows 0-{}, cols 0-{})",
+            r.saturating_sub(1),
+            c.saturating_sub(1)
+        ),
+        _ => "unbounded".to_string(),
+    };
+    let _ = writeln!(
+        s,
+        "  grid        origin = {origin}; {} m cells; {extent}",
+        def.grid.cell_size_m
+    );
+    let drones = def.drones().count();
+    let stations = def.stations().count();
+    let mut team = format!(
+        "{} (sysid {})",
+        plural(drones, "drone", "drones"),
+        sysids(def.drones())
+    );
+    if stations > 0 {
+        let _ = write!(
+            team,
+            "; {} (sysid {})",
+            plural(stations, "station", "stations"),
+            sysids(def.stations())
+        );
+    }
+    let _ = writeln!(s, "  vehicles    {team}");
+    let f = &def.flight;
+    let top = f.altitude_m + drones.saturating_sub(1) as f64 * f.altitude_separation_m;
+    let mut alt = format!("{} m above home", f.altitude_m);
+    if f.altitude_separation_m > 0.0 && drones > 1 {
+        let _ = write!(
+            alt,
+            " + {} m per drone (up to {top} m)",
+            f.altitude_separation_m
+        );
+    }
+    let _ = write!(alt, "; drones {} m/s", f.speed_m_s);
+    if let Some(v) = def.station_speed_m_s() {
+        let _ = write!(alt, ", stations {v} m/s");
+    }
+    let _ = writeln!(s, "  flight      {alt}");
+    let _ = writeln!(
+        s,
+        "  battery     {} min, return home at {} %",
+        def.battery.flight_time_min, def.battery.rtl_reserve_pct
+    );
+    match def.kind {
+        MissionKind::RunwayMapping => {
+            let _ = writeln!(
+                s,
+                "  cells       {}",
+                plural(def.area.obstacles.len(), "obstacle", "obstacles")
+            );
+            if let Some(r) = &def.runway {
+                let sweep = match r.sweep {
+                    SweepBox::Local { north_m, east_m } => format!(
+                        "north {} to {} m, east {} to {} m from the origin ({} cells)",
+                        north_m[0],
+                        north_m[1],
+                        east_m[0],
+                        east_m[1],
+                        def.sweep_cells().map_or(0, |c| c.len())
+                    ),
+                    SweepBox::Corners {
+                        south_west,
+                        north_east,
+                    } => format!(
+                        "({:.6}, {:.6}) to ({:.6}, {:.6})",
+                        south_west.lat, south_west.lon, north_east.lat, north_east.lon
+                    ),
+                };
+                let _ = writeln!(s, "  sweep       {sweep}");
+                let _ = writeln!(
+                    s,
+                    "  classifier  {} images per cell, {} votes, threshold {}, {} dilations, \
+                     black fraction {}, FOV {:.2} deg",
+                    r.images_per_cell,
+                    r.votes_required,
+                    r.intensity_threshold,
+                    r.dilations,
+                    r.black_fraction,
+                    def.camera.hfov_deg
+                );
+            }
+        }
+        MissionKind::SpatialClassification => {
+            let roads = match &def.area.roads {
+                Some(r) => plural(r.len(), "road cell", "road cells"),
+                None => "no road restriction".to_string(),
+            };
+            let roads_note = match (&def.area.roads, def.area.roads_are_candidates) {
+                (Some(_), true) => " (roads included)",
+                (Some(_), false) => " (roads excluded)",
+                (None, _) => "",
+            };
+            let _ = writeln!(
+                s,
+                "  cells       {}; {roads}; {}{roads_note}",
+                plural(def.area.obstacles.len(), "obstacle", "obstacles"),
+                plural(
+                    def.candidate_cells().len(),
+                    "candidate cell",
+                    "candidate cells"
+                ),
+            );
+            if let Some(c) = &def.classification {
+                let cap = c
+                    .charger_capacity
+                    .map_or("no limit".to_string(), |c| c.to_string());
+                let _ = writeln!(
+                    s,
+                    "  planner     theta={} epsilon={} delta={} D={} B={} Td={} Tc={} K={} C={cap}",
+                    c.theta,
+                    c.epsilon,
+                    c.delta,
+                    c.epoch_goals,
+                    c.batch_size,
+                    c.drone_cycle_steps,
+                    c.station_cycle_steps,
+                    c.max_cycles
+                );
+                let _ = writeln!(
+                    s,
+                    "  green       HSV {:?} to {:?}, positive at {} of the pixels",
+                    c.green.hsv_min, c.green.hsv_max, c.green.fraction_threshold
+                );
+            }
+        }
+    }
+    s
+}

@@ -1,0 +1,404 @@
+//! `fleetmap tui`: the operator's terminal UI.
+//!
+//! Until the fleet adapter and the mission runners are wired in (`--connect`, `--mission`,
+//! `--resume` come with them), it shows either the built-in SAMPLE (a synthetic animation,
+//! or a static spatial-classification fixture) or a recorded REPLAY file — and says so in
+//! the title bar. Operator commands are accepted by the UI, then reported as *not sent*
+//! because no vehicle is connected. `--snapshot COLSxROWS` prints one frame as text without
+//! a terminal; `fleetmap bench tui` measures the redraw rate.
+
+use crate::time::{MonotonicClock, Time};
+use crate::tui::app::{App, CommandRequest, Event, JobResult, update};
+use crate::tui::config::UiConfig;
+use crate::tui::model::Model;
+use crate::tui::replay::{ReplayFrame, read_replay, write_replay};
+use crate::tui::sample::{self, SampleRun};
+use crate::tui::shell::{ShellIo, ShellOptions};
+use crate::tui::view;
+use anyhow::{Context, anyhow, bail};
+use clap::{Args, ValueEnum};
+use ratatui::Terminal;
+use ratatui::backend::TestBackend;
+use std::io::IsTerminal;
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+use std::time::{Duration, Instant};
+use tokio::sync::{mpsc, watch};
+
+/// Which built-in sample to show.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
+pub enum SampleKind {
+    /// Synthetic runway-mapping animation (sweep, positives, battery swaps).
+    Runway,
+    /// Static spatial-classification snapshot (drones and charging rovers on a 6x6 grid).
+    Classification,
+}
+
+/// Arguments of `fleetmap tui`.
+#[derive(Debug, Args)]
+pub struct TuiArgs {
+    /// Play back a replay file (JSON Lines of {"t_ms", "model"}) instead of the built-in sample.
+    #[arg(long, value_name = "FILE")]
+    pub replay: Option<PathBuf>,
+    /// The built-in sample shown without --replay.
+    #[arg(long, value_enum, default_value_t = SampleKind::Runway)]
+    pub sample: SampleKind,
+    /// Drones in the runway sample (1-20).
+    #[arg(long, default_value_t = 3)]
+    pub vehicles: usize,
+    /// Playback speed factor for the replay or the sample animation.
+    #[arg(long, default_value_t = 1.0)]
+    pub speed: f64,
+    /// UI config file: [keys] and [thresholds] (TOML; see --print-config).
+    #[arg(long, value_name = "FILE")]
+    pub config: Option<PathBuf>,
+    /// Print the configuration (every action with its keys, every threshold) and exit.
+    #[arg(long)]
+    pub print_config: bool,
+    /// Print one frame as text at COLSxROWS (e.g. 80x24) and exit; needs no terminal.
+    #[arg(long, value_name = "COLSxROWS")]
+    pub snapshot: Option<String>,
+    /// With --snapshot: seconds into the replay or sample (default: end of the replay, 300 s of the sample).
+    #[arg(long, value_name = "SECONDS")]
+    pub at: Option<f64>,
+    /// Write the runway sample as a replay file (one frame per simulated second) and exit.
+    #[arg(long, value_name = "FILE")]
+    pub export_sample: Option<PathBuf>,
+}
+
+/// Where the TUI logs when `--log-file` is not given: `$XDG_STATE_HOME/fleetmap/tui.log`
+/// (or `~/.local/state/fleetmap/tui.log`, or the temp directory), because stderr is the
+/// screen while the UI runs. `None` for the modes that do not open the UI.
+pub fn default_log_file(args: &TuiArgs) -> Option<PathBuf> {
+    if args.print_config || args.snapshot.is_some() || args.export_sample.is_some() {
+        return None;
+    }
+    let base = std::env::var_os("XDG_STATE_HOME")
+        .map(PathBuf::from)
+        .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local/state")));
+    if let Some(dir) = base.map(|b| b.join("fleetmap"))
+        && std::fs::create_dir_all(&dir).is_ok()
+    {
+        return Some(dir.join("tui.log"));
+    }
+    Some(std::env::temp_dir().join("fleetmap-tui.log"))
+}
+
+/// Parse `COLSxROWS`.
+pub fn parse_size(s: &str) -> anyhow::Result<(u16, u16)> {
+    let (w, h) = s
+        .split_once(['x', 'X'])
+        .ok_or_else(|| anyhow!("--snapshot {s:?}: expected COLSxROWS, e.g. 80x24"))?;
+    let w: u16 = w
+        .trim()
+        .parse()
+        .map_err(|_| anyhow!("--snapshot {s:?}: {w:?} is not a column count"))?;
+    let h: u16 = h
+        .trim()
+        .parse()
+        .map_err(|_| anyhow!("--snapshot {s:?}: {h:?} is not a row count"))?;
+    if !(1..=1000).contains(&w) || !(1..=1000).contains(&h) {
+        bail!("--snapshot {s:?}: size must be between 1x1 and 1000x1000");
+    }
+    Ok((w, h))
+}
+
+/// Render `app` into a `w × h` text screen (one string per row, trailing spaces trimmed).
+pub fn render_text(app: &App, w: u16, h: u16) -> anyhow::Result<Vec<String>> {
+    let mut terminal = Terminal::new(TestBackend::new(w, h))?;
+    terminal.draw(|f| view::render(app, f))?;
+    let buf = terminal.backend().buffer();
+    Ok((0..h)
+        .map(|y| {
+            let mut line = String::new();
+            for x in 0..w {
+                line.push_str(buf[(x, y)].symbol());
+            }
+            line.trim_end().to_string()
+        })
+        .collect())
+}
+
+fn load_config(args: &TuiArgs) -> anyhow::Result<UiConfig> {
+    match &args.config {
+        Some(p) => UiConfig::load(p).with_context(|| format!("config {}", p.display())),
+        None => Ok(UiConfig::default()),
+    }
+}
+
+/// What the UI shows, before it starts.
+enum Source {
+    Replay(PathBuf, Vec<ReplayFrame>),
+    Animated(usize),
+    Static(Box<Model>),
+}
+
+impl Source {
+    fn label(&self) -> String {
+        match self {
+            Source::Replay(p, _) => format!(
+                "REPLAY {} (recorded, no vehicles connected)",
+                p.file_name()
+                    .map(|n| n.to_string_lossy().into_owned())
+                    .unwrap_or_default()
+            ),
+            Source::Animated(_) => "SAMPLE: synthetic data, no vehicles connected".into(),
+            Source::Static(_) => "SAMPLE: static fixture, no vehicles connected".into(),
+        }
+    }
+
+    /// The model at `at` seconds (default: replay end / 300 s of the sample).
+    fn model_at(&self, at: Option<f64>) -> Model {
+        match self {
+            Source::Replay(_, frames) => {
+                let t = at.map(|s| (s.max(0.0) * 1000.0) as u64);
+                let frame = match t {
+                    Some(t) => frames.iter().rev().find(|f| f.t_ms <= t).or(frames.first()),
+                    None => frames.last(),
+                };
+                frame.map(|f| f.model.clone()).unwrap_or_default()
+            }
+            Source::Animated(n) => {
+                let mut run = SampleRun::new(*n);
+                run.step(Duration::from_secs(at.unwrap_or(300.0).max(0.0) as u64));
+                run.model()
+            }
+            Source::Static(m) => (**m).clone(),
+        }
+    }
+}
+
+/// Run `fleetmap tui`.
+pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
+    let config = load_config(&args)?;
+    if args.print_config {
+        print!("{}", config.to_toml());
+        return Ok(ExitCode::SUCCESS);
+    }
+    if !(args.speed.is_finite() && args.speed > 0.0) {
+        bail!("--speed {}: must be a positive number", args.speed);
+    }
+    if !(1..=20).contains(&args.vehicles) {
+        bail!(
+            "--vehicles {}: the sample has 1 to 20 drones",
+            args.vehicles
+        );
+    }
+    if let Some(at) = args.at
+        && !(at.is_finite() && at >= 0.0)
+    {
+        bail!("--at {at}: must be a time in seconds, 0 or more");
+    }
+    if let Some(path) = &args.export_sample {
+        let mut run = SampleRun::new(args.vehicles);
+        let mut frames = vec![ReplayFrame {
+            t_ms: 0,
+            model: run.model(),
+        }];
+        while !run.done() && frames.len() < 20_000 {
+            run.step(Duration::from_secs(1));
+            let model = run.model();
+            frames.push(ReplayFrame {
+                t_ms: model.time.as_millis(),
+                model,
+            });
+        }
+        write_replay(path, &frames)?;
+        println!("wrote {} frames to {}", frames.len(), path.display());
+        return Ok(ExitCode::SUCCESS);
+    }
+    let source = match &args.replay {
+        Some(p) => Source::Replay(p.clone(), read_replay(p)?),
+        None => match args.sample {
+            SampleKind::Runway => Source::Animated(args.vehicles),
+            SampleKind::Classification => {
+                Source::Static(Box::new(sample::classification_fixture()))
+            }
+        },
+    };
+    let mut config = config;
+    // Recorded and synthetic data are not live: no "NO DATA" alarm when they stop.
+    config.thresholds.stale_after_s = 0.0;
+    let mut app = App::new(config, source.label());
+    app.log_file = log_file.map(|p| p.display().to_string());
+
+    if let Some(size) = &args.snapshot {
+        let (w, h) = parse_size(size)?;
+        let model = source.model_at(args.at);
+        update(&mut app, Event::Resize(w, h));
+        update(&mut app, Event::Tick(model.time));
+        update(&mut app, Event::Snapshot(Box::new(model)));
+        for line in render_text(&app, w, h)? {
+            println!("{line}");
+        }
+        return Ok(ExitCode::SUCCESS);
+    }
+
+    if !std::io::stdout().is_terminal() || !std::io::stdin().is_terminal() {
+        bail!(
+            "the terminal UI needs an interactive terminal on stdin and stdout (use --snapshot COLSxROWS for a text rendering)"
+        );
+    }
+    let runtime = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("starting the async runtime")?;
+    runtime.block_on(run_ui(app, source, args.speed))?;
+    if let Some(p) = log_file {
+        eprintln!("fleetmap: the UI log is in {}", p.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
+    let clock = MonotonicClock::with_speedup(speed);
+    let (snap_tx, snap_rx) = watch::channel(Model::default());
+    let (cmd_tx, mut cmd_rx) = mpsc::channel::<CommandRequest>(32);
+    let (result_tx, result_rx) = mpsc::channel(32);
+    let not_sent = match &source {
+        Source::Replay(..) => "not sent: this is a replay, no vehicles are connected",
+        _ => "not sent: this is the built-in sample, no vehicles are connected",
+    };
+    // Commands: nothing can execute them here, so each gets an honest failure.
+    let commands = tokio::spawn(async move {
+        while let Some(req) = cmd_rx.recv().await {
+            let r = JobResult {
+                id: req.id,
+                outcome: Err(not_sent.to_string()),
+            };
+            if result_tx.send(r).await.is_err() {
+                break;
+            }
+        }
+    });
+    let producer_clock = clock.clone();
+    let producer = tokio::spawn(async move {
+        match source {
+            Source::Static(m) => {
+                snap_tx.send_replace(*m);
+                // Keep the channel open so the UI does not report a closed source.
+                snap_tx.closed().await;
+            }
+            Source::Replay(_, frames) => {
+                for f in frames {
+                    let at = Time::from_millis(f.t_ms);
+                    tokio::time::sleep(producer_clock.wall_until(at)).await;
+                    snap_tx.send_replace(f.model);
+                }
+                snap_tx.closed().await;
+            }
+            Source::Animated(n) => {
+                let mut run = SampleRun::new(n);
+                snap_tx.send_replace(run.model());
+                let mut next = Time::from_secs(1);
+                while !run.done() {
+                    tokio::time::sleep(producer_clock.wall_until(next)).await;
+                    run.step(Duration::from_secs(1));
+                    next += Duration::from_secs(1);
+                    if snap_tx.send(run.model()).is_err() {
+                        break;
+                    }
+                }
+                snap_tx.closed().await;
+            }
+        }
+    });
+    let io = ShellIo {
+        snapshots: snap_rx,
+        job_results: result_rx,
+        commands: cmd_tx,
+    };
+    let options = ShellOptions {
+        tick: Duration::from_millis(250),
+        clock,
+    };
+    let result = crate::tui::run(app, io, options).await;
+    producer.abort();
+    commands.abort();
+    result?;
+    Ok(())
+}
+
+/// Arguments of `fleetmap bench tui`.
+#[derive(Debug, Args)]
+pub struct TuiBenchArgs {
+    /// Vehicles in the generated fleet.
+    #[arg(long, default_value_t = 50)]
+    pub vehicles: usize,
+    /// Frames to render.
+    #[arg(long, default_value_t = 300)]
+    pub frames: u32,
+    /// Screen size COLSxROWS.
+    #[arg(long, default_value = "250x70")]
+    pub size: String,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+/// `fleetmap bench tui`: full-frame redraws into an off-screen terminal, frames per second.
+pub fn bench(args: TuiBenchArgs) -> anyhow::Result<ExitCode> {
+    let (w, h) = parse_size(&args.size)?;
+    if args.frames == 0 {
+        bail!("--frames must be at least 1");
+    }
+    let apps: Vec<App> = [1u64, 2]
+        .iter()
+        .map(|&seed| {
+            let mut app = App::new(UiConfig::default(), "BENCH generated");
+            update(&mut app, Event::Resize(w, h));
+            update(
+                &mut app,
+                Event::Snapshot(Box::new(sample::generated(args.vehicles, seed))),
+            );
+            app
+        })
+        .collect();
+    let mut terminal = Terminal::new(TestBackend::new(w, h))?;
+    // Warm up once (first frame fills an empty buffer).
+    terminal.draw(|f| view::render(&apps[0], f))?;
+    let start = Instant::now();
+    for i in 0..args.frames {
+        let app = &apps[(i % 2) as usize];
+        terminal.draw(|f| view::render(app, f))?;
+    }
+    let elapsed = start.elapsed().as_secs_f64();
+    let fps = f64::from(args.frames) / elapsed;
+    let ms = elapsed * 1000.0 / f64::from(args.frames);
+    if args.json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "bench": "tui_redraw",
+                "vehicles": args.vehicles,
+                "cols": w,
+                "rows": h,
+                "frames": args.frames,
+                "seconds": elapsed,
+                "frames_per_second": fps,
+                "ms_per_frame": ms,
+            })
+        );
+    } else {
+        println!(
+            "tui redraw: {} vehicles, {w}x{h}: {} frames in {:.3} s = {fps:.0} frames/s ({ms:.2} ms/frame; requirement: >= 10 frames/s)",
+            args.vehicles, args.frames, elapsed
+        );
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn sizes_parse_or_explain() {
+        assert_eq!(parse_size("80x24").ok(), Some((80, 24)));
+        assert_eq!(parse_size("250X70").ok(), Some((250, 70)));
+        for bad in ["80", "x24", "80x", "0x10", "80x-1", "axb"] {
+            assert!(parse_size(bad).is_err(), "{bad}");
+        }
+    }
+}

@@ -1,0 +1,725 @@
+//! `fleetmap experiment dfs`: the runway paper's simulation study (§6, Fig. 7).
+//!
+//! Random connected grid ROIs ([`random_roi`]: Eden growth from a seed cell, a uniformly
+//! random start cell), explored by Algorithm 1 ([`simulate`]) with a perfect sensor, unit
+//! cells, robots at S_r = 1 cell per time unit and the ROI translating at S_p = S_r / ratio
+//! towards one of north, south, east, west (drawn per trial, as in §6), or static. Three
+//! sweeps like Fig. 7b–d: the number of cells, of robots, and the speed ratio, the others at
+//! 120 cells, 20 robots and ratio 2.5. Per trial: the algorithm's cost (when the last robot
+//! is back at the start), Lemma 1's upper bound (eq. 2, with d_max of the tree the run built,
+//! ⌊log₂ R⌋), Lemma 2's lower bound (eq. 10) and the lawnmower baseline of §6.
+//!
+//! Trials are independent of scheduling: trial `t` of a sweep point with `C` cells uses an
+//! ROI and direction seeded by (seed, C, t) only, so the robots and ratio sweeps compare the
+//! same ROIs (common random numbers) and runs are reproducible across thread counts.
+
+pub mod plot;
+
+use crate::explore::bounds::{lawnmower_baseline, lemma1_upper_bound, lemma2_lower_bound};
+use crate::explore::simulate::{SimConfig, random_roi, simulate};
+use crate::explore::{ExploreError, Sharing};
+use crate::geo::Cell;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rayon::prelude::*;
+use serde::Serialize;
+use std::collections::HashSet;
+use std::fmt;
+use std::path::{Path, PathBuf};
+use std::str::FromStr;
+
+/// Errors of the study.
+#[derive(Debug, thiserror::Error)]
+pub enum DfsStudyError {
+    /// A bad parameter.
+    #[error("{0}")]
+    Invalid(String),
+    /// A simulation failed.
+    #[error("trial {trial} of {config}: {source}")]
+    Trial {
+        /// Which configuration.
+        config: String,
+        /// Which trial.
+        trial: usize,
+        /// Why.
+        source: ExploreError,
+    },
+    /// Writing an output failed.
+    #[error("cannot write {path}: {reason}")]
+    Output {
+        /// The file.
+        path: PathBuf,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// The speed ratio S_r / S_p of a configuration: a number > 1, or a static ROI.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum SpeedRatio {
+    /// S_p = 0.
+    Static,
+    /// S_r / S_p.
+    Ratio(f64),
+}
+
+impl SpeedRatio {
+    /// S_p for S_r = 1.
+    pub fn roi_speed(self) -> f64 {
+        match self {
+            SpeedRatio::Static => 0.0,
+            SpeedRatio::Ratio(r) => 1.0 / r,
+        }
+    }
+}
+
+impl fmt::Display for SpeedRatio {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            SpeedRatio::Static => f.write_str("static"),
+            SpeedRatio::Ratio(r) => write!(f, "{r}"),
+        }
+    }
+}
+
+impl FromStr for SpeedRatio {
+    type Err = String;
+    fn from_str(s: &str) -> Result<Self, String> {
+        if s.eq_ignore_ascii_case("static") || s.eq_ignore_ascii_case("inf") {
+            return Ok(SpeedRatio::Static);
+        }
+        match s.parse::<f64>() {
+            Ok(r) if r.is_finite() && r > 1.0 => Ok(SpeedRatio::Ratio(r)),
+            _ => Err(format!(
+                "speed ratio {s:?}: expected a number greater than 1 (S_r > S_p) or \"static\""
+            )),
+        }
+    }
+}
+
+impl Serialize for SpeedRatio {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            SpeedRatio::Static => s.serialize_str("static"),
+            SpeedRatio::Ratio(r) => s.serialize_f64(*r),
+        }
+    }
+}
+
+/// Which sharing modes to run.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum SharingChoice {
+    /// Vertex states through the GCS (the default; Lemma 1 holds).
+    Gcs,
+    /// Vertex states exchanged only when robots meet (the paper's stated model).
+    Meet,
+    /// Both, on the same ROIs.
+    Both,
+}
+
+impl SharingChoice {
+    fn modes(self) -> Vec<Sharing> {
+        match self {
+            SharingChoice::Gcs => vec![Sharing::Gcs],
+            SharingChoice::Meet => vec![Sharing::Meet],
+            SharingChoice::Both => vec![Sharing::Gcs, Sharing::Meet],
+        }
+    }
+}
+
+/// Parameters of `fleetmap experiment dfs`.
+#[derive(Clone, Debug, clap::Args)]
+pub struct DfsArgs {
+    /// Trials per configuration.
+    #[arg(long, default_value_t = 100)]
+    pub trials: usize,
+    /// Seed of the random ROIs and directions.
+    #[arg(long, default_value_t = 2019)]
+    pub seed: u64,
+    /// Directory for the CSV, the JSON summary and the PNG plots (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "experiment-dfs")]
+    pub out: PathBuf,
+    /// How robots share vertex states.
+    #[arg(long, value_enum, default_value_t = SharingChoice::Gcs)]
+    pub sharing: SharingChoice,
+    /// Which sweeps to run (comma-separated).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        value_enum,
+        default_value = "cells,robots,ratio"
+    )]
+    pub sweeps: Vec<Sweep>,
+    /// Numbers of ROI cells for Fig. 7b (comma-separated).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "40,60,80,100,120,140,160,180,200"
+    )]
+    pub cells: Vec<usize>,
+    /// Numbers of robots for Fig. 7c (comma-separated, 1..=255).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1,2,4,8,12,16,20,24,28,32"
+    )]
+    pub robots: Vec<usize>,
+    /// Speed ratios S_r/S_p for Fig. 7d (comma-separated; `static` for S_p = 0).
+    #[arg(
+        long,
+        value_delimiter = ',',
+        default_value = "1.5,2,2.5,3,3.5,4,4.5,5,static"
+    )]
+    pub ratios: Vec<SpeedRatio>,
+    /// ROI cells when another variable is swept.
+    #[arg(long, default_value_t = 120)]
+    pub base_cells: usize,
+    /// Robots when another variable is swept.
+    #[arg(long, default_value_t = 20)]
+    pub base_robots: usize,
+    /// Speed ratio when another variable is swept.
+    #[arg(long, default_value = "2.5")]
+    pub base_ratio: SpeedRatio,
+    /// Print the JSON summary on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
+}
+
+impl DfsArgs {
+    /// The paper's defaults with `trials` trials (for tests and benches).
+    pub fn paper(trials: usize, seed: u64, out: PathBuf) -> DfsArgs {
+        DfsArgs {
+            trials,
+            seed,
+            out,
+            sharing: SharingChoice::Gcs,
+            sweeps: vec![Sweep::Cells, Sweep::Robots, Sweep::Ratio],
+            cells: vec![40, 60, 80, 100, 120, 140, 160, 180, 200],
+            robots: vec![1, 2, 4, 8, 12, 16, 20, 24, 28, 32],
+            ratios: [1.5, 2.0, 2.5, 3.0, 3.5, 4.0, 4.5, 5.0]
+                .map(SpeedRatio::Ratio)
+                .into_iter()
+                .chain([SpeedRatio::Static])
+                .collect(),
+            base_cells: 120,
+            base_robots: 20,
+            base_ratio: SpeedRatio::Ratio(2.5),
+            json: false,
+        }
+    }
+
+    fn validate(&self) -> Result<(), DfsStudyError> {
+        let bad = |m: String| Err(DfsStudyError::Invalid(m));
+        if self.trials == 0 {
+            return bad("--trials must be at least 1".into());
+        }
+        for &c in self.cells.iter().chain([&self.base_cells]) {
+            if !(1..=100_000).contains(&c) {
+                return bad(format!("{c} cells: expected 1 to 100000"));
+            }
+        }
+        for &r in self.robots.iter().chain([&self.base_robots]) {
+            if !(1..=255).contains(&r) {
+                return bad(format!("{r} robots: expected 1 to 255"));
+            }
+        }
+        if configurations(self).is_empty() {
+            return bad("nothing to sweep: no --sweeps, or their value lists are empty".into());
+        }
+        Ok(())
+    }
+}
+
+/// Which variable a configuration sweeps (Fig. 7b, c, d).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[serde(rename_all = "lowercase")]
+pub enum Sweep {
+    /// Number of ROI cells (Fig. 7b).
+    Cells,
+    /// Number of robots (Fig. 7c).
+    Robots,
+    /// Speed ratio (Fig. 7d).
+    Ratio,
+}
+
+impl fmt::Display for Sweep {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Sweep::Cells => "cells",
+            Sweep::Robots => "robots",
+            Sweep::Ratio => "ratio",
+        })
+    }
+}
+
+/// One point of a sweep.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize)]
+pub struct Configuration {
+    /// The swept variable.
+    pub sweep: Sweep,
+    /// How robots share states.
+    pub sharing: Sharing,
+    /// C.
+    pub cells: usize,
+    /// R.
+    pub robots: usize,
+    /// S_r / S_p.
+    pub speed_ratio: SpeedRatio,
+}
+
+impl fmt::Display for Configuration {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(
+            f,
+            "{} sweep, {} sharing, C = {}, R = {}, ratio {}",
+            self.sweep, self.sharing, self.cells, self.robots, self.speed_ratio
+        )
+    }
+}
+
+/// One trial's numbers.
+#[derive(Clone, Debug, Serialize)]
+pub struct TrialRecord {
+    /// Index into the study's configurations.
+    pub config: usize,
+    /// Trial number.
+    pub trial: usize,
+    /// Direction the ROI moves ("static" when it does not).
+    pub direction: &'static str,
+    /// ALG: when the last robot was back at the start.
+    pub cost: f64,
+    /// Lemma 1 (eq. 2).
+    pub lemma1_upper: f64,
+    /// Lemma 2 (eq. 10).
+    pub lemma2_lower: f64,
+    /// §6's lawnmower baseline.
+    pub lawnmower_lower: f64,
+    /// d_max of the built tree.
+    pub d_max: u32,
+    /// Cells in the built tree (= C with the perfect sensor).
+    pub tree_cells: usize,
+    /// Whether cost ≤ Lemma 1.
+    pub within_lemma1: bool,
+}
+
+/// Mean, minimum and maximum over the trials.
+#[derive(Clone, Copy, Debug, Serialize, PartialEq)]
+pub struct Stats {
+    /// Mean.
+    pub mean: f64,
+    /// Minimum.
+    pub min: f64,
+    /// Maximum.
+    pub max: f64,
+}
+
+impl Stats {
+    fn of(xs: impl IntoIterator<Item = f64>) -> Stats {
+        let (mut n, mut sum, mut min, mut max) = (0usize, 0.0, f64::INFINITY, f64::NEG_INFINITY);
+        for x in xs {
+            n += 1;
+            sum += x;
+            min = min.min(x);
+            max = max.max(x);
+        }
+        if n == 0 {
+            return Stats {
+                mean: f64::NAN,
+                min: f64::NAN,
+                max: f64::NAN,
+            };
+        }
+        Stats {
+            mean: sum / n as f64,
+            min,
+            max,
+        }
+    }
+}
+
+/// Per-configuration summary.
+#[derive(Clone, Debug, Serialize)]
+pub struct ConfigSummary {
+    /// The configuration.
+    #[serde(flatten)]
+    pub config: Configuration,
+    /// Trials run.
+    pub trials: usize,
+    /// ALG.
+    pub cost: Stats,
+    /// Lemma 1 upper bound.
+    pub lemma1_upper: Stats,
+    /// Lemma 2 lower bound.
+    pub lemma2_lower: Stats,
+    /// Lawnmower baseline.
+    pub lawnmower_lower: Stats,
+    /// d_max.
+    pub d_max: Stats,
+    /// Mean over trials of cost / lawnmower baseline.
+    pub mean_ratio_to_lawnmower: f64,
+    /// Mean over trials of cost / Lemma 2.
+    pub mean_ratio_to_lemma2: f64,
+    /// Largest cost / Lemma 1 over the trials (≤ 1 when the bound holds).
+    pub max_ratio_to_lemma1: f64,
+    /// Trials where the cost exceeded Lemma 1.
+    pub violations: usize,
+}
+
+/// A finished study.
+#[derive(Clone, Debug, Serialize)]
+pub struct Study {
+    /// Trials per configuration.
+    pub trials: usize,
+    /// The seed.
+    pub seed: u64,
+    /// S_r (cells per time unit).
+    pub robot_speed: f64,
+    /// Every configuration.
+    pub configurations: Vec<Configuration>,
+    /// Every trial.
+    #[serde(skip)]
+    pub records: Vec<TrialRecord>,
+    /// Per configuration.
+    pub summaries: Vec<ConfigSummary>,
+    /// Total trials above Lemma 1.
+    pub violations: usize,
+}
+
+/// The configurations of the three sweeps, for every sharing mode.
+pub fn configurations(args: &DfsArgs) -> Vec<Configuration> {
+    let mut out = Vec::new();
+    for sharing in args.sharing.modes() {
+        let base = |sweep| Configuration {
+            sweep,
+            sharing,
+            cells: args.base_cells,
+            robots: args.base_robots,
+            speed_ratio: args.base_ratio,
+        };
+        let on = |s| args.sweeps.contains(&s);
+        for &cells in args.cells.iter().filter(|_| on(Sweep::Cells)) {
+            out.push(Configuration {
+                cells,
+                ..base(Sweep::Cells)
+            });
+        }
+        for &robots in args.robots.iter().filter(|_| on(Sweep::Robots)) {
+            out.push(Configuration {
+                robots,
+                ..base(Sweep::Robots)
+            });
+        }
+        for &speed_ratio in args.ratios.iter().filter(|_| on(Sweep::Ratio)) {
+            out.push(Configuration {
+                speed_ratio,
+                ..base(Sweep::Ratio)
+            });
+        }
+    }
+    out
+}
+
+/// SplitMix64 (Steele et al.): a well-mixed 64-bit seed from several numbers.
+fn mix(parts: &[u64]) -> u64 {
+    let mut z = 0x9E37_79B9_7F4A_7C15u64;
+    for &p in parts {
+        z = z.wrapping_add(p).wrapping_add(0x9E37_79B9_7F4A_7C15);
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        z ^= z >> 31;
+    }
+    z
+}
+
+/// The ROI, start and direction of trial `trial` with `cells` cells.
+pub fn trial_roi(seed: u64, cells: usize, trial: usize) -> (HashSet<Cell>, Cell, usize) {
+    let mut rng = ChaCha8Rng::seed_from_u64(mix(&[seed, cells as u64, trial as u64]));
+    let (roi, start) = random_roi(&mut rng, cells);
+    let dir = rng.random_range(0..4usize);
+    (roi, start, dir)
+}
+
+const DIRECTIONS: [(&str, (f64, f64)); 4] = [
+    ("north", (0.0, 1.0)),
+    ("south", (0.0, -1.0)),
+    ("east", (1.0, 0.0)),
+    ("west", (-1.0, 0.0)),
+];
+
+/// Run one trial of configuration `conf` (index `ci`).
+pub fn run_trial(
+    seed: u64,
+    ci: usize,
+    conf: &Configuration,
+    trial: usize,
+) -> Result<TrialRecord, ExploreError> {
+    let (roi, start, dir) = trial_roi(seed, conf.cells, trial);
+    let sp = conf.speed_ratio.roi_speed();
+    let (name, (ue, un)) = DIRECTIONS[dir];
+    let v = (ue * sp, un * sp);
+    let out = simulate(
+        &roi,
+        start,
+        &SimConfig {
+            robots: conf.robots,
+            sharing: conf.sharing,
+            robot_speed: 1.0,
+            roi_velocity: v,
+            observe_time: 0.0,
+            record_paths: false,
+        },
+    )?;
+    let c = roi.len();
+    let lemma1 = lemma1_upper_bound(c, out.d_max, conf.robots, 1.0, sp);
+    Ok(TrialRecord {
+        config: ci,
+        trial,
+        direction: if sp == 0.0 { "static" } else { name },
+        cost: out.cost,
+        lemma1_upper: lemma1,
+        lemma2_lower: lemma2_lower_bound(c, conf.robots, 1.0, sp),
+        lawnmower_lower: lawnmower_baseline(roi.iter().copied(), conf.robots, 1.0, v),
+        d_max: out.d_max,
+        tree_cells: out.tree_cells,
+        // Exact arithmetic up to rounding in the relative-speed edge times.
+        within_lemma1: out.cost <= lemma1 * (1.0 + 1e-9),
+    })
+}
+
+/// Run the study (rayon across trials); `tick` is called after every trial.
+pub fn run(args: &DfsArgs, tick: &(dyn Fn() + Sync)) -> Result<Study, DfsStudyError> {
+    args.validate()?;
+    let configs = configurations(args);
+    let jobs: Vec<(usize, usize)> = (0..configs.len())
+        .flat_map(|c| (0..args.trials).map(move |t| (c, t)))
+        .collect();
+    let records = jobs
+        .par_iter()
+        .map(|&(ci, t)| {
+            let r =
+                run_trial(args.seed, ci, &configs[ci], t).map_err(|source| DfsStudyError::Trial {
+                    config: configs[ci].to_string(),
+                    trial: t,
+                    source,
+                });
+            tick();
+            r
+        })
+        .collect::<Result<Vec<_>, _>>()?;
+    let summaries: Vec<ConfigSummary> = configs
+        .iter()
+        .enumerate()
+        .map(|(ci, conf)| {
+            let rs: Vec<&TrialRecord> = records.iter().filter(|r| r.config == ci).collect();
+            let ratio = |f: &dyn Fn(&TrialRecord) -> f64| {
+                rs.iter().map(|r| r.cost / f(r)).sum::<f64>() / rs.len() as f64
+            };
+            ConfigSummary {
+                config: *conf,
+                trials: rs.len(),
+                cost: Stats::of(rs.iter().map(|r| r.cost)),
+                lemma1_upper: Stats::of(rs.iter().map(|r| r.lemma1_upper)),
+                lemma2_lower: Stats::of(rs.iter().map(|r| r.lemma2_lower)),
+                lawnmower_lower: Stats::of(rs.iter().map(|r| r.lawnmower_lower)),
+                d_max: Stats::of(rs.iter().map(|r| f64::from(r.d_max))),
+                mean_ratio_to_lawnmower: ratio(&|r| r.lawnmower_lower),
+                mean_ratio_to_lemma2: ratio(&|r| r.lemma2_lower),
+                max_ratio_to_lemma1: rs
+                    .iter()
+                    .map(|r| r.cost / r.lemma1_upper)
+                    .fold(0.0, f64::max),
+                violations: rs.iter().filter(|r| !r.within_lemma1).count(),
+            }
+        })
+        .collect();
+    let violations = records.iter().filter(|r| !r.within_lemma1).count();
+    Ok(Study {
+        trials: args.trials,
+        seed: args.seed,
+        robot_speed: 1.0,
+        configurations: configs,
+        records,
+        summaries,
+        violations,
+    })
+}
+
+/// The trials as CSV (one row per trial).
+pub fn trials_csv(study: &Study) -> String {
+    let mut s = String::from(
+        "sweep,sharing,cells,robots,speed_ratio,trial,direction,cost,lemma1_upper,lemma2_lower,\
+         lawnmower_lower,d_max,tree_cells,within_lemma1\n",
+    );
+    for r in &study.records {
+        let c = &study.configurations[r.config];
+        s.push_str(&format!(
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            c.sweep,
+            c.sharing,
+            c.cells,
+            c.robots,
+            c.speed_ratio,
+            r.trial,
+            r.direction,
+            r.cost,
+            r.lemma1_upper,
+            r.lemma2_lower,
+            r.lawnmower_lower,
+            r.d_max,
+            r.tree_cells,
+            r.within_lemma1
+        ));
+    }
+    s
+}
+
+/// The trials that exceeded Lemma 1, as readable lines.
+pub fn violation_lines(study: &Study) -> Vec<String> {
+    study
+        .records
+        .iter()
+        .filter(|r| !r.within_lemma1)
+        .map(|r| {
+            format!(
+                "{}, trial {} (direction {}): cost {:.3} > Lemma 1 bound {:.3}",
+                study.configurations[r.config], r.trial, r.direction, r.cost, r.lemma1_upper
+            )
+        })
+        .collect()
+}
+
+fn write(path: &Path, bytes: &[u8]) -> Result<(), DfsStudyError> {
+    crate::store::atomic_write(path, bytes).map_err(|e| DfsStudyError::Output {
+        path: path.to_path_buf(),
+        reason: e.to_string(),
+    })
+}
+
+/// Write `dfs_trials.csv`, `dfs_summary.json` and the PNG plots (Fig. 7a–d) into `dir`.
+/// Returns the files written.
+pub fn write_outputs(study: &Study, dir: &Path) -> Result<Vec<PathBuf>, DfsStudyError> {
+    std::fs::create_dir_all(dir).map_err(|e| DfsStudyError::Output {
+        path: dir.to_path_buf(),
+        reason: e.to_string(),
+    })?;
+    let mut files = Vec::new();
+    let csv = dir.join("dfs_trials.csv");
+    write(&csv, trials_csv(study).as_bytes())?;
+    files.push(csv);
+    let json = dir.join("dfs_summary.json");
+    let text = serde_json::to_string_pretty(study).map_err(|e| DfsStudyError::Output {
+        path: json.clone(),
+        reason: e.to_string(),
+    })?;
+    write(&json, text.as_bytes())?;
+    files.push(json);
+    for (name, png) in plot::figures(study)? {
+        let path = dir.join(name);
+        write(&path, &png)?;
+        files.push(path);
+    }
+    Ok(files)
+}
+
+/// A fixed-width table of the summaries (one line per configuration).
+pub fn table(study: &Study) -> String {
+    let mut s = format!(
+        "{:<6} {:<4} {:>5} {:>4} {:>6} | {:>8} {:>8} {:>8} | {:>9} {:>9} {:>8} | {:>7} {:>6} {:>4}\n",
+        "sweep",
+        "shr",
+        "C",
+        "R",
+        "ratio",
+        "ALG mean",
+        "min",
+        "max",
+        "Lemma1 UB",
+        "lawnmower",
+        "Lemma2",
+        "ALG/LM",
+        "max/UB",
+        "viol"
+    );
+    for x in &study.summaries {
+        let c = &x.config;
+        s.push_str(&format!(
+            "{:<6} {:<4} {:>5} {:>4} {:>6} | {:>8.1} {:>8.1} {:>8.1} | {:>9.1} {:>9.1} {:>8.2} | {:>7.2} {:>6.3} {:>4}\n",
+            c.sweep.to_string(),
+            c.sharing.to_string(),
+            c.cells,
+            c.robots,
+            c.speed_ratio.to_string(),
+            x.cost.mean,
+            x.cost.min,
+            x.cost.max,
+            x.lemma1_upper.mean,
+            x.lawnmower_lower.mean,
+            x.lemma2_lower.mean,
+            x.mean_ratio_to_lawnmower,
+            x.max_ratio_to_lemma1,
+            x.violations
+        ));
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn small(trials: usize) -> DfsArgs {
+        DfsArgs {
+            cells: vec![20, 40],
+            robots: vec![1, 4],
+            ratios: vec![SpeedRatio::Ratio(2.0), SpeedRatio::Static],
+            base_cells: 30,
+            base_robots: 3,
+            sharing: SharingChoice::Both,
+            ..DfsArgs::paper(trials, 7, PathBuf::from("unused"))
+        }
+    }
+
+    #[test]
+    fn ratios_parse() {
+        assert_eq!("static".parse::<SpeedRatio>(), Ok(SpeedRatio::Static));
+        assert_eq!("2.5".parse::<SpeedRatio>(), Ok(SpeedRatio::Ratio(2.5)));
+        assert!("1".parse::<SpeedRatio>().is_err());
+        assert!("fast".parse::<SpeedRatio>().is_err());
+    }
+
+    #[test]
+    fn trials_are_reproducible_and_share_rois_across_sweeps() {
+        let a = trial_roi(1, 50, 3);
+        let b = trial_roi(1, 50, 3);
+        assert_eq!(a, b);
+        assert_ne!(trial_roi(1, 50, 4).0, a.0);
+        let args = small(3);
+        let s1 = run(&args, &|| {}).unwrap();
+        let s2 = run(&args, &|| {}).unwrap();
+        assert_eq!(trials_csv(&s1), trials_csv(&s2));
+        // 2 sharing modes × (2 + 2 + 2) points.
+        assert_eq!(s1.configurations.len(), 12);
+        assert_eq!(s1.records.len(), 36);
+        // GCS never exceeds Lemma 1.
+        for (c, x) in s1.configurations.iter().zip(&s1.summaries) {
+            if c.sharing == Sharing::Gcs {
+                assert_eq!(x.violations, 0, "{c}");
+            }
+            assert!(x.cost.min <= x.cost.mean && x.cost.mean <= x.cost.max);
+        }
+        let csv = trials_csv(&s1);
+        assert_eq!(csv.lines().count(), 37);
+        assert!(csv.starts_with("sweep,sharing,cells"));
+        let t = table(&s1);
+        assert_eq!(t.lines().count(), 13);
+    }
+
+    #[test]
+    fn bad_parameters_are_errors() {
+        let mut a = small(0);
+        assert!(run(&a, &|| {}).is_err());
+        a.trials = 1;
+        a.robots = vec![300];
+        assert!(run(&a, &|| {}).is_err());
+    }
+}

@@ -1,0 +1,147 @@
+//! The bounds of the runway paper: Lemma 1 (upper bound on Algorithm 1, eq. 2), Lemma 2
+//! (lower bound on the optimum, eq. 10) and §6's lawnmower baseline.
+//!
+//! Units: one cell is one length unit (the paper's unit footprint); speeds are cells per
+//! time unit, so the bounds are times.
+//!
+//! **Which logarithm.** Lemma 1 writes ⌊log R⌋ without a base. It is Higashikawa et al.'s
+//! term for a *binary* tree explored by robots halved at every branch: after ⌊log₂ R⌋ splits
+//! the groups are single robots, which is why `1 + ⌊log₂ R⌋` reward functions sit on each
+//! backbone edge. So the base is 2. It is also the stricter reading: eq. (2) is
+//! `2(C + d·k)/((S_r − S_p)(1 + k))`, which decreases in `k` whenever `d_max < C` (always
+//! true, `d_max ≤ C − 1`), and base 2 gives the largest `k`.
+
+use crate::geo::Cell;
+
+/// ⌊log₂ r⌋ (0 for r ≤ 1).
+pub fn floor_log2(r: usize) -> u32 {
+    if r <= 1 {
+        0
+    } else {
+        usize::BITS - 1 - r.leading_zeros()
+    }
+}
+
+/// Lemma 1, eq. (2): `ALG ≤ 2(C + d_max⌊log R⌋) / ((S_r − S_p)(1 + ⌊log R⌋))` for `cells` = C
+/// ROI cells, `d_max` of the built tree, `robots` = R, robot speed S_r and ROI speed S_p.
+pub fn lemma1_upper_bound(
+    cells: usize,
+    d_max: u32,
+    robots: usize,
+    robot_speed: f64,
+    roi_speed: f64,
+) -> f64 {
+    let k = f64::from(floor_log2(robots));
+    2.0 * (cells as f64 + f64::from(d_max) * k) / ((robot_speed - roi_speed) * (1.0 + k))
+}
+
+/// Lemma 2, eq. (10): `OPT ≥ (C − 1) / ((S_r + S_p) R)`.
+pub fn lemma2_lower_bound(cells: usize, robots: usize, robot_speed: f64, roi_speed: f64) -> f64 {
+    cells.saturating_sub(1) as f64 / ((robot_speed + roi_speed) * robots.max(1) as f64)
+}
+
+/// λ along a unit axis direction for a ROI moving at `v` (east, north), robot speed `sr`.
+fn lambda(sr: f64, v: (f64, f64), u: (f64, f64)) -> f64 {
+    let uv = u.0 * v.0 + u.1 * v.1;
+    -uv + (sr * sr - (v.0 * v.0 + v.1 * v.1) + uv * uv).sqrt()
+}
+
+/// Time for one robot to cover a `w` × `h` (cells, east × north) rectangle with a
+/// boustrophedon of unit-footprint lanes, starting inside it: the best over lane
+/// orientation, first-lane direction and the direction lanes step in.
+pub fn lawnmower_rectangle_time(w: usize, h: usize, robot_speed: f64, v: (f64, f64)) -> f64 {
+    if w == 0 || h == 0 {
+        return 0.0;
+    }
+    let mut best = f64::INFINITY;
+    // (lane count, lane length, lane axis, step axis)
+    let layouts = [
+        (w, h, (0.0, 1.0), (1.0, 0.0)), // lanes run north–south, stepping east/west
+        (h, w, (1.0, 0.0), (0.0, 1.0)), // lanes run east–west, stepping north/south
+    ];
+    for (lanes, len, along, step) in layouts {
+        for first in [1.0, -1.0] {
+            for side in [1.0, -1.0] {
+                let fwd = lambda(robot_speed, v, (along.0 * first, along.1 * first));
+                let back = lambda(robot_speed, v, (-along.0 * first, -along.1 * first));
+                let st = lambda(robot_speed, v, (step.0 * side, step.1 * side));
+                let n_fwd = lanes.div_ceil(2) as f64;
+                let n_back = (lanes / 2) as f64;
+                let l = (len - 1) as f64;
+                let t = n_fwd * l / fwd + n_back * l / back + (lanes - 1) as f64 / st;
+                best = best.min(t);
+            }
+        }
+    }
+    best
+}
+
+/// §6's lawnmower baseline: it knows the tightest axis-aligned rectangle containing the ROI,
+/// splits it into `robots` strips along its length or along its breadth, covers each strip
+/// with a lawnmower (ignoring the flight from the start to the strips) and keeps the better
+/// of the two splits. The time is that of the largest strip. The grid is aligned with the
+/// ROI's direction of motion, as in §6.
+pub fn lawnmower_baseline(
+    cells: impl IntoIterator<Item = Cell>,
+    robots: usize,
+    robot_speed: f64,
+    roi_velocity: (f64, f64),
+) -> f64 {
+    let mut it = cells.into_iter();
+    let Some(first) = it.next() else {
+        return 0.0;
+    };
+    let (mut r0, mut r1, mut c0, mut c1) = (first.row, first.row, first.col, first.col);
+    for c in it {
+        r0 = r0.min(c.row);
+        r1 = r1.max(c.row);
+        c0 = c0.min(c.col);
+        c1 = c1.max(c.col);
+    }
+    let w = (c1 - c0 + 1) as usize;
+    let h = (r1 - r0 + 1) as usize;
+    let r = robots.max(1);
+    let split_w = lawnmower_rectangle_time(w.div_ceil(r), h, robot_speed, roi_velocity);
+    let split_h = lawnmower_rectangle_time(w, h.div_ceil(r), robot_speed, roi_velocity);
+    split_w.min(split_h)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn logs() {
+        assert_eq!(
+            [0, 1, 2, 3, 4, 7, 8, 20, 32].map(floor_log2),
+            [0, 0, 1, 1, 2, 2, 3, 4, 5]
+        );
+    }
+
+    #[test]
+    fn lemma_values() {
+        // Single robot, static: 2C/S_r (Table 1, SRSR).
+        assert_eq!(lemma1_upper_bound(10, 7, 1, 1.0, 0.0), 20.0);
+        // R = 20: k = 4, 2(120 + 4·30)/(1.5·5).
+        let b = lemma1_upper_bound(120, 30, 20, 2.5, 1.0);
+        assert!((b - 2.0 * (120.0 + 120.0) / (1.5 * 5.0)).abs() < 1e-12);
+        assert!((lemma2_lower_bound(121, 4, 2.0, 0.5) - 120.0 / 10.0).abs() < 1e-12);
+    }
+
+    #[test]
+    fn lawnmower_static_and_moving() {
+        // Static: w·h − 1 unit moves.
+        assert_eq!(lawnmower_rectangle_time(3, 4, 1.0, (0.0, 0.0)), 11.0);
+        assert_eq!(lawnmower_rectangle_time(1, 1, 1.0, (0.0, 0.0)), 0.0);
+        // A 1 × 5 strip in a ROI moving north at 0.5: run south against it at 1.5.
+        let t = lawnmower_rectangle_time(1, 5, 1.0, (0.0, 0.5));
+        assert!((t - 4.0 / 1.5).abs() < 1e-12);
+        // Baseline: 10 × 2 box, 2 robots: split along the length → two 5 × 2 strips (9 moves).
+        let cells: Vec<Cell> = (0..10)
+            .flat_map(|c| (0..2).map(move |r| Cell::new(r, c)))
+            .collect();
+        assert_eq!(lawnmower_baseline(cells.clone(), 2, 1.0, (0.0, 0.0)), 9.0);
+        // 40 robots: one column each (1 × 2 strips) → 1 move.
+        assert_eq!(lawnmower_baseline(cells, 40, 1.0, (0.0, 0.0)), 1.0);
+    }
+}

@@ -1,0 +1,698 @@
+//! The multi-robot recursive DFS of the runway paper (§4.1, Algorithm 1) as a sans-IO state
+//! machine.
+//!
+//! # Model
+//! The ROI is a set of grid cells; the robots start at the root cell (the first positive
+//! detection) and, at each vertex, an image tells which of the four neighbours are ROI cells
+//! (line 2). Positive neighbours that are not yet in the tree become children of the vertex
+//! ("unless those cells have been previously added to the tree. This condition prevents
+//! cycles"), so the tree is built online and never has a cycle: lines 9–12 (dropping an
+//! under-exploration neighbour whose move would close a cycle) are implied by construction.
+//! Each vertex is *unexplored*, *under exploration* or *explored* ([`VertexState`], Fig. 3).
+//! At a vertex the group of robots that arrived together drops the explored children
+//! (line 8); with more than two candidates, dummy vertices joined by zero-length edges keep
+//! the tree binary (line 15, footnote 3: three candidates `[a, b, c]` become
+//! `[dummy{b, c}, a]`, four at the root become two dummies of two); the group is split as
+//! evenly as possible, ⌈k/2⌉ to the first candidate and ⌊k/2⌋ to the second (line 19); with
+//! one candidate the whole group moves there (line 22); with none the vertex is explored and
+//! the group moves back to the parent (lines 3–5, 24). Candidates nobody has been sent to
+//! come before those under exploration, so a lone robot opens new branches first and a robot
+//! that finished its branch goes to help in a sibling branch that is still under exploration.
+//! A group at the root with nothing left to explore is done: every robot ends at the start,
+//! and the exploration ends when all robots are back and the root is explored.
+//!
+//! # Sharing
+//! The tree itself (which cells are ROI cells and who is whose child) is built by the GCS,
+//! which classifies every image; what robots share is the *vertex states* (line 7):
+//! - [`Sharing::Meet`] (the paper's model, after Higashikawa et al. [12]): each robot keeps its
+//!   own states and two robots exchange everything they know when they are at the same cell
+//!   at the same time, or pass each other on the same edge;
+//! - [`Sharing::Gcs`]: every robot decides on the global states (the GCS hears every robot).
+//!
+//! Lemma 1 needs more than meetings. Its proof (the reward argument of Higashikawa et al.)
+//! counts on every robot collecting reward while it moves: never walking again where others
+//! already went. With meeting-only sharing, a robot that finished its branch and goes to
+//! help a sibling branch under exploration does not know which sub-branch the robots there
+//! took, so it follows them instead of opening the untouched one. Smallest case found
+//! (`tests::meeting_sharing_can_exceed_lemma_1`): 7 cells, 2 robots, the start with three
+//! children; the robot back from the short branch follows the other into the branch it is
+//! already doing, and the team is home at t = 10 where eq. (2) allows 9 (GCS sharing: 6).
+//! `fleetmap experiment dfs --sharing meet` measures it on random ROIs (above the bound in
+//! most trials); with [`Sharing::Gcs`] the bound held on every trial we ran. So the GCS's
+//! global view is the default, and the meeting model is kept for the study.
+//!
+//! # Driving it (per robot)
+//! ```text
+//! loop {
+//!     match explorer.next_action(robot)? {
+//!         Action::Rejoin(cell) | Action::MoveTo(cell) => { fly to cell; explorer.arrived(robot, cell)? }
+//!         Action::Observe => { image the cell; explorer.observe(robot, cell, labels)? }
+//!         Action::Wait => { wait until another robot's call changed something }
+//!         Action::ReturnHome => { the robot is paused: fly it home; later explorer.resume(robot)? }
+//!         Action::Done => { at the start, nothing left: land }
+//!     }
+//!     persist(serde_json::to_vec(&explorer)); // all state is serialisable
+//! }
+//! ```
+//! `MoveTo` always names a 4-neighbour of the robot's cell along a tree edge (every path runs
+//! over known ROI cells); `Rejoin` is the transit from wherever the robot is (its sweep, or
+//! home after a battery swap) to the start or to its saved vertex.
+
+mod knowledge;
+pub mod tree;
+
+pub use tree::{Node, NodeId, NodeKind, Tree};
+
+use super::ExploreError;
+use crate::geo::{Cell, Dir4};
+use knowledge::Knowledge;
+use serde::{Deserialize, Serialize};
+use std::collections::BTreeSet;
+use std::fmt;
+
+/// A robot of the exploration team (the runner maps it to a MAVLink system id).
+#[derive(
+    Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize, Default,
+)]
+#[serde(transparent)]
+pub struct RobotId(pub u8);
+
+impl fmt::Display for RobotId {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.0)
+    }
+}
+
+/// How robots learn the vertex states (see the module documentation).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Sharing {
+    /// Robots exchange states when they meet at a vertex or on an edge (the paper's model).
+    Meet,
+    /// Every robot uses the global states held by the GCS (the default: it is what a GCS
+    /// that hears every robot has, and the only one of the two under which Lemma 1 holds
+    /// in our measurements — see the module documentation).
+    #[default]
+    Gcs,
+}
+
+impl fmt::Display for Sharing {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Sharing::Meet => "meet",
+            Sharing::Gcs => "gcs",
+        })
+    }
+}
+
+/// Options of the explorer.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct ExplorerConfig {
+    /// How vertex states are shared.
+    pub sharing: Sharing,
+}
+
+/// What a robot should do next.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub enum Action {
+    /// Fly to the centre of this cell — a 4-neighbour of the robot's cell, along a tree
+    /// edge — then call [`Explorer::arrived`].
+    MoveTo(Cell),
+    /// Fly from wherever the robot is (its sweep, or home after a battery swap) to the centre
+    /// of this cell (the start, or the robot's saved vertex), then call [`Explorer::arrived`].
+    Rejoin(Cell),
+    /// Image the current cell and call [`Explorer::observe`] with the neighbour labels.
+    Observe,
+    /// Nothing to do until another robot's call changes the state (group members still on
+    /// their way, or another robot imaging this cell): ask again after the next call.
+    Wait,
+    /// The robot is paused (battery swap, operator): fly it home; its vertex is saved and
+    /// [`Explorer::resume`] brings it back.
+    ReturnHome,
+    /// The robot is at the start and, as far as it knows, everything is explored: land.
+    Done,
+}
+
+/// The state of a vertex (§4.1, Fig. 3).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VertexState {
+    /// No robot has visited it (or been sent to it).
+    Unexplored,
+    /// Visited (or being flown to), but part of its subtree is not yet visited.
+    UnderExploration,
+    /// It and its whole subtree were visited.
+    Explored,
+}
+
+/// What a robot is doing, as the explorer sees it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(tag = "kind", rename_all = "snake_case")]
+pub enum Phase {
+    /// Flying to `node` from outside the tree (start of the exploration, or after `resume`).
+    Rejoining,
+    /// Standing at `node`, ready for a decision.
+    AtVertex,
+    /// Standing at `node`, imaging it.
+    Observing,
+    /// Flying along a tree edge from `node` to `to`.
+    Moving {
+        /// Destination vertex.
+        to: NodeId,
+    },
+    /// Out of the exploration (battery swap); `node` is where it resumes.
+    Paused,
+    /// Back at the start with nothing left to explore.
+    Done,
+}
+
+impl Phase {
+    fn name(&self) -> &'static str {
+        match self {
+            Phase::Rejoining => "rejoining",
+            Phase::AtVertex => "at a vertex",
+            Phase::Observing => "observing",
+            Phase::Moving { .. } => "moving",
+            Phase::Paused => "paused",
+            Phase::Done => "done",
+        }
+    }
+}
+
+/// One robot's place in the exploration.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct RobotState {
+    /// The robot.
+    pub id: RobotId,
+    /// The vertex it last reached (its saved position in the tree).
+    pub node: NodeId,
+    /// What it is doing.
+    pub phase: Phase,
+    /// The group it travels with (itself included, sorted): it decides with them at the
+    /// next vertex (Algorithm 1, line 19 splits the robots *at* a vertex).
+    pub companions: Vec<RobotId>,
+    /// Tree edges of length 1 it has flown.
+    pub moves: u64,
+}
+
+/// The multi-robot recursive DFS (see the module documentation). All state is
+/// serialisable: persist it after every call and deserialise it to resume.
+#[derive(Clone, Debug, Serialize, Deserialize)]
+pub struct Explorer {
+    config: ExplorerConfig,
+    tree: Tree,
+    robots: Vec<RobotState>,
+    /// One per robot with [`Sharing::Meet`], a single shared one with [`Sharing::Gcs`].
+    knowledge: Vec<Knowledge>,
+    /// Cells labelled negative and (so far) never positive: the known non-ROI cells.
+    negatives: BTreeSet<Cell>,
+    /// Number of `observe` calls.
+    observations: u64,
+}
+
+impl Explorer {
+    /// A new exploration rooted at `start` (an ROI cell: the first positive detection) with
+    /// `robots`, which all begin by flying to the start ([`Action::Rejoin`]) and leave it
+    /// together as one group.
+    pub fn new(
+        config: ExplorerConfig,
+        start: Cell,
+        robots: &[RobotId],
+    ) -> Result<Explorer, ExploreError> {
+        if robots.is_empty() {
+            return Err(ExploreError::NoRobots);
+        }
+        let mut ids = robots.to_vec();
+        ids.sort();
+        if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
+            return Err(ExploreError::DuplicateRobot(w[0]));
+        }
+        let states = robots
+            .iter()
+            .map(|&id| RobotState {
+                id,
+                node: Tree::ROOT,
+                phase: Phase::Rejoining,
+                companions: ids.clone(),
+                moves: 0,
+            })
+            .collect();
+        let nk = match config.sharing {
+            Sharing::Meet => robots.len(),
+            Sharing::Gcs => 1,
+        };
+        Ok(Explorer {
+            config,
+            tree: Tree::new(start),
+            robots: states,
+            knowledge: vec![Knowledge::default(); nk],
+            negatives: BTreeSet::new(),
+            observations: 0,
+        })
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &ExplorerConfig {
+        &self.config
+    }
+
+    /// The tree built so far.
+    pub fn tree(&self) -> &Tree {
+        &self.tree
+    }
+
+    /// The start (root) cell.
+    pub fn start(&self) -> Cell {
+        self.tree.node(Tree::ROOT).cell
+    }
+
+    /// Every robot's state, in the order given to [`Explorer::new`].
+    pub fn robots(&self) -> &[RobotState] {
+        &self.robots
+    }
+
+    /// One robot's state.
+    pub fn robot(&self, robot: RobotId) -> Result<&RobotState, ExploreError> {
+        Ok(&self.robots[self.idx(robot)?])
+    }
+
+    /// The cell a robot last reached (where it resumes after a pause).
+    pub fn robot_cell(&self, robot: RobotId) -> Result<Cell, ExploreError> {
+        let r = self.robot(robot)?;
+        Ok(self.tree.node(r.node).cell)
+    }
+
+    /// Cells labelled negative and never positive (known non-ROI cells).
+    pub fn negatives(&self) -> &BTreeSet<Cell> {
+        &self.negatives
+    }
+
+    /// Number of observations received.
+    pub fn observations(&self) -> u64 {
+        self.observations
+    }
+
+    /// d_max of the tree built so far (§4.2).
+    pub fn d_max(&self) -> u32 {
+        self.tree.d_max()
+    }
+
+    fn idx(&self, robot: RobotId) -> Result<usize, ExploreError> {
+        self.robots
+            .iter()
+            .position(|r| r.id == robot)
+            .ok_or(ExploreError::UnknownRobot(robot))
+    }
+
+    fn kidx(&self, i: usize) -> usize {
+        match self.config.sharing {
+            Sharing::Meet => i,
+            Sharing::Gcs => 0,
+        }
+    }
+
+    fn cell(&self, n: NodeId) -> Cell {
+        self.tree.node(n).cell
+    }
+
+    fn state_in(&self, k: usize, n: NodeId) -> VertexState {
+        let kn = &self.knowledge[k];
+        if kn.explored(n) {
+            VertexState::Explored
+        } else if kn.visited(n) || kn.claimed(n) {
+            VertexState::UnderExploration
+        } else {
+            VertexState::Unexplored
+        }
+    }
+
+    /// What everyone knows together (the GCS's view, for reports and the UI).
+    fn global(&self) -> Knowledge {
+        let mut g = self.knowledge[0].clone();
+        for k in &self.knowledge[1..] {
+            g.merge(&self.tree, k);
+        }
+        g
+    }
+
+    /// The global state of every tree cell (what all robots know together), in tree order.
+    pub fn vertex_states(&self) -> Vec<(Cell, VertexState)> {
+        let g = self.global();
+        let mut out = Vec::with_capacity(self.tree.real_count());
+        for (i, n) in self.tree.nodes().iter().enumerate() {
+            if n.kind == NodeKind::Real {
+                let id = NodeId(i as u32);
+                let s = if g.explored(id) {
+                    VertexState::Explored
+                } else if g.visited(id) || g.claimed(id) {
+                    VertexState::UnderExploration
+                } else {
+                    VertexState::Unexplored
+                };
+                out.push((n.cell, s));
+            }
+        }
+        out
+    }
+
+    /// The global state of `cell`, or `None` if it is not in the tree.
+    pub fn vertex_state(&self, cell: Cell) -> Option<VertexState> {
+        self.tree.real(cell)?;
+        self.vertex_states()
+            .into_iter()
+            .find(|(c, _)| *c == cell)
+            .map(|(_, s)| s)
+    }
+
+    /// The state of `cell` as `robot` knows it (differs from the global one with
+    /// [`Sharing::Meet`]).
+    pub fn vertex_state_known_by(
+        &self,
+        robot: RobotId,
+        cell: Cell,
+    ) -> Result<Option<VertexState>, ExploreError> {
+        let i = self.idx(robot)?;
+        Ok(self.tree.real(cell).map(|n| self.state_in(self.kidx(i), n)))
+    }
+
+    /// Whether the exploration is over: every vertex explored and every robot back at the
+    /// start (or paused, i.e. at home).
+    pub fn is_finished(&self) -> bool {
+        self.robots
+            .iter()
+            .all(|r| matches!(r.phase, Phase::Done | Phase::Paused))
+            && self.global().explored(Tree::ROOT)
+    }
+
+    /// The next action of `robot`. May make the decision of Algorithm 1 for the robot's
+    /// whole group (when all of it is at the vertex), so call it again for every robot after
+    /// any change.
+    pub fn next_action(&mut self, robot: RobotId) -> Result<Action, ExploreError> {
+        let i = self.idx(robot)?;
+        let r = &self.robots[i];
+        Ok(match r.phase {
+            Phase::Rejoining => Action::Rejoin(self.cell(r.node)),
+            Phase::Moving { to } => Action::MoveTo(self.cell(to)),
+            Phase::Paused => Action::ReturnHome,
+            Phase::Observing => Action::Observe,
+            Phase::Done => {
+                if r.node == Tree::ROOT && self.knowledge[self.kidx(i)].explored(Tree::ROOT) {
+                    Action::Done
+                } else {
+                    // A later positive label re-opened part of the tree: go back to work,
+                    // alone (the rest of the old group decides for itself).
+                    let me = r.id;
+                    self.robots[i].phase = Phase::AtVertex;
+                    self.robots[i].companions = vec![me];
+                    self.decide(i)
+                }
+            }
+            Phase::AtVertex => self.decide(i),
+        })
+    }
+
+    /// Algorithm 1 at the robot's vertex, for its group.
+    fn decide(&mut self, i: usize) -> Action {
+        loop {
+            let v = self.robots[i].node;
+            let vcell = self.cell(v);
+            // Line 2: observe N(v) (once per cell, by the first robot there).
+            let real = self.tree.real_of(v);
+            if !self.tree.node(real).observed {
+                let busy = self
+                    .robots
+                    .iter()
+                    .any(|r| r.phase == Phase::Observing && self.tree.node(r.node).cell == vcell);
+                if busy {
+                    return Action::Wait;
+                }
+                self.robots[i].phase = Phase::Observing;
+                return Action::Observe;
+            }
+            // The group decides together (line 19 splits the robots at v): wait for all.
+            let group: Vec<usize> = self.robots[i]
+                .companions
+                .iter()
+                .filter_map(|c| self.robots.iter().position(|r| r.id == *c))
+                .collect();
+            if group
+                .iter()
+                .any(|&j| self.robots[j].phase != Phase::AtVertex || self.robots[j].node != v)
+            {
+                return Action::Wait;
+            }
+            let k = self.kidx(i);
+            // Line 8: N(v) ← N(v) \ explored. (Lines 9–12: no child closes a cycle, by
+            // construction of the tree.)
+            let mut cands: Vec<NodeId> = self
+                .tree
+                .node(v)
+                .children
+                .iter()
+                .copied()
+                .filter(|&c| !self.knowledge[k].explored(c))
+                .collect();
+            // Lines 15–17: dummy vertices keep the tree binary.
+            if cands.len() > 2 {
+                let [small, big] = self.tree.binarise(v, &cands);
+                self.after_binarise(&[small, big], v);
+                // The half with more vertices gets the larger share of the robots.
+                cands = vec![big, small];
+            }
+            // Open new branches before joining ones under exploration (stable order).
+            cands.sort_by_key(|&c| self.state_in(k, c) != VertexState::Unexplored);
+            if cands.is_empty() {
+                // Lines 3–5, 23–24: v is explored; go back to the parent.
+                match self.tree.node(v).parent {
+                    None => {
+                        let ids: Vec<RobotId> = group.iter().map(|&j| self.robots[j].id).collect();
+                        for &j in &group {
+                            self.robots[j].phase = Phase::Done;
+                            self.robots[j].companions = ids.clone();
+                        }
+                        return Action::Done;
+                    }
+                    Some(p) => self.dispatch(&group, v, p),
+                }
+            } else if cands.len() == 1 || group.len() == 1 {
+                // Line 22 (or a lone robot at a branch: "move to one of two children").
+                self.dispatch(&group, v, cands[0]);
+            } else {
+                // Lines 19–20: split as evenly as possible. Both halves saw the split, so
+                // both know where the other went.
+                let h = group.len().div_ceil(2);
+                for &j in &group {
+                    let k = self.kidx(j);
+                    self.knowledge[k].claim(cands[0]);
+                    self.knowledge[k].claim(cands[1]);
+                }
+                self.dispatch(&group[..h], v, cands[0]);
+                self.dispatch(&group[h..], v, cands[1]);
+            }
+            match self.robots[i].phase {
+                Phase::Moving { to } => return Action::MoveTo(self.cell(to)),
+                // A zero-length (dummy) edge: decide again at the new vertex.
+                Phase::AtVertex => continue,
+                Phase::Done => return Action::Done,
+                _ => return Action::Wait,
+            }
+        }
+    }
+
+    /// After dummies were inserted under `v`: their explored state in every knowledge.
+    fn after_binarise(&mut self, created: &[NodeId], v: NodeId) {
+        for k in &mut self.knowledge {
+            for &d in created {
+                if self.tree.node(d).kind == NodeKind::Dummy {
+                    k.refresh(&self.tree, d);
+                }
+            }
+            k.refresh(&self.tree, v);
+        }
+    }
+
+    /// Send `group` (robot indices) from `from` to the adjacent vertex `to`.
+    fn dispatch(&mut self, group: &[usize], from: NodeId, to: NodeId) {
+        let ids: Vec<RobotId> = group.iter().map(|&j| self.robots[j].id).collect();
+        for &j in group {
+            let k = self.kidx(j);
+            self.knowledge[k].claim(to);
+            self.robots[j].companions = ids.clone();
+        }
+        if self.cell(to) == self.cell(from) {
+            for &j in group {
+                self.robots[j].node = to;
+                self.robots[j].phase = Phase::AtVertex;
+            }
+            return;
+        }
+        for &j in group {
+            self.robots[j].phase = Phase::Moving { to };
+        }
+        if self.config.sharing == Sharing::Meet {
+            // Robots flying the same edge the other way pass this group: they meet.
+            let (a, b) = (self.cell(from), self.cell(to));
+            let mut meeting: Vec<usize> = group.to_vec();
+            for (j, r) in self.robots.iter().enumerate() {
+                if let Phase::Moving { to: x } = r.phase
+                    && self.cell(x) == a
+                    && self.cell(r.node) == b
+                {
+                    meeting.push(j);
+                }
+            }
+            if meeting.len() > group.len() {
+                self.merge(&meeting);
+            }
+        }
+    }
+
+    /// Robots `who` (indices) tell each other everything they know (meeting sharing).
+    fn merge(&mut self, who: &[usize]) {
+        if self.config.sharing != Sharing::Meet || who.len() < 2 {
+            return;
+        }
+        let mut all = self.knowledge[who[0]].clone();
+        let mut changed = false;
+        for &j in &who[1..] {
+            changed |= all.merge(&self.tree, &self.knowledge[j]);
+        }
+        if !changed && who.iter().all(|&j| self.knowledge[j] == all) {
+            return;
+        }
+        for &j in who {
+            self.knowledge[j] = all.clone();
+        }
+    }
+
+    /// The runner reports that `robot` reached the centre of `cell` (after `MoveTo` or
+    /// `Rejoin`).
+    pub fn arrived(&mut self, robot: RobotId, cell: Cell) -> Result<(), ExploreError> {
+        let i = self.idx(robot)?;
+        let r = &self.robots[i];
+        let node = match r.phase {
+            Phase::Moving { to } => to,
+            Phase::Rejoining => r.node,
+            other => {
+                return Err(ExploreError::NotMoving {
+                    robot,
+                    cell,
+                    phase: other.name(),
+                });
+            }
+        };
+        let expected = self.cell(node);
+        if cell != expected {
+            return Err(ExploreError::WrongCell {
+                robot,
+                cell,
+                expected,
+            });
+        }
+        if matches!(r.phase, Phase::Moving { .. }) {
+            self.robots[i].moves += 1;
+        }
+        self.robots[i].node = node;
+        self.robots[i].phase = Phase::AtVertex;
+        let k = self.kidx(i);
+        self.knowledge[k].visit(&self.tree, node);
+        if self.config.sharing == Sharing::Meet {
+            let here: Vec<usize> = self
+                .robots
+                .iter()
+                .enumerate()
+                .filter(|(_, r)| {
+                    matches!(r.phase, Phase::AtVertex | Phase::Observing | Phase::Done)
+                        && self.tree.node(r.node).cell == cell
+                })
+                .map(|(j, _)| j)
+                .collect();
+            self.merge(&here);
+        }
+        Ok(())
+    }
+
+    /// The runner reports what an image taken by `robot` at `cell` showed: `labels[i]` says
+    /// whether the neighbour in direction `Dir4::ALL[i]` (north, west, south, east) is an ROI
+    /// cell. Positive neighbours not yet in the tree become children of `cell`; a positive is
+    /// never removed, and a negative is overridden by any later positive (§7). Returns the
+    /// cells added to the tree.
+    pub fn observe(
+        &mut self,
+        robot: RobotId,
+        cell: Cell,
+        labels: [bool; 4],
+    ) -> Result<Vec<Cell>, ExploreError> {
+        let i = self.idx(robot)?;
+        let r = &self.robots[i];
+        if !matches!(
+            r.phase,
+            Phase::AtVertex | Phase::Observing | Phase::Done | Phase::Paused
+        ) {
+            return Err(ExploreError::CannotObserve {
+                robot,
+                phase: r.phase.name(),
+            });
+        }
+        let at = self.cell(r.node);
+        if at != cell {
+            return Err(ExploreError::ObservedElsewhere { robot, cell, at });
+        }
+        let v = self.tree.real_of(r.node);
+        let mut added = Vec::new();
+        for (d, positive) in Dir4::ALL.into_iter().zip(labels) {
+            let n = cell.step(d);
+            if positive {
+                self.negatives.remove(&n);
+                if !self.tree.contains(n) {
+                    self.tree.add_child(v, n);
+                    added.push(n);
+                }
+            } else if !self.tree.contains(n) {
+                self.negatives.insert(n);
+            }
+        }
+        self.tree.set_observed(v);
+        for k in &mut self.knowledge {
+            k.refresh(&self.tree, v);
+        }
+        if self.robots[i].phase == Phase::Observing {
+            self.robots[i].phase = Phase::AtVertex;
+        }
+        self.observations += 1;
+        Ok(added)
+    }
+
+    /// Take `robot` out of the exploration (battery swap, operator): it leaves its group,
+    /// which carries on without it, and keeps its vertex to resume from. Idempotent.
+    pub fn pause(&mut self, robot: RobotId) -> Result<(), ExploreError> {
+        let i = self.idx(robot)?;
+        if self.robots[i].phase == Phase::Paused {
+            return Ok(());
+        }
+        for r in &mut self.robots {
+            r.companions.retain(|&c| c != robot);
+        }
+        self.robots[i].companions = vec![robot];
+        self.robots[i].phase = Phase::Paused;
+        Ok(())
+    }
+
+    /// Bring a paused robot back: it flies to its saved vertex ([`Action::Rejoin`]) and
+    /// carries on from there alone — or straight to the start if it knows everything is
+    /// already explored.
+    pub fn resume(&mut self, robot: RobotId) -> Result<(), ExploreError> {
+        let i = self.idx(robot)?;
+        if self.robots[i].phase != Phase::Paused {
+            return Err(ExploreError::NotPaused(robot));
+        }
+        if self.knowledge[self.kidx(i)].explored(Tree::ROOT) {
+            self.robots[i].node = Tree::ROOT;
+        }
+        self.robots[i].phase = Phase::Rejoining;
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests;

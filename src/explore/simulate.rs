@@ -1,0 +1,277 @@
+//! A discrete-event run of an [`Explorer`] on a known ROI with a perfect sensor: the model of
+//! the paper's §6 simulations (unit cells, unit footprint, robots at speed S_r relative to
+//! the ground, ROI translating at a constant velocity, every move charged at its relative
+//! speed, see [`super::motion`]). It drives the explorer exactly as a runner would — one
+//! `next_action` per robot, `arrived` after each flight, `observe` with the image's labels —
+//! so it also exercises the sans-IO interface.
+//!
+//! The cost is the time at which the last robot is back at the start (Problem 1).
+
+use super::ExploreError;
+use super::dfs::{Action, Explorer, ExplorerConfig, RobotId, Sharing};
+use super::motion::RoiMotion;
+use crate::geo::{Cell, Dir4};
+use crate::time::Time;
+use std::cmp::{Ordering, Reverse};
+use std::collections::{BinaryHeap, HashSet};
+
+/// Simulation parameters (lengths in cells, times in the unit that makes S_r cells per unit).
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimConfig {
+    /// Number of robots R (1..=255).
+    pub robots: usize,
+    /// How vertex states are shared.
+    pub sharing: Sharing,
+    /// S_r, cells per time unit (relative to the ground).
+    pub robot_speed: f64,
+    /// The ROI's velocity (east, north), cells per time unit; |v| = S_p < S_r.
+    pub roi_velocity: (f64, f64),
+    /// Time to take an image at a cell (the paper's model: 0).
+    pub observe_time: f64,
+    /// Keep every robot's sequence of cells in the outcome.
+    pub record_paths: bool,
+}
+
+impl Default for SimConfig {
+    fn default() -> Self {
+        SimConfig {
+            robots: 1,
+            sharing: Sharing::Gcs,
+            robot_speed: 1.0,
+            roi_velocity: (0.0, 0.0),
+            observe_time: 0.0,
+            record_paths: false,
+        }
+    }
+}
+
+/// What a simulated exploration did.
+#[derive(Clone, Debug)]
+pub struct SimOutcome {
+    /// ALG: when the last robot was back at the start.
+    pub cost: f64,
+    /// When each robot was back at the start for good.
+    pub done_times: Vec<f64>,
+    /// Cells in the tree (C, with a perfect sensor).
+    pub tree_cells: usize,
+    /// d_max of the built tree.
+    pub d_max: u32,
+    /// Unit tree edges flown by each robot.
+    pub moves: Vec<u64>,
+    /// Each robot's cells in the order it reached them (when `record_paths`).
+    pub paths: Vec<Vec<Cell>>,
+    /// The final explorer.
+    pub explorer: Explorer,
+    /// Events processed.
+    pub events: u64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Kind {
+    Poll,
+    Arrive(Cell),
+}
+
+#[derive(Clone, Copy, Debug)]
+struct Event {
+    time: f64,
+    seq: u64,
+    robot: usize,
+    kind: Kind,
+}
+
+impl PartialEq for Event {
+    fn eq(&self, o: &Self) -> bool {
+        self.cmp(o) == Ordering::Equal
+    }
+}
+impl Eq for Event {}
+impl PartialOrd for Event {
+    fn partial_cmp(&self, o: &Self) -> Option<Ordering> {
+        Some(self.cmp(o))
+    }
+}
+impl Ord for Event {
+    fn cmp(&self, o: &Self) -> Ordering {
+        self.time.total_cmp(&o.time).then(self.seq.cmp(&o.seq))
+    }
+}
+
+/// Run Algorithm 1 on the ROI `roi` (the set of ROI cells, ROI frame) from `start` (an ROI
+/// cell) with a perfect sensor.
+pub fn simulate(
+    roi: &HashSet<Cell>,
+    start: Cell,
+    cfg: &SimConfig,
+) -> Result<SimOutcome, ExploreError> {
+    let n = cfg.robots;
+    if n == 0 {
+        return Err(ExploreError::NoRobots);
+    }
+    if n > 255 {
+        return Err(ExploreError::Simulation(format!(
+            "{n} robots: at most 255 are supported"
+        )));
+    }
+    if !roi.contains(&start) {
+        return Err(ExploreError::Simulation(format!(
+            "the start {start} is not an ROI cell"
+        )));
+    }
+    let motion = RoiMotion::new(cfg.roi_velocity.0, cfg.roi_velocity.1, Time::ZERO);
+    motion.relative_speed(cfg.robot_speed, 1.0, 0.0)?;
+    let ids: Vec<RobotId> = (1..=n).map(|i| RobotId(i as u8)).collect();
+    let mut ex = Explorer::new(
+        ExplorerConfig {
+            sharing: cfg.sharing,
+        },
+        start,
+        &ids,
+    )?;
+    let mut pos = vec![start; n];
+    let mut done = vec![None::<f64>; n];
+    let mut paths: Vec<Vec<Cell>> = vec![Vec::new(); n];
+    let mut heap = BinaryHeap::new();
+    let mut seq = 0u64;
+    let mut push = |heap: &mut BinaryHeap<Reverse<Event>>, time, robot, kind| {
+        heap.push(Reverse(Event {
+            time,
+            seq,
+            robot,
+            kind,
+        }));
+        seq += 1;
+    };
+    // Everyone starts at the start cell.
+    for (r, &id) in ids.iter().enumerate() {
+        match ex.next_action(id)? {
+            Action::Rejoin(c) if c == start => ex.arrived(id, start)?,
+            other => {
+                return Err(ExploreError::Simulation(format!(
+                    "robot {id} began with {other:?} instead of rejoining the start"
+                )));
+            }
+        }
+        if cfg.record_paths {
+            paths[r].push(start);
+        }
+        push(&mut heap, 0.0, r, Kind::Poll);
+    }
+    let mut waiting: Vec<usize> = Vec::new();
+    let mut events = 0u64;
+    let limit = 200_000u64 + 50_000 * (roi.len() as u64) * (n as u64);
+    while let Some(Reverse(ev)) = heap.pop() {
+        events += 1;
+        if events > limit {
+            return Err(ExploreError::Simulation(format!(
+                "no end after {events} events"
+            )));
+        }
+        let (t, r, id) = (ev.time, ev.robot, ids[ev.robot]);
+        let progressed = match ev.kind {
+            Kind::Arrive(c) => {
+                ex.arrived(id, c)?;
+                pos[r] = c;
+                if cfg.record_paths {
+                    paths[r].push(c);
+                }
+                push(&mut heap, t, r, Kind::Poll);
+                true
+            }
+            Kind::Poll => match ex.next_action(id)? {
+                Action::MoveTo(c) => {
+                    if pos[r].manhattan(c) != 1 {
+                        return Err(ExploreError::Simulation(format!(
+                            "robot {id} sent from {} to non-adjacent {c}",
+                            pos[r]
+                        )));
+                    }
+                    let dt = motion.travel_time(pos[r], c, 1.0, cfg.robot_speed)?;
+                    push(&mut heap, t + dt, r, Kind::Arrive(c));
+                    true
+                }
+                Action::Rejoin(c) => {
+                    let dt = motion.travel_time(pos[r], c, 1.0, cfg.robot_speed)?;
+                    push(&mut heap, t + dt, r, Kind::Arrive(c));
+                    true
+                }
+                Action::Observe => {
+                    let c = pos[r];
+                    let labels = Dir4::ALL.map(|d| roi.contains(&c.step(d)));
+                    ex.observe(id, c, labels)?;
+                    push(&mut heap, t + cfg.observe_time, r, Kind::Poll);
+                    true
+                }
+                Action::Wait => {
+                    waiting.push(r);
+                    false
+                }
+                Action::Done => {
+                    done[r] = Some(t);
+                    true
+                }
+                Action::ReturnHome => {
+                    return Err(ExploreError::Simulation(format!(
+                        "robot {id} was paused, which the simulation never does"
+                    )));
+                }
+            },
+        };
+        if progressed {
+            for w in waiting.drain(..) {
+                push(&mut heap, t, w, Kind::Poll);
+            }
+        }
+    }
+    if !waiting.is_empty() || done.iter().any(Option::is_none) || !ex.is_finished() {
+        return Err(ExploreError::Simulation(format!(
+            "stalled: {} robots waiting, {} not done, finished = {}",
+            waiting.len(),
+            done.iter().filter(|d| d.is_none()).count(),
+            ex.is_finished()
+        )));
+    }
+    let done_times: Vec<f64> = done.into_iter().map(|d| d.unwrap_or(0.0)).collect();
+    Ok(SimOutcome {
+        cost: done_times.iter().copied().fold(0.0, f64::max),
+        done_times,
+        tree_cells: ex.tree().real_count(),
+        d_max: ex.d_max(),
+        moves: ex.robots().iter().map(|r| r.moves).collect(),
+        paths,
+        explorer: ex,
+        events,
+    })
+}
+
+/// A random connected ROI of `cells` grid cells, as in Fig. 7a: grown from cell (0, 0) by
+/// adding, `cells − 1` times, a uniformly random 4-neighbour of the region that is not yet in
+/// it (Eden growth). Returns the cells (always 4-connected) and a uniformly random start cell
+/// among them.
+pub fn random_roi<R: rand::RngExt + ?Sized>(rng: &mut R, cells: usize) -> (HashSet<Cell>, Cell) {
+    let mut roi: HashSet<Cell> = HashSet::with_capacity(cells);
+    if cells == 0 {
+        return (roi, Cell::new(0, 0));
+    }
+    let mut order: Vec<Cell> = Vec::with_capacity(cells);
+    let mut frontier: Vec<Cell> = Vec::new();
+    let mut in_frontier: HashSet<Cell> = HashSet::new();
+    let mut next = Cell::new(0, 0);
+    loop {
+        roi.insert(next);
+        order.push(next);
+        for n in next.neighbours4() {
+            if !roi.contains(&n) && in_frontier.insert(n) {
+                frontier.push(n);
+            }
+        }
+        if roi.len() >= cells {
+            break;
+        }
+        let k = rng.random_range(0..frontier.len());
+        next = frontier.swap_remove(k);
+        in_frontier.remove(&next);
+    }
+    let start = order[rng.random_range(0..order.len())];
+    (roi, start)
+}

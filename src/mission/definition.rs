@@ -1,0 +1,769 @@
+//! Mission definition files: the human-edited TOML file that describes one field mission,
+//! for both mission kinds (runway mapping, runway paper §7; spatial classification, bandit
+//! paper §II–§VI). The annotated reference is `missions/runway-field-test.toml` (every key,
+//! with its default) and the README section "Mission files".
+//!
+//! ```text
+//! name, kind ("runway-mapping" | "spatial-classification"), description?
+//! [grid]            origin = "vehicle" | { lat, lon }, cell_size_m
+//! [flight]          altitude_m, altitude_separation_m = 0, speed_m_s
+//! [camera]          hfov_deg = 53.13, width_px = 480, height_px = 480
+//! [battery]         flight_time_min = 12, rtl_reserve_pct = 20
+//! [[vehicles]]      sysid, role ("drone" | "station"), name?, start? = [row, col]
+//! [area]            rows?, cols?, obstacles = [], roads?, roads_are_candidates = true
+//! [runway]          images_per_cell = 5, votes_required = 3, intensity_threshold = 150,
+//!                   dilations = 7, black_fraction = 0.5, lane_spacing_m?
+//! [runway.sweep]    north_m = [min, max], east_m = [min, max]
+//!                   | south_west = { lat, lon }, north_east = { lat, lon }
+//! [classification]  theta = 0.5, epsilon = 0.05, delta = 0.0001, epoch_goals = 8,
+//!                   batch_size = 10, drone_cycle_steps = 8, station_cycle_steps = 4,
+//!                   max_cycles = 4, charger_capacity?
+//! [classification.green] hsv_min = [35, 60, 40], hsv_max = [85, 255, 255],
+//!                   fraction_threshold = 0.2
+//! ```
+//!
+//! Cells are `[row, col]` in the grid convention (DESIGN.md §4): rows grow north, columns
+//! east, the origin is the centre of cell (0, 0), indices may be negative.
+//!
+//! # How errors are found and located
+//!
+//! [`MissionDef::parse`] does not stop at the first problem; [`DefErrors`] lists every one,
+//! each as `file:line:column: key.path: what was expected, what was found`:
+//!
+//! 1. **Syntax**: the document is parsed with `toml::de::DeTable::parse_recoverable`, which
+//!    keeps going after an error and gives each error a byte span. If there are syntax errors
+//!    they are reported (sorted, the first per line) and nothing else is checked, because the
+//!    rest of the tree is a guess.
+//! 2. **Structure and types** (`reader`): the spanned tree (`DeTable`, whose every key and
+//!    value is a `serde_spanned::Spanned`) is walked against the schema by hand, rather than
+//!    with `toml::from_str`, because serde stops at the first error. Unknown keys (with a
+//!    "did you mean" suggestion), missing required keys, wrong types and integers that do not
+//!    fit their type are all reported. Every value's span is recorded under its key path
+//!    (`vehicles[2].sysid`, `area.obstacles[4]`).
+//! 3. **Values and semantics** (`validate`): ranges and cross-field rules on the typed
+//!    [`MissionDef`] (duplicate system ids, an obstacle that is also a road, Td not a
+//!    multiple of Tc, drones without a station, ε outside (0, min(θ, 1−θ)) …). Each problem
+//!    names the key path of the offending value, which the span table turns into a line and
+//!    column. Values that already failed step 2 are replaced by placeholders and *poisoned*:
+//!    problems involving them are not reported twice.
+//!
+//! The same [`MissionDef`] also derives serde (`deny_unknown_fields`, the same key names and
+//! defaults) so that it round-trips through TOML and JSON (`fleetmap check --json`, the copy
+//! in a run directory); a test checks that the serde path and the reader agree on every
+//! example file. [`MissionDef::validate`] runs step 3 on a definition built in code.
+
+mod reader;
+mod validate;
+
+use crate::geo::Cell;
+use crate::vision::camera::CameraModel;
+use serde::{Deserialize, Deserializer, Serialize, Serializer};
+use std::collections::HashSet;
+use std::fmt;
+use std::path::Path;
+
+/// The most cells a mission's search area or sweep box may hold (validation limits the
+/// area to 1000 × 1000).
+pub const MAX_CELLS: u64 = 10_000_000;
+
+/// Which field mission a definition describes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MissionKind {
+    /// Runway mapping (runway paper): lawnmower sweep, then the multi-robot recursive DFS.
+    RunwayMapping,
+    /// Spatial classification (bandit paper): UCB bandit + integer-program sorties with
+    /// mobile charging stations.
+    SpatialClassification,
+}
+
+impl MissionKind {
+    /// The spelling used in mission files (`"runway-mapping"`, `"spatial-classification"`).
+    pub fn as_str(self) -> &'static str {
+        match self {
+            MissionKind::RunwayMapping => "runway-mapping",
+            MissionKind::SpatialClassification => "spatial-classification",
+        }
+    }
+}
+
+impl fmt::Display for MissionKind {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.as_str())
+    }
+}
+
+/// A WGS84 position, degrees.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct LatLon {
+    /// Latitude, degrees north (−80 … 84, the UTM range).
+    pub lat: f64,
+    /// Longitude, degrees east (−180 … 180).
+    pub lon: f64,
+}
+
+/// Where the grid's origin (the centre of cell (0, 0)) is.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum Origin {
+    /// The home position of the first vehicle listed (`origin = "vehicle"`), known once it
+    /// is connected — the runway paper's choice (§7: "the origin of the grid is placed at the
+    /// starting location of the UAV").
+    Vehicle,
+    /// A fixed position (`origin = { lat = …, lon = … }`).
+    Coordinates(LatLon),
+}
+
+impl Serialize for Origin {
+    fn serialize<S: Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
+        match self {
+            Origin::Vehicle => s.serialize_str("vehicle"),
+            Origin::Coordinates(p) => p.serialize(s),
+        }
+    }
+}
+
+impl<'de> Deserialize<'de> for Origin {
+    fn deserialize<D: Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
+        #[derive(Deserialize)]
+        #[serde(untagged)]
+        enum Raw {
+            Word(String),
+            At(LatLon),
+        }
+        match Raw::deserialize(d)? {
+            Raw::Word(w) if w == "vehicle" => Ok(Origin::Vehicle),
+            Raw::Word(w) => Err(serde::de::Error::custom(format!(
+                "expected \"vehicle\" or {{ lat = …, lon = … }}, found {w:?}"
+            ))),
+            Raw::At(p) => Ok(Origin::Coordinates(p)),
+        }
+    }
+}
+
+/// `[grid]`: how cells are laid on the ground.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GridDef {
+    /// The centre of cell (0, 0).
+    pub origin: Origin,
+    /// Side of a (square) cell, metres. Runway paper: 4 m.
+    pub cell_size_m: f64,
+}
+
+/// `[flight]`: altitudes (relative to home) and speeds.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct FlightDef {
+    /// Altitude of the first drone, metres above home. Runway paper: 12 m (the centre ninth
+    /// of the image then covers one 4 m cell).
+    pub altitude_m: f64,
+    /// Extra altitude per drone, metres: the k-th drone listed (k = 0, 1, …) flies at
+    /// `altitude_m + k · altitude_separation_m` (bandit paper §III-B, collision avoidance by
+    /// altitude as in its ref. [5]). 0 = all at the same altitude.
+    #[serde(default)]
+    pub altitude_separation_m: f64,
+    /// Drone ground speed, m/s. Runway paper: 1 m/s. Stations drive at
+    /// `speed_m_s · station_cycle_steps / drone_cycle_steps` (γ = Td/Tc = v_d/v_c).
+    pub speed_m_s: f64,
+}
+
+/// `[battery]`: drone endurance.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct BatteryDef {
+    /// Flight time on one battery, minutes. Runway paper: about 12 minutes.
+    #[serde(default = "default_flight_time_min")]
+    pub flight_time_min: f64,
+    /// Return home when the remaining charge falls to this percentage (0 ≤ x < 100).
+    /// Our choice (20 %); the papers do not give one.
+    #[serde(default = "default_rtl_reserve_pct")]
+    pub rtl_reserve_pct: f64,
+}
+
+fn default_flight_time_min() -> f64 {
+    12.0
+}
+fn default_rtl_reserve_pct() -> f64 {
+    20.0
+}
+
+impl Default for BatteryDef {
+    fn default() -> Self {
+        BatteryDef {
+            flight_time_min: default_flight_time_min(),
+            rtl_reserve_pct: default_rtl_reserve_pct(),
+        }
+    }
+}
+
+/// What a vehicle does in the mission.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum Role {
+    /// A sensing aerial vehicle (copter) with a downward camera.
+    Drone,
+    /// A mobile charging station (rover) that drones rendezvous with (bandit paper).
+    Station,
+}
+
+impl fmt::Display for Role {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Role::Drone => "drone",
+            Role::Station => "station",
+        })
+    }
+}
+
+/// `[[vehicles]]`: one vehicle of the team, in the order of `fleetmap sim --vehicles`.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct VehicleDef {
+    /// MAVLink system id, 1–254 (255 is the ground station), unique in the mission.
+    pub sysid: u8,
+    /// Drone or charging station.
+    pub role: Role,
+    /// A name for displays and logs.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub name: Option<String>,
+    /// Start cell (spatial classification: required, the initial team configuration X0, Y0
+    /// of eq. 7a; a drone starts on a station's cell).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "cell_serde::option"
+    )]
+    pub start: Option<Cell>,
+}
+
+/// `[area]`: which cells exist, which are forbidden, where stations may drive.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct AreaDef {
+    /// Spatial classification: the search area G is rows 0 … rows−1 (northward).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub rows: Option<u32>,
+    /// Spatial classification: the search area G is columns 0 … cols−1 (eastward).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub cols: Option<u32>,
+    /// No-fly / obstacle cells O: no vehicle ever enters them.
+    #[serde(default, with = "cell_serde::list")]
+    pub obstacles: Vec<Cell>,
+    /// Station-admissible cells R (roads). Absent = every cell of G that is not an obstacle
+    /// (bandit paper §VI).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        with = "cell_serde::option_list"
+    )]
+    pub roads: Option<Vec<Cell>>,
+    /// Whether road cells are candidates C for classification. The hardware test of the
+    /// bandit paper (§V) excluded R from C (`false`); with no road restriction (§VI) they
+    /// must be candidates (`true`, the default).
+    #[serde(default = "default_true")]
+    pub roads_are_candidates: bool,
+}
+
+fn default_true() -> bool {
+    true
+}
+
+impl Default for AreaDef {
+    fn default() -> Self {
+        AreaDef {
+            rows: None,
+            cols: None,
+            obstacles: Vec::new(),
+            roads: None,
+            roads_are_candidates: true,
+        }
+    }
+}
+
+/// `[runway.sweep]`: the bounding box the lawnmower phase sweeps (runway paper §7), known to
+/// contain part of the region.
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(untagged, deny_unknown_fields)]
+pub enum SweepBox {
+    /// Metres relative to the grid origin — the form to use with `origin = "vehicle"`,
+    /// whose position is only known at run time.
+    Local {
+        /// Northward extent `[min, max]`, metres from the origin.
+        north_m: [f64; 2],
+        /// Eastward extent `[min, max]`, metres from the origin.
+        east_m: [f64; 2],
+    },
+    /// WGS84 corners.
+    Corners {
+        /// South-west corner.
+        south_west: LatLon,
+        /// North-east corner.
+        north_east: LatLon,
+    },
+}
+
+/// `[runway]`: the runway classifier and sweep (runway paper §7).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct RunwayDef {
+    /// Images taken over every visited cell. Paper: 5.
+    #[serde(default = "default_images_per_cell")]
+    pub images_per_cell: u32,
+    /// Positive votes (of `images_per_cell`) that make a cell positive. Paper: 3.
+    #[serde(default = "default_votes_required")]
+    pub votes_required: u32,
+    /// Grayscale threshold (0–255): darker pixels are "black" (runway). Paper: 150.
+    #[serde(default = "default_intensity_threshold")]
+    pub intensity_threshold: u8,
+    /// Dilations of the thresholded image (fill the gaps in the grass). Paper: 7.
+    #[serde(default = "default_dilations")]
+    pub dilations: u32,
+    /// An image region (one of the 3×3) votes "runway" when at least this fraction of its
+    /// pixels is black. The paper uses "a threshold" without giving it; 0.5 is our choice.
+    #[serde(default = "default_black_fraction")]
+    pub black_fraction: f64,
+    /// Distance between lawnmower lanes, metres. Absent: the camera footprint width at
+    /// `flight.altitude_m`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lane_spacing_m: Option<f64>,
+    /// The box to sweep.
+    pub sweep: SweepBox,
+}
+
+fn default_images_per_cell() -> u32 {
+    5
+}
+fn default_votes_required() -> u32 {
+    3
+}
+fn default_intensity_threshold() -> u8 {
+    150
+}
+fn default_dilations() -> u32 {
+    7
+}
+fn default_black_fraction() -> f64 {
+    0.5
+}
+
+/// `[classification.green]`: the green-pixel measurement of the bandit paper's hardware
+/// test (§V: OpenCV counts green pixels in each image). The paper gives no numbers; these
+/// are ours.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct GreenDef {
+    /// Lower HSV bound, OpenCV scale: H 0–179, S 0–255, V 0–255.
+    #[serde(default = "default_hsv_min")]
+    pub hsv_min: [u8; 3],
+    /// Upper HSV bound (inclusive), same scale; each channel ≥ the lower bound.
+    #[serde(default = "default_hsv_max")]
+    pub hsv_max: [u8; 3],
+    /// An image is a positive measurement (ν_l = 1) when at least this fraction of its
+    /// pixels is green, 0 < x ≤ 1.
+    #[serde(default = "default_fraction_threshold")]
+    pub fraction_threshold: f64,
+}
+
+fn default_hsv_min() -> [u8; 3] {
+    [35, 60, 40]
+}
+fn default_hsv_max() -> [u8; 3] {
+    [85, 255, 255]
+}
+fn default_fraction_threshold() -> f64 {
+    0.2
+}
+
+impl Default for GreenDef {
+    fn default() -> Self {
+        GreenDef {
+            hsv_min: default_hsv_min(),
+            hsv_max: default_hsv_max(),
+            fraction_threshold: default_fraction_threshold(),
+        }
+    }
+}
+
+/// `[classification]`: the bandit high-level planner (eq. 3–4) and the IP low-level planner
+/// (eq. 7–11). Defaults are the paper's simulation defaults (§VI and Fig. 2).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ClassificationDef {
+    /// θ ∈ (0, 1): a cell is interesting when μ_l ≥ θ (eq. 1). Default 0.5.
+    #[serde(default = "default_theta")]
+    pub theta: f64,
+    /// ε: labelling error tolerance (Assumption 1), 0 < ε < min(θ, 1 − θ). Default 0.05.
+    #[serde(default = "default_epsilon")]
+    pub epsilon: f64,
+    /// δ ∈ (0, 1): labelling error probability (eq. 2, 3b). Default 0.0001.
+    #[serde(default = "default_delta")]
+    pub delta: f64,
+    /// D ≥ 1: epoch goals chosen per epoch (Algorithm 1 step 3). Default 8.
+    #[serde(default = "default_epoch_goals")]
+    pub epoch_goals: u32,
+    /// B ≥ 1: measurements (images) per visit of an unclassified cell. Default 10.
+    #[serde(default = "default_batch_size")]
+    pub batch_size: u32,
+    /// Td ≥ 2: drone moves per sensing cycle (battery limit). Default 8.
+    #[serde(default = "default_drone_cycle_steps")]
+    pub drone_cycle_steps: u32,
+    /// Tc ≥ 2: station moves per sensing cycle; Td must be a multiple (γ = Td/Tc). Default 4.
+    #[serde(default = "default_station_cycle_steps")]
+    pub station_cycle_steps: u32,
+    /// K ≥ 1: most sensing cycles per epoch the IP may use (eq. 6). Default 4.
+    #[serde(default = "default_max_cycles")]
+    pub max_cycles: u32,
+    /// C ≥ 1: most drones on one station at a cycle's start and end (eq. 10); absent = no
+    /// limit.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub charger_capacity: Option<u32>,
+    /// The green-pixel measurement.
+    #[serde(default)]
+    pub green: GreenDef,
+}
+
+fn default_theta() -> f64 {
+    0.5
+}
+fn default_epsilon() -> f64 {
+    0.05
+}
+fn default_delta() -> f64 {
+    0.0001
+}
+fn default_epoch_goals() -> u32 {
+    8
+}
+fn default_batch_size() -> u32 {
+    10
+}
+fn default_drone_cycle_steps() -> u32 {
+    8
+}
+fn default_station_cycle_steps() -> u32 {
+    4
+}
+fn default_max_cycles() -> u32 {
+    4
+}
+
+impl Default for ClassificationDef {
+    fn default() -> Self {
+        ClassificationDef {
+            theta: default_theta(),
+            epsilon: default_epsilon(),
+            delta: default_delta(),
+            epoch_goals: default_epoch_goals(),
+            batch_size: default_batch_size(),
+            drone_cycle_steps: default_drone_cycle_steps(),
+            station_cycle_steps: default_station_cycle_steps(),
+            max_cycles: default_max_cycles(),
+            charger_capacity: None,
+            green: GreenDef::default(),
+        }
+    }
+}
+
+/// A mission definition file, parsed and validated (see the module documentation).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct MissionDef {
+    /// Free-text name, shown in the UI and stored with runs.
+    pub name: String,
+    /// Which mission.
+    pub kind: MissionKind,
+    /// Longer free text.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub description: Option<String>,
+    /// The grid.
+    pub grid: GridDef,
+    /// Altitudes and speeds.
+    pub flight: FlightDef,
+    /// The drones' camera (default: [`CameraModel::paper`], 53.13° square, 480 px).
+    #[serde(default = "CameraModel::paper")]
+    pub camera: CameraModel,
+    /// Battery limits.
+    #[serde(default)]
+    pub battery: BatteryDef,
+    /// The team, in order (the first one is the grid origin with `origin = "vehicle"`).
+    pub vehicles: Vec<VehicleDef>,
+    /// Cells: search area, obstacles, roads.
+    #[serde(default)]
+    pub area: AreaDef,
+    /// Runway-mapping parameters (present exactly for that kind).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub runway: Option<RunwayDef>,
+    /// Spatial-classification parameters (present exactly for that kind; filled with the
+    /// defaults when the file has no `[classification]` table).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub classification: Option<ClassificationDef>,
+}
+
+/// One problem in a mission file.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DefError {
+    /// The file name as given to [`MissionDef::parse`] / [`MissionDef::load`].
+    pub file: String,
+    /// 1-based line of the offending value (0 when unknown, e.g. a definition built in code).
+    pub line: usize,
+    /// 1-based column, in characters (0 when unknown).
+    pub column: usize,
+    /// Key path of the offending value (`grid.cell_size_m`, `vehicles[2].sysid`); empty for
+    /// syntax errors and whole-file problems.
+    pub path: String,
+    /// What was expected and what was found.
+    pub message: String,
+}
+
+impl fmt::Display for DefError {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{}", self.file)?;
+        if self.line > 0 {
+            write!(f, ":{}:{}", self.line, self.column)?;
+        }
+        if self.path.is_empty() {
+            write!(f, ": {}", self.message)
+        } else {
+            write!(f, ": {}: {}", self.path, self.message)
+        }
+    }
+}
+
+/// Every problem found in a mission file, in file order. Displays one per line.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DefErrors {
+    /// The problems (never empty when returned as an error).
+    pub errors: Vec<DefError>,
+}
+
+impl fmt::Display for DefErrors {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        for (i, e) in self.errors.iter().enumerate() {
+            if i > 0 {
+                writeln!(f)?;
+            }
+            write!(f, "{e}")?;
+        }
+        Ok(())
+    }
+}
+
+impl std::error::Error for DefErrors {}
+
+impl MissionDef {
+    /// Read, parse and validate the mission file at `path`. Errors name the file as given.
+    pub fn load(path: impl AsRef<Path>) -> Result<MissionDef, DefErrors> {
+        let path = path.as_ref();
+        let file = path.display().to_string();
+        let bytes = std::fs::read(path).map_err(|e| DefErrors {
+            errors: vec![DefError {
+                file: file.clone(),
+                line: 0,
+                column: 0,
+                path: String::new(),
+                message: format!("cannot read the file: {e}"),
+            }],
+        })?;
+        match std::str::from_utf8(&bytes) {
+            Ok(text) => MissionDef::parse(text, &file),
+            Err(e) => {
+                let valid = &bytes[..e.valid_up_to()];
+                // The valid prefix is UTF-8 by construction.
+                let prefix = String::from_utf8_lossy(valid);
+                let (line, column) = reader::line_col(&prefix, prefix.len());
+                Err(DefErrors {
+                    errors: vec![DefError {
+                        file,
+                        line,
+                        column,
+                        path: String::new(),
+                        message: "the file is not UTF-8 text (TOML files must be UTF-8)".into(),
+                    }],
+                })
+            }
+        }
+    }
+
+    /// Parse and validate mission-file `text`; `file_name` is used in error messages.
+    pub fn parse(text: &str, file_name: &str) -> Result<MissionDef, DefErrors> {
+        let (mut def, mut ctx) = reader::read(text, file_name)?;
+        def.fill_defaults();
+        let issues = validate::check(&def);
+        ctx.report(issues);
+        ctx.finish().map(|()| def)
+    }
+
+    /// Check the values and cross-field rules of a definition built in code or read with
+    /// serde (errors have no line numbers; `file` is `"<mission>"`).
+    pub fn validate(&self) -> Result<(), DefErrors> {
+        let mut ctx = reader::Ctx::detached("<mission>");
+        ctx.report(validate::check(self));
+        ctx.finish()
+    }
+
+    /// Give the mission kind's parameter table its defaults when it is absent (what
+    /// [`MissionDef::parse`] does; call it after deserialising with serde).
+    pub fn fill_defaults(&mut self) {
+        if self.kind == MissionKind::SpatialClassification && self.classification.is_none() {
+            self.classification = Some(ClassificationDef::default());
+        }
+    }
+
+    /// The drones, in file order.
+    pub fn drones(&self) -> impl Iterator<Item = &VehicleDef> {
+        self.vehicles.iter().filter(|v| v.role == Role::Drone)
+    }
+
+    /// The charging stations, in file order.
+    pub fn stations(&self) -> impl Iterator<Item = &VehicleDef> {
+        self.vehicles.iter().filter(|v| v.role == Role::Station)
+    }
+
+    /// Flight altitude (metres above home) of the drone with system id `sysid`:
+    /// `altitude_m + k · altitude_separation_m` for the k-th drone listed; `None` if
+    /// `sysid` is not a drone of this mission.
+    pub fn altitude_for(&self, sysid: u8) -> Option<f64> {
+        let k = self.drones().position(|v| v.sysid == sysid)?;
+        Some(self.flight.altitude_m + k as f64 * self.flight.altitude_separation_m)
+    }
+
+    /// The search area G (spatial classification): every cell of rows × cols, row-major
+    /// from (0, 0); empty when the mission has no bounded area, or one larger than
+    /// [`MAX_CELLS`] (which validation rejects).
+    pub fn area_cells(&self) -> Vec<Cell> {
+        let (Some(rows), Some(cols)) = (self.area.rows, self.area.cols) else {
+            return Vec::new();
+        };
+        if u64::from(rows) * u64::from(cols) > MAX_CELLS {
+            return Vec::new();
+        }
+        let (rows, cols) = (rows as i32, cols as i32); // ≤ MAX_CELLS, so they fit
+        (0..rows)
+            .flat_map(|r| (0..cols).map(move |c| Cell::new(r, c)))
+            .collect()
+    }
+
+    /// Whether `cell` is inside the bounded search area (always true without one).
+    pub fn in_area(&self, cell: Cell) -> bool {
+        match (self.area.rows, self.area.cols) {
+            (Some(rows), Some(cols)) => {
+                cell.row >= 0
+                    && cell.col >= 0
+                    && (cell.row as u32) < rows
+                    && (cell.col as u32) < cols
+            }
+            _ => true,
+        }
+    }
+
+    /// The station-admissible set R: the roads, or G \ O when no roads are given.
+    pub fn station_cells(&self) -> Vec<Cell> {
+        match &self.area.roads {
+            Some(r) => r.clone(),
+            None => {
+                let obstacles: HashSet<Cell> = self.area.obstacles.iter().copied().collect();
+                self.area_cells()
+                    .into_iter()
+                    .filter(|c| !obstacles.contains(c))
+                    .collect()
+            }
+        }
+    }
+
+    /// The candidate cells C to classify: G \ O, minus the roads when
+    /// `roads_are_candidates = false`.
+    pub fn candidate_cells(&self) -> Vec<Cell> {
+        let obstacles: HashSet<Cell> = self.area.obstacles.iter().copied().collect();
+        let roads: HashSet<Cell> = match (&self.area.roads, self.area.roads_are_candidates) {
+            (Some(r), false) => r.iter().copied().collect(),
+            _ => HashSet::new(),
+        };
+        self.area_cells()
+            .into_iter()
+            .filter(|c| !obstacles.contains(c) && !roads.contains(c))
+            .collect()
+    }
+
+    /// Station driving speed, m/s: `speed_m_s · Tc / Td` (bandit paper §II: γ = v_d/v_c =
+    /// Td/Tc); `None` for runway mapping.
+    pub fn station_speed_m_s(&self) -> Option<f64> {
+        let c = self.classification.as_ref()?;
+        let td = f64::from(c.drone_cycle_steps.max(1));
+        Some(self.flight.speed_m_s * f64::from(c.station_cycle_steps) / td)
+    }
+
+    /// Cells whose centres lie in a [`SweepBox::Local`] sweep box, row-major from the
+    /// south-west (`None` for WGS84 corners, which need the origin's position, without a
+    /// runway table, or when the box holds more than [`MAX_CELLS`] cells).
+    pub fn sweep_cells(&self) -> Option<Vec<Cell>> {
+        let SweepBox::Local { north_m, east_m } = self.runway.as_ref()?.sweep else {
+            return None;
+        };
+        let s = self.grid.cell_size_m;
+        let finite = north_m.iter().chain(&east_m).all(|x| x.is_finite());
+        if !(s > 0.0 && s.is_finite() && finite) {
+            return None;
+        }
+        let span = |lo: f64, hi: f64| ((lo / s).ceil(), (hi / s).floor());
+        let ((r0, r1), (c0, c1)) = (span(north_m[0], north_m[1]), span(east_m[0], east_m[1]));
+        let count = (r1 - r0 + 1.0).max(0.0) * (c1 - c0 + 1.0).max(0.0);
+        if count > MAX_CELLS as f64 || r0.abs().max(r1.abs()).max(c0.abs()).max(c1.abs()) > 1e9 {
+            return None;
+        }
+        let (r0, r1, c0, c1) = (r0 as i32, r1 as i32, c0 as i32, c1 as i32);
+        Some(
+            (r0..=r1)
+                .flat_map(|r| (c0..=c1).map(move |c| Cell::new(r, c)))
+                .collect(),
+        )
+    }
+}
+
+/// Serde helpers writing cells as `[row, col]` arrays (the mission-file form).
+mod cell_serde {
+    use crate::geo::Cell;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    fn pair(c: &Cell) -> [i32; 2] {
+        [c.row, c.col]
+    }
+    fn cell(p: [i32; 2]) -> Cell {
+        Cell::new(p[0], p[1])
+    }
+
+    pub mod list {
+        use super::*;
+        pub fn serialize<S: Serializer>(v: &[Cell], s: S) -> Result<S::Ok, S::Error> {
+            v.iter().map(pair).collect::<Vec<_>>().serialize(s)
+        }
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Cell>, D::Error> {
+            Ok(Vec::<[i32; 2]>::deserialize(d)?
+                .into_iter()
+                .map(cell)
+                .collect())
+        }
+    }
+
+    pub mod option {
+        use super::*;
+        pub fn serialize<S: Serializer>(v: &Option<Cell>, s: S) -> Result<S::Ok, S::Error> {
+            v.as_ref().map(pair).serialize(s)
+        }
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Cell>, D::Error> {
+            Ok(Option::<[i32; 2]>::deserialize(d)?.map(cell))
+        }
+    }
+
+    pub mod option_list {
+        use super::*;
+        pub fn serialize<S: Serializer>(v: &Option<Vec<Cell>>, s: S) -> Result<S::Ok, S::Error> {
+            v.as_ref()
+                .map(|v| v.iter().map(pair).collect::<Vec<_>>())
+                .serialize(s)
+        }
+        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec<Cell>>, D::Error> {
+            Ok(Option::<Vec<[i32; 2]>>::deserialize(d)?.map(|v| v.into_iter().map(cell).collect()))
+        }
+    }
+}

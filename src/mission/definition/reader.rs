@@ -1,0 +1,959 @@
+//! Steps 1 and 2 of loading a mission file (see the parent module): TOML syntax with
+//! recovery, then a hand-written walk of the spanned tree against the schema that reports
+//! every structural problem and records the span of every value by key path.
+
+use super::validate::Issue;
+use super::*;
+use std::collections::HashMap;
+use std::ops::Range;
+use toml::Spanned;
+use toml::de::{DeTable, DeValue};
+
+type Val<'i> = Spanned<DeValue<'i>>;
+
+/// At most this many syntax errors are reported (later ones are mostly consequences).
+const MAX_SYNTAX_ERRORS: usize = 20;
+
+/// 1-based line and character column of byte `offset` in `text` (clamped to the text).
+pub(super) fn line_col(text: &str, offset: usize) -> (usize, usize) {
+    let mut offset = offset.min(text.len());
+    while !text.is_char_boundary(offset) {
+        offset -= 1;
+    }
+    let before = &text[..offset];
+    let line = before.matches('\n').count() + 1;
+    let line_start = before.rfind('\n').map_or(0, |i| i + 1);
+    let column = before[line_start..].chars().count() + 1;
+    (line, column)
+}
+
+/// Error collection: the file name, its text, the span of every value by key path, and the
+/// paths whose values failed to read (poisoned: later problems about them are dropped).
+pub(super) struct Ctx<'t> {
+    file: String,
+    text: &'t str,
+    /// False for definitions built in code: no positions.
+    located: bool,
+    errors: Vec<DefError>,
+    spans: HashMap<String, Range<usize>>,
+    poisoned: Vec<String>,
+}
+
+fn join(parent: &str, key: &str) -> String {
+    if parent.is_empty() {
+        key.to_string()
+    } else {
+        format!("{parent}.{key}")
+    }
+}
+
+/// The path one level up: `a.b[2].c` → `a.b[2]` → `a.b` → `a` → ``.
+fn parent_path(path: &str) -> Option<&str> {
+    if path.is_empty() {
+        return None;
+    }
+    let cut = path.rfind(['.', '[']).unwrap_or(0);
+    Some(&path[..cut])
+}
+
+/// Whether `path` is `prefix` or lies below it.
+fn is_under(path: &str, prefix: &str) -> bool {
+    path == prefix
+        || (path.starts_with(prefix)
+            && matches!(path.as_bytes().get(prefix.len()), Some(b'.') | Some(b'[')))
+}
+
+/// Levenshtein distance, for "did you mean" suggestions.
+fn edit_distance(a: &str, b: &str) -> usize {
+    let b: Vec<char> = b.chars().collect();
+    let mut prev: Vec<usize> = (0..=b.len()).collect();
+    for (i, ca) in a.chars().enumerate() {
+        let mut cur = vec![i + 1; b.len() + 1];
+        for (j, cb) in b.iter().enumerate() {
+            let sub = prev[j] + usize::from(ca != *cb);
+            cur[j + 1] = sub.min(prev[j + 1] + 1).min(cur[j] + 1);
+        }
+        prev = cur;
+    }
+    prev[b.len()]
+}
+
+/// How a value found in the file is described in messages.
+fn describe(v: &DeValue<'_>) -> String {
+    match v {
+        DeValue::String(s) => {
+            let mut s: String = s.chars().take(40).collect();
+            if s.len() == 40 {
+                s.push('…');
+            }
+            format!("string {s:?}")
+        }
+        DeValue::Integer(i) => format!("integer {i}"),
+        DeValue::Float(f) => format!("float {f}"),
+        DeValue::Boolean(b) => format!("boolean {b}"),
+        DeValue::Datetime(d) => format!("datetime {d}"),
+        DeValue::Array(a) if a.len() == 1 => "an array of 1 value".into(),
+        DeValue::Array(a) => format!("an array of {} values", a.len()),
+        DeValue::Table(_) => "a table".into(),
+    }
+}
+
+fn get<'a, 'i>(t: &'a DeTable<'i>, key: &str) -> Option<&'a Val<'i>> {
+    t.iter().find(|(k, _)| k.get_ref() == key).map(|(_, v)| v)
+}
+
+impl<'t> Ctx<'t> {
+    fn new(file: &str, text: &'t str) -> Ctx<'t> {
+        Ctx {
+            file: file.to_string(),
+            text,
+            located: true,
+            errors: Vec::new(),
+            spans: HashMap::new(),
+            poisoned: Vec::new(),
+        }
+    }
+
+    /// A context for a definition that did not come from a file (no positions).
+    pub(super) fn detached(file: &str) -> Ctx<'static> {
+        Ctx {
+            file: file.to_string(),
+            text: "",
+            located: false,
+            errors: Vec::new(),
+            spans: HashMap::new(),
+            poisoned: Vec::new(),
+        }
+    }
+
+    fn push(&mut self, offset: usize, path: &str, message: String) {
+        let (line, column) = if self.located {
+            line_col(self.text, offset)
+        } else {
+            (0, 0)
+        };
+        self.errors.push(DefError {
+            file: self.file.clone(),
+            line,
+            column,
+            path: path.to_string(),
+            message,
+        });
+    }
+
+    fn poison(&mut self, path: &str) {
+        self.poisoned.push(path.to_string());
+    }
+
+    /// Whether a rule about `path` depends on a value that failed to read: `path` lies
+    /// under a poisoned path, or a poisoned path lies under `path` (a rule about `vehicles`
+    /// depends on every vehicle).
+    fn is_poisoned(&self, path: &str) -> bool {
+        self.poisoned
+            .iter()
+            .any(|p| is_under(path, p) || is_under(p, path))
+    }
+
+    /// Report a type error at `v` and poison `path`.
+    fn wrong(&mut self, path: &str, v: &Val<'_>, expected: &str) {
+        let msg = format!("expected {expected}, found {}", describe(v.get_ref()));
+        self.push(v.span().start, path, msg);
+        self.poison(path);
+    }
+
+    /// Report a missing required key of the table at `table_path` and poison it.
+    fn missing(&mut self, table_path: &str, key: &str, expected: &str) {
+        let path = join(table_path, key);
+        let offset = self.spans.get(table_path).map_or(0, |s| s.start);
+        let msg = if table_path.is_empty() {
+            format!("missing (expected {expected})")
+        } else {
+            format!("missing in [{table_path}] (expected {expected})")
+        };
+        self.push(offset, &path, msg);
+        self.poison(&path);
+    }
+
+    /// Turn validation issues into located errors, dropping those about poisoned values.
+    pub(super) fn report(&mut self, issues: Vec<Issue>) {
+        for issue in issues {
+            if self.is_poisoned(&issue.path) || issue.involves.iter().any(|p| self.is_poisoned(p)) {
+                continue;
+            }
+            let mut message = issue.message;
+            let mut at = Some(issue.path.as_str());
+            let mut offset = 0;
+            let mut own = true;
+            while let Some(p) = at {
+                if let Some(span) = self.spans.get(p) {
+                    offset = span.start;
+                    break;
+                }
+                own = false;
+                at = parent_path(p);
+            }
+            if self.located && !own && issue.defaulted_if_absent {
+                message.push_str(" (the default value: the key is not in the file)");
+            }
+            self.push(offset, &issue.path, message);
+        }
+    }
+
+    /// All errors in file order, or `Ok` when there are none.
+    pub(super) fn finish(mut self) -> Result<(), DefErrors> {
+        if self.errors.is_empty() {
+            return Ok(());
+        }
+        self.errors.sort_by_key(|e| (e.line, e.column));
+        self.errors.dedup();
+        Err(DefErrors {
+            errors: self.errors,
+        })
+    }
+
+    // ---- tables -------------------------------------------------------------------
+
+    /// `v` as a table whose keys must be among `known`; unknown keys are reported at the
+    /// key, with a suggestion when one is close.
+    fn table<'a, 'i>(
+        &mut self,
+        path: &str,
+        v: &'a Val<'i>,
+        known: &[&str],
+    ) -> Option<&'a DeTable<'i>> {
+        self.spans.insert(path.to_string(), v.span());
+        let DeValue::Table(t) = v.get_ref() else {
+            let what = if path.is_empty() {
+                "a table".to_string()
+            } else {
+                format!("a table [{path}]")
+            };
+            self.wrong(path, v, &what);
+            return None;
+        };
+        for (k, _) in t.iter() {
+            let name = k.get_ref().as_ref();
+            if known.contains(&name) {
+                continue;
+            }
+            let best = known
+                .iter()
+                .map(|c| (edit_distance(name, c), *c))
+                .min()
+                .filter(|(d, c)| *d <= 2.max(c.len() / 3));
+            let mut msg = match best {
+                Some((_, c)) => format!("unknown key {name:?} (did you mean {c:?}?)"),
+                None => format!("unknown key {name:?}"),
+            };
+            msg.push_str(&format!("; expected one of: {}", known.join(", ")));
+            let kpath = join(path, name);
+            self.push(k.span().start, &kpath, msg);
+        }
+        Some(t)
+    }
+
+    /// An optional sub-table: `None` when absent or not a table (the latter reported).
+    fn sub_table<'a, 'i>(
+        &mut self,
+        t: &'a DeTable<'i>,
+        tpath: &str,
+        key: &str,
+        known: &[&str],
+    ) -> Option<&'a DeTable<'i>> {
+        let v = get(t, key)?;
+        self.table(&join(tpath, key), v, known)
+    }
+
+    // ---- leaves ---------------------------------------------------------------------
+
+    fn record(&mut self, path: &str, v: &Val<'_>) {
+        self.spans.insert(path.to_string(), v.span());
+    }
+
+    fn num_of(&mut self, path: &str, v: &Val<'_>) -> Option<f64> {
+        self.record(path, v);
+        let n = match v.get_ref() {
+            DeValue::Integer(i) => i64::from_str_radix(i.as_str(), i.radix())
+                .ok()
+                .map(|n| n as f64),
+            DeValue::Float(f) => f.as_str().parse::<f64>().ok(),
+            _ => None,
+        };
+        if n.is_none() {
+            self.wrong(path, v, "a number");
+        }
+        n
+    }
+
+    fn int_of<T: TryFrom<i64>>(&mut self, path: &str, v: &Val<'_>, expected: &str) -> Option<T> {
+        self.record(path, v);
+        let DeValue::Integer(i) = v.get_ref() else {
+            self.wrong(path, v, expected);
+            return None;
+        };
+        let n = i64::from_str_radix(i.as_str(), i.radix())
+            .ok()
+            .and_then(|n| T::try_from(n).ok());
+        if n.is_none() {
+            self.wrong(path, v, expected);
+        }
+        n
+    }
+
+    fn str_of(&mut self, path: &str, v: &Val<'_>, expected: &str) -> Option<String> {
+        self.record(path, v);
+        match v.get_ref() {
+            DeValue::String(s) => Some(s.to_string()),
+            _ => {
+                self.wrong(path, v, expected);
+                None
+            }
+        }
+    }
+
+    fn bool_of(&mut self, path: &str, v: &Val<'_>) -> Option<bool> {
+        self.record(path, v);
+        match v.get_ref() {
+            DeValue::Boolean(b) => Some(*b),
+            _ => {
+                self.wrong(path, v, "true or false");
+                None
+            }
+        }
+    }
+
+    /// One of the given words (`kind`, `role`).
+    fn word_of<T: Copy>(&mut self, path: &str, v: &Val<'_>, words: &[(&str, T)]) -> Option<T> {
+        let list = words
+            .iter()
+            .map(|(w, _)| format!("{w:?}"))
+            .collect::<Vec<_>>()
+            .join(" or ");
+        let s = self.str_of(path, v, &list)?;
+        let found = words.iter().find(|(w, _)| *w == s).map(|(_, t)| *t);
+        if found.is_none() {
+            self.wrong(path, v, &list);
+        }
+        found
+    }
+
+    fn cell_of(&mut self, path: &str, v: &Val<'_>) -> Option<Cell> {
+        const EXPECTED: &str = "a cell [row, col] (two integers)";
+        self.record(path, v);
+        let a = match v.get_ref() {
+            DeValue::Array(a) if a.len() == 2 => a,
+            _ => {
+                self.wrong(path, v, EXPECTED);
+                return None;
+            }
+        };
+        let row = self.int_of::<i32>(&format!("{path}[0]"), &a[0], "an integer row");
+        let col = self.int_of::<i32>(&format!("{path}[1]"), &a[1], "an integer column");
+        match (row, col) {
+            (Some(r), Some(c)) => Some(Cell::new(r, c)),
+            _ => {
+                self.poison(path);
+                None
+            }
+        }
+    }
+
+    fn cells_of(&mut self, path: &str, v: &Val<'_>) -> Option<Vec<Cell>> {
+        self.record(path, v);
+        let DeValue::Array(a) = v.get_ref() else {
+            self.wrong(path, v, "an array of cells [[row, col], …]");
+            return None;
+        };
+        let mut out = Vec::with_capacity(a.len());
+        let mut ok = true;
+        for (i, item) in a.iter().enumerate() {
+            match self.cell_of(&format!("{path}[{i}]"), item) {
+                Some(c) => out.push(c),
+                None => ok = false,
+            }
+        }
+        if !ok {
+            self.poison(path);
+        }
+        Some(out)
+    }
+
+    /// A fixed-length array of numbers (`north_m = [min, max]`).
+    fn nums_of<const N: usize>(
+        &mut self,
+        path: &str,
+        v: &Val<'_>,
+        expected: &str,
+    ) -> Option<[f64; N]> {
+        self.record(path, v);
+        let a = match v.get_ref() {
+            DeValue::Array(a) if a.len() == N => a,
+            _ => {
+                self.wrong(path, v, expected);
+                return None;
+            }
+        };
+        let mut out = [0.0; N];
+        for (i, item) in a.iter().enumerate() {
+            out[i] = self.num_of(&format!("{path}[{i}]"), item)?;
+        }
+        Some(out)
+    }
+
+    /// A fixed-length array of small integers (`hsv_min = [h, s, v]`).
+    fn u8s_of<const N: usize>(
+        &mut self,
+        path: &str,
+        v: &Val<'_>,
+        expected: &str,
+    ) -> Option<[u8; N]> {
+        self.record(path, v);
+        let a = match v.get_ref() {
+            DeValue::Array(a) if a.len() == N => a,
+            _ => {
+                self.wrong(path, v, expected);
+                return None;
+            }
+        };
+        let mut out = [0u8; N];
+        for (i, item) in a.iter().enumerate() {
+            out[i] = self.int_of::<u8>(&format!("{path}[{i}]"), item, "an integer 0–255")?;
+        }
+        Some(out)
+    }
+
+    fn latlon_of(&mut self, path: &str, v: &Val<'_>) -> Option<LatLon> {
+        let t = self.table(path, v, &["lat", "lon"])?;
+        let lat = self.req(t, path, "lat", "a latitude in degrees", Self::num_of);
+        let lon = self.req(t, path, "lon", "a longitude in degrees", Self::num_of);
+        Some(LatLon {
+            lat: lat?,
+            lon: lon?,
+        })
+    }
+
+    // ---- required / optional fields ---------------------------------------------------
+
+    /// A required key read with `f` (which reports its own type errors).
+    fn req<T>(
+        &mut self,
+        t: &DeTable<'_>,
+        tpath: &str,
+        key: &str,
+        expected: &str,
+        f: impl FnOnce(&mut Self, &str, &Val<'_>) -> Option<T>,
+    ) -> Option<T> {
+        let path = join(tpath, key);
+        match get(t, key) {
+            Some(v) => {
+                let out = f(self, &path, v);
+                if out.is_none() {
+                    self.poison(&path);
+                }
+                out
+            }
+            None => {
+                self.missing(tpath, key, expected);
+                None
+            }
+        }
+    }
+
+    /// An optional key read with `f`: `Ok(None)` when absent, `Err(())` when malformed.
+    fn opt<T>(
+        &mut self,
+        t: &DeTable<'_>,
+        tpath: &str,
+        key: &str,
+        f: impl FnOnce(&mut Self, &str, &Val<'_>) -> Option<T>,
+    ) -> Result<Option<T>, ()> {
+        let path = join(tpath, key);
+        match get(t, key) {
+            Some(v) => match f(self, &path, v) {
+                Some(x) => Ok(Some(x)),
+                None => {
+                    self.poison(&path);
+                    Err(())
+                }
+            },
+            None => Ok(None),
+        }
+    }
+
+    /// An optional key with a default (the default also stands in when it is malformed;
+    /// the error is reported and the key poisoned).
+    fn or<T>(
+        &mut self,
+        t: &DeTable<'_>,
+        tpath: &str,
+        key: &str,
+        default: T,
+        f: impl FnOnce(&mut Self, &str, &Val<'_>) -> Option<T>,
+    ) -> T {
+        self.opt(t, tpath, key, f).ok().flatten().unwrap_or(default)
+    }
+}
+
+const ROOT_KEYS: &[&str] = &[
+    "name",
+    "kind",
+    "description",
+    "grid",
+    "flight",
+    "camera",
+    "battery",
+    "vehicles",
+    "area",
+    "runway",
+    "classification",
+];
+
+/// Parse `text` (steps 1 and 2). Syntax errors end the reading; structural errors are kept
+/// in the returned context (with placeholders in the definition) so that validation can add
+/// its own.
+pub(super) fn read<'t>(text: &'t str, file: &str) -> Result<(MissionDef, Ctx<'t>), DefErrors> {
+    let mut ctx = Ctx::new(file, text);
+    let (doc, syntax) = DeTable::parse_recoverable(text);
+    if !syntax.is_empty() {
+        let mut errs: Vec<(usize, String)> = syntax
+            .iter()
+            .map(|e| (e.span().map_or(0, |s| s.start), e.message().to_string()))
+            .collect();
+        errs.sort_by_key(|(o, _)| *o);
+        let mut last_line = 0;
+        for (offset, msg) in errs {
+            let (line, _) = line_col(text, offset);
+            if line == last_line || ctx.errors.len() >= MAX_SYNTAX_ERRORS {
+                continue;
+            }
+            last_line = line;
+            ctx.push(offset, "", format!("TOML syntax: {msg}"));
+        }
+        return Err(ctx
+            .finish()
+            .err()
+            .unwrap_or(DefErrors { errors: Vec::new() }));
+    }
+    let root_val = Spanned::new(0..0, DeValue::Table(doc.into_inner()));
+    let root = ctx.table("", &root_val, ROOT_KEYS);
+    let empty = DeTable::default();
+    let root = root.unwrap_or(&empty);
+    let def = read_root(&mut ctx, root);
+    Ok((def, ctx))
+}
+
+fn read_root(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> MissionDef {
+    let name = ctx
+        .req(root, "", "name", "a string", |c, p, v| {
+            c.str_of(p, v, "a string")
+        })
+        .unwrap_or_default();
+    let kinds = [
+        ("runway-mapping", MissionKind::RunwayMapping),
+        ("spatial-classification", MissionKind::SpatialClassification),
+    ];
+    let kind = ctx
+        .req(
+            root,
+            "",
+            "kind",
+            "\"runway-mapping\" or \"spatial-classification\"",
+            |c, p, v| c.word_of(p, v, &kinds),
+        )
+        .unwrap_or(MissionKind::RunwayMapping);
+    let description = ctx
+        .opt(root, "", "description", |c, p, v| {
+            c.str_of(p, v, "a string")
+        })
+        .unwrap_or(None);
+
+    let grid = read_grid(ctx, root);
+    let flight = read_flight(ctx, root);
+    let camera = read_camera(ctx, root);
+    let battery = read_battery(ctx, root);
+    let vehicles = read_vehicles(ctx, root);
+    let area = read_area(ctx, root);
+    let runway = read_runway(ctx, root);
+    let classification = read_classification(ctx, root);
+    MissionDef {
+        name,
+        kind,
+        description,
+        grid,
+        flight,
+        camera,
+        battery,
+        vehicles,
+        area,
+        runway,
+        classification,
+    }
+}
+
+/// A required table: reported missing (and poisoned) when absent.
+fn required_table<'a, 'i>(
+    ctx: &mut Ctx<'_>,
+    root: &'a DeTable<'i>,
+    key: &str,
+    known: &[&str],
+) -> Option<&'a DeTable<'i>> {
+    match get(root, key) {
+        Some(v) => ctx.table(key, v, known),
+        None => {
+            ctx.missing("", key, &format!("a table [{key}]"));
+            None
+        }
+    }
+}
+
+fn read_grid(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> GridDef {
+    let mut grid = GridDef {
+        origin: Origin::Vehicle,
+        cell_size_m: f64::NAN,
+    };
+    let Some(t) = required_table(ctx, root, "grid", &["origin", "cell_size_m"]) else {
+        return grid;
+    };
+    let origin_expected = "\"vehicle\" or { lat = …, lon = … }";
+    if let Some(o) = ctx.req(t, "grid", "origin", origin_expected, |c, p, v| {
+        match v.get_ref() {
+            DeValue::String(s) if s.as_ref() == "vehicle" => {
+                c.record(p, v);
+                Some(Origin::Vehicle)
+            }
+            DeValue::Table(_) => c.latlon_of(p, v).map(Origin::Coordinates),
+            _ => {
+                c.record(p, v);
+                c.wrong(p, v, origin_expected);
+                None
+            }
+        }
+    }) {
+        grid.origin = o;
+    }
+    grid.cell_size_m = ctx
+        .req(
+            t,
+            "grid",
+            "cell_size_m",
+            "a number > 0 (metres)",
+            Ctx::num_of,
+        )
+        .unwrap_or(f64::NAN);
+    grid
+}
+
+fn read_flight(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> FlightDef {
+    let known = ["altitude_m", "altitude_separation_m", "speed_m_s"];
+    let Some(t) = required_table(ctx, root, "flight", &known) else {
+        return FlightDef {
+            altitude_m: f64::NAN,
+            altitude_separation_m: 0.0,
+            speed_m_s: f64::NAN,
+        };
+    };
+    FlightDef {
+        altitude_m: ctx
+            .req(
+                t,
+                "flight",
+                "altitude_m",
+                "a number > 0 (metres above home)",
+                Ctx::num_of,
+            )
+            .unwrap_or(f64::NAN),
+        altitude_separation_m: ctx.or(t, "flight", "altitude_separation_m", 0.0, Ctx::num_of),
+        speed_m_s: ctx
+            .req(t, "flight", "speed_m_s", "a number > 0 (m/s)", Ctx::num_of)
+            .unwrap_or(f64::NAN),
+    }
+}
+
+fn read_camera(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> CameraModel {
+    let d = CameraModel::paper();
+    let Some(t) = ctx.sub_table(root, "", "camera", &["hfov_deg", "width_px", "height_px"]) else {
+        return d;
+    };
+    let px = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| {
+        c.int_of::<u32>(p, v, "an integer number of pixels ≥ 1")
+    };
+    CameraModel {
+        hfov_deg: ctx.or(t, "camera", "hfov_deg", d.hfov_deg, Ctx::num_of),
+        width_px: ctx.or(t, "camera", "width_px", d.width_px, px),
+        height_px: ctx.or(t, "camera", "height_px", d.height_px, px),
+    }
+}
+
+fn read_battery(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> BatteryDef {
+    let d = BatteryDef::default();
+    let Some(t) = ctx.sub_table(root, "", "battery", &["flight_time_min", "rtl_reserve_pct"])
+    else {
+        return d;
+    };
+    BatteryDef {
+        flight_time_min: ctx.or(
+            t,
+            "battery",
+            "flight_time_min",
+            d.flight_time_min,
+            Ctx::num_of,
+        ),
+        rtl_reserve_pct: ctx.or(
+            t,
+            "battery",
+            "rtl_reserve_pct",
+            d.rtl_reserve_pct,
+            Ctx::num_of,
+        ),
+    }
+}
+
+fn read_vehicles(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Vec<VehicleDef> {
+    let Some(v) = get(root, "vehicles") else {
+        ctx.missing("", "vehicles", "[[vehicles]] tables");
+        return Vec::new();
+    };
+    ctx.record("vehicles", v);
+    let DeValue::Array(items) = v.get_ref() else {
+        ctx.wrong("vehicles", v, "[[vehicles]] tables");
+        return Vec::new();
+    };
+    let roles = [("drone", Role::Drone), ("station", Role::Station)];
+    let mut out = Vec::with_capacity(items.len());
+    for (i, item) in items.iter().enumerate() {
+        let path = format!("vehicles[{i}]");
+        let Some(t) = ctx.table(&path, item, &["sysid", "role", "name", "start"]) else {
+            ctx.poison("vehicles");
+            continue;
+        };
+        let sysid = ctx
+            .req(t, &path, "sysid", "an integer 1–254", |c, p, v| {
+                c.int_of::<u8>(p, v, "an integer 1–254")
+            })
+            .unwrap_or(0);
+        let role = ctx
+            .req(t, &path, "role", "\"drone\" or \"station\"", |c, p, v| {
+                c.word_of(p, v, &roles)
+            })
+            .unwrap_or(Role::Drone);
+        let name = ctx
+            .opt(t, &path, "name", |c, p, v| c.str_of(p, v, "a string"))
+            .unwrap_or(None);
+        let start = ctx.opt(t, &path, "start", Ctx::cell_of).unwrap_or(None);
+        out.push(VehicleDef {
+            sysid,
+            role,
+            name,
+            start,
+        });
+    }
+    out
+}
+
+fn read_area(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> AreaDef {
+    let known = ["rows", "cols", "obstacles", "roads", "roads_are_candidates"];
+    let mut area = AreaDef::default();
+    let Some(t) = ctx.sub_table(root, "", "area", &known) else {
+        return area;
+    };
+    let count = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| c.int_of::<u32>(p, v, "an integer ≥ 1");
+    area.rows = ctx.opt(t, "area", "rows", count).unwrap_or(None);
+    area.cols = ctx.opt(t, "area", "cols", count).unwrap_or(None);
+    area.obstacles = ctx.or(t, "area", "obstacles", Vec::new(), Ctx::cells_of);
+    area.roads = ctx.opt(t, "area", "roads", Ctx::cells_of).unwrap_or(None);
+    area.roads_are_candidates = ctx.or(t, "area", "roads_are_candidates", true, Ctx::bool_of);
+    area
+}
+
+fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
+    let known = [
+        "images_per_cell",
+        "votes_required",
+        "intensity_threshold",
+        "dilations",
+        "black_fraction",
+        "lane_spacing_m",
+        "sweep",
+    ];
+    let t = ctx.sub_table(root, "", "runway", &known)?;
+    let count = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| c.int_of::<u32>(p, v, "an integer ≥ 1");
+    let p = "runway";
+    let images_per_cell = ctx.or(t, p, "images_per_cell", default_images_per_cell(), count);
+    let votes_required = ctx.or(t, p, "votes_required", default_votes_required(), count);
+    let intensity_threshold = ctx.or(
+        t,
+        p,
+        "intensity_threshold",
+        default_intensity_threshold(),
+        |c, p, v| c.int_of::<u8>(p, v, "an integer 0–255"),
+    );
+    let dilations = ctx.or(t, p, "dilations", default_dilations(), |c, p, v| {
+        c.int_of::<u32>(p, v, "an integer ≥ 0")
+    });
+    let black_fraction = ctx.or(
+        t,
+        p,
+        "black_fraction",
+        default_black_fraction(),
+        Ctx::num_of,
+    );
+    let lane_spacing_m = ctx.opt(t, p, "lane_spacing_m", Ctx::num_of).unwrap_or(None);
+    let sweep = read_sweep(ctx, t);
+    Some(RunwayDef {
+        images_per_cell,
+        votes_required,
+        intensity_threshold,
+        dilations,
+        black_fraction,
+        lane_spacing_m,
+        sweep,
+    })
+}
+
+fn read_sweep(ctx: &mut Ctx<'_>, runway: &DeTable<'_>) -> SweepBox {
+    let placeholder = SweepBox::Local {
+        north_m: [f64::NAN; 2],
+        east_m: [f64::NAN; 2],
+    };
+    let expected = "a table [runway.sweep] with north_m = [min, max], east_m = [min, max] \
+                    (metres from the origin) or south_west = { lat, lon }, north_east = { lat, lon }";
+    let Some(v) = get(runway, "sweep") else {
+        ctx.missing("runway", "sweep", expected);
+        ctx.poison("runway.sweep");
+        return placeholder;
+    };
+    let p = "runway.sweep";
+    let known = ["north_m", "east_m", "south_west", "north_east"];
+    let Some(t) = ctx.table(p, v, &known) else {
+        ctx.poison(p);
+        return placeholder;
+    };
+    let has = |k: &str| get(t, k).is_some();
+    let local = has("north_m") || has("east_m");
+    let corners = has("south_west") || has("north_east");
+    if local && corners {
+        ctx.push(
+            v.span().start,
+            p,
+            "give either north_m/east_m (metres from the origin) or south_west/north_east \
+             (WGS84 corners), not both"
+                .into(),
+        );
+        ctx.poison(p);
+        return placeholder;
+    }
+    if corners {
+        let sw = ctx.req(t, p, "south_west", "{ lat = …, lon = … }", Ctx::latlon_of);
+        let ne = ctx.req(t, p, "north_east", "{ lat = …, lon = … }", Ctx::latlon_of);
+        match (sw, ne) {
+            (Some(south_west), Some(north_east)) => SweepBox::Corners {
+                south_west,
+                north_east,
+            },
+            _ => {
+                ctx.poison(p);
+                placeholder
+            }
+        }
+    } else {
+        let range = "[min, max] (metres from the origin)";
+        let n = ctx.req(t, p, "north_m", range, |c, p, v| {
+            c.nums_of::<2>(p, v, range)
+        });
+        let e = ctx.req(t, p, "east_m", range, |c, p, v| c.nums_of::<2>(p, v, range));
+        match (n, e) {
+            (Some(north_m), Some(east_m)) => SweepBox::Local { north_m, east_m },
+            _ => {
+                ctx.poison(p);
+                placeholder
+            }
+        }
+    }
+}
+
+fn read_classification(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<ClassificationDef> {
+    let known = [
+        "theta",
+        "epsilon",
+        "delta",
+        "epoch_goals",
+        "batch_size",
+        "drone_cycle_steps",
+        "station_cycle_steps",
+        "max_cycles",
+        "charger_capacity",
+        "green",
+    ];
+    let t = ctx.sub_table(root, "", "classification", &known)?;
+    let d = ClassificationDef::default();
+    let p = "classification";
+    let count = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| c.int_of::<u32>(p, v, "an integer ≥ 1");
+    let mut out = ClassificationDef {
+        theta: ctx.or(t, p, "theta", d.theta, Ctx::num_of),
+        epsilon: ctx.or(t, p, "epsilon", d.epsilon, Ctx::num_of),
+        delta: ctx.or(t, p, "delta", d.delta, Ctx::num_of),
+        epoch_goals: ctx.or(t, p, "epoch_goals", d.epoch_goals, count),
+        batch_size: ctx.or(t, p, "batch_size", d.batch_size, count),
+        drone_cycle_steps: ctx.or(t, p, "drone_cycle_steps", d.drone_cycle_steps, count),
+        station_cycle_steps: ctx.or(t, p, "station_cycle_steps", d.station_cycle_steps, count),
+        max_cycles: ctx.or(t, p, "max_cycles", d.max_cycles, count),
+        charger_capacity: ctx.opt(t, p, "charger_capacity", count).unwrap_or(None),
+        green: d.green,
+    };
+    let gk = ["hsv_min", "hsv_max", "fraction_threshold"];
+    if let Some(g) = ctx.sub_table(t, p, "green", &gk) {
+        let gp = "classification.green";
+        let hsv = "[h, s, v] (OpenCV HSV: h 0–179, s and v 0–255)";
+        let dg = GreenDef::default();
+        out.green = GreenDef {
+            hsv_min: ctx.or(g, gp, "hsv_min", dg.hsv_min, |c, p, v| {
+                c.u8s_of::<3>(p, v, hsv)
+            }),
+            hsv_max: ctx.or(g, gp, "hsv_max", dg.hsv_max, |c, p, v| {
+                c.u8s_of::<3>(p, v, hsv)
+            }),
+            fraction_threshold: ctx.or(
+                g,
+                gp,
+                "fraction_threshold",
+                dg.fraction_threshold,
+                Ctx::num_of,
+            ),
+        };
+    }
+    Some(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn line_and_column_count_characters() {
+        let text = "a = 1\nbé = -4\n";
+        assert_eq!(line_col(text, 0), (1, 1));
+        assert_eq!(line_col(text, 6), (2, 1));
+        let off = text.find("-4").unwrap();
+        assert_eq!(line_col(text, off), (2, 6));
+        assert_eq!(line_col(text, 10_000), (3, 1));
+        // Inside a multi-byte character: clamped to its start.
+        assert_eq!(line_col(text, 8), (2, 2));
+    }
+
+    #[test]
+    fn paths_and_poison_prefixes() {
+        assert_eq!(parent_path("a.b[2].c"), Some("a.b[2]"));
+        assert_eq!(parent_path("a.b[2]"), Some("a.b"));
+        assert_eq!(parent_path("a"), Some(""));
+        assert_eq!(parent_path(""), None);
+        assert!(is_under("vehicles[1].sysid", "vehicles"));
+        assert!(is_under("vehicles", "vehicles"));
+        assert!(!is_under("vehicles_x", "vehicles"));
+    }
+
+    #[test]
+    fn suggestions_use_edit_distance() {
+        assert_eq!(edit_distance("cell_size", "cell_size_m"), 2);
+        assert_eq!(edit_distance("", "abc"), 3);
+    }
+}

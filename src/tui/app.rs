@@ -1,0 +1,714 @@
+//! The UI state and the pure update function.
+//!
+//! `update(&mut App, Event) -> Vec<Effect>` is the whole behaviour of the UI: it reads no
+//! clock (time arrives as [`Event::Tick`]), does no I/O and never waits on the network — a
+//! command becomes an [`Effect::Command`] for the shell to hand to whoever flies the
+//! vehicles, and its outcome comes back later as [`Event::JobResult`]. This is the split of
+//! ratatui's component template (`ratatui/templates`, `async/src/app.rs`: events → actions →
+//! `update`, `draw` separate) with the side effects returned instead of sent from inside.
+
+use super::config::UiConfig;
+use super::keymap::{Action, Context, Key};
+use super::model::{LogEntry, Model, Severity};
+use super::view;
+use crate::geo::Cell;
+use crate::time::Time;
+use crossterm::event::{KeyCode, KeyEvent};
+use std::fmt;
+
+/// Something that happened, for [`update`].
+#[derive(Clone, Debug, PartialEq)]
+pub enum Event {
+    /// A key press (the shell drops releases).
+    Key(KeyEvent),
+    /// Time passed; `now` is on the same clock as the model's times.
+    Tick(Time),
+    /// A new snapshot of fleet and mission state.
+    Snapshot(Box<Model>),
+    /// The outcome of a command the UI asked for.
+    JobResult(JobResult),
+    /// The terminal now has this many columns and rows.
+    Resize(u16, u16),
+}
+
+/// Which vehicles a command is for.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Target {
+    /// The whole fleet / the mission as a whole.
+    All,
+    /// One vehicle, by MAVLink system id.
+    Vehicle(u8),
+}
+
+impl fmt::Display for Target {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        match self {
+            Target::All => f.write_str("all vehicles"),
+            Target::Vehicle(id) => write!(f, "vehicle {id}"),
+        }
+    }
+}
+
+/// An operator command.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Command {
+    /// Start the mission.
+    Start,
+    /// Hold position (pause).
+    Hold,
+    /// Resume the paused mission.
+    Resume,
+    /// Return to launch.
+    Rtl,
+    /// Land where it is.
+    Land,
+    /// Arm the motors.
+    Arm,
+    /// Disarm the motors.
+    Disarm,
+    /// The battery was swapped; resume this vehicle's part of the mission.
+    BatterySwapped,
+}
+
+impl Command {
+    /// Upper-case verb for logs and dialogs.
+    pub fn verb(self) -> &'static str {
+        match self {
+            Command::Start => "START mission",
+            Command::Hold => "HOLD",
+            Command::Resume => "RESUME mission",
+            Command::Rtl => "RETURN TO LAUNCH",
+            Command::Land => "LAND",
+            Command::Arm => "ARM",
+            Command::Disarm => "DISARM",
+            Command::BatterySwapped => "BATTERY SWAPPED, resume",
+        }
+    }
+
+    /// What it will do, for the confirmation dialog.
+    pub fn consequence(self) -> &'static str {
+        match self {
+            Command::Start => "Uploads the missions and the vehicles take off.",
+            Command::Hold => "The vehicles stop and hold position.",
+            Command::Resume => "The vehicles continue the mission from where they stopped.",
+            Command::Rtl => "Flies back to the launch point and lands.",
+            Command::Land => "Descends and lands at its current position.",
+            Command::Arm => "Motors start spinning.",
+            Command::Disarm => "Motors STOP. In the air the vehicle falls.",
+            Command::BatterySwapped => "Takes off again and continues from its last vertex.",
+        }
+    }
+}
+
+/// A command with the id its [`JobResult`] will carry.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub struct CommandRequest {
+    /// Unique per [`App`], increasing.
+    pub id: u64,
+    /// Who.
+    pub target: Target,
+    /// What.
+    pub command: Command,
+}
+
+impl fmt::Display for CommandRequest {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        write!(f, "{} ({})", self.command.verb(), self.target)
+    }
+}
+
+/// What the shell must do after an update.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Effect {
+    /// Execute this command (send it to the fleet / mission runner) and report back with an
+    /// [`Event::JobResult`] carrying the same id.
+    Command(CommandRequest),
+    /// Leave the UI.
+    Quit,
+}
+
+/// The outcome of a [`CommandRequest`].
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct JobResult {
+    /// The request's id.
+    pub id: u64,
+    /// `Ok(detail)` when the vehicles accepted it, `Err(reason)` otherwise.
+    pub outcome: Result<String, String>,
+}
+
+/// The panes.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum Pane {
+    /// Vehicle table.
+    Fleet,
+    /// Grid map.
+    Map,
+    /// Mission phase and progress.
+    Mission,
+    /// Messages.
+    Log,
+}
+
+impl Pane {
+    /// Focus order.
+    pub const ORDER: [Pane; 4] = [Pane::Fleet, Pane::Map, Pane::Mission, Pane::Log];
+
+    /// The key context of the pane, if it has its own keys.
+    pub fn context(self) -> Option<Context> {
+        match self {
+            Pane::Fleet => Some(Context::Fleet),
+            Pane::Map => Some(Context::Map),
+            Pane::Log => Some(Context::Log),
+            Pane::Mission => None,
+        }
+    }
+
+    fn step(self, forward: bool) -> Pane {
+        let i = Pane::ORDER.iter().position(|p| *p == self).unwrap_or(0);
+        let n = Pane::ORDER.len();
+        Pane::ORDER[if forward {
+            (i + 1) % n
+        } else {
+            (i + n - 1) % n
+        }]
+    }
+}
+
+/// Something that waits for `y`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pending {
+    /// A command (without id yet: it gets one when confirmed).
+    Command {
+        /// Who.
+        target: Target,
+        /// What.
+        command: Command,
+    },
+    /// Leaving the UI.
+    Quit,
+}
+
+/// A modal layer over the panes.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Overlay {
+    /// Nothing.
+    None,
+    /// The help, scrolled by this many lines.
+    Help {
+        /// Lines scrolled.
+        scroll: u16,
+    },
+    /// A confirmation dialog opened at `opened_at`.
+    Confirm {
+        /// What happens on `y`.
+        pending: Pending,
+        /// When it opened (it expires after the configured timeout).
+        opened_at: Time,
+    },
+    /// The "select vehicle by system id" prompt with what was typed so far.
+    Prompt {
+        /// Digits typed.
+        text: String,
+    },
+}
+
+/// How the map chooses its viewport.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum MapMode {
+    /// Fit the whole grid if it fits at full size, otherwise follow the selected vehicle.
+    Auto,
+    /// Fit the whole grid, zooming out as far as needed.
+    Fit,
+    /// Keep the selected vehicle centred at the chosen zoom.
+    Follow,
+    /// Centred on a fixed cell at the chosen zoom (after panning).
+    Manual {
+        /// The centre.
+        centre: Cell,
+    },
+}
+
+/// The map pane's view state.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MapView {
+    /// Index into [`view::map::ZOOMS`] (used by Follow and Manual).
+    pub zoom: usize,
+    /// Viewport mode.
+    pub mode: MapMode,
+}
+
+/// Most lines of the UI's own log kept.
+pub const UI_LOG_CAPACITY: usize = 1000;
+
+/// The whole UI state.
+#[derive(Clone, Debug)]
+pub struct App {
+    /// Key map and thresholds.
+    pub config: UiConfig,
+    /// The latest snapshot.
+    pub model: Model,
+    /// What the screen shows, said plainly in the title bar ("LIVE", "REPLAY file", "SAMPLE").
+    pub source: String,
+    /// Pane with the keyboard focus.
+    pub focus: Pane,
+    /// In the compact layout, the pane shown below the fleet table.
+    pub lower: Pane,
+    /// Selected vehicle (system id).
+    pub selected: Option<u8>,
+    /// Modal layer.
+    pub overlay: Overlay,
+    /// Map viewport.
+    pub map: MapView,
+    /// Log lines scrolled back from the newest (0 = follow the newest).
+    pub log_scroll: usize,
+    /// Messages from the UI itself (commands sent, results, warnings), oldest first.
+    pub ui_log: Vec<LogEntry>,
+    /// Commands sent whose result has not come back.
+    pub pending: Vec<CommandRequest>,
+    /// Latest tick.
+    pub now: Time,
+    /// When the latest snapshot arrived (tick time).
+    pub last_snapshot: Option<Time>,
+    /// Terminal size (columns, rows).
+    pub size: (u16, u16),
+    /// Set once the UI decided to quit.
+    pub quit: bool,
+    /// Where the shell writes its log (shown in the help).
+    pub log_file: Option<String>,
+    next_id: u64,
+}
+
+impl App {
+    /// A UI with `config`, an empty model and `source` in the title bar.
+    pub fn new(config: UiConfig, source: impl Into<String>) -> App {
+        App {
+            config,
+            model: Model::default(),
+            source: source.into(),
+            focus: Pane::Fleet,
+            lower: Pane::Map,
+            selected: None,
+            overlay: Overlay::None,
+            map: MapView {
+                zoom: view::map::BASE_ZOOM,
+                mode: MapMode::Auto,
+            },
+            log_scroll: 0,
+            ui_log: Vec::new(),
+            pending: Vec::new(),
+            now: Time::ZERO,
+            last_snapshot: None,
+            size: (80, 24),
+            quit: false,
+            log_file: None,
+            next_id: 1,
+        }
+    }
+
+    /// Add a line to the UI's own log.
+    pub fn log(&mut self, severity: Severity, text: impl Into<String>) {
+        self.ui_log.push(LogEntry {
+            time: self.now,
+            severity,
+            sysid: None,
+            text: text.into(),
+        });
+        if self.ui_log.len() > UI_LOG_CAPACITY {
+            let excess = self.ui_log.len() - UI_LOG_CAPACITY;
+            self.ui_log.drain(..excess);
+        }
+    }
+
+    /// The model's log and the UI's log merged by time (stable: model lines first on ties).
+    pub fn merged_log(&self) -> Vec<&LogEntry> {
+        let mut all: Vec<&LogEntry> = self.model.log.iter().chain(&self.ui_log).collect();
+        all.sort_by_key(|e| e.time);
+        all
+    }
+
+    /// Seconds since the last snapshot, when it is older than the stale threshold.
+    pub fn stale_for(&self) -> Option<f64> {
+        let limit = self.config.thresholds.stale_after()?;
+        let last = self.last_snapshot?;
+        let age = self.now.saturating_since(last);
+        (age > limit).then_some(age.as_secs_f64())
+    }
+
+    fn select_index(&mut self, i: usize) {
+        if let Some(v) = self.model.vehicles.get(i) {
+            self.selected = Some(v.sysid);
+        }
+    }
+
+    fn selected_index(&self) -> Option<usize> {
+        let id = self.selected?;
+        self.model.vehicles.iter().position(|v| v.sysid == id)
+    }
+
+    fn step_selection(&mut self, forward: bool) {
+        let n = self.model.vehicles.len();
+        if n == 0 {
+            return;
+        }
+        let i = match self.selected_index() {
+            Some(i) if forward => (i + 1) % n,
+            Some(i) => (i + n - 1) % n,
+            None => 0,
+        };
+        self.select_index(i);
+    }
+
+    fn select_sysid(&mut self, id: u8) {
+        if self.model.vehicle(id).is_some() {
+            self.selected = Some(id);
+        } else {
+            self.log(Severity::Warning, format!("no vehicle with system id {id}"));
+        }
+    }
+
+    fn request(&mut self, target: Target, command: Command) -> Vec<Effect> {
+        let req = CommandRequest {
+            id: self.next_id,
+            target,
+            command,
+        };
+        self.next_id += 1;
+        self.pending.push(req);
+        self.log(Severity::Notice, format!("sent {req}"));
+        vec![Effect::Command(req)]
+    }
+
+    fn ask(&mut self, pending: Pending) {
+        self.overlay = Overlay::Confirm {
+            pending,
+            opened_at: self.now,
+        };
+    }
+
+    /// The selected vehicle as a command target, or a log line saying there is none.
+    fn selected_target(&mut self) -> Option<Target> {
+        match self.selected {
+            Some(id) if self.model.vehicle(id).is_some() => Some(Target::Vehicle(id)),
+            _ => {
+                self.log(Severity::Warning, "no vehicle selected");
+                None
+            }
+        }
+    }
+
+    fn total_log_lines(&self) -> usize {
+        self.model.log.len() + self.ui_log.len()
+    }
+
+    fn scroll_log(&mut self, older: isize) {
+        let max = self.total_log_lines().saturating_sub(1);
+        let cur = self.log_scroll as isize + older;
+        self.log_scroll = cur.clamp(0, max as isize) as usize;
+    }
+
+    fn log_page(&self) -> isize {
+        let rows = view::log_page_rows(self);
+        (rows.max(2) - 1) as isize
+    }
+}
+
+/// Apply `event` to `app`; return what the shell must do.
+pub fn update(app: &mut App, event: Event) -> Vec<Effect> {
+    match event {
+        Event::Tick(now) => {
+            app.now = now;
+            if let Overlay::Confirm { pending, opened_at } = app.overlay
+                && now.saturating_since(opened_at) > app.config.thresholds.confirm_timeout()
+            {
+                app.overlay = Overlay::None;
+                app.log(
+                    Severity::Warning,
+                    format!("confirmation expired: {} not sent", pending_label(&pending)),
+                );
+            }
+            Vec::new()
+        }
+        Event::Snapshot(model) => {
+            app.model = *model;
+            app.last_snapshot = Some(app.now);
+            if app.selected_index().is_none() {
+                app.selected = app.model.vehicles.first().map(|v| v.sysid);
+            }
+            let max = app.total_log_lines().saturating_sub(1);
+            app.log_scroll = app.log_scroll.min(max);
+            Vec::new()
+        }
+        Event::JobResult(result) => {
+            let req = app
+                .pending
+                .iter()
+                .position(|r| r.id == result.id)
+                .map(|i| app.pending.remove(i));
+            let what = match req {
+                Some(r) => r.to_string(),
+                None => format!("command #{}", result.id),
+            };
+            match result.outcome {
+                Ok(detail) if detail.is_empty() => {
+                    app.log(Severity::Notice, format!("{what}: accepted"))
+                }
+                Ok(detail) => app.log(Severity::Notice, format!("{what}: accepted, {detail}")),
+                Err(reason) => app.log(Severity::Error, format!("{what} FAILED: {reason}")),
+            }
+            Vec::new()
+        }
+        Event::Resize(w, h) => {
+            app.size = (w, h);
+            Vec::new()
+        }
+        Event::Key(ev) => on_key(app, Key::from_event(&ev)),
+    }
+}
+
+fn pending_label(p: &Pending) -> String {
+    match p {
+        Pending::Command { target, command } => format!("{} ({target})", command.verb()),
+        Pending::Quit => "quit".to_string(),
+    }
+}
+
+fn on_key(app: &mut App, key: Key) -> Vec<Effect> {
+    let keys = &app.config.keys;
+    if keys.keys(Action::QuitNow).contains(&key) {
+        app.quit = true;
+        return vec![Effect::Quit];
+    }
+    match app.overlay.clone() {
+        Overlay::Confirm { pending, .. } => match keys.lookup(Context::Dialog, key) {
+            Some(Action::Confirm) => {
+                app.overlay = Overlay::None;
+                match pending {
+                    Pending::Command { target, command } => app.request(target, command),
+                    Pending::Quit => {
+                        app.quit = true;
+                        vec![Effect::Quit]
+                    }
+                }
+            }
+            Some(Action::Cancel) => {
+                app.overlay = Overlay::None;
+                app.log(
+                    Severity::Info,
+                    format!("cancelled: {}", pending_label(&pending)),
+                );
+                Vec::new()
+            }
+            _ => Vec::new(),
+        },
+        Overlay::Help { scroll } => {
+            let action = keys
+                .lookup(Context::Help, key)
+                .or_else(|| keys.lookup(Context::Dialog, key))
+                .or_else(|| keys.lookup(Context::Global, key));
+            match action {
+                Some(Action::HelpUp) => {
+                    app.overlay = Overlay::Help {
+                        scroll: scroll.saturating_sub(1),
+                    }
+                }
+                Some(Action::HelpDown) => {
+                    let max = view::help::line_count(&app.config.keys).saturating_sub(1) as u16;
+                    app.overlay = Overlay::Help {
+                        scroll: (scroll + 1).min(max),
+                    }
+                }
+                Some(Action::Cancel) | Some(Action::Help) => app.overlay = Overlay::None,
+                _ => {}
+            }
+            Vec::new()
+        }
+        Overlay::Prompt { mut text } => {
+            if keys.lookup(Context::Dialog, key) == Some(Action::Cancel) {
+                app.overlay = Overlay::None;
+                return Vec::new();
+            }
+            match key.code {
+                KeyCode::Char(c) if c.is_ascii_digit() && key.mods.is_empty() => {
+                    if text.len() < 3 {
+                        text.push(c);
+                    }
+                    app.overlay = Overlay::Prompt { text };
+                }
+                KeyCode::Backspace => {
+                    text.pop();
+                    app.overlay = Overlay::Prompt { text };
+                }
+                KeyCode::Enter => {
+                    app.overlay = Overlay::None;
+                    match text.parse::<u16>() {
+                        Ok(id @ 1..=255) => app.select_sysid(id as u8),
+                        _ => app.log(
+                            Severity::Warning,
+                            format!("{text:?} is not a system id (1-255)"),
+                        ),
+                    }
+                }
+                _ => {}
+            }
+            Vec::new()
+        }
+        Overlay::None => {
+            let action = app
+                .focus
+                .context()
+                .and_then(|c| keys.lookup(c, key))
+                .or_else(|| keys.lookup(Context::Global, key));
+            match action {
+                Some(a) => perform(app, a),
+                None => Vec::new(),
+            }
+        }
+    }
+}
+
+/// Do what `action` means in the normal (no overlay) state.
+fn perform(app: &mut App, action: Action) -> Vec<Effect> {
+    let dangerous = |app: &mut App, target: Option<Target>, command: Command| {
+        if let Some(target) = target {
+            app.ask(Pending::Command { target, command });
+        }
+        Vec::new()
+    };
+    match action {
+        Action::Help => {
+            app.overlay = Overlay::Help { scroll: 0 };
+            Vec::new()
+        }
+        Action::Quit => {
+            app.ask(Pending::Quit);
+            Vec::new()
+        }
+        Action::QuitNow => {
+            app.quit = true;
+            vec![Effect::Quit]
+        }
+        Action::FocusNext | Action::FocusPrev => {
+            app.focus = app.focus.step(action == Action::FocusNext);
+            if app.focus != Pane::Fleet {
+                app.lower = app.focus;
+            }
+            Vec::new()
+        }
+        Action::NextVehicle | Action::FleetDown => {
+            app.step_selection(true);
+            Vec::new()
+        }
+        Action::PrevVehicle | Action::FleetUp => {
+            app.step_selection(false);
+            Vec::new()
+        }
+        Action::SelectNumber(n) => {
+            app.select_sysid(n);
+            Vec::new()
+        }
+        Action::SelectById => {
+            app.overlay = Overlay::Prompt {
+                text: String::new(),
+            };
+            Vec::new()
+        }
+        Action::ZoomIn | Action::ZoomOut => {
+            let vp = view::map::current_viewport(app);
+            let zoom = if action == Action::ZoomIn {
+                (vp.zoom + 1).min(view::map::ZOOMS.len() - 1)
+            } else {
+                vp.zoom.saturating_sub(1)
+            };
+            app.map.zoom = zoom;
+            if app.map.mode != MapMode::Follow {
+                app.map.mode = MapMode::Manual { centre: vp.centre };
+            }
+            Vec::new()
+        }
+        Action::ZoomFit => {
+            app.map.mode = MapMode::Fit;
+            Vec::new()
+        }
+        Action::FollowSelected => {
+            let vp = view::map::current_viewport(app);
+            app.map.zoom = vp.zoom;
+            app.map.mode = MapMode::Follow;
+            Vec::new()
+        }
+        Action::PanNorth | Action::PanSouth | Action::PanWest | Action::PanEast => {
+            let vp = view::map::current_viewport(app);
+            let (dr, dc) = match action {
+                Action::PanNorth => (vp.page_rows, 0),
+                Action::PanSouth => (-vp.page_rows, 0),
+                Action::PanWest => (0, -vp.page_cols),
+                _ => (0, vp.page_cols),
+            };
+            let map = &app.model.map;
+            let mut centre = Cell::new(vp.centre.row + dr, vp.centre.col + dc);
+            if !map.is_empty() {
+                let (sw, ne) = (map.south_west, map.north_east());
+                centre.row = centre.row.clamp(sw.row, ne.row);
+                centre.col = centre.col.clamp(sw.col, ne.col);
+            }
+            app.map.zoom = vp.zoom;
+            app.map.mode = MapMode::Manual { centre };
+            Vec::new()
+        }
+        Action::LogUp => {
+            app.scroll_log(1);
+            Vec::new()
+        }
+        Action::LogDown => {
+            app.scroll_log(-1);
+            Vec::new()
+        }
+        Action::LogPageUp => {
+            let p = app.log_page();
+            app.scroll_log(p);
+            Vec::new()
+        }
+        Action::LogPageDown => {
+            let p = app.log_page();
+            app.scroll_log(-p);
+            Vec::new()
+        }
+        Action::LogLatest => {
+            app.log_scroll = 0;
+            Vec::new()
+        }
+        Action::LogOldest => {
+            app.log_scroll = app.total_log_lines().saturating_sub(1);
+            Vec::new()
+        }
+        Action::Start => dangerous(app, Some(Target::All), Command::Start),
+        Action::Resume => dangerous(app, Some(Target::All), Command::Resume),
+        Action::RtlAll => dangerous(app, Some(Target::All), Command::Rtl),
+        Action::RtlVehicle => {
+            let t = app.selected_target();
+            dangerous(app, t, Command::Rtl)
+        }
+        Action::Land => {
+            let t = app.selected_target();
+            dangerous(app, t, Command::Land)
+        }
+        Action::Arm => {
+            let t = app.selected_target();
+            dangerous(app, t, Command::Arm)
+        }
+        Action::Disarm => {
+            let t = app.selected_target();
+            dangerous(app, t, Command::Disarm)
+        }
+        Action::BatterySwapped => {
+            let t = app.selected_target();
+            dangerous(app, t, Command::BatterySwapped)
+        }
+        Action::PauseAll => app.request(Target::All, Command::Hold),
+        Action::HoldVehicle => match app.selected_target() {
+            Some(t) => app.request(t, Command::Hold),
+            None => Vec::new(),
+        },
+        // Overlay-only actions do nothing without their overlay.
+        Action::Confirm | Action::Cancel | Action::HelpUp | Action::HelpDown => Vec::new(),
+    }
+}

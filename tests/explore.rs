@@ -1,0 +1,293 @@
+//! End-to-end tests of the exploration module: property tests of Algorithm 1 on random ROIs
+//! (coverage, termination, Lemma 1), the effect of adding robots, persistence after every
+//! call, and the `fleetmap experiment dfs` command.
+
+use fleetmap::explore::bounds::lemma1_upper_bound;
+use fleetmap::explore::simulate::{SimConfig, random_roi, simulate};
+use fleetmap::explore::{Action, Explorer, ExplorerConfig, RobotId, Sharing};
+use fleetmap::geo::{Cell, Dir4};
+use proptest::prelude::*;
+use rand::SeedableRng;
+use rand_chacha::ChaCha8Rng;
+use std::collections::HashSet;
+use std::process::Command;
+
+fn roi_from_seed(seed: u64, cells: usize) -> (HashSet<Cell>, Cell) {
+    random_roi(&mut ChaCha8Rng::seed_from_u64(seed), cells)
+}
+
+const DIRS: [(f64, f64); 4] = [(0.0, 1.0), (0.0, -1.0), (1.0, 0.0), (-1.0, 0.0)];
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+
+    /// With a perfect sensor and GCS sharing, every ROI cell is visited, the run terminates
+    /// with every robot at the start, and the cost is within Lemma 1 (eq. 2).
+    #[test]
+    fn dfs_covers_terminates_and_meets_lemma_1(
+        seed in any::<u64>(),
+        cells in 1usize..160,
+        robots in 1usize..=32,
+        ratio in prop_oneof![Just(0.0), 1.2f64..6.0],
+        dir in 0usize..4,
+    ) {
+        let (roi, start) = roi_from_seed(seed, cells);
+        let sp = if ratio == 0.0 { 0.0 } else { 1.0 / ratio };
+        let v = (DIRS[dir].0 * sp, DIRS[dir].1 * sp);
+        let out = simulate(&roi, start, &SimConfig {
+            robots,
+            sharing: Sharing::Gcs,
+            robot_speed: 1.0,
+            roi_velocity: v,
+            observe_time: 0.0,
+            record_paths: true,
+        }).expect("the exploration terminates");
+        // Every ROI cell was visited by some robot, and nothing else.
+        let visited: HashSet<Cell> = out.paths.iter().flatten().copied().collect();
+        prop_assert_eq!(&visited, &roi);
+        let mapped: HashSet<Cell> = out.explorer.tree().cells().collect();
+        prop_assert_eq!(&mapped, &roi);
+        prop_assert!(out.explorer.is_finished());
+        // Everyone is back at the start; every move is one step between ROI cells.
+        for p in &out.paths {
+            prop_assert_eq!(p.last(), Some(&start));
+            for w in p.windows(2) {
+                prop_assert_eq!(w[0].manhattan(w[1]), 1);
+            }
+        }
+        let bound = lemma1_upper_bound(cells, out.d_max, robots, 1.0, sp);
+        prop_assert!(out.cost <= bound * (1.0 + 1e-9),
+            "cost {} > Lemma 1 bound {} (C {}, R {}, d_max {}, S_p {})",
+            out.cost, bound, cells, robots, out.d_max, sp);
+    }
+
+    /// With meeting-only sharing the exploration is still complete and terminates (the
+    /// bound is what it loses, see `explore::dfs`).
+    #[test]
+    fn meeting_sharing_still_covers_and_terminates(
+        seed in any::<u64>(),
+        cells in 1usize..60,
+        robots in 1usize..=12,
+    ) {
+        let (roi, start) = roi_from_seed(seed, cells);
+        let out = simulate(&roi, start, &SimConfig {
+            robots,
+            sharing: Sharing::Meet,
+            record_paths: true,
+            ..SimConfig::default()
+        }).expect("the exploration terminates");
+        let visited: HashSet<Cell> = out.paths.iter().flatten().copied().collect();
+        prop_assert_eq!(visited, roi);
+        prop_assert!(out.explorer.is_finished());
+    }
+}
+
+/// Over 200 random ROIs of 80 cells, the mean exploration time does not grow as robots are
+/// added (R = 1, 2, 4, 8), with static and translating ROIs.
+#[test]
+fn mean_time_does_not_grow_with_more_robots() {
+    for ratio in [0.0, 2.5] {
+        let sp = if ratio == 0.0 { 0.0 } else { 1.0 / ratio };
+        let mut means = Vec::new();
+        for robots in [1usize, 2, 4, 8] {
+            let mut sum = 0.0;
+            for trial in 0..200u64 {
+                let (roi, start) = roi_from_seed(1000 + trial, 80);
+                let d = DIRS[(trial % 4) as usize];
+                let out = simulate(
+                    &roi,
+                    start,
+                    &SimConfig {
+                        robots,
+                        sharing: Sharing::Gcs,
+                        roi_velocity: (d.0 * sp, d.1 * sp),
+                        ..SimConfig::default()
+                    },
+                )
+                .unwrap();
+                sum += out.cost;
+            }
+            means.push(sum / 200.0);
+        }
+        for w in means.windows(2) {
+            assert!(w[1] <= w[0], "ratio {ratio}: means {means:?}");
+        }
+        // And more than one robot actually helps.
+        assert!(means[3] < 0.75 * means[0], "ratio {ratio}: means {means:?}");
+    }
+}
+
+/// A runner that saves the explorer after every call and restores it before the next one
+/// (a GCS crashing between any two calls) builds the same map with the same moves as one
+/// that never stops.
+#[test]
+fn persisting_after_every_call_changes_nothing() {
+    let (roi, start) = roi_from_seed(77, 60);
+    let ids: Vec<RobotId> = (1..=4).map(RobotId).collect();
+    let drive = |persist: bool| {
+        let mut ex = Explorer::new(ExplorerConfig::default(), start, &ids).unwrap();
+        let mut log = Vec::new();
+        let mut done = HashSet::new();
+        for _round in 0..10_000 {
+            if done.len() == ids.len() {
+                break;
+            }
+            for &r in &ids {
+                if persist {
+                    let json = serde_json::to_vec(&ex).unwrap();
+                    ex = serde_json::from_slice(&json).unwrap();
+                }
+                let a = ex.next_action(r).unwrap();
+                log.push((r, a));
+                match a {
+                    Action::Rejoin(c) | Action::MoveTo(c) => ex.arrived(r, c).unwrap(),
+                    Action::Observe => {
+                        let at = ex.robot_cell(r).unwrap();
+                        let labels = Dir4::ALL.map(|d| roi.contains(&at.step(d)));
+                        ex.observe(r, at, labels).unwrap();
+                    }
+                    Action::Done => {
+                        done.insert(r);
+                    }
+                    Action::Wait => {}
+                    Action::ReturnHome => panic!("nobody was paused"),
+                }
+            }
+        }
+        assert!(ex.is_finished());
+        (log, ex.tree().cells().collect::<Vec<_>>())
+    };
+    let (log_a, map_a) = drive(false);
+    let (log_b, map_b) = drive(true);
+    assert_eq!(map_a, map_b);
+    assert_eq!(log_a, log_b);
+    assert_eq!(map_a.into_iter().collect::<HashSet<_>>(), roi);
+}
+
+fn fleetmap() -> Command {
+    Command::new(env!("CARGO_BIN_EXE_fleetmap"))
+}
+
+#[test]
+fn experiment_dfs_writes_csv_json_and_plots() {
+    let dir = tempfile::tempdir().unwrap();
+    let out = fleetmap()
+        .args([
+            "experiment",
+            "dfs",
+            "--trials",
+            "4",
+            "--seed",
+            "11",
+            "--cells",
+            "30,60",
+            "--robots",
+            "1,4",
+            "--ratios",
+            "2,static",
+            "--base-cells",
+            "40",
+            "--base-robots",
+            "5",
+            "--out",
+        ])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("stayed within the Lemma 1 upper bound"),
+        "{stderr}"
+    );
+    let stdout = String::from_utf8_lossy(&out.stdout);
+    assert!(stdout.contains("ALG/LM"), "{stdout}");
+    let csv = std::fs::read_to_string(dir.path().join("dfs_trials.csv")).unwrap();
+    // 6 configurations × 4 trials + header.
+    assert_eq!(csv.lines().count(), 25);
+    assert!(csv.lines().skip(1).all(|l| l.ends_with(",true")));
+    let summary: serde_json::Value = serde_json::from_str(
+        &std::fs::read_to_string(dir.path().join("dfs_summary.json")).unwrap(),
+    )
+    .unwrap();
+    let confs = summary["summaries"].as_array().unwrap();
+    assert_eq!(confs.len(), 6);
+    for c in confs {
+        assert!(c["mean_ratio_to_lawnmower"].as_f64().unwrap() > 0.0);
+        assert_eq!(c["violations"], 0);
+        assert!(c["cost"]["min"].as_f64().unwrap() <= c["cost"]["max"].as_f64().unwrap());
+    }
+    for png in [
+        "fig7a_roi.png",
+        "fig7b_cells.png",
+        "fig7c_robots.png",
+        "fig7d_ratio.png",
+    ] {
+        let img = image::open(dir.path().join(png)).unwrap().to_rgb8();
+        assert!(img.width() >= 640, "{png}");
+        // Not blank: the plot has colour in it (lines, cells, text).
+        let colours: HashSet<[u8; 3]> = img.pixels().map(|p| p.0).take(400_000).collect();
+        assert!(colours.len() > 8, "{png} looks blank");
+    }
+    // --json prints the summary.
+    let out = fleetmap()
+        .args([
+            "experiment",
+            "dfs",
+            "--trials",
+            "1",
+            "--cells",
+            "20",
+            "--robots",
+            "2",
+        ])
+        .args(["--ratios", "3", "--json", "--out"])
+        .arg(dir.path().join("j"))
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert_eq!(v["trials"], 1);
+}
+
+#[test]
+fn experiment_dfs_reports_lemma_1_violations_loudly() {
+    // Meeting-only sharing exceeds the bound on such ROIs (see explore::dfs): the run says
+    // so and fails.
+    let dir = tempfile::tempdir().unwrap();
+    let out = fleetmap()
+        .args(["experiment", "dfs", "--sharing", "meet", "--trials", "10"])
+        .args(["--sweeps", "cells", "--cells", "60", "--base-robots", "8"])
+        .args(["--out"])
+        .arg(dir.path())
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert_eq!(out.status.code(), Some(1), "{stderr}");
+    assert!(stderr.contains("LEMMA 1 VIOLATED"), "{stderr}");
+    assert!(stderr.contains("meet sharing, C = 60, R = 8"), "{stderr}");
+    assert!(dir.path().join("dfs_trials.csv").exists());
+}
+
+#[test]
+fn experiment_dfs_rejects_bad_arguments() {
+    for args in [
+        vec!["--ratios", "0.5"],
+        vec!["--trials", "0"],
+        vec!["--robots", "0"],
+        vec!["--sweeps", "cells", "--cells", ""],
+    ] {
+        let dir = tempfile::tempdir().unwrap();
+        let out = fleetmap()
+            .args(["experiment", "dfs"])
+            .args(&args)
+            .arg("--out")
+            .arg(dir.path())
+            .output()
+            .unwrap();
+        assert!(!out.status.success(), "{args:?}");
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!stderr.trim().is_empty(), "{args:?}");
+        assert!(!stderr.contains("panicked"), "{stderr}");
+    }
+}
