@@ -141,6 +141,7 @@ async fn responder(
                             MavCmd::MAV_CMD_COMPONENT_ARM_DISARM => { s.armed = c.param1 == 1.0; MavResult::MAV_RESULT_ACCEPTED }
                             MavCmd::MAV_CMD_DO_SET_MODE => { s.custom_mode = c.param2 as u32; MavResult::MAV_RESULT_ACCEPTED }
                             MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL => MavResult::MAV_RESULT_ACCEPTED,
+                            MavCmd::MAV_CMD_DO_DIGICAM_CONTROL => MavResult::MAV_RESULT_ACCEPTED,
                             _ => MavResult::MAV_RESULT_UNSUPPORTED,
                         };
                         out.push(MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
@@ -513,6 +514,254 @@ async fn uploads_and_downloads_over_udp_with_30_percent_loss_each_way() {
     for v in vehicles {
         let _ = v.stop.send(true);
     }
+}
+
+/// Run the fleetmap binary (`$FLEETMAP_BIN` if set, as for the Python tests; else the one
+/// cargo built for this test); returns (exit code, stdout, stderr).
+fn cli(args: &[&str]) -> (i32, String, String) {
+    let bin = std::env::var("FLEETMAP_BIN")
+        .unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string());
+    let out = std::process::Command::new(bin)
+        .args(args)
+        .output()
+        .expect("run fleetmap");
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn cli_vehicles_mission_files_and_commands() {
+    let v = spawn_responder(4, None).await;
+    let conn = format!("udpout:{}", v.addr);
+    let dir = tempfile::tempdir().unwrap();
+    let d = dir.path();
+    let c = conn.clone();
+    let (code, out, err) = tokio::task::spawn_blocking(move || {
+        cli(&["vehicles", "--connect", &c, "--wait", "1.5", "--json"])
+    })
+    .await
+    .unwrap();
+    assert_eq!(code, 0, "{err}");
+    let snap: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(snap["vehicles"]["4"]["flavour"]["autopilot"], "ArduPilot");
+    assert_eq!(snap["vehicles"]["4"]["mode"], "STABILIZE");
+
+    // A Mission Planner .waypoints file up, a .plan down, identical items.
+    let wp = d.join("m.waypoints");
+    std::fs::write(
+        &wp,
+        "QGC WPL 110\n0\t1\t0\t16\t0\t0\t0\t0\t37.195\t-80.58\t600\t1\n\
+         1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t10\t1\n\
+         2\t0\t3\t16\t0\t0\t0\t0\t37.1955\t-80.5805\t10\t1\n\
+         3\t0\t2\t20\t0\t0\t0\t0\t0\t0\t0\t1\n",
+    )
+    .unwrap();
+    let plan = d.join("back.plan");
+    let (c, w, p) = (conn.clone(), wp.clone(), plan.clone());
+    let r = tokio::task::spawn_blocking(move || {
+        let up = cli(&[
+            "mission",
+            "upload",
+            "--connect",
+            &c,
+            "--sysid",
+            "4",
+            w.to_str().unwrap(),
+        ]);
+        let down = cli(&[
+            "mission",
+            "download",
+            "--connect",
+            &c,
+            "--sysid",
+            "4",
+            p.to_str().unwrap(),
+        ]);
+        let mode = cli(&[
+            "command",
+            "--connect",
+            &c,
+            "--sysid",
+            "4",
+            "--json",
+            "mode",
+            "loiter",
+        ]);
+        let bad_mode = cli(&[
+            "command",
+            "--connect",
+            &c,
+            "--sysid",
+            "4",
+            "mode",
+            "MISSION",
+        ]);
+        let clear = cli(&["mission", "clear", "--connect", &c, "--sysid", "4"]);
+        let nobody = cli(&[
+            "mission",
+            "clear",
+            "--connect",
+            &c,
+            "--sysid",
+            "9",
+            "--wait",
+            "1",
+        ]);
+        (up, down, mode, bad_mode, clear, nobody)
+    })
+    .await
+    .unwrap();
+    let (up, down, mode, bad_mode, clear, nobody) = r;
+    assert_eq!(up.0, 0, "{}", up.2);
+    assert!(
+        up.1.contains("uploaded 3 mission item(s) to vehicle 4"),
+        "{}",
+        up.1
+    );
+    assert_eq!(down.0, 0, "{}", down.2);
+    let p = fleetmap::mission::plan::parse_plan(&std::fs::read_to_string(&plan).unwrap()).unwrap();
+    let w = fleetmap::mission::wpl::parse_wpl(&std::fs::read_to_string(&wp).unwrap()).unwrap();
+    fleetmap::proto::mission::compare_items(&w.items, &p.mission, true).unwrap();
+    assert!(
+        p.home.is_some(),
+        "ArduPilot home kept as plannedHomePosition"
+    );
+    assert_eq!(mode.0, 0, "{}", mode.2);
+    assert!(mode.1.contains("\"result\":\"mode LOITER\""), "{}", mode.1);
+    assert_eq!(v.seen.lock().unwrap().custom_mode, 5);
+    assert_eq!(bad_mode.0, 1);
+    assert!(
+        bad_mode
+            .2
+            .contains("unknown mode \"MISSION\" for ArduPilot copter"),
+        "{}",
+        bad_mode.2
+    );
+    assert_eq!(bad_mode.2.lines().count(), 1, "one line: {}", bad_mode.2);
+    assert_eq!(clear.0, 0, "{}", clear.2);
+    assert_eq!(nobody.0, 1);
+    assert!(
+        nobody.2.contains("no heartbeat from system 9"),
+        "{}",
+        nobody.2
+    );
+
+    // Malformed files: rejected before connecting, with the line number.
+    let bad = d.join("bad.waypoints");
+    std::fs::write(
+        &bad,
+        "QGC WPL 110\n0 1 0 16 0 0 0 0 0 0 0 1\n1 0 3 16 0 0 0\n",
+    )
+    .unwrap();
+    let (code, _, err) = cli(&[
+        "mission",
+        "upload",
+        "--connect",
+        &conn,
+        "--sysid",
+        "4",
+        bad.to_str().unwrap(),
+    ]);
+    assert_eq!(code, 1);
+    assert!(err.contains("line 3: expected 12 fields"), "{err}");
+    let _ = v.stop.send(true);
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn capture_goes_to_the_camera_component_when_there_is_one() {
+    let v = spawn_responder(5, None).await;
+    let f = fleet::start(
+        &[udpout(v.addr)],
+        &LinkOptions::default(),
+        FleetConfig::default(),
+    )
+    .await
+    .unwrap();
+    f.wait_vehicle(5, Duration::from_secs(5)).await.unwrap();
+    // No camera component: DO_DIGICAM_CONTROL to the autopilot.
+    f.capture_image(5, 1).await.unwrap();
+    assert!(
+        v.seen
+            .lock()
+            .unwrap()
+            .commands
+            .contains(&MavCmd::MAV_CMD_DO_DIGICAM_CONTROL)
+    );
+    f.shutdown().await;
+    // A camera (component 100) on its own link (a second radio or a Wi-Fi camera) announces
+    // itself: IMAGE_START_CAPTURE goes to it, over that link.
+    let cam = UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let mut c = Codec::new();
+    let hb = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: MavType::MAV_TYPE_CAMERA,
+        autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: MavModeFlag::empty(),
+        system_status: MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    });
+    let listen = std::net::UdpSocket::bind("127.0.0.1:0").unwrap();
+    let port = listen.local_addr().unwrap().port();
+    drop(listen);
+    let g = fleet::start(
+        &[
+            udpout(v.addr),
+            format!("udpin:127.0.0.1:{port}").parse().unwrap(),
+        ],
+        &LinkOptions::default(),
+        FleetConfig::default(),
+    )
+    .await
+    .unwrap();
+    g.wait_vehicle(5, Duration::from_secs(5)).await.unwrap();
+    cam.send_to(&c.encode(5, 100, &hb, 0), ("127.0.0.1", port))
+        .await
+        .unwrap();
+    g.wait_until(5, Duration::from_secs(3), |v| v.camera_compid == Some(100))
+        .await
+        .unwrap();
+    let cap = {
+        let g = g.clone();
+        tokio::spawn(async move { g.capture_image(5, 7).await })
+    };
+    let mut buf = [0u8; 512];
+    let mut got = None;
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(3);
+    let mut rx = Codec::new();
+    while got.is_none() && tokio::time::Instant::now() < deadline {
+        if let Ok(Ok((n, from))) =
+            tokio::time::timeout(Duration::from_millis(500), cam.recv_from(&mut buf)).await
+        {
+            for fr in rx.decode(&buf[..n], 0) {
+                if let Ok(MavMessage::COMMAND_LONG(cmd)) = &fr.message
+                    && cmd.command == MavCmd::MAV_CMD_IMAGE_START_CAPTURE
+                {
+                    assert_eq!((cmd.target_system, cmd.target_component), (5, 100));
+                    assert_eq!((cmd.param3, cmd.param4), (1.0, 7.0));
+                    got = Some(from);
+                    let ack = MavMessage::COMMAND_ACK(COMMAND_ACK_DATA {
+                        command: cmd.command,
+                        result: MavResult::MAV_RESULT_ACCEPTED,
+                        progress: 0,
+                        result_param2: 0,
+                        target_system: 255,
+                        target_component: 190,
+                    });
+                    cam.send_to(&c.encode(5, 100, &ack, 0), from).await.unwrap();
+                }
+            }
+        }
+    }
+    assert!(
+        got.is_some(),
+        "IMAGE_START_CAPTURE reached the camera over its own link"
+    );
+    cap.await.unwrap().unwrap();
+    g.shutdown().await;
+    let _ = v.stop.send(true);
 }
 
 #[test]

@@ -699,7 +699,7 @@ impl Actor {
         for (sysid, v) in self.vehicles.iter_mut() {
             let ep = Endpoint::new(*sysid, v.snap.compid);
             let dt = now.saturating_since(v.rate_at).as_secs_f64();
-            if dt >= 1.0 {
+            if dt >= 0.5 {
                 let inst = v.rate_frames as f64 / dt;
                 v.rate_hz = if v.rate_hz == 0.0 {
                     inst
