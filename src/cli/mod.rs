@@ -9,11 +9,15 @@ pub mod bandit;
 pub mod bench;
 pub mod check;
 pub mod classify;
+pub mod command;
 pub mod experiment;
 pub mod grid;
 pub mod sim;
 pub mod tui;
 pub mod plan;
+pub mod mission;
+pub mod signing;
+pub mod vehicles;
 
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
@@ -53,6 +57,14 @@ pub enum Command {
     Tui(tui::TuiArgs),
     /// Solve one epoch of the bandit planner's integer program for a scenario file.
     Plan(plan::PlanArgs),
+    /// List the vehicles heard on MAVLink connections and their state.
+    Vehicles(vehicles::VehiclesArgs),
+    /// Upload, download, clear or fly a mission (also fence and rally lists).
+    Mission(mission::MissionArgs),
+    /// Arm, disarm, change mode, take off, go to, return, land.
+    Command(command::CommandArgs),
+    /// MAVLink 2 signing keys: make one, install one on a vehicle.
+    Signing(signing::SigningArgs),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
@@ -103,5 +115,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Classify(args) => classify::run(args),
         Command::Tui(args) => tui::run(args, log_file.as_deref()),
         Command::Plan(args) => plan::run(args),
+        Command::Vehicles(args) => vehicles::run(args),
+        Command::Mission(args) => mission::run(args),
+        Command::Command(args) => command::run(args),
+        Command::Signing(args) => signing::run(args),
     }
 }

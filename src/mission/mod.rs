@@ -3,5 +3,7 @@
 
 pub mod definition;
 pub mod item;
+pub mod plan;
+pub mod wpl;
 
 pub use item::{MissionItem, MissionType};

@@ -1,1 +1,69 @@
 //! Sans-IO MAVLink micro-services (heartbeat, command, mission transfer) and autopilot flavours.
+//!
+//! Every machine here is pure: no sockets, no clock reads. They follow the quinn-proto shape
+//! (DESIGN.md §2): feed received messages with `handle_message(header, msg, now)`, call
+//! `handle_timeout(now)` when `poll_timeout()` says so, send whatever `poll_transmit()`
+//! yields (messages carry their own target ids), and read results with `poll_event()`.
+//! The fleet actor (`crate::fleet`) runs one set of machines per vehicle.
+//!
+//! * [`heartbeat`] — the GCS heartbeat (1 Hz) and vehicle liveness (lost after 3 s of
+//!   silence, back on the next heartbeat, reboots detected).
+//! * [`command`] — COMMAND_LONG / COMMAND_INT with COMMAND_ACK, retries, IN_PROGRESS.
+//! * [`mission`] — mission, fence and rally upload / download / clear / set current.
+//! * [`flavour`] — everything that differs between ArduPilot Copter, ArduPilot Rover and
+//!   PX4: mode numbers, how to arm, take off, start a mission, go to a point, return, land.
+
+pub mod command;
+pub mod flavour;
+pub mod heartbeat;
+pub mod mission;
+
+use mavlink::MavHeader;
+
+/// The GCS's MAVLink system id (DESIGN.md §4: 255, as QGroundControl and MAVProxy use).
+pub const GCS_SYSID: u8 = 255;
+/// The GCS's component id (MAV_COMP_ID_MISSIONPLANNER = 190, as QGroundControl uses).
+pub const GCS_COMPID: u8 = 190;
+/// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1).
+pub const AUTOPILOT_COMPID: u8 = 1;
+/// The first camera's component id (MAV_COMP_ID_CAMERA).
+pub const CAMERA_COMPID: u8 = 100;
+
+/// A MAVLink endpoint: (system id, component id).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]
+pub struct Endpoint {
+    /// System id (1…255).
+    pub sysid: u8,
+    /// Component id.
+    pub compid: u8,
+}
+
+impl Endpoint {
+    /// The endpoint (`sysid`, `compid`).
+    pub const fn new(sysid: u8, compid: u8) -> Endpoint {
+        Endpoint { sysid, compid }
+    }
+
+    /// The GCS endpoint (255, 190).
+    pub const fn gcs() -> Endpoint {
+        Endpoint::new(GCS_SYSID, GCS_COMPID)
+    }
+
+    /// The sender of a received frame.
+    pub fn of(header: &MavHeader) -> Endpoint {
+        Endpoint::new(header.system_id as u8, header.component_id)
+    }
+
+    /// Whether a message addressed to (`target_system`, `target_component`) is for us
+    /// (0 is broadcast).
+    pub fn is_addressed_by(&self, target_system: u8, target_component: u8) -> bool {
+        (target_system == 0 || target_system == self.sysid)
+            && (target_component == 0 || target_component == self.compid)
+    }
+}
+
+impl std::fmt::Display for Endpoint {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}:{}", self.sysid, self.compid)
+    }
+}

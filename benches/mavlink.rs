@@ -1,0 +1,172 @@
+//! MAVLink benchmarks: frame decoding throughput, and a 200-item mission upload in-process
+//! (the GCS machine against the simulator's vehicle-side mission server, no loss, no
+//! latency) — reported as items per second.
+//!
+//! `cargo bench --bench mavlink`
+
+use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use fleetmap::link::codec::Codec;
+use fleetmap::mission::{MissionItem, MissionType};
+use fleetmap::proto::Endpoint;
+use fleetmap::proto::mission::{MissionClient, MissionConfig, MissionEvent, MissionOp};
+use fleetmap::sim::flavour::Autopilot;
+use fleetmap::sim::mission_server::MissionServer;
+use fleetmap::time::Time;
+use mavlink::MavHeader;
+use mavlink::dialects::ardupilotmega::*;
+use std::hint::black_box;
+use std::time::Duration;
+
+/// A realistic telemetry mix: position, attitude, heartbeat, status, GPS, mission item.
+fn telemetry_stream(frames: usize) -> Vec<u8> {
+    let mut c = Codec::new();
+    let msgs = [
+        MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+            time_boot_ms: 123_456,
+            lat: 371_950_000,
+            lon: -805_800_000,
+            alt: 612_000,
+            relative_alt: 12_000,
+            vx: 100,
+            vy: -50,
+            vz: 3,
+            hdg: 9000,
+        }),
+        MavMessage::ATTITUDE(ATTITUDE_DATA {
+            time_boot_ms: 123_456,
+            roll: 0.01,
+            pitch: -0.02,
+            yaw: 1.5,
+            rollspeed: 0.001,
+            pitchspeed: 0.002,
+            yawspeed: 0.003,
+        }),
+        MavMessage::HEARTBEAT(HEARTBEAT_DATA {
+            custom_mode: 3,
+            mavtype: MavType::MAV_TYPE_QUADROTOR,
+            autopilot: MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA,
+            base_mode: MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED,
+            system_status: MavState::MAV_STATE_ACTIVE,
+            mavlink_version: 3,
+        }),
+        MavMessage::GPS_RAW_INT(GPS_RAW_INT_DATA {
+            fix_type: GpsFixType::GPS_FIX_TYPE_3D_FIX,
+            satellites_visible: 14,
+            lat: 371_950_000,
+            lon: -805_800_000,
+            ..Default::default()
+        }),
+        MavMessage::MISSION_ITEM_INT(MISSION_ITEM_INT_DATA {
+            seq: 12,
+            x: 371_950_000,
+            y: -805_800_000,
+            z: 12.0,
+            command: MavCmd::MAV_CMD_NAV_WAYPOINT,
+            frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+            autocontinue: 1,
+            ..Default::default()
+        }),
+    ];
+    let mut out = Vec::new();
+    for i in 0..frames {
+        out.extend_from_slice(&c.encode(1, 1, &msgs[i % msgs.len()], 0));
+    }
+    out
+}
+
+fn decode(c: &mut Criterion) {
+    let n = 10_000;
+    let stream = telemetry_stream(n);
+    let mut g = c.benchmark_group("decode");
+    g.throughput(Throughput::Bytes(stream.len() as u64));
+    for chunk in [64usize, 1500, 65_536] {
+        g.bench_with_input(
+            BenchmarkId::new("frames_10k_chunk", chunk),
+            &chunk,
+            |b, &chunk| {
+                b.iter(|| {
+                    let mut codec = Codec::new();
+                    let mut count = 0;
+                    for part in stream.chunks(chunk) {
+                        count += codec.decode(part, 0).len();
+                    }
+                    assert_eq!(count, n);
+                    black_box(count)
+                })
+            },
+        );
+    }
+    g.finish();
+}
+
+/// One 200-item upload, GCS machine ↔ vehicle server, messages passed in memory.
+fn upload_once(ap: bool, items: &[MissionItem]) -> usize {
+    let vehicle = Endpoint::new(1, 1);
+    let mut client = MissionClient::new(Endpoint::gcs(), vehicle, ap, MissionConfig::default());
+    let mut server = MissionServer::new(
+        if ap {
+            Autopilot::ArduPilot
+        } else {
+            Autopilot::Px4
+        },
+        1,
+        1,
+    );
+    let gcs_hdr = MavHeader {
+        system_id: 255,
+        component_id: 190,
+        sequence: 0,
+    };
+    let veh_hdr = MavHeader {
+        system_id: 1,
+        component_id: 1,
+        sequence: 0,
+    };
+    let now = Time::from_secs(1);
+    let id = client.start(
+        MissionOp::Upload {
+            kind: MissionType::Mission,
+            items: items.to_vec(),
+            home: None,
+        },
+        now,
+    );
+    loop {
+        let mut moved = false;
+        while let Some(m) = client.poll_transmit() {
+            server.handle_message(&gcs_hdr, &m, now);
+            moved = true;
+        }
+        while let Some(m) = server.poll_transmit() {
+            client.handle_message(&veh_hdr, &m, now);
+            moved = true;
+        }
+        while server.poll_event().is_some() {}
+        while let Some(ev) = client.poll_event() {
+            if let MissionEvent::Done { id: i, result } = ev
+                && i == id
+            {
+                assert!(result.is_ok(), "{result:?}");
+                return items.len();
+            }
+        }
+        assert!(moved, "stalled");
+    }
+}
+
+fn upload(c: &mut Criterion) {
+    let items: Vec<MissionItem> = (0..200)
+        .map(|i| MissionItem::waypoint(37.19 + f64::from(i) * 1e-5, -80.58, 12.0))
+        .collect();
+    let mut g = c.benchmark_group("mission_upload_200_items");
+    g.throughput(Throughput::Elements(items.len() as u64));
+    g.measurement_time(Duration::from_secs(5));
+    g.bench_function("ardupilot", |b| {
+        b.iter(|| black_box(upload_once(true, &items)))
+    });
+    g.bench_function("px4", |b| b.iter(|| black_box(upload_once(false, &items))));
+    g.finish();
+}
+
+criterion_group!(benches, decode, upload);
+criterion_main!(benches);

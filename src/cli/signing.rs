@@ -1,0 +1,160 @@
+//! `fleetmap signing keygen|setup`: MAVLink 2 signing keys.
+//!
+//! * `keygen --passphrase TEXT [--out FILE]`: the key is SHA-256 of the passphrase, as
+//!   MAVProxy (`signing setup PASSPHRASE`, `mavproxy_signing.py` `passphrase_to_key`) and
+//!   Mission Planner derive it, so the same passphrase gives the same key in all three.
+//!   Written as 64 hexadecimal digits (file mode 0600).
+//! * `setup --connect CONN --sysid N --key FILE`: sends SETUP_SIGNING with the key and an
+//!   initial timestamp (10 µs units since 2015-01-01, as MAVProxy computes it) to the
+//!   vehicle's autopilot, which stores it (ArduPilot `GCS_Signing.cpp`
+//!   `handle_setup_signing`; PX4 `mavlink_sign_control`) and from then on signs and
+//!   requires signatures. SETUP_SIGNING has no acknowledgement, so it is sent three
+//!   times, unsigned (the vehicle has no key yet), and the command then listens for a
+//!   signed heartbeat with the new key to confirm.
+
+use super::vehicles::{ConnectArgs, Session, block_on};
+use crate::link::signing::{SigningKey, signing_timestamp};
+use crate::link::transport::unix_now_us;
+use anyhow::{Context, bail};
+use clap::{Args, Subcommand};
+use mavlink::dialects::ardupilotmega::{MavMessage, SETUP_SIGNING_DATA};
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+/// Arguments of `fleetmap signing`.
+#[derive(Debug, Args)]
+pub struct SigningArgs {
+    /// What to do.
+    #[command(subcommand)]
+    pub what: SigningCommand,
+}
+
+/// The signing subcommands.
+#[derive(Debug, Subcommand)]
+pub enum SigningCommand {
+    /// Make a key file from a passphrase (SHA-256, as MAVProxy and Mission Planner).
+    Keygen {
+        /// The passphrase.
+        #[arg(long)]
+        passphrase: String,
+        /// Where to write the key (stdout if absent).
+        #[arg(long, value_name = "FILE")]
+        out: Option<PathBuf>,
+    },
+    /// Send the key to a vehicle (SETUP_SIGNING).
+    Setup {
+        /// Connection options (do not give --signing-key: the vehicle has no key yet).
+        #[command(flatten)]
+        conn: ConnectArgs,
+        /// The vehicle's system id.
+        #[arg(long, value_name = "N")]
+        sysid: u8,
+        /// The key file to install.
+        #[arg(long, value_name = "FILE")]
+        key: PathBuf,
+        /// Wait this long for the vehicle's first heartbeat, seconds.
+        #[arg(long, value_name = "SECONDS", default_value_t = 15.0)]
+        wait: f64,
+    },
+}
+
+/// Run `fleetmap signing`.
+pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
+    match args.what {
+        SigningCommand::Keygen { passphrase, out } => {
+            if passphrase.is_empty() {
+                bail!("the passphrase is empty");
+            }
+            let key = SigningKey::from_passphrase(&passphrase);
+            match out {
+                Some(path) => {
+                    crate::store::atomic_write(&path, format!("{}\n", key.to_hex()).as_bytes())
+                        .with_context(|| format!("cannot write {}", path.display()))?;
+                    #[cfg(unix)]
+                    {
+                        use std::os::unix::fs::PermissionsExt;
+                        std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o600))
+                            .with_context(|| format!("cannot restrict {}", path.display()))?;
+                    }
+                    println!(
+                        "key written to {} (fingerprint {})",
+                        path.display(),
+                        key.fingerprint()
+                    );
+                }
+                None => println!("{}", key.to_hex()),
+            }
+            Ok(ExitCode::SUCCESS)
+        }
+        SigningCommand::Setup {
+            conn,
+            sysid,
+            key,
+            wait,
+        } => {
+            if conn.signing_key.is_some() {
+                bail!("signing setup sends the key unsigned: do not give --signing-key");
+            }
+            if !(wait.is_finite() && wait >= 0.0) {
+                bail!("--wait must be a non-negative number of seconds");
+            }
+            let key = SigningKey::read(&key)?;
+            block_on(async move {
+                let s = Session::open(&conn).await?;
+                let r = async {
+                    let v = s.vehicle(sysid, Duration::from_secs_f64(wait)).await?;
+                    let msg = MavMessage::SETUP_SIGNING(SETUP_SIGNING_DATA {
+                        initial_timestamp: signing_timestamp(unix_now_us()),
+                        target_system: sysid,
+                        target_component: v.compid,
+                        secret_key: key.0,
+                    });
+                    let mut sub = s.fleet.subscribe();
+                    for _ in 0..3 {
+                        s.fleet.send(msg.clone()).await?;
+                        tokio::time::sleep(Duration::from_millis(200)).await;
+                    }
+                    // Confirmation: a heartbeat from the vehicle signed with the new key.
+                    let confirmed = tokio::time::timeout(Duration::from_secs(5), async {
+                        while let Ok(inc) = sub.recv().await {
+                            let f = &inc.frame;
+                            if f.sysid() == sysid && f.msg_id == 0 && f.signature.is_some() {
+                                let n = f.raw.len();
+                                let sig = crate::link::signing::Signing::signature(
+                                    &key,
+                                    &f.raw[..n - 13],
+                                    f.raw[n - 13],
+                                    f.signature.map(|s| s.timestamp).unwrap_or(0),
+                                );
+                                if sig[..] == f.raw[n - 6..] {
+                                    return true;
+                                }
+                            }
+                        }
+                        false
+                    })
+                    .await
+                    .unwrap_or(false);
+                    if conn.json {
+                        println!(
+                            "{}",
+                            serde_json::json!({"sysid": sysid, "sent": true, "confirmed": confirmed, "fingerprint": key.fingerprint()})
+                        );
+                    } else if confirmed {
+                        println!("vehicle {sysid} now signs with key {}", key.fingerprint());
+                    } else {
+                        println!(
+                            "SETUP_SIGNING sent to vehicle {sysid} (key {}); no signed heartbeat seen yet — connect with --signing-key to check",
+                            key.fingerprint()
+                        );
+                    }
+                    anyhow::Ok(())
+                }
+                .await;
+                s.close().await?;
+                r.map(|_| ExitCode::SUCCESS)
+            })?
+        }
+    }
+}

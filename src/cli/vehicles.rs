@@ -1,0 +1,228 @@
+//! `fleetmap vehicles --connect CONN [--wait SECONDS]`: the vehicles heard and their state.
+//!
+//! Also home of the connection options every MAVLink command shares ([`ConnectArgs`]:
+//! `--connect` (repeatable), `--signing-key`, `--tlog`, `--json`, mission protocol timeouts)
+//! and of [`Session`], which opens the links and the fleet and closes them cleanly (the
+//! tlog is flushed before the command exits).
+
+use crate::fleet::{self, FleetConfig, FleetHandle, FleetSnapshot, VehicleSnapshot};
+use crate::link::ConnSpec;
+use crate::link::signing::{Signing, SigningKey};
+use crate::link::tlog::{TlogError, spawn_tlog};
+use crate::link::transport::LinkOptions;
+use crate::proto::mission::MissionConfig;
+use anyhow::Context;
+use clap::Args;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+/// Connection options shared by the MAVLink commands.
+#[derive(Debug, Clone, Args)]
+pub struct ConnectArgs {
+    /// Connection string, as MAVProxy writes them: udpin:HOST:PORT, udpout:HOST:PORT,
+    /// tcp:HOST:PORT, tcpin:HOST:PORT, serial:PATH:BAUD. May be given several times.
+    #[arg(long = "connect", value_name = "CONN", required = true)]
+    pub connect: Vec<ConnSpec>,
+    /// MAVLink 2 signing key file (64 hex digits; see `fleetmap signing keygen`):
+    /// outgoing frames are signed, unsigned or wrongly signed incoming frames dropped.
+    #[arg(long, value_name = "FILE")]
+    pub signing_key: Option<PathBuf>,
+    /// With --signing-key, still accept unsigned incoming frames (MAVProxy's
+    /// `allow_unsigned`).
+    #[arg(long)]
+    pub allow_unsigned: bool,
+    /// Record every frame in and out to this .tlog file.
+    #[arg(long, value_name = "FILE")]
+    pub tlog: Option<PathBuf>,
+    /// Machine-readable output (JSON).
+    #[arg(long)]
+    pub json: bool,
+    /// Mission protocol: wait for MISSION_COUNT / REQUEST / ACK answers, milliseconds.
+    #[arg(long, value_name = "MS", default_value_t = 1500)]
+    pub mission_timeout_ms: u64,
+    /// Mission protocol: wait for each item during a download, milliseconds.
+    #[arg(long, value_name = "MS", default_value_t = 250)]
+    pub item_timeout_ms: u64,
+    /// Mission protocol: consecutive retries before giving up.
+    #[arg(long, value_name = "N", default_value_t = 5)]
+    pub mission_retries: u32,
+}
+
+/// An open fleet over the requested links, and the tlog writer if any.
+pub struct Session {
+    /// The fleet.
+    pub fleet: FleetHandle,
+    tlog: Option<tokio::task::JoinHandle<Result<u64, TlogError>>>,
+}
+
+impl Session {
+    /// Open the links and start the fleet.
+    pub async fn open(args: &ConnectArgs) -> anyhow::Result<Session> {
+        let mut opts = LinkOptions::default();
+        if let Some(path) = &args.signing_key {
+            let key = SigningKey::read(path)?;
+            let mut s = Signing::new(key, 0);
+            s.accept_unsigned = args.allow_unsigned;
+            opts.signing = Some(s);
+        }
+        let mut tlog = None;
+        if let Some(path) = &args.tlog {
+            let (h, task) = spawn_tlog(path)?;
+            opts.tlog = Some(h);
+            tlog = Some(task);
+        }
+        let cfg = FleetConfig {
+            mission: MissionConfig {
+                timeout: Duration::from_millis(args.mission_timeout_ms.max(1)),
+                item_timeout: Duration::from_millis(args.item_timeout_ms.max(1)),
+                retries: args.mission_retries,
+                ..MissionConfig::default()
+            },
+            ..FleetConfig::default()
+        };
+        let fleet = fleet::start(&args.connect, &opts, cfg)
+            .await
+            .context("cannot open the connection")?;
+        Ok(Session { fleet, tlog })
+    }
+
+    /// Wait for vehicle `sysid` (its first heartbeat).
+    pub async fn vehicle(&self, sysid: u8, wait: Duration) -> anyhow::Result<VehicleSnapshot> {
+        self.fleet.wait_vehicle(sysid, wait).await.with_context(|| {
+            format!(
+                "no heartbeat from system {sysid} within {:.0} s",
+                wait.as_secs_f64()
+            )
+        })
+    }
+
+    /// Stop the fleet and the links; flush the tlog.
+    pub async fn close(self) -> anyhow::Result<()> {
+        self.fleet.shutdown().await;
+        let Session { fleet, tlog } = self;
+        drop(fleet);
+        if let Some(task) = tlog {
+            // The writer ends when the last link (holding a tlog handle) has stopped.
+            match tokio::time::timeout(Duration::from_secs(5), task).await {
+                Ok(Ok(r)) => {
+                    r?;
+                }
+                Ok(Err(e)) => anyhow::bail!("tlog writer failed: {e}"),
+                Err(_) => anyhow::bail!("tlog writer did not finish within 5 s"),
+            }
+        }
+        Ok(())
+    }
+}
+
+/// Run `f` on a small tokio runtime (the CLI is otherwise synchronous).
+pub fn block_on<F: std::future::Future>(f: F) -> anyhow::Result<F::Output> {
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .context("cannot start the async runtime")?;
+    Ok(rt.block_on(f))
+}
+
+/// Arguments of `fleetmap vehicles`.
+#[derive(Debug, Args)]
+pub struct VehiclesArgs {
+    /// Connection options.
+    #[command(flatten)]
+    pub conn: ConnectArgs,
+    /// Listen this long before reporting, seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 3.0)]
+    pub wait: f64,
+}
+
+/// One line per vehicle.
+pub fn format_vehicle(v: &VehicleSnapshot) -> String {
+    let pos = v
+        .position
+        .map(|p| format!("{:.7},{:.7}", p.lat, p.lon))
+        .unwrap_or_else(|| "-".into());
+    let alt = v
+        .alt_rel
+        .map(|a| format!("{a:.1} m"))
+        .unwrap_or_else(|| "-".into());
+    let gps = match (v.gps_fix, v.satellites) {
+        (Some(f), Some(s)) => format!("fix{f}/{s}sat"),
+        (Some(f), None) => format!("fix{f}"),
+        _ => "-".into(),
+    };
+    let batt = match (v.battery_pct, v.battery_v) {
+        (Some(p), Some(u)) => format!("{p}% {u:.1}V"),
+        (Some(p), None) => format!("{p}%"),
+        (None, Some(u)) => format!("{u:.1}V"),
+        _ => "-".into(),
+    };
+    format!(
+        "{:<4} {:<18} {:<10} {:<6} {:<24} {:<9} {:<12} {:<11} {}{:.1}% loss {:.0} msg/s",
+        v.sysid,
+        v.flavour.to_string(),
+        v.mode,
+        if v.armed { "ARMED" } else { "-" },
+        pos,
+        alt,
+        gps,
+        batt,
+        if v.alive { "" } else { "LOST " },
+        v.link_quality.loss_pct,
+        v.link_quality.rate_hz,
+    )
+}
+
+/// Print a snapshot (table or JSON).
+pub fn print_snapshot(s: &FleetSnapshot, json: bool) -> anyhow::Result<()> {
+    if json {
+        println!("{}", serde_json::to_string_pretty(s)?);
+        return Ok(());
+    }
+    println!(
+        "{:<4} {:<18} {:<10} {:<6} {:<24} {:<9} {:<12} {:<11} LINK",
+        "SYS", "AUTOPILOT", "MODE", "ARMED", "POSITION", "ALT(rel)", "GPS", "BATTERY"
+    );
+    for v in s.vehicles.values() {
+        println!("{}", format_vehicle(v));
+        if let Some(t) = &v.last_text {
+            println!("     last message: {}", t.text);
+        }
+    }
+    for l in &s.links {
+        println!(
+            "link {}: {} frames in, {} out, {} bad CRC, {} signature drops",
+            l.name,
+            l.stats.frames_in,
+            l.stats.frames_out,
+            l.stats.bad_crc,
+            l.stats.signing_drops()
+        );
+    }
+    Ok(())
+}
+
+/// Run `fleetmap vehicles`.
+pub fn run(args: VehiclesArgs) -> anyhow::Result<ExitCode> {
+    if !(args.wait.is_finite() && args.wait >= 0.0) {
+        anyhow::bail!("--wait must be a non-negative number of seconds");
+    }
+    block_on(async move {
+        let session = Session::open(&args.conn).await?;
+        tokio::time::sleep(Duration::from_secs_f64(args.wait)).await;
+        let snap = session.fleet.snapshot();
+        let found = !snap.vehicles.is_empty();
+        print_snapshot(&snap, args.conn.json)?;
+        session.close().await?;
+        if !found {
+            let names: Vec<String> = args.conn.connect.iter().map(|c| c.to_string()).collect();
+            anyhow::bail!(
+                "no vehicle heard on {} within {} s",
+                names.join(", "),
+                args.wait
+            );
+        }
+        Ok(ExitCode::SUCCESS)
+    })?
+}

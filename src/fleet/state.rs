@@ -1,0 +1,387 @@
+//! Per-vehicle telemetry state, updated from received messages (pure: time is a parameter),
+//! and the snapshot types the TUI and the runners read.
+
+use crate::link::codec::SourceStats;
+use crate::proto::flavour::{ArmInputs, Flavour};
+use crate::proto::heartbeat::Beat;
+use crate::time::Time;
+use mavlink::dialects::ardupilotmega::MavMessage;
+use serde::Serialize;
+use std::collections::BTreeMap;
+use std::time::Duration;
+
+/// A geographic position.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct GeoPoint {
+    /// Latitude, degrees.
+    pub lat: f64,
+    /// Longitude, degrees.
+    pub lon: f64,
+    /// Altitude above mean sea level, metres.
+    pub alt_amsl: f32,
+}
+
+/// A STATUSTEXT.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct StatusText {
+    /// MAV_SEVERITY (0 emergency … 7 debug).
+    pub severity: u8,
+    /// The text.
+    pub text: String,
+    /// When it arrived (fleet clock).
+    pub at: Time,
+}
+
+/// Link quality seen from one vehicle's autopilot.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct LinkQuality {
+    /// Frames received from the autopilot.
+    pub frames: u64,
+    /// Frames missing from sequence-number gaps.
+    pub lost: u64,
+    /// Loss, percent (0–100).
+    pub loss_pct: f64,
+    /// Frames per second over the last few seconds.
+    pub rate_hz: f64,
+}
+
+impl LinkQuality {
+    fn from_source(s: &SourceStats, rate_hz: f64) -> LinkQuality {
+        LinkQuality {
+            frames: s.frames,
+            lost: s.lost,
+            loss_pct: s.loss_ratio() * 100.0,
+            rate_hz,
+        }
+    }
+}
+
+/// Everything the fleet knows about one vehicle (the autopilot component of a system).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct VehicleSnapshot {
+    /// System id.
+    pub sysid: u8,
+    /// Autopilot component id.
+    pub compid: u8,
+    /// Autopilot and vehicle class.
+    pub flavour: Flavour,
+    /// MAV_TYPE.
+    pub mav_type: u8,
+    /// MAV_AUTOPILOT.
+    pub autopilot: u8,
+    /// The mode's name for this flavour (`MODE(n)` if unknown).
+    pub mode: String,
+    /// HEARTBEAT custom_mode.
+    pub custom_mode: u32,
+    /// Armed (HEARTBEAT base_mode).
+    pub armed: bool,
+    /// HEARTBEAT system_status (MAV_STATE).
+    pub system_status: u8,
+    /// Heard within the liveness window.
+    pub alive: bool,
+    /// Seconds since the last heartbeat.
+    pub heartbeat_age_s: f64,
+    /// Times a reboot was detected.
+    pub reboots: u32,
+    /// Position (GLOBAL_POSITION_INT), if received.
+    pub position: Option<GeoPoint>,
+    /// Altitude above home, metres.
+    pub alt_rel: Option<f32>,
+    /// Heading, degrees (0–360).
+    pub heading_deg: Option<f32>,
+    /// Ground speed, m/s.
+    pub groundspeed: Option<f32>,
+    /// Climb rate, m/s (up positive).
+    pub climb: Option<f32>,
+    /// GPS_RAW_INT fix type (0–1 none, 2 2D, 3 3D, 4+ DGPS/RTK).
+    pub gps_fix: Option<u8>,
+    /// Satellites visible.
+    pub satellites: Option<u8>,
+    /// Battery remaining, percent.
+    pub battery_pct: Option<i8>,
+    /// Battery voltage, volts.
+    pub battery_v: Option<f32>,
+    /// Home (HOME_POSITION).
+    pub home: Option<GeoPoint>,
+    /// Current mission item (user numbering: ArduPilot's home not counted).
+    pub mission_current: Option<u16>,
+    /// Mission items (user numbering).
+    pub mission_total: Option<u16>,
+    /// MISSION_CURRENT mission_state (MISSION_STATE: 5 = complete), if reported.
+    pub mission_state: Option<u8>,
+    /// Last MISSION_ITEM_REACHED (user numbering).
+    pub last_reached: Option<u16>,
+    /// Every user item reported reached since the last mission upload or start.
+    pub reached: Vec<u16>,
+    /// EXTENDED_SYS_STATE landed state (0 unknown, 1 on ground, 2 in air, 3 taking off,
+    /// 4 landing).
+    pub landed_state: Option<u8>,
+    /// Last STATUSTEXT.
+    pub last_text: Option<StatusText>,
+    /// Last pre-arm failure text (ArduPilot "PreArm: …", PX4 "Preflight Fail: …").
+    pub prearm_text: Option<StatusText>,
+    /// SYS_STATUS pre-arm health bit (None if not reported).
+    pub prearm_ok: Option<bool>,
+    /// ArduPilot EKF_STATUS_REPORT flags.
+    pub ekf_flags: Option<u16>,
+    /// A camera component (MAV_COMP_ID_CAMERA…) was heard on this system.
+    pub camera_compid: Option<u8>,
+    /// Link carrying this vehicle (index of `--connect`).
+    pub link: usize,
+    /// Link quality from the autopilot's sequence numbers.
+    pub link_quality: LinkQuality,
+    /// When any message from the autopilot last arrived (fleet clock).
+    pub last_message: Time,
+    /// When the last GLOBAL_POSITION_INT arrived (fleet clock).
+    pub position_at: Option<Time>,
+}
+
+impl VehicleSnapshot {
+    /// Whether the autopilot says it is on the ground: EXTENDED_SYS_STATE when reported,
+    /// otherwise disarmed.
+    pub fn on_ground(&self) -> bool {
+        match self.landed_state {
+            Some(1) => true,
+            Some(2..=4) => false,
+            _ => !self.armed,
+        }
+    }
+
+    /// The inputs of the arming check at time `now` (see [`Flavour::arm_blockers`]).
+    pub fn arm_inputs(&self, now: Time) -> ArmInputs {
+        let fresh = |t: Option<Time>, secs: u64| {
+            t.is_some_and(|t| now.saturating_since(t) <= Duration::from_secs(secs))
+        };
+        ArmInputs {
+            system_status: self.system_status,
+            armed: self.armed,
+            gps_fix: self.gps_fix,
+            position: self.position.is_some_and(|p| p.lat != 0.0 || p.lon != 0.0)
+                && fresh(self.position_at, 5),
+            home: self.home.is_some(),
+            ekf_flags: self.ekf_flags,
+            prearm_ok: self.prearm_ok,
+            prearm_text: self
+                .prearm_text
+                .as_ref()
+                .filter(|t| now.saturating_since(t.at) <= Duration::from_secs(35))
+                .map(|t| t.text.clone()),
+        }
+    }
+
+    /// Why arming is not possible now (empty when it is).
+    pub fn arm_blockers(&self, now: Time) -> Vec<String> {
+        self.flavour.arm_blockers(&self.arm_inputs(now))
+    }
+}
+
+/// A link's published state, as in the snapshot.
+pub type LinkSnapshot = crate::link::transport::LinkStatus;
+
+/// The whole fleet at one instant.
+#[derive(Clone, Debug, Default, Serialize)]
+pub struct FleetSnapshot {
+    /// Fleet clock time of the snapshot.
+    pub time: Time,
+    /// Vehicles by system id.
+    pub vehicles: BTreeMap<u8, VehicleSnapshot>,
+    /// Links, in `--connect` order.
+    pub links: Vec<LinkSnapshot>,
+}
+
+/// MAV_SYS_STATUS_PREARM_CHECK (SYS_STATUS sensor bit 28).
+const PREARM_BIT: u32 = 0x1000_0000;
+
+impl VehicleSnapshot {
+    /// A vehicle first heard with heartbeat `beat` from `sysid`/`compid` on `link`.
+    pub fn new(sysid: u8, compid: u8, beat: &Beat, link: usize, now: Time) -> VehicleSnapshot {
+        let flavour = Flavour::from_heartbeat(beat.autopilot, beat.mav_type);
+        VehicleSnapshot {
+            sysid,
+            compid,
+            flavour,
+            mav_type: beat.mav_type,
+            autopilot: beat.autopilot,
+            mode: flavour.mode_name(beat.custom_mode),
+            custom_mode: beat.custom_mode,
+            armed: beat.armed(),
+            system_status: beat.system_status,
+            alive: true,
+            heartbeat_age_s: 0.0,
+            reboots: 0,
+            position: None,
+            alt_rel: None,
+            heading_deg: None,
+            groundspeed: None,
+            climb: None,
+            gps_fix: None,
+            satellites: None,
+            battery_pct: None,
+            battery_v: None,
+            home: None,
+            mission_current: None,
+            mission_total: None,
+            mission_state: None,
+            last_reached: None,
+            reached: Vec::new(),
+            landed_state: None,
+            last_text: None,
+            prearm_text: None,
+            prearm_ok: None,
+            ekf_flags: None,
+            camera_compid: None,
+            link,
+            link_quality: LinkQuality::default(),
+            last_message: now,
+            position_at: None,
+        }
+    }
+
+    /// A heartbeat from the autopilot.
+    pub fn apply_heartbeat(&mut self, beat: &Beat) {
+        self.flavour = Flavour::from_heartbeat(beat.autopilot, beat.mav_type);
+        self.mav_type = beat.mav_type;
+        self.autopilot = beat.autopilot;
+        self.custom_mode = beat.custom_mode;
+        self.mode = self.flavour.mode_name(beat.custom_mode);
+        self.armed = beat.armed();
+        self.system_status = beat.system_status;
+    }
+
+    /// Update from a message of the autopilot.
+    pub fn apply(&mut self, msg: &MavMessage, now: Time) {
+        self.last_message = now;
+        match msg {
+            MavMessage::GLOBAL_POSITION_INT(p) => {
+                self.position = Some(GeoPoint {
+                    lat: f64::from(p.lat) / 1e7,
+                    lon: f64::from(p.lon) / 1e7,
+                    alt_amsl: p.alt as f32 / 1000.0,
+                });
+                self.position_at = Some(now);
+                self.alt_rel = Some(p.relative_alt as f32 / 1000.0);
+                if p.hdg != u16::MAX {
+                    self.heading_deg = Some(f32::from(p.hdg) / 100.0);
+                }
+                let (vx, vy) = (f32::from(p.vx) / 100.0, f32::from(p.vy) / 100.0);
+                self.groundspeed = Some((vx * vx + vy * vy).sqrt());
+                self.climb = Some(-f32::from(p.vz) / 100.0);
+            }
+            MavMessage::VFR_HUD(v) => {
+                self.groundspeed = Some(v.groundspeed);
+                self.climb = Some(v.climb);
+                self.heading_deg = Some(f32::from(v.heading).rem_euclid(360.0));
+            }
+            MavMessage::GPS_RAW_INT(g) => {
+                self.gps_fix = Some(g.fix_type as u8);
+                if g.satellites_visible != u8::MAX {
+                    self.satellites = Some(g.satellites_visible);
+                }
+            }
+            MavMessage::SYS_STATUS(s) => {
+                if s.battery_remaining >= 0 {
+                    self.battery_pct = Some(s.battery_remaining);
+                }
+                if s.voltage_battery != u16::MAX {
+                    self.battery_v = Some(f32::from(s.voltage_battery) / 1000.0);
+                }
+                if s.onboard_control_sensors_present.bits() & PREARM_BIT != 0 {
+                    self.prearm_ok =
+                        Some(s.onboard_control_sensors_health.bits() & PREARM_BIT != 0);
+                }
+            }
+            MavMessage::BATTERY_STATUS(b) => {
+                if b.battery_remaining >= 0 {
+                    self.battery_pct = Some(b.battery_remaining);
+                }
+                let cells: u32 = b
+                    .voltages
+                    .iter()
+                    .take_while(|v| **v != u16::MAX)
+                    .map(|v| u32::from(*v))
+                    .sum();
+                if cells > 0 {
+                    self.battery_v = Some(cells as f32 / 1000.0);
+                }
+            }
+            MavMessage::HOME_POSITION(h) => {
+                self.home = Some(GeoPoint {
+                    lat: f64::from(h.latitude) / 1e7,
+                    lon: f64::from(h.longitude) / 1e7,
+                    alt_amsl: h.altitude as f32 / 1000.0,
+                });
+            }
+            MavMessage::MISSION_CURRENT(c) => {
+                self.mission_current = self.flavour.user_seq(c.seq);
+                // PX4 sends total = UINT16_MAX without a mission; ArduPilot counts home.
+                if c.total != u16::MAX && c.total != 0 {
+                    self.mission_total = Some(if self.flavour.home_item() {
+                        c.total.saturating_sub(1)
+                    } else {
+                        c.total
+                    });
+                } else if c.total == u16::MAX {
+                    self.mission_total = Some(0);
+                }
+                if c.mission_state as u8 != 0 {
+                    self.mission_state = Some(c.mission_state as u8);
+                }
+            }
+            MavMessage::MISSION_ITEM_REACHED(r) => {
+                if let Some(u) = self.flavour.user_seq(r.seq) {
+                    self.last_reached = Some(u);
+                    if !self.reached.contains(&u) {
+                        self.reached.push(u);
+                    }
+                }
+            }
+            MavMessage::EXTENDED_SYS_STATE(e) => {
+                self.landed_state = Some(e.landed_state as u8);
+            }
+            MavMessage::EKF_STATUS_REPORT(e) => {
+                self.ekf_flags = Some(e.flags.bits());
+            }
+            MavMessage::STATUSTEXT(t) => {
+                let text = t
+                    .text
+                    .to_str()
+                    .map(|s| s.trim_end_matches('\0').to_string())
+                    .unwrap_or_else(|_| String::from_utf8_lossy(&t.text[..]).into_owned());
+                let st = StatusText {
+                    severity: t.severity as u8,
+                    text: text.trim_end_matches('\0').to_string(),
+                    at: now,
+                };
+                if Flavour::is_prearm_failure_text(&st.text) {
+                    self.prearm_text = Some(st.clone());
+                }
+                self.last_text = Some(st);
+            }
+            _ => {}
+        }
+    }
+
+    /// Forget mission progress (a new mission was uploaded or started).
+    pub fn reset_progress(&mut self) {
+        self.reached.clear();
+        self.last_reached = None;
+        self.mission_state = None;
+    }
+
+    /// Refresh liveness and link-quality fields.
+    pub fn refresh(
+        &mut self,
+        alive: bool,
+        last_beat: Option<Time>,
+        src: Option<&SourceStats>,
+        rate_hz: f64,
+        now: Time,
+    ) {
+        self.alive = alive;
+        self.heartbeat_age_s =
+            last_beat.map_or(f64::INFINITY, |t| now.saturating_since(t).as_secs_f64());
+        if let Some(s) = src {
+            self.link_quality = LinkQuality::from_source(s, rate_hz);
+        }
+    }
+}

@@ -1,0 +1,778 @@
+//! Autopilot flavours: everything that differs between ArduPilot Copter, ArduPilot Rover
+//! and PX4, in one place.
+//!
+//! Sources (cited per item below):
+//! * ArduCopter modes: `ArduPilot/ardupilot` `ArduCopter/mode.h` (`enum class Number`);
+//!   ArduRover modes: `Rover/mode.h`; PX4 modes: `PX4/PX4-Autopilot`
+//!   `src/modules/commander/px4_custom_mode.h` (custom_mode = sub_mode << 24 |
+//!   main_mode << 16), names as QGroundControl shows them
+//!   (`src/FirmwarePlugin/PX4/PX4FirmwarePlugin.cc`).
+//! * Changing mode: MAV_CMD_DO_SET_MODE with param1 = MAV_MODE_FLAG_CUSTOM_MODE_ENABLED,
+//!   param2 = custom mode (ArduPilot) or main mode, param3 = sub mode (PX4), as pymavlink's
+//!   `mavutil.set_mode_apm` / `set_mode_px4` and QGroundControl do; confirmed by the
+//!   heartbeat's custom_mode.
+//! * Take-off: ArduCopter only takes off with MAV_CMD_NAV_TAKEOFF in GUIDED, armed, with
+//!   param7 the altitude *above home* (`ArduCopter/GCS_Mavlink.cpp`
+//!   `handle_command_long_packet` → `do_user_takeoff`, refused outside guided-capable
+//!   modes); PX4 takes off with MAV_CMD_NAV_TAKEOFF in any mode once armed, param7 being
+//!   the *AMSL* altitude (QGroundControl `PX4FirmwarePlugin::guidedModeTakeoff` adds the
+//!   vehicle's AMSL altitude; commander switches to AUTO_TAKEOFF). Rovers do not take off.
+//! * Starting a mission: MAV_CMD_MISSION_START. ArduCopter switches to AUTO and sets
+//!   `auto_armed` so the mission runs without throttle input (`GCS_Mavlink.cpp`
+//!   `MAV_CMD_MISSION_START`); Rover switches to AUTO; PX4 commander switches to
+//!   AUTO_MISSION (needs to be armed).
+//! * Going somewhere now: MAV_CMD_DO_REPOSITION as COMMAND_INT (ArduPilot only accepts it
+//!   as COMMAND_INT, `handle_command_int_do_reposition`; flag
+//!   MAV_DO_REPOSITION_FLAGS_CHANGE_MODE switches to GUIDED); PX4 wants AMSL altitude in
+//!   MAV_FRAME_GLOBAL (QGroundControl `PX4FirmwarePlugin::guidedModeGotoLocation`).
+//!   Fallback for ArduPilot builds without it: GUIDED + SET_POSITION_TARGET_GLOBAL_INT
+//!   (position-only type mask, MAV_FRAME_GLOBAL_RELATIVE_ALT_INT).
+//! * Return and land: ArduPilot by mode (RTL, LAND; Rover has no LAND, HOLD is its stop),
+//!   PX4 by MAV_CMD_NAV_RETURN_TO_LAUNCH / MAV_CMD_NAV_LAND (commander switches to
+//!   AUTO_RTL / AUTO_LAND).
+//! * Mission numbering: ArduPilot's mission item 0 is home (`AP_Mission`), so MISSION_CURRENT
+//!   and MISSION_ITEM_REACHED count from 1 for the user's first item; PX4 from 0.
+//! * Arming for real: a flag is not enough. We require a heartbeat in STANDBY or later, a
+//!   3D GPS fix, a position estimate (GLOBAL_POSITION_INT with a position; ArduPilot's
+//!   EKF_STATUS_REPORT with an absolute horizontal position and not in constant-position
+//!   mode when it is sent), a home position (HOME_POSITION), the SYS_STATUS
+//!   MAV_SYS_STATUS_PREARM_CHECK health bit when the autopilot reports it (ArduPilot
+//!   `GCS_MAVLINK::send_sys_status` sets it from the last pre-arm result, PX4 from its
+//!   health and arming checks), and no pre-arm failure in STATUSTEXT ("PreArm: …" from
+//!   ArduPilot `AP_Arming::check_failed`, "Preflight Fail: …" from PX4) when the bit is
+//!   not reported.
+
+// Deliberately handles deprecated messages and frames (MISSION_REQUEST, MISSION_ITEM,
+// MISSION_SET_CURRENT, *_INT frames) because deployed autopilots still send or need them.
+#![allow(deprecated)]
+
+use super::Endpoint;
+use super::command::Command;
+use mavlink::dialects::ardupilotmega::{
+    MavCmd, MavFrame, MavMessage, PositionTargetTypemask, SET_POSITION_TARGET_GLOBAL_INT_DATA,
+};
+
+/// Which autopilot firmware.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum Autopilot {
+    /// ArduPilot (MAV_AUTOPILOT_ARDUPILOTMEGA = 3).
+    ArduPilot,
+    /// PX4 (MAV_AUTOPILOT_PX4 = 12).
+    Px4,
+    /// Anything else (MAV_AUTOPILOT number).
+    Other(u8),
+}
+
+/// What kind of vehicle.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum VehicleClass {
+    /// Multirotor or helicopter.
+    Copter,
+    /// Ground rover or boat.
+    Rover,
+    /// Fixed wing (modes not mapped; protocol only).
+    Plane,
+    /// Anything else.
+    Other,
+}
+
+/// Autopilot + vehicle class: decides modes and how actions are done.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub struct Flavour {
+    /// The firmware.
+    pub autopilot: Autopilot,
+    /// The vehicle class.
+    pub class: VehicleClass,
+}
+
+/// Errors of flavour-dependent actions.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FlavourError {
+    /// The mode name is not one of this autopilot's modes.
+    #[error("unknown mode {name:?} for {flavour}; known modes: {known}")]
+    UnknownMode {
+        /// The name asked for.
+        name: String,
+        /// The flavour.
+        flavour: String,
+        /// Comma-separated list of known names.
+        known: String,
+    },
+    /// The action does not exist for this vehicle (e.g. a rover taking off).
+    #[error("{action} is not possible for {flavour}")]
+    NotApplicable {
+        /// The action.
+        action: &'static str,
+        /// The flavour.
+        flavour: String,
+    },
+    /// A position is needed but unknown (e.g. home altitude for a PX4 take-off).
+    #[error("{action}: {what} is not known yet")]
+    Unknown {
+        /// The action.
+        action: &'static str,
+        /// What is missing.
+        what: &'static str,
+    },
+}
+
+/// A mode: its display name and how it is encoded.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Mode {
+    /// Upper-case name.
+    pub name: &'static str,
+    /// HEARTBEAT custom_mode.
+    pub custom_mode: u32,
+}
+
+const fn m(name: &'static str, custom_mode: u32) -> Mode {
+    Mode { name, custom_mode }
+}
+
+const fn px4(name: &'static str, main: u32, sub: u32) -> Mode {
+    Mode {
+        name,
+        custom_mode: (sub << 24) | (main << 16),
+    }
+}
+
+/// ArduCopter `enum class Number` (ArduCopter/mode.h).
+pub const COPTER_MODES: &[Mode] = &[
+    m("STABILIZE", 0),
+    m("ACRO", 1),
+    m("ALT_HOLD", 2),
+    m("AUTO", 3),
+    m("GUIDED", 4),
+    m("LOITER", 5),
+    m("RTL", 6),
+    m("CIRCLE", 7),
+    m("LAND", 9),
+    m("DRIFT", 11),
+    m("SPORT", 13),
+    m("FLIP", 14),
+    m("AUTOTUNE", 15),
+    m("POSHOLD", 16),
+    m("BRAKE", 17),
+    m("THROW", 18),
+    m("AVOID_ADSB", 19),
+    m("GUIDED_NOGPS", 20),
+    m("SMART_RTL", 21),
+    m("FLOWHOLD", 22),
+    m("FOLLOW", 23),
+    m("ZIGZAG", 24),
+    m("SYSTEMID", 25),
+    m("AUTOROTATE", 26),
+    m("AUTO_RTL", 27),
+    m("TURTLE", 28),
+];
+
+/// ArduRover `enum class Number` (Rover/mode.h).
+pub const ROVER_MODES: &[Mode] = &[
+    m("MANUAL", 0),
+    m("ACRO", 1),
+    m("STEERING", 3),
+    m("HOLD", 4),
+    m("LOITER", 5),
+    m("FOLLOW", 6),
+    m("SIMPLE", 7),
+    m("DOCK", 8),
+    m("CIRCLE", 9),
+    m("AUTO", 10),
+    m("RTL", 11),
+    m("SMART_RTL", 12),
+    m("GUIDED", 15),
+    m("INITIALISING", 16),
+];
+
+/// PX4 main/sub modes (px4_custom_mode.h), QGroundControl's names upper-cased.
+pub const PX4_MODES: &[Mode] = &[
+    px4("MANUAL", 1, 0),
+    px4("ALTCTL", 2, 0),
+    px4("POSCTL", 3, 0),
+    px4("ORBIT", 3, 1),
+    px4("READY", 4, 1),
+    px4("TAKEOFF", 4, 2),
+    px4("HOLD", 4, 3),
+    px4("MISSION", 4, 4),
+    px4("RTL", 4, 5),
+    px4("LAND", 4, 6),
+    px4("FOLLOW_ME", 4, 8),
+    px4("PRECLAND", 4, 9),
+    px4("ACRO", 5, 0),
+    px4("OFFBOARD", 6, 0),
+    px4("STABILIZED", 7, 0),
+];
+
+/// Accepted alternative names → canonical names (QGroundControl / MAVProxy spellings).
+const ALIASES: &[(&str, &str)] = &[
+    ("POSITION", "POSCTL"),
+    ("ALTITUDE", "ALTCTL"),
+    ("RETURN", "RTL"),
+    ("LOITER", "HOLD"),
+    ("AUTO.MISSION", "MISSION"),
+    ("AUTO.LOITER", "HOLD"),
+    ("AUTO.RTL", "RTL"),
+    ("AUTO.LAND", "LAND"),
+    ("AUTO.TAKEOFF", "TAKEOFF"),
+    ("FOLLOWME", "FOLLOW_ME"),
+    ("ALTHOLD", "ALT_HOLD"),
+];
+
+/// One thing to do to carry out an action (executed in order by the fleet).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Step {
+    /// Switch to this mode (if not in it already) and wait for the heartbeat to show it.
+    SetMode(Mode),
+    /// Arm (after the readiness checks) and wait for the heartbeat to show it.
+    Arm,
+    /// Send a command and wait for its ACK.
+    Command(Command),
+    /// Send a message without acknowledgement.
+    Send(Box<MavMessage>),
+}
+
+/// What the arming check looks at (filled from telemetry by the fleet).
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct ArmInputs {
+    /// HEARTBEAT system_status (MAV_STATE).
+    pub system_status: u8,
+    /// Already armed.
+    pub armed: bool,
+    /// GPS_RAW_INT fix_type, if received.
+    pub gps_fix: Option<u8>,
+    /// A position estimate: GLOBAL_POSITION_INT received recently with lat/lon ≠ 0.
+    pub position: bool,
+    /// HOME_POSITION received.
+    pub home: bool,
+    /// ArduPilot EKF_STATUS_REPORT flags, if received.
+    pub ekf_flags: Option<u16>,
+    /// SYS_STATUS pre-arm health bit: `None` when the autopilot does not report it.
+    pub prearm_ok: Option<bool>,
+    /// A recent pre-arm failure STATUSTEXT, if any.
+    pub prearm_text: Option<String>,
+}
+
+/// EKF_STATUS_REPORT flags (ardupilotmega.xml EKF_STATUS_FLAGS).
+const EKF_POS_HORIZ_ABS: u16 = 16;
+const EKF_CONST_POS_MODE: u16 = 128;
+const EKF_UNINITIALIZED: u16 = 1024;
+
+impl Flavour {
+    /// The flavour of a heartbeat's (MAV_AUTOPILOT, MAV_TYPE).
+    pub fn from_heartbeat(autopilot: u8, mav_type: u8) -> Flavour {
+        let autopilot = match autopilot {
+            3 => Autopilot::ArduPilot,
+            12 => Autopilot::Px4,
+            n => Autopilot::Other(n),
+        };
+        let class = match mav_type {
+            // quad, coaxial, heli, hexa, octo, tri, dodeca, deca (MAV_TYPE)
+            2 | 3 | 4 | 13 | 14 | 15 | 29 | 35 => VehicleClass::Copter,
+            10 | 11 => VehicleClass::Rover,
+            1 | 19..=25 => VehicleClass::Plane,
+            _ => VehicleClass::Other,
+        };
+        Flavour { autopilot, class }
+    }
+
+    /// ArduPilot Copter.
+    pub const ARDU_COPTER: Flavour = Flavour {
+        autopilot: Autopilot::ArduPilot,
+        class: VehicleClass::Copter,
+    };
+    /// ArduPilot Rover.
+    pub const ARDU_ROVER: Flavour = Flavour {
+        autopilot: Autopilot::ArduPilot,
+        class: VehicleClass::Rover,
+    };
+    /// PX4 multicopter.
+    pub const PX4_COPTER: Flavour = Flavour {
+        autopilot: Autopilot::Px4,
+        class: VehicleClass::Copter,
+    };
+    /// PX4 rover.
+    pub const PX4_ROVER: Flavour = Flavour {
+        autopilot: Autopilot::Px4,
+        class: VehicleClass::Rover,
+    };
+
+    /// Whether mission item 0 is home (ArduPilot).
+    pub fn home_item(&self) -> bool {
+        self.autopilot == Autopilot::ArduPilot
+    }
+
+    /// The mode table.
+    pub fn modes(&self) -> &'static [Mode] {
+        match (self.autopilot, self.class) {
+            (Autopilot::Px4, _) => PX4_MODES,
+            (Autopilot::ArduPilot, VehicleClass::Rover) => ROVER_MODES,
+            (Autopilot::ArduPilot, _) => COPTER_MODES,
+            _ => &[],
+        }
+    }
+
+    /// The name of the mode in a heartbeat (`custom_mode`), or `MODE(n)` if unknown.
+    pub fn mode_name(&self, custom_mode: u32) -> String {
+        let cm = match self.autopilot {
+            // PX4: the low 16 bits are reserved.
+            Autopilot::Px4 => custom_mode & 0xFFFF_0000,
+            _ => custom_mode,
+        };
+        if let Some(m) = self.modes().iter().find(|m| m.custom_mode == cm) {
+            return m.name.to_string();
+        }
+        if self.autopilot == Autopilot::Px4 {
+            // PX4 reports AUTO sub modes it has no name for; show main.sub.
+            return format!("MODE({}.{})", (cm >> 16) & 0xFF, cm >> 24);
+        }
+        format!("MODE({custom_mode})")
+    }
+
+    /// The mode called `name` (case-insensitive, QGroundControl / MAVProxy aliases).
+    pub fn mode(&self, name: &str) -> Result<Mode, FlavourError> {
+        let up = name.trim().to_ascii_uppercase().replace(' ', "_");
+        let modes = self.modes();
+        let find = |n: &str| modes.iter().find(|m| m.name == n).copied();
+        if let Some(m) = find(&up) {
+            return Ok(m);
+        }
+        if let Some((_, canon)) = ALIASES.iter().find(|(a, _)| *a == up)
+            && let Some(m) = find(canon)
+        {
+            return Ok(m);
+        }
+        Err(FlavourError::UnknownMode {
+            name: name.to_string(),
+            flavour: self.to_string(),
+            known: modes.iter().map(|m| m.name).collect::<Vec<_>>().join(", "),
+        })
+    }
+
+    /// The MAV_CMD_DO_SET_MODE command for `mode`.
+    pub fn set_mode_command(&self, target: Endpoint, mode: Mode) -> Command {
+        // MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1.
+        let (p2, p3) = match self.autopilot {
+            Autopilot::Px4 => (
+                ((mode.custom_mode >> 16) & 0xFF) as f32,
+                (mode.custom_mode >> 24) as f32,
+            ),
+            _ => (mode.custom_mode as f32, 0.0),
+        };
+        Command::long(
+            target,
+            MavCmd::MAV_CMD_DO_SET_MODE,
+            [1.0, p2, p3, 0.0, 0.0, 0.0, 0.0],
+        )
+    }
+
+    /// Whether the heartbeat's `custom_mode` is `mode`.
+    pub fn is_mode(&self, custom_mode: u32, mode: Mode) -> bool {
+        match self.autopilot {
+            Autopilot::Px4 => custom_mode & 0xFFFF_0000 == mode.custom_mode,
+            _ => custom_mode == mode.custom_mode,
+        }
+    }
+
+    fn named(&self, name: &str) -> Result<Mode, FlavourError> {
+        self.mode(name)
+    }
+
+    /// The mode in which a mission runs (AUTO / MISSION).
+    pub fn mission_mode(&self) -> Result<Mode, FlavourError> {
+        match self.autopilot {
+            Autopilot::Px4 => self.named("MISSION"),
+            _ => self.named("AUTO"),
+        }
+    }
+
+    /// The mode for commanded positions (GUIDED; PX4 HOLD, which DO_REPOSITION uses).
+    pub fn guided_mode(&self) -> Result<Mode, FlavourError> {
+        match self.autopilot {
+            Autopilot::Px4 => self.named("HOLD"),
+            _ => self.named("GUIDED"),
+        }
+    }
+
+    /// The return-to-launch mode.
+    pub fn rtl_mode(&self) -> Result<Mode, FlavourError> {
+        self.named("RTL")
+    }
+
+    /// The mode that stops and holds position (LOITER for ArduCopter, HOLD otherwise).
+    pub fn hold_mode(&self) -> Result<Mode, FlavourError> {
+        match (self.autopilot, self.class) {
+            (Autopilot::ArduPilot, VehicleClass::Copter) => self.named("LOITER"),
+            _ => self.named("HOLD"),
+        }
+    }
+
+    /// Whether this vehicle flies (takes off and lands).
+    pub fn flies(&self) -> bool {
+        matches!(self.class, VehicleClass::Copter | VehicleClass::Plane)
+    }
+
+    /// MISSION_CURRENT / MISSION_ITEM_REACHED seq → user item index (None for ArduPilot's
+    /// home, seq 0).
+    pub fn user_seq(&self, wire_seq: u16) -> Option<u16> {
+        if self.home_item() {
+            wire_seq.checked_sub(1)
+        } else {
+            Some(wire_seq)
+        }
+    }
+
+    /// User item index → wire seq.
+    pub fn wire_seq(&self, user_seq: u16) -> u16 {
+        if self.home_item() {
+            user_seq.saturating_add(1)
+        } else {
+            user_seq
+        }
+    }
+
+    fn not_applicable(&self, action: &'static str) -> FlavourError {
+        FlavourError::NotApplicable {
+            action,
+            flavour: self.to_string(),
+        }
+    }
+
+    /// How to arm and take off to `alt_rel` metres above home. `home_amsl` is home's
+    /// altitude above mean sea level (needed by PX4).
+    pub fn takeoff(
+        &self,
+        target: Endpoint,
+        alt_rel: f32,
+        home_amsl: Option<f32>,
+    ) -> Result<Vec<Step>, FlavourError> {
+        if !self.flies() {
+            return Err(self.not_applicable("take-off"));
+        }
+        let nan = f32::NAN;
+        match self.autopilot {
+            Autopilot::ArduPilot => Ok(vec![
+                Step::SetMode(self.guided_mode()?),
+                Step::Arm,
+                Step::Command(Command::long(
+                    target,
+                    MavCmd::MAV_CMD_NAV_TAKEOFF,
+                    [0.0, 0.0, 0.0, nan, 0.0, 0.0, alt_rel],
+                )),
+            ]),
+            Autopilot::Px4 => {
+                let home = home_amsl.ok_or(FlavourError::Unknown {
+                    action: "take-off",
+                    what: "the home altitude (HOME_POSITION)",
+                })?;
+                Ok(vec![
+                    Step::Arm,
+                    Step::Command(Command::long(
+                        target,
+                        MavCmd::MAV_CMD_NAV_TAKEOFF,
+                        [nan, 0.0, 0.0, nan, nan, nan, home + alt_rel],
+                    )),
+                ])
+            }
+            Autopilot::Other(_) => Err(self.not_applicable("take-off")),
+        }
+    }
+
+    /// How to start the uploaded mission (the vehicle is armed, and airborne if it flies).
+    pub fn start_mission(&self, target: Endpoint) -> Result<Vec<Step>, FlavourError> {
+        match self.autopilot {
+            Autopilot::ArduPilot | Autopilot::Px4 => Ok(vec![Step::Command(Command::long(
+                target,
+                MavCmd::MAV_CMD_MISSION_START,
+                [0.0; 7],
+            ))]),
+            Autopilot::Other(_) => Err(self.not_applicable("starting a mission")),
+        }
+    }
+
+    /// How to go to (`lat_e7`, `lon_e7`) at `alt_rel` m above home now.
+    pub fn goto(
+        &self,
+        target: Endpoint,
+        lat_e7: i32,
+        lon_e7: i32,
+        alt_rel: f32,
+        home_amsl: Option<f32>,
+    ) -> Result<Vec<Step>, FlavourError> {
+        // MAV_DO_REPOSITION_FLAGS_CHANGE_MODE = 1; param1 speed -1 = default; param4 yaw NaN
+        // = keep heading.
+        let params = [-1.0, 1.0, 0.0, f32::NAN];
+        match self.autopilot {
+            Autopilot::ArduPilot => Ok(vec![Step::Command(Command::int(
+                target,
+                MavCmd::MAV_CMD_DO_REPOSITION,
+                MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT,
+                params,
+                lat_e7,
+                lon_e7,
+                alt_rel,
+            ))]),
+            Autopilot::Px4 => {
+                let home = home_amsl.ok_or(FlavourError::Unknown {
+                    action: "go to",
+                    what: "the home altitude (HOME_POSITION)",
+                })?;
+                Ok(vec![Step::Command(Command::int(
+                    target,
+                    MavCmd::MAV_CMD_DO_REPOSITION,
+                    MavFrame::MAV_FRAME_GLOBAL,
+                    params,
+                    lat_e7,
+                    lon_e7,
+                    home + alt_rel,
+                ))])
+            }
+            Autopilot::Other(_) => Err(self.not_applicable("go to")),
+        }
+    }
+
+    /// The ArduPilot fallback for [`Flavour::goto`] when DO_REPOSITION is unsupported:
+    /// GUIDED, then SET_POSITION_TARGET_GLOBAL_INT (position only).
+    pub fn goto_fallback(
+        &self,
+        target: Endpoint,
+        lat_e7: i32,
+        lon_e7: i32,
+        alt_rel: f32,
+    ) -> Result<Vec<Step>, FlavourError> {
+        if self.autopilot != Autopilot::ArduPilot {
+            return Err(self.not_applicable("SET_POSITION_TARGET_GLOBAL_INT go to"));
+        }
+        // Ignore velocity, acceleration, yaw and yaw rate: bits 3..=11 (0x0FF8).
+        let mask = PositionTargetTypemask::from_bits_retain(0x0FF8);
+        Ok(vec![
+            Step::SetMode(self.guided_mode()?),
+            Step::Send(Box::new(MavMessage::SET_POSITION_TARGET_GLOBAL_INT(
+                SET_POSITION_TARGET_GLOBAL_INT_DATA {
+                    time_boot_ms: 0,
+                    lat_int: lat_e7,
+                    lon_int: lon_e7,
+                    alt: alt_rel,
+                    vx: 0.0,
+                    vy: 0.0,
+                    vz: 0.0,
+                    afx: 0.0,
+                    afy: 0.0,
+                    afz: 0.0,
+                    yaw: 0.0,
+                    yaw_rate: 0.0,
+                    type_mask: mask,
+                    target_system: target.sysid,
+                    target_component: target.compid,
+                    coordinate_frame: MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT,
+                },
+            ))),
+        ])
+    }
+
+    /// How to return to launch.
+    pub fn rtl(&self, target: Endpoint) -> Result<Vec<Step>, FlavourError> {
+        match self.autopilot {
+            Autopilot::ArduPilot => Ok(vec![Step::SetMode(self.rtl_mode()?)]),
+            Autopilot::Px4 => Ok(vec![Step::Command(Command::long(
+                target,
+                MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH,
+                [0.0; 7],
+            ))]),
+            Autopilot::Other(_) => Err(self.not_applicable("return to launch")),
+        }
+    }
+
+    /// How to land here.
+    pub fn land(&self, target: Endpoint) -> Result<Vec<Step>, FlavourError> {
+        if !self.flies() {
+            return Err(self.not_applicable("landing"));
+        }
+        match self.autopilot {
+            Autopilot::ArduPilot => Ok(vec![Step::SetMode(self.named("LAND")?)]),
+            Autopilot::Px4 => {
+                let nan = f32::NAN;
+                Ok(vec![Step::Command(Command::long(
+                    target,
+                    MavCmd::MAV_CMD_NAV_LAND,
+                    [0.0, 0.0, 0.0, nan, nan, nan, nan],
+                ))])
+            }
+            Autopilot::Other(_) => Err(self.not_applicable("landing")),
+        }
+    }
+
+    /// The arm / disarm command (param2 = 0: no force).
+    pub fn arm_command(&self, target: Endpoint, arm: bool) -> Command {
+        Command::long(
+            target,
+            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+            [f32::from(u8::from(arm)), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        )
+    }
+
+    /// Why the vehicle cannot be armed yet (empty when it can). See the module docs.
+    pub fn arm_blockers(&self, s: &ArmInputs) -> Vec<String> {
+        let mut why = Vec::new();
+        if s.system_status < 3 {
+            why.push(format!(
+                "autopilot not ready (MAV_STATE {}: still booting or calibrating)",
+                s.system_status
+            ));
+        }
+        match s.gps_fix {
+            None => why.push("no GPS_RAW_INT received".into()),
+            Some(f) if f < 3 => why.push(format!("GPS fix type {f} (a 3D fix is needed)")),
+            _ => {}
+        }
+        if !s.position {
+            why.push("no position estimate (GLOBAL_POSITION_INT without a position)".into());
+        }
+        if let Some(flags) = s.ekf_flags
+            && (flags & EKF_POS_HORIZ_ABS == 0
+                || flags & EKF_CONST_POS_MODE != 0
+                || flags & EKF_UNINITIALIZED != 0)
+        {
+            why.push(format!(
+                "EKF has no absolute horizontal position yet (EKF_STATUS_REPORT flags 0x{flags:04x})"
+            ));
+        }
+        if !s.home {
+            why.push("home position not set (no HOME_POSITION)".into());
+        }
+        match (s.prearm_ok, &s.prearm_text) {
+            (Some(false), t) => why.push(format!(
+                "pre-arm checks failing{}",
+                t.as_ref().map(|t| format!(": {t}")).unwrap_or_default()
+            )),
+            (None, Some(t)) => why.push(format!("pre-arm failure reported: {t}")),
+            _ => {}
+        }
+        why
+    }
+
+    /// Whether a STATUSTEXT reports a pre-arm / pre-flight failure.
+    pub fn is_prearm_failure_text(text: &str) -> bool {
+        let t = text.trim_start();
+        t.starts_with("PreArm:")
+            || t.starts_with("Arm:")
+            || t.starts_with("Preflight Fail")
+            || t.starts_with("Arming denied")
+    }
+}
+
+impl std::fmt::Display for Flavour {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let ap = match self.autopilot {
+            Autopilot::ArduPilot => "ArduPilot".to_string(),
+            Autopilot::Px4 => "PX4".to_string(),
+            Autopilot::Other(n) => format!("autopilot {n}"),
+        };
+        let class = match self.class {
+            VehicleClass::Copter => "copter",
+            VehicleClass::Rover => "rover",
+            VehicleClass::Plane => "plane",
+            VehicleClass::Other => "vehicle",
+        };
+        write!(f, "{ap} {class}")
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mode_tables_round_trip() {
+        let c = Flavour::ARDU_COPTER;
+        assert_eq!(c.mode("guided").unwrap().custom_mode, 4);
+        assert_eq!(c.mode_name(6), "RTL");
+        assert_eq!(c.mode_name(99), "MODE(99)");
+        let r = Flavour::ARDU_ROVER;
+        assert_eq!(r.mode("auto").unwrap().custom_mode, 10);
+        assert_eq!(r.mode_name(15), "GUIDED");
+        let p = Flavour::PX4_COPTER;
+        let mission = p.mode("Mission").unwrap();
+        assert_eq!(mission.custom_mode, (4 << 24) | (4 << 16));
+        assert_eq!(p.mode("auto.rtl").unwrap().name, "RTL");
+        assert_eq!(p.mode_name(mission.custom_mode | 0x1234), "MISSION");
+        assert_eq!(p.mode("position").unwrap().custom_mode, 3 << 16);
+        assert!(matches!(
+            c.mode("MISSION"),
+            Err(FlavourError::UnknownMode { .. })
+        ));
+        // DO_SET_MODE encodes main and sub mode for PX4.
+        let cmd = p.set_mode_command(Endpoint::new(1, 1), mission);
+        match cmd.args {
+            super::super::command::CommandArgs::Long(p) => {
+                assert_eq!((p[0], p[1], p[2]), (1.0, 4.0, 4.0))
+            }
+            _ => panic!(),
+        }
+    }
+
+    #[test]
+    fn flavours_from_heartbeat_and_seq_offsets() {
+        assert_eq!(Flavour::from_heartbeat(3, 2), Flavour::ARDU_COPTER);
+        assert_eq!(Flavour::from_heartbeat(3, 10), Flavour::ARDU_ROVER);
+        assert_eq!(Flavour::from_heartbeat(12, 13), Flavour::PX4_COPTER);
+        assert_eq!(Flavour::ARDU_COPTER.user_seq(0), None);
+        assert_eq!(Flavour::ARDU_COPTER.user_seq(3), Some(2));
+        assert_eq!(Flavour::PX4_COPTER.user_seq(3), Some(3));
+    }
+
+    #[test]
+    fn takeoff_plans_follow_each_autopilot() {
+        let t = Endpoint::new(1, 1);
+        let ap = Flavour::ARDU_COPTER.takeoff(t, 12.0, Some(100.0)).unwrap();
+        assert_eq!(
+            ap[0],
+            Step::SetMode(Flavour::ARDU_COPTER.mode("GUIDED").unwrap())
+        );
+        assert_eq!(ap[1], Step::Arm);
+        let px = Flavour::PX4_COPTER.takeoff(t, 12.0, Some(100.0)).unwrap();
+        match &px[1] {
+            Step::Command(c) => match c.args {
+                super::super::command::CommandArgs::Long(p) => assert_eq!(p[6], 112.0),
+                _ => panic!(),
+            },
+            s => panic!("{s:?}"),
+        }
+        assert!(Flavour::PX4_COPTER.takeoff(t, 12.0, None).is_err());
+        assert!(Flavour::ARDU_ROVER.takeoff(t, 12.0, None).is_err());
+        assert!(Flavour::ARDU_ROVER.land(t).is_err());
+    }
+
+    #[test]
+    fn arming_needs_more_than_a_flag() {
+        let f = Flavour::ARDU_COPTER;
+        let mut s = ArmInputs {
+            system_status: 3,
+            gps_fix: Some(3),
+            position: true,
+            home: true,
+            prearm_ok: Some(true),
+            ..Default::default()
+        };
+        assert!(f.arm_blockers(&s).is_empty());
+        s.ekf_flags = Some(EKF_CONST_POS_MODE | EKF_POS_HORIZ_ABS);
+        assert_eq!(f.arm_blockers(&s).len(), 1);
+        s.ekf_flags = None;
+        s.home = false;
+        s.gps_fix = Some(2);
+        assert_eq!(f.arm_blockers(&s).len(), 2);
+        s = ArmInputs {
+            system_status: 3,
+            gps_fix: Some(3),
+            position: true,
+            home: true,
+            prearm_ok: None,
+            prearm_text: Some("PreArm: Compass not calibrated".into()),
+            ..Default::default()
+        };
+        assert!(f.arm_blockers(&s)[0].contains("Compass"));
+        assert!(Flavour::is_prearm_failure_text("PreArm: Need 3D Fix"));
+        assert!(Flavour::is_prearm_failure_text(
+            "Preflight Fail: ekf2 missing data"
+        ));
+    }
+}

@@ -1,0 +1,1435 @@
+//! The mission protocol, GCS side: upload, download, clear and set-current for the mission,
+//! fence and rally lists (<https://mavlink.io/en/services/mission.html>).
+//!
+//! What this follows, and where it deliberately differs:
+//!
+//! * The step structure, timeouts and retries are the specification's (MISSION_COUNT /
+//!   MISSION_REQUEST_LIST / MISSION_CLEAR_ALL answered within [`MissionConfig::timeout`],
+//!   1500 ms; each item requested during a download within
+//!   [`MissionConfig::item_timeout`], 250 ms; 5 retries), as in MAVSDK
+//!   (`mavlink/MAVSDK`, `src/mavsdk/core/mavlink_mission_transfer_client.cpp`) and
+//!   QGroundControl (`mavlink/qgroundcontrol`, `src/MissionManager/PlanManager.cc`:
+//!   `_retryTimeoutMilliseconds` for items, `_ackTimeoutMilliseconds` otherwise,
+//!   `_maxRetryCount`). Retries count *consecutive* timeouts without progress (both reset
+//!   their counter when an item gets through), so long missions over poor links work.
+//! * Both MISSION_REQUEST and MISSION_REQUEST_INT are accepted and always answered with
+//!   MISSION_ITEM_INT (ArduPilot ≤ 3.6 requests with MISSION_REQUEST but accepts the INT
+//!   answer — MAVSDK's `process_mission_request` does the same).
+//! * Duplicated and out-of-order requests are answered (the vehicle drives the upload;
+//!   answering an old request again is harmless). ArduPilot answers a duplicated item with
+//!   MAV_MISSION_INVALID_SEQUENCE (`ArduPilot/ardupilot`,
+//!   `libraries/GCS_MAVLink/MissionItemProtocol.cpp` `handle_mission_item`) and keeps going,
+//!   so that NACK is not fatal during an upload.
+//! * A lost final MISSION_ACK: MAVSDK and QGroundControl give up ("vehicle failed to send
+//!   final ack") although the vehicle may well have the mission. We resend the last item:
+//!   PX4 then repeats its ACK (`PX4/PX4-Autopilot`, `src/modules/mavlink/mavlink_mission.cpp`
+//!   `handle_mission_item_both`, "the GCS did not receive the last ack"), while ArduPilot,
+//!   no longer receiving, answers MAV_MISSION_ERROR (`GCS_Common.cpp`
+//!   `GCS_MAVLINK::handle_mission_item`). When the answer is ambiguous (no ACK, or a NACK
+//!   after every item was sent) we read the list back and compare it with what we sent:
+//!   success only if it matches exactly, otherwise a precise error. Never success with
+//!   wrong items.
+//! * A lost request: when no request or ACK follows an item within the timeout, the
+//!   highest item requested so far is sent again *and the next one is offered unrequested*.
+//!   The first covers a lost item, the second a lost request. Both autopilots store an
+//!   item whose seq is the one they expect whether or not they asked for it, and answer a
+//!   wrong one harmlessly (ArduPilot MAV_MISSION_INVALID_SEQUENCE, PX4 silence). Without
+//!   this, a lost request is only recovered by the vehicle's own re-request, and ArduPilot
+//!   re-requests once a second but cancels the upload after 8 s without an item
+//!   (`MissionItemProtocol::update`: `wp_recv_timeout_ms` 1000, `upload_timeout_ms`
+//!   8000): on a link that loses 30 % each way that leaves 8 tries at 49 % success, so a
+//!   200-item upload would be cancelled more often than not. QGroundControl and MAVSDK
+//!   only wait (they do not resend items on their own at all).
+//! * ArduPilot keeps the home position as item 0 of the *mission* list (not of fence or
+//!   rally). On upload we send a home placeholder at seq 0 (QGroundControl sends its planned
+//!   home there, `PlanManager::writeMissionItems`, `sendHomePositionToVehicle()` is true for
+//!   ArduPilot), on download we strip it and return it separately, and DO_JUMP targets are
+//!   shifted by one both ways (`PlanManager::writeMissionItems` adjusts `param1`). PX4 has
+//!   no home item.
+//! * One operation at a time per vehicle (ArduPilot and PX4 handle one transfer at a time);
+//!   later ones queue. Between two operations the machine waits [`MissionConfig::settle`]
+//!   and drops mission messages meanwhile, so that a late duplicate ACK or item of the
+//!   previous operation cannot be mistaken for an answer to the next one.
+//! * Every operation also has an overall deadline ([`MissionClient::budget`]), so nothing
+//!   can wait forever whatever a vehicle does.
+
+// Deliberately handles deprecated messages and frames (MISSION_REQUEST, MISSION_ITEM,
+// MISSION_SET_CURRENT, *_INT frames) because deployed autopilots still send or need them.
+#![allow(deprecated)]
+
+use super::Endpoint;
+use crate::mission::{MissionItem, MissionType, item::cmd, item::frame};
+use crate::time::Time;
+use mavlink::MavHeader;
+use mavlink::dialects::ardupilotmega::{
+    MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_ITEM_DATA,
+    MISSION_ITEM_INT_DATA, MISSION_REQUEST_INT_DATA, MISSION_REQUEST_LIST_DATA,
+    MISSION_SET_CURRENT_DATA, MavCmd, MavFrame, MavMessage, MavMissionResult, MavMissionType,
+};
+use num_traits::FromPrimitive;
+use std::collections::VecDeque;
+use std::time::Duration;
+
+/// Timeouts and retries of the mission protocol.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct MissionConfig {
+    /// Wait for the answer to MISSION_COUNT, MISSION_REQUEST_LIST, MISSION_CLEAR_ALL,
+    /// MISSION_SET_CURRENT and for the next request during an upload (spec: 1500 ms).
+    pub timeout: Duration,
+    /// Wait for each MISSION_ITEM_INT during a download (spec: 250 ms).
+    pub item_timeout: Duration,
+    /// Consecutive timeouts without progress before giving up (spec: 5).
+    pub retries: u32,
+    /// Quiet time between two operations (late messages of the previous one are dropped).
+    pub settle: Duration,
+    /// How many times a download that the vehicle aborted (MAV_MISSION_ERROR, or silence
+    /// in the middle of the list) starts over with MISSION_REQUEST_LIST. PX4 aborts a
+    /// download when a duplicated or reordered request arrives late
+    /// (`handle_mission_request_both`: "Unexpected waypoint index, aborting transfer").
+    pub restarts: u32,
+}
+
+impl Default for MissionConfig {
+    fn default() -> Self {
+        MissionConfig {
+            timeout: Duration::from_millis(1500),
+            item_timeout: Duration::from_millis(250),
+            retries: 5,
+            settle: Duration::from_millis(250),
+            restarts: 2,
+        }
+    }
+}
+
+/// Identifies an operation started with [`MissionClient::start`].
+pub type OpId = u64;
+
+/// A mission-protocol operation.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MissionOp {
+    /// Replace the vehicle's list of `kind` with `items` (user numbering, no home item).
+    /// `home` is what to send at seq 0 when the autopilot keeps home there (ArduPilot
+    /// missions); `None` sends an all-zero placeholder.
+    Upload {
+        /// Which list.
+        kind: MissionType,
+        /// The items.
+        items: Vec<MissionItem>,
+        /// Home placeholder for ArduPilot missions.
+        home: Option<MissionItem>,
+    },
+    /// Read the vehicle's list of `kind`.
+    Download {
+        /// Which list.
+        kind: MissionType,
+    },
+    /// Clear the vehicle's list of `kind`.
+    Clear {
+        /// Which list.
+        kind: MissionType,
+    },
+    /// Make user item `seq` (0-based, no home item) the current mission item with
+    /// MISSION_SET_CURRENT, confirmed by MISSION_CURRENT.
+    SetCurrent {
+        /// User item index.
+        seq: u16,
+    },
+}
+
+impl MissionOp {
+    fn name(&self) -> &'static str {
+        match self {
+            MissionOp::Upload { .. } => "upload",
+            MissionOp::Download { .. } => "download",
+            MissionOp::Clear { .. } => "clear",
+            MissionOp::SetCurrent { .. } => "set current",
+        }
+    }
+}
+
+/// What a successful operation produced.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MissionOutcome {
+    /// Uploaded `count` user items. `verified_by_download` is set when the final ACK was
+    /// lost or ambiguous and success was established by reading the list back.
+    Uploaded {
+        /// Number of user items.
+        count: usize,
+        /// Success established by reading the list back.
+        verified_by_download: bool,
+    },
+    /// The downloaded list (user numbering) and, for ArduPilot missions, its home item.
+    Downloaded {
+        /// The items.
+        items: Vec<MissionItem>,
+        /// ArduPilot's item 0 (home), if the list had one.
+        home: Option<MissionItem>,
+    },
+    /// The list was cleared.
+    Cleared,
+    /// The current item is now `seq` (user numbering).
+    CurrentSet {
+        /// User item index.
+        seq: u16,
+    },
+}
+
+/// A MAV_MISSION_RESULT, with the meaning the specification gives it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MissionResultCode(pub MavMissionResult);
+
+impl std::fmt::Display for MissionResultCode {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        use MavMissionResult::*;
+        let text = match self.0 {
+            MAV_MISSION_ACCEPTED => "accepted",
+            MAV_MISSION_ERROR => "generic error / not accepting mission commands right now",
+            MAV_MISSION_UNSUPPORTED_FRAME => "coordinate frame not supported",
+            MAV_MISSION_UNSUPPORTED => "command not supported",
+            MAV_MISSION_NO_SPACE => "mission items exceed storage space",
+            MAV_MISSION_INVALID => "one of the parameters has an invalid value",
+            MAV_MISSION_INVALID_PARAM1 => "param1 has an invalid value",
+            MAV_MISSION_INVALID_PARAM2 => "param2 has an invalid value",
+            MAV_MISSION_INVALID_PARAM3 => "param3 has an invalid value",
+            MAV_MISSION_INVALID_PARAM4 => "param4 has an invalid value",
+            MAV_MISSION_INVALID_PARAM5_X => "x / param5 has an invalid value",
+            MAV_MISSION_INVALID_PARAM6_Y => "y / param6 has an invalid value",
+            MAV_MISSION_INVALID_PARAM7 => "z / param7 has an invalid value",
+            MAV_MISSION_INVALID_SEQUENCE => "item received out of sequence",
+            MAV_MISSION_DENIED => "not accepting any mission commands from this system",
+            MAV_MISSION_OPERATION_CANCELLED => "the vehicle cancelled the operation",
+        };
+        write!(f, "{:?} ({text})", self.0)
+    }
+}
+
+/// Why an operation failed.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum MissionError {
+    /// The vehicle answered with a MISSION_ACK error.
+    #[error("mission {op}: the vehicle refused{}: {result}", seq.map(|s| format!(" at wire item {s}")).unwrap_or_default())]
+    Rejected {
+        /// Operation name.
+        op: &'static str,
+        /// The result code.
+        result: MissionResultCode,
+        /// The wire seq of the last item sent, when relevant.
+        seq: Option<u16>,
+    },
+    /// No answer after all retries.
+    #[error(
+        "mission {op}: no answer from the vehicle while waiting for {waiting_for} ({attempts} attempts, {timeout_ms} ms each)"
+    )]
+    Timeout {
+        /// Operation name.
+        op: &'static str,
+        /// What was awaited.
+        waiting_for: String,
+        /// Attempts made.
+        attempts: u32,
+        /// Timeout per attempt, ms.
+        timeout_ms: u64,
+    },
+    /// The operation exceeded its overall time budget.
+    #[error("mission {op}: not finished within its time budget of {budget_ms} ms")]
+    OverBudget {
+        /// Operation name.
+        op: &'static str,
+        /// The budget, ms.
+        budget_ms: u64,
+    },
+    /// The final ACK was lost or ambiguous and the list read back differs.
+    #[error("mission upload: the vehicle did not confirm and the list read back differs: {detail}")]
+    Unconfirmed {
+        /// What differs, or why it could not be read.
+        detail: String,
+    },
+    /// An item's command is not a MAV_CMD of the dialect (cannot be encoded).
+    #[error(
+        "mission item {index}: command {command} is not a MAV_CMD known to the MAVLink dialect"
+    )]
+    UnknownCommand {
+        /// User item index.
+        index: usize,
+        /// The command number.
+        command: u16,
+    },
+    /// An item's frame is not a MAV_FRAME of the dialect.
+    #[error("mission item {index}: frame {frame} is not a MAV_FRAME")]
+    UnknownFrame {
+        /// User item index.
+        index: usize,
+        /// The frame number.
+        frame: u8,
+    },
+    /// More items than the protocol can count.
+    #[error("mission has {count} items; the protocol counts at most 65535")]
+    TooMany {
+        /// Item count.
+        count: usize,
+    },
+    /// A downloaded item could not be decoded (e.g. a command unknown to our dialect).
+    #[error("mission download: item {seq} could not be decoded: {detail}")]
+    Undecodable {
+        /// Wire seq.
+        seq: u16,
+        /// Why.
+        detail: String,
+    },
+    /// Cancelled by the caller.
+    #[error("mission {op}: cancelled")]
+    Cancelled {
+        /// Operation name.
+        op: &'static str,
+    },
+}
+
+/// What the machine reports.
+#[derive(Clone, Debug, PartialEq)]
+pub enum MissionEvent {
+    /// Progress of a transfer: `done` of `total` wire items.
+    Progress {
+        /// The operation.
+        id: OpId,
+        /// Items transferred.
+        done: usize,
+        /// Items in the transfer.
+        total: usize,
+    },
+    /// The operation finished.
+    Done {
+        /// The operation.
+        id: OpId,
+        /// Its result.
+        result: Result<MissionOutcome, MissionError>,
+    },
+}
+
+fn mav_type(kind: MissionType) -> MavMissionType {
+    match kind {
+        MissionType::Mission => MavMissionType::MAV_MISSION_TYPE_MISSION,
+        MissionType::Fence => MavMissionType::MAV_MISSION_TYPE_FENCE,
+        MissionType::Rally => MavMissionType::MAV_MISSION_TYPE_RALLY,
+    }
+}
+
+/// Whether a frame carries latitude/longitude in x/y (degrees × 10⁷ in MISSION_ITEM_INT).
+pub fn is_global_frame(f: u8) -> bool {
+    matches!(f, 0 | 3 | 5 | 6 | 10 | 11)
+}
+
+/// The frame with the deprecated `_INT` variants folded onto their synonyms.
+pub fn normalize_frame(f: u8) -> u8 {
+    match f {
+        5 => frame::GLOBAL,
+        6 => frame::GLOBAL_RELATIVE_ALT,
+        11 => frame::GLOBAL_TERRAIN_ALT,
+        f => f,
+    }
+}
+
+/// A MISSION_ITEM_INT payload → our item.
+pub fn item_from_wire(d: &MISSION_ITEM_INT_DATA) -> MissionItem {
+    MissionItem {
+        frame: d.frame as u8,
+        command: d.command as u16,
+        current: d.current != 0,
+        autocontinue: d.autocontinue != 0,
+        param1: d.param1,
+        param2: d.param2,
+        param3: d.param3,
+        param4: d.param4,
+        x: d.x,
+        y: d.y,
+        z: d.z,
+    }
+}
+
+/// A (float) MISSION_ITEM payload → MISSION_ITEM_INT payload (lat/lon scaled to 1e7 in
+/// global frames, as ArduPilot's `convert_MISSION_ITEM_to_MISSION_ITEM_INT` does).
+pub fn item_int_from_float(d: &MISSION_ITEM_DATA) -> MISSION_ITEM_INT_DATA {
+    let global = is_global_frame(d.frame as u8);
+    let conv = |v: f32| {
+        if global {
+            (f64::from(v) * 1e7).round() as i32
+        } else {
+            v as i32
+        }
+    };
+    MISSION_ITEM_INT_DATA {
+        param1: d.param1,
+        param2: d.param2,
+        param3: d.param3,
+        param4: d.param4,
+        x: conv(d.x),
+        y: conv(d.y),
+        z: d.z,
+        seq: d.seq,
+        command: d.command,
+        target_system: d.target_system,
+        target_component: d.target_component,
+        frame: d.frame,
+        current: d.current,
+        autocontinue: d.autocontinue,
+        mission_type: d.mission_type,
+    }
+}
+
+/// Our item → a MISSION_ITEM_INT payload (seq and addressing filled by the caller).
+pub fn item_to_wire(
+    item: &MissionItem,
+    index: usize,
+) -> Result<MISSION_ITEM_INT_DATA, MissionError> {
+    let command = MavCmd::from_u16(item.command).ok_or(MissionError::UnknownCommand {
+        index,
+        command: item.command,
+    })?;
+    let frame = MavFrame::from_u8(item.frame).ok_or(MissionError::UnknownFrame {
+        index,
+        frame: item.frame,
+    })?;
+    Ok(MISSION_ITEM_INT_DATA {
+        param1: item.param1,
+        param2: item.param2,
+        param3: item.param3,
+        param4: item.param4,
+        x: item.x,
+        y: item.y,
+        z: item.z,
+        seq: 0,
+        command,
+        target_system: 0,
+        target_component: 0,
+        frame,
+        current: u8::from(item.current),
+        autocontinue: u8::from(item.autocontinue),
+        mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+    })
+}
+
+fn same_f32(a: f32, b: f32, tol: f32) -> bool {
+    (a.is_nan() && b.is_nan()) || a == b || (a - b).abs() <= tol * a.abs().max(b.abs()).max(1.0)
+}
+
+/// Compare what was sent with what was read back, as far as autopilots store items:
+///
+/// * the command must be the same;
+/// * a position item (sent in a global frame) must come back in the same kind of frame
+///   (absolute / relative to home / terrain, the `_INT` synonyms folded: PX4 answers in the
+///   `_INT` frames, ArduPilot in the plain ones) with x and y exactly and z within 1 cm
+///   (ArduPilot stores centimetres); for other commands the frame is not compared
+///   (ArduPilot returns 0 for them, `AP_Mission::mission_cmd_to_mavlink_int`);
+/// * parameters must match within 1e-4 (relative), except that a NaN sent may come back
+///   as 0 (neither autopilot stores NaN "unchanged" markers) and, when `drops_params`
+///   (ArduPilot: `AP_Mission` keeps only the parameters its packed 15-byte command has,
+///   e.g. a waypoint keeps its delay but not its acceptance radius or yaw), a parameter
+///   may come back as 0;
+/// * `current` and `autocontinue` are not compared (the vehicle sets them).
+///
+/// Returns a description of the first difference.
+pub fn compare_items(
+    sent: &[MissionItem],
+    got: &[MissionItem],
+    drops_params: bool,
+) -> Result<(), String> {
+    if sent.len() != got.len() {
+        return Err(format!(
+            "{} items sent, {} read back",
+            sent.len(),
+            got.len()
+        ));
+    }
+    for (i, (a, b)) in sent.iter().zip(got).enumerate() {
+        let diff = |what: &str, x: String, y: String| {
+            Err(format!("item {i}: {what} sent {x}, read back {y}"))
+        };
+        if a.command != b.command {
+            return diff("command", a.command.to_string(), b.command.to_string());
+        }
+        if is_global_frame(a.frame) && normalize_frame(a.frame) != normalize_frame(b.frame) {
+            return diff("frame", a.frame.to_string(), b.frame.to_string());
+        }
+        if a.x != b.x || a.y != b.y {
+            return diff(
+                "x/y",
+                format!("{}/{}", a.x, a.y),
+                format!("{}/{}", b.x, b.y),
+            );
+        }
+        if !(same_f32(a.z, b.z, 0.0) || (a.z - b.z).abs() <= 0.01) {
+            return diff("z", a.z.to_string(), b.z.to_string());
+        }
+        for (k, (p, q)) in [
+            (a.param1, b.param1),
+            (a.param2, b.param2),
+            (a.param3, b.param3),
+            (a.param4, b.param4),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let dropped = q == 0.0 && (p.is_nan() || drops_params);
+            if !same_f32(p, q, 1e-4) && !dropped {
+                return diff(&format!("param{}", k + 1), p.to_string(), q.to_string());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The all-zero home placeholder sent at ArduPilot's seq 0 when no home is known.
+pub fn home_placeholder() -> MissionItem {
+    MissionItem {
+        frame: frame::GLOBAL,
+        ..MissionItem::command(cmd::NAV_WAYPOINT)
+    }
+}
+
+/// User items → wire items for a list of `kind` (home prepended and DO_JUMP shifted when
+/// `home_item`; seq, current, addressing and mission type set).
+fn build_wire(
+    kind: MissionType,
+    items: &[MissionItem],
+    home: Option<&MissionItem>,
+    home_item: bool,
+    target: Endpoint,
+) -> Result<Vec<MISSION_ITEM_INT_DATA>, MissionError> {
+    let offset = home_item && kind == MissionType::Mission;
+    let mut user: Vec<MissionItem> = Vec::with_capacity(items.len() + 1);
+    if offset {
+        user.push(home.copied().unwrap_or_else(home_placeholder));
+    }
+    for it in items {
+        let mut it = *it;
+        if offset && it.command == cmd::DO_JUMP {
+            it.param1 += 1.0;
+        }
+        user.push(it);
+    }
+    if user.len() > usize::from(u16::MAX) {
+        return Err(MissionError::TooMany { count: items.len() });
+    }
+    let mut wire = Vec::with_capacity(user.len());
+    for (i, it) in user.iter().enumerate() {
+        let index = if offset { i.saturating_sub(1) } else { i };
+        let mut w = item_to_wire(it, index)?;
+        w.seq = i as u16;
+        w.current = u8::from(i == 0);
+        w.target_system = target.sysid;
+        w.target_component = target.compid;
+        w.mission_type = mav_type(kind);
+        wire.push(w);
+    }
+    Ok(wire)
+}
+
+/// Wire items → (user items, home) for a list of `kind` (inverse of `build_wire`).
+fn from_wire_list(
+    kind: MissionType,
+    wire: &[MISSION_ITEM_INT_DATA],
+    home_item: bool,
+) -> (Vec<MissionItem>, Option<MissionItem>) {
+    let offset = home_item && kind == MissionType::Mission;
+    // The deprecated `_INT` frames (PX4 answers in them) are folded onto their synonyms,
+    // as QGroundControl does on download (`PlanManager::_handleMissionItem`).
+    let mut items: Vec<MissionItem> = wire
+        .iter()
+        .map(|w| {
+            let mut it = item_from_wire(w);
+            it.frame = normalize_frame(it.frame);
+            it
+        })
+        .collect();
+    let home = if offset && !items.is_empty() {
+        Some(items.remove(0))
+    } else {
+        None
+    };
+    if offset {
+        for it in &mut items {
+            if it.command == cmd::DO_JUMP {
+                it.param1 -= 1.0;
+            }
+        }
+    }
+    (items, home)
+}
+
+/// The download sub-machine (also used to verify an upload).
+#[derive(Debug)]
+struct Download {
+    kind: MissionType,
+    count: Option<u16>,
+    items: Vec<MISSION_ITEM_INT_DATA>,
+    deadline: Time,
+    attempts: u32,
+    /// In verification mode, stale upload NACKs (ERROR / INVALID_SEQUENCE) are ignored.
+    verify: bool,
+    /// Restarts left after the vehicle aborted.
+    restarts_left: u32,
+}
+
+enum DlStep {
+    Continue,
+    Done(Vec<MISSION_ITEM_INT_DATA>),
+    Failed(MissionError),
+}
+
+#[derive(Debug)]
+enum UpPhase {
+    /// MISSION_COUNT sent, waiting for the first request.
+    Count,
+    /// Items being requested.
+    Items,
+    /// Final ACK lost or ambiguous: reading the list back.
+    Verify(Box<Download>),
+}
+
+#[derive(Debug)]
+struct Upload {
+    kind: MissionType,
+    user: Vec<MissionItem>,
+    wire: Vec<MISSION_ITEM_INT_DATA>,
+    requested: Vec<bool>,
+    n_requested: usize,
+    /// Items sent at least once (requested or offered).
+    sent: Vec<bool>,
+    n_sent: usize,
+    last_sent: Option<u16>,
+    phase: UpPhase,
+    deadline: Time,
+    attempts: u32,
+    nack: Option<MavMissionResult>,
+    verify_returns: u32,
+}
+
+#[derive(Debug)]
+enum ActiveKind {
+    Upload(Upload),
+    Download(Download),
+    Clear {
+        kind: MissionType,
+        deadline: Time,
+        attempts: u32,
+    },
+    SetCurrent {
+        user_seq: u16,
+        wire_seq: u16,
+        deadline: Time,
+        attempts: u32,
+    },
+}
+
+#[derive(Debug)]
+struct Active {
+    id: OpId,
+    name: &'static str,
+    overall: Time,
+    budget: Duration,
+    kind: ActiveKind,
+}
+
+/// The GCS side of the mission protocol for one vehicle.
+#[derive(Debug)]
+pub struct MissionClient {
+    gcs: Endpoint,
+    target: Endpoint,
+    home_item: bool,
+    cfg: MissionConfig,
+    queue: VecDeque<(OpId, MissionOp)>,
+    active: Option<Active>,
+    settle_until: Time,
+    next_id: OpId,
+    out: VecDeque<MavMessage>,
+    events: VecDeque<MissionEvent>,
+    /// Mission messages dropped because they matched no operation (late duplicates).
+    pub ignored: u64,
+}
+
+impl MissionClient {
+    /// A client speaking as `gcs` to the autopilot `target`. `home_item`: the autopilot
+    /// keeps home as mission item 0 (ArduPilot; see [`super::flavour::Flavour`]).
+    pub fn new(gcs: Endpoint, target: Endpoint, home_item: bool, cfg: MissionConfig) -> Self {
+        MissionClient {
+            gcs,
+            target,
+            home_item,
+            cfg,
+            queue: VecDeque::new(),
+            active: None,
+            settle_until: Time::ZERO,
+            next_id: 1,
+            out: VecDeque::new(),
+            events: VecDeque::new(),
+            ignored: 0,
+        }
+    }
+
+    /// Change whether home is item 0 (when the flavour becomes known).
+    pub fn set_home_item(&mut self, home_item: bool) {
+        self.home_item = home_item;
+    }
+
+    /// Whether home is mission item 0 for this vehicle.
+    pub fn home_item(&self) -> bool {
+        self.home_item
+    }
+
+    /// The configuration.
+    pub fn config(&self) -> &MissionConfig {
+        &self.cfg
+    }
+
+    /// No operation active or queued.
+    pub fn is_idle(&self) -> bool {
+        self.active.is_none() && self.queue.is_empty()
+    }
+
+    /// The longest an operation may take before it fails with
+    /// [`MissionError::OverBudget`]: every step may use all its retries.
+    pub fn budget(cfg: &MissionConfig, op: &MissionOp) -> Duration {
+        let tries = cfg.retries + 1;
+        let step = cfg.timeout * tries;
+        let item = cfg.item_timeout * tries;
+        // One extra timeout of grace so that a step's own retry limit always ends it
+        // first; the overall deadline only catches what the steps cannot.
+        let grace = cfg.timeout;
+        grace
+            + match op {
+                MissionOp::Upload { items, .. } => {
+                    let n = items.len() as u32 + 1;
+                    // count + every item + (up to 3 rounds of verification, each a
+                    // download that may restart, and return).
+                    step + step * n + 3 * (step + (step + item * n) * (cfg.restarts + 1))
+                }
+                MissionOp::Download { .. } => (step + item * 65_536) * (cfg.restarts + 1),
+                MissionOp::Clear { .. } | MissionOp::SetCurrent { .. } => step,
+            }
+    }
+
+    /// Queue an operation; returns its id. It starts when the previous one has finished
+    /// and the settle time has passed.
+    pub fn start(&mut self, op: MissionOp, now: Time) -> OpId {
+        let id = self.next_id;
+        self.next_id += 1;
+        self.queue.push_back((id, op));
+        self.maybe_begin(now);
+        id
+    }
+
+    /// Cancel an operation (queued or active). An active upload or download is ended
+    /// with MAV_MISSION_OPERATION_CANCELLED sent to the vehicle, as MAVSDK does.
+    pub fn cancel(&mut self, id: OpId, now: Time) {
+        if let Some(pos) = self.queue.iter().position(|(i, _)| *i == id) {
+            if let Some((_, op)) = self.queue.remove(pos) {
+                self.events.push_back(MissionEvent::Done {
+                    id,
+                    result: Err(MissionError::Cancelled { op: op.name() }),
+                });
+            }
+            return;
+        }
+        if self.active.as_ref().is_some_and(|a| a.id == id) {
+            let kind = match &self.active.as_ref().map(|a| &a.kind) {
+                Some(ActiveKind::Upload(u)) => Some(u.kind),
+                Some(ActiveKind::Download(d)) => Some(d.kind),
+                _ => None,
+            };
+            if let Some(kind) = kind {
+                self.send_ack(kind, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED);
+            }
+            let name = self.active.as_ref().map(|a| a.name).unwrap_or("operation");
+            self.finish(Err(MissionError::Cancelled { op: name }), now);
+        }
+    }
+
+    /// The next message to send.
+    pub fn poll_transmit(&mut self) -> Option<MavMessage> {
+        self.out.pop_front()
+    }
+
+    /// The next event.
+    pub fn poll_event(&mut self) -> Option<MissionEvent> {
+        self.events.pop_front()
+    }
+
+    /// When [`MissionClient::handle_timeout`] must be called next.
+    pub fn poll_timeout(&self) -> Option<Time> {
+        match &self.active {
+            Some(a) => {
+                let step = match &a.kind {
+                    ActiveKind::Upload(u) => match &u.phase {
+                        UpPhase::Verify(d) => d.deadline,
+                        _ => u.deadline,
+                    },
+                    ActiveKind::Download(d) => d.deadline,
+                    ActiveKind::Clear { deadline, .. } => *deadline,
+                    ActiveKind::SetCurrent { deadline, .. } => *deadline,
+                };
+                Some(step.min(a.overall))
+            }
+            None if !self.queue.is_empty() => Some(self.settle_until),
+            None => None,
+        }
+    }
+
+    fn maybe_begin(&mut self, now: Time) {
+        if self.active.is_some() || now < self.settle_until {
+            return;
+        }
+        let Some((id, op)) = self.queue.pop_front() else {
+            return;
+        };
+        let budget = MissionClient::budget(&self.cfg, &op);
+        let name = op.name();
+        let kind = match op {
+            MissionOp::Upload { kind, items, home } => {
+                match build_wire(kind, &items, home.as_ref(), self.home_item, self.target) {
+                    Ok(wire) => {
+                        let n = wire.len();
+                        ActiveKind::Upload(Upload {
+                            kind,
+                            user: items,
+                            requested: vec![false; n],
+                            wire,
+                            n_requested: 0,
+                            sent: vec![false; n],
+                            n_sent: 0,
+                            last_sent: None,
+                            phase: UpPhase::Count,
+                            deadline: now + self.cfg.timeout,
+                            attempts: 0,
+                            nack: None,
+                            verify_returns: 0,
+                        })
+                    }
+                    Err(e) => {
+                        self.events
+                            .push_back(MissionEvent::Done { id, result: Err(e) });
+                        return self.maybe_begin(now);
+                    }
+                }
+            }
+            MissionOp::Download { kind } => ActiveKind::Download(Download::new(
+                kind,
+                now + self.cfg.timeout,
+                false,
+                self.cfg.restarts,
+            )),
+            MissionOp::Clear { kind } => ActiveKind::Clear {
+                kind,
+                deadline: now + self.cfg.timeout,
+                attempts: 0,
+            },
+            MissionOp::SetCurrent { seq } => {
+                let wire_seq = if self.home_item {
+                    seq.saturating_add(1)
+                } else {
+                    seq
+                };
+                ActiveKind::SetCurrent {
+                    user_seq: seq,
+                    wire_seq,
+                    deadline: now + self.cfg.timeout,
+                    attempts: 0,
+                }
+            }
+        };
+        self.active = Some(Active {
+            id,
+            name,
+            overall: now + budget,
+            budget,
+            kind,
+        });
+        self.send_initial();
+    }
+
+    /// Send the first message of the active operation (also used for resends).
+    fn send_initial(&mut self) {
+        let Some(a) = &self.active else { return };
+        let msg = match &a.kind {
+            ActiveKind::Upload(u) => self.count_msg(u.kind, u.wire.len() as u16),
+            ActiveKind::Download(d) => self.request_list_msg(d.kind),
+            ActiveKind::Clear { kind, .. } => {
+                MavMessage::MISSION_CLEAR_ALL(MISSION_CLEAR_ALL_DATA {
+                    target_system: self.target.sysid,
+                    target_component: self.target.compid,
+                    mission_type: mav_type(*kind),
+                })
+            }
+            ActiveKind::SetCurrent { wire_seq, .. } => {
+                MavMessage::MISSION_SET_CURRENT(MISSION_SET_CURRENT_DATA {
+                    seq: *wire_seq,
+                    target_system: self.target.sysid,
+                    target_component: self.target.compid,
+                })
+            }
+        };
+        self.out.push_back(msg);
+    }
+
+    fn count_msg(&self, kind: MissionType, count: u16) -> MavMessage {
+        MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
+            count,
+            target_system: self.target.sysid,
+            target_component: self.target.compid,
+            mission_type: mav_type(kind),
+            opaque_id: 0,
+        })
+    }
+
+    fn request_list_msg(&self, kind: MissionType) -> MavMessage {
+        MavMessage::MISSION_REQUEST_LIST(MISSION_REQUEST_LIST_DATA {
+            target_system: self.target.sysid,
+            target_component: self.target.compid,
+            mission_type: mav_type(kind),
+        })
+    }
+
+    fn request_item_msg(&self, kind: MissionType, seq: u16) -> MavMessage {
+        MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
+            seq,
+            target_system: self.target.sysid,
+            target_component: self.target.compid,
+            mission_type: mav_type(kind),
+        })
+    }
+
+    fn send_ack(&mut self, kind: MissionType, result: MavMissionResult) {
+        self.out
+            .push_back(MavMessage::MISSION_ACK(MISSION_ACK_DATA {
+                target_system: self.target.sysid,
+                target_component: self.target.compid,
+                mavtype: result,
+                mission_type: mav_type(kind),
+                opaque_id: 0,
+            }));
+    }
+
+    fn finish(&mut self, result: Result<MissionOutcome, MissionError>, now: Time) {
+        if let Some(a) = self.active.take() {
+            self.events
+                .push_back(MissionEvent::Done { id: a.id, result });
+            self.settle_until = now + self.cfg.settle;
+        }
+        self.maybe_begin(now);
+    }
+
+    /// A received message. Messages not from the target autopilot, not addressed to us,
+    /// or not part of the mission protocol are ignored.
+    pub fn handle_message(&mut self, header: &MavHeader, msg: &MavMessage, now: Time) {
+        if Endpoint::of(header) != self.target {
+            return;
+        }
+        let for_us = |ts: u8, tc: u8| self.gcs.is_addressed_by(ts, tc);
+        let relevant = match msg {
+            MavMessage::MISSION_REQUEST(m) => for_us(m.target_system, m.target_component),
+            MavMessage::MISSION_REQUEST_INT(m) => for_us(m.target_system, m.target_component),
+            MavMessage::MISSION_ACK(m) => for_us(m.target_system, m.target_component),
+            MavMessage::MISSION_COUNT(m) => for_us(m.target_system, m.target_component),
+            MavMessage::MISSION_ITEM_INT(m) => for_us(m.target_system, m.target_component),
+            MavMessage::MISSION_ITEM(m) => for_us(m.target_system, m.target_component),
+            MavMessage::MISSION_CURRENT(_) => true,
+            _ => false,
+        };
+        if !relevant {
+            return;
+        }
+        if self.active.is_none() {
+            if !matches!(msg, MavMessage::MISSION_CURRENT(_)) {
+                self.ignored += 1;
+            }
+            return;
+        }
+        let Some(mut active) = self.active.take() else {
+            return;
+        };
+        let outcome = match &mut active.kind {
+            ActiveKind::Upload(u) => self.upload_message(active.id, u, msg, now),
+            ActiveKind::Download(d) => match self.download_message(active.id, d, msg, now) {
+                DlStep::Continue => None,
+                DlStep::Done(wire) => {
+                    let (items, home) = from_wire_list(d.kind, &wire, self.home_item);
+                    Some(Ok(MissionOutcome::Downloaded { items, home }))
+                }
+                DlStep::Failed(e) => Some(Err(e)),
+            },
+            ActiveKind::Clear { kind, .. } => match msg {
+                MavMessage::MISSION_ACK(a) if a.mission_type == mav_type(*kind) => {
+                    match a.mavtype {
+                        MavMissionResult::MAV_MISSION_ACCEPTED => Some(Ok(MissionOutcome::Cleared)),
+                        MavMissionResult::MAV_MISSION_INVALID_SEQUENCE => None,
+                        r => Some(Err(MissionError::Rejected {
+                            op: "clear",
+                            result: MissionResultCode(r),
+                            seq: None,
+                        })),
+                    }
+                }
+                _ => None,
+            },
+            ActiveKind::SetCurrent {
+                user_seq, wire_seq, ..
+            } => match msg {
+                MavMessage::MISSION_CURRENT(c) if c.seq == *wire_seq => {
+                    Some(Ok(MissionOutcome::CurrentSet { seq: *user_seq }))
+                }
+                _ => None,
+            },
+        };
+        self.active = Some(active);
+        if let Some(result) = outcome {
+            self.finish(result, now);
+        }
+    }
+
+    /// A MISSION_ITEM(_INT) from the target that did not decode (e.g. a command number our
+    /// dialect lacks): fails a download waiting for that item with a precise error instead
+    /// of timing out.
+    pub fn handle_unparsed_item(&mut self, from: Endpoint, seq: u16, detail: &str, now: Time) {
+        if from != self.target {
+            return;
+        }
+        let waiting = match self.active.as_ref().map(|a| &a.kind) {
+            Some(ActiveKind::Download(d)) => d.count.is_some() && d.items.len() == usize::from(seq),
+            Some(ActiveKind::Upload(Upload {
+                phase: UpPhase::Verify(d),
+                ..
+            })) => d.count.is_some() && d.items.len() == usize::from(seq),
+            _ => false,
+        };
+        if waiting {
+            self.finish(
+                Err(MissionError::Undecodable {
+                    seq,
+                    detail: detail.to_string(),
+                }),
+                now,
+            );
+        }
+    }
+
+    fn upload_message(
+        &mut self,
+        id: OpId,
+        u: &mut Upload,
+        msg: &MavMessage,
+        now: Time,
+    ) -> Option<Result<MissionOutcome, MissionError>> {
+        let kind = mav_type(u.kind);
+        let request = match msg {
+            MavMessage::MISSION_REQUEST(r) if r.mission_type == kind => Some(r.seq),
+            MavMessage::MISSION_REQUEST_INT(r) if r.mission_type == kind => Some(r.seq),
+            _ => None,
+        };
+        if let Some(seq) = request {
+            if usize::from(seq) >= u.wire.len() {
+                self.ignored += 1;
+                return None;
+            }
+            if matches!(u.phase, UpPhase::Verify(_)) {
+                // The vehicle is still receiving: back to answering requests.
+                if u.verify_returns >= 2 {
+                    return Some(Err(MissionError::Unconfirmed {
+                        detail:
+                            "the vehicle keeps requesting items after the transfer looked complete"
+                                .into(),
+                    }));
+                }
+                u.verify_returns += 1;
+                u.nack = None;
+            }
+            u.phase = UpPhase::Items;
+            let i = usize::from(seq);
+            if !u.requested[i] {
+                u.requested[i] = true;
+                u.n_requested += 1;
+                u.attempts = 0;
+                u.deadline = now + self.cfg.timeout;
+                self.events.push_back(MissionEvent::Progress {
+                    id,
+                    done: u.n_requested,
+                    total: u.wire.len(),
+                });
+            }
+            u.last_sent = Some(seq);
+            u.mark_sent(i);
+            self.out
+                .push_back(MavMessage::MISSION_ITEM_INT(u.wire[i].clone()));
+            return None;
+        }
+        if let UpPhase::Verify(d) = &mut u.phase {
+            return match self.download_message(id, d, msg, now) {
+                DlStep::Continue => None,
+                DlStep::Done(wire) => Some(self.verify_result(u, &wire)),
+                DlStep::Failed(e) => Some(self.verify_failed(u, e)),
+            };
+        }
+        let MavMessage::MISSION_ACK(ack) = msg else {
+            return None;
+        };
+        if ack.mission_type != kind {
+            return None;
+        }
+        // Every item reached the vehicle at least once as far as we know: requested ones
+        // were answered, offered ones may have been taken.
+        let all_sent = u.n_sent == u.wire.len();
+        match ack.mavtype {
+            MavMissionResult::MAV_MISSION_ACCEPTED if all_sent => {
+                Some(Ok(MissionOutcome::Uploaded {
+                    count: u.user.len(),
+                    verified_by_download: false,
+                }))
+            }
+            MavMissionResult::MAV_MISSION_ACCEPTED => {
+                // Premature or stale: keep waiting for requests.
+                self.ignored += 1;
+                None
+            }
+            MavMissionResult::MAV_MISSION_INVALID_SEQUENCE => {
+                // ArduPilot's answer to a duplicated item; the transfer goes on.
+                None
+            }
+            MavMissionResult::MAV_MISSION_OPERATION_CANCELLED => {
+                Some(Err(MissionError::Rejected {
+                    op: "upload",
+                    result: MissionResultCode(ack.mavtype),
+                    seq: u.last_sent,
+                }))
+            }
+            r if all_sent => {
+                // Could be a real refusal of the last item, or ArduPilot's "not receiving"
+                // answer to a repeated last item after its ACK was lost: read back.
+                u.nack = Some(r);
+                self.begin_verify(u, now);
+                None
+            }
+            r => Some(Err(MissionError::Rejected {
+                op: "upload",
+                result: MissionResultCode(r),
+                seq: u.last_sent,
+            })),
+        }
+    }
+
+    fn begin_verify(&mut self, u: &mut Upload, now: Time) {
+        let d = Download::new(u.kind, now + self.cfg.timeout, true, self.cfg.restarts);
+        self.out.push_back(self.request_list_msg(u.kind));
+        u.phase = UpPhase::Verify(Box::new(d));
+    }
+
+    fn verify_result(
+        &mut self,
+        u: &Upload,
+        wire: &[MISSION_ITEM_INT_DATA],
+    ) -> Result<MissionOutcome, MissionError> {
+        let (items, _home) = from_wire_list(u.kind, wire, self.home_item);
+        match compare_items(&u.user, &items, self.home_item) {
+            Ok(()) => Ok(MissionOutcome::Uploaded {
+                count: u.user.len(),
+                verified_by_download: true,
+            }),
+            Err(detail) => match u.nack {
+                Some(r) => Err(MissionError::Rejected {
+                    op: "upload",
+                    result: MissionResultCode(r),
+                    seq: u.last_sent,
+                }),
+                None => Err(MissionError::Unconfirmed { detail }),
+            },
+        }
+    }
+
+    fn verify_failed(
+        &mut self,
+        u: &Upload,
+        e: MissionError,
+    ) -> Result<MissionOutcome, MissionError> {
+        match u.nack {
+            Some(r) => Err(MissionError::Rejected {
+                op: "upload",
+                result: MissionResultCode(r),
+                seq: u.last_sent,
+            }),
+            None => Err(MissionError::Unconfirmed {
+                detail: format!("could not read the list back: {e}"),
+            }),
+        }
+    }
+
+    fn download_message(
+        &mut self,
+        id: OpId,
+        d: &mut Download,
+        msg: &MavMessage,
+        now: Time,
+    ) -> DlStep {
+        let kind = mav_type(d.kind);
+        match msg {
+            MavMessage::MISSION_COUNT(c) if c.mission_type == kind => {
+                if d.count.is_some() {
+                    return DlStep::Continue; // duplicate
+                }
+                d.count = Some(c.count);
+                d.attempts = 0;
+                if c.count == 0 {
+                    self.send_ack(d.kind, MavMissionResult::MAV_MISSION_ACCEPTED);
+                    return DlStep::Done(Vec::new());
+                }
+                d.deadline = now + self.cfg.item_timeout;
+                self.out.push_back(self.request_item_msg(d.kind, 0));
+                DlStep::Continue
+            }
+            MavMessage::MISSION_ITEM_INT(it) if it.mission_type == kind => {
+                self.download_item(id, d, it.clone(), now)
+            }
+            MavMessage::MISSION_ITEM(it) if it.mission_type == kind => {
+                self.download_item(id, d, item_int_from_float(it), now)
+            }
+            MavMessage::MISSION_ACK(a) if a.mission_type == kind => match a.mavtype {
+                MavMissionResult::MAV_MISSION_ACCEPTED
+                | MavMissionResult::MAV_MISSION_INVALID_SEQUENCE => DlStep::Continue,
+                MavMissionResult::MAV_MISSION_ERROR if d.count.is_some() && d.restarts_left > 0 => {
+                    self.restart_download(d, now);
+                    DlStep::Continue
+                }
+                MavMissionResult::MAV_MISSION_ERROR if d.verify => DlStep::Continue,
+                r => DlStep::Failed(MissionError::Rejected {
+                    op: "download",
+                    result: MissionResultCode(r),
+                    seq: Some(d.items.len() as u16),
+                }),
+            },
+            _ => DlStep::Continue,
+        }
+    }
+
+    fn download_item(
+        &mut self,
+        id: OpId,
+        d: &mut Download,
+        it: MISSION_ITEM_INT_DATA,
+        now: Time,
+    ) -> DlStep {
+        let Some(count) = d.count else {
+            return DlStep::Continue;
+        };
+        if usize::from(it.seq) != d.items.len() {
+            return DlStep::Continue; // duplicate or stale
+        }
+        d.items.push(it);
+        d.attempts = 0;
+        if d.items.len() == usize::from(count) {
+            self.send_ack(d.kind, MavMissionResult::MAV_MISSION_ACCEPTED);
+            return DlStep::Done(std::mem::take(&mut d.items));
+        }
+        if !d.verify {
+            self.events.push_back(MissionEvent::Progress {
+                id,
+                done: d.items.len(),
+                total: usize::from(count),
+            });
+        }
+        d.deadline = now + self.cfg.item_timeout;
+        self.out
+            .push_back(self.request_item_msg(d.kind, d.items.len() as u16));
+        DlStep::Continue
+    }
+
+    /// Start a download over (the vehicle aborted it).
+    fn restart_download(&mut self, d: &mut Download, now: Time) {
+        d.restarts_left -= 1;
+        d.count = None;
+        d.items.clear();
+        d.attempts = 0;
+        d.deadline = now + self.cfg.timeout;
+        self.out.push_back(self.request_list_msg(d.kind));
+    }
+
+    fn download_timeout(&mut self, d: &mut Download, now: Time) -> DlStep {
+        if now < d.deadline {
+            return DlStep::Continue;
+        }
+        d.attempts += 1;
+        if d.attempts > self.cfg.retries && d.count.is_some() && d.restarts_left > 0 {
+            self.restart_download(d, now);
+            return DlStep::Continue;
+        }
+        if d.attempts > self.cfg.retries {
+            let (waiting_for, t) = match d.count {
+                None => (
+                    "MISSION_COUNT after MISSION_REQUEST_LIST".to_string(),
+                    self.cfg.timeout,
+                ),
+                Some(_) => (
+                    format!("MISSION_ITEM_INT {}", d.items.len()),
+                    self.cfg.item_timeout,
+                ),
+            };
+            return DlStep::Failed(MissionError::Timeout {
+                op: "download",
+                waiting_for,
+                attempts: d.attempts,
+                timeout_ms: t.as_millis() as u64,
+            });
+        }
+        match d.count {
+            None => {
+                d.deadline = now + self.cfg.timeout;
+                self.out.push_back(self.request_list_msg(d.kind));
+            }
+            Some(_) => {
+                d.deadline = now + self.cfg.item_timeout;
+                self.out
+                    .push_back(self.request_item_msg(d.kind, d.items.len() as u16));
+            }
+        }
+        DlStep::Continue
+    }
+
+    /// Advance timers: resend, give up, or start the next queued operation.
+    pub fn handle_timeout(&mut self, now: Time) {
+        let Some(mut active) = self.active.take() else {
+            self.maybe_begin(now);
+            return;
+        };
+        if now >= active.overall {
+            let (name, budget) = (active.name, active.budget);
+            self.active = Some(active);
+            self.finish(
+                Err(MissionError::OverBudget {
+                    op: name,
+                    budget_ms: budget.as_millis() as u64,
+                }),
+                now,
+            );
+            return;
+        }
+        let retries = self.cfg.retries;
+        let timeout = self.cfg.timeout;
+        let outcome: Option<Result<MissionOutcome, MissionError>> = match &mut active.kind {
+            ActiveKind::Upload(u) => self.upload_timeout(u, now),
+            ActiveKind::Download(d) => match self.download_timeout(d, now) {
+                DlStep::Continue => None,
+                DlStep::Done(_) => None,
+                DlStep::Failed(e) => Some(Err(e)),
+            },
+            ActiveKind::Clear {
+                deadline, attempts, ..
+            }
+            | ActiveKind::SetCurrent {
+                deadline, attempts, ..
+            } => {
+                if now < *deadline {
+                    None
+                } else {
+                    *attempts += 1;
+                    if *attempts > retries {
+                        let waiting_for = match active.name {
+                            "clear" => "MISSION_ACK after MISSION_CLEAR_ALL",
+                            _ => "MISSION_CURRENT after MISSION_SET_CURRENT",
+                        };
+                        Some(Err(MissionError::Timeout {
+                            op: active.name,
+                            waiting_for: waiting_for.into(),
+                            attempts: *attempts,
+                            timeout_ms: timeout.as_millis() as u64,
+                        }))
+                    } else {
+                        *deadline = now + timeout;
+                        self.active = Some(active);
+                        self.send_initial();
+                        return;
+                    }
+                }
+            }
+        };
+        self.active = Some(active);
+        if let Some(result) = outcome {
+            self.finish(result, now);
+        }
+    }
+
+    fn upload_timeout(
+        &mut self,
+        u: &mut Upload,
+        now: Time,
+    ) -> Option<Result<MissionOutcome, MissionError>> {
+        if let UpPhase::Verify(d) = &mut u.phase {
+            return match self.download_timeout(d, now) {
+                DlStep::Continue | DlStep::Done(_) => None,
+                DlStep::Failed(e) => Some(self.verify_failed(u, e)),
+            };
+        }
+        if now < u.deadline {
+            return None;
+        }
+        u.attempts += 1;
+        let all_sent = u.n_sent == u.wire.len();
+        if u.attempts > self.cfg.retries {
+            if all_sent {
+                self.begin_verify(u, now);
+                return None;
+            }
+            let waiting_for = match u.phase {
+                UpPhase::Count => "MISSION_REQUEST for item 0 after MISSION_COUNT".to_string(),
+                _ => format!(
+                    "MISSION_REQUEST for item {} (after item {})",
+                    u.requested.iter().position(|r| !r).unwrap_or(0),
+                    u.last_sent.map(|s| s.to_string()).unwrap_or_default()
+                ),
+            };
+            return Some(Err(MissionError::Timeout {
+                op: "upload",
+                waiting_for,
+                attempts: u.attempts,
+                timeout_ms: self.cfg.timeout.as_millis() as u64,
+            }));
+        }
+        u.deadline = now + self.cfg.timeout;
+        let highest = u.requested.iter().rposition(|r| *r);
+        match (&u.phase, highest) {
+            (UpPhase::Items, Some(h)) => {
+                // Resend the highest item requested (our answer may have been lost) and,
+                // if the vehicle's request for the next one may have been lost instead,
+                // offer that one too. See "A lost request" in the module docs.
+                self.out
+                    .push_back(MavMessage::MISSION_ITEM_INT(u.wire[h].clone()));
+                if h + 1 < u.wire.len() {
+                    u.mark_sent(h + 1);
+                    self.out
+                        .push_back(MavMessage::MISSION_ITEM_INT(u.wire[h + 1].clone()));
+                }
+            }
+            _ => {
+                self.out
+                    .push_back(self.count_msg(u.kind, u.wire.len() as u16));
+            }
+        }
+        None
+    }
+}
+
+impl Upload {
+    fn mark_sent(&mut self, i: usize) {
+        if !self.sent[i] {
+            self.sent[i] = true;
+            self.n_sent += 1;
+        }
+    }
+}
+
+impl Download {
+    fn new(kind: MissionType, deadline: Time, verify: bool, restarts: u32) -> Download {
+        Download {
+            kind,
+            count: None,
+            items: Vec::new(),
+            deadline,
+            attempts: 0,
+            verify,
+            restarts_left: restarts,
+        }
+    }
+}
