@@ -25,6 +25,7 @@ pub enum ExperimentCommand {
 pub fn run(args: ExperimentArgs) -> anyhow::Result<ExitCode> {
     match args.which {
         ExperimentCommand::Dfs(a) => run_dfs(a),
+        ExperimentCommand::Bandit(a) => super::bandit::run_experiment(a),
     }
 }
 
@@ -75,6 +76,5 @@ fn run_dfs(args: crate::experiment::dfs::DfsArgs) -> anyhow::Result<ExitCode> {
             eprintln!("  … and {} more (see dfs_trials.csv)", lines.len() - 20);
         }
         Ok(ExitCode::FAILURE)
-        ExperimentCommand::Bandit(a) => super::bandit::run_experiment(a),
     }
 }

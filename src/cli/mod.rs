@@ -12,11 +12,11 @@ pub mod classify;
 pub mod command;
 pub mod experiment;
 pub mod grid;
+pub mod mission;
+pub mod plan;
+pub mod signing;
 pub mod sim;
 pub mod tui;
-pub mod plan;
-pub mod mission;
-pub mod signing;
 pub mod vehicles;
 
 use clap::{Parser, Subcommand};

@@ -1,4 +1,4 @@
 //! Monte Carlo studies that reproduce the papers' tables and figures (CSV, JSON, PNG).
 
-pub mod dfs;
 pub mod bandit;
+pub mod dfs;
