@@ -1,2 +1,89 @@
-//! Mission runners that tie the layers together: the runway-mapping run, the bandit sortie
-//! run and resuming a run directory (async shell).
+//! Mission runners that tie the layers together (async shell): the runway-mapping run, the
+//! bandit sortie run and resuming a run directory.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`images`] | every image the fleet takes as one stream (MAVLink image transmission, file URLs) |
+//! | [`flight`] | flight steps with timeouts: take off, fly to a point and settle, capture, land |
+//! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume) |
+//! | [`report`] | the run's report, GeoJSON / KML / PNG exports, IoU against a simulated world |
+
+pub mod demo;
+pub mod flight;
+pub mod images;
+pub mod report;
+pub mod runway;
+
+use crate::explore::Sharing;
+use crate::explore::mapping::MappingState;
+use crate::fleet::FleetHandle;
+use crate::geo::{Grid, LatLon};
+use crate::mission::definition::{MissionDef, Origin};
+use anyhow::Context as _;
+use std::time::Duration;
+
+/// Wait until every drone and station of `def` has been heard (and, for the drone that
+/// anchors an `origin = "vehicle"` grid, has a home position).
+pub async fn wait_for_team(
+    fleet: &FleetHandle,
+    def: &MissionDef,
+    wait: Duration,
+) -> anyhow::Result<()> {
+    for v in &def.vehicles {
+        fleet
+            .wait_vehicle(v.sysid, wait)
+            .await
+            .with_context(|| format!("mission vehicle {} ({:?})", v.sysid, v.role))?;
+    }
+    Ok(())
+}
+
+/// The mission grid: the file's origin, or the first vehicle's home (waits for its
+/// HOME_POSITION up to `wait`).
+pub async fn mission_grid(
+    fleet: &FleetHandle,
+    def: &MissionDef,
+    wait: Duration,
+) -> anyhow::Result<Grid> {
+    let origin = match def.grid.origin {
+        Origin::Coordinates(p) => LatLon {
+            lat: p.lat,
+            lon: p.lon,
+        },
+        Origin::Vehicle => {
+            let first = def
+                .vehicles
+                .first()
+                .context("the mission lists no vehicles")?
+                .sysid;
+            let v = fleet
+                .wait_until(first, wait, |v| v.home.is_some())
+                .await
+                .map_err(|_| {
+                    anyhow::anyhow!(
+                        "vehicle {first} reported no home position within {:.0} s (the grid \
+                         origin is \"vehicle\"): is its GPS ready?",
+                        wait.as_secs_f64()
+                    )
+                })?;
+            let h = v.home.context("no home")?;
+            LatLon {
+                lat: h.lat,
+                lon: h.lon,
+            }
+        }
+    };
+    Ok(Grid::new(origin, def.grid.cell_size_m)?)
+}
+
+/// A new runway-mapping state for `def` once the team is connected.
+pub async fn new_mapping(
+    fleet: &FleetHandle,
+    def: &MissionDef,
+    sharing: Sharing,
+    wait: Duration,
+) -> anyhow::Result<MappingState> {
+    wait_for_team(fleet, def, wait).await?;
+    let grid = mission_grid(fleet, def, wait).await?;
+    Ok(MappingState::new(def, grid, sharing)?)
+}

@@ -10,10 +10,12 @@ pub mod bench;
 pub mod check;
 pub mod classify;
 pub mod command;
+pub mod demo;
 pub mod experiment;
 pub mod grid;
 pub mod mission;
 pub mod plan;
+pub mod run;
 pub mod signing;
 pub mod sim;
 pub mod tui;
@@ -65,6 +67,16 @@ pub enum Command {
     Command(command::CommandArgs),
     /// MAVLink 2 signing keys: make one, install one on a vehicle.
     Signing(signing::SigningArgs),
+    /// The embedded default: the simulator and the runway mission in one process.
+    Demo(demo::DemoArgs),
+    /// Fly a mission file with the vehicles: runway mapping (sweep, then the recursive DFS).
+    Run(Box<run::RunArgs>),
+    /// Continue a run after a battery swap or a crash.
+    Resume(Box<run::ResumeArgs>),
+    /// What a run produced: map, tree, detections, IoU against a simulated world.
+    Report(run::ReportArgs),
+    /// Write a run's map as GeoJSON, KML (Google Earth) or PNG.
+    Export(run::ExportArgs),
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
@@ -119,5 +131,10 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Mission(args) => mission::run(args),
         Command::Command(args) => command::run(args),
         Command::Signing(args) => signing::run(args),
+        Command::Demo(args) => demo::run(args),
+        Command::Run(args) => run::run(*args),
+        Command::Resume(args) => run::resume(*args),
+        Command::Report(args) => run::report_cmd(args),
+        Command::Export(args) => run::export(args),
     }
 }

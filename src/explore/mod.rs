@@ -18,6 +18,7 @@
 pub mod bounds;
 pub mod dfs;
 pub mod lawnmower;
+pub mod mapping;
 pub mod motion;
 pub mod simulate;
 

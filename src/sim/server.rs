@@ -302,6 +302,12 @@ async fn open(
     Ok((bound, ios))
 }
 
+/// Datagrams sent to one vehicle's UDP peer per [`UDP_PACE`] (≈ 1.8 MB/s of MAVLink 2
+/// frames): the simulated link's bandwidth.
+pub const UDP_BURST: usize = 32;
+/// Pacing period of UDP sends when a vehicle has a backlog.
+pub const UDP_PACE: std::time::Duration = std::time::Duration::from_millis(5);
+
 /// Serve `sim` until `shutdown` resolves (or the configured duration passes). `on_bound`
 /// is called once every endpoint is open.
 pub async fn serve<F>(
@@ -326,6 +332,8 @@ where
         .duration_s
         .map(|d| start + std::time::Duration::from_secs_f64(d.max(0.0)));
     tokio::pin!(shutdown);
+    let mut pending: Vec<std::collections::VecDeque<Vec<u8>>> =
+        vec![std::collections::VecDeque::new(); sysids.len()];
     loop {
         let now = start + std::time::Duration::from_micros(clock.now().as_micros());
         sim.advance_to(now);
@@ -339,16 +347,29 @@ where
             }
         }
         while sim.poll_event().is_some() {}
+        let mut backlog = false;
         for (k, &sysid) in sysids.iter().enumerate() {
             while let Some(d) = sim.recv_bytes(sysid) {
-                match &ios[k] {
-                    Io::Udp { sock, peer } => {
-                        let to = peer.lock().ok().and_then(|p| *p);
+                pending[k].push_back(d);
+            }
+            match &ios[k] {
+                Io::Udp { sock, peer } => {
+                    // Paced: a burst of images (hundreds of ENCAPSULATED_DATA datagrams)
+                    // would overflow the receiver's socket buffer at once, which no real
+                    // link does (a Wi-Fi camera link carries ~1–2 MB/s).
+                    let to = peer.lock().ok().and_then(|p| *p);
+                    for _ in 0..UDP_BURST {
+                        let Some(d) = pending[k].pop_front() else {
+                            break;
+                        };
                         if let Some(to) = to {
                             let _ = sock.try_send_to(&d, to);
                         }
                     }
-                    Io::Tcp { out } => {
+                    backlog |= !pending[k].is_empty();
+                }
+                Io::Tcp { out } => {
+                    while let Some(d) = pending[k].pop_front() {
                         let _ = out.send(d);
                     }
                 }
@@ -358,7 +379,10 @@ where
             return Ok(sim);
         }
         let next = sim.poll_timeout();
-        let wait = clock.wall_until(next - std::time::Duration::from_micros(start.as_micros()));
+        let mut wait = clock.wall_until(next - std::time::Duration::from_micros(start.as_micros()));
+        if backlog {
+            wait = wait.min(UDP_PACE);
+        }
         tokio::select! {
             r = rx.recv() => {
                 if let Some((k, bytes)) = r {

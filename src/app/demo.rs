@@ -1,0 +1,140 @@
+//! `fleetmap demo`: the embedded simulator and the GCS in one process (async shell).
+//!
+//! The simulator ([`crate::sim::harness::Sim`], served on loopback UDP by
+//! [`crate::sim::server::spawn`]) flies three ArduPilot copters over the runway world; the
+//! GCS talks to them over real sockets exactly as it would to SITL or hardware, with its
+//! clock running at the simulator's speed-up so every protocol timer, the liveness window
+//! and the flight times keep their real-time meaning in simulated seconds. The world and
+//! the mission are compiled into the binary, so the demo runs from any directory.
+
+use crate::fleet::{self, FleetConfig, FleetHandle};
+use crate::link::ConnSpec;
+use crate::link::transport::{LinkOptions, open_link};
+use crate::mission::definition::MissionDef;
+use crate::sim::harness::{Sim, SimConfig};
+use crate::sim::server::{self, Endpoint, ServeOptions, SimHandle};
+use crate::sim::world::World;
+use crate::time::{MonotonicClock, Time};
+use anyhow::Context as _;
+use tokio::sync::mpsc;
+
+/// The runway world (`assets/worlds/runway.toml`).
+pub const RUNWAY_WORLD: &str = include_str!("../../assets/worlds/runway.toml");
+/// The runway field-test mission (`missions/runway-field-test.toml`).
+pub const RUNWAY_MISSION: &str = include_str!("../../missions/runway-field-test.toml");
+
+/// What the demo flies.
+#[derive(Clone, Debug)]
+pub struct DemoConfig {
+    /// Number of drones (system ids 1..=n).
+    pub drones: usize,
+    /// Simulated seconds per wall second.
+    pub speedup: f64,
+    /// Seed of the simulator (same seed, same world noise and link behaviour).
+    pub seed: u64,
+    /// Battery endurance, minutes.
+    pub battery_minutes: f64,
+    /// Seconds after landing until the simulated crew has swapped the battery.
+    pub swap_after_s: f64,
+    /// Altitude separation between drones, metres (0: all at 12 m).
+    pub altitude_separation_m: f64,
+}
+
+impl Default for DemoConfig {
+    fn default() -> Self {
+        DemoConfig {
+            drones: 3,
+            speedup: 10.0,
+            seed: 1,
+            battery_minutes: 12.0,
+            swap_after_s: 30.0,
+            altitude_separation_m: 0.0,
+        }
+    }
+}
+
+/// The runway mission with `cfg.drones` drones and the demo's separation.
+pub fn runway_mission(cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
+    let mut text = RUNWAY_MISSION.replace(
+        "altitude_separation_m = 0.0",
+        &format!("altitude_separation_m = {:?}", cfg.altitude_separation_m),
+    );
+    for k in 2..=cfg.drones {
+        text.push_str(&format!(
+            "\n[[vehicles]]\nsysid = {k}\nrole = \"drone\"\nname = \"uav{k}\"\n"
+        ));
+    }
+    let def = MissionDef::parse(&text, "runway-field-test.toml (built in)")
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    Ok((text, def))
+}
+
+/// The fleet configuration for a clock running `speedup` times faster than real time: the
+/// protocol timeouts and the liveness window are stretched (by the speed-up, at most 4×) so
+/// that they do not shrink to a few tens of wall milliseconds, which a loaded laptop cannot
+/// keep; the GCS heartbeat keeps its 1 Hz in simulated time, which is what the autopilots
+/// check.
+pub fn demo_fleet_config(speedup: f64) -> FleetConfig {
+    let k = speedup.clamp(1.0, 4.0);
+    let mut c = FleetConfig::default();
+    c.command.timeout = c.command.timeout.mul_f64(k);
+    c.command.in_progress_timeout = c.command.in_progress_timeout.mul_f64(k);
+    c.mission.timeout = c.mission.timeout.mul_f64(k);
+    c.mission.item_timeout = c.mission.item_timeout.mul_f64(k);
+    c.liveness.lost_after = c.liveness.lost_after.mul_f64(k);
+    c
+}
+
+/// A running demo simulator and the fleet connected to it.
+pub struct DemoFleet {
+    /// The fleet (GCS side).
+    pub fleet: FleetHandle,
+    /// The simulator task.
+    pub sim: SimHandle,
+    /// The world.
+    pub world: World,
+}
+
+/// Start the simulator with `spec` vehicles over `world` and a fleet connected to each
+/// vehicle over loopback UDP, clocked at the simulator's speed.
+pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<DemoFleet> {
+    let mut sc = SimConfig::from_spec(spec, Some(world.clone()), None, cfg.seed)?;
+    for v in &mut sc.vehicles {
+        if v.flavour.is_copter() {
+            v.battery.minutes = cfg.battery_minutes;
+        }
+        v.swap_after_s = Some(cfg.swap_after_s);
+    }
+    let sim = Sim::new(sc, Time::ZERO)?;
+    let handle = server::spawn(
+        sim,
+        ServeOptions {
+            endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0")?],
+            speedup: cfg.speedup,
+            image_dir: None,
+            duration_s: None,
+        },
+    )
+    .await
+    .context("starting the simulator")?;
+    let (ev_tx, ev_rx) = mpsc::channel(4096);
+    let mut links = Vec::new();
+    for (i, b) in handle.bound.iter().enumerate() {
+        let spec: ConnSpec = format!("udpout:{}", b.local)
+            .parse()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        links.push(open_link(i, spec, &LinkOptions::default(), ev_tx.clone()).await?);
+    }
+    drop(ev_tx);
+    let fleet = fleet::spawn(
+        links,
+        ev_rx,
+        demo_fleet_config(cfg.speedup),
+        MonotonicClock::with_speedup(cfg.speedup),
+    );
+    Ok(DemoFleet {
+        fleet,
+        sim: handle,
+        world,
+    })
+}

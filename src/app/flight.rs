@@ -1,0 +1,314 @@
+//! Flight steps the mission runners compose (async shell over [`FleetHandle`]): take off if
+//! needed, fly to a point and wait until the vehicle is there and steady, take a picture and
+//! wait for it, come home and land. Each step has a timeout and a typed error; the runners
+//! decide what to retry.
+//!
+//! Timeouts are wall-clock durations scaled by [`Patience::factor`] (a simulator served
+//! slower than real time, or a slow radio link, needs more); with the fleet clock running
+//! faster than real time (the in-process demo) they are generous by the same factor.
+
+use crate::app::images::ReceivedImage;
+use crate::fleet::{FleetError, FleetHandle, VehicleSnapshot};
+use crate::geo::local;
+use crate::proto::Endpoint;
+use crate::proto::command::Command;
+use mavlink::dialects::ardupilotmega::MavCmd;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::broadcast;
+
+/// Why a flight step failed.
+#[derive(Debug, thiserror::Error)]
+pub enum FlightError {
+    /// A fleet operation failed.
+    #[error(transparent)]
+    Fleet(#[from] FleetError),
+    /// The vehicle did not get where it was sent in time.
+    #[error("vehicle {sysid}: not at the target after {waited_s:.0} s ({detail})")]
+    NotArrived {
+        /// The vehicle.
+        sysid: u8,
+        /// Seconds waited (wall clock).
+        waited_s: f64,
+        /// Where it is.
+        detail: String,
+    },
+    /// No image arrived after a capture.
+    #[error("vehicle {sysid}: no image arrived within {waited_s:.0} s of capture {seq}")]
+    NoImage {
+        /// The vehicle.
+        sysid: u8,
+        /// The capture number.
+        seq: u32,
+        /// Seconds waited.
+        waited_s: f64,
+    },
+    /// The vehicle did not land / take off in time.
+    #[error("vehicle {sysid}: {what} not seen within {waited_s:.0} s")]
+    Timeout {
+        /// The vehicle.
+        sysid: u8,
+        /// What was awaited.
+        what: String,
+        /// Seconds waited.
+        waited_s: f64,
+    },
+    /// The image stream stopped.
+    #[error("the image intake stopped")]
+    ImagesClosed,
+}
+
+/// How long the runners wait for vehicles, as a multiple of the nominal (real-time) times.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Patience {
+    /// 1 = real time; 2 = twice as long.
+    pub factor: f64,
+}
+
+impl Default for Patience {
+    fn default() -> Self {
+        Patience { factor: 1.0 }
+    }
+}
+
+impl Patience {
+    /// `secs` nominal seconds, scaled.
+    pub fn secs(&self, secs: f64) -> Duration {
+        let f = if self.factor.is_finite() && self.factor > 0.0 {
+            self.factor
+        } else {
+            1.0
+        };
+        Duration::from_secs_f64((secs * f).clamp(0.05, 86_400.0))
+    }
+}
+
+/// Horizontal distance from the vehicle to (`lat`, `lon`), metres (infinite when its
+/// position is unknown).
+pub fn distance_to(v: &VehicleSnapshot, lat: f64, lon: f64) -> f64 {
+    v.position
+        .map(|p| local::distance(p.lat, p.lon, lat, lon))
+        .unwrap_or(f64::INFINITY)
+}
+
+/// Whether the vehicle is in the air (armed and not landed).
+pub fn airborne(v: &VehicleSnapshot) -> bool {
+    v.armed && !v.on_ground()
+}
+
+/// Set the cruise speed (MAV_CMD_DO_CHANGE_SPEED, ground speed) — for GUIDED / Hold gotos
+/// and missions alike. ArduPilot applies it to the current mode (it resets on a mode
+/// change: send it after the mode is set); PX4 to the current navigation.
+pub async fn set_speed(fleet: &FleetHandle, sysid: u8, speed_m_s: f32) -> Result<(), FleetError> {
+    let v = fleet
+        .vehicle(sysid)
+        .ok_or(FleetError::NoVehicle { sysid })?;
+    let cmd = Command::long(
+        Endpoint::new(sysid, v.compid),
+        MavCmd::MAV_CMD_DO_CHANGE_SPEED,
+        [1.0, speed_m_s, -1.0, 0.0, 0.0, 0.0, 0.0],
+    );
+    fleet.command(cmd).await.map(|_| ())
+}
+
+/// Arm and take off to `alt` m above home unless the vehicle is already flying; returns
+/// when it is within 10 % of the altitude (or above it).
+pub async fn ensure_airborne(
+    fleet: &FleetHandle,
+    sysid: u8,
+    alt: f32,
+    patience: Patience,
+) -> Result<(), FlightError> {
+    let v = fleet
+        .vehicle(sysid)
+        .ok_or(FleetError::NoVehicle { sysid })?;
+    if airborne(&v) && v.alt_rel.is_some_and(|a| a >= 0.5 * alt) {
+        return Ok(());
+    }
+    if !airborne(&v) {
+        // After a power cycle the autopilot refuses GUIDED until its position estimate is
+        // ready (ArduCopter's mode checks): wait for readiness before the take-off steps.
+        let clock = fleet.clock().clone();
+        let ready = patience.secs(90.0);
+        let _ = fleet
+            .wait_until(sysid, ready, |s| s.arm_blockers(clock.now()).is_empty())
+            .await;
+        fleet.takeoff(sysid, alt).await?;
+    }
+    let wait = patience.secs(f64::from(alt) / 0.5 + 60.0);
+    fleet
+        .wait_until(sysid, wait, |s| s.alt_rel.is_some_and(|a| a >= 0.9 * alt))
+        .await
+        .map(|_| ())
+        .map_err(|_| FlightError::Timeout {
+            sysid,
+            what: format!("take-off to {alt:.1} m"),
+            waited_s: wait.as_secs_f64(),
+        })
+}
+
+/// Go to (`lat`, `lon`) at `alt` m above home at `speed` m/s, and wait until the vehicle is
+/// within `tolerance_m` horizontally and 1 m vertically, moving slower than 0.3 m/s (there
+/// and steady, so the pictures are taken over the cell). Sends the go-to again when the
+/// vehicle drops it (a mode change by the pilot or the autopilot shows as no progress).
+pub async fn fly_to(
+    fleet: &FleetHandle,
+    sysid: u8,
+    target: (f64, f64, f32),
+    speed: f32,
+    tolerance_m: f64,
+    patience: Patience,
+) -> Result<(), FlightError> {
+    let (lat, lon, alt) = target;
+    let v = fleet
+        .vehicle(sysid)
+        .ok_or(FleetError::NoVehicle { sysid })?;
+    let dist = distance_to(&v, lat, lon);
+    let leg_s = if dist.is_finite() {
+        dist / f64::from(speed.max(0.1))
+    } else {
+        120.0
+    };
+    let guided = v.flavour.guided_mode().ok();
+    let in_guided =
+        |s: &VehicleSnapshot| guided.is_some_and(|m| s.flavour.is_mode(s.custom_mode, m));
+    // Speed: ArduPilot resets it when the mode changes, so enter the mode first.
+    if !in_guided(&v) {
+        fleet.goto(sysid, lat, lon, alt).await?;
+    }
+    let _ = set_speed(fleet, sysid, speed).await;
+    fleet.goto(sysid, lat, lon, alt).await?;
+    let budget = patience.secs(leg_s * 2.0 + 30.0);
+    let there = |s: &VehicleSnapshot| {
+        distance_to(s, lat, lon) <= tolerance_m
+            && s.alt_rel.is_some_and(|a| (a - alt).abs() <= 1.0)
+            && s.groundspeed.is_some_and(|g| g < 0.3)
+    };
+    let mut attempts = 0;
+    loop {
+        match fleet.wait_until(sysid, budget, there).await {
+            Ok(_) => return Ok(()),
+            Err(last) => {
+                attempts += 1;
+                if attempts >= 3 {
+                    return Err(FlightError::NotArrived {
+                        sysid,
+                        waited_s: budget.as_secs_f64() * f64::from(attempts),
+                        detail: last
+                            .map(|s| {
+                                format!(
+                                    "{:.1} m away at {} m, mode {}",
+                                    distance_to(&s, lat, lon),
+                                    s.alt_rel.map(|a| format!("{a:.1}")).unwrap_or("?".into()),
+                                    s.mode
+                                )
+                            })
+                            .unwrap_or_else(|| "vehicle lost".into()),
+                    });
+                }
+                fleet.goto(sysid, lat, lon, alt).await?;
+            }
+        }
+    }
+}
+
+/// Hold position where the vehicle is now (a go-to to its own position: GUIDED / Hold).
+pub async fn hold_here(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
+    let v = fleet
+        .vehicle(sysid)
+        .ok_or(FleetError::NoVehicle { sysid })?;
+    let (Some(p), Some(alt)) = (v.position, v.alt_rel) else {
+        return Ok(());
+    };
+    fleet.goto(sysid, p.lat, p.lon, alt).await
+}
+
+/// Throw away the images already waiting in `rx`.
+pub fn drain_images(rx: &mut broadcast::Receiver<Arc<ReceivedImage>>) {
+    loop {
+        match rx.try_recv() {
+            Ok(_) | Err(broadcast::error::TryRecvError::Lagged(_)) => {}
+            Err(_) => return,
+        }
+    }
+}
+
+/// Take picture `seq` and wait for the image of `sysid` (the next one to arrive after the
+/// command). Retries the capture once when nothing arrives.
+pub async fn capture(
+    fleet: &FleetHandle,
+    rx: &mut broadcast::Receiver<Arc<ReceivedImage>>,
+    sysid: u8,
+    seq: u32,
+    patience: Patience,
+) -> Result<Arc<ReceivedImage>, FlightError> {
+    let wait = patience.secs(10.0);
+    for _ in 0..2 {
+        drain_images(rx);
+        fleet.capture_image(sysid, seq).await?;
+        let deadline = tokio::time::Instant::now() + wait;
+        loop {
+            match tokio::time::timeout_at(deadline, rx.recv()).await {
+                Ok(Ok(img)) if img.sysid == sysid => return Ok(img),
+                Ok(Ok(_)) | Ok(Err(broadcast::error::RecvError::Lagged(_))) => continue,
+                Ok(Err(broadcast::error::RecvError::Closed)) => {
+                    return Err(FlightError::ImagesClosed);
+                }
+                Err(_) => break,
+            }
+        }
+    }
+    Err(FlightError::NoImage {
+        sysid,
+        seq,
+        waited_s: 2.0 * wait.as_secs_f64(),
+    })
+}
+
+/// Return to launch and wait until the vehicle has landed and disarmed (already down: at
+/// once).
+pub async fn return_and_land(
+    fleet: &FleetHandle,
+    sysid: u8,
+    distance_hint_m: f64,
+    speed: f64,
+    patience: Patience,
+) -> Result<(), FlightError> {
+    let down = |s: &VehicleSnapshot| s.on_ground() && !s.armed;
+    if fleet.vehicle(sysid).is_some_and(|s| down(&s)) {
+        return Ok(());
+    }
+    fleet.rtl(sysid).await?;
+    let wait = patience.secs(distance_hint_m.max(0.0) / speed.max(0.5) * 2.0 + 180.0);
+    fleet
+        .wait_until(sysid, wait, down)
+        .await
+        .map(|_| ())
+        .map_err(|_| FlightError::Timeout {
+            sysid,
+            what: "landing at home".into(),
+            waited_s: wait.as_secs_f64(),
+        })
+}
+
+/// Distance from the vehicle to its home, metres (0 when unknown).
+pub fn distance_home(v: &VehicleSnapshot) -> f64 {
+    match (v.position, v.home) {
+        (Some(p), Some(h)) => local::distance(p.lat, p.lon, h.lat, h.lon),
+        _ => 0.0,
+    }
+}
+
+/// Send MAV_CMD_USER_1 to the vehicle: the simulator's "operator swapped the battery"
+/// request (a real autopilot refuses it as unsupported, which is reported as an error).
+pub async fn request_sim_swap(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
+    let v = fleet
+        .vehicle(sysid)
+        .ok_or(FleetError::NoVehicle { sysid })?;
+    let cmd = Command::long(
+        Endpoint::new(sysid, v.compid),
+        MavCmd::MAV_CMD_USER_1,
+        [0.0; 7],
+    );
+    fleet.command(cmd).await.map(|_| ())
+}

@@ -1,0 +1,1271 @@
+//! The runway-mapping run (runway paper §7) on real or simulated vehicles: the async shell
+//! around [`MappingState`].
+//!
+//! One **pilot** task per drone asks the state what to do ([`MappingState::directive`]),
+//! does it through the fleet ([`super::flight`]) and reports back; every report is saved
+//! before the pilot goes on (`state.json` replaced atomically, then one journal record in
+//! `events.jsonl`), so a GCS killed at any moment resumes from the last acknowledged step
+//! (`fleetmap resume RUN_DIR`) with every counted image kept. The vehicles need nothing
+//! from us to stay safe meanwhile: they hold position in GUIDED / Hold, or carry on with the
+//! sweep mission, and their own failsafes bring them home.
+//!
+//! * **Sweep**: the robot's strip ([`crate::explore::lawnmower`]) is uploaded, verified by
+//!   download, and flown in AUTO with a capture at every waypoint. Each image is classified
+//!   (cell = the one under the camera); the first positive region stops every sweep (the
+//!   robots hold) and the robot that saw it **confirms** the cell with five images at its
+//!   centre. Positive: the DFS starts there; negative: the sweeps go on.
+//! * **DFS**: Algorithm 1 ([`crate::explore::Explorer`]): go to the next cell centre
+//!   (DO_REPOSITION at the robot's altitude and the mission speed), wait until there and
+//!   steady, take five images, count their votes, give the explorer the neighbours' labels.
+//! * **Batteries**: before every step the pilot compares the charge with what the flight
+//!   home needs ([`MappingState::battery_needed_pct`]); below it the robot leaves the tree
+//!   (its vertex is saved), returns, lands and waits for a fresh battery — detected by
+//!   itself with `auto_resume` (the vehicle power-cycles and reports a full battery), or
+//!   announced by the operator ([`Operator::BatterySwapped`]). It then takes off again and
+//!   resumes from its vertex.
+//! * **End**: every robot back at the start (Algorithm 1), then home and landed; the run's
+//!   outputs are written by [`crate::app::report`].
+
+use crate::app::flight::{self, FlightError, Patience};
+use crate::app::images::{ImageHub, ReceivedImage};
+use crate::explore::dfs::Action;
+use crate::explore::mapping::{Directive, MappingError, MappingState, Phase, RobotStatus};
+use crate::fleet::{FleetHandle, VehicleSnapshot};
+use crate::geo::{Cell, LatLon};
+use crate::mission::MissionType;
+use crate::store::RunDir;
+use crate::time::Time;
+use crate::vision::camera::CameraModel;
+use crate::vision::load::{LoadLimits, load_image_bytes};
+use crate::vision::runway::{Classification, RunwayParams, classify};
+use crate::vision::votes::{Detection, GeoPosition};
+use anyhow::Context as _;
+use image::RgbImage;
+use serde::{Deserialize, Serialize};
+use std::collections::HashSet;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::{Mutex, broadcast, mpsc, watch};
+
+/// The run kind in `run.json`.
+pub const KIND: &str = "runway-mapping";
+
+/// A journal record of the run (`events.jsonl`), one per acknowledged step.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum MappingEvent {
+    /// The runner started (or resumed) with these drones.
+    Started {
+        /// Drones.
+        robots: Vec<u8>,
+        /// Whether this continues an earlier start.
+        resumed: bool,
+    },
+    /// A sweep image was classified.
+    SweepImage {
+        /// Vehicle.
+        sysid: u8,
+        /// Image name.
+        image_id: String,
+        /// Cell under the camera.
+        cell: Cell,
+        /// Labels (centre, north, west, south, east).
+        labels: [bool; 5],
+    },
+    /// A sweep image showed the region: confirmation of `cell` starts.
+    Candidate {
+        /// Vehicle.
+        sysid: u8,
+        /// The cell to confirm.
+        cell: Cell,
+    },
+    /// A cell-centre image was classified and its votes counted.
+    Image {
+        /// Vehicle.
+        sysid: u8,
+        /// Image name.
+        image_id: String,
+        /// The cell it was taken over.
+        cell: Cell,
+        /// Labels (centre, north, west, south, east).
+        labels: [bool; 5],
+        /// Black fractions (centre, top, left, bottom, right; image coordinates).
+        fractions: [f64; 5],
+        /// Cells whose state changed.
+        changed: Vec<(Cell, String)>,
+    },
+    /// The confirmation ended; `root` is where the DFS starts (`None`: back to sweeping).
+    Confirmed {
+        /// Vehicle.
+        sysid: u8,
+        /// The candidate.
+        cell: Cell,
+        /// The DFS root.
+        root: Option<Cell>,
+    },
+    /// A robot reached a vertex.
+    Arrived {
+        /// Vehicle.
+        sysid: u8,
+        /// The vertex.
+        cell: Cell,
+    },
+    /// A vertex was imaged; `added` are its new children.
+    Observed {
+        /// Vehicle.
+        sysid: u8,
+        /// The vertex.
+        cell: Cell,
+        /// Cells added to the tree.
+        added: Vec<Cell>,
+    },
+    /// A robot's sweep mission ended.
+    SweepComplete {
+        /// Vehicle.
+        sysid: u8,
+    },
+    /// A robot's battery is low: it goes home for a swap.
+    BatteryLow {
+        /// Vehicle.
+        sysid: u8,
+        /// Charge, percent.
+        pct: f64,
+        /// Charge the flight home needs, percent.
+        needed_pct: f64,
+    },
+    /// A robot landed for a battery swap.
+    LandedForSwap {
+        /// Vehicle.
+        sysid: u8,
+    },
+    /// A robot has a fresh battery.
+    Swapped {
+        /// Vehicle.
+        sysid: u8,
+        /// How it was noticed: "auto" or "operator".
+        by: String,
+    },
+    /// A robot flies home at the end.
+    GoingHome {
+        /// Vehicle.
+        sysid: u8,
+    },
+    /// A robot landed at the end.
+    Landed {
+        /// Vehicle.
+        sysid: u8,
+    },
+    /// An image was lost or unreadable.
+    ImageFailed {
+        /// Vehicle.
+        sysid: u8,
+        /// Why.
+        reason: String,
+    },
+    /// A step failed and will be retried.
+    StepFailed {
+        /// Vehicle.
+        sysid: u8,
+        /// Why.
+        reason: String,
+    },
+    /// The run is over.
+    Finished {
+        /// Whether the region was found.
+        found: bool,
+    },
+}
+
+/// What the operator can ask of a running mission (the TUI's keys).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Operator {
+    /// Every robot holds where it is until [`Operator::Resume`].
+    Pause,
+    /// Carry on after a pause.
+    Resume,
+    /// The battery of this vehicle was swapped: it may take off again.
+    BatterySwapped(u8),
+    /// Send this vehicle home now for a battery swap (its vertex is kept).
+    Recall(u8),
+}
+
+/// How a run ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// The map is complete and every robot landed.
+    Finished,
+    /// Robots are on the ground waiting for the operator (battery swaps without
+    /// `auto_resume`): run `fleetmap resume` after the swaps.
+    WaitingForOperator {
+        /// The vehicles waiting.
+        sysids: Vec<u8>,
+    },
+}
+
+/// Options of a run.
+pub struct RunOptions {
+    /// Resume by itself after a battery swap (the vehicle power-cycles and reports a full
+    /// battery) instead of waiting for the operator.
+    pub auto_resume: bool,
+    /// Operator commands (the TUI); `None` in headless runs.
+    pub operator: Option<mpsc::UnboundedReceiver<Operator>>,
+    /// Progress lines for a headless run's stdout / the TUI's log.
+    pub progress: Option<mpsc::UnboundedSender<String>>,
+    /// The state after every step (the TUI's map and mission panes).
+    pub view: Option<watch::Sender<Arc<MappingState>>>,
+    /// Timeout scaling.
+    pub patience: Patience,
+    /// A vehicle is "there" within this horizontal distance of a cell centre, metres.
+    pub tolerance_m: f64,
+    /// Consecutive failed steps after which a pilot gives up (the run stops; resume later).
+    pub max_failures: u32,
+    /// Send MAV_CMD_USER_1 (the simulator's swap request) when a robot lands for a battery
+    /// swap — the in-process demo's stand-in for the operator.
+    pub sim_swap: bool,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions {
+            auto_resume: false,
+            operator: None,
+            progress: None,
+            view: None,
+            patience: Patience::default(),
+            tolerance_m: 1.0,
+            max_failures: 20,
+            sim_swap: false,
+        }
+    }
+}
+
+struct Core {
+    state: MappingState,
+    run: RunDir,
+}
+
+struct Shared {
+    core: Mutex<Core>,
+    changed: watch::Sender<u64>,
+    paused: watch::Sender<bool>,
+    swapped: std::sync::Mutex<HashSet<u8>>,
+    recalled: std::sync::Mutex<HashSet<u8>>,
+    progress: Option<mpsc::UnboundedSender<String>>,
+    view: Option<watch::Sender<Arc<MappingState>>>,
+    fleet: FleetHandle,
+    auto_resume: bool,
+    interactive: bool,
+    patience: Patience,
+    tolerance_m: f64,
+    sim_swap: bool,
+}
+
+impl Shared {
+    fn say(&self, line: String) {
+        tracing::info!("{line}");
+        if let Some(p) = &self.progress {
+            let _ = p.send(line);
+        }
+    }
+
+    fn now(&self) -> Time {
+        self.fleet.clock().now()
+    }
+
+    /// Mutate the state, save it, then journal `event`; notify everyone.
+    async fn commit<T>(
+        &self,
+        f: impl FnOnce(&mut MappingState) -> Result<(T, Option<MappingEvent>), MappingError>,
+    ) -> anyhow::Result<T> {
+        let mut core = self.core.lock().await;
+        let (out, event) = f(&mut core.state)?;
+        let Core { state, run } = &mut *core;
+        run.save_state(state).context("saving the run state")?;
+        if let Some(ev) = &event {
+            run.append_event(ev).context("writing the run journal")?;
+        }
+        if let Some(v) = &self.view {
+            let _ = v.send(Arc::new(core.state.clone()));
+        }
+        drop(core);
+        self.changed.send_modify(|n| *n += 1);
+        Ok(out)
+    }
+
+    async fn read<T>(&self, f: impl FnOnce(&MappingState) -> T) -> T {
+        f(&self.core.lock().await.state)
+    }
+}
+
+fn labels5(c: &Classification) -> [bool; 5] {
+    let l = c.labels;
+    [l.center, l.north, l.west, l.south, l.east]
+}
+
+fn fractions5(c: &Classification) -> [f64; 5] {
+    let f = c.fractions;
+    [f.center, f.top, f.left, f.bottom, f.right]
+}
+
+/// The part of an image taken at `altitude_m` that covers the 3 × 3 cells around its centre
+/// (the runway paper's sensing model assumes the footprint is exactly 3 × 3 cells, true at
+/// 12 m for 4 m cells; a drone flying higher for separation sees more, so its image is
+/// cropped to the same ground area). Lower than that the whole image is used.
+pub fn crop_to_cells(
+    img: RgbImage,
+    camera: &CameraModel,
+    altitude_m: f64,
+    cell_m: f64,
+) -> RgbImage {
+    let (fw, fh) = camera.footprint(altitude_m);
+    let want = 3.0 * cell_m;
+    if !(fw.is_finite() && fh.is_finite()) || fw <= want * 1.001 || fh <= want * 1.001 {
+        return img;
+    }
+    let (w, h) = img.dimensions();
+    let cw = ((f64::from(w) * want / fw).round() as u32).clamp(3, w);
+    let ch = ((f64::from(h) * want / fh).round() as u32).clamp(3, h);
+    image::imageops::crop_imm(&img, (w - cw) / 2, (h - ch) / 2, cw, ch).to_image()
+}
+
+/// Decode and classify one received image (blocking work: call it on a blocking thread).
+pub fn classify_received(
+    bytes: &[u8],
+    heading_deg: f64,
+    params: &RunwayParams,
+    camera: &CameraModel,
+    altitude_m: f64,
+    cell_m: f64,
+) -> Result<Classification, String> {
+    let img = load_image_bytes(bytes, &LoadLimits::default()).map_err(|e| e.to_string())?;
+    let img = crop_to_cells(img, camera, altitude_m, cell_m);
+    classify(&img, heading_deg, params).map_err(|e| e.to_string())
+}
+
+/// Where an image was taken: what the camera said, else the vehicle's latest telemetry.
+fn pose_of(img: &ReceivedImage, v: Option<&VehicleSnapshot>) -> Option<(f64, f64, f64, f64)> {
+    let heading_now = v.and_then(|v| v.heading_deg).map(f64::from);
+    if let Some(p) = &img.pose {
+        return Some((
+            p.lat,
+            p.lon,
+            p.alt_rel_m,
+            p.heading_deg.or(heading_now).unwrap_or(0.0),
+        ));
+    }
+    let v = v?;
+    let p = v.position?;
+    Some((
+        p.lat,
+        p.lon,
+        f64::from(v.alt_rel.unwrap_or(0.0)),
+        heading_now.unwrap_or(0.0),
+    ))
+}
+
+struct Pilot {
+    sysid: u8,
+    shared: Arc<Shared>,
+    images: broadcast::Receiver<Arc<ReceivedImage>>,
+    capture_seq: u32,
+    held: bool,
+}
+
+enum PilotEnd {
+    Done,
+    WaitingForOperator,
+}
+
+impl Pilot {
+    fn fleet(&self) -> &FleetHandle {
+        &self.shared.fleet
+    }
+
+    fn vehicle(&self) -> Option<VehicleSnapshot> {
+        self.fleet().vehicle(self.sysid)
+    }
+
+    /// Wait until the state changes, or `timeout`.
+    async fn wait_change(&self, timeout: Duration) {
+        let mut rx = self.shared.changed.subscribe();
+        rx.borrow_and_update();
+        let _ = tokio::time::timeout(timeout, rx.changed()).await;
+    }
+
+    async fn wait_unpaused(&self) {
+        let mut rx = self.shared.paused.subscribe();
+        let mut told = false;
+        while *rx.borrow_and_update() {
+            if !told && !self.held {
+                let _ = flight::hold_here(self.fleet(), self.sysid).await;
+                told = true;
+            }
+            if rx.changed().await.is_err() {
+                return;
+            }
+        }
+    }
+
+    async fn run(mut self) -> anyhow::Result<PilotEnd> {
+        let mut failures = 0u32;
+        loop {
+            self.wait_unpaused().await;
+            match self.step().await {
+                Ok(Some(end)) => return Ok(end),
+                Ok(None) => failures = 0,
+                Err(e) => {
+                    failures += 1;
+                    let reason = format!("{e:#}");
+                    self.shared
+                        .say(format!("vehicle {}: {reason} (retrying)", self.sysid));
+                    let sysid = self.sysid;
+                    let max = self.shared.patience.secs(2.0);
+                    let _ = self
+                        .shared
+                        .commit(|_| Ok(((), Some(MappingEvent::StepFailed { sysid, reason }))))
+                        .await;
+                    if failures >= 20 {
+                        return Err(e.context(format!(
+                            "vehicle {sysid}: giving up after {failures} failed steps"
+                        )));
+                    }
+                    tokio::time::sleep(max).await;
+                }
+            }
+        }
+    }
+
+    /// One directive. `Some` ends the pilot.
+    async fn step(&mut self) -> anyhow::Result<Option<PilotEnd>> {
+        let sysid = self.sysid;
+        // A recall from the operator, or a low battery, comes first.
+        if self.check_battery().await? {
+            return Ok(None);
+        }
+        let d = self
+            .shared
+            .commit(|s| Ok((s.directive(sysid)?, None)))
+            .await?;
+        match d {
+            Directive::Sweep => {
+                self.held = false;
+                self.sweep().await?;
+            }
+            Directive::Hold => {
+                if !self.held
+                    && let Some(v) = self.vehicle()
+                    && flight::airborne(&v)
+                {
+                    flight::hold_here(self.fleet(), sysid).await?;
+                    self.held = true;
+                }
+                self.wait_change(Duration::from_millis(500)).await;
+            }
+            Directive::Confirm(cell) => {
+                self.held = false;
+                self.fly_to_cell(cell).await?;
+                if self.take_images(cell).await? {
+                    let now = self.shared.now();
+                    let root = self
+                        .shared
+                        .commit(|s| {
+                            let root = s.on_confirmed(sysid, cell, now)?;
+                            Ok((root, Some(MappingEvent::Confirmed { sysid, cell, root })))
+                        })
+                        .await?;
+                    match root {
+                        Some(r) => self.shared.say(format!(
+                            "vehicle {sysid}: cell {cell} confirmed: the recursive DFS starts at {r}"
+                        )),
+                        None => self.shared.say(format!(
+                            "vehicle {sysid}: cell {cell} is not runway after all: sweeping on"
+                        )),
+                    }
+                }
+            }
+            Directive::Dfs(Action::MoveTo(cell) | Action::Rejoin(cell)) => {
+                self.held = false;
+                self.fly_to_cell(cell).await?;
+                let now = self.shared.now();
+                self.shared
+                    .commit(|s| {
+                        s.on_arrived(sysid, cell, now)?;
+                        Ok(((), Some(MappingEvent::Arrived { sysid, cell })))
+                    })
+                    .await?;
+            }
+            Directive::Dfs(Action::Observe) => {
+                let cell = self
+                    .shared
+                    .read(|s| {
+                        s.explorer
+                            .as_ref()
+                            .map(|e| e.robot_cell(crate::explore::RobotId(sysid)))
+                    })
+                    .await
+                    .context("observing without an explorer")??;
+                if self.take_images(cell).await? {
+                    let now = self.shared.now();
+                    let added = self
+                        .shared
+                        .commit(|s| {
+                            let added = s.on_observed(sysid, cell, now)?;
+                            let ev = MappingEvent::Observed {
+                                sysid,
+                                cell,
+                                added: added.clone(),
+                            };
+                            Ok((added, Some(ev)))
+                        })
+                        .await?;
+                    let (explored, vertices) = self
+                        .shared
+                        .read(|s| {
+                            let e = s.explorer.as_ref();
+                            (
+                                e.map(|e| {
+                                    e.vertex_states()
+                                        .iter()
+                                        .filter(|(_, v)| {
+                                            *v == crate::explore::VertexState::Explored
+                                        })
+                                        .count()
+                                })
+                                .unwrap_or(0),
+                                e.map(|e| e.tree().real_count()).unwrap_or(0),
+                            )
+                        })
+                        .await;
+                    self.shared.say(format!(
+                        "vehicle {sysid}: vertex {cell} imaged, {} new ({} of {} vertices explored)",
+                        added.len(),
+                        explored,
+                        vertices
+                    ));
+                }
+            }
+            Directive::Dfs(Action::Wait) => {
+                if !self.held
+                    && let Some(v) = self.vehicle()
+                    && flight::airborne(&v)
+                {
+                    flight::hold_here(self.fleet(), sysid).await?;
+                    self.held = true;
+                }
+                self.wait_change(Duration::from_millis(500)).await;
+            }
+            Directive::Dfs(Action::ReturnHome) | Directive::Swap => {
+                self.held = false;
+                if let Some(end) = self.swap().await? {
+                    return Ok(Some(end));
+                }
+            }
+            Directive::Dfs(Action::Done) | Directive::GoHome => {
+                self.held = false;
+                self.go_home().await?;
+            }
+            Directive::Stop => return Ok(Some(PilotEnd::Done)),
+        }
+        Ok(None)
+    }
+
+    /// Low battery or an operator recall: leave the tree and fly home. Returns whether it
+    /// did.
+    async fn check_battery(&mut self) -> anyhow::Result<bool> {
+        let sysid = self.sysid;
+        let recalled = self
+            .shared
+            .recalled
+            .lock()
+            .map(|mut r| r.remove(&sysid))
+            .unwrap_or(false);
+        let Some(v) = self.vehicle() else {
+            return Ok(false);
+        };
+        let status = self
+            .shared
+            .read(|s| s.robot(sysid).map(|r| r.status))
+            .await?;
+        if matches!(
+            status,
+            RobotStatus::ReturningForSwap
+                | RobotStatus::AwaitingSwap
+                | RobotStatus::ReturningHome
+                | RobotStatus::Landed
+        ) {
+            return Ok(false);
+        }
+        if self
+            .shared
+            .read(|s| matches!(s.phase, Phase::Finished { .. }))
+            .await
+        {
+            return Ok(false);
+        }
+        let alt = f64::from(v.alt_rel.unwrap_or(0.0));
+        let needed = self
+            .shared
+            .read(|s| s.battery_needed_pct(flight::distance_home(&v), alt))
+            .await;
+        let pct = v.battery_pct.map(f64::from).filter(|p| *p >= 0.0);
+        // The autopilot's own failsafe took over (RTL / LAND we did not ask for).
+        let failsafe = flight::airborne(&v)
+            && matches!(v.mode.as_str(), "RTL" | "LAND" | "SMART_RTL")
+            && status != RobotStatus::Idle;
+        let low = pct.is_some_and(|p| p <= needed) && flight::airborne(&v);
+        if !(recalled || low || failsafe) {
+            return Ok(false);
+        }
+        let now = self.shared.now();
+        let pct_v = pct.unwrap_or(-1.0);
+        self.shared
+            .commit(|s| {
+                s.abandon_confirmation(sysid);
+                s.on_battery_low(sysid, now)?;
+                Ok((
+                    (),
+                    Some(MappingEvent::BatteryLow {
+                        sysid,
+                        pct: pct_v,
+                        needed_pct: needed,
+                    }),
+                ))
+            })
+            .await?;
+        let why = if recalled {
+            "recalled by the operator".to_string()
+        } else if failsafe {
+            format!("the autopilot's failsafe took over ({})", v.mode)
+        } else {
+            format!("battery {pct_v:.0} % (home needs {needed:.0} %)")
+        };
+        self.shared.say(format!(
+            "vehicle {sysid}: {why}: returning home for a battery swap"
+        ));
+        Ok(true)
+    }
+
+    async fn fly_to_cell(&mut self, cell: Cell) -> anyhow::Result<()> {
+        let sysid = self.sysid;
+        let (centre, alt, speed) = self
+            .shared
+            .read(|s| {
+                (
+                    s.grid.cell_center(cell),
+                    s.altitude_of(sysid),
+                    s.params.speed_m_s,
+                )
+            })
+            .await;
+        let alt = alt? as f32;
+        flight::ensure_airborne(self.fleet(), sysid, alt, self.shared.patience).await?;
+        flight::fly_to(
+            self.fleet(),
+            sysid,
+            (centre.lat, centre.lon, alt),
+            speed as f32,
+            self.shared.tolerance_m,
+            self.shared.patience,
+        )
+        .await?;
+        Ok(())
+    }
+
+    /// Take the images still missing for this visit of `cell`, counting each one's votes.
+    /// Returns false when the visit was cut short (battery).
+    async fn take_images(&mut self, cell: Cell) -> anyhow::Result<bool> {
+        let sysid = self.sysid;
+        loop {
+            let missing = self.shared.read(|s| s.images_missing(sysid, cell)).await;
+            if missing == 0 {
+                return Ok(true);
+            }
+            if let Some(v) = self.vehicle() {
+                let alt = f64::from(v.alt_rel.unwrap_or(0.0));
+                let needed = self
+                    .shared
+                    .read(|s| s.battery_needed_pct(flight::distance_home(&v), alt))
+                    .await;
+                if v.battery_pct.is_some_and(|p| f64::from(p) <= needed) {
+                    return Ok(false);
+                }
+            }
+            self.capture_seq += 1;
+            let fleet = self.shared.fleet.clone();
+            let img = match flight::capture(
+                &fleet,
+                &mut self.images,
+                sysid,
+                self.capture_seq,
+                self.shared.patience,
+            )
+            .await
+            {
+                Ok(img) => img,
+                Err(FlightError::NoImage { .. }) => {
+                    let reason = "no image arrived after two captures".to_string();
+                    self.shared
+                        .commit(|s| {
+                            s.image_failures += 1;
+                            Ok(((), Some(MappingEvent::ImageFailed { sysid, reason })))
+                        })
+                        .await?;
+                    continue;
+                }
+                Err(e) => return Err(e.into()),
+            };
+            let v = self.vehicle();
+            let (lat, lon, alt_m, heading) =
+                pose_of(&img, v.as_ref()).unwrap_or((f64::NAN, f64::NAN, 0.0, 0.0));
+            let (params, camera, altitude, cell_m) = self
+                .shared
+                .read(|s| {
+                    (
+                        s.params.runway,
+                        s.params.camera,
+                        s.altitude_of(sysid).unwrap_or(s.params.base_altitude_m),
+                        s.grid.cell_size(),
+                    )
+                })
+                .await;
+            let bytes = img.bytes.clone();
+            let result = tokio::task::spawn_blocking(move || {
+                classify_received(&bytes, heading, &params, &camera, altitude, cell_m)
+            })
+            .await
+            .context("classifier task")?;
+            let c = match result {
+                Ok(c) => c,
+                Err(reason) => {
+                    self.shared
+                        .commit(|s| {
+                            s.image_failures += 1;
+                            Ok(((), Some(MappingEvent::ImageFailed { sysid, reason })))
+                        })
+                        .await?;
+                    continue;
+                }
+            };
+            let now = self.shared.now();
+            self.shared
+                .commit(|s| {
+                    let image_id = s.next_image_id();
+                    let det = Detection {
+                        image_id: image_id.clone(),
+                        vehicle: sysid,
+                        time: now,
+                        cell,
+                        position: lat.is_finite().then_some(GeoPosition {
+                            lat_deg: lat,
+                            lon_deg: lon,
+                            alt_m,
+                        }),
+                        heading_deg: heading,
+                        fractions: c.fractions,
+                        labels: c.labels,
+                    };
+                    let changed = s
+                        .on_cell_image(det)?
+                        .into_iter()
+                        .map(|u| (u.cell, format!("{:?}", u.to).to_lowercase()))
+                        .collect();
+                    let ev = MappingEvent::Image {
+                        sysid,
+                        image_id,
+                        cell,
+                        labels: labels5(&c),
+                        fractions: fractions5(&c),
+                        changed,
+                    };
+                    Ok(((), Some(ev)))
+                })
+                .await?;
+        }
+    }
+
+    /// Fly (or keep flying) the sweep, classifying its images, until the phase changes, the
+    /// sweep ends or the battery runs low.
+    async fn sweep(&mut self) -> anyhow::Result<()> {
+        let sysid = self.sysid;
+        let fleet = self.fleet().clone();
+        let (items, alt, speed, resume_item) = self
+            .shared
+            .read(|s| {
+                let sw = s.sweep_of(sysid).ok().cloned();
+                let r = s.robot(sysid).ok().cloned();
+                (
+                    sw.map(|w| w.items).unwrap_or_default(),
+                    r.as_ref().map(|r| r.altitude_m).unwrap_or(12.0),
+                    s.params.speed_m_s,
+                    r.and_then(|r| r.sweep_item),
+                )
+            })
+            .await;
+        let v = self
+            .vehicle()
+            .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
+        let mission_mode = v.flavour.mission_mode().ok();
+        let in_mission = mission_mode.is_some_and(|m| v.flavour.is_mode(v.custom_mode, m));
+        let holds_mission = v
+            .mission_total
+            .is_some_and(|t| usize::from(t) == items.len());
+        if !(flight::airborne(&v) && holds_mission) {
+            // Upload, verify by download, take off, start (or continue where it stopped).
+            fleet
+                .upload_mission(sysid, MissionType::Mission, items.clone())
+                .await?;
+            let (back, _) = fleet.download_mission(sysid, MissionType::Mission).await?;
+            crate::proto::mission::compare_items(&items, &back, v.flavour.home_item()).map_err(
+                |d| anyhow::anyhow!("vehicle {sysid}: the sweep read back differs: {d}"),
+            )?;
+            self.shared.say(format!(
+                "vehicle {sysid}: sweep mission uploaded and verified ({} items)",
+                items.len()
+            ));
+            flight::ensure_airborne(&fleet, sysid, alt as f32, self.shared.patience).await?;
+            if let Some(item) = resume_item.filter(|&i| i > 0) {
+                fleet.set_mission_current(sysid, item).await?;
+                let m = mission_mode.context("no mission mode")?;
+                fleet.set_mode(sysid, m.name).await?;
+            } else {
+                fleet.start_mission(sysid).await?;
+            }
+            let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
+            self.shared.say(format!("vehicle {sysid}: sweeping"));
+        } else if !in_mission {
+            let m = mission_mode.context("no mission mode")?;
+            fleet.set_mode(sysid, m.name).await?;
+            let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
+        }
+        let last_nav = items
+            .iter()
+            .rposition(|it| it.command == crate::mission::item::cmd::NAV_WAYPOINT)
+            .unwrap_or(0) as u16;
+        let mut snaps = fleet.watch();
+        let mut changed = self.shared.changed.subscribe();
+        changed.borrow_and_update();
+        let mut tick = tokio::time::interval(Duration::from_millis(500));
+        loop {
+            tokio::select! {
+                r = self.images.recv() => {
+                    let img = match r {
+                        Ok(img) => img,
+                        Err(broadcast::error::RecvError::Lagged(_)) => continue,
+                        Err(broadcast::error::RecvError::Closed) => return Err(FlightError::ImagesClosed.into()),
+                    };
+                    if img.sysid != sysid {
+                        continue;
+                    }
+                    if self.sweep_image(&img).await? {
+                        return Ok(());
+                    }
+                }
+                r = snaps.changed() => {
+                    if r.is_err() {
+                        anyhow::bail!("the fleet stopped");
+                    }
+                    let s = snaps.borrow_and_update().vehicles.get(&sysid).cloned();
+                    let Some(s) = s else { continue };
+                    if let Some(c) = s.mission_current {
+                        self.shared.commit(|st| Ok((st.on_sweep_progress(sysid, c)?, None))).await.ok();
+                    }
+                    let complete = s.mission_state == Some(5)
+                        || s.reached.contains(&last_nav)
+                        || s.mission_current.is_some_and(|c| c > last_nav);
+                    if complete {
+                        let now = self.shared.now();
+                        self.shared.commit(|st| {
+                            st.on_sweep_complete(sysid, now)?;
+                            Ok(((), Some(MappingEvent::SweepComplete { sysid })))
+                        }).await?;
+                        self.shared.say(format!("vehicle {sysid}: sweep complete"));
+                        return Ok(());
+                    }
+                }
+                _ = changed.changed() => {
+                    if self.shared.read(|s| s.phase != Phase::Sweep).await {
+                        return Ok(());
+                    }
+                }
+                _ = tick.tick() => {
+                    if self.check_battery().await? {
+                        return Ok(());
+                    }
+                }
+            }
+        }
+    }
+
+    /// Classify a sweep image; returns true when it started a confirmation.
+    async fn sweep_image(&mut self, img: &ReceivedImage) -> anyhow::Result<bool> {
+        let sysid = self.sysid;
+        let v = self.vehicle();
+        let Some((lat, lon, _alt, heading)) = pose_of(img, v.as_ref()) else {
+            return Ok(false);
+        };
+        let (params, camera, altitude, grid) = self
+            .shared
+            .read(|s| {
+                (
+                    s.params.runway,
+                    s.params.camera,
+                    s.altitude_of(sysid).unwrap_or(s.params.base_altitude_m),
+                    s.grid.clone(),
+                )
+            })
+            .await;
+        let Ok(cell) = grid.cell_of(LatLon { lat, lon }) else {
+            return Ok(false);
+        };
+        let bytes = img.bytes.clone();
+        let cell_m = grid.cell_size();
+        let result = tokio::task::spawn_blocking(move || {
+            classify_received(&bytes, heading, &params, &camera, altitude, cell_m)
+        })
+        .await
+        .context("classifier task")?;
+        let c = match result {
+            Ok(c) => c,
+            Err(reason) => {
+                self.shared
+                    .commit(|s| {
+                        s.image_failures += 1;
+                        Ok(((), Some(MappingEvent::ImageFailed { sysid, reason })))
+                    })
+                    .await?;
+                return Ok(false);
+            }
+        };
+        let now = self.shared.now();
+        let candidate = self
+            .shared
+            .commit(|s| {
+                let image_id = s.next_image_id();
+                let cand = s.on_sweep_image(sysid, cell, heading, c.fractions, c.labels, now)?;
+                let ev = match cand {
+                    Some(cell) => MappingEvent::Candidate { sysid, cell },
+                    None => MappingEvent::SweepImage {
+                        sysid,
+                        image_id,
+                        cell,
+                        labels: labels5(&c),
+                    },
+                };
+                Ok((cand, Some(ev)))
+            })
+            .await?;
+        if let Some(cand) = candidate {
+            self.shared.say(format!(
+                "vehicle {sysid}: runway seen near cell {cand}: stopping the sweep to confirm it"
+            ));
+            flight::hold_here(self.fleet(), sysid).await?;
+            return Ok(true);
+        }
+        Ok(false)
+    }
+
+    /// Battery swap: home, land, wait for the fresh battery, then carry on.
+    async fn swap(&mut self) -> anyhow::Result<Option<PilotEnd>> {
+        let sysid = self.sysid;
+        let fleet = self.fleet().clone();
+        let status = self
+            .shared
+            .read(|s| s.robot(sysid).map(|r| r.status))
+            .await?;
+        if status != RobotStatus::AwaitingSwap {
+            let (dist, speed) = match self.vehicle() {
+                Some(v) => (
+                    flight::distance_home(&v),
+                    self.shared.read(|s| s.params.speed_m_s).await,
+                ),
+                None => (100.0, 1.0),
+            };
+            flight::return_and_land(&fleet, sysid, dist, speed, self.shared.patience).await?;
+            let reboots = self.vehicle().map(|v| v.reboots).unwrap_or(0);
+            let now = self.shared.now();
+            self.shared
+                .commit(|s| {
+                    s.on_landed_for_swap(sysid, reboots, now)?;
+                    Ok(((), Some(MappingEvent::LandedForSwap { sysid })))
+                })
+                .await?;
+            self.shared.say(format!(
+                "vehicle {sysid}: landed: waiting for a battery swap{}",
+                if self.shared.auto_resume {
+                    " (resumes by itself when a fresh battery is in)"
+                } else {
+                    ""
+                }
+            ));
+            if self.shared.sim_swap {
+                // The demo's operator: ask the simulated vehicle to swap its battery.
+                let _ = flight::request_sim_swap(&fleet, sysid).await;
+            }
+        }
+        if self
+            .shared
+            .read(|s| matches!(s.phase, Phase::Finished { .. }))
+            .await
+        {
+            return Ok(None);
+        }
+        let reboots_at = self
+            .shared
+            .read(|s| s.robot(sysid).ok().and_then(|r| r.reboots_at_landing))
+            .await;
+        loop {
+            let by_operator = self
+                .shared
+                .swapped
+                .lock()
+                .map(|mut s| s.remove(&sysid))
+                .unwrap_or(false);
+            let fresh = self.vehicle().is_some_and(|v| {
+                let rebooted = reboots_at.is_none_or(|r| v.reboots > r);
+                v.alive
+                    && v.battery_pct
+                        .is_some_and(|p| p >= 95 || (rebooted && p >= 90))
+                    && (rebooted || v.battery_pct.is_some_and(|p| p >= 95))
+            });
+            if by_operator || (self.shared.auto_resume && fresh) {
+                let now = self.shared.now();
+                let by = if by_operator { "operator" } else { "auto" }.to_string();
+                self.shared
+                    .commit(|s| {
+                        s.on_swapped(sysid, now)?;
+                        Ok(((), Some(MappingEvent::Swapped { sysid, by })))
+                    })
+                    .await?;
+                self.shared.say(format!(
+                    "vehicle {sysid}: fresh battery: taking off to resume"
+                ));
+                return Ok(None);
+            }
+            if !self.shared.auto_resume && !self.shared.interactive {
+                return Ok(Some(PilotEnd::WaitingForOperator));
+            }
+            if self
+                .shared
+                .read(|s| matches!(s.phase, Phase::Finished { .. }))
+                .await
+            {
+                return Ok(None);
+            }
+            self.wait_change(Duration::from_millis(500)).await;
+        }
+    }
+
+    async fn go_home(&mut self) -> anyhow::Result<()> {
+        let sysid = self.sysid;
+        let now = self.shared.now();
+        self.shared
+            .commit(|s| {
+                s.on_going_home(sysid, now)?;
+                Ok(((), Some(MappingEvent::GoingHome { sysid })))
+            })
+            .await?;
+        let (dist, speed) = match self.vehicle() {
+            Some(v) => (
+                flight::distance_home(&v),
+                self.shared.read(|s| s.params.speed_m_s).await,
+            ),
+            None => (100.0, 1.0),
+        };
+        flight::return_and_land(self.fleet(), sysid, dist, speed, self.shared.patience).await?;
+        let now = self.shared.now();
+        self.shared
+            .commit(|s| {
+                s.on_landed(sysid, now)?;
+                Ok(((), Some(MappingEvent::Landed { sysid })))
+            })
+            .await?;
+        self.shared.say(format!("vehicle {sysid}: landed at home"));
+        Ok(())
+    }
+}
+
+/// Follow every robot's position for its track, distance and airborne time (in memory; saved
+/// with the next step).
+async fn track(shared: Arc<Shared>, sysids: Vec<u8>) {
+    let mut last = shared.now();
+    let mut tick = tokio::time::interval(Duration::from_millis(500));
+    loop {
+        tick.tick().await;
+        let now = shared.now();
+        let dt = (now - last).as_secs_f64();
+        last = now;
+        let mut core = shared.core.lock().await;
+        for &sysid in &sysids {
+            let Some(v) = shared.fleet.vehicle(sysid) else {
+                continue;
+            };
+            let Some(p) = v.position else { continue };
+            let Ok((e, n)) = core.state.grid.to_xy(LatLon {
+                lat: p.lat,
+                lon: p.lon,
+            }) else {
+                continue;
+            };
+            let air = if flight::airborne(&v) { dt } else { 0.0 };
+            let _ = core.state.on_position(sysid, e, n, air);
+        }
+        if let Some(view) = &shared.view {
+            let _ = view.send(Arc::new(core.state.clone()));
+        }
+    }
+}
+
+/// Run (or resume) a runway-mapping run with `fleet` until it finishes, or until robots wait
+/// for the operator. `run` holds the state; the vehicles must already be heard.
+pub async fn run(
+    fleet: FleetHandle,
+    hub: &ImageHub,
+    mut run_dir: RunDir,
+    state: MappingState,
+    mut opts: RunOptions,
+) -> anyhow::Result<Outcome> {
+    let sysids: Vec<u8> = state.robots.iter().map(|r| r.sysid).collect();
+    let resumed = state.started.is_some();
+    run_dir.save_state(&state).context("saving the run state")?;
+    run_dir
+        .append_event(&MappingEvent::Started {
+            robots: sysids.clone(),
+            resumed,
+        })
+        .context("writing the run journal")?;
+    let (changed, _) = watch::channel(0u64);
+    let (paused, _) = watch::channel(false);
+    let interactive = opts.operator.is_some();
+    let shared = Arc::new(Shared {
+        core: Mutex::new(Core {
+            state,
+            run: run_dir,
+        }),
+        changed,
+        paused,
+        swapped: std::sync::Mutex::new(HashSet::new()),
+        recalled: std::sync::Mutex::new(HashSet::new()),
+        progress: opts.progress.take(),
+        view: opts.view.take(),
+        fleet: fleet.clone(),
+        auto_resume: opts.auto_resume,
+        interactive,
+        patience: opts.patience,
+        tolerance_m: opts.tolerance_m,
+        sim_swap: opts.sim_swap,
+    });
+    if let Some(v) = &shared.view {
+        let _ = v.send(Arc::new(shared.core.lock().await.state.clone()));
+    }
+    let tracker = tokio::spawn(track(shared.clone(), sysids.clone()));
+    let operator = opts.operator.take().map(|mut rx| {
+        let shared = shared.clone();
+        tokio::spawn(async move {
+            while let Some(cmd) = rx.recv().await {
+                match cmd {
+                    Operator::Pause => {
+                        shared.paused.send_replace(true);
+                        shared.say("operator: pause — every vehicle holds".into());
+                    }
+                    Operator::Resume => {
+                        shared.paused.send_replace(false);
+                        shared.say("operator: resume".into());
+                    }
+                    Operator::BatterySwapped(s) => {
+                        if let Ok(mut set) = shared.swapped.lock() {
+                            set.insert(s);
+                        }
+                        shared.say(format!("operator: vehicle {s} has a fresh battery"));
+                    }
+                    Operator::Recall(s) => {
+                        if let Ok(mut set) = shared.recalled.lock() {
+                            set.insert(s);
+                        }
+                        shared.say(format!("operator: vehicle {s} recalled for a battery swap"));
+                    }
+                }
+                shared.changed.send_modify(|n| *n += 1);
+            }
+        })
+    });
+    let mut tasks = Vec::new();
+    for &sysid in &sysids {
+        let pilot = Pilot {
+            sysid,
+            shared: shared.clone(),
+            images: hub.subscribe(),
+            capture_seq: 0,
+            held: false,
+        };
+        tasks.push((sysid, tokio::spawn(pilot.run())));
+    }
+    let mut waiting = Vec::new();
+    let mut first_err = None;
+    for (sysid, t) in tasks {
+        match t.await {
+            Ok(Ok(PilotEnd::Done)) => {}
+            Ok(Ok(PilotEnd::WaitingForOperator)) => waiting.push(sysid),
+            Ok(Err(e)) => {
+                if first_err.is_none() {
+                    first_err = Some(e);
+                }
+            }
+            Err(e) => {
+                if first_err.is_none() {
+                    first_err = Some(anyhow::anyhow!("vehicle {sysid}: pilot task failed: {e}"));
+                }
+            }
+        }
+    }
+    tracker.abort();
+    if let Some(op) = operator {
+        op.abort();
+    }
+    // Save the final track and times.
+    let mut core = shared.core.lock().await;
+    let Core { state, run } = &mut *core;
+    if state.is_finished() {
+        let found = matches!(state.phase, Phase::Finished { found: true });
+        let now = fleet.clock().now();
+        state.book.close_all(now);
+        run.save_state(state).context("saving the run state")?;
+        run.append_event(&MappingEvent::Finished { found })
+            .context("writing the run journal")?;
+    } else {
+        run.save_state(state).context("saving the run state")?;
+    }
+    if let Some(v) = &shared.view {
+        let _ = v.send(Arc::new(state.clone()));
+    }
+    if let Some(e) = first_err {
+        return Err(e);
+    }
+    if waiting.is_empty() {
+        Ok(Outcome::Finished)
+    } else {
+        Ok(Outcome::WaitingForOperator { sysids: waiting })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn higher_drones_crop_to_the_three_cells_around_the_centre() {
+        let cam = CameraModel::paper();
+        let img = RgbImage::new(480, 480);
+        // at 12 m the footprint is exactly 3 cells: unchanged
+        assert_eq!(
+            crop_to_cells(img.clone(), &cam, 12.0, 4.0).dimensions(),
+            (480, 480)
+        );
+        // at 24 m it is 6 cells wide: the centre half
+        assert_eq!(
+            crop_to_cells(img.clone(), &cam, 24.0, 4.0).dimensions(),
+            (240, 240)
+        );
+        // lower: the whole image
+        assert_eq!(crop_to_cells(img, &cam, 8.0, 4.0).dimensions(), (480, 480));
+    }
+}
