@@ -266,6 +266,22 @@ impl BanditState {
     /// Step 5 of Algorithm 1: update K and R by (4a), (4b) from the history so far, then
     /// p ← p + 1. Returns the cells classified by this update.
     pub fn update(&mut self) -> Vec<usize> {
+        let newly = self.classify();
+        self.epoch += 1;
+        newly
+    }
+
+    /// Apply (4a), (4b) to the unclassified cells from the history so far *without* ending
+    /// the epoch (p is unchanged; cells classified now get `classified_at = p`). Returns the
+    /// cells classified now.
+    ///
+    /// A deviation from Algorithm 1, which applies (4) once per epoch (step 5): the field
+    /// runner ([`crate::app::bandit`]) applies it after every measurement, so that a cell
+    /// settled in the middle of an epoch is not imaged again in the epoch's later sensing
+    /// cycles. Prop. 1 still holds: (15) — [19, Lem. 1], a law-of-the-iterated-logarithm
+    /// bound — holds for every sample count n simultaneously, so (4) may be checked after
+    /// any number of samples.
+    pub fn classify(&mut self) -> Vec<usize> {
         let mut newly = Vec::new();
         let (lo, hi) = (self.theta - self.epsilon, self.theta + self.epsilon);
         for l in 0..self.len() {
@@ -284,7 +300,6 @@ impl BanditState {
             self.classified_at[l] = Some(self.epoch);
             newly.push(l);
         }
-        self.epoch += 1;
         newly
     }
 }

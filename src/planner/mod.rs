@@ -10,6 +10,7 @@
 //! | [`ip`] | the IP (11) with (7)–(10): the paper's plain model and the fast model |
 //! | [`assign`] | linear-assignment re-pairing of §III-C |
 //! | [`check`] | an independent checker of plans |
+//! | [`sortie`] | the run on a real fleet: epochs, sorties, measurements (pure state), missions and geofence |
 
 pub mod assign;
 pub mod bandit;
@@ -18,3 +19,4 @@ pub mod check;
 pub mod grid;
 pub mod ip;
 pub mod scenario;
+pub mod sortie;
