@@ -10,7 +10,8 @@
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::ops::{Add, AddAssign, Sub};
-use std::time::{Duration, Instant};
+use std::time::Duration;
+use tokio::time::Instant;
 
 /// A point in time, in microseconds since the owning clock's epoch.
 #[derive(
@@ -114,6 +115,12 @@ impl fmt::Display for Time {
 }
 
 /// The shell's clock: real monotonic time since the clock was created.
+///
+/// It reads `tokio::time::Instant`, which is the system's monotonic clock — except in a
+/// tokio runtime whose clock is paused (tests with `start_paused`), where it is tokio's
+/// virtual time: the fleet, the links and an in-memory simulator then all run on one
+/// virtual timeline that jumps ahead whenever every task is waiting, so an hour of
+/// flight takes only the CPU time of the work done.
 ///
 /// Only the async shell (link, fleet, UI, the simulator's socket server) reads it; it hands
 /// the resulting [`Time`] to the pure core. `speedup` makes simulated time run faster than

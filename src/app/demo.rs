@@ -9,10 +9,10 @@
 
 use crate::fleet::{self, FleetConfig, FleetHandle};
 use crate::link::ConnSpec;
-use crate::link::transport::{LinkOptions, open_link};
+use crate::link::transport::{LinkOptions, open_link, open_memory_link};
 use crate::mission::definition::MissionDef;
 use crate::sim::harness::{Sim, SimConfig};
-use crate::sim::server::{self, Endpoint, ServeOptions, SimHandle};
+use crate::sim::server::{self, Endpoint, MemorySimHandle, ServeOptions, SimHandle};
 use crate::sim::world::World;
 use crate::time::{MonotonicClock, Time};
 use anyhow::Context as _;
@@ -95,17 +95,49 @@ pub struct DemoFleet {
     pub world: World,
 }
 
-/// Start the simulator with `spec` vehicles over `world` and a fleet connected to each
-/// vehicle over loopback UDP, clocked at the simulator's speed.
-pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<DemoFleet> {
-    let mut sc = SimConfig::from_spec(spec, Some(world.clone()), None, cfg.seed)?;
+/// The simulator with `spec` vehicles over `world` behind in-process links and a fleet on
+/// them, both on the runtime's clock at real speed: with tokio's clock paused (tests with
+/// `start_paused`) the whole run is virtual and as fast as the CPU allows.
+pub async fn start_virtual(
+    spec: &str,
+    world: World,
+    cfg: &DemoConfig,
+) -> anyhow::Result<(FleetHandle, MemorySimHandle)> {
+    let sim = Sim::new(sim_config(spec, world, cfg)?, Time::ZERO)?;
+    let (ev_tx, ev_rx) = mpsc::channel(4096);
+    let mut links = Vec::new();
+    let mut ports = Vec::new();
+    for (i, sysid) in sim.sysids().into_iter().enumerate() {
+        let (h, p) = open_memory_link(
+            i,
+            &format!("sim-{sysid}"),
+            &LinkOptions::default(),
+            ev_tx.clone(),
+        );
+        links.push(h);
+        ports.push(p);
+    }
+    drop(ev_tx);
+    let handle = server::spawn_memory(sim, ports);
+    let fleet = fleet::spawn(links, ev_rx, FleetConfig::default(), MonotonicClock::new());
+    Ok((fleet, handle))
+}
+
+fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<SimConfig> {
+    let mut sc = SimConfig::from_spec(spec, Some(world), None, cfg.seed)?;
     for v in &mut sc.vehicles {
         if v.flavour.is_copter() {
             v.battery.minutes = cfg.battery_minutes;
         }
         v.swap_after_s = Some(cfg.swap_after_s);
     }
-    let sim = Sim::new(sc, Time::ZERO)?;
+    Ok(sc)
+}
+
+/// Start the simulator with `spec` vehicles over `world` and a fleet connected to each
+/// vehicle over loopback UDP, clocked at the simulator's speed.
+pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<DemoFleet> {
+    let sim = Sim::new(sim_config(spec, world.clone(), cfg)?, Time::ZERO)?;
     let handle = server::spawn(
         sim,
         ServeOptions {

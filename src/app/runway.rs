@@ -232,7 +232,7 @@ impl Default for RunOptions {
             progress: None,
             view: None,
             patience: Patience::default(),
-            tolerance_m: 1.0,
+            tolerance_m: 0.5,
             max_failures: 20,
             sim_swap: false,
         }
@@ -292,6 +292,23 @@ impl Shared {
         Ok(out)
     }
 
+    /// The next directive of `sysid`; saved (and the others woken) only when deciding it
+    /// changed the state.
+    async fn decide(&self, sysid: u8) -> anyhow::Result<Directive> {
+        let mut core = self.core.lock().await;
+        let (d, changed) = core.state.directive_changed(sysid)?;
+        if changed {
+            let Core { state, run } = &mut *core;
+            run.save_state(state).context("saving the run state")?;
+            if let Some(v) = &self.view {
+                let _ = v.send(Arc::new(core.state.clone()));
+            }
+            drop(core);
+            self.changed.send_modify(|n| *n += 1);
+        }
+        Ok(d)
+    }
+
     async fn read<T>(&self, f: impl FnOnce(&MappingState) -> T) -> T {
         f(&self.core.lock().await.state)
     }
@@ -342,6 +359,19 @@ pub fn classify_received(
     classify(&img, heading_deg, params).map_err(|e| e.to_string())
 }
 
+/// Run CPU-heavy work (decoding and classifying an image, a few milliseconds) off the
+/// reactor: on a blocking thread in a multi-threaded runtime; inline in a current-thread one
+/// (the virtual-clock tests, where a blocking thread would let virtual time run on while it
+/// works).
+pub async fn cpu<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> anyhow::Result<T> {
+    match tokio::runtime::Handle::current().runtime_flavor() {
+        tokio::runtime::RuntimeFlavor::CurrentThread => Ok(f()),
+        _ => tokio::task::spawn_blocking(f)
+            .await
+            .context("classifier task"),
+    }
+}
+
 /// Where an image was taken: what the camera said, else the vehicle's latest telemetry.
 fn pose_of(img: &ReceivedImage, v: Option<&VehicleSnapshot>) -> Option<(f64, f64, f64, f64)> {
     let heading_now = v.and_then(|v| v.heading_deg).map(f64::from);
@@ -369,6 +399,8 @@ struct Pilot {
     images: broadcast::Receiver<Arc<ReceivedImage>>,
     capture_seq: u32,
     held: bool,
+    /// No sweep entered yet by this process (a restart may have missed images).
+    first_sweep: bool,
 }
 
 enum PilotEnd {
@@ -442,10 +474,7 @@ impl Pilot {
         if self.check_battery().await? {
             return Ok(None);
         }
-        let d = self
-            .shared
-            .commit(|s| Ok((s.directive(sysid)?, None)))
-            .await?;
+        let d = self.shared.decide(sysid).await?;
         match d {
             Directive::Sweep => {
                 self.held = false;
@@ -729,11 +758,9 @@ impl Pilot {
                 })
                 .await;
             let bytes = img.bytes.clone();
-            let result = tokio::task::spawn_blocking(move || {
-                classify_received(&bytes, heading, &params, &camera, altitude, cell_m)
-            })
-            .await
-            .context("classifier task")?;
+            let result =
+                cpu(move || classify_received(&bytes, heading, &params, &camera, altitude, cell_m))
+                    .await?;
             let c = match result {
                 Ok(c) => c,
                 Err(reason) => {
@@ -832,11 +859,29 @@ impl Pilot {
             }
             let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
             self.shared.say(format!("vehicle {sysid}: sweeping"));
-        } else if !in_mission {
+        } else if self.first_sweep || !in_mission {
+            // Back after a GCS restart (or a hold): the vehicle may have flown on while no one
+            // classified its images, so go back to the last capture we may have missed — the
+            // waypoint before the one it was heading for when we last saw it.
+            if self.first_sweep
+                && let Some(item) = resume_item
+            {
+                let back = items
+                    .iter()
+                    .enumerate()
+                    .take(usize::from(item))
+                    .rev()
+                    .find(|(_, it)| it.command == crate::mission::item::cmd::NAV_WAYPOINT)
+                    .map(|(j, _)| j as u16);
+                if let Some(j) = back {
+                    fleet.set_mission_current(sysid, j).await?;
+                }
+            }
             let m = mission_mode.context("no mission mode")?;
             fleet.set_mode(sysid, m.name).await?;
             let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
         }
+        self.first_sweep = false;
         let last_nav = items
             .iter()
             .rposition(|it| it.command == crate::mission::item::cmd::NAV_WAYPOINT)
@@ -866,8 +911,10 @@ impl Pilot {
                     }
                     let s = snaps.borrow_and_update().vehicles.get(&sysid).cloned();
                     let Some(s) = s else { continue };
-                    if let Some(c) = s.mission_current {
-                        self.shared.commit(|st| Ok((st.on_sweep_progress(sysid, c)?, None))).await.ok();
+                    if let Some(c) = s.mission_current
+                        && self.shared.read(|st| st.robot(sysid).ok().and_then(|r| r.sweep_item)).await != Some(c)
+                    {
+                        self.shared.commit(|st| Ok((st.on_sweep_progress(sysid, c)?, None))).await?;
                     }
                     let complete = s.mission_state == Some(5)
                         || s.reached.contains(&last_nav)
@@ -919,11 +966,9 @@ impl Pilot {
         };
         let bytes = img.bytes.clone();
         let cell_m = grid.cell_size();
-        let result = tokio::task::spawn_blocking(move || {
-            classify_received(&bytes, heading, &params, &camera, altitude, cell_m)
-        })
-        .await
-        .context("classifier task")?;
+        let result =
+            cpu(move || classify_received(&bytes, heading, &params, &camera, altitude, cell_m))
+                .await?;
         let c = match result {
             Ok(c) => c,
             Err(reason) => {
@@ -1196,6 +1241,7 @@ pub async fn run(
             images: hub.subscribe(),
             capture_seq: 0,
             held: false,
+            first_sweep: true,
         };
         tasks.push((sysid, tokio::spawn(pilot.run())));
     }

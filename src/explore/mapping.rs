@@ -489,6 +489,22 @@ impl MappingState {
         }
     }
 
+    /// [`MappingState::directive`], and whether it changed the state (robot statuses or the
+    /// explorer): a robot that is told to hold or wait again changes nothing, and the runner
+    /// then need not save or wake the others.
+    pub fn directive_changed(&mut self, sysid: u8) -> Result<(Directive, bool), MappingError> {
+        let statuses: Vec<RobotStatus> = self.robots.iter().map(|r| r.status).collect();
+        let explorer = self.explorer.clone();
+        let d = self.directive(sysid)?;
+        let changed = self
+            .robots
+            .iter()
+            .map(|r| r.status)
+            .ne(statuses.iter().copied())
+            || explorer != self.explorer;
+        Ok((d, changed))
+    }
+
     /// The altitude at which `sysid` flies, metres above home.
     pub fn altitude_of(&self, sysid: u8) -> Result<f64, MappingError> {
         Ok(self.robot(sysid)?.altitude_m)

@@ -52,6 +52,12 @@ pub enum ConnSpec {
         /// Baud rate.
         baud: u32,
     },
+    /// An in-process channel to a peer in the same program (the embedded simulator on a
+    /// virtual clock); made by `link::transport::open_memory_link`, never parsed.
+    Memory {
+        /// A name for logs.
+        name: String,
+    },
 }
 
 /// A malformed connection string.
@@ -161,6 +167,7 @@ impl fmt::Display for ConnSpec {
             ConnSpec::Tcp { host, port } => write!(f, "tcp:{}", hp(host, *port)),
             ConnSpec::TcpIn { host, port } => write!(f, "tcpin:{}", hp(host, *port)),
             ConnSpec::Serial { path, baud } => write!(f, "serial:{path}:{baud}"),
+            ConnSpec::Memory { name } => write!(f, "memory:{name}"),
         }
     }
 }

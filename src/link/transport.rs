@@ -161,6 +161,7 @@ enum Reader {
         half: Option<tokio::net::tcp::OwnedReadHalf>,
     },
     Serial(tokio::io::ReadHalf<tokio_serial::SerialStream>),
+    Memory(mpsc::UnboundedReceiver<Vec<u8>>),
 }
 
 enum Writer {
@@ -171,6 +172,7 @@ enum Writer {
     },
     Tcp(Option<tokio::net::tcp::OwnedWriteHalf>),
     Serial(tokio::io::WriteHalf<tokio_serial::SerialStream>),
+    Memory(mpsc::UnboundedSender<Vec<u8>>),
 }
 
 enum ReadOutcome {
@@ -259,6 +261,18 @@ impl Reader {
                     }
                 },
             },
+            Reader::Memory(rx) => match rx.recv().await {
+                Some(bytes) => {
+                    let n = bytes.len().min(buf.len());
+                    buf[..n].copy_from_slice(&bytes[..n]);
+                    ReadOutcome::Data(n, None)
+                }
+                None => {
+                    // The peer is gone: nothing will ever arrive again.
+                    std::future::pending::<()>().await;
+                    ReadOutcome::Data(0, None)
+                }
+            },
             Reader::Serial(r) => match r.read(buf).await {
                 Ok(0) => {
                     tokio::time::sleep(Duration::from_millis(10)).await;
@@ -290,6 +304,7 @@ impl Writer {
             }
             Writer::Tcp(None) => false,
             Writer::Serial(w) => w.write_all(bytes).await.is_ok(),
+            Writer::Memory(tx) => tx.send(bytes.to_vec()).is_ok(),
         }
     }
 
@@ -298,6 +313,7 @@ impl Writer {
             Writer::Udp { peer, .. } => peer.is_some(),
             Writer::Tcp(w) => w.is_some(),
             Writer::Serial(_) => true,
+            Writer::Memory(tx) => !tx.is_closed(),
         }
     }
 
@@ -400,7 +416,61 @@ pub async fn open_link(
             let (r, w) = tokio::io::split(port);
             (Reader::Serial(r), Writer::Serial(w))
         }
+        ConnSpec::Memory { .. } => {
+            return Err(LinkError::Io {
+                spec: spec.to_string(),
+                source: std::io::Error::new(
+                    std::io::ErrorKind::InvalidInput,
+                    "memory links are made with open_memory_link",
+                ),
+            });
+        }
     };
+    Ok(start_link(id, spec, opts, events, reader, writer))
+}
+
+/// The peer's end of an in-process link (see [`open_memory_link`]).
+#[derive(Debug)]
+pub struct MemoryPort {
+    /// Bytes the GCS sent (one encoded frame per item).
+    pub from_gcs: mpsc::UnboundedReceiver<Vec<u8>>,
+    /// Bytes to deliver to the GCS (any framing: the link's codec reassembles frames).
+    pub to_gcs: mpsc::UnboundedSender<Vec<u8>>,
+}
+
+/// Open an in-process link named `name`: the fleet sees an ordinary link; the returned
+/// [`MemoryPort`] is the other end (used with the embedded simulator on a virtual clock,
+/// where no socket may take part).
+pub fn open_memory_link(
+    id: LinkId,
+    name: &str,
+    opts: &LinkOptions,
+    events: mpsc::Sender<LinkEvent>,
+) -> (LinkHandle, MemoryPort) {
+    let (to_gcs, gcs_rx) = mpsc::unbounded_channel();
+    let (gcs_tx, from_gcs) = mpsc::unbounded_channel();
+    let spec = ConnSpec::Memory {
+        name: name.to_string(),
+    };
+    let h = start_link(
+        id,
+        spec,
+        opts,
+        events,
+        Reader::Memory(gcs_rx),
+        Writer::Memory(gcs_tx),
+    );
+    (h, MemoryPort { from_gcs, to_gcs })
+}
+
+fn start_link(
+    id: LinkId,
+    spec: ConnSpec,
+    opts: &LinkOptions,
+    events: mpsc::Sender<LinkEvent>,
+    reader: Reader,
+    writer: Writer,
+) -> LinkHandle {
     let codec = match &opts.signing {
         Some(s) => {
             let mut s = s.clone();
@@ -429,12 +499,12 @@ pub async fn open_link(
         status_tx,
     };
     tokio::spawn(task.run());
-    Ok(LinkHandle {
+    LinkHandle {
         id,
         spec,
         tx,
         status: status_rx,
-    })
+    }
 }
 
 struct LinkTask {

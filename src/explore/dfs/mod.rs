@@ -197,7 +197,7 @@ pub struct RobotState {
 
 /// The multi-robot recursive DFS (see the module documentation). All state is
 /// serialisable: persist it after every call and deserialise it to resume.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct Explorer {
     config: ExplorerConfig,
     tree: Tree,

@@ -55,7 +55,7 @@ pub struct Node {
 }
 
 /// The exploration tree.
-#[derive(Clone, Debug, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(from = "TreeRepr", into = "TreeRepr")]
 pub struct Tree {
     nodes: Vec<Node>,

@@ -1,0 +1,263 @@
+//! The GCS killed with SIGKILL at 20 random moments of a runway-mapping run (issue 6):
+//! `fleetmap sim` and `fleetmap run` are separate processes; after every kill the run
+//! directory loads, every detection acknowledged so far (journaled) is still in the saved
+//! state, and `fleetmap resume` carries on. The run completes, and its map equals that of an
+//! uninterrupted run of the same mission with the same simulator seed.
+//!
+//! The world is a small strip (20 m × 12 m, five by three 4 m cells, edges on cell
+//! boundaries) so the map does not depend on which images happened to be taken when: the
+//! test is about losing nothing, not about the classifier's edge cases, and it keeps CI
+//! short.
+
+use fleetmap::app::runway::MappingEvent;
+use fleetmap::explore::mapping::MappingState;
+use fleetmap::store::RunDir;
+use rand::{RngExt, SeedableRng};
+use std::collections::BTreeSet;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+const WORLD: &str = r#"
+name = "strip"
+description = "A 20 m x 12 m asphalt strip aligned with the grid (test world)"
+background = "grass"
+ground_alt_amsl_m = 600.0
+
+[[region]]
+name = "strip"
+surface = "asphalt"
+rectangle = { center = [37.196800, -80.578100], length_m = 20.0, width_m = 12.0, heading_deg = 90.0 }
+markings = false
+
+[homes]
+reference = [37.196800, -80.578100]
+first_north_m = -12.0
+first_east_m = 0.0
+step_north_m = 0.0
+step_east_m = 3.0
+"#;
+
+fn bin() -> String {
+    std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())
+}
+
+fn free_udp_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
+struct Sim(Child);
+
+impl Drop for Sim {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+fn start_sim(world: &Path, port: u16) -> Sim {
+    let child = Command::new(bin())
+        .args([
+            "sim",
+            "--vehicles",
+            "1xcopter:ardupilot",
+            "--world",
+            world.to_str().unwrap(),
+            "--connect",
+            &format!("udpin:127.0.0.1:{port}"),
+            "--speedup",
+            "10",
+            "--swap-after",
+            "20",
+            "--seed",
+            "7",
+        ])
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("start fleetmap sim");
+    Sim(child)
+}
+
+fn gcs(args: &[&str], log: &Path) -> Child {
+    let out = std::fs::OpenOptions::new()
+        .create(true)
+        .append(true)
+        .open(log)
+        .unwrap();
+    let err = out.try_clone().unwrap();
+    Command::new(bin())
+        .args(args)
+        .stdout(out)
+        .stderr(err)
+        .spawn()
+        .expect("start the GCS")
+}
+
+fn run_args<'a>(mission: &'a str, conn: &'a str, dir: &'a str, world: &'a str) -> Vec<&'a str> {
+    vec![
+        "run",
+        mission,
+        "--connect",
+        conn,
+        "--headless",
+        "--auto-resume",
+        "--run-dir",
+        dir,
+        "--world",
+        world,
+    ]
+}
+
+fn wait_exit(child: &mut Child, limit: Duration, log: &Path) -> i32 {
+    let t0 = Instant::now();
+    loop {
+        if let Some(s) = child.try_wait().unwrap() {
+            return s.code().unwrap_or(-1);
+        }
+        if t0.elapsed() > limit {
+            let _ = child.kill();
+            panic!(
+                "the GCS did not finish within {limit:?}; log:\n{}",
+                std::fs::read_to_string(log).unwrap_or_default()
+            );
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+}
+
+/// Every image event in the journal (acknowledged detections).
+fn journaled_images(dir: &Path) -> BTreeSet<String> {
+    let run = RunDir::open(dir).expect("the run loads after a kill");
+    let log = run
+        .read_events::<MappingEvent>()
+        .expect("the journal reads");
+    log.events
+        .into_iter()
+        .filter_map(|l| match l.event {
+            MappingEvent::Image { image_id, .. } => Some(image_id),
+            _ => None,
+        })
+        .collect()
+}
+
+fn saved(dir: &Path) -> Option<MappingState> {
+    RunDir::open(dir)
+        .expect("the run loads after a kill")
+        .load_state::<MappingState>()
+        .expect("the state loads after a kill")
+}
+
+fn detections(s: &MappingState) -> BTreeSet<String> {
+    s.book
+        .detections()
+        .iter()
+        .map(|r| r.detection.image_id.clone())
+        .collect()
+}
+
+#[test]
+fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
+    let tmp = tempfile::tempdir().unwrap();
+    let world = tmp.path().join("strip.toml");
+    std::fs::write(&world, WORLD).unwrap();
+    let mission = concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/missions/runway-field-test.toml"
+    );
+    let w = world.to_str().unwrap().to_string();
+
+    // 1. The uninterrupted reference run.
+    let reference: PathBuf = tmp.path().join("reference");
+    {
+        let port = free_udp_port();
+        let _sim = start_sim(&world, port);
+        let conn = format!("udpout:127.0.0.1:{port}");
+        let log = tmp.path().join("reference.log");
+        let d = reference.to_str().unwrap().to_string();
+        let mut g = gcs(&run_args(mission, &conn, &d, &w), &log);
+        let code = wait_exit(&mut g, Duration::from_secs(300), &log);
+        assert_eq!(code, 0, "{}", std::fs::read_to_string(&log).unwrap());
+    }
+    let ref_state = saved(&reference).unwrap();
+    assert!(ref_state.is_finished());
+    let ref_map = ref_state.book.positive_cells();
+    assert!(!ref_map.is_empty());
+
+    // 2. The same run, killed 20 times.
+    let port = free_udp_port();
+    let _sim = start_sim(&world, port);
+    let conn = format!("udpout:127.0.0.1:{port}");
+    let run = tmp.path().join("killed");
+    let d = run.to_str().unwrap().to_string();
+    let log = tmp.path().join("killed.log");
+    let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2024);
+    let mut child = gcs(&run_args(mission, &conn, &d, &w), &log);
+    // The run exists once its first state is saved; the kills start from there.
+    let t0 = Instant::now();
+    while !run.join("state.json").exists() {
+        assert!(
+            t0.elapsed() < Duration::from_secs(60),
+            "the run never started"
+        );
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    let mut kills = 0;
+    let mut ever: BTreeSet<String> = BTreeSet::new();
+    let mut finished_early = false;
+    while kills < 20 {
+        let delay = Duration::from_millis(rng.random_range(300..2500));
+        std::thread::sleep(delay);
+        if child.try_wait().unwrap().is_some() {
+            finished_early = true;
+            break;
+        }
+        child.kill().unwrap(); // SIGKILL
+        child.wait().unwrap();
+        kills += 1;
+        // The run loads; everything acknowledged is still there.
+        let acked = journaled_images(&run);
+        let state = saved(&run).expect("a saved state");
+        let kept = detections(&state);
+        let lost: Vec<&String> = acked.difference(&kept).collect();
+        assert!(
+            lost.is_empty(),
+            "kill {kills}: acknowledged detections lost: {lost:?}"
+        );
+        let gone: Vec<&String> = ever.difference(&kept).collect();
+        assert!(
+            gone.is_empty(),
+            "kill {kills}: saved detections disappeared: {gone:?}"
+        );
+        ever = kept;
+        if state.is_finished() {
+            finished_early = true;
+            break;
+        }
+        child = gcs(&["resume", &d, "--headless", "--auto-resume"], &log);
+    }
+    if !finished_early {
+        let code = wait_exit(&mut child, Duration::from_secs(300), &log);
+        assert_eq!(code, 0, "{}", std::fs::read_to_string(&log).unwrap());
+    }
+    let state = saved(&run).unwrap();
+    assert!(
+        state.is_finished(),
+        "{}",
+        std::fs::read_to_string(&log).unwrap()
+    );
+    let acked = journaled_images(&run);
+    assert!(acked.is_subset(&detections(&state)));
+    eprintln!(
+        "{kills} kills; reference map {:?}; killed-run map {:?}; {} images",
+        ref_map,
+        state.book.positive_cells(),
+        state.images
+    );
+    assert_eq!(kills, 20, "the run ended after only {kills} kills");
+    assert_eq!(state.book.positive_cells(), ref_map);
+}
