@@ -291,6 +291,29 @@ pub async fn return_and_land(
         })
 }
 
+/// Land where the vehicle is and wait until it has landed and disarmed.
+pub async fn land_here(
+    fleet: &FleetHandle,
+    sysid: u8,
+    patience: Patience,
+) -> Result<(), FlightError> {
+    let down = |s: &VehicleSnapshot| s.on_ground() && !s.armed;
+    if fleet.vehicle(sysid).is_some_and(|s| down(&s)) {
+        return Ok(());
+    }
+    fleet.land(sysid).await?;
+    let wait = patience.secs(180.0);
+    fleet
+        .wait_until(sysid, wait, down)
+        .await
+        .map(|_| ())
+        .map_err(|_| FlightError::Timeout {
+            sysid,
+            what: "landing".into(),
+            waited_s: wait.as_secs_f64(),
+        })
+}
+
 /// Distance from the vehicle to its home, metres (0 when unknown).
 pub fn distance_home(v: &VehicleSnapshot) -> f64 {
     match (v.position, v.home) {

@@ -13,6 +13,7 @@ pub mod flight;
 pub mod images;
 pub mod report;
 pub mod runway;
+pub mod session;
 
 use crate::explore::Sharing;
 use crate::explore::mapping::MappingState;

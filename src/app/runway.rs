@@ -187,6 +187,9 @@ pub enum Operator {
     BatterySwapped(u8),
     /// Send this vehicle home now for a battery swap (its vertex is kept).
     Recall(u8),
+    /// Land this vehicle where it is (its vertex is kept; it waits on the ground as for a
+    /// battery swap, until [`Operator::BatterySwapped`]).
+    Land(u8),
 }
 
 /// How a run ended.
@@ -250,6 +253,8 @@ struct Shared {
     paused: watch::Sender<bool>,
     swapped: std::sync::Mutex<HashSet<u8>>,
     recalled: std::sync::Mutex<HashSet<u8>>,
+    /// Vehicles the operator asked to land where they are (then they wait like a swap).
+    land_here: std::sync::Mutex<HashSet<u8>>,
     progress: Option<mpsc::UnboundedSender<String>>,
     view: Option<watch::Sender<Arc<MappingState>>>,
     fleet: FleetHandle,
@@ -1025,7 +1030,17 @@ impl Pilot {
                 ),
                 None => (100.0, 1.0),
             };
-            flight::return_and_land(&fleet, sysid, dist, speed, self.shared.patience).await?;
+            let here = self
+                .shared
+                .land_here
+                .lock()
+                .map(|s| s.contains(&sysid))
+                .unwrap_or(false);
+            if here {
+                flight::land_here(&fleet, sysid, self.shared.patience).await?;
+            } else {
+                flight::return_and_land(&fleet, sysid, dist, speed, self.shared.patience).await?;
+            }
             let reboots = self.vehicle().map(|v| v.reboots).unwrap_or(0);
             let now = self.shared.now();
             self.shared
@@ -1074,6 +1089,9 @@ impl Pilot {
             });
             if by_operator || (self.shared.auto_resume && fresh) {
                 let now = self.shared.now();
+                if let Ok(mut set) = self.shared.land_here.lock() {
+                    set.remove(&sysid);
+                }
                 let by = if by_operator { "operator" } else { "auto" }.to_string();
                 self.shared
                     .commit(|s| {
@@ -1190,6 +1208,7 @@ pub async fn run(
         paused,
         swapped: std::sync::Mutex::new(HashSet::new()),
         recalled: std::sync::Mutex::new(HashSet::new()),
+        land_here: std::sync::Mutex::new(HashSet::new()),
         progress: opts.progress.take(),
         view: opts.view.take(),
         fleet: fleet.clone(),
@@ -1221,6 +1240,15 @@ pub async fn run(
                             set.insert(s);
                         }
                         shared.say(format!("operator: vehicle {s} has a fresh battery"));
+                    }
+                    Operator::Land(s) => {
+                        if let Ok(mut set) = shared.land_here.lock() {
+                            set.insert(s);
+                        }
+                        if let Ok(mut set) = shared.recalled.lock() {
+                            set.insert(s);
+                        }
+                        shared.say(format!("operator: vehicle {s} lands where it is"));
                     }
                     Operator::Recall(s) => {
                         if let Ok(mut set) = shared.recalled.lock() {

@@ -1,10 +1,11 @@
 //! `fleetmap tui`: the operator's terminal UI.
 //!
-//! Until the fleet adapter and the mission runners are wired in (`--connect`, `--mission`,
-//! `--resume` come with them), it shows either the built-in SAMPLE (a synthetic animation,
-//! or a static spatial-classification fixture) or a recorded REPLAY file — and says so in
-//! the title bar. Operator commands are accepted by the UI, then reported as *not sent*
-//! because no vehicle is connected. `--snapshot COLSxROWS` prints one frame as text without
+//! LIVE with `--connect CONN` (the vehicles heard on the links, their commands executed by
+//! the fleet), with a runway-mapping run from `--mission FILE` or `--resume RUN_DIR` that
+//! starts on the operator's START (`crate::app::session`). Without `--connect` it shows the
+//! built-in SAMPLE (a synthetic animation, or a static spatial-classification fixture) or a
+//! recorded REPLAY file — and says so in the title bar; operator commands are then reported
+//! as *not sent* because no vehicle is connected. `--snapshot COLSxROWS` prints one frame as text without
 //! a terminal; `fleetmap bench tui` measures the redraw rate.
 
 use crate::time::{MonotonicClock, Time};
@@ -64,15 +65,35 @@ pub struct TuiArgs {
     /// Write the runway sample as a replay file (one frame per simulated second) and exit.
     #[arg(long, value_name = "FILE")]
     pub export_sample: Option<PathBuf>,
+    /// LIVE: connect to vehicles (MAVProxy connection strings; may be given several times).
+    #[arg(long = "connect", value_name = "CONN")]
+    pub connect: Vec<crate::link::ConnSpec>,
+    /// LIVE: load this mission definition; it starts when the operator presses START (`s`).
+    #[arg(
+        long,
+        value_name = "FILE",
+        requires = "connect",
+        conflicts_with = "resume"
+    )]
+    pub mission: Option<PathBuf>,
+    /// LIVE: continue this run directory; it starts on START (`s`).
+    #[arg(long, value_name = "RUN_DIR")]
+    pub resume: Option<PathBuf>,
+    /// LIVE, with --mission: the run directory to create (default: runs/NAME-DATE).
+    #[arg(long, value_name = "DIR", requires = "mission")]
+    pub run_dir: Option<PathBuf>,
+    /// LIVE: take off again by itself after a battery swap (otherwise: `b`).
+    #[arg(long)]
+    pub auto_resume: bool,
 }
 
-/// Where the TUI logs when `--log-file` is not given: `$XDG_STATE_HOME/fleetmap/tui.log`
-/// (or `~/.local/state/fleetmap/tui.log`, or the temp directory), because stderr is the
-/// screen while the UI runs. `None` for the modes that do not open the UI.
-pub fn default_log_file(args: &TuiArgs) -> Option<PathBuf> {
-    if args.print_config || args.snapshot.is_some() || args.export_sample.is_some() {
-        return None;
-    }
+/// Whether stdin and stdout are both terminals (the UI can run).
+pub fn interactive() -> bool {
+    std::io::stdout().is_terminal() && std::io::stdin().is_terminal()
+}
+
+/// The UI's default log file (see [`default_log_file`]).
+pub fn ui_log_file() -> Option<PathBuf> {
     let base = std::env::var_os("XDG_STATE_HOME")
         .map(PathBuf::from)
         .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local/state")));
@@ -82,6 +103,16 @@ pub fn default_log_file(args: &TuiArgs) -> Option<PathBuf> {
         return Some(dir.join("tui.log"));
     }
     Some(std::env::temp_dir().join("fleetmap-tui.log"))
+}
+
+/// Where the TUI logs when `--log-file` is not given: `$XDG_STATE_HOME/fleetmap/tui.log`
+/// (or `~/.local/state/fleetmap/tui.log`, or the temp directory), because stderr is the
+/// screen while the UI runs. `None` for the modes that do not open the UI.
+pub fn default_log_file(args: &TuiArgs) -> Option<PathBuf> {
+    if args.print_config || args.snapshot.is_some() || args.export_sample.is_some() {
+        return None;
+    }
+    ui_log_file()
 }
 
 /// Parse `COLSxROWS`.
@@ -207,6 +238,9 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
         println!("wrote {} frames to {}", frames.len(), path.display());
         return Ok(ExitCode::SUCCESS);
     }
+    if !args.connect.is_empty() || args.resume.is_some() {
+        return run_live(args, config, log_file);
+    }
     let source = match &args.replay {
         Some(p) => Source::Replay(p.clone(), read_replay(p)?),
         None => match args.sample {
@@ -249,6 +283,131 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
         eprintln!("fleetmap: the UI log is in {}", p.display());
     }
     Ok(ExitCode::SUCCESS)
+}
+
+/// `fleetmap tui --connect CONN [--mission FILE | --resume RUN_DIR]`: the UI on live
+/// vehicles, with a runway-mapping run the operator starts.
+fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
+    use crate::app::runway::{self, RunOptions};
+    use crate::explore::mapping::MappingState;
+    use crate::mission::definition::{MissionDef, MissionKind};
+    use crate::store::{RunDir, RunMeta};
+    if !interactive() {
+        bail!("the terminal UI needs an interactive terminal on stdin and stdout");
+    }
+    let mut run = None;
+    let mut connect = args.connect.clone();
+    if let Some(dir) = &args.resume {
+        let rd =
+            RunDir::open(dir).with_context(|| format!("cannot open the run {}", dir.display()))?;
+        if rd.meta().kind != runway::KIND {
+            bail!(
+                "{} is a {} run; the UI drives runway-mapping runs",
+                dir.display(),
+                rd.meta().kind
+            );
+        }
+        let st: MappingState = rd
+            .load_state()?
+            .with_context(|| format!("{} has no saved state yet", dir.display()))?;
+        if connect.is_empty() {
+            for c in &rd.meta().connections {
+                connect.push(c.parse().map_err(|e| anyhow!("{c}: {e}"))?);
+            }
+        }
+        run = Some((rd, st));
+    }
+    if connect.is_empty() {
+        bail!("give --connect (the run remembers no connection)");
+    }
+    let mission = match &args.mission {
+        Some(p) => {
+            let text = std::fs::read_to_string(p)
+                .with_context(|| format!("cannot read {}", p.display()))?;
+            let def =
+                MissionDef::parse(&text, &p.display().to_string()).map_err(|e| anyhow!("{e}"))?;
+            if def.kind != MissionKind::RunwayMapping {
+                bail!(
+                    "{}: the UI drives runway-mapping missions (run spatial classification with `fleetmap run`)",
+                    p.display()
+                );
+            }
+            Some((p.clone(), text, def))
+        }
+        None => None,
+    };
+    let conn = crate::cli::vehicles::ConnectArgs {
+        connect: connect.clone(),
+        signing_key: None,
+        allow_unsigned: false,
+        tlog: None,
+        json: false,
+        mission_timeout_ms: 1500,
+        item_timeout_ms: 250,
+        mission_retries: 5,
+    };
+    let label = format!(
+        "LIVE {}",
+        connect
+            .iter()
+            .map(|c| c.to_string())
+            .collect::<Vec<_>>()
+            .join(", ")
+    );
+    let auto_resume = args.auto_resume;
+    let run_dir_arg = args.run_dir.clone();
+    let log = log_file.map(|p| p.display().to_string());
+    crate::cli::vehicles::block_on(async move {
+        let session = crate::cli::vehicles::Session::open(&conn).await?;
+        if let Some((path, text, def)) = mission {
+            let state = crate::app::new_mapping(
+                &session.fleet,
+                &def,
+                crate::explore::Sharing::Gcs,
+                Duration::from_secs(60),
+            )
+            .await?;
+            let dir = run_dir_arg.unwrap_or_else(|| {
+                PathBuf::from("runs").join(format!(
+                    "{}-{}",
+                    def.name,
+                    std::time::SystemTime::now()
+                        .duration_since(std::time::UNIX_EPOCH)
+                        .map(|d| d.as_secs())
+                        .unwrap_or(0)
+                ))
+            });
+            let mut meta = RunMeta::new(runway::KIND, 0);
+            meta.mission_path = Some(path.display().to_string());
+            meta.connections = conn.connect.iter().map(|c| c.to_string()).collect();
+            let rd = RunDir::create(&dir, meta, Some(&text))
+                .with_context(|| format!("cannot create the run directory {}", dir.display()))?;
+            run = Some((rd, state));
+        }
+        let mission = run.map(|(run_dir, state)| crate::app::session::MappingRun {
+            run_dir,
+            state,
+            auto_start: false,
+            options: RunOptions {
+                auto_resume,
+                ..RunOptions::default()
+            },
+            on_finish: Some(Box::new(|rd, st| {
+                if let Err(e) = crate::cli::run::write_exports(rd, st, None) {
+                    tracing::warn!("exports: {e:#}");
+                }
+            })),
+        });
+        let cfg = crate::app::session::SessionConfig {
+            label,
+            ui: config,
+            log_file: log,
+        };
+        let end = crate::app::session::run(session.fleet.clone(), mission, cfg).await;
+        session.close().await?;
+        end?;
+        Ok(ExitCode::SUCCESS)
+    })?
 }
 
 async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {

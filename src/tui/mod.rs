@@ -34,6 +34,7 @@
 pub mod app;
 pub mod config;
 pub mod keymap;
+pub mod live;
 pub mod model;
 pub mod replay;
 pub mod sample;

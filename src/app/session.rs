@@ -1,0 +1,373 @@
+//! The live terminal session (async shell): the operator's UI on a real fleet, with or
+//! without a runway-mapping run attached.
+//!
+//! Three tasks around the UI ([`crate::tui::run`]):
+//! * the **model producer** turns fleet snapshots, the run's state (a `watch` from the
+//!   runner) and the log into [`crate::tui::Model`]s four times a second
+//!   ([`crate::tui::live::build_model`]);
+//! * the **command executor** carries out the operator's commands — mission-level ones
+//!   through the runner's [`Operator`] channel (pause, resume, recall, land, battery
+//!   swapped), vehicle-level ones through the fleet (arm, disarm, RTL, land, hold) — and
+//!   answers each with a [`JobResult`];
+//! * the **runner** ([`crate::app::runway::run`]) once the operator starts the mission (or
+//!   at once with `auto_start`).
+//!
+//! The UI never waits on any of them: it only reads the latest model and queues commands.
+
+use crate::app::flight;
+use crate::app::images;
+use crate::app::runway::{self, Operator, Outcome, RunOptions};
+use crate::explore::mapping::MappingState;
+use crate::fleet::FleetHandle;
+use crate::store::RunDir;
+use crate::tui::live::{LiveLog, RunInfo, build_model};
+use crate::tui::{
+    App, Command, CommandRequest, JobResult, Model, Severity, ShellIo, ShellOptions, Target,
+    UiConfig,
+};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use tokio::sync::{mpsc, watch};
+
+/// A run the session drives.
+pub struct MappingRun {
+    /// Its directory.
+    pub run_dir: RunDir,
+    /// Its state (new or loaded).
+    pub state: MappingState,
+    /// Start at once instead of waiting for the operator's START.
+    pub auto_start: bool,
+    /// Options of the runner (operator, progress and view are set by the session).
+    pub options: RunOptions,
+    /// Called with the final state when the run finishes (exports, reports).
+    pub on_finish: Option<Box<dyn FnOnce(&RunDir, &MappingState) + Send>>,
+}
+
+/// Settings of the UI.
+pub struct SessionConfig {
+    /// Title-bar source text ("LIVE udpin:…", "DEMO (simulated)").
+    pub label: String,
+    /// Keys and thresholds.
+    pub ui: UiConfig,
+    /// Where the log file is (shown in the help).
+    pub log_file: Option<String>,
+}
+
+/// How the session ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum SessionEnd {
+    /// The operator quit; the run (if any) had not finished (its state is saved).
+    Quit {
+        /// Whether a run had finished.
+        finished: bool,
+    },
+}
+
+fn severity_of(line: &str) -> Severity {
+    let l = line.to_ascii_lowercase();
+    if l.contains("retrying") || l.contains("failed") || l.contains("giving up") {
+        Severity::Warning
+    } else if l.contains("battery") || l.contains("operator") {
+        Severity::Notice
+    } else {
+        Severity::Info
+    }
+}
+
+fn sysid_of(line: &str) -> Option<u8> {
+    let rest = line.strip_prefix("vehicle ")?;
+    let n: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
+    n.parse().ok()
+}
+
+struct Shared {
+    log: Mutex<LiveLog>,
+    info: Mutex<RunInfo>,
+    view: watch::Receiver<Option<Arc<MappingState>>>,
+    finished: Mutex<bool>,
+}
+
+/// Run the UI on `fleet` until the operator quits.
+pub async fn run(
+    fleet: FleetHandle,
+    mission: Option<MappingRun>,
+    cfg: SessionConfig,
+) -> anyhow::Result<SessionEnd> {
+    let (view_tx, view_rx) = watch::channel::<Option<Arc<MappingState>>>(None);
+    let name = mission
+        .as_ref()
+        .map(|m| m.state.mission.clone())
+        .unwrap_or_default();
+    let shared = Arc::new(Shared {
+        log: Mutex::new(LiveLog::default()),
+        info: Mutex::new(RunInfo {
+            name,
+            ..RunInfo::default()
+        }),
+        view: view_rx,
+        finished: Mutex::new(false),
+    });
+    let (op_tx, op_rx) = mpsc::unbounded_channel::<Operator>();
+    let (start_tx, start_rx) = tokio::sync::oneshot::channel::<()>();
+    let has_run = mission.is_some();
+    let mut start_tx = Some(start_tx);
+
+    // The runner.
+    let runner = mission.map(|m| {
+        let _ = view_tx.send(Some(Arc::new(m.state.clone())));
+        if m.auto_start
+            && let Some(tx) = start_tx.take()
+        {
+            let _ = tx.send(());
+        }
+        let fleet = fleet.clone();
+        let shared = shared.clone();
+        tokio::spawn(async move {
+            if start_rx.await.is_err() {
+                return;
+            }
+            if let Ok(mut i) = shared.info.lock() {
+                i.started = true;
+            }
+            let (ptx, mut prx) = mpsc::unbounded_channel::<String>();
+            let logger = {
+                let shared = shared.clone();
+                let fleet = fleet.clone();
+                tokio::spawn(async move {
+                    while let Some(line) = prx.recv().await {
+                        if let Ok(mut l) = shared.log.lock() {
+                            l.push(
+                                fleet.clock().now(),
+                                severity_of(&line),
+                                sysid_of(&line),
+                                line,
+                            );
+                        }
+                    }
+                })
+            };
+            let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
+            let relay = tokio::spawn(async move {
+                while vrx.changed().await.is_ok() {
+                    let s = vrx.borrow_and_update().clone();
+                    let _ = view_tx.send(Some(s));
+                }
+            });
+            let hub = images::spawn(&fleet);
+            let path = m.run_dir.path().to_path_buf();
+            let opts = RunOptions {
+                operator: Some(op_rx),
+                progress: Some(ptx),
+                view: Some(vtx),
+                ..m.options
+            };
+            let result = runway::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
+            let now = fleet.clock().now();
+            match result {
+                Ok(Outcome::Finished) => {
+                    if let Ok(mut f) = shared.finished.lock() {
+                        *f = true;
+                    }
+                    let msg = format!(
+                        "mission finished: every robot landed; results in {}",
+                        path.display()
+                    );
+                    if let Ok(mut l) = shared.log.lock() {
+                        l.push(now, Severity::Notice, None, msg);
+                    }
+                    if let (Some(f), Ok(rd)) = (m.on_finish, RunDir::open(&path))
+                        && let Ok(Some(state)) = rd.load_state::<MappingState>()
+                    {
+                        f(&rd, &state);
+                    }
+                }
+                Ok(Outcome::WaitingForOperator { sysids }) => {
+                    if let Ok(mut l) = shared.log.lock() {
+                        l.push(
+                            now,
+                            Severity::Warning,
+                            None,
+                            format!("vehicles {sysids:?} wait for the operator"),
+                        );
+                    }
+                }
+                Err(e) => {
+                    let msg = format!("{e:#}");
+                    if let Ok(mut i) = shared.info.lock() {
+                        i.failed = Some(msg.clone());
+                    }
+                    if let Ok(mut l) = shared.log.lock() {
+                        l.push(
+                            now,
+                            Severity::Error,
+                            None,
+                            format!(
+                                "the run stopped: {msg} (state saved; `fleetmap resume {}`)",
+                                path.display()
+                            ),
+                        );
+                    }
+                }
+            }
+            tokio::time::sleep(Duration::from_millis(300)).await;
+            logger.abort();
+            relay.abort();
+        })
+    });
+
+    // The model producer.
+    let (snap_tx, snap_rx) = watch::channel(Model::default());
+    let producer = {
+        let fleet = fleet.clone();
+        let shared = shared.clone();
+        tokio::spawn(async move {
+            let mut tick = tokio::time::interval(Duration::from_millis(250));
+            tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+            loop {
+                tick.tick().await;
+                let snap = fleet.snapshot();
+                let view = shared.view.borrow().clone();
+                let info = shared.info.lock().map(|i| i.clone()).unwrap_or_default();
+                let model = {
+                    let Ok(mut log) = shared.log.lock() else {
+                        return;
+                    };
+                    log.absorb(&snap);
+                    build_model(&snap, view.as_deref().map(|s| (s, &info)), &log)
+                };
+                if snap_tx.send(model).is_err() {
+                    return;
+                }
+            }
+        })
+    };
+
+    // The command executor.
+    let (cmd_tx, mut cmd_rx) = mpsc::channel::<CommandRequest>(32);
+    let (result_tx, result_rx) = mpsc::channel::<JobResult>(32);
+    let executor = {
+        let fleet = fleet.clone();
+        let shared = shared.clone();
+        tokio::spawn(async move {
+            while let Some(req) = cmd_rx.recv().await {
+                let started = shared.info.lock().map(|i| i.started).unwrap_or(false);
+                let running = has_run && started;
+                let fleet = fleet.clone();
+                let targets: Vec<u8> = match req.target {
+                    Target::Vehicle(v) => vec![v],
+                    Target::All => fleet.snapshot().vehicles.keys().copied().collect(),
+                };
+                let outcome: Result<String, String> = match req.command {
+                    Command::Start => {
+                        if !has_run {
+                            Err(
+                                "no mission is loaded (start fleetmap with --mission or --resume)"
+                                    .into(),
+                            )
+                        } else if let Some(tx) = start_tx.take() {
+                            let _ = tx.send(());
+                            Ok("mission started".into())
+                        } else {
+                            Err("the mission is already running".into())
+                        }
+                    }
+                    Command::Hold if running => {
+                        let _ = op_tx.send(Operator::Pause);
+                        if let Ok(mut i) = shared.info.lock() {
+                            i.paused = true;
+                        }
+                        Ok("every vehicle holds (the mission is paused)".into())
+                    }
+                    Command::Resume if running => {
+                        let _ = op_tx.send(Operator::Resume);
+                        if let Ok(mut i) = shared.info.lock() {
+                            i.paused = false;
+                        }
+                        Ok("mission resumed".into())
+                    }
+                    Command::Resume => Err("no mission is running (START it first)".into()),
+                    Command::Rtl if running => {
+                        for v in &targets {
+                            let _ = op_tx.send(Operator::Recall(*v));
+                        }
+                        Ok(format!(
+                            "returning home: {targets:?} (their vertices are kept)"
+                        ))
+                    }
+                    Command::Land if running => {
+                        for v in &targets {
+                            let _ = op_tx.send(Operator::Land(*v));
+                        }
+                        Ok(format!("landing: {targets:?} (their vertices are kept)"))
+                    }
+                    Command::BatterySwapped => {
+                        if running {
+                            for v in &targets {
+                                let _ = op_tx.send(Operator::BatterySwapped(*v));
+                            }
+                            Ok("the vehicle resumes from its vertex".into())
+                        } else {
+                            Err("no mission is running".into())
+                        }
+                    }
+                    cmd => {
+                        let mut errors = Vec::new();
+                        for v in &targets {
+                            let r = match cmd {
+                                Command::Hold => flight::hold_here(&fleet, *v).await,
+                                Command::Rtl => fleet.rtl(*v).await,
+                                Command::Land => fleet.land(*v).await,
+                                Command::Arm => fleet.arm(*v).await,
+                                Command::Disarm => fleet.disarm(*v).await,
+                                _ => Ok(()),
+                            };
+                            if let Err(e) = r {
+                                errors.push(e.to_string());
+                            }
+                        }
+                        if errors.is_empty() {
+                            Ok("accepted".into())
+                        } else {
+                            Err(errors.join("; "))
+                        }
+                    }
+                };
+                if result_tx
+                    .send(JobResult {
+                        id: req.id,
+                        outcome,
+                    })
+                    .await
+                    .is_err()
+                {
+                    return;
+                }
+            }
+        })
+    };
+
+    let mut app = App::new(cfg.ui, cfg.label);
+    app.log_file = cfg.log_file;
+    let io = ShellIo {
+        snapshots: snap_rx,
+        job_results: result_rx,
+        commands: cmd_tx,
+    };
+    // The UI's own timers (confirmation timeouts, stale data) run on the wall clock, also
+    // when the fleet's clock runs faster (the demo).
+    let options = ShellOptions {
+        tick: Duration::from_millis(250),
+        clock: crate::time::MonotonicClock::new(),
+    };
+    let result = crate::tui::run(app, io, options).await;
+    producer.abort();
+    executor.abort();
+    let finished = shared.finished.lock().map(|f| *f).unwrap_or(false);
+    if let Some(r) = runner
+        && !finished
+    {
+        r.abort();
+    }
+    result?;
+    Ok(SessionEnd::Quit { finished })
+}

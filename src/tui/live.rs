@@ -1,0 +1,464 @@
+//! The live adapter's pure half: fleet snapshots and the runway-mapping state become the UI's
+//! [`Model`] (the async half, which feeds it and carries out the operator's commands, is
+//! `crate::app::session`).
+//!
+//! Nothing here reads a clock or touches the network: [`LiveLog`] keeps the messages (the
+//! vehicles' STATUSTEXT and the runner's progress lines) with the times it is given, and
+//! [`build_model`] is a function of its arguments.
+
+use super::model::{
+    Autopilot, Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind,
+    MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity,
+    Stat, Track, VehicleRow, VehicleType,
+};
+use crate::explore::VertexState;
+use crate::explore::mapping::{self, MappingState, RobotStatus};
+use crate::fleet::{FleetSnapshot, VehicleSnapshot};
+use crate::geo::{Cell, Grid, LatLon};
+use crate::proto::flavour::{self, VehicleClass};
+use crate::time::Time;
+use crate::vision::votes::CellState as VoteState;
+use std::collections::{BTreeMap, HashMap};
+
+/// Most messages kept.
+pub const LOG_CAPACITY: usize = 500;
+
+/// The messages shown in the log pane.
+#[derive(Clone, Debug, Default)]
+pub struct LiveLog {
+    /// Oldest first.
+    pub entries: Vec<LogEntry>,
+    /// The last STATUSTEXT taken from each vehicle (its arrival time).
+    seen: HashMap<u8, Time>,
+}
+
+impl LiveLog {
+    /// Add a line.
+    pub fn push(
+        &mut self,
+        time: Time,
+        severity: Severity,
+        sysid: Option<u8>,
+        text: impl Into<String>,
+    ) {
+        self.entries.push(LogEntry {
+            time,
+            severity,
+            sysid,
+            text: text.into(),
+        });
+        if self.entries.len() > LOG_CAPACITY {
+            let excess = self.entries.len() - LOG_CAPACITY;
+            self.entries.drain(..excess);
+        }
+    }
+
+    /// Take the vehicles' new STATUSTEXTs from a snapshot.
+    pub fn absorb(&mut self, fleet: &FleetSnapshot) {
+        for v in fleet.vehicles.values() {
+            if let Some(t) = &v.last_text
+                && self.seen.get(&v.sysid) != Some(&t.at)
+            {
+                self.seen.insert(v.sysid, t.at);
+                self.push(
+                    t.at,
+                    Severity::from_mav(t.severity),
+                    Some(v.sysid),
+                    t.text.clone(),
+                );
+            }
+        }
+    }
+}
+
+fn autopilot(f: &flavour::Flavour) -> Autopilot {
+    match f.autopilot {
+        flavour::Autopilot::ArduPilot => Autopilot::ArduPilot,
+        flavour::Autopilot::Px4 => Autopilot::Px4,
+        flavour::Autopilot::Other(_) => Autopilot::Other,
+    }
+}
+
+fn vehicle_type(c: VehicleClass) -> VehicleType {
+    match c {
+        VehicleClass::Copter => VehicleType::Copter,
+        VehicleClass::Rover => VehicleType::Rover,
+        VehicleClass::Plane => VehicleType::Plane,
+        VehicleClass::Other => VehicleType::Other,
+    }
+}
+
+fn gps_fix(fix: Option<u8>) -> GpsFix {
+    match fix {
+        None | Some(0) => GpsFix::NoGps,
+        Some(1) => GpsFix::NoFix,
+        Some(2) => GpsFix::Fix2d,
+        Some(3) => GpsFix::Fix3d,
+        Some(4) => GpsFix::Dgps,
+        Some(5) => GpsFix::RtkFloat,
+        Some(_) => GpsFix::RtkFixed,
+    }
+}
+
+/// One fleet-table row.
+pub fn vehicle_row(
+    v: &VehicleSnapshot,
+    role: Role,
+    grid: Option<&Grid>,
+    activity: Option<String>,
+) -> VehicleRow {
+    let cell = match (grid, v.position) {
+        (Some(g), Some(p)) => g
+            .cell_of(LatLon {
+                lat: p.lat,
+                lon: p.lon,
+            })
+            .ok(),
+        _ => None,
+    };
+    VehicleRow {
+        sysid: v.sysid,
+        role,
+        autopilot: autopilot(&v.flavour),
+        vehicle_type: vehicle_type(v.flavour.class),
+        mode: v.mode.clone(),
+        armed: v.armed,
+        battery: Battery {
+            remaining_pct: v.battery_pct.and_then(|p| u8::try_from(p).ok()),
+            voltage_v: v.battery_v,
+            cells: None,
+        },
+        gps: Gps {
+            fix: gps_fix(v.gps_fix),
+            satellites: v.satellites,
+        },
+        alt_m: v.alt_rel,
+        speed_mps: v.groundspeed,
+        mission: match (v.mission_current, v.mission_total) {
+            (Some(c), Some(t)) if t > 0 => Some(MissionProgress {
+                current: c.saturating_add(1).min(t),
+                total: t,
+            }),
+            _ => None,
+        },
+        link: LinkState {
+            quality_pct: Some((100.0 - v.link_quality.loss_pct).clamp(0.0, 100.0).round() as u8),
+            lost: !v.alive,
+            last_heard_s: Some(v.heartbeat_age_s as f32),
+        },
+        cell,
+        activity,
+    }
+}
+
+/// What the mission runner is doing, as the session knows it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct RunInfo {
+    /// Mission name.
+    pub name: String,
+    /// Started (the operator pressed start, or the run started by itself).
+    pub started: bool,
+    /// Paused by the operator.
+    pub paused: bool,
+    /// The runner stopped on an error.
+    pub failed: Option<String>,
+}
+
+/// The map of a runway-mapping run: every decided cell, DFS vertex states, tracks.
+pub fn runway_map(state: &MappingState) -> MapModel {
+    let mut cells: BTreeMap<Cell, CellState> = BTreeMap::new();
+    let ex = state.explorer.as_ref();
+    for (c, s, _) in state.cell_map() {
+        let st = match s {
+            VoteState::Positive => match ex.and_then(|e| e.vertex_state(c)) {
+                Some(VertexState::Explored) => CellState::Explored,
+                Some(VertexState::UnderExploration) => CellState::UnderExploration,
+                _ => CellState::PositiveUnexplored,
+            },
+            VoteState::Negative => CellState::Negative,
+            VoteState::Unknown => CellState::Unknown,
+        };
+        cells.insert(c, st);
+    }
+    let s = state.grid.cell_size();
+    let track_cells = |t: &[[f64; 2]]| -> Vec<Cell> {
+        let mut out: Vec<Cell> = Vec::new();
+        for p in t {
+            let c = state.grid.cell_of_xy(p[0], p[1]);
+            if out.last() != Some(&c) {
+                out.push(c);
+            }
+        }
+        let keep = out.len().saturating_sub(40);
+        out.split_off(keep)
+    };
+    let tracks: Vec<Track> = state
+        .robots
+        .iter()
+        .map(|r| Track {
+            sysid: r.sysid,
+            cells: track_cells(&r.track),
+        })
+        .collect();
+    // The rectangle: the sweep box, every known cell and every track, plus a margin.
+    let mut rmin = i32::MAX;
+    let mut rmax = i32::MIN;
+    let mut cmin = i32::MAX;
+    let mut cmax = i32::MIN;
+    let mut grow = |c: Cell| {
+        rmin = rmin.min(c.row);
+        rmax = rmax.max(c.row);
+        cmin = cmin.min(c.col);
+        cmax = cmax.max(c.col);
+    };
+    grow(Cell::new(0, 0));
+    for sw in &state.sweeps {
+        let b = sw.strip;
+        grow(state.grid.cell_of_xy(b.east_min, b.north_min));
+        grow(state.grid.cell_of_xy(b.east_max, b.north_max));
+    }
+    for c in cells.keys() {
+        grow(*c);
+    }
+    for t in &tracks {
+        for c in &t.cells {
+            grow(*c);
+        }
+    }
+    let (rmin, rmax) = (rmin - 1, rmax + 1);
+    let (cmin, cmax) = (cmin - 1, cmax + 1);
+    let rows = (rmax - rmin + 1).clamp(1, 400) as u32;
+    let cols = (cmax - cmin + 1).clamp(1, 400) as u32;
+    let mut m = MapModel::new(MapKind::Runway, s, Cell::new(rmin, cmin), rows, cols);
+    for (c, st) in cells {
+        m.set(c, st);
+    }
+    m.tracks = tracks;
+    m.home = Some(Cell::new(0, 0));
+    m
+}
+
+fn activity(state: &MappingState, sysid: u8) -> Option<String> {
+    let r = state.robot(sysid).ok()?;
+    let mut a = r.status.name().to_string();
+    if r.status == RobotStatus::Exploring
+        && let Some(ex) = &state.explorer
+        && let Ok(rs) = ex.robot(crate::explore::RobotId(sysid))
+    {
+        let cell = ex.tree().node(rs.node).cell;
+        a = format!("DFS {cell}");
+    }
+    if let Some((c, k)) = r.visit {
+        a = format!("imaging {c} {k}/{}", state.params.images_per_cell);
+    }
+    Some(a)
+}
+
+/// The mission pane of a runway-mapping run.
+pub fn runway_mission(state: &MappingState, info: &RunInfo) -> MissionModel {
+    let phase = match &state.phase {
+        _ if !info.started => Phase::Idle,
+        mapping::Phase::Sweep | mapping::Phase::Confirm { .. } => Phase::Sweep,
+        mapping::Phase::Explore { .. } => {
+            if state
+                .robots
+                .iter()
+                .all(|r| matches!(r.status, RobotStatus::ReturningHome | RobotStatus::Landed))
+            {
+                Phase::Return
+            } else {
+                Phase::Dfs
+            }
+        }
+        mapping::Phase::Finished { .. } => {
+            if state.is_finished() {
+                Phase::Done
+            } else {
+                Phase::Return
+            }
+        }
+    };
+    let status = if info.failed.is_some() {
+        RunStatus::Failed
+    } else if state.is_finished() {
+        RunStatus::Done
+    } else if !info.started {
+        RunStatus::NotStarted
+    } else if info.paused {
+        RunStatus::Paused
+    } else if state
+        .robots
+        .iter()
+        .any(|r| r.status == RobotStatus::AwaitingSwap)
+    {
+        RunStatus::BatterySwap
+    } else {
+        RunStatus::Running
+    };
+    let dfs = state.explorer.as_ref().map(|e| {
+        let vs = e.vertex_states();
+        let count = |s: VertexState| vs.iter().filter(|(_, v)| *v == s).count() as u32;
+        DfsProgress {
+            explored: count(VertexState::Explored),
+            under_exploration: count(VertexState::UnderExploration),
+            unexplored: count(VertexState::Unexplored),
+        }
+    });
+    let positive = state.book.positive_cells().len();
+    let mut stats = vec![
+        Stat {
+            label: "runway cells".into(),
+            value: positive.to_string(),
+        },
+        Stat {
+            label: "images".into(),
+            value: format!("{} ({} lost)", state.images, state.image_failures),
+        },
+        Stat {
+            label: "decisions".into(),
+            value: state.book.decisions().len().to_string(),
+        },
+    ];
+    if let mapping::Phase::Confirm { sysid, cell } = state.phase {
+        stats.push(Stat {
+            label: "confirming".into(),
+            value: format!("{cell} (vehicle {sysid})"),
+        });
+    }
+    if let Some(e) = &info.failed {
+        stats.push(Stat {
+            label: "error".into(),
+            value: e.clone(),
+        });
+    }
+    MissionModel {
+        name: info.name.clone(),
+        kind: MissionKind::RunwayMapping,
+        phase,
+        status,
+        cells_classified: state.book.cells().count() as u32,
+        cells_total: None,
+        dfs,
+        epochs_done: 0,
+        flight_time_s: state.robots.iter().map(|r| r.flight_s).sum(),
+        battery_swaps: state.robots.iter().map(|r| r.battery_swaps).sum(),
+        planner_time_s: 0.0,
+        stats,
+    }
+}
+
+/// The whole UI model: the fleet's vehicles (mission robots first, in mission order), the
+/// mission's map and progress when a run is attached, and the log.
+pub fn build_model(
+    fleet: &FleetSnapshot,
+    mission: Option<(&MappingState, &RunInfo)>,
+    log: &LiveLog,
+) -> Model {
+    let grid = mission.map(|(s, _)| &s.grid);
+    let mut order: Vec<u8> = mission
+        .map(|(s, _)| s.robots.iter().map(|r| r.sysid).collect())
+        .unwrap_or_default();
+    for id in fleet.vehicles.keys() {
+        if !order.contains(id) {
+            order.push(*id);
+        }
+    }
+    let vehicles = order
+        .iter()
+        .filter_map(|id| fleet.vehicles.get(id))
+        .map(|v| {
+            let role = if v.flavour.class == VehicleClass::Rover {
+                Role::Station
+            } else {
+                Role::Drone
+            };
+            let act = mission.and_then(|(s, _)| activity(s, v.sysid));
+            vehicle_row(v, role, grid, act)
+        })
+        .collect();
+    let (map, mission_model) = match mission {
+        Some((s, info)) => (runway_map(s), runway_mission(s, info)),
+        None => (MapModel::default(), MissionModel::default()),
+    };
+    Model {
+        time: fleet.time,
+        vehicles,
+        map,
+        mission: mission_model,
+        log: log.entries.clone(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::explore::Sharing;
+    use crate::mission::definition::MissionDef;
+
+    fn state() -> MappingState {
+        let text = std::fs::read_to_string(concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/missions/runway-field-test.toml"
+        ))
+        .unwrap();
+        let def = MissionDef::parse(&text, "m.toml").unwrap();
+        let grid = Grid::new(
+            LatLon {
+                lat: 37.1965,
+                lon: -80.5785,
+            },
+            4.0,
+        )
+        .unwrap();
+        MappingState::new(&def, grid, Sharing::Gcs).unwrap()
+    }
+
+    #[test]
+    fn an_idle_run_shows_the_sweep_box_and_not_started() {
+        let s = state();
+        let info = RunInfo {
+            name: "runway".into(),
+            ..RunInfo::default()
+        };
+        let m = build_model(
+            &FleetSnapshot::default(),
+            Some((&s, &info)),
+            &LiveLog::default(),
+        );
+        assert_eq!(m.mission.status, RunStatus::NotStarted);
+        assert_eq!(m.mission.phase, Phase::Idle);
+        // the sweep box (40 m × 40 m of 4 m cells) and a margin
+        assert!(
+            m.map.rows >= 10 && m.map.cols >= 10,
+            "{}x{}",
+            m.map.rows,
+            m.map.cols
+        );
+        assert_eq!(m.map.get(Cell::new(0, 0)), Some(CellState::Unknown));
+    }
+
+    #[test]
+    fn log_takes_each_statustext_once() {
+        let mut log = LiveLog::default();
+        let mut f = FleetSnapshot::default();
+        let beat = crate::proto::heartbeat::Beat {
+            custom_mode: 0,
+            mav_type: 2,
+            autopilot: 3,
+            base_mode: 0,
+            system_status: 3,
+        };
+        let mut v = VehicleSnapshot::new(3, 1, &beat, 0, Time::ZERO);
+        v.last_text = Some(crate::fleet::StatusText {
+            severity: 4,
+            text: "PreArm: Need Position Estimate".into(),
+            at: Time::from_secs(2),
+        });
+        f.vehicles.insert(3, v);
+        log.absorb(&f);
+        log.absorb(&f);
+        assert_eq!(log.entries.len(), 1);
+        assert_eq!(log.entries[0].severity, Severity::Warning);
+        assert_eq!(log.entries[0].sysid, Some(3));
+    }
+}
