@@ -244,6 +244,8 @@ fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
         let code = wait_exit(&mut child, Duration::from_secs(300), &log);
         assert_eq!(code, 0, "{}", std::fs::read_to_string(&log).unwrap());
     }
+    let _ = child.kill();
+    let _ = child.wait();
     let state = saved(&run).unwrap();
     assert!(
         state.is_finished(),

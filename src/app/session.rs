@@ -29,6 +29,9 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::{mpsc, watch};
 
+/// What to do with a finished run (write its exports).
+pub type OnFinish = Box<dyn FnOnce(&RunDir, &MappingState) + Send>;
+
 /// A run the session drives.
 pub struct MappingRun {
     /// Its directory.
@@ -40,7 +43,7 @@ pub struct MappingRun {
     /// Options of the runner (operator, progress and view are set by the session).
     pub options: RunOptions,
     /// Called with the final state when the run finishes (exports, reports).
-    pub on_finish: Option<Box<dyn FnOnce(&RunDir, &MappingState) + Send>>,
+    pub on_finish: Option<OnFinish>,
 }
 
 /// Settings of the UI.
