@@ -263,6 +263,7 @@ struct Shared {
     patience: Patience,
     tolerance_m: f64,
     sim_swap: bool,
+    max_failures: u32,
 }
 
 impl Shared {
@@ -461,7 +462,7 @@ impl Pilot {
                         .shared
                         .commit(|_| Ok(((), Some(MappingEvent::StepFailed { sysid, reason }))))
                         .await;
-                    if failures >= 20 {
+                    if failures >= self.shared.max_failures.max(1) {
                         return Err(e.context(format!(
                             "vehicle {sysid}: giving up after {failures} failed steps"
                         )));
@@ -935,7 +936,10 @@ impl Pilot {
                     }
                 }
                 _ = changed.changed() => {
-                    if self.shared.read(|s| s.phase != Phase::Sweep).await {
+                    // A new phase, or the operator's pause (the step loop holds the vehicle).
+                    if *self.shared.paused.borrow()
+                        || self.shared.read(|s| s.phase != Phase::Sweep).await
+                    {
                         return Ok(());
                     }
                 }
@@ -1217,6 +1221,7 @@ pub async fn run(
         patience: opts.patience,
         tolerance_m: opts.tolerance_m,
         sim_swap: opts.sim_swap,
+        max_failures: opts.max_failures,
     });
     if let Some(v) = &shared.view {
         let _ = v.send(Arc::new(shared.core.lock().await.state.clone()));

@@ -44,6 +44,14 @@ pub struct DemoArgs {
     /// Print the final report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// The spatial-classification demo instead: the bandit paper's 6×6 hardware mission
+    /// with 4 ArduPilot copters and 2 ArduPilot rovers as charging stations.
+    #[arg(long)]
+    pub bandit: bool,
+    /// With --bandit: side of the simulated camera images, pixels (the paper's camera has
+    /// 480; fewer render faster with the same field of view).
+    #[arg(long, value_name = "PX", default_value_t = 480)]
+    pub camera_px: u32,
 }
 
 fn unix_ms() -> u64 {
@@ -55,6 +63,9 @@ fn unix_ms() -> u64 {
 
 /// Run `fleetmap demo`.
 pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
+    if args.bandit {
+        return run_bandit(&args);
+    }
     if !(1..=8).contains(&args.drones) {
         bail!("--drones must be between 1 and 8");
     }
@@ -160,4 +171,96 @@ fn print_summary(r: &report::MappingReport) {
             t.false_negatives
         );
     }
+}
+
+/// `fleetmap demo --bandit [--headless]`: the simulator in-process (4 ArduPilot copters and 2
+/// ArduPilot rovers over the hardware field `assets/worlds/hardware-6x6.toml`) and the
+/// hardware mission `missions/hardware-6x6.toml` flown to the end; progress lines, then the
+/// report with the keep set (scored against the world's green tiles). Exit status 0 when
+/// every cell is classified and the keep set is the green tiles.
+pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+    use crate::app::bandit_sim::{self, SimSetup};
+    use crate::app::{bandit, bandit_report};
+    use crate::cli::run::{
+        drive_classification, print_classification, write_classification_exports,
+    };
+    if !(args.speedup.is_finite() && args.speedup > 0.0 && args.speedup <= 50.0) {
+        bail!("--speedup must be in (0, 50]");
+    }
+    if !(args.battery_minutes.is_finite() && args.battery_minutes >= 3.0) {
+        bail!("--battery-minutes must be at least 3");
+    }
+    if !(16..=1920).contains(&args.camera_px) {
+        bail!("--camera-px must be between 16 and 1920");
+    }
+    let world = World::from_toml(bandit_sim::HARDWARE_WORLD).context("the built-in 6x6 world")?;
+    let text = bandit_sim::HARDWARE_MISSION.to_string();
+    let def = crate::mission::definition::MissionDef::parse(&text, "hardware-6x6.toml (built in)")
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let dir = args
+        .run_dir
+        .clone()
+        .unwrap_or_else(|| PathBuf::from("runs").join(format!("demo-bandit-{}", unix_ms() / 1000)));
+    let setup = SimSetup {
+        speedup: args.speedup,
+        seed: args.seed,
+        camera_px: args.camera_px,
+        battery_minutes: args.battery_minutes,
+        ..SimSetup::default()
+    };
+    let json = args.json;
+    block_on(async move {
+        let d = bandit_sim::start_team(bandit_sim::HARDWARE_TEAM, &world, &setup).await?;
+        println!(
+            "demo: simulator with 4 ArduPilot copters and 2 ArduPilot rovers (charging stations) \
+             over the bandit paper's 6x6 field, {}x real time",
+            setup.speedup
+        );
+        let state = bandit::new_state(&d.fleet, &def, Duration::from_secs(60), None).await?;
+        let mut meta = RunMeta::new(bandit::KIND, unix_ms());
+        meta.mission_path = Some("built-in hardware-6x6.toml".into());
+        meta.connections = d
+            .sim
+            .bound
+            .iter()
+            .map(|b| format!("udpout:{}", b.local))
+            .collect();
+        meta.extra = serde_json::json!({"world": "world.toml"});
+        let run_dir = RunDir::create(&dir, meta, Some(&text))
+            .with_context(|| format!("cannot create the run directory {}", dir.display()))?;
+        crate::store::atomic_write(
+            &run_dir.path().join("world.toml"),
+            bandit_sim::HARDWARE_WORLD.as_bytes(),
+        )?;
+        println!("demo: run directory {}", dir.display());
+        let opts = bandit::RunOptions::default();
+        let result = drive_classification(&d.fleet, run_dir, state, opts, true).await;
+        d.fleet.shutdown().await;
+        let _ = d.sim.stop().await;
+        let (state, path) = result?;
+        let run_dir = RunDir::open(&path)?;
+        let exports = write_classification_exports(&run_dir, &state, Some(&world))?;
+        let truth = bandit_sim::green_tiles(&world);
+        let r = bandit_report::report(&state, Some(&truth));
+        if json {
+            println!("{}", serde_json::to_string_pretty(&r)?);
+        } else {
+            println!("demo finished");
+            print_classification(&r);
+            for e in &exports {
+                println!("  wrote {}", e.display());
+            }
+            println!(
+                "  `fleetmap report {}` and `fleetmap export {} --format png` work on this run",
+                path.display(),
+                path.display()
+            );
+        }
+        let correct = r.finished && r.interesting_truth.as_ref() == Some(&r.keep);
+        Ok(if correct {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::FAILURE
+        })
+    })?
 }

@@ -69,11 +69,13 @@ pub enum Command {
     Signing(signing::SigningArgs),
     /// The embedded default: the simulator and the runway mission in one process.
     Demo(demo::DemoArgs),
-    /// Fly a mission file with the vehicles: runway mapping (sweep, then the recursive DFS).
+    /// Fly a mission file with the vehicles: runway mapping (sweep, then the recursive DFS) or
+    /// spatial classification (bandit epochs, sorties with charging rovers).
     Run(Box<run::RunArgs>),
     /// Continue a run after a battery swap or a crash.
     Resume(Box<run::ResumeArgs>),
-    /// What a run produced: map, tree, detections, IoU against a simulated world.
+    /// What a run produced: map / keep and reject sets, per-epoch figures, scores against a
+    /// simulated world.
     Report(run::ReportArgs),
     /// Write a run's map as GeoJSON, KML (Google Earth) or PNG.
     Export(run::ExportArgs),

@@ -1,6 +1,9 @@
 //! `fleetmap run MISSION.toml --connect CONN`, `fleetmap resume RUN_DIR`,
 //! `fleetmap report RUN_DIR [--json]`, `fleetmap export RUN_DIR --format geojson|kml|png`.
 //!
+//! Both mission kinds: runway mapping ([`crate::app::runway`]) and spatial classification
+//! ([`crate::app::bandit`]); `resume`, `report` and `export` follow the kind in `run.json`.
+//!
 //! A run lives in its directory (`src/store`): `run.json` remembers the kind, the mission
 //! file and the connection strings, so `fleetmap resume RUN_DIR` needs nothing else after a
 //! battery swap or a crashed laptop. `--world FILE` (a simulated world) is remembered too:
@@ -9,7 +12,10 @@
 use crate::app::flight::Patience;
 use crate::app::images;
 use crate::app::report::{self, truth_coverage, truth_outlines};
+use crate::app::bandit::{self, BanditEvent};
+use crate::app::bandit_report;
 use crate::app::runway::{self, MappingEvent, Outcome, RunOptions};
+use crate::planner::sortie::ClassificationState;
 use crate::cli::vehicles::{ConnectArgs, Session, block_on};
 use crate::explore::Sharing;
 use crate::explore::mapping::MappingState;
@@ -43,6 +49,13 @@ pub struct RunnerArgs {
     /// meet (the paper's model: only when robots meet).
     #[arg(long, value_name = "MODE", default_value = "gcs")]
     pub sharing: SharingArg,
+    /// Spatial classification: keep the drones in step (the paper's mid-cycle separation,
+    /// 7e) even when the mission separates them by altitude.
+    #[arg(long)]
+    pub lock_step: bool,
+    /// Spatial classification: HiGHS time limit per integer-program solve, seconds.
+    #[arg(long, value_name = "SECONDS")]
+    pub plan_time_limit: Option<f64>,
 }
 
 /// `--sharing`.
@@ -121,7 +134,8 @@ pub enum ExportFormat {
     Geojson,
     /// KML (Google Earth).
     Kml,
-    /// PNG of the grid (the runway paper's Fig. 10).
+    /// PNG: the grid (runway mapping, the runway paper's Fig. 10) or the classification
+    /// progress per epoch (spatial classification, the bandit paper's Fig. 4).
     Png,
 }
 
@@ -281,12 +295,8 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("cannot read {}", args.mission.display()))?;
     let def = MissionDef::parse(&text, &args.mission.display().to_string())
         .map_err(|e| anyhow::anyhow!("{e}"))?;
-    if def.kind != MissionKind::RunwayMapping {
-        bail!(
-            "{}: {} missions are run by the spatial-classification runner, which this build does not have yet",
-            args.mission.display(),
-            def.kind.as_str()
-        );
+    if def.kind == MissionKind::SpatialClassification {
+        return run_classification(args, def, text);
     }
     let wait = wait_of(args.runner.wait)?;
     if let Some(w) = &args.world {
@@ -341,9 +351,12 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<ExitCode> {
             t.len, t.line
         );
     }
+    if run_dir.meta().kind == bandit::KIND {
+        return resume_classification(args, run_dir);
+    }
     if run_dir.meta().kind != runway::KIND {
         bail!(
-            "{} is a {} run; this build resumes runway-mapping runs",
+            "{} is a {} run; this build resumes runway-mapping and spatial-classification runs",
             args.run_dir.display(),
             run_dir.meta().kind
         );
@@ -439,6 +452,9 @@ fn load_mapping(dir: &Path) -> anyhow::Result<(RunDir, MappingState)> {
 
 /// `fleetmap report`.
 pub fn report_cmd(args: ReportArgs) -> anyhow::Result<ExitCode> {
+    if run_kind(&args.run_dir)? == bandit::KIND {
+        return report_classification(args);
+    }
     let (run_dir, state) = load_mapping(&args.run_dir)?;
     let world = run_world(&run_dir, args.world.as_deref())?;
     let cov = match &world {
@@ -540,6 +556,9 @@ fn png_bytes(
 
 /// `fleetmap export`.
 pub fn export(args: ExportArgs) -> anyhow::Result<ExitCode> {
+    if run_kind(&args.run_dir)? == bandit::KIND {
+        return export_classification(args);
+    }
     let (run_dir, state) = load_mapping(&args.run_dir)?;
     let world = run_world(&run_dir, args.world.as_deref())?;
     let outlines = world
@@ -553,6 +572,309 @@ pub fn export(args: ExportArgs) -> anyhow::Result<ExitCode> {
         ),
         ExportFormat::Kml => (report::kml(&state, &outlines).into_bytes(), "map.kml"),
         ExportFormat::Png => (png_bytes(&state, &outlines)?, "map.png"),
+    };
+    let path = match &args.out {
+        Some(p) => {
+            crate::store::atomic_write(p, &bytes)
+                .with_context(|| format!("cannot write {}", p.display()))?;
+            p.clone()
+        }
+        None => run_dir.write_export(name, &bytes)?,
+    };
+    println!("{}", path.display());
+    Ok(ExitCode::SUCCESS)
+}
+
+// ------------------------------------------------------------------ spatial classification
+
+fn run_kind(dir: &Path) -> anyhow::Result<String> {
+    let run_dir =
+        RunDir::open(dir).with_context(|| format!("cannot open the run {}", dir.display()))?;
+    Ok(run_dir.meta().kind.clone())
+}
+
+/// The interesting cells of a simulated world (its green tiles).
+fn world_truth(world: Option<&World>) -> Option<Vec<crate::geo::Cell>> {
+    world.map(crate::app::bandit_sim::green_tiles)
+}
+
+/// Run a spatial-classification state to its end on an open fleet (progress lines on
+/// stdout when `headless`); shared by `run`, `resume` and `demo --bandit`. Returns the final
+/// state and the run directory.
+pub async fn drive_classification(
+    fleet: &crate::fleet::FleetHandle,
+    run_dir: RunDir,
+    state: ClassificationState,
+    mut opts: bandit::RunOptions,
+    headless: bool,
+) -> anyhow::Result<(ClassificationState, PathBuf)> {
+    let path = run_dir.path().to_path_buf();
+    let hub = bandit::image_hub(fleet);
+    let mut printer = None;
+    if headless && opts.progress.is_none() {
+        let (tx, task) = print_progress();
+        opts.progress = Some(tx);
+        printer = Some(task);
+    }
+    let out = bandit::run(fleet.clone(), &hub, run_dir, state, opts).await;
+    if let Some(p) = printer {
+        let _ = tokio::time::timeout(Duration::from_secs(1), p).await;
+    }
+    Ok((out?, path))
+}
+
+fn classification_opts(r: &RunnerArgs) -> anyhow::Result<bandit::RunOptions> {
+    if let Some(t) = r.plan_time_limit
+        && !(t.is_finite() && t > 0.0)
+    {
+        bail!("--plan-time-limit must be a positive number of seconds");
+    }
+    Ok(bandit::RunOptions {
+        patience: Patience { factor: r.patience },
+        plan_time_limit_s: r.plan_time_limit,
+        ..bandit::RunOptions::default()
+    })
+}
+
+/// Write the classification exports (progress PNG, GeoJSON, KML) into the run's `exports/`.
+pub fn write_classification_exports(
+    run_dir: &RunDir,
+    state: &ClassificationState,
+    world: Option<&World>,
+) -> anyhow::Result<Vec<PathBuf>> {
+    let truth = world_truth(world);
+    let png = bandit_report::progress_png(state, truth.as_deref(), 900, 560)?;
+    Ok(vec![
+        run_dir.write_export("progress.png", &png)?,
+        run_dir.write_export(
+            "cells.geojson",
+            &serde_json::to_vec_pretty(&bandit_report::geojson(state))?,
+        )?,
+        run_dir.write_export("cells.kml", bandit_report::kml(state).as_bytes())?,
+    ])
+}
+
+/// Print the classification report as text.
+pub fn print_classification(r: &bandit_report::ClassificationReport) {
+    let cells = |v: &[[i32; 2]]| -> String {
+        if v.is_empty() {
+            "none".into()
+        } else {
+            v.iter()
+                .map(|c| format!("({}, {})", c[0], c[1]))
+                .collect::<Vec<_>>()
+                .join(" ")
+        }
+    };
+    println!(
+        "  {}: {} epoch(s), {} measurements, {:.0} s of drone flight, {:.0} s of sorties",
+        if r.finished {
+            "every cell classified"
+        } else {
+            "not finished"
+        },
+        r.epochs,
+        r.measurements,
+        r.flight_time_s,
+        r.sortie_time_s
+    );
+    println!("  keep ({}): {}", r.keep.len(), cells(&r.keep));
+    println!("  reject ({}): {}", r.reject.len(), cells(&r.reject));
+    if !r.unclassified.is_empty() {
+        println!("  unclassified ({}): {}", r.unclassified.len(), cells(&r.unclassified));
+    }
+    if let (Some(t), Some(e)) = (&r.interesting_truth, &r.errors) {
+        println!(
+            "  vs ground truth: interesting {}; {} labelling error(s){}",
+            cells(t),
+            e.len(),
+            if e.is_empty() {
+                String::new()
+            } else {
+                format!(": {}", cells(e))
+            }
+        );
+    }
+    for e in &r.per_epoch {
+        println!(
+            "  epoch {:>2}: {} cycle(s), planner {:.2} s, sorties {:.0} s, {} measurements, \
+             keep {} reject {} unclassified {}",
+            e.epoch,
+            e.cycles,
+            e.planner_s,
+            e.flight_s,
+            e.measurements,
+            e.keep,
+            e.reject,
+            e.unclassified
+        );
+    }
+}
+
+fn run_classification(args: RunArgs, def: MissionDef, text: String) -> anyhow::Result<ExitCode> {
+    let wait = wait_of(args.runner.wait)?;
+    if let Some(w) = &args.world {
+        World::load(w).with_context(|| format!("world {}", w.display()))?;
+    }
+    let opts = classification_opts(&args.runner)?;
+    let dir = args
+        .run_dir
+        .clone()
+        .unwrap_or_else(|| default_run_dir(&def.name));
+    block_on(async move {
+        let session = Session::open(&args.conn).await?;
+        let lock = args.runner.lock_step.then_some(true);
+        let state = bandit::new_state(&session.fleet, &def, wait, lock).await?;
+        let mut meta = RunMeta::new(bandit::KIND, unix_ms());
+        meta.mission_path = Some(args.mission.display().to_string());
+        meta.connections = args.conn.connect.iter().map(|c| c.to_string()).collect();
+        if let Some(w) = &args.world {
+            let abs = std::fs::canonicalize(w).unwrap_or_else(|_| w.clone());
+            meta.extra = serde_json::json!({"world": abs.display().to_string()});
+        }
+        let run_dir = RunDir::create(&dir, meta, Some(&text))
+            .with_context(|| format!("cannot create the run directory {}", dir.display()))?;
+        println!(
+            "run directory {} — {}: {} candidate cells, {} drone(s), {} station(s), {:?} separation",
+            dir.display(),
+            state.mission,
+            state.bandit.len(),
+            state.drones.len(),
+            state.stations.len(),
+            state.params.separation
+        );
+        let result = drive_classification(&session.fleet, run_dir, state, opts, true).await;
+        session.close().await?;
+        let (state, path) = result?;
+        finish_classification(&state, &path)
+    })?
+}
+
+fn finish_classification(state: &ClassificationState, path: &Path) -> anyhow::Result<ExitCode> {
+    let run_dir = RunDir::open(path)?;
+    let world = run_world(&run_dir, None)?;
+    let exports = write_classification_exports(&run_dir, state, world.as_ref())?;
+    let r = bandit_report::report(state, world_truth(world.as_ref()).as_deref());
+    println!("run finished: {}", path.display());
+    print_classification(&r);
+    for e in exports {
+        println!("  wrote {}", e.display());
+    }
+    Ok(ExitCode::SUCCESS)
+}
+
+fn resume_classification(args: ResumeArgs, run_dir: RunDir) -> anyhow::Result<ExitCode> {
+    let state: ClassificationState = run_dir
+        .load_state()?
+        .with_context(|| format!("{} has no saved state yet", args.run_dir.display()))?;
+    if state.is_finished() {
+        println!("the run is already finished");
+        return Ok(ExitCode::SUCCESS);
+    }
+    let connect = if args.connect.is_empty() {
+        run_dir
+            .meta()
+            .connections
+            .iter()
+            .map(|c| {
+                c.parse::<ConnSpec>()
+                    .map_err(|e| anyhow::anyhow!("{c}: {e}"))
+            })
+            .collect::<anyhow::Result<Vec<_>>>()?
+    } else {
+        args.connect.clone()
+    };
+    if connect.is_empty() {
+        bail!("the run remembers no connection: give --connect");
+    }
+    let conn = ConnectArgs {
+        connect,
+        signing_key: args.signing_key.clone(),
+        allow_unsigned: false,
+        tlog: args.tlog.clone(),
+        json: false,
+        mission_timeout_ms: 1500,
+        item_timeout_ms: 250,
+        mission_retries: 5,
+    };
+    let wait = wait_of(args.runner.wait)?;
+    let opts = classification_opts(&args.runner)?;
+    block_on(async move {
+        let session = Session::open(&conn).await?;
+        for sysid in state.sysids() {
+            session.vehicle(sysid, wait).await?;
+            session
+                .fleet
+                .wait_until(sysid, wait, |v| v.position.is_some())
+                .await
+                .map_err(|_| anyhow::anyhow!("vehicle {sysid} reports no position"))?;
+        }
+        println!(
+            "resuming {} (epoch {}, {} measurements so far, keep {}, reject {}, unclassified {})",
+            args.run_dir.display(),
+            state.bandit.epoch,
+            state.measurements,
+            state.bandit.keep().len(),
+            state.bandit.reject().len(),
+            state.bandit.unclassified().len()
+        );
+        let result = drive_classification(&session.fleet, run_dir, state, opts, true).await;
+        session.close().await?;
+        let (state, path) = result?;
+        finish_classification(&state, &path)
+    })?
+}
+
+fn load_classification(dir: &Path) -> anyhow::Result<(RunDir, ClassificationState)> {
+    let run_dir =
+        RunDir::open(dir).with_context(|| format!("cannot open the run {}", dir.display()))?;
+    let state: ClassificationState = run_dir
+        .load_state()?
+        .with_context(|| format!("{} has no saved state yet", dir.display()))?;
+    Ok((run_dir, state))
+}
+
+fn report_classification(args: ReportArgs) -> anyhow::Result<ExitCode> {
+    let (run_dir, state) = load_classification(&args.run_dir)?;
+    let world = run_world(&run_dir, args.world.as_deref())?;
+    let r = bandit_report::report(&state, world_truth(world.as_ref()).as_deref());
+    let events = run_dir.read_events::<BanditEvent>()?;
+    if args.json {
+        let mut v = serde_json::to_value(&r)?;
+        if let Some(o) = v.as_object_mut() {
+            o.insert(
+                "journal_records".into(),
+                serde_json::json!(events.events.len()),
+            );
+            let logged = events
+                .events
+                .iter()
+                .filter(|e| matches!(&e.event, BanditEvent::Measurement(m) if m.counted))
+                .count();
+            o.insert("journal_measurements".into(), serde_json::json!(logged));
+        }
+        println!("{}", serde_json::to_string_pretty(&v)?);
+        return Ok(ExitCode::SUCCESS);
+    }
+    println!("run {} — mission {}", args.run_dir.display(), r.mission);
+    print_classification(&r);
+    Ok(ExitCode::SUCCESS)
+}
+
+fn export_classification(args: ExportArgs) -> anyhow::Result<ExitCode> {
+    let (run_dir, state) = load_classification(&args.run_dir)?;
+    let world = run_world(&run_dir, args.world.as_deref())?;
+    let truth = world_truth(world.as_ref());
+    let (bytes, name) = match args.format {
+        ExportFormat::Png => (
+            bandit_report::progress_png(&state, truth.as_deref(), 900, 560)?,
+            "progress.png",
+        ),
+        ExportFormat::Geojson => (
+            serde_json::to_vec_pretty(&bandit_report::geojson(&state))?,
+            "cells.geojson",
+        ),
+        ExportFormat::Kml => (bandit_report::kml(&state).into_bytes(), "cells.kml"),
     };
     let path = match &args.out {
         Some(p) => {
