@@ -88,6 +88,7 @@ fn yaw_of_quaternion(q: [f32; 4]) -> Option<f64> {
 #[derive(Debug, Default)]
 pub struct Intake {
     gcs: (u8, u8),
+    config: ReceiverConfig,
     receivers: HashMap<(u8, u8), ImageReceiver>,
     delivered: VecDeque<CaptureKey>,
     out: VecDeque<ReceivedImage>,
@@ -98,8 +99,15 @@ pub struct Intake {
 impl Intake {
     /// An intake answering as `gcs` = (sysid, compid).
     pub fn new(gcs: (u8, u8)) -> Intake {
+        Intake::with_config(gcs, ReceiverConfig::default())
+    }
+
+    /// An intake whose image receivers use `config` (their timers run on the fleet's
+    /// clock: a clock sped up for a simulator needs a longer `idle`).
+    pub fn with_config(gcs: (u8, u8), config: ReceiverConfig) -> Intake {
         Intake {
             gcs,
+            config,
             ..Intake::default()
         }
     }
@@ -119,11 +127,11 @@ impl Intake {
     pub fn handle_message(&mut self, from: (u8, u8), msg: &MavMessage, now: Time) {
         match msg {
             MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) | MavMessage::ENCAPSULATED_DATA(_) => {
-                let gcs = self.gcs;
+                let (gcs, config) = (self.gcs, self.config);
                 let rx = self
                     .receivers
                     .entry(from)
-                    .or_insert_with(|| ImageReceiver::new(from, gcs, ReceiverConfig::default()));
+                    .or_insert_with(|| ImageReceiver::new(from, gcs, config));
                 rx.handle_message(from, msg, now);
                 self.drain(from, now);
             }
@@ -270,6 +278,11 @@ impl ImageHub {
 
 /// Start the intake on `fleet`'s received frames; it runs until the fleet stops.
 pub fn spawn(fleet: &FleetHandle) -> ImageHub {
+    spawn_with(fleet, ReceiverConfig::default())
+}
+
+/// [`spawn`] with the image receivers' configuration.
+pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
     let (tx, _) = broadcast::channel(256);
     let (ftx, _) = broadcast::channel(64);
     let hub = ImageHub {
@@ -280,7 +293,7 @@ pub fn spawn(fleet: &FleetHandle) -> ImageHub {
     let fleet = fleet.clone();
     tokio::spawn(async move {
         let gcs = fleet.config().gcs;
-        let mut intake = Intake::new((gcs.sysid, gcs.compid));
+        let mut intake = Intake::with_config((gcs.sysid, gcs.compid), config);
         loop {
             let wait = intake
                 .poll_timeout()

@@ -7,7 +7,13 @@
 //! | [`flight`] | flight steps with timeouts: take off, fly to a point and settle, capture, land |
 //! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume) |
 //! | [`report`] | the run's report, GeoJSON / KML / PNG exports, IoU against a simulated world |
+//! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume) |
+//! | [`bandit_report`] | its report (keep / reject / errors, per-epoch figures) and the progress PNG (Fig. 4) |
+//! | [`bandit_sim`] | the embedded simulator with drones and charging rovers (`fleetmap demo --bandit`, tests) |
 
+pub mod bandit;
+pub mod bandit_report;
+pub mod bandit_sim;
 pub mod demo;
 pub mod flight;
 pub mod images;

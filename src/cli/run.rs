@@ -9,18 +9,18 @@
 //! battery swap or a crashed laptop. `--world FILE` (a simulated world) is remembered too:
 //! the report then scores the map against its ground truth.
 
+use crate::app::bandit::{self, BanditEvent};
+use crate::app::bandit_report;
 use crate::app::flight::Patience;
 use crate::app::images;
 use crate::app::report::{self, truth_coverage, truth_outlines};
-use crate::app::bandit::{self, BanditEvent};
-use crate::app::bandit_report;
 use crate::app::runway::{self, MappingEvent, Outcome, RunOptions};
-use crate::planner::sortie::ClassificationState;
 use crate::cli::vehicles::{ConnectArgs, Session, block_on};
 use crate::explore::Sharing;
 use crate::explore::mapping::MappingState;
 use crate::link::ConnSpec;
 use crate::mission::definition::{MissionDef, MissionKind};
+use crate::planner::sortie::ClassificationState;
 use crate::sim::world::World;
 use crate::store::{RunDir, RunMeta};
 use anyhow::{Context as _, bail};
@@ -681,7 +681,11 @@ pub fn print_classification(r: &bandit_report::ClassificationReport) {
     println!("  keep ({}): {}", r.keep.len(), cells(&r.keep));
     println!("  reject ({}): {}", r.reject.len(), cells(&r.reject));
     if !r.unclassified.is_empty() {
-        println!("  unclassified ({}): {}", r.unclassified.len(), cells(&r.unclassified));
+        println!(
+            "  unclassified ({}): {}",
+            r.unclassified.len(),
+            cells(&r.unclassified)
+        );
     }
     if let (Some(t), Some(e)) = (&r.interesting_truth, &r.errors) {
         println!(

@@ -59,6 +59,14 @@ pub struct SimArgs {
     /// Minutes of hover on a full copter battery.
     #[arg(long, default_value_t = 12.0)]
     pub battery_minutes: f64,
+    /// Minutes a copter battery takes to charge from empty on a charging station (a rover
+    /// it has landed on).
+    #[arg(long, value_name = "MIN", default_value_t = 30.0)]
+    pub charge_minutes: f64,
+    /// Side of the (square) camera images, pixels: the paper's camera has 480; fewer render
+    /// faster with the same field of view.
+    #[arg(long, value_name = "PX", default_value_t = 480)]
+    pub camera_px: u32,
     /// Battery level (percent) that triggers the failsafe RTL (default: the autopilot's).
     #[arg(long, value_name = "PCT")]
     pub low_battery: Option<f64>,
@@ -132,6 +140,12 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     if !(args.battery_minutes.is_finite() && args.battery_minutes > 0.0) {
         bail!("--battery-minutes must be positive");
     }
+    if !(args.charge_minutes.is_finite() && args.charge_minutes > 0.0) {
+        bail!("--charge-minutes must be positive");
+    }
+    if !(8..=4096).contains(&args.camera_px) {
+        bail!("--camera-px must be between 8 and 4096");
+    }
     let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?;
     let faults = LinkFaults {
         loss: args.loss,
@@ -178,6 +192,7 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     for v in &mut cfg.vehicles {
         if v.flavour.is_copter() {
             v.battery.minutes = args.battery_minutes;
+            v.battery.charge_minutes = args.charge_minutes;
         }
         if let Some(p) = args.low_battery {
             if !(0.0..100.0).contains(&p) {
@@ -188,6 +203,8 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
         }
         v.swap_after_s = args.swap_after;
         if let Some(c) = v.camera.as_mut() {
+            c.model.width_px = args.camera_px;
+            c.model.height_px = args.camera_px;
             c.mavlink_transfer = !args.no_image_transfer;
             c.file_dir = image_dir.as_ref().map(|d| d.display().to_string());
         }

@@ -101,6 +101,9 @@ pub struct VehicleSnapshot {
     pub battery_pct: Option<i8>,
     /// Battery voltage, volts.
     pub battery_v: Option<f32>,
+    /// Whether the battery is being charged (BATTERY_STATUS charge_state CHARGING), when
+    /// the autopilot reports a charge state.
+    pub charging: Option<bool>,
     /// Home (HOME_POSITION).
     pub home: Option<GeoPoint>,
     /// Current mission item (user numbering: ArduPilot's home not counted).
@@ -218,6 +221,7 @@ impl VehicleSnapshot {
             satellites: None,
             battery_pct: None,
             battery_v: None,
+            charging: None,
             home: None,
             mission_current: None,
             mission_total: None,
@@ -294,6 +298,12 @@ impl VehicleSnapshot {
                 if b.battery_remaining >= 0 {
                     self.battery_pct = Some(b.battery_remaining);
                 }
+                use mavlink::dialects::ardupilotmega::MavBatteryChargeState as Cs;
+                self.charging = match b.charge_state {
+                    Cs::MAV_BATTERY_CHARGE_STATE_UNDEFINED => None,
+                    Cs::MAV_BATTERY_CHARGE_STATE_CHARGING => Some(true),
+                    _ => Some(false),
+                };
                 let cells: u32 = b
                     .voltages
                     .iter()

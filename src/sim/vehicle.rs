@@ -455,6 +455,12 @@ impl SimVehicle {
         &self.mission
     }
 
+    /// The mission server, to change its storage limits
+    /// ([`MissionServer::set_capacity`]: a vehicle that refuses long missions).
+    pub fn mission_mut(&mut self) -> &mut MissionServer {
+        &mut self.mission
+    }
+
     /// Move the vehicle by (de, dn) metres without flying (riding on a rover).
     pub fn carry(&mut self, de: f64, dn: f64) {
         self.m.e += de;

@@ -94,6 +94,16 @@ fn centre(grid: &Grid, c: Cell) -> LatLon {
     grid.cell_center(c)
 }
 
+/// NAV_LOITER_TIME over (`lat`, `lon`) for `seconds`, param3 = +1 (ArduPilot keeps only the
+/// sign of param3, the loiter direction, and reads 0 back as +1; PX4 takes it as a 1 m
+/// radius, which a copter hovering in place ignores).
+fn hover(seconds: f64, p: LatLon, alt: f32) -> MissionItem {
+    MissionItem {
+        param3: 1.0,
+        ..MissionItem::loiter_time(seconds as f32, p.lat, p.lon, alt)
+    }
+}
+
 fn seq(items: &[MissionItem]) -> u16 {
     u16::try_from(items.len().saturating_sub(1)).unwrap_or(u16::MAX)
 }
@@ -124,16 +134,11 @@ pub fn drone_mission(grid: &Grid, spec: &DroneMissionSpec<'_>) -> CycleMission {
                 spec.batch,
             ));
             let hold = capture_hold_s(spec.batch, spec.capture_interval_s);
-            items.push(MissionItem::loiter_time(hold as f32, p.lat, p.lon, alt));
+            items.push(hover(hold, p, alt));
             capture_steps.push(j);
         } else if spec.lock_step {
             let hold = if moved { spec.settle_s } else { spec.step_s };
-            items.push(MissionItem::loiter_time(
-                hold.max(1.0).round() as f32,
-                p.lat,
-                p.lon,
-                alt,
-            ));
+            items.push(hover(hold.max(1.0).round(), p, alt));
             if !moved {
                 step_arrive[j] = Some(seq(&items));
             }

@@ -583,7 +583,7 @@ impl ClassificationState {
             separation,
             green: green_params(def),
             camera: def.camera,
-            capture_interval_s: 0.25,
+            capture_interval_s: 0.5,
             crop_fraction: 0.6,
             capture_tolerance: 0.3,
             flight_time_min: def.battery.flight_time_min,

@@ -1,0 +1,148 @@
+//! The spatial-classification run on the embedded simulator (async shell): the bandit
+//! paper's hardware field (§V, Fig. 3) with ArduPilot copters as drones and ArduPilot rovers
+//! as charging stations, served on loopback UDP by [`crate::sim::server::spawn`] with the
+//! GCS clock running at the simulator's speed-up — what `fleetmap demo --bandit` and the
+//! end-to-end tests fly.
+
+use crate::fleet::{self, FleetConfig, FleetHandle};
+use crate::link::ConnSpec;
+use crate::link::transport::{LinkOptions, open_link};
+use crate::sim::harness::{Sim, SimConfig};
+use crate::sim::server::{self, Endpoint, ServeOptions, SimHandle};
+use crate::sim::world::{Surface, World};
+use crate::time::{MonotonicClock, Time};
+use anyhow::Context as _;
+use tokio::sync::mpsc;
+
+/// The hardware field world (`assets/worlds/hardware-6x6.toml`).
+pub const HARDWARE_WORLD: &str = include_str!("../../assets/worlds/hardware-6x6.toml");
+/// The hardware test mission (`missions/hardware-6x6.toml`).
+pub const HARDWARE_MISSION: &str = include_str!("../../missions/hardware-6x6.toml");
+/// The team of the hardware mission: 4 drones (sysids 1–4) and 2 rovers (5–6).
+pub const HARDWARE_TEAM: &str = "4xcopter:ardupilot,2xrover:ardupilot";
+/// The 10×10 simulation default's world (`assets/worlds/sim-10x10.toml`).
+pub const SIM10_WORLD: &str = include_str!("../../assets/worlds/sim-10x10.toml");
+/// The 10×10 simulation default's mission (`missions/sim-10x10.toml`).
+pub const SIM10_MISSION: &str = include_str!("../../missions/sim-10x10.toml");
+/// Its team: 10 drones (sysids 1–10) and 5 rovers (11–15).
+pub const SIM10_TEAM: &str = "10xcopter:ardupilot,5xrover:ardupilot";
+
+/// How the simulated team is set up.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SimSetup {
+    /// Simulated seconds per wall second.
+    pub speedup: f64,
+    /// Seed of the simulator.
+    pub seed: u64,
+    /// Side of the (square) camera images, pixels (480: the paper's camera; fewer render
+    /// faster with the same field of view).
+    pub camera_px: u32,
+    /// Copter battery endurance, minutes of hover.
+    pub battery_minutes: f64,
+    /// Minutes a copter battery takes to charge from empty on a station (30: a typical
+    /// charger; the paper's wireless pads are slower).
+    pub charge_minutes: f64,
+}
+
+impl Default for SimSetup {
+    fn default() -> Self {
+        SimSetup {
+            speedup: 10.0,
+            seed: 1,
+            camera_px: 480,
+            battery_minutes: 12.0,
+            charge_minutes: 30.0,
+        }
+    }
+}
+
+/// The simulator configuration for `spec` over `world` (the world's default homes: the
+/// mission's start cells), without battery swaps (the rovers charge the drones).
+pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> anyhow::Result<SimConfig> {
+    let mut sc = SimConfig::from_spec(spec, Some(world.clone()), None, setup.seed)?;
+    for v in &mut sc.vehicles {
+        if v.flavour.is_copter() {
+            v.battery.minutes = setup.battery_minutes;
+            v.battery.charge_minutes = setup.charge_minutes;
+        }
+        v.swap_after_s = None;
+        if let Some(c) = v.camera.as_mut() {
+            c.model.width_px = setup.camera_px.max(8);
+            c.model.height_px = setup.camera_px.max(8);
+        }
+    }
+    Ok(sc)
+}
+
+/// The fleet configuration for a clock running `speedup` times faster than real time: every
+/// protocol timeout and the liveness window stretched by the whole speed-up (up to 25×), so
+/// they keep their real-time length in wall time — a loaded test machine delays frames by
+/// tens of milliseconds, which at 20× would be most of a simulated second.
+pub fn fleet_config(speedup: f64) -> FleetConfig {
+    let k = speedup.clamp(1.0, 25.0);
+    let mut c = FleetConfig::default();
+    c.command.timeout = c.command.timeout.mul_f64(k);
+    c.command.in_progress_timeout = c.command.in_progress_timeout.mul_f64(k);
+    c.mission.timeout = c.mission.timeout.mul_f64(k);
+    c.mission.item_timeout = c.mission.item_timeout.mul_f64(k);
+    c.liveness.lost_after = c.liveness.lost_after.mul_f64(k);
+    c
+}
+
+/// A running simulator and the fleet connected to it.
+pub struct SimFleet {
+    /// The fleet (GCS side).
+    pub fleet: FleetHandle,
+    /// The simulator task.
+    pub sim: SimHandle,
+}
+
+/// Serve `sim` on loopback UDP (`udpin:127.0.0.1:0`, one port per vehicle) at `speedup`
+/// and connect a fleet to every vehicle, its clock at the same speed.
+pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
+    let handle = server::spawn(
+        sim,
+        ServeOptions {
+            endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0")?],
+            speedup,
+            image_dir: None,
+            duration_s: None,
+        },
+    )
+    .await
+    .context("starting the simulator")?;
+    let (ev_tx, ev_rx) = mpsc::channel(4096);
+    let mut links = Vec::new();
+    for (i, b) in handle.bound.iter().enumerate() {
+        let spec: ConnSpec = format!("udpout:{}", b.local)
+            .parse()
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        links.push(open_link(i, spec, &LinkOptions::default(), ev_tx.clone()).await?);
+    }
+    drop(ev_tx);
+    let fleet = fleet::spawn(
+        links,
+        ev_rx,
+        fleet_config(speedup),
+        MonotonicClock::with_speedup(speedup),
+    );
+    Ok(SimFleet { fleet, sim: handle })
+}
+
+/// Build and serve a simulator for `spec` over `world` (see [`sim_config`], [`start`]).
+pub async fn start_team(spec: &str, world: &World, setup: &SimSetup) -> anyhow::Result<SimFleet> {
+    let sim = Sim::new(sim_config(spec, world, setup)?, Time::ZERO)?;
+    start(sim, setup.speedup).await
+}
+
+/// The interesting cells of a simulated world: its green tiles (mission cells).
+pub fn green_tiles(world: &World) -> Vec<crate::geo::Cell> {
+    let mut v: Vec<crate::geo::Cell> = world
+        .cells_of(Surface::GreenTile)
+        .into_iter()
+        .map(|(r, c)| crate::geo::Cell::new(r, c))
+        .collect();
+    v.sort();
+    v.dedup();
+    v
+}
