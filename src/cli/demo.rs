@@ -44,6 +44,14 @@ pub struct DemoArgs {
     /// Print the final report as JSON.
     #[arg(long)]
     pub json: bool,
+    /// The operator drives: the mission waits for START (`s`), and after a battery swap a
+    /// vehicle waits for "battery swapped — resume" (`b`). Default: both by themselves.
+    #[arg(long)]
+    pub manual: bool,
+    /// Fly over this world instead of the built-in runway (its default homes must put the
+    /// region inside the mission's sweep box).
+    #[arg(long, value_name = "FILE")]
+    pub world: Option<PathBuf>,
     /// The spatial-classification demo instead: the bandit paper's 6×6 hardware mission
     /// with 4 ArduPilot copters and 2 ArduPilot rovers as charging stations.
     #[arg(long)]
@@ -84,7 +92,15 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         ..DemoConfig::default()
     };
     let (text, def) = demo::runway_mission(&cfg)?;
-    let world = World::from_toml(demo::RUNWAY_WORLD).context("the built-in runway world")?;
+    let world_text = match &args.world {
+        Some(p) => std::fs::read_to_string(p)
+            .with_context(|| format!("cannot read the world {}", p.display()))?,
+        None => demo::RUNWAY_WORLD.to_string(),
+    };
+    let world = World::from_toml(&world_text).context("the demo world")?;
+    let tui = !args.headless
+        && std::io::IsTerminal::is_terminal(&std::io::stdin())
+        && std::io::IsTerminal::is_terminal(&std::io::stdout());
     let dir = args
         .run_dir
         .clone()
@@ -92,10 +108,12 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
     block_on(async move {
         let spec = format!("{}xcopter:ardupilot", cfg.drones);
         let d = demo::start(&spec, world.clone(), &cfg).await?;
-        println!(
-            "demo: simulator with {} ArduPilot copter(s) over the runway world (92 m x 21 m), {}x real time",
-            cfg.drones, cfg.speedup
-        );
+        if !tui {
+            println!(
+                "demo: simulator with {} ArduPilot copter(s) over the {} world, {}x real time",
+                cfg.drones, world.name, cfg.speedup
+            );
+        }
         let state =
             crate::app::new_mapping(&d.fleet, &def, Sharing::Gcs, Duration::from_secs(60)).await?;
         let mut meta = RunMeta::new(runway::KIND, unix_ms());
@@ -111,16 +129,50 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         meta.extra = serde_json::json!({"world": "world.toml"});
         let run_dir = RunDir::create(&dir, meta, Some(&text))
             .with_context(|| format!("cannot create the run directory {}", dir.display()))?;
-        crate::store::atomic_write(
-            &run_dir.path().join("world.toml"),
-            demo::RUNWAY_WORLD.as_bytes(),
-        )?;
-        println!("demo: run directory {}", dir.display());
+        crate::store::atomic_write(&run_dir.path().join("world.toml"), world_text.as_bytes())?;
         let opts = RunOptions {
-            auto_resume: true,
+            auto_resume: !args.manual,
             patience: Patience { factor: 1.0 },
             ..RunOptions::default()
         };
+        if tui {
+            let w = world.clone();
+            let mission = crate::app::session::MappingRun {
+                run_dir,
+                state,
+                auto_start: !args.manual,
+                options: opts,
+                on_finish: Some(Box::new(move |rd, st| {
+                    if let Err(e) = write_exports(rd, st, Some(&w)) {
+                        tracing::warn!("exports: {e:#}");
+                    }
+                })),
+            };
+            let cfg_ui = crate::app::session::SessionConfig {
+                label: format!(
+                    "DEMO: {} simulated ArduPilot copter(s), {}x real time",
+                    cfg.drones, cfg.speedup
+                ),
+                ui: crate::tui::UiConfig::default(),
+                log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
+            };
+            let end = crate::app::session::run(d.fleet.clone(), Some(mission), cfg_ui).await?;
+            d.fleet.shutdown().await;
+            let _ = d.sim.stop().await;
+            let crate::app::session::SessionEnd::Quit { finished } = end;
+            println!(
+                "demo {}: run directory {} (`fleetmap report {}`)",
+                if finished {
+                    "finished"
+                } else {
+                    "stopped before the end"
+                },
+                dir.display(),
+                dir.display()
+            );
+            return Ok(ExitCode::SUCCESS);
+        }
+        println!("demo: run directory {}", dir.display());
         let (outcome, path) = drive_mapping(&d.fleet, run_dir, state, opts, true).await?;
         d.fleet.shutdown().await;
         let _ = d.sim.stop().await;

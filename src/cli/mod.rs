@@ -117,6 +117,14 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     // The terminal UI owns the screen: its default log goes to a file, not stderr.
     let log_file = match &cli.command {
         Command::Tui(args) if cli.log_file.is_none() => tui::default_log_file(args),
+        Command::Demo(args) if cli.log_file.is_none() && !args.headless && tui::interactive() => {
+            tui::ui_log_file()
+        }
+        Command::Run(args)
+            if cli.log_file.is_none() && !args.runner.headless && tui::interactive() =>
+        {
+            tui::ui_log_file()
+        }
         _ => cli.log_file.clone(),
     };
     init_logging(cli.verbose, log_file.as_deref())?;

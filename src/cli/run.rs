@@ -334,11 +334,75 @@ pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
             },
             ..RunOptions::default()
         };
-        let result = drive_mapping(&session.fleet, run_dir, state, opts, true).await;
+        let label = format!("LIVE {}", meta_label(&args.conn.connect));
+        let result = fly_mapping(
+            &session.fleet,
+            run_dir,
+            state,
+            opts,
+            args.runner.headless,
+            label,
+        )
+        .await;
         session.close().await?;
-        let (outcome, path) = result?;
-        Ok(finish_message(&outcome, &path))
+        result
     })?
+}
+
+fn meta_label(conns: &[ConnSpec]) -> String {
+    conns
+        .iter()
+        .map(|c| c.to_string())
+        .collect::<Vec<_>>()
+        .join(", ")
+}
+
+/// Fly a runway-mapping run headless (progress lines), or in the terminal UI when there is
+/// a terminal and `headless` is not asked for; prints how it ended.
+pub async fn fly_mapping(
+    fleet: &crate::fleet::FleetHandle,
+    run_dir: RunDir,
+    state: MappingState,
+    opts: RunOptions,
+    headless: bool,
+    label: String,
+) -> anyhow::Result<ExitCode> {
+    if headless || !crate::cli::tui::interactive() {
+        let (outcome, path) = drive_mapping(fleet, run_dir, state, opts, true).await?;
+        return Ok(finish_message(&outcome, &path));
+    }
+    let path = run_dir.path().to_path_buf();
+    let world = run_world(&run_dir, None).ok().flatten();
+    let mission = crate::app::session::MappingRun {
+        run_dir,
+        state,
+        auto_start: true,
+        options: opts,
+        on_finish: Some(Box::new(move |rd, st| {
+            if let Err(e) = write_exports(rd, st, world.as_ref()) {
+                tracing::warn!("exports: {e:#}");
+            }
+        })),
+    };
+    let cfg = crate::app::session::SessionConfig {
+        label,
+        ui: crate::tui::UiConfig::default(),
+        log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
+    };
+    let crate::app::session::SessionEnd::Quit { finished } =
+        crate::app::session::run(fleet.clone(), Some(mission), cfg).await?;
+    if finished {
+        println!(
+            "run finished: `fleetmap report {}` for the results",
+            path.display()
+        );
+    } else {
+        println!(
+            "the UI was closed before the run finished; its state is saved: `fleetmap resume {}`",
+            path.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 /// `fleetmap resume`.
@@ -425,10 +489,18 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<ExitCode> {
                 }
             }
         }
-        let result = drive_mapping(&session.fleet, run_dir, state, opts, true).await;
+        let label = format!("LIVE {}", meta_label(&conn.connect));
+        let result = fly_mapping(
+            &session.fleet,
+            run_dir,
+            state,
+            opts,
+            args.runner.headless,
+            label,
+        )
+        .await;
         session.close().await?;
-        let (outcome, path) = result?;
-        Ok(finish_message(&outcome, &path))
+        result
     })?
 }
 
