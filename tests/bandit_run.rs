@@ -264,6 +264,71 @@ async fn a_vehicle_that_rejects_its_mission_stops_the_sortie_before_take_off() {
     );
 }
 
+/// The paper's mid-cycle separation (7e) instead of altitudes: every drone at the same
+/// altitude, kept in step by the runner (a drone a step ahead holds until the others have
+/// reached its step). δ = 0.1 for a shorter run; the labels come from the same (4).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn lock_step_flight_holds_drones_in_step_and_classifies() {
+    let t0 = Instant::now();
+    let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
+    let text = bandit_sim::HARDWARE_MISSION
+        .replace("altitude_separation_m = 2.0", "altitude_separation_m = 0.0")
+        .replace("delta = 0.0001", "delta = 0.1");
+    let def = MissionDef::parse(&text, "hardware-6x6-lock-step.toml").unwrap();
+    let d = bandit_sim::start_team(bandit_sim::HARDWARE_TEAM, &world, &setup(20.0))
+        .await
+        .unwrap();
+    let state = bandit::new_state(&d.fleet, &def, Duration::from_secs(60), None)
+        .await
+        .unwrap();
+    assert_eq!(
+        state.params.separation,
+        fleetmap::planner::sortie::Separation::LockStep
+    );
+    assert!(state.drones.iter().all(|m| m.altitude_m == 10.0));
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("run");
+    let run = new_run(&dir, &text);
+    let hub = bandit::image_hub(&d.fleet);
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    let printer = tokio::spawn(async move {
+        while let Some(l) = rx.recv().await {
+            println!("[{:6.1} s] {l}", t0.elapsed().as_secs_f64());
+        }
+    });
+    let opts = RunOptions {
+        progress: Some(tx),
+        ..RunOptions::default()
+    };
+    let done = tokio::time::timeout(
+        Duration::from_secs(300),
+        bandit::run(d.fleet.clone(), &hub, run, state, opts),
+    )
+    .await
+    .expect("the run did not finish within 300 s")
+    .expect("the run failed");
+    d.fleet.shutdown().await;
+    let _ = d.sim.stop().await;
+    printer.abort();
+    assert!(done.is_finished());
+    assert_eq!(done.bandit.keep(), bandit_sim::green_tiles(&world));
+    let log = RunDir::open(&dir)
+        .unwrap()
+        .read_events::<BanditEvent>()
+        .unwrap();
+    let holds = log
+        .events
+        .iter()
+        .filter(|e| matches!(e.event, BanditEvent::Held { .. }))
+        .count();
+    assert!(holds > 0, "no drone was ever held in step");
+    println!(
+        "lock-step 6x6 (δ = 0.1): {} epochs, {holds} holds, wall {:.1} s",
+        done.epochs.len(),
+        t0.elapsed().as_secs_f64()
+    );
+}
+
 // ---------------------------------------------------------------------- SIGKILL + resume
 
 fn bin() -> String {

@@ -174,6 +174,13 @@ pub enum BanditEvent {
         /// The team configuration.
         config: TeamConfig,
     },
+    /// Lock-step (7e): a drone a step ahead of the others holds where it is.
+    Held {
+        /// Vehicle.
+        sysid: u8,
+        /// The step it has arrived at.
+        step: usize,
+    },
     /// A prepared sortie was dropped on resume (nothing had started).
     SortieDropped {
         /// Epoch p.
@@ -951,6 +958,9 @@ impl Runner {
                 let r = loop {
                     attempt += 1;
                     let r = async {
+                        // From the first item: ArduPilot resumes a mission at its current
+                        // item (MIS_RESTART = 0), which may be left over from the last one.
+                        fleet.set_mission_current(sysid, 0).await?;
                         flight::ensure_airborne(&fleet, sysid, alt, patience).await?;
                         fleet.start_mission(sysid).await?;
                         let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
@@ -978,6 +988,7 @@ impl Runner {
                         let v = fleet
                             .vehicle(sysid)
                             .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
+                        fleet.set_mission_current(sysid, 0).await?;
                         if !v.armed && v.flavour.home_item() {
                             fleet.arm(sysid).await?;
                         }
@@ -1257,10 +1268,12 @@ impl Runner {
                 if !held.contains(&d.sysid) {
                     flight::hold_here(self.fleet(), d.sysid).await?;
                     held.insert(d.sysid);
+                    let (sysid, step) = (d.sysid, arrived.get(&d.sysid).copied().unwrap_or(0));
+                    self.shared
+                        .commit(|_| Ok(((), vec![BanditEvent::Held { sysid, step }])))
+                        .await?;
                     self.say(format!(
-                        "drone {}: holding at step {} until the others catch up (7e)",
-                        d.sysid,
-                        arrived.get(&d.sysid).copied().unwrap_or(0)
+                        "drone {sysid}: holding at step {step} until the others catch up (7e)"
                     ));
                 }
             } else if held.contains(&d.sysid) || !in_mission {
@@ -1292,6 +1305,8 @@ impl DronePilot {
         let mut snaps = self.fleet().watch();
         let mut seen_active = self.resumed;
         let mut step = 0;
+        // The autopilot's last warning (severity ≤ WARNING), for the messages below.
+        let mut warning: Option<String> = None;
         // 1. Its cells.
         loop {
             let v = self
@@ -1300,6 +1315,11 @@ impl DronePilot {
                 .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
             if v.mission_state == Some(3) {
                 seen_active = true;
+            }
+            if let Some(t) = &v.last_text
+                && t.severity <= 4
+            {
+                warning = Some(t.text.clone());
             }
             let complete = is_complete(&v, &self.items, seen_active);
             let done = done_items(&v, &self.items, complete, self.resumed);
@@ -1328,8 +1348,13 @@ impl DronePilot {
                 }
                 if seen_active {
                     anyhow::bail!(
-                        "drone {sysid} is on the ground before the end of its mission                          (mode {}, step {step}): a failsafe?",
-                        v.mode
+                        "drone {sysid} is on the ground before the end of its mission (mode {}, \
+                         step {step}, battery {}, the autopilot's last warning: {})",
+                        v.mode,
+                        v.battery_pct
+                            .map(|p| format!("{p} %"))
+                            .unwrap_or_else(|| "?".into()),
+                        warning.as_deref().unwrap_or("none")
                     );
                 }
             }
@@ -1364,90 +1389,8 @@ impl DronePilot {
             }
             self.shared.wait_change(Duration::from_millis(500)).await;
         }
-        // 3. Land on the station's charger slot; a drone that comes down off the charger
-        // (the autopilot reports no charging) takes off and lands again.
-        for dock in 1..=3 {
-            self.land_retrying(station).await?;
-            if self.charging().await {
-                break;
-            }
-            if dock == 3 {
-                self.shared.say(format!(
-                    "drone {sysid}: still off the charger of station {station} after 3 landings"
-                ));
-                break;
-            }
-            self.shared.say(format!(
-                "drone {sysid}: landed off the charger of station {station}: taking off to land \
-                 again"
-            ));
-            let alt = self
-                .shared
-                .read(|s| {
-                    s.drones
-                        .iter()
-                        .find(|d| d.sysid == sysid)
-                        .map(|d| d.altitude_m)
-                })
-                .await
-                .unwrap_or(10.0);
-            flight::ensure_airborne(self.fleet(), sysid, alt as f32, self.shared.patience).await?;
-        }
-        self.landed().await
-    }
-
-    /// Whether the drone charges once landed: `true` when its autopilot says so within a few
-    /// seconds, or has never reported charging in this run (nothing to check then).
-    async fn charging(&self) -> bool {
-        let reports = self
-            .shared
-            .reports_charging
-            .lock()
-            .map(|s| s.contains(&self.sysid))
-            .unwrap_or(false);
-        if !reports {
-            return true;
-        }
-        let wait = self.shared.patience.secs(8.0);
-        match self
-            .fleet()
-            .wait_until(self.sysid, wait, |v| v.charging != Some(false))
-            .await
-        {
-            Ok(_) => true,
-            Err(v) => v.is_none_or(|v| v.charging != Some(false)),
-        }
-    }
-
-    /// [`Self::land_on`], tried again when a command is lost.
-    async fn land_retrying(&self, station: u8) -> anyhow::Result<()> {
-        let sysid = self.sysid;
-        let mut attempt = 0;
-        loop {
-            attempt += 1;
-            match self.land_on(station).await {
-                Ok(()) => return Ok(()),
-                Err(e) if attempt < 5 => {
-                    self.shared.say(format!(
-                        "drone {sysid}: landing on station {station}: {e:#} (trying again)"
-                    ));
-                    if self
-                        .fleet()
-                        .vehicle(sysid)
-                        .is_some_and(|v| v.on_ground() && !v.armed)
-                    {
-                        return Ok(());
-                    }
-                    tokio::time::sleep(self.shared.patience.secs(1.0)).await;
-                }
-                Err(e) => return Err(e),
-            }
-        }
-    }
-
-    async fn land_on(&self, station: u8) -> anyhow::Result<()> {
-        let sysid = self.sysid;
-        let (alt, speed, slot) = self
+        // 3. Land on the station's charger slot.
+        let (alt, slot) = self
             .shared
             .read(|s| {
                 let alt = s
@@ -1459,34 +1402,11 @@ impl DronePilot {
                     .cycle()
                     .and_then(|c| c.drones.iter().find(|d| d.sysid == sysid))
                     .map_or((0, 1), |d| d.slot);
-                (alt, s.params.speed_m_s, slot)
+                (alt, slot)
             })
             .await;
-        let pos = self
-            .fleet()
-            .vehicle(station)
-            .and_then(|v| v.position)
-            .with_context(|| format!("station {station} reports no position"))?;
-        // Charger slots 0.6 m apart, within the pad's reach (1.5 m in the simulator).
-        let east = (slot.0 as f64 - (slot.1 as f64 - 1.0) / 2.0) * 0.6;
-        let (lat, lon) = local::offset(pos.lat, pos.lon, 0.0, east);
-        let patience = self.shared.patience;
-        flight::fly_to(
-            self.fleet(),
-            sysid,
-            (lat, lon, alt as f32),
-            speed as f32,
-            0.25,
-            patience,
-        )
-        .await?;
-        self.fleet().land(sysid).await?;
-        let wait = patience.secs(f64::from(alt as f32) / 0.5 + 60.0);
-        self.fleet()
-            .wait_until(sysid, wait, |v| v.on_ground() && !v.armed)
-            .await
-            .map_err(|_| anyhow::anyhow!("drone {sysid}: did not land within {wait:?}"))?;
-        Ok(())
+        dock(&self.shared, sysid, station, alt, slot).await?;
+        self.landed().await
     }
 
     async fn landed(&self) -> anyhow::Result<()> {
@@ -1528,6 +1448,119 @@ impl DronePilot {
         }
         Ok(())
     }
+}
+
+/// Land drone `sysid` on charger slot `slot` = (index, of how many) of station `station`,
+/// flying at `alt` metres: wait until the station has stopped, hover over its reported
+/// position (slots 0.6 m apart east–west), land, and check that the drone charges — when its
+/// autopilot reports charging at all; a drone that came down off the charger takes off and
+/// lands again (three landings at most). Lost commands are tried again. Returns whether the
+/// drone is known to charge.
+async fn dock(
+    shared: &Shared,
+    sysid: u8,
+    station: u8,
+    alt: f64,
+    slot: (usize, usize),
+) -> anyhow::Result<bool> {
+    let fleet = &shared.fleet;
+    for landing in 1..=3 {
+        let mut attempt = 0;
+        loop {
+            attempt += 1;
+            match land_on(shared, sysid, station, alt, slot).await {
+                Ok(()) => break,
+                Err(e) if attempt < 5 => {
+                    shared.say(format!(
+                        "drone {sysid}: landing on station {station}: {e:#} (trying again)"
+                    ));
+                    if fleet.vehicle(sysid).is_some_and(|v| v.on_ground() && !v.armed) {
+                        break;
+                    }
+                    tokio::time::sleep(shared.patience.secs(1.0)).await;
+                }
+                Err(e) => return Err(e),
+            }
+        }
+        if charging(shared, sysid).await {
+            return Ok(true);
+        }
+        if landing == 3 {
+            shared.say(format!(
+                "drone {sysid}: still off the charger of station {station} after 3 landings"
+            ));
+            return Ok(false);
+        }
+        shared.say(format!(
+            "drone {sysid}: landed off the charger of station {station}: taking off to land again"
+        ));
+        flight::ensure_airborne(fleet, sysid, alt as f32, shared.patience).await?;
+    }
+    Ok(false)
+}
+
+/// Whether drone `sysid` charges once landed: `true` when its autopilot says so within a few
+/// seconds, or has never reported charging in this run (nothing to check then).
+async fn charging(shared: &Shared, sysid: u8) -> bool {
+    let reports = shared
+        .reports_charging
+        .lock()
+        .map(|s| s.contains(&sysid))
+        .unwrap_or(false);
+    if !reports {
+        return true;
+    }
+    let wait = shared.patience.secs(8.0);
+    shared
+        .fleet
+        .wait_until(sysid, wait, |v| v.charging == Some(true))
+        .await
+        .is_ok()
+}
+
+/// One landing of [`dock`].
+async fn land_on(
+    shared: &Shared,
+    sysid: u8,
+    station: u8,
+    alt: f64,
+    slot: (usize, usize),
+) -> anyhow::Result<()> {
+    let fleet = &shared.fleet;
+    let patience = shared.patience;
+    let speed = shared.read(|s| s.params.speed_m_s).await;
+    // The station must stand still: a rover reports its waypoint reached up to its
+    // acceptance radius before it stops.
+    let _ = fleet
+        .wait_until(station, patience.secs(10.0), |v| {
+            v.groundspeed.is_none_or(|g| g < 0.2)
+        })
+        .await;
+    let east = (slot.0 as f64 - (slot.1 as f64 - 1.0) / 2.0) * 0.6;
+    let target = || -> anyhow::Result<(f64, f64)> {
+        let pos = fleet
+            .vehicle(station)
+            .and_then(|v| v.position)
+            .with_context(|| format!("station {station} reports no position"))?;
+        Ok(local::offset(pos.lat, pos.lon, 0.0, east))
+    };
+    let mut at = target()?;
+    for _ in 0..3 {
+        flight::fly_to(fleet, sysid, (at.0, at.1, alt as f32), speed as f32, 0.25, patience)
+            .await?;
+        let now = target()?;
+        if local::distance(at.0, at.1, now.0, now.1) <= 0.3 {
+            break;
+        }
+        at = now; // the station was still moving: follow it
+    }
+    fleet.land(sysid).await?;
+    let wait = patience.secs(alt / 0.5 + 60.0);
+    fleet
+        .wait_until(sysid, wait, |v| v.on_ground() && !v.armed)
+        .await
+        .map_err(|_| anyhow::anyhow!("drone {sysid}: did not land within {wait:?}"))?;
+    Ok(())
 }
 
 /// The image intake of the run: every image of a drone during a sortie becomes one

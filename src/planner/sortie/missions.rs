@@ -13,6 +13,7 @@
 //!     IMAGE_START_CAPTURE interval, B          at an unclassified candidate cell …
 //!     NAV_LOITER_TIME ⌈B·interval⌉ + 1 s       … hovering over its centre meanwhile
 //!     NAV_LOITER_TIME settle / one step        lock-step only: where the barrier holds (7e)
+//! NAV_WAYPOINT centre(last cell)               when the list would end on a hover
 //! ```
 //!
 //! The mission ends hovering over the last cell; the landing on the station is commanded by
@@ -145,6 +146,17 @@ pub fn drone_mission(grid: &Grid, spec: &DroneMissionSpec<'_>) -> CycleMission {
         }
         if items.len() > before {
             step_done[j] = Some(seq(&items));
+        }
+    }
+    // A mission must not end on a hover: ArduPilot reports a waypoint or loiter with a delay
+    // reached on *arrival*, so the end of the hover is marked by a plain waypoint after it.
+    if let (Some(last), Some(&cell)) = (items.last(), spec.path.last())
+        && last.command == cmd::NAV_LOITER_TIME
+    {
+        let p = centre(grid, cell);
+        items.push(MissionItem::waypoint(p.lat, p.lon, alt));
+        if let Some(d) = step_done.last_mut() {
+            *d = Some(seq(&items));
         }
     }
     CycleMission {
@@ -477,9 +489,10 @@ mod tests {
                 settle_s: 2.0,
             },
         );
-        assert_eq!(m.items.len(), 5);
+        assert_eq!(m.items.len(), 6, "ends on a plain waypoint after the last hover");
+        assert_eq!(m.items[5].command, cmd::NAV_WAYPOINT);
         assert_eq!(m.step_arrive, vec![None, Some(2), Some(4)]);
-        assert_eq!(m.step_done, vec![None, Some(3), Some(4)]);
+        assert_eq!(m.step_done, vec![None, Some(3), Some(5)]);
         assert_eq!(m.items[4].param1, 3.0);
     }
 
