@@ -1474,7 +1474,10 @@ async fn dock(
                     shared.say(format!(
                         "drone {sysid}: landing on station {station}: {e:#} (trying again)"
                     ));
-                    if fleet.vehicle(sysid).is_some_and(|v| v.on_ground() && !v.armed) {
+                    if fleet
+                        .vehicle(sysid)
+                        .is_some_and(|v| v.on_ground() && !v.armed)
+                    {
                         break;
                     }
                     tokio::time::sleep(shared.patience.secs(1.0)).await;
@@ -1546,8 +1549,15 @@ async fn land_on(
     };
     let mut at = target()?;
     for _ in 0..3 {
-        flight::fly_to(fleet, sysid, (at.0, at.1, alt as f32), speed as f32, 0.25, patience)
-            .await?;
+        flight::fly_to(
+            fleet,
+            sysid,
+            (at.0, at.1, alt as f32),
+            speed as f32,
+            0.25,
+            patience,
+        )
+        .await?;
         let now = target()?;
         if local::distance(at.0, at.1, now.0, now.1) <= 0.3 {
             break;

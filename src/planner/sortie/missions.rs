@@ -489,7 +489,11 @@ mod tests {
                 settle_s: 2.0,
             },
         );
-        assert_eq!(m.items.len(), 6, "ends on a plain waypoint after the last hover");
+        assert_eq!(
+            m.items.len(),
+            6,
+            "ends on a plain waypoint after the last hover"
+        );
         assert_eq!(m.items[5].command, cmd::NAV_WAYPOINT);
         assert_eq!(m.step_arrive, vec![None, Some(2), Some(4)]);
         assert_eq!(m.step_done, vec![None, Some(3), Some(5)]);
