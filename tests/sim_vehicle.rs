@@ -1077,3 +1077,126 @@ fn geofences_are_enforced() {
     let (n, _) = fleetmap::geo::local::delta(HOME.0, HOME.1, lat, lon);
     assert!(n < 18.0, "stopped near the fence, {n} m north");
 }
+
+/// Turning to a heading in guided flight, as each autopilot does it: ArduCopter with
+/// MAV_CMD_CONDITION_YAW (absolute or relative; an angle outside 0..360 FAILED), PX4 with the
+/// yaw of DO_REPOSITION (param4, radians; it has no CONDITION_YAW outside missions).
+#[test]
+fn guided_yaw_by_condition_yaw_or_reposition() {
+    let hdg = |g: &mut Gcs, want: f64| {
+        g.wait(30.0, |m| {
+            matches!(m, MavMessage::GLOBAL_POSITION_INT(p)
+                if p.hdg != u16::MAX
+                    && ((f64::from(p.hdg) / 100.0 - want).rem_euclid(360.0) < 1.0
+                        || (want - f64::from(p.hdg) / 100.0).rem_euclid(360.0) < 1.0))
+        })
+        .is_some()
+    };
+    for flavour in [Flavour::ARDU_COPTER, Flavour::PX4_COPTER] {
+        let mut g = Gcs::new(&format!("1x{flavour}"), 5);
+        g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+            .unwrap();
+        g.send(MavMessage::REQUEST_DATA_STREAM(
+            mav::REQUEST_DATA_STREAM_DATA {
+                req_message_rate: 4,
+                target_system: 1,
+                target_component: 1,
+                req_stream_id: mav::MavDataStream::MAV_DATA_STREAM_ALL,
+                start_stop: 1,
+            },
+        ));
+        let amsl = g.sim.vehicle(1).unwrap().home().unwrap().2 as f32 + 10.0;
+        if flavour.is_ardupilot() {
+            assert_eq!(
+                g.set_mode(flavour, Mode::Guided),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+        } else {
+            assert_eq!(
+                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(22, [0.0, 0.0, 0.0, f32::NAN, f32::NAN, f32::NAN, amsl]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+        }
+        g.wait(
+            20.0,
+            |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(p) if p.relative_alt > 9_000),
+        )
+        .unwrap_or_else(|| panic!("{flavour}: not airborne: {:?}", g.texts()));
+        // 20 m north-east: the copter faces its direction of travel (45°)
+        let (lat, lon) = at(20.0, 20.0);
+        assert_eq!(
+            g.command(
+                192,
+                [-1.0, 1.0, 0.0, f32::NAN, lat as f32, lon as f32, amsl]
+            ),
+            mav::MavResult::MAV_RESULT_ACCEPTED,
+            "{flavour}"
+        );
+        assert!(hdg(&mut g, 45.0), "{flavour}: not facing its travel");
+        g.wait(30.0, |m| {
+            matches!(m, MavMessage::GLOBAL_POSITION_INT(p)
+                if fleetmap::geo::local::distance(
+                    f64::from(p.lat) / 1e7, f64::from(p.lon) / 1e7, lat, lon) < 0.5)
+        })
+        .unwrap_or_else(|| panic!("{flavour}: did not arrive"));
+        if flavour.is_ardupilot() {
+            assert_eq!(
+                g.command(115, [400.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_FAILED
+            );
+            assert_eq!(
+                g.command(115, [90.0, 0.0, 0.0, 2.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_FAILED
+            );
+            assert_eq!(
+                g.command(115, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert!(hdg(&mut g, 0.0), "{flavour}: did not turn north");
+            // relative: 90° counter-clockwise of north = west
+            assert_eq!(
+                g.command(115, [90.0, 0.0, -1.0, 1.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert!(hdg(&mut g, 270.0), "{flavour}: did not turn west");
+        } else {
+            assert_eq!(
+                g.command(115, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_UNSUPPORTED
+            );
+            let (lat, lon) = at(20.0, 20.0);
+            assert_eq!(
+                g.command(
+                    192,
+                    [
+                        -1.0,
+                        1.0,
+                        0.0,
+                        std::f32::consts::PI,
+                        lat as f32,
+                        lon as f32,
+                        amsl
+                    ]
+                ),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert!(hdg(&mut g, 180.0), "{flavour}: did not turn south");
+        }
+        // it stays where it was sent
+        let (la, lo, _) = g.sim.vehicle(1).unwrap().true_position();
+        let d = fleetmap::geo::local::distance(la, lo, lat, lon);
+        assert!(d < 1.5, "{flavour}: {d} m from its target");
+    }
+}

@@ -84,82 +84,46 @@ fn demo_in_a_pty_start_battery_swap_resume_done() {
             }
         }
     });
-    let mut seen: Vec<u8> = Vec::new();
-    let mut pump = |seen: &mut Vec<u8>, d: Duration| {
-        if let Ok(c) = rx.recv_timeout(d) {
-            seen.extend(c);
-        }
-        while let Ok(c) = rx.try_recv() {
-            seen.extend(c);
-        }
-    };
-    let dump = |seen: &[u8]| {
-        let all = String::from_utf8_lossy(seen);
-        let tail: String = all
-            .chars()
-            .rev()
-            .take(2000)
-            .collect::<Vec<_>>()
-            .into_iter()
-            .rev()
-            .collect();
-        format!(
-            "screen ends with {tail:?}\nlog:\n{}",
-            std::fs::read_to_string(&log).unwrap_or_default()
-        )
+    // The screen as a terminal shows it: ratatui redraws only the cells that changed, so a
+    // word on the screen need not appear whole in the byte stream.
+    let mut term = Term {
+        raw: Vec::new(),
+        screen: vt100::Parser::new(40, 120, 0),
+        rx,
+        log: log.clone(),
     };
     let mut key = |k: &[u8]| {
         stdin.write_all(k).unwrap();
         stdin.flush().unwrap();
     };
     let deadline = Instant::now() + Duration::from_secs(400);
-    let wait_screen =
-        |seen: &mut Vec<u8>, needle: &str, pump: &mut dyn FnMut(&mut Vec<u8>, Duration)| {
-            while !String::from_utf8_lossy(seen).contains(needle) {
-                assert!(
-                    Instant::now() < deadline,
-                    "timed out waiting for {needle:?}; {}",
-                    dump(seen)
-                );
-                pump(seen, Duration::from_millis(200));
-            }
-        };
     // The UI is up, the mission waits for START.
-    wait_screen(&mut seen, "NOT STARTED", &mut pump);
+    term.wait_screen("NOT STARTED", deadline);
     key(b"s");
-    wait_screen(&mut seen, "START mission", &mut pump);
+    term.wait_screen("START mission", deadline);
     key(b"y");
-    wait_screen(&mut seen, "RUNNING", &mut pump);
+    term.wait_screen("RUNNING", deadline);
     // Fly until the battery swap, resume it (as often as it takes), until done.
     let mut swaps_resumed = 0;
     loop {
         assert!(
             Instant::now() < deadline,
             "the run did not finish; {}",
-            dump(&seen)
+            term.dump()
         );
-        pump(&mut seen, Duration::from_millis(300));
+        term.pump(Duration::from_millis(300));
         let Some(s) = state(&run) else { continue };
         if s.is_finished() {
             break;
         }
         let waiting = s.robots[0].status == RobotStatus::AwaitingSwap;
         // The simulated crew swaps 30 s (simulated) after landing: wait for the fresh battery.
-        let fresh = s.robots[0].reboots_at_landing.is_some()
-            && String::from_utf8_lossy(&seen).contains("BATTERY SWAP");
+        let fresh =
+            s.robots[0].reboots_at_landing.is_some() && term.text().contains("BATTERY SWAP");
         if waiting && fresh {
             std::thread::sleep(Duration::from_secs(3));
-            let mark = seen.len();
             key(b"b");
-            let t0 = Instant::now();
-            while !String::from_utf8_lossy(&seen[mark..]).contains("BATTERY SWAPPED") {
-                assert!(
-                    t0.elapsed() < Duration::from_secs(20),
-                    "no confirmation dialog; {}",
-                    dump(&seen)
-                );
-                pump(&mut seen, Duration::from_millis(100));
-            }
+            term.wait_screen("BATTERY SWAPPED", Instant::now() + Duration::from_secs(20));
             key(b"y");
             // The state says so once the runner took it.
             let t0 = Instant::now();
@@ -167,16 +131,16 @@ fn demo_in_a_pty_start_battery_swap_resume_done() {
                 assert!(
                     t0.elapsed() < Duration::from_secs(30),
                     "the swap was not taken; {}",
-                    dump(&seen)
+                    term.dump()
                 );
-                pump(&mut seen, Duration::from_millis(200));
+                term.pump(Duration::from_millis(200));
             }
             swaps_resumed += 1;
         }
     }
-    wait_screen(&mut seen, "DONE", &mut pump);
+    term.wait_screen("DONE", deadline);
     key(b"q");
-    wait_screen(&mut seen, "QUIT fleetmap?", &mut pump);
+    term.wait_screen("QUIT fleetmap?", Instant::now() + Duration::from_secs(30));
     key(b"y");
     let t0 = Instant::now();
     let status = loop {
@@ -186,13 +150,14 @@ fn demo_in_a_pty_start_battery_swap_resume_done() {
         assert!(
             t0.elapsed() < Duration::from_secs(30),
             "did not quit; {}",
-            dump(&seen)
+            term.dump()
         );
-        pump(&mut seen, Duration::from_millis(100));
+        term.pump(Duration::from_millis(100));
     };
-    assert!(status.success(), "{}", dump(&seen));
+    term.pump(Duration::from_millis(200));
+    assert!(status.success(), "{}", term.dump());
     assert!(
-        String::from_utf8_lossy(&seen).contains("\x1b[?1049l"),
+        String::from_utf8_lossy(&term.raw).contains("\x1b[?1049l"),
         "left the alternate screen"
     );
     let s = state(&run).unwrap();
@@ -209,4 +174,54 @@ fn demo_in_a_pty_start_battery_swap_resume_done() {
     );
     // the exports were written when the run finished
     assert!(run.join("exports/map.png").exists());
+}
+
+/// What the pseudo-terminal shows: the raw stream and a terminal emulator fed with it.
+struct Term {
+    raw: Vec<u8>,
+    screen: vt100::Parser,
+    rx: mpsc::Receiver<Vec<u8>>,
+    log: std::path::PathBuf,
+}
+
+impl Term {
+    /// Take what arrives within `d`.
+    fn pump(&mut self, d: Duration) {
+        if let Ok(c) = self.rx.recv_timeout(d) {
+            self.take(c);
+        }
+        while let Ok(c) = self.rx.try_recv() {
+            self.take(c);
+        }
+    }
+
+    fn take(&mut self, c: Vec<u8>) {
+        self.screen.process(&c);
+        self.raw.extend(c);
+    }
+
+    /// The text on the screen now.
+    fn text(&self) -> String {
+        self.screen.screen().contents()
+    }
+
+    /// Wait until `needle` is on the screen.
+    fn wait_screen(&mut self, needle: &str, deadline: Instant) {
+        while !self.text().contains(needle) {
+            assert!(
+                Instant::now() < deadline,
+                "timed out waiting for {needle:?}; {}",
+                self.dump()
+            );
+            self.pump(Duration::from_millis(200));
+        }
+    }
+
+    fn dump(&self) -> String {
+        format!(
+            "the screen:\n{}\nthe log:\n{}",
+            self.text(),
+            std::fs::read_to_string(&self.log).unwrap_or_default()
+        )
+    }
 }

@@ -212,6 +212,74 @@ pub async fn fly_to(
     }
 }
 
+/// The grid heading nearest to `heading_deg`: a multiple of 90° in [0, 360).
+pub fn nearest_quarter(heading_deg: f64) -> f64 {
+    ((heading_deg / 90.0).round() * 90.0).rem_euclid(360.0)
+}
+
+/// The smallest angle between two headings, degrees (0..=180).
+pub fn heading_error(a_deg: f64, b_deg: f64) -> f64 {
+    let d = (a_deg - b_deg).rem_euclid(360.0);
+    d.min(360.0 - d)
+}
+
+/// Turn the vehicle, hovering at (`lat`, `lon`, `alt`), to the grid heading nearest to its
+/// own (north, east, south or west) and wait until it points there within `tolerance_deg`
+/// and is steady. The runway paper's sensing model reads an image's top, left, bottom and
+/// right regions as the four neighbouring cells, which holds only when the camera is
+/// aligned with the grid; a copter arriving on a diagonal faces its direction of travel.
+/// Vehicles that cannot be turned by command (rovers) are left as they are.
+pub async fn face_grid(
+    fleet: &FleetHandle,
+    sysid: u8,
+    target: (f64, f64, f32),
+    tolerance_deg: f64,
+    patience: Patience,
+) -> Result<(), FlightError> {
+    let v = fleet
+        .vehicle(sysid)
+        .ok_or(FleetError::NoVehicle { sysid })?;
+    let Some(now) = v.heading_deg.map(f64::from) else {
+        return Ok(());
+    };
+    let want = nearest_quarter(now);
+    if heading_error(now, want) <= tolerance_deg {
+        return Ok(());
+    }
+    let (lat, lon, alt) = target;
+    let aligned = |s: &VehicleSnapshot| {
+        s.heading_deg
+            .is_some_and(|h| heading_error(f64::from(h), want) <= tolerance_deg)
+            && s.groundspeed.is_some_and(|g| g < 0.3)
+    };
+    // 90° at ArduCopter's default 60°/s (ATC_RATE_Y_MAX slew) is under 2 s.
+    let budget = patience.secs(15.0);
+    for attempt in 1..=3 {
+        match fleet.face(sysid, lat, lon, alt, want as f32).await {
+            Ok(()) => {}
+            Err(FleetError::Flavour { .. }) => return Ok(()),
+            Err(e) => return Err(e.into()),
+        }
+        match fleet.wait_until(sysid, budget, aligned).await {
+            Ok(_) => return Ok(()),
+            Err(last) if attempt == 3 => {
+                return Err(FlightError::Timeout {
+                    sysid,
+                    what: format!(
+                        "turning to {want:.0}° (heading {})",
+                        last.and_then(|s| s.heading_deg)
+                            .map(|h| format!("{h:.0}°"))
+                            .unwrap_or("?".into())
+                    ),
+                    waited_s: budget.as_secs_f64() * 3.0,
+                });
+            }
+            Err(_) => {}
+        }
+    }
+    Ok(())
+}
+
 /// Hold position where the vehicle is now (a go-to to its own position: GUIDED / Hold).
 pub async fn hold_here(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
     let v = fleet
@@ -334,4 +402,20 @@ pub async fn request_sim_swap(fleet: &FleetHandle, sysid: u8) -> Result<(), Flee
         [0.0; 7],
     );
     fleet.command(cmd).await.map(|_| ())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn grid_headings() {
+        assert_eq!(nearest_quarter(229.8), 270.0);
+        assert_eq!(nearest_quarter(-30.0), 0.0);
+        assert_eq!(nearest_quarter(359.0), 0.0);
+        assert_eq!(nearest_quarter(134.0), 90.0);
+        assert!((heading_error(359.0, 1.0) - 2.0).abs() < 1e-12);
+        assert!((heading_error(90.0, 270.0) - 180.0).abs() < 1e-12);
+        assert!((heading_error(-45.0, 45.0) - 90.0).abs() < 1e-12);
+    }
 }

@@ -694,15 +694,19 @@ impl Pilot {
             .await;
         let alt = alt? as f32;
         flight::ensure_airborne(self.fleet(), sysid, alt, self.shared.patience).await?;
+        let target = (centre.lat, centre.lon, alt);
         flight::fly_to(
             self.fleet(),
             sysid,
-            (centre.lat, centre.lon, alt),
+            target,
             speed as f32,
             self.shared.tolerance_m,
             self.shared.patience,
         )
         .await?;
+        // The images are read as the cell and its four neighbours: camera aligned with the
+        // grid (the classifier then turns the regions by whole quarter turns).
+        flight::face_grid(self.fleet(), sysid, target, 3.0, self.shared.patience).await?;
         Ok(())
     }
 

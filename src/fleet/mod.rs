@@ -34,7 +34,7 @@ use crate::mission::{MissionItem, MissionType};
 use crate::proto::command::{
     CmdId, Command, CommandAck, CommandConfig, CommandError, CommandEvent, CommandSender,
 };
-use crate::proto::flavour::{Flavour, FlavourError, Step, VehicleClass};
+use crate::proto::flavour::{Autopilot, Flavour, FlavourError, Step, VehicleClass};
 use crate::proto::heartbeat::{Beat, Liveness, LivenessConfig, LivenessEvent};
 use crate::proto::mission::{
     MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome, OpId,
@@ -1092,6 +1092,35 @@ impl FleetHandle {
             }
             r => r,
         }
+    }
+
+    /// Turn vehicle `sysid` to the absolute heading `yaw_deg` (degrees clockwise from north)
+    /// while it holds (`lat`, `lon`) at `alt` m above home: PX4 with a DO_REPOSITION that
+    /// carries the yaw, ArduPilot with CONDITION_YAW (after the go-to that put it there).
+    pub async fn face(
+        &self,
+        sysid: u8,
+        lat: f64,
+        lon: f64,
+        alt: f32,
+        yaw_deg: f32,
+    ) -> Result<(), FleetError> {
+        let v = self.require(sysid)?;
+        let ep = Endpoint::new(sysid, v.compid);
+        let steps = if v.flavour.autopilot == Autopilot::ArduPilot {
+            v.flavour.set_yaw(ep, yaw_deg)
+        } else {
+            v.flavour.goto_facing(
+                ep,
+                crate::mission::item::deg_to_e7(lat),
+                crate::mission::item::deg_to_e7(lon),
+                alt,
+                v.home.map(|h| h.alt_amsl),
+                Some(yaw_deg),
+            )
+        }
+        .map_err(Self::flavour_err(sysid))?;
+        self.run_steps(sysid, steps).await
     }
 
     /// Return to launch.

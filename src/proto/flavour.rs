@@ -498,9 +498,30 @@ impl Flavour {
         alt_rel: f32,
         home_amsl: Option<f32>,
     ) -> Result<Vec<Step>, FlavourError> {
+        self.goto_facing(target, lat_e7, lon_e7, alt_rel, home_amsl, None)
+    }
+
+    /// [`Flavour::goto`], and with `yaw_deg` (degrees clockwise from north) PX4 also turns to
+    /// that heading there: DO_REPOSITION param4 is the yaw setpoint, in radians as PX4's
+    /// navigator copies it into the position setpoint (`rep->current.yaw = cmd.param4`,
+    /// navigator_main.cpp; MAVSDK's `goto_location` converts degrees to radians likewise).
+    /// ArduPilot turns with [`Flavour::set_yaw`] instead, so its param4 stays NaN.
+    pub fn goto_facing(
+        &self,
+        target: Endpoint,
+        lat_e7: i32,
+        lon_e7: i32,
+        alt_rel: f32,
+        home_amsl: Option<f32>,
+        yaw_deg: Option<f32>,
+    ) -> Result<Vec<Step>, FlavourError> {
         // MAV_DO_REPOSITION_FLAGS_CHANGE_MODE = 1; param1 speed -1 = default; param4 yaw NaN
-        // = keep heading.
-        let params = [-1.0, 1.0, 0.0, f32::NAN];
+        // = keep the autopilot's yaw behaviour.
+        let yaw = match (self.autopilot, yaw_deg) {
+            (Autopilot::Px4, Some(y)) if y.is_finite() => y.to_radians(),
+            _ => f32::NAN,
+        };
+        let params = [-1.0, 1.0, 0.0, yaw];
         match self.autopilot {
             Autopilot::ArduPilot => Ok(vec![Step::Command(Command::int(
                 target,
@@ -527,6 +548,25 @@ impl Flavour {
                 ))])
             }
             Autopilot::Other(_) => Err(self.not_applicable("go to")),
+        }
+    }
+
+    /// How to turn to the absolute heading `yaw_deg` (degrees clockwise from north, 0..360)
+    /// where the vehicle is, in GUIDED: ArduPilot's MAV_CMD_CONDITION_YAW (param1 the angle,
+    /// param2 0 = the default rate, param3 0 = the shorter way, param4 0 = absolute; Copter's
+    /// GCS_MAVLINK handler sets a fixed yaw and answers FAILED for an angle outside 0..360).
+    /// PX4 does not execute CONDITION_YAW outside missions: give the yaw to
+    /// [`Flavour::goto_facing`].
+    pub fn set_yaw(&self, target: Endpoint, yaw_deg: f32) -> Result<Vec<Step>, FlavourError> {
+        match self.autopilot {
+            Autopilot::ArduPilot if self.class == VehicleClass::Copter => {
+                Ok(vec![Step::Command(Command::long(
+                    target,
+                    MavCmd::MAV_CMD_CONDITION_YAW,
+                    [yaw_deg.rem_euclid(360.0), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+                ))])
+            }
+            _ => Err(self.not_applicable("turning to a heading with CONDITION_YAW")),
         }
     }
 
@@ -740,6 +780,39 @@ mod tests {
         assert!(Flavour::PX4_COPTER.takeoff(t, 12.0, None).is_err());
         assert!(Flavour::ARDU_ROVER.takeoff(t, 12.0, None).is_err());
         assert!(Flavour::ARDU_ROVER.land(t).is_err());
+    }
+
+    #[test]
+    fn turning_to_a_heading() {
+        use super::super::command::CommandArgs;
+        let t = Endpoint::new(1, 1);
+        // ArduCopter: CONDITION_YAW, absolute, shorter way, default rate.
+        let ap = Flavour::ARDU_COPTER.set_yaw(t, -90.0).unwrap();
+        match &ap[0] {
+            Step::Command(c) => {
+                assert_eq!(c.command, MavCmd::MAV_CMD_CONDITION_YAW);
+                assert_eq!(
+                    c.args,
+                    CommandArgs::Long([270.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0])
+                );
+            }
+            s => panic!("{s:?}"),
+        }
+        assert!(Flavour::PX4_COPTER.set_yaw(t, 0.0).is_err());
+        assert!(Flavour::ARDU_ROVER.set_yaw(t, 0.0).is_err());
+        // PX4: the yaw rides in DO_REPOSITION param4, in radians; ArduPilot's stays NaN.
+        let yaw4 = |f: Flavour| match &f
+            .goto_facing(t, 1, 2, 10.0, Some(100.0), Some(180.0))
+            .unwrap()[0]
+        {
+            Step::Command(Command {
+                args: CommandArgs::Int { params, .. },
+                ..
+            }) => params[3],
+            s => panic!("{s:?}"),
+        };
+        assert!((yaw4(Flavour::PX4_COPTER) - std::f32::consts::PI).abs() < 1e-6);
+        assert!(yaw4(Flavour::ARDU_COPTER).is_nan());
     }
 
     #[test]

@@ -283,6 +283,9 @@ pub struct SimVehicle {
     position_ok_announced: bool,
     nav: Nav,
     speed_override: Option<f64>,
+    /// A fixed heading for guided flight (degrees clockwise from north): ArduPilot's
+    /// CONDITION_YAW, PX4's DO_REPOSITION yaw. `None`: face the direction of travel.
+    yaw_target_deg: Option<f64>,
     exec: Exec,
     mission: MissionServer,
     guided_target_at: Option<Time>,
@@ -353,6 +356,7 @@ impl SimVehicle {
             position_ok_announced: false,
             nav: Nav::Idle,
             speed_override: None,
+            yaw_target_deg: None,
             exec: Exec::default(),
             guided_target_at: None,
             failsafe_level: 0,
@@ -624,6 +628,7 @@ impl SimVehicle {
         self.position_ok_announced = false;
         self.nav = Nav::Idle;
         self.speed_override = None;
+        self.yaw_target_deg = None;
         self.exec = Exec::default();
         self.failsafe_level = 0;
         self.last_gcs_heartbeat = None;
@@ -827,7 +832,7 @@ impl SimVehicle {
                     n: p.n,
                     u: p.u,
                     speed: s.unwrap_or(speed),
-                    yaw_deg: None,
+                    yaw_deg: self.yaw_target_deg,
                 }
             }
             Nav::Land { p, descending } => {
@@ -1248,6 +1253,7 @@ impl SimVehicle {
             // entering a mode re-initialises the navigation speed (ArduCopter
             // wp_and_spline_init → WPNAV_SPEED; PX4 navigator reset_cruising_speed)
             self.speed_override = None;
+            self.yaw_target_deg = None;
             if mode != Mode::Auto {
                 self.exec.running = false;
                 self.mission.set_mission_running(false);
@@ -2334,6 +2340,7 @@ impl SimVehicle {
             }
             300 => self.cmd_mission_start(c, now),
             192 => self.cmd_reposition(c, long, nan_pos, now),
+            115 if ap && copter => self.cmd_condition_yaw(c),
             178 => {
                 if c.param2 <= 0.0 {
                     if ap {
@@ -2671,6 +2678,9 @@ impl SimVehicle {
                 return R::MAV_RESULT_FAILED;
             }
             self.guided_target_at = Some(now);
+            // A new destination returns the yaw to WP_YAW_BEHAVIOR (ModeGuided::set_destination
+            // without a yaw): a CONDITION_YAW must come after it.
+            self.yaw_target_deg = None;
             if !(self.landed && self.cfg.flavour.is_copter()) {
                 self.nav = Nav::Goto { p, speed };
             }
@@ -2690,11 +2700,39 @@ impl SimVehicle {
             }
             let p = self.target_from_command(c, long, nan_pos);
             self.enter_mode(Mode::Hold, now);
+            // navigator_main.cpp: a finite param4 is the yaw setpoint, in radians.
+            self.yaw_target_deg = c
+                .param4
+                .is_finite()
+                .then(|| f64::from(c.param4).to_degrees().rem_euclid(360.0));
             if !(self.landed && self.cfg.flavour.is_copter()) {
                 self.nav = Nav::Goto { p, speed };
             }
             R::MAV_RESULT_ACCEPTED
         }
+    }
+
+    /// ArduCopter's MAV_CMD_CONDITION_YAW outside a mission (GCS_MAVLINK_Copter): param1
+    /// the angle (0..360), param2 the rate (0 = default), param3 the direction, param4 1 =
+    /// relative to the current heading, 0 = absolute; anything else FAILED. It sets a fixed
+    /// yaw for the guided flight; in other modes the yaw is accepted and soon forgotten.
+    fn cmd_condition_yaw(&mut self, c: &mav::COMMAND_INT_DATA) -> mav::MavResult {
+        use mav::MavResult as R;
+        let relative = c.param4 == 1.0;
+        if !(0.0..=360.0).contains(&c.param1) || !(c.param4 == 0.0 || relative) {
+            return R::MAV_RESULT_FAILED;
+        }
+        let angle = f64::from(c.param1);
+        let target = if relative {
+            let dir = if c.param3 < 0.0 { -1.0 } else { 1.0 };
+            self.m.heading_deg + dir * angle
+        } else {
+            angle
+        };
+        if self.mode == Mode::Guided {
+            self.yaw_target_deg = Some(target.rem_euclid(360.0));
+        }
+        R::MAV_RESULT_ACCEPTED
     }
 
     fn position_target(&mut self, p: &mav::SET_POSITION_TARGET_GLOBAL_INT_DATA, now: Time) {
@@ -2720,6 +2758,7 @@ impl SimVehicle {
         }
         let target = self.target_from_command(&c, false, false);
         self.guided_target_at = Some(now);
+        self.yaw_target_deg = None;
         // ArduCopter does not take off for a position target; PX4 offboard does
         if self.mode == Mode::Guided && !(ap && self.landed && self.cfg.flavour.is_copter()) {
             self.nav = Nav::Goto {
