@@ -47,8 +47,10 @@ build: sysdeps
 	$(CARGO) build --bins
 
 ## The whole test suite: Rust unit, property and end-to-end tests, then the Python
-## conformance tests against the built binary.
-test: build venv
+## conformance tests against the built binary. `cargo test` builds the binary itself (with the
+## dev-dependency features, e.g. tokio's test-util): a separate `cargo build` first would
+## compile the crate and everything that depends on tokio a second time.
+test: sysdeps venv
 	$(CARGO) test --all-targets --no-fail-fast
 	FLEETMAP_BIN=$(abspath $(BIN)) $(PY) -m pytest -q tests/py
 
