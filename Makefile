@@ -50,8 +50,19 @@ build: sysdeps
 ## conformance tests against the built binary. `cargo test` builds the binary itself (with the
 ## dev-dependency features, e.g. tokio's test-util): a separate `cargo build` first would
 ## compile the crate and everything that depends on tokio a second time.
+#
+## The longest end-to-end test ($(SLOW_TESTS)) flies simulated missions in real time, mostly
+## waiting: it runs beside the rest of the suite (its output follows), which takes minutes off
+## `make test` on 2 cores. The benchmarks are not run here (`make bench`; clippy compiles them).
+SLOW_TESTS := bandit_run
+OTHER_TESTS := $(filter-out $(SLOW_TESTS),$(basename $(notdir $(wildcard tests/*.rs))))
 test: sysdeps venv
-	$(CARGO) test --all-targets --no-fail-fast
+	$(CARGO) test --lib --bins --tests --no-fail-fast --no-run
+	@mkdir -p target
+	@$(CARGO) test --no-fail-fast $(addprefix --test ,$(SLOW_TESTS)) > target/slow-tests.log 2>&1 & slow=$$!; \
+	  $(CARGO) test --no-fail-fast --lib --bins $(addprefix --test ,$(OTHER_TESTS)); rest=$$?; \
+	  wait $$slow; s=$$?; echo "--- $(SLOW_TESTS):"; cat target/slow-tests.log; \
+	  [ $$rest = 0 ] && [ $$s = 0 ]
 	FLEETMAP_BIN=$(abspath $(BIN)) $(PY) -m pytest -q tests/py
 
 ## The main job on the embedded simulator (the TUI on a terminal, headless otherwise).

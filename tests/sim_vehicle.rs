@@ -431,7 +431,14 @@ fn fly(flavour: Flavour) {
         let (_, img) = g.sim.poll_image().expect("an image");
         let (a, b) = at(20.0, 0.0);
         let d = fleetmap::geo::local::distance(img.true_pose.lat, img.true_pose.lon, a, b);
-        assert!(d < 2.0, "{flavour}: image {d} m from the waypoint");
+        // PX4 reaches a waypoint — and takes the picture that follows — as soon as its estimate
+        // is within NAV_ACC_RAD (2 m), still flying; the GPS error (0.4 m per axis) comes on top.
+        let tol = if flavour.is_ardupilot() {
+            2.0
+        } else {
+            2.0 + 1.5
+        };
+        assert!(d < tol, "{flavour}: image {d} m from the waypoint");
         assert!(image::load_from_memory(&img.jpeg).is_ok());
     }
 }

@@ -144,6 +144,7 @@ impl SimConfig {
                 v.seed = seed
                     .wrapping_mul(0x9E37_79B9_7F4A_7C15)
                     .wrapping_add(k as u64);
+                v.gps_common_seed = seed ^ 0x6A09_E667_F3BC_C908;
                 if let Some(w) = &world {
                     v.reference = w.reference;
                     v.ground_alt_amsl_m = w.ground_alt_amsl_m;

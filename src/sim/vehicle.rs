@@ -108,8 +108,17 @@ pub struct VehicleConfig {
     pub gps_fix_after_s: f64,
     /// Seconds after boot until the position estimate is ready (EKF origin / global position).
     pub position_ready_after_s: f64,
-    /// Standard deviation of the slowly varying GPS position error, metres.
+    /// Standard deviation of the slowly varying GPS position error that every receiver of
+    /// the simulation shares (satellite clock and orbit, ionosphere, troposphere: the part
+    /// that differential GPS removes), metres per axis.
     pub gps_error_sigma_m: f64,
+    /// Standard deviation of this receiver's own error (noise, multipath), metres per axis.
+    /// Two vehicles side by side disagree only by this much, which is what lets a drone land
+    /// on a rover's charging pad by GPS.
+    pub gps_own_sigma_m: f64,
+    /// Seed of the shared GPS error: equal for every vehicle of one simulation (the harness
+    /// sets it), so that their common-mode errors are the same process.
+    pub gps_common_seed: u64,
     /// Wind (None = calm).
     pub wind: Option<Wind>,
     /// Seed of every random process of this vehicle.
@@ -130,6 +139,7 @@ impl VehicleConfig {
     /// A vehicle with the defaults of its flavour: 12-minute copter batteries, failsafe RTL at
     /// 20 % / land at 10 % (ArduPilot) or 7 % / 5 % (PX4 BAT_CRIT_THR / BAT_EMERGEN_THR),
     /// position estimate after 15 s (ArduPilot EKF3 in SITL) or 8 s (PX4), a 0.4 m GPS error
+    /// (0.37 m shared by every receiver, 0.15 m its own)
     /// and, for copters, the paper's camera.
     pub fn new(sysid: u8, flavour: Flavour, start: (f64, f64)) -> VehicleConfig {
         let copter = flavour.kind == VehicleKind::Copter;
@@ -163,7 +173,9 @@ impl VehicleConfig {
             },
             gps_fix_after_s: 3.0,
             position_ready_after_s: if ardupilot { 15.0 } else { 8.0 },
-            gps_error_sigma_m: 0.4,
+            gps_error_sigma_m: 0.37,
+            gps_own_sigma_m: 0.15,
+            gps_common_seed: 0,
             wind: None,
             seed: u64::from(sysid),
             camera: if copter {
@@ -271,6 +283,11 @@ pub struct SimVehicle {
     m: motion::State,
     gps_err: (f64, f64),
     rng: ChaCha8Rng,
+    /// The shared GPS error process (same seed in every vehicle of a simulation).
+    gps_rng: ChaCha8Rng,
+    /// The common-mode part of `gps_err`, and this receiver's own part.
+    gps_common: (f64, f64),
+    gps_own: (f64, f64),
     battery: Battery,
     armed: bool,
     armed_at: Time,
@@ -329,6 +346,9 @@ impl SimVehicle {
             .map(|c| SimCamera::new(cfg.sysid, c, cfg.seed ^ 0xCA3E_5A11));
         let mut v = SimVehicle {
             rng: ChaCha8Rng::seed_from_u64(cfg.seed),
+            gps_rng: ChaCha8Rng::seed_from_u64(cfg.gps_common_seed),
+            gps_common: (0.0, 0.0),
+            gps_own: (0.0, 0.0),
             battery: Battery::full(cfg.battery),
             mission: MissionServer::new(cfg.flavour.autopilot, cfg.sysid, AUTOPILOT_COMPID),
             mode: cfg.flavour.boot_mode(),
@@ -373,8 +393,10 @@ impl SimVehicle {
             fence_breached: false,
             mission_valid: true,
         };
-        let s = v.cfg.gps_error_sigma_m;
-        v.gps_err = (gauss(&mut v.rng) * s, gauss(&mut v.rng) * s);
+        let (s, o) = (v.cfg.gps_error_sigma_m, v.cfg.gps_own_sigma_m);
+        v.gps_common = (gauss(&mut v.gps_rng) * s, gauss(&mut v.gps_rng) * s);
+        v.gps_own = (gauss(&mut v.rng) * o, gauss(&mut v.rng) * o);
+        v.gps_err = (v.gps_common.0 + v.gps_own.0, v.gps_common.1 + v.gps_own.1);
         v.boot(now);
         v
     }
@@ -705,6 +727,13 @@ impl SimVehicle {
     // ------------------------------------------------------------------ the 20 Hz tick
 
     fn tick(&mut self, now: Time) {
+        // GPS error: first-order Gauss–Markov processes, 60 s correlation time. The shared
+        // one advances also while this vehicle is off, to stay the same as the others'.
+        let a = (-DT / 60.0f64).exp();
+        let k = (1.0 - a * a).sqrt();
+        let (b, bo) = (self.cfg.gps_error_sigma_m * k, self.cfg.gps_own_sigma_m * k);
+        self.gps_common.0 = self.gps_common.0 * a + b * gauss(&mut self.gps_rng);
+        self.gps_common.1 = self.gps_common.1 * a + b * gauss(&mut self.gps_rng);
         if !self.powered {
             if let Some(t) = self.power_on_at
                 && now >= t
@@ -713,11 +742,12 @@ impl SimVehicle {
             }
             return;
         }
-        // GPS error: first-order Gauss–Markov, 60 s correlation time
-        let a = (-DT / 60.0f64).exp();
-        let b = self.cfg.gps_error_sigma_m * (1.0 - a * a).sqrt();
-        self.gps_err.0 = self.gps_err.0 * a + b * gauss(&mut self.rng);
-        self.gps_err.1 = self.gps_err.1 * a + b * gauss(&mut self.rng);
+        self.gps_own.0 = self.gps_own.0 * a + bo * gauss(&mut self.rng);
+        self.gps_own.1 = self.gps_own.1 * a + bo * gauss(&mut self.rng);
+        self.gps_err = (
+            self.gps_common.0 + self.gps_own.0,
+            self.gps_common.1 + self.gps_own.1,
+        );
 
         if !self.position_ok_announced && self.position_ok(now) {
             self.position_ok_announced = true;
