@@ -252,7 +252,7 @@ pub async fn face_grid(
             .is_some_and(|h| heading_error(f64::from(h), want) <= tolerance_deg)
             && s.groundspeed.is_some_and(|g| g < 0.3)
     };
-    // 90° at ArduCopter's default 60°/s (ATC_RATE_Y_MAX slew) is under 2 s.
+    // A quarter turn at ArduCopter's default yaw slew (ATC_SLEW_YAW, 60°/s) is under 2 s.
     let budget = patience.secs(15.0);
     for attempt in 1..=3 {
         match fleet.face(sysid, lat, lon, alt, want as f32).await {
