@@ -601,7 +601,7 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
 /// --nocapture`. Prop. 1: with probability ≥ 1 − δ no cell is mislabelled; the images of a
 /// tile agree, so no error is expected.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "long: the 10x10 default flown to the end (see the README for a measured run)"]
+#[ignore = "long: the 10x10 default flown to the end (not run in CI; see the README)"]
 async fn sim_10x10_default_labels_within_delta() {
     let t0 = Instant::now();
     let world = World::from_toml(bandit_sim::SIM10_WORLD).unwrap();
