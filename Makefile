@@ -53,7 +53,8 @@ build: sysdeps
 #
 ## The longest end-to-end tests ($(SLOW_TESTS)) fly simulated missions in real time with
 ## separate `fleetmap` processes, mostly waiting: they run beside the rest of the suite (their
-## output follows), which takes minutes off `make test` on 2 cores. The benchmarks are not run here (`make bench`; clippy compiles them).
+## output follows), which takes minutes off `make test` on 2 cores. The benchmarks are not run
+## here (`make bench`; clippy compiles them).
 SLOW_TESTS := bandit_run runway_kill
 OTHER_TESTS := $(filter-out $(SLOW_TESTS),$(basename $(notdir $(wildcard tests/*.rs))))
 test: sysdeps venv
