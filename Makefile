@@ -51,11 +51,12 @@ build: sysdeps
 ## dev-dependency features, e.g. tokio's test-util): a separate `cargo build` first would
 ## compile the crate and everything that depends on tokio a second time.
 #
-## The longest end-to-end tests ($(SLOW_TESTS)) fly simulated missions in real time with
-## separate `fleetmap` processes, mostly waiting: they run beside the rest of the suite (their
-## output follows), which takes minutes off `make test` on 2 cores. The benchmarks are not run
-## here (`make bench`; clippy compiles them).
-SLOW_TESTS := bandit_run runway_kill
+## The longest end-to-end test ($(SLOW_TESTS)) flies simulated missions in real time, mostly
+## waiting: it runs beside the rest of the suite (its output follows), which takes minutes off
+## `make test` on 2 cores. The benchmarks are not run here (`make bench`; clippy compiles
+## them). runway_kill stays with the rest: beside another flight it has mapped an extra edge
+## cell (a known issue, see the README).
+SLOW_TESTS := bandit_run
 OTHER_TESTS := $(filter-out $(SLOW_TESTS),$(basename $(notdir $(wildcard tests/*.rs))))
 test: sysdeps venv
 	$(CARGO) test --lib --bins --tests --no-fail-fast --no-run

@@ -70,7 +70,7 @@ fn start_sim(world: &Path, port: u16) -> Sim {
             "--connect",
             &format!("udpin:127.0.0.1:{port}"),
             "--speedup",
-            "10",
+            "20",
             "--swap-after",
             "20",
             "--seed",
