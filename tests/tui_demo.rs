@@ -14,25 +14,8 @@ use std::process::Stdio;
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
-const WORLD: &str = r#"
-name = "strip"
-description = "A 20 m x 12 m asphalt strip aligned with the grid (test world)"
-background = "grass"
-ground_alt_amsl_m = 600.0
-
-[[region]]
-name = "strip"
-surface = "asphalt"
-rectangle = { center = [37.196800, -80.578100], length_m = 20.0, width_m = 12.0, heading_deg = 90.0 }
-markings = false
-
-[homes]
-reference = [37.196800, -80.578100]
-first_north_m = -12.0
-first_east_m = 0.0
-step_north_m = 0.0
-step_east_m = 3.0
-"#;
+mod common;
+use common::WORLD;
 
 fn bin() -> String {
     std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())

@@ -782,41 +782,28 @@ impl Runner {
         let cycle = cycle.context("no sortie is prepared")?;
         let state = Arc::new(self.shared.read(|s| s.clone()).await);
         let mut tasks = tokio::task::JoinSet::new();
-        for d in cycle.drones.iter().filter(|d| d.flies) {
-            let (fleet, state, items, sysid, start) = (
-                self.fleet().clone(),
-                state.clone(),
-                d.items.clone(),
-                d.sysid,
-                d.path[0],
+        // Drones and the stations that drive: (sysid, items, start cell, is a station).
+        let uploads = cycle
+            .drones
+            .iter()
+            .filter(|d| d.flies)
+            .map(|d| (d.sysid, d.items.clone(), d.path[0], false))
+            .chain(
+                cycle
+                    .stations
+                    .iter()
+                    .filter(|s| s.drives)
+                    .map(|s| (s.sysid, s.items.clone(), s.path[0], true)),
             );
+        for (sysid, items, start, station) in uploads {
+            let (fleet, state) = (self.fleet().clone(), state.clone());
             tasks.spawn(async move {
                 let r = upload_verified(
                     &fleet,
                     sysid,
                     MissionType::Mission,
                     &items,
-                    Some((&state, start, false)),
-                )
-                .await;
-                (sysid, r)
-            });
-        }
-        for st in cycle.stations.iter().filter(|s| s.drives) {
-            let (fleet, state, items, sysid, start) = (
-                self.fleet().clone(),
-                state.clone(),
-                st.items.clone(),
-                st.sysid,
-                st.path[0],
-            );
-            tasks.spawn(async move {
-                let r = upload_verified(
-                    &fleet,
-                    sysid,
-                    MissionType::Mission,
-                    &items,
-                    Some((&state, start, true)),
+                    Some((&state, start, station)),
                 )
                 .await;
                 (sysid, r)
