@@ -8,6 +8,8 @@
 //! * `fleetmap run` killed with SIGKILL in the middle of an epoch, then `fleetmap resume`:
 //!   the run finishes, no acknowledged measurement is lost, the labels are right
 //!   (`fleetmap sim` and the GCS are separate processes);
+//! * `fleetmap demo --bandit` in a pseudo-terminal: the run live in the terminal UI, PAUSE
+//!   holds the next sortie, RESUME lets it finish with the right keep set (issue 9);
 //! * (ignored: a long run) the 10×10 default with 10 drones and 5 rovers.
 //!
 //! Speed: the simulator runs 10–20× faster than real time with 160-pixel images (the same
@@ -30,6 +32,9 @@ use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
+
+mod common;
+use common::pty;
 
 fn setup(speedup: f64) -> SimSetup {
     SimSetup {
@@ -389,8 +394,7 @@ fn wait_exit(p: &mut Proc, limit: Duration, log: &Path) -> i32 {
 }
 
 /// Whether the journal shows a sortie of epoch ≥ 1 in flight with measurements taken in it.
-/// Reads `events.jsonl` as text: `RunDir::open` tidies the directory (removes temporary
-/// files), which only the writer may do while it runs.
+/// Reads `events.jsonl` as text (a cheap poll while the writer runs).
 fn mid_epoch(dir: &Path) -> Option<usize> {
     let text = std::fs::read_to_string(dir.join("events.jsonl")).ok()?;
     let mut flying = false;
@@ -616,7 +620,11 @@ async fn sim_10x10_default_labels_within_delta() {
         .unwrap();
     assert_eq!(state.bandit.len(), 84);
     let tmp = tempfile::tempdir().unwrap();
-    let run = new_run(&tmp.path().join("run"), bandit_sim::SIM10_MISSION);
+    // FLEETMAP_KEEP_RUN=DIR keeps the run for `fleetmap report DIR` (a measured run).
+    let dir = std::env::var_os("FLEETMAP_KEEP_RUN")
+        .map(std::path::PathBuf::from)
+        .unwrap_or_else(|| tmp.path().join("run"));
+    let run = new_run(&dir, bandit_sim::SIM10_MISSION);
     let hub = bandit::image_hub(&d.fleet);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let printer = tokio::spawn(async move {
@@ -646,4 +654,78 @@ async fn sim_10x10_default_labels_within_delta() {
         r.measurements,
         t0.elapsed().as_secs_f64()
     );
+}
+
+fn saved(dir: &Path) -> Option<ClassificationState> {
+    RunDir::open(dir).ok()?.load_state().ok()?
+}
+
+fn sortie_flying(s: &ClassificationState) -> bool {
+    s.cycle()
+        .is_some_and(|c| c.phase == fleetmap::planner::sortie::CyclePhase::Started)
+}
+
+/// `fleetmap demo --bandit` in a pseudo-terminal (issue 9): the terminal UI shows the
+/// spatial-classification run live; PAUSE (`p`) lets the sortie in the air land and starts
+/// no new one; RESUME (`r`, `y`) lets the run go on to the end with the keep set equal to
+/// the green tiles; then quit (`q`, `y`).
+#[test]
+fn bandit_demo_in_a_pty_pause_resume_done() {
+    if !pty::have_script() {
+        eprintln!("skipped: util-linux `script` is not installed");
+        return;
+    }
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    let log = tmp.path().join("ui.log");
+    let cmd = format!(
+        "{} --log-file {} demo --bandit --run-dir {} --speedup 20 --camera-px 160",
+        pty::bin(),
+        log.display(),
+        run.display()
+    );
+    let (mut child, mut keys, mut term) = pty::spawn(&cmd, 120, 40, &log);
+    let deadline = Instant::now() + Duration::from_secs(500);
+    term.wait_screen("RUNNING", deadline);
+    // The map pane shows the field, the title the epoch.
+    term.wait_screen("epoch 2", deadline);
+    keys.press(b"p");
+    term.wait_screen("PAUSED", deadline);
+    // The sortie in the air lands; then nothing flies while paused.
+    while saved(&run).is_none_or(|s| sortie_flying(&s)) {
+        assert!(Instant::now() < deadline, "{}", term.dump());
+        term.pump(Duration::from_millis(300));
+    }
+    let before = saved(&run).unwrap();
+    let t0 = Instant::now();
+    while t0.elapsed() < Duration::from_secs(6) {
+        term.pump(Duration::from_millis(300));
+        let s = saved(&run).unwrap();
+        assert!(!sortie_flying(&s), "a sortie started while paused");
+        assert_eq!(s.measurements, before.measurements);
+    }
+    keys.press(b"r");
+    term.wait_screen("RESUME", deadline);
+    keys.press(b"y");
+    term.wait_screen("RUNNING", deadline);
+    while !saved(&run).is_some_and(|s| s.is_finished()) {
+        assert!(
+            Instant::now() < deadline,
+            "the run did not finish; {}",
+            term.dump()
+        );
+        term.pump(Duration::from_millis(300));
+    }
+    term.wait_screen("DONE", deadline);
+    keys.press(b"q");
+    term.wait_screen("QUIT fleetmap?", Instant::now() + Duration::from_secs(30));
+    keys.press(b"y");
+    let status = pty::wait_exit(&mut child, &mut term, Duration::from_secs(30));
+    assert!(status.success(), "{}", term.dump());
+    let s = saved(&run).unwrap();
+    let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
+    assert_eq!(s.bandit.keep(), bandit_sim::green_tiles(&world));
+    assert!(s.measurements > before.measurements);
+    // the exports were written when the run finished
+    assert!(run.join("exports/progress.png").exists());
 }

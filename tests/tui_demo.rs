@@ -8,18 +8,12 @@
 
 use fleetmap::explore::mapping::{MappingState, RobotStatus};
 use fleetmap::store::RunDir;
-use std::io::{Read, Write};
 use std::path::Path;
-use std::process::Stdio;
-use std::sync::mpsc;
 use std::time::{Duration, Instant};
 
 mod common;
 use common::WORLD;
-
-fn bin() -> String {
-    std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())
-}
+use common::pty;
 
 fn state(dir: &Path) -> Option<MappingState> {
     RunDir::open(dir).ok()?.load_state().ok()?
@@ -27,11 +21,7 @@ fn state(dir: &Path) -> Option<MappingState> {
 
 #[test]
 fn demo_in_a_pty_start_battery_swap_resume_done() {
-    if std::process::Command::new("script")
-        .arg("--version")
-        .output()
-        .is_err()
-    {
+    if !pty::have_script() {
         eprintln!("skipped: util-linux `script` is not installed");
         return;
     }
@@ -41,44 +31,15 @@ fn demo_in_a_pty_start_battery_swap_resume_done() {
     let run = tmp.path().join("run");
     let log = tmp.path().join("ui.log");
     let cmd = format!(
-        "stty cols 120 rows 40 && exec {} --log-file {} demo --run-dir {} --drones 1 --world {} \
-         --battery-minutes 4 --speedup 15 --manual",
-        bin(),
+        "{} --log-file {} demo --run-dir {} --drones 1 --world {} --battery-minutes 4 \
+         --speedup 15 --manual",
+        pty::bin(),
         log.display(),
         run.display(),
         world.display()
     );
-    let mut child = std::process::Command::new("script")
-        .args(["-qfec", &cmd, "/dev/null"])
-        .env("TERM", "xterm-256color")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("script runs");
-    let mut stdin = child.stdin.take().unwrap();
-    let mut stdout = child.stdout.take().unwrap();
-    let (tx, rx) = mpsc::channel::<Vec<u8>>();
-    std::thread::spawn(move || {
-        let mut buf = [0u8; 8192];
-        while let Ok(n) = stdout.read(&mut buf) {
-            if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
-                break;
-            }
-        }
-    });
-    // The screen as a terminal shows it: ratatui redraws only the cells that changed, so a
-    // word on the screen need not appear whole in the byte stream.
-    let mut term = Term {
-        raw: Vec::new(),
-        screen: vt100::Parser::new(40, 120, 0),
-        rx,
-        log: log.clone(),
-    };
-    let mut key = |k: &[u8]| {
-        stdin.write_all(k).unwrap();
-        stdin.flush().unwrap();
-    };
+    let (mut child, mut keys, mut term) = pty::spawn(&cmd, 120, 40, &log);
+    let mut key = |k: &[u8]| keys.press(k);
     let deadline = Instant::now() + Duration::from_secs(400);
     // The UI is up, the mission waits for START.
     term.wait_screen("NOT STARTED", deadline);
@@ -125,19 +86,7 @@ fn demo_in_a_pty_start_battery_swap_resume_done() {
     key(b"q");
     term.wait_screen("QUIT fleetmap?", Instant::now() + Duration::from_secs(30));
     key(b"y");
-    let t0 = Instant::now();
-    let status = loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            break s;
-        }
-        assert!(
-            t0.elapsed() < Duration::from_secs(30),
-            "did not quit; {}",
-            term.dump()
-        );
-        term.pump(Duration::from_millis(100));
-    };
-    term.pump(Duration::from_millis(200));
+    let status = pty::wait_exit(&mut child, &mut term, Duration::from_secs(30));
     assert!(status.success(), "{}", term.dump());
     assert!(
         String::from_utf8_lossy(&term.raw).contains("\x1b[?1049l"),
@@ -157,54 +106,4 @@ fn demo_in_a_pty_start_battery_swap_resume_done() {
     );
     // the exports were written when the run finished
     assert!(run.join("exports/map.png").exists());
-}
-
-/// What the pseudo-terminal shows: the raw stream and a terminal emulator fed with it.
-struct Term {
-    raw: Vec<u8>,
-    screen: vt100::Parser,
-    rx: mpsc::Receiver<Vec<u8>>,
-    log: std::path::PathBuf,
-}
-
-impl Term {
-    /// Take what arrives within `d`.
-    fn pump(&mut self, d: Duration) {
-        if let Ok(c) = self.rx.recv_timeout(d) {
-            self.take(c);
-        }
-        while let Ok(c) = self.rx.try_recv() {
-            self.take(c);
-        }
-    }
-
-    fn take(&mut self, c: Vec<u8>) {
-        self.screen.process(&c);
-        self.raw.extend(c);
-    }
-
-    /// The text on the screen now.
-    fn text(&self) -> String {
-        self.screen.screen().contents()
-    }
-
-    /// Wait until `needle` is on the screen.
-    fn wait_screen(&mut self, needle: &str, deadline: Instant) {
-        while !self.text().contains(needle) {
-            assert!(
-                Instant::now() < deadline,
-                "timed out waiting for {needle:?}; {}",
-                self.dump()
-            );
-            self.pump(Duration::from_millis(200));
-        }
-    }
-
-    fn dump(&self) -> String {
-        format!(
-            "the screen:\n{}\nthe log:\n{}",
-            self.text(),
-            std::fs::read_to_string(&self.log).unwrap_or_default()
-        )
-    }
 }

@@ -178,7 +178,7 @@ fn app(w: u16, h: u16) -> App {
         paused: false,
         failed: None,
     };
-    let model = build_model(&fs, Some((&s, &info)), &log);
+    let model = build_model(&fs, Some(((&s).into(), &info)), &log);
     let mut app = App::new(UiConfig::default(), "LIVE udpout:127.0.0.1:14560");
     update(&mut app, Event::Resize(w, h));
     update(&mut app, Event::Tick(model.time));
@@ -247,7 +247,7 @@ fn model_follows_the_run() {
         started: true,
         ..RunInfo::default()
     };
-    let m = build_model(&f, Some((&s, &info)), &LiveLog::default());
+    let m = build_model(&f, Some(((&s).into(), &info)), &LiveLog::default());
     assert_eq!(m.mission.phase, Phase::Dfs);
     assert_eq!(m.mission.status, RunStatus::Running);
     let root = Cell::new(5, 2);
@@ -270,9 +270,128 @@ fn model_follows_the_run() {
         ..info
     };
     assert_eq!(
-        build_model(&f, Some((&s, &paused)), &LiveLog::default())
+        build_model(&f, Some(((&s).into(), &paused)), &LiveLog::default())
             .mission
             .status,
         RunStatus::Paused
     );
+}
+
+// ---- spatial classification ------------------------------------------------------------
+
+/// The hardware 6×6 mission after some sensing: (0, 0) kept, (5, 5) rejected.
+fn classification_state() -> fleetmap::planner::sortie::ClassificationState {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/missions/hardware-6x6.toml"
+    ))
+    .unwrap();
+    let def = MissionDef::parse(&text, "hardware-6x6.toml").unwrap();
+    let fleetmap::mission::definition::Origin::Coordinates(origin) = def.grid.origin else {
+        panic!("the hardware mission has a fixed origin");
+    };
+    let grid = Grid::new(LatLon::new(origin.lat, origin.lon), def.grid.cell_size_m).unwrap();
+    let mut s = fleetmap::planner::sortie::ClassificationState::new(&def, grid, None).unwrap();
+    for (cell, ones) in [(Cell::new(0, 0), 200), (Cell::new(5, 5), 0)] {
+        let l = s.bandit.index_of(cell).unwrap();
+        assert!(s.bandit.record(l, ones, 200));
+    }
+    assert_eq!(s.bandit.classify().len(), 2);
+    s.measurements = 400;
+    s
+}
+
+fn classification_fleet(s: &fleetmap::planner::sortie::ClassificationState) -> FleetSnapshot {
+    let mut f = FleetSnapshot {
+        time: Time::from_secs(600),
+        ..FleetSnapshot::default()
+    };
+    let team: Vec<(u8, Cell, u8)> = s
+        .drones
+        .iter()
+        .zip(&s.config.drones)
+        .map(|(m, c)| (m.sysid, *c, 2))
+        .chain(
+            s.stations
+                .iter()
+                .zip(&s.config.stations)
+                .map(|(m, c)| (m.sysid, *c, 10)),
+        )
+        .collect();
+    for (id, cell, mav_type) in team {
+        let beat = Beat {
+            custom_mode: 0,
+            mav_type,
+            autopilot: 3,
+            base_mode: 0,
+            system_status: 3,
+        };
+        let mut v = VehicleSnapshot::new(id, 1, &beat, 0, Time::from_secs(600));
+        let p = s.grid.cell_center(cell);
+        v.position = Some(GeoPoint {
+            lat: p.lat,
+            lon: p.lon,
+            alt_amsl: 600.0,
+        });
+        v.alt_rel = Some(0.0);
+        v.gps_fix = Some(3);
+        v.satellites = Some(12);
+        v.battery_pct = Some(64);
+        v.battery_v = Some(15.9);
+        f.vehicles.insert(id, v);
+    }
+    f
+}
+
+#[test]
+fn live_classification_run_shows_labels_obstacles_roads_and_the_team() {
+    let s = classification_state();
+    let f = classification_fleet(&s);
+    let info = RunInfo {
+        name: s.mission.clone(),
+        started: true,
+        ..RunInfo::default()
+    };
+    let m = build_model(&f, Some(((&s).into(), &info)), &LiveLog::default());
+    assert_eq!(m.map.kind, MapKind::Classification);
+    assert_eq!((m.map.rows, m.map.cols), (6, 6));
+    assert_eq!(m.map.get(Cell::new(0, 0)), Some(CellState::Keep));
+    assert_eq!(m.map.get(Cell::new(5, 5)), Some(CellState::Reject));
+    for &o in &s.layout.obstacles {
+        assert_eq!(m.map.get(o), Some(CellState::Obstacle), "{o}");
+    }
+    let roads = s
+        .layout
+        .roads
+        .iter()
+        .filter(|&&c| m.map.get(c) == Some(CellState::Road))
+        .count();
+    assert!(roads > 0);
+    assert_eq!(m.mission.kind, MissionKind::SpatialClassification);
+    assert_eq!(m.mission.phase, Phase::Epoch { p: 1 });
+    assert_eq!(m.mission.cells_classified, 2);
+    assert_eq!(m.mission.cells_total, Some(s.bandit.len() as u32));
+    // drones first, then the stations, each with what it is doing
+    let ids: Vec<u8> = m.vehicles.iter().map(|v| v.sysid).collect();
+    assert_eq!(ids, [1, 2, 3, 4, 5, 6]);
+    assert_eq!(m.vehicles[4].role, Role::Station);
+    assert_eq!(m.vehicles[0].activity.as_deref(), Some("charging (3, 1)"));
+    assert_eq!(m.vehicles[5].activity.as_deref(), Some("station (3, 4)"));
+
+    let mut app = App::new(UiConfig::default(), "DEMO (simulated)");
+    for (w, h) in [(250u16, 70u16), (80, 24)] {
+        update(&mut app, Event::Resize(w, h));
+        update(&mut app, Event::Tick(m.time));
+        update(&mut app, Event::Snapshot(Box::new(m.clone())));
+        if w == 80 {
+            // the map pane below the fleet table
+            update(
+                &mut app,
+                Event::Key(Key::plain(crossterm::event::KeyCode::Tab).to_event()),
+            );
+        }
+        let text = screen(&app, w, h);
+        assert!(text.contains("epoch 1"), "{text}");
+        insta::assert_snapshot!(format!("live_classification_{w}x{h}"), text);
+    }
 }

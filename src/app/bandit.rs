@@ -211,6 +211,10 @@ pub struct RunOptions {
     /// Send drones off only with at least this charge, percent (`None`: the reserve plus
     /// 1.5 × the sortie's estimated need).
     pub min_takeoff_pct: Option<f64>,
+    /// The operator's pause (the TUI): while it reads `true`, no new sortie starts — the
+    /// drones in the air finish theirs and land on their stations, which is where a
+    /// spatial-classification team waits (charging) between sorties anyway.
+    pub pause: Option<watch::Receiver<bool>>,
 }
 
 /// Why a sortie stopped before take-off.
@@ -431,6 +435,20 @@ fn sortie_estimate_s(state: &ClassificationState, items: &[MissionItem]) -> f64 
     t + state.grid.cell_size() / state.params.speed_m_s.max(0.1)
 }
 
+/// The longest sortie of the last five epochs, seconds of the fleet clock (0 before the
+/// first): what a sortie really takes, waiting for the stations at the rendezvous and the
+/// landings included, which the flight-path estimate does not see.
+fn observed_sortie_s(state: &ClassificationState) -> f64 {
+    state
+        .epochs
+        .iter()
+        .rev()
+        .take(5)
+        .filter(|e| e.cycles > 0)
+        .map(|e| e.flight_s / e.cycles as f64)
+        .fold(0.0, f64::max)
+}
+
 /// Charge a drone needs before a sortie of `estimate_s` seconds, percent: the reserve plus
 /// 1.5 × the estimated use (forward flight costs ~20 % more than hover).
 fn charge_needed_pct(state: &ClassificationState, estimate_s: f64) -> f64 {
@@ -526,6 +544,7 @@ struct Runner {
     shared: Arc<Shared>,
     plan_time_limit_s: Option<f64>,
     min_takeoff_pct: Option<f64>,
+    pause: Option<watch::Receiver<bool>>,
 }
 
 impl Runner {
@@ -855,6 +874,26 @@ impl Runner {
         Ok(())
     }
 
+    /// " It is N m from station S." from telemetry (empty when a position is missing).
+    async fn nearest_station(&self, sysid: u8) -> String {
+        let stations: Vec<u8> = self
+            .shared
+            .read(|s| s.stations.iter().map(|m| m.sysid).collect())
+            .await;
+        let Some(p) = self.fleet().vehicle(sysid).and_then(|v| v.position) else {
+            return String::new();
+        };
+        stations
+            .iter()
+            .filter_map(|&st| {
+                let q = self.fleet().vehicle(st)?.position?;
+                Some((local::distance(p.lat, p.lon, q.lat, q.lon), st))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(d, st)| format!(" It is {d:.1} m from station {st}."))
+            .unwrap_or_default()
+    }
+
     /// Wait until every drone that flies the sortie has the charge it needs.
     async fn wait_for_charge(&self) -> anyhow::Result<()> {
         let (cycle, needs) = self
@@ -865,7 +904,7 @@ impl Runner {
                     .iter()
                     .flat_map(|c| c.drones.iter().filter(|d| d.flies))
                     .map(|d| {
-                        let est = sortie_estimate_s(s, &d.items);
+                        let est = sortie_estimate_s(s, &d.items).max(observed_sortie_s(s));
                         (
                             d.sysid,
                             self.min_takeoff_pct
@@ -910,9 +949,10 @@ impl Runner {
                             best = now_pct;
                             since = tokio::time::Instant::now();
                         } else if since.elapsed() > stall {
+                            let wh = self.nearest_station(sysid).await;
                             anyhow::bail!(
                                 "drone {sysid} is not charging (stuck at {now_pct} %, the sortie \
-                                 needs {need:.0} %): is it on its station's charger?"
+                                 needs {need:.0} %): is it on its station's charger?{wh}"
                             );
                         }
                     }
@@ -922,7 +962,26 @@ impl Runner {
         Ok(())
     }
 
+    /// Wait while the operator has paused the run (before a sortie starts).
+    async fn wait_unpaused(&self) {
+        let Some(mut rx) = self.pause.clone() else {
+            return;
+        };
+        if !*rx.borrow_and_update() {
+            return;
+        }
+        self.say("paused by the operator: the next sortie waits for RESUME".into());
+        // A closed channel (the UI went away) lets the run carry on.
+        while *rx.borrow_and_update() {
+            if rx.changed().await.is_err() {
+                break;
+            }
+        }
+        self.say("resumed by the operator".into());
+    }
+
     async fn start(&self) -> anyhow::Result<()> {
+        self.wait_unpaused().await;
         self.wait_for_charge().await?;
         let (p, cycle) = self
             .shared
@@ -1508,6 +1567,21 @@ async fn charging(shared: &Shared, sysid: u8) -> bool {
         .is_ok()
 }
 
+/// Spacing of the charging pads on a station, metres.
+pub const PAD_SPACING_M: f64 = 0.6;
+
+/// Where pad `slot.0` of `slot.1` lies from the station's centre, (north, east) metres: the
+/// pads form the most compact square-ish grid ([`PAD_SPACING_M`] apart, centred), so five
+/// drones on one station land within 0.85 m of its centre instead of 1.2 m in a row.
+pub fn pad_offset(slot: (usize, usize)) -> (f64, f64) {
+    let (i, n) = (slot.0, slot.1.max(1));
+    let side = (1..=n).find(|s| s * s >= n).unwrap_or(n);
+    let rows = n.div_ceil(side);
+    let (r, c) = (i / side, i % side);
+    let centre = |k: usize, of: usize| (k as f64 - (of as f64 - 1.0) / 2.0) * PAD_SPACING_M;
+    (centre(r, rows), centre(c, side))
+}
+
 /// One landing of [`dock`].
 async fn land_on(
     shared: &Shared,
@@ -1526,13 +1600,13 @@ async fn land_on(
             v.groundspeed.is_none_or(|g| g < 0.2)
         })
         .await;
-    let east = (slot.0 as f64 - (slot.1 as f64 - 1.0) / 2.0) * 0.6;
+    let (north, east) = pad_offset(slot);
     let target = || -> anyhow::Result<(f64, f64)> {
         let pos = fleet
             .vehicle(station)
             .and_then(|v| v.position)
             .with_context(|| format!("station {station} reports no position"))?;
-        Ok(local::offset(pos.lat, pos.lon, 0.0, east))
+        Ok(local::offset(pos.lat, pos.lon, north, east))
     };
     let mut at = target()?;
     for _ in 0..3 {
@@ -1560,37 +1634,51 @@ async fn land_on(
     Ok(())
 }
 
+/// Most images measured and saved together (one state write for the batch).
+const INTAKE_BATCH: usize = 64;
+
 /// The image intake of the run: every image of a drone during a sortie becomes one
 /// measurement (or a journalled reason why not).
+///
+/// Group commit: the images that are already waiting when one arrives (up to
+/// [`INTAKE_BATCH`]) are measured together and saved in one state write, so the intake keeps
+/// up with a large fleet (ten drones at 10× real time overran a write per image). A
+/// measurement still counts only once the state that holds it is on disk.
 async fn intake(shared: Arc<Shared>, mut rx: broadcast::Receiver<Arc<ReceivedImage>>) {
-    loop {
-        let img = match rx.recv().await {
-            Ok(img) => img,
+    let mut closed = false;
+    while !closed {
+        let mut batch = Vec::new();
+        match rx.recv().await {
+            Ok(img) => batch.push(img),
             Err(broadcast::error::RecvError::Lagged(n)) => {
                 shared.say(format!("{n} image(s) dropped: the intake fell behind"));
                 continue;
             }
             Err(broadcast::error::RecvError::Closed) => return,
-        };
-        if let Err(e) = take_image(&shared, &img).await {
-            shared.say(format!("vehicle {}: image not recorded: {e:#}", img.sysid));
+        }
+        while batch.len() < INTAKE_BATCH {
+            match rx.try_recv() {
+                Ok(img) => batch.push(img),
+                Err(broadcast::error::TryRecvError::Lagged(n)) => {
+                    shared.say(format!("{n} image(s) dropped: the intake fell behind"));
+                }
+                Err(broadcast::error::TryRecvError::Empty) => break,
+                Err(broadcast::error::TryRecvError::Closed) => {
+                    closed = true;
+                    break;
+                }
+            }
+        }
+        if let Err(e) = take_images(&shared, batch).await {
+            shared.say(format!("images not recorded: {e:#}"));
         }
     }
 }
 
-async fn take_image(shared: &Arc<Shared>, img: &ReceivedImage) -> anyhow::Result<()> {
+/// Where and when an image was taken: (lat, lon, altitude above home in metres, key).
+fn image_pose(shared: &Shared, img: &ReceivedImage) -> anyhow::Result<(f64, f64, f64, CaptureKey)> {
     let sysid = img.sysid;
-    let flying = shared
-        .read(|s| {
-            s.cycle().is_some_and(|c| {
-                c.phase == CyclePhase::Started && c.drones.iter().any(|d| d.sysid == sysid)
-            })
-        })
-        .await;
-    if !flying {
-        return Ok(());
-    }
-    let (lat, lon, alt, key): (f64, f64, f64, CaptureKey) = match &img.pose {
+    Ok(match &img.pose {
         Some(p) => (
             p.lat,
             p.lon,
@@ -1608,87 +1696,165 @@ async fn take_image(shared: &Arc<Shared>, img: &ReceivedImage) -> anyhow::Result
                 (sysid, t, -1),
             )
         }
-    };
-    let (matched, params, cell_m, planned_alt) = shared
+    })
+}
+
+/// What became of one image of a batch.
+enum Taken {
+    /// Not during a sortie of this drone: not journalled.
+    NotFlying,
+    /// Matched no capture visit.
+    Ignored(String),
+    /// Its measurement, or why it could not be measured.
+    Measured(Result<(f64, bool), String>),
+}
+
+/// Measure a batch of images and record them in one commit (see [`intake`]).
+async fn take_images(shared: &Arc<Shared>, batch: Vec<Arc<ReceivedImage>>) -> anyhow::Result<()> {
+    let mut poses = Vec::with_capacity(batch.len());
+    for img in &batch {
+        match image_pose(shared, img) {
+            Ok(p) => poses.push(Some(p)),
+            Err(e) => {
+                shared.say(format!("vehicle {}: image not recorded: {e:#}", img.sysid));
+                poses.push(None);
+            }
+        }
+    }
+    // Which images match a capture visit (the commit below checks again, in order).
+    let (pre, params, cell_m) = shared
         .read(|s| {
-            let m = match grid_xy(s, lat, lon) {
-                Some((e, n)) if !s.seen(key) => s.match_image(sysid, e, n),
-                Some(_) => Err("already counted".to_string()),
-                None => Err("position outside the grid's zone".to_string()),
-            };
-            let alt = s
-                .drones
+            let pre: Vec<Option<Result<f64, String>>> = batch
                 .iter()
-                .find(|d| d.sysid == sysid)
-                .map_or(10.0, |d| d.altitude_m);
-            (m, s.params.clone(), s.grid.cell_size(), alt)
+                .zip(&poses)
+                .map(|(img, pose)| {
+                    let &(lat, lon, alt, key) = pose.as_ref()?;
+                    let flying = s.cycle().is_some_and(|c| {
+                        c.phase == CyclePhase::Started
+                            && c.drones.iter().any(|d| d.sysid == img.sysid)
+                    });
+                    if !flying {
+                        return None;
+                    }
+                    let m = match grid_xy(s, lat, lon) {
+                        Some((e, n)) if !s.seen(key) => s.match_image(img.sysid, e, n),
+                        Some(_) => Err("already counted".to_string()),
+                        None => Err("position outside the grid's zone".to_string()),
+                    };
+                    let planned = s
+                        .drones
+                        .iter()
+                        .find(|d| d.sysid == img.sysid)
+                        .map_or(10.0, |d| d.altitude_m);
+                    Some(m.map(|_| if alt > 1.0 { alt } else { planned }))
+                })
+                .collect();
+            (pre, s.params.clone(), s.grid.cell_size())
         })
         .await;
-    let (visit, cell) = match matched {
-        Ok(m) => m,
-        Err(reason) => {
-            shared
-                .commit(|s| {
-                    s.ignored_images += 1;
-                    Ok(((), vec![BanditEvent::ImageIgnored { sysid, reason }]))
-                })
-                .await?;
-            return Ok(());
-        }
-    };
-    let bytes = img.bytes.clone();
-    let altitude = if alt > 1.0 { alt } else { planned_alt };
-    let result = tokio::task::spawn_blocking(move || {
-        measure_image(
-            &bytes,
-            &params.green,
-            &params.camera,
-            altitude,
-            cell_m,
-            params.crop_fraction,
-        )
+    let jobs: Vec<(usize, Arc<Vec<u8>>, f64)> = pre
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| match p {
+            Some(Ok(alt)) => Some((i, batch[i].bytes.clone(), *alt)),
+            _ => None,
+        })
+        .collect();
+    let measured = tokio::task::spawn_blocking(move || {
+        jobs.into_iter()
+            .map(|(i, bytes, alt)| {
+                let m = measure_image(
+                    &bytes,
+                    &params.green,
+                    &params.camera,
+                    alt,
+                    cell_m,
+                    params.crop_fraction,
+                );
+                (i, m)
+            })
+            .collect::<BTreeMap<usize, Result<(f64, bool), String>>>()
     })
     .await
     .context("measurement task")?;
-    let (fraction, positive) = match result {
-        Ok(m) => m,
-        Err(reason) => {
-            shared
-                .commit(|s| {
-                    s.image_failures += 1;
-                    Ok(((), vec![BanditEvent::ImageFailed { sysid, reason }]))
-                })
-                .await?;
-            return Ok(());
-        }
-    };
+    let mut measured = measured;
+    let taken: Vec<Taken> = pre
+        .into_iter()
+        .enumerate()
+        .map(|(i, p)| match p {
+            None => Taken::NotFlying,
+            Some(Err(reason)) => Taken::Ignored(reason),
+            Some(Ok(_)) => Taken::Measured(
+                measured
+                    .remove(&i)
+                    .unwrap_or_else(|| Err("not measured".to_string())),
+            ),
+        })
+        .collect();
+    if taken.iter().all(|t| matches!(t, Taken::NotFlying)) {
+        return Ok(());
+    }
     let classified = shared
         .commit(|s| {
-            let r = s.record(sysid, visit, key, fraction, positive)?;
-            let mut events = vec![BanditEvent::Measurement(r.measurement.clone())];
-            for &(c, label) in &r.classified {
-                let l = s.bandit.index_of(c);
-                events.push(BanditEvent::Classified {
-                    cell: c,
-                    label,
-                    samples: l.map_or(0, |l| s.bandit.samples[l]),
-                    mean: l.map_or(0.0, |l| s.bandit.mean(l)),
-                });
+            let mut events = Vec::new();
+            let mut classified = Vec::new();
+            for ((img, pose), t) in batch.iter().zip(&poses).zip(taken) {
+                let sysid = img.sysid;
+                let Some(&(lat, lon, _, key)) = pose.as_ref() else {
+                    continue;
+                };
+                let reason = match t {
+                    Taken::NotFlying => continue,
+                    Taken::Ignored(reason) => reason,
+                    Taken::Measured(Err(reason)) => {
+                        s.image_failures += 1;
+                        events.push(BanditEvent::ImageFailed { sysid, reason });
+                        continue;
+                    }
+                    Taken::Measured(Ok((fraction, positive))) => {
+                        // Matched again: an earlier image of this batch may have taken the
+                        // visit's last slot or the same capture.
+                        let m = match grid_xy(s, lat, lon) {
+                            Some((e, n)) if !s.seen(key) => s.match_image(sysid, e, n),
+                            Some(_) => Err("already counted".to_string()),
+                            None => Err("position outside the grid's zone".to_string()),
+                        };
+                        // `record` fails before it changes anything.
+                        match m.and_then(|(visit, _)| {
+                            s.record(sysid, visit, key, fraction, positive)
+                                .map_err(|e| e.to_string())
+                        }) {
+                            Ok(r) => {
+                                events.push(BanditEvent::Measurement(r.measurement.clone()));
+                                for &(c, label) in &r.classified {
+                                    let l = s.bandit.index_of(c);
+                                    events.push(BanditEvent::Classified {
+                                        cell: c,
+                                        label,
+                                        samples: l.map_or(0, |l| s.bandit.samples[l]),
+                                        mean: l.map_or(0.0, |l| s.bandit.mean(l)),
+                                    });
+                                    classified.push((
+                                        c,
+                                        label,
+                                        s.bandit.keep().len(),
+                                        s.bandit.reject().len(),
+                                        s.bandit.unclassified().len(),
+                                    ));
+                                }
+                                continue;
+                            }
+                            Err(reason) => reason,
+                        }
+                    }
+                };
+                s.ignored_images += 1;
+                events.push(BanditEvent::ImageIgnored { sysid, reason });
             }
-            Ok((r.classified, events))
+            Ok((classified, events))
         })
         .await?;
-    let _ = cell;
-    for (c, label) in classified {
-        let (k, r, u) = shared
-            .read(|s| {
-                (
-                    s.bandit.keep().len(),
-                    s.bandit.reject().len(),
-                    s.bandit.unclassified().len(),
-                )
-            })
-            .await;
+    for (c, label, k, r, u) in classified {
         shared.say(format!(
             "cell {c}: {} (keep {k}, reject {r}, unclassified {u})",
             match label {
@@ -1831,6 +1997,7 @@ pub async fn run(
         shared: shared.clone(),
         plan_time_limit_s: opts.plan_time_limit_s,
         min_takeoff_pct: opts.min_takeoff_pct,
+        pause: opts.pause.take(),
     };
     if !resumed {
         runner.check_start_positions().await?;
@@ -1938,6 +2105,22 @@ async fn drive(runner: &Runner, resumed: bool) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn pads_are_distinct_and_close_to_the_centre() {
+        assert_eq!(pad_offset((0, 1)), (0.0, 0.0));
+        let two = [pad_offset((0, 2)), pad_offset((1, 2))];
+        assert_eq!(two, [(0.0, -0.3), (0.0, 0.3)]);
+        for n in 1..=9 {
+            let pads: Vec<(f64, f64)> = (0..n).map(|i| pad_offset((i, n))).collect();
+            for (i, a) in pads.iter().enumerate() {
+                assert!(a.0.hypot(a.1) <= 0.85, "{n} pads: {a:?}");
+                for b in &pads[i + 1..] {
+                    assert!((a.0 - b.0).hypot(a.1 - b.1) >= PAD_SPACING_M - 1e-9);
+                }
+            }
+        }
+    }
 
     #[test]
     fn crop_covers_the_fraction_of_a_cell_at_any_altitude() {

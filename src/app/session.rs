@@ -1,5 +1,5 @@
 //! The live terminal session (async shell): the operator's UI on a real fleet, with or
-//! without a runway-mapping run attached.
+//! without a run attached (runway mapping or spatial classification).
 //!
 //! Three tasks around the UI ([`crate::tui::run`]):
 //! * the **model producer** turns fleet snapshots, the run's state (a `watch` from the
@@ -9,18 +9,25 @@
 //!   through the runner's [`Operator`] channel (pause, resume, recall, land, battery
 //!   swapped), vehicle-level ones through the fleet (arm, disarm, RTL, land, hold) — and
 //!   answers each with a [`JobResult`];
-//! * the **runner** ([`crate::app::runway::run`]) once the operator starts the mission (or
-//!   at once with `auto_start`).
+//! * the **runner** ([`crate::app::runway::run`] or [`crate::app::bandit::run`]) once the
+//!   operator starts the mission (or at once with `auto_start`).
+//!
+//! A spatial-classification run has no per-vehicle mission commands: its PAUSE holds the
+//! next sortie (the drones in the air finish theirs and land on their stations), and RTL,
+//! LAND, ARM and DISARM go straight to the vehicle (the run then stops at the next
+//! rendezvous it misses; `fleetmap resume` re-plans from where the team is).
 //!
 //! The UI never waits on any of them: it only reads the latest model and queues commands.
 
+use crate::app::bandit;
 use crate::app::flight;
 use crate::app::images;
 use crate::app::runway::{self, Operator, Outcome, RunOptions};
 use crate::explore::mapping::MappingState;
 use crate::fleet::FleetHandle;
+use crate::planner::sortie::ClassificationState;
 use crate::store::RunDir;
-use crate::tui::live::{LiveLog, RunInfo, build_model};
+use crate::tui::live::{LiveLog, RunInfo, RunView, build_model};
 use crate::tui::{
     App, Command, CommandRequest, JobResult, Model, Severity, ShellIo, ShellOptions, Target,
     UiConfig,
@@ -44,6 +51,82 @@ pub struct MappingRun {
     pub options: RunOptions,
     /// Called with the final state when the run finishes (exports, reports).
     pub on_finish: Option<OnFinish>,
+}
+
+/// What to do with a finished spatial-classification run.
+pub type OnClassificationFinish = Box<dyn FnOnce(&RunDir, &ClassificationState) + Send>;
+
+/// A spatial-classification run the session drives.
+pub struct ClassificationRun {
+    /// Its directory.
+    pub run_dir: RunDir,
+    /// Its state (new or loaded).
+    pub state: ClassificationState,
+    /// Start at once instead of waiting for the operator's START.
+    pub auto_start: bool,
+    /// Options of the runner (progress, view and pause are set by the session).
+    pub options: bandit::RunOptions,
+    /// Called with the final state when the run finishes.
+    pub on_finish: Option<OnClassificationFinish>,
+}
+
+/// The run attached to a session.
+pub enum SessionRun {
+    /// Runway mapping.
+    Mapping(MappingRun),
+    /// Spatial classification.
+    Classification(ClassificationRun),
+}
+
+impl From<MappingRun> for SessionRun {
+    fn from(m: MappingRun) -> Self {
+        SessionRun::Mapping(m)
+    }
+}
+
+impl From<ClassificationRun> for SessionRun {
+    fn from(m: ClassificationRun) -> Self {
+        SessionRun::Classification(m)
+    }
+}
+
+impl SessionRun {
+    fn name(&self) -> String {
+        match self {
+            SessionRun::Mapping(m) => m.state.mission.clone(),
+            SessionRun::Classification(m) => m.state.mission.clone(),
+        }
+    }
+
+    fn auto_start(&self) -> bool {
+        match self {
+            SessionRun::Mapping(m) => m.auto_start,
+            SessionRun::Classification(m) => m.auto_start,
+        }
+    }
+
+    fn view(&self) -> RunState {
+        match self {
+            SessionRun::Mapping(m) => RunState::Mapping(Arc::new(m.state.clone())),
+            SessionRun::Classification(m) => RunState::Classification(Arc::new(m.state.clone())),
+        }
+    }
+}
+
+/// The latest state of the attached run (what the panes show).
+#[derive(Clone)]
+enum RunState {
+    Mapping(Arc<MappingState>),
+    Classification(Arc<ClassificationState>),
+}
+
+impl RunState {
+    fn view(&self) -> RunView<'_> {
+        match self {
+            RunState::Mapping(s) => RunView::Mapping(s),
+            RunState::Classification(s) => RunView::Classification(s),
+        }
+    }
 }
 
 /// Settings of the UI.
@@ -86,21 +169,18 @@ fn sysid_of(line: &str) -> Option<u8> {
 struct Shared {
     log: Mutex<LiveLog>,
     info: Mutex<RunInfo>,
-    view: watch::Receiver<Option<Arc<MappingState>>>,
+    view: watch::Receiver<Option<RunState>>,
     finished: Mutex<bool>,
 }
 
 /// Run the UI on `fleet` until the operator quits.
 pub async fn run(
     fleet: FleetHandle,
-    mission: Option<MappingRun>,
+    mission: Option<SessionRun>,
     cfg: SessionConfig,
 ) -> anyhow::Result<SessionEnd> {
-    let (view_tx, view_rx) = watch::channel::<Option<Arc<MappingState>>>(None);
-    let name = mission
-        .as_ref()
-        .map(|m| m.state.mission.clone())
-        .unwrap_or_default();
+    let (view_tx, view_rx) = watch::channel::<Option<RunState>>(None);
+    let name = mission.as_ref().map(SessionRun::name).unwrap_or_default();
     let shared = Arc::new(Shared {
         log: Mutex::new(LiveLog::default()),
         info: Mutex::new(RunInfo {
@@ -111,14 +191,19 @@ pub async fn run(
         finished: Mutex::new(false),
     });
     let (op_tx, op_rx) = mpsc::unbounded_channel::<Operator>();
+    let (pause_tx, pause_rx) = watch::channel(false);
     let (start_tx, start_rx) = tokio::sync::oneshot::channel::<()>();
-    let has_run = mission.is_some();
+    let kind = mission
+        .as_ref()
+        .map(|m| matches!(m, SessionRun::Mapping(_)));
+    let has_run = kind.is_some();
+    let classification = kind == Some(false);
     let mut start_tx = Some(start_tx);
 
     // The runner.
     let runner = mission.map(|m| {
-        let _ = view_tx.send(Some(Arc::new(m.state.clone())));
-        if m.auto_start
+        let _ = view_tx.send(Some(m.view()));
+        if m.auto_start()
             && let Some(tx) = start_tx.take()
         {
             let _ = tx.send(());
@@ -149,53 +234,88 @@ pub async fn run(
                     }
                 })
             };
-            let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
-            let relay = tokio::spawn(async move {
-                while vrx.changed().await.is_ok() {
-                    let s = vrx.borrow_and_update().clone();
-                    let _ = view_tx.send(Some(s));
+            let (result, relay) = match m {
+                SessionRun::Mapping(m) => {
+                    let hub = images::spawn(&fleet);
+                    let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
+                    let relay = tokio::spawn(async move {
+                        while vrx.changed().await.is_ok() {
+                            let s = vrx.borrow_and_update().clone();
+                            let _ = view_tx.send(Some(RunState::Mapping(s)));
+                        }
+                    });
+                    let path = m.run_dir.path().to_path_buf();
+                    let opts = RunOptions {
+                        operator: Some(op_rx),
+                        progress: Some(ptx),
+                        view: Some(vtx),
+                        ..m.options
+                    };
+                    let r = runway::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
+                    let r = r.map(|outcome| match outcome {
+                        Outcome::Finished => {
+                            if let (Some(f), Ok(rd)) = (m.on_finish, RunDir::open(&path))
+                                && let Ok(Some(state)) = rd.load_state::<MappingState>()
+                            {
+                                f(&rd, &state);
+                            }
+                            None
+                        }
+                        Outcome::WaitingForOperator { sysids } => {
+                            Some(format!("vehicles {sysids:?} wait for the operator"))
+                        }
+                    });
+                    ((r, path), relay)
                 }
-            });
-            let hub = images::spawn(&fleet);
-            let path = m.run_dir.path().to_path_buf();
-            let opts = RunOptions {
-                operator: Some(op_rx),
-                progress: Some(ptx),
-                view: Some(vtx),
-                ..m.options
+                SessionRun::Classification(m) => {
+                    let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
+                    let relay = tokio::spawn(async move {
+                        while vrx.changed().await.is_ok() {
+                            let s = vrx.borrow_and_update().clone();
+                            let _ = view_tx.send(Some(RunState::Classification(s)));
+                        }
+                    });
+                    let path = m.run_dir.path().to_path_buf();
+                    let opts = bandit::RunOptions {
+                        progress: Some(ptx),
+                        view: Some(vtx),
+                        pause: Some(pause_rx),
+                        ..m.options
+                    };
+                    let hub = bandit::image_hub(&fleet);
+                    let r = bandit::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
+                    let r = r.map(|state| {
+                        if let (Some(f), Ok(rd)) = (m.on_finish, RunDir::open(&path)) {
+                            f(&rd, &state);
+                        }
+                        None
+                    });
+                    ((r, path), relay)
+                }
             };
-            let result = runway::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
+            let (result, path) = result;
             let now = fleet.clock().now();
             match result {
-                Ok(Outcome::Finished) => {
+                Ok(None) => {
                     if let Ok(mut f) = shared.finished.lock() {
                         *f = true;
                     }
                     let msg = format!(
-                        "mission finished: every robot landed; results in {}",
+                        "mission finished: every vehicle landed; results in {}",
                         path.display()
                     );
                     if let Ok(mut l) = shared.log.lock() {
                         l.push(now, Severity::Notice, None, msg);
                     }
-                    if let (Some(f), Ok(rd)) = (m.on_finish, RunDir::open(&path))
-                        && let Ok(Some(state)) = rd.load_state::<MappingState>()
-                    {
-                        f(&rd, &state);
-                    }
                 }
-                Ok(Outcome::WaitingForOperator { sysids }) => {
+                Ok(Some(waiting)) => {
                     if let Ok(mut l) = shared.log.lock() {
-                        l.push(
-                            now,
-                            Severity::Warning,
-                            None,
-                            format!("vehicles {sysids:?} wait for the operator"),
-                        );
+                        l.push(now, Severity::Warning, None, waiting);
                     }
                 }
                 Err(e) => {
                     let msg = format!("{e:#}");
+                    tracing::error!("the run stopped: {msg}");
                     if let Ok(mut i) = shared.info.lock() {
                         i.failed = Some(msg.clone());
                     }
@@ -236,7 +356,7 @@ pub async fn run(
                         return;
                     };
                     log.absorb(&snap);
-                    build_model(&snap, view.as_deref().map(|s| (s, &info)), &log)
+                    build_model(&snap, view.as_ref().map(|s| (s.view(), &info)), &log)
                 };
                 if snap_tx.send(model).is_err() {
                     return;
@@ -255,6 +375,8 @@ pub async fn run(
             while let Some(req) = cmd_rx.recv().await {
                 let started = shared.info.lock().map(|i| i.started).unwrap_or(false);
                 let running = has_run && started;
+                // Runway mapping: mission-level commands go through the runner.
+                let mapping = running && !classification;
                 let fleet = fleet.clone();
                 let targets: Vec<u8> = match req.target {
                     Target::Vehicle(v) => vec![v],
@@ -274,14 +396,34 @@ pub async fn run(
                             Err("the mission is already running".into())
                         }
                     }
-                    Command::Hold if running => {
+                    Command::Hold
+                        if running && classification && matches!(req.target, Target::All) =>
+                    {
+                        let _ = pause_tx.send(true);
+                        if let Ok(mut i) = shared.info.lock() {
+                            i.paused = true;
+                        }
+                        Ok(
+                            "paused: no new sortie starts (drones in the air finish theirs \
+                            and land on their stations)"
+                                .into(),
+                        )
+                    }
+                    Command::Resume if running && classification => {
+                        let _ = pause_tx.send(false);
+                        if let Ok(mut i) = shared.info.lock() {
+                            i.paused = false;
+                        }
+                        Ok("mission resumed".into())
+                    }
+                    Command::Hold if mapping => {
                         let _ = op_tx.send(Operator::Pause);
                         if let Ok(mut i) = shared.info.lock() {
                             i.paused = true;
                         }
                         Ok("every vehicle holds (the mission is paused)".into())
                     }
-                    Command::Resume if running => {
+                    Command::Resume if mapping => {
                         let _ = op_tx.send(Operator::Resume);
                         if let Ok(mut i) = shared.info.lock() {
                             i.paused = false;
@@ -289,7 +431,7 @@ pub async fn run(
                         Ok("mission resumed".into())
                     }
                     Command::Resume => Err("no mission is running (START it first)".into()),
-                    Command::Rtl if running => {
+                    Command::Rtl if mapping => {
                         for v in &targets {
                             let _ = op_tx.send(Operator::Recall(*v));
                         }
@@ -297,18 +439,24 @@ pub async fn run(
                             "returning home: {targets:?} (their vertices are kept)"
                         ))
                     }
-                    Command::Land if running => {
+                    Command::Land if mapping => {
                         for v in &targets {
                             let _ = op_tx.send(Operator::Land(*v));
                         }
                         Ok(format!("landing: {targets:?} (their vertices are kept)"))
                     }
                     Command::BatterySwapped => {
-                        if running {
+                        if mapping {
                             for v in &targets {
                                 let _ = op_tx.send(Operator::BatterySwapped(*v));
                             }
                             Ok("the vehicle resumes from its vertex".into())
+                        } else if running {
+                            Err(
+                                "the drones of a spatial-classification run charge on their \
+                                 stations: there is no battery swap to confirm"
+                                    .into(),
+                            )
                         } else {
                             Err("no mission is running".into())
                         }

@@ -156,7 +156,8 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
                 ui: crate::tui::UiConfig::default(),
                 log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
             };
-            let end = crate::app::session::run(d.fleet.clone(), Some(mission), cfg_ui).await?;
+            let end =
+                crate::app::session::run(d.fleet.clone(), Some(mission.into()), cfg_ui).await?;
             d.fleet.shutdown().await;
             let _ = d.sim.stop().await;
             let crate::app::session::SessionEnd::Quit { finished } = end;
@@ -227,9 +228,10 @@ fn print_summary(r: &report::MappingReport) {
 
 /// `fleetmap demo --bandit [--headless]`: the simulator in-process (4 ArduPilot copters and 2
 /// ArduPilot rovers over the hardware field `assets/worlds/hardware-6x6.toml`) and the
-/// hardware mission `missions/hardware-6x6.toml` flown to the end; progress lines, then the
-/// report with the keep set (scored against the world's green tiles). Exit status 0 when
-/// every cell is classified and the keep set is the green tiles.
+/// hardware mission `missions/hardware-6x6.toml` flown to the end — in the terminal UI when
+/// there is a terminal, otherwise (or with `--headless`) progress lines, then the report with
+/// the keep set (scored against the world's green tiles). Headless, the exit status is 0
+/// when every cell is classified and the keep set is the green tiles.
 pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     use crate::app::bandit_sim::{self, SimSetup};
     use crate::app::{bandit, bandit_report};
@@ -261,13 +263,16 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         ..SimSetup::default()
     };
     let json = args.json;
+    let tui = !args.headless && crate::cli::tui::interactive();
     block_on(async move {
         let d = bandit_sim::start_team(bandit_sim::HARDWARE_TEAM, &world, &setup).await?;
-        println!(
-            "demo: simulator with 4 ArduPilot copters and 2 ArduPilot rovers (charging stations) \
-             over the bandit paper's 6x6 field, {}x real time",
-            setup.speedup
-        );
+        if !tui {
+            println!(
+                "demo: simulator with 4 ArduPilot copters and 2 ArduPilot rovers (charging \
+                 stations) over the bandit paper's 6x6 field, {}x real time",
+                setup.speedup
+            );
+        }
         let state = bandit::new_state(&d.fleet, &def, Duration::from_secs(60), None).await?;
         let mut meta = RunMeta::new(bandit::KIND, unix_ms());
         meta.mission_path = Some("built-in hardware-6x6.toml".into());
@@ -284,8 +289,45 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
             &run_dir.path().join("world.toml"),
             bandit_sim::HARDWARE_WORLD.as_bytes(),
         )?;
-        println!("demo: run directory {}", dir.display());
         let opts = bandit::RunOptions::default();
+        if tui {
+            let w = world.clone();
+            let mission = crate::app::session::ClassificationRun {
+                run_dir,
+                state,
+                auto_start: true,
+                options: opts,
+                on_finish: Some(Box::new(move |rd, st| {
+                    if let Err(e) = write_classification_exports(rd, st, Some(&w)) {
+                        tracing::warn!("exports: {e:#}");
+                    }
+                })),
+            };
+            let cfg_ui = crate::app::session::SessionConfig {
+                label: format!(
+                    "DEMO: 4 simulated ArduPilot copters, 2 rovers, {}x real time",
+                    setup.speedup
+                ),
+                ui: crate::tui::UiConfig::default(),
+                log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
+            };
+            let end = crate::app::session::run(d.fleet.clone(), Some(mission.into()), cfg_ui).await;
+            d.fleet.shutdown().await;
+            let _ = d.sim.stop().await;
+            let crate::app::session::SessionEnd::Quit { finished } = end?;
+            println!(
+                "demo {}: run directory {} (`fleetmap report {}`)",
+                if finished {
+                    "finished"
+                } else {
+                    "stopped before the end"
+                },
+                dir.display(),
+                dir.display()
+            );
+            return Ok(ExitCode::SUCCESS);
+        }
+        println!("demo: run directory {}", dir.display());
         let result = drive_classification(&d.fleet, run_dir, state, opts, true).await;
         d.fleet.shutdown().await;
         let _ = d.sim.stop().await;

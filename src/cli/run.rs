@@ -390,7 +390,7 @@ pub async fn fly_mapping(
         log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
     };
     let crate::app::session::SessionEnd::Quit { finished } =
-        crate::app::session::run(fleet.clone(), Some(mission), cfg).await?;
+        crate::app::session::run(fleet.clone(), Some(mission.into()), cfg).await?;
     if finished {
         println!(
             "run finished: `fleetmap report {}` for the results",
@@ -819,11 +819,67 @@ fn run_classification(args: RunArgs, def: MissionDef, text: String) -> anyhow::R
             state.stations.len(),
             state.params.separation
         );
-        let result = drive_classification(&session.fleet, run_dir, state, opts, true).await;
+        let label = format!("LIVE {}", meta_label(&args.conn.connect));
+        let result = fly_classification(
+            &session.fleet,
+            run_dir,
+            state,
+            opts,
+            args.runner.headless,
+            label,
+        )
+        .await;
         session.close().await?;
-        let (state, path) = result?;
-        finish_classification(&state, &path)
+        result
     })?
+}
+
+/// Fly a spatial-classification run headless (progress lines, then the report), or in the
+/// terminal UI when there is a terminal and `headless` is not asked for.
+pub async fn fly_classification(
+    fleet: &crate::fleet::FleetHandle,
+    run_dir: RunDir,
+    state: ClassificationState,
+    opts: bandit::RunOptions,
+    headless: bool,
+    label: String,
+) -> anyhow::Result<ExitCode> {
+    if headless || !crate::cli::tui::interactive() {
+        let (state, path) = drive_classification(fleet, run_dir, state, opts, true).await?;
+        return finish_classification(&state, &path);
+    }
+    let path = run_dir.path().to_path_buf();
+    let world = run_world(&run_dir, None).ok().flatten();
+    let mission = crate::app::session::ClassificationRun {
+        run_dir,
+        state,
+        auto_start: true,
+        options: opts,
+        on_finish: Some(Box::new(move |rd, st| {
+            if let Err(e) = write_classification_exports(rd, st, world.as_ref()) {
+                tracing::warn!("exports: {e:#}");
+            }
+        })),
+    };
+    let cfg = crate::app::session::SessionConfig {
+        label,
+        ui: crate::tui::UiConfig::default(),
+        log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
+    };
+    let crate::app::session::SessionEnd::Quit { finished } =
+        crate::app::session::run(fleet.clone(), Some(mission.into()), cfg).await?;
+    if finished {
+        println!(
+            "run finished: `fleetmap report {}` for the results",
+            path.display()
+        );
+    } else {
+        println!(
+            "the UI was closed before the run finished; its state is saved: `fleetmap resume {}`",
+            path.display()
+        );
+    }
+    Ok(ExitCode::SUCCESS)
 }
 
 fn finish_classification(state: &ClassificationState, path: &Path) -> anyhow::Result<ExitCode> {
@@ -894,10 +950,18 @@ fn resume_classification(args: ResumeArgs, run_dir: RunDir) -> anyhow::Result<Ex
             state.bandit.reject().len(),
             state.bandit.unclassified().len()
         );
-        let result = drive_classification(&session.fleet, run_dir, state, opts, true).await;
+        let label = format!("LIVE {}", meta_label(&conn.connect));
+        let result = fly_classification(
+            &session.fleet,
+            run_dir,
+            state,
+            opts,
+            args.runner.headless,
+            label,
+        )
+        .await;
         session.close().await?;
-        let (state, path) = result?;
-        finish_classification(&state, &path)
+        result
     })?
 }
 

@@ -286,36 +286,50 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
 }
 
 /// `fleetmap tui --connect CONN [--mission FILE | --resume RUN_DIR]`: the UI on live
-/// vehicles, with a runway-mapping run the operator starts.
+/// vehicles, with a run (runway mapping or spatial classification) the operator starts.
 fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
+    use crate::app::bandit;
     use crate::app::runway::{self, RunOptions};
+    use crate::app::session::{ClassificationRun, MappingRun, SessionRun};
     use crate::explore::mapping::MappingState;
     use crate::mission::definition::{MissionDef, MissionKind};
+    use crate::planner::sortie::ClassificationState;
     use crate::store::{RunDir, RunMeta};
     if !interactive() {
         bail!("the terminal UI needs an interactive terminal on stdin and stdout");
+    }
+    /// A run directory opened for the session, with its state.
+    enum Loaded {
+        Mapping(RunDir, MappingState),
+        Classification(RunDir, ClassificationState),
     }
     let mut run = None;
     let mut connect = args.connect.clone();
     if let Some(dir) = &args.resume {
         let rd =
             RunDir::open(dir).with_context(|| format!("cannot open the run {}", dir.display()))?;
-        if rd.meta().kind != runway::KIND {
-            bail!(
-                "{} is a {} run; the UI drives runway-mapping runs",
-                dir.display(),
-                rd.meta().kind
-            );
-        }
-        let st: MappingState = rd
-            .load_state()?
-            .with_context(|| format!("{} has no saved state yet", dir.display()))?;
+        let kind = rd.meta().kind.clone();
         if connect.is_empty() {
             for c in &rd.meta().connections {
                 connect.push(c.parse().map_err(|e| anyhow!("{c}: {e}"))?);
             }
         }
-        run = Some((rd, st));
+        let none = || anyhow!("{} has no saved state yet", dir.display());
+        run = Some(if kind == runway::KIND {
+            let st: MappingState = rd.load_state()?.ok_or_else(none)?;
+            Loaded::Mapping(rd, st)
+        } else if kind == bandit::KIND {
+            let st: ClassificationState = rd.load_state()?.ok_or_else(none)?;
+            if st.is_finished() {
+                bail!("{}: the run is already finished", dir.display());
+            }
+            Loaded::Classification(rd, st)
+        } else {
+            bail!(
+                "{}: a {kind} run cannot be flown from the UI",
+                dir.display()
+            );
+        });
     }
     if connect.is_empty() {
         bail!("give --connect (the run remembers no connection)");
@@ -326,9 +340,12 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
                 .with_context(|| format!("cannot read {}", p.display()))?;
             let def =
                 MissionDef::parse(&text, &p.display().to_string()).map_err(|e| anyhow!("{e}"))?;
-            if def.kind != MissionKind::RunwayMapping {
+            if !matches!(
+                def.kind,
+                MissionKind::RunwayMapping | MissionKind::SpatialClassification
+            ) {
                 bail!(
-                    "{}: the UI drives runway-mapping missions (run spatial classification with `fleetmap run`)",
+                    "{}: this kind of mission cannot be flown from the UI",
                     p.display()
                 );
             }
@@ -360,13 +377,6 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
     crate::cli::vehicles::block_on(async move {
         let session = crate::cli::vehicles::Session::open(&conn).await?;
         if let Some((path, text, def)) = mission {
-            let state = crate::app::new_mapping(
-                &session.fleet,
-                &def,
-                crate::explore::Sharing::Gcs,
-                Duration::from_secs(60),
-            )
-            .await?;
             let dir = run_dir_arg.unwrap_or_else(|| {
                 PathBuf::from("runs").join(format!(
                     "{}-{}",
@@ -377,26 +387,69 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
                         .unwrap_or(0)
                 ))
             });
-            let mut meta = RunMeta::new(runway::KIND, 0);
+            let classification = def.kind == MissionKind::SpatialClassification;
+            let kind = if classification {
+                bandit::KIND
+            } else {
+                runway::KIND
+            };
+            let mut meta = RunMeta::new(kind, 0);
             meta.mission_path = Some(path.display().to_string());
             meta.connections = conn.connect.iter().map(|c| c.to_string()).collect();
-            let rd = RunDir::create(&dir, meta, Some(&text))
-                .with_context(|| format!("cannot create the run directory {}", dir.display()))?;
-            run = Some((rd, state));
+            let wait = Duration::from_secs(60);
+            run = Some(if classification {
+                let state = bandit::new_state(&session.fleet, &def, wait, None).await?;
+                let rd = RunDir::create(&dir, meta, Some(&text)).with_context(|| {
+                    format!("cannot create the run directory {}", dir.display())
+                })?;
+                Loaded::Classification(rd, state)
+            } else {
+                let state = crate::app::new_mapping(
+                    &session.fleet,
+                    &def,
+                    crate::explore::Sharing::Gcs,
+                    wait,
+                )
+                .await?;
+                let rd = RunDir::create(&dir, meta, Some(&text)).with_context(|| {
+                    format!("cannot create the run directory {}", dir.display())
+                })?;
+                Loaded::Mapping(rd, state)
+            });
         }
-        let mission = run.map(|(run_dir, state)| crate::app::session::MappingRun {
-            run_dir,
-            state,
-            auto_start: false,
-            options: RunOptions {
-                auto_resume,
-                ..RunOptions::default()
-            },
-            on_finish: Some(Box::new(|rd, st| {
-                if let Err(e) = crate::cli::run::write_exports(rd, st, None) {
-                    tracing::warn!("exports: {e:#}");
+        let mission: Option<SessionRun> = run.map(|r| match r {
+            Loaded::Mapping(run_dir, state) => MappingRun {
+                run_dir,
+                state,
+                auto_start: false,
+                options: RunOptions {
+                    auto_resume,
+                    ..RunOptions::default()
+                },
+                on_finish: Some(Box::new(|rd, st| {
+                    if let Err(e) = crate::cli::run::write_exports(rd, st, None) {
+                        tracing::warn!("exports: {e:#}");
+                    }
+                })),
+            }
+            .into(),
+            Loaded::Classification(run_dir, state) => {
+                let world = crate::cli::run::run_world(&run_dir, None).ok().flatten();
+                ClassificationRun {
+                    run_dir,
+                    state,
+                    auto_start: false,
+                    options: bandit::RunOptions::default(),
+                    on_finish: Some(Box::new(move |rd, st| {
+                        if let Err(e) =
+                            crate::cli::run::write_classification_exports(rd, st, world.as_ref())
+                        {
+                            tracing::warn!("exports: {e:#}");
+                        }
+                    })),
                 }
-            })),
+                .into()
+            }
         });
         let cfg = crate::app::session::SessionConfig {
             label,

@@ -465,6 +465,10 @@ impl RunDir {
 
 /// Remove `.NAME.tmpPID` files that `atomic_write` leaves when a process dies between
 /// creating its temporary file and renaming it. Failures are ignored (they are harmless).
+/// Remove the temporary files of [`atomic_write`] that a crashed writer left behind. The
+/// temporary name ends with the writer's process id: a file of a process that is still
+/// running (this one, or a GCS flying the run while `fleetmap report` reads it) is being
+/// written now and is left alone — removing it would make that writer's rename fail.
 fn remove_stale_temps(dir: &Path) {
     let Ok(entries) = fs::read_dir(dir) else {
         return;
@@ -472,13 +476,29 @@ fn remove_stale_temps(dir: &Path) {
     for entry in entries.flatten() {
         let name = entry.file_name();
         let Some(name) = name.to_str() else { continue };
-        let ours = [META_FILE, STATE_FILE, MISSION_FILE]
+        let pid = [META_FILE, STATE_FILE, MISSION_FILE]
             .iter()
-            .any(|f| name.starts_with(&format!(".{f}.tmp")));
-        if ours {
+            .find_map(|f| name.strip_prefix(&format!(".{f}.tmp")));
+        if let Some(pid) = pid
+            && !writer_alive(pid)
+        {
             let _ = fs::remove_file(entry.path());
         }
     }
+}
+
+/// Whether the process `pid` (the suffix of a temporary file) may still be writing it:
+/// this process, or any live process where `/proc` tells (elsewhere every writer counts as
+/// alive: a stale temporary file only takes space).
+fn writer_alive(pid: &str) -> bool {
+    let Ok(pid) = pid.parse::<u32>() else {
+        return false;
+    };
+    if pid == std::process::id() {
+        return true;
+    }
+    let proc = Path::new("/proc");
+    !proc.join("self").exists() || proc.join(pid.to_string()).exists()
 }
 
 #[cfg(test)]
@@ -491,6 +511,24 @@ mod tests {
         meta.connections = vec!["udpin:0.0.0.0:14550".into()];
         meta.mission_path = Some("missions/runway-field-test.toml".into());
         RunDir::create(dir.join("run"), meta, Some("name = \"x\"\n")).unwrap()
+    }
+
+    #[test]
+    fn open_removes_only_the_temporaries_of_dead_writers() {
+        let tmp = tempfile::tempdir().unwrap();
+        let run = new_run(tmp.path());
+        let dir = run.path().to_path_buf();
+        // A writer that is running now (this process) and one that died (no such pid).
+        let live = dir.join(format!(".{STATE_FILE}.tmp{}", std::process::id()));
+        let dead = dir.join(format!(".{STATE_FILE}.tmp{}", u32::MAX));
+        let legacy = dir.join(format!(".{META_FILE}.tmp"));
+        for f in [&live, &dead, &legacy] {
+            fs::write(f, b"{").unwrap();
+        }
+        RunDir::open(&dir).unwrap();
+        assert!(live.exists(), "a live writer's temporary file was removed");
+        assert!(!dead.exists());
+        assert!(!legacy.exists());
     }
 
     #[test]

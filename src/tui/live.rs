@@ -15,6 +15,8 @@ use crate::explore::VertexState;
 use crate::explore::mapping::{self, MappingState, RobotStatus};
 use crate::fleet::{FleetSnapshot, VehicleSnapshot};
 use crate::geo::{Cell, Grid, LatLon};
+use crate::planner::bandit::Label;
+use crate::planner::sortie::{ClassificationState, CyclePhase};
 use crate::proto::flavour::{self, VehicleClass};
 use crate::time::Time;
 use crate::vision::votes::CellState as VoteState;
@@ -347,17 +349,223 @@ pub fn runway_mission(state: &MappingState, info: &RunInfo) -> MissionModel {
     }
 }
 
+/// The map of a spatial-classification run: G with O (obstacles), R (roads, while
+/// unclassified) and the labels of (4); the drones' paths of the sortie in flight as tracks;
+/// the first station's start cell as home.
+pub fn classification_map(state: &ClassificationState) -> MapModel {
+    let l = &state.layout;
+    let mut m = MapModel::new(
+        MapKind::Classification,
+        state.grid.cell_size(),
+        Cell::new(0, 0),
+        l.rows.clamp(1, 400),
+        l.cols.clamp(1, 400),
+    );
+    for r in 0..l.rows as i32 {
+        for c in 0..l.cols as i32 {
+            m.set(Cell::new(r, c), CellState::Unclassified);
+        }
+    }
+    for &c in &l.roads {
+        m.set(c, CellState::Road);
+    }
+    for (&c, label) in state.bandit.cells.iter().zip(&state.bandit.labels) {
+        match label {
+            Label::Keep => m.set(c, CellState::Keep),
+            Label::Reject => m.set(c, CellState::Reject),
+            Label::Unclassified => false,
+        };
+    }
+    for &c in &l.obstacles {
+        m.set(c, CellState::Obstacle);
+    }
+    if let Some(cy) = state.cycle() {
+        m.tracks = cy
+            .drones
+            .iter()
+            .filter(|d| d.flies)
+            .map(|d| Track {
+                sysid: d.sysid,
+                cells: d.path.clone(),
+            })
+            .collect();
+    }
+    m.home = state.config.stations.first().copied();
+    m
+}
+
+/// What a member of a spatial-classification team is doing.
+fn classification_activity(state: &ClassificationState, sysid: u8) -> Option<String> {
+    let cy = state.cycle();
+    if let Some(i) = state.drones.iter().position(|d| d.sysid == sysid) {
+        let leg = cy.and_then(|c| c.drones.iter().find(|d| d.sysid == sysid));
+        return Some(match (cy, leg) {
+            (Some(c), Some(d)) if c.phase == CyclePhase::Started && d.flies && !d.landed => {
+                format!("sortie {}/{}", d.step, d.path.len())
+            }
+            (Some(c), Some(d)) if c.phase == CyclePhase::Started && d.landed => {
+                "on station".to_string()
+            }
+            _ => match state.config.drones.get(i) {
+                Some(cell) => format!("charging {cell}"),
+                None => "charging".to_string(),
+            },
+        });
+    }
+    let i = state.stations.iter().position(|d| d.sysid == sysid)?;
+    let leg = cy.and_then(|c| c.stations.iter().find(|d| d.sysid == sysid));
+    Some(match (cy, leg) {
+        (Some(c), Some(d)) if c.phase == CyclePhase::Started && d.drives && !d.arrived => {
+            format!("driving {}/{}", d.step, d.path.len())
+        }
+        _ => match state.config.stations.get(i) {
+            Some(cell) => format!("station {cell}"),
+            None => "station".to_string(),
+        },
+    })
+}
+
+/// The mission pane of a spatial-classification run.
+pub fn classification_mission(state: &ClassificationState, info: &RunInfo) -> MissionModel {
+    let finished = state.is_finished();
+    let phase = if finished {
+        Phase::Done
+    } else if !info.started {
+        Phase::Idle
+    } else {
+        // Epochs are 0-based in the paper's notation; the pane counts from 1.
+        Phase::Epoch {
+            p: u32::try_from(state.bandit.epoch.saturating_add(1)).unwrap_or(u32::MAX),
+        }
+    };
+    let status = if info.failed.is_some() {
+        RunStatus::Failed
+    } else if finished {
+        RunStatus::Done
+    } else if !info.started {
+        RunStatus::NotStarted
+    } else if info.paused {
+        RunStatus::Paused
+    } else {
+        RunStatus::Running
+    };
+    let keep = state.bandit.keep().len();
+    let reject = state.bandit.reject().len();
+    let mut stats = vec![
+        Stat {
+            label: "keep".into(),
+            value: keep.to_string(),
+        },
+        Stat {
+            label: "reject".into(),
+            value: reject.to_string(),
+        },
+        Stat {
+            label: "measurements".into(),
+            value: format!(
+                "{} ({} ignored, {} lost)",
+                state.measurements, state.ignored_images, state.image_failures
+            ),
+        },
+    ];
+    if let Some(e) = &state.epoch {
+        let cycles = e.plan.as_ref().map_or(0, |p| p.cycles);
+        stats.push(Stat {
+            label: "sortie".into(),
+            value: match &e.cycle {
+                Some(c) => format!("cycle {} of {cycles}", c.k + 1),
+                None => format!("{} of {cycles} flown", e.cycles_flown),
+            },
+        });
+        let goals: Vec<String> = e.goals.iter().map(|c| c.to_string()).collect();
+        stats.push(Stat {
+            label: "goals".into(),
+            value: goals.join(" "),
+        });
+    }
+    if let Some(e) = &info.failed {
+        stats.push(Stat {
+            label: "error".into(),
+            value: e.clone(),
+        });
+    }
+    let planner_s: f64 = state.epochs.iter().map(|e| e.planner_s).sum::<f64>()
+        + state.epoch.as_ref().map_or(0.0, |e| e.planner_s);
+    MissionModel {
+        name: info.name.clone(),
+        kind: MissionKind::SpatialClassification,
+        phase,
+        status,
+        cells_classified: (keep + reject) as u32,
+        cells_total: Some(state.bandit.len() as u32),
+        dfs: None,
+        epochs_done: state.epochs.len() as u32,
+        flight_time_s: state.airborne_s.values().sum(),
+        battery_swaps: 0,
+        planner_time_s: planner_s,
+        stats,
+    }
+}
+
+/// The run a live session shows.
+#[derive(Clone, Copy, Debug)]
+pub enum RunView<'a> {
+    /// Runway mapping (sweep, DFS).
+    Mapping(&'a MappingState),
+    /// Spatial classification (bandit + IP).
+    Classification(&'a ClassificationState),
+}
+
+impl<'a> From<&'a MappingState> for RunView<'a> {
+    fn from(s: &'a MappingState) -> Self {
+        RunView::Mapping(s)
+    }
+}
+
+impl<'a> From<&'a ClassificationState> for RunView<'a> {
+    fn from(s: &'a ClassificationState) -> Self {
+        RunView::Classification(s)
+    }
+}
+
+impl RunView<'_> {
+    fn grid(&self) -> &Grid {
+        match self {
+            RunView::Mapping(s) => &s.grid,
+            RunView::Classification(s) => &s.grid,
+        }
+    }
+
+    /// The run's vehicles in mission order (drones, then stations).
+    fn order(&self) -> Vec<u8> {
+        match self {
+            RunView::Mapping(s) => s.robots.iter().map(|r| r.sysid).collect(),
+            RunView::Classification(s) => s
+                .drones
+                .iter()
+                .chain(&s.stations)
+                .map(|m| m.sysid)
+                .collect(),
+        }
+    }
+
+    fn activity(&self, sysid: u8) -> Option<String> {
+        match self {
+            RunView::Mapping(s) => activity(s, sysid),
+            RunView::Classification(s) => classification_activity(s, sysid),
+        }
+    }
+}
+
 /// The whole UI model: the fleet's vehicles (mission robots first, in mission order), the
 /// mission's map and progress when a run is attached, and the log.
 pub fn build_model(
     fleet: &FleetSnapshot,
-    mission: Option<(&MappingState, &RunInfo)>,
+    mission: Option<(RunView<'_>, &RunInfo)>,
     log: &LiveLog,
 ) -> Model {
-    let grid = mission.map(|(s, _)| &s.grid);
-    let mut order: Vec<u8> = mission
-        .map(|(s, _)| s.robots.iter().map(|r| r.sysid).collect())
-        .unwrap_or_default();
+    let grid = mission.as_ref().map(|(s, _)| s.grid());
+    let mut order: Vec<u8> = mission.as_ref().map(|(s, _)| s.order()).unwrap_or_default();
     for id in fleet.vehicles.keys() {
         if !order.contains(id) {
             order.push(*id);
@@ -372,12 +580,15 @@ pub fn build_model(
             } else {
                 Role::Drone
             };
-            let act = mission.and_then(|(s, _)| activity(s, v.sysid));
+            let act = mission.as_ref().and_then(|(s, _)| s.activity(v.sysid));
             vehicle_row(v, role, grid, act)
         })
         .collect();
     let (map, mission_model) = match mission {
-        Some((s, info)) => (runway_map(s), runway_mission(s, info)),
+        Some((RunView::Mapping(s), info)) => (runway_map(s), runway_mission(s, info)),
+        Some((RunView::Classification(s), info)) => {
+            (classification_map(s), classification_mission(s, info))
+        }
         None => (MapModel::default(), MissionModel::default()),
     };
     Model {
@@ -422,7 +633,7 @@ mod tests {
         };
         let m = build_model(
             &FleetSnapshot::default(),
-            Some((&s, &info)),
+            Some(((&s).into(), &info)),
             &LiveLog::default(),
         );
         assert_eq!(m.mission.status, RunStatus::NotStarted);

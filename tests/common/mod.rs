@@ -1,7 +1,11 @@
 //! Shared by the end-to-end tests that fly the runway mission over a small world.
 
+#[allow(dead_code)] // not every test binary drives a pseudo-terminal
+pub mod pty;
+
 /// A 20 m × 12 m asphalt strip aligned with the grid: five by three 4 m cells whose edges lie
 /// on cell boundaries, with the default homes 12 m south of its centre.
+#[allow(dead_code)] // the pseudo-terminal helpers are shared more widely
 pub const WORLD: &str = r#"
 name = "strip"
 description = "A 20 m x 12 m asphalt strip aligned with the grid (test world)"
