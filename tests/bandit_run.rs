@@ -691,7 +691,10 @@ fn bandit_demo_in_a_pty_pause_resume_done() {
     term.wait_screen("epoch 2", deadline);
     keys.press(b"p");
     term.wait_screen("PAUSED", deadline);
-    // The sortie in the air lands; then nothing flies while paused.
+    // A sortie whose start commands were already on their way when the pause came is
+    // recorded as started within a few seconds; it lands; then nothing flies while paused.
+    term.pump(Duration::from_secs(3));
+    std::thread::sleep(Duration::from_secs(3));
     while saved(&run).is_none_or(|s| sortie_flying(&s)) {
         assert!(Instant::now() < deadline, "{}", term.dump());
         term.pump(Duration::from_millis(300));

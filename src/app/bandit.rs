@@ -364,8 +364,8 @@ fn grid_xy(state: &ClassificationState, lat: f64, lon: f64) -> Option<(f64, f64)
 }
 
 /// Where telemetry puts the team: a vehicle within 0.75 cell of the cell `expected` says is
-/// on that cell; a drone within 2.5 m of a station is on that station's cell; otherwise the
-/// cell its position is in.
+/// on that cell; a drone within 2.5 m of a station is on the nearest such station's cell;
+/// otherwise the cell its position is in.
 fn observed_config(
     state: &ClassificationState,
     snap: &BTreeMap<u8, VehicleSnapshot>,
@@ -398,9 +398,15 @@ fn observed_config(
     let mut drones = Vec::new();
     for (m, &exp) in state.drones.iter().zip(&expected.drones) {
         let xy = pos(m.sysid)?;
+        // The nearest station: two stations on neighbouring cells can stand closer than a
+        // cell apart (a rover stops within its waypoint radius).
         let on = station_xy
             .iter()
-            .position(|&q| (q.0 - xy.0).hypot(q.1 - xy.1) <= 2.5);
+            .map(|&q| (q.0 - xy.0).hypot(q.1 - xy.1))
+            .enumerate()
+            .filter(|&(_, d)| d <= 2.5)
+            .min_by(|a, b| a.1.total_cmp(&b.1))
+            .map(|(a, _)| a);
         drones.push(match on {
             Some(a) => stations[a],
             None if near(xy, exp, 0.75 * s) => exp,
@@ -980,9 +986,19 @@ impl Runner {
         self.say("resumed by the operator".into());
     }
 
+    fn paused(&self) -> bool {
+        self.pause.as_ref().is_some_and(|p| *p.borrow())
+    }
+
     async fn start(&self) -> anyhow::Result<()> {
-        self.wait_unpaused().await;
-        self.wait_for_charge().await?;
+        // A pause that came while the drones charged holds the sortie too.
+        loop {
+            self.wait_unpaused().await;
+            self.wait_for_charge().await?;
+            if !self.paused() {
+                break;
+            }
+        }
         let (p, cycle) = self
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
@@ -2105,6 +2121,67 @@ async fn drive(runner: &Runner, resumed: bool) -> anyhow::Result<()> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A drone on the far pad of a station that stopped short of its cell, nearer to it than
+    /// to the neighbouring station but within 2.5 m of both, is on its own station.
+    #[test]
+    fn a_drone_is_on_the_nearest_station() {
+        use crate::mission::definition::{MissionDef, Origin};
+        let def = MissionDef::parse(super::super::bandit_sim::HARDWARE_MISSION, "h.toml").unwrap();
+        let Origin::Coordinates(o) = def.grid.origin else {
+            panic!("fixed origin");
+        };
+        let grid = crate::geo::Grid::new(LatLon::new(o.lat, o.lon), def.grid.cell_size_m).unwrap();
+        let state = ClassificationState::new(&def, grid, None).unwrap();
+        // Stations 5 and 6 on the road cells (3, 1) and (3, 2), 5 m apart in the plan, but
+        // station 5 stopped 2.2 m east of its cell's centre: 2.8 m from station 6.
+        let expected = TeamConfig {
+            drones: vec![
+                Cell::new(3, 1),
+                Cell::new(3, 1),
+                Cell::new(3, 2),
+                Cell::new(3, 2),
+            ],
+            stations: vec![Cell::new(3, 1), Cell::new(3, 2)],
+        };
+        let beat = crate::proto::heartbeat::Beat {
+            custom_mode: 0,
+            mav_type: 2,
+            autopilot: 3,
+            base_mode: 0,
+            system_status: 3,
+        };
+        let s = state.grid.cell_size();
+        let at = |sysid: u8, east: f64, north: f64| {
+            let mut v = VehicleSnapshot::new(sysid, 1, &beat, 0, crate::time::Time::ZERO);
+            let p = state.grid.from_xy(east, north).unwrap();
+            v.position = Some(crate::fleet::GeoPoint {
+                lat: p.lat,
+                lon: p.lon,
+                alt_amsl: 600.0,
+            });
+            (sysid, v)
+        };
+        let (e5, e6, n) = (1.0 * s + 2.2, 2.0 * s, 3.0 * s);
+        let snap: BTreeMap<u8, VehicleSnapshot> = [
+            at(1, e5 - 0.3, n),
+            at(2, e5 + 0.3, n),
+            // on station 6's west pad, landed 0.2 m off: 2.3 m from station 5 (listed first)
+            at(3, e6 - 0.5, n),
+            at(4, e6 + 0.3, n),
+            at(5, e5, n),
+            at(6, e6, n),
+        ]
+        .into_iter()
+        .collect();
+        assert!(
+            (e6 - 0.5) - e5 <= 2.5,
+            "drone 3 is within 2.5 m of station 5 too"
+        );
+        let c = observed_config(&state, &snap, &expected).unwrap();
+        assert_eq!(c, expected);
+        state.validate_config(&c).unwrap();
+    }
 
     #[test]
     fn pads_are_distinct_and_close_to_the_centre() {

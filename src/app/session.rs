@@ -73,20 +73,20 @@ pub struct ClassificationRun {
 /// The run attached to a session.
 pub enum SessionRun {
     /// Runway mapping.
-    Mapping(MappingRun),
+    Mapping(Box<MappingRun>),
     /// Spatial classification.
-    Classification(ClassificationRun),
+    Classification(Box<ClassificationRun>),
 }
 
 impl From<MappingRun> for SessionRun {
     fn from(m: MappingRun) -> Self {
-        SessionRun::Mapping(m)
+        SessionRun::Mapping(Box::new(m))
     }
 }
 
 impl From<ClassificationRun> for SessionRun {
     fn from(m: ClassificationRun) -> Self {
-        SessionRun::Classification(m)
+        SessionRun::Classification(Box::new(m))
     }
 }
 
@@ -236,6 +236,7 @@ pub async fn run(
             };
             let (result, relay) = match m {
                 SessionRun::Mapping(m) => {
+                    let m = *m;
                     let hub = images::spawn(&fleet);
                     let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
                     let relay = tokio::spawn(async move {
@@ -268,6 +269,7 @@ pub async fn run(
                     ((r, path), relay)
                 }
                 SessionRun::Classification(m) => {
+                    let m = *m;
                     let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
                     let relay = tokio::spawn(async move {
                         while vrx.changed().await.is_ok() {

@@ -300,8 +300,8 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
     }
     /// A run directory opened for the session, with its state.
     enum Loaded {
-        Mapping(RunDir, MappingState),
-        Classification(RunDir, ClassificationState),
+        Mapping(RunDir, Box<MappingState>),
+        Classification(RunDir, Box<ClassificationState>),
     }
     let mut run = None;
     let mut connect = args.connect.clone();
@@ -317,13 +317,13 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
         let none = || anyhow!("{} has no saved state yet", dir.display());
         run = Some(if kind == runway::KIND {
             let st: MappingState = rd.load_state()?.ok_or_else(none)?;
-            Loaded::Mapping(rd, st)
+            Loaded::Mapping(rd, Box::new(st))
         } else if kind == bandit::KIND {
             let st: ClassificationState = rd.load_state()?.ok_or_else(none)?;
             if st.is_finished() {
                 bail!("{}: the run is already finished", dir.display());
             }
-            Loaded::Classification(rd, st)
+            Loaded::Classification(rd, Box::new(st))
         } else {
             bail!(
                 "{}: a {kind} run cannot be flown from the UI",
@@ -402,7 +402,7 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
                 let rd = RunDir::create(&dir, meta, Some(&text)).with_context(|| {
                     format!("cannot create the run directory {}", dir.display())
                 })?;
-                Loaded::Classification(rd, state)
+                Loaded::Classification(rd, Box::new(state))
             } else {
                 let state = crate::app::new_mapping(
                     &session.fleet,
@@ -414,13 +414,13 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
                 let rd = RunDir::create(&dir, meta, Some(&text)).with_context(|| {
                     format!("cannot create the run directory {}", dir.display())
                 })?;
-                Loaded::Mapping(rd, state)
+                Loaded::Mapping(rd, Box::new(state))
             });
         }
         let mission: Option<SessionRun> = run.map(|r| match r {
             Loaded::Mapping(run_dir, state) => MappingRun {
                 run_dir,
-                state,
+                state: *state,
                 auto_start: false,
                 options: RunOptions {
                     auto_resume,
@@ -437,7 +437,7 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
                 let world = crate::cli::run::run_world(&run_dir, None).ok().flatten();
                 ClassificationRun {
                     run_dir,
-                    state,
+                    state: *state,
                     auto_start: false,
                     options: bandit::RunOptions::default(),
                     on_finish: Some(Box::new(move |rd, st| {
