@@ -51,6 +51,7 @@ build: sysdeps
 ## dev-dependency features, e.g. tokio's test-util): a separate `cargo build` first would
 ## compile the crate and everything that depends on tokio a second time.
 #
+## The Python environment is filled while cargo compiles (pip mostly waits on the network).
 ## The longest end-to-end test ($(SLOW_TESTS)) flies simulated missions in real time, mostly
 ## waiting: it runs beside the rest of the suite (its output follows), which takes minutes off
 ## `make test` on 2 cores. The benchmarks are not run here (`make bench`; clippy compiles
@@ -58,9 +59,12 @@ build: sysdeps
 ## cell (a known issue, see the README).
 SLOW_TESTS := bandit_run
 OTHER_TESTS := $(filter-out $(SLOW_TESTS),$(basename $(notdir $(wildcard tests/*.rs))))
-test: sysdeps venv
-	$(CARGO) test --lib --bins --tests --no-fail-fast --no-run
+test: sysdeps
 	@mkdir -p target
+	@$(MAKE) --no-print-directory venv > target/venv.log 2>&1 & venv=$$!; \
+	  $(CARGO) test --lib --bins --tests --no-fail-fast --no-run; built=$$?; \
+	  wait $$venv; v=$$?; cat target/venv.log; \
+	  [ $$built = 0 ] && [ $$v = 0 ]
 	@$(CARGO) test --no-fail-fast $(addprefix --test ,$(SLOW_TESTS)) > target/slow-tests.log 2>&1 & slow=$$!; \
 	  $(CARGO) test --no-fail-fast --lib --bins $(addprefix --test ,$(OTHER_TESTS)); rest=$$?; \
 	  wait $$slow; s=$$?; echo "--- $(SLOW_TESTS):"; cat target/slow-tests.log; \

@@ -1514,7 +1514,7 @@ impl DronePilot {
 
 /// Land drone `sysid` on charger slot `slot` = (index, of how many) of station `station`,
 /// flying at `alt` metres: wait until the station has stopped, hover over its reported
-/// position (slots 0.6 m apart east–west), land, and check that the drone charges — when its
+/// position (its pad of [`pad_offset`]), land, and check that the drone charges — when its
 /// autopilot reports charging at all; a drone that came down off the charger takes off and
 /// lands again (three landings at most). Lost commands are tried again. Returns whether the
 /// drone is known to charge.

@@ -19,10 +19,36 @@ pub fn have_script() -> bool {
         .is_ok()
 }
 
+/// The `script` process; killed when dropped (a failed test leaves no UI running: the
+/// program in the pseudo-terminal gets SIGHUP when `script` goes).
+pub struct PtyChild(pub Child);
+
+impl std::ops::Deref for PtyChild {
+    type Target = Child;
+    fn deref(&self) -> &Child {
+        &self.0
+    }
+}
+
+impl std::ops::DerefMut for PtyChild {
+    fn deref_mut(&mut self) -> &mut Child {
+        &mut self.0
+    }
+}
+
+impl Drop for PtyChild {
+    fn drop(&mut self) {
+        if matches!(self.0.try_wait(), Ok(None)) {
+            let _ = self.0.kill();
+            let _ = self.0.wait();
+        }
+    }
+}
+
 /// `shell` (after `stty cols COLS rows ROWS`) in a pseudo-terminal of `cols` × `rows`: the
 /// child, its stdin (the keyboard) and the screen. `log` is the UI's log file (shown when a
 /// wait fails).
-pub fn spawn(shell: &str, cols: u16, rows: u16, log: &std::path::Path) -> (Child, Keys, Term) {
+pub fn spawn(shell: &str, cols: u16, rows: u16, log: &std::path::Path) -> (PtyChild, Keys, Term) {
     let cmd = format!("stty cols {cols} rows {rows} && exec {shell}");
     let mut child = std::process::Command::new("script")
         .args(["-qfec", &cmd, "/dev/null"])
@@ -51,7 +77,7 @@ pub fn spawn(shell: &str, cols: u16, rows: u16, log: &std::path::Path) -> (Child
         rx,
         log: log.to_path_buf(),
     };
-    (child, Keys(stdin), term)
+    (PtyChild(child), Keys(stdin), term)
 }
 
 /// The keyboard of the pseudo-terminal.
@@ -66,7 +92,11 @@ impl Keys {
 }
 
 /// Wait for the child to exit (pumping the screen), at most `limit`.
-pub fn wait_exit(child: &mut Child, term: &mut Term, limit: Duration) -> std::process::ExitStatus {
+pub fn wait_exit(
+    child: &mut PtyChild,
+    term: &mut Term,
+    limit: Duration,
+) -> std::process::ExitStatus {
     let t0 = Instant::now();
     loop {
         if let Some(s) = child.try_wait().expect("try_wait") {
