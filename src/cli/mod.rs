@@ -125,6 +125,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         {
             tui::ui_log_file()
         }
+        Command::Resume(args)
+            if cli.log_file.is_none() && !args.runner.headless && tui::interactive() =>
+        {
+            tui::ui_log_file()
+        }
         _ => cli.log_file.clone(),
     };
     init_logging(cli.verbose, log_file.as_deref())?;
