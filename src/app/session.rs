@@ -379,6 +379,11 @@ pub async fn run(
                 let running = has_run && started;
                 // Runway mapping: mission-level commands go through the runner.
                 let mapping = running && !classification;
+                let set_paused = |p: bool| {
+                    if let Ok(mut i) = shared.info.lock() {
+                        i.paused = p;
+                    }
+                };
                 let fleet = fleet.clone();
                 let targets: Vec<u8> = match req.target {
                     Target::Vehicle(v) => vec![v],
@@ -402,9 +407,7 @@ pub async fn run(
                         if running && classification && matches!(req.target, Target::All) =>
                     {
                         let _ = pause_tx.send(true);
-                        if let Ok(mut i) = shared.info.lock() {
-                            i.paused = true;
-                        }
+                        set_paused(true);
                         Ok(
                             "paused: no new sortie starts (drones in the air finish theirs \
                             and land on their stations)"
@@ -413,23 +416,17 @@ pub async fn run(
                     }
                     Command::Resume if running && classification => {
                         let _ = pause_tx.send(false);
-                        if let Ok(mut i) = shared.info.lock() {
-                            i.paused = false;
-                        }
+                        set_paused(false);
                         Ok("mission resumed".into())
                     }
                     Command::Hold if mapping => {
                         let _ = op_tx.send(Operator::Pause);
-                        if let Ok(mut i) = shared.info.lock() {
-                            i.paused = true;
-                        }
+                        set_paused(true);
                         Ok("every vehicle holds (the mission is paused)".into())
                     }
                     Command::Resume if mapping => {
                         let _ = op_tx.send(Operator::Resume);
-                        if let Ok(mut i) = shared.info.lock() {
-                            i.paused = false;
-                        }
+                        set_paused(false);
                         Ok("mission resumed".into())
                     }
                     Command::Resume => Err("no mission is running (START it first)".into()),

@@ -148,30 +148,11 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
                     }
                 })),
             };
-            let cfg_ui = crate::app::session::SessionConfig {
-                label: format!(
-                    "DEMO: {} simulated ArduPilot copter(s), {}x real time",
-                    cfg.drones, cfg.speedup
-                ),
-                ui: crate::tui::UiConfig::default(),
-                log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
-            };
-            let end =
-                crate::app::session::run(d.fleet.clone(), Some(mission.into()), cfg_ui).await?;
-            d.fleet.shutdown().await;
-            let _ = d.sim.stop().await;
-            let crate::app::session::SessionEnd::Quit { finished } = end;
-            println!(
-                "demo {}: run directory {} (`fleetmap report {}`)",
-                if finished {
-                    "finished"
-                } else {
-                    "stopped before the end"
-                },
-                dir.display(),
-                dir.display()
+            let label = format!(
+                "DEMO: {} simulated ArduPilot copter(s), {}x real time",
+                cfg.drones, cfg.speedup
             );
-            return Ok(ExitCode::SUCCESS);
+            return demo_in_ui(d.fleet, d.sim, mission.into(), label, &dir).await;
         }
         println!("demo: run directory {}", dir.display());
         let (outcome, path) = drive_mapping(&d.fleet, run_dir, state, opts, true).await?;
@@ -201,6 +182,38 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
             _ => ExitCode::FAILURE,
         })
     })?
+}
+
+/// A demo in the terminal UI: `mission` on the in-process simulator until the operator
+/// quits; then the fleet and the simulator stop (also when the session failed) and the run
+/// directory `dir` is named.
+async fn demo_in_ui(
+    fleet: crate::fleet::FleetHandle,
+    sim: crate::sim::server::SimHandle,
+    mission: crate::app::session::SessionRun,
+    label: String,
+    dir: &std::path::Path,
+) -> anyhow::Result<ExitCode> {
+    let end = crate::app::session::run(
+        fleet.clone(),
+        Some(mission),
+        crate::cli::run::ui_session(label),
+    )
+    .await;
+    fleet.shutdown().await;
+    let _ = sim.stop().await;
+    let crate::app::session::SessionEnd::Quit { finished } = end?;
+    println!(
+        "demo {}: run directory {} (`fleetmap report {}`)",
+        if finished {
+            "finished"
+        } else {
+            "stopped before the end"
+        },
+        dir.display(),
+        dir.display()
+    );
+    Ok(ExitCode::SUCCESS)
 }
 
 fn print_summary(r: &report::MappingReport) {
@@ -303,29 +316,11 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
                     }
                 })),
             };
-            let cfg_ui = crate::app::session::SessionConfig {
-                label: format!(
-                    "DEMO: 4 simulated ArduPilot copters, 2 rovers, {}x real time",
-                    setup.speedup
-                ),
-                ui: crate::tui::UiConfig::default(),
-                log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
-            };
-            let end = crate::app::session::run(d.fleet.clone(), Some(mission.into()), cfg_ui).await;
-            d.fleet.shutdown().await;
-            let _ = d.sim.stop().await;
-            let crate::app::session::SessionEnd::Quit { finished } = end?;
-            println!(
-                "demo {}: run directory {} (`fleetmap report {}`)",
-                if finished {
-                    "finished"
-                } else {
-                    "stopped before the end"
-                },
-                dir.display(),
-                dir.display()
+            let label = format!(
+                "DEMO: 4 simulated ArduPilot copters, 2 rovers, {}x real time",
+                setup.speedup
             );
-            return Ok(ExitCode::SUCCESS);
+            return demo_in_ui(d.fleet, d.sim, mission.into(), label, &dir).await;
         }
         println!("demo: run directory {}", dir.display());
         let result = drive_classification(&d.fleet, run_dir, state, opts, true).await;

@@ -384,13 +384,28 @@ pub async fn fly_mapping(
             }
         })),
     };
-    let cfg = crate::app::session::SessionConfig {
+    fly_in_ui(fleet, mission.into(), &path, label).await
+}
+
+/// The UI settings of a terminal session: default keys and thresholds, the UI log file.
+pub fn ui_session(label: String) -> crate::app::session::SessionConfig {
+    crate::app::session::SessionConfig {
         label,
         ui: crate::tui::UiConfig::default(),
         log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
-    };
+    }
+}
+
+/// Fly `mission` (its run directory at `path`) in the terminal UI until the operator quits;
+/// prints how it ended.
+async fn fly_in_ui(
+    fleet: &crate::fleet::FleetHandle,
+    mission: crate::app::session::SessionRun,
+    path: &Path,
+    label: String,
+) -> anyhow::Result<ExitCode> {
     let crate::app::session::SessionEnd::Quit { finished } =
-        crate::app::session::run(fleet.clone(), Some(mission.into()), cfg).await?;
+        crate::app::session::run(fleet.clone(), Some(mission), ui_session(label)).await?;
     if finished {
         println!(
             "run finished: `fleetmap report {}` for the results",
@@ -861,25 +876,7 @@ pub async fn fly_classification(
             }
         })),
     };
-    let cfg = crate::app::session::SessionConfig {
-        label,
-        ui: crate::tui::UiConfig::default(),
-        log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
-    };
-    let crate::app::session::SessionEnd::Quit { finished } =
-        crate::app::session::run(fleet.clone(), Some(mission.into()), cfg).await?;
-    if finished {
-        println!(
-            "run finished: `fleetmap report {}` for the results",
-            path.display()
-        );
-    } else {
-        println!(
-            "the UI was closed before the run finished; its state is saved: `fleetmap resume {}`",
-            path.display()
-        );
-    }
-    Ok(ExitCode::SUCCESS)
+    fly_in_ui(fleet, mission.into(), &path, label).await
 }
 
 fn finish_classification(state: &ClassificationState, path: &Path) -> anyhow::Result<ExitCode> {
