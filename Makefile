@@ -52,14 +52,12 @@ build: sysdeps
 ## compile the crate and everything that depends on tokio a second time.
 #
 ## The Python environment is filled while cargo compiles (pip mostly waits on the network).
-## The longest end-to-end test ($(SLOW_TESTS)) flies simulated missions in real time, mostly
-## waiting: it runs beside the rest of the suite (its output follows), which takes minutes off
-## `make test` on 2 cores. The benchmarks are not run here (`make bench`; clippy compiles
-## them). $(ALONE_TESTS) runs last, alone: beside another flight its killed run has mapped an
-## edge cell differently from the uninterrupted one (a known issue, see the README).
-SLOW_TESTS := bandit_run
-ALONE_TESTS := runway_kill
-OTHER_TESTS := $(filter-out $(SLOW_TESTS) $(ALONE_TESTS),$(basename $(notdir $(wildcard tests/*.rs))))
+## The longest end-to-end tests ($(SLOW_TESTS)) fly simulated missions in real time, mostly
+## waiting: they run beside the rest of the suite (their output follows), which takes minutes
+## off `make test` on 2 cores. The benchmarks are not run here (`make bench`; clippy compiles
+## them).
+SLOW_TESTS := bandit_run runway_kill
+OTHER_TESTS := $(filter-out $(SLOW_TESTS),$(basename $(notdir $(wildcard tests/*.rs))))
 test: sysdeps
 	@mkdir -p target
 	@$(MAKE) --no-print-directory venv > target/venv.log 2>&1 & venv=$$!; \
@@ -69,8 +67,7 @@ test: sysdeps
 	@$(CARGO) test --no-fail-fast $(addprefix --test ,$(SLOW_TESTS)) > target/slow-tests.log 2>&1 & slow=$$!; \
 	  $(CARGO) test --no-fail-fast --lib --bins $(addprefix --test ,$(OTHER_TESTS)); rest=$$?; \
 	  wait $$slow; s=$$?; echo "--- $(SLOW_TESTS):"; cat target/slow-tests.log; \
-	  $(CARGO) test --no-fail-fast $(addprefix --test ,$(ALONE_TESTS)); alone=$$?; \
-	  [ $$rest = 0 ] && [ $$s = 0 ] && [ $$alone = 0 ]
+	  [ $$rest = 0 ] && [ $$s = 0 ]
 	FLEETMAP_BIN=$(abspath $(BIN)) $(PY) -m pytest -q tests/py
 
 ## The main job on the embedded simulator (the TUI on a terminal, headless otherwise).

@@ -4,13 +4,16 @@
 //! state, and `fleetmap resume` carries on. The run completes, and its map equals that of an
 //! uninterrupted run of the same mission with the same simulator seed.
 //!
-//! The world is a small strip (20 m × 12 m, five by three 4 m cells, edges on cell
-//! boundaries) so the map does not depend on which images happened to be taken when: the
-//! test is about losing nothing, not about the classifier's edge cases, and it keeps CI
+//! The world is a small strip (five by three 4 m cells and a 0.25 m margin, see
+//! [`common::WORLD`]) on a grid anchored at its centre, so that no cell's label depends on
+//! which images happened to be taken when (checked below against the world's ground truth):
+//! the test is about losing nothing, not about the classifier's edge cases, and it keeps CI
 //! short.
 
+use fleetmap::app::report::truth_coverage;
 use fleetmap::app::runway::MappingEvent;
 use fleetmap::explore::mapping::MappingState;
+use fleetmap::sim::world::World;
 use fleetmap::store::RunDir;
 use rand::{RngExt, SeedableRng};
 use std::collections::BTreeSet;
@@ -19,7 +22,7 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
-use common::WORLD;
+use common::{STRIP_CENTRE, WORLD};
 
 fn bin() -> String {
     std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())
@@ -145,22 +148,49 @@ fn detections(s: &MappingState) -> BTreeSet<String> {
 
 #[test]
 fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
-    let tmp = tempfile::tempdir().unwrap();
-    let world = tmp.path().join("strip.toml");
+    // FLEETMAP_KEEP_RUN=1 keeps both runs and their logs (the directory is printed).
+    let (_guard, root) = {
+        let tmp = tempfile::tempdir().unwrap();
+        if std::env::var_os("FLEETMAP_KEEP_RUN").is_some() {
+            let kept = tmp.keep();
+            eprintln!("runs kept in {}", kept.display());
+            (None, kept)
+        } else {
+            let root = tmp.path().to_path_buf();
+            (Some(tmp), root)
+        }
+    };
+    let world = root.join("strip.toml");
     std::fs::write(&world, WORLD).unwrap();
-    let mission = concat!(
+    // The field-test mission on a grid anchored at the strip's centre (not at the home the
+    // simulated GPS reports).
+    let field_test = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/missions/runway-field-test.toml"
+    ))
+    .unwrap();
+    let (lat, lon) = STRIP_CENTRE;
+    let fixed = field_test.replacen(
+        "\norigin = \"vehicle\"",
+        &format!("\norigin = {{ lat = {lat}, lon = {lon} }}"),
+        1,
     );
+    assert_ne!(
+        fixed, field_test,
+        "the field-test mission's origin line moved"
+    );
+    let mission_path = root.join("strip-mission.toml");
+    std::fs::write(&mission_path, fixed).unwrap();
+    let mission = mission_path.to_str().unwrap();
     let w = world.to_str().unwrap().to_string();
 
     // 1. The uninterrupted reference run.
-    let reference: PathBuf = tmp.path().join("reference");
+    let reference: PathBuf = root.join("reference");
     {
         let port = free_udp_port();
         let _sim = start_sim(&world, port);
         let conn = format!("udpout:127.0.0.1:{port}");
-        let log = tmp.path().join("reference.log");
+        let log = root.join("reference.log");
         let d = reference.to_str().unwrap().to_string();
         let mut g = gcs(&run_args(mission, &conn, &d, &w), &log);
         let code = wait_exit(&mut g, Duration::from_secs(300), &log);
@@ -169,15 +199,34 @@ fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
     let ref_state = saved(&reference).unwrap();
     assert!(ref_state.is_finished());
     let ref_map = ref_state.book.positive_cells();
-    assert!(!ref_map.is_empty());
+    // The premise: every cell the strip touches is wholly runway or barely touched, and the
+    // uninterrupted run maps exactly the whole ones.
+    let truth = truth_coverage(&ref_state.grid, &World::from_toml(WORLD).unwrap(), 0.0).unwrap();
+    for (cell, f) in &truth {
+        assert!(
+            *f > 0.99 || *f < 0.1,
+            "cell {cell} is {:.0} % runway: the strip is not aligned with the grid",
+            f * 100.0
+        );
+    }
+    let whole: Vec<_> = truth
+        .iter()
+        .filter(|(_, f)| **f > 0.5)
+        .map(|(c, _)| *c)
+        .collect();
+    assert_eq!(whole.len(), 15);
+    assert_eq!(
+        ref_map, whole,
+        "the uninterrupted run's map is not the strip"
+    );
 
     // 2. The same run, killed 20 times.
     let port = free_udp_port();
     let _sim = start_sim(&world, port);
     let conn = format!("udpout:127.0.0.1:{port}");
-    let run = tmp.path().join("killed");
+    let run = root.join("killed");
     let d = run.to_str().unwrap().to_string();
-    let log = tmp.path().join("killed.log");
+    let log = root.join("killed.log");
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2024);
     let mut child = gcs(&run_args(mission, &conn, &d, &w), &log);
     // The run exists once its first state is saved; the kills start from there.

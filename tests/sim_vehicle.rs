@@ -1207,3 +1207,72 @@ fn guided_yaw_by_condition_yaw_or_reposition() {
         assert!(d < 1.5, "{flavour}: {d} m from its target");
     }
 }
+
+/// A copter hovering in calm air holds itself level: its position estimate drifts with the
+/// GPS error, but smoothly, so the attitude (and a nadir camera's footprint) stays steady.
+/// At 12 m, 1° of tilt moves the footprint by 0.21 m.
+#[test]
+fn a_copter_hovering_in_calm_air_stays_level() {
+    for flavour in [Flavour::ARDU_COPTER, Flavour::PX4_COPTER] {
+        let mut g = Gcs::new(&format!("1x{flavour}"), 11);
+        g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+            .unwrap();
+        g.send(MavMessage::REQUEST_DATA_STREAM(
+            mav::REQUEST_DATA_STREAM_DATA {
+                req_message_rate: 10,
+                target_system: 1,
+                target_component: 1,
+                req_stream_id: mav::MavDataStream::MAV_DATA_STREAM_ALL,
+                start_stop: 1,
+            },
+        ));
+        let amsl = g.sim.vehicle(1).unwrap().home().unwrap().2 as f32 + 12.0;
+        if flavour.is_ardupilot() {
+            assert_eq!(
+                g.set_mode(flavour, Mode::Guided),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 12.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+        } else {
+            assert_eq!(
+                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+            assert_eq!(
+                g.command(22, [0.0, 0.0, 0.0, f32::NAN, f32::NAN, f32::NAN, amsl]),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+        }
+        g.wait(
+            30.0,
+            |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(p) if p.relative_alt > 11_500),
+        )
+        .unwrap_or_else(|| panic!("{flavour}: not airborne: {:?}", g.texts()));
+        // Settle, then watch the attitude for two minutes of hovering.
+        g.wait(15.0, |_| false);
+        let (mut samples, mut worst) = (0u32, 0.0f64);
+        g.wait(120.0, |m| {
+            if let MavMessage::ATTITUDE(a) = m {
+                samples += 1;
+                let tilt = f64::from(a.roll)
+                    .abs()
+                    .max(f64::from(a.pitch).abs())
+                    .to_degrees();
+                worst = worst.max(tilt);
+            }
+            false
+        });
+        assert!(samples > 100, "{flavour}: {samples} ATTITUDE messages");
+        assert!(
+            worst < 1.0,
+            "{flavour}: tilted by {worst:.2}° while hovering in calm air"
+        );
+    }
+}

@@ -3,19 +3,28 @@
 #[allow(dead_code)] // not every test binary drives a pseudo-terminal
 pub mod pty;
 
-/// A 20 m × 12 m asphalt strip aligned with the grid: five by three 4 m cells whose edges lie
-/// on cell boundaries, with the default homes 12 m south of its centre.
+/// An asphalt strip of five by three 4 m cells (20 m × 12 m) and a 0.25 m margin on every side
+/// (20.5 m × 12.5 m), with the default homes 12 m south of its centre.
+///
+/// On a grid whose origin is the strip's centre ([`STRIP_CENTRE`]) every cell is either
+/// wholly runway or at most 6.25 % runway, so no cell's label depends on where exactly an
+/// image was taken: the margin is wider than the classifier's 7 dilations eat into the runway
+/// (7 px at 40 px/m = 0.18 m for the 480 px camera at 12 m), and an image's footprint would
+/// have to move about 2 m (1.2 m along both axes for a corner cell) to carry a cell across
+/// the 0.5 black fraction, against a simulated GPS error of σ ≈ 0.4 m. With
+/// `origin = "vehicle"` the grid starts instead at the home the simulated GPS reports, about
+/// a metre off, and the strip's edge cells are only partly runway.
 #[allow(dead_code)] // the pseudo-terminal helpers are shared more widely
 pub const WORLD: &str = r#"
 name = "strip"
-description = "A 20 m x 12 m asphalt strip aligned with the grid (test world)"
+description = "A 20.5 m x 12.5 m asphalt strip: 5 x 3 grid cells and a 0.25 m margin (test world)"
 background = "grass"
 ground_alt_amsl_m = 600.0
 
 [[region]]
 name = "strip"
 surface = "asphalt"
-rectangle = { center = [37.196800, -80.578100], length_m = 20.0, width_m = 12.0, heading_deg = 90.0 }
+rectangle = { center = [37.196800, -80.578100], length_m = 20.5, width_m = 12.5, heading_deg = 90.0 }
 markings = false
 
 [homes]
@@ -25,3 +34,8 @@ first_east_m = 0.0
 step_north_m = 0.0
 step_east_m = 3.0
 "#;
+
+/// The strip's centre in [`WORLD`] (latitude, longitude, degrees): the grid origin that puts
+/// its edges 0.25 m outside cell boundaries.
+#[allow(dead_code)] // not every test binary maps the strip on a fixed grid
+pub const STRIP_CENTRE: (f64, f64) = (37.196800, -80.578100);
