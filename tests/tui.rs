@@ -16,6 +16,9 @@ use ratatui::style::{Color, Modifier};
 use std::time::Duration;
 use tokio::sync::{mpsc, watch};
 
+mod common;
+use common::pty;
+
 // ---------------------------------------------------------------- helpers
 
 fn app_with(model: Model, w: u16, h: u16) -> App {
@@ -1027,80 +1030,31 @@ fn bench_tui_reports_frames_per_second() {
 /// screen, shows the help, quits on `q` `y`, and leaves the terminal as it found it.
 #[test]
 fn the_binary_runs_in_a_pty_and_restores_the_terminal() {
-    use std::io::{Read, Write};
-    use std::process::Stdio;
-    if std::process::Command::new("script")
-        .arg("--version")
-        .output()
-        .is_err()
-    {
+    use std::time::Instant;
+    if !pty::have_script() {
         eprintln!("skipped: util-linux `script` is not installed");
         return;
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let log = dir.path().join("tui.log");
-    // The pty starts at 0x0: give it a size first (crossterm asks the pty, not $COLUMNS).
-    let cmd = format!(
-        "stty cols 100 rows 30 && exec {} --log-file {} tui --speed 20",
+    let shell = format!(
+        "{} --log-file {} tui --speed 20",
         bin_path().display(),
         log.display()
     );
-    let mut child = std::process::Command::new("script")
-        .args(["-qfec", &cmd, "/dev/null"])
-        .env("TERM", "xterm-256color")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("script runs");
-    let mut stdin = child.stdin.take().expect("stdin");
-    let mut stdout = child.stdout.take().expect("stdout");
-    let (tx, rx) = std::sync::mpsc::channel::<Vec<u8>>();
-    std::thread::spawn(move || {
-        let mut buf = [0u8; 4096];
-        while let Ok(n) = stdout.read(&mut buf) {
-            if n == 0 || tx.send(buf[..n].to_vec()).is_err() {
-                break;
-            }
-        }
-    });
-    let mut seen = Vec::new();
-    let wait_for = |needle: &str, seen: &mut Vec<u8>| {
-        let deadline = std::time::Instant::now() + Duration::from_secs(60);
-        while !String::from_utf8_lossy(seen).contains(needle) {
-            let left = deadline.saturating_duration_since(std::time::Instant::now());
-            match rx.recv_timeout(left) {
-                Ok(chunk) => seen.extend(chunk),
-                Err(_) => {
-                    let all = String::from_utf8_lossy(seen);
-                    let tail: String = all
-                        .chars()
-                        .rev()
-                        .take(1500)
-                        .collect::<Vec<_>>()
-                        .into_iter()
-                        .rev()
-                        .collect();
-                    panic!("timed out waiting for {needle:?}; output ends with {tail:?}")
-                }
-            }
-        }
-    };
-    wait_for("\x1b[?1049h", &mut seen); // entered the alternate screen
-    wait_for("SAMPLE", &mut seen); // drew the first frame
-    stdin.write_all(b"?").expect("write");
-    stdin.flush().expect("flush");
-    wait_for("every key", &mut seen);
+    let (mut child, mut keys, mut term) = pty::spawn(&shell, 100, 30, &log);
+    let step = || Instant::now() + Duration::from_secs(60);
+    term.wait_raw(b"\x1b[?1049h", step()); // entered the alternate screen
+    term.wait_screen("SAMPLE", step()); // drew the first frame
+    keys.press(b"?");
+    term.wait_screen("every key", step());
     // `?` closes the help (Esc would work too, but a following key could make it Alt-q).
-    stdin.write_all(b"?q").expect("write");
-    stdin.flush().expect("flush");
-    wait_for("QUIT fleetmap?", &mut seen);
-    stdin.write_all(b"y").expect("write");
-    stdin.flush().expect("flush");
-    wait_for("\x1b[?1049l", &mut seen); // left the alternate screen
-    let status = child.wait().expect("exits");
+    keys.press(b"?q");
+    term.wait_screen("QUIT fleetmap?", step());
+    keys.press(b"y");
+    let status = pty::wait_exit(&mut child, &mut term, Duration::from_secs(60));
     assert!(status.success(), "exit status {status:?}");
-    let all = String::from_utf8_lossy(&seen);
+    let all = String::from_utf8_lossy(&term.raw);
     let left = all.rfind("\x1b[?1049l").expect("left alt screen");
     let shown = all.rfind("\x1b[?25h").expect("cursor shown");
     assert!(

@@ -150,6 +150,19 @@ impl Term {
         }
     }
 
+    /// Wait until `needle` has arrived in the raw stream (an escape sequence, say).
+    pub fn wait_raw(&mut self, needle: &[u8], deadline: Instant) {
+        while !self.raw.windows(needle.len()).any(|w| w == needle) {
+            assert!(
+                Instant::now() < deadline,
+                "timed out waiting for {:?}; {}",
+                String::from_utf8_lossy(needle),
+                self.dump()
+            );
+            self.pump(Duration::from_millis(200));
+        }
+    }
+
     /// The screen and the UI log, for a failure message.
     pub fn dump(&self) -> String {
         format!(
