@@ -307,7 +307,9 @@ pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
                         }
                     }
                     Err(broadcast::error::RecvError::Lagged(n)) => {
-                        let _ = ftx.send(format!("image intake fell behind: {n} frames skipped"));
+                        let f = format!("image intake fell behind: {n} frames skipped");
+                        tracing::warn!("{f}");
+                        let _ = ftx.send(f);
                     }
                     Err(broadcast::error::RecvError::Closed) => return,
                 },

@@ -206,6 +206,7 @@ async fn open(
                         .await
                         .map_err(io_err(ep.to_string()))?,
                 );
+                crate::link::transport::enlarge_recv_buffer(&sock);
                 let local = sock.local_addr().map_err(io_err(ep.to_string()))?;
                 let peer = Arc::new(Mutex::new(peer));
                 let fixed = matches!(ep, Endpoint::UdpOut(_));
