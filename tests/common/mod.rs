@@ -7,8 +7,9 @@ pub mod pty;
 /// (20.5 m × 12.5 m), with the default homes 12 m south of its centre.
 ///
 /// On a grid whose origin is the strip's centre ([`STRIP_CENTRE`]) every cell is either
-/// wholly runway or at most 6.25 % runway, so no cell's label depends on where exactly an
-/// image was taken: the margin is wider than the classifier's 7 dilations eat into the runway
+/// wholly runway or at most 7 % runway (the 0.25 m margin, plus a little from the 0.25° between
+/// grid north and true north there), so no cell's label depends on where exactly an image was
+/// taken: the margin is wider than the classifier's 7 dilations eat into the runway
 /// (7 px at 40 px/m = 0.18 m for the 480 px camera at 12 m), and an image's footprint would
 /// have to move about 2 m (1.2 m along both axes for a corner cell) to carry a cell across
 /// the 0.5 black fraction, against a simulated GPS error of σ ≈ 0.4 m. With
