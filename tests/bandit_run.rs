@@ -34,7 +34,8 @@ use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 mod common;
-use common::pty;
+use common::free_udp_port;
+use common::pty::{self, bin};
 
 fn setup(speedup: f64) -> SimSetup {
     SimSetup {
@@ -337,18 +338,6 @@ async fn lock_step_flight_holds_drones_in_step_and_classifies() {
 }
 
 // ---------------------------------------------------------------------- SIGKILL + resume
-
-fn bin() -> String {
-    std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())
-}
-
-fn free_udp_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
 
 struct Proc(Child);
 

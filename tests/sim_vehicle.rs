@@ -239,6 +239,31 @@ impl Gcs {
         out
     }
 
+    /// Arm and take off to `alt_m` above home in guided flight: ArduPilot in GUIDED with a
+    /// relative takeoff altitude, PX4 with an AMSL one. Both commands must be accepted.
+    fn arm_and_take_off(&mut self, flavour: Flavour, alt_m: f32) {
+        if flavour.is_ardupilot() {
+            assert_eq!(
+                self.set_mode(flavour, Mode::Guided),
+                mav::MavResult::MAV_RESULT_ACCEPTED
+            );
+        }
+        assert_eq!(
+            self.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        );
+        let takeoff = if flavour.is_ardupilot() {
+            [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, alt_m]
+        } else {
+            let amsl = self.sim.vehicle(self.sysid).unwrap().home().unwrap().2 as f32 + alt_m;
+            [0.0, 0.0, 0.0, f32::NAN, f32::NAN, f32::NAN, amsl]
+        };
+        assert_eq!(
+            self.command(22, takeoff),
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        );
+    }
+
     fn texts(&self) -> Vec<String> {
         self.log
             .iter()
@@ -498,30 +523,7 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
             },
         ));
         // hover 20 m east of home
-        if flavour.is_ardupilot() {
-            assert_eq!(
-                g.set_mode(flavour, Mode::Guided),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-            assert_eq!(
-                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-            assert_eq!(
-                g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-        } else {
-            assert_eq!(
-                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-            let amsl = g.sim.vehicle(1).unwrap().home().unwrap().2 as f32 + 10.0;
-            assert_eq!(
-                g.command(22, [0.0, 0.0, 0.0, f32::NAN, f32::NAN, f32::NAN, amsl]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-        }
+        g.arm_and_take_off(flavour, 10.0);
         g.wait(
             20.0,
             |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(p) if p.relative_alt > 9_000),
@@ -1113,29 +1115,7 @@ fn guided_yaw_by_condition_yaw_or_reposition() {
             },
         ));
         let amsl = g.sim.vehicle(1).unwrap().home().unwrap().2 as f32 + 10.0;
-        if flavour.is_ardupilot() {
-            assert_eq!(
-                g.set_mode(flavour, Mode::Guided),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-            assert_eq!(
-                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-            assert_eq!(
-                g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 10.0]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-        } else {
-            assert_eq!(
-                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-            assert_eq!(
-                g.command(22, [0.0, 0.0, 0.0, f32::NAN, f32::NAN, f32::NAN, amsl]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-        }
+        g.arm_and_take_off(flavour, 10.0);
         g.wait(
             20.0,
             |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(p) if p.relative_alt > 9_000),
@@ -1226,30 +1206,7 @@ fn a_copter_hovering_in_calm_air_stays_level() {
                 start_stop: 1,
             },
         ));
-        let amsl = g.sim.vehicle(1).unwrap().home().unwrap().2 as f32 + 12.0;
-        if flavour.is_ardupilot() {
-            assert_eq!(
-                g.set_mode(flavour, Mode::Guided),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-            assert_eq!(
-                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-            assert_eq!(
-                g.command(22, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 12.0]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-        } else {
-            assert_eq!(
-                g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-            assert_eq!(
-                g.command(22, [0.0, 0.0, 0.0, f32::NAN, f32::NAN, f32::NAN, amsl]),
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            );
-        }
+        g.arm_and_take_off(flavour, 12.0);
         g.wait(
             30.0,
             |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(p) if p.relative_alt > 11_500),

@@ -884,16 +884,9 @@ fn the_panic_hook_restores_the_real_terminal() {
 
 // ---------------------------------------------------------------- the command
 
-/// The binary under test: `$FLEETMAP_BIN` when set (the convention of the Python tests),
-/// else the one cargo built for this test.
-fn bin_path() -> std::path::PathBuf {
-    std::env::var_os("FLEETMAP_BIN")
-        .map(Into::into)
-        .unwrap_or_else(|| env!("CARGO_BIN_EXE_fleetmap").into())
-}
-
+/// The binary under test ([`pty::bin`]: `$FLEETMAP_BIN` when set, else cargo's).
 fn bin() -> std::process::Command {
-    std::process::Command::new(bin_path())
+    std::process::Command::new(pty::bin())
 }
 
 #[test]
@@ -1037,11 +1030,7 @@ fn the_binary_runs_in_a_pty_and_restores_the_terminal() {
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let log = dir.path().join("tui.log");
-    let shell = format!(
-        "{} --log-file {} tui --speed 20",
-        bin_path().display(),
-        log.display()
-    );
+    let shell = format!("{} --log-file {} tui --speed 20", pty::bin(), log.display());
     let (mut child, mut keys, mut term) = pty::spawn(&shell, 100, 30, &log);
     let step = || Instant::now() + Duration::from_secs(60);
     term.wait_raw(b"\x1b[?1049h", step()); // entered the alternate screen

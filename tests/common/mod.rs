@@ -3,6 +3,16 @@
 #[allow(dead_code)] // not every test binary drives a pseudo-terminal
 pub mod pty;
 
+/// A UDP port on 127.0.0.1 that was free a moment ago (for a `fleetmap sim` to listen on).
+#[allow(dead_code)] // not every test binary starts a simulator process
+pub fn free_udp_port() -> u16 {
+    std::net::UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port()
+}
+
 /// An asphalt strip of five by three 4 m cells (20 m × 12 m) and a 0.25 m margin on every side
 /// (20.5 m × 12.5 m), with the default homes 12 m south of its centre.
 ///

@@ -140,23 +140,23 @@ impl Term {
 
     /// Wait until `needle` is on the screen.
     pub fn wait_screen(&mut self, needle: &str, deadline: Instant) {
-        while !self.text().contains(needle) {
-            assert!(
-                Instant::now() < deadline,
-                "timed out waiting for {needle:?}; {}",
-                self.dump()
-            );
-            self.pump(Duration::from_millis(200));
-        }
+        self.wait_until(needle, deadline, |t| t.text().contains(needle));
     }
 
     /// Wait until `needle` has arrived in the raw stream (an escape sequence, say).
     pub fn wait_raw(&mut self, needle: &[u8], deadline: Instant) {
-        while !self.raw.windows(needle.len()).any(|w| w == needle) {
+        let what = String::from_utf8_lossy(needle).into_owned();
+        self.wait_until(&what, deadline, |t| {
+            t.raw.windows(needle.len()).any(|w| w == needle)
+        });
+    }
+
+    /// Pump the screen until `done`; past `deadline`, fail naming `what`.
+    fn wait_until(&mut self, what: &str, deadline: Instant, done: impl Fn(&Term) -> bool) {
+        while !done(self) {
             assert!(
                 Instant::now() < deadline,
-                "timed out waiting for {:?}; {}",
-                String::from_utf8_lossy(needle),
+                "timed out waiting for {what:?}; {}",
                 self.dump()
             );
             self.pump(Duration::from_millis(200));
