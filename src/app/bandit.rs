@@ -9,10 +9,11 @@
 //! * **Sortie** (one sensing cycle): the cycle's missions ([`crate::planner::sortie::missions`])
 //!   are checked against the no-fly cells, uploaded to every vehicle that moves, read back and
 //!   compared item by item, and checked again as read back — only then, and once every drone
-//!   has the charge the sortie needs, are all vehicles started together: drones take off from
-//!   their station and fly their cells, capturing B images at each unclassified cell; rovers
-//!   drive their road cells at v_c = v_d·T_c/T_d. A vehicle that refuses its mission stops the
-//!   sortie before anything takes off.
+//!   has the charge the sortie needs, are all vehicles started: drones take off from their
+//!   station and fly their cells, capturing B images at each unclassified cell; once they are
+//!   in the air, rovers drive their road cells at v_c = v_d·T_c/T_d (a rover never drives off
+//!   with a drone taking off from it). A vehicle that refuses its mission stops the sortie
+//!   before anything takes off.
 //! * **Following**: one task per drone follows its mission; at the end of its cells it hovers
 //!   until the station it lands on has arrived (a station that falls behind holds its drones at
 //!   the rendezvous, and the next sortie waits for everyone), then lands on the station's
@@ -1039,6 +1040,16 @@ impl Runner {
                 (sysid, r)
             });
         }
+        // The stations drive off only once the drones are in the air: a drone that is still
+        // spinning up on a rover's charger would be carried away from the cell its mission
+        // starts on (and no field team lets a rover drive with a drone taking off from it).
+        let mut failed = Vec::new();
+        while let Some(r) = tasks.join_next().await {
+            let (sysid, r) = r.context("start task")?;
+            if let Err(e) = r {
+                failed.push(format!("vehicle {sysid}: {e:#}"));
+            }
+        }
         for st in cycle.stations.iter().filter(|s| s.drives) {
             let fleet = self.fleet().clone();
             let sysid = st.sysid;
@@ -1068,7 +1079,6 @@ impl Runner {
                 (sysid, r)
             });
         }
-        let mut failed = Vec::new();
         while let Some(r) = tasks.join_next().await {
             let (sysid, r) = r.context("start task")?;
             if let Err(e) = r {

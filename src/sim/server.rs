@@ -347,7 +347,9 @@ where
                 }
             }
         }
-        while sim.poll_event().is_some() {}
+        while let Some((sysid, ev)) = sim.poll_event() {
+            log_event(sysid, &ev);
+        }
         let mut backlog = false;
         for (k, &sysid) in sysids.iter().enumerate() {
             while let Some(d) = sim.recv_bytes(sysid) {
@@ -627,7 +629,9 @@ pub fn spawn_memory(
             let now = start + std::time::Duration::from_micros(clock.now().as_micros());
             sim.advance_to(now);
             while sim.poll_image().is_some() {}
-            while sim.poll_event().is_some() {}
+            while let Some((sysid, ev)) = sim.poll_event() {
+                log_event(sysid, &ev);
+            }
             for (k, &sysid) in sysids.iter().enumerate() {
                 while let Some(d) = sim.recv_bytes(sysid) {
                     if let Some(o) = outs.get(k) {
@@ -663,5 +667,17 @@ pub fn spawn_memory(
     MemorySimHandle {
         stop: Some(stop_tx),
         task,
+    }
+}
+
+/// Log a vehicle event: failsafes and fence breaches as warnings (what a field team must hear
+/// of), the rest (boots, arming, landings) at info.
+fn log_event(sysid: u8, ev: &crate::sim::vehicle::VehicleEvent) {
+    use crate::sim::vehicle::VehicleEvent as E;
+    match ev {
+        E::FenceBreached { .. } | E::BatteryFailsafe(_) => {
+            tracing::warn!("simulated vehicle {sysid}: {ev:?}")
+        }
+        _ => tracing::info!("simulated vehicle {sysid}: {ev:?}"),
     }
 }

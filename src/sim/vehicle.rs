@@ -213,6 +213,16 @@ pub enum VehicleEvent {
     Landed,
     /// A battery failsafe triggered (RTL or LAND).
     BatteryFailsafe(Mode),
+    /// The vehicle breached its geofence (the moment it crossed into a breach).
+    FenceBreached {
+        /// True position, local metres (east, north, up) from the world's reference.
+        truth: (f64, f64, f64),
+        /// The position the autopilot's estimate gave, local metres (east, north): what the
+        /// fence was checked against.
+        estimate: (f64, f64),
+        /// The flight mode at the breach.
+        mode: Mode,
+    },
 }
 
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -1638,6 +1648,11 @@ impl SimVehicle {
         let (e, n) = self.est();
         let breached = self.fence.breached(e, n);
         if breached && !self.fence_breached {
+            self.events.push_back(VehicleEvent::FenceBreached {
+                truth: (self.m.e, self.m.n, self.m.u),
+                estimate: (e, n),
+                mode: self.mode,
+            });
             if self.cfg.flavour.is_ardupilot() {
                 // FENCE_ACTION 1: RTL, or land when RTL is impossible
                 self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Fence Breached");

@@ -8,6 +8,7 @@
 //! ```text
 //! NAV_TAKEOFF alt                              the station's cell (step 0)
 //! DO_CHANGE_SPEED v_d
+//! NAV_WAYPOINT centre(cell_0)                  from the charging pad to the cell's centre
 //! for step j = 1 … T_d − 1:
 //!     NAV_WAYPOINT centre(cell_j)              when the cell changes (a pass flies nothing)
 //!     IMAGE_START_CAPTURE interval, B          at an unclassified candidate cell …
@@ -116,6 +117,14 @@ pub fn drone_mission(grid: &Grid, spec: &DroneMissionSpec<'_>) -> CycleMission {
         MissionItem::takeoff(alt),
         MissionItem::change_speed(spec.speed_m_s as f32),
     ];
+    // Over the centre of the start cell first: the drone took off from a charging pad up to
+    // a rover's stopping distance (ArduRover WP_RADIUS, 2 m) off that centre, and a diagonal
+    // leg from there would pass an obstacle's corner closer than the straight legs between
+    // cell centres that `check_mission` verifies (the geofence breaches of the CI runs).
+    if let Some(&c0) = spec.path.first() {
+        let p = centre(grid, c0);
+        items.push(MissionItem::waypoint(p.lat, p.lon, alt));
+    }
     let n = spec.path.len();
     let mut step_done = vec![None; n];
     let mut step_arrive = vec![None; n];
@@ -448,20 +457,25 @@ mod tests {
                 cmd::NAV_TAKEOFF,
                 cmd::DO_CHANGE_SPEED,
                 cmd::NAV_WAYPOINT,
+                cmd::NAV_WAYPOINT,
                 cmd::IMAGE_START_CAPTURE,
                 cmd::NAV_LOITER_TIME,
                 cmd::NAV_WAYPOINT
             ]
         );
-        assert_eq!(m.items[3].param3, 30.0);
-        assert_eq!(m.items[4].param1, 9.0, "⌈30 · 0.25⌉ + 1");
+        // from the pad to the centre of the start cell before the first leg
+        let c0 = g.cell_center(path[0]);
+        let off = crate::geo::local::distance(c0.lat, c0.lon, m.items[2].lat(), m.items[2].lon());
+        assert!(off < 0.02, "{off} m from the centre of {}", path[0]);
+        assert_eq!(m.items[4].param3, 30.0);
+        assert_eq!(m.items[5].param1, 9.0, "⌈30 · 0.25⌉ + 1");
         // a pass captures nothing (one visit, as in the study's `visits`)
         assert_eq!(m.capture_steps, vec![1]);
-        assert_eq!(m.step_done, vec![None, Some(4), None, Some(5)]);
+        assert_eq!(m.step_done, vec![None, Some(5), None, Some(6)]);
         assert_eq!(steps_done(&m.step_done, &[]), 0);
-        assert_eq!(steps_done(&m.step_done, &[2]), 0);
-        assert_eq!(steps_done(&m.step_done, &[2, 4]), 2);
-        assert_eq!(steps_done(&m.step_done, &[2, 4, 5]), 3);
+        assert_eq!(steps_done(&m.step_done, &[3]), 0);
+        assert_eq!(steps_done(&m.step_done, &[3, 5]), 2);
+        assert_eq!(steps_done(&m.step_done, &[3, 5, 6]), 3);
         let rules = AreaRules {
             rows: 6,
             cols: 6,
@@ -491,13 +505,13 @@ mod tests {
         );
         assert_eq!(
             m.items.len(),
-            6,
+            7,
             "ends on a plain waypoint after the last hover"
         );
-        assert_eq!(m.items[5].command, cmd::NAV_WAYPOINT);
-        assert_eq!(m.step_arrive, vec![None, Some(2), Some(4)]);
-        assert_eq!(m.step_done, vec![None, Some(3), Some(5)]);
-        assert_eq!(m.items[4].param1, 3.0);
+        assert_eq!(m.items[6].command, cmd::NAV_WAYPOINT);
+        assert_eq!(m.step_arrive, vec![None, Some(3), Some(5)]);
+        assert_eq!(m.step_done, vec![None, Some(4), Some(6)]);
+        assert_eq!(m.items[5].param1, 3.0);
     }
 
     #[test]
