@@ -280,15 +280,17 @@ pub async fn face_grid(
     Ok(())
 }
 
-/// Hold position where the vehicle is now (a go-to to its own position: GUIDED / Hold).
+/// Stop and hold where the vehicle is now, in its autopilot's hold mode
+/// ([`crate::proto::flavour::Flavour::pause`]: ArduCopter BRAKE, HOLD otherwise). Nothing to
+/// do for a copter on the ground (ArduCopter disarms a landed copter in BRAKE).
 pub async fn hold_here(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
     let v = fleet
         .vehicle(sysid)
         .ok_or(FleetError::NoVehicle { sysid })?;
-    let (Some(p), Some(alt)) = (v.position, v.alt_rel) else {
+    if v.flavour.flies() && !airborne(&v) {
         return Ok(());
-    };
-    fleet.goto(sysid, p.lat, p.lon, alt).await
+    }
+    fleet.pause(sysid).await
 }
 
 /// Throw away the images already waiting in `rx`.

@@ -1123,6 +1123,14 @@ impl FleetHandle {
         self.run_steps(sysid, steps).await
     }
 
+    /// Stop and hold where the vehicle is now (its autopilot's hold mode,
+    /// [`crate::proto::flavour::Flavour::pause`]).
+    pub async fn pause(&self, sysid: u8) -> Result<(), FleetError> {
+        let v = self.require(sysid)?;
+        let steps = v.flavour.pause().map_err(Self::flavour_err(sysid))?;
+        self.run_steps(sysid, steps).await
+    }
+
     /// Return to launch.
     pub async fn rtl(&self, sysid: u8) -> Result<(), FleetError> {
         let v = self.require(sysid)?;

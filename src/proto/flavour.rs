@@ -398,12 +398,24 @@ impl Flavour {
         self.named("RTL")
     }
 
-    /// The mode that stops and holds position (LOITER for ArduCopter, HOLD otherwise).
+    /// The mode that stops the vehicle where it is and holds there: ArduCopter BRAKE (stops
+    /// at once with the loiter controller, ignores the sticks — QGroundControl's "Pause" for
+    /// ArduCopter, `ArduCopterFirmwarePlugin::pauseVehicle`), ArduRover HOLD, PX4 HOLD
+    /// (AUTO_LOITER, which loiters where it is entered). ArduCopter disarms a copter that is
+    /// landed in BRAKE: pause only vehicles that are in the air.
     pub fn hold_mode(&self) -> Result<Mode, FlavourError> {
         match (self.autopilot, self.class) {
-            (Autopilot::ArduPilot, VehicleClass::Copter) => self.named("LOITER"),
+            (Autopilot::ArduPilot, VehicleClass::Copter) => self.named("BRAKE"),
             _ => self.named("HOLD"),
         }
+    }
+
+    /// How to stop and hold where the vehicle is now ([`Flavour::hold_mode`]). The autopilot
+    /// stops at its own, current position: a go-to to the position the GCS last heard would
+    /// fly a vehicle that has moved on since (a late command, a slow link) back along a chord,
+    /// which can cut a corner through a no-fly cell.
+    pub fn pause(&self) -> Result<Vec<Step>, FlavourError> {
+        Ok(vec![Step::SetMode(self.hold_mode()?)])
     }
 
     /// Whether this vehicle flies (takes off and lands).
