@@ -223,3 +223,73 @@ fn cli_rejects_malformed_scenarios_with_one_line() {
     );
     assert_eq!(err.trim().lines().count(), 1, "{err}");
 }
+
+/// What the spec does not list as malformed — a goal on an obstacle, a drone off the stations'
+/// cells, more drones on a station than its chargers — is a well-formed scenario without a
+/// plan: status "infeasible", exit status 0, in the spec's output keys.
+#[test]
+fn cli_answers_infeasible_for_scenarios_no_plan_can_satisfy() {
+    let dir = tempfile::tempdir().unwrap();
+    let text = std::fs::read_to_string(scenarios().join("hardware-6x6.json")).unwrap();
+    let base: serde_json::Value = serde_json::from_str(&text).unwrap();
+    let obstacle = base["obstacles"][0].clone();
+    let station = base["stations"][0].clone();
+    let edits: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>)> = vec![
+        (
+            "on an obstacle",
+            Box::new(move |v| v["goals"].as_array_mut().unwrap().push(obstacle.clone())),
+        ),
+        (
+            "not on a station",
+            Box::new(|v| {
+                let free = (0..6)
+                    .flat_map(|r| (0..6).map(move |c| serde_json::json!([r, c])))
+                    .find(|c| {
+                        !v["obstacles"].as_array().unwrap().contains(c)
+                            && !v["stations"].as_array().unwrap().contains(c)
+                    })
+                    .unwrap();
+                v["drones"][0] = free;
+            }),
+        ),
+        (
+            "charger capacity is 1",
+            Box::new(move |v| {
+                v["capacity"] = serde_json::json!(1);
+                v["drones"][0] = station.clone();
+                v["drones"][1] = station.clone();
+            }),
+        ),
+    ];
+    for (why, edit) in edits {
+        let mut v = base.clone();
+        edit(&mut v);
+        let file = dir.path().join("never.json");
+        std::fs::write(&file, v.to_string()).unwrap();
+        let out = Command::new(bin())
+            .args(["plan", "--json", "--scenario"])
+            .arg(&file)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{why}: {}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        let o: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+        assert_eq!(o["status"], "infeasible", "{why}: {o}");
+        assert_eq!(o["cycles"], 0, "{why}");
+        assert_eq!(o["drones"], serde_json::json!([]), "{why}");
+        let text = Command::new(bin())
+            .args(["plan", "--scenario"])
+            .arg(&file)
+            .output()
+            .unwrap();
+        let shown = String::from_utf8_lossy(&text.stdout);
+        assert!(text.status.success());
+        assert!(
+            shown.contains("status: infeasible") && shown.contains(why),
+            "{why}: {shown}"
+        );
+    }
+}

@@ -2,7 +2,8 @@
 //! low-level planner (the IP (11), Algorithm 2) for a scenario file (specs/ip-scenario.md).
 
 use crate::planner::check::{CheckOptions, check_plan_with};
-use crate::planner::ip::{Model, PlanOptions, PlanStatus, Scenario, solve_instance};
+use crate::planner::ip::{self, Model, PlanOptions, PlanStatus, Scenario, solve_instance};
+use crate::planner::scenario::ScenarioError;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
 use std::fmt::Write as _;
@@ -49,9 +50,16 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("cannot read scenario {}", args.scenario.display()))?;
     let scenario = Scenario::from_json(&text)
         .with_context(|| format!("scenario {}", args.scenario.display()))?;
-    let inst = scenario
-        .instance()
-        .with_context(|| format!("scenario {}", args.scenario.display()))?;
+    // A well-formed scenario that no plan can satisfy whatever K is the answer "infeasible"
+    // (specs/ip-scenario.md lists what is malformed); only malformed input is an error.
+    let inst = match scenario.instance() {
+        Ok(inst) => Some(inst),
+        Err(ScenarioError::Infeasible(_)) => None,
+        Err(e) => {
+            return Err(anyhow::Error::new(e))
+                .with_context(|| format!("scenario {}", args.scenario.display()));
+        }
+    };
     if let Some(t) = args.time_limit
         && !(t > 0.0 && t.is_finite())
     {
@@ -67,11 +75,14 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         repair: !args.no_repair,
         ..PlanOptions::default()
     };
-    let outcome = solve_instance(&inst, &opts);
-    if let Some(plan) = &outcome.plan {
+    let outcome = match &inst {
+        Some(inst) => solve_instance(inst, &opts),
+        None => ip::solve(&scenario, &opts)?,
+    };
+    if let (Some(inst), Some(plan)) = (&inst, &outcome.plan) {
         // Defence in depth: an independent check of every plan we print.
         check_plan_with(
-            &inst,
+            inst,
             plan,
             CheckOptions {
                 no_head_on_swaps: opts.repair,
@@ -111,15 +122,20 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
                 a.constraints
             )?;
         }
-        if outcome.status == PlanStatus::Infeasible {
+        if outcome.status == PlanStatus::Infeasible && inst.is_some() {
             writeln!(
                 out,
                 "no plan visits every goal within K = {} cycles",
-                inst.k_max
+                scenario.k
             )?;
         }
         if !outcome.message.is_empty() {
-            writeln!(out, "solver: {}", outcome.message)?;
+            let who = if inst.is_some() {
+                "solver"
+            } else {
+                "no plan can exist whatever K"
+            };
+            writeln!(out, "{who}: {}", outcome.message)?;
         }
         if let Some(plan) = &outcome.plan {
             let fmt = |cells: &[crate::geo::Cell]| {

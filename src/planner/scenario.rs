@@ -19,6 +19,13 @@ pub enum ScenarioError {
     /// A vehicle, goal or parameter is malformed.
     #[error("{0}")]
     Invalid(String),
+    /// Well formed, but no plan can satisfy (7)–(10) whatever K: a goal on an obstacle, a
+    /// drone that does not start on a station's cell (9d), more than C drones on one station
+    /// at the start (10). The spec does not count these as malformed, so a scenario file gets
+    /// the status `"infeasible"` for them ([`crate::planner::ip::solve`]); the field runner and
+    /// the study, which never build such a team, treat them as errors.
+    #[error("no plan can exist whatever K: {0}")]
+    Infeasible(String),
 }
 
 /// One epoch's planning problem as in the scenario file: cells are `[row, col]`, 0-based, row 0
@@ -128,6 +135,7 @@ impl Instance {
         capacity: Option<usize>,
     ) -> Result<Instance, ScenarioError> {
         let bad = |m: String| Err(ScenarioError::Invalid(m));
+        let never = |m: String| Err(ScenarioError::Infeasible(m));
         let show = |i: usize| {
             let c = grid.cell(i);
             format!("[{}, {}]", c.row, c.col)
@@ -163,6 +171,10 @@ impl Instance {
                 if i >= grid.len() {
                     return bad(format!("{what}[{n}] is outside the grid"));
                 }
+            }
+        }
+        for (list, what) in [(&drones, "drones"), (&stations, "stations")] {
+            for (n, &i) in list.iter().enumerate() {
                 if grid.is_blocked(i) {
                     return bad(format!("{what}[{n}] at {} is on an obstacle", show(i)));
                 }
@@ -182,10 +194,16 @@ impl Instance {
                 ));
             }
         }
+        if let Some((n, &i)) = goals.iter().enumerate().find(|(_, i)| grid.is_blocked(**i)) {
+            return never(format!(
+                "goals[{n}] at {} is on an obstacle, where no drone may be (7b)",
+                show(i)
+            ));
+        }
         let mut per_cell: BTreeMap<usize, usize> = BTreeMap::new();
         for (i, &d) in drones.iter().enumerate() {
             if !stations.contains(&d) {
-                return bad(format!(
+                return never(format!(
                     "drones[{i}] at {} is not on a station's cell; every sensing cycle starts on a station (eq. 9d)",
                     show(d)
                 ));
@@ -195,7 +213,7 @@ impl Instance {
         if let Some(c) = capacity {
             for (&cell, &n) in &per_cell {
                 if n > c {
-                    return bad(format!(
+                    return never(format!(
                         "{n} drones start on {} but the charger capacity is {c} (eq. 10)",
                         show(cell)
                     ));
@@ -268,15 +286,13 @@ impl Scenario {
         serde_json::to_string_pretty(self).unwrap_or_default()
     }
 
-    /// Validate the scenario: cells inside the grid, vehicles and goals off obstacles, stations
-    /// inside `station_cells` and pairwise distinct, drones on station cells (eq. 9d at the
-    /// first cycle), no more than `capacity` drones per start cell (eq. 10), Td a multiple of
-    /// Tc, Td, Tc ≥ 2, K ≥ 1, capacity ≥ 1.
-    ///
-    /// Drones that do not start on a station, or more than C of them on one station, would make
-    /// every plan infeasible whatever K; these are reported as malformed input (a team
-    /// configuration that Algorithm 1 never produces) rather than as `infeasible`, which is
-    /// kept for "no plan within K cycles".
+    /// Validate the scenario. Malformed, as the spec lists ([`ScenarioError::Invalid`]): a
+    /// cell outside the grid, a vehicle on an obstacle, a station outside `station_cells`, Td
+    /// not a multiple of Tc, and what the key table rules out (stations not pairwise distinct,
+    /// Td or Tc < 2, K < 1, capacity < 1). Well formed but infeasible whatever K
+    /// ([`ScenarioError::Infeasible`], the status `"infeasible"` in `fleetmap plan`): a goal on
+    /// an obstacle, a drone off the stations' cells (9d at the first cycle), more than
+    /// `capacity` drones on one start cell (10).
     pub fn instance(&self) -> Result<Instance, ScenarioError> {
         let grid = Grid::new(
             self.rows,
@@ -354,12 +370,25 @@ mod tests {
     #[test]
     fn malformed_scenarios_are_clear_errors() {
         assert!(err(|s| s.goals.push(Cell::new(3, 0))).contains("goals[2] = [3, 0] is outside"));
-        assert!(err(|s| s.goals.push(Cell::new(1, 1))).contains("on an obstacle"));
+        assert!(
+            err(|s| s.drones.push(Cell::new(1, 1)))
+                .contains("drones[2] at [1, 1] is on an obstacle")
+        );
         assert!(err(|s| s.td = 5).contains("multiple of Tc"));
         assert!(err(|s| s.k = 0).contains("K must be"));
         assert!(err(|s| s.stations[1] = Cell::new(0, 0)).contains("pairwise distinct"));
-        assert!(err(|s| s.drones[1] = Cell::new(0, 1)).contains("not on a station"));
-        assert!(err(|s| s.capacity = Some(1)).contains("capacity is 1"));
+        // Well formed, but no plan can exist: not malformed in the spec's sense.
+        let never = |edit: &dyn Fn(&mut Scenario)| {
+            let mut s = Scenario::from_json(SMALL).unwrap();
+            edit(&mut s);
+            match s.instance() {
+                Err(ScenarioError::Infeasible(m)) => m,
+                other => panic!("expected Infeasible, got {other:?}"),
+            }
+        };
+        assert!(never(&|s| s.goals.push(Cell::new(1, 1))).contains("on an obstacle"));
+        assert!(never(&|s| s.drones[1] = Cell::new(0, 1)).contains("not on a station"));
+        assert!(never(&|s| s.capacity = Some(1)).contains("capacity is 1"));
         assert!(
             err(|s| s.station_cells = Some(vec![Cell::new(0, 0)]))
                 .contains("outside station_cells")

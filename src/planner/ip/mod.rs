@@ -156,7 +156,8 @@ pub struct PlanOutcome {
     pub constraints: usize,
     /// Every model tried, in order.
     pub attempts: Vec<Attempt>,
-    /// The solver's message for `Error`, empty otherwise.
+    /// The solver's message for `Error`, why no plan can exist for a scenario that is
+    /// infeasible whatever K ([`PlanOutcome::never`]), empty otherwise.
     pub message: String,
 }
 
@@ -180,6 +181,19 @@ pub struct PlanOutput {
 }
 
 impl PlanOutcome {
+    /// The outcome of a scenario that no plan can satisfy whatever K (no model was solved).
+    pub fn never(reason: String) -> PlanOutcome {
+        PlanOutcome {
+            status: PlanStatus::Infeasible,
+            plan: None,
+            solve_seconds: 0.0,
+            variables: 0,
+            constraints: 0,
+            attempts: Vec::new(),
+            message: reason,
+        }
+    }
+
     /// The spec's output object.
     pub fn output(&self) -> PlanOutput {
         let conv = |v: &Vec<Vec<Vec<Cell>>>| -> Vec<Vec<Vec<[i32; 2]>>> {
@@ -331,10 +345,15 @@ pub(crate) fn classify<S: good_lp::Solution>(
     }
 }
 
-/// Solve one epoch given as a scenario: validate it, then [`solve_instance`].
+/// Solve one epoch given as a scenario: validate it, then [`solve_instance`]. A well-formed
+/// scenario that no plan can satisfy whatever K ([`ScenarioError::Infeasible`]) is the outcome
+/// `Infeasible`, with the reason as its message, as the spec wants; malformed input is an error.
 pub fn solve(scenario: &Scenario, opts: &PlanOptions) -> Result<PlanOutcome, ScenarioError> {
-    let inst = scenario.instance()?;
-    Ok(solve_instance(&inst, opts))
+    match scenario.instance() {
+        Ok(inst) => Ok(solve_instance(&inst, opts)),
+        Err(ScenarioError::Infeasible(reason)) => Ok(PlanOutcome::never(reason)),
+        Err(e) => Err(e),
+    }
 }
 
 /// Solve one epoch: the fewest sensing cycles (≤ K) in which the team visits every goal, with
