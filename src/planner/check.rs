@@ -1,7 +1,8 @@
 //! An independent checker of plans: written from the problem statement (bandit paper §II and
-//! eq. 7–10 as prose), sharing no code with the models of [`super::ip`] — moves are checked with
-//! cell arithmetic, not with the grid's neighbour lists — so that a bug in a model or in the
-//! re-pairing cannot hide itself.
+//! eq. 7–10 as prose), sharing no code with the models of [`super::ip`] but the instance's grid
+//! (its cell indexing and its obstacle and road flags) — moves are checked with cell arithmetic,
+//! not with the grid's neighbour lists — so that a bug in a model or in the re-pairing cannot
+//! hide itself.
 
 use super::ip::{Instance, Plan};
 use crate::geo::Cell;

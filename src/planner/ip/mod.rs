@@ -357,19 +357,36 @@ pub fn solve(scenario: &Scenario, opts: &PlanOptions) -> Result<PlanOutcome, Sce
 }
 
 /// Solve one epoch: the fewest sensing cycles (≤ K) in which the team visits every goal, with
-/// the paths; infeasibility within K is a normal outcome, not an error.
+/// the paths; infeasibility within K is a normal outcome, not an error. Every plan returned has
+/// passed the independent checker ([`crate::planner::check`]; no head-on swaps when re-paired).
 pub fn solve_instance(inst: &Instance, opts: &PlanOptions) -> PlanOutcome {
     let start = Instant::now();
     let (status, timelines, attempts, message) = match opts.model {
         Model::Plain => plain::solve(inst, opts),
         Model::Fast => fast::solve(inst, opts, start),
     };
-    let plan = timelines.map(|mut t| {
+    let mut plan = timelines.map(|mut t| {
         if opts.repair {
             super::assign::repair(inst, &mut t);
         }
         t.to_plan(inst)
     });
+    // Every plan goes through the independent checker before anyone sees it (the field
+    // runner uploads it to vehicles): one that fails is an error, never a plan.
+    let (mut status, mut message) = (status, message);
+    if let Some(p) = &plan
+        && let Err(e) = super::check::check_plan_with(
+            inst,
+            p,
+            super::check::CheckOptions {
+                no_head_on_swaps: opts.repair,
+            },
+        )
+    {
+        status = PlanStatus::Error;
+        message = format!("internal error: the plan fails the independent checker: {e}");
+        plan = None;
+    }
     let last = attempts.last();
     PlanOutcome {
         status,
