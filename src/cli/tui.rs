@@ -522,7 +522,7 @@ async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
         commands: cmd_tx,
     };
     let options = ShellOptions {
-        tick: Duration::from_millis(250),
+        tick: crate::tui::REFRESH,
         clock,
     };
     let result = crate::tui::run(app, io, options).await;
