@@ -828,7 +828,7 @@ async fn frames_drawn(secs: f64, feed: Option<(Duration, Duration)>) -> usize {
         tokio::time::sleep(phase).await;
         let mut model = sample::runway_fixture();
         loop {
-            model.time = model.time + every;
+            model.time += every;
             snap_tx.send_replace(model.clone());
             tokio::time::sleep(every).await;
         }
