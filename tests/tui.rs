@@ -805,6 +805,78 @@ async fn the_shell_loop_routes_snapshots_keys_commands_and_results() {
     );
 }
 
+/// Frames the shell loop draws in `secs` seconds of virtual time (tokio's paused clock) with
+/// the default tick, while `feed` sends a new model every `every` from `phase` on (never when
+/// `every` is `None`); then `q`, `y` quit (the `q` dialog is one more frame).
+async fn frames_drawn(secs: f64, feed: Option<(Duration, Duration)>) -> usize {
+    let (snap_tx, snap_rx) = watch::channel(sample::runway_fixture());
+    let (cmd_tx, _cmd_rx) = mpsc::channel(8);
+    let (_result_tx, result_rx) = mpsc::channel(8);
+    let (input_tx, input_rx) = mpsc::channel(8);
+    let io = ShellIo {
+        snapshots: snap_rx,
+        job_results: result_rx,
+        commands: cmd_tx,
+    };
+    let options = ShellOptions::default();
+    assert_eq!(options.tick, REFRESH);
+    let app = App::new(UiConfig::default(), "LIVE test");
+    let feeder = tokio::spawn(async move {
+        let Some((every, phase)) = feed else {
+            return snap_tx;
+        };
+        tokio::time::sleep(phase).await;
+        let mut model = sample::runway_fixture();
+        loop {
+            model.time += every;
+            snap_tx.send_replace(model.clone());
+            tokio::time::sleep(every).await;
+        }
+    });
+    let quitter = tokio::spawn(async move {
+        tokio::time::sleep(Duration::from_secs_f64(secs)).await;
+        input_tx.send(key_event('q')).await.expect("ui alive");
+        input_tx.send(key_event('y')).await.expect("ui alive");
+        input_tx
+    });
+    let mut terminal = Terminal::new(TestBackend::new(250, 70)).expect("backend");
+    run_loop(&mut terminal, app, input_rx, io, options)
+        .await
+        .expect("no error");
+    feeder.abort();
+    drop(quitter.await);
+    terminal.get_frame().count()
+}
+
+/// Issue 9: the screen redraws at least 10 times a second. Counted in virtual time, not
+/// timed: with no new data the tick redraws (the stale-data and confirmation countdowns move
+/// on) 10 times a second; with a model every 100 ms (the live session's cadence) each model
+/// is drawn at once and the ticks in between draw nothing more, so the screen does not cost
+/// two frames per period.
+#[tokio::test(start_paused = true)]
+async fn the_shell_redraws_ten_times_a_second_with_or_without_new_data() {
+    // 1 first frame + 100 ticks + the quit dialog
+    let idle = frames_drawn(10.05, None).await;
+    assert_eq!(idle, 102, "frames in 10 s without new data");
+    // 1 first frame + 100 models (at 50, 150, … 9 950 ms; every tick in between skipped) +
+    // the quit dialog
+    let fed = frames_drawn(
+        10.02,
+        Some((Duration::from_millis(100), Duration::from_millis(50))),
+    )
+    .await;
+    assert_eq!(fed, 102, "frames in 10 s with a model every 100 ms");
+    // Models 4 times a second (the old cadence): each model is drawn and takes the place of
+    // the next tick's frame, so still 1 + 100 + 1, whichever of a model and a tick due at the
+    // same instant comes first.
+    let slow = frames_drawn(
+        10.02,
+        Some((Duration::from_millis(250), Duration::from_millis(50))),
+    )
+    .await;
+    assert_eq!(slow, 102, "frames in 10 s with 4 models a second");
+}
+
 #[test]
 fn the_panic_hook_restores_first_and_the_restore_sequence_is_right() {
     use std::sync::Arc;

@@ -3,8 +3,10 @@
 //!
 //! Three tasks around the UI ([`crate::tui::run`]):
 //! * the **model producer** turns fleet snapshots, the run's state (a `watch` from the
-//!   runner) and the log into [`crate::tui::Model`]s four times a second
-//!   ([`crate::tui::live::build_model`]);
+//!   runner) and the log into [`crate::tui::Model`]s ten times a second
+//!   ([`crate::tui::REFRESH`], [`crate::tui::live::build_model`]), and passes on those that
+//!   differ from the previous one; the fleet is asked to publish its snapshots at least as
+//!   often (in wall time), so that each frame shows fresh telemetry;
 //! * the **command executor** carries out the operator's commands — mission-level ones
 //!   through the runner's [`Operator`] channel (pause, resume, recall, land, battery
 //!   swapped), vehicle-level ones through the fleet (arm, disarm, RTL, land, hold) — and
@@ -29,8 +31,8 @@ use crate::planner::sortie::ClassificationState;
 use crate::store::RunDir;
 use crate::tui::live::{LiveLog, RunInfo, RunView, build_model};
 use crate::tui::{
-    App, Command, CommandRequest, JobResult, Model, Severity, ShellIo, ShellOptions, Target,
-    UiConfig,
+    App, Command, CommandRequest, JobResult, Model, REFRESH, Severity, ShellIo, ShellOptions,
+    Target, UiConfig,
 };
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
@@ -173,12 +175,67 @@ struct Shared {
     finished: Mutex<bool>,
 }
 
+/// Every `period` (wall time), a [`Model`] from the fleet's latest snapshot, the run's state
+/// and the log, published on the returned channel when it differs from the previous one
+/// (an unchanged model wakes nobody). Ends when the receiver is dropped.
+fn spawn_model_producer(
+    fleet: FleetHandle,
+    shared: Arc<Shared>,
+    period: Duration,
+) -> (tokio::task::JoinHandle<()>, watch::Receiver<Model>) {
+    let (snap_tx, snap_rx) = watch::channel(Model::default());
+    let task = tokio::spawn(async move {
+        let mut tick = tokio::time::interval(period);
+        tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
+        loop {
+            tick.tick().await;
+            let snap = fleet.snapshot();
+            let view = shared.view.borrow().clone();
+            let info = shared.info.lock().map(|i| i.clone()).unwrap_or_default();
+            let model = {
+                let Ok(mut log) = shared.log.lock() else {
+                    return;
+                };
+                log.absorb(&snap);
+                build_model(&snap, view.as_ref().map(|s| (s.view(), &info)), &log)
+            };
+            if snap_tx.is_closed() {
+                return;
+            }
+            snap_tx.send_if_modified(|m| {
+                if *m == model {
+                    false
+                } else {
+                    *m = model;
+                    true
+                }
+            });
+        }
+    });
+    (task, snap_rx)
+}
+
+/// The fleet snapshot period (on the fleet's clock) that gives the UI a fresh snapshot for
+/// every frame: [`REFRESH`] of wall time, or the fleet's own period when that is shorter.
+fn ui_snapshot_period(fleet: &FleetHandle) -> Duration {
+    let speedup = fleet.clock().speedup();
+    let wall = if speedup.is_finite() && speedup > 0.0 {
+        REFRESH.mul_f64(speedup.min(1e3))
+    } else {
+        REFRESH
+    };
+    wall.min(fleet.config().snapshot_period)
+}
+
 /// Run the UI on `fleet` until the operator quits.
 pub async fn run(
     fleet: FleetHandle,
     mission: Option<SessionRun>,
     cfg: SessionConfig,
 ) -> anyhow::Result<SessionEnd> {
+    if let Err(e) = fleet.set_snapshot_period(ui_snapshot_period(&fleet)).await {
+        tracing::warn!("the fleet did not take the UI's snapshot period: {e}");
+    }
     let (view_tx, view_rx) = watch::channel::<Option<RunState>>(None);
     let name = mission.as_ref().map(SessionRun::name).unwrap_or_default();
     let shared = Arc::new(Shared {
@@ -341,31 +398,7 @@ pub async fn run(
     });
 
     // The model producer.
-    let (snap_tx, snap_rx) = watch::channel(Model::default());
-    let producer = {
-        let fleet = fleet.clone();
-        let shared = shared.clone();
-        tokio::spawn(async move {
-            let mut tick = tokio::time::interval(Duration::from_millis(250));
-            tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
-            loop {
-                tick.tick().await;
-                let snap = fleet.snapshot();
-                let view = shared.view.borrow().clone();
-                let info = shared.info.lock().map(|i| i.clone()).unwrap_or_default();
-                let model = {
-                    let Ok(mut log) = shared.log.lock() else {
-                        return;
-                    };
-                    log.absorb(&snap);
-                    build_model(&snap, view.as_ref().map(|s| (s.view(), &info)), &log)
-                };
-                if snap_tx.send(model).is_err() {
-                    return;
-                }
-            }
-        })
-    };
+    let (producer, snap_rx) = spawn_model_producer(fleet.clone(), shared.clone(), REFRESH);
 
     // The command executor.
     let (cmd_tx, mut cmd_rx) = mpsc::channel::<CommandRequest>(32);
@@ -506,7 +539,7 @@ pub async fn run(
     // The UI's own timers (confirmation timeouts, stale data) run on the wall clock, also
     // when the fleet's clock runs faster (the demo).
     let options = ShellOptions {
-        tick: Duration::from_millis(250),
+        tick: REFRESH,
         clock: crate::time::MonotonicClock::new(),
     };
     let result = crate::tui::run(app, io, options).await;
@@ -520,4 +553,91 @@ pub async fn run(
     }
     result?;
     Ok(SessionEnd::Quit { finished })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::fleet::FleetConfig;
+    use crate::time::MonotonicClock;
+
+    fn shared() -> (Arc<Shared>, watch::Sender<Option<RunState>>) {
+        let (view_tx, view_rx) = watch::channel(None);
+        let shared = Arc::new(Shared {
+            log: Mutex::new(LiveLog::default()),
+            info: Mutex::new(RunInfo::default()),
+            view: view_rx,
+            finished: Mutex::new(false),
+        });
+        (shared, view_tx)
+    }
+
+    /// Models received on `rx` until `secs` seconds from now.
+    async fn count_models(rx: &mut watch::Receiver<Model>, secs: u64) -> usize {
+        let end = tokio::time::Instant::now() + Duration::from_secs(secs);
+        let mut n = 0;
+        while let Ok(Ok(())) = tokio::time::timeout_at(end, rx.changed()).await {
+            rx.borrow_and_update();
+            n += 1;
+        }
+        n
+    }
+
+    #[tokio::test(start_paused = true)]
+    async fn a_real_time_fleet_is_asked_for_a_snapshot_per_frame_a_fast_one_keeps_its_own() {
+        let (_tx, rx) = mpsc::channel(1);
+        let fleet = crate::fleet::spawn(
+            Vec::new(),
+            rx,
+            FleetConfig::default(),
+            MonotonicClock::new(),
+        );
+        assert_eq!(ui_snapshot_period(&fleet), REFRESH);
+        fleet.shutdown().await;
+        // The demo's clock at 10x: 200 ms of its time is 20 ms of wall time already.
+        let (_tx, rx) = mpsc::channel(1);
+        let fleet = crate::fleet::spawn(
+            Vec::new(),
+            rx,
+            FleetConfig::default(),
+            MonotonicClock::with_speedup(10.0),
+        );
+        assert_eq!(
+            ui_snapshot_period(&fleet),
+            FleetConfig::default().snapshot_period
+        );
+        fleet.shutdown().await;
+    }
+
+    /// The live screen's data cadence, counted over virtual time (tokio's paused clock):
+    /// with the fleet publishing at least once per frame, the producer passes on a model every
+    /// [`REFRESH`] — ten a second, never more — and nothing once the data stops changing.
+    #[tokio::test(start_paused = true)]
+    async fn the_model_producer_passes_on_ten_models_a_second_and_none_unchanged() {
+        let (_tx, rx) = mpsc::channel(1);
+        let fleet = crate::fleet::spawn(
+            Vec::new(),
+            rx,
+            FleetConfig::default(),
+            MonotonicClock::new(),
+        );
+        // Faster than the producer, so that every tick finds a newer snapshot whichever of
+        // the two tasks wakes first at a shared instant.
+        fleet
+            .set_snapshot_period(Duration::from_millis(50))
+            .await
+            .expect("the fleet runs");
+        let (shared, _view_tx) = shared();
+        let (producer, mut models) = spawn_model_producer(fleet.clone(), shared, REFRESH);
+        let n = count_models(&mut models, 10).await;
+        assert!(
+            (99..=101).contains(&n),
+            "{n} models in 10 s of virtual time"
+        );
+        // The fleet stops: its last snapshot stays, so the models stop too.
+        fleet.shutdown().await;
+        count_models(&mut models, 1).await;
+        assert_eq!(count_models(&mut models, 5).await, 0);
+        producer.abort();
+    }
 }

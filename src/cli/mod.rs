@@ -55,7 +55,8 @@ pub enum Command {
     Grid(grid::GridArgs),
     /// Classify images with the runway sensing model (and the green-pixel measurement).
     Classify(classify::ClassifyArgs),
-    /// The operator's terminal UI (for now on the built-in sample or a replay file).
+    /// The operator's terminal UI: live on MAVLink connections (`--connect`), with a mission to
+    /// start (`--mission`) or a run to continue (`--resume`); or a built-in sample or a replay file.
     Tui(tui::TuiArgs),
     /// Solve one epoch of the bandit planner's integer program for a scenario file.
     Plan(plan::PlanArgs),

@@ -1,8 +1,8 @@
 //! `fleetmap tui`: the operator's terminal UI.
 //!
 //! LIVE with `--connect CONN` (the vehicles heard on the links, their commands executed by
-//! the fleet), with a runway-mapping run from `--mission FILE` or `--resume RUN_DIR` that
-//! starts on the operator's START (`crate::app::session`). Without `--connect` it shows the
+//! the fleet), with a run from `--mission FILE` or `--resume RUN_DIR` (runway mapping or
+//! spatial classification) that starts on the operator's START (`crate::app::session`). Without `--connect` it shows the
 //! built-in SAMPLE (a synthetic animation, or a static spatial-classification fixture) or a
 //! recorded REPLAY file — and says so in the title bar; operator commands are then reported
 //! as *not sent* because no vehicle is connected. `--snapshot COLSxROWS` prints one frame as text without
@@ -522,7 +522,7 @@ async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
         commands: cmd_tx,
     };
     let options = ShellOptions {
-        tick: Duration::from_millis(250),
+        tick: crate::tui::REFRESH,
         clock,
     };
     let result = crate::tui::run(app, io, options).await;

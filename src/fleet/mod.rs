@@ -210,6 +210,9 @@ enum Request {
     ResetProgress {
         sysid: u8,
     },
+    SnapshotPeriod {
+        period: Duration,
+    },
     Shutdown {
         reply: Reply<()>,
     },
@@ -425,6 +428,10 @@ impl Actor {
                 if let Some(v) = self.vehicles.get_mut(&sysid) {
                     v.snap.reset_progress();
                 }
+            }
+            Request::SnapshotPeriod { period } => {
+                self.cfg.snapshot_period = period;
+                self.next_snapshot = self.next_snapshot.min(now + period);
             }
             Request::Shutdown { .. } => {}
         }
@@ -733,7 +740,7 @@ impl FleetHandle {
         &self.clock
     }
 
-    /// The configuration.
+    /// The configuration the fleet was started with.
     pub fn config(&self) -> &FleetConfig {
         &self.cfg
     }
@@ -917,6 +924,18 @@ impl FleetHandle {
                 .map(|_| ()),
             Err(e) => Err(e),
         }
+    }
+
+    /// Publish snapshots every `period` of the fleet's clock from now on (instead of
+    /// [`FleetConfig::snapshot_period`]; [`FleetHandle::config`] still shows the period the
+    /// fleet started with). The terminal UI asks for 100 ms of wall time so that its 10 frames
+    /// a second each show fresh telemetry. A zero period is taken as 1 ms.
+    pub async fn set_snapshot_period(&self, period: Duration) -> Result<(), FleetError> {
+        let period = period.max(Duration::from_millis(1));
+        self.tx
+            .send(Request::SnapshotPeriod { period })
+            .await
+            .map_err(|_| FleetError::Stopped)
     }
 
     /// Forget the mission progress recorded for `sysid` (reached items).

@@ -52,4 +52,4 @@ pub use model::{
     MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity,
     Stat, Track, VehicleRow, VehicleType,
 };
-pub use shell::{ShellIo, ShellOptions, TerminalGuard, TuiError, run, run_loop};
+pub use shell::{REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, run, run_loop};

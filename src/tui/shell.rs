@@ -4,11 +4,16 @@
 //! [`run`] puts the terminal in raw mode on the alternate screen, then [`run_loop`] selects
 //! over key events (crossterm's `EventStream`, forwarded by a task), a tick interval, a
 //! `watch` channel of [`Model`] snapshots and an `mpsc` of [`JobResult`]s; every event goes
-//! through [`update`] and the screen is redrawn. Commands leave on the caller's `mpsc`
-//! with `try_send`: the UI never waits for the network or for a full queue (a command that
-//! cannot be queued is reported as failed in the log). The terminal is restored on every
-//! exit path, including a panic (the hook is installed before raw mode is entered), as
-//! ratatui's own `init`/`restore` do (`ratatui` 0.30, `src/init.rs`: `set_panic_hook`).
+//! through [`update`]. The screen is redrawn at once after a key, a resize, a command's
+//! result or a new snapshot, and on a tick when nothing else was drawn since the previous
+//! tick: so it is redrawn at least once per tick ([`REFRESH`], 10 times a second) also when
+//! no data arrives (the stale-data and confirmation countdowns move on), and a steady stream
+//! of snapshots at the tick rate costs about one frame per tick, not two. Commands leave on
+//! the caller's `mpsc` with `try_send`: the UI never waits for the network or for a full
+//! queue (a command that cannot be queued is reported as failed in the log). The terminal is
+//! restored on every exit path, including a panic (the hook is installed before raw mode is
+//! entered), as ratatui's own `init`/`restore` do (`ratatui` 0.30, `src/init.rs`:
+//! `set_panic_hook`).
 
 use super::app::{App, CommandRequest, Effect, Event, JobResult, update};
 use super::model::Model;
@@ -43,10 +48,15 @@ pub struct ShellIo {
     pub commands: mpsc::Sender<CommandRequest>,
 }
 
+/// The screen's refresh period: the default tick (10 frames a second at least), and the
+/// period at which the live session builds a new [`Model`] (`crate::app::session`).
+pub const REFRESH: Duration = Duration::from_millis(100);
+
 /// Loop settings.
 #[derive(Clone, Debug)]
 pub struct ShellOptions {
-    /// Tick interval (clock updates, countdowns, stale-data detection).
+    /// Tick interval (clock updates, countdowns, stale-data detection); the screen is redrawn
+    /// at least once per tick. Default [`REFRESH`] (100 ms).
     pub tick: Duration,
     /// The clock whose time the ticks carry (the model's clock).
     pub clock: MonotonicClock,
@@ -55,7 +65,7 @@ pub struct ShellOptions {
 impl Default for ShellOptions {
     fn default() -> Self {
         ShellOptions {
-            tick: Duration::from_millis(250),
+            tick: REFRESH,
             clock: MonotonicClock::new(),
         }
     }
@@ -185,6 +195,8 @@ pub async fn run_loop<B: Backend>(
     let mut tick = tokio::time::interval(options.tick);
     tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
     let mut snapshots_open = true;
+    // Whether a frame was drawn since the previous tick.
+    let mut drawn_since_tick = true;
     loop {
         // Biased: results and snapshots first, so a key acts on the freshest state; keys
         // before ticks. (A watch fires once per new value, so keys cannot starve.)
@@ -212,6 +224,7 @@ pub async fn run_loop<B: Backend>(
             },
             _ = tick.tick() => Event::Tick(options.clock.now()),
         };
+        let is_tick = matches!(event, Event::Tick(_));
         let mut effects: VecDeque<Effect> = update(&mut app, event).into();
         let mut quit = false;
         while let Some(effect) = effects.pop_front() {
@@ -238,7 +251,13 @@ pub async fn run_loop<B: Backend>(
         if quit {
             break;
         }
+        if is_tick && drawn_since_tick {
+            // Something else drew in this period already; the next tick draws if nothing does.
+            drawn_since_tick = false;
+            continue;
+        }
         draw(terminal, &app)?;
+        drawn_since_tick = !is_tick;
     }
     Ok(app)
 }
