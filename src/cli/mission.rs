@@ -15,6 +15,7 @@ use crate::mission::item::{cmd, frame};
 use crate::mission::plan::{Plan, parse_plan, write_plan};
 use crate::mission::wpl::{parse_wpl, write_wpl};
 use crate::mission::{MissionItem, MissionType};
+use crate::proto::flavour::takeoff_reached;
 use crate::proto::mission::{MissionOutcome, compare_items};
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand, ValueEnum};
@@ -415,7 +416,7 @@ async fn fly(
         let t = remaining("climbing")?;
         fleet
             .wait_until(sysid, t.min(Duration::from_secs(120)), |s| {
-                s.alt_rel.is_some_and(|a| a >= 0.9 * alt)
+                s.alt_rel.is_some_and(|a| takeoff_reached(a, alt))
             })
             .await
             .map_err(|v| {
