@@ -905,6 +905,44 @@ fn armed_copter_on_the_ground_disarms_itself() {
 }
 
 #[test]
+fn px4_judges_the_gcs_link_over_com_dl_loss_t_of_the_gcs_clock() {
+    // (GCS time scale, simulated seconds since the last GCS heartbeat, arming accepted):
+    // PX4 refuses to arm once COM_DL_LOSS_T (10 s) has passed without a GCS heartbeat; a
+    // GCS on the wall clock facing a simulator ten times faster heartbeats only every 10
+    // simulated seconds, so there the limit is 100 simulated seconds.
+    let arm = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    for (scale, silence_s, ok) in [
+        (1.0, 7, true),
+        (1.0, 12, false),
+        (10.0, 12, true),
+        (10.0, 95, true),
+        (10.0, 105, false),
+    ] {
+        let mut g = Gcs::with("1xcopter:px4", 5, |c| {
+            c.vehicles[0].gcs_time_scale = scale;
+        });
+        // position estimate and home (8 s after boot), then one heartbeat and silence
+        g.sim.advance_to(Time::from_secs(20));
+        g.heartbeat();
+        g.sim.advance(Duration::from_secs(silence_s));
+        while g.sim.recv(1).is_some() {}
+        g.last_hb = g.sim.now(); // no heartbeat while waiting for the ACK
+        let r = g.command(400, arm);
+        let want = if ok {
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            mav::MavResult::MAV_RESULT_TEMPORARILY_REJECTED
+        };
+        assert_eq!(r, want, "scale {scale}, {silence_s} s without a heartbeat");
+        let gcs_refusal = g.log.iter().any(|(_, _, m)| {
+            matches!(m, MavMessage::STATUSTEXT(t)
+                if t.text.to_str().unwrap_or("").contains("No connection to the GCS"))
+        });
+        assert_eq!(gcs_refusal, !ok, "scale {scale}, {silence_s} s");
+    }
+}
+
+#[test]
 fn signed_vehicles_ignore_unsigned_commands_and_setup_signing_installs_a_key() {
     use fleetmap::link::codec::{Codec, encode_frame};
     use fleetmap::link::signing::{Signing, SigningKey};

@@ -356,6 +356,14 @@ impl Sim {
         self.events.pop_front()
     }
 
+    /// Set every vehicle's [`VehicleConfig::gcs_time_scale`]: simulated seconds per second
+    /// of the GCS's clock (the socket server sets it to its speed-up over a GCS's).
+    pub fn set_gcs_time_scale(&mut self, scale: f64) {
+        for s in &mut self.slots {
+            s.v.set_gcs_time_scale(scale);
+        }
+    }
+
     /// The operator swaps vehicle `sysid`'s battery (see [`SimVehicle::swap_battery`]).
     pub fn swap_battery(&mut self, sysid: u8) -> bool {
         let now = self.now;
