@@ -414,7 +414,8 @@ async fn fly(
         );
         fleet.takeoff(sysid, alt).await?;
         let t = remaining("climbing")?;
-        fleet
+        // Done as the autopilot judges it: PX4 stops within NAV_MC_ALT_RAD (0.8 m) below.
+        let up = fleet
             .wait_until(sysid, t.min(Duration::from_secs(120)), |s| {
                 s.alt_rel.is_some_and(|a| takeoff_reached(a, alt))
             })
@@ -430,7 +431,7 @@ async fn fly(
         say(
             json,
             "airborne",
-            format!("at {alt:.1} m"),
+            format!("at {:.1} m", up.alt_rel.unwrap_or(alt)),
             serde_json::json!({}),
         );
     } else {
