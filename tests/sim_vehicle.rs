@@ -905,6 +905,67 @@ fn armed_copter_on_the_ground_disarms_itself() {
 }
 
 #[test]
+fn the_vehicles_run_their_mission_protocol_timers() {
+    // An upload the GCS stops answering: ArduPilot re-requests the item once a second and
+    // cancels after 8 s without one; PX4 re-requests every 250 ms and gives up after 5 s.
+    for (spec, every_s, gives_up_s) in [
+        ("1xcopter:ardupilot", 1.0, 8.0),
+        ("1xcopter:px4", 0.25, 5.0),
+    ] {
+        let mut g = Gcs::new(spec, 6);
+        g.wait(2.0, |_| false);
+        g.send(MavMessage::MISSION_COUNT(mav::MISSION_COUNT_DATA {
+            count: 3,
+            target_system: 1,
+            target_component: 1,
+            mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        }));
+        let t0 = g.sim.now();
+        g.wait(gives_up_s + 2.0, |_| false);
+        let requests: Vec<f64> = g
+            .log
+            .iter()
+            .filter(|(t, _, m)| {
+                let first = match m {
+                    MavMessage::MISSION_REQUEST(r) => r.seq == 0,
+                    MavMessage::MISSION_REQUEST_INT(r) => r.seq == 0,
+                    _ => false,
+                };
+                *t >= t0 && first
+            })
+            .map(|(t, _, _)| t.saturating_since(t0).as_secs_f64())
+            .collect();
+        assert!(requests.len() >= 3, "{spec}: requests at {requests:?}");
+        for w in requests.windows(2) {
+            let gap = w[1] - w[0];
+            assert!(
+                (every_s - 0.01..=every_s + 0.11).contains(&gap),
+                "{spec}: re-requests {gap} s apart: {requests:?}"
+            );
+        }
+        let last = requests.last().copied().unwrap_or_default();
+        assert!(
+            (gives_up_s - every_s - 0.11..=gives_up_s + 0.11).contains(&last),
+            "{spec}: last request at {last} s"
+        );
+        let ended = g.log.iter().any(|(t, _, m)| {
+            *t >= t0
+                && match m {
+                    MavMessage::MISSION_ACK(a) => {
+                        a.mavtype == mav::MavMissionResult::MAV_MISSION_OPERATION_CANCELLED
+                    }
+                    MavMessage::STATUSTEXT(s) => {
+                        s.text.to_str().unwrap_or("").contains("Operation timeout")
+                    }
+                    _ => false,
+                }
+        });
+        assert!(ended, "{spec}: the upload was not abandoned");
+    }
+}
+
+#[test]
 fn px4_judges_the_gcs_link_over_com_dl_loss_t_of_the_gcs_clock() {
     // (GCS time scale, simulated seconds since the last GCS heartbeat, arming accepted):
     // PX4 refuses to arm once COM_DL_LOSS_T (10 s) has passed without a GCS heartbeat; a

@@ -800,6 +800,13 @@ impl SimVehicle {
         }
         self.gps_own.0 = self.gps_own.0 * a + bo * gauss(&mut self.rng);
         self.gps_own.1 = self.gps_own.1 * a + bo * gauss(&mut self.rng);
+        // The mission protocol's own timers (see `mission_server`): ArduPilot re-requests an
+        // item after 1 s and cancels an upload after 8 s without one, PX4 re-requests every
+        // 250 ms and abandons a transfer after 5 s of silence.
+        if self.mission.poll_timeout().is_some_and(|t| t <= now) {
+            self.mission.handle_timeout(now);
+            self.drain_mission_events(now);
+        }
         // The estimator smooths the GPS: the controller steers by a position whose error
         // drifts, but has no jumps from one 20 Hz tick to the next.
         let raw = self.gps_raw_err();
