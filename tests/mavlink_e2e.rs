@@ -424,25 +424,26 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
 /// the same items.
 ///
 /// The simulator (`sim::server` serving a `Sim` at real speed, as `fleetmap sim --loss 0.3`
-/// does: the same loss on every vehicle's uplink and downlink) runs 10 copters, 5 ArduPilot
-/// and 5 PX4, and the fleet uploads 5 times to each in parallel, every upload followed by a
-/// download compared item by item. Protocol timeouts are shortened to what loopback needs
+/// does: the same loss on every vehicle's uplink and downlink) runs 25 copters, 13
+/// ArduPilot and 12 PX4, and the fleet uploads twice to each, all vehicles in parallel,
+/// every upload preceded by a clear and followed by a download compared item by item. Protocol timeouts are shortened to what loopback needs
 /// (the defaults are the specification's for radios: 1500 ms / 250 ms): 40 ms for an
 /// answer, 20 ms per item during a download — the simulator answers within a millisecond,
 /// the rest is headroom for two busy cores (an early timeout only sends a duplicate, which
 /// both autopilots tolerate). A round trip gets through with probability 0.7² = 0.49, and
 /// PX4 stays busy for 5 s (`MAVLINK_MISSION_PROTOCOL_TIMEOUT_DEFAULT`) after a download
 /// whose final ACK was lost, refusing the next operation meanwhile, so retries are raised
-/// to 200 consecutive timeouts: 8 s. Takes about 70 s on two cores.
+/// to 200 consecutive timeouts: 8 s. Takes about 30 s on two cores (the time goes into
+/// waiting for timeouts: 25 vehicles in parallel cost little more than one).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_way() {
     use fleetmap::sim::faults::LinkFaults;
     use fleetmap::sim::harness::{Sim, SimConfig};
     use fleetmap::sim::server::{self, ServeOptions};
-    const VEHICLES: u8 = 10;
-    const ROUNDS: usize = 5;
+    const VEHICLES: u8 = 25;
+    const ROUNDS: usize = 2;
     let sim_cfg = SimConfig::from_spec(
-        "5xcopter:ardupilot,5xcopter:px4",
+        "13xcopter:ardupilot,12xcopter:px4",
         None,
         Some((37.1968, -80.5781)),
         30,
