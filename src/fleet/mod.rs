@@ -89,7 +89,8 @@ impl Default for FleetConfig {
 pub struct OpsConfig {
     /// Wait for the heartbeat to show a new mode.
     pub mode_confirm: Duration,
-    /// Wait for the vehicle to become ready to arm (GPS, EKF, home, pre-arm checks).
+    /// Wait for the vehicle to become ready to arm (GPS, EKF, home, pre-arm checks) before
+    /// arming or taking off.
     pub arm_ready: Duration,
     /// Wait for the heartbeat to show armed / disarmed.
     pub arm_confirm: Duration,
