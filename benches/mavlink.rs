@@ -1,8 +1,10 @@
-//! MAVLink benchmarks: frame decoding throughput, and a 200-item mission upload in-process
+//! MAVLink benchmarks: frame decoding throughput, and a 200-item mission upload — in-process
 //! (the GCS machine against the simulator's vehicle-side mission server, no loss, no
-//! latency) — reported as items per second.
+//! latency) and over loopback UDP (the whole GCS stack, `FleetHandle` with its links and
+//! actor, against the embedded simulator served by `sim::server`, no loss) — reported as
+//! items per second.
 //!
-//! `cargo bench --bench mavlink`
+//! `cargo bench --bench mavlink` (`-- loopback` for the UDP one only)
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use fleetmap::link::codec::Codec;
@@ -168,5 +170,83 @@ fn upload(c: &mut Criterion) {
     g.finish();
 }
 
-criterion_group!(benches, decode, upload);
+/// A 200-item upload over loopback UDP, no loss: `fleet::start` on `udpout:` links to
+/// `sim::server` serving one ArduPilot and one PX4 copter at real speed on
+/// `udpin:127.0.0.1:0`, `FleetHandle::upload_mission` to completion (final MISSION_ACK).
+/// The mission protocol runs with the specification's timeouts, but the quiet time between
+/// two operations (`MissionConfig::settle`, 250 ms) is 1 ms, so that each iteration times
+/// the transfer and not the pause before it. The vehicles stream their telemetry meanwhile,
+/// as they would.
+fn upload_loopback(c: &mut Criterion) {
+    use fleetmap::fleet::{self, FleetConfig};
+    use fleetmap::link::transport::LinkOptions;
+    use fleetmap::sim::harness::{Sim, SimConfig};
+    use fleetmap::sim::server::{self, Endpoint as SimEndpoint, ServeOptions};
+    let rt = tokio::runtime::Builder::new_multi_thread()
+        .worker_threads(2)
+        .enable_all()
+        .build()
+        .expect("tokio runtime");
+    let (f, served) = rt.block_on(async {
+        let cfg = SimConfig::from_spec(
+            "1xcopter:ardupilot,1xcopter:px4",
+            None,
+            Some((37.1968, -80.5781)),
+            1,
+        )
+        .expect("sim config");
+        let served = server::spawn(
+            Sim::new(cfg, Time::ZERO).expect("sim"),
+            ServeOptions {
+                endpoints: vec![SimEndpoint::parse("udpin:127.0.0.1:0").expect("endpoint")],
+                speedup: 1.0,
+                gcs_speedup: 1.0,
+                image_dir: None,
+                duration_s: None,
+            },
+        )
+        .await
+        .expect("serve the simulator");
+        let specs: Vec<fleetmap::link::ConnSpec> = served
+            .bound
+            .iter()
+            .map(|b| format!("udpout:{}", b.local).parse().expect("conn"))
+            .collect();
+        let mut fc = FleetConfig::default();
+        fc.mission.settle = Duration::from_millis(1);
+        let f = fleet::start(&specs, &LinkOptions::default(), fc)
+            .await
+            .expect("fleet");
+        for k in 1..=2 {
+            f.wait_vehicle(k, Duration::from_secs(10))
+                .await
+                .expect("vehicle heard");
+        }
+        (f, served)
+    });
+    let items: Vec<MissionItem> = (0..200)
+        .map(|i| MissionItem::waypoint(37.19 + f64::from(i) * 1e-5, -80.58, 12.0))
+        .collect();
+    let mut g = c.benchmark_group("mission_upload_200_items_loopback_udp");
+    g.throughput(Throughput::Elements(items.len() as u64));
+    g.sample_size(10);
+    g.measurement_time(Duration::from_secs(10));
+    for (name, sysid) in [("ardupilot", 1u8), ("px4", 2)] {
+        g.bench_function(name, |b| {
+            b.iter(|| {
+                let out = rt
+                    .block_on(f.upload_mission(sysid, MissionType::Mission, items.clone()))
+                    .expect("upload");
+                black_box(out)
+            })
+        });
+    }
+    g.finish();
+    rt.block_on(async {
+        f.shutdown().await;
+        let _ = served.stop().await;
+    });
+}
+
+criterion_group!(benches, decode, upload, upload_loopback);
 criterion_main!(benches);

@@ -40,13 +40,8 @@ fn main() -> ExitCode {
     match fleetmap::cli::run(cli) {
         Ok(code) => code,
         Err(e) => {
-            // One line: the error and its causes, outermost first.
-            let msg = e
-                .chain()
-                .map(|c| c.to_string())
-                .collect::<Vec<_>>()
-                .join(": ");
-            eprintln!("fleetmap: {msg}");
+            // One line: the error and its causes, outermost first, each said once.
+            eprintln!("fleetmap: {}", fleetmap::cli::error_line(&e));
             ExitCode::FAILURE
         }
     }

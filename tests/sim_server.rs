@@ -41,6 +41,7 @@ async fn udp_endpoints_per_vehicle() {
         ServeOptions {
             endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0").unwrap()],
             speedup: 20.0,
+            gcs_speedup: 1.0,
             image_dir: None,
             duration_s: None,
         },
@@ -110,6 +111,7 @@ async fn tcp_endpoint_and_image_files() {
         ServeOptions {
             endpoints: vec![Endpoint::parse("tcpin:127.0.0.1:0").unwrap()],
             speedup: 10.0,
+            gcs_speedup: 1.0,
             image_dir: Some(dir.path().to_path_buf()),
             duration_s: None,
         },

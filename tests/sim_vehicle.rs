@@ -905,6 +905,105 @@ fn armed_copter_on_the_ground_disarms_itself() {
 }
 
 #[test]
+fn the_vehicles_run_their_mission_protocol_timers() {
+    // An upload the GCS stops answering: ArduPilot re-requests the item once a second and
+    // cancels after 8 s without one; PX4 re-requests every 250 ms and gives up after 5 s.
+    for (spec, every_s, gives_up_s) in [
+        ("1xcopter:ardupilot", 1.0, 8.0),
+        ("1xcopter:px4", 0.25, 5.0),
+    ] {
+        let mut g = Gcs::new(spec, 6);
+        g.wait(2.0, |_| false);
+        g.send(MavMessage::MISSION_COUNT(mav::MISSION_COUNT_DATA {
+            count: 3,
+            target_system: 1,
+            target_component: 1,
+            mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
+            opaque_id: 0,
+        }));
+        let t0 = g.sim.now();
+        g.wait(gives_up_s + 2.0, |_| false);
+        let requests: Vec<f64> = g
+            .log
+            .iter()
+            .filter(|(t, _, m)| {
+                let first = match m {
+                    MavMessage::MISSION_REQUEST(r) => r.seq == 0,
+                    MavMessage::MISSION_REQUEST_INT(r) => r.seq == 0,
+                    _ => false,
+                };
+                *t >= t0 && first
+            })
+            .map(|(t, _, _)| t.saturating_since(t0).as_secs_f64())
+            .collect();
+        assert!(requests.len() >= 3, "{spec}: requests at {requests:?}");
+        for w in requests.windows(2) {
+            let gap = w[1] - w[0];
+            assert!(
+                (every_s - 0.01..=every_s + 0.11).contains(&gap),
+                "{spec}: re-requests {gap} s apart: {requests:?}"
+            );
+        }
+        let last = requests.last().copied().unwrap_or_default();
+        assert!(
+            (gives_up_s - every_s - 0.11..=gives_up_s + 0.11).contains(&last),
+            "{spec}: last request at {last} s"
+        );
+        let ended = g.log.iter().any(|(t, _, m)| {
+            *t >= t0
+                && match m {
+                    MavMessage::MISSION_ACK(a) => {
+                        a.mavtype == mav::MavMissionResult::MAV_MISSION_OPERATION_CANCELLED
+                    }
+                    MavMessage::STATUSTEXT(s) => {
+                        s.text.to_str().unwrap_or("").contains("Operation timeout")
+                    }
+                    _ => false,
+                }
+        });
+        assert!(ended, "{spec}: the upload was not abandoned");
+    }
+}
+
+#[test]
+fn px4_judges_the_gcs_link_over_com_dl_loss_t_of_the_gcs_clock() {
+    // (GCS time scale, simulated seconds since the last GCS heartbeat, arming accepted):
+    // PX4 refuses to arm once COM_DL_LOSS_T (10 s) has passed without a GCS heartbeat; a
+    // GCS on the wall clock facing a simulator ten times faster heartbeats only every 10
+    // simulated seconds, so there the limit is 100 simulated seconds.
+    let arm = [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0];
+    for (scale, silence_s, ok) in [
+        (1.0, 7, true),
+        (1.0, 12, false),
+        (10.0, 12, true),
+        (10.0, 95, true),
+        (10.0, 105, false),
+    ] {
+        let mut g = Gcs::with("1xcopter:px4", 5, |c| {
+            c.vehicles[0].gcs_time_scale = scale;
+        });
+        // position estimate and home (8 s after boot), then one heartbeat and silence
+        g.sim.advance_to(Time::from_secs(20));
+        g.heartbeat();
+        g.sim.advance(Duration::from_secs(silence_s));
+        while g.sim.recv(1).is_some() {}
+        g.last_hb = g.sim.now(); // no heartbeat while waiting for the ACK
+        let r = g.command(400, arm);
+        let want = if ok {
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            mav::MavResult::MAV_RESULT_TEMPORARILY_REJECTED
+        };
+        assert_eq!(r, want, "scale {scale}, {silence_s} s without a heartbeat");
+        let gcs_refusal = g.log.iter().any(|(_, _, m)| {
+            matches!(m, MavMessage::STATUSTEXT(t)
+                if t.text.to_str().unwrap_or("").contains("No connection to the GCS"))
+        });
+        assert_eq!(gcs_refusal, !ok, "scale {scale}, {silence_s} s");
+    }
+}
+
+#[test]
 fn signed_vehicles_ignore_unsigned_commands_and_setup_signing_installs_a_key() {
     use fleetmap::link::codec::{Codec, encode_frame};
     use fleetmap::link::signing::{Signing, SigningKey};

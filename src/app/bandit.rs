@@ -483,14 +483,14 @@ fn transient(e: &anyhow::Error) -> bool {
     use crate::fleet::FleetError;
     use crate::proto::mission::MissionError;
     e.chain().any(|c| match c.downcast_ref::<FleetError>() {
-        Some(FleetError::Mission { source, .. }) => {
+        Some(FleetError::Mission { error, .. }) => {
             matches!(
-                source,
+                error,
                 MissionError::Timeout { .. } | MissionError::OverBudget { .. }
             )
         }
-        Some(FleetError::Command { source, .. }) => {
-            matches!(source, crate::proto::command::CommandError::Timeout { .. })
+        Some(FleetError::Command { error, .. }) => {
+            matches!(error, crate::proto::command::CommandError::Timeout { .. })
         }
         Some(FleetError::NotConfirmed { .. }) => true,
         _ => false,

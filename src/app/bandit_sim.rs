@@ -105,6 +105,8 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
         ServeOptions {
             endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0")?],
             speedup,
+            // the fleet below runs on a clock as fast as the simulator's
+            gcs_speedup: speedup,
             image_dir: None,
             duration_s: None,
         },

@@ -143,6 +143,8 @@ pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result
         ServeOptions {
             endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0")?],
             speedup: cfg.speedup,
+            // the fleet below runs on a clock as fast as the simulator's
+            gcs_speedup: cfg.speedup,
             image_dir: None,
             duration_s: None,
         },

@@ -12,6 +12,7 @@ use crate::fleet::{FleetError, FleetHandle, VehicleSnapshot};
 use crate::geo::local;
 use crate::proto::Endpoint;
 use crate::proto::command::Command;
+use crate::proto::flavour::takeoff_reached;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use std::sync::Arc;
 use std::time::Duration;
@@ -112,7 +113,8 @@ pub async fn set_speed(fleet: &FleetHandle, sysid: u8, speed_m_s: f32) -> Result
 }
 
 /// Arm and take off to `alt` m above home unless the vehicle is already flying; returns
-/// when it is within 10 % of the altitude (or above it).
+/// when the take-off is done: no lower than the autopilots' altitude acceptance below it
+/// ([`takeoff_reached`], 0.8 m as PX4's NAV_MC_ALT_RAD), or above it.
 pub async fn ensure_airborne(
     fleet: &FleetHandle,
     sysid: u8,
@@ -126,18 +128,15 @@ pub async fn ensure_airborne(
         return Ok(());
     }
     if !airborne(&v) {
-        // After a power cycle the autopilot refuses GUIDED until its position estimate is
-        // ready (ArduCopter's mode checks): wait for readiness before the take-off steps.
-        let clock = fleet.clock().clone();
-        let ready = patience.secs(90.0);
-        let _ = fleet
-            .wait_until(sysid, ready, |s| s.arm_blockers(clock.now()).is_empty())
-            .await;
+        // `takeoff` waits for the vehicle to be ready (after a power cycle ArduCopter
+        // refuses GUIDED until its position estimate is good) before its first step.
         fleet.takeoff(sysid, alt).await?;
     }
     let wait = patience.secs(f64::from(alt) / 0.5 + 60.0);
     fleet
-        .wait_until(sysid, wait, |s| s.alt_rel.is_some_and(|a| a >= 0.9 * alt))
+        .wait_until(sysid, wait, |s| {
+            s.alt_rel.is_some_and(|a| takeoff_reached(a, alt))
+        })
         .await
         .map(|_| ())
         .map_err(|_| FlightError::Timeout {

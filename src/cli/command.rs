@@ -107,7 +107,8 @@ pub fn run(args: CommandArgs) -> anyhow::Result<ExitCode> {
                     f.takeoff(sysid, *alt).await?;
                     let alt = *alt;
                     f.wait_until(sysid, Duration::from_secs(120), |v| {
-                        v.alt_rel.is_some_and(|a| a >= 0.9 * alt)
+                        v.alt_rel
+                            .is_some_and(|a| crate::proto::flavour::takeoff_reached(a, alt))
                     })
                     .await
                     .map_err(|v| {

@@ -15,6 +15,7 @@ use crate::mission::item::{cmd, frame};
 use crate::mission::plan::{Plan, parse_plan, write_plan};
 use crate::mission::wpl::{parse_wpl, write_wpl};
 use crate::mission::{MissionItem, MissionType};
+use crate::proto::flavour::takeoff_reached;
 use crate::proto::mission::{MissionOutcome, compare_items};
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand, ValueEnum};
@@ -413,9 +414,10 @@ async fn fly(
         );
         fleet.takeoff(sysid, alt).await?;
         let t = remaining("climbing")?;
-        fleet
+        // Done as the autopilot judges it: PX4 stops within NAV_MC_ALT_RAD (0.8 m) below.
+        let up = fleet
             .wait_until(sysid, t.min(Duration::from_secs(120)), |s| {
-                s.alt_rel.is_some_and(|a| a >= 0.9 * alt)
+                s.alt_rel.is_some_and(|a| takeoff_reached(a, alt))
             })
             .await
             .map_err(|v| {
@@ -429,7 +431,7 @@ async fn fly(
         say(
             json,
             "airborne",
-            format!("at {alt:.1} m"),
+            format!("at {:.1} m", up.alt_rel.unwrap_or(alt)),
             serde_json::json!({}),
         );
     } else {

@@ -113,6 +113,26 @@ pub fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::
     Ok(())
 }
 
+/// An error and its causes on one line, outermost first, separated by ": " — how `main`
+/// reports a failed command. A cause whose text the line already ends with is left out:
+/// several error types print their source in their own message and also return it from
+/// `Error::source` (an I/O error after a path, for instance), which would otherwise show
+/// the same words twice ("X: X").
+pub fn error_line(e: &anyhow::Error) -> String {
+    let mut line = String::new();
+    for cause in e.chain() {
+        let text = cause.to_string();
+        if text.is_empty() || line.ends_with(&text) {
+            continue;
+        }
+        if !line.is_empty() {
+            line.push_str(": ");
+        }
+        line.push_str(&text);
+    }
+    line
+}
+
 /// Run the parsed command line.
 pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     // The terminal UI owns the screen: its default log goes to a file, not stderr.
@@ -152,5 +172,45 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Resume(args) => run::resume(*args),
         Command::Report(args) => run::report_cmd(args),
         Command::Export(args) => run::export(args),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::error_line;
+
+    #[derive(Debug, thiserror::Error)]
+    #[error("state.json: {source}")]
+    struct WithSourceInMessage {
+        source: std::io::Error,
+    }
+
+    #[test]
+    fn error_line_says_each_cause_once() {
+        // A message that already ends with its source's text: the source is not repeated.
+        let io = std::io::Error::new(std::io::ErrorKind::NotFound, "no such file");
+        let e = anyhow::Error::new(WithSourceInMessage { source: io }).context("cannot resume");
+        assert_eq!(error_line(&e), "cannot resume: state.json: no such file");
+        // Contexts that add words keep every part.
+        let e = anyhow::anyhow!("timed out")
+            .context("vehicle 1")
+            .context("upload");
+        assert_eq!(error_line(&e), "upload: vehicle 1: timed out");
+        // A fleet error carries its protocol error in its message only, so `{:#}` (which
+        // does not deduplicate) says it once too.
+        let fe = crate::fleet::FleetError::Command {
+            sysid: 1,
+            error: crate::proto::command::CommandError::Timeout {
+                command: mavlink::dialects::ardupilotmega::MavCmd::MAV_CMD_DO_SET_MODE,
+                attempts: 5,
+                timeout_ms: 1500,
+            },
+        };
+        assert!(std::error::Error::source(&fe).is_none());
+        let e = anyhow::Error::new(fe).context("cannot take off");
+        let line = error_line(&e);
+        assert_eq!(line, format!("{e:#}"));
+        assert!(line.starts_with("cannot take off: vehicle 1: "), "{line}");
+        assert_eq!(line.matches("MAV_CMD_DO_SET_MODE").count(), 1, "{line}");
     }
 }

@@ -277,6 +277,9 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
     let opts = ServeOptions {
         endpoints,
         speedup: args.speedup,
+        // the GCS is another process, on the wall clock: PX4's GCS-link timeouts are
+        // judged over `speedup` times as many simulated seconds
+        gcs_speedup: 1.0,
         image_dir: args.image_dir.clone(),
         duration_s: args.duration,
     };

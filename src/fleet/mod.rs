@@ -89,7 +89,8 @@ impl Default for FleetConfig {
 pub struct OpsConfig {
     /// Wait for the heartbeat to show a new mode.
     pub mode_confirm: Duration,
-    /// Wait for the vehicle to become ready to arm (GPS, EKF, home, pre-arm checks).
+    /// Wait for the vehicle to become ready to arm (GPS, EKF, home, pre-arm checks) before
+    /// arming or taking off.
     pub arm_ready: Duration,
     /// Wait for the heartbeat to show armed / disarmed.
     pub arm_confirm: Duration,
@@ -106,6 +107,10 @@ impl Default for OpsConfig {
 }
 
 /// Why a fleet operation failed.
+///
+/// Each message is whole: the protocol error a variant wraps is part of it and is not also
+/// returned by `Error::source`, so that printing the chain of causes (`{:#}`, or the
+/// binary's one-line report) does not repeat it ("vehicle 1: X: X").
 #[derive(Debug, thiserror::Error)]
 pub enum FleetError {
     /// No heartbeat from that system (yet).
@@ -115,31 +120,28 @@ pub enum FleetError {
         sysid: u8,
     },
     /// A command was refused or not acknowledged.
-    #[error("vehicle {sysid}: {source}")]
+    #[error("vehicle {sysid}: {error}")]
     Command {
         /// System id.
         sysid: u8,
         /// The command error.
-        #[source]
-        source: CommandError,
+        error: CommandError,
     },
     /// A mission operation failed.
-    #[error("vehicle {sysid}: {source}")]
+    #[error("vehicle {sysid}: {error}")]
     Mission {
         /// System id.
         sysid: u8,
         /// The mission error.
-        #[source]
-        source: MissionError,
+        error: MissionError,
     },
     /// The action does not apply to this vehicle, or a mode name is unknown.
-    #[error("vehicle {sysid}: {source}")]
+    #[error("vehicle {sysid}: {error}")]
     Flavour {
         /// System id.
         sysid: u8,
         /// The flavour error.
-        #[source]
-        source: FlavourError,
+        error: FlavourError,
     },
     /// The vehicle did not become ready to arm in time.
     #[error("vehicle {sysid}: not ready to arm after {waited_s:.0} s: {}", reasons.join("; "))]
@@ -152,13 +154,12 @@ pub enum FleetError {
         reasons: Vec<String>,
     },
     /// The arm command was refused.
-    #[error("vehicle {sysid}: arming refused: {source}{}", prearm.as_ref().map(|t| format!(" (autopilot says: {t})")).unwrap_or_default())]
+    #[error("vehicle {sysid}: arming refused: {error}{}", prearm.as_ref().map(|t| format!(" (autopilot says: {t})")).unwrap_or_default())]
     ArmRefused {
         /// System id.
         sysid: u8,
         /// The command error.
-        #[source]
-        source: CommandError,
+        error: CommandError,
         /// The last pre-arm failure text, if any.
         prearm: Option<String>,
     },
@@ -683,9 +684,8 @@ impl Actor {
                     }
                     MissionEvent::Done { id, result } => {
                         if let Some((reply, _)) = v.pending.remove(&id) {
-                            let _ = reply.send(
-                                result.map_err(|source| FleetError::Mission { sysid, source }),
-                            );
+                            let _ = reply
+                                .send(result.map_err(|error| FleetError::Mission { sysid, error }));
                         }
                     }
                 }
@@ -828,7 +828,7 @@ impl FleetHandle {
         let sysid = cmd.target.sysid;
         self.request(|reply| Request::Command { cmd, reply })
             .await?
-            .map_err(|source| FleetError::Command { sysid, source })
+            .map_err(|error| FleetError::Command { sysid, error })
     }
 
     /// Send any message (routed by its target); returns the number of links it went out on.
@@ -916,7 +916,7 @@ impl FleetHandle {
         match self.command(cmd).await {
             Ok(_) => Ok(()),
             Err(FleetError::Command {
-                source: CommandError::Unsupported { .. },
+                error: CommandError::Unsupported { .. },
                 ..
             }) => self
                 .mission_op(sysid, MissionOp::SetCurrent { seq }, None)
@@ -947,7 +947,7 @@ impl FleetHandle {
     }
 
     fn flavour_err(sysid: u8) -> impl Fn(FlavourError) -> FleetError {
-        move |source| FleetError::Flavour { sysid, source }
+        move |error| FleetError::Flavour { sysid, error }
     }
 
     /// Switch to mode `name` and wait until the heartbeat shows it.
@@ -982,39 +982,48 @@ impl FleetHandle {
             })
     }
 
-    /// Arm: wait until the vehicle is really ready (see [`Flavour::arm_blockers`]), send
+    /// Wait until vehicle `sysid` is really ready to arm (GPS fix, position estimate, home,
+    /// pre-arm checks: see [`Flavour::arm_blockers`]), at most [`OpsConfig::arm_ready`];
+    /// returns its snapshot at that moment, or [`FleetError::NotReady`] with what still
+    /// blocks it.
+    pub async fn wait_ready(&self, sysid: u8) -> Result<VehicleSnapshot, FleetError> {
+        self.require(sysid)?;
+        let wait = self.cfg.ops.arm_ready;
+        let clock = self.clock.clone();
+        match self
+            .wait_until(sysid, wait, |s| s.arm_blockers(clock.now()).is_empty())
+            .await
+        {
+            Ok(v) => Ok(v),
+            Err(last) => Err(FleetError::NotReady {
+                sysid,
+                waited_s: wait.as_secs_f64(),
+                reasons: last
+                    .map(|s| s.arm_blockers(self.clock.now()))
+                    .unwrap_or_else(|| vec!["vehicle lost".into()]),
+            }),
+        }
+    }
+
+    /// Arm: wait until the vehicle is really ready ([`FleetHandle::wait_ready`]), send
     /// the arm command, and wait for the heartbeat to show armed.
     pub async fn arm(&self, sysid: u8) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         if v.armed {
             return Ok(());
         }
-        let wait = self.cfg.ops.arm_ready;
-        let clock = self.clock.clone();
-        if let Err(last) = self
-            .wait_until(sysid, wait, |s| s.arm_blockers(clock.now()).is_empty())
-            .await
-        {
-            let reasons = last
-                .map(|s| s.arm_blockers(self.clock.now()))
-                .unwrap_or_else(|| vec!["vehicle lost".into()]);
-            return Err(FleetError::NotReady {
-                sysid,
-                waited_s: wait.as_secs_f64(),
-                reasons,
-            });
-        }
+        self.wait_ready(sysid).await?;
         let ep = Endpoint::new(sysid, v.compid);
         match self.command(v.flavour.arm_command(ep, true)).await {
             Ok(_) => {}
-            Err(FleetError::Command { source, .. }) => {
+            Err(FleetError::Command { error, .. }) => {
                 let prearm = self
                     .vehicle(sysid)
                     .and_then(|s| s.prearm_text)
                     .map(|t| t.text);
                 return Err(FleetError::ArmRefused {
                     sysid,
-                    source,
+                    error,
                     prearm,
                 });
             }
@@ -1075,8 +1084,21 @@ impl FleetHandle {
     /// Arm and take off to `alt` metres above home, in the way this autopilot wants
     /// (ArduCopter: GUIDED, arm, NAV_TAKEOFF; PX4: arm, NAV_TAKEOFF with AMSL altitude).
     /// Returns when the take-off command is accepted.
+    ///
+    /// A disarmed vehicle is first waited for until it is ready to arm
+    /// ([`FleetHandle::wait_ready`]), before the first step and not only before arming
+    /// (for the first 15–30 s after boot and after every battery swap it is not): a mode
+    /// that needs a position may be refused until the estimate is good (PX4's mode
+    /// requirements apply disarmed too; ArduCopter's `Copter::set_mode` refuses with
+    /// "requires position" once armed, and our simulator already while disarmed), and
+    /// PX4's take-off altitude is AMSL, so home must be known before the steps are built.
     pub async fn takeoff(&self, sysid: u8, alt: f32) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
+        let v = if v.armed {
+            v
+        } else {
+            self.wait_ready(sysid).await?
+        };
         let ep = Endpoint::new(sysid, v.compid);
         let steps = v
             .flavour
@@ -1100,7 +1122,7 @@ impl FleetHandle {
             .map_err(Self::flavour_err(sysid))?;
         match self.run_steps(sysid, steps).await {
             Err(FleetError::Command {
-                source: CommandError::Unsupported { .. } | CommandError::IntOnly { .. },
+                error: CommandError::Unsupported { .. } | CommandError::IntOnly { .. },
                 ..
             }) if v.flavour.home_item() => {
                 let steps = v

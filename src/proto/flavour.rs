@@ -17,6 +17,7 @@
 //!   modes); PX4 takes off with MAV_CMD_NAV_TAKEOFF in any mode once armed, param7 being
 //!   the *AMSL* altitude (QGroundControl `PX4FirmwarePlugin::guidedModeTakeoff` adds the
 //!   vehicle's AMSL altitude; commander switches to AUTO_TAKEOFF). Rovers do not take off.
+//!   When it is done: see [`TAKEOFF_ALT_ACCEPTANCE_M`].
 //! * Starting a mission: MAV_CMD_MISSION_START. ArduCopter switches to AUTO and sets
 //!   `auto_armed` so the mission runs without throttle input (`GCS_Mavlink.cpp`
 //!   `MAV_CMD_MISSION_START`); Rover switches to AUTO; PX4 commander switches to
@@ -51,6 +52,27 @@ use super::command::Command;
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavFrame, MavMessage, PositionTargetTypemask, SET_POSITION_TARGET_GLOBAL_INT_DATA,
 };
+
+/// How far below the requested altitude a take-off counts as done, metres (0.8).
+///
+/// PX4 ends a multicopter take-off as soon as the vehicle is within its altitude acceptance
+/// radius `NAV_MC_ALT_RAD` (0.8 m by default) of the target and then holds the altitude it
+/// has (`PX4/PX4-Autopilot` `src/modules/navigator/navigator_main.cpp`
+/// `get_default_altitude_acceptance_radius`, `mission_block.cpp`
+/// `is_mission_item_reached_or_completed` for NAV_CMD_TAKEOFF: global altitude >
+/// take-off altitude − acceptance radius), so a vehicle sent to 5 m may stay at 4.3 m and
+/// a GCS that waits for 90 % of the altitude waits for ever. ArduCopter's GUIDED take-off
+/// raises the position target to the altitude and keeps holding it
+/// (`ArduCopter/takeoff.cpp`), so it ends closer and passes this tolerance as well.
+pub const TAKEOFF_ALT_ACCEPTANCE_M: f32 = 0.8;
+
+/// Whether a vehicle `alt_rel` metres above home has finished a take-off to `target`
+/// metres above home: no lower than [`TAKEOFF_ALT_ACCEPTANCE_M`] below it, less 5 cm for
+/// the millimetre rounding of the reported relative altitude (PX4 compares AMSL
+/// altitudes, the GCS sees `relative_alt`).
+pub fn takeoff_reached(alt_rel: f32, target: f32) -> bool {
+    alt_rel >= target - TAKEOFF_ALT_ACCEPTANCE_M - 0.05
+}
 
 /// Which autopilot firmware.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
@@ -825,6 +847,15 @@ mod tests {
         };
         assert!((yaw4(Flavour::PX4_COPTER) - std::f32::consts::PI).abs() < 1e-6);
         assert!(yaw4(Flavour::ARDU_COPTER).is_nan());
+    }
+
+    #[test]
+    fn takeoff_is_done_within_px4s_altitude_acceptance() {
+        // PX4 stops a take-off to 5 m as soon as it is above 4.2 m.
+        assert!(takeoff_reached(4.21, 5.0));
+        assert!(takeoff_reached(5.3, 5.0));
+        assert!(!takeoff_reached(4.0, 5.0));
+        assert!(!takeoff_reached(0.0, 1.0));
     }
 
     #[test]

@@ -122,6 +122,13 @@ pub struct ServeOptions {
     pub endpoints: Vec<Endpoint>,
     /// Simulated seconds per wall second.
     pub speedup: f64,
+    /// How fast the GCS's clock runs, in its seconds per wall second: 1 for a GCS on the
+    /// wall clock (a `fleetmap` process, QGroundControl, MAVProxy), `speedup` for a fleet in
+    /// the same process on `MonotonicClock::with_speedup(speedup)` (the demo). The vehicles
+    /// judge the GCS link (PX4's COM_DL_LOSS_T) over `speedup / gcs_speedup` times as many
+    /// simulated seconds ([`crate::sim::vehicle::VehicleConfig::gcs_time_scale`]), so a
+    /// GCS heartbeating at 1 Hz of its own time is never taken for lost.
+    pub gcs_speedup: f64,
     /// Directory the camera images are written to (None: images only over MAVLink).
     pub image_dir: Option<PathBuf>,
     /// Stop after this much simulated time (None: until shut down).
@@ -309,6 +316,13 @@ pub const UDP_BURST: usize = 32;
 /// Pacing period of UDP sends when a vehicle has a backlog.
 pub const UDP_PACE: std::time::Duration = std::time::Duration::from_millis(5);
 
+/// Simulated seconds per second of the GCS's clock under `opts` (see
+/// [`ServeOptions::gcs_speedup`]; values that are not finite and positive count as 1).
+pub fn gcs_time_scale(opts: &ServeOptions) -> f64 {
+    let valid = |x: f64| if x.is_finite() && x > 0.0 { x } else { 1.0 };
+    valid(opts.speedup) / valid(opts.gcs_speedup)
+}
+
 /// Serve `sim` until `shutdown` resolves (or the configured duration passes). `on_bound`
 /// is called once every endpoint is open.
 pub async fn serve<F>(
@@ -328,6 +342,7 @@ where
         std::fs::create_dir_all(dir).map_err(io_err(dir.display().to_string()))?;
     }
     let clock = MonotonicClock::with_speedup(opts.speedup);
+    sim.set_gcs_time_scale(gcs_time_scale(&opts));
     let start = sim.now();
     let end = opts
         .duration_s

@@ -26,7 +26,11 @@
 //!   MISSION_START also arms, mode changes refused → TEMPORARILY_REJECTED);
 //! - arming checks: a 3D GPS fix and a position estimate some seconds after boot (ArduCopter
 //!   "PreArm: Need Position Estimate", PX4 "Preflight Fail: …"), PX4 also a GCS heartbeat
-//!   (NAV_DLL_ACT > 0 in the SITL airframes: "Preflight Fail: No connection to the GCS");
+//!   (NAV_DLL_ACT > 0 in the SITL airframes: "Preflight Fail: No connection to the GCS",
+//!   `src/modules/commander/HealthAndArmingChecks/checks/rcAndDataLinkCheck.cpp`; the
+//!   connection counts as lost until the first GCS heartbeat and after COM_DL_LOSS_T = 10 s
+//!   without one, `Commander::dataLinkCheck`, the same timeout as the data-link-loss
+//!   failsafe; scaled by [`VehicleConfig::gcs_time_scale`]);
 //!   home is set when the estimate is ready and again at arming;
 //! - mission execution: ArduPilot `libraries/AP_Mission/AP_Mission.cpp` (do-commands between
 //!   two nav commands run when the first completes; DO_JUMP counts; MISSION_ITEM_REACHED from
@@ -68,6 +72,10 @@ use std::time::Duration;
 
 /// Physics and logic step, seconds (20 Hz).
 pub const DT: f64 = 0.05;
+
+/// PX4's COM_DL_LOSS_T default: seconds without a GCS heartbeat after which the data link
+/// counts as lost (`src/modules/commander/commander_params.c`).
+pub const PX4_DL_LOSS_S: f64 = 10.0;
 /// Time constant of each of the two first-order lags through which the position estimate
 /// follows the GPS, seconds. An autopilot's estimator (ArduPilot's EKF3, PX4's EKF2) fuses
 /// the 5–10 Hz GPS fixes with the IMU, so its position drifts with the GPS error but is
@@ -138,6 +146,14 @@ pub struct VehicleConfig {
     /// PX4: arming needs a GCS heartbeat and losing it for 10 s while armed triggers RTL
     /// (NAV_DLL_ACT > 0, COM_DL_LOSS_T 10 s, as in PX4's SITL airframes).
     pub px4_datalink_required: bool,
+    /// Simulated seconds per second of the GCS's clock (1 by default: the GCS runs on the
+    /// simulation's clock, as in-process). The GCS-link timeouts (PX4's COM_DL_LOSS_T, for
+    /// arming and for the data-link-loss failsafe) are this many times longer in simulated
+    /// time: a GCS on the wall clock heartbeats at 1 Hz of *its* time, so a simulator
+    /// running 10× faster than wall time must judge it over 10× as many simulated seconds,
+    /// or it would see 0.1 heartbeats per simulated second and declare the link lost. The
+    /// socket server sets it ([`crate::sim::server::ServeOptions::gcs_speedup`]).
+    pub gcs_time_scale: f64,
     /// Power-off time of a battery swap, seconds (the vehicle is silent meanwhile).
     pub power_off_s: f64,
 }
@@ -192,6 +208,7 @@ impl VehicleConfig {
             },
             swap_after_s: None,
             px4_datalink_required: true,
+            gcs_time_scale: 1.0,
             power_off_s: 3.0,
         }
     }
@@ -426,6 +443,13 @@ impl SimVehicle {
     }
 
     // ------------------------------------------------------------------ public API
+
+    /// Set [`VehicleConfig::gcs_time_scale`] (simulated seconds per second of the GCS's
+    /// clock), e.g. when the simulation is served faster than wall time to a GCS that runs
+    /// on the wall clock.
+    pub fn set_gcs_time_scale(&mut self, scale: f64) {
+        self.cfg.gcs_time_scale = scale;
+    }
 
     /// The configuration.
     pub fn config(&self) -> &VehicleConfig {
@@ -776,6 +800,13 @@ impl SimVehicle {
         }
         self.gps_own.0 = self.gps_own.0 * a + bo * gauss(&mut self.rng);
         self.gps_own.1 = self.gps_own.1 * a + bo * gauss(&mut self.rng);
+        // The mission protocol's own timers (see `mission_server`): ArduPilot re-requests an
+        // item after 1 s and cancels an upload after 8 s without one, PX4 re-requests every
+        // 250 ms and abandons a transfer after 5 s of silence.
+        if self.mission.poll_timeout().is_some_and(|t| t <= now) {
+            self.mission.handle_timeout(now);
+            self.drain_mission_events(now);
+        }
         // The estimator smooths the GPS: the controller steers by a position whose error
         // drifts, but has no jumps from one 20 Hz tick to the next.
         let raw = self.gps_raw_err();
@@ -1225,7 +1256,7 @@ impl SimVehicle {
             && !self.datalink_lost
             && self
                 .last_gcs_heartbeat
-                .is_some_and(|t| now.saturating_since(t) > Duration::from_secs(10))
+                .is_some_and(|t| now.saturating_since(t) > self.gcs_link_loss_timeout())
         {
             self.datalink_lost = true;
             self.text(
@@ -1449,6 +1480,15 @@ impl SimVehicle {
 
     // ------------------------------------------------------------------ arming
 
+    /// PX4's COM_DL_LOSS_T (10 s) in simulated time: how long without a GCS heartbeat the
+    /// connection counts as lost (arming refused, data-link-loss failsafe), scaled by
+    /// [`VehicleConfig::gcs_time_scale`] (non-finite or non-positive scales count as 1).
+    fn gcs_link_loss_timeout(&self) -> Duration {
+        let k = self.cfg.gcs_time_scale;
+        let k = if k.is_finite() && k > 0.0 { k } else { 1.0 };
+        Duration::from_secs_f64((PX4_DL_LOSS_S * k).min(1.0e9))
+    }
+
     fn prearm_failure(&self, now: Time) -> Option<&'static str> {
         let f = self.cfg.flavour;
         match f.autopilot {
@@ -1471,7 +1511,7 @@ impl SimVehicle {
                 if self.cfg.px4_datalink_required
                     && self
                         .last_gcs_heartbeat
-                        .is_none_or(|t| now.saturating_since(t) > Duration::from_secs(5))
+                        .is_none_or(|t| now.saturating_since(t) > self.gcs_link_loss_timeout())
                 {
                     Some("Preflight Fail: No connection to the GCS")
                 } else if !self.gps_fix(now) || !self.position_ok(now) {

@@ -1,0 +1,228 @@
+//! `fleetmap mission fly` end to end: the real binary as two processes, `fleetmap sim` serving
+//! one simulated vehicle on loopback UDP faster than real time and `fleetmap mission fly`
+//! flying a small mission file on it — for an ArduPilot copter (QGC WPL 110 file), a PX4
+//! copter (QGroundControl `.plan`) and an ArduPilot rover.
+//!
+//! `mission fly` starts as soon as the simulator has opened its socket, while the simulated
+//! autopilot is still booting (no GPS fix, no position estimate): it must wait for the
+//! vehicle to become ready on its own. The GCS lives on the wall clock while the simulator
+//! runs 8 times faster, so PX4's GCS-link checks must be judged in the GCS's time.
+//!
+//! Each test takes about 15–30 s of wall time.
+
+mod common;
+
+use common::free_udp_port;
+use common::pty::bin;
+use fleetmap::mission::MissionItem;
+use fleetmap::mission::plan::{Plan, write_plan};
+use std::io::{BufRead, BufReader};
+use std::path::Path;
+use std::process::{Child, Command, Stdio};
+use std::time::{Duration, Instant};
+
+/// Home of the simulated vehicle (degrees).
+const HOME: (f64, f64) = (37.1968, -80.5781);
+/// Simulated seconds per wall second.
+const SPEEDUP: &str = "8";
+
+/// A child process killed (and reaped) when dropped, so a failing test leaves nothing behind.
+struct Proc(Child);
+
+impl Drop for Proc {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// Start `fleetmap sim` with one vehicle `spec` listening on 127.0.0.1:`port`; returns once
+/// it has printed its endpoint (its socket is open and its vehicle has just powered up).
+/// Its log goes to `log`.
+fn start_sim(spec: &str, port: u16, log: &Path) -> Proc {
+    let err = std::fs::File::create(log).unwrap();
+    let mut child = Command::new(bin())
+        .args([
+            "sim",
+            "--vehicles",
+            spec,
+            "--home",
+            &format!("{},{}", HOME.0, HOME.1),
+            "--connect",
+            &format!("udpin:127.0.0.1:{port}"),
+            "--speedup",
+            SPEEDUP,
+            "--seed",
+            "3",
+            "-v",
+        ])
+        .stdout(Stdio::piped())
+        .stderr(err)
+        .spawn()
+        .expect("start fleetmap sim");
+    let out = child.stdout.take().unwrap();
+    let proc = Proc(child);
+    let (tx, rx) = std::sync::mpsc::channel();
+    std::thread::spawn(move || {
+        let mut line = String::new();
+        let _ = BufReader::new(out).read_line(&mut line);
+        let _ = tx.send(line);
+    });
+    let line = rx
+        .recv_timeout(Duration::from_secs(30))
+        .expect("fleetmap sim did not start");
+    assert!(line.starts_with("vehicle 1 "), "fleetmap sim said {line:?}");
+    proc
+}
+
+/// Run `fleetmap mission fly` on vehicle 1 at 127.0.0.1:`port` with `file`; returns (exit
+/// code, stdout, stderr). Killed after 240 s.
+fn fly(port: u16, file: &Path) -> (i32, String, String) {
+    let mut child = Command::new(bin())
+        .args([
+            "mission",
+            "fly",
+            "--connect",
+            &format!("udpout:127.0.0.1:{port}"),
+            "--sysid",
+            "1",
+            "--timeout",
+            "200",
+            file.to_str().unwrap(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start fleetmap mission fly");
+    let t0 = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed() > Duration::from_secs(240) {
+            let _ = child.kill();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let out = child.wait_with_output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// (lat, lon) `north` and `east` metres from home.
+fn at(north: f64, east: f64) -> (f64, f64) {
+    fleetmap::geo::local::offset(HOME.0, HOME.1, north, east)
+}
+
+/// Fly `items` (written to `file_name` in the temporary directory: `.plan` or `.waypoints`)
+/// on a simulated `spec` vehicle and check that every item was reached and the vehicle came
+/// down (`end`: "landed and disarmed", or "back at home" for a rover).
+fn fly_and_check(spec: &str, file_name: &str, items: &[MissionItem], end: &str) {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join(file_name);
+    let text = if file_name.ends_with(".plan") {
+        write_plan(&Plan {
+            mission: items.to_vec(),
+            home: Some((HOME.0, HOME.1, 0.0)),
+            firmware_type: 12,
+            ..Plan::default()
+        })
+    } else {
+        let home = MissionItem {
+            frame: 0,
+            ..MissionItem::waypoint(HOME.0, HOME.1, 0.0)
+        };
+        fleetmap::mission::wpl::write_wpl(Some(&home), items)
+    };
+    std::fs::write(&file, text).unwrap();
+    let port = free_udp_port();
+    let sim_log = dir.path().join("sim.log");
+    let _sim = start_sim(spec, port, &sim_log);
+    // No pause: the vehicle has only just powered up.
+    let (code, out, err) = fly(port, &file);
+    let context = || {
+        format!(
+            "exit {code}\n--- stdout\n{out}\n--- stderr\n{err}\n--- simulator log\n{}",
+            std::fs::read_to_string(&sim_log).unwrap_or_default()
+        )
+    };
+    assert_eq!(code, 0, "{}", context());
+    assert!(
+        out.contains("verified: the vehicle holds the same mission"),
+        "{}",
+        context()
+    );
+    let n = items.len();
+    let mut last_reached = 0;
+    for i in 1..=n {
+        let needle = format!("item {i}/{n} reached");
+        let pos = out
+            .find(&needle)
+            .unwrap_or_else(|| panic!("no {needle:?}\n{}", context()));
+        last_reached = last_reached.max(pos);
+    }
+    assert!(
+        out.contains(&format!("{n}/{n} navigation items")),
+        "{}",
+        context()
+    );
+    let done = out.find("every mission item flown").expect("mission done");
+    let down = out
+        .find(end)
+        .unwrap_or_else(|| panic!("no {end:?}\n{}", context()));
+    assert!(last_reached < done && done < down, "{}", context());
+}
+
+/// Take off to 5 m, a 17 m × 18 m triangle at 5 m.
+fn copter_mission(takeoff_at: Option<(f64, f64)>) -> Vec<MissionItem> {
+    let takeoff = match takeoff_at {
+        Some((lat, lon)) => {
+            MissionItem::at(fleetmap::mission::item::cmd::NAV_TAKEOFF, lat, lon, 5.0)
+        }
+        None => MissionItem::takeoff(5.0),
+    };
+    let (a, b, c) = (at(17.0, 0.0), at(17.0, 18.0), at(0.0, 18.0));
+    vec![
+        takeoff,
+        MissionItem::waypoint(a.0, a.1, 5.0),
+        MissionItem::waypoint(b.0, b.1, 5.0),
+        MissionItem::waypoint(c.0, c.1, 5.0),
+    ]
+}
+
+#[test]
+fn ardupilot_copter_flies_a_waypoints_file() {
+    fly_and_check(
+        "1xcopter:ardupilot",
+        "triangle.waypoints",
+        &copter_mission(None),
+        "landed and disarmed",
+    );
+}
+
+#[test]
+fn px4_copter_flies_a_plan_file() {
+    // QGroundControl writes a PX4 take-off item at the vehicle's position.
+    fly_and_check(
+        "1xcopter:px4",
+        "triangle.plan",
+        &copter_mission(Some(HOME)),
+        "landed and disarmed",
+    );
+}
+
+#[test]
+fn ardupilot_rover_drives_a_waypoints_file() {
+    let (a, b) = (at(12.0, 0.0), at(12.0, 12.0));
+    let items = vec![
+        MissionItem::waypoint(a.0, a.1, 0.0),
+        MissionItem::waypoint(b.0, b.1, 0.0),
+    ];
+    fly_and_check(
+        "1xrover:ardupilot",
+        "square.waypoints",
+        &items,
+        "back at home",
+    );
+}
