@@ -1089,9 +1089,9 @@ impl FleetHandle {
     /// ([`FleetHandle::wait_ready`]), before the first step and not only before arming
     /// (for the first 15–30 s after boot and after every battery swap it is not): a mode
     /// that needs a position may be refused until the estimate is good (PX4's mode
-    /// requirements apply disarmed too; ArduCopter's `Copter::set_mode` refuses with
-    /// "requires position" once armed, and our simulator already while disarmed), and
-    /// PX4's take-off altitude is AMSL, so home must be known before the steps are built.
+    /// requirements apply disarmed too; ArduCopter's `Copter::set_mode` takes GUIDED
+    /// disarmed but the arming that follows fails), and PX4's take-off altitude is AMSL, so
+    /// home must be known before the steps are built.
     pub async fn takeoff(&self, sysid: u8, alt: f32) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         let v = if v.armed {

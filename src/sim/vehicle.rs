@@ -1415,7 +1415,12 @@ impl SimVehicle {
 
     fn check_mode_allowed(&mut self, mode: Mode, now: Time) -> Result<(), &'static str> {
         let f = self.cfg.flavour;
-        if mode.requires_position() && !self.position_ok(now) {
+        // ArduPilot checks a mode's position requirement only when armed ("allow switching to
+        // any mode if disarmed. We rely on the arming check": `ignore_checks =
+        // !motors->armed()` in Copter::set_mode, the same in Rover's Mode::enter); PX4's
+        // commander refuses such a mode disarmed too.
+        let ignore_checks = f.is_ardupilot() && !self.armed;
+        if mode.requires_position() && !ignore_checks && !self.position_ok(now) {
             return Err("requires position");
         }
         match (f.autopilot, mode) {
