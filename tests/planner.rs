@@ -234,7 +234,8 @@ fn cli_answers_infeasible_for_scenarios_no_plan_can_satisfy() {
     let base: serde_json::Value = serde_json::from_str(&text).unwrap();
     let obstacle = base["obstacles"][0].clone();
     let station = base["stations"][0].clone();
-    let edits: Vec<(&str, Box<dyn Fn(&mut serde_json::Value)>)> = vec![
+    type Edit = Box<dyn Fn(&mut serde_json::Value)>;
+    let edits: Vec<(&str, Edit)> = vec![
         (
             "on an obstacle",
             Box::new(move |v| v["goals"].as_array_mut().unwrap().push(obstacle.clone())),
