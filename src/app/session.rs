@@ -583,25 +583,22 @@ mod tests {
         n
     }
 
+    /// A fleet without links on `clock` (and the sender that keeps its event channel open).
+    fn linkless_fleet(
+        clock: MonotonicClock,
+    ) -> (mpsc::Sender<crate::link::transport::LinkEvent>, FleetHandle) {
+        let (tx, rx) = mpsc::channel(1);
+        let fleet = crate::fleet::spawn(Vec::new(), rx, FleetConfig::default(), clock);
+        (tx, fleet)
+    }
+
     #[tokio::test(start_paused = true)]
     async fn a_real_time_fleet_is_asked_for_a_snapshot_per_frame_a_fast_one_keeps_its_own() {
-        let (_tx, rx) = mpsc::channel(1);
-        let fleet = crate::fleet::spawn(
-            Vec::new(),
-            rx,
-            FleetConfig::default(),
-            MonotonicClock::new(),
-        );
+        let (_tx, fleet) = linkless_fleet(MonotonicClock::new());
         assert_eq!(ui_snapshot_period(&fleet), REFRESH);
         fleet.shutdown().await;
         // The demo's clock at 10x: 200 ms of its time is 20 ms of wall time already.
-        let (_tx, rx) = mpsc::channel(1);
-        let fleet = crate::fleet::spawn(
-            Vec::new(),
-            rx,
-            FleetConfig::default(),
-            MonotonicClock::with_speedup(10.0),
-        );
+        let (_tx, fleet) = linkless_fleet(MonotonicClock::with_speedup(10.0));
         assert_eq!(
             ui_snapshot_period(&fleet),
             FleetConfig::default().snapshot_period
@@ -614,13 +611,7 @@ mod tests {
     /// [`REFRESH`] — ten a second, never more — and nothing once the data stops changing.
     #[tokio::test(start_paused = true)]
     async fn the_model_producer_passes_on_ten_models_a_second_and_none_unchanged() {
-        let (_tx, rx) = mpsc::channel(1);
-        let fleet = crate::fleet::spawn(
-            Vec::new(),
-            rx,
-            FleetConfig::default(),
-            MonotonicClock::new(),
-        );
+        let (_tx, fleet) = linkless_fleet(MonotonicClock::new());
         // Faster than the producer, so that every tick finds a newer snapshot whichever of
         // the two tasks wakes first at a shared instant.
         fleet
