@@ -26,6 +26,14 @@ fn run(args: &[&str]) -> Output {
         .expect("run fleetmap")
 }
 
+/// `fleetmap <what> --connect CONN --sysid 1 <rest>`.
+fn on_vehicle_1(what: &[&str], conn: &str, rest: &[&str]) -> Output {
+    let mut args = what.to_vec();
+    args.extend(["--connect", conn, "--sysid", "1"]);
+    args.extend(rest);
+    run(&args)
+}
+
 fn text(o: &Output) -> String {
     format!(
         "status {:?}\nstdout: {}\nstderr: {}",
@@ -89,61 +97,25 @@ fn keygen_then_setup_makes_the_vehicle_require_signatures() {
     let conn = format!("udpout:127.0.0.1:{port}");
 
     // Before the key: an unsigned command is obeyed.
-    let before = run(&[
-        "command",
-        "--connect",
-        &conn,
-        "--sysid",
-        "1",
-        "--json",
-        "mode",
-        "STABILIZE",
-    ]);
+    let before = on_vehicle_1(&["command"], &conn, &["--json", "mode", "STABILIZE"]);
     assert!(before.status.success(), "{}", text(&before));
 
     // setup: the vehicle stores the key and confirms with a heartbeat signed with it.
-    let setup = run(&[
-        "signing",
-        "setup",
-        "--connect",
-        &conn,
-        "--sysid",
-        "1",
-        "--key",
-        key_s,
-        "--json",
-    ]);
+    let setup = on_vehicle_1(&["signing", "setup"], &conn, &["--key", key_s, "--json"]);
     assert!(setup.status.success(), "{}", text(&setup));
     let v: serde_json::Value = serde_json::from_slice(&setup.stdout).unwrap();
     assert_eq!(v["confirmed"], true, "{v}");
     assert_eq!(v["sysid"], 1);
     // setup sends the key unsigned: refusing --signing-key is the command's own rule.
-    let twice = run(&[
-        "signing",
-        "setup",
-        "--connect",
+    let twice = on_vehicle_1(
+        &["signing", "setup"],
         &conn,
-        "--sysid",
-        "1",
-        "--key",
-        key_s,
-        "--signing-key",
-        key_s,
-    ]);
+        &["--key", key_s, "--signing-key", key_s],
+    );
     assert!(!twice.status.success());
 
     // After: the same unsigned command gets no answer (the vehicle drops it) …
-    let unsigned = run(&[
-        "command",
-        "--connect",
-        &conn,
-        "--sysid",
-        "1",
-        "--wait",
-        "5",
-        "mode",
-        "ALT_HOLD",
-    ]);
+    let unsigned = on_vehicle_1(&["command"], &conn, &["--wait", "5", "mode", "ALT_HOLD"]);
     assert!(!unsigned.status.success(), "{}", text(&unsigned));
     assert!(
         String::from_utf8_lossy(&unsigned.stderr).contains("no COMMAND_ACK"),
@@ -151,18 +123,11 @@ fn keygen_then_setup_makes_the_vehicle_require_signatures() {
         text(&unsigned)
     );
     // … and a signed one is obeyed.
-    let signed = run(&[
-        "command",
-        "--connect",
+    let signed = on_vehicle_1(
+        &["command"],
         &conn,
-        "--sysid",
-        "1",
-        "--signing-key",
-        key_s,
-        "--json",
-        "mode",
-        "ALT_HOLD",
-    ]);
+        &["--signing-key", key_s, "--json", "mode", "ALT_HOLD"],
+    );
     assert!(signed.status.success(), "{}", text(&signed));
     assert!(
         String::from_utf8_lossy(&signed.stdout).contains("\"result\":\"mode ALT_HOLD\""),

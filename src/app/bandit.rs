@@ -477,6 +477,23 @@ async fn enable_fence(fleet: &FleetHandle, v: &VehicleSnapshot) -> anyhow::Resul
     Ok(())
 }
 
+/// Wait for every task of `tasks` (one per vehicle) and return the vehicles whose operation
+/// failed, with the error on one line; a task that panicked or was cancelled is an error
+/// (`what` names the task).
+async fn join_failures(
+    tasks: &mut tokio::task::JoinSet<(u8, anyhow::Result<()>)>,
+    what: &'static str,
+) -> anyhow::Result<Vec<(u8, String)>> {
+    let mut failed = Vec::new();
+    while let Some(r) = tasks.join_next().await {
+        let (sysid, r) = r.context(what)?;
+        if let Err(e) = r {
+            failed.push((sysid, format!("{e:#}")));
+        }
+    }
+    Ok(failed)
+}
+
 /// Whether a failed operation may succeed when tried again: no answer (a lost frame, a busy
 /// link), as opposed to the vehicle saying no.
 fn transient(e: &anyhow::Error) -> bool {
@@ -835,13 +852,7 @@ impl Runner {
                 (sysid, r)
             });
         }
-        let mut rejected: Vec<(u8, String)> = Vec::new();
-        while let Some(r) = tasks.join_next().await {
-            let (sysid, r) = r.context("upload task")?;
-            if let Err(e) = r {
-                rejected.push((sysid, format!("{e:#}")));
-            }
-        }
+        let mut rejected = join_failures(&mut tasks, "upload task").await?;
         rejected.sort();
         if let Some((sysid, reason)) = rejected.first().cloned() {
             let events = rejected
@@ -1043,13 +1054,7 @@ impl Runner {
         // The stations drive off only once the drones are in the air: a drone that is still
         // spinning up on a rover's charger would be carried away from the cell its mission
         // starts on (and no field team lets a rover drive with a drone taking off from it).
-        let mut failed = Vec::new();
-        while let Some(r) = tasks.join_next().await {
-            let (sysid, r) = r.context("start task")?;
-            if let Err(e) = r {
-                failed.push(format!("vehicle {sysid}: {e:#}"));
-            }
-        }
+        let mut failed = join_failures(&mut tasks, "start task").await?;
         for st in cycle.stations.iter().filter(|s| s.drives) {
             let fleet = self.fleet().clone();
             let sysid = st.sysid;
@@ -1079,12 +1084,11 @@ impl Runner {
                 (sysid, r)
             });
         }
-        while let Some(r) = tasks.join_next().await {
-            let (sysid, r) = r.context("start task")?;
-            if let Err(e) = r {
-                failed.push(format!("vehicle {sysid}: {e:#}"));
-            }
-        }
+        failed.extend(join_failures(&mut tasks, "start task").await?);
+        let failed: Vec<String> = failed
+            .into_iter()
+            .map(|(sysid, e)| format!("vehicle {sysid}: {e}"))
+            .collect();
         // Started (even partly): from now on the sortie is followed, and a resume follows it.
         self.shared
             .commit(|s| {

@@ -1,7 +1,7 @@
 //! `fleetmap plan --scenario FILE.json [--json]`: solve one epoch of the bandit paper's
 //! low-level planner (the IP (11), Algorithm 2) for a scenario file (specs/ip-scenario.md).
 
-use crate::planner::ip::{self, Model, PlanOptions, PlanStatus, Scenario, solve_instance};
+use crate::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, Scenario, solve_instance};
 use crate::planner::scenario::ScenarioError;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
@@ -51,9 +51,10 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("scenario {}", args.scenario.display()))?;
     // A well-formed scenario that no plan can satisfy whatever K is the answer "infeasible"
     // (specs/ip-scenario.md lists what is malformed); only malformed input is an error.
-    let inst = match scenario.instance() {
-        Ok(inst) => Some(inst),
-        Err(ScenarioError::Infeasible(_)) => None,
+    // `Err(reason)`: no plan can exist whatever K.
+    let inst: Result<_, String> = match scenario.instance() {
+        Ok(inst) => Ok(inst),
+        Err(ScenarioError::Infeasible(reason)) => Err(reason),
         Err(e) => {
             return Err(anyhow::Error::new(e))
                 .with_context(|| format!("scenario {}", args.scenario.display()));
@@ -75,8 +76,8 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         ..PlanOptions::default()
     };
     let outcome = match &inst {
-        Some(inst) => solve_instance(inst, &opts),
-        None => ip::solve(&scenario, &opts)?,
+        Ok(inst) => solve_instance(inst, &opts),
+        Err(reason) => PlanOutcome::never(reason.clone()),
     };
     let mut out = String::new();
     if args.json {
@@ -110,7 +111,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
                 a.constraints
             )?;
         }
-        if outcome.status == PlanStatus::Infeasible && inst.is_some() {
+        if outcome.status == PlanStatus::Infeasible && inst.is_ok() {
             writeln!(
                 out,
                 "no plan visits every goal within K = {} cycles",
@@ -118,7 +119,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
             )?;
         }
         if !outcome.message.is_empty() {
-            let who = if inst.is_some() {
+            let who = if inst.is_ok() {
                 "solver"
             } else {
                 "no plan can exist whatever K"
