@@ -432,9 +432,10 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
 /// the rest is headroom for two busy cores (an early timeout only sends a duplicate, which
 /// both autopilots tolerate). A round trip gets through with probability 0.7² = 0.49, and
 /// PX4 stays busy for 5 s (`MAVLINK_MISSION_PROTOCOL_TIMEOUT_DEFAULT`) after a download
-/// whose final ACK was lost, refusing the next operation meanwhile, so retries are raised
-/// to 200 consecutive timeouts: 8 s. Takes about 30 s on two cores (the time goes into
-/// waiting for timeouts: 25 vehicles in parallel cost little more than one).
+/// whose final ACK was lost, refusing the next operation meanwhile: the transfers go on as
+/// long as the vehicle answers (the default silence budget, 30 s). Takes about 30 s on two
+/// cores (the time goes into waiting for timeouts: 25 vehicles in parallel cost little more
+/// than one).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_way() {
     use fleetmap::sim::faults::LinkFaults;
@@ -471,9 +472,8 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
         mission: fleetmap::proto::mission::MissionConfig {
             timeout: Duration::from_millis(40),
             item_timeout: Duration::from_millis(20),
-            retries: 200,
             settle: Duration::from_millis(20),
-            restarts: 3,
+            ..fleetmap::proto::mission::MissionConfig::default()
         },
         ..FleetConfig::default()
     };

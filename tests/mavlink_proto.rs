@@ -527,8 +527,11 @@ fn refusals_become_precise_errors() {
     }
 }
 
+/// A vehicle that never answers: every operation resends its request on the
+/// specification's timeout and fails after the silence budget (30 s), naming what it waited
+/// for.
 #[test]
-fn silent_vehicle_times_out_within_budget() {
+fn silent_vehicle_times_out_after_the_silence_budget() {
     let cfg = MissionConfig::default();
     for op in [
         MissionOp::Upload {
@@ -547,6 +550,7 @@ fn silent_vehicle_times_out_within_budget() {
         let mut client = MissionClient::new(Endpoint::gcs(), VEHICLE, true, cfg);
         let id = client.start(op, Time::ZERO);
         let mut sent = 0;
+        let mut now = Time::ZERO;
         loop {
             while client.poll_transmit().is_some() {
                 sent += 1;
@@ -554,19 +558,28 @@ fn silent_vehicle_times_out_within_budget() {
             if let Some(MissionEvent::Done { id: i, result }) = client.poll_event() {
                 assert_eq!(i, id);
                 match result {
-                    Err(MissionError::Timeout { attempts, .. }) => assert_eq!(attempts, 6),
+                    Err(MissionError::Timeout {
+                        silent_ms,
+                        waiting_for,
+                        ..
+                    }) => {
+                        assert_eq!(silent_ms, 30_000);
+                        assert!(waiting_for.starts_with("MISSION_"), "{waiting_for}");
+                    }
                     other => panic!("{other:?}"),
                 }
                 break;
             }
-            let t = client.poll_timeout().expect("a timer while waiting");
-            assert!(
-                t <= Time::from_secs(10),
-                "no answer must end within 6 × 1.5 s"
-            );
-            client.handle_timeout(t);
+            now = client.poll_timeout().expect("a timer while waiting");
+            client.handle_timeout(now);
         }
-        assert_eq!(sent, 6, "first transmission + 5 retries");
+        assert_eq!(
+            now,
+            Time::from_secs(30),
+            "ends when the silence budget is spent"
+        );
+        // The first transmission and one every 1.5 s until then.
+        assert_eq!(sent, 20, "resends");
     }
 }
 
@@ -627,4 +640,75 @@ proptest! {
         let n = if t == MissionType::Rally { n.min(8) } else { n };
         check(ap, Faults { loss, dup, max_delay_ms }, seed, n, t);
     }
+}
+
+/// Issue 13: what failed against a real ArduCopter through a relay that lost 30 % of the
+/// frames each way and duplicated 5 % — 100-item upload + download round trips with the
+/// default (specification) timeouts. Against the simulator's ArduPilot and PX4 protocol,
+/// 20 round trips each: all 20 succeed, with exactly the items sent.
+#[test]
+fn twenty_round_trips_of_100_items_at_30_percent_loss_and_5_percent_duplicates() {
+    let f = Faults {
+        loss: 0.3,
+        dup: 0.05,
+        max_delay_ms: 40,
+    };
+    for ap in [true, false] {
+        let mut failures = Vec::new();
+        let mut longest = Duration::ZERO;
+        for seed in 0..20 {
+            let mut b = Bench::new(ap, 1000 + seed, f);
+            let sent = items_for(MissionType::Mission, 100, seed);
+            let (up, t_up) = b.run(MissionOp::Upload {
+                kind: MissionType::Mission,
+                items: sent.clone(),
+                home: None,
+            });
+            let (down, t_down) = b.run(MissionOp::Download {
+                kind: MissionType::Mission,
+            });
+            longest = longest.max(t_up + t_down);
+            match (up, down) {
+                (Ok(_), Ok(MissionOutcome::Downloaded { items, .. })) => {
+                    assert_eq!(
+                        b.stored(MissionType::Mission),
+                        b.expected_storage(MissionType::Mission, &sent),
+                        "seed {seed}: wrong items on the vehicle"
+                    );
+                    compare_items(&sent, &items, ap)
+                        .unwrap_or_else(|d| panic!("seed {seed}: read back differs: {d}"));
+                }
+                (up, down) => failures.push(format!(
+                    "seed {seed}: upload {} / download {}",
+                    up.err().map_or("ok".into(), |e| e.to_string()),
+                    down.err().map_or("ok".into(), |e| e.to_string())
+                )),
+            }
+        }
+        let who = if ap { "ArduPilot" } else { "PX4" };
+        eprintln!("{who}: longest round trip {:.0} s", longest.as_secs_f64());
+        assert!(
+            failures.is_empty(),
+            "{who}: {} of 20 failed: {failures:#?}",
+            failures.len()
+        );
+    }
+}
+
+/// Half the frames lost each way: every round trip either succeeds with exactly the items
+/// sent or fails with a precise error — never a wrong mission.
+#[test]
+fn round_trips_at_50_percent_loss_succeed_or_fail_precisely() {
+    let f = Faults {
+        loss: 0.5,
+        dup: 0.05,
+        max_delay_ms: 40,
+    };
+    let mut ok = 0;
+    for seed in 0..6 {
+        for ap in [true, false] {
+            ok += check(ap, f, 2000 + seed, 100, MissionType::Mission).0;
+        }
+    }
+    eprintln!("50 % loss: {ok} of 36 operations succeeded");
 }

@@ -97,13 +97,23 @@ pub struct SimFleet {
     pub sim: SimHandle,
 }
 
-/// Serve `sim` on loopback UDP (`udpin:127.0.0.1:0`, one port per vehicle) at `speedup`
-/// and connect a fleet to every vehicle, its clock at the same speed.
+/// Serve `sim` at `speedup` and connect a fleet to it, its clock at the same speed, wired
+/// as field teams wire several vehicles: the fleet listens on one loopback UDP port
+/// (`udpin:127.0.0.1:0`) and every vehicle sends to it from its own socket (the simulator's
+/// `udpout`), as several SITL instances or Wi-Fi drones do.
 pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
+    let (ev_tx, ev_rx) = mpsc::channel(4096);
+    let spec: ConnSpec = "udpin:127.0.0.1:0"
+        .parse()
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let link = open_link(0, spec, &LinkOptions::default(), ev_tx).await?;
+    let gcs = link
+        .local
+        .context("the GCS's UDP port has no local address")?;
     let handle = server::spawn(
         sim,
         ServeOptions {
-            endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0")?],
+            endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}"))?],
             speedup,
             // the fleet below runs on a clock as fast as the simulator's
             gcs_speedup: speedup,
@@ -113,17 +123,8 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
     )
     .await
     .context("starting the simulator")?;
-    let (ev_tx, ev_rx) = mpsc::channel(4096);
-    let mut links = Vec::new();
-    for (i, b) in handle.bound.iter().enumerate() {
-        let spec: ConnSpec = format!("udpout:{}", b.local)
-            .parse()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        links.push(open_link(i, spec, &LinkOptions::default(), ev_tx.clone()).await?);
-    }
-    drop(ev_tx);
     let fleet = fleet::spawn(
-        links,
+        vec![link],
         ev_rx,
         fleet_config(speedup),
         MonotonicClock::with_speedup(speedup),

@@ -15,6 +15,7 @@ pub mod experiment;
 pub mod grid;
 pub mod mission;
 pub mod plan;
+pub mod relay;
 pub mod run;
 pub mod signing;
 pub mod sim;
@@ -66,6 +67,9 @@ pub enum Command {
     Mission(mission::MissionArgs),
     /// Arm, disarm, change mode, take off, go to, return, land.
     Command(command::CommandArgs),
+    /// Relay MAVLink between a GCS and a vehicle, losing, duplicating or delaying frames on
+    /// the way (to try a real autopilot over a poor radio).
+    Relay(relay::RelayArgs),
     /// MAVLink 2 signing keys: make one, install one on a vehicle.
     Signing(signing::SigningArgs),
     /// The embedded default: the simulator and the runway mission in one process.
@@ -166,6 +170,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Vehicles(args) => vehicles::run(args),
         Command::Mission(args) => mission::run(args),
         Command::Command(args) => command::run(args),
+        Command::Relay(args) => relay::run(args),
         Command::Signing(args) => signing::run(args),
         Command::Demo(args) => demo::run(args),
         Command::Run(args) => run::run(*args),

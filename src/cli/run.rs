@@ -464,14 +464,9 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<ExitCode> {
         bail!("the run remembers no connection: give --connect");
     }
     let conn = ConnectArgs {
-        connect,
         signing_key: args.signing_key.clone(),
-        allow_unsigned: false,
         tlog: args.tlog.clone(),
-        json: false,
-        mission_timeout_ms: 1500,
-        item_timeout_ms: 250,
-        mission_retries: 5,
+        ..ConnectArgs::defaults(connect)
     };
     let wait = wait_of(args.runner.wait)?;
     block_on(async move {
@@ -917,14 +912,9 @@ fn resume_classification(args: ResumeArgs, run_dir: RunDir) -> anyhow::Result<Ex
         bail!("the run remembers no connection: give --connect");
     }
     let conn = ConnectArgs {
-        connect,
         signing_key: args.signing_key.clone(),
-        allow_unsigned: false,
         tlog: args.tlog.clone(),
-        json: false,
-        mission_timeout_ms: 1500,
-        item_timeout_ms: 250,
-        mission_retries: 5,
+        ..ConnectArgs::defaults(connect)
     };
     let wait = wait_of(args.runner.wait)?;
     let opts = classification_opts(&args.runner)?;

@@ -1,6 +1,5 @@
 //! `fleetmap sim …`: serve simulated ArduPilot / PX4 copters and rovers over MAVLink.
 
-use crate::sim::faults::{LinkFaults, parse_blackouts};
 use crate::sim::harness::{Sim, SimConfig};
 use crate::sim::server::{Endpoint, ServeOptions, serve};
 use crate::sim::world::{Wind, World};
@@ -31,27 +30,9 @@ pub struct SimArgs {
     /// Simulated seconds per wall second.
     #[arg(long, default_value_t = 1.0)]
     pub speedup: f64,
-    /// Probability of losing a frame, each way.
-    #[arg(long, default_value_t = 0.0)]
-    pub loss: f64,
-    /// Probability of duplicating a frame.
-    #[arg(long, default_value_t = 0.0)]
-    pub dup: f64,
-    /// Probability of delaying a frame behind later ones.
-    #[arg(long, default_value_t = 0.0)]
-    pub reorder: f64,
-    /// One-way latency, milliseconds.
-    #[arg(long, default_value_t = 0.0)]
-    pub latency_ms: f64,
-    /// Uniform latency jitter, milliseconds.
-    #[arg(long, default_value_t = 0.0)]
-    pub jitter_ms: f64,
-    /// Probability of corrupting a frame (one byte flipped: bad CRC).
-    #[arg(long, default_value_t = 0.0)]
-    pub corrupt: f64,
-    /// Link blackouts as START+DURATION seconds of simulated time, comma separated.
-    #[arg(long, value_name = "S+D,…")]
-    pub blackout: Option<String>,
+    /// Faults of every vehicle's link, each way.
+    #[command(flatten)]
+    pub faults: crate::cli::relay::FaultArgs,
     /// Swap the battery this many seconds after a vehicle is landed and disarmed with a
     /// used battery (it then reboots). Without it the GCS asks with MAV_CMD_USER_1 (31010).
     #[arg(long, value_name = "SECONDS")]
@@ -147,19 +128,7 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
         bail!("--camera-px must be between 8 and 4096");
     }
     let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?;
-    let faults = LinkFaults {
-        loss: args.loss,
-        duplicate: args.dup,
-        reorder: args.reorder,
-        latency_ms: args.latency_ms,
-        jitter_ms: args.jitter_ms,
-        corrupt: args.corrupt,
-        blackouts: match &args.blackout {
-            Some(b) => parse_blackouts(b)?,
-            None => Vec::new(),
-        },
-    };
-    faults.validate()?;
+    let faults = args.faults.faults()?;
     cfg = cfg.with_faults(faults);
     if let Some(k) = &args.signing_key {
         cfg.signing_key = Some(crate::link::signing::SigningKey::read(k)?);

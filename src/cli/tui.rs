@@ -353,16 +353,7 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
         }
         None => None,
     };
-    let conn = crate::cli::vehicles::ConnectArgs {
-        connect: connect.clone(),
-        signing_key: None,
-        allow_unsigned: false,
-        tlog: None,
-        json: false,
-        mission_timeout_ms: 1500,
-        item_timeout_ms: 250,
-        mission_retries: 5,
-    };
+    let conn = crate::cli::vehicles::ConnectArgs::defaults(connect.clone());
     let label = format!(
         "LIVE {}",
         connect

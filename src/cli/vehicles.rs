@@ -44,9 +44,28 @@ pub struct ConnectArgs {
     /// Mission protocol: wait for each item during a download, milliseconds.
     #[arg(long, value_name = "MS", default_value_t = 250)]
     pub item_timeout_ms: u64,
-    /// Mission protocol: consecutive retries before giving up.
-    #[arg(long, value_name = "N", default_value_t = 5)]
-    pub mission_retries: u32,
+    /// Mission protocol: give up after the vehicle has not answered for this long,
+    /// seconds (a transfer goes on as long as it answers, however lossy the link).
+    #[arg(long, value_name = "SECONDS", default_value_t = 30)]
+    pub mission_silence_s: u64,
+}
+
+impl ConnectArgs {
+    /// The options with their defaults, on `connect` (for commands that take only some of
+    /// them from their own command line).
+    pub fn defaults(connect: Vec<ConnSpec>) -> ConnectArgs {
+        let mission = MissionConfig::default();
+        ConnectArgs {
+            connect,
+            signing_key: None,
+            allow_unsigned: false,
+            tlog: None,
+            json: false,
+            mission_timeout_ms: mission.timeout.as_millis() as u64,
+            item_timeout_ms: mission.item_timeout.as_millis() as u64,
+            mission_silence_s: mission.silence.as_secs(),
+        }
+    }
 }
 
 /// An open fleet over the requested links, and the tlog writer if any.
@@ -76,7 +95,7 @@ impl Session {
             mission: MissionConfig {
                 timeout: Duration::from_millis(args.mission_timeout_ms.max(1)),
                 item_timeout: Duration::from_millis(args.item_timeout_ms.max(1)),
-                retries: args.mission_retries,
+                silence: Duration::from_secs(args.mission_silence_s.max(1)),
                 ..MissionConfig::default()
             },
             ..FleetConfig::default()

@@ -94,6 +94,9 @@ pub struct OpsConfig {
     pub arm_ready: Duration,
     /// Wait for the heartbeat to show armed / disarmed.
     pub arm_confirm: Duration,
+    /// Wait for a vehicle that is still booting ([`VehicleSnapshot::booting`]) before an
+    /// operation, and retry an operation it refused while booting, for at most this long.
+    pub boot_wait: Duration,
 }
 
 impl Default for OpsConfig {
@@ -102,6 +105,7 @@ impl Default for OpsConfig {
             mode_confirm: Duration::from_secs(5),
             arm_ready: Duration::from_secs(60),
             arm_confirm: Duration::from_secs(5),
+            boot_wait: Duration::from_secs(60),
         }
     }
 }
@@ -175,10 +179,27 @@ pub enum FleetError {
         /// The current state, for the message.
         now: String,
     },
+    /// The vehicle did not finish booting in time.
+    #[error("vehicle {sysid}: still booting after {waited_s:.0} s ({why})")]
+    Booting {
+        /// System id.
+        sysid: u8,
+        /// Seconds waited.
+        waited_s: f64,
+        /// What showed it booting.
+        why: String,
+    },
     /// The fleet task has stopped.
     #[error("the fleet task has stopped")]
     Stopped,
 }
+
+/// A refusal this soon after a vehicle left boot still counts as a boot-time refusal (the
+/// heartbeat that says it is up may be older than a reboot the fleet has not seen yet).
+pub const BOOT_GRACE: Duration = Duration::from_secs(5);
+
+/// Pause before an operation refused while booting is tried again.
+const BOOT_RETRY: Duration = Duration::from_millis(500);
 
 /// A received frame, as broadcast to subscribers.
 #[derive(Clone, Debug)]
@@ -232,7 +253,18 @@ struct VehicleEntry {
     rate_frames: u64,
     rate_at: Time,
     rate_hz: f64,
+    /// The last SYS_STATUS (battery, health) from the autopilot.
+    status_at: Option<Time>,
+    /// When telemetry rates were last requested, and the wait before asking again if the
+    /// telemetry does not come (doubling up to [`STREAM_RETRY_MAX`]).
+    streams_at: Time,
+    streams_backoff: Duration,
 }
+
+/// Telemetry older than this counts as missing: its rates are requested again.
+const STREAM_STALE: Duration = Duration::from_secs(5);
+/// The longest wait between two requests for telemetry that does not come.
+const STREAM_RETRY_MAX: Duration = Duration::from_secs(60);
 
 struct Actor {
     cfg: FleetConfig,
@@ -355,6 +387,7 @@ impl Actor {
             self.handle_timeouts(now);
             self.flush(now);
             if now >= self.next_snapshot {
+                self.rerequest_streams(now);
                 self.publish(now);
                 self.next_snapshot = now + self.cfg.snapshot_period;
             }
@@ -375,6 +408,34 @@ impl Actor {
             }
         }
         t.max(now)
+    }
+
+    /// Ask again for the telemetry of vehicles whose position or status does not arrive:
+    /// REQUEST_DATA_STREAM is not acknowledged, so one lost frame (a lossy radio, a vehicle
+    /// still booting) would otherwise leave it silent for the whole session.
+    fn rerequest_streams(&mut self, now: Time) {
+        if !self.cfg.request_streams {
+            return;
+        }
+        let stale = |t: Option<Time>| t.is_none_or(|t| now.saturating_since(t) > STREAM_STALE);
+        let due: Vec<Endpoint> = self
+            .vehicles
+            .values_mut()
+            .filter(|v| v.snap.alive && !v.snap.booting)
+            .filter(|v| stale(v.snap.position_at) || stale(v.status_at))
+            .filter(|v| now.saturating_since(v.streams_at) >= v.streams_backoff)
+            .map(|v| {
+                v.streams_backoff = (v.streams_backoff * 2).min(STREAM_RETRY_MAX);
+                Endpoint::new(v.snap.sysid, v.snap.compid)
+            })
+            .collect();
+        for ep in due {
+            tracing::debug!(
+                "vehicle {}: telemetry missing, asking for it again",
+                ep.sysid
+            );
+            self.request_streams(ep, now);
+        }
     }
 
     fn handle_timeouts(&mut self, now: Time) {
@@ -501,6 +562,9 @@ impl Actor {
                 {
                     v.snap.apply(msg, now);
                     v.rate_frames += 1;
+                    if matches!(msg, MavMessage::SYS_STATUS(_)) {
+                        v.status_at = Some(now);
+                    }
                     v.mission.handle_message(&frame.header, msg, now);
                 }
             }
@@ -529,7 +593,7 @@ impl Actor {
         }
         match self.vehicles.get_mut(&from.sysid) {
             Some(v) if v.snap.compid == from.compid => {
-                v.snap.apply_heartbeat(beat);
+                v.snap.apply_heartbeat(beat, now);
                 v.snap.link = link;
                 let home_item = v.snap.flavour.home_item();
                 if v.mission.home_item() != home_item && v.mission.is_idle() {
@@ -555,6 +619,9 @@ impl Actor {
                         rate_frames: 0,
                         rate_at: now,
                         rate_hz: 0.0,
+                        status_at: None,
+                        streams_at: now,
+                        streams_backoff: STREAM_STALE,
                     },
                 );
                 tracing::info!(
@@ -573,9 +640,10 @@ impl Actor {
         if !self.cfg.request_streams {
             return;
         }
-        let Some(v) = self.vehicles.get(&ep.sysid) else {
+        let Some(v) = self.vehicles.get_mut(&ep.sysid) else {
             return;
         };
+        v.streams_at = now;
         let ardupilot = v.snap.flavour.home_item();
         if ardupilot {
             for (stream, hz) in [
@@ -649,7 +717,9 @@ impl Actor {
                     {
                         tracing::warn!("vehicle {} rebooted", who.sysid);
                         v.snap.reboots += 1;
+                        v.snap.rebooted();
                         v.snap.reset_progress();
+                        v.streams_backoff = STREAM_STALE;
                         rerequest = true;
                     }
                     if rerequest {
@@ -681,6 +751,11 @@ impl Actor {
                         if let Some((_, Some(p))) = v.pending.get(&id) {
                             let _ = p.send((done, total));
                         }
+                    }
+                    MissionEvent::Restarted { reason, left, .. } => {
+                        tracing::warn!(
+                            "vehicle {sysid}: mission transfer starts over ({reason}; {left} more restarts allowed)"
+                        );
                     }
                     MissionEvent::Done { id, result } => {
                         if let Some((reply, _)) = v.pending.remove(&id) {
@@ -823,12 +898,74 @@ impl FleetHandle {
         rx.await.map_err(|_| FleetError::Stopped)
     }
 
-    /// Send a command and wait for its final ACK.
+    /// Send a command and wait for its final ACK. A vehicle that is booting is waited for
+    /// first, and a command it refuses as temporarily rejected or denied while it boots (or
+    /// just after) is sent again once it is up ([`FleetHandle::wait_booted`]).
     pub async fn command(&self, cmd: Command) -> Result<CommandAck, FleetError> {
         let sysid = cmd.target.sysid;
-        self.request(|reply| Request::Command { cmd, reply })
-            .await?
-            .map_err(|error| FleetError::Command { sysid, error })
+        let give_up = tokio::time::Instant::now() + self.cfg.ops.boot_wait;
+        loop {
+            // A system not heard yet (a camera, a command sent blind) is not waited for.
+            if self.vehicle(sysid).is_some() {
+                self.wait_booted(sysid).await?;
+            }
+            let c = cmd.clone();
+            let r = self
+                .request(|reply| Request::Command { cmd: c, reply })
+                .await?
+                .map_err(|error| FleetError::Command { sysid, error });
+            let boot_refusal = matches!(
+                &r,
+                Err(FleetError::Command {
+                    error: CommandError::TemporarilyRejected { .. } | CommandError::Denied { .. },
+                    ..
+                })
+            );
+            if !(boot_refusal && self.refused_while_booting(sysid, give_up).await) {
+                return r;
+            }
+        }
+    }
+
+    /// Whether a refusal from `sysid` came while it boots or just after (within
+    /// [`BOOT_GRACE`] of leaving boot) and may be tried again before `give_up`; if so, waits
+    /// a moment first.
+    async fn refused_while_booting(&self, sysid: u8, give_up: tokio::time::Instant) -> bool {
+        let Some(v) = self.vehicle(sysid) else {
+            return false;
+        };
+        let now = self.clock.now();
+        let recent = v.booting
+            || v.ready_since
+                .is_some_and(|t| now.saturating_since(t) <= BOOT_GRACE);
+        if !recent || tokio::time::Instant::now() + BOOT_RETRY > give_up {
+            return false;
+        }
+        tracing::info!("vehicle {sysid}: refused while booting; trying again");
+        tokio::time::sleep(BOOT_RETRY).await;
+        true
+    }
+
+    /// Wait until vehicle `sysid` has finished booting ([`VehicleSnapshot::booting`]), at
+    /// most [`OpsConfig::boot_wait`]; returns its snapshot then.
+    pub async fn wait_booted(&self, sysid: u8) -> Result<VehicleSnapshot, FleetError> {
+        let v = self.require(sysid)?;
+        if !v.booting {
+            return Ok(v);
+        }
+        let wait = self.cfg.ops.boot_wait;
+        tracing::info!("vehicle {sysid} is booting: waiting for it");
+        self.wait_until(sysid, wait, |s| !s.booting)
+            .await
+            .map_err(|last| FleetError::Booting {
+                sysid,
+                waited_s: wait.as_secs_f64(),
+                why: match last {
+                    Some(v) if v.system_status == 1 => "its heartbeat says MAV_STATE_BOOT".into(),
+                    Some(_) => "no heartbeat since it rebooted".into(),
+                    None => "vehicle gone".into(),
+                },
+            })
     }
 
     /// Send any message (routed by its target); returns the number of links it went out on.
@@ -840,20 +977,41 @@ impl FleetHandle {
         .await
     }
 
-    /// Run a mission operation; `progress` receives (done, total) as items move.
+    /// Run a mission operation; `progress` receives (done, total) as items move. A vehicle
+    /// that is booting is waited for first (a download would read an empty list from an
+    /// ArduPilot that has not loaded its mission yet), and an operation it refuses with
+    /// MAV_MISSION_NO_SPACE, MAV_MISSION_DENIED or MAV_MISSION_ERROR while it boots or just
+    /// after is run again once it is up.
     pub async fn mission_op(
         &self,
         sysid: u8,
         op: MissionOp,
         progress: Option<mpsc::UnboundedSender<(usize, usize)>>,
     ) -> Result<MissionOutcome, FleetError> {
-        self.request(|reply| Request::Mission {
-            sysid,
-            op,
-            reply,
-            progress,
-        })
-        .await?
+        use mavlink::dialects::ardupilotmega::MavMissionResult as R;
+        let give_up = tokio::time::Instant::now() + self.cfg.ops.boot_wait;
+        loop {
+            self.wait_booted(sysid).await?;
+            let (o, p) = (op.clone(), progress.clone());
+            let r = self
+                .request(|reply| Request::Mission {
+                    sysid,
+                    op: o,
+                    reply,
+                    progress: p,
+                })
+                .await?;
+            let boot_refusal = matches!(
+                &r,
+                Err(FleetError::Mission {
+                    error: MissionError::Rejected { result, .. },
+                    ..
+                }) if matches!(result.0, R::MAV_MISSION_NO_SPACE | R::MAV_MISSION_DENIED | R::MAV_MISSION_ERROR)
+            );
+            if !(boot_refusal && self.refused_while_booting(sysid, give_up).await) {
+                return r;
+            }
+        }
     }
 
     /// Upload a mission, fence or rally list. For ArduPilot missions the known home is

@@ -77,6 +77,16 @@ pub struct VehicleSnapshot {
     pub armed: bool,
     /// HEARTBEAT system_status (MAV_STATE).
     pub system_status: u8,
+    /// Still booting: its heartbeat says MAV_STATE_BOOT (ArduPilot, for about 2 s after
+    /// power-up, while it refuses MISSION_COUNT with MAV_MISSION_NO_SPACE), or it rebooted
+    /// (a battery swap is a power cycle) and has not sent a heartbeat since. Operations
+    /// wait for it to end ([`crate::fleet::FleetHandle::wait_booted`]). PX4 has no boot
+    /// state on MAVLink: its MAV_STATE_UNINIT means "pre-flight checks not passed", not
+    /// booting (`streams/HEARTBEAT.hpp`).
+    pub booting: bool,
+    /// When the vehicle was first heard out of boot in its current power cycle (fleet
+    /// clock); `None` while it boots.
+    pub ready_since: Option<Time>,
     /// Heard within the liveness window.
     pub alive: bool,
     /// Seconds since the last heartbeat.
@@ -192,6 +202,9 @@ pub struct FleetSnapshot {
     pub links: Vec<LinkSnapshot>,
 }
 
+/// MAV_STATE_BOOT (HEARTBEAT system_status).
+const MAV_STATE_BOOT: u8 = 1;
+
 /// MAV_SYS_STATUS_PREARM_CHECK (SYS_STATUS sensor bit 28).
 const PREARM_BIT: u32 = 0x1000_0000;
 
@@ -209,6 +222,8 @@ impl VehicleSnapshot {
             custom_mode: beat.custom_mode,
             armed: beat.armed(),
             system_status: beat.system_status,
+            booting: beat.system_status == MAV_STATE_BOOT,
+            ready_since: (beat.system_status != MAV_STATE_BOOT).then_some(now),
             alive: true,
             heartbeat_age_s: 0.0,
             reboots: 0,
@@ -241,8 +256,15 @@ impl VehicleSnapshot {
         }
     }
 
-    /// A heartbeat from the autopilot.
-    pub fn apply_heartbeat(&mut self, beat: &Beat) {
+    /// A heartbeat from the autopilot, received at `now`.
+    pub fn apply_heartbeat(&mut self, beat: &Beat, now: Time) {
+        if beat.system_status == MAV_STATE_BOOT {
+            self.booting = true;
+            self.ready_since = None;
+        } else if self.booting || self.ready_since.is_none() {
+            self.booting = false;
+            self.ready_since = Some(now);
+        }
         self.flavour = Flavour::from_heartbeat(beat.autopilot, beat.mav_type);
         self.mav_type = beat.mav_type;
         self.autopilot = beat.autopilot;
@@ -369,6 +391,12 @@ impl VehicleSnapshot {
             }
             _ => {}
         }
+    }
+
+    /// The vehicle rebooted: it counts as booting until its next heartbeat.
+    pub fn rebooted(&mut self) {
+        self.booting = true;
+        self.ready_since = None;
     }
 
     /// Forget mission progress (a new mission was uploaded or started).

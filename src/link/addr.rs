@@ -3,10 +3,10 @@
 //!
 //! | string | meaning |
 //! |---|---|
-//! | `udpin:HOST:PORT` | listen on HOST:PORT; answer whoever spoke last (`udp:` is a synonym) |
-//! | `udpout:HOST:PORT` | send to HOST:PORT from an ephemeral port, receive its answers |
+//! | `udpin:HOST:PORT` | listen on HOST:PORT; answer every sender, each system at the address it speaks from (`udp:` is a synonym) |
+//! | `udpout:HOST:PORT` | send to HOST:PORT from an ephemeral port (on loopback for a loopback HOST), receive its answers |
 //! | `tcp:HOST:PORT` | connect; reconnect with backoff when the peer goes away |
-//! | `tcpin:HOST:PORT` | listen for TCP connections (the latest client is served) |
+//! | `tcpin:HOST:PORT` | listen for TCP connections; serve every client, each system on the connection it speaks on |
 //! | `serial:PATH:BAUD` | a serial port (e.g. `serial:/dev/ttyUSB0:57600`; `PATH,BAUD` as MAVProxy also works) |
 //!
 //! HOST may be a name, an IPv4 address or a bracketed IPv6 address (`[::1]`).
@@ -17,7 +17,7 @@ use std::str::FromStr;
 /// A parsed connection string.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub enum ConnSpec {
-    /// Listen for UDP datagrams; reply to the last sender.
+    /// Listen for UDP datagrams; answer every sender.
     UdpIn {
         /// Host to bind.
         host: String,

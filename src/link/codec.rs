@@ -221,6 +221,26 @@ impl LinkStats {
     }
 }
 
+/// The bytes of one incoming byte stream that do not yet form a whole frame.
+///
+/// A link that hears several peers at once (a `udpin` port that many vehicles send to, a
+/// `tcpin` server with several clients) keeps one of these per peer and decodes with
+/// [`Codec::decode_stream`], so that a frame split over two reads of one peer is never
+/// spliced onto another peer's bytes, while statistics and signing (replay protection)
+/// stay those of the link.
+#[derive(Debug, Default)]
+pub struct StreamBuffer {
+    buf: Vec<u8>,
+    pos: usize,
+}
+
+impl StreamBuffer {
+    /// Bytes buffered but not yet consumed (an incomplete frame).
+    pub fn pending(&self) -> usize {
+        self.buf.len() - self.pos
+    }
+}
+
 /// The codec: a receive buffer, transmit sequence numbers, optional signing, statistics.
 #[derive(Debug, Default)]
 pub struct Codec {
@@ -282,6 +302,22 @@ impl Codec {
         while let Some(f) = self.poll_frame(unix_us) {
             out.push(f);
         }
+        out
+    }
+
+    /// As [`Codec::decode`], for the bytes of one of several streams this codec hears:
+    /// `stream` holds that stream's incomplete frame between calls (see [`StreamBuffer`]).
+    pub fn decode_stream(
+        &mut self,
+        stream: &mut StreamBuffer,
+        data: &[u8],
+        unix_us: u64,
+    ) -> Vec<Frame> {
+        std::mem::swap(&mut self.buf, &mut stream.buf);
+        std::mem::swap(&mut self.pos, &mut stream.pos);
+        let out = self.decode(data, unix_us);
+        std::mem::swap(&mut self.buf, &mut stream.buf);
+        std::mem::swap(&mut self.pos, &mut stream.pos);
         out
     }
 
@@ -823,5 +859,36 @@ mod tests {
             assert_eq!(frames.len(), 1);
             assert_eq!(frames[0].message.as_ref().ok(), Some(m));
         }
+    }
+
+    /// Two peers' bytes interleaved on one link, each frame split over two reads: with a
+    /// buffer per stream every frame comes out whole and the statistics are the link's;
+    /// through one shared buffer the halves would be spliced together and lost.
+    #[test]
+    fn streams_keep_their_own_incomplete_frames() {
+        let mut a_tx = Codec::new();
+        let mut b_tx = Codec::new();
+        let a = a_tx.encode(1, 1, &heartbeat(), 0);
+        let b = b_tx.encode(2, 1, &heartbeat(), 0);
+        let (a1, a2) = a.split_at(7);
+        let (b1, b2) = b.split_at(11);
+        let mut rx = Codec::new();
+        let (mut sa, mut sb) = (StreamBuffer::default(), StreamBuffer::default());
+        assert!(rx.decode_stream(&mut sa, a1, 0).is_empty());
+        assert!(rx.decode_stream(&mut sb, b1, 0).is_empty());
+        assert_eq!(sa.pending(), a1.len());
+        let fb = rx.decode_stream(&mut sb, b2, 0);
+        let fa = rx.decode_stream(&mut sa, a2, 0);
+        assert_eq!((fa.len(), fb.len()), (1, 1));
+        assert_eq!((fa[0].sysid(), fb[0].sysid()), (1, 2));
+        assert_eq!(rx.stats().frames_in, 2);
+        assert_eq!(rx.pending(), 0);
+        // The same reads through one buffer: both frames are lost.
+        let mut shared = Codec::new();
+        let n: usize = [a1, b1, b2, a2]
+            .iter()
+            .map(|d| shared.decode(d, 0).len())
+            .sum();
+        assert!(n < 2, "{n} frames decoded from spliced halves");
     }
 }

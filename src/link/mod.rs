@@ -4,14 +4,23 @@
 //!   statistics), used by our links and by the simulator.
 //! * [`signing`] — MAVLink 2 message signing (keys, signing, verification).
 //! * [`addr`] — connection strings as MAVProxy writes them.
+//! * [`peers`] — the peers of a link that serves several (`udpin`, `tcpin`) and the route
+//!   of each system id among them.
 //! * [`transport`] — one tokio task per link (UDP in/out, TCP client/server, serial).
+//! * [`faults`] — seeded loss, duplication, reordering, latency, corruption and blackouts
+//!   of whole frames (pure), used by the simulator's links and by [`relay`].
+//! * [`relay`] — a frame relay between two links with those faults (`fleetmap relay`).
 //! * [`tlog`] — `.tlog` recording and reading.
 //!
-//! Routing by (sysid, compid) is done by the fleet (`crate::fleet`), which knows on which
-//! link each component was last heard.
+//! Routing by (sysid, compid) is done in two steps: the fleet (`crate::fleet`) picks the
+//! link each component was last heard on, and a link that serves several peers picks the
+//! peer that system speaks from.
 
 pub mod addr;
 pub mod codec;
+pub mod faults;
+pub mod peers;
+pub mod relay;
 pub mod signing;
 pub mod tlog;
 pub mod transport;

@@ -3,18 +3,24 @@
 //! on the link's own channel and are encoded as MAVLink 2 (signed when a key is set).
 //! Every frame in and out is copied to the `.tlog` when one is open.
 //!
-//! Behaviour per scheme follows pymavlink `mavutil` (`mavudp`, `mavtcp`, `mavtcpin`,
-//! `mavserial`): `udpin` answers the address it last heard from, `udpout` talks to its
-//! fixed peer, `tcp` reconnects after the peer goes away (with a backoff from 0.5 s
-//! doubling to 5 s; pymavlink retries every second with `autoreconnect`), `tcpin` serves
-//! the latest client, `serial` is opened once.
+//! Behaviour per scheme: `udpout` talks to its fixed peer from a socket bound to loopback
+//! when the peer is on this machine; `tcp` reconnects after the peer goes away (with a
+//! backoff from 0.5 s doubling to 5 s; pymavlink's `mavtcp` retries every second with
+//! `autoreconnect`); `serial` is opened once. `udpin` and `tcpin` serve every peer they
+//! hear at once — every vehicle sending to one UDP port from its own address, every TCP
+//! client — and answer each system at the address it speaks from ([`super::peers`]), as
+//! QGroundControl's UDP link and mavlink-router do (pymavlink's `mavudp` answers only the
+//! last sender, which loses every vehicle but one when several share the port).
 
 use super::addr::ConnSpec;
 use super::codec::{Codec, Frame, LinkStats};
+use super::peers::{PeerKey, PeerTable};
 use super::signing::Signing;
 use super::tlog::TlogHandle;
 use crate::proto::Endpoint;
+use mavlink::Message;
 use mavlink::dialects::ardupilotmega::MavMessage;
+use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::sync::Arc;
 use std::time::Duration;
@@ -85,8 +91,11 @@ pub struct LinkStatus {
     pub name: String,
     /// Connected (TCP) / has a peer to send to (UDP).
     pub up: bool,
-    /// The current peer address, if known.
+    /// The current peer address, if known (on a link that serves several, the one heard
+    /// last).
     pub peer: Option<String>,
+    /// Every peer a serving link (`udpin`, `tcpin`) hears now, most recent first.
+    pub peers: Vec<String>,
     /// Codec statistics (frames, bytes, CRC errors, loss per source, signing drops).
     pub stats: LinkStats,
     /// Messages that could not be sent (no peer yet, disconnected, write error).
@@ -138,17 +147,23 @@ pub struct LinkHandle {
     pub id: LinkId,
     /// The connection string.
     pub spec: ConnSpec,
+    /// The local address of a UDP socket or TCP listener (what a port 0 in the connection
+    /// string became).
+    pub local: Option<SocketAddr>,
     tx: mpsc::Sender<LinkCmd>,
     status: watch::Receiver<LinkStatus>,
 }
 
 impl LinkHandle {
     /// Queue `msg` to be sent from `src`; `false` if the link's queue is full or closed.
+    /// On a link that serves several peers it goes to the peer its target system was last
+    /// heard from, or to every peer when it has no target ([`super::peers`]).
     pub fn send(&self, src: Endpoint, msg: MavMessage) -> bool {
         self.tx.try_send(LinkCmd::Send(src, Box::new(msg))).is_ok()
     }
 
-    /// Queue already-encoded bytes (a third party's frame in tests, a forwarded frame).
+    /// Queue already-encoded bytes (a third party's frame in tests, a forwarded frame); on
+    /// a link with several peers they go to all of them.
     pub fn send_raw(&self, bytes: Vec<u8>) -> bool {
         self.tx.try_send(LinkCmd::Raw(bytes)).is_ok()
     }
@@ -161,6 +176,21 @@ impl LinkHandle {
     /// Whether the link task is still running.
     pub fn is_running(&self) -> bool {
         !self.tx.is_closed()
+    }
+}
+
+/// What a TCP server's per-client reader task reports.
+enum ClientRead {
+    Data(u64, Vec<u8>),
+    Closed(u64, String),
+}
+
+/// Aborts a task when dropped (a TCP client's reader, when the client or the link goes).
+struct AbortOnDrop(tokio::task::AbortHandle);
+
+impl Drop for AbortOnDrop {
+    fn drop(&mut self) {
+        self.0.abort();
     }
 }
 
@@ -179,26 +209,47 @@ enum Reader {
     },
     TcpServer {
         listener: TcpListener,
-        half: Option<tokio::net::tcp::OwnedReadHalf>,
+        next_client: u64,
+        /// Every client's reader task sends here.
+        from_clients: mpsc::Receiver<ClientRead>,
+        to_link: mpsc::Sender<ClientRead>,
     },
     Serial(tokio::io::ReadHalf<tokio_serial::SerialStream>),
     Memory(mpsc::UnboundedReceiver<Vec<u8>>),
 }
 
 enum Writer {
-    Udp {
+    /// `udpout`: one fixed peer.
+    UdpOut {
         sock: Arc<UdpSocket>,
-        peer: Option<SocketAddr>,
-        fixed: bool,
+        peer: SocketAddr,
     },
+    /// `udpin`: every sender heard is a peer ([`LinkTask::peers`]).
+    UdpIn(Arc<UdpSocket>),
+    /// `tcp`: the connection, while there is one.
     Tcp(Option<tokio::net::tcp::OwnedWriteHalf>),
+    /// `tcpin`: every client connected ([`LinkTask::peers`] routes among them).
+    TcpServer(HashMap<u64, (tokio::net::tcp::OwnedWriteHalf, AbortOnDrop)>),
     Serial(tokio::io::WriteHalf<tokio_serial::SerialStream>),
     Memory(mpsc::UnboundedSender<Vec<u8>>),
 }
 
 enum ReadOutcome {
+    /// `n` bytes in the read buffer, from a UDP sender when the link serves several.
     Data(usize, Option<SocketAddr>),
+    /// Bytes from a TCP server's client.
+    ClientData(u64, Vec<u8>),
+    /// The TCP client link connected.
     Connected(tokio::net::tcp::OwnedWriteHalf, String),
+    /// The TCP server accepted a client.
+    Accepted(
+        u64,
+        tokio::net::tcp::OwnedWriteHalf,
+        AbortOnDrop,
+        SocketAddr,
+    ),
+    /// A TCP server's client went away.
+    ClientClosed(u64, String),
     Disconnected(String),
 }
 
@@ -257,31 +308,51 @@ impl Reader {
                     }
                 },
             },
-            Reader::TcpServer { listener, half } => match half {
-                Some(h) => match h.read(buf).await {
-                    Ok(0) => {
-                        *half = None;
-                        ReadOutcome::Disconnected("client closed the connection".into())
-                    }
-                    Ok(n) => ReadOutcome::Data(n, None),
-                    Err(e) => {
-                        *half = None;
-                        ReadOutcome::Disconnected(e.to_string())
-                    }
-                },
-                None => match listener.accept().await {
-                    Ok((s, from)) => {
-                        let _ = s.set_nodelay(true);
-                        let (r, w) = s.into_split();
-                        *half = Some(r);
-                        ReadOutcome::Connected(w, from.to_string())
-                    }
-                    Err(e) => {
-                        tokio::time::sleep(Duration::from_millis(200)).await;
-                        ReadOutcome::Disconnected(e.to_string())
-                    }
-                },
-            },
+            Reader::TcpServer {
+                listener,
+                next_client,
+                from_clients,
+                to_link,
+            } => {
+                // Both branches are cancel-safe (`accept`, `recv`).
+                tokio::select! {
+                    accepted = listener.accept() => match accepted {
+                        Ok((s, from)) => {
+                            let _ = s.set_nodelay(true);
+                            let (mut r, w) = s.into_split();
+                            let id = *next_client;
+                            *next_client += 1;
+                            let tx = to_link.clone();
+                            let task = tokio::spawn(async move {
+                                let mut buf = vec![0u8; 8192];
+                                let why = loop {
+                                    match r.read(&mut buf).await {
+                                        Ok(0) => break "client closed the connection".to_string(),
+                                        Ok(n) => {
+                                            if tx.send(ClientRead::Data(id, buf[..n].to_vec())).await.is_err() {
+                                                return;
+                                            }
+                                        }
+                                        Err(e) => break e.to_string(),
+                                    }
+                                };
+                                let _ = tx.send(ClientRead::Closed(id, why)).await;
+                            });
+                            ReadOutcome::Accepted(id, w, AbortOnDrop(task.abort_handle()), from)
+                        }
+                        Err(e) => {
+                            tokio::time::sleep(Duration::from_millis(200)).await;
+                            ReadOutcome::Disconnected(e.to_string())
+                        }
+                    },
+                    r = from_clients.recv() => match r {
+                        Some(ClientRead::Data(id, bytes)) => ReadOutcome::ClientData(id, bytes),
+                        Some(ClientRead::Closed(id, why)) => ReadOutcome::ClientClosed(id, why),
+                        // `to_link` lives here too: never closed while the link runs.
+                        None => std::future::pending().await,
+                    },
+                }
+            }
             Reader::Memory(rx) => match rx.recv().await {
                 Some(bytes) => {
                     let n = bytes.len().min(buf.len());
@@ -310,40 +381,30 @@ impl Reader {
 }
 
 impl Writer {
-    async fn write(&mut self, bytes: &[u8]) -> bool {
+    /// Whether the link can send now: connected (TCP), or with at least one peer.
+    fn up(&self, peers: &PeerTable) -> bool {
         match self {
-            Writer::Udp { sock, peer, .. } => match peer {
-                Some(p) => sock.send_to(bytes, *p).await.is_ok(),
-                None => false,
-            },
-            Writer::Tcp(Some(w)) => {
-                if w.write_all(bytes).await.is_err() {
-                    *self = Writer::Tcp(None);
-                    return false;
-                }
-                true
-            }
-            Writer::Tcp(None) => false,
-            Writer::Serial(w) => w.write_all(bytes).await.is_ok(),
-            Writer::Memory(tx) => tx.send(bytes.to_vec()).is_ok(),
-        }
-    }
-
-    fn up(&self) -> bool {
-        match self {
-            Writer::Udp { peer, .. } => peer.is_some(),
+            Writer::UdpOut { .. } | Writer::Serial(_) => true,
+            Writer::UdpIn(_) => !peers.is_empty(),
             Writer::Tcp(w) => w.is_some(),
-            Writer::Serial(_) => true,
+            Writer::TcpServer(clients) => !clients.is_empty(),
             Writer::Memory(tx) => !tx.is_closed(),
         }
     }
+}
 
-    fn peer(&self) -> Option<String> {
-        match self {
-            Writer::Udp { peer, .. } => peer.map(|p| p.to_string()),
-            _ => None,
-        }
-    }
+/// The local address to send to `peer` from: loopback for a loopback peer (so that a link
+/// to this machine is not reachable from the network), the unspecified address of the
+/// peer's family otherwise (the kernel picks the interface), port chosen by the kernel.
+pub fn local_for(peer: SocketAddr) -> SocketAddr {
+    use std::net::{IpAddr, Ipv4Addr, Ipv6Addr};
+    let ip = match peer.ip() {
+        IpAddr::V4(a) if a.is_loopback() => IpAddr::V4(Ipv4Addr::LOCALHOST),
+        IpAddr::V4(_) => IpAddr::V4(Ipv4Addr::UNSPECIFIED),
+        IpAddr::V6(a) if a.is_loopback() => IpAddr::V6(Ipv6Addr::LOCALHOST),
+        IpAddr::V6(_) => IpAddr::V6(Ipv6Addr::UNSPECIFIED),
+    };
+    SocketAddr::new(ip, 0)
 }
 
 async fn resolve(spec: &ConnSpec, host: &str, port: u16) -> Result<SocketAddr, LinkError> {
@@ -371,41 +432,21 @@ pub async fn open_link(
         spec: spec.to_string(),
         source,
     };
+    let mut local = None;
     let (reader, writer) = match &spec {
         ConnSpec::UdpIn { host, port } => {
             let addr = resolve(&spec, host, *port).await?;
             let s = Arc::new(UdpSocket::bind(addr).await.map_err(io_err)?);
             enlarge_recv_buffer(&s);
-            (
-                Reader::Udp(s.clone()),
-                Writer::Udp {
-                    sock: s,
-                    peer: None,
-                    fixed: false,
-                },
-            )
+            local = s.local_addr().ok();
+            (Reader::Udp(s.clone()), Writer::UdpIn(s))
         }
         ConnSpec::UdpOut { host, port } => {
             let peer = resolve(&spec, host, *port).await?;
-            let local: SocketAddr = if peer.is_ipv6() {
-                "[::]:0"
-                    .parse()
-                    .map_err(|_| io_err(std::io::ErrorKind::InvalidInput.into()))?
-            } else {
-                "0.0.0.0:0"
-                    .parse()
-                    .map_err(|_| io_err(std::io::ErrorKind::InvalidInput.into()))?
-            };
-            let s = Arc::new(UdpSocket::bind(local).await.map_err(io_err)?);
+            let s = Arc::new(UdpSocket::bind(local_for(peer)).await.map_err(io_err)?);
             enlarge_recv_buffer(&s);
-            (
-                Reader::Udp(s.clone()),
-                Writer::Udp {
-                    sock: s,
-                    peer: Some(peer),
-                    fixed: true,
-                },
-            )
+            local = s.local_addr().ok();
+            (Reader::Udp(s.clone()), Writer::UdpOut { sock: s, peer })
         }
         ConnSpec::Tcp { host, port } => (
             Reader::TcpClient {
@@ -420,12 +461,16 @@ pub async fn open_link(
         ConnSpec::TcpIn { host, port } => {
             let addr = resolve(&spec, host, *port).await?;
             let l = TcpListener::bind(addr).await.map_err(io_err)?;
+            local = l.local_addr().ok();
+            let (to_link, from_clients) = mpsc::channel(1024);
             (
                 Reader::TcpServer {
                     listener: l,
-                    half: None,
+                    next_client: 0,
+                    from_clients,
+                    to_link,
                 },
-                Writer::Tcp(None),
+                Writer::TcpServer(HashMap::new()),
             )
         }
         ConnSpec::Serial { path, baud } => {
@@ -449,7 +494,9 @@ pub async fn open_link(
             });
         }
     };
-    Ok(start_link(id, spec, opts, events, reader, writer))
+    let mut h = start_link(id, spec, opts, events, reader, writer);
+    h.local = local;
+    Ok(h)
 }
 
 /// The peer's end of an in-process link (see [`open_memory_link`]).
@@ -503,10 +550,14 @@ fn start_link(
         None => Codec::new(),
     };
     let (tx, rx) = mpsc::channel(1024);
+    let peers = PeerTable::default();
     let initial = LinkStatus {
         name: spec.to_string(),
-        up: writer.up(),
-        peer: writer.peer(),
+        up: writer.up(&peers),
+        peer: match &writer {
+            Writer::UdpOut { peer, .. } => Some(peer.to_string()),
+            _ => None,
+        },
         ..Default::default()
     };
     let (status_tx, status_rx) = watch::channel(initial.clone());
@@ -515,6 +566,7 @@ fn start_link(
         codec,
         reader,
         writer,
+        peers,
         rx,
         events,
         tlog: opts.tlog.clone(),
@@ -525,6 +577,7 @@ fn start_link(
     LinkHandle {
         id,
         spec,
+        local: None,
         tx,
         status: status_rx,
     }
@@ -535,6 +588,8 @@ struct LinkTask {
     codec: Codec,
     reader: Reader,
     writer: Writer,
+    /// The peers of a serving link (`udpin`, `tcpin`); empty for the others.
+    peers: PeerTable,
     rx: mpsc::Receiver<LinkCmd>,
     events: mpsc::Sender<LinkEvent>,
     tlog: Option<TlogHandle>,
@@ -552,14 +607,17 @@ impl LinkTask {
                 cmd = self.rx.recv() => {
                     let Some(cmd) = cmd else { break };
                     let now = unix_now_us();
-                    let bytes = match cmd {
-                        LinkCmd::Send(src, msg) => self.codec.encode(src.sysid, src.compid, &msg, now),
-                        LinkCmd::Raw(b) => b,
+                    let (bytes, target) = match cmd {
+                        LinkCmd::Send(src, msg) => (
+                            self.codec.encode(src.sysid, src.compid, &msg, now),
+                            msg.target_system_id(),
+                        ),
+                        LinkCmd::Raw(b) => (b, None),
                     };
                     if let Some(t) = &self.tlog {
                         t.record(now, &bytes);
                     }
-                    if !self.writer.write(&bytes).await {
+                    if !self.write(&bytes, target).await {
                         self.status.tx_dropped += 1;
                     }
                 }
@@ -568,89 +626,174 @@ impl LinkTask {
                         break;
                     }
                 }
-                _ = tick.tick() => self.publish(),
+                _ = tick.tick() => {
+                    for gone in self.peers.expire(tokio::time::Instant::now()) {
+                        tracing::info!("link {}: peer {gone} silent, forgotten", self.status.name);
+                    }
+                    self.publish();
+                }
             }
         }
         self.publish();
     }
 
+    /// Send `bytes` (a frame to system `target`, if it has one) where they belong; false
+    /// if they could not go anywhere.
+    async fn write(&mut self, bytes: &[u8], target: Option<u8>) -> bool {
+        match &mut self.writer {
+            Writer::UdpOut { sock, peer } => sock.send_to(bytes, *peer).await.is_ok(),
+            Writer::UdpIn(sock) => {
+                let mut sent = false;
+                for key in self.peers.destinations(target) {
+                    if let PeerKey::Addr(a) = key {
+                        sent |= sock.send_to(bytes, a).await.is_ok();
+                    }
+                }
+                sent
+            }
+            Writer::Tcp(Some(w)) => {
+                if w.write_all(bytes).await.is_err() {
+                    self.writer = Writer::Tcp(None);
+                    return false;
+                }
+                true
+            }
+            Writer::Tcp(None) => false,
+            Writer::TcpServer(clients) => {
+                let mut sent = false;
+                let mut failed = Vec::new();
+                for key in self.peers.destinations(target) {
+                    if let PeerKey::Client(c) = key
+                        && let Some((w, _)) = clients.get_mut(&c)
+                    {
+                        if w.write_all(bytes).await.is_ok() {
+                            sent = true;
+                        } else {
+                            failed.push(c);
+                        }
+                    }
+                }
+                for c in failed {
+                    clients.remove(&c);
+                    self.peers.remove(PeerKey::Client(c));
+                }
+                sent
+            }
+            Writer::Serial(w) => w.write_all(bytes).await.is_ok(),
+            Writer::Memory(tx) => tx.send(bytes.to_vec()).is_ok(),
+        }
+    }
+
     fn publish(&mut self) {
         self.status.stats = self.codec.stats().clone();
-        self.status.up = self.writer.up();
-        if let Some(p) = self.writer.peer() {
-            self.status.peer = Some(p);
+        self.status.up = self.writer.up(&self.peers);
+        if matches!(self.writer, Writer::UdpIn(_) | Writer::TcpServer(_)) {
+            self.status.peers = self.peers.names();
+            if let Some(p) = self.status.peers.first() {
+                self.status.peer = Some(p.clone());
+            }
         }
         let _ = self.status_tx.send(self.status.clone());
+    }
+
+    async fn status_event(&self, up: bool, detail: String) -> bool {
+        self.events
+            .send(LinkEvent::Status {
+                link: self.id,
+                up,
+                detail,
+            })
+            .await
+            .is_ok()
+    }
+
+    /// Decode `data` (from `peer` when the link serves several) and hand the frames to the
+    /// fleet. Returns false when the fleet is gone.
+    async fn deliver(&mut self, data: &[u8], peer: Option<(PeerKey, String)>) -> bool {
+        let now = unix_now_us();
+        let frames = match &peer {
+            Some((key, name)) => {
+                let (stream, new) = self.peers.heard(*key, name, tokio::time::Instant::now());
+                let frames = self.codec.decode_stream(stream, data, now);
+                if new && !self.status_event(true, format!("peer {name}")).await {
+                    return false;
+                }
+                for f in &frames {
+                    self.peers.route(f.sysid(), *key);
+                }
+                frames
+            }
+            None => self.codec.decode(data, now),
+        };
+        for frame in frames {
+            if let Some(t) = &self.tlog {
+                t.record(now, &frame.raw);
+            }
+            let ev = LinkEvent::Frame {
+                link: self.id,
+                frame: Box::new(frame),
+                unix_us: now,
+            };
+            if self.events.send(ev).await.is_err() {
+                return false;
+            }
+        }
+        true
     }
 
     /// Returns false when the fleet is gone.
     async fn handle_read(&mut self, out: ReadOutcome, buf: &[u8]) -> bool {
         match out {
             ReadOutcome::Data(n, from) => {
-                if let (
-                    Some(from),
-                    Writer::Udp {
-                        peer, fixed: false, ..
-                    },
-                ) = (from, &mut self.writer)
-                    && *peer != Some(from)
-                {
-                    let first = peer.is_none();
-                    *peer = Some(from);
-                    if first {
-                        let ev = LinkEvent::Status {
-                            link: self.id,
-                            up: true,
-                            detail: format!("peer {from}"),
-                        };
-                        if self.events.send(ev).await.is_err() {
-                            return false;
-                        }
-                    }
-                }
-                let now = unix_now_us();
-                for frame in self.codec.decode(&buf[..n], now) {
-                    if let Some(t) = &self.tlog {
-                        t.record(now, &frame.raw);
-                    }
-                    let ev = LinkEvent::Frame {
-                        link: self.id,
-                        frame: Box::new(frame),
-                        unix_us: now,
-                    };
-                    if self.events.send(ev).await.is_err() {
-                        return false;
-                    }
-                }
-                true
+                let peer = match (&self.writer, from) {
+                    (Writer::UdpIn(_), Some(a)) => Some((PeerKey::Addr(a), a.to_string())),
+                    _ => None,
+                };
+                self.deliver(&buf[..n], peer).await
+            }
+            ReadOutcome::ClientData(c, bytes) => {
+                // Known since it was accepted (the name is only used for a peer that is new).
+                let name = format!("client {c}");
+                self.deliver(&bytes, Some((PeerKey::Client(c), name))).await
             }
             ReadOutcome::Connected(w, peer) => {
                 self.writer = Writer::Tcp(Some(w));
                 self.status.connects += 1;
                 self.status.peer = Some(peer.clone());
                 self.publish();
-                self.events
-                    .send(LinkEvent::Status {
-                        link: self.id,
-                        up: true,
-                        detail: format!("connected to {peer}"),
-                    })
+                self.status_event(true, format!("connected to {peer}"))
                     .await
-                    .is_ok()
+            }
+            ReadOutcome::Accepted(c, w, reader, from) => {
+                if let Writer::TcpServer(clients) = &mut self.writer {
+                    clients.insert(c, (w, reader));
+                }
+                self.peers.heard(
+                    PeerKey::Client(c),
+                    &from.to_string(),
+                    tokio::time::Instant::now(),
+                );
+                self.status.connects += 1;
+                self.publish();
+                self.status_event(true, format!("client {from} connected"))
+                    .await
+            }
+            ReadOutcome::ClientClosed(c, why) => {
+                if let Writer::TcpServer(clients) = &mut self.writer {
+                    clients.remove(&c);
+                }
+                let name = self
+                    .peers
+                    .remove(PeerKey::Client(c))
+                    .unwrap_or_else(|| format!("client {c}"));
+                self.publish();
+                self.status_event(false, format!("{name}: {why}")).await
             }
             ReadOutcome::Disconnected(why) => {
                 if let Writer::Tcp(w) = &mut self.writer {
                     *w = None;
                     self.publish();
-                    return self
-                        .events
-                        .send(LinkEvent::Status {
-                            link: self.id,
-                            up: false,
-                            detail: why,
-                        })
-                        .await
-                        .is_ok();
+                    return self.status_event(false, why).await;
                 }
                 // UDP errors (e.g. ICMP unreachable) and serial hiccups: keep reading.
                 tokio::time::sleep(Duration::from_millis(50)).await;

@@ -100,7 +100,7 @@ pub fn gcs_heartbeat() -> MavMessage {
 pub struct LivenessConfig {
     /// GCS heartbeat period (1 s).
     pub gcs_period: Duration,
-    /// Silence after which a component is lost (3 s).
+    /// Silence after which a component is lost (3 s): no heartbeat and no other message.
     pub lost_after: Duration,
 }
 
@@ -123,12 +123,12 @@ pub enum LivenessEvent {
         /// Its heartbeat.
         beat: Beat,
     },
-    /// No heartbeat for `lost_after`.
+    /// Nothing heard (heartbeat or other message) for `lost_after`.
     Lost {
         /// The component.
         who: Endpoint,
     },
-    /// A heartbeat after being lost.
+    /// Heard again after being lost.
     Regained {
         /// The component.
         who: Endpoint,
@@ -143,6 +143,9 @@ pub enum LivenessEvent {
 #[derive(Clone, Debug)]
 struct Peer {
     last_beat: Time,
+    /// The last frame of any kind: a component that answers mission items or streams
+    /// telemetry is alive even when its 1 Hz heartbeats are lost on a poor link.
+    last_heard: Time,
     lost: bool,
     boot_ms: Option<u32>,
     was_active: bool,
@@ -194,6 +197,7 @@ impl Liveness {
                     who,
                     Peer {
                         last_beat: now,
+                        last_heard: now,
                         lost: false,
                         boot_ms: None,
                         was_active: beat.system_status >= MAV_STATE_STANDBY,
@@ -204,6 +208,7 @@ impl Liveness {
             }
             Some(p) => {
                 p.last_beat = now;
+                p.last_heard = now;
                 if p.lost {
                     p.lost = false;
                     self.events.push_back(LivenessEvent::Regained { who });
@@ -219,8 +224,15 @@ impl Liveness {
         }
     }
 
-    /// Any other message from `who`: watches its boot clock.
-    pub fn handle_message(&mut self, who: Endpoint, msg: &MavMessage, _now: Time) {
+    /// Any other message from `who`: it is alive; watches its boot clock.
+    pub fn handle_message(&mut self, who: Endpoint, msg: &MavMessage, now: Time) {
+        if let Some(p) = self.peers.get_mut(&who) {
+            p.last_heard = now;
+            if p.lost {
+                p.lost = false;
+                self.events.push_back(LivenessEvent::Regained { who });
+            }
+        }
         let boot = match msg {
             MavMessage::SYSTEM_TIME(m) => m.time_boot_ms,
             MavMessage::ATTITUDE(m) => m.time_boot_ms,
@@ -251,7 +263,7 @@ impl Liveness {
             }
         }
         for (who, p) in self.peers.iter_mut() {
-            if !p.lost && now.saturating_since(p.last_beat) >= self.cfg.lost_after {
+            if !p.lost && now.saturating_since(p.last_heard) >= self.cfg.lost_after {
                 p.lost = true;
                 self.events.push_back(LivenessEvent::Lost { who: *who });
             }
@@ -274,7 +286,7 @@ impl Liveness {
             .peers
             .values()
             .filter(|p| !p.lost)
-            .map(|p| p.last_beat + self.cfg.lost_after)
+            .map(|p| p.last_heard + self.cfg.lost_after)
             .min();
         Some(lost.map_or(self.next_beat, |l| l.min(self.next_beat)))
     }

@@ -199,6 +199,9 @@ pub struct MissionServer {
     current: u16,
     home: Option<HomeItem>,
     mission_running: bool,
+    /// ArduPilot: the lists are loaded from storage (`AP_Mission::init`, before the vehicle
+    /// leaves MAV_STATE_BOOT); until then every list is empty and holds nothing.
+    loaded: bool,
     ap_rx: [Option<ApUpload>; 3],
     ap_warned_request: bool,
     ap_warned_item: bool,
@@ -257,6 +260,7 @@ impl MissionServer {
             current: 0,
             home: None,
             mission_running: false,
+            loaded: true,
             ap_rx: [None, None, None],
             ap_warned_request: false,
             ap_warned_item: false,
@@ -288,11 +292,20 @@ impl MissionServer {
         self.autopilot
     }
 
+    /// ArduPilot while it boots: the lists are not loaded yet, so an upload is refused
+    /// with MAV_MISSION_NO_SPACE and a download finds an empty list (`loaded` false) —
+    /// what a real ArduCopter does for about 2 s after power-up. PX4 answers as soon as its
+    /// MAVLink instance runs (dataman is up before it), so this applies to ArduPilot only.
+    pub fn set_loaded(&mut self, loaded: bool) {
+        self.loaded = loaded || self.autopilot == Autopilot::Px4;
+    }
+
     /// A power cycle: the stored lists survive (ArduPilot EEPROM, PX4 dataman), transfers in
     /// progress are lost, the current item goes back to the start (ArduPilot: 1 after home,
     /// PX4: 0 — PX4 does persist `current_seq` in dataman, but the navigator resets it when
     /// the mission is loaded after boot) and PX4 forgets the GCS's int mode.
     pub fn reboot(&mut self) {
+        self.loaded = true;
         self.ap_rx = [None, None, None];
         self.ap_warned_request = false;
         self.ap_warned_item = false;
@@ -755,6 +768,17 @@ impl MissionServer {
     // ------------------------------------------------------------------ ArduPilot
 
     fn ap_count(&mut self, from: (u8, u8), t: MissionType, count: u16, now: Time) {
+        if !self.loaded {
+            // `MissionItemProtocol::handle_mission_count`: count > max_items(), which is 0
+            // until the mission library is initialised (about 2 s after boot in SITL).
+            self.outbox.push_back(self.ack_to(
+                from,
+                t,
+                mav::MavMissionResult::MAV_MISSION_NO_SPACE,
+                0,
+            ));
+            return;
+        }
         if let Some(rx) = &self.ap_rx[idx(t)]
             && rx.partner != from
         {
@@ -943,7 +967,12 @@ impl MissionServer {
             ));
             return;
         }
-        let n = self.lists[idx(t)].len() as u16;
+        // Before the lists are loaded, the count is 0 (`AP_Mission::num_commands`).
+        let n = if self.loaded {
+            self.lists[idx(t)].len() as u16
+        } else {
+            0
+        };
         self.outbox.push_back(self.count_msg(from, t, n, 0));
     }
 

@@ -11,7 +11,8 @@ pub use flavour::{Autopilot, Flavour, Mode, VehicleKind};
 pub use mission_server::{MissionEvent, MissionServer};
 pub mod battery;
 pub mod camera;
-pub mod faults;
+/// Link faults moved to [`crate::link::faults`] (the relay uses them too); the old path stays.
+pub use crate::link::faults;
 pub mod fence;
 pub mod harness;
 pub mod motion;

@@ -3,7 +3,8 @@
 //!
 //! Endpoints, as MAVProxy writes them:
 //! - `udpout:HOST:PORT` — every vehicle sends to HOST:PORT from its own socket (an ephemeral
-//!   port), as several SITL instances would, and listens for replies on it;
+//!   port, on loopback when HOST is this machine), as several SITL instances would, and
+//!   listens for replies on it;
 //! - `udpin:HOST:PORT` — vehicle k listens on HOST:(PORT + k − 1) and answers whoever spoke
 //!   to it last;
 //! - `tcpin:HOST:PORT` — vehicle k accepts TCP clients on HOST:(PORT + k − 1) and sends to
@@ -195,16 +196,7 @@ async fn open(
                 let target = resolve(a).await?;
                 let (bind, peer) = match &ep {
                     Endpoint::UdpOut(_) => {
-                        let any: SocketAddr = if target.is_ipv4() {
-                            "0.0.0.0:0"
-                                .parse()
-                                .map_err(|_| ServerError::Endpoint(a.clone()))?
-                        } else {
-                            "[::]:0"
-                                .parse()
-                                .map_err(|_| ServerError::Endpoint(a.clone()))?
-                        };
-                        (any, Some(target))
+                        (crate::link::transport::local_for(target), Some(target))
                     }
                     _ => (target, None),
                 };

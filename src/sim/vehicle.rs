@@ -100,6 +100,10 @@ pub struct BatteryFailsafe {
     pub land_pct: f64,
 }
 
+/// Seconds an ArduPilot vehicle spends in MAV_STATE_BOOT after power-up (ArduCopter SITL
+/// 4.7: about 2 s, until `Copter::init_ardupilot` sets `ap.initialised`).
+pub const ARDUPILOT_BOOT_S: f64 = 2.0;
+
 /// Everything that defines one simulated vehicle.
 #[derive(Clone, Debug)]
 pub struct VehicleConfig {
@@ -615,6 +619,7 @@ impl SimVehicle {
             }
             return;
         }
+        self.mission.set_loaded(!self.ardupilot_booting(now));
         if self.mission.handle_message(h, msg, now) {
             self.drain_mission_events(now);
             return;
@@ -683,6 +688,13 @@ impl SimVehicle {
 
     fn boot_s(&self, now: Time) -> f64 {
         now.saturating_since(self.boot_time).as_secs_f64()
+    }
+
+    /// ArduPilot's first [`ARDUPILOT_BOOT_S`] after power-up: its heartbeat says
+    /// MAV_STATE_BOOT and its mission lists are not loaded yet (see
+    /// [`crate::sim::mission_server::MissionServer::set_loaded`]).
+    fn ardupilot_booting(&self, now: Time) -> bool {
+        self.cfg.flavour.is_ardupilot() && self.boot_s(now) < ARDUPILOT_BOOT_S
     }
 
     fn boot(&mut self, now: Time) {
@@ -3250,10 +3262,10 @@ impl SimVehicle {
                     mav::MavState::MAV_STATE_CRITICAL
                 } else if f.is_ardupilot() {
                     if self.landed && !(self.armed && f.kind == VehicleKind::Rover) {
-                        if self.position_ok(now) || self.boot_s(now) > 2.0 {
-                            mav::MavState::MAV_STATE_STANDBY
-                        } else {
+                        if self.ardupilot_booting(now) {
                             mav::MavState::MAV_STATE_BOOT
+                        } else {
+                            mav::MavState::MAV_STATE_STANDBY
                         }
                     } else {
                         mav::MavState::MAV_STATE_ACTIVE
