@@ -1,6 +1,7 @@
 //! The GCS's sans-IO mission machine (`proto::mission`) against the simulator's vehicle-side
 //! mission protocol (`sim::mission_server`, ArduPilot and PX4 behaviour) over a simulated
-//! network with random loss (up to 50 %), duplication, reordering and delay, in virtual time.
+//! network with random loss (up to 50 %), duplication, reordering and delay, in virtual time
+//! (the harness is `sim::transfer_bench`, which `fleetmap bench transfer` uses too).
 //!
 //! Property: every transfer either completes with exactly the items sent (the vehicle's list
 //! is what its storage makes of them; a download returns the vehicle's list) or fails with a
@@ -17,125 +18,41 @@ use fleetmap::proto::mission::{
 };
 use fleetmap::sim::flavour::Autopilot;
 use fleetmap::sim::mission_server::{
-    HomeItem, MissionServer, ardupilot_store_fence_item, ardupilot_store_mission_item,
-    ardupilot_store_rally_item, px4_parse_item,
+    ardupilot_store_fence_item, ardupilot_store_mission_item, ardupilot_store_rally_item,
+    px4_parse_item,
 };
+use fleetmap::sim::transfer_bench::{NetFaults as Faults, TransferBench, VEHICLE, items_for};
 use fleetmap::time::Time;
-use mavlink::MavHeader;
-use mavlink::dialects::ardupilotmega::{MavMessage, MavMissionResult};
+use mavlink::dialects::ardupilotmega::MavMissionResult;
 use proptest::prelude::*;
-use rand::{RngExt, SeedableRng};
-use rand_chacha::ChaCha8Rng;
-use std::collections::BinaryHeap;
+use std::ops::{Deref, DerefMut};
 use std::time::Duration;
 
-const VEHICLE: Endpoint = Endpoint::new(1, 1);
-const GCS_HDR: MavHeader = MavHeader {
-    system_id: 255,
-    component_id: 190,
-    sequence: 0,
-};
-const VEHICLE_HDR: MavHeader = MavHeader {
-    system_id: 1,
-    component_id: 1,
-    sequence: 0,
-};
-
-/// Link faults (each direction).
-#[derive(Clone, Copy, Debug)]
-struct Faults {
-    loss: f64,
-    dup: f64,
-    max_delay_ms: u64,
-}
-
+/// Link faults (each direction): no loss, delays of 0–5 ms.
 const CLEAN: Faults = Faults {
     loss: 0.0,
     dup: 0.0,
-    max_delay_ms: 5,
+    latency_ms: 0,
+    jitter_ms: 5,
 };
 
-#[derive(PartialEq, Eq)]
-struct InFlight {
-    at: Time,
-    order: u64,
-    to_vehicle: bool,
-    idx: usize,
-}
-
-impl Ord for InFlight {
-    fn cmp(&self, o: &Self) -> std::cmp::Ordering {
-        (o.at, o.order).cmp(&(self.at, self.order))
-    }
-}
-
-impl PartialOrd for InFlight {
-    fn partial_cmp(&self, o: &Self) -> Option<std::cmp::Ordering> {
-        Some(self.cmp(o))
-    }
-}
-
-/// The simulated network between the GCS and the vehicle.
-struct Net {
-    rng: ChaCha8Rng,
-    faults: Faults,
-    heap: BinaryHeap<InFlight>,
-    msgs: Vec<MavMessage>,
-    order: u64,
-    /// Drop this many MISSION_ACK ACCEPTED from the vehicle (lost final ACKs).
-    drop_accepts: u32,
-}
-
-impl Net {
-    fn new(seed: u64, faults: Faults) -> Net {
-        Net {
-            rng: ChaCha8Rng::seed_from_u64(seed),
-            faults,
-            heap: BinaryHeap::new(),
-            msgs: Vec::new(),
-            order: 0,
-            drop_accepts: 0,
-        }
-    }
-
-    fn send(&mut self, msg: MavMessage, to_vehicle: bool, now: Time) {
-        if let MavMessage::MISSION_ACK(a) = &msg
-            && !to_vehicle
-            && a.mavtype == MavMissionResult::MAV_MISSION_ACCEPTED
-            && self.drop_accepts > 0
-        {
-            self.drop_accepts -= 1;
-            return;
-        }
-        if self.rng.random_bool(self.faults.loss) {
-            return;
-        }
-        let copies = if self.rng.random_bool(self.faults.dup) {
-            2
-        } else {
-            1
-        };
-        for _ in 0..copies {
-            let delay = self.rng.random_range(0..=self.faults.max_delay_ms);
-            self.msgs.push(msg.clone());
-            self.order += 1;
-            self.heap.push(InFlight {
-                at: now + Duration::from_millis(delay),
-                order: self.order,
-                to_vehicle,
-                idx: self.msgs.len() - 1,
-            });
-        }
-    }
-}
-
-/// GCS machine + vehicle server + network.
+/// GCS machine + vehicle server + network ([`TransferBench`]), with the checks of this file.
 struct Bench {
-    client: MissionClient,
-    server: MissionServer,
-    net: Net,
-    now: Time,
+    inner: TransferBench,
     ap: bool,
+}
+
+impl Deref for Bench {
+    type Target = TransferBench;
+    fn deref(&self) -> &TransferBench {
+        &self.inner
+    }
+}
+
+impl DerefMut for Bench {
+    fn deref_mut(&mut self) -> &mut TransferBench {
+        &mut self.inner
+    }
 }
 
 impl Bench {
@@ -145,87 +62,18 @@ impl Bench {
         } else {
             Autopilot::Px4
         };
-        let mut server = MissionServer::new(autopilot, 1, 1);
-        server.set_home(Some(HomeItem {
-            lat_e7: 371_950_000,
-            lon_e7: -805_800_000,
-            alt_amsl_m: 600.0,
-        }));
         Bench {
-            client: MissionClient::new(Endpoint::gcs(), VEHICLE, ap, MissionConfig::default()),
-            server,
-            net: Net::new(seed, faults),
-            now: Time::ZERO,
+            inner: TransferBench::new(autopilot, seed, faults),
             ap,
         }
     }
 
-    /// Run one operation to completion; returns its result and how long it took.
+    /// Run one operation to completion; returns its result and how long it took. A hang or
+    /// an operation still running after its budget fails the test.
     fn run(&mut self, op: MissionOp) -> (Result<MissionOutcome, MissionError>, Duration) {
-        let budget = MissionClient::budget(self.client.config(), &op);
-        let start = self.now;
-        let id = self.client.start(op, start);
-        loop {
-            while let Some(m) = self.client.poll_transmit() {
-                self.net.send(m, true, self.now);
-            }
-            while let Some(m) = self.server.poll_transmit() {
-                self.net.send(m, false, self.now);
-            }
-            while let Some(ev) = self.server.poll_event() {
-                // The vehicle logic streams MISSION_CURRENT; answer a set-current at once.
-                if let fleetmap::sim::mission_server::MissionEvent::SetCurrent { seq } = ev {
-                    self.server.set_current(seq);
-                    let total = self.server.items(MissionType::Mission).len() as u16;
-                    let m = MavMessage::MISSION_CURRENT(
-                        mavlink::dialects::ardupilotmega::MISSION_CURRENT_DATA {
-                            seq,
-                            total,
-                            ..Default::default()
-                        },
-                    );
-                    self.net.send(m, false, self.now);
-                }
-            }
-            while let Some(ev) = self.client.poll_event() {
-                if let MissionEvent::Done { id: i, result } = ev
-                    && i == id
-                {
-                    return (result, self.now - start);
-                }
-            }
-            let mut t = Time::from_micros(u64::MAX);
-            for c in [
-                self.client.poll_timeout(),
-                self.server.poll_timeout(),
-                self.net.heap.peek().map(|f| f.at),
-            ]
-            .into_iter()
-            .flatten()
-            {
-                t = t.min(c);
-            }
-            assert!(t.as_micros() != u64::MAX, "nothing left to happen: a hang");
-            self.now = t.max(self.now);
-            assert!(
-                self.now - start <= budget,
-                "operation still running after its budget of {budget:?}"
-            );
-            while self.net.heap.peek().is_some_and(|f| f.at <= self.now) {
-                let Some(f) = self.net.heap.pop() else { break };
-                let msg = self.net.msgs[f.idx].clone();
-                if f.to_vehicle {
-                    self.server.handle_message(&GCS_HDR, &msg, self.now);
-                } else {
-                    self.client.handle_message(&VEHICLE_HDR, &msg, self.now);
-                }
-            }
-            if self.client.poll_timeout().is_some_and(|c| c <= self.now) {
-                self.client.handle_timeout(self.now);
-            }
-            if self.server.poll_timeout().is_some_and(|c| c <= self.now) {
-                self.server.handle_timeout(self.now);
-            }
+        match self.inner.run(op) {
+            Ok(t) => (t.result, t.elapsed),
+            Err(e) => panic!("{e}"),
         }
     }
 
@@ -269,56 +117,6 @@ impl Bench {
             })
             .collect()
     }
-}
-
-/// Items that list `t` accepts (waypoints, captures, speed, jump; fence polygon; rally).
-fn items_for(t: MissionType, n: usize, seed: u64) -> Vec<MissionItem> {
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let mut v = Vec::new();
-    match t {
-        MissionType::Mission => {
-            v.push(MissionItem::takeoff(12.0));
-            let mut i = 0;
-            while v.len() < n {
-                let lat = 37.19 + rng.random_range(0.0..0.01);
-                let lon = -80.58 + rng.random_range(0.0..0.01);
-                let mut w = MissionItem::waypoint(lat, lon, 10.0 + (i % 7) as f32);
-                w.param1 = rng.random_range(0..3) as f32;
-                v.push(w);
-                match i % 11 {
-                    3 => v.push(MissionItem::image_start_capture(0.0, 1)),
-                    7 => v.push(MissionItem::change_speed(rng.random_range(1..5) as f32)),
-                    _ => {}
-                }
-                i += 1;
-            }
-            v.truncate(n);
-            if n > 4 {
-                v[n - 1] = MissionItem::jump(1, 2);
-            }
-        }
-        MissionType::Fence => {
-            let k = n.max(3);
-            for j in 0..k {
-                let a = j as f64 / k as f64 * std::f64::consts::TAU;
-                let mut p =
-                    MissionItem::at(5001, 37.19 + 0.001 * a.cos(), -80.58 + 0.001 * a.sin(), 0.0);
-                p.param1 = k as f32;
-                v.push(p);
-            }
-        }
-        MissionType::Rally => {
-            for _ in 0..n {
-                v.push(MissionItem::at(
-                    5100,
-                    37.19 + rng.random_range(0.0..0.01),
-                    -80.58 + rng.random_range(0.0..0.01),
-                    rng.random_range(10..40) as f32,
-                ));
-            }
-        }
-    }
-    v
 }
 
 fn precise(e: &MissionError) -> bool {
@@ -612,7 +410,8 @@ fn moderate_loss_and_reordering_succeed() {
             let f = Faults {
                 loss: 0.1,
                 dup,
-                max_delay_ms: 100,
+                latency_ms: 0,
+                jitter_ms: 100,
             };
             let (o, fl) = check(ap, f, seed, 100, MissionType::Mission);
             ok += o;
@@ -638,7 +437,7 @@ proptest! {
     ) {
         let t = [MissionType::Mission, MissionType::Fence, MissionType::Rally][list];
         let n = if t == MissionType::Rally { n.min(8) } else { n };
-        check(ap, Faults { loss, dup, max_delay_ms }, seed, n, t);
+        check(ap, Faults { loss, dup, latency_ms: 0, jitter_ms: max_delay_ms }, seed, n, t);
     }
 }
 
@@ -651,7 +450,8 @@ fn twenty_round_trips_of_100_items_at_30_percent_loss_and_5_percent_duplicates()
     let f = Faults {
         loss: 0.3,
         dup: 0.05,
-        max_delay_ms: 40,
+        latency_ms: 0,
+        jitter_ms: 40,
     };
     for ap in [true, false] {
         let mut failures = Vec::new();
@@ -702,7 +502,8 @@ fn round_trips_at_50_percent_loss_succeed_or_fail_precisely() {
     let f = Faults {
         loss: 0.5,
         dup: 0.05,
-        max_delay_ms: 40,
+        latency_ms: 0,
+        jitter_ms: 40,
     };
     let mut ok = 0;
     for seed in 0..6 {

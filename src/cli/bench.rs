@@ -21,6 +21,12 @@ pub enum BenchCommand {
     Tui(super::tui::TuiBenchArgs),
     /// Per-epoch solve time of the bandit planner's IP on the 10×10 default.
     Plan(super::bandit::BenchPlanArgs),
+    /// Mission round trips (upload + download) against the simulator's ArduPilot and PX4
+    /// mission protocol at several losses each way, in virtual seconds.
+    Transfer(super::bench_transfer::BenchTransferArgs),
+    /// GCS CPU time per vehicle, and the terminal UI's frame rate, with N simulated copters
+    /// (a child process) streaming telemetry to one UDP port.
+    Fleet(super::bench_fleet::BenchFleetArgs),
 }
 
 /// Run a benchmark.
@@ -29,5 +35,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchCommand::Classify(a) => crate::cli::classify::bench(a),
         BenchCommand::Tui(a) => super::tui::bench(a),
         BenchCommand::Plan(a) => super::bandit::run_bench(a),
+        BenchCommand::Transfer(a) => super::bench_transfer::run(a),
+        BenchCommand::Fleet(a) => super::bench_fleet::run(a),
     }
 }

@@ -60,6 +60,9 @@ pub enum Action {
     Rtl,
     /// Land here.
     Land,
+    /// Reboot the autopilot (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN; disarmed only) and wait
+    /// until it is up again: what a battery swap does to a vehicle.
+    Reboot,
 }
 
 /// Run `fleetmap command`.
@@ -132,6 +135,10 @@ pub fn run(args: CommandArgs) -> anyhow::Result<ExitCode> {
                 Action::Land => {
                     f.land(sysid).await?;
                     "landing".to_string()
+                }
+                Action::Reboot => {
+                    let took = f.reboot(sysid).await?;
+                    format!("rebooted, up again after {:.1} s", took.as_secs_f64())
                 }
             };
             if args.conn.json {

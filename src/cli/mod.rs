@@ -7,6 +7,8 @@
 
 pub mod bandit;
 pub mod bench;
+pub mod bench_fleet;
+pub mod bench_transfer;
 pub mod check;
 pub mod classify;
 pub mod command;

@@ -1350,6 +1350,43 @@ impl FleetHandle {
         self.run_steps(sysid, steps).await
     }
 
+    /// Reboot the autopilot (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN, param1 = 1; both autopilots
+    /// refuse it armed) and wait until it has rebooted and finished booting: its heartbeat
+    /// or boot clock shows the reboot ([`VehicleSnapshot::reboots`]), then
+    /// [`FleetHandle::wait_booted`]. Returns how long that took on the fleet's clock. Real
+    /// vehicles may answer the command or go silent before the ACK gets out (ArduPilot
+    /// SITL re-executes itself at once): a missing ACK is not an error when the reboot is
+    /// then seen.
+    pub async fn reboot(&self, sysid: u8) -> Result<Duration, FleetError> {
+        let v = self.require(sysid)?;
+        let t0 = self.clock.now();
+        let before = v.reboots;
+        let cmd = Command::long(
+            Endpoint::new(sysid, v.compid),
+            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
+            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        match self.command(cmd).await {
+            Ok(_)
+            | Err(FleetError::Command {
+                error: CommandError::Timeout { .. },
+                ..
+            }) => {}
+            Err(e) => return Err(e),
+        }
+        let wait = self.cfg.ops.boot_wait;
+        self.wait_until(sysid, wait, |s| s.reboots > before)
+            .await
+            .map_err(|_| FleetError::NotConfirmed {
+                sysid,
+                what: "a reboot".into(),
+                waited_s: wait.as_secs_f64(),
+                now: "the same boot".into(),
+            })?;
+        self.wait_booted(sysid).await?;
+        Ok(self.clock.now().saturating_since(t0))
+    }
+
     /// Start the uploaded mission (MAV_CMD_MISSION_START; the vehicle must be armed, and
     /// airborne if it flies — see [`FleetHandle::takeoff`]).
     pub async fn start_mission(&self, sysid: u8) -> Result<(), FleetError> {

@@ -29,6 +29,10 @@
 //!   → MISSION_ITEM_INT; MISSION_REQUEST is answered with MISSION_ITEM and the warning
 //!   "got MISSION_REQUEST; use MISSION_REQUEST_INT!"; during an upload both are DENIED;
 //! - MISSION_CLEAR_ALL fails (MAV_MISSION_ERROR) during an upload or while the mission runs.
+//! - while it boots (about 2 s after power-up, heartbeat MAV_STATE_BOOT; see
+//!   [`MissionServer::set_loaded`]) the lists are not loaded: every MISSION_COUNT gets
+//!   MAV_MISSION_NO_SPACE with "Only 0 items are supported", MISSION_REQUEST_LIST a count of 0
+//!   (both seen on ArduCopter 4.7 SITL).
 //!
 //! # PX4
 //! Followed from PX4 `src/modules/mavlink/mavlink_mission.cpp` and `mavlink_mission.h`:
@@ -768,17 +772,6 @@ impl MissionServer {
     // ------------------------------------------------------------------ ArduPilot
 
     fn ap_count(&mut self, from: (u8, u8), t: MissionType, count: u16, now: Time) {
-        if !self.loaded {
-            // `MissionItemProtocol::handle_mission_count`: count > max_items(), which is 0
-            // until the mission library is initialised (about 2 s after boot in SITL).
-            self.outbox.push_back(self.ack_to(
-                from,
-                t,
-                mav::MavMissionResult::MAV_MISSION_NO_SPACE,
-                0,
-            ));
-            return;
-        }
         if let Some(rx) = &self.ap_rx[idx(t)]
             && rx.partner != from
         {
@@ -790,7 +783,10 @@ impl MissionServer {
             ));
             return;
         }
-        let max = self.capacity.of(t);
+        // `MissionItemProtocol::handle_mission_count`: count > max_items(), which is 0 until
+        // the mission library is initialised (ArduCopter 4.7 SITL, seen: NO_SPACE and "Only 0
+        // items are supported" for every MISSION_COUNT of its first 2 s).
+        let max = if self.loaded { self.capacity.of(t) } else { 0 };
         if count > max {
             self.outbox.push_back(self.ack_to(
                 from,
@@ -2069,5 +2065,50 @@ mod tests {
             assert_eq!(s.items(MissionType::Mission).len(), 6);
             assert_eq!(s.current(), if ap == Autopilot::ArduPilot { 1 } else { 0 });
         }
+    }
+
+    /// ArduCopter 4.7 SITL in its first 2 s (seen with pymavlink): MISSION_COUNT gets
+    /// MAV_MISSION_NO_SPACE and "Only 0 items are supported", MISSION_REQUEST_LIST a count
+    /// of 0 whatever is stored; once loaded, both work. PX4 is never "not loaded".
+    #[test]
+    fn ardupilot_refuses_uploads_and_reads_empty_while_booting() {
+        let mt = mav::MavMissionType::MAV_MISSION_TYPE_MISSION;
+        let mut s = MissionServer::new(Autopilot::ArduPilot, 1, 1);
+        upload(&mut s, &sample(), Time::ZERO);
+        s.reboot();
+        s.set_loaded(false);
+        let out = upload(&mut s, &sample(), Time::from_secs(1));
+        assert!(out.iter().any(|m| matches!(m, MavMessage::MISSION_ACK(a)
+            if a.mavtype == mav::MavMissionResult::MAV_MISSION_NO_SPACE)));
+        assert!(out.iter().any(|m| matches!(m, MavMessage::STATUSTEXT(t)
+            if t.text.to_str().is_ok_and(|x| x.starts_with("Only 0 items")))));
+        let list = MavMessage::MISSION_REQUEST_LIST(mav::MISSION_REQUEST_LIST_DATA {
+            target_system: 1,
+            target_component: 1,
+            mission_type: mt,
+        });
+        s.handle_message(&GCS, &list, Time::from_secs(1));
+        assert!(
+            drain(&mut s)
+                .iter()
+                .any(|m| matches!(m, MavMessage::MISSION_COUNT(c) if c.count == 0))
+        );
+        assert_eq!(
+            s.items(MissionType::Mission).len(),
+            6,
+            "nothing lost meanwhile"
+        );
+        s.set_loaded(true);
+        s.handle_message(&GCS, &list, Time::from_secs(3));
+        assert!(
+            drain(&mut s)
+                .iter()
+                .any(|m| matches!(m, MavMessage::MISSION_COUNT(c) if c.count == 6))
+        );
+        let mut p = MissionServer::new(Autopilot::Px4, 1, 1);
+        p.set_loaded(false);
+        let out = upload(&mut p, &sample()[1..], Time::ZERO);
+        assert!(out.iter().any(|m| matches!(m, MavMessage::MISSION_ACK(a)
+            if a.mavtype == mav::MavMissionResult::MAV_MISSION_ACCEPTED)));
     }
 }

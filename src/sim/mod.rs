@@ -19,5 +19,6 @@ pub mod motion;
 pub mod paired;
 pub mod render;
 pub mod server;
+pub mod transfer_bench;
 pub mod vehicle;
 pub mod world;
