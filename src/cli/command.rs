@@ -62,7 +62,12 @@ pub enum Action {
     Land,
     /// Reboot the autopilot (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN; disarmed only) and wait
     /// until it is up again: what a battery swap does to a vehicle.
-    Reboot,
+    Reboot {
+        /// Return once the command is sent (acknowledged, or not answered because the
+        /// autopilot went down at once), without waiting for it to come back.
+        #[arg(long)]
+        no_wait: bool,
+    },
 }
 
 /// Run `fleetmap command`.
@@ -136,7 +141,11 @@ pub fn run(args: CommandArgs) -> anyhow::Result<ExitCode> {
                     f.land(sysid).await?;
                     "landing".to_string()
                 }
-                Action::Reboot => {
+                Action::Reboot { no_wait: true } => {
+                    f.send_reboot(sysid).await?;
+                    "reboot sent".to_string()
+                }
+                Action::Reboot { no_wait: false } => {
                     let took = f.reboot(sysid).await?;
                     format!("rebooted, up again after {:.1} s", took.as_secs_f64())
                 }

@@ -57,6 +57,20 @@ pub enum SigningCommand {
         #[arg(long, value_name = "SECONDS", default_value_t = 15.0)]
         wait: f64,
     },
+    /// Remove the key from a vehicle: SETUP_SIGNING with an all-zero key and timestamp,
+    /// which ArduPilot and PX4 take as "signing off" (MAVProxy's `signing remove`). Give
+    /// --signing-key with the vehicle's current key: a signing vehicle ignores it unsigned.
+    Remove {
+        /// Connection options, with --signing-key.
+        #[command(flatten)]
+        conn: ConnectArgs,
+        /// The vehicle's system id.
+        #[arg(long, value_name = "N")]
+        sysid: u8,
+        /// Wait this long for the vehicle's first heartbeat, seconds.
+        #[arg(long, value_name = "SECONDS", default_value_t = 15.0)]
+        wait: f64,
+    },
 }
 
 /// Run `fleetmap signing`.
@@ -150,6 +164,67 @@ pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
                         );
                     }
                     anyhow::Ok(())
+                }
+                .await;
+                s.close().await?;
+                r.map(|_| ExitCode::SUCCESS)
+            })?
+        }
+        SigningCommand::Remove {
+            mut conn,
+            sysid,
+            wait,
+        } => {
+            // The confirmation is an unsigned heartbeat: the link must let it through.
+            conn.allow_unsigned = true;
+            if conn.signing_key.is_none() {
+                bail!("signing remove must be signed with the vehicle's key: give --signing-key");
+            }
+            if !(wait.is_finite() && wait >= 0.0) {
+                bail!("--wait must be a non-negative number of seconds");
+            }
+            block_on(async move {
+                let s = Session::open(&conn).await?;
+                let r = async {
+                    let v = s.vehicle(sysid, Duration::from_secs_f64(wait)).await?;
+                    let msg = MavMessage::SETUP_SIGNING(SETUP_SIGNING_DATA {
+                        initial_timestamp: 0,
+                        target_system: sysid,
+                        target_component: v.compid,
+                        secret_key: [0; 32],
+                    });
+                    let mut sub = s.fleet.subscribe();
+                    for _ in 0..3 {
+                        s.fleet.send(msg.clone()).await?;
+                        tokio::time::sleep(Duration::from_millis(200)).await;
+                    }
+                    // Confirmation: an unsigned heartbeat from the vehicle.
+                    let confirmed = tokio::time::timeout(Duration::from_secs(5), async {
+                        while let Ok(inc) = sub.recv().await {
+                            let f = &inc.frame;
+                            if f.sysid() == sysid && f.msg_id == 0 && f.signature.is_none() {
+                                return true;
+                            }
+                        }
+                        false
+                    })
+                    .await
+                    .unwrap_or(false);
+                    if conn.json {
+                        println!(
+                            "{}",
+                            serde_json::json!({"sysid": sysid, "sent": true, "confirmed": confirmed})
+                        );
+                    } else if confirmed {
+                        println!("vehicle {sysid} no longer signs");
+                    } else {
+                        println!("signing removal sent to vehicle {sysid}; it still sends signed heartbeats");
+                    }
+                    if confirmed {
+                        anyhow::Ok(())
+                    } else {
+                        Err(anyhow::anyhow!("vehicle {sysid} still signs after the removal"))
+                    }
                 }
                 .await;
                 s.close().await?;

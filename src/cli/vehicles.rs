@@ -44,6 +44,11 @@ pub struct ConnectArgs {
     /// Mission protocol: wait for each item during a download, milliseconds.
     #[arg(long, value_name = "MS", default_value_t = 250)]
     pub item_timeout_ms: u64,
+    /// Our MAVLink system id (MAVProxy's `--source-system`): 255 by default, the id
+    /// ArduPilot's MAV_GCS_SYSID expects; give another to run a second GCS beside the first
+    /// on the same link (replies are routed to each by system id).
+    #[arg(long, value_name = "ID", default_value_t = 255, value_parser = clap::value_parser!(u8).range(1..))]
+    pub gcs_sysid: u8,
     /// Mission protocol: give up after the vehicle has not answered for this long,
     /// seconds (a transfer goes on as long as it answers, however lossy the link).
     #[arg(long, value_name = "SECONDS", default_value_t = 30)]
@@ -64,6 +69,7 @@ impl ConnectArgs {
             mission_timeout_ms: mission.timeout.as_millis() as u64,
             item_timeout_ms: mission.item_timeout.as_millis() as u64,
             mission_silence_s: mission.silence.as_secs(),
+            gcs_sysid: crate::proto::Endpoint::gcs().sysid,
         }
     }
 }
@@ -92,6 +98,7 @@ impl Session {
             tlog = Some(task);
         }
         let cfg = FleetConfig {
+            gcs: crate::proto::Endpoint::new(args.gcs_sysid, crate::proto::Endpoint::gcs().compid),
             mission: MissionConfig {
                 timeout: Duration::from_millis(args.mission_timeout_ms.max(1)),
                 item_timeout: Duration::from_millis(args.item_timeout_ms.max(1)),

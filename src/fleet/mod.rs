@@ -1358,22 +1358,9 @@ impl FleetHandle {
     /// SITL re-executes itself at once): a missing ACK is not an error when the reboot is
     /// then seen.
     pub async fn reboot(&self, sysid: u8) -> Result<Duration, FleetError> {
-        let v = self.require(sysid)?;
         let t0 = self.clock.now();
-        let before = v.reboots;
-        let cmd = Command::long(
-            Endpoint::new(sysid, v.compid),
-            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
-            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-        );
-        match self.command(cmd).await {
-            Ok(_)
-            | Err(FleetError::Command {
-                error: CommandError::Timeout { .. },
-                ..
-            }) => {}
-            Err(e) => return Err(e),
-        }
+        let before = self.require(sysid)?.reboots;
+        self.send_reboot(sysid).await?;
         let wait = self.cfg.ops.boot_wait;
         self.wait_until(sysid, wait, |s| s.reboots > before)
             .await
@@ -1385,6 +1372,26 @@ impl FleetHandle {
             })?;
         self.wait_booted(sysid).await?;
         Ok(self.clock.now().saturating_since(t0))
+    }
+
+    /// Send MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (reboot the autopilot) and return once it is
+    /// acknowledged — or not answered, as when the autopilot goes down before its ACK gets
+    /// out ([`FleetHandle::reboot`] also waits for it to come back).
+    pub async fn send_reboot(&self, sysid: u8) -> Result<(), FleetError> {
+        let v = self.require(sysid)?;
+        let cmd = Command::long(
+            Endpoint::new(sysid, v.compid),
+            MavCmd::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
+            [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
+        );
+        match self.command(cmd).await {
+            Ok(_)
+            | Err(FleetError::Command {
+                error: CommandError::Timeout { .. },
+                ..
+            }) => Ok(()),
+            Err(e) => Err(e),
+        }
     }
 
     /// Start the uploaded mission (MAV_CMD_MISSION_START; the vehicle must be armed, and

@@ -1,0 +1,357 @@
+#!/usr/bin/env python3
+"""Conformance checks: the same checks against fleetmap's embedded simulator and any real
+autopilot (ArduPilot SITL, PX4 SITL, a vehicle on the bench).
+
+    hitl/conformance.py sim:ardupilot-copter            # the embedded simulator (CI runs this)
+    hitl/conformance.py sim:px4-copter
+    hitl/conformance.py tcp:127.0.0.1:5762 --sysid 1    # an ArduPilot SITL's SERIAL1
+    hitl/conformance.py udpout:127.0.0.1:18570          # a PX4 SITL's GCS port
+
+Everything goes through `fleetmap relay` (a lossy MAVLink relay) between fleetmap and the
+vehicle, so the checks at 0, 30 and 50 % loss see the real autopilot's behaviour over a poor
+radio. Each check prints one line; `--json FILE` writes them all. The checks:
+
+  ready     the vehicle is heard and gets ready (GPS fix, position), waited for as a GCS does
+  boot      a mission upload issued right after a reboot (MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN,
+            what a battery swap does) waits for the vehicle and succeeds
+  transfer  mission round trips (upload, download, compare) at each loss level of --losses
+            with 5 % duplicates: all succeed up to 30 %; at 50 % each succeeds or fails with
+            a clear error, never with a wrong mission
+  fly       `fleetmap mission fly`: take off, a 20 m square, return and land
+  signing   after `fleetmap signing setup`, an unsigned command is ignored and a signed one
+            obeyed; the key is removed again at the end
+
+Only standard-library Python; the binary is $FLEETMAP (default: fleetmap on the PATH, else
+target/debug/fleetmap). Run it against simulators, or real vehicles in a safe open area only:
+`fly` flies the vehicle.
+"""
+
+import argparse
+import json
+import math
+import os
+import shutil
+import signal
+import socket
+import subprocess
+import sys
+import tempfile
+import time
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+HOME = (37.1968, -80.5781)
+
+
+def fleetmap_bin():
+    if os.environ.get("FLEETMAP"):
+        return os.environ["FLEETMAP"]
+    if shutil.which("fleetmap"):
+        return "fleetmap"
+    return os.path.join(HERE, "..", "target", "debug", "fleetmap")
+
+
+BIN = fleetmap_bin()
+
+
+def free_udp_port():
+    s = socket.socket(socket.AF_INET, socket.SOCK_DGRAM)
+    s.bind(("127.0.0.1", 0))
+    port = s.getsockname()[1]
+    s.close()
+    return port
+
+
+def offset(lat, lon, north, east):
+    """The point `north`/`east` metres from (lat, lon), on a sphere (fine for tens of metres)."""
+    r = 6371000.0
+    return (lat + math.degrees(north / r), lon + math.degrees(east / (r * math.cos(math.radians(lat)))))
+
+
+class Proc:
+    """A background process whose output goes to a log file."""
+
+    def __init__(self, args, log):
+        self.log = open(log, "w")
+        self.p = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT)
+
+    def stop(self, sig=signal.SIGINT):
+        if self.p.poll() is None:
+            self.p.send_signal(sig)
+            try:
+                self.p.wait(timeout=5)
+            except subprocess.TimeoutExpired:
+                self.p.kill()
+                self.p.wait()
+        self.log.close()
+
+
+def run(args, timeout):
+    """Run fleetmap with `args`; returns (exit code, stdout, stderr, seconds)."""
+    t0 = time.monotonic()
+    try:
+        r = subprocess.run([BIN, *args], capture_output=True, text=True, timeout=timeout)
+        return r.returncode, r.stdout, r.stderr, time.monotonic() - t0
+    except subprocess.TimeoutExpired as e:
+        out = e.stdout.decode() if isinstance(e.stdout, bytes) else (e.stdout or "")
+        return -1, out, f"timed out after {timeout} s", time.monotonic() - t0
+
+
+def last_line(text):
+    lines = [l for l in text.strip().splitlines() if l.strip()]
+    return lines[-1] if lines else ""
+
+
+class Bench:
+    """The vehicle (a simulator this runner starts, or a real autopilot at a connection
+    string) behind a `fleetmap relay`; fleetmap commands talk to the relay."""
+
+    def __init__(self, target, sysid, work, speedup):
+        self.target = target
+        self.sysid = sysid
+        self.work = work
+        self.sim = None
+        self.relay = None
+        self.relay_port = free_udp_port()
+        if target.startswith("sim:"):
+            flavour = target[4:]
+            ap, _, klass = flavour.partition("-")
+            self.autopilot = {"ardupilot": "ArduPilot", "px4": "PX4"}.get(ap)
+            if self.autopilot is None or klass not in ("copter", "rover"):
+                sys.exit(f"unknown simulator {target!r}: sim:ardupilot-copter, sim:ardupilot-rover or sim:px4-copter")
+            port = free_udp_port()
+            self.sim = Proc(
+                [BIN, "sim", "--vehicles", f"1x{klass}:{ap}", "--connect", f"udpin:127.0.0.1:{port}",
+                 f"--home={HOME[0]},{HOME[1]}", "--speedup", str(speedup), "--seed", "1",
+                 # the simulator stops by itself if this runner dies without stopping it
+                 "--duration", str(int(7200 * speedup))],
+                os.path.join(work, "sim.log"),
+            )
+            self.vehicle = f"udpout:127.0.0.1:{port}"
+        else:
+            self.autopilot = None
+            self.vehicle = target
+        self.set_loss(0.0)
+
+    def set_loss(self, loss, dup=0.0):
+        if self.relay:
+            self.relay.stop()
+        self.relay = Proc(
+            [BIN, "relay", "--gcs", f"udpin:127.0.0.1:{self.relay_port}", "--vehicle", self.vehicle,
+             "--loss", str(loss), "--dup", str(dup), "--report-every", "0", "--seed", "7"],
+            os.path.join(self.work, f"relay-{int(loss * 100)}.log"),
+        )
+        time.sleep(0.3)
+
+    def conn(self, *extra):
+        return ["--connect", f"udpout:127.0.0.1:{self.relay_port}", *extra]
+
+    def close(self):
+        if self.relay:
+            self.relay.stop()
+        if self.sim:
+            self.sim.stop()
+
+    def vehicle_json(self, wait=3):
+        code, out, err, _ = run(["vehicles", *self.conn("--wait", str(wait), "--json")], timeout=wait + 30)
+        if code != 0:
+            return None
+        try:
+            return json.loads(out)["vehicles"].get(str(self.sysid))
+        except (ValueError, KeyError):
+            return None
+
+
+def mission_file(path, lat, lon, n, flies):
+    """A QGC WPL 110 mission of `n` items around (lat, lon): take-off (copters), then
+    waypoints on a small grid at altitudes in whole centimetres, as both autopilots store."""
+    rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t%.7f\t%.7f\t0\t1" % (lat, lon)]
+    seq = 1
+    if flies:
+        rows.append("1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t10\t1")
+        seq = 2
+    while seq <= n:
+        a, b = offset(lat, lon, 2.0 * (seq % 10), 2.0 * (seq // 10))
+        rows.append("%d\t0\t3\t16\t%d\t0\t0\t0\t%.7f\t%.7f\t%.2f\t1" % (seq, seq % 3, a, b, 10 + seq % 7))
+        seq += 1
+    with open(path, "w") as f:
+        f.write("\n".join(rows) + "\n")
+
+
+def read_wpl(path):
+    rows = [l.split("\t") for l in open(path).read().splitlines()[1:] if l.strip()]
+    return [(int(r[3]), round(float(r[8]), 6), round(float(r[9]), 6), round(float(r[10]), 2)) for r in rows[1:]]
+
+
+class Checks:
+    def __init__(self, bench, args):
+        self.b = bench
+        self.args = args
+        self.pos = HOME
+        self.flies = True
+        self.results = []
+
+    def record(self, name, ok, detail, seconds, **extra):
+        line = {"check": name, "pass": ok, "detail": detail, "seconds": round(seconds, 1), **extra}
+        self.results.append(line)
+        print(f"{'PASS' if ok else 'FAIL'}  {name:<14} {seconds:7.1f} s  {detail}", flush=True)
+        return ok
+
+    def ready(self, name="ready", limit=240):
+        """Waits (bounded) until the vehicle has a GPS fix and a position, as a GCS does."""
+        t0 = time.monotonic()
+        v = None
+        while time.monotonic() - t0 < limit:
+            v = self.b.vehicle_json(wait=3)
+            if v and (v.get("gps_fix") or 0) >= 3 and v.get("position") and not v.get("booting"):
+                p = v["position"]
+                self.pos = (p["lat"], p["lon"])
+                self.flies = v["flavour"]["class"] == "Copter"
+                self.b.autopilot = self.b.autopilot or v["flavour"]["autopilot"]
+                return self.record(name, True, f"{v['flavour']['autopilot']} {v['flavour']['class']}, "
+                                   f"GPS fix {v['gps_fix']}, battery {v.get('battery_pct')} %",
+                                   time.monotonic() - t0)
+            time.sleep(1)
+        why = "never heard" if v is None else f"GPS fix {v.get('gps_fix')}, position {v.get('position')}"
+        return self.record(name, False, f"not ready after {limit} s: {why}", time.monotonic() - t0)
+
+    def boot(self):
+        """Reboot (from a second GCS id, as a crew would power-cycle it) and upload at once."""
+        path = os.path.join(self.b.work, "boot.waypoints")
+        mission_file(path, *self.pos, 10, self.flies)
+        t0 = time.monotonic()
+        code, out, err, _ = run(["command", *self.b.conn("--gcs-sysid", "250", "--sysid", str(self.b.sysid)),
+                                 "reboot", "--no-wait"], timeout=60)
+        if code != 0:
+            return self.record("boot", False, f"reboot: {last_line(err)}", time.monotonic() - t0)
+        code, out, err, _ = run(["mission", "upload", *self.b.conn("--sysid", str(self.b.sysid), "--wait", "60"),
+                                 path], timeout=180)
+        ok = code == 0
+        detail = last_line(out) if ok else f"upload after reboot: {last_line(err)}"
+        ok = self.record("boot", ok, detail, time.monotonic() - t0)
+        self.ready("ready again")
+        return ok
+
+    def round_trip(self, n, tag):
+        up = os.path.join(self.b.work, f"rt-{tag}.waypoints")
+        back = os.path.join(self.b.work, f"rt-{tag}-back.waypoints")
+        mission_file(up, *self.pos, n, self.flies)
+        sysid = ["--sysid", str(self.b.sysid), "--wait", "30"]
+        code, out, err, t_up = run(["mission", "upload", *self.b.conn(*sysid), up], timeout=1800)
+        if code != 0:
+            return False, f"upload: {last_line(err)}", t_up, bool(last_line(err))
+        code, out, err, t_down = run(["mission", "download", *self.b.conn(*sysid), back], timeout=1800)
+        if code != 0:
+            return False, f"download: {last_line(err)}", t_up + t_down, bool(last_line(err))
+        if read_wpl(back) != read_wpl(up):
+            return False, "WRONG MISSION: the list read back differs from the one sent", t_up + t_down, False
+        return True, last_line(out), t_up + t_down, True
+
+    def transfer(self):
+        all_ok = True
+        for loss in self.args.losses:
+            self.b.set_loss(loss / 100.0, 0.05 if loss > 0 else 0.0)
+            results = []
+            for i in range(self.args.trials):
+                ok, detail, secs, clear = self.round_trip(self.args.items, f"{loss}-{i}")
+                results.append((ok, detail, secs, clear))
+            n_ok = sum(r[0] for r in results)
+            times = sorted(r[2] for r in results if r[0])
+            # Up to 30 % every round trip must succeed; beyond, a failure must be a clear error
+            # (never a wrong mission, never a hang).
+            if loss <= 30:
+                ok = n_ok == len(results)
+            else:
+                ok = all(r[0] or r[3] for r in results)
+            failures = "; ".join(r[1] for r in results if not r[0])
+            dup = " + 5 % dup" if loss > 0 else ""
+            detail = (f"{self.args.items} items, {loss} % loss{dup}: {n_ok}/{len(results)} ok"
+                      + (f", {min(times):.0f}–{max(times):.0f} s" if times else "")
+                      + (f" — {failures}" if failures else ""))
+            all_ok &= self.record(f"transfer {loss}%", ok, detail, sum(r[2] for r in results),
+                                  loss=loss, succeeded=n_ok, trials=len(results), round_trip_s=times)
+        self.b.set_loss(0.0)
+        return all_ok
+
+    def fly(self):
+        path = os.path.join(self.b.work, "square.waypoints")
+        lat, lon = self.pos
+        rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t%.7f\t%.7f\t0\t1" % (lat, lon)]
+        seq = 1
+        if self.flies:
+            rows.append("1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t10\t1")
+            seq = 2
+        for n, e in [(20, 0), (20, 20), (0, 20), (0, 0)]:
+            a, b = offset(lat, lon, n, e)
+            rows.append("%d\t0\t3\t16\t0\t0\t0\t0\t%.7f\t%.7f\t10\t1" % (seq, a, b))
+            seq += 1
+        rows.append("%d\t0\t0\t20\t0\t0\t0\t0\t0\t0\t0\t1" % seq)
+        open(path, "w").write("\n".join(rows) + "\n")
+        code, out, err, secs = run(["mission", "fly", *self.b.conn("--sysid", str(self.b.sysid), "--wait", "30"), path],
+                                   timeout=900)
+        return self.record("fly", code == 0, last_line(out) if code == 0 else last_line(err), secs)
+
+    def signing(self):
+        key = os.path.join(self.b.work, "team.key")
+        t0 = time.monotonic()
+        code, _, err, _ = run(["signing", "keygen", "--passphrase", "conformance check", "--out", key], timeout=30)
+        if code != 0:
+            return self.record("signing", False, f"keygen: {last_line(err)}", 0)
+        sysid = ["--sysid", str(self.b.sysid)]
+        code, _, err, _ = run(["signing", "setup", *self.b.conn(*sysid), "--key", key], timeout=60)
+        if code != 0:
+            return self.record("signing", False, f"setup: {last_line(err)}", time.monotonic() - t0)
+        # A mode change: unsigned, it must be ignored (no ACK, no change); signed, obeyed.
+        mode = "GUIDED" if self.b.autopilot == "ArduPilot" else "HOLD"
+        code_u, _, err_u, _ = run(["command", *self.b.conn(*sysid, "--wait", "10"), "mode", mode], timeout=60)
+        code_s, out_s, err_s, _ = run(["command", *self.b.conn(*sysid, "--wait", "10", "--signing-key", key),
+                                       "mode", mode], timeout=60)
+        removed, _, err_r, _ = run(["signing", "remove", *self.b.conn(*sysid, "--signing-key", key)], timeout=60)
+        ok = code_u != 0 and code_s == 0 and removed == 0
+        detail = (f"unsigned: {'ignored' if code_u != 0 else 'OBEYED'}; signed: "
+                  f"{last_line(out_s) if code_s == 0 else last_line(err_s)}; "
+                  f"key removed: {'yes' if removed == 0 else last_line(err_r)}")
+        return self.record("signing", ok, detail, time.monotonic() - t0)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("target", help="sim:ardupilot-copter | sim:ardupilot-rover | sim:px4-copter | a connection string")
+    ap.add_argument("--sysid", type=int, default=1)
+    ap.add_argument("--checks", default="ready,boot,transfer,fly,signing")
+    ap.add_argument("--items", type=int, default=100, help="mission items per round trip")
+    ap.add_argument("--trials", type=int, default=3, help="round trips per loss level")
+    ap.add_argument("--losses", default="0,30,50", help="loss levels, percent each way")
+    ap.add_argument("--speedup", type=float, default=1.0, help="simulator speed (sim: targets only)")
+    ap.add_argument("--json", help="write the results here")
+    ap.add_argument("--keep", action="store_true", help="keep the working directory")
+    args = ap.parse_args()
+    args.losses = [int(x) for x in args.losses.split(",") if x.strip()]
+    work = tempfile.mkdtemp(prefix="fleetmap-conformance.")
+    bench = Bench(args.target, args.sysid, work, args.speedup)
+    checks = Checks(bench, args)
+    order = [c.strip() for c in args.checks.split(",") if c.strip()]
+    unknown = [c for c in order if not hasattr(checks, c) or c.startswith("_")]
+    if unknown:
+        sys.exit(f"unknown check(s): {', '.join(unknown)}")
+    print(f"conformance: {args.target} (system {args.sysid}), fleetmap {BIN}, work {work}", flush=True)
+    try:
+        if order and order[0] != "ready":
+            checks.ready()
+        for c in order:
+            getattr(checks, c)()
+    finally:
+        bench.close()
+    ok = all(r["pass"] for r in checks.results)
+    report = {"target": args.target, "autopilot": bench.autopilot, "sysid": args.sysid, "pass": ok,
+              "checks": checks.results, "work": work}
+    if args.json:
+        with open(args.json, "w") as f:
+            json.dump(report, f, indent=1)
+    if ok and not args.keep:
+        shutil.rmtree(work, ignore_errors=True)
+    print(f"conformance: {'PASS' if ok else 'FAIL'} ({sum(r['pass'] for r in checks.results)}/{len(checks.results)} checks)")
+    sys.exit(0 if ok else 1)
+
+
+if __name__ == "__main__":
+    main()
