@@ -55,9 +55,10 @@ build: sysdeps
 ## The longest end-to-end tests ($(SLOW_TESTS)) fly simulated missions in real time, mostly
 ## waiting: they run beside the rest of the suite (their output follows), which takes minutes
 ## off `make test` on 2 cores. (demo_headless: the runway and bandit demos headless, in
-## parallel, 3 to 5½ minutes.) The benchmarks are not run here (`make bench`; clippy compiles
+## parallel, 3 to 5½ minutes; conformance: hitl/conformance.py against the simulator, an
+## ArduPilot and a PX4 copter in parallel at real time, about 3 minutes.) The benchmarks are not run here (`make bench`; clippy compiles
 ## them).
-SLOW_TESTS := bandit_run demo_headless runway_kill
+SLOW_TESTS := bandit_run demo_headless runway_kill conformance
 OTHER_TESTS := $(filter-out $(SLOW_TESTS),$(basename $(notdir $(wildcard tests/*.rs))))
 test: sysdeps
 	@mkdir -p target

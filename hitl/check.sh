@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # hitl/check.sh [--no-fly] CONN [SYSID] — end-to-end check of fleetmap against whatever
 # autopilot answers at the connection string CONN (see hitl/README.md):
-#   1. fleetmap vehicles            (the vehicle is heard)
+#   1. fleetmap vehicles            (the vehicle is heard; waits, bounded, until it is ready)
 #   2. mission upload/download      (a short mission round trip, .waypoints and .plan)
 #   3. fleetmap mission fly         (arm, take off, fly a 20 m square, return, land)
 # Step 3 FLIES THE VEHICLE: simulators, or real vehicles in a safe area only.
@@ -32,19 +32,33 @@ step() { printf '\n== %s\n' "$*"; }
 
 step "1. vehicles on $CONN"
 "$BIN" vehicles --connect "$CONN" --wait 5 --tlog "$WORK/vehicles.tlog"
-"$BIN" vehicles --connect "$CONN" --wait 3 --json >"$WORK/vehicles.json"
-read -r LAT LON FLIES < <("$PY" - "$WORK/vehicles.json" "$SYSID" <<'EOF'
+# A vehicle that was just started has no GPS fix or position yet: wait for it (at most
+# READY_WAIT seconds, 180 by default), as a GCS does, before building the mission around it.
+READY_WAIT=${READY_WAIT:-180}
+deadline=$(( $(date +%s) + READY_WAIT ))
+while :; do
+  "$BIN" vehicles --connect "$CONN" --wait 3 --json >"$WORK/vehicles.json"
+  if ready=$("$PY" - "$WORK/vehicles.json" "$SYSID" <<'EOF'
 import json, sys
 snap = json.load(open(sys.argv[1]))
 v = snap["vehicles"].get(sys.argv[2])
 if v is None:
     sys.exit("system %s not heard (heard: %s)" % (sys.argv[2], ", ".join(snap["vehicles"]) or "none"))
 p = v.get("position") or v.get("home")
-if not p or (p["lat"] == 0 and p["lon"] == 0):
+if not p or (p["lat"] == 0 and p["lon"] == 0) or (v.get("gps_fix") or 0) < 3:
     sys.exit("vehicle %s has no position yet (GPS fix %s)" % (sys.argv[2], v.get("gps_fix")))
 print(p["lat"], p["lon"], 1 if v["flavour"]["class"] == "Copter" else 0)
 EOF
-)
+  ); then
+    read -r LAT LON FLIES <<<"$ready"
+    break
+  fi
+  if (( $(date +%s) >= deadline )); then
+    echo "not ready after ${READY_WAIT} s" >&2
+    exit 1
+  fi
+  sleep 2
+done
 echo "vehicle $SYSID at $LAT,$LON"
 
 step "2. mission round trip"

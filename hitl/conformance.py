@@ -190,6 +190,9 @@ class Checks:
         self.flies = True
         self.results = []
 
+    def ardupilot(self):
+        return (self.b.autopilot or "").lower().startswith("ardu")
+
     def record(self, name, ok, detail, seconds, **extra):
         line = {"check": name, "pass": ok, "detail": detail, "seconds": round(seconds, 1), **extra}
         self.results.append(line)
@@ -284,7 +287,8 @@ class Checks:
             a, b = offset(lat, lon, n, e)
             rows.append("%d\t0\t3\t16\t0\t0\t0\t0\t%.7f\t%.7f\t10\t1" % (seq, a, b))
             seq += 1
-        rows.append("%d\t0\t0\t20\t0\t0\t0\t0\t0\t0\t0\t1" % seq)
+        # Return to launch, in frame MISSION (2): PX4 refuses it in a global frame.
+        rows.append("%d\t0\t2\t20\t0\t0\t0\t0\t0\t0\t0\t1" % seq)
         open(path, "w").write("\n".join(rows) + "\n")
         code, out, err, secs = run(["mission", "fly", *self.b.conn("--sysid", str(self.b.sysid), "--wait", "30"), path],
                                    timeout=900)
@@ -297,11 +301,22 @@ class Checks:
         if code != 0:
             return self.record("signing", False, f"keygen: {last_line(err)}", 0)
         sysid = ["--sysid", str(self.b.sysid)]
-        code, _, err, _ = run(["signing", "setup", *self.b.conn(*sysid), "--key", key], timeout=60)
+        code, out, err, _ = run(["signing", "setup", *self.b.conn(*sysid, "--json"), "--key", key], timeout=60)
         if code != 0:
             return self.record("signing", False, f"setup: {last_line(err)}", time.monotonic() - t0)
-        # A mode change: unsigned, it must be ignored (no ACK, no change); signed, obeyed.
-        mode = "GUIDED" if self.b.autopilot == "ArduPilot" else "HOLD"
+        try:
+            confirmed = json.loads(last_line(out)).get("confirmed", False)
+        except ValueError:
+            confirmed = False
+        if not confirmed and not self.ardupilot():
+            # PX4 (1.16) has no MAVLink signing: SETUP_SIGNING is ignored, nothing is signed.
+            return self.record("signing", True, "n/a: the autopilot does not sign (PX4 has no MAVLink "
+                               "signing; SETUP_SIGNING ignored)", time.monotonic() - t0, supported=False)
+        # A mode change to a mode the vehicle is not in: unsigned, it must be ignored (no ACK,
+        # no change); signed, obeyed.
+        v = self.b.vehicle_json(wait=3) or {}
+        modes = ("GUIDED", "LOITER") if self.ardupilot() else ("HOLD", "POSCTL")
+        mode = modes[1] if v.get("mode") == modes[0] else modes[0]
         code_u, _, err_u, _ = run(["command", *self.b.conn(*sysid, "--wait", "10"), "mode", mode], timeout=60)
         code_s, out_s, err_s, _ = run(["command", *self.b.conn(*sysid, "--wait", "10", "--signing-key", key),
                                        "mode", mode], timeout=60)

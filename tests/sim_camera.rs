@@ -343,3 +343,483 @@ fn images_arrive_over_a_lossy_link_and_as_files() {
         assert_eq!(bytes, *t.jpeg);
     }
 }
+
+// ------------------------------------------------------------------------------------------
+// The camera for a real autopilot (`fleetmap sim --camera-only`, sim::paired): it asks the
+// autopilot for the telemetry it needs, never renders from a stale pose, and paces its image
+// transmission so that a routing autopilot can forward it.
+
+use fleetmap::sim::camera::{CameraConfig, attitude_quaternion};
+use fleetmap::sim::paired::PairedCameras;
+
+const AP1: MavHeader = MavHeader {
+    system_id: 1,
+    component_id: 1,
+    sequence: 0,
+};
+const GCS: MavHeader = MavHeader {
+    system_id: 255,
+    component_id: 190,
+    sequence: 0,
+};
+
+fn paired(cfg: CameraConfig) -> PairedCameras {
+    PairedCameras::new(std::sync::Arc::new(runway()), cfg, 5)
+}
+
+fn autopilot_heartbeat(autopilot: mav::MavAutopilot) -> MavMessage {
+    MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
+        autopilot,
+        mavtype: mav::MavType::MAV_TYPE_QUADROTOR,
+        system_status: mav::MavState::MAV_STATE_STANDBY,
+        mavlink_version: 3,
+        ..mav::HEARTBEAT_DATA::default()
+    })
+}
+
+/// GLOBAL_POSITION_INT at the runway world's first home, 12 m up, heading `hdg_deg`.
+fn position_at_home(time_boot_ms: u32, hdg_deg: f64) -> MavMessage {
+    let (lat, lon) = runway().default_home(1).unwrap();
+    MavMessage::GLOBAL_POSITION_INT(mav::GLOBAL_POSITION_INT_DATA {
+        time_boot_ms,
+        lat: (lat * 1e7).round() as i32,
+        lon: (lon * 1e7).round() as i32,
+        alt: 612_000,
+        relative_alt: 12_000,
+        hdg: (hdg_deg * 100.0).round() as u16,
+        ..mav::GLOBAL_POSITION_INT_DATA::default()
+    })
+}
+
+fn image_start_capture(target_system: u8) -> MavMessage {
+    MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+        param2: 0.0, // one picture
+        param3: 1.0,
+        command: mav::MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+        target_system,
+        target_component: 100,
+        ..mav::COMMAND_LONG_DATA::default()
+    })
+}
+
+fn sent(cams: &mut PairedCameras) -> Vec<(MavHeader, MavMessage)> {
+    std::iter::from_fn(|| cams.poll_transmit()).collect()
+}
+
+fn acks(msgs: &[(MavHeader, MavMessage)]) -> Vec<mav::COMMAND_ACK_DATA> {
+    msgs.iter()
+        .filter_map(|(_, m)| match m {
+            MavMessage::COMMAND_ACK(a) => Some(a.clone()),
+            _ => None,
+        })
+        .collect()
+}
+
+fn texts(msgs: &[(MavHeader, MavMessage)]) -> Vec<String> {
+    msgs.iter()
+        .filter_map(|(_, m)| match m {
+            MavMessage::STATUSTEXT(t) => Some(
+                t.text
+                    .to_str()
+                    .unwrap_or("")
+                    .trim_end_matches('\0')
+                    .to_string(),
+            ),
+            _ => None,
+        })
+        .collect()
+}
+
+/// REQUEST_DATA_STREAMs as (stream, rate Hz) and SET_MESSAGE_INTERVALs as (message id,
+/// interval µs).
+type TelemetryRequests = (Vec<(mav::MavDataStream, u16)>, Vec<(u32, f32)>);
+
+/// The requests for telemetry sent to autopilot `sysid`, all from its camera component.
+fn telemetry_requests(msgs: &[(MavHeader, MavMessage)], sysid: u8) -> TelemetryRequests {
+    let mut streams = Vec::new();
+    let mut intervals = Vec::new();
+    for (h, m) in msgs {
+        match m {
+            MavMessage::REQUEST_DATA_STREAM(r) if r.target_system == sysid => {
+                assert_eq!((h.system_id, h.component_id), (u32::from(sysid), 100));
+                assert_eq!((r.target_component, r.start_stop), (1, 1));
+                streams.push((r.req_stream_id, r.req_message_rate));
+            }
+            MavMessage::COMMAND_LONG(c)
+                if c.target_system == sysid
+                    && c.command == mav::MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL =>
+            {
+                assert_eq!((h.system_id, h.component_id), (u32::from(sysid), 100));
+                assert_eq!(c.target_component, 1);
+                intervals.push((c.param1 as u32, c.param2));
+            }
+            _ => {}
+        }
+    }
+    (streams, intervals)
+}
+
+#[test]
+fn paired_camera_asks_each_autopilot_for_its_telemetry() {
+    let mut cams = paired(CameraConfig::default());
+    cams.handle_message(
+        &AP1,
+        &autopilot_heartbeat(mav::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA),
+        Time::from_secs(1),
+    );
+    let px4 = MavHeader {
+        system_id: 2,
+        ..AP1
+    };
+    cams.handle_message(
+        &px4,
+        &autopilot_heartbeat(mav::MavAutopilot::MAV_AUTOPILOT_PX4),
+        Time::from_secs(1),
+    );
+    let msgs = sent(&mut cams);
+    // ArduPilot: the stream groups (QGC's initializeStreamRates, MAVProxy --streamrate) and
+    // the message intervals, 10 Hz
+    let (streams, intervals) = telemetry_requests(&msgs, 1);
+    assert_eq!(
+        streams,
+        vec![
+            (mav::MavDataStream::MAV_DATA_STREAM_POSITION, 10),
+            (mav::MavDataStream::MAV_DATA_STREAM_EXTRA1, 10),
+        ]
+    );
+    assert_eq!(intervals, vec![(33, 100_000.0), (30, 100_000.0)]);
+    // PX4 ignores REQUEST_DATA_STREAM: intervals only
+    let (streams, intervals) = telemetry_requests(&msgs, 2);
+    assert!(streams.is_empty(), "{streams:?}");
+    assert_eq!(intervals, vec![(33, 100_000.0), (30, 100_000.0)]);
+    // asked once: the next heartbeats ask nothing
+    cams.handle_message(
+        &AP1,
+        &autopilot_heartbeat(mav::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA),
+        Time::from_secs(2),
+    );
+    assert_eq!(
+        telemetry_requests(&sent(&mut cams), 1),
+        (Vec::new(), Vec::new())
+    );
+}
+
+#[test]
+fn paired_camera_without_a_position_refuses_to_capture() {
+    let mut cams = paired(CameraConfig::default());
+    cams.handle_message(
+        &AP1,
+        &autopilot_heartbeat(mav::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA),
+        Time::from_secs(1),
+    );
+    cams.step(Time::from_secs(1));
+    let _ = sent(&mut cams);
+    cams.handle_message(&GCS, &image_start_capture(1), Time::from_secs(2));
+    cams.step(Time::from_secs(2));
+    let msgs = sent(&mut cams);
+    let acks = acks(&msgs);
+    assert_eq!(acks.len(), 1);
+    assert_eq!(
+        acks[0].command,
+        mav::MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+        "{acks:?}"
+    );
+    assert_eq!(
+        acks[0].result,
+        mav::MavResult::MAV_RESULT_TEMPORARILY_REJECTED
+    );
+    assert_eq!(
+        (acks[0].target_system, acks[0].target_component),
+        (255, 190)
+    );
+    assert_eq!(
+        texts(&msgs),
+        vec!["camera: never had a position from vehicle 1".to_string()]
+    );
+    assert!(msgs.iter().all(|(h, _)| h.component_id == 100));
+    assert!(
+        !msgs
+            .iter()
+            .any(|(_, m)| matches!(m, MavMessage::CAMERA_IMAGE_CAPTURED(_)))
+    );
+    assert!(cams.poll_image().is_none());
+    assert_eq!((cams.refused(), cams.refused_for(1)), (1, 1));
+}
+
+#[test]
+fn paired_camera_renders_from_a_pose_a_tenth_of_a_second_old() {
+    let mut cams = paired(CameraConfig::default());
+    cams.handle_message(
+        &AP1,
+        &autopilot_heartbeat(mav::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA),
+        Time::from_secs(1),
+    );
+    cams.handle_message(&AP1, &position_at_home(10_000, 58.0), Time::from_secs(10));
+    cams.handle_message(
+        &AP1,
+        &MavMessage::ATTITUDE(mav::ATTITUDE_DATA {
+            time_boot_ms: 10_000,
+            roll: 3f32.to_radians(),
+            pitch: (-2f32).to_radians(),
+            yaw: 58f32.to_radians(),
+            ..mav::ATTITUDE_DATA::default()
+        }),
+        Time::from_secs(10),
+    );
+    let _ = sent(&mut cams);
+    cams.handle_message(&GCS, &image_start_capture(1), Time::from_millis(10_100));
+    cams.step(Time::from_millis(10_100));
+    let msgs = sent(&mut cams);
+    assert_eq!(
+        acks(&msgs).iter().map(|a| a.result).collect::<Vec<_>>(),
+        vec![mav::MavResult::MAV_RESULT_ACCEPTED]
+    );
+    assert!(texts(&msgs).is_empty());
+    let (sysid, img) = cams.poll_image().expect("an image");
+    assert_eq!(sysid, 1);
+    let (lat, lon) = runway().default_home(1).unwrap();
+    assert!((img.true_pose.lat - lat).abs() < 1e-7 && (img.true_pose.lon - lon).abs() < 1e-7);
+    assert!((img.true_pose.alt_agl_m - 12.0).abs() < 1e-9);
+    assert!((img.true_pose.roll_deg - 3.0).abs() < 1e-4);
+    assert!((img.true_pose.pitch_deg + 2.0).abs() < 1e-4);
+    assert!((img.true_pose.heading_deg - 58.0).abs() < 1e-4);
+    // CAMERA_IMAGE_CAPTURED carries the pose the picture was rendered at, attitude included
+    let captured: Vec<_> = msgs
+        .iter()
+        .filter_map(|(_, m)| match m {
+            MavMessage::CAMERA_IMAGE_CAPTURED(c) => Some(c.clone()),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(captured.len(), 1);
+    let c = &captured[0];
+    assert_eq!(
+        (c.lat, c.lon),
+        ((lat * 1e7).round() as i32, (lon * 1e7).round() as i32)
+    );
+    assert_eq!((c.relative_alt, c.alt), (12_000, 612_000));
+    let want = attitude_quaternion(
+        img.true_pose.roll_deg,
+        img.true_pose.pitch_deg,
+        img.true_pose.heading_deg,
+    );
+    for (got, want) in c.q.iter().zip(want) {
+        assert!((got - want).abs() < 1e-6, "{:?} vs {want:?}", c.q);
+    }
+    assert_eq!(cams.refused(), 0);
+}
+
+#[test]
+fn paired_camera_refuses_a_pose_two_seconds_old_and_asks_again() {
+    let mut cams = paired(CameraConfig::default());
+    cams.handle_message(
+        &AP1,
+        &autopilot_heartbeat(mav::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA),
+        Time::from_secs(1),
+    );
+    cams.handle_message(&AP1, &position_at_home(10_000, 58.0), Time::from_secs(10));
+    cams.step(Time::from_secs(10));
+    let _ = sent(&mut cams);
+    assert_eq!(cams.telemetry_requests(1), 1);
+    cams.handle_message(&GCS, &image_start_capture(1), Time::from_secs(12));
+    cams.step(Time::from_secs(12));
+    let msgs = sent(&mut cams);
+    assert_eq!(
+        acks(&msgs).iter().map(|a| a.result).collect::<Vec<_>>(),
+        vec![mav::MavResult::MAV_RESULT_TEMPORARILY_REJECTED]
+    );
+    assert_eq!(
+        texts(&msgs),
+        vec!["camera: no position from vehicle 1 for 2.0 s".to_string()]
+    );
+    assert!(cams.poll_image().is_none());
+    assert_eq!(cams.refused(), 1);
+    // the telemetry stopped: asked for again (streams and intervals)
+    let (streams, intervals) = telemetry_requests(&msgs, 1);
+    assert_eq!((streams.len(), intervals.len()), (2, 2));
+    assert_eq!(cams.telemetry_requests(1), 2);
+    // and not again before 2 s have passed
+    cams.step(Time::from_millis(13_900));
+    assert_eq!(cams.telemetry_requests(1), 2);
+    cams.step(Time::from_secs(14));
+    assert_eq!(cams.telemetry_requests(1), 3);
+}
+
+/// Run `cams` from `t0` in steps of 10 ms until `until` and return every message sent from
+/// camera 1 with the time it left.
+fn run_paired(cams: &mut PairedCameras, t0: Time, until: Time) -> Vec<(Time, MavMessage)> {
+    let mut out = Vec::new();
+    let mut t = t0;
+    while t <= until {
+        cams.step(t);
+        while let Some((h, m)) = cams.poll_transmit() {
+            assert_eq!((h.system_id, h.component_id), (1, 100));
+            out.push((t, m));
+        }
+        t += Duration::from_millis(10);
+    }
+    out
+}
+
+#[test]
+fn paced_image_transmission_takes_size_over_rate_and_every_packet_goes_out() {
+    let rate = 20_000.0;
+    let feedback = {
+        let (lat, lon) = runway().default_home(1).unwrap();
+        MavMessage::CAMERA_FEEDBACK(mav::CAMERA_FEEDBACK_DATA {
+            lat: (lat * 1e7).round() as i32,
+            lng: (lon * 1e7).round() as i32,
+            alt_msl: 612.0,
+            alt_rel: 12.0,
+            yaw: 58.0,
+            target_system: 1,
+            ..mav::CAMERA_FEEDBACK_DATA::default()
+        })
+    };
+    let mut cams = paired(CameraConfig {
+        transfer_rate_bps: Some(rate),
+        ..CameraConfig::default()
+    });
+    let t0 = Time::from_secs(1);
+    cams.handle_message(&AP1, &feedback, t0);
+    let out = run_paired(&mut cams, t0, Time::from_secs(30));
+    let (_, img) = cams.poll_image().expect("the feedback's picture");
+    let size = img.jpeg.len();
+    assert!(size > 20_000, "{size} bytes"); // a 480-px JPEG: tens of kilobytes
+    let packets = size.div_ceil(253);
+    // every packet went out, in order, after its handshake
+    let data: Vec<(Time, u16)> = out
+        .iter()
+        .filter_map(|(t, m)| match m {
+            MavMessage::ENCAPSULATED_DATA(d) => Some((*t, d.seqnr)),
+            _ => None,
+        })
+        .collect();
+    assert_eq!(
+        data.iter().map(|d| d.1).collect::<Vec<_>>(),
+        (0..packets as u16).collect::<Vec<_>>()
+    );
+    let handshake = out
+        .iter()
+        .position(|(_, m)| matches!(m, MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)))
+        .expect("a handshake");
+    let first_data = out
+        .iter()
+        .position(|(_, m)| matches!(m, MavMessage::ENCAPSULATED_DATA(_)))
+        .unwrap();
+    assert!(handshake < first_data);
+    // CAMERA_IMAGE_CAPTURED is not held back by the pacing
+    assert!(
+        out.iter()
+            .any(|(t, m)| *t == t0 && matches!(m, MavMessage::CAMERA_IMAGE_CAPTURED(_)))
+    );
+    // it took about size / rate seconds of the camera's clock (frames carry 267 bytes per
+    // 253 of image; the bucket starts with 50 ms of rate)
+    let took = data
+        .last()
+        .map(|(t, _)| t.saturating_since(t0).as_secs_f64())
+        .unwrap_or(0.0);
+    let nominal = size as f64 / rate;
+    assert!(
+        took >= 0.95 * nominal && took <= 1.15 * nominal,
+        "{size} bytes took {took:.2} s at {rate} B/s (nominal {nominal:.2} s)"
+    );
+    // and no second carried more than the rate plus the bucket
+    for (i, (t, _)) in data.iter().enumerate() {
+        let in_window = data[i..]
+            .iter()
+            .take_while(|(u, _)| u.saturating_since(*t) < Duration::from_secs(1))
+            .count();
+        assert!(
+            in_window as f64 * 267.0 <= rate + 0.05 * rate + 267.0,
+            "{in_window} packets in the second after {t}"
+        );
+    }
+    // the GCS's receiver puts the image together from what went out
+    let mut rx = ImageReceiver::new((1, 100), (255, 190), ReceiverConfig::default());
+    for (t, m) in &out {
+        rx.handle_message((1, 100), m, *t);
+    }
+    let got: Vec<_> = std::iter::from_fn(|| rx.poll_event()).collect();
+    assert!(
+        matches!(&got[..], [ImageEvent::Image { jpeg, .. }] if *jpeg == *img.jpeg),
+        "{} events",
+        got.len()
+    );
+    // unpaced (the embedded simulator's default): everything in the first step
+    let mut cams = paired(CameraConfig::default());
+    cams.handle_message(&AP1, &feedback, t0);
+    let out = run_paired(&mut cams, t0, t0);
+    let n = out
+        .iter()
+        .filter(|(_, m)| matches!(m, MavMessage::ENCAPSULATED_DATA(_)))
+        .count();
+    assert_eq!(n, packets);
+}
+
+/// Connect `cams` to vehicle 1 of `sim` for `secs` seconds from `from`, in 50 ms steps;
+/// collects the GLOBAL_POSITION_INTs the camera heard (with their arrival). Returns the end.
+fn link(
+    sim: &mut Sim,
+    cams: &mut PairedCameras,
+    from: Time,
+    secs: u64,
+    heard: &mut Vec<(Time, mav::GLOBAL_POSITION_INT_DATA)>,
+) -> Time {
+    let mut t = from;
+    while t < from + Duration::from_secs(secs) {
+        t += Duration::from_millis(50);
+        sim.advance_to(t);
+        while let Some((h, m)) = sim.recv(1) {
+            if let MavMessage::GLOBAL_POSITION_INT(p) = &m {
+                heard.push((t, p.clone()));
+            }
+            cams.handle_message(&h, &m, t);
+        }
+        cams.step(t);
+        while let Some((h, m)) = cams.poll_transmit() {
+            sim.send(1, &h, &m);
+        }
+    }
+    t
+}
+
+#[test]
+fn paired_camera_wakes_a_silent_arducopter() {
+    // the embedded ArduCopter behaves as the real one on a serial port: HEARTBEAT only
+    // until someone asks (its own camera is off: the paired camera plays component 100)
+    let mut cfg = SimConfig::from_spec("1xcopter:ardupilot", Some(runway()), None, 3)
+        .unwrap()
+        .with_faults(LinkFaults::none());
+    cfg.vehicles[0].camera = None;
+    let mut sim = Sim::new(cfg, Time::ZERO).unwrap();
+    let mut t = Time::ZERO;
+    let mut positions = 0;
+    while t < Time::from_secs(20) {
+        t += Duration::from_millis(50);
+        sim.advance_to(t);
+        while let Some((_, m)) = sim.recv(1) {
+            positions += usize::from(matches!(m, MavMessage::GLOBAL_POSITION_INT(_)));
+        }
+    }
+    assert_eq!(positions, 0, "ArduCopter streamed without being asked");
+    // the camera joins the link
+    let mut cams = paired(CameraConfig::default());
+    let mut heard = Vec::new();
+    let t = link(&mut sim, &mut cams, t, 5, &mut heard);
+    assert!(cams.telemetry_requests(1) >= 1);
+    // about 10 Hz for the last 3 s
+    let recent = heard
+        .iter()
+        .filter(|(h, _)| *h + Duration::from_secs(3) >= t)
+        .count();
+    assert!((25..=35).contains(&recent), "{recent} positions in 3 s");
+    // a capture now is rendered at the copter's position
+    cams.handle_message(&GCS, &image_start_capture(1), t);
+    link(&mut sim, &mut cams, t, 1, &mut heard);
+    let (_, img) = cams.poll_image().expect("an image");
+    let (_, p) = heard.last().expect("a position");
+    assert!((img.true_pose.lat - f64::from(p.lat) * 1e-7).abs() < 1e-6);
+    assert!((img.true_pose.lon - f64::from(p.lon) * 1e-7).abs() < 1e-6);
+    assert_eq!(cams.refused(), 0);
+}

@@ -76,9 +76,27 @@ pub struct SimArgs {
     /// Simulate only the cameras, for the real autopilots (SITL) heard on --connect (e.g.
     /// `udpin:0.0.0.0:14552` where the SITL sends): a picture the autopilot takes
     /// (CAMERA_FEEDBACK, CAMERA_TRIGGER, IMAGE_START_CAPTURE to component 100) is rendered
-    /// from --world at the autopilot's reported pose. --vehicles is ignored.
+    /// from --world at the autopilot's reported pose. The cameras ask each autopilot for
+    /// GLOBAL_POSITION_INT and ATTITUDE at 10 Hz (ArduCopter sends nothing on a serial port
+    /// until asked) and refuse a capture while the last position is over 0.5 s old
+    /// (IMAGE_START_CAPTURE answered TEMPORARILY_REJECTED, a STATUSTEXT says why);
+    /// CAMERA_FEEDBACK brings its own pose and is always rendered. Images go to --image-dir
+    /// and, unless --no-image-transfer, over MAVLink paced by --image-rate. --vehicles is
+    /// ignored.
     #[arg(long)]
     pub camera_only: bool,
+    /// With --camera-only: bytes per second of MAVLink 2 frames (267 per ENCAPSULATED_DATA)
+    /// the image transmission may use; 0 sends each image in one burst. The images go
+    /// through the autopilot, which drops a forwarded frame when the outgoing port's buffer
+    /// is full (ArduPilot MAVLink_routing): a 60–100 KB picture sent in one burst lost ~40 %
+    /// of its packets through ArduCopter SITL. 20 000 B/s is 75 frames/s; a 480-px picture
+    /// of the runway world (≈ 120 KB at quality 85) takes about 6 s. It is a chosen figure,
+    /// not one measured against SITL: SITL's network serial ports read one UDP datagram and
+    /// move at most 10 000 bytes per I/O tick (AP_HAL_SITL UARTDriver), so 75 datagrams/s
+    /// stays far below what they take, and it leaves room for the telemetry on the port the
+    /// GCS uses. A 57600-baud radio carries ~5 KB/s in all: use 3000 there.
+    #[arg(long, value_name = "BYTES_PER_S", default_value_t = 20_000)]
+    pub image_rate: u32,
 }
 
 fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
@@ -191,6 +209,8 @@ fn run_camera_only(args: SimArgs, endpoints: Vec<Endpoint>) -> anyhow::Result<Ex
     let world = std::sync::Arc::new(World::load(world)?);
     let mut cfg = crate::sim::camera::CameraConfig {
         mavlink_transfer: !args.no_image_transfer,
+        // 0 = one burst per image, as the embedded simulator's cameras send
+        transfer_rate_bps: (args.image_rate > 0).then_some(f64::from(args.image_rate)),
         ..crate::sim::camera::CameraConfig::default()
     };
     if let Some(d) = &args.image_dir {

@@ -12,6 +12,20 @@
 //!   height, packets, payload 253) then the ENCAPSULATED_DATA packets, pushed after every
 //!   capture and re-sent when the GCS asks with a DATA_TRANSMISSION_HANDSHAKE of its own
 //!   (the request form of the image transmission protocol).
+//!
+//! Pacing ([`CameraConfig::transfer_rate_bps`]): by default the handshake and every packet
+//! are queued at once, as the embedded simulator's vehicles have always done (their shell,
+//! [`crate::sim::server`], paces UDP datagrams per vehicle with `UDP_BURST` / `UDP_PACE`).
+//! With a rate, the image transmission leaves through a token bucket in bytes per second of
+//! the camera's own clock (the `now` of [`SimCamera::update`] / [`SimCamera::advance`]):
+//! each message costs its MAVLink 2 frame (10 header bytes, the payload, 2 CRC bytes: 267
+//! bytes per ENCAPSULATED_DATA), the bucket holds [`PACE_BURST_S`] of the rate (at least one
+//! frame), and [`SimCamera::poll_transmit`] only hands out what the bucket has released.
+//! This is for a camera whose images go through a routing autopilot: ArduPilot forwards a
+//! frame only when the outgoing port's transmit buffer has room for it and silently drops
+//! it otherwise (`MAVLink_routing::check_and_forward`, `comm_get_txspace`), so a 60–100 KB
+//! JPEG sent as one burst loses a large share of its packets. CAMERA_IMAGE_CAPTURED is never
+//! held back by the pacing.
 
 use crate::imagery::meta::{ImageMeta, insert_meta};
 use crate::sim::render::{CameraPose, Disturbances, render};
@@ -28,6 +42,13 @@ use std::time::Duration;
 pub const CAMERA_COMPID: u8 = 100;
 /// Bytes of image per ENCAPSULATED_DATA packet.
 pub const PAYLOAD: usize = 253;
+/// MAVLink 2 framing around a payload, bytes: 10 of header (magic, lengths, flags, sequence,
+/// system, component, 3-byte message id) and a 2-byte CRC; unsigned.
+pub const FRAME_OVERHEAD: usize = 12;
+/// Capacity of the pacing token bucket, in seconds of the configured rate (never less than
+/// one frame): the longest burst a paced camera sends after being idle. 50 ms at 20 KB/s is
+/// 1 000 bytes, under four ENCAPSULATED_DATA frames.
+pub const PACE_BURST_S: f64 = 0.05;
 
 /// How captured images leave the vehicle.
 #[derive(Clone, Debug, PartialEq)]
@@ -44,6 +65,11 @@ pub struct CameraConfig {
     /// Minimum time between two captures, seconds (a real camera needs time to expose and
     /// store).
     pub min_interval_s: f64,
+    /// Pace MAVLink image transmission to this many bytes per second of MAVLink 2 frames
+    /// (header, payload and CRC; 267 bytes per ENCAPSULATED_DATA), on the camera's clock.
+    /// `None` (the default) queues an image's handshake and all its packets at once.
+    /// Values that are not finite and positive count as `None`.
+    pub transfer_rate_bps: Option<f64>,
 }
 
 impl Default for CameraConfig {
@@ -54,6 +80,7 @@ impl Default for CameraConfig {
             mavlink_transfer: true,
             file_dir: None,
             min_interval_s: 0.2,
+            transfer_rate_bps: None,
         }
     }
 }
@@ -90,6 +117,24 @@ pub struct CaptureContext {
     pub world_t_s: f64,
 }
 
+/// The attitude as a quaternion (w, x, y, z) rotating the body frame (x forward, y right,
+/// z down) into the local NED frame: ZYX Euler angles in degrees — roll right wing down,
+/// pitch nose up, yaw clockwise from north — as ATTITUDE / AHRS give them. This is what
+/// CAMERA_IMAGE_CAPTURED.q carries for a camera fixed to the airframe looking down, the
+/// pose the image was rendered at ([`crate::sim::render`] tilts the view by the same roll
+/// and pitch).
+pub fn attitude_quaternion(roll_deg: f64, pitch_deg: f64, yaw_deg: f64) -> [f32; 4] {
+    let (sr, cr) = (roll_deg.to_radians() / 2.0).sin_cos();
+    let (sp, cp) = (pitch_deg.to_radians() / 2.0).sin_cos();
+    let (sy, cy) = (yaw_deg.to_radians() / 2.0).sin_cos();
+    [
+        (cr * cp * cy + sr * sp * sy) as f32,
+        (sr * cp * cy - cr * sp * sy) as f32,
+        (cr * sp * cy + sr * cp * sy) as f32,
+        (cr * cp * sy - sr * sp * cy) as f32,
+    ]
+}
+
 /// The camera component of one vehicle.
 #[derive(Debug)]
 pub struct SimCamera {
@@ -104,7 +149,66 @@ pub struct SimCamera {
     last_capture: Option<Time>,
     last_jpeg: Option<Arc<Vec<u8>>>,
     outbox: VecDeque<MavMessage>,
+    /// Image transmission waiting for the token bucket (only when paced).
+    paced: VecDeque<MavMessage>,
+    pacer: Option<Pacer>,
     images: VecDeque<CapturedImage>,
+}
+
+/// A token bucket in bytes per second on the camera's clock.
+#[derive(Clone, Copy, Debug)]
+struct Pacer {
+    /// Bytes per second.
+    rate: f64,
+    /// Capacity, bytes.
+    burst: f64,
+    /// Bytes that may leave now.
+    tokens: f64,
+    /// When `tokens` was last brought up to date (None: never, the bucket starts full).
+    at: Option<Time>,
+}
+
+impl Pacer {
+    fn new(rate: f64) -> Pacer {
+        let largest = (FRAME_OVERHEAD + mav::ENCAPSULATED_DATA_DATA::ENCODED_LEN) as f64;
+        let burst = (rate * PACE_BURST_S).max(largest);
+        Pacer {
+            rate,
+            burst,
+            tokens: burst,
+            at: None,
+        }
+    }
+
+    /// Add the tokens earned since the last refill. An idle bucket (`backlog` false) fills
+    /// up to its capacity only; one with frames waiting keeps everything it earned, since
+    /// the frames take it at once: capping it between two polls would lose part of the rate.
+    fn refill(&mut self, now: Time, backlog: bool) {
+        if let Some(at) = self.at {
+            if now <= at {
+                return;
+            }
+            let dt = now.saturating_since(at).as_secs_f64();
+            self.tokens += dt * self.rate;
+            if !backlog {
+                self.tokens = self.tokens.min(self.burst);
+            }
+        }
+        self.at = Some(now);
+    }
+}
+
+/// Bytes `msg` takes on the wire as an unsigned MAVLink 2 frame (payload untruncated).
+fn frame_len(msg: &MavMessage) -> usize {
+    FRAME_OVERHEAD
+        + match msg {
+            MavMessage::ENCAPSULATED_DATA(_) => mav::ENCAPSULATED_DATA_DATA::ENCODED_LEN,
+            MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) => {
+                mav::DATA_TRANSMISSION_HANDSHAKE_DATA::ENCODED_LEN
+            }
+            // only image transmission is paced; anything else costs its largest payload
+            _ => 255,
+        }
 }
 
 impl SimCamera {
@@ -114,7 +218,6 @@ impl SimCamera {
             sysid,
             boot: 1,
             seed,
-            config,
             image_count: 0,
             interval: None,
             trigger_dist: None,
@@ -122,7 +225,13 @@ impl SimCamera {
             last_capture: None,
             last_jpeg: None,
             outbox: VecDeque::new(),
+            paced: VecDeque::new(),
+            pacer: config
+                .transfer_rate_bps
+                .filter(|r| r.is_finite() && *r > 0.0)
+                .map(Pacer::new),
             images: VecDeque::new(),
+            config,
         }
     }
 
@@ -141,6 +250,7 @@ impl SimCamera {
         self.last_capture = None;
         self.last_jpeg = None;
         self.outbox.clear();
+        self.paced.clear();
     }
 
     /// Images taken since boot.
@@ -148,9 +258,90 @@ impl SimCamera {
         self.image_count
     }
 
-    /// Next message from the camera component.
+    /// Next message from the camera component: what is due as of the camera's clock (the
+    /// last [`SimCamera::update`] or [`SimCamera::advance`]); a paced transmission's packets
+    /// come out as the token bucket releases them.
     pub fn poll_transmit(&mut self) -> Option<MavMessage> {
         self.outbox.pop_front()
+    }
+
+    /// Bring the camera's clock to `now` without a pose (no triggers run): the pacing bucket
+    /// refills and releases the image packets due by then.
+    pub fn advance(&mut self, now: Time) {
+        if let Some(p) = self.pacer.as_mut() {
+            p.refill(now, !self.paced.is_empty());
+        }
+        self.release();
+    }
+
+    /// When the next paced image packet can leave (None: nothing is waiting for the bucket).
+    /// A shell that sleeps until then and calls [`SimCamera::advance`] keeps the rate.
+    pub fn poll_timeout(&self) -> Option<Time> {
+        let (p, front) = (self.pacer.as_ref()?, self.paced.front()?);
+        let at = p.at?;
+        let missing = frame_len(front) as f64 - p.tokens;
+        if missing <= 0.0 {
+            return Some(at);
+        }
+        // round up to the next microsecond so the bucket really holds the frame then
+        Some(at + Duration::from_micros((missing / p.rate * 1e6).ceil() as u64))
+    }
+
+    /// Messages of image transmission still waiting for the pacing bucket.
+    pub fn transfer_backlog(&self) -> usize {
+        self.paced.len()
+    }
+
+    fn release(&mut self) {
+        let Some(p) = self.pacer.as_mut() else {
+            return;
+        };
+        while let Some(front) = self.paced.front() {
+            let cost = frame_len(front) as f64;
+            // a tolerance for the rounding of the bucket's microsecond clock
+            if p.tokens + 1e-6 < cost {
+                break;
+            }
+            p.tokens -= cost;
+            if let Some(m) = self.paced.pop_front() {
+                self.outbox.push_back(m);
+            }
+        }
+        if self.paced.is_empty() {
+            p.tokens = p.tokens.min(p.burst);
+        }
+    }
+
+    /// Drop the captures due at `now` when there is no pose to render them from: pending
+    /// pictures and interval shots that came due (distance triggering needs a position and
+    /// does not run). Returns how many were dropped. The clock advances as in
+    /// [`SimCamera::advance`].
+    pub fn drop_due(&mut self, now: Time) -> u32 {
+        self.advance(now);
+        let mut dropped = std::mem::take(&mut self.pending);
+        if let Some((next, period, remaining)) = self.interval
+            && now >= next
+        {
+            dropped += 1;
+            // the schedule goes on from now: no burst of catch-up shots when a pose returns
+            let next = now + period;
+            self.interval = match remaining {
+                0 => Some((next, period, 0)),
+                1 => None,
+                r => Some((next, period, r - 1)),
+            };
+        }
+        dropped
+    }
+
+    /// Take one picture now at `ctx`'s pose, whatever the triggers and the minimum interval
+    /// say: the shutter an autopilot has already fired (ArduPilot's CAMERA_FEEDBACK).
+    pub fn capture_now(&mut self, ctx: &CaptureContext, world: Option<&World>) {
+        if let Some(p) = self.pacer.as_mut() {
+            p.refill(ctx.now, !self.paced.is_empty());
+        }
+        self.capture(ctx, world);
+        self.release();
     }
 
     /// Next captured image (for the shell to write files, and for scoring).
@@ -199,8 +390,12 @@ impl SimCamera {
         };
     }
 
-    /// Run the camera: distance and interval triggers, pending captures.
+    /// Run the camera: distance and interval triggers, pending captures, and (when paced)
+    /// the release of image packets due by `ctx.now`.
     pub fn update(&mut self, ctx: &CaptureContext, pos: (f64, f64), world: Option<&World>) {
+        if let Some(p) = self.pacer.as_mut() {
+            p.refill(ctx.now, !self.paced.is_empty());
+        }
         if let Some((d, last)) = self.trigger_dist
             && (pos.0 - last.0).hypot(pos.1 - last.1) >= d
         {
@@ -226,6 +421,7 @@ impl SimCamera {
                 self.capture(ctx, world);
             }
         }
+        self.release();
     }
 
     fn capture(&mut self, ctx: &CaptureContext, world: Option<&World>) {
@@ -279,9 +475,11 @@ impl SimCamera {
             (Some(dir), Some(_)) => format!("file://{}/{}", dir.trim_end_matches('/'), file_name),
             _ => String::new(),
         };
-        // Quaternion of the camera (w, x, y, z) with only the heading, as ArduPilot/PX4 fill it
-        // for a nadir camera without a gimbal report.
-        let h = ctx.true_pose.heading_deg.to_radians() / 2.0;
+        let q = attitude_quaternion(
+            ctx.true_pose.roll_deg,
+            ctx.true_pose.pitch_deg,
+            ctx.true_pose.heading_deg,
+        );
         self.outbox.push_back(MavMessage::CAMERA_IMAGE_CAPTURED(
             mav::CAMERA_IMAGE_CAPTURED_DATA {
                 time_utc: 0,
@@ -290,7 +488,7 @@ impl SimCamera {
                 lon: (ctx.reported.1 * 1e7).round() as i32,
                 alt: (ctx.alt_amsl_m * 1000.0).round() as i32,
                 relative_alt: (ctx.reported.2 * 1000.0).round() as i32,
-                q: [h.cos() as f32, 0.0, 0.0, h.sin() as f32],
+                q,
                 image_index: index,
                 camera_id: 0,
                 capture_result: if jpeg.is_some() {
@@ -319,30 +517,35 @@ impl SimCamera {
     fn queue_transfer(&mut self, jpeg: &[u8]) {
         let packets = jpeg.len().div_ceil(PAYLOAD);
         let model = self.config.model;
-        self.outbox
-            .push_back(MavMessage::DATA_TRANSMISSION_HANDSHAKE(
-                mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
-                    size: jpeg.len() as u32,
-                    width: model.width_px as u16,
-                    height: model.height_px as u16,
-                    packets: packets as u16,
-                    mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
-                    payload: PAYLOAD as u8,
-                    jpg_quality: self.config.jpeg_quality,
-                },
-            ));
+        let quality = self.config.jpeg_quality;
+        let queue = if self.pacer.is_some() {
+            &mut self.paced
+        } else {
+            &mut self.outbox
+        };
+        queue.push_back(MavMessage::DATA_TRANSMISSION_HANDSHAKE(
+            mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
+                size: jpeg.len() as u32,
+                width: model.width_px as u16,
+                height: model.height_px as u16,
+                packets: packets as u16,
+                mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
+                payload: PAYLOAD as u8,
+                jpg_quality: quality,
+            },
+        ));
         for (i, chunk) in jpeg.chunks(PAYLOAD).enumerate() {
             let mut data = [0u8; PAYLOAD];
             data[..chunk.len()].copy_from_slice(chunk);
-            self.outbox
-                .push_back(MavMessage::ENCAPSULATED_DATA(mav::ENCAPSULATED_DATA_DATA {
-                    seqnr: i as u16,
-                    data,
-                }));
+            queue.push_back(MavMessage::ENCAPSULATED_DATA(mav::ENCAPSULATED_DATA_DATA {
+                seqnr: i as u16,
+                data,
+            }));
         }
     }
 
-    /// A GCS's DATA_TRANSMISSION_HANDSHAKE: re-send the latest image.
+    /// A GCS's DATA_TRANSMISSION_HANDSHAKE: re-send the latest image (paced like the first
+    /// transmission; it leaves at the next [`SimCamera::update`] / [`SimCamera::advance`]).
     pub fn handle_handshake_request(&mut self) {
         if let Some(j) = self.last_jpeg.clone() {
             self.queue_transfer(&j);
@@ -394,5 +597,154 @@ impl SimCamera {
             image_count: self.image_count,
             camera_device_id: 0,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn paced(rate: f64) -> SimCamera {
+        SimCamera::new(
+            1,
+            CameraConfig {
+                transfer_rate_bps: Some(rate),
+                ..CameraConfig::default()
+            },
+            1,
+        )
+    }
+
+    /// Run `cam` from `t0` in steps of `dt` until its paced queue is empty; returns each
+    /// message with the time it came out.
+    fn drain(cam: &mut SimCamera, t0: Time, dt: Duration) -> Vec<(Time, MavMessage)> {
+        let mut out = Vec::new();
+        let mut t = t0;
+        for _ in 0..1_000_000 {
+            cam.advance(t);
+            while let Some(m) = cam.poll_transmit() {
+                out.push((t, m));
+            }
+            if cam.transfer_backlog() == 0 {
+                break;
+            }
+            t += dt;
+        }
+        out
+    }
+
+    #[test]
+    fn unpaced_transfer_is_queued_at_once() {
+        let mut cam = SimCamera::new(1, CameraConfig::default(), 1);
+        cam.last_jpeg = Some(Arc::new(vec![7u8; 10_000]));
+        cam.handle_handshake_request();
+        assert_eq!(cam.transfer_backlog(), 0);
+        assert_eq!(cam.poll_timeout(), None);
+        let n = std::iter::from_fn(|| cam.poll_transmit()).count();
+        assert_eq!(n, 1 + 10_000usize.div_ceil(PAYLOAD));
+    }
+
+    #[test]
+    fn paced_transfer_keeps_the_rate_and_sends_everything() {
+        let rate = 5_000.0;
+        let mut cam = paced(rate);
+        let t0 = Time::from_secs(10);
+        cam.advance(t0);
+        cam.last_jpeg = Some(Arc::new((0..10_000u32).map(|i| i as u8).collect()));
+        cam.handle_handshake_request();
+        let packets = 10_000usize.div_ceil(PAYLOAD);
+        assert_eq!(cam.transfer_backlog(), packets + 1);
+        let out = drain(&mut cam, t0, Duration::from_millis(10));
+        assert_eq!(out.len(), packets + 1);
+        assert!(matches!(
+            out[0].1,
+            MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)
+        ));
+        let seqs: Vec<u16> = out
+            .iter()
+            .filter_map(|(_, m)| match m {
+                MavMessage::ENCAPSULATED_DATA(d) => Some(d.seqnr),
+                _ => None,
+            })
+            .collect();
+        assert_eq!(seqs, (0..packets as u16).collect::<Vec<_>>());
+        // never more than the bucket plus the rate over any prefix
+        let burst = (rate * PACE_BURST_S).max(267.0);
+        let mut bytes = 0.0;
+        for (t, m) in &out {
+            bytes += frame_len(m) as f64;
+            let allowed = burst + rate * t.saturating_since(t0).as_secs_f64();
+            assert!(bytes <= allowed + 1e-6, "{bytes} bytes by {t}");
+        }
+        let total = 25.0 + 267.0 * packets as f64;
+        let took = out
+            .last()
+            .map(|(t, _)| t.saturating_since(t0).as_secs_f64())
+            .unwrap_or(0.0);
+        let expect = (total - burst) / rate;
+        assert!(
+            (took - expect).abs() <= 0.02,
+            "took {took} s, expected {expect} s"
+        );
+    }
+
+    #[test]
+    fn poll_timeout_says_when_the_next_packet_leaves() {
+        let mut cam = paced(2_670.0); // one ENCAPSULATED_DATA frame per 0.1 s
+        let t0 = Time::from_secs(1);
+        cam.advance(t0);
+        cam.last_jpeg = Some(Arc::new(vec![1u8; 5 * PAYLOAD]));
+        cam.handle_handshake_request();
+        cam.advance(t0);
+        // the bucket held one frame: the handshake (25 bytes) left, packet 0 waits
+        let first: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();
+        assert_eq!(first.len(), 1);
+        let due = cam.poll_timeout().expect("a packet is waiting");
+        let wait = due.saturating_since(t0).as_secs_f64();
+        assert!((wait - 25.0 / 2_670.0).abs() < 1e-4, "{wait}");
+        cam.advance(due - Duration::from_micros(50));
+        assert!(cam.poll_transmit().is_none());
+        cam.advance(due);
+        assert!(matches!(
+            cam.poll_transmit(),
+            Some(MavMessage::ENCAPSULATED_DATA(d)) if d.seqnr == 0
+        ));
+    }
+
+    #[test]
+    fn drop_due_counts_pending_and_interval_shots() {
+        let mut cam = SimCamera::new(1, CameraConfig::default(), 1);
+        cam.trigger();
+        cam.trigger();
+        assert_eq!(cam.drop_due(Time::from_secs(1)), 2);
+        assert_eq!(cam.drop_due(Time::from_secs(1)), 0);
+        // every second, three pictures: the first is pending, the next two come due
+        cam.start_capture(1.0, 3, Time::from_secs(2));
+        assert_eq!(cam.drop_due(Time::from_secs(2)), 1);
+        assert_eq!(cam.drop_due(Time::from_millis(2_500)), 0);
+        assert_eq!(cam.drop_due(Time::from_secs(3)), 1);
+        assert_eq!(cam.drop_due(Time::from_secs(4)), 1);
+        assert_eq!(cam.drop_due(Time::from_secs(9)), 0);
+        assert_eq!(cam.image_count(), 0);
+    }
+
+    #[test]
+    fn quaternion_carries_roll_pitch_and_yaw() {
+        // heading only: the old (w, 0, 0, z) form
+        let q = attitude_quaternion(0.0, 0.0, 90.0);
+        let h = 45f64.to_radians();
+        assert!((f64::from(q[0]) - h.cos()).abs() < 1e-6);
+        assert!(q[1].abs() < 1e-7 && q[2].abs() < 1e-7);
+        assert!((f64::from(q[3]) - h.sin()).abs() < 1e-6);
+        // back to Euler angles (ZYX) with the usual formulas
+        let (r, p, y) = (5.0, -3.0, 250.0);
+        let [w, x, yy, z] = attitude_quaternion(r, p, y).map(f64::from);
+        let roll = (2.0 * (w * x + yy * z)).atan2(1.0 - 2.0 * (x * x + yy * yy));
+        let pitch = (2.0 * (w * yy - z * x)).asin();
+        let yaw = (2.0 * (w * z + x * yy)).atan2(1.0 - 2.0 * (yy * yy + z * z));
+        assert!((roll.to_degrees() - r).abs() < 1e-4);
+        assert!((pitch.to_degrees() - p).abs() < 1e-4);
+        assert!((yaw.to_degrees().rem_euclid(360.0) - y).abs() < 1e-4);
+        assert!(((w * w + x * x + yy * yy + z * z) - 1.0).abs() < 1e-6);
     }
 }

@@ -103,9 +103,10 @@ pub struct SimConfig {
     pub dock_radius_m: f64,
     /// Seed of the links.
     pub seed: u64,
-    /// MAVLink 2 signing key of every vehicle (None: unsigned, until a GCS sends
+    /// MAVLink 2 signing key of every ArduPilot vehicle (None: unsigned, until a GCS sends
     /// SETUP_SIGNING). With a key, vehicles sign what they send and ignore unsigned frames,
-    /// as ArduPilot does once signing is set up.
+    /// as ArduPilot does once signing is set up. PX4 vehicles never sign (PX4 v1.16 has no
+    /// MAVLink signing).
     pub signing_key: Option<SigningKey>,
     /// Wall-clock microseconds since the Unix epoch at simulation time 0 (signature
     /// timestamps); fixed by default so runs stay reproducible.
@@ -220,11 +221,16 @@ fn vehicle_codec(key: &Option<SigningKey>) -> Codec {
 }
 
 /// Decode a datagram for a vehicle: frames that fail signing are dropped by the codec;
-/// SETUP_SIGNING addressed to the vehicle installs (or, all zeros, removes) its key.
+/// SETUP_SIGNING addressed to an ArduPilot vehicle installs (or, all zeros, removes) its key.
+/// PX4 v1.16 has no MAVLink signing (its mavlink module has no SETUP_SIGNING handler and
+/// never signs), so a simulated PX4 ignores it.
 fn receive(s: &mut Slot, bytes: &[u8], t: Time, unix_us: u64) {
+    let signs = s.v.config().flavour.is_ardupilot();
     for f in s.codec.decode(bytes, unix_us) {
         let Ok(m) = f.message else { continue };
-        if let MavMessage::SETUP_SIGNING(ss) = &m {
+        if let MavMessage::SETUP_SIGNING(ss) = &m
+            && signs
+        {
             if ss.target_system == s.v.sysid() {
                 let key = if ss.secret_key.iter().all(|b| *b == 0) {
                     None
@@ -255,10 +261,15 @@ impl Sim {
             up_f.validate()?;
             down_f.validate()?;
             let seed = cfg.seed ^ (u64::from(vc.sysid) << 32);
+            // PX4 v1.16 does not sign (see `receive`).
+            let signing_key = cfg
+                .signing_key
+                .clone()
+                .filter(|_| vc.flavour.is_ardupilot());
             slots.push(Slot {
                 v: SimVehicle::new(vc, cfg.world.clone(), start),
-                key: cfg.signing_key.clone(),
-                codec: vehicle_codec(&cfg.signing_key),
+                key: signing_key.clone(),
+                codec: vehicle_codec(&signing_key),
                 gcs_codec: Codec::new(),
                 up: FaultyChannel::new(up_f, seed ^ 0x0055),
                 down: FaultyChannel::new(down_f, seed ^ 0x00AA),

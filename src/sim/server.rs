@@ -475,7 +475,12 @@ pub async fn spawn(sim: Sim, opts: ServeOptions) -> Result<SimHandle, ServerErro
 /// Serve simulated cameras for real autopilots (see [`crate::sim::paired`]): listen on
 /// `endpoint` (typically `udpin:` where a SITL or MAVProxy sends its telemetry), render an
 /// image for every picture the autopilots take and answer as their camera components, on
-/// the wall clock. Images go to `image_dir` (and over MAVLink if the camera config says so).
+/// the wall clock. Images go to `image_dir` (and over MAVLink if the camera config says so,
+/// paced by the cameras themselves when [`crate::sim::camera::CameraConfig::transfer_rate_bps`]
+/// is set). UDP datagrams leave at most [`UDP_BURST`] per [`UDP_PACE`] as in [`serve`]; a
+/// datagram the socket cannot take yet waits for the next turn instead of being dropped.
+/// What the cameras report ([`crate::sim::paired::PairedEvent`]) is logged: a stale pose
+/// warns once per episode of refused captures, not once per capture.
 pub async fn serve_paired<F>(
     mut cams: crate::sim::paired::PairedCameras,
     endpoint: Endpoint,
@@ -489,6 +494,9 @@ where
 {
     use crate::link::codec::Codec;
     use crate::time::Time;
+    /// Longest sleep between two camera steps (heartbeats, interval captures, requests for
+    /// telemetry are due on this grid at worst).
+    const STEP: std::time::Duration = std::time::Duration::from_millis(20);
     let (tx, mut rx) = mpsc::channel::<(usize, Vec<u8>)>(4096);
     let (bound, ios) = open(&[0], std::slice::from_ref(&endpoint), tx).await?;
     on_bound(&bound);
@@ -502,10 +510,14 @@ where
         .unwrap_or(0);
     let mut codec = Codec::new();
     let end = duration_s.map(|d| Time::ZERO + std::time::Duration::from_secs_f64(d.max(0.0)));
+    let mut pending: std::collections::VecDeque<Vec<u8>> = std::collections::VecDeque::new();
     tokio::pin!(shutdown);
-    loop {
+    let result = loop {
         let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
         cams.step(now);
+        while let Some(ev) = cams.poll_event() {
+            log_paired_event(&ev);
+        }
         while let Some((_, img)) = cams.poll_image() {
             if let Some(dir) = &image_dir {
                 let path = dir.join(&img.file_name);
@@ -516,21 +528,51 @@ where
         }
         while let Some((h, m)) = cams.poll_transmit() {
             let unix = unix0 + now.as_micros();
-            let d = codec.encode_with_header(&h, &m, mavlink::MavlinkVersion::V2, unix);
-            match &ios[0] {
-                Io::Udp { sock, peer } => {
-                    let to = peer.lock().ok().and_then(|p| *p);
-                    if let Some(to) = to {
-                        let _ = sock.try_send_to(&d, to);
+            pending.push_back(codec.encode_with_header(&h, &m, mavlink::MavlinkVersion::V2, unix));
+        }
+        let mut backlog = false;
+        match &ios[0] {
+            Io::Udp { sock, peer } => {
+                let to = peer.lock().ok().and_then(|p| *p);
+                match to {
+                    Some(to) => {
+                        for _ in 0..UDP_BURST {
+                            let Some(d) = pending.front() else {
+                                break;
+                            };
+                            match sock.try_send_to(d, to) {
+                                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
+                                // sent, or an error a retry would not mend (e.g. ICMP
+                                // port unreachable reported on this send)
+                                _ => {
+                                    pending.pop_front();
+                                }
+                            }
+                        }
                     }
+                    // nobody has spoken to us yet: nowhere to send
+                    None => pending.clear(),
                 }
-                Io::Tcp { out } => {
+                backlog = !pending.is_empty();
+            }
+            Io::Tcp { out } => {
+                while let Some(d) = pending.pop_front() {
                     let _ = out.send(d);
                 }
             }
         }
         if end.is_some_and(|e| now >= e) {
-            return Ok(cams);
+            break cams;
+        }
+        let mut wait = STEP;
+        if let Some(t) = cams.poll_timeout() {
+            wait = wait.min(
+                t.saturating_since(now)
+                    .max(std::time::Duration::from_millis(1)),
+            );
+        }
+        if backlog {
+            wait = wait.min(UDP_PACE);
         }
         tokio::select! {
             r = rx.recv() => {
@@ -543,9 +585,50 @@ where
                     }
                 }
             }
-            _ = tokio::time::sleep(std::time::Duration::from_millis(20)) => {}
-            _ = &mut shutdown => return Ok(cams),
+            _ = tokio::time::sleep(wait) => {}
+            _ = &mut shutdown => break cams,
         }
+    };
+    if result.refused() > 0 {
+        tracing::warn!(
+            "simulated cameras: {} captures refused in all for want of a fresh position",
+            result.refused()
+        );
+    }
+    Ok(result)
+}
+
+/// Log what the paired cameras report: stale poses as warnings (once per episode), the rest
+/// at info.
+fn log_paired_event(ev: &crate::sim::paired::PairedEvent) {
+    use crate::sim::paired::PairedEvent as E;
+    match ev {
+        E::Discovered { sysid, autopilot } => tracing::info!(
+            "camera for vehicle {sysid} ({autopilot:?}): asked for GLOBAL_POSITION_INT and \
+             ATTITUDE at {} Hz",
+            crate::sim::paired::TELEMETRY_HZ
+        ),
+        E::Rebooted { sysid } => {
+            tracing::info!("vehicle {sysid} rebooted: camera asked for its telemetry again")
+        }
+        E::PoseStale {
+            sysid,
+            age,
+            refused_total,
+        } => match age {
+            Some(a) => tracing::warn!(
+                "camera for vehicle {sysid}: no position for {:.1} s, refusing captures \
+                 ({refused_total} refused so far)",
+                a.as_secs_f64()
+            ),
+            None => tracing::warn!(
+                "camera for vehicle {sysid}: never had a position, refusing captures \
+                 ({refused_total} refused so far)"
+            ),
+        },
+        E::PoseRestored { sysid, refused } => tracing::info!(
+            "camera for vehicle {sysid}: position again after {refused} refused captures"
+        ),
     }
 }
 

@@ -1,0 +1,55 @@
+//! The conformance checks of `hitl/conformance.py` (issue 14) against the embedded simulator,
+//! an ArduPilot and a PX4 copter side by side: ready, upload right after a reboot, mission
+//! round trips through `fleetmap relay` at 0, 30 and 50 % loss (+ 5 % duplicates), a flight
+//! with `fleetmap mission fly`, signing. The same runner, pointed at a connection string,
+//! checks a real autopilot (docs/results/conformance.md has the table).
+//!
+//! The simulators run at real time (transfers are judged on the clock the autopilot's own
+//! timeouts run on) and the two runs mostly wait, so they run in parallel: about 3 minutes.
+
+mod common;
+
+#[test]
+fn conformance_checks_pass_against_the_simulator() {
+    let script = concat!(env!("CARGO_MANIFEST_DIR"), "/hitl/conformance.py");
+    let runs: Vec<(&str, std::process::Child)> = ["sim:ardupilot-copter", "sim:px4-copter"]
+        .into_iter()
+        .map(|target| {
+            let child = std::process::Command::new("python3")
+                .args([
+                    script, target, "--items", "10", "--trials", "1", "--losses", "0,30,50",
+                ])
+                .env("FLEETMAP", common::pty::bin())
+                .stdout(std::process::Stdio::piped())
+                .stderr(std::process::Stdio::piped())
+                .spawn()
+                .expect("python3 runs hitl/conformance.py");
+            (target, child)
+        })
+        .collect();
+    let mut failed = Vec::new();
+    for (target, child) in runs {
+        let out = child.wait_with_output().expect("the runner finishes");
+        let text = String::from_utf8_lossy(&out.stdout);
+        eprintln!("{text}{}", String::from_utf8_lossy(&out.stderr));
+        if !out.status.success() {
+            failed.push(target);
+        }
+        for check in [
+            "ready",
+            "boot",
+            "transfer 0%",
+            "transfer 30%",
+            "transfer 50%",
+            "fly",
+            "signing",
+        ] {
+            assert!(
+                text.lines()
+                    .any(|l| l.starts_with("PASS") && l.contains(&format!(" {check} "))),
+                "{target}: check {check:?} did not pass:\n{text}"
+            );
+        }
+    }
+    assert!(failed.is_empty(), "conformance failed for {failed:?}");
+}
