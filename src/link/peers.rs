@@ -13,8 +13,9 @@
 //!   its first frame;
 //! * a broadcast (no target system, or target 0) and a message to a system never heard go
 //!   to every peer;
-//! * a peer silent for [`FORGET_AFTER`] is forgotten with its routes (the sender of a
-//!   vehicle that is switched off, an old ephemeral port after a restart).
+//! * a UDP peer silent for [`FORGET_AFTER`] is forgotten with its routes (the sender of a
+//!   vehicle that is switched off, an old ephemeral port after a restart); a TCP client is
+//!   forgotten when it disconnects.
 
 use super::codec::StreamBuffer;
 use std::collections::HashMap;
@@ -97,12 +98,15 @@ impl PeerTable {
         }
     }
 
-    /// Forget peers silent for longer than the table's limit; returns their names.
+    /// Forget UDP peers silent for longer than the table's limit; returns their names. A
+    /// TCP client stays while its connection is open, however quiet ([`PeerTable::remove`]
+    /// forgets it when it disconnects).
     pub fn expire(&mut self, now: Instant) -> Vec<String> {
         let limit = self.forget_after;
         let gone: Vec<PeerKey> = self
             .peers
             .iter()
+            .filter(|(k, _)| matches!(k, PeerKey::Addr(_)))
             .filter(|(_, p)| now.saturating_duration_since(p.last_heard) > limit)
             .map(|(k, _)| *k)
             .collect();
@@ -180,5 +184,9 @@ mod tests {
         assert_eq!(t.remove(b), Some("b".into()));
         assert!(t.is_empty());
         assert!(t.destinations(None).is_empty());
+        // A quiet TCP client is not forgotten while connected.
+        t.heard(PeerKey::Client(0), "tcp", t0);
+        assert!(t.expire(t0 + Duration::from_secs(3600)).is_empty());
+        assert_eq!(t.destinations(None), vec![PeerKey::Client(0)]);
     }
 }
