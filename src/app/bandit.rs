@@ -49,11 +49,14 @@ use crate::proto::Endpoint;
 use crate::proto::command::Command;
 use crate::store::RunDir;
 use crate::vision::camera::CameraModel;
+use crate::vision::geometry;
 use crate::vision::green::{GreenParams, green_fraction};
 use crate::vision::load::{LoadLimits, load_image_bytes};
+use crate::vision::sanity::{self, CaptureClaim, CaptureLimits, check_capture};
 use anyhow::Context as _;
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega::MavCmd;
+use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
@@ -1705,28 +1708,62 @@ async fn intake(shared: Arc<Shared>, mut rx: broadcast::Receiver<Arc<ReceivedIma
     }
 }
 
-/// Where and when an image was taken: (lat, lon, altitude above home in metres, key).
-fn image_pose(shared: &Shared, img: &ReceivedImage) -> anyhow::Result<(f64, f64, f64, CaptureKey)> {
+/// Where, when and how an image was taken.
+#[derive(Clone, Debug)]
+struct ImagePose {
+    /// Latitude, degrees.
+    lat: f64,
+    /// Longitude, degrees.
+    lon: f64,
+    /// Altitude above home, metres (`None`: unknown).
+    alt_m: Option<f64>,
+    /// Attitude at the shutter (CAMERA_IMAGE_CAPTURED.q), body → NED (`None`: unknown).
+    attitude: Option<UnitQuaternion<f64>>,
+    /// The capture's name.
+    key: CaptureKey,
+}
+
+/// Where, when and how an image was taken: what the camera said, else the vehicle's
+/// latest telemetry.
+fn image_pose(shared: &Shared, img: &ReceivedImage) -> anyhow::Result<ImagePose> {
     let sysid = img.sysid;
     Ok(match &img.pose {
-        Some(p) => (
-            p.lat,
-            p.lon,
-            p.alt_rel_m,
-            (sysid, p.time_boot_ms, p.image_index),
-        ),
+        Some(p) => ImagePose {
+            lat: p.lat,
+            lon: p.lon,
+            alt_m: Some(p.alt_rel_m),
+            attitude: p.q.and_then(geometry::attitude_of_quaternion),
+            key: (sysid, p.time_boot_ms, p.image_index),
+        },
         None => {
             let v = shared.fleet.vehicle(sysid).context("vehicle not heard")?;
             let p = v.position.context("no position")?;
             let t = img.received.as_millis() as u32;
-            (
-                p.lat,
-                p.lon,
-                f64::from(v.alt_rel.unwrap_or(0.0)),
-                (sysid, t, -1),
-            )
+            ImagePose {
+                lat: p.lat,
+                lon: p.lon,
+                alt_m: v.alt_rel.map(f64::from),
+                attitude: None,
+                key: (sysid, t, -1),
+            }
         }
     })
+}
+
+/// The sanity limits of a measured image beyond its position (which
+/// [`ClassificationState::match_image`] checks against the capture visits): the capture
+/// altitude within [`sanity::VERTICAL_M`] of the drone's planned one and the camera within
+/// [`sanity::MAX_TILT_DEG`] of level. A drone starts its batch as it reaches the cell's
+/// waypoint, possibly still braking (14° at ArduCopter's 2.5 m/s²): tilted 10° at 10 m its
+/// view is 1.8 m — almost half a cell — off the cell centre, and the measured square (0.6 of
+/// the cell) would be mostly a neighbour's.
+fn intake_limits() -> CaptureLimits {
+    CaptureLimits {
+        horizontal_m: f64::INFINITY,
+        vertical_m: sanity::VERTICAL_M,
+        max_tilt_deg: sanity::MAX_TILT_DEG,
+        max_heading_error_deg: 180.0,
+    }
 }
 
 /// What became of one image of a batch.
@@ -1758,7 +1795,8 @@ async fn take_images(shared: &Arc<Shared>, batch: Vec<Arc<ReceivedImage>>) -> an
                 .iter()
                 .zip(&poses)
                 .map(|(img, pose)| {
-                    let &(lat, lon, alt, key) = pose.as_ref()?;
+                    let pose = pose.as_ref()?;
+                    let (lat, lon, key) = (pose.lat, pose.lon, pose.key);
                     let flying = s.cycle().is_some_and(|c| {
                         c.phase == CyclePhase::Started
                             && c.drones.iter().any(|d| d.sysid == img.sysid)
@@ -1776,7 +1814,18 @@ async fn take_images(shared: &Arc<Shared>, batch: Vec<Arc<ReceivedImage>>) -> an
                         .iter()
                         .find(|d| d.sysid == img.sysid)
                         .map_or(10.0, |d| d.altitude_m);
-                    Some(m.map(|_| if alt > 1.0 { alt } else { planned }))
+                    // Taken at the right altitude and level enough (one check with the
+                    // runway runner's, vision::sanity).
+                    let claim = CaptureClaim {
+                        altitude_m: pose.alt_m,
+                        attitude: pose.attitude,
+                        ..CaptureClaim::default()
+                    };
+                    let m = m.and_then(|_| {
+                        check_capture(&claim, planned, &intake_limits())
+                            .map_err(|r| format!("picture {r}"))
+                    });
+                    Some(m.map(|_| pose.alt_m.unwrap_or(planned)))
                 })
                 .collect();
             (pre, s.params.clone(), s.grid.cell_size())
@@ -1830,7 +1879,7 @@ async fn take_images(shared: &Arc<Shared>, batch: Vec<Arc<ReceivedImage>>) -> an
             let mut classified = Vec::new();
             for ((img, pose), t) in batch.iter().zip(&poses).zip(taken) {
                 let sysid = img.sysid;
-                let Some(&(lat, lon, _, key)) = pose.as_ref() else {
+                let Some((lat, lon, key)) = pose.as_ref().map(|p| (p.lat, p.lon, p.key)) else {
                     continue;
                 };
                 let reason = match t {

@@ -302,35 +302,46 @@ pub fn drain_images(rx: &mut broadcast::Receiver<Arc<ReceivedImage>>) {
     }
 }
 
+/// One picture as [`capture`] got it.
+#[derive(Clone, Debug)]
+pub struct Captured {
+    /// The image.
+    pub image: Arc<ReceivedImage>,
+    /// The vehicle's telemetry right after the camera accepted the command (the shutter):
+    /// where the picture was taken when the camera does not say.
+    pub at_trigger: Option<VehicleSnapshot>,
+}
+
 /// Take picture `seq` and wait for the image of `sysid` (the next one to arrive after the
-/// command). Retries the capture once when nothing arrives.
+/// command), at most 10 s (scaled by `patience`). One capture: an image that does not
+/// arrive is [`FlightError::NoImage`], for the caller to retry as a new capture (the runway
+/// runner counts it against its retake limit).
 pub async fn capture(
     fleet: &FleetHandle,
     rx: &mut broadcast::Receiver<Arc<ReceivedImage>>,
     sysid: u8,
     seq: u32,
     patience: Patience,
-) -> Result<Arc<ReceivedImage>, FlightError> {
+) -> Result<Captured, FlightError> {
     let wait = patience.secs(10.0);
-    for _ in 0..2 {
-        drain_images(rx);
-        fleet.capture_image(sysid, seq).await?;
-        let deadline = tokio::time::Instant::now() + wait;
-        loop {
-            match tokio::time::timeout_at(deadline, rx.recv()).await {
-                Ok(Ok(img)) if img.sysid == sysid => return Ok(img),
-                Ok(Ok(_)) | Ok(Err(broadcast::error::RecvError::Lagged(_))) => continue,
-                Ok(Err(broadcast::error::RecvError::Closed)) => {
-                    return Err(FlightError::ImagesClosed);
-                }
-                Err(_) => break,
+    drain_images(rx);
+    fleet.capture_image(sysid, seq).await?;
+    let at_trigger = fleet.vehicle(sysid);
+    let deadline = tokio::time::Instant::now() + wait;
+    loop {
+        match tokio::time::timeout_at(deadline, rx.recv()).await {
+            Ok(Ok(image)) if image.sysid == sysid => return Ok(Captured { image, at_trigger }),
+            Ok(Ok(_)) | Ok(Err(broadcast::error::RecvError::Lagged(_))) => continue,
+            Ok(Err(broadcast::error::RecvError::Closed)) => {
+                return Err(FlightError::ImagesClosed);
             }
+            Err(_) => break,
         }
     }
     Err(FlightError::NoImage {
         sysid,
         seq,
-        waited_s: 2.0 * wait.as_secs_f64(),
+        waited_s: wait.as_secs_f64(),
     })
 }
 

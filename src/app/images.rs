@@ -12,12 +12,20 @@
 //! A capture that arrives both ways is delivered once: captures are named by (system,
 //! time_boot_ms, image_index) — from CAMERA_IMAGE_CAPTURED, or from the metadata the JPEG
 //! carries ([`crate::imagery::meta`]).
+//!
+//! **Pose** ([`CapturePose`]): where the camera says it took the picture. CAMERA_IMAGE_CAPTURED
+//! (the camera protocol's record of the shutter: lat, lon, relative_alt, attitude `q`) is
+//! remembered by its capture name, and an image that arrives by image transmission carrying
+//! the same name in its JPEG metadata gets that record's position, altitude and attitude; the
+//! JPEG's own metadata fills in what the message lacks (its heading is the camera's) and is the
+//! whole pose when no message was heard. The runners check this pose before a picture counts
+//! ([`crate::vision::sanity`]).
 
 use crate::fleet::{FleetHandle, Incoming};
 use crate::imagery::meta::{ImageMeta, read_meta};
 use crate::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig, read_file_url};
 use crate::time::Time;
-use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
@@ -38,6 +46,10 @@ pub struct CapturePose {
     pub alt_rel_m: f64,
     /// Heading (image up), degrees clockwise from north, when known.
     pub heading_deg: Option<f64>,
+    /// Attitude at the shutter from CAMERA_IMAGE_CAPTURED.q (`[w, x, y, z]`, body → NED:
+    /// roll, pitch and yaw of the airframe for a camera without a gimbal), when the message
+    /// was heard and `q` is a rotation ([`crate::vision::geometry::attitude_of_quaternion`]).
+    pub q: Option<[f32; 4]>,
     /// Milliseconds since the vehicle booted.
     pub time_boot_ms: u32,
     /// The camera's image index (restarts at every boot).
@@ -62,14 +74,43 @@ pub struct ReceivedImage {
 /// A capture counted as delivered: (system, time_boot_ms, image_index).
 type CaptureKey = (u8, u32, i32);
 
+/// CAMERA_IMAGE_CAPTURED records kept for images still in transfer: a few hundred captures
+/// (ten drones' batches of ten images, several times over).
+const CAPTURED_KEPT: usize = 512;
+
 fn pose_of_meta(m: &ImageMeta) -> CapturePose {
     CapturePose {
         lat: m.lat,
         lon: m.lon,
         alt_rel_m: m.alt_rel_m,
         heading_deg: Some(m.heading_deg),
+        q: None,
         time_boot_ms: m.time_boot_ms,
         image_index: m.image_index,
+    }
+}
+
+/// The pose in a CAMERA_IMAGE_CAPTURED message (position in degE7, altitude in mm).
+fn pose_of_captured(c: &CAMERA_IMAGE_CAPTURED_DATA) -> CapturePose {
+    let q = crate::vision::geometry::attitude_of_quaternion(c.q).map(|_| c.q);
+    CapturePose {
+        lat: f64::from(c.lat) * 1e-7,
+        lon: f64::from(c.lon) * 1e-7,
+        alt_rel_m: f64::from(c.relative_alt) / 1000.0,
+        heading_deg: q.and_then(yaw_of_quaternion),
+        q,
+        time_boot_ms: c.time_boot_ms,
+        image_index: c.image_index,
+    }
+}
+
+/// The pose of a capture named both by CAMERA_IMAGE_CAPTURED (`captured`) and by the
+/// JPEG's metadata (`meta`): the message's position, altitude and attitude (the camera
+/// protocol's record of the shutter), the metadata's heading (the camera's own).
+fn merge_poses(captured: &CapturePose, meta: &ImageMeta) -> CapturePose {
+    CapturePose {
+        heading_deg: Some(meta.heading_deg),
+        ..captured.clone()
     }
 }
 
@@ -91,6 +132,9 @@ pub struct Intake {
     config: ReceiverConfig,
     receivers: HashMap<(u8, u8), ImageReceiver>,
     delivered: VecDeque<CaptureKey>,
+    /// CAMERA_IMAGE_CAPTURED poses of the latest captures (for images that arrive by image
+    /// transmission, whose JPEG metadata names the capture), at most [`CAPTURED_KEPT`].
+    captured: VecDeque<(CaptureKey, CapturePose)>,
     out: VecDeque<ReceivedImage>,
     /// Images that could not be read (file errors, lost transfers), with the reason.
     pub failures: VecDeque<String>,
@@ -149,28 +193,28 @@ impl Intake {
                     .map(|&b| b as char)
                     .take_while(|&ch| ch != '\0')
                     .collect();
-                if !url.starts_with("file://") {
-                    return; // the image comes by image transmission (or not at all)
-                }
                 let key = (from.0, c.time_boot_ms, c.image_index);
                 if self.delivered.contains(&key) {
+                    return;
+                }
+                let pose = pose_of_captured(c);
+                if !url.starts_with("file://") {
+                    // The image comes by image transmission (or not at all): keep the pose
+                    // for it.
+                    self.captured.retain(|(k, _)| *k != key);
+                    self.captured.push_back((key, pose));
+                    if self.captured.len() > CAPTURED_KEPT {
+                        self.captured.pop_front();
+                    }
                     return;
                 }
                 match read_file_url(&url, MAX_IMAGE_FILE) {
                     Ok(bytes) => {
                         self.seen(key);
-                        let pose = CapturePose {
-                            lat: f64::from(c.lat) * 1e-7,
-                            lon: f64::from(c.lon) * 1e-7,
-                            alt_rel_m: f64::from(c.relative_alt) / 1000.0,
-                            heading_deg: yaw_of_quaternion(c.q),
-                            time_boot_ms: c.time_boot_ms,
-                            image_index: c.image_index,
-                        };
                         // The JPEG's own metadata, when present, has the camera's heading.
                         let pose = read_meta(&bytes)
                             .filter(|m| m.image_index == c.image_index)
-                            .map(|m| pose_of_meta(&m))
+                            .map(|m| merge_poses(&pose, &m))
                             .unwrap_or(pose);
                         self.out.push_back(ReceivedImage {
                             sysid: from.0,
@@ -202,10 +246,18 @@ impl Intake {
                     {
                         continue;
                     }
+                    let pose = meta.as_ref().map(|m| {
+                        let key = (cam.0, m.time_boot_ms, m.image_index);
+                        let i = self.captured.iter().position(|(k, _)| *k == key);
+                        match i.and_then(|i| self.captured.remove(i)) {
+                            Some((_, p)) => merge_poses(&p, m),
+                            None => pose_of_meta(m),
+                        }
+                    });
                     self.out.push_back(ReceivedImage {
                         sysid: cam.0,
                         bytes: Arc::new(jpeg),
-                        pose: meta.as_ref().map(pose_of_meta),
+                        pose,
                         received: now,
                         source: "mavlink".into(),
                     });
@@ -344,5 +396,102 @@ mod tests {
         let y = yaw_of_quaternion([h.cos(), 0.0, 0.0, h.sin()]).unwrap();
         assert!((y - 90.0).abs() < 1e-4, "{y}");
         assert_eq!(yaw_of_quaternion([0.0; 4]), None);
+    }
+
+    fn transfer(jpeg: &[u8]) -> Vec<MavMessage> {
+        use mavlink::dialects::ardupilotmega as mav;
+        let mut v = vec![MavMessage::DATA_TRANSMISSION_HANDSHAKE(
+            mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
+                size: jpeg.len() as u32,
+                width: 4,
+                height: 4,
+                packets: jpeg.len().div_ceil(253) as u16,
+                mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
+                payload: 253,
+                jpg_quality: 80,
+            },
+        )];
+        for (i, c) in jpeg.chunks(253).enumerate() {
+            let mut d = [0u8; 253];
+            d[..c.len()].copy_from_slice(c);
+            v.push(MavMessage::ENCAPSULATED_DATA(mav::ENCAPSULATED_DATA_DATA {
+                seqnr: i as u16,
+                data: d,
+            }));
+        }
+        v
+    }
+
+    /// An image sent by image transmission gets the position, altitude and attitude of the
+    /// CAMERA_IMAGE_CAPTURED that names the same capture; the JPEG's heading stays.
+    #[test]
+    fn transmitted_images_take_the_capture_message_pose() {
+        use crate::imagery::meta::insert_meta;
+        use mavlink::dialects::ardupilotmega as mav;
+        let meta = ImageMeta {
+            sysid: 1,
+            boot: 1,
+            image_index: 7,
+            time_boot_ms: 123_456,
+            lat: 37.0,
+            lon: -80.0,
+            alt_rel_m: 12.0,
+            heading_deg: 90.0,
+            width: 4,
+            height: 4,
+        };
+        let mut raw = vec![0xFF, 0xD8];
+        raw.extend((0..600u32).map(|i| (i % 200) as u8));
+        let jpeg = insert_meta(&raw, &meta).unwrap();
+        let c = crate::vision::geometry::attitude_from_euler_deg(2.0, -3.0, 90.0).coords;
+        let q = [c.w as f32, c.x as f32, c.y as f32, c.z as f32];
+        let cic = |index: i32| {
+            MavMessage::CAMERA_IMAGE_CAPTURED(mav::CAMERA_IMAGE_CAPTURED_DATA {
+                time_utc: 0,
+                time_boot_ms: 123_456,
+                lat: 370_003_000,
+                lon: -800_000_000,
+                alt: 612_000,
+                relative_alt: 11_500,
+                q,
+                image_index: index,
+                camera_id: 0,
+                capture_result: mav::MavBool::MAV_BOOL_TRUE,
+                file_url: "".into(),
+            })
+        };
+        let cam = (1, 100);
+        let mut intake = Intake::new((255, 190));
+        // another capture's record first, then this one's
+        intake.handle_message(cam, &cic(6), Time::ZERO);
+        intake.handle_message(cam, &cic(7), Time::ZERO);
+        assert!(intake.poll_image().is_none());
+        for m in transfer(&jpeg) {
+            intake.handle_message(cam, &m, Time::ZERO);
+        }
+        let img = intake.poll_image().unwrap();
+        let p = img.pose.unwrap();
+        assert!((p.lat - 37.0003).abs() < 1e-9, "{}", p.lat);
+        assert!((p.alt_rel_m - 11.5).abs() < 1e-9);
+        assert_eq!(p.heading_deg, Some(90.0));
+        assert_eq!(p.q, Some(q));
+        // a capture without a message keeps the JPEG's pose
+        let meta8 = ImageMeta {
+            image_index: 8,
+            ..meta
+        };
+        let jpeg8 = insert_meta(&raw, &meta8).unwrap();
+        for m in transfer(&jpeg8) {
+            intake.handle_message(cam, &m, Time::ZERO);
+        }
+        let p = intake.poll_image().unwrap().pose.unwrap();
+        assert_eq!((p.lat, p.alt_rel_m, p.q), (37.0, 12.0, None));
+        // an all-zero q is no attitude
+        let mut zero = cic(9);
+        if let MavMessage::CAMERA_IMAGE_CAPTURED(c) = &mut zero {
+            c.q = [0.0; 4];
+            assert_eq!(pose_of_captured(c).q, None);
+            assert_eq!(pose_of_captured(c).heading_deg, None);
+        }
     }
 }

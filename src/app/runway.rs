@@ -17,6 +17,27 @@
 //! * **DFS**: Algorithm 1 ([`crate::explore::Explorer`]): go to the next cell centre
 //!   (DO_REPOSITION at the robot's altitude and the mission speed), wait until there and
 //!   steady, take five images, count their votes, give the explorer the neighbours' labels.
+//! * **Image sanity** ([`crate::vision::sanity`]): a picture counts for a cell only when it
+//!   was taken there — its position (the camera's CAMERA_IMAGE_CAPTURED / JPEG metadata, else
+//!   the telemetry at the shutter) within [`RunOptions::capture_limits`] of the cell centre
+//!   (default: the arrival tolerance + 0.5 m), its altitude within 1.5 m of the planned one,
+//!   the camera within 10° of level and of the vehicle's heading. Otherwise it is dropped
+//!   (journalled as [`MappingEvent::ImageRejected`]) and taken again; a picture that never
+//!   arrives or cannot be read is retried the same way. A sweep picture must have been taken
+//!   where the vehicle is (within one cell more than the cell limit), at the planned altitude
+//!   and within [`crate::vision::sanity::SWEEP_MAX_TILT_DEG`] (20°: sweep pictures are taken
+//!   while the copter brakes at a waypoint). After [`RunOptions::max_retakes`] retakes in
+//!   one visit (or that many rejected sweep pictures in a row) the camera is declared faulty
+//!   ([`MappingEvent::CameraFault`], a warning): nothing more of it is credited, the vehicle
+//!   leaves the tree (its vertex is kept, as for a battery swap), returns home, lands and
+//!   **waits for the operator** — never resuming by itself, since a fresh battery does not
+//!   repair a camera — who fixes the camera and resumes (`fleetmap resume`, or `b` in the UI).
+//! * **Where the camera looked**: when the picture's attitude is known (CAMERA_IMAGE_CAPTURED
+//!   `q`), the 3 × 3 cells are cut from it as a north-up orthophoto around the cell centre
+//!   ([`crate::vision::geometry::orthophoto`]: pinhole camera rotated by the attitude,
+//!   intersected with flat ground at the capture altitude), so tilt, heading and the offset
+//!   from the centre no longer move the regions; without it the centre crop
+//!   ([`crop_to_cells`]) turned by the heading is used, as before.
 //! * **Batteries**: before every step the pilot compares the charge with what the flight
 //!   home needs ([`MappingState::battery_needed_pct`]); below it the robot leaves the tree
 //!   (its vertex is saved), returns, lands and waits for a fresh battery — detected by
@@ -36,11 +57,14 @@ use crate::mission::MissionType;
 use crate::store::RunDir;
 use crate::time::Time;
 use crate::vision::camera::CameraModel;
+use crate::vision::geometry::{self, OrthoRequest};
 use crate::vision::load::{LoadLimits, load_image_bytes};
 use crate::vision::runway::{Classification, RunwayParams, classify};
+use crate::vision::sanity::{CaptureClaim, CaptureLimits, SWEEP_MAX_TILT_DEG, check_capture};
 use crate::vision::votes::{Detection, GeoPosition};
 use anyhow::Context as _;
 use image::RgbImage;
+use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
 use std::sync::Arc;
@@ -155,6 +179,30 @@ pub enum MappingEvent {
         /// Vehicle.
         sysid: u8,
     },
+    /// A picture was dropped because it was not taken where it would be credited
+    /// ([`crate::vision::sanity::check_capture`]: position, altitude, tilt or heading out of
+    /// limits); a cell-centre picture is taken again.
+    ImageRejected {
+        /// Vehicle.
+        sysid: u8,
+        /// The cell it was taken for (`None`: a sweep picture, checked against the vehicle's
+        /// position).
+        cell: Option<Cell>,
+        /// Why, with the figures.
+        reason: String,
+        /// Failed pictures so far in this visit (a cell), or rejected in a row (the sweep).
+        retakes: u32,
+    },
+    /// The camera failed too often ([`RunOptions::max_retakes`]): nothing more of it is
+    /// credited; the vehicle leaves the tree, lands at home and waits for the operator.
+    CameraFault {
+        /// Vehicle.
+        sysid: u8,
+        /// The cell being imaged (`None`: in the sweep).
+        cell: Option<Cell>,
+        /// The last failure.
+        reason: String,
+    },
     /// An image was lost or unreadable.
     ImageFailed {
         /// Vehicle.
@@ -225,6 +273,14 @@ pub struct RunOptions {
     /// Send MAV_CMD_USER_1 (the simulator's swap request) when a robot lands for a battery
     /// swap — the in-process demo's stand-in for the operator.
     pub sim_swap: bool,
+    /// Failed pictures (dropped by the sanity check, lost, unreadable) retaken per cell
+    /// visit, and rejected sweep pictures in a row, before the camera is declared faulty.
+    /// 5 = as many as a visit's own images: a healthy camera fails a picture rarely (a late
+    /// image, a gust), so more than half a visit's captures failing is no transient.
+    pub max_retakes: u32,
+    /// Limits of the image sanity check (`None`: [`CaptureLimits::runway`] of
+    /// `tolerance_m`, i.e. 1.0 m, 1.5 m, 10°, 10°).
+    pub capture_limits: Option<CaptureLimits>,
 }
 
 impl Default for RunOptions {
@@ -238,6 +294,8 @@ impl Default for RunOptions {
             tolerance_m: 0.5,
             max_failures: 20,
             sim_swap: false,
+            max_retakes: 5,
+            capture_limits: None,
         }
     }
 }
@@ -264,6 +322,8 @@ struct Shared {
     tolerance_m: f64,
     sim_swap: bool,
     max_failures: u32,
+    max_retakes: u32,
+    limits: CaptureLimits,
 }
 
 impl Shared {
@@ -360,9 +420,68 @@ pub fn classify_received(
     altitude_m: f64,
     cell_m: f64,
 ) -> Result<Classification, String> {
+    classify_cut(
+        bytes,
+        &Cut::Centre {
+            heading_deg,
+            altitude_m,
+        },
+        params,
+        camera,
+        cell_m,
+    )
+}
+
+/// How the 3 × 3 cells are cut out of a picture before it is classified.
+#[derive(Clone, Debug, PartialEq)]
+pub enum Cut {
+    /// The attitude is unknown: the centre crop of [`crop_to_cells`] at `altitude_m`, its
+    /// regions turned by `heading_deg` (the image's top, degrees clockwise from north).
+    Centre {
+        /// Heading of the image's top, degrees.
+        heading_deg: f64,
+        /// Altitude the footprint is computed for, metres.
+        altitude_m: f64,
+    },
+    /// The attitude is known: the north-up, grid-aligned orthophoto of
+    /// [`geometry::orthophoto`] (whose regions need no turning).
+    Ortho {
+        /// Attitude at the shutter, body → NED.
+        attitude: UnitQuaternion<f64>,
+        /// Capture altitude above home (flat ground at home's elevation), metres.
+        altitude_m: f64,
+        /// Where the orthophoto is centred and how the grid is oriented.
+        request: OrthoRequest,
+    },
+}
+
+/// Decode a received image, cut it as `cut` says and classify it (blocking work).
+pub fn classify_cut(
+    bytes: &[u8],
+    cut: &Cut,
+    params: &RunwayParams,
+    camera: &CameraModel,
+    cell_m: f64,
+) -> Result<Classification, String> {
     let img = load_image_bytes(bytes, &LoadLimits::default()).map_err(|e| e.to_string())?;
-    let img = crop_to_cells(img, camera, altitude_m, cell_m);
-    classify(&img, heading_deg, params).map_err(|e| e.to_string())
+    match cut {
+        Cut::Centre {
+            heading_deg,
+            altitude_m,
+        } => {
+            let img = crop_to_cells(img, camera, *altitude_m, cell_m);
+            classify(&img, *heading_deg, params).map_err(|e| e.to_string())
+        }
+        Cut::Ortho {
+            attitude,
+            altitude_m,
+            request,
+        } => {
+            let o = geometry::orthophoto(&img, camera, attitude, *altitude_m, request)
+                .map_err(|e| e.to_string())?;
+            classify(&o.image, 0.0, params).map_err(|e| e.to_string())
+        }
+    }
 }
 
 /// Run CPU-heavy work (decoding and classifying an image, a few milliseconds) off the
@@ -378,25 +497,65 @@ pub async fn cpu<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> a
     }
 }
 
-/// Where an image was taken: what the camera said, else the vehicle's latest telemetry.
-fn pose_of(img: &ReceivedImage, v: Option<&VehicleSnapshot>) -> Option<(f64, f64, f64, f64)> {
+/// Where and how a picture was taken, as far as the GCS knows.
+#[derive(Clone, Debug)]
+struct ShotPose {
+    /// Latitude, degrees.
+    lat: f64,
+    /// Longitude, degrees.
+    lon: f64,
+    /// Altitude above home, metres (`None`: unknown).
+    alt_m: Option<f64>,
+    /// Heading of the image's top, degrees (the camera's, else the vehicle's, else 0).
+    heading_deg: f64,
+    /// The heading the camera itself reported, degrees.
+    camera_heading_deg: Option<f64>,
+    /// Attitude at the shutter, body → NED, its yaw the picture's heading (`None`: unknown).
+    attitude: Option<UnitQuaternion<f64>>,
+    /// The position came from the camera (not from the telemetry).
+    from_camera: bool,
+}
+
+/// Where a picture was taken: what the camera said, else the vehicle's telemetry `v` (at
+/// the shutter when known).
+fn shot_pose(img: &ReceivedImage, v: Option<&VehicleSnapshot>) -> Option<ShotPose> {
     let heading_now = v.and_then(|v| v.heading_deg).map(f64::from);
     if let Some(p) = &img.pose {
-        return Some((
-            p.lat,
-            p.lon,
-            p.alt_rel_m,
-            p.heading_deg.or(heading_now).unwrap_or(0.0),
-        ));
+        let heading = p.heading_deg.or(heading_now).unwrap_or(0.0);
+        let attitude =
+            p.q.and_then(geometry::attitude_of_quaternion)
+                .map(|a| geometry::with_yaw_deg(&a, heading));
+        return Some(ShotPose {
+            lat: p.lat,
+            lon: p.lon,
+            alt_m: Some(p.alt_rel_m),
+            heading_deg: heading,
+            camera_heading_deg: p.heading_deg,
+            attitude,
+            from_camera: true,
+        });
     }
     let v = v?;
     let p = v.position?;
-    Some((
-        p.lat,
-        p.lon,
-        f64::from(v.alt_rel.unwrap_or(0.0)),
-        heading_now.unwrap_or(0.0),
-    ))
+    Some(ShotPose {
+        lat: p.lat,
+        lon: p.lon,
+        alt_m: v.alt_rel.map(f64::from),
+        heading_deg: heading_now.unwrap_or(0.0),
+        camera_heading_deg: None,
+        attitude: None,
+        from_camera: false,
+    })
+}
+
+/// What became of a cell-centre picture that does not count.
+enum PictureFailure {
+    /// It never arrived.
+    Lost(String),
+    /// It arrived but could not be decoded or classified.
+    Unreadable(String),
+    /// It was not taken where it would be credited.
+    Rejected(String),
 }
 
 struct Pilot {
@@ -407,6 +566,11 @@ struct Pilot {
     held: bool,
     /// No sweep entered yet by this process (a restart may have missed images).
     first_sweep: bool,
+    /// The camera was declared faulty (why): the vehicle waits on the ground for the
+    /// operator, whatever its battery says.
+    camera_fault: Option<String>,
+    /// Sweep pictures rejected in a row.
+    sweep_rejects: u32,
 }
 
 enum PilotEnd {
@@ -711,9 +875,14 @@ impl Pilot {
     }
 
     /// Take the images still missing for this visit of `cell`, counting each one's votes.
-    /// Returns false when the visit was cut short (battery).
+    /// A picture counts only when it was taken over the cell ([`check_capture`]); one that
+    /// does not, never arrives or cannot be read is taken again, up to
+    /// [`RunOptions::max_retakes`] times in this visit, after which the camera is declared
+    /// faulty ([`Pilot::camera_fault`]). Returns false when the visit was cut short (battery,
+    /// camera fault).
     async fn take_images(&mut self, cell: Cell) -> anyhow::Result<bool> {
         let sysid = self.sysid;
+        let mut retakes = 0u32;
         loop {
             let missing = self.shared.read(|s| s.images_missing(sysid, cell)).await;
             if missing == 0 {
@@ -731,7 +900,7 @@ impl Pilot {
             }
             self.capture_seq += 1;
             let fleet = self.shared.fleet.clone();
-            let img = match flight::capture(
+            let shot = match flight::capture(
                 &fleet,
                 &mut self.images,
                 sysid,
@@ -740,50 +909,129 @@ impl Pilot {
             )
             .await
             {
-                Ok(img) => img,
-                Err(FlightError::NoImage { .. }) => {
-                    let reason = "no image arrived after two captures".to_string();
-                    self.shared
-                        .commit(|s| {
-                            s.image_failures += 1;
-                            Ok(((), Some(MappingEvent::ImageFailed { sysid, reason })))
-                        })
-                        .await?;
+                Ok(shot) => shot,
+                Err(FlightError::NoImage { seq, waited_s, .. }) => {
+                    retakes += 1;
+                    let reason = format!(
+                        "cell {cell}: no image arrived within {waited_s:.0} s of capture {seq}"
+                    );
+                    if self
+                        .picture_failed(cell, retakes, PictureFailure::Lost(reason))
+                        .await?
+                    {
+                        return Ok(false);
+                    }
                     continue;
                 }
                 Err(e) => return Err(e.into()),
             };
-            let v = self.vehicle();
-            let (lat, lon, alt_m, heading) =
-                pose_of(&img, v.as_ref()).unwrap_or((f64::NAN, f64::NAN, 0.0, 0.0));
-            let (params, camera, altitude, cell_m) = self
+            let v_now = self.vehicle();
+            let at_shutter = shot.at_trigger.as_ref().or(v_now.as_ref());
+            let pose = shot_pose(&shot.image, at_shutter);
+            let (params, camera, planned, grid) = self
                 .shared
                 .read(|s| {
                     (
                         s.params.runway,
                         s.params.camera,
                         s.altitude_of(sysid).unwrap_or(s.params.base_altitude_m),
-                        s.grid.cell_size(),
+                        s.grid.clone(),
                     )
                 })
                 .await;
-            let bytes = img.bytes.clone();
-            let result =
-                cpu(move || classify_received(&bytes, heading, &params, &camera, altitude, cell_m))
-                    .await?;
+            let cell_m = grid.cell_size();
+            let centre = (f64::from(cell.col) * cell_m, f64::from(cell.row) * cell_m);
+            let xy = pose.as_ref().and_then(|p| {
+                grid.to_xy(LatLon {
+                    lat: p.lat,
+                    lon: p.lon,
+                })
+                .ok()
+            });
+            let verdict = match (&pose, xy) {
+                (Some(p), Some((e, n))) => check_capture(
+                    &CaptureClaim {
+                        horizontal_offset_m: Some((centre.0 - e).hypot(centre.1 - n)),
+                        altitude_m: p.alt_m,
+                        attitude: p.attitude,
+                        heading_deg: p.camera_heading_deg,
+                        expected_heading_deg: at_shutter.and_then(|v| v.heading_deg).map(f64::from),
+                    },
+                    planned,
+                    &self.shared.limits,
+                )
+                .map_err(|r| {
+                    format!(
+                        "cell {cell}: {} picture {r}",
+                        if p.from_camera {
+                            "the camera's"
+                        } else {
+                            "the telemetry's"
+                        }
+                    )
+                }),
+                (Some(p), None) => Err(format!(
+                    "cell {cell}: the picture's position ({:.7}, {:.7}) is not on the grid",
+                    p.lat, p.lon
+                )),
+                (None, _) => Err(format!(
+                    "cell {cell}: neither the camera nor the telemetry says where the picture was taken"
+                )),
+            };
+            if let Err(reason) = verdict {
+                retakes += 1;
+                if self
+                    .picture_failed(cell, retakes, PictureFailure::Rejected(reason))
+                    .await?
+                {
+                    return Ok(false);
+                }
+                continue;
+            }
+            // Checked above: a pose with a grid position.
+            let (Some(pose), Some((e, n))) = (pose, xy) else {
+                continue;
+            };
+            let cut = match pose.attitude {
+                Some(attitude) => Cut::Ortho {
+                    attitude,
+                    altitude_m: pose.alt_m.unwrap_or(planned),
+                    request: OrthoRequest {
+                        cell_m,
+                        centre_east_north_m: (centre.0 - e, centre.1 - n),
+                        grid_north_deg: grid
+                            .convergence_and_scale(LatLon {
+                                lat: pose.lat,
+                                lon: pose.lon,
+                            })
+                            .map(|(g, _)| g)
+                            .unwrap_or(0.0),
+                    },
+                },
+                None => Cut::Centre {
+                    heading_deg: pose.heading_deg,
+                    altitude_m: planned,
+                },
+            };
+            let bytes = shot.image.bytes.clone();
+            let result = cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m)).await?;
             let c = match result {
                 Ok(c) => c,
                 Err(reason) => {
-                    self.shared
-                        .commit(|s| {
-                            s.image_failures += 1;
-                            Ok(((), Some(MappingEvent::ImageFailed { sysid, reason })))
-                        })
-                        .await?;
+                    retakes += 1;
+                    let reason = format!("cell {cell}: {reason}");
+                    if self
+                        .picture_failed(cell, retakes, PictureFailure::Unreadable(reason))
+                        .await?
+                    {
+                        return Ok(false);
+                    }
                     continue;
                 }
             };
             let now = self.shared.now();
+            let (lat, lon, heading) = (pose.lat, pose.lon, pose.heading_deg);
+            let alt_m = pose.alt_m.unwrap_or(planned);
             self.shared
                 .commit(|s| {
                     let image_id = s.next_image_id();
@@ -792,7 +1040,7 @@ impl Pilot {
                         vehicle: sysid,
                         time: now,
                         cell,
-                        position: lat.is_finite().then_some(GeoPosition {
+                        position: Some(GeoPosition {
                             lat_deg: lat,
                             lon_deg: lon,
                             alt_m,
@@ -818,6 +1066,92 @@ impl Pilot {
                 })
                 .await?;
         }
+    }
+
+    /// A picture of this visit of `cell` did not count (the `retakes`-th): journal why, and
+    /// declare the camera faulty when that is more than [`RunOptions::max_retakes`]. Returns
+    /// whether it did (the visit is over).
+    async fn picture_failed(
+        &mut self,
+        cell: Cell,
+        retakes: u32,
+        failure: PictureFailure,
+    ) -> anyhow::Result<bool> {
+        let sysid = self.sysid;
+        let max = self.shared.max_retakes;
+        let (reason, ev) = match failure {
+            PictureFailure::Lost(r) | PictureFailure::Unreadable(r) => (
+                r.clone(),
+                MappingEvent::ImageFailed {
+                    sysid,
+                    reason: format!("{r} (failed picture {retakes}, at most {max} retaken)"),
+                },
+            ),
+            PictureFailure::Rejected(r) => (
+                r.clone(),
+                MappingEvent::ImageRejected {
+                    sysid,
+                    cell: Some(cell),
+                    reason: r,
+                    retakes,
+                },
+            ),
+        };
+        let lost = matches!(ev, MappingEvent::ImageFailed { .. });
+        tracing::info!("vehicle {sysid}: picture dropped: {reason}");
+        self.shared
+            .commit(|s| {
+                if lost {
+                    s.image_failures += 1;
+                }
+                Ok(((), Some(ev)))
+            })
+            .await?;
+        if retakes > max {
+            self.camera_fault(
+                Some(cell),
+                format!("{retakes} pictures in one visit did not count; the last: {reason}"),
+            )
+            .await?;
+            return Ok(true);
+        }
+        self.shared.say(format!(
+            "vehicle {sysid}: picture dropped ({reason}); taking it again ({retakes} of {max})"
+        ));
+        Ok(false)
+    }
+
+    /// The camera cannot be trusted (`reason`): warn, journal [`MappingEvent::CameraFault`]
+    /// and take the vehicle out of the run as for a battery swap (its vertex is kept, a
+    /// confirmation it was making is given up), so that [`Pilot::swap`] brings it home and
+    /// waits for the operator. Nothing of this camera is credited after this.
+    async fn camera_fault(&mut self, cell: Option<Cell>, reason: String) -> anyhow::Result<()> {
+        let sysid = self.sysid;
+        let now = self.shared.now();
+        let line = format!(
+            "vehicle {sysid}: CAMERA FAULT: {reason}. No more of its pictures are counted; it \
+             returns home, lands and waits for the operator (check where the camera gets its \
+             position and attitude from, then `fleetmap resume` or `b`)"
+        );
+        tracing::warn!("{line}");
+        self.shared.say(line);
+        let r = reason.clone();
+        self.shared
+            .commit(|s| {
+                s.abandon_confirmation(sysid);
+                s.on_battery_low(sysid, now)?;
+                Ok((
+                    (),
+                    Some(MappingEvent::CameraFault {
+                        sysid,
+                        cell,
+                        reason: r,
+                    }),
+                ))
+            })
+            .await?;
+        self.camera_fault = Some(reason);
+        Ok(())
     }
 
     /// Fly (or keep flying) the sweep, classifying its images, until the phase changes, the
@@ -956,11 +1290,19 @@ impl Pilot {
         }
     }
 
-    /// Classify a sweep image; returns true when it started a confirmation.
+    /// Classify a sweep image; returns true when the sweep must stop (it started a
+    /// confirmation, or the camera was declared faulty). The picture must have been taken
+    /// where the vehicle is: the camera's position within one cell more than the cell limit of
+    /// the vehicle's when the picture arrives (the vehicle flies on while it is transferred),
+    /// its altitude within the limit and its tilt within
+    /// [`crate::vision::sanity::SWEEP_MAX_TILT_DEG`]; otherwise it is dropped, and
+    /// [`RunOptions::max_retakes`] + 1 dropped in a row are a camera fault. With the attitude
+    /// known, the picture stands for the cell its optical axis met, cut as an orthophoto
+    /// around that point; without, for the cell under the vehicle, centre-cropped.
     async fn sweep_image(&mut self, img: &ReceivedImage) -> anyhow::Result<bool> {
         let sysid = self.sysid;
         let v = self.vehicle();
-        let Some((lat, lon, _alt, heading)) = pose_of(img, v.as_ref()) else {
+        let Some(pose) = shot_pose(img, v.as_ref()) else {
             return Ok(false);
         };
         let (params, camera, altitude, grid) = self
@@ -974,14 +1316,99 @@ impl Pilot {
                 )
             })
             .await;
-        let Ok(cell) = grid.cell_of(LatLon { lat, lon }) else {
+        let cell_m = grid.cell_size();
+        let here = LatLon {
+            lat: pose.lat,
+            lon: pose.lon,
+        };
+        // The camera's position against the vehicle's (the telemetry's own is not checked).
+        let offset = match (&v, pose.from_camera) {
+            (Some(v), true) => Some(flight::distance_to(v, pose.lat, pose.lon)),
+            _ => None,
+        };
+        let limits = CaptureLimits {
+            horizontal_m: self.shared.limits.horizontal_m + cell_m,
+            max_tilt_deg: self.shared.limits.max_tilt_deg.max(SWEEP_MAX_TILT_DEG),
+            ..self.shared.limits
+        };
+        let claim = CaptureClaim {
+            horizontal_offset_m: offset,
+            altitude_m: pose.alt_m,
+            attitude: pose.attitude,
+            heading_deg: None,
+            expected_heading_deg: None,
+        };
+        let alt_m = pose.alt_m.unwrap_or(altitude);
+        // With the attitude known, the picture is of the cell its optical axis met: the
+        // orthophoto is centred there (grid metres from the point under the camera).
+        let gamma = grid
+            .convergence_and_scale(here)
+            .map(|(g, _)| g)
+            .unwrap_or(0.0);
+        let looked = pose.attitude.as_ref().and_then(|a| {
+            geometry::view_centre_offset(a, alt_m).map(|(n, e)| geometry::true_to_grid(n, e, gamma))
+        });
+        let cell = grid.to_xy(here).map(|(e, n)| {
+            let (de, dn) = looked.unwrap_or((0.0, 0.0));
+            grid.cell_of_xy(e + de, n + dn)
+        });
+        let verdict = match (check_capture(&claim, altitude, &limits), &cell) {
+            (Err(r), _) => Err(format!(
+                "sweep picture {r}; reference: where the vehicle was when it arrived"
+            )),
+            (Ok(()), Err(e)) => Err(format!("sweep: the picture's position: {e}")),
+            (Ok(()), Ok(_)) => Ok(()),
+        };
+        if let Err(reason) = verdict {
+            self.sweep_rejects += 1;
+            let retakes = self.sweep_rejects;
+            tracing::info!("vehicle {sysid}: picture dropped: {reason}");
+            let r = reason.clone();
+            self.shared
+                .commit(|_| {
+                    Ok((
+                        (),
+                        Some(MappingEvent::ImageRejected {
+                            sysid,
+                            cell: None,
+                            reason: r,
+                            retakes,
+                        }),
+                    ))
+                })
+                .await?;
+            if retakes > self.shared.max_retakes {
+                self.camera_fault(
+                    None,
+                    format!("{retakes} sweep pictures in a row did not count; the last: {reason}"),
+                )
+                .await?;
+                return Ok(true);
+            }
+            return Ok(false);
+        }
+        self.sweep_rejects = 0;
+        let Ok(cell) = cell else {
             return Ok(false);
         };
+        let heading = pose.heading_deg;
+        let cut = match (pose.attitude, looked) {
+            (Some(attitude), Some(centre)) => Cut::Ortho {
+                attitude,
+                altitude_m: alt_m,
+                request: OrthoRequest {
+                    cell_m,
+                    centre_east_north_m: centre,
+                    grid_north_deg: gamma,
+                },
+            },
+            _ => Cut::Centre {
+                heading_deg: heading,
+                altitude_m: altitude,
+            },
+        };
         let bytes = img.bytes.clone();
-        let cell_m = grid.cell_size();
-        let result =
-            cpu(move || classify_received(&bytes, heading, &params, &camera, altitude, cell_m))
-                .await?;
+        let result = cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m)).await?;
         let c = match result {
             Ok(c) => c,
             Err(reason) => {
@@ -1057,15 +1484,22 @@ impl Pilot {
                     Ok(((), Some(MappingEvent::LandedForSwap { sysid })))
                 })
                 .await?;
-            self.shared.say(format!(
-                "vehicle {sysid}: landed: waiting for a battery swap{}",
-                if self.shared.auto_resume {
-                    " (resumes by itself when a fresh battery is in)"
-                } else {
-                    ""
-                }
-            ));
-            if self.shared.sim_swap {
+            if let Some(why) = &self.camera_fault {
+                self.shared.say(format!(
+                    "vehicle {sysid}: landed: waiting for the operator to fix the camera ({why}); \
+                     it will not resume by itself"
+                ));
+            } else {
+                self.shared.say(format!(
+                    "vehicle {sysid}: landed: waiting for a battery swap{}",
+                    if self.shared.auto_resume {
+                        " (resumes by itself when a fresh battery is in)"
+                    } else {
+                        ""
+                    }
+                ));
+            }
+            if self.shared.sim_swap && self.camera_fault.is_none() {
                 // The demo's operator: ask the simulated vehicle to swap its battery.
                 let _ = flight::request_sim_swap(&fleet, sysid).await;
             }
@@ -1095,7 +1529,10 @@ impl Pilot {
                         .is_some_and(|p| p >= 95 || (rebooted && p >= 90))
                     && (rebooted || v.battery_pct.is_some_and(|p| p >= 95))
             });
-            if by_operator || (self.shared.auto_resume && fresh) {
+            // A faulty camera waits for the operator: a fresh battery does not repair it.
+            let auto = self.shared.auto_resume && self.camera_fault.is_none();
+            if by_operator || (auto && fresh) {
+                self.camera_fault = None;
                 let now = self.shared.now();
                 if let Ok(mut set) = self.shared.land_here.lock() {
                     set.remove(&sysid);
@@ -1112,7 +1549,7 @@ impl Pilot {
                 ));
                 return Ok(None);
             }
-            if !self.shared.auto_resume && !self.shared.interactive {
+            if !auto && !self.shared.interactive {
                 return Ok(Some(PilotEnd::WaitingForOperator));
             }
             if self
@@ -1226,6 +1663,10 @@ pub async fn run(
         tolerance_m: opts.tolerance_m,
         sim_swap: opts.sim_swap,
         max_failures: opts.max_failures,
+        max_retakes: opts.max_retakes,
+        limits: opts
+            .capture_limits
+            .unwrap_or_else(|| CaptureLimits::runway(opts.tolerance_m)),
     });
     if let Some(v) = &shared.view {
         let _ = v.send(Arc::new(shared.core.lock().await.state.clone()));
@@ -1279,6 +1720,8 @@ pub async fn run(
             capture_seq: 0,
             held: false,
             first_sweep: true,
+            camera_fault: None,
+            sweep_rejects: 0,
         };
         tasks.push((sysid, tokio::spawn(pilot.run())));
     }

@@ -10,6 +10,8 @@
 //! | [`votes::VoteBook`] | 3-of-5 votes per cell and visit, sticky positives, every detection kept |
 //! | [`green::green_fraction`], [`green::measure`] | share of green pixels, one Bernoulli measurement per image (bandit paper §V) |
 //! | [`camera::CameraModel`] | footprint and the altitude at which the centre ninth covers one cell |
+//! | [`geometry::orthophoto`], [`geometry::CameraView`] | pinhole camera at the capture attitude (nalgebra): ground ↔ pixel, the 3 × 3 cells resampled north-up |
+//! | [`sanity::check_capture`] | whether a picture was taken where it is credited (position, altitude, tilt, heading) |
 //! | [`load_image`] | PNG/JPEG file or bytes → RGB image, dimensions checked before decoding |
 //! | [`synth`] | deterministic synthetic runway / grass / green-tile images for tests and benches |
 //!
@@ -19,10 +21,12 @@
 pub mod camera;
 pub mod color;
 pub mod fast;
+pub mod geometry;
 pub mod green;
 pub mod load;
 pub mod reference;
 pub mod runway;
+pub mod sanity;
 pub mod synth;
 pub mod votes;
 
