@@ -20,6 +20,14 @@ radio. Each check prints one line; `--json FILE` writes them all. The checks:
   fly       `fleetmap mission fly`: take off, a 20 m square, return and land
   signing   after `fleetmap signing setup`, an unsigned command is ignored and a signed one
             obeyed; the key is removed again at the end
+  runway    the runway field test (`fleetmap run missions/runway-field-test.toml`) over a
+            simulated world: the GCS is killed (SIGKILL) once in the middle and resumed, every
+            battery swap is a power cycle done by the "crew" (a second GCS id rebooting a real
+            autopilot; the simulator swaps by itself), and the map's IoU must be within 5
+            points of the best the grid allows. A real autopilot needs a simulated camera:
+            give --camera-link, where the autopilot's camera port sends (e.g. ArduPilot
+            `--serial1 udpclient:127.0.0.1:14552` → udpin:127.0.0.1:14552); this runner
+            starts `fleetmap sim --camera-only` there.
 
 Only standard-library Python; the binary is $FLEETMAP (default: fleetmap on the PATH, else
 target/debug/fleetmap). Run it against simulators, or real vehicles in a safe open area only:
@@ -94,6 +102,9 @@ def run(args, timeout):
     except subprocess.TimeoutExpired as e:
         out = e.stdout.decode() if isinstance(e.stdout, bytes) else (e.stdout or "")
         return -1, out, f"timed out after {timeout} s", time.monotonic() - t0
+
+
+REPO = os.path.join(HERE, "..")
 
 
 def last_line(text):
@@ -328,6 +339,101 @@ class Checks:
         return self.record("signing", ok, detail, time.monotonic() - t0)
 
 
+def runway_check(checks):
+    """The runway field test with a GCS crash and resume, and battery swaps as power cycles."""
+    b, args = checks.b, checks.args
+    work = os.path.join(b.work, "runway")
+    os.makedirs(work, exist_ok=True)
+    run_dir = os.path.join(work, "run")
+    world = os.path.abspath(args.world)
+    mission = os.path.abspath(args.mission)
+    t0 = time.monotonic()
+    extra = []
+    if b.sim is not None:
+        # A simulator of its own, over the world, at --runway-speedup (the transfers were judged
+        # at real time above); its crew swaps batteries 5 s after a landing.
+        port = free_udp_port()
+        ap, _, klass = b.target[4:].partition("-")
+        sim = Proc([BIN, "sim", "--vehicles", f"1x{klass}:{ap}", "--world", world,
+                    "--connect", f"udpin:127.0.0.1:{port}", "--speedup", str(args.runway_speedup),
+                    "--seed", "2", "--swap-after", "5", "--duration", str(int(7200 * args.runway_speedup))],
+                   os.path.join(work, "sim.log"))
+        camera = None
+        conn = ["--connect", f"udpout:127.0.0.1:{port}"]
+        crew = None
+    else:
+        if not args.camera_link:
+            return checks.record("runway", False, "a real autopilot needs --camera-link (its camera port)", 0)
+        sim = None
+        camera = Proc([BIN, "sim", "--camera-only", "--world", world, "--connect", args.camera_link,
+                       "--image-rate", str(args.image_rate)], os.path.join(work, "camera.log"))
+        conn = b.conn()
+        crew = ["command", *b.conn("--gcs-sysid", "250", "--sysid", str(b.sysid)), "reboot"]
+    log_path = os.path.join(work, "run.log")
+
+    def start(cmd):
+        return Proc([BIN, *cmd], log_path + (".resume" if cmd[0] == "resume" else ""))
+
+    def text():
+        out = ""
+        for p in (log_path, log_path + ".resume"):
+            if os.path.exists(p):
+                out += open(p, errors="replace").read()
+        return out
+
+    def images():
+        path = os.path.join(run_dir, "events.jsonl")
+        if not os.path.exists(path):
+            return 0
+        return sum(1 for l in open(path, errors="replace") if '"event":"image"' in l)
+
+    gcs = start(["run", mission, *conn, "--world", world, "--headless", "--run-dir", run_dir, "--auto-resume"])
+    killed, swaps, handled = False, 0, 0
+    deadline = t0 + args.runway_timeout
+    result = None
+    try:
+        while time.monotonic() < deadline:
+            time.sleep(1)
+            if not killed and images() >= args.kill_after:
+                gcs.stop(signal.SIGKILL)
+                killed = True
+                time.sleep(2)
+                gcs = start(["resume", run_dir, *conn, "--headless", "--auto-resume"])
+                continue
+            waiting = text().count("waiting for a battery swap")
+            if crew and waiting > handled:
+                handled = waiting
+                code, out, err, _ = run(crew, timeout=180)
+                swaps += code == 0
+            if gcs.p.poll() is not None:
+                result = gcs.p.returncode
+                break
+    finally:
+        gcs.stop(signal.SIGKILL)
+        if sim:
+            sim.stop()
+        if camera:
+            camera.stop()
+    secs = time.monotonic() - t0
+    if result is None:
+        return checks.record("runway", False, f"not finished within {args.runway_timeout} s "
+                             f"({images()} images); see {work}", secs)
+    if result != 0:
+        return checks.record("runway", False, f"the run exited {result}: {last_line(text())}", secs)
+    code, out, err, _ = run(["report", run_dir, "--world", world, "--json"], timeout=120)
+    try:
+        rep = json.loads(out)
+    except ValueError:
+        return checks.record("runway", False, f"report: {last_line(err)}", secs)
+    iou, best = rep.get("iou") or 0.0, rep.get("iou_best_possible") or 0.0
+    swaps_done = rep.get("battery_swaps", swaps)
+    ok = killed and best - iou <= 0.05
+    detail = (f"IoU {100 * iou:.1f} % (best possible {100 * best:.1f} %), {rep.get('cells_mapped')} cells, "
+              f"{images()} images, GCS killed and resumed: {'yes' if killed else 'NO'}, "
+              f"battery swaps {swaps_done}")
+    return checks.record("runway", ok, detail, secs, iou=iou, iou_best_possible=best, killed=killed)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("target", help="sim:ardupilot-copter | sim:ardupilot-rover | sim:px4-copter | a connection string")
@@ -337,6 +443,15 @@ def main():
     ap.add_argument("--trials", type=int, default=3, help="round trips per loss level")
     ap.add_argument("--losses", default="0,30,50", help="loss levels, percent each way")
     ap.add_argument("--speedup", type=float, default=1.0, help="simulator speed (sim: targets only)")
+    ap.add_argument("--world", default=os.path.join(REPO, "assets", "worlds", "runway.toml"),
+                    help="runway check: the simulated world")
+    ap.add_argument("--mission", default=os.path.join(REPO, "missions", "runway-field-test.toml"),
+                    help="runway check: the mission file")
+    ap.add_argument("--camera-link", help="runway check on a real autopilot: where its camera port sends")
+    ap.add_argument("--image-rate", type=int, default=60000, help="runway check: camera bytes per second")
+    ap.add_argument("--runway-speedup", type=float, default=10.0, help="runway check on a simulator: its speed")
+    ap.add_argument("--kill-after", type=int, default=60, help="runway check: kill the GCS after this many images")
+    ap.add_argument("--runway-timeout", type=int, default=7200, help="runway check: seconds")
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--keep", action="store_true", help="keep the working directory")
     args = ap.parse_args()
@@ -345,7 +460,7 @@ def main():
     bench = Bench(args.target, args.sysid, work, args.speedup)
     checks = Checks(bench, args)
     order = [c.strip() for c in args.checks.split(",") if c.strip()]
-    unknown = [c for c in order if not hasattr(checks, c) or c.startswith("_")]
+    unknown = [c for c in order if c != "runway" and (not hasattr(checks, c) or c.startswith("_"))]
     if unknown:
         sys.exit(f"unknown check(s): {', '.join(unknown)}")
     print(f"conformance: {args.target} (system {args.sysid}), fleetmap {BIN}, work {work}", flush=True)
@@ -353,7 +468,10 @@ def main():
         if order and order[0] != "ready":
             checks.ready()
         for c in order:
-            getattr(checks, c)()
+            if c == "runway":
+                runway_check(checks)
+            else:
+                getattr(checks, c)()
     finally:
         bench.close()
     ok = all(r["pass"] for r in checks.results)

@@ -566,9 +566,6 @@ struct Pilot {
     held: bool,
     /// No sweep entered yet by this process (a restart may have missed images).
     first_sweep: bool,
-    /// The camera was declared faulty (why): the vehicle waits on the ground for the
-    /// operator, whatever its battery says.
-    camera_fault: Option<String>,
     /// Sweep pictures rejected in a row.
     sweep_rejects: u32,
 }
@@ -1121,6 +1118,15 @@ impl Pilot {
         Ok(false)
     }
 
+    /// Why this vehicle's camera is out of the run, if it is (saved in the run state, so a
+    /// resumed run keeps it on the ground too).
+    async fn camera_fault_now(&self) -> Option<String> {
+        let sysid = self.sysid;
+        self.shared
+            .read(|s| s.robot(sysid).ok().and_then(|r| r.camera_fault.clone()))
+            .await
+    }
+
     /// The camera cannot be trusted (`reason`): warn, journal [`MappingEvent::CameraFault`]
     /// and take the vehicle out of the run as for a battery swap (its vertex is kept, a
     /// confirmation it was making is given up), so that [`Pilot::swap`] brings it home and
@@ -1135,22 +1141,19 @@ impl Pilot {
         );
         tracing::warn!("{line}");
         self.shared.say(line);
-        let r = reason.clone();
         self.shared
             .commit(|s| {
-                s.abandon_confirmation(sysid);
-                s.on_battery_low(sysid, now)?;
+                s.on_camera_fault(sysid, reason.clone(), now)?;
                 Ok((
                     (),
                     Some(MappingEvent::CameraFault {
                         sysid,
                         cell,
-                        reason: r,
+                        reason,
                     }),
                 ))
             })
             .await?;
-        self.camera_fault = Some(reason);
         Ok(())
     }
 
@@ -1484,7 +1487,8 @@ impl Pilot {
                     Ok(((), Some(MappingEvent::LandedForSwap { sysid })))
                 })
                 .await?;
-            if let Some(why) = &self.camera_fault {
+            let fault = self.camera_fault_now().await;
+            if let Some(why) = &fault {
                 self.shared.say(format!(
                     "vehicle {sysid}: landed: waiting for the operator to fix the camera ({why}); \
                      it will not resume by itself"
@@ -1499,7 +1503,7 @@ impl Pilot {
                     }
                 ));
             }
-            if self.shared.sim_swap && self.camera_fault.is_none() {
+            if self.shared.sim_swap && fault.is_none() {
                 // The demo's operator: ask the simulated vehicle to swap its battery.
                 let _ = flight::request_sim_swap(&fleet, sysid).await;
             }
@@ -1530,9 +1534,8 @@ impl Pilot {
                     && (rebooted || v.battery_pct.is_some_and(|p| p >= 95))
             });
             // A faulty camera waits for the operator: a fresh battery does not repair it.
-            let auto = self.shared.auto_resume && self.camera_fault.is_none();
+            let auto = self.shared.auto_resume && self.camera_fault_now().await.is_none();
             if by_operator || (auto && fresh) {
-                self.camera_fault = None;
                 let now = self.shared.now();
                 if let Ok(mut set) = self.shared.land_here.lock() {
                     set.remove(&sysid);
@@ -1720,7 +1723,6 @@ pub async fn run(
             capture_seq: 0,
             held: false,
             first_sweep: true,
-            camera_fault: None,
             sweep_rejects: 0,
         };
         tasks.push((sysid, tokio::spawn(pilot.run())));

@@ -194,6 +194,12 @@ pub struct RobotRecord {
     /// The sweep mission item (user numbering) it was flying to last; a sweep interrupted
     /// by a battery swap resumes there.
     pub sweep_item: Option<u16>,
+    /// Its camera was found untrustworthy (why): it is out of the run until the operator
+    /// confirms it is fixed ([`MappingState::on_swapped`] by the operator clears it); a
+    /// fresh battery alone does not bring it back, also after a resume. Absent in runs saved
+    /// before this field existed.
+    #[serde(default)]
+    pub camera_fault: Option<String>,
 }
 
 /// A sweep-phase image: classified, but not a vote (it was not taken over a cell centre).
@@ -337,6 +343,7 @@ impl MappingState {
                 flight_s: 0.0,
                 distance_m: 0.0,
                 track: Vec::new(),
+                camera_fault: None,
                 visit: None,
                 sweep_item: None,
             })
@@ -758,6 +765,20 @@ impl MappingState {
         Ok(())
     }
 
+    /// `sysid`'s camera cannot be trusted (`reason`): it leaves the run as for a battery swap
+    /// ([`MappingState::on_battery_low`]) and stays out until the operator confirms a fix.
+    pub fn on_camera_fault(
+        &mut self,
+        sysid: u8,
+        reason: String,
+        now: Time,
+    ) -> Result<(), MappingError> {
+        self.abandon_confirmation(sysid);
+        self.on_battery_low(sysid, now)?;
+        self.robot_mut(sysid)?.camera_fault = Some(reason);
+        Ok(())
+    }
+
     /// `sysid` landed for its swap; `reboots` is the vehicle's reboot counter then.
     pub fn on_landed_for_swap(
         &mut self,
@@ -787,6 +808,7 @@ impl MappingState {
         }
         r.battery_swaps += 1;
         r.reboots_at_landing = None;
+        r.camera_fault = None;
         let before = r.status_before_swap.take().unwrap_or(RobotStatus::Idle);
         r.status = match before {
             RobotStatus::Sweeping | RobotStatus::Holding | RobotStatus::Confirming => {
@@ -1027,6 +1049,31 @@ mod tests {
         s.on_sweep_complete(2, Time::from_secs(9)).unwrap();
         assert_eq!(s.phase, Phase::Finished { found: false });
         assert_eq!(s.directive(1).unwrap(), Directive::GoHome);
+    }
+
+    /// A camera fault takes the robot out like a battery swap, is saved with the state (a
+    /// resumed run reads it back) and only the operator's confirmation clears it.
+    #[test]
+    fn a_camera_fault_is_saved_and_cleared_by_the_operator() {
+        let mut s = MappingState::new(&def(1), grid(), Sharing::Gcs).unwrap();
+        let t = Time::from_secs(10);
+        s.on_camera_fault(1, "pictures 300 m from their cell".into(), t)
+            .unwrap();
+        assert_eq!(s.robot(1).unwrap().status, RobotStatus::ReturningForSwap);
+        let json = serde_json::to_string(&s).unwrap();
+        let mut back: MappingState = serde_json::from_str(&json).unwrap();
+        assert_eq!(
+            back.robot(1).unwrap().camera_fault.as_deref(),
+            Some("pictures 300 m from their cell")
+        );
+        back.on_landed_for_swap(1, 0, t).unwrap();
+        back.on_swapped(1, t).unwrap();
+        assert_eq!(back.robot(1).unwrap().camera_fault, None);
+        // Runs saved before the field existed load without it.
+        let old = json.replace(",\"camera_fault\":\"pictures 300 m from their cell\"", "");
+        assert_ne!(old, json);
+        let old: MappingState = serde_json::from_str(&old).unwrap();
+        assert_eq!(old.robot(1).unwrap().camera_fault, None);
     }
 
     #[test]
