@@ -455,6 +455,8 @@ def main():
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--keep", action="store_true", help="keep the working directory")
     args = ap.parse_args()
+    # A runner stopped with SIGTERM (or Ctrl-C) still stops what it started (the finally below).
+    signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     args.losses = [int(x) for x in args.losses.split(",") if x.strip()]
     work = tempfile.mkdtemp(prefix="fleetmap-conformance.")
     bench = Bench(args.target, args.sysid, work, args.speedup)

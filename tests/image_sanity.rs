@@ -400,6 +400,29 @@ async fn a_camera_stuck_at_its_boot_pose_maps_nothing_and_waits_for_the_operator
     assert!(!s.is_finished());
 }
 
+/// No picture ever arrives (an autopilot without a camera backend, a camera that is not
+/// connected: here every transfer is lost): after more sweep capture points than the retake
+/// limit without a picture, the camera is declared faulty with a reason that says what to
+/// check, and the vehicle waits for the operator; nothing is mapped.
+#[tokio::test(flavor = "current_thread", start_paused = true)]
+async fn a_sweep_that_gets_no_pictures_stops_with_a_clear_reason() {
+    let rule: Rule = Box::new(|_| Fate::Lose);
+    let f = fly(rule, 5).await;
+    assert_eq!(f.outcome, Outcome::WaitingForOperator { sysids: vec![1] });
+    assert!(f.state.book.detections().is_empty());
+    assert!(f.state.book.positive_cells().is_empty());
+    let fault = f.events.iter().find_map(|e| match e {
+        MappingEvent::CameraFault { reason, .. } => Some(reason.clone()),
+        _ => None,
+    });
+    let fault = fault.expect("a camera fault is journalled");
+    assert!(
+        fault.contains("sweep pictures did not arrive") && fault.contains("CAM1_TYPE"),
+        "{fault}"
+    );
+    assert!(f.tampered.lost.load(Ordering::Relaxed) >= 6);
+}
+
 /// The camera goes bad during the DFS (from its 40th picture on, every picture claims a
 /// place 25 m away): the visit retakes up to the limit, then the camera is declared faulty
 /// and the vehicle waits; only the pictures taken before count, and each was taken at its

@@ -1237,6 +1237,18 @@ impl Pilot {
         let mut changed = self.shared.changed.subscribe();
         changed.borrow_and_update();
         let mut tick = tokio::time::interval(Duration::from_millis(500));
+        // Pictures the sweep's capture items should have produced and did not: an autopilot
+        // that cannot take pictures (ArduPilot without a camera backend, CAM1_TYPE = 0) or a
+        // camera that is not connected sends nothing at all — no rejected picture to count.
+        let captures_before = |c: u16| {
+            items
+                .iter()
+                .take(usize::from(c))
+                .filter(|it| it.command == crate::mission::item::cmd::IMAGE_START_CAPTURE)
+                .count()
+        };
+        let mut captures_at_start = None;
+        let mut arrived = 0usize;
         loop {
             tokio::select! {
                 r = self.images.recv() => {
@@ -1248,6 +1260,7 @@ impl Pilot {
                     if img.sysid != sysid {
                         continue;
                     }
+                    arrived += 1;
                     if self.sweep_image(&img).await? {
                         return Ok(());
                     }
@@ -1258,6 +1271,21 @@ impl Pilot {
                     }
                     let s = snaps.borrow_and_update().vehicles.get(&sysid).cloned();
                     let Some(s) = s else { continue };
+                    if let Some(c) = s.mission_current {
+                        let passed = captures_before(c);
+                        let start = *captures_at_start.get_or_insert(passed);
+                        let missing = passed.saturating_sub(start).saturating_sub(arrived);
+                        if missing > self.shared.max_retakes as usize {
+                            let reason = format!(
+                                "{missing} sweep pictures did not arrive (the vehicle passed their \
+                                 capture points): check that the autopilot can take pictures \
+                                 (ArduPilot: a camera backend, CAM1_TYPE) and that the camera is \
+                                 connected"
+                            );
+                            self.camera_fault(None, reason).await?;
+                            return Ok(());
+                        }
+                    }
                     if let Some(c) = s.mission_current
                         && self.shared.read(|st| st.robot(sysid).ok().and_then(|r| r.sweep_item)).await != Some(c)
                     {
