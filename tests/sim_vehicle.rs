@@ -1332,3 +1332,42 @@ fn a_copter_hovering_in_calm_air_stays_level() {
         );
     }
 }
+
+/// ArduPilot does not change its signing key while armed (`GCS_MAVLINK::handle_setup_signing`:
+/// "ERROR: Won't setup signing when armed"), as ArduRover SITL showed after a mission left it
+/// armed at home; PX4 1.16 has no MAVLink signing at all and ignores SETUP_SIGNING. In both
+/// cases the vehicle goes on answering unsigned commands.
+#[test]
+fn setup_signing_is_refused_while_armed_and_ignored_by_px4() {
+    let setup = MavMessage::SETUP_SIGNING(mav::SETUP_SIGNING_DATA {
+        initial_timestamp: 1,
+        target_system: 1,
+        target_component: 1,
+        secret_key: [7; 32],
+    });
+    let mut g = Gcs::new("1xcopter:ardupilot", 4);
+    g.wait(20.0, |_| false);
+    g.arm_and_take_off(Flavour::ARDU_COPTER, 5.0);
+    g.send(setup.clone());
+    g.wait(1.0, |_| false);
+    assert!(
+        g.texts()
+            .iter()
+            .any(|t| t == "ERROR: Won't setup signing when armed"),
+        "{:?}",
+        g.texts()
+    );
+    // Still unsigned: an unsigned command is answered.
+    assert_eq!(
+        g.command(511, [33.0, 200_000.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+    let mut p = Gcs::new("1xcopter:px4", 4);
+    p.wait(5.0, |_| false);
+    p.send(setup);
+    p.wait(1.0, |_| false);
+    assert_eq!(
+        p.command(511, [33.0, 200_000.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        mav::MavResult::MAV_RESULT_ACCEPTED
+    );
+}

@@ -118,6 +118,13 @@ pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
                 let s = Session::open(&conn).await?;
                 let r = async {
                     let v = s.vehicle(sysid, Duration::from_secs_f64(wait)).await?;
+                    if v.armed {
+                        // ArduPilot ignores SETUP_SIGNING while armed ("ERROR: Won't setup
+                        // signing when armed", GCS_Signing.cpp): say so instead of sending it.
+                        anyhow::bail!(
+                            "vehicle {sysid} is armed: autopilots do not change their signing key while armed; disarm it first"
+                        );
+                    }
                     let msg = MavMessage::SETUP_SIGNING(SETUP_SIGNING_DATA {
                         initial_timestamp: signing_timestamp(unix_now_us()),
                         target_system: sysid,
@@ -187,6 +194,13 @@ pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
                 let s = Session::open(&conn).await?;
                 let r = async {
                     let v = s.vehicle(sysid, Duration::from_secs_f64(wait)).await?;
+                    if v.armed {
+                        // ArduPilot ignores SETUP_SIGNING while armed ("ERROR: Won't setup
+                        // signing when armed", GCS_Signing.cpp): say so instead of sending it.
+                        anyhow::bail!(
+                            "vehicle {sysid} is armed: autopilots do not change their signing key while armed; disarm it first"
+                        );
+                    }
                     let msg = MavMessage::SETUP_SIGNING(SETUP_SIGNING_DATA {
                         initial_timestamp: 0,
                         target_system: sysid,

@@ -221,7 +221,8 @@ fn vehicle_codec(key: &Option<SigningKey>) -> Codec {
 }
 
 /// Decode a datagram for a vehicle: frames that fail signing are dropped by the codec;
-/// SETUP_SIGNING addressed to an ArduPilot vehicle installs (or, all zeros, removes) its key.
+/// SETUP_SIGNING addressed to a disarmed ArduPilot vehicle installs (or, all zeros, removes)
+/// its key; armed, it is refused with ArduPilot's warning.
 /// PX4 v1.16 has no MAVLink signing (its mavlink module has no SETUP_SIGNING handler and
 /// never signs), so a simulated PX4 ignores it.
 fn receive(s: &mut Slot, bytes: &[u8], t: Time, unix_us: u64) {
@@ -231,7 +232,10 @@ fn receive(s: &mut Slot, bytes: &[u8], t: Time, unix_us: u64) {
         if let MavMessage::SETUP_SIGNING(ss) = &m
             && signs
         {
-            if ss.target_system == s.v.sysid() {
+            if ss.target_system == s.v.sysid() && s.v.armed() {
+                // ArduPilot will not change its key while armed (GCS_Signing.cpp).
+                s.v.refuse_signing_setup();
+            } else if ss.target_system == s.v.sysid() {
                 let key = if ss.secret_key.iter().all(|b| *b == 0) {
                     None
                 } else {
