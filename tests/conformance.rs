@@ -1,23 +1,63 @@
 //! The conformance checks of `hitl/conformance.py` (issue 14) against the embedded simulator,
 //! an ArduPilot and a PX4 copter side by side: ready, upload right after a reboot, mission
 //! round trips through `fleetmap relay` at 0, 30 and 50 % loss (+ 5 % duplicates), a flight
-//! with `fleetmap mission fly`, signing. The same runner, pointed at a connection string,
-//! checks a real autopilot (docs/results/conformance.md has the table).
+//! with `fleetmap mission fly`, signing, and the runway field test (over a small world, with
+//! the GCS killed and resumed in the middle). The same runner, pointed at a connection
+//! string, checks a real autopilot (docs/results/conformance.md has the table).
 //!
-//! The simulators run at real time (transfers are judged on the clock the autopilot's own
-//! timeouts run on) and the two runs mostly wait, so they run in parallel: about 3 minutes.
+//! The simulators run at real time for the transfers (judged on the clock the autopilot's own
+//! timeouts run on) and the two runs mostly wait, so they run in parallel: a few minutes.
 
 mod common;
 
 #[test]
 fn conformance_checks_pass_against_the_simulator() {
     let script = concat!(env!("CARGO_MANIFEST_DIR"), "/hitl/conformance.py");
+    // The runway check flies the field-test mission over the small strip world of the
+    // other runway tests (see `common::WORLD`), on a grid anchored at its centre: the same
+    // check as on a real autopilot, minutes shorter.
+    let tmp = tempfile::tempdir().unwrap();
+    let world = tmp.path().join("strip.toml");
+    std::fs::write(&world, common::WORLD).unwrap();
+    let field_test = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/missions/runway-field-test.toml"
+    ))
+    .unwrap();
+    let (lat, lon) = common::STRIP_CENTRE;
+    let fixed = field_test.replacen(
+        "\norigin = \"vehicle\"",
+        &format!("\norigin = {{ lat = {lat}, lon = {lon} }}"),
+        1,
+    );
+    assert_ne!(
+        fixed, field_test,
+        "the field-test mission's origin line moved"
+    );
+    let mission = tmp.path().join("strip-mission.toml");
+    std::fs::write(&mission, fixed).unwrap();
+    let (world, mission) = (world.to_str().unwrap(), mission.to_str().unwrap());
     let runs: Vec<(&str, std::process::Child)> = ["sim:ardupilot-copter", "sim:px4-copter"]
         .into_iter()
         .map(|target| {
             let child = std::process::Command::new("python3")
                 .args([
-                    script, target, "--items", "10", "--trials", "1", "--losses", "0,30,50",
+                    script,
+                    target,
+                    "--items",
+                    "10",
+                    "--trials",
+                    "1",
+                    "--losses",
+                    "0,30,50",
+                    "--checks",
+                    "ready,boot,transfer,fly,signing,runway",
+                    "--world",
+                    world,
+                    "--mission",
+                    mission,
+                    "--kill-after",
+                    "10",
                 ])
                 .env("FLEETMAP", common::pty::bin())
                 .stdout(std::process::Stdio::piped())
@@ -43,6 +83,7 @@ fn conformance_checks_pass_against_the_simulator() {
             "transfer 50%",
             "fly",
             "signing",
+            "runway",
         ] {
             assert!(
                 text.lines()
