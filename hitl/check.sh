@@ -70,7 +70,7 @@ def off(n, e):
 rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t%.8f\t%.8f\t0\t1" % (lat, lon)]
 items = []
 if flies:
-    items.append((3, 22, 0, 0, 0, 10))
+    items.append((3, 22, lat, lon, 0, 10))  # at the launch position: PX4 flies it as a waypoint
 for n, e in [(20, 0), (20, 20), (0, 20), (0, 0)]:
     a, b = off(n, e)
     items.append((3, 16, a, b, 0, 10))

@@ -190,7 +190,8 @@ def mission_file(path, lat, lon, n, flies):
     rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t%.7f\t%.7f\t0\t1" % (lat, lon)]
     seq = 1
     if flies:
-        rows.append("1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t10\t1")
+        # The take-off item at the launch position: PX4 flies it as a waypoint to its position.
+        rows.append("1\t0\t3\t22\t0\t0\t0\t0\t%.7f\t%.7f\t10\t1" % (lat, lon))
         seq = 2
     while seq <= n:
         a, b = offset(lat, lon, 2.0 * (seq % 10), 2.0 * (seq // 10))
@@ -319,7 +320,7 @@ class Checks:
         rows = ["QGC WPL 110", "0\t1\t0\t16\t0\t0\t0\t0\t%.7f\t%.7f\t0\t1" % (lat, lon)]
         seq = 1
         if self.flies:
-            rows.append("1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t10\t1")
+            rows.append("1\t0\t3\t22\t0\t0\t0\t0\t%.7f\t%.7f\t10\t1" % (lat, lon))
             seq = 2
         for n, e in [(20, 0), (20, 20), (0, 20), (0, 0)]:
             a, b = offset(lat, lon, n, e)

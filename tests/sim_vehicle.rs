@@ -289,7 +289,8 @@ fn mission(copter: bool) -> Vec<MissionItem> {
     let (a, b, c) = (at(20.0, 0.0), at(20.0, 20.0), at(0.0, 20.0));
     let mut v = Vec::new();
     if copter {
-        v.push(MissionItem::takeoff(10.0));
+        // At the launch position: PX4 flies a take-off item as a waypoint to its position.
+        v.push(MissionItem::takeoff_at(HOME.0, HOME.1, 10.0));
     }
     v.push(MissionItem::change_speed(4.0));
     v.push(MissionItem::waypoint(a.0, a.1, 10.0));
@@ -1370,4 +1371,38 @@ fn setup_signing_is_refused_while_armed_and_ignored_by_px4() {
         p.command(511, [33.0, 200_000.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
         mav::MavResult::MAV_RESULT_ACCEPTED
     );
+}
+
+/// PX4 flies a mission's take-off item as a waypoint to the item's own position
+/// (navigator/mission.cpp); an item without one (latitude/longitude 0, 0) is never reached:
+/// against PX4 1.16 SITL the copter climbed and hovered at the take-off altitude with the
+/// mission stuck at item 0. The same mission with the take-off at the launch position flies.
+#[test]
+fn px4_never_reaches_a_take_off_item_without_a_position() {
+    for (takeoff, flies) in [
+        (MissionItem::takeoff(10.0), false),
+        (MissionItem::takeoff_at(HOME.0, HOME.1, 10.0), true),
+    ] {
+        let mut g = Gcs::new("1xcopter:px4", 3);
+        g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+            .expect("home");
+        let a = at(20.0, 0.0);
+        let items = vec![takeoff, MissionItem::waypoint(a.0, a.1, 10.0)];
+        assert_eq!(
+            g.upload(&items),
+            mav::MavMissionResult::MAV_MISSION_ACCEPTED
+        );
+        assert_eq!(
+            g.command(300, [0.0; 7]),
+            mav::MavResult::MAV_RESULT_ACCEPTED,
+            "PX4 MISSION_START arms"
+        );
+        let reached = g.wait(
+            60.0,
+            |m| matches!(m, MavMessage::MISSION_ITEM_REACHED(r) if r.seq == 1),
+        );
+        assert_eq!(reached.is_some(), flies, "take-off item {:?}", items[0]);
+        let alt = g.sim.vehicle(1).unwrap().true_local().2;
+        assert!(alt > 9.0, "airborne either way, at {alt:.1} m");
+    }
 }

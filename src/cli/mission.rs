@@ -188,7 +188,10 @@ pub fn run(args: MissionArgs) -> anyhow::Result<ExitCode> {
             block_on(async move {
                 let s = Session::open(&target.conn).await?;
                 let r = async {
-                    s.vehicle(target.sysid, wait_of(&target)?).await?;
+                    let v = s.vehicle(target.sysid, wait_of(&target)?).await?;
+                    if let Some(why) = px4_takeoff_without_position(&v, &items) {
+                        eprintln!("warning: {why}");
+                    }
                     let out = s.fleet.upload_mission(target.sysid, kind, items).await?;
                     if let MissionOutcome::Uploaded {
                         count,
@@ -335,6 +338,24 @@ fn is_nav(c: u16) -> bool {
     c < 100
 }
 
+/// PX4 flies a mission's take-off item as a waypoint to the item's position
+/// (`navigator/mission.cpp`); one without a position (latitude/longitude 0, 0, which
+/// ArduCopter takes as "here") is never reached and the mission stops there (seen on PX4 1.16
+/// SITL). Says which item, for a PX4 vehicle.
+fn px4_takeoff_without_position(v: &VehicleSnapshot, items: &[MissionItem]) -> Option<String> {
+    if v.flavour.autopilot != crate::proto::flavour::Autopilot::Px4 {
+        return None;
+    }
+    let i = items.iter().position(|it| {
+        it.command == crate::mission::item::cmd::NAV_TAKEOFF && it.x == 0 && it.y == 0
+    })?;
+    Some(format!(
+        "item {i}: NAV_TAKEOFF without a position (latitude/longitude 0, 0): PX4 flies a \
+         take-off item to its position and never reaches that one; give the launch position \
+         (QGroundControl writes it)"
+    ))
+}
+
 async fn fly(
     fleet: &FleetHandle,
     target: &Target,
@@ -355,6 +376,9 @@ async fn fly(
         .wait_vehicle(sysid, wait_of(target)?)
         .await
         .with_context(|| format!("no heartbeat from system {sysid}"))?;
+    if let Some(why) = px4_takeoff_without_position(&v, &items) {
+        bail!("{why}");
+    }
     say(
         json,
         "vehicle",

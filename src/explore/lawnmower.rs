@@ -29,7 +29,8 @@
 //! that far from the waypoint).
 //!
 //! # Mission items (both ArduPilot and PX4 execute them)
-//! `NAV_TAKEOFF`, `DO_CHANGE_SPEED`, then for every capture a `NAV_WAYPOINT` at the capture
+//! `NAV_TAKEOFF` (positioned at the first capture point: PX4 flies an airborne take-off item as
+//! a waypoint to its position), `DO_CHANGE_SPEED`, then for every capture a `NAV_WAYPOINT` at the capture
 //! point followed by `IMAGE_START_CAPTURE` with interval 0 and count 1 (one picture when the
 //! waypoint is reached), and `NAV_RETURN_TO_LAUNCH` at the end. A capture item per waypoint
 //! (rather than `DO_SET_CAM_TRIGG_DIST`, which depends on the autopilot's own trigger
@@ -272,10 +273,20 @@ where
             .map(|w| (w[1].0 - w[0].0).hypot(w[1].1 - w[0].1))
             .sum();
         let alt_f = alt as f32;
-        let mut items = vec![
-            MissionItem::takeoff(alt_f),
-            MissionItem::change_speed(cfg.speed_mps as f32),
-        ];
+        // The take-off item carries the first capture point as its position: PX4 flies a
+        // take-off item as a waypoint once airborne ([`MissionItem::takeoff_at`]).
+        let takeoff = match captures.first() {
+            Some(&(e, n)) => {
+                let (lat, lon) = to_latlon(e, n).map_err(|err| ExploreError::Projection {
+                    east_m: e,
+                    north_m: n,
+                    reason: err.to_string(),
+                })?;
+                MissionItem::takeoff_at(lat, lon, alt_f)
+            }
+            None => MissionItem::takeoff(alt_f),
+        };
+        let mut items = vec![takeoff, MissionItem::change_speed(cfg.speed_mps as f32)];
         let mut waypoint_seq = Vec::with_capacity(captures.len());
         for &(e, n) in &captures {
             let (lat, lon) = to_latlon(e, n).map_err(|err| ExploreError::Projection {

@@ -163,12 +163,27 @@ impl MissionItem {
         MissionItem::at(cmd::NAV_WAYPOINT, lat, lon, alt)
     }
 
-    /// NAV_TAKEOFF to `alt` metres relative to home, at the current position.
+    /// NAV_TAKEOFF to `alt` metres relative to home, without a position (0, 0): what
+    /// ArduCopter takes as "here". Not for PX4 missions (see [`MissionItem::takeoff_at`]).
     pub fn takeoff(alt: f32) -> MissionItem {
         MissionItem {
             frame: frame::GLOBAL_RELATIVE_ALT,
             z: alt,
             ..MissionItem::command(cmd::NAV_TAKEOFF)
+        }
+    }
+
+    /// NAV_TAKEOFF to `alt` metres above home, with (`lat`, `lon`) degrees as its position.
+    /// Missions for PX4 need it: a copter that starts a mission in the air (or has finished
+    /// the climb) flies a take-off item as a waypoint to its position (PX4
+    /// `src/modules/navigator/mission.cpp`, "treat it as waypoint"), so an item without one
+    /// (0, 0) is never reached — PX4 1.16 SITL hovered at the take-off altitude for good.
+    /// ArduCopter takes off vertically whatever the position.
+    pub fn takeoff_at(lat: f64, lon: f64, alt: f32) -> MissionItem {
+        MissionItem {
+            x: deg_to_e7(lat),
+            y: deg_to_e7(lon),
+            ..MissionItem::takeoff(alt)
         }
     }
 

@@ -290,6 +290,9 @@ struct Exec {
     nav_point: Option<Point>,
     /// PX4: takeoff inserted before the current item.
     px4_takeoff: Option<f64>,
+    /// PX4: the position a take-off item is flown to after the climb (`None` inside: the
+    /// item has none, latitude/longitude 0, 0, and is never reached).
+    px4_takeoff_target: Option<Option<Point>>,
     /// ArduPilot: the mission is waiting for MISSION_START (auto_armed false on the ground).
     waiting_auto_armed: bool,
     jumps: HashMap<u16, i32>,
@@ -1800,6 +1803,7 @@ impl SimVehicle {
         self.exec.nav_arrived = None;
         self.exec.waiting_auto_armed = false;
         self.exec.px4_takeoff = None;
+        self.exec.px4_takeoff_target = None;
         self.mission.set_mission_running(true);
         if let Some(i) = self.exec.nav_index {
             self.mission.set_current(i);
@@ -1999,6 +2003,25 @@ impl SimVehicle {
                 } else {
                     f64::from(item.z).max(0.0)
                 };
+                if px4 {
+                    // PX4 (navigator/mission.cpp): a take-off item is flown as a waypoint to its
+                    // own position — at once when the copter is already in the air ("treat it
+                    // as waypoint"), after the climb from the ground. An item without a
+                    // position means latitude/longitude 0, 0: PX4 1.16 SITL never reached it
+                    // and hovered at the take-off altitude, the mission stuck at item 0.
+                    let target = (item.x != 0 || item.y != 0).then_some(Point { u, ..p });
+                    self.exec.px4_takeoff_target = Some(target);
+                    self.exec.nav_point = target;
+                    self.nav = if self.landed {
+                        Nav::Takeoff(Point { u, ..here })
+                    } else {
+                        match target {
+                            Some(p) => Nav::Goto { p, speed: None },
+                            None => Nav::Hold(Point { u, ..here }),
+                        }
+                    };
+                    return true;
+                }
                 self.nav = Nav::Takeoff(Point { u, ..here });
                 self.exec.nav_point = Some(Point { u, ..here });
             }
@@ -2064,8 +2087,28 @@ impl SimVehicle {
         let copter = self.cfg.flavour.is_copter();
         let px4 = self.cfg.flavour.autopilot == Autopilot::Px4;
         match item.command {
+            22 if px4 && copter => {
+                let Some(target) = self.exec.px4_takeoff_target else {
+                    return true;
+                };
+                if let Nav::Takeoff(p) = self.nav {
+                    if self.m.u < p.u - 0.8 {
+                        return false;
+                    }
+                    // Climbed: on to the item's position (or hover, without one).
+                    self.nav = match target {
+                        Some(t) => Nav::Goto { p: t, speed: None },
+                        None => Nav::Hold(p),
+                    };
+                }
+                let Some(t) = target else {
+                    return false;
+                };
+                let (e, n) = self.est();
+                (t.e - e).hypot(t.n - n) <= 2.0 && (self.m.u - t.u).abs() < 0.8
+            }
             22 => match self.nav {
-                Nav::Takeoff(p) => self.m.u >= p.u - if px4 { 0.8 } else { 0.3 },
+                Nav::Takeoff(p) => self.m.u >= p.u - 0.3,
                 _ => true,
             },
             16 | 19 | 17 | 82 => {

@@ -132,7 +132,9 @@ def mission_items(master, vehicle):
     if autopilot == "ardupilot":
         add(m.MAV_CMD_NAV_WAYPOINT, m.MAV_FRAME_GLOBAL_INT, lat=HOME[0], lon=HOME[1], alt=0)  # home slot
     if kind == "copter":
-        add(m.MAV_CMD_NAV_TAKEOFF, frame, alt=10)
+        # At the launch position: PX4 flies a take-off item as a waypoint to its position (one
+        # without a position, lat/lon 0, 0, is never reached).
+        add(m.MAV_CMD_NAV_TAKEOFF, frame, lat=HOME[0], lon=HOME[1], alt=10)
     add(m.MAV_CMD_DO_CHANGE_SPEED, m.MAV_FRAME_MISSION, p1=1, p2=4, p3=-1)
     for n, e in [(20, 0), (20, 20), (0, 20)]:
         lat, lon = offset(n, e)

@@ -113,10 +113,16 @@ fn seq(items: &[MissionItem]) -> u16 {
 /// The drone mission of one sensing cycle (see the module documentation).
 pub fn drone_mission(grid: &Grid, spec: &DroneMissionSpec<'_>) -> CycleMission {
     let alt = spec.altitude_m as f32;
-    let mut items = vec![
-        MissionItem::takeoff(alt),
-        MissionItem::change_speed(spec.speed_m_s as f32),
-    ];
+    // Taking off from the start cell: the take-off item carries its centre (PX4 flies an
+    // airborne take-off item as a waypoint to its position, see `MissionItem::takeoff_at`).
+    let takeoff = match spec.path.first() {
+        Some(&c0) => {
+            let p = centre(grid, c0);
+            MissionItem::takeoff_at(p.lat, p.lon, alt)
+        }
+        None => MissionItem::takeoff(alt),
+    };
+    let mut items = vec![takeoff, MissionItem::change_speed(spec.speed_m_s as f32)];
     // Over the centre of the start cell first: the drone took off from a charging pad up to
     // a rover's stopping distance (ArduRover WP_RADIUS, 2 m) off that centre, and a diagonal
     // leg from there would pass an obstacle's corner closer than the straight legs between
