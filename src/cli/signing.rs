@@ -1,4 +1,4 @@
-//! `fleetmap signing keygen|setup`: MAVLink 2 signing keys.
+//! `fleetmap signing keygen|setup|remove`: MAVLink 2 signing keys.
 //!
 //! * `keygen --passphrase TEXT [--out FILE]`: the key is SHA-256 of the passphrase, as
 //!   MAVProxy (`signing setup PASSPHRASE`, `mavproxy_signing.py` `passphrase_to_key`) and
@@ -7,10 +7,12 @@
 //! * `setup --connect CONN --sysid N --key FILE`: sends SETUP_SIGNING with the key and an
 //!   initial timestamp (10 µs units since 2015-01-01, as MAVProxy computes it) to the
 //!   vehicle's autopilot, which stores it (ArduPilot `GCS_Signing.cpp`
-//!   `handle_setup_signing`; PX4 `mavlink_sign_control`) and from then on signs and
-//!   requires signatures. SETUP_SIGNING has no acknowledgement, so it is sent three
-//!   times, unsigned (the vehicle has no key yet), and the command then listens for a
-//!   signed heartbeat with the new key to confirm.
+//!   `handle_setup_signing`, not while armed) and from then on signs and requires
+//!   signatures. SETUP_SIGNING has no acknowledgement, so it is sent three times, unsigned
+//!   (the vehicle has no key yet), and the command then listens for a signed heartbeat with
+//!   the new key to confirm. PX4 1.16 has no MAVLink signing and ignores it.
+//! * `remove --connect CONN --sysid N --signing-key FILE`: SETUP_SIGNING with an all-zero
+//!   key, signed with the current one; confirmed by an unsigned heartbeat.
 
 use super::vehicles::{ConnectArgs, Session, block_on};
 use crate::link::signing::{SigningKey, signing_timestamp};
@@ -73,6 +75,50 @@ pub enum SigningCommand {
     },
 }
 
+/// Send SETUP_SIGNING with `secret_key` and `timestamp` to vehicle `sysid` (heard within
+/// `wait`) and return whether one of its heartbeats then `confirms` the change within 5 s.
+/// SETUP_SIGNING has no acknowledgement, so it goes out three times. An armed vehicle is
+/// refused here: ArduPilot ignores SETUP_SIGNING while armed (`GCS_Signing.cpp`
+/// `handle_setup_signing`, "ERROR: Won't setup signing when armed").
+async fn send_setup_signing(
+    s: &Session,
+    sysid: u8,
+    wait: Duration,
+    secret_key: [u8; 32],
+    timestamp: u64,
+    confirms: impl Fn(&crate::link::codec::Frame) -> bool,
+) -> anyhow::Result<bool> {
+    let v = s.vehicle(sysid, wait).await?;
+    if v.armed {
+        bail!(
+            "vehicle {sysid} is armed: autopilots do not change their signing key while armed; disarm it first"
+        );
+    }
+    let msg = MavMessage::SETUP_SIGNING(SETUP_SIGNING_DATA {
+        initial_timestamp: timestamp,
+        target_system: sysid,
+        target_component: v.compid,
+        secret_key,
+    });
+    let mut sub = s.fleet.subscribe();
+    for _ in 0..3 {
+        s.fleet.send(msg.clone()).await?;
+        tokio::time::sleep(Duration::from_millis(200)).await;
+    }
+    let confirmed = tokio::time::timeout(Duration::from_secs(5), async {
+        while let Ok(inc) = sub.recv().await {
+            let f = &inc.frame;
+            if f.sysid() == sysid && f.msg_id == 0 && confirms(f) {
+                return true;
+            }
+        }
+        false
+    })
+    .await
+    .unwrap_or(false);
+    Ok(confirmed)
+}
+
 /// Run `fleetmap signing`.
 pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
     match args.what {
@@ -117,46 +163,28 @@ pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
             block_on(async move {
                 let s = Session::open(&conn).await?;
                 let r = async {
-                    let v = s.vehicle(sysid, Duration::from_secs_f64(wait)).await?;
-                    if v.armed {
-                        // ArduPilot ignores SETUP_SIGNING while armed ("ERROR: Won't setup
-                        // signing when armed", GCS_Signing.cpp): say so instead of sending it.
-                        anyhow::bail!(
-                            "vehicle {sysid} is armed: autopilots do not change their signing key while armed; disarm it first"
-                        );
-                    }
-                    let msg = MavMessage::SETUP_SIGNING(SETUP_SIGNING_DATA {
-                        initial_timestamp: signing_timestamp(unix_now_us()),
-                        target_system: sysid,
-                        target_component: v.compid,
-                        secret_key: key.0,
-                    });
-                    let mut sub = s.fleet.subscribe();
-                    for _ in 0..3 {
-                        s.fleet.send(msg.clone()).await?;
-                        tokio::time::sleep(Duration::from_millis(200)).await;
-                    }
                     // Confirmation: a heartbeat from the vehicle signed with the new key.
-                    let confirmed = tokio::time::timeout(Duration::from_secs(5), async {
-                        while let Ok(inc) = sub.recv().await {
-                            let f = &inc.frame;
-                            if f.sysid() == sysid && f.msg_id == 0 && f.signature.is_some() {
-                                let n = f.raw.len();
-                                let sig = crate::link::signing::Signing::signature(
-                                    &key,
-                                    &f.raw[..n - 13],
-                                    f.raw[n - 13],
-                                    f.signature.map(|s| s.timestamp).unwrap_or(0),
-                                );
-                                if sig[..] == f.raw[n - 6..] {
-                                    return true;
-                                }
-                            }
-                        }
-                        false
-                    })
-                    .await
-                    .unwrap_or(false);
+                    let confirmed = send_setup_signing(
+                        &s,
+                        sysid,
+                        Duration::from_secs_f64(wait),
+                        key.0,
+                        signing_timestamp(unix_now_us()),
+                        |f| {
+                            let Some(sig) = f.signature else {
+                                return false;
+                            };
+                            let n = f.raw.len();
+                            let expected = crate::link::signing::Signing::signature(
+                                &key,
+                                &f.raw[..n - 13],
+                                f.raw[n - 13],
+                                sig.timestamp,
+                            );
+                            expected[..] == f.raw[n - 6..]
+                        },
+                    )
+                    .await?;
                     if conn.json {
                         println!(
                             "{}",
@@ -193,37 +221,16 @@ pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
             block_on(async move {
                 let s = Session::open(&conn).await?;
                 let r = async {
-                    let v = s.vehicle(sysid, Duration::from_secs_f64(wait)).await?;
-                    if v.armed {
-                        // ArduPilot ignores SETUP_SIGNING while armed ("ERROR: Won't setup
-                        // signing when armed", GCS_Signing.cpp): say so instead of sending it.
-                        anyhow::bail!(
-                            "vehicle {sysid} is armed: autopilots do not change their signing key while armed; disarm it first"
-                        );
-                    }
-                    let msg = MavMessage::SETUP_SIGNING(SETUP_SIGNING_DATA {
-                        initial_timestamp: 0,
-                        target_system: sysid,
-                        target_component: v.compid,
-                        secret_key: [0; 32],
-                    });
-                    let mut sub = s.fleet.subscribe();
-                    for _ in 0..3 {
-                        s.fleet.send(msg.clone()).await?;
-                        tokio::time::sleep(Duration::from_millis(200)).await;
-                    }
                     // Confirmation: an unsigned heartbeat from the vehicle.
-                    let confirmed = tokio::time::timeout(Duration::from_secs(5), async {
-                        while let Ok(inc) = sub.recv().await {
-                            let f = &inc.frame;
-                            if f.sysid() == sysid && f.msg_id == 0 && f.signature.is_none() {
-                                return true;
-                            }
-                        }
-                        false
-                    })
-                    .await
-                    .unwrap_or(false);
+                    let confirmed = send_setup_signing(
+                        &s,
+                        sysid,
+                        Duration::from_secs_f64(wait),
+                        [0; 32],
+                        0,
+                        |f| f.signature.is_none(),
+                    )
+                    .await?;
                     if conn.json {
                         println!(
                             "{}",
