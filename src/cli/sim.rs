@@ -25,7 +25,7 @@ pub struct SimArgs {
     pub world: Option<PathBuf>,
     /// Home of vehicle 1 as LAT,LON (the others 3 m east of each other); overrides the
     /// world's homes.
-    #[arg(long, value_name = "LAT,LON")]
+    #[arg(long, value_name = "LAT,LON", allow_hyphen_values = true)]
     pub home: Option<String>,
     /// Simulated seconds per wall second.
     #[arg(long, default_value_t = 1.0)]
@@ -52,7 +52,7 @@ pub struct SimArgs {
     #[arg(long, value_name = "PCT")]
     pub low_battery: Option<f64>,
     /// Wind as SPEED@FROM (m/s, degrees the wind blows from), e.g. 3.6@270.
-    #[arg(long, value_name = "SPEED@FROM")]
+    #[arg(long, value_name = "SPEED@FROM", allow_hyphen_values = true)]
     pub wind: Option<String>,
     /// Write camera images here and announce their file:// URLs in CAMERA_IMAGE_CAPTURED.
     #[arg(long)]
@@ -311,4 +311,34 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
         .await
     })?;
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use crate::cli::{Cli, Command};
+    use clap::Parser;
+
+    /// Coordinates as people type them: a negative latitude as its own argument
+    /// (`--home -35.36,149.16`), not only `--home=-35.36,…`.
+    #[test]
+    fn negative_coordinates_parse_as_their_own_argument() {
+        let cli = Cli::try_parse_from([
+            "fleetmap",
+            "sim",
+            "--connect",
+            "udpout:127.0.0.1:14550",
+            "--home",
+            "-35.363261,149.165230",
+            "--wind",
+            "3.6@-90",
+        ])
+        .unwrap_or_else(|e| panic!("{e}"));
+        let Command::Sim(args) = cli.command else {
+            panic!("not sim")
+        };
+        assert_eq!(args.home.as_deref(), Some("-35.363261,149.165230"));
+        let cfg = super::build(&args).unwrap();
+        let (lat, lon) = cfg.vehicles[0].start;
+        assert!((lat + 35.363261).abs() < 1e-9 && (lon - 149.165230).abs() < 1e-9);
+    }
 }
