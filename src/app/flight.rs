@@ -312,10 +312,21 @@ pub struct Captured {
     pub at_trigger: Option<VehicleSnapshot>,
 }
 
-/// Take picture `seq` and wait for the image of `sysid` (the next one to arrive after the
-/// command), at most 10 s (scaled by `patience`). One capture: an image that does not
-/// arrive is [`FlightError::NoImage`], for the caller to retry as a new capture (the runway
-/// runner counts it against its retake limit).
+/// Longest wait for one picture while its camera keeps sending image data, nominal seconds:
+/// on a slow payload link (a telemetry radio, PX4 SITL's 4 kB/s) a picture can be queued
+/// behind earlier ones; a hovering vehicle should not wait on a longer backlog (the caller
+/// takes the picture again, by then the queue has moved on).
+pub const CAPTURE_MAX_WAIT_S: f64 = 120.0;
+
+/// Take picture `seq` and wait for its image from `sysid`, at most 10 s (scaled by
+/// `patience`) after the command or after the last image data heard from the vehicle, and
+/// never more than [`CAPTURE_MAX_WAIT_S`]. One capture: an image that does not arrive is
+/// [`FlightError::NoImage`], for the caller to retry as a new capture (the runway runner
+/// counts it against its retake limit).
+///
+/// The picture is the one the camera announces first after the command (CAMERA_IMAGE_CAPTURED,
+/// matched by `time_boot_ms` and `image_index`): earlier pictures still in transfer are
+/// passed over. From a camera that announces nothing, the first image after the command.
 pub async fn capture(
     fleet: &FleetHandle,
     rx: &mut broadcast::Receiver<Arc<ReceivedImage>>,
@@ -323,25 +334,65 @@ pub async fn capture(
     seq: u32,
     patience: Patience,
 ) -> Result<Captured, FlightError> {
+    use mavlink::dialects::ardupilotmega::MavMessage;
     let wait = patience.secs(10.0);
+    let started = tokio::time::Instant::now();
+    let longest = started + patience.secs(CAPTURE_MAX_WAIT_S);
+    let mut frames = fleet.subscribe();
     drain_images(rx);
     fleet.capture_image(sysid, seq).await?;
     let at_trigger = fleet.vehicle(sysid);
-    let deadline = tokio::time::Instant::now() + wait;
+    let key_of =
+        |image: &ReceivedImage| image.pose.as_ref().map(|p| (p.time_boot_ms, p.image_index));
+    // The announcement of our picture, and an image that came before any announcement did.
+    let mut ours: Option<(u32, i32)> = None;
+    let mut early: Option<Arc<ReceivedImage>> = None;
+    let mut deadline = started + wait;
     loop {
-        match tokio::time::timeout_at(deadline, rx.recv()).await {
-            Ok(Ok(image)) if image.sysid == sysid => return Ok(Captured { image, at_trigger }),
-            Ok(Ok(_)) | Ok(Err(broadcast::error::RecvError::Lagged(_))) => continue,
-            Ok(Err(broadcast::error::RecvError::Closed)) => {
-                return Err(FlightError::ImagesClosed);
-            }
-            Err(_) => break,
+        tokio::select! {
+            biased;
+            f = frames.recv() => match f {
+                Ok(inc) if inc.frame.sysid() == sysid => match &inc.frame.message {
+                    Ok(MavMessage::CAMERA_IMAGE_CAPTURED(c)) if ours.is_none() => {
+                        let key = (c.time_boot_ms, c.image_index);
+                        ours = Some(key);
+                        if let Some(image) = early.take()
+                            && key_of(&image) == Some(key)
+                        {
+                            return Ok(Captured { image, at_trigger });
+                        }
+                    }
+                    Ok(MavMessage::ENCAPSULATED_DATA(_) | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)) => {
+                        deadline = (tokio::time::Instant::now() + wait).min(longest);
+                    }
+                    _ => {}
+                },
+                Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
+                Err(broadcast::error::RecvError::Closed) => return Err(FlightError::ImagesClosed),
+            },
+            r = rx.recv() => match r {
+                Ok(image) if image.sysid == sysid => match (ours, key_of(&image)) {
+                    // An earlier picture, still in transfer when this one was taken.
+                    (Some(o), Some(k)) if o != k => {}
+                    (None, Some(_)) => early = Some(image),
+                    _ => return Ok(Captured { image, at_trigger }),
+                },
+                Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
+                Err(broadcast::error::RecvError::Closed) => return Err(FlightError::ImagesClosed),
+            },
+            _ = tokio::time::sleep_until(deadline) => break,
         }
+    }
+    // No announcement came: a camera that does not announce its pictures.
+    if ours.is_none()
+        && let Some(image) = early
+    {
+        return Ok(Captured { image, at_trigger });
     }
     Err(FlightError::NoImage {
         sysid,
         seq,
-        waited_s: wait.as_secs_f64(),
+        waited_s: started.elapsed().as_secs_f64(),
     })
 }
 

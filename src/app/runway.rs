@@ -51,8 +51,8 @@ use crate::app::flight::{self, FlightError, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::explore::dfs::Action;
 use crate::explore::mapping::{Directive, MappingError, MappingState, Phase, RobotStatus};
-use crate::fleet::{FleetHandle, VehicleSnapshot};
-use crate::geo::{Cell, LatLon};
+use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
+use crate::geo::{Cell, LatLon, local};
 use crate::mission::MissionType;
 use crate::store::RunDir;
 use crate::time::Time;
@@ -64,6 +64,7 @@ use crate::vision::sanity::{CaptureClaim, CaptureLimits, SWEEP_MAX_TILT_DEG, che
 use crate::vision::votes::{Detection, GeoPosition};
 use anyhow::Context as _;
 use image::RgbImage;
+use mavlink::dialects::ardupilotmega::MavMessage;
 use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
 use std::collections::HashSet;
@@ -73,6 +74,15 @@ use tokio::sync::{Mutex, broadcast, mpsc, watch};
 
 /// The run kind in `run.json`.
 pub const KIND: &str = "runway-mapping";
+
+/// Seconds of wall-clock time (scaled by the clock's speed-up) without any image data from a
+/// sweeping vehicle after which the pictures its camera announced and did not deliver count
+/// as missing. The receiver asks for an interrupted picture again after 0.3 s of silence, five
+/// times; 20 s covers that with room for a picture queued behind others.
+const SWEEP_IMAGE_STALL_S: f64 = 20.0;
+
+/// How many announced sweep pictures' reference positions a pilot keeps (a sweep's worth).
+const ANNOUNCED_KEPT: usize = 512;
 
 /// A journal record of the run (`events.jsonl`), one per acknowledged step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -1248,9 +1258,46 @@ impl Pilot {
                 .count()
         };
         let mut captures_at_start = None;
+        // Pictures that arrived, and pictures the camera announced (CAMERA_IMAGE_CAPTURED): an
+        // announced picture exists while its transmission is queued behind others (a slow
+        // payload link: PX4 SITL's carries 4 kB/s), so it is missing only once no image data
+        // at all has been heard from the vehicle for `SWEEP_IMAGE_STALL_S`.
         let mut arrived = 0usize;
+        let mut announced = 0usize;
+        let mut progress = self.shared.now();
+        let stall = Duration::from_secs_f64(SWEEP_IMAGE_STALL_S * fleet.clock().speedup());
+        let mut frames = fleet.subscribe();
+        // Where the vehicle was when each picture was announced, by (time_boot_ms,
+        // image_index): the reference for a picture that arrives later, queued on a slow link.
+        let mut where_announced = std::collections::VecDeque::new();
+        // The vehicle has flown the whole sweep (its pictures may still be in transfer).
+        let mut flown = false;
         loop {
             tokio::select! {
+                f = frames.recv() => {
+                    match f {
+                        Ok(inc) if inc.frame.sysid() == sysid => match &inc.frame.message {
+                            Ok(MavMessage::CAMERA_IMAGE_CAPTURED(c)) => {
+                                if announced <= arrived {
+                                    progress = self.shared.now();
+                                }
+                                announced += 1;
+                                if let Some(p) = self.vehicle().and_then(|v| v.position) {
+                                    if where_announced.len() >= ANNOUNCED_KEPT {
+                                        where_announced.pop_front();
+                                    }
+                                    where_announced.push_back(((c.time_boot_ms, c.image_index), p));
+                                }
+                            }
+                            Ok(MavMessage::ENCAPSULATED_DATA(_) | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)) => {
+                                progress = self.shared.now();
+                            }
+                            _ => {}
+                        },
+                        Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
+                        Err(broadcast::error::RecvError::Closed) => anyhow::bail!("the fleet stopped"),
+                    }
+                }
                 r = self.images.recv() => {
                     let img = match r {
                         Ok(img) => img,
@@ -1261,7 +1308,13 @@ impl Pilot {
                         continue;
                     }
                     arrived += 1;
-                    if self.sweep_image(&img).await? {
+                    progress = self.shared.now();
+                    let key = img.pose.as_ref().map(|p| (p.time_boot_ms, p.image_index));
+                    let announced_at = where_announced
+                        .iter()
+                        .find(|(k, _)| Some(*k) == key)
+                        .map(|&(_, p)| p);
+                    if self.sweep_image(&img, announced_at).await? {
                         return Ok(());
                     }
                 }
@@ -1274,7 +1327,12 @@ impl Pilot {
                     if let Some(c) = s.mission_current {
                         let passed = captures_before(c);
                         let start = *captures_at_start.get_or_insert(passed);
-                        let missing = passed.saturating_sub(start).saturating_sub(arrived);
+                        let pending = announced.saturating_sub(arrived);
+                        let stalled = self.shared.now().saturating_since(progress) > stall;
+                        let missing = passed
+                            .saturating_sub(start)
+                            .saturating_sub(arrived.max(announced))
+                            + if stalled { pending } else { 0 };
                         if missing > self.shared.max_retakes as usize {
                             let reason = format!(
                                 "{missing} sweep pictures did not arrive (the vehicle passed their \
@@ -1294,14 +1352,14 @@ impl Pilot {
                     let complete = s.mission_state == Some(5)
                         || s.reached.contains(&last_nav)
                         || s.mission_current.is_some_and(|c| c > last_nav);
-                    if complete {
-                        let now = self.shared.now();
-                        self.shared.commit(|st| {
-                            st.on_sweep_complete(sysid, now)?;
-                            Ok(((), Some(MappingEvent::SweepComplete { sysid })))
-                        }).await?;
-                        self.shared.say(format!("vehicle {sysid}: sweep complete"));
-                        return Ok(());
+                    if complete && !flown {
+                        flown = true;
+                        let pending = announced.saturating_sub(arrived);
+                        if pending > 0 {
+                            self.shared.say(format!(
+                                "vehicle {sysid}: sweep flown; waiting for {pending} pictures still in transfer"
+                            ));
+                        }
                     }
                 }
                 _ = changed.changed() => {
@@ -1318,19 +1376,38 @@ impl Pilot {
                     }
                 }
             }
+            // The sweep is complete once flown and its announced pictures are in (or their
+            // transfer stalled: those were counted as missing above).
+            let stalled = self.shared.now().saturating_since(progress) > stall;
+            if flown && (announced <= arrived || stalled) {
+                let now = self.shared.now();
+                self.shared
+                    .commit(|st| {
+                        st.on_sweep_complete(sysid, now)?;
+                        Ok(((), Some(MappingEvent::SweepComplete { sysid })))
+                    })
+                    .await?;
+                self.shared.say(format!("vehicle {sysid}: sweep complete"));
+                return Ok(());
+            }
         }
     }
 
     /// Classify a sweep image; returns true when the sweep must stop (it started a
     /// confirmation, or the camera was declared faulty). The picture must have been taken
-    /// where the vehicle is: the camera's position within one cell more than the cell limit of
-    /// the vehicle's when the picture arrives (the vehicle flies on while it is transferred),
+    /// where the vehicle was: the camera's position within one cell more than the cell limit
+    /// of `announced_at`, the vehicle's position when the camera announced the picture (else
+    /// when it arrives: the vehicle flies on while it is transferred),
     /// its altitude within the limit and its tilt within
     /// [`crate::vision::sanity::SWEEP_MAX_TILT_DEG`]; otherwise it is dropped, and
     /// [`RunOptions::max_retakes`] + 1 dropped in a row are a camera fault. With the attitude
     /// known, the picture stands for the cell its optical axis met, cut as an orthophoto
     /// around that point; without, for the cell under the vehicle, centre-cropped.
-    async fn sweep_image(&mut self, img: &ReceivedImage) -> anyhow::Result<bool> {
+    async fn sweep_image(
+        &mut self,
+        img: &ReceivedImage,
+        announced_at: Option<GeoPoint>,
+    ) -> anyhow::Result<bool> {
         let sysid = self.sysid;
         let v = self.vehicle();
         let Some(pose) = shot_pose(img, v.as_ref()) else {
@@ -1353,9 +1430,12 @@ impl Pilot {
             lon: pose.lon,
         };
         // The camera's position against the vehicle's (the telemetry's own is not checked).
-        let offset = match (&v, pose.from_camera) {
-            (Some(v), true) => Some(flight::distance_to(v, pose.lat, pose.lon)),
-            _ => None,
+        let reference = announced_at.or_else(|| v.as_ref().and_then(|v| v.position));
+        let offset = match reference {
+            Some(r) if pose.from_camera => Some(local::distance(r.lat, r.lon, pose.lat, pose.lon)),
+            Some(_) => None,
+            None if pose.from_camera => Some(f64::INFINITY),
+            None => None,
         };
         let limits = CaptureLimits {
             horizontal_m: self.shared.limits.horizontal_m + cell_m,
@@ -1385,7 +1465,12 @@ impl Pilot {
         });
         let verdict = match (check_capture(&claim, altitude, &limits), &cell) {
             (Err(r), _) => Err(format!(
-                "sweep picture {r}; reference: where the vehicle was when it arrived"
+                "sweep picture {r}; reference: where the vehicle was when it {}",
+                if announced_at.is_some() {
+                    "was announced"
+                } else {
+                    "arrived"
+                }
             )),
             (Ok(()), Err(e)) => Err(format!("sweep: the picture's position: {e}")),
             (Ok(()), Ok(_)) => Ok(()),

@@ -7,8 +7,11 @@
 //! a DATA_TRANSMISSION_HANDSHAKE of its own. The protocol has no per-packet retransmission
 //! and no image id, so on a lossy link a receiver waits a little after the last packet, then
 //! asks for the image again and merges the packets it was missing (a re-sent image has the
-//! same size and packet count; a different announcement starts a new image). The JPEG's
-//! embedded metadata ([`super::meta`]) says which capture it is.
+//! same size and packet count). A different announcement starts a new image; the one it
+//! interrupted waits (a paced camera sends its queued pictures back to back) and is asked for
+//! once the camera is quiet. The request carries the image's size and packet count, so that a
+//! camera that took newer pictures meanwhile can send the right one. The JPEG's embedded
+//! metadata ([`super::meta`]) says which capture it is.
 //!
 //! Feed [`ImageReceiver::handle_message`] with what the camera component sends, call
 //! [`ImageReceiver::handle_timeout`] when [`ImageReceiver::poll_timeout`] is due, send what
@@ -79,13 +82,23 @@ struct Transfer {
     retries: u32,
 }
 
+/// How many interrupted images a receiver keeps, waiting for them to be sent again.
+pub const MAX_WAITING: usize = 8;
+
 /// Reassembles the images of one camera (one system/component). See the module docs.
 #[derive(Clone, Debug)]
 pub struct ImageReceiver {
     camera: (u8, u8),
     me: (u8, u8),
     config: ReceiverConfig,
+    /// The image whose packets arrive now (the last one announced).
     current: Option<Transfer>,
+    /// Incomplete images that a newer announcement interrupted, oldest first: a camera that
+    /// paces its transmission sends its queued pictures back to back, so the packets an
+    /// image missed can only be asked for once the camera has gone quiet.
+    waiting: VecDeque<Transfer>,
+    /// The last packet or announcement from the camera.
+    last_heard: Time,
     outbox: VecDeque<MavMessage>,
     events: VecDeque<ImageEvent>,
     /// Images completed.
@@ -96,6 +109,16 @@ pub struct ImageReceiver {
     pub requests: u64,
 }
 
+impl Transfer {
+    fn matches(&self, h: &mav::DATA_TRANSMISSION_HANDSHAKE_DATA) -> bool {
+        self.size == h.size && self.packets == h.packets && self.payload == h.payload
+    }
+
+    fn complete(&self) -> bool {
+        self.received == self.packets
+    }
+}
+
 impl ImageReceiver {
     /// A receiver for the camera `camera` = (sysid, compid), answering as `me` (the GCS).
     pub fn new(camera: (u8, u8), me: (u8, u8), config: ReceiverConfig) -> ImageReceiver {
@@ -104,6 +127,8 @@ impl ImageReceiver {
             me,
             config,
             current: None,
+            waiting: VecDeque::new(),
+            last_heard: Time::ZERO,
             outbox: VecDeque::new(),
             events: VecDeque::new(),
             completed: 0,
@@ -123,21 +148,27 @@ impl ImageReceiver {
                 if h.size == 0 || h.packets == 0 || h.payload == 0 {
                     return true; // not an announcement
                 }
-                let same = self.current.as_ref().is_some_and(|t| {
-                    t.size == h.size && t.packets == h.packets && t.payload == h.payload
-                });
-                if same {
+                self.last_heard = now;
+                if self.current.as_ref().is_some_and(|t| t.matches(h)) {
                     if let Some(t) = self.current.as_mut() {
                         t.last = now; // a re-send: keep what we have
                     }
-                } else {
-                    self.abandon();
-                    let expected = (h.size as usize).div_ceil(usize::from(h.payload));
-                    if expected != usize::from(h.packets) {
-                        // inconsistent announcement: ignore it
-                        return true;
-                    }
-                    self.current = Some(Transfer {
+                    return true;
+                }
+                let expected = (h.size as usize).div_ceil(usize::from(h.payload));
+                if expected != usize::from(h.packets) {
+                    // inconsistent announcement: ignore it
+                    return true;
+                }
+                // The image it interrupts waits for a re-send.
+                if let Some(t) = self.current.take() {
+                    self.wait(t);
+                }
+                // A re-send of an image that was waiting: merge into what we have.
+                let resent = self.waiting.iter().position(|t| t.matches(h));
+                let mut t = match resent.and_then(|i| self.waiting.remove(i)) {
+                    Some(t) => t,
+                    None => Transfer {
                         size: h.size,
                         width: h.width,
                         height: h.height,
@@ -147,11 +178,14 @@ impl ImageReceiver {
                         received: 0,
                         last: now,
                         retries: 0,
-                    });
-                }
+                    },
+                };
+                t.last = now;
+                self.current = Some(t);
                 true
             }
             MavMessage::ENCAPSULATED_DATA(d) => {
+                self.last_heard = now;
                 let Some(t) = self.current.as_mut() else {
                     return true;
                 };
@@ -163,8 +197,10 @@ impl ImageReceiver {
                     t.received += 1;
                 }
                 t.last = now;
-                if t.received == t.packets {
-                    self.finish();
+                if t.complete()
+                    && let Some(t) = self.current.take()
+                {
+                    self.finish(t);
                 }
                 true
             }
@@ -172,10 +208,22 @@ impl ImageReceiver {
         }
     }
 
-    fn finish(&mut self) {
-        let Some(t) = self.current.take() else {
+    /// Keep an interrupted image for a re-send (the oldest is given up beyond
+    /// [`MAX_WAITING`]).
+    fn wait(&mut self, t: Transfer) {
+        if t.complete() {
+            self.finish(t);
             return;
-        };
+        }
+        self.waiting.push_back(t);
+        if self.waiting.len() > MAX_WAITING
+            && let Some(old) = self.waiting.pop_front()
+        {
+            self.give_up(old);
+        }
+    }
+
+    fn finish(&mut self, t: Transfer) {
         let mut jpeg = Vec::with_capacity(t.size as usize);
         for c in t.chunks.into_iter().flatten() {
             jpeg.extend_from_slice(&c);
@@ -191,46 +239,70 @@ impl ImageReceiver {
         });
     }
 
-    fn abandon(&mut self) {
-        if let Some(t) = self.current.take() {
-            self.lost += 1;
-            self.events.push_back(ImageEvent::Lost {
-                size: t.size,
-                received: t.received,
-                packets: t.packets,
-            });
-        }
+    fn give_up(&mut self, t: Transfer) {
+        self.lost += 1;
+        self.events.push_back(ImageEvent::Lost {
+            size: t.size,
+            received: t.received,
+            packets: t.packets,
+        });
     }
 
     /// When [`ImageReceiver::handle_timeout`] should run next.
     pub fn poll_timeout(&self) -> Option<Time> {
-        self.current.as_ref().map(|t| t.last + self.config.idle)
+        let idle = self.config.idle;
+        match (&self.current, self.waiting.front()) {
+            (Some(t), _) => Some(t.last + idle),
+            (None, Some(w)) => Some(w.last.max(self.last_heard) + idle),
+            (None, None) => None,
+        }
     }
 
-    /// Ask again for an incomplete image after the idle time, or give it up.
+    /// Ask again for an incomplete image once the camera has been quiet for the idle time —
+    /// the one whose packets were arriving, else the oldest interrupted one — or give it up
+    /// after its retries.
     pub fn handle_timeout(&mut self, now: Time) {
-        let Some(t) = self.current.as_mut() else {
-            return;
+        let idle = self.config.idle;
+        let retries = self.config.retries;
+        let t = match self.current.as_mut() {
+            Some(t) if now.saturating_since(t.last) >= idle => t,
+            Some(_) => return,
+            None => match self.waiting.front_mut() {
+                Some(w)
+                    if now.saturating_since(w.last) >= idle
+                        && now.saturating_since(self.last_heard) >= idle =>
+                {
+                    w
+                }
+                _ => return,
+            },
         };
-        if now.saturating_since(t.last) < self.config.idle {
-            return;
-        }
-        if t.retries >= self.config.retries {
-            self.abandon();
+        if t.retries >= retries {
+            let gone = match self.current.take() {
+                Some(c) => Some(c),
+                None => self.waiting.pop_front(),
+            };
+            if let Some(g) = gone {
+                self.give_up(g);
+            }
             return;
         }
         t.retries += 1;
         t.last = now;
+        let (size, packets, payload) = (t.size, t.packets, t.payload);
         self.requests += 1;
+        // The request names the image (its size and packets): a camera that took newer
+        // pictures meanwhile can send the right one (one that only knows its latest image
+        // ignores the fields).
         self.outbox
             .push_back(MavMessage::DATA_TRANSMISSION_HANDSHAKE(
                 mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
-                    size: 0,
+                    size,
                     width: 0,
                     height: 0,
-                    packets: 0,
+                    packets,
                     mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
-                    payload: 0,
+                    payload,
                     jpg_quality: 0,
                 },
             ));
@@ -352,8 +424,10 @@ mod tests {
         assert!(r.poll_event().is_none());
         let t = r.poll_timeout().unwrap();
         r.handle_timeout(t);
+        // The request names the image it wants (size and packets).
         assert!(
-            matches!(r.poll_transmit(), Some(MavMessage::DATA_TRANSMISSION_HANDSHAKE(h)) if h.size == 0)
+            matches!(r.poll_transmit(), Some(MavMessage::DATA_TRANSMISSION_HANDSHAKE(h))
+                if h.size == 1000 && h.packets == 4 && h.payload == 253)
         );
         // the camera sends it again; this time packet 1 arrives, 3 again lost
         for (i, m) in msgs.iter().enumerate() {
@@ -370,13 +444,55 @@ mod tests {
             }
             other => panic!("{other:?}"),
         }
-        // other senders are ignored; a new announcement abandons an incomplete image
+        // other senders are ignored
         assert!(!r.handle_message((2, 100), &msgs[0], t));
-        r.handle_message(cam, &msgs[0], t);
-        r.handle_message(cam, &packets(&data[..300])[0], t);
+    }
+
+    /// A paced camera sends its queued pictures back to back: an image whose packets were
+    /// lost is interrupted by the next announcement. It waits, is asked for by its size once
+    /// the camera is quiet (not while it still sends), and completes from the re-send.
+    #[test]
+    fn an_interrupted_image_waits_and_is_completed_by_its_re_send() {
+        let cam = (1, 100);
+        let mut r = ImageReceiver::new(cam, (255, 190), ReceiverConfig::default());
+        let a: Vec<u8> = (0..1000u32).map(|i| (i % 13) as u8).collect();
+        let b: Vec<u8> = (0..600u32).map(|i| (i % 7) as u8).collect();
+        let (pa, pb) = (packets(&a), packets(&b));
+        let t0 = Time::ZERO;
+        // A loses its packet 2; B follows at once and arrives whole.
+        for (i, m) in pa.iter().enumerate() {
+            if i != 3 {
+                r.handle_message(cam, m, t0);
+            }
+        }
+        let t1 = t0 + Duration::from_millis(100);
+        for m in &pb {
+            r.handle_message(cam, m, t1);
+        }
+        assert!(matches!(r.poll_event(), Some(ImageEvent::Image { jpeg, .. }) if jpeg == b));
+        assert!(r.poll_event().is_none(), "A is not lost, it waits");
+        // Nothing is asked while the camera was heard within the idle time.
+        r.handle_timeout(t1 + Duration::from_millis(100));
+        assert!(r.poll_transmit().is_none());
+        let t = r.poll_timeout().expect("A waits for a re-send");
+        r.handle_timeout(t);
+        assert!(
+            matches!(r.poll_transmit(), Some(MavMessage::DATA_TRANSMISSION_HANDSHAKE(h)) if h.size == 1000)
+        );
+        // The camera sends A again (only its announcement and the missing packet get through).
+        r.handle_message(cam, &pa[0], t);
+        r.handle_message(cam, &pa[3], t);
+        assert!(matches!(r.poll_event(), Some(ImageEvent::Image { jpeg, .. }) if jpeg == a));
+        assert_eq!((r.completed, r.lost), (2, 0));
+        // More interrupted images than the receiver keeps: the oldest is given up.
+        for k in 0..=MAX_WAITING {
+            let img: Vec<u8> = vec![k as u8; 300 + k];
+            r.handle_message(cam, &packets(&img)[0], t);
+        }
+        r.handle_message(cam, &packets(&[9u8; 200])[0], t);
         assert!(matches!(
             r.poll_event(),
-            Some(ImageEvent::Lost { received: 0, .. })
+            Some(ImageEvent::Lost { size: 300, .. })
         ));
     }
 

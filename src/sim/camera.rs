@@ -135,6 +135,9 @@ pub fn attitude_quaternion(roll_deg: f64, pitch_deg: f64, yaw_deg: f64) -> [f32;
     ]
 }
 
+/// How many recent images a camera keeps to send again on request.
+pub const RECENT_IMAGES: usize = 16;
+
 /// The camera component of one vehicle.
 #[derive(Debug)]
 pub struct SimCamera {
@@ -148,6 +151,9 @@ pub struct SimCamera {
     pending: u32,
     last_capture: Option<Time>,
     last_jpeg: Option<Arc<Vec<u8>>>,
+    /// The latest images (newest last, at most [`RECENT_IMAGES`]): a GCS may ask for one of
+    /// them again by its size ([`SimCamera::handle_handshake_request`]).
+    recent: VecDeque<Arc<Vec<u8>>>,
     outbox: VecDeque<MavMessage>,
     /// Image transmission waiting for the token bucket (only when paced).
     paced: VecDeque<MavMessage>,
@@ -224,6 +230,7 @@ impl SimCamera {
             pending: 0,
             last_capture: None,
             last_jpeg: None,
+            recent: VecDeque::new(),
             outbox: VecDeque::new(),
             paced: VecDeque::new(),
             pacer: config
@@ -249,6 +256,7 @@ impl SimCamera {
         self.pending = 0;
         self.last_capture = None;
         self.last_jpeg = None;
+        self.recent.clear();
         self.outbox.clear();
         self.paced.clear();
     }
@@ -504,6 +512,10 @@ impl SimCamera {
                 self.queue_transfer(j);
             }
             self.last_jpeg = Some(j.clone());
+            self.recent.push_back(j.clone());
+            if self.recent.len() > RECENT_IMAGES {
+                self.recent.pop_front();
+            }
             self.images.push_back(CapturedImage {
                 meta,
                 true_pose: ctx.true_pose,
@@ -544,10 +556,23 @@ impl SimCamera {
         }
     }
 
-    /// A GCS's DATA_TRANSMISSION_HANDSHAKE: re-send the latest image (paced like the first
-    /// transmission; it leaves at the next [`SimCamera::update`] / [`SimCamera::advance`]).
-    pub fn handle_handshake_request(&mut self) {
-        if let Some(j) = self.last_jpeg.clone() {
+    /// A GCS's DATA_TRANSMISSION_HANDSHAKE asking for an image again: the recent image of
+    /// `size` bytes when the request names one (a paced camera may have taken newer pictures
+    /// since), else the latest; paced like the first transmission, and not queued twice
+    /// while a copy still waits to go out.
+    pub fn handle_handshake_request(&mut self, size: u32) {
+        let wanted = (size > 0)
+            .then(|| self.recent.iter().rev().find(|j| j.len() == size as usize))
+            .flatten()
+            .cloned()
+            .or_else(|| self.last_jpeg.clone());
+        let Some(j) = wanted else {
+            return;
+        };
+        let already = self.paced.iter().any(|m| {
+            matches!(m, MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) if h.size as usize == j.len())
+        });
+        if !already {
             self.queue_transfer(&j);
         }
     }
@@ -633,11 +658,40 @@ mod tests {
         out
     }
 
+    /// A request naming an image's size gets that image back, not the latest; a request that
+    /// names none gets the latest; a paced copy still waiting is not queued twice.
+    #[test]
+    fn a_re_send_request_names_the_image_it_wants() {
+        let cfg = CameraConfig {
+            transfer_rate_bps: Some(20_000.0),
+            ..CameraConfig::default()
+        };
+        let mut cam = SimCamera::new(1, cfg, 1);
+        let (old, new) = (Arc::new(vec![1u8; 3_000]), Arc::new(vec![2u8; 5_000]));
+        cam.recent.extend([old.clone(), new.clone()]);
+        cam.last_jpeg = Some(new.clone());
+        let announced = |cam: &SimCamera| -> Vec<u32> {
+            cam.paced
+                .iter()
+                .filter_map(|m| match m {
+                    MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => Some(h.size),
+                    _ => None,
+                })
+                .collect()
+        };
+        cam.handle_handshake_request(3_000);
+        assert_eq!(announced(&cam), vec![3_000]);
+        cam.handle_handshake_request(3_000);
+        assert_eq!(announced(&cam), vec![3_000], "queued once");
+        cam.handle_handshake_request(0);
+        assert_eq!(announced(&cam), vec![3_000, 5_000]);
+    }
+
     #[test]
     fn unpaced_transfer_is_queued_at_once() {
         let mut cam = SimCamera::new(1, CameraConfig::default(), 1);
         cam.last_jpeg = Some(Arc::new(vec![7u8; 10_000]));
-        cam.handle_handshake_request();
+        cam.handle_handshake_request(0);
         assert_eq!(cam.transfer_backlog(), 0);
         assert_eq!(cam.poll_timeout(), None);
         let n = std::iter::from_fn(|| cam.poll_transmit()).count();
@@ -651,7 +705,7 @@ mod tests {
         let t0 = Time::from_secs(10);
         cam.advance(t0);
         cam.last_jpeg = Some(Arc::new((0..10_000u32).map(|i| i as u8).collect()));
-        cam.handle_handshake_request();
+        cam.handle_handshake_request(0);
         let packets = 10_000usize.div_ceil(PAYLOAD);
         assert_eq!(cam.transfer_backlog(), packets + 1);
         let out = drain(&mut cam, t0, Duration::from_millis(10));
@@ -694,7 +748,7 @@ mod tests {
         let t0 = Time::from_secs(1);
         cam.advance(t0);
         cam.last_jpeg = Some(Arc::new(vec![1u8; 5 * PAYLOAD]));
-        cam.handle_handshake_request();
+        cam.handle_handshake_request(0);
         cam.advance(t0);
         // the bucket held one frame: the handshake (25 bytes) left, packet 0 waits
         let first: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();

@@ -320,9 +320,9 @@ impl PairedCameras {
                 (c.target_system, c.target_component),
                 [c.param1, c.param2, c.param3],
             ),
-            MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) => {
+            MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => {
                 for t in self.tracked.values_mut() {
-                    t.camera.handle_handshake_request();
+                    t.camera.handle_handshake_request(h.size);
                 }
                 return;
             }

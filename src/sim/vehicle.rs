@@ -665,9 +665,9 @@ impl SimVehicle {
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) if p.target_system == self.cfg.sysid => {
                 self.position_target(p, now);
             }
-            MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) => {
+            MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => {
                 if let Some(c) = self.camera.as_mut() {
-                    c.handle_handshake_request();
+                    c.handle_handshake_request(h.size);
                 }
             }
             _ => {}

@@ -168,6 +168,12 @@ def test_pymavlink_flies_a_mission(vehicle):
         assert hb.type == (m.MAV_TYPE_QUADROTOR if "copter" in vehicle else m.MAV_TYPE_GROUND_ROVER)
         master.target_component = 1
         master.mav.request_data_stream_send(master.target_system, 1, m.MAV_DATA_STREAM_ALL, 4, 1)
+        # ArduPilot heartbeats MAV_STATE_BOOT for its first ~2 s and refuses a mission with
+        # MAV_MISSION_NO_SPACE until then; a client waits for it to leave BOOT/UNINIT, as against SITL
+        ready = sim.recv(
+            ["HEARTBEAT"], 20, lambda h: h.system_status not in (m.MAV_STATE_BOOT, m.MAV_STATE_UNINIT)
+        )
+        assert ready is not None, "the simulated autopilot never left MAV_STATE_BOOT"
 
         # upload with mavwp
         wp = mavwp.MAVWPLoader(target_system=master.target_system, target_component=1)
