@@ -54,10 +54,20 @@ pub enum ImageEvent {
 /// Tuning of the receiver.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ReceiverConfig {
-    /// Silence after the last packet before asking again.
+    /// Silence after the last packet before asking again; after the k-th request the receiver
+    /// waits `idle` × 2^k (at most 16 × `idle`: 4.8 s by default) for the re-send to start,
+    /// since a request routed through an autopilot can queue behind telemetry on a slow
+    /// payload link (PX4 SITL's carries 4 kB/s).
     pub idle: Duration,
     /// How many times to ask again for one image.
     pub retries: u32,
+}
+
+impl ReceiverConfig {
+    /// How long to wait for an image that has been asked for `retries` times.
+    fn wait_after(&self, retries: u32) -> Duration {
+        self.idle.saturating_mul(1u32 << retries.min(4))
+    }
 }
 
 impl Default for ReceiverConfig {
@@ -250,10 +260,12 @@ impl ImageReceiver {
 
     /// When [`ImageReceiver::handle_timeout`] should run next.
     pub fn poll_timeout(&self) -> Option<Time> {
-        let idle = self.config.idle;
+        let c = self.config;
         match (&self.current, self.waiting.front()) {
-            (Some(t), _) => Some(t.last + idle),
-            (None, Some(w)) => Some(w.last.max(self.last_heard) + idle),
+            (Some(t), _) => Some(t.last + c.wait_after(t.retries)),
+            (None, Some(w)) => {
+                Some((w.last + c.wait_after(w.retries)).max(self.last_heard + c.idle))
+            }
             (None, None) => None,
         }
     }
@@ -262,14 +274,15 @@ impl ImageReceiver {
     /// the one whose packets were arriving, else the oldest interrupted one — or give it up
     /// after its retries.
     pub fn handle_timeout(&mut self, now: Time) {
-        let idle = self.config.idle;
-        let retries = self.config.retries;
+        let c = self.config;
+        let idle = c.idle;
+        let retries = c.retries;
         let t = match self.current.as_mut() {
-            Some(t) if now.saturating_since(t.last) >= idle => t,
+            Some(t) if now.saturating_since(t.last) >= c.wait_after(t.retries) => t,
             Some(_) => return,
             None => match self.waiting.front_mut() {
                 Some(w)
-                    if now.saturating_since(w.last) >= idle
+                    if now.saturating_since(w.last) >= c.wait_after(w.retries)
                         && now.saturating_since(self.last_heard) >= idle =>
                 {
                     w
@@ -512,7 +525,12 @@ mod tests {
             Some(ImageEvent::Lost { packets: 3, .. })
         ));
         assert!(r.poll_timeout().is_none());
-        let _ = t;
+        // The waits double after each request, at most 16 × idle: 0.3 + 0.6 + 1.2 + 2.4 + 4.8
+        // + 4.8 s.
+        assert_eq!(
+            t.saturating_since(Time::ZERO),
+            Duration::from_millis(14_100)
+        );
     }
 
     #[test]
