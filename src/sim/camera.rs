@@ -46,9 +46,16 @@ pub const PAYLOAD: usize = 253;
 /// system, component, 3-byte message id) and a 2-byte CRC; unsigned.
 pub const FRAME_OVERHEAD: usize = 12;
 /// Capacity of the pacing token bucket, in seconds of the configured rate (never less than
-/// one frame): the longest burst a paced camera sends after being idle. 50 ms at 20 KB/s is
-/// 1 000 bytes, under four ENCAPSULATED_DATA frames.
-pub const PACE_BURST_S: f64 = 0.05;
+/// one frame): the longest burst a paced camera sends after being idle. Zero: one frame at a
+/// time. PX4 1.16 keeps only two messages waiting to be forwarded to another of its links
+/// (`Mavlink::pass_message`: a ring of two, one passed on per loop of its GCS link, at least
+/// 1.5 ms), so the three-frame bursts a 50 ms bucket allowed at 20 kB/s lost a frame now and
+/// then: 9 of 199 packets through PX4 SITL's payload link.
+pub const PACE_BURST_S: f64 = 0.0;
+
+/// Most frames a paced camera sends back to back when its shell polls late: two, what PX4's
+/// forwarding ring holds.
+const PACE_MAX_BACK_TO_BACK: f64 = 2.0;
 
 /// How captured images leave the vehicle.
 #[derive(Clone, Debug, PartialEq)]
@@ -172,23 +179,31 @@ struct Pacer {
     tokens: f64,
     /// When `tokens` was last brought up to date (None: never, the bucket starts full).
     at: Option<Time>,
+    /// Whether frames were waiting at the last refill.
+    busy: bool,
 }
 
 impl Pacer {
+    /// The largest paced frame, bytes (an ENCAPSULATED_DATA).
+    fn largest() -> f64 {
+        (FRAME_OVERHEAD + mav::ENCAPSULATED_DATA_DATA::ENCODED_LEN) as f64
+    }
+
     fn new(rate: f64) -> Pacer {
-        let largest = (FRAME_OVERHEAD + mav::ENCAPSULATED_DATA_DATA::ENCODED_LEN) as f64;
-        let burst = (rate * PACE_BURST_S).max(largest);
+        let burst = (rate * PACE_BURST_S).max(Self::largest());
         Pacer {
             rate,
             burst,
             tokens: burst,
             at: None,
+            busy: false,
         }
     }
 
     /// Add the tokens earned since the last refill. An idle bucket (`backlog` false) fills
-    /// up to its capacity only; one with frames waiting keeps everything it earned, since
-    /// the frames take it at once: capping it between two polls would lose part of the rate.
+    /// up to its capacity only; one with frames waiting keeps up to
+    /// [`PACE_MAX_BACK_TO_BACK`] frames' worth (a shell that polls late loses that part of
+    /// the rate rather than sending a burst an autopilot would drop).
     fn refill(&mut self, now: Time, backlog: bool) {
         if let Some(at) = self.at {
             if now <= at {
@@ -196,11 +211,17 @@ impl Pacer {
             }
             let dt = now.saturating_since(at).as_secs_f64();
             self.tokens += dt * self.rate;
-            if !backlog {
-                self.tokens = self.tokens.min(self.burst);
-            }
+            // Time spent idle (no backlog at the last refill) earns one burst at most, even
+            // when frames have been queued since.
+            let cap = if backlog && self.busy {
+                PACE_MAX_BACK_TO_BACK * Self::largest()
+            } else {
+                self.burst
+            };
+            self.tokens = self.tokens.min(cap);
         }
         self.at = Some(now);
+        self.busy = backlog;
     }
 }
 
@@ -509,6 +530,12 @@ impl SimCamera {
         ));
         if let Some(j) = &jpeg {
             if self.config.mavlink_transfer {
+                // The announcement just sent counts against the image's pacing: the
+                // handshake does not follow it back to back.
+                if let Some(p) = self.pacer.as_mut() {
+                    p.tokens -=
+                        (FRAME_OVERHEAD + mav::CAMERA_IMAGE_CAPTURED_DATA::ENCODED_LEN) as f64;
+                }
                 self.queue_transfer(j);
             }
             self.last_jpeg = Some(j.clone());
