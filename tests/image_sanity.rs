@@ -304,6 +304,21 @@ fn assert_credited_where_taken(s: &MappingState, limit_m: f64) {
     }
 }
 
+/// The map is exactly the strip's whole cells; returns the mapped cells.
+fn assert_maps_the_strip(s: &MappingState, world: &World) -> Vec<fleetmap::geo::Cell> {
+    let truth = truth_coverage(&s.grid, world, 0.0).unwrap();
+    let mut want: Vec<_> = truth
+        .iter()
+        .filter(|(_, f)| **f > 0.99)
+        .map(|(c, _)| *c)
+        .collect();
+    let mut got = s.book.positive_cells();
+    want.sort();
+    got.sort();
+    assert_eq!(got, want, "mapped {got:?}, the strip is {want:?}");
+    got
+}
+
 fn rejected(events: &[MappingEvent]) -> Vec<(Option<fleetmap::geo::Cell>, String)> {
     events
         .iter()
@@ -361,17 +376,7 @@ async fn misplaced_and_lost_pictures_are_taken_again() {
         "{credited} pictures credited for {vertices} vertices"
     );
     assert_credited_where_taken(s, 1.0);
-    // The map is exactly the strip's whole cells.
-    let truth = truth_coverage(&s.grid, &f.world, 0.0).unwrap();
-    let mut want: Vec<_> = truth
-        .iter()
-        .filter(|(_, f)| **f > 0.99)
-        .map(|(c, _)| *c)
-        .collect();
-    let mut got = s.book.positive_cells();
-    want.sort();
-    got.sort();
-    assert_eq!(got, want, "mapped {got:?}, the strip is {want:?}");
+    let got = assert_maps_the_strip(s, &f.world);
     eprintln!(
         "misplaced {moved}, lost {lost}: {} rejected ({} at cells), {lost_events} lost journalled, \
          {credited} credited, {} cells mapped",
@@ -696,14 +701,5 @@ async fn pictures_queued_on_a_slow_payload_link_are_not_a_camera_fault() {
     assert_eq!(f.outcome, Outcome::Finished);
     let s = &f.state;
     assert!(s.explorer.as_ref().is_some_and(|e| e.is_finished()));
-    let truth = truth_coverage(&s.grid, &f.world, 0.0).unwrap();
-    let mut want: Vec<_> = truth
-        .iter()
-        .filter(|(_, f)| **f > 0.99)
-        .map(|(c, _)| *c)
-        .collect();
-    let mut got = s.book.positive_cells();
-    want.sort();
-    got.sort();
-    assert_eq!(got, want, "mapped {got:?}, the strip is {want:?}");
+    assert_maps_the_strip(s, &f.world);
 }
