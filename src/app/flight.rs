@@ -324,9 +324,9 @@ pub const CAPTURE_MAX_WAIT_S: f64 = 120.0;
 /// [`FlightError::NoImage`], for the caller to retry as a new capture (the runway runner
 /// counts it against its retake limit).
 ///
-/// The picture is the one the camera announces first after the command (CAMERA_IMAGE_CAPTURED,
-/// matched by `time_boot_ms` and `image_index`): earlier pictures still in transfer are
-/// passed over. From a camera that announces nothing, the first image after the command.
+/// The picture is one announced after the command (CAMERA_IMAGE_CAPTURED, matched by
+/// `time_boot_ms` and `image_index`): earlier pictures still in transfer are passed over.
+/// From a camera that announces nothing, the image that arrived, a second after it did.
 pub async fn capture(
     fleet: &FleetHandle,
     rx: &mut broadcast::Receiver<Arc<ReceivedImage>>,
@@ -344,21 +344,26 @@ pub async fn capture(
     let at_trigger = fleet.vehicle(sysid);
     let key_of =
         |image: &ReceivedImage| image.pose.as_ref().map(|p| (p.time_boot_ms, p.image_index));
-    // The announcement of our picture, and an image that came before any announcement did.
-    let mut ours: Option<(u32, i32)> = None;
-    let mut early: Option<Arc<ReceivedImage>> = None;
+    // The pictures announced since the command (the camera's, and any other component's),
+    // and the last image whose announcement has not been seen.
+    let mut announced: Vec<(u32, i32)> = Vec::new();
+    let mut early: Option<(Arc<ReceivedImage>, tokio::time::Instant)> = None;
     let mut deadline = started + wait;
     loop {
+        // An image came and nothing was announced since the command: its announcement, sent
+        // before it, would be in within a second; without one the camera does not announce.
+        let until = match &early {
+            Some((_, at)) if announced.is_empty() => deadline.min(*at + patience.secs(1.0)),
+            _ => deadline,
+        };
         tokio::select! {
             biased;
             f = frames.recv() => match f {
                 Ok(inc) if inc.frame.sysid() == sysid => match &inc.frame.message {
-                    Ok(MavMessage::CAMERA_IMAGE_CAPTURED(c)) if ours.is_none() => {
+                    Ok(MavMessage::CAMERA_IMAGE_CAPTURED(c)) => {
                         let key = (c.time_boot_ms, c.image_index);
-                        ours = Some(key);
-                        if let Some(image) = early.take()
-                            && key_of(&image) == Some(key)
-                        {
+                        announced.push(key);
+                        if let Some((image, _)) = early.take_if(|(i, _)| key_of(i) == Some(key)) {
                             return Ok(Captured { image, at_trigger });
                         }
                     }
@@ -371,21 +376,22 @@ pub async fn capture(
                 Err(broadcast::error::RecvError::Closed) => return Err(FlightError::ImagesClosed),
             },
             r = rx.recv() => match r {
-                Ok(image) if image.sysid == sysid => match (ours, key_of(&image)) {
-                    // An earlier picture, still in transfer when this one was taken.
-                    (Some(o), Some(k)) if o != k => {}
-                    (None, Some(_)) => early = Some(image),
-                    _ => return Ok(Captured { image, at_trigger }),
+                Ok(image) if image.sysid == sysid => match key_of(&image) {
+                    Some(k) if announced.contains(&k) => return Ok(Captured { image, at_trigger }),
+                    // Announced before the command (an earlier picture still in transfer), or
+                    // its announcement is still on the way.
+                    Some(_) => early = Some((image, tokio::time::Instant::now())),
+                    None => return Ok(Captured { image, at_trigger }),
                 },
                 Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
                 Err(broadcast::error::RecvError::Closed) => return Err(FlightError::ImagesClosed),
             },
-            _ = tokio::time::sleep_until(deadline) => break,
+            _ = tokio::time::sleep_until(until) => break,
         }
     }
-    // No announcement came: a camera that does not announce its pictures.
-    if ours.is_none()
-        && let Some(image) = early
+    // Nothing was announced: a camera that does not announce its pictures.
+    if announced.is_empty()
+        && let Some((image, _)) = early
     {
         return Ok(Captured { image, at_trigger });
     }
