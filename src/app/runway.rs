@@ -77,8 +77,8 @@ pub const KIND: &str = "runway-mapping";
 
 /// Seconds of wall-clock time (scaled by the clock's speed-up) without any image data from a
 /// sweeping vehicle after which the pictures its camera announced and did not deliver count
-/// as missing. The receiver asks for an interrupted picture again after 0.3 s of silence, five
-/// times; 20 s covers that with room for a picture queued behind others.
+/// as missing. The receiver asks for a picture missing packets five times over 14 s
+/// (`imagery::transfer::ReceiverConfig`); 20 s covers that with room to spare.
 const SWEEP_IMAGE_STALL_S: f64 = 20.0;
 
 /// How many announced sweep pictures' reference positions a pilot keeps (a sweep's worth).
@@ -1431,11 +1431,11 @@ impl Pilot {
         };
         // The camera's position against the vehicle's (the telemetry's own is not checked).
         let reference = announced_at.or_else(|| v.as_ref().and_then(|v| v.position));
-        let offset = match reference {
-            Some(r) if pose.from_camera => Some(local::distance(r.lat, r.lon, pose.lat, pose.lon)),
-            Some(_) => None,
-            None if pose.from_camera => Some(f64::INFINITY),
-            None => None,
+        let offset = match (reference, pose.from_camera) {
+            (Some(r), true) => Some(local::distance(r.lat, r.lon, pose.lat, pose.lon)),
+            // a vehicle that reports no position cannot vouch for its camera
+            (None, true) => v.as_ref().map(|_| f64::INFINITY),
+            (_, false) => None,
         };
         let limits = CaptureLimits {
             horizontal_m: self.shared.limits.horizontal_m + cell_m,

@@ -714,6 +714,34 @@ mod tests {
         assert_eq!(announced(&cam), vec![3_000, 5_000]);
     }
 
+    /// PX4 forwards two messages at a time: after an idle spell a paced camera starts with one
+    /// frame, and a shell that polls late gets at most two frames back to back.
+    #[test]
+    fn paced_frames_never_leave_more_than_two_back_to_back() {
+        let mut cam = paced(20_000.0);
+        let t0 = Time::from_secs(10);
+        cam.advance(t0);
+        cam.last_jpeg = Some(Arc::new(vec![7u8; 20 * PAYLOAD]));
+        cam.handle_handshake_request(0);
+        // 10 s idle before the first poll: one frame's worth, the handshake (25 bytes) leaves
+        // and packet 0 (267) waits for the rest
+        cam.advance(t0 + Duration::from_secs(10));
+        let first: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();
+        assert_eq!(first.len(), 1, "{first:?}");
+        assert!(matches!(
+            first[0],
+            MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)
+        ));
+        // a poll 5 s late releases two frames, not 5 s of the rate
+        cam.advance(t0 + Duration::from_secs(15));
+        let late: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();
+        assert_eq!(late.len(), 2, "{late:?}");
+        // on time, one frame per 267 / 20 000 s
+        let due = cam.poll_timeout().expect("packets wait");
+        cam.advance(due);
+        assert_eq!(std::iter::from_fn(|| cam.poll_transmit()).count(), 1);
+    }
+
     #[test]
     fn unpaced_transfer_is_queued_at_once() {
         let mut cam = SimCamera::new(1, CameraConfig::default(), 1);
