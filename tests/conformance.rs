@@ -19,21 +19,7 @@ fn conformance_checks_pass_against_the_simulator() {
     let tmp = tempfile::tempdir().unwrap();
     let world = tmp.path().join("strip.toml");
     std::fs::write(&world, common::WORLD).unwrap();
-    let field_test = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/missions/runway-field-test.toml"
-    ))
-    .unwrap();
-    let (lat, lon) = common::STRIP_CENTRE;
-    let fixed = field_test.replacen(
-        "\norigin = \"vehicle\"",
-        &format!("\norigin = {{ lat = {lat}, lon = {lon} }}"),
-        1,
-    );
-    assert_ne!(
-        fixed, field_test,
-        "the field-test mission's origin line moved"
-    );
+    let fixed = common::strip_mission();
     let mission = tmp.path().join("strip-mission.toml");
     std::fs::write(&mission, fixed).unwrap();
     let (world, mission) = (world.to_str().unwrap(), mission.to_str().unwrap());

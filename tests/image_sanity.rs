@@ -179,17 +179,7 @@ async fn fly(rule: Rule, seed: u64) -> Flown {
 /// [`fly`] with the image transfers carried at `payload_rate` bytes per second at most.
 async fn fly_over(rule: Rule, seed: u64, payload_rate: Option<u32>) -> Flown {
     let world = World::from_toml(WORLD).unwrap();
-    let field_test = fleetmap::app::demo::RUNWAY_MISSION;
-    let (lat, lon) = STRIP_CENTRE;
-    let text = field_test.replacen(
-        "\norigin = \"vehicle\"",
-        &format!("\norigin = {{ lat = {lat}, lon = {lon} }}"),
-        1,
-    );
-    assert_ne!(
-        text, field_test,
-        "the field-test mission's origin line moved"
-    );
+    let text = common::strip_mission();
     let def = MissionDef::parse(&text, "strip mission").unwrap();
     let mut cfg =
         SimConfig::from_spec("1xcopter:ardupilot", Some(world.clone()), None, seed).unwrap();

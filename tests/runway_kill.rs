@@ -23,7 +23,7 @@ use std::time::{Duration, Instant};
 
 mod common;
 use common::pty::bin;
-use common::{STRIP_CENTRE, WORLD, free_udp_port};
+use common::{WORLD, free_udp_port};
 
 struct Sim(Child);
 
@@ -153,21 +153,7 @@ fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
     std::fs::write(&world, WORLD).unwrap();
     // The field-test mission on a grid anchored at the strip's centre (not at the home the
     // simulated GPS reports).
-    let field_test = std::fs::read_to_string(concat!(
-        env!("CARGO_MANIFEST_DIR"),
-        "/missions/runway-field-test.toml"
-    ))
-    .unwrap();
-    let (lat, lon) = STRIP_CENTRE;
-    let fixed = field_test.replacen(
-        "\norigin = \"vehicle\"",
-        &format!("\norigin = {{ lat = {lat}, lon = {lon} }}"),
-        1,
-    );
-    assert_ne!(
-        fixed, field_test,
-        "the field-test mission's origin line moved"
-    );
+    let fixed = common::strip_mission();
     let mission_path = root.join("strip-mission.toml");
     std::fs::write(&mission_path, fixed).unwrap();
     let mission = mission_path.to_str().unwrap();

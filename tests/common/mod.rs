@@ -50,3 +50,22 @@ step_east_m = 3.0
 /// its edges 0.25 m outside cell boundaries.
 #[allow(dead_code)] // not every test binary maps the strip on a fixed grid
 pub const STRIP_CENTRE: (f64, f64) = (37.196800, -80.578100);
+
+/// The runway field-test mission (`missions/runway-field-test.toml`) on a grid anchored at
+/// [`STRIP_CENTRE`] instead of the vehicle's first position, so that the map does not depend on
+/// where the simulated GPS puts home.
+#[allow(dead_code)] // not every test binary flies the strip
+pub fn strip_mission() -> String {
+    let field_test = fleetmap::app::demo::RUNWAY_MISSION;
+    let (lat, lon) = STRIP_CENTRE;
+    let fixed = field_test.replacen(
+        "\norigin = \"vehicle\"",
+        &format!("\norigin = {{ lat = {lat}, lon = {lon} }}"),
+        1,
+    );
+    assert_ne!(
+        fixed, field_test,
+        "the field-test mission's origin line moved"
+    );
+    fixed
+}
