@@ -46,7 +46,10 @@
 //!   `GCS_MAVLINK::handle_mission_item`). When the answer is ambiguous (no ACK, or a NACK
 //!   after every item was sent) we read the list back and compare it with what we sent:
 //!   success only if it matches exactly, otherwise a precise error. Never success with
-//!   wrong items.
+//!   wrong items. An ACCEPTED after a restart, before this attempt has sent every item,
+//!   is ambiguous too (the vehicle may have completed an earlier attempt's transfer) and is
+//!   read back when every item went out in some attempt; one that cannot be ours is
+//!   ignored a bounded number of times, then the upload starts over.
 //! * A lost request: when no request or ACK follows an item within the timeout, the
 //!   highest item requested so far is sent again *and the next one is offered unrequested*.
 //!   The first covers a lost item, the second a lost request. Both autopilots store an
@@ -662,9 +665,18 @@ struct Upload {
     wire: Vec<MISSION_ITEM_INT_DATA>,
     requested: Vec<bool>,
     n_requested: usize,
-    /// Items sent at least once (requested or offered).
+    /// Items sent at least once (requested or offered) in this attempt.
     sent: Vec<bool>,
     n_sent: usize,
+    /// Items sent at least once in any attempt of this operation. After a restart the
+    /// vehicle may still be in (and complete) the transfer of an earlier attempt, whose
+    /// items are the same wire list.
+    ever_sent: Vec<bool>,
+    n_ever_sent: usize,
+    /// MAV_MISSION_ACCEPTED answers that could not be for this operation (not every item
+    /// was ever sent): stale ACKs of an earlier operation, or a vehicle whose transfer
+    /// state is not ours.
+    stale_accepts: u32,
     last_sent: Option<u16>,
     phase: UpPhase,
     /// When the last item (or MISSION_COUNT) is sent again.
@@ -909,6 +921,9 @@ impl MissionClient {
                             n_requested: 0,
                             sent: vec![false; n],
                             n_sent: 0,
+                            ever_sent: vec![false; n],
+                            n_ever_sent: 0,
+                            stale_accepts: 0,
                             last_sent: None,
                             phase: UpPhase::Count,
                             deadline: now + self.cfg.timeout,
@@ -1244,10 +1259,33 @@ impl MissionClient {
                     verified_by_download: false,
                 }))
             }
-            MavMissionResult::MAV_MISSION_ACCEPTED => {
-                // Premature or stale: keep waiting for requests.
-                self.ignored += 1;
+            MavMissionResult::MAV_MISSION_ACCEPTED if u.n_ever_sent == u.wire.len() => {
+                // Every item went out in some attempt, but not in this one: after a restart
+                // the vehicle may have gone on with an earlier attempt's transfer (PX4 keeps
+                // requesting the next item of the transfer it is in) and accepted the list.
+                // Ambiguous: read the list back (seen in the property test: a restart on a
+                // PX4 "busy" ERROR, then ACCEPTED for the earlier transfer, ignored, and the
+                // last item resent and ACCEPTED again until the overall deadline).
+                self.begin_verify(u, now);
                 UpStep::Continue
+            }
+            MavMissionResult::MAV_MISSION_ACCEPTED => {
+                // Premature or stale: keep waiting for requests, a bounded number of times.
+                self.ignored += 1;
+                u.stale_accepts += 1;
+                if u.stale_accepts <= self.cfg.restarts + 1 {
+                    return UpStep::Continue;
+                }
+                u.stale_accepts = 0;
+                if u.restarts_left == 0 {
+                    return UpStep::Finish(Err(MissionError::Unconfirmed {
+                        detail: "the vehicle keeps accepting a transfer that did not carry all \
+                                 our items"
+                            .into(),
+                    }));
+                }
+                self.restart_upload(u, now);
+                UpStep::Restarted("the vehicle accepted a transfer we did not complete".into())
             }
             MavMissionResult::MAV_MISSION_INVALID_SEQUENCE => {
                 // ArduPilot's answer to a duplicated item; the transfer goes on.
@@ -1586,6 +1624,10 @@ impl Upload {
         if !self.sent[i] {
             self.sent[i] = true;
             self.n_sent += 1;
+        }
+        if !self.ever_sent[i] {
+            self.ever_sent[i] = true;
+            self.n_ever_sent += 1;
         }
     }
 }
