@@ -395,7 +395,7 @@ fn coverage_across_negative_indices() {
     check_coverage(&g, &l, 108.0);
 }
 
-/// The runway of the field test (FIXTURES.md: 92 m × 21 m, centre (37.1968, −80.5781),
+/// The runway of the field test (docs/fixtures.md: 92 m × 21 m, centre (37.1968, −80.5781),
 /// long axis at 58°) given in GPS coordinates: the covered grid area is the ground area
 /// times the UTM scale squared.
 #[test]

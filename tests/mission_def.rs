@@ -1,5 +1,5 @@
 //! Mission definition files (`src/mission/definition`): every example in `missions/` loads
-//! with the numbers of FIXTURES.md and the papers, every broken file in `tests/missions/`
+//! with the numbers of docs/fixtures.md and the papers, every broken file in `tests/missions/`
 //! gives its exact errors (line, column, message), random input never panics, and
 //! `fleetmap check` reports them end to end.
 
@@ -114,7 +114,7 @@ fn hardware_6x6_matches_fixtures() {
     let mut roads: Vec<Cell> = (0..6).map(|r| Cell::new(r, 1)).collect();
     roads.extend((0..6).filter(|&c| c != 1).map(|c| Cell::new(3, c)));
     assert_eq!(sorted(d.station_cells()), sorted(roads));
-    // C = the 4 green + 10 grey cells of FIXTURES.md.
+    // C = the 4 green + 10 grey cells of docs/fixtures.md.
     let candidates = cells(&[
         (5, 0),
         (4, 4),
