@@ -1,0 +1,353 @@
+//! Motion and navigation: the 20 Hz tick, the navigation target the controller flies to,
+//! and home.
+
+use super::*;
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+/// A point in the local frame, metres (east, north, up above ground).
+pub(super) struct Point {
+    pub(super) e: f64,
+    pub(super) n: f64,
+    pub(super) u: f64,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+/// The phases of a return to launch.
+pub(super) enum RtlPhase {
+    Climb,
+    Return,
+    Descend,
+    Loiter(Time),
+    Land,
+    Done,
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+/// What the controller flies to.
+pub(super) enum Nav {
+    /// On the ground, motors off or idle.
+    Idle,
+    /// Hold a point.
+    Hold(Point),
+    /// Climb vertically to `u` at (e, n).
+    Takeoff(Point),
+    /// Fly to a point and stay there (guided / reposition / waypoint travel).
+    Goto { p: Point, speed: Option<f64> },
+    /// Land at (e, n): fly there first at the current height, then descend.
+    Land { p: Point, descending: bool },
+    /// Return to launch.
+    Rtl { phase: RtlPhase, ret_u: f64 },
+}
+
+#[derive(Clone, Copy, Debug, PartialEq)]
+/// Home: geodetic position, AMSL altitude and local (east, north) metres.
+pub(super) struct Home {
+    pub(super) lat: f64,
+    pub(super) lon: f64,
+    pub(super) alt_amsl: f64,
+    pub(super) e: f64,
+    pub(super) n: f64,
+}
+
+/// Motion state and the navigation target.
+#[derive(Debug)]
+pub(super) struct Flight {
+    /// True motion state (position, velocity, heading).
+    pub(super) m: motion::State,
+    /// What the controller flies to.
+    pub(super) nav: Nav,
+    /// DO_CHANGE_SPEED's ground speed, m/s (`None`: the configured cruise speed).
+    pub(super) speed_override: Option<f64>,
+    /// A fixed heading for guided flight (degrees clockwise from north): ArduPilot's
+    /// CONDITION_YAW, PX4's DO_REPOSITION yaw. `None`: face the direction of travel.
+    pub(super) yaw_target_deg: Option<f64>,
+    /// When the last guided setpoint arrived (PX4 offboard needs a stream).
+    pub(super) guided_target_at: Option<Time>,
+    /// Home, once set.
+    pub(super) home: Option<Home>,
+}
+
+impl SimVehicle {
+    // ------------------------------------------------------------------ the 20 Hz tick
+
+    pub(super) fn tick(&mut self, now: Time) {
+        // GPS error: first-order Gauss–Markov processes, 60 s correlation time. The shared
+        // one advances also while this vehicle is off, to stay the same as the others'.
+        let a = (-DT / 60.0f64).exp();
+        let k = (1.0 - a * a).sqrt();
+        let (b, bo) = (self.cfg.gps_error_sigma_m * k, self.cfg.gps_own_sigma_m * k);
+        self.estimator.gps_common.0 =
+            self.estimator.gps_common.0 * a + b * gauss(&mut self.estimator.gps_rng);
+        self.estimator.gps_common.1 =
+            self.estimator.gps_common.1 * a + b * gauss(&mut self.estimator.gps_rng);
+        if !self.power.powered {
+            if let Some(t) = self.power.power_on_at
+                && now >= t
+            {
+                self.boot(now);
+            }
+            return;
+        }
+        self.estimator.gps_own.0 =
+            self.estimator.gps_own.0 * a + bo * gauss(&mut self.estimator.rng);
+        self.estimator.gps_own.1 =
+            self.estimator.gps_own.1 * a + bo * gauss(&mut self.estimator.rng);
+        // The mission protocol's own timers (see `mission_server`): ArduPilot re-requests an
+        // item after 1 s and cancels an upload after 8 s without one, PX4 re-requests every
+        // 250 ms and abandons a transfer after 5 s of silence.
+        if self
+            .missions
+            .server
+            .poll_timeout()
+            .is_some_and(|t| t <= now)
+        {
+            self.missions.server.handle_timeout(now);
+            self.drain_mission_events(now);
+        }
+        // The estimator smooths the GPS: the controller steers by a position whose error
+        // drifts, but has no jumps from one 20 Hz tick to the next.
+        let raw = self.gps_raw_err();
+        let f = 1.0 - (-DT / ESTIMATE_LAG_S).exp();
+        self.estimator.gps_lag.0 += f * (raw.0 - self.estimator.gps_lag.0);
+        self.estimator.gps_lag.1 += f * (raw.1 - self.estimator.gps_lag.1);
+        self.estimator.gps_err.0 += f * (self.estimator.gps_lag.0 - self.estimator.gps_err.0);
+        self.estimator.gps_err.1 += f * (self.estimator.gps_lag.1 - self.estimator.gps_err.1);
+
+        if !self.estimator.position_ok_announced && self.position_ok(now) {
+            self.estimator.position_ok_announced = true;
+            self.set_home_here(now);
+            match self.cfg.flavour.autopilot {
+                Autopilot::ArduPilot => {
+                    self.text(
+                        mav::MavSeverity::MAV_SEVERITY_INFO,
+                        "EKF3 IMU0 is using GPS",
+                    );
+                }
+                Autopilot::Px4 => {
+                    self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Ready for takeoff!");
+                }
+            }
+        }
+        self.power.charging = false;
+        self.run_mode(now);
+        self.move_vehicle(now);
+        self.drain_battery();
+        self.check_failsafes(now);
+        self.check_fence(now);
+        self.check_auto_disarm(now);
+        self.update_camera(now);
+        self.update_mission_reached(now);
+        self.emit_streams(now);
+        self.check_swap(now);
+    }
+
+    pub(super) fn move_vehicle(&mut self, now: Time) {
+        let rover = self.cfg.flavour.kind == VehicleKind::Rover;
+        let was_landed = self.arming.landed;
+        let cmd = self.motion_command();
+        let (ee, en) = (self.estimator.gps_err.0, self.estimator.gps_err.1);
+        // the controller acts on the estimate: shift the target by the estimation error
+        let cmd = match cmd {
+            Command::Goto {
+                e,
+                n,
+                u,
+                speed,
+                yaw_deg,
+            } => Command::Goto {
+                e: e - ee,
+                n: n - en,
+                u,
+                speed,
+                yaw_deg,
+            },
+            Command::Descend { e, n, rate } => Command::Descend {
+                e: e - ee,
+                n: n - en,
+                rate,
+            },
+            Command::Ground => Command::Ground,
+        };
+        let wind = self.wind_ne();
+        motion::step(&mut self.flight.m, &cmd, &self.cfg.limits, wind, rover, DT);
+        if rover {
+            self.arming.landed = true;
+            return;
+        }
+        if self.flight.m.u > 0.05 {
+            if self.arming.landed {
+                self.arming.landed = false;
+                self.arming.took_off = true;
+                self.arming.landed_at = None;
+            }
+        } else if !was_landed && matches!(cmd, Command::Descend { .. }) && self.flight.m.u <= 0.0 {
+            self.arming.landed = true;
+            self.arming.landed_at = Some(now);
+            self.flight.m.vu = 0.0;
+            self.telemetry.events.push_back(VehicleEvent::Landed);
+            self.on_touchdown(now);
+        }
+    }
+
+    pub(super) fn motion_command(&self) -> Command {
+        if !self.arming.armed {
+            return Command::Ground;
+        }
+        let speed = self
+            .flight
+            .speed_override
+            .unwrap_or(self.cfg.limits.speed_mps);
+        let lim = &self.cfg.limits;
+        match self.flight.nav {
+            Nav::Idle => Command::Ground,
+            Nav::Hold(p) => {
+                if self.arming.landed && p.u <= 0.0 {
+                    Command::Ground
+                } else {
+                    Command::Goto {
+                        e: p.e,
+                        n: p.n,
+                        u: p.u,
+                        speed,
+                        yaw_deg: Some(self.flight.m.heading_deg),
+                    }
+                }
+            }
+            Nav::Takeoff(p) => Command::Goto {
+                e: p.e,
+                n: p.n,
+                u: p.u,
+                speed,
+                yaw_deg: Some(self.flight.m.heading_deg),
+            },
+            Nav::Goto { p, speed: s } => {
+                if self.arming.landed && self.cfg.flavour.is_copter() && p.u <= 0.0 {
+                    return Command::Ground;
+                }
+                Command::Goto {
+                    e: p.e,
+                    n: p.n,
+                    u: p.u,
+                    speed: s.unwrap_or(speed),
+                    yaw_deg: self.flight.yaw_target_deg,
+                }
+            }
+            Nav::Land { p, descending } => {
+                if self.arming.landed {
+                    Command::Ground
+                } else if descending {
+                    let rate = if self.flight.m.u > 10.0 {
+                        lim.descent_mps
+                    } else if self.flight.m.u > 5.0 {
+                        lim.land_mps
+                            + (lim.descent_mps - lim.land_mps) * (self.flight.m.u - 5.0) / 5.0
+                    } else {
+                        lim.land_mps
+                    };
+                    Command::Descend {
+                        e: p.e,
+                        n: p.n,
+                        rate,
+                    }
+                } else {
+                    Command::Goto {
+                        e: p.e,
+                        n: p.n,
+                        u: self.flight.m.u,
+                        speed,
+                        yaw_deg: None,
+                    }
+                }
+            }
+            Nav::Rtl { phase, ret_u } => {
+                let h = self.home_local();
+                let (ee, en) = self.est();
+                match phase {
+                    RtlPhase::Climb => Command::Goto {
+                        e: ee,
+                        n: en,
+                        u: ret_u,
+                        speed,
+                        yaw_deg: Some(self.flight.m.heading_deg),
+                    },
+                    RtlPhase::Done if self.cfg.flavour.is_copter() => Command::Ground,
+                    RtlPhase::Return | RtlPhase::Descend | RtlPhase::Loiter(_) | RtlPhase::Done => {
+                        Command::Goto {
+                            e: h.0,
+                            n: h.1,
+                            u: if self.cfg.flavour.is_copter() {
+                                ret_u
+                            } else {
+                                0.0
+                            },
+                            speed: self.rtl_speed(),
+                            yaw_deg: None,
+                        }
+                    }
+                    RtlPhase::Land => {
+                        if self.arming.landed {
+                            Command::Ground
+                        } else {
+                            let rate = if self.flight.m.u > 10.0 {
+                                lim.descent_mps
+                            } else {
+                                lim.land_mps
+                            };
+                            Command::Descend {
+                                e: h.0,
+                                n: h.1,
+                                rate,
+                            }
+                        }
+                    }
+                }
+            }
+        }
+    }
+
+    pub(super) fn rtl_speed(&self) -> f64 {
+        // ArduCopter RTL_SPEED 0 = WPNAV_SPEED; PX4 RTL uses the cruise speed; rovers WP_SPEED
+        self.cfg.limits.speed_mps
+    }
+
+    pub(super) fn home_local(&self) -> (f64, f64) {
+        self.flight
+            .home
+            .map(|h| (h.e, h.n))
+            .unwrap_or_else(|| self.est())
+    }
+
+    pub(super) fn here(&self) -> Point {
+        let (e, n) = self.est();
+        Point {
+            e,
+            n,
+            u: self.flight.m.u,
+        }
+    }
+
+    pub(super) fn drain_battery(&mut self) {
+        let load = if !self.arming.armed {
+            0.01
+        } else if self.cfg.flavour.kind == VehicleKind::Rover {
+            0.05 + 0.95 * (self.flight.m.ground_speed() / 1.0).min(2.0)
+        } else if self.arming.landed {
+            0.1
+        } else {
+            let (wn, we) = self.wind_ne();
+            let air = (self.flight.m.ve - we).hypot(self.flight.m.vn - wn);
+            1.0 + 0.008 * air * air + 0.12 * self.flight.m.vu.max(0.0)
+                - 0.08 * (-self.flight.m.vu).max(0.0)
+        };
+        if !self.power.charging {
+            self.power.battery.drain(load, DT);
+        }
+        if self.power.battery.empty() && self.arming.armed && !self.arming.landed {
+            // an empty pack: the vehicle comes down
+            self.flight.nav = Nav::Land {
+                p: self.here(),
+                descending: true,
+            };
+        }
+    }
+}
