@@ -4,6 +4,7 @@
 pub mod definition;
 pub mod item;
 pub mod plan;
+pub mod wire;
 pub mod wpl;
 
 pub use item::{MissionItem, MissionType};

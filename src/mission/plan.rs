@@ -39,7 +39,7 @@
 //! Malformed files are rejected with the line (and column) where the problem is.
 
 use super::item::{MissionItem, cmd, deg_to_e7, e7_to_deg, frame};
-use crate::proto::mission::is_global_frame;
+use crate::mission::wire::is_global_frame;
 use serde::Deserialize;
 use serde_json::{Value, json};
 use std::collections::HashMap;

@@ -23,7 +23,7 @@
 //! round trip exactly); other numbers in their shortest exact form.
 
 use super::item::{MissionItem, cmd, deg_to_e7};
-use crate::proto::mission::is_global_frame;
+use crate::mission::wire::is_global_frame;
 
 /// A malformed `.waypoints` file.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -208,7 +208,7 @@ fn num(v: f32) -> String {
 /// Write a version 110 file: `home` (or an all-zero placeholder) as line 0, then `items`
 /// (user numbering; DO_JUMP targets shifted for the home line).
 pub fn write_wpl(home: Option<&MissionItem>, items: &[MissionItem]) -> String {
-    let placeholder = crate::proto::mission::home_placeholder();
+    let placeholder = crate::mission::wire::home_placeholder();
     let home = home.copied().unwrap_or(placeholder);
     let mut out = String::from("QGC WPL 110\n");
     let mut all = vec![home];

@@ -262,6 +262,13 @@ impl CommandError {
             MAV_RESULT_NOT_IN_CONTROL => CommandError::NotInControl { command },
         })
     }
+
+    /// Whether trying the command again may succeed because the vehicle never answered:
+    /// only [`CommandError::Timeout`]. Every MAV_RESULT the vehicle sent (including
+    /// TEMPORARILY_REJECTED) is its answer and counts as final here, as does a cancel.
+    pub fn is_transient(&self) -> bool {
+        matches!(self, CommandError::Timeout { .. })
+    }
 }
 
 /// A successful command's ACK details.

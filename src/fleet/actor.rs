@@ -1,0 +1,579 @@
+//! The fleet actor: the task that owns every vehicle's state and protocol machines, its
+//! requests, and its event loop (link events, timers, requests, snapshot publication).
+
+use super::FleetConfig;
+use super::Incoming;
+use super::error::FleetError;
+use super::state::FleetSnapshot;
+use super::state::VehicleSnapshot;
+use crate::link::codec::Frame;
+use crate::link::transport::LinkEvent;
+use crate::link::transport::LinkHandle;
+use crate::link::transport::LinkId;
+use crate::mission::MissionType;
+use crate::proto::Endpoint;
+use crate::proto::command::CmdId;
+use crate::proto::command::Command;
+use crate::proto::command::CommandAck;
+use crate::proto::command::CommandError;
+use crate::proto::command::CommandEvent;
+use crate::proto::command::CommandSender;
+use crate::proto::flavour::Flavour;
+use crate::proto::heartbeat::Beat;
+use crate::proto::heartbeat::Liveness;
+use crate::proto::heartbeat::LivenessEvent;
+use crate::proto::mission::MissionClient;
+use crate::proto::mission::MissionEvent;
+use crate::proto::mission::MissionOp;
+use crate::proto::mission::MissionOutcome;
+use crate::proto::mission::OpId;
+use crate::time::MonotonicClock;
+use crate::time::Time;
+use mavlink::Message;
+use mavlink::dialects::ardupilotmega::MavCmd;
+#[allow(deprecated)]
+use mavlink::dialects::ardupilotmega::MavDataStream;
+use mavlink::dialects::ardupilotmega::MavMessage;
+#[allow(deprecated)]
+use mavlink::dialects::ardupilotmega::REQUEST_DATA_STREAM_DATA;
+use std::collections::BTreeMap;
+use std::collections::HashMap;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::broadcast;
+use tokio::sync::mpsc;
+use tokio::sync::oneshot;
+use tokio::sync::watch;
+
+pub(super) type Reply<T> = oneshot::Sender<T>;
+
+pub(super) enum Request {
+    Command {
+        cmd: Command,
+        reply: Reply<Result<CommandAck, CommandError>>,
+    },
+    Mission {
+        sysid: u8,
+        op: MissionOp,
+        reply: Reply<Result<MissionOutcome, FleetError>>,
+        progress: Option<mpsc::UnboundedSender<(usize, usize)>>,
+    },
+    Send {
+        msg: Box<MavMessage>,
+        reply: Reply<usize>,
+    },
+    ResetProgress {
+        sysid: u8,
+    },
+    SnapshotPeriod {
+        period: Duration,
+    },
+    Shutdown {
+        reply: Reply<()>,
+    },
+}
+
+/// A mission operation's reply channel and optional progress channel.
+pub(super) type PendingMission = (
+    Reply<Result<MissionOutcome, FleetError>>,
+    Option<mpsc::UnboundedSender<(usize, usize)>>,
+);
+
+pub(super) struct VehicleEntry {
+    pub(super) snap: VehicleSnapshot,
+    pub(super) mission: MissionClient,
+    pub(super) pending: HashMap<OpId, PendingMission>,
+    pub(super) rate_frames: u64,
+    pub(super) rate_at: Time,
+    pub(super) rate_hz: f64,
+    /// The last SYS_STATUS (battery, health) from the autopilot.
+    pub(super) status_at: Option<Time>,
+    /// When telemetry rates were last requested, and the wait before asking again if the
+    /// telemetry does not come (doubling up to [`STREAM_RETRY_MAX`]).
+    pub(super) streams_at: Time,
+    pub(super) streams_backoff: Duration,
+}
+
+/// Telemetry older than this counts as missing: its rates are requested again.
+pub(super) const STREAM_STALE: Duration = Duration::from_secs(5);
+/// The longest wait between two requests for telemetry that does not come.
+pub(super) const STREAM_RETRY_MAX: Duration = Duration::from_secs(60);
+
+pub(super) struct Actor {
+    pub(super) cfg: FleetConfig,
+    pub(super) clock: MonotonicClock,
+    pub(super) links: Vec<LinkHandle>,
+    pub(super) routes: HashMap<Endpoint, LinkId>,
+    pub(super) sys_routes: HashMap<u8, LinkId>,
+    pub(super) liveness: Liveness,
+    pub(super) commands: CommandSender,
+    pub(super) pending_cmds: HashMap<CmdId, Reply<Result<CommandAck, CommandError>>>,
+    pub(super) vehicles: BTreeMap<u8, VehicleEntry>,
+    pub(super) cameras: HashMap<u8, u8>,
+    pub(super) snapshot_tx: watch::Sender<FleetSnapshot>,
+    pub(super) incoming: broadcast::Sender<Incoming>,
+    pub(super) next_snapshot: Time,
+}
+
+/// MISSION_ITEM (39) and MISSION_ITEM_INT (73) carry `seq` at payload offset 28.
+pub(super) fn unparsed_item_seq(frame: &Frame) -> Option<u16> {
+    if frame.msg_id != 39 && frame.msg_id != 73 {
+        return None;
+    }
+    let p = frame.payload();
+    let lo = p.get(28).copied().unwrap_or(0);
+    let hi = p.get(29).copied().unwrap_or(0);
+    Some(u16::from_le_bytes([lo, hi]))
+}
+
+impl Actor {
+    pub(super) async fn run(
+        mut self,
+        mut req_rx: mpsc::Receiver<Request>,
+        mut ev_rx: mpsc::Receiver<LinkEvent>,
+    ) {
+        let mut links_open = true;
+        loop {
+            let now = self.clock.now();
+            let wake = self.next_wake(now);
+            let sleep = tokio::time::sleep(self.clock.wall_until(wake));
+            tokio::select! {
+                req = req_rx.recv() => match req {
+                    Some(Request::Shutdown { reply }) => {
+                        let _ = reply.send(());
+                        break;
+                    }
+                    Some(r) => self.handle_request(r),
+                    None => break,
+                },
+                ev = ev_rx.recv(), if links_open => match ev {
+                    Some(ev) => self.handle_link_event(ev),
+                    None => links_open = false,
+                },
+                _ = sleep => {}
+            }
+            let now = self.clock.now();
+            self.handle_timeouts(now);
+            self.flush(now);
+            if now >= self.next_snapshot {
+                self.rerequest_streams(now);
+                self.publish(now);
+                self.next_snapshot = now + self.cfg.snapshot_period;
+            }
+        }
+    }
+
+    fn next_wake(&self, now: Time) -> Time {
+        let mut t = self.next_snapshot;
+        for c in [self.liveness.poll_timeout(), self.commands.poll_timeout()]
+            .into_iter()
+            .flatten()
+        {
+            t = t.min(c);
+        }
+        for v in self.vehicles.values() {
+            if let Some(c) = v.mission.poll_timeout() {
+                t = t.min(c);
+            }
+        }
+        t.max(now)
+    }
+
+    /// Ask again for the telemetry of vehicles whose position or status does not arrive:
+    /// REQUEST_DATA_STREAM is not acknowledged, so one lost frame (a lossy radio, a vehicle
+    /// still booting) would otherwise leave it silent for the whole session.
+    fn rerequest_streams(&mut self, now: Time) {
+        if !self.cfg.request_streams {
+            return;
+        }
+        let stale = |t: Option<Time>| t.is_none_or(|t| now.saturating_since(t) > STREAM_STALE);
+        let due: Vec<Endpoint> = self
+            .vehicles
+            .values_mut()
+            .filter(|v| v.snap.alive && !v.snap.booting)
+            .filter(|v| stale(v.snap.position_at) || stale(v.status_at))
+            .filter(|v| now.saturating_since(v.streams_at) >= v.streams_backoff)
+            .map(|v| {
+                v.streams_backoff = (v.streams_backoff * 2).min(STREAM_RETRY_MAX);
+                Endpoint::new(v.snap.sysid, v.snap.compid)
+            })
+            .collect();
+        for ep in due {
+            tracing::debug!(
+                "vehicle {}: telemetry missing, asking for it again",
+                ep.sysid
+            );
+            self.request_streams(ep, now);
+        }
+    }
+
+    fn handle_timeouts(&mut self, now: Time) {
+        if self.liveness.poll_timeout().is_some_and(|t| t <= now) {
+            self.liveness.handle_timeout(now);
+        }
+        if self.commands.poll_timeout().is_some_and(|t| t <= now) {
+            self.commands.handle_timeout(now);
+        }
+        for v in self.vehicles.values_mut() {
+            if v.mission.poll_timeout().is_some_and(|t| t <= now) {
+                v.mission.handle_timeout(now);
+            }
+        }
+    }
+
+    fn handle_request(&mut self, r: Request) {
+        let now = self.clock.now();
+        match r {
+            Request::Command { cmd, reply } => {
+                let id = self.commands.start(cmd, now);
+                self.pending_cmds.insert(id, reply);
+            }
+            Request::Mission {
+                sysid,
+                op,
+                reply,
+                progress,
+            } => match self.vehicles.get_mut(&sysid) {
+                Some(v) => {
+                    if matches!(
+                        op,
+                        MissionOp::Upload {
+                            kind: MissionType::Mission,
+                            ..
+                        }
+                    ) {
+                        v.snap.reset_progress();
+                    }
+                    let id = v.mission.start(op, now);
+                    v.pending.insert(id, (reply, progress));
+                }
+                None => {
+                    let _ = reply.send(Err(FleetError::NoVehicle { sysid }));
+                }
+            },
+            Request::Send { msg, reply } => {
+                let n = self.route(&msg);
+                let _ = reply.send(n);
+            }
+            Request::ResetProgress { sysid } => {
+                if let Some(v) = self.vehicles.get_mut(&sysid) {
+                    v.snap.reset_progress();
+                }
+            }
+            Request::SnapshotPeriod { period } => {
+                self.cfg.snapshot_period = period;
+                self.next_snapshot = self.next_snapshot.min(now + period);
+            }
+            Request::Shutdown { .. } => {}
+        }
+    }
+
+    /// Send `msg` over the right link(s); returns how many links it went to.
+    fn route(&self, msg: &MavMessage) -> usize {
+        let target = msg.target_system_id().filter(|s| *s != 0);
+        let comp = msg.target_component_id().unwrap_or(0);
+        let link = target.and_then(|s| {
+            self.routes
+                .get(&Endpoint::new(s, comp))
+                .or_else(|| self.sys_routes.get(&s))
+                .copied()
+        });
+        match link {
+            Some(l) => usize::from(
+                self.links
+                    .get(l)
+                    .is_some_and(|h| h.send(self.cfg.gcs, msg.clone())),
+            ),
+            None => self
+                .links
+                .iter()
+                .filter(|h| h.send(self.cfg.gcs, msg.clone()))
+                .count(),
+        }
+    }
+
+    fn handle_link_event(&mut self, ev: LinkEvent) {
+        let LinkEvent::Frame {
+            link,
+            frame,
+            unix_us,
+        } = ev
+        else {
+            return;
+        };
+        let now = self.clock.now();
+        let from = Endpoint::of(&frame.header);
+        if from == self.cfg.gcs {
+            return; // our own frames echoed back (e.g. a broadcast UDP setup)
+        }
+        self.routes.insert(from, link);
+        self.sys_routes.insert(from.sysid, link);
+        let frame: Arc<Frame> = Arc::from(frame);
+        let _ = self.incoming.send(Incoming {
+            link,
+            unix_us,
+            frame: frame.clone(),
+        });
+        if frame.msg_id == 0 {
+            let beat = match &frame.message {
+                Ok(MavMessage::HEARTBEAT(h)) => Beat::from_data(h),
+                _ => Beat::from_payload(frame.payload()),
+            };
+            self.liveness.handle_heartbeat(from, &beat, now);
+            self.on_heartbeat(from, &beat, link, now);
+        }
+        match &frame.message {
+            Ok(msg) => {
+                self.liveness.handle_message(from, msg, now);
+                self.commands.handle_message(&frame.header, msg, now);
+                if let Some(v) = self.vehicles.get_mut(&from.sysid)
+                    && v.snap.compid == from.compid
+                {
+                    v.snap.apply(msg, now);
+                    v.rate_frames += 1;
+                    if matches!(msg, MavMessage::SYS_STATUS(_)) {
+                        v.status_at = Some(now);
+                    }
+                    v.mission.handle_message(&frame.header, msg, now);
+                }
+            }
+            Err(e) => {
+                if let Some(seq) = unparsed_item_seq(&frame)
+                    && let Some(v) = self.vehicles.get_mut(&from.sysid)
+                {
+                    v.mission
+                        .handle_unparsed_item(from, seq, &format!("{e:?}"), now);
+                }
+            }
+        }
+    }
+
+    fn on_heartbeat(&mut self, from: Endpoint, beat: &Beat, link: LinkId, now: Time) {
+        // MAV_TYPE_CAMERA = 30; camera components 100..=105.
+        if beat.mav_type == 30 || (100..=105).contains(&from.compid) && !beat.is_autopilot() {
+            self.cameras.insert(from.sysid, from.compid);
+            if let Some(v) = self.vehicles.get_mut(&from.sysid) {
+                v.snap.camera_compid = Some(from.compid);
+            }
+            return;
+        }
+        if !beat.is_autopilot() {
+            return;
+        }
+        match self.vehicles.get_mut(&from.sysid) {
+            Some(v) if v.snap.compid == from.compid => {
+                v.snap.apply_heartbeat(beat, now);
+                v.snap.link = link;
+                let home_item = v.snap.flavour.home_item();
+                if v.mission.home_item() != home_item && v.mission.is_idle() {
+                    v.mission.set_home_item(home_item);
+                }
+            }
+            Some(_) => {} // a second autopilot component on the same system: ignored
+            None => {
+                let mut snap = VehicleSnapshot::new(from.sysid, from.compid, beat, link, now);
+                snap.camera_compid = self.cameras.get(&from.sysid).copied();
+                let mission = MissionClient::new(
+                    self.cfg.gcs,
+                    from,
+                    snap.flavour.home_item(),
+                    self.cfg.mission,
+                );
+                self.vehicles.insert(
+                    from.sysid,
+                    VehicleEntry {
+                        snap,
+                        mission,
+                        pending: HashMap::new(),
+                        rate_frames: 0,
+                        rate_at: now,
+                        rate_hz: 0.0,
+                        status_at: None,
+                        streams_at: now,
+                        streams_backoff: STREAM_STALE,
+                    },
+                );
+                tracing::info!(
+                    "vehicle {} appeared ({})",
+                    from.sysid,
+                    Flavour::from_heartbeat(beat.autopilot, beat.mav_type)
+                );
+                self.request_streams(from, now);
+            }
+        }
+    }
+
+    /// Ask for the telemetry we display (see the module docs).
+    #[allow(deprecated)] // REQUEST_DATA_STREAM: still what ArduPilot's SRn_* streams obey
+    fn request_streams(&mut self, ep: Endpoint, now: Time) {
+        if !self.cfg.request_streams {
+            return;
+        }
+        let Some(v) = self.vehicles.get_mut(&ep.sysid) else {
+            return;
+        };
+        v.streams_at = now;
+        let ardupilot = v.snap.flavour.home_item();
+        if ardupilot {
+            for (stream, hz) in [
+                (MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS, 2),
+                (MavDataStream::MAV_DATA_STREAM_POSITION, 5),
+                (MavDataStream::MAV_DATA_STREAM_EXTRA1, 4),
+                (MavDataStream::MAV_DATA_STREAM_EXTRA2, 4),
+                (MavDataStream::MAV_DATA_STREAM_EXTRA3, 2),
+            ] {
+                self.route(&MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
+                    req_message_rate: hz,
+                    target_system: ep.sysid,
+                    target_component: ep.compid,
+                    req_stream_id: stream,
+                    start_stop: 1,
+                }));
+            }
+        }
+        // (message id, interval µs)
+        for (id, us) in [
+            (33u32, 200_000f32), // GLOBAL_POSITION_INT
+            (24, 500_000.0),     // GPS_RAW_INT
+            (1, 1_000_000.0),    // SYS_STATUS
+            (42, 1_000_000.0),   // MISSION_CURRENT
+            (245, 1_000_000.0),  // EXTENDED_SYS_STATE
+            (242, 2_000_000.0),  // HOME_POSITION
+            (147, 1_000_000.0),  // BATTERY_STATUS
+            (74, 500_000.0),     // VFR_HUD
+        ] {
+            let cmd = Command::long(
+                ep,
+                MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+                [id as f32, us, 0.0, 0.0, 0.0, 0.0, 0.0],
+            );
+            // Results are not awaited: a vehicle that refuses keeps its default rates.
+            self.commands.start(cmd, now);
+        }
+    }
+
+    /// Move everything the machines want to send to the links, and their events to the
+    /// waiting callers.
+    fn flush(&mut self, now: Time) {
+        while let Some(m) = self.liveness.poll_transmit() {
+            // The GCS heartbeat goes out on every link.
+            for l in &self.links {
+                l.send(self.cfg.gcs, m.clone());
+            }
+        }
+        while let Some(ev) = self.liveness.poll_event() {
+            match ev {
+                LivenessEvent::Lost { who } => {
+                    if let Some(v) = self.vehicles.get_mut(&who.sysid)
+                        && v.snap.compid == who.compid
+                    {
+                        tracing::warn!("vehicle {} lost", who.sysid);
+                        v.snap.alive = false;
+                    }
+                }
+                LivenessEvent::Regained { who } => {
+                    if let Some(v) = self.vehicles.get_mut(&who.sysid)
+                        && v.snap.compid == who.compid
+                    {
+                        tracing::info!("vehicle {} back", who.sysid);
+                        v.snap.alive = true;
+                    }
+                }
+                LivenessEvent::Rebooted { who } => {
+                    let mut rerequest = false;
+                    if let Some(v) = self.vehicles.get_mut(&who.sysid)
+                        && v.snap.compid == who.compid
+                    {
+                        tracing::warn!("vehicle {} rebooted", who.sysid);
+                        v.snap.reboots += 1;
+                        v.snap.rebooted();
+                        v.snap.reset_progress();
+                        v.streams_backoff = STREAM_STALE;
+                        rerequest = true;
+                    }
+                    if rerequest {
+                        self.request_streams(who, now);
+                    }
+                }
+                LivenessEvent::Discovered { .. } => {}
+            }
+        }
+        while let Some(m) = self.commands.poll_transmit() {
+            self.route(&m);
+        }
+        while let Some(ev) = self.commands.poll_event() {
+            if let CommandEvent::Done { id, result } = ev
+                && let Some(reply) = self.pending_cmds.remove(&id)
+            {
+                let _ = reply.send(result);
+            }
+        }
+        let mut out = Vec::new();
+        for v in self.vehicles.values_mut() {
+            while let Some(m) = v.mission.poll_transmit() {
+                out.push(m);
+            }
+            let sysid = v.snap.sysid;
+            while let Some(ev) = v.mission.poll_event() {
+                match ev {
+                    MissionEvent::Progress { id, done, total } => {
+                        if let Some((_, Some(p))) = v.pending.get(&id) {
+                            let _ = p.send((done, total));
+                        }
+                    }
+                    MissionEvent::Restarted { reason, left, .. } => {
+                        tracing::warn!(
+                            "vehicle {sysid}: mission transfer starts over ({reason}; {left} more restarts allowed)"
+                        );
+                    }
+                    MissionEvent::Done { id, result } => {
+                        if let Some((reply, _)) = v.pending.remove(&id) {
+                            let _ = reply
+                                .send(result.map_err(|error| FleetError::Mission { sysid, error }));
+                        }
+                    }
+                }
+            }
+        }
+        for m in out {
+            self.route(&m);
+        }
+    }
+
+    fn publish(&mut self, now: Time) {
+        let statuses: Vec<_> = self.links.iter().map(|l| l.status()).collect();
+        let mut snap = FleetSnapshot {
+            time: now,
+            vehicles: BTreeMap::new(),
+            links: statuses,
+        };
+        for (sysid, v) in self.vehicles.iter_mut() {
+            let ep = Endpoint::new(*sysid, v.snap.compid);
+            let dt = now.saturating_since(v.rate_at).as_secs_f64();
+            if dt >= 0.5 {
+                let inst = v.rate_frames as f64 / dt;
+                v.rate_hz = if v.rate_hz == 0.0 {
+                    inst
+                } else {
+                    0.5 * v.rate_hz + 0.5 * inst
+                };
+                v.rate_frames = 0;
+                v.rate_at = now;
+            }
+            let src = snap
+                .links
+                .get(v.snap.link)
+                .and_then(|l| l.stats.sources.get(&(ep.sysid, ep.compid)))
+                .copied();
+            v.snap.refresh(
+                self.liveness.is_alive(ep),
+                self.liveness.last_heartbeat(ep),
+                src.as_ref(),
+                v.rate_hz,
+                now,
+            );
+            snap.vehicles.insert(*sysid, v.snap.clone());
+        }
+        let _ = self.snapshot_tx.send(snap);
+    }
+}

@@ -1,0 +1,293 @@
+//! Mission items on the wire: MISSION_ITEM(_INT) payloads ↔ [`MissionItem`], the frame
+//! synonyms, ArduPilot's home item at seq 0 and the comparison of a list read back with the
+//! one sent. Pure functions; the protocol machine (`crate::proto::mission`) uses them, and so
+//! do the QGroundControl file formats (`plan`, `wpl`).
+
+// The deprecated `_INT` frames and MISSION_ITEM are handled deliberately: deployed
+// autopilots still send them.
+#![allow(deprecated)]
+
+use crate::mission::{MissionItem, MissionType, item::cmd, item::frame};
+use mavlink::dialects::ardupilotmega::{
+    MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MavCmd, MavFrame, MavMissionType,
+};
+use num_traits::FromPrimitive;
+
+/// Why an item cannot be put on the wire (the protocol machine reports these as the
+/// `MissionError` variants of the same names).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum WireError {
+    /// An item's command is not a MAV_CMD of the dialect (cannot be encoded).
+    #[error(
+        "mission item {index}: command {command} is not a MAV_CMD known to the MAVLink dialect"
+    )]
+    UnknownCommand {
+        /// User item index.
+        index: usize,
+        /// The command number.
+        command: u16,
+    },
+    /// An item's frame is not a MAV_FRAME of the dialect.
+    #[error("mission item {index}: frame {frame} is not a MAV_FRAME")]
+    UnknownFrame {
+        /// User item index.
+        index: usize,
+        /// The frame number.
+        frame: u8,
+    },
+    /// More items than the protocol can count.
+    #[error("mission has {count} items; the protocol counts at most 65535")]
+    TooMany {
+        /// Item count.
+        count: usize,
+    },
+}
+
+/// The MAV_MISSION_TYPE of a list (mission, fence or rally).
+pub fn mav_type(kind: MissionType) -> MavMissionType {
+    match kind {
+        MissionType::Mission => MavMissionType::MAV_MISSION_TYPE_MISSION,
+        MissionType::Fence => MavMissionType::MAV_MISSION_TYPE_FENCE,
+        MissionType::Rally => MavMissionType::MAV_MISSION_TYPE_RALLY,
+    }
+}
+
+/// Whether a frame carries latitude/longitude in x/y (degrees × 10⁷ in MISSION_ITEM_INT).
+pub fn is_global_frame(f: u8) -> bool {
+    matches!(f, 0 | 3 | 5 | 6 | 10 | 11)
+}
+
+/// The frame with the deprecated `_INT` variants folded onto their synonyms.
+pub fn normalize_frame(f: u8) -> u8 {
+    match f {
+        5 => frame::GLOBAL,
+        6 => frame::GLOBAL_RELATIVE_ALT,
+        11 => frame::GLOBAL_TERRAIN_ALT,
+        f => f,
+    }
+}
+
+/// A MISSION_ITEM_INT payload → our item.
+pub fn item_from_wire(d: &MISSION_ITEM_INT_DATA) -> MissionItem {
+    MissionItem {
+        frame: d.frame as u8,
+        command: d.command as u16,
+        current: d.current != 0,
+        autocontinue: d.autocontinue != 0,
+        param1: d.param1,
+        param2: d.param2,
+        param3: d.param3,
+        param4: d.param4,
+        x: d.x,
+        y: d.y,
+        z: d.z,
+    }
+}
+
+/// A (float) MISSION_ITEM payload → MISSION_ITEM_INT payload (lat/lon scaled to 1e7 in
+/// global frames, as ArduPilot's `convert_MISSION_ITEM_to_MISSION_ITEM_INT` does).
+pub fn item_int_from_float(d: &MISSION_ITEM_DATA) -> MISSION_ITEM_INT_DATA {
+    let global = is_global_frame(d.frame as u8);
+    let conv = |v: f32| {
+        if global {
+            (f64::from(v) * 1e7).round() as i32
+        } else {
+            v as i32
+        }
+    };
+    MISSION_ITEM_INT_DATA {
+        param1: d.param1,
+        param2: d.param2,
+        param3: d.param3,
+        param4: d.param4,
+        x: conv(d.x),
+        y: conv(d.y),
+        z: d.z,
+        seq: d.seq,
+        command: d.command,
+        target_system: d.target_system,
+        target_component: d.target_component,
+        frame: d.frame,
+        current: d.current,
+        autocontinue: d.autocontinue,
+        mission_type: d.mission_type,
+    }
+}
+
+/// Our item → a MISSION_ITEM_INT payload (seq and addressing filled by the caller).
+pub fn item_to_wire(item: &MissionItem, index: usize) -> Result<MISSION_ITEM_INT_DATA, WireError> {
+    let command = MavCmd::from_u16(item.command).ok_or(WireError::UnknownCommand {
+        index,
+        command: item.command,
+    })?;
+    let frame = MavFrame::from_u8(item.frame).ok_or(WireError::UnknownFrame {
+        index,
+        frame: item.frame,
+    })?;
+    Ok(MISSION_ITEM_INT_DATA {
+        param1: item.param1,
+        param2: item.param2,
+        param3: item.param3,
+        param4: item.param4,
+        x: item.x,
+        y: item.y,
+        z: item.z,
+        seq: 0,
+        command,
+        target_system: 0,
+        target_component: 0,
+        frame,
+        current: u8::from(item.current),
+        autocontinue: u8::from(item.autocontinue),
+        mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
+    })
+}
+
+fn same_f32(a: f32, b: f32, tol: f32) -> bool {
+    (a.is_nan() && b.is_nan()) || a == b || (a - b).abs() <= tol * a.abs().max(b.abs()).max(1.0)
+}
+
+/// Compare what was sent with what was read back, as far as autopilots store items:
+///
+/// * the command must be the same;
+/// * a position item (sent in a global frame) must come back in the same kind of frame
+///   (absolute / relative to home / terrain, the `_INT` synonyms folded: PX4 answers in the
+///   `_INT` frames, ArduPilot in the plain ones) with x and y exactly and z within 1 cm
+///   (ArduPilot stores centimetres); for other commands the frame is not compared
+///   (ArduPilot returns 0 for them, `AP_Mission::mission_cmd_to_mavlink_int`);
+/// * parameters must match within 1e-4 (relative), except that a NaN sent may come back
+///   as 0 (neither autopilot stores NaN "unchanged" markers) and, when `drops_params`
+///   (ArduPilot: `AP_Mission` keeps only the parameters its packed 15-byte command has,
+///   e.g. a waypoint keeps its delay but not its acceptance radius or yaw), a parameter
+///   may come back as 0;
+/// * `current` and `autocontinue` are not compared (the vehicle sets them).
+///
+/// Returns a description of the first difference.
+pub fn compare_items(
+    sent: &[MissionItem],
+    got: &[MissionItem],
+    drops_params: bool,
+) -> Result<(), String> {
+    if sent.len() != got.len() {
+        return Err(format!(
+            "{} items sent, {} read back",
+            sent.len(),
+            got.len()
+        ));
+    }
+    for (i, (a, b)) in sent.iter().zip(got).enumerate() {
+        let diff = |what: &str, x: String, y: String| {
+            Err(format!("item {i}: {what} sent {x}, read back {y}"))
+        };
+        if a.command != b.command {
+            return diff("command", a.command.to_string(), b.command.to_string());
+        }
+        if is_global_frame(a.frame) && normalize_frame(a.frame) != normalize_frame(b.frame) {
+            return diff("frame", a.frame.to_string(), b.frame.to_string());
+        }
+        if a.x != b.x || a.y != b.y {
+            return diff(
+                "x/y",
+                format!("{}/{}", a.x, a.y),
+                format!("{}/{}", b.x, b.y),
+            );
+        }
+        if !(same_f32(a.z, b.z, 0.0) || (a.z - b.z).abs() <= 0.01) {
+            return diff("z", a.z.to_string(), b.z.to_string());
+        }
+        for (k, (p, q)) in [
+            (a.param1, b.param1),
+            (a.param2, b.param2),
+            (a.param3, b.param3),
+            (a.param4, b.param4),
+        ]
+        .into_iter()
+        .enumerate()
+        {
+            let dropped = q == 0.0 && (p.is_nan() || drops_params);
+            if !same_f32(p, q, 1e-4) && !dropped {
+                return diff(&format!("param{}", k + 1), p.to_string(), q.to_string());
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The all-zero home placeholder sent at ArduPilot's seq 0 when no home is known.
+pub fn home_placeholder() -> MissionItem {
+    MissionItem {
+        frame: frame::GLOBAL,
+        ..MissionItem::command(cmd::NAV_WAYPOINT)
+    }
+}
+
+/// User items → wire items for a list of `kind` (home prepended and DO_JUMP shifted when
+/// `home_item`; seq, current, addressing to `target` (system id, component id) and mission
+/// type set).
+pub fn build_wire(
+    kind: MissionType,
+    items: &[MissionItem],
+    home: Option<&MissionItem>,
+    home_item: bool,
+    target: (u8, u8),
+) -> Result<Vec<MISSION_ITEM_INT_DATA>, WireError> {
+    let offset = home_item && kind == MissionType::Mission;
+    let mut user: Vec<MissionItem> = Vec::with_capacity(items.len() + 1);
+    if offset {
+        user.push(home.copied().unwrap_or_else(home_placeholder));
+    }
+    for it in items {
+        let mut it = *it;
+        if offset && it.command == cmd::DO_JUMP {
+            it.param1 += 1.0;
+        }
+        user.push(it);
+    }
+    if user.len() > usize::from(u16::MAX) {
+        return Err(WireError::TooMany { count: items.len() });
+    }
+    let mut wire = Vec::with_capacity(user.len());
+    for (i, it) in user.iter().enumerate() {
+        let index = if offset { i.saturating_sub(1) } else { i };
+        let mut w = item_to_wire(it, index)?;
+        w.seq = i as u16;
+        w.current = u8::from(i == 0);
+        w.target_system = target.0;
+        w.target_component = target.1;
+        w.mission_type = mav_type(kind);
+        wire.push(w);
+    }
+    Ok(wire)
+}
+
+/// Wire items → (user items, home) for a list of `kind` (inverse of `build_wire`).
+pub fn from_wire_list(
+    kind: MissionType,
+    wire: &[MISSION_ITEM_INT_DATA],
+    home_item: bool,
+) -> (Vec<MissionItem>, Option<MissionItem>) {
+    let offset = home_item && kind == MissionType::Mission;
+    // The deprecated `_INT` frames (PX4 answers in them) are folded onto their synonyms,
+    // as QGroundControl does on download (`PlanManager::_handleMissionItem`).
+    let mut items: Vec<MissionItem> = wire
+        .iter()
+        .map(|w| {
+            let mut it = item_from_wire(w);
+            it.frame = normalize_frame(it.frame);
+            it
+        })
+        .collect();
+    let home = if offset && !items.is_empty() {
+        Some(items.remove(0))
+    } else {
+        None
+    };
+    if offset {
+        for it in &mut items {
+            if it.command == cmd::DO_JUMP {
+                it.param1 -= 1.0;
+            }
+        }
+    }
+    (items, home)
+}
