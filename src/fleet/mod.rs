@@ -27,6 +27,7 @@ pub mod state;
 
 pub use state::{FleetSnapshot, GeoPoint, LinkQuality, StatusText, VehicleSnapshot};
 
+use crate::clock::MonotonicClock;
 use crate::link::codec::Frame;
 use crate::link::transport::{LinkEvent, LinkHandle, LinkId, LinkOptions, open_link};
 use crate::link::{addr::ConnSpec, transport::LinkError};
@@ -40,7 +41,7 @@ use crate::proto::mission::{
     MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome, OpId,
 };
 use crate::proto::{CAMERA_COMPID, Endpoint};
-use crate::time::{MonotonicClock, Time};
+use crate::time::Time;
 #[allow(deprecated)]
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavDataStream, MavMessage, REQUEST_DATA_STREAM_DATA,
