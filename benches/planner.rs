@@ -6,6 +6,7 @@
 //! Run: `cargo bench --bench planner`. Quantiles over many epochs: `fleetmap bench plan`.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use fleetmap::clock::stopwatch;
 use fleetmap::experiment::bandit::{StudyConfig, World, run_trial};
 use fleetmap::planner::ip::{Instance, Model, PlanOptions, Scenario, solve_instance};
 use rand::SeedableRng;
@@ -49,20 +50,22 @@ fn bench_planner(c: &mut Criterion) {
     g.sample_size(20);
     for (p, inst) in default_epochs() {
         g.bench_with_input(BenchmarkId::new("epoch", p), &inst, |b, inst| {
-            b.iter(|| black_box(solve_instance(inst, &fast)))
+            b.iter(|| black_box(solve_instance(inst, &fast, &stopwatch())))
         });
     }
     let first = scenario("sim-10x10.json");
     g.bench_function("scenario_file", |b| {
-        b.iter(|| black_box(solve_instance(&first, &fast)))
+        b.iter(|| black_box(solve_instance(&first, &fast, &stopwatch())))
     });
     g.finish();
     let hw = scenario("hardware-6x6.json");
     let mut g = c.benchmark_group("ip_6x6_hardware");
     g.sample_size(10);
-    g.bench_function("fast", |b| b.iter(|| black_box(solve_instance(&hw, &fast))));
+    g.bench_function("fast", |b| {
+        b.iter(|| black_box(solve_instance(&hw, &fast, &stopwatch())))
+    });
     g.bench_function("plain_K4", |b| {
-        b.iter(|| black_box(solve_instance(&hw, &plain)))
+        b.iter(|| black_box(solve_instance(&hw, &plain, &stopwatch())))
     });
     g.finish();
 }

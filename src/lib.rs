@@ -16,18 +16,20 @@
 //! | [`store`] | core + files | the crash-safe run directory |
 //! | [`sim`] | core + thin server | the simulated autopilot, camera and worlds |
 //! | [`link`] | shell | transports, framing, signing, tlogs |
+//! | [`clock`] | shell | the only clock reader: the monotonic clock (tokio's, virtual when paused) and the planner's stopwatch |
 //! | [`fleet`] | shell | the fleet actor and per-vehicle async operations |
 //! | [`imagery`] | shell | image sources (MAVLink image transfer, directories, simulated camera) |
 //! | [`app`] | shell | mission runners (runway mapping, bandit sorties, resume) |
 //! | [`tui`] | shell | the ratatui operator interface |
 //! | [`experiment`] | batch | Monte Carlo studies reproducing the papers |
-//! | [`cli`] | entry | the `fleetmap` command line |
+//! | [`cli`] | entry | the `fleetmap` command line; [`cli::load`] holds the edge's loaders of mission and image files |
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
 
 pub mod app;
 pub mod cli;
+pub mod clock;
 pub mod experiment;
 pub mod explore;
 pub mod fleet;

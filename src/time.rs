@@ -3,7 +3,7 @@
 //! The pure core (protocols, planners, DFS, vision, the simulator's logic) never reads a
 //! clock: every time-dependent call takes `now: Time`. [`Time`] is a point on a monotonic
 //! timeline in **microseconds** since an arbitrary epoch chosen by whoever owns the clock
-//! (the shell's [`MonotonicClock`], or the simulator's virtual clock). It is plain data, so
+//! (the shell's `crate::clock::MonotonicClock`, or the simulator's virtual clock). It is plain data, so
 //! it can be serialised, compared and constructed freely in tests, which `std::time::Instant`
 //! cannot.
 
@@ -11,7 +11,6 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::ops::{Add, AddAssign, Sub};
 use std::time::Duration;
-use tokio::time::Instant;
 
 /// A point in time, in microseconds since the owning clock's epoch.
 #[derive(
@@ -111,66 +110,6 @@ impl Sub<Time> for Time {
 impl fmt::Display for Time {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(f, "{:.3}s", self.as_secs_f64())
-    }
-}
-
-/// The shell's clock: real monotonic time since the clock was created.
-///
-/// It reads `tokio::time::Instant`, which is the system's monotonic clock — except in a
-/// tokio runtime whose clock is paused (tests with `start_paused`), where it is tokio's
-/// virtual time: the fleet, the links and an in-memory simulator then all run on one
-/// virtual timeline that jumps ahead whenever every task is waiting, so an hour of
-/// flight takes only the CPU time of the work done.
-///
-/// Only the async shell (link, fleet, UI, the simulator's socket server) reads it; it hands
-/// the resulting [`Time`] to the pure core. `speedup` makes simulated time run faster than
-/// wall time (`fleetmap sim --speedup X`).
-#[derive(Clone, Debug)]
-pub struct MonotonicClock {
-    start: Instant,
-    speedup: f64,
-}
-
-impl MonotonicClock {
-    /// A clock whose epoch is now, running at real speed.
-    pub fn new() -> Self {
-        Self::with_speedup(1.0)
-    }
-
-    /// A clock whose epoch is now, running `speedup` times faster than wall time
-    /// (values that are not finite and positive count as 1).
-    pub fn with_speedup(speedup: f64) -> Self {
-        let speedup = if speedup.is_finite() && speedup > 0.0 {
-            speedup
-        } else {
-            1.0
-        };
-        MonotonicClock {
-            start: Instant::now(),
-            speedup,
-        }
-    }
-
-    /// The current time on this clock.
-    pub fn now(&self) -> Time {
-        Time::from_secs_f64(self.start.elapsed().as_secs_f64() * self.speedup)
-    }
-
-    /// The speed factor of this clock relative to wall time.
-    pub fn speedup(&self) -> f64 {
-        self.speedup
-    }
-
-    /// The wall-clock duration until this clock reaches `t` (zero if already past).
-    pub fn wall_until(&self, t: Time) -> Duration {
-        let sim = t.saturating_since(self.now());
-        Duration::from_secs_f64(sim.as_secs_f64() / self.speedup)
-    }
-}
-
-impl Default for MonotonicClock {
-    fn default() -> Self {
-        Self::new()
     }
 }
 

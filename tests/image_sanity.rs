@@ -22,6 +22,7 @@
 use fleetmap::app::images;
 use fleetmap::app::report::truth_coverage;
 use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions, crop_to_cells};
+use fleetmap::clock::MonotonicClock;
 use fleetmap::explore::Sharing;
 use fleetmap::explore::mapping::{MappingState, RobotStatus};
 use fleetmap::fleet::{self, FleetConfig};
@@ -34,7 +35,7 @@ use fleetmap::sim::render::{CameraPose, Disturbances, render};
 use fleetmap::sim::server;
 use fleetmap::sim::world::World;
 use fleetmap::store::{RunDir, RunMeta};
-use fleetmap::time::{MonotonicClock, Time};
+use fleetmap::time::Time;
 use fleetmap::vision::camera::CameraModel;
 use fleetmap::vision::geometry::{
     CameraView, OrthoRequest, attitude_from_euler_deg, orthophoto, view_centre_offset,

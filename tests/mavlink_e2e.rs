@@ -7,6 +7,7 @@
 
 #![allow(deprecated)]
 
+use fleetmap::clock::MonotonicClock;
 use fleetmap::fleet::{self, FleetConfig};
 use fleetmap::link::ConnSpec;
 use fleetmap::link::codec::Codec;
@@ -17,7 +18,7 @@ use fleetmap::mission::{MissionItem, MissionType};
 use fleetmap::proto::Endpoint;
 use fleetmap::sim::flavour::Autopilot;
 use fleetmap::sim::mission_server::{HomeItem, MissionServer};
-use fleetmap::time::{MonotonicClock, Time};
+use fleetmap::time::Time;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega::*;
 use std::net::SocketAddr;

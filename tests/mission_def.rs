@@ -3,6 +3,7 @@
 //! gives its exact errors (line, column, message), random input never panics, and
 //! `fleetmap check` reports them end to end.
 
+use fleetmap::cli::load::load_mission;
 use fleetmap::geo::Cell;
 use fleetmap::mission::definition::{DefError, MissionDef, MissionKind, Origin, Role, SweepBox};
 use proptest::prelude::*;
@@ -14,7 +15,7 @@ fn root() -> PathBuf {
 }
 
 fn load(rel: &str) -> MissionDef {
-    MissionDef::load(root().join(rel)).unwrap_or_else(|e| panic!("{rel} must load:\n{e}"))
+    load_mission(root().join(rel)).unwrap_or_else(|e| panic!("{rel} must load:\n{e}"))
 }
 
 fn cells(v: &[(i32, i32)]) -> Vec<Cell> {
@@ -48,7 +49,7 @@ fn every_example_mission_loads() {
     let files = toml_files(&root().join("missions"), "");
     assert!(files.len() >= 3, "missions/ holds the three examples");
     for f in files {
-        MissionDef::load(&f).unwrap_or_else(|e| panic!("{} must load:\n{e}", f.display()));
+        load_mission(&f).unwrap_or_else(|e| panic!("{} must load:\n{e}", f.display()));
     }
 }
 
@@ -573,7 +574,7 @@ fn every_broken_file_gives_its_exact_errors() {
     );
     for (file, want) in BROKEN {
         let path = dir.join(file);
-        let e = MissionDef::load(&path).expect_err(file);
+        let e = load_mission(&path).expect_err(file);
         assert!(
             e.errors
                 .iter()
@@ -609,12 +610,12 @@ fn crlf_line_endings_and_unicode_keep_positions_right() {
 
 #[test]
 fn unreadable_and_non_utf8_files_are_errors_not_panics() {
-    let e = MissionDef::load("/nonexistent/mission.toml").unwrap_err();
+    let e = load_mission("/nonexistent/mission.toml").unwrap_err();
     assert!(e.to_string().contains("cannot read the file"), "{e}");
     let dir = tempfile::tempdir().unwrap();
     let p = dir.path().join("latin1.toml");
     std::fs::write(&p, b"name = \"ok\"\nkind = \"caf\xe9\"\n").unwrap();
-    let e = MissionDef::load(&p).unwrap_err();
+    let e = load_mission(&p).unwrap_err();
     assert_eq!((e.errors[0].line, e.errors[0].column), (2, 12));
     assert!(e.to_string().contains("not UTF-8"), "{e}");
 }

@@ -2,6 +2,7 @@
 //! plain model on random scenarios, every plan through the independent checker, the shipped
 //! scenario files through `fleetmap plan`, and a small bandit study.
 
+use fleetmap::clock::stopwatch;
 use fleetmap::geo::Cell;
 use fleetmap::planner::check::{CheckOptions, check_plan_with};
 use fleetmap::planner::grid::Grid;
@@ -88,8 +89,8 @@ fn fast_model_has_the_plain_models_optimum_on_100_random_scenarios() {
     let (mut feasible, mut infeasible, mut multi) = (0, 0, 0);
     for n in 0..100 {
         let inst = random_instance(&mut rng);
-        let a = solve_instance(&inst, &plain);
-        let b = solve_instance(&inst, &fast);
+        let a = solve_instance(&inst, &plain, &stopwatch());
+        let b = solve_instance(&inst, &fast, &stopwatch());
         let scen = inst.to_scenario(&format!("random {n}")).to_json();
         assert!(
             matches!(a.status, PlanStatus::Optimal | PlanStatus::Infeasible),

@@ -5,8 +5,9 @@
 
 #![allow(deprecated)]
 
+use fleetmap::cli::load::read_file_url;
 use fleetmap::imagery::meta::read_meta;
-use fleetmap::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig, read_file_url};
+use fleetmap::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig};
 use fleetmap::link::codec::Codec;
 use fleetmap::sim::faults::LinkFaults;
 use fleetmap::sim::harness::{Sim, SimConfig};

@@ -5,7 +5,8 @@
 //! binary in a pseudo-terminal.
 
 use crossterm::event::{Event as TermEvent, KeyCode, KeyEvent, KeyModifiers};
-use fleetmap::time::{MonotonicClock, Time};
+use fleetmap::clock::MonotonicClock;
+use fleetmap::time::Time;
 use fleetmap::tui::app::Overlay;
 use fleetmap::tui::keymap::ALL_ACTIONS;
 use fleetmap::tui::view::help::{self, HelpLine};

@@ -6,10 +6,11 @@
 //! specifications below and rewrites `assets/images/golden.json`
 //! (`scripts/gen-vision-images.sh` does exactly that).
 
+use fleetmap::cli::load::load_image_file;
 use fleetmap::geo::{Cell, Dir4};
 use fleetmap::time::Time;
 use fleetmap::vision::green::{self, GreenParams};
-use fleetmap::vision::load::{LoadLimits, load_image_bytes, load_image_file};
+use fleetmap::vision::load::{LoadLimits, load_image_bytes};
 use fleetmap::vision::runway::{self, RunwayParams};
 use fleetmap::vision::synth::{self, RunwayScene, RunwayStrip, TileScene};
 use fleetmap::vision::votes::{CellState, Detection, VoteBook, VoteParams};

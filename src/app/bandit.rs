@@ -713,9 +713,11 @@ impl Runner {
                 time_limit: self.plan_time_limit_s,
                 ..PlanOptions::default()
             };
-            let out = tokio::task::spawn_blocking(move || solve_instance(&inst, &opts))
-                .await
-                .context("planner task")?;
+            let out = tokio::task::spawn_blocking(move || {
+                solve_instance(&inst, &opts, &crate::clock::stopwatch())
+            })
+            .await
+            .context("planner task")?;
             match (out.status, out.plan) {
                 (PlanStatus::Optimal | PlanStatus::TimeLimit, Some(plan)) => {
                     let secs = out.solve_seconds;

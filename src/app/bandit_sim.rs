@@ -4,13 +4,14 @@
 //! GCS clock running at the simulator's speed-up — what `fleetmap demo --bandit` and the
 //! end-to-end tests fly.
 
+use crate::clock::MonotonicClock;
 use crate::fleet::{self, FleetConfig, FleetHandle};
 use crate::link::ConnSpec;
 use crate::link::transport::{LinkOptions, open_link};
 use crate::sim::harness::{Sim, SimConfig};
 use crate::sim::server::{self, Endpoint, ServeOptions, SimHandle};
 use crate::sim::world::{Surface, World};
-use crate::time::{MonotonicClock, Time};
+use crate::time::Time;
 use anyhow::Context as _;
 use tokio::sync::mpsc;
 

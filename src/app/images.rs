@@ -21,9 +21,10 @@
 //! whole pose when no message was heard. The runners check this pose before a picture counts
 //! ([`crate::vision::sanity`]).
 
+use crate::cli::load::read_file_url;
 use crate::fleet::{FleetHandle, Incoming};
 use crate::imagery::meta::{ImageMeta, read_meta};
-use crate::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig, read_file_url};
+use crate::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig};
 use crate::time::Time;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use std::collections::{HashMap, VecDeque};

@@ -540,7 +540,7 @@ pub async fn run(
     // when the fleet's clock runs faster (the demo).
     let options = ShellOptions {
         tick: REFRESH,
-        clock: crate::time::MonotonicClock::new(),
+        clock: crate::clock::MonotonicClock::new(),
     };
     let result = crate::tui::run(app, io, options).await;
     producer.abort();
@@ -558,8 +558,8 @@ pub async fn run(
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::clock::MonotonicClock;
     use crate::fleet::FleetConfig;
-    use crate::time::MonotonicClock;
 
     fn shared() -> (Arc<Shared>, watch::Sender<Option<RunState>>) {
         let (view_tx, view_rx) = watch::channel(None);

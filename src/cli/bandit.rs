@@ -472,7 +472,7 @@ pub fn run_bench(args: BenchPlanArgs) -> anyhow::Result<ExitCode> {
                     if opts.model == Model::Plain {
                         inst.k_max = out.plan.as_ref().map_or(1, |p| p.cycles) + 1;
                     }
-                    solve_instance(&inst, &opts)
+                    solve_instance(&inst, &opts, &crate::clock::stopwatch())
                 };
                 times.push(o.solve_seconds);
                 max_vars = max_vars.max(o.variables);

@@ -15,6 +15,7 @@ pub mod command;
 pub mod demo;
 pub mod experiment;
 pub mod grid;
+pub mod load;
 pub mod mission;
 pub mod plan;
 pub mod relay;

@@ -76,7 +76,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         ..PlanOptions::default()
     };
     let outcome = match &inst {
-        Ok(inst) => solve_instance(inst, &opts),
+        Ok(inst) => solve_instance(inst, &opts, &crate::clock::stopwatch()),
         Err(reason) => PlanOutcome::never(reason.clone()),
     };
     let mut out = String::new();

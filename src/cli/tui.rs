@@ -8,7 +8,8 @@
 //! as *not sent* because no vehicle is connected. `--snapshot COLSxROWS` prints one frame as text without
 //! a terminal; `fleetmap bench tui` measures the redraw rate.
 
-use crate::time::{MonotonicClock, Time};
+use crate::clock::MonotonicClock;
+use crate::time::Time;
 use crate::tui::app::{App, CommandRequest, Event, JobResult, update};
 use crate::tui::config::UiConfig;
 use crate::tui::model::Model;

@@ -52,7 +52,7 @@ use crate::proto::command::CommandSender;
 use crate::proto::heartbeat::Liveness;
 use crate::proto::heartbeat::LivenessConfig;
 use crate::proto::mission::MissionConfig;
-use crate::time::MonotonicClock;
+use crate::clock::MonotonicClock;
 use std::collections::BTreeMap;
 use std::collections::HashMap;
 use std::sync::Arc;

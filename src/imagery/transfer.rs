@@ -377,24 +377,6 @@ pub fn file_url_path(url: &str) -> Result<std::path::PathBuf, FileUrlError> {
     Ok(std::path::PathBuf::from(path))
 }
 
-/// Read the image a `file://` URL names, refusing files over `limit` bytes.
-pub fn read_file_url(url: &str, limit: u64) -> Result<Vec<u8>, FileUrlError> {
-    let path = file_url_path(url)?;
-    let p = path.display().to_string();
-    let meta = std::fs::metadata(&path).map_err(|source| FileUrlError::Io {
-        path: p.clone(),
-        source,
-    })?;
-    if meta.len() > limit {
-        return Err(FileUrlError::TooLarge {
-            path: p,
-            size: meta.len(),
-            limit,
-        });
-    }
-    std::fs::read(&path).map_err(|source| FileUrlError::Io { path: p, source })
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -541,14 +523,5 @@ mod tests {
         );
         assert!(file_url_path("http://x/a.jpg").is_err());
         assert!(file_url_path("file://relative.jpg").is_err());
-        let dir = tempfile::tempdir().unwrap();
-        let p = dir.path().join("x.jpg");
-        std::fs::write(&p, b"abc").unwrap();
-        let url = format!("file://{}", p.display());
-        assert_eq!(read_file_url(&url, 10).unwrap(), b"abc");
-        assert!(matches!(
-            read_file_url(&url, 2),
-            Err(FileUrlError::TooLarge { .. })
-        ));
     }
 }

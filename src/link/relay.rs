@@ -13,7 +13,8 @@
 use super::addr::ConnSpec;
 use super::faults::{FaultyChannel, LinkFaults};
 use super::transport::{LinkError, LinkEvent, LinkOptions, open_link};
-use crate::time::{MonotonicClock, Time};
+use crate::clock::MonotonicClock;
+use crate::time::Time;
 use serde::Serialize;
 use std::time::Duration;
 use tokio::sync::mpsc;

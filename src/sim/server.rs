@@ -14,8 +14,8 @@
 //! are written (atomically) to the image directory before the frames that announce them are
 //! sent.
 
+use crate::clock::MonotonicClock;
 use crate::sim::harness::Sim;
-use crate::time::MonotonicClock;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};

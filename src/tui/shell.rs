@@ -18,7 +18,7 @@
 use super::app::{App, CommandRequest, Effect, Event, JobResult, update};
 use super::model::Model;
 use super::view;
-use crate::time::MonotonicClock;
+use crate::clock::MonotonicClock;
 use crossterm::event::{Event as TermEvent, KeyEventKind};
 use ratatui::Terminal;
 use ratatui::backend::Backend;

@@ -1,10 +1,12 @@
-//! Loading camera images safely: PNG or JPEG, file or bytes → 8-bit RGB.
+//! Decoding camera images safely: PNG or JPEG bytes → 8-bit RGB.
 //!
 //! An image from a vehicle or a directory can be anything: empty, truncated, corrupt, of
 //! another format, or a small file whose header claims 30000×30000 pixels (2.7 GB of RGB).
-//! [`load_image`] never panics and never allocates more than the limits allow:
+//! [`load_image_bytes`] never panics and never allocates more than the limits allow. This
+//! module opens no file: reading one (with its size checked and the read capped before the
+//! bytes come here) is the edge's `crate::cli::load::load_image_file`.
 //!
-//! 1. the file size is checked (and the read is capped) before reading it;
+//! 1. the size is checked against [`LoadLimits::max_file_bytes`];
 //! 2. the format is recognised from the content (magic bytes), not the file name;
 //! 3. the decoder reads only the header, and the width, height and pixel count are checked
 //!    against [`LoadLimits`] **before** any pixel is decoded (`image::ImageReader` with
@@ -17,8 +19,7 @@
 
 use super::VisionError;
 use image::{DynamicImage, ImageDecoder, ImageFormat, ImageReader, RgbImage};
-use std::io::{Cursor, Read};
-use std::path::Path;
+use std::io::Cursor;
 
 /// Limits applied while loading an image.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
@@ -42,49 +43,6 @@ impl Default for LoadLimits {
             max_alloc_bytes: 512 << 20,
         }
     }
-}
-
-/// Where an image comes from.
-#[derive(Clone, Copy, Debug)]
-pub enum ImageInput<'a> {
-    /// A file on disk.
-    Path(&'a Path),
-    /// Encoded bytes in memory (e.g. received over MAVLink).
-    Bytes(&'a [u8]),
-}
-
-/// Load an image from a file or from bytes (see the module docs for the checks).
-pub fn load_image(input: ImageInput<'_>, limits: &LoadLimits) -> Result<RgbImage, VisionError> {
-    match input {
-        ImageInput::Path(p) => load_image_file(p, limits),
-        ImageInput::Bytes(b) => load_image_bytes(b, limits),
-    }
-}
-
-/// Load an image file (PNG or JPEG).
-pub fn load_image_file(path: &Path, limits: &LoadLimits) -> Result<RgbImage, VisionError> {
-    let file = std::fs::File::open(path)?;
-    let meta = file.metadata()?;
-    if meta.is_dir() {
-        return Err(VisionError::Io(std::io::Error::other("is a directory")));
-    }
-    if meta.len() > limits.max_file_bytes {
-        return Err(VisionError::FileTooLarge {
-            bytes: meta.len(),
-            limit: limits.max_file_bytes,
-        });
-    }
-    // Cap the read as well: the size can change, and special files report 0.
-    let mut bytes = Vec::with_capacity(meta.len() as usize);
-    file.take(limits.max_file_bytes.saturating_add(1))
-        .read_to_end(&mut bytes)?;
-    if bytes.len() as u64 > limits.max_file_bytes {
-        return Err(VisionError::FileTooLarge {
-            bytes: bytes.len() as u64,
-            limit: limits.max_file_bytes,
-        });
-    }
-    load_image_bytes(&bytes, limits)
 }
 
 /// Decode an encoded image (PNG or JPEG) held in memory.

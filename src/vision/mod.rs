@@ -30,7 +30,7 @@ pub mod sanity;
 pub mod synth;
 pub mod votes;
 
-pub use load::{LoadLimits, load_image, load_image_bytes, load_image_file};
+pub use load::{LoadLimits, load_image_bytes};
 
 /// Errors of the vision module.
 #[derive(Debug, thiserror::Error)]

@@ -61,29 +61,35 @@ use super::{
 };
 use good_lp::{Expression, ProblemVariables, Solution, SolverModel, Variable, highs, variable};
 use std::collections::HashMap;
-use std::time::Instant;
 
-/// Decide K' = 1, 2, …, K in turn (see the module documentation).
+/// Decide K' = 1, 2, …, K in turn (see the module documentation). `elapsed` gives the
+/// seconds since the solve began (the caller's clock).
 pub(crate) fn solve(
     inst: &Instance,
     opts: &PlanOptions,
-    start: Instant,
+    elapsed: &dyn Fn() -> f64,
 ) -> (PlanStatus, Option<Timelines>, Vec<Attempt>, String) {
     let mut attempts = Vec::new();
     for kc in 1..=inst.k_max {
-        let time_left = opts.time_limit.map(|t| t - start.elapsed().as_secs_f64());
+        let time_left = opts.time_limit.map(|t| t - elapsed());
         if time_left.is_some_and(|t| t <= 0.0) {
             return (PlanStatus::TimeLimit, None, attempts, String::new());
         }
-        let (mut raw, attempt) =
-            solve_cycles(inst, kc, opts, time_left, opts.visit_weights.as_deref());
+        let (mut raw, attempt) = solve_cycles(
+            inst,
+            kc,
+            opts,
+            time_left,
+            opts.visit_weights.as_deref(),
+            elapsed,
+        );
         attempts.push(attempt);
         if opts.visit_weights.is_some() && matches!(raw, RawResult::TimeLimit | RawResult::Error(_))
         {
             // The informative objective ran out of time before any plan: decide feasibility
             // without it (item 5).
-            let time_left = opts.time_limit.map(|t| t - start.elapsed().as_secs_f64());
-            let (r, a) = solve_cycles(inst, kc, opts, time_left, None);
+            let time_left = opts.time_limit.map(|t| t - elapsed());
+            let (r, a) = solve_cycles(inst, kc, opts, time_left, None, elapsed);
             attempts.push(a);
             raw = r;
         }
@@ -186,8 +192,9 @@ pub(crate) fn solve_cycles(
     opts: &PlanOptions,
     time_left: Option<f64>,
     weights: Option<&[f64]>,
+    elapsed: &dyn Fn() -> f64,
 ) -> (RawResult, Attempt) {
-    let t0 = Instant::now();
+    let t0 = elapsed();
     let g = &inst.grid;
     let ng = g.len();
     let (dt, ct) = (inst.td - 1, inst.tc - 1);
@@ -210,7 +217,7 @@ pub(crate) fn solve_cycles(
         .iter()
         .all(|&l| covered_at_start(l) || (1..=tmax).any(|t| r.drone[t][l]));
     if !start_ok || !goals_ok {
-        attempt.seconds = t0.elapsed().as_secs_f64();
+        attempt.seconds = elapsed() - t0;
         return (RawResult::Infeasible, attempt);
     }
     let boundary = |t: usize| t.is_multiple_of(dt);
@@ -409,7 +416,7 @@ pub(crate) fn solve_cycles(
         RawResult::TimeLimit => PlanStatus::TimeLimit,
         RawResult::Error(_) => PlanStatus::Error,
     };
-    attempt.seconds = t0.elapsed().as_secs_f64();
+    attempt.seconds = elapsed() - t0;
     (raw, attempt)
 }
 

@@ -16,9 +16,11 @@
 //!
 //! After the solve, the plan is re-paired by linear assignment (§III-C, [`super::assign`]).
 //!
-//! Clock reads: this module reads `std::time::Instant` for the solve statistics only
-//! (`solve_seconds`); the plan never depends on it except through HiGHS's own time limit,
-//! which is a clock by nature. It is a CPU-bound batch computation, to be run on
+//! Clock reads: none. The caller passes `elapsed`, a clock closure giving the seconds since
+//! the solve began (`crate::clock::stopwatch` at the edge, a fixed value in tests); it feeds
+//! the solve statistics (`solve_seconds`, each attempt's `seconds`) and the time left of
+//! [`PlanOptions::time_limit`] between attempts. The plan never depends on it except through
+//! that budget and HiGHS's own time limit, which is a clock by nature. It is a CPU-bound batch computation, to be run on
 //! `spawn_blocking` or rayon by async callers (DESIGN.md §2).
 
 pub mod fast;
@@ -28,7 +30,6 @@ pub use super::scenario::{Instance, Scenario, ScenarioError};
 
 use crate::geo::Cell;
 use serde::{Deserialize, Serialize};
-use std::time::Instant;
 
 /// Which formulation of (11) to solve.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize)]
@@ -348,9 +349,14 @@ pub(crate) fn classify<S: good_lp::Solution>(
 /// Solve one epoch given as a scenario: validate it, then [`solve_instance`]. A well-formed
 /// scenario that no plan can satisfy whatever K ([`ScenarioError::Infeasible`]) is the outcome
 /// `Infeasible`, with the reason as its message, as the spec wants; malformed input is an error.
-pub fn solve(scenario: &Scenario, opts: &PlanOptions) -> Result<PlanOutcome, ScenarioError> {
+/// `elapsed` is the caller's clock, as for [`solve_instance`].
+pub fn solve(
+    scenario: &Scenario,
+    opts: &PlanOptions,
+    elapsed: &dyn Fn() -> f64,
+) -> Result<PlanOutcome, ScenarioError> {
     match scenario.instance() {
-        Ok(inst) => Ok(solve_instance(&inst, opts)),
+        Ok(inst) => Ok(solve_instance(&inst, opts, elapsed)),
         Err(ScenarioError::Infeasible(reason)) => Ok(PlanOutcome::never(reason)),
         Err(e) => Err(e),
     }
@@ -359,11 +365,18 @@ pub fn solve(scenario: &Scenario, opts: &PlanOptions) -> Result<PlanOutcome, Sce
 /// Solve one epoch: the fewest sensing cycles (≤ K) in which the team visits every goal, with
 /// the paths; infeasibility within K is a normal outcome, not an error. Every plan returned has
 /// passed the independent checker ([`crate::planner::check`]; no head-on swaps when re-paired).
-pub fn solve_instance(inst: &Instance, opts: &PlanOptions) -> PlanOutcome {
-    let start = Instant::now();
+///
+/// `elapsed` is the caller's clock: seconds since the solve began (read when the solve starts,
+/// between attempts and at the end; the planner reads no clock itself).
+pub fn solve_instance(
+    inst: &Instance,
+    opts: &PlanOptions,
+    elapsed: &dyn Fn() -> f64,
+) -> PlanOutcome {
+    let start = elapsed();
     let (status, timelines, attempts, message) = match opts.model {
-        Model::Plain => plain::solve(inst, opts),
-        Model::Fast => fast::solve(inst, opts, start),
+        Model::Plain => plain::solve(inst, opts, elapsed),
+        Model::Fast => fast::solve(inst, opts, &|| elapsed() - start),
     };
     let mut plan = timelines.map(|mut t| {
         if opts.repair {
@@ -391,7 +404,7 @@ pub fn solve_instance(inst: &Instance, opts: &PlanOptions) -> PlanOutcome {
     PlanOutcome {
         status,
         plan,
-        solve_seconds: start.elapsed().as_secs_f64(),
+        solve_seconds: elapsed() - start,
         variables: last.map_or(0, |a| a.variables),
         constraints: last.map_or(0, |a| a.constraints),
         attempts,

@@ -23,7 +23,7 @@ fn plan(s: &mut ClassificationState) {
     let mut k = s.params.k_max;
     loop {
         let inst = s.instance(k).unwrap();
-        let out = solve_instance(&inst, &PlanOptions::default());
+        let out = solve_instance(&inst, &PlanOptions::default(), &|| 0.0);
         match (out.status, &out.plan) {
             (PlanStatus::Optimal, Some(p)) => {
                 crate::planner::check::check_plan(&inst, p).unwrap();

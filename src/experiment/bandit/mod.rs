@@ -531,7 +531,7 @@ pub fn run_trial(
                     return result;
                 }
             };
-            let out = solve_instance(&inst, &opts);
+            let out = solve_instance(&inst, &opts, &crate::clock::stopwatch());
             on_epoch(&inst, &out);
             match (&out.status, &out.plan) {
                 (PlanStatus::Optimal, Some(plan)) => {

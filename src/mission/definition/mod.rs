@@ -60,7 +60,6 @@ use crate::vision::camera::CameraModel;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::HashSet;
 use std::fmt;
-use std::path::Path;
 
 /// The most cells a mission's search area or sweep box may hold (validation limits the
 /// area to 1000 × 1000).
@@ -503,7 +502,7 @@ pub struct MissionDef {
 /// One problem in a mission file.
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct DefError {
-    /// The file name as given to [`MissionDef::parse`] / [`MissionDef::load`].
+    /// The file name as given to [`MissionDef::parse`] / [`MissionDef::from_bytes`].
     pub file: String,
     /// 1-based line of the offending value (0 when unknown, e.g. a definition built in code).
     pub line: usize,
@@ -552,21 +551,13 @@ impl fmt::Display for DefErrors {
 impl std::error::Error for DefErrors {}
 
 impl MissionDef {
-    /// Read, parse and validate the mission file at `path`. Errors name the file as given.
-    pub fn load(path: impl AsRef<Path>) -> Result<MissionDef, DefErrors> {
-        let path = path.as_ref();
-        let file = path.display().to_string();
-        let bytes = std::fs::read(path).map_err(|e| DefErrors {
-            errors: vec![DefError {
-                file: file.clone(),
-                line: 0,
-                column: 0,
-                path: String::new(),
-                message: format!("cannot read the file: {e}"),
-            }],
-        })?;
-        match std::str::from_utf8(&bytes) {
-            Ok(text) => MissionDef::parse(text, &file),
+    /// Parse and validate the raw bytes of a mission file named `file_name` (used in error
+    /// messages): bytes that are not UTF-8 are an error at the line and column of the first
+    /// bad byte, not a panic. Reading the file is the edge's job
+    /// (`crate::cli::load::load_mission`).
+    pub fn from_bytes(bytes: &[u8], file_name: &str) -> Result<MissionDef, DefErrors> {
+        match std::str::from_utf8(bytes) {
+            Ok(text) => MissionDef::parse(text, file_name),
             Err(e) => {
                 let valid = &bytes[..e.valid_up_to()];
                 // The valid prefix is UTF-8 by construction.
@@ -574,7 +565,7 @@ impl MissionDef {
                 let (line, column) = reader::line_col(&prefix, prefix.len());
                 Err(DefErrors {
                     errors: vec![DefError {
-                        file,
+                        file: file_name.to_string(),
                         line,
                         column,
                         path: String::new(),
@@ -582,6 +573,20 @@ impl MissionDef {
                     }],
                 })
             }
+        }
+    }
+
+    /// The error of a mission file that could not be read at all (`reason` is the I/O
+    /// error), in the form of every other mission-file error: the file as given, no line.
+    pub fn unreadable(file_name: &str, reason: &dyn fmt::Display) -> DefErrors {
+        DefErrors {
+            errors: vec![DefError {
+                file: file_name.to_string(),
+                line: 0,
+                column: 0,
+                path: String::new(),
+                message: format!("cannot read the file: {reason}"),
+            }],
         }
     }
 

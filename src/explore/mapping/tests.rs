@@ -1,0 +1,196 @@
+use super::*;
+use crate::vision::votes::Detection;
+
+fn def(drones: usize) -> MissionDef {
+    let mut text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/missions/runway-field-test.toml"
+    ))
+    .unwrap();
+    for k in 2..=drones {
+        text.push_str(&format!("\n[[vehicles]]\nsysid = {k}\nrole = \"drone\"\n"));
+    }
+    MissionDef::parse(&text, "test.toml").unwrap()
+}
+
+fn grid() -> Grid {
+    Grid::new(
+        LatLon {
+            lat: 37.1965,
+            lon: -80.5785,
+        },
+        4.0,
+    )
+    .unwrap()
+}
+
+fn det(sysid: u8, cell: Cell, k: u64, all: bool) -> Detection {
+    Detection {
+        image_id: format!("i{k}"),
+        vehicle: sysid,
+        time: Time::from_secs(k),
+        cell,
+        position: None,
+        heading_deg: 0.0,
+        fractions: RegionFractions::default(),
+        labels: NeighbourLabels {
+            center: true,
+            north: all,
+            west: false,
+            south: false,
+            east: false,
+        },
+    }
+}
+
+#[test]
+fn sweep_detection_confirmation_and_dfs_to_the_end() {
+    let mut s = MappingState::new(&def(1), grid(), Sharing::Gcs).unwrap();
+    assert_eq!(s.directive(1).unwrap(), Directive::Sweep);
+    assert!(!s.sweeps[0].items.is_empty());
+    // A sweep image with the centre positive starts a confirmation of that cell.
+    let c = Cell::new(3, 2);
+    let labels = NeighbourLabels {
+        center: true,
+        ..NeighbourLabels::default()
+    };
+    let got = s
+        .on_sweep_image(1, c, 0.0, RegionFractions::default(), labels, Time::ZERO)
+        .unwrap();
+    assert_eq!(got, Some(c));
+    assert_eq!(s.directive(1).unwrap(), Directive::Confirm(c));
+    assert_eq!(s.images_missing(1, c), 5);
+    for k in 0..3 {
+        s.on_cell_image(det(1, c, k, true)).unwrap();
+    }
+    assert_eq!(s.images_missing(1, c), 2);
+    for k in 3..5 {
+        s.on_cell_image(det(1, c, k, true)).unwrap();
+    }
+    assert_eq!(s.images_missing(1, c), 0);
+    assert_eq!(s.on_confirmed(1, c, Time::from_secs(5)).unwrap(), Some(c));
+    // DFS: rejoin the root, observe (north is positive), move north, observe, come back.
+    assert_eq!(s.directive(1).unwrap(), Directive::Dfs(Action::Rejoin(c)));
+    s.on_arrived(1, c, Time::from_secs(6)).unwrap();
+    assert_eq!(s.directive(1).unwrap(), Directive::Dfs(Action::Observe));
+    for k in 5..10 {
+        s.on_cell_image(det(1, c, k, true)).unwrap();
+    }
+    let n = c.step(Dir4::North);
+    assert_eq!(s.on_observed(1, c, Time::from_secs(10)).unwrap(), vec![n]);
+    assert_eq!(s.directive(1).unwrap(), Directive::Dfs(Action::MoveTo(n)));
+    // battery swap in the middle: the vertex is kept
+    s.on_battery_low(1, Time::from_secs(11)).unwrap();
+    assert_eq!(s.directive(1).unwrap(), Directive::Swap);
+    s.on_landed_for_swap(1, 0, Time::from_secs(12)).unwrap();
+    s.on_swapped(1, Time::from_secs(13)).unwrap();
+    assert_eq!(s.robot(1).unwrap().battery_swaps, 1);
+    assert_eq!(s.directive(1).unwrap(), Directive::Dfs(Action::Rejoin(c)));
+    s.on_arrived(1, c, Time::from_secs(14)).unwrap();
+    let next = s.directive(1).unwrap();
+    assert_eq!(next, Directive::Dfs(Action::MoveTo(n)));
+    s.on_arrived(1, n, Time::from_secs(15)).unwrap();
+    assert_eq!(s.directive(1).unwrap(), Directive::Dfs(Action::Observe));
+    for k in 15..20 {
+        s.on_cell_image(det(1, n, k, false)).unwrap();
+    }
+    assert!(s.on_observed(1, n, Time::from_secs(20)).unwrap().is_empty());
+    assert_eq!(s.directive(1).unwrap(), Directive::Dfs(Action::MoveTo(c)));
+    s.on_arrived(1, c, Time::from_secs(24)).unwrap();
+    assert_eq!(s.directive(1).unwrap(), Directive::GoHome);
+    s.on_going_home(1, Time::from_secs(25)).unwrap();
+    assert!(!s.is_finished());
+    s.on_landed(1, Time::from_secs(40)).unwrap();
+    assert!(s.is_finished());
+    assert_eq!(s.phase, Phase::Finished { found: true });
+    assert_eq!(s.book.positive_cells(), vec![c, n]);
+    // the whole state survives a JSON round trip
+    let back: MappingState = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+    assert_eq!(back.book, s.book);
+    assert_eq!(back.phase, s.phase);
+}
+
+#[test]
+fn a_negative_confirmation_rejects_the_cell_and_sweeps_on() {
+    let mut s = MappingState::new(&def(2), grid(), Sharing::Gcs).unwrap();
+    let c = Cell::new(0, 0);
+    let pos = NeighbourLabels {
+        center: true,
+        ..NeighbourLabels::default()
+    };
+    assert_eq!(
+        s.on_sweep_image(2, c, 0.0, RegionFractions::default(), pos, Time::ZERO)
+            .unwrap(),
+        Some(c)
+    );
+    assert_eq!(s.directive(1).unwrap(), Directive::Hold);
+    for k in 0..5 {
+        let mut d = det(2, c, k, false);
+        d.labels.center = false;
+        s.on_cell_image(d).unwrap();
+    }
+    assert_eq!(s.on_confirmed(2, c, Time::from_secs(5)).unwrap(), None);
+    assert_eq!(s.phase, Phase::Sweep);
+    assert!(s.rejected.contains(&c));
+    assert_eq!(s.directive(1).unwrap(), Directive::Sweep);
+    // the same cell seen again does not start another confirmation
+    assert_eq!(
+        s.on_sweep_image(1, c, 0.0, RegionFractions::default(), pos, Time::ZERO)
+            .unwrap(),
+        None
+    );
+    s.on_sweep_complete(1, Time::from_secs(9)).unwrap();
+    assert_eq!(s.phase, Phase::Sweep);
+    s.on_sweep_complete(2, Time::from_secs(9)).unwrap();
+    assert_eq!(s.phase, Phase::Finished { found: false });
+    assert_eq!(s.directive(1).unwrap(), Directive::GoHome);
+}
+
+/// A camera fault takes the robot out like a battery swap, is saved with the state (a
+/// resumed run reads it back) and only the operator's confirmation clears it.
+#[test]
+fn a_camera_fault_is_saved_and_cleared_by_the_operator() {
+    let mut s = MappingState::new(&def(1), grid(), Sharing::Gcs).unwrap();
+    let t = Time::from_secs(10);
+    s.on_camera_fault(1, "pictures 300 m from their cell".into(), t)
+        .unwrap();
+    assert_eq!(s.robot(1).unwrap().status, RobotStatus::ReturningForSwap);
+    let json = serde_json::to_string(&s).unwrap();
+    let mut back: MappingState = serde_json::from_str(&json).unwrap();
+    assert_eq!(
+        back.robot(1).unwrap().camera_fault.as_deref(),
+        Some("pictures 300 m from their cell")
+    );
+    back.on_landed_for_swap(1, 0, t).unwrap();
+    back.on_swapped(1, t).unwrap();
+    assert_eq!(back.robot(1).unwrap().camera_fault, None);
+    // Runs saved before the field existed load without it.
+    let old = json.replace(",\"camera_fault\":\"pictures 300 m from their cell\"", "");
+    assert_ne!(old, json);
+    let old: MappingState = serde_json::from_str(&old).unwrap();
+    assert_eq!(old.robot(1).unwrap().camera_fault, None);
+}
+
+#[test]
+fn battery_need_grows_with_distance() {
+    let s = MappingState::new(&def(1), grid(), Sharing::Gcs).unwrap();
+    let near = s.battery_needed_pct(0.0, 12.0);
+    let far = s.battery_needed_pct(100.0, 12.0);
+    // 12-minute battery: 100 m at 1 m/s is 100 s ≈ 13.9 %
+    assert!((far - near - 100.0 * 100.0 / 720.0).abs() < 1e-9);
+    assert!(near > s.params.rtl_reserve_pct);
+}
+
+#[test]
+fn not_a_runway_mission() {
+    let text = std::fs::read_to_string(concat!(
+        env!("CARGO_MANIFEST_DIR"),
+        "/missions/hardware-6x6.toml"
+    ))
+    .unwrap();
+    let d = MissionDef::parse(&text, "h.toml").unwrap();
+    assert!(matches!(
+        MappingState::new(&d, grid(), Sharing::Gcs),
+        Err(MappingError::Mission(_))
+    ));
+}

@@ -1,0 +1,132 @@
+//! Vehicle events of the runway mapping run: low battery, camera faults, battery swaps
+//! (landing, swapping, resuming), going home and landing.
+
+use super::*;
+
+impl MappingState {
+    /// `sysid` must change its battery: it leaves the exploration (its vertex is kept) and
+    /// flies home. Idempotent.
+    pub fn on_battery_low(&mut self, sysid: u8, now: Time) -> Result<(), MappingError> {
+        self.touch(now);
+        self.book.close_visit(sysid, now);
+        self.robot_mut(sysid)?.visit = None;
+        if let Some(ex) = self.explorer.as_mut() {
+            ex.pause(RobotId(sysid))?;
+        }
+        let r = self.robot_mut(sysid)?;
+        if !matches!(
+            r.status,
+            RobotStatus::ReturningForSwap | RobotStatus::AwaitingSwap
+        ) {
+            r.status_before_swap = Some(r.status);
+            r.status = RobotStatus::ReturningForSwap;
+        }
+        // A robot out of the sweep cannot finish its strip now: the others carry on.
+        Ok(())
+    }
+
+    /// `sysid`'s camera cannot be trusted (`reason`): it leaves the run as for a battery swap
+    /// ([`MappingState::on_battery_low`]) and stays out until the operator confirms a fix.
+    pub fn on_camera_fault(
+        &mut self,
+        sysid: u8,
+        reason: String,
+        now: Time,
+    ) -> Result<(), MappingError> {
+        self.abandon_confirmation(sysid);
+        self.on_battery_low(sysid, now)?;
+        self.robot_mut(sysid)?.camera_fault = Some(reason);
+        Ok(())
+    }
+
+    /// `sysid` landed for its swap; `reboots` is the vehicle's reboot counter then.
+    pub fn on_landed_for_swap(
+        &mut self,
+        sysid: u8,
+        reboots: u32,
+        now: Time,
+    ) -> Result<(), MappingError> {
+        self.touch(now);
+        let r = self.robot_mut(sysid)?;
+        r.status = RobotStatus::AwaitingSwap;
+        r.reboots_at_landing = Some(reboots);
+        self.check_finished();
+        Ok(())
+    }
+
+    /// `sysid` has a fresh battery: it goes back to what it was doing (the DFS from its saved
+    /// vertex).
+    pub fn on_swapped(&mut self, sysid: u8, now: Time) -> Result<(), MappingError> {
+        self.touch(now);
+        let exploring = matches!(self.phase, Phase::Explore { .. });
+        let r = self.robot_mut(sysid)?;
+        if !matches!(
+            r.status,
+            RobotStatus::ReturningForSwap | RobotStatus::AwaitingSwap
+        ) {
+            return Ok(());
+        }
+        r.battery_swaps += 1;
+        r.reboots_at_landing = None;
+        r.camera_fault = None;
+        let before = r.status_before_swap.take().unwrap_or(RobotStatus::Idle);
+        r.status = match before {
+            RobotStatus::Sweeping | RobotStatus::Holding | RobotStatus::Confirming => {
+                RobotStatus::Sweeping
+            }
+            RobotStatus::SweepDone => RobotStatus::SweepDone,
+            RobotStatus::Exploring => RobotStatus::Exploring,
+            _ => RobotStatus::Idle,
+        };
+        if exploring {
+            r.status = RobotStatus::Exploring;
+            if let Some(ex) = self.explorer.as_mut()
+                && ex.robot(RobotId(sysid))?.phase == crate::explore::dfs::Phase::Paused
+            {
+                ex.resume(RobotId(sysid))?;
+            }
+        }
+        // A confirmation interrupted by the swap: the confirming robot's visit was closed, so
+        // give the confirmation up and sweep on (the candidate may be seen again).
+        if let Phase::Confirm { sysid: who, .. } = self.phase
+            && who == sysid
+        {
+            self.phase = Phase::Sweep;
+        }
+        Ok(())
+    }
+
+    /// `sysid` has a low battery during a confirmation: the confirmation is abandoned (the
+    /// sweep resumes without rejecting the cell).
+    pub fn abandon_confirmation(&mut self, sysid: u8) {
+        if let Phase::Confirm { sysid: who, .. } = self.phase
+            && who == sysid
+        {
+            self.phase = Phase::Sweep;
+            for r in &mut self.robots {
+                if r.status == RobotStatus::Holding {
+                    r.status = RobotStatus::Sweeping;
+                }
+            }
+        }
+    }
+
+    /// `sysid` is flying home at the end.
+    pub fn on_going_home(&mut self, sysid: u8, now: Time) -> Result<(), MappingError> {
+        self.touch(now);
+        self.book.close_visit(sysid, now);
+        let r = self.robot_mut(sysid)?;
+        r.visit = None;
+        r.status = RobotStatus::ReturningHome;
+        Ok(())
+    }
+
+    /// `sysid` landed at the end. When the DFS is complete and every robot is down, the run
+    /// is finished.
+    pub fn on_landed(&mut self, sysid: u8, now: Time) -> Result<(), MappingError> {
+        self.touch(now);
+        self.robot_mut(sysid)?.status = RobotStatus::Landed;
+        self.check_finished();
+        Ok(())
+    }
+}

@@ -1,0 +1,438 @@
+//! Step 2 of loading a mission file: the walk of the spanned TOML tree against the
+//! schema, table by table (`[grid]`, `[flight]`, `[camera]`, `[battery]`, `[[vehicles]]`,
+//! `[area]`, `[runway]`, `[classification]`), through the typed readers of [`Ctx`].
+
+use super::*;
+
+const ROOT_KEYS: &[&str] = &[
+    "name",
+    "kind",
+    "description",
+    "grid",
+    "flight",
+    "camera",
+    "battery",
+    "vehicles",
+    "area",
+    "runway",
+    "classification",
+];
+
+/// Parse `text` (steps 1 and 2). Syntax errors end the reading; structural errors are kept
+/// in the returned context (with placeholders in the definition) so that validation can add
+/// its own.
+pub(in crate::mission::definition) fn read<'t>(
+    text: &'t str,
+    file: &str,
+) -> Result<(MissionDef, Ctx<'t>), DefErrors> {
+    let mut ctx = Ctx::new(file, text);
+    let (doc, syntax) = DeTable::parse_recoverable(text);
+    if !syntax.is_empty() {
+        let mut errs: Vec<(usize, String)> = syntax
+            .iter()
+            .map(|e| (e.span().map_or(0, |s| s.start), e.message().to_string()))
+            .collect();
+        errs.sort_by_key(|(o, _)| *o);
+        let mut last_line = 0;
+        for (offset, msg) in errs {
+            let (line, _) = line_col(text, offset);
+            if line == last_line || ctx.errors.len() >= MAX_SYNTAX_ERRORS {
+                continue;
+            }
+            last_line = line;
+            ctx.push(offset, "", format!("TOML syntax: {msg}"));
+        }
+        return Err(ctx
+            .finish()
+            .err()
+            .unwrap_or(DefErrors { errors: Vec::new() }));
+    }
+    let root_val = Spanned::new(0..0, DeValue::Table(doc.into_inner()));
+    let root = ctx.table("", &root_val, ROOT_KEYS);
+    let empty = DeTable::default();
+    let root = root.unwrap_or(&empty);
+    let def = read_root(&mut ctx, root);
+    Ok((def, ctx))
+}
+
+fn read_root(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> MissionDef {
+    let name = ctx
+        .req(root, "", "name", "a string", |c, p, v| {
+            c.str_of(p, v, "a string")
+        })
+        .unwrap_or_default();
+    let kinds = [
+        ("runway-mapping", MissionKind::RunwayMapping),
+        ("spatial-classification", MissionKind::SpatialClassification),
+    ];
+    let kind = ctx
+        .req(
+            root,
+            "",
+            "kind",
+            "\"runway-mapping\" or \"spatial-classification\"",
+            |c, p, v| c.word_of(p, v, &kinds),
+        )
+        .unwrap_or(MissionKind::RunwayMapping);
+    let description = ctx
+        .opt(root, "", "description", |c, p, v| {
+            c.str_of(p, v, "a string")
+        })
+        .unwrap_or(None);
+
+    let grid = read_grid(ctx, root);
+    let flight = read_flight(ctx, root);
+    let camera = read_camera(ctx, root);
+    let battery = read_battery(ctx, root);
+    let vehicles = read_vehicles(ctx, root);
+    let area = read_area(ctx, root);
+    let runway = read_runway(ctx, root);
+    let classification = read_classification(ctx, root);
+    MissionDef {
+        name,
+        kind,
+        description,
+        grid,
+        flight,
+        camera,
+        battery,
+        vehicles,
+        area,
+        runway,
+        classification,
+    }
+}
+
+/// A required table: reported missing (and poisoned) when absent.
+fn required_table<'a, 'i>(
+    ctx: &mut Ctx<'_>,
+    root: &'a DeTable<'i>,
+    key: &str,
+    known: &[&str],
+) -> Option<&'a DeTable<'i>> {
+    match get(root, key) {
+        Some(v) => ctx.table(key, v, known),
+        None => {
+            ctx.missing("", key, &format!("a table [{key}]"));
+            None
+        }
+    }
+}
+
+fn read_grid(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> GridDef {
+    let mut grid = GridDef {
+        origin: Origin::Vehicle,
+        cell_size_m: f64::NAN,
+    };
+    let Some(t) = required_table(ctx, root, "grid", &["origin", "cell_size_m"]) else {
+        return grid;
+    };
+    let origin_expected = "\"vehicle\" or { lat = …, lon = … }";
+    if let Some(o) = ctx.req(t, "grid", "origin", origin_expected, |c, p, v| {
+        match v.get_ref() {
+            DeValue::String(s) if s.as_ref() == "vehicle" => {
+                c.record(p, v);
+                Some(Origin::Vehicle)
+            }
+            DeValue::Table(_) => c.latlon_of(p, v).map(Origin::Coordinates),
+            _ => {
+                c.record(p, v);
+                c.wrong(p, v, origin_expected);
+                None
+            }
+        }
+    }) {
+        grid.origin = o;
+    }
+    grid.cell_size_m = ctx
+        .req(
+            t,
+            "grid",
+            "cell_size_m",
+            "a number > 0 (metres)",
+            Ctx::num_of,
+        )
+        .unwrap_or(f64::NAN);
+    grid
+}
+
+fn read_flight(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> FlightDef {
+    let known = ["altitude_m", "altitude_separation_m", "speed_m_s"];
+    let Some(t) = required_table(ctx, root, "flight", &known) else {
+        return FlightDef {
+            altitude_m: f64::NAN,
+            altitude_separation_m: 0.0,
+            speed_m_s: f64::NAN,
+        };
+    };
+    FlightDef {
+        altitude_m: ctx
+            .req(
+                t,
+                "flight",
+                "altitude_m",
+                "a number > 0 (metres above home)",
+                Ctx::num_of,
+            )
+            .unwrap_or(f64::NAN),
+        altitude_separation_m: ctx.or(t, "flight", "altitude_separation_m", 0.0, Ctx::num_of),
+        speed_m_s: ctx
+            .req(t, "flight", "speed_m_s", "a number > 0 (m/s)", Ctx::num_of)
+            .unwrap_or(f64::NAN),
+    }
+}
+
+fn read_camera(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> CameraModel {
+    let d = CameraModel::paper();
+    let Some(t) = ctx.sub_table(root, "", "camera", &["hfov_deg", "width_px", "height_px"]) else {
+        return d;
+    };
+    let px = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| {
+        c.int_of::<u32>(p, v, "an integer number of pixels ≥ 1")
+    };
+    CameraModel {
+        hfov_deg: ctx.or(t, "camera", "hfov_deg", d.hfov_deg, Ctx::num_of),
+        width_px: ctx.or(t, "camera", "width_px", d.width_px, px),
+        height_px: ctx.or(t, "camera", "height_px", d.height_px, px),
+    }
+}
+
+fn read_battery(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> BatteryDef {
+    let d = BatteryDef::default();
+    let Some(t) = ctx.sub_table(root, "", "battery", &["flight_time_min", "rtl_reserve_pct"])
+    else {
+        return d;
+    };
+    BatteryDef {
+        flight_time_min: ctx.or(
+            t,
+            "battery",
+            "flight_time_min",
+            d.flight_time_min,
+            Ctx::num_of,
+        ),
+        rtl_reserve_pct: ctx.or(
+            t,
+            "battery",
+            "rtl_reserve_pct",
+            d.rtl_reserve_pct,
+            Ctx::num_of,
+        ),
+    }
+}
+
+fn read_vehicles(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Vec<VehicleDef> {
+    let Some(v) = get(root, "vehicles") else {
+        ctx.missing("", "vehicles", "[[vehicles]] tables");
+        return Vec::new();
+    };
+    ctx.record("vehicles", v);
+    let DeValue::Array(items) = v.get_ref() else {
+        ctx.wrong("vehicles", v, "[[vehicles]] tables");
+        return Vec::new();
+    };
+    let roles = [("drone", Role::Drone), ("station", Role::Station)];
+    let mut out = Vec::with_capacity(items.len());
+    for (i, item) in items.iter().enumerate() {
+        let path = format!("vehicles[{i}]");
+        let Some(t) = ctx.table(&path, item, &["sysid", "role", "name", "start"]) else {
+            ctx.poison("vehicles");
+            continue;
+        };
+        let sysid = ctx
+            .req(t, &path, "sysid", "an integer 1–254", |c, p, v| {
+                c.int_of::<u8>(p, v, "an integer 1–254")
+            })
+            .unwrap_or(0);
+        let role = ctx
+            .req(t, &path, "role", "\"drone\" or \"station\"", |c, p, v| {
+                c.word_of(p, v, &roles)
+            })
+            .unwrap_or(Role::Drone);
+        let name = ctx
+            .opt(t, &path, "name", |c, p, v| c.str_of(p, v, "a string"))
+            .unwrap_or(None);
+        let start = ctx.opt(t, &path, "start", Ctx::cell_of).unwrap_or(None);
+        out.push(VehicleDef {
+            sysid,
+            role,
+            name,
+            start,
+        });
+    }
+    out
+}
+
+fn read_area(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> AreaDef {
+    let known = ["rows", "cols", "obstacles", "roads", "roads_are_candidates"];
+    let mut area = AreaDef::default();
+    let Some(t) = ctx.sub_table(root, "", "area", &known) else {
+        return area;
+    };
+    let count = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| c.int_of::<u32>(p, v, "an integer ≥ 1");
+    area.rows = ctx.opt(t, "area", "rows", count).unwrap_or(None);
+    area.cols = ctx.opt(t, "area", "cols", count).unwrap_or(None);
+    area.obstacles = ctx.or(t, "area", "obstacles", Vec::new(), Ctx::cells_of);
+    area.roads = ctx.opt(t, "area", "roads", Ctx::cells_of).unwrap_or(None);
+    area.roads_are_candidates = ctx.or(t, "area", "roads_are_candidates", true, Ctx::bool_of);
+    area
+}
+
+fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
+    let known = [
+        "images_per_cell",
+        "votes_required",
+        "intensity_threshold",
+        "dilations",
+        "black_fraction",
+        "lane_spacing_m",
+        "sweep",
+    ];
+    let t = ctx.sub_table(root, "", "runway", &known)?;
+    let count = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| c.int_of::<u32>(p, v, "an integer ≥ 1");
+    let p = "runway";
+    let images_per_cell = ctx.or(t, p, "images_per_cell", default_images_per_cell(), count);
+    let votes_required = ctx.or(t, p, "votes_required", default_votes_required(), count);
+    let intensity_threshold = ctx.or(
+        t,
+        p,
+        "intensity_threshold",
+        default_intensity_threshold(),
+        |c, p, v| c.int_of::<u8>(p, v, "an integer 0–255"),
+    );
+    let dilations = ctx.or(t, p, "dilations", default_dilations(), |c, p, v| {
+        c.int_of::<u32>(p, v, "an integer ≥ 0")
+    });
+    let black_fraction = ctx.or(
+        t,
+        p,
+        "black_fraction",
+        default_black_fraction(),
+        Ctx::num_of,
+    );
+    let lane_spacing_m = ctx.opt(t, p, "lane_spacing_m", Ctx::num_of).unwrap_or(None);
+    let sweep = read_sweep(ctx, t);
+    Some(RunwayDef {
+        images_per_cell,
+        votes_required,
+        intensity_threshold,
+        dilations,
+        black_fraction,
+        lane_spacing_m,
+        sweep,
+    })
+}
+
+fn read_sweep(ctx: &mut Ctx<'_>, runway: &DeTable<'_>) -> SweepBox {
+    let placeholder = SweepBox::Local {
+        north_m: [f64::NAN; 2],
+        east_m: [f64::NAN; 2],
+    };
+    let expected = "a table [runway.sweep] with north_m = [min, max], east_m = [min, max] \
+                    (metres from the origin) or south_west = { lat, lon }, north_east = { lat, lon }";
+    let Some(v) = get(runway, "sweep") else {
+        ctx.missing("runway", "sweep", expected);
+        ctx.poison("runway.sweep");
+        return placeholder;
+    };
+    let p = "runway.sweep";
+    let known = ["north_m", "east_m", "south_west", "north_east"];
+    let Some(t) = ctx.table(p, v, &known) else {
+        ctx.poison(p);
+        return placeholder;
+    };
+    let has = |k: &str| get(t, k).is_some();
+    let local = has("north_m") || has("east_m");
+    let corners = has("south_west") || has("north_east");
+    if local && corners {
+        ctx.push(
+            v.span().start,
+            p,
+            "give either north_m/east_m (metres from the origin) or south_west/north_east \
+             (WGS84 corners), not both"
+                .into(),
+        );
+        ctx.poison(p);
+        return placeholder;
+    }
+    if corners {
+        let sw = ctx.req(t, p, "south_west", "{ lat = …, lon = … }", Ctx::latlon_of);
+        let ne = ctx.req(t, p, "north_east", "{ lat = …, lon = … }", Ctx::latlon_of);
+        match (sw, ne) {
+            (Some(south_west), Some(north_east)) => SweepBox::Corners {
+                south_west,
+                north_east,
+            },
+            _ => {
+                ctx.poison(p);
+                placeholder
+            }
+        }
+    } else {
+        let range = "[min, max] (metres from the origin)";
+        let n = ctx.req(t, p, "north_m", range, |c, p, v| {
+            c.nums_of::<2>(p, v, range)
+        });
+        let e = ctx.req(t, p, "east_m", range, |c, p, v| c.nums_of::<2>(p, v, range));
+        match (n, e) {
+            (Some(north_m), Some(east_m)) => SweepBox::Local { north_m, east_m },
+            _ => {
+                ctx.poison(p);
+                placeholder
+            }
+        }
+    }
+}
+
+fn read_classification(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<ClassificationDef> {
+    let known = [
+        "theta",
+        "epsilon",
+        "delta",
+        "epoch_goals",
+        "batch_size",
+        "drone_cycle_steps",
+        "station_cycle_steps",
+        "max_cycles",
+        "charger_capacity",
+        "green",
+    ];
+    let t = ctx.sub_table(root, "", "classification", &known)?;
+    let d = ClassificationDef::default();
+    let p = "classification";
+    let count = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| c.int_of::<u32>(p, v, "an integer ≥ 1");
+    let mut out = ClassificationDef {
+        theta: ctx.or(t, p, "theta", d.theta, Ctx::num_of),
+        epsilon: ctx.or(t, p, "epsilon", d.epsilon, Ctx::num_of),
+        delta: ctx.or(t, p, "delta", d.delta, Ctx::num_of),
+        epoch_goals: ctx.or(t, p, "epoch_goals", d.epoch_goals, count),
+        batch_size: ctx.or(t, p, "batch_size", d.batch_size, count),
+        drone_cycle_steps: ctx.or(t, p, "drone_cycle_steps", d.drone_cycle_steps, count),
+        station_cycle_steps: ctx.or(t, p, "station_cycle_steps", d.station_cycle_steps, count),
+        max_cycles: ctx.or(t, p, "max_cycles", d.max_cycles, count),
+        charger_capacity: ctx.opt(t, p, "charger_capacity", count).unwrap_or(None),
+        green: d.green,
+    };
+    let gk = ["hsv_min", "hsv_max", "fraction_threshold"];
+    if let Some(g) = ctx.sub_table(t, p, "green", &gk) {
+        let gp = "classification.green";
+        let hsv = "[h, s, v] (OpenCV HSV: h 0–179, s and v 0–255)";
+        let dg = GreenDef::default();
+        out.green = GreenDef {
+            hsv_min: ctx.or(g, gp, "hsv_min", dg.hsv_min, |c, p, v| {
+                c.u8s_of::<3>(p, v, hsv)
+            }),
+            hsv_max: ctx.or(g, gp, "hsv_max", dg.hsv_max, |c, p, v| {
+                c.u8s_of::<3>(p, v, hsv)
+            }),
+            fraction_threshold: ctx.or(
+                g,
+                gp,
+                "fraction_threshold",
+                dg.fraction_threshold,
+                Ctx::num_of,
+            ),
+        };
+    }
+    Some(out)
+}
