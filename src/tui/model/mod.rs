@@ -1,0 +1,69 @@
+//! The view-model: what the operator's screen shows, as plain data.
+//!
+//! The UI never reads the fleet actor or the mission runners directly. An adapter (in the
+//! shell) fills a [`Model`] from fleet snapshots and runner progress and publishes it on a
+//! `tokio::sync::watch` channel; a replay file or a test constructs one the same way. Every
+//! type here is `serde`, so a [`Model`] round-trips through JSON (replay files are JSON Lines
+//! of [`crate::tui::replay::ReplayFrame`]).
+//!
+//! Units are in the field names: metres (`_m`), metres per second (`_mps`), volts (`_v`),
+//! seconds (`_s`), percent (`_pct`). Times are [`Time`] (µs on the clock of whoever made
+//! the model; the UI shows them as elapsed `h:mm:ss`).
+//!
+//! One file per pane's data: `vehicle` (fleet rows), `map` (grid and cell states),
+//! `mission` (phase and progress), `log` (messages).
+
+mod log;
+mod map;
+mod mission;
+mod vehicle;
+
+pub use log::{LogEntry, Severity};
+pub use map::{CellState, MapError, MapKind, MapModel, Track};
+pub use mission::{DfsProgress, MissionKind, MissionModel, Phase, RunStatus, Stat};
+pub use vehicle::{
+    Autopilot, Battery, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleRow, VehicleType,
+};
+
+use crate::time::Time;
+use serde::{Deserialize, Serialize};
+
+/// Everything the screen shows that comes from outside the UI.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Model {
+    /// When the adapter made this snapshot (on its clock).
+    pub time: Time,
+    /// One row per known vehicle, in display order.
+    pub vehicles: Vec<VehicleRow>,
+    /// The mission grid and its cell states.
+    pub map: MapModel,
+    /// Mission phase and progress.
+    pub mission: MissionModel,
+    /// Recent messages, oldest first (the adapter keeps it bounded).
+    pub log: Vec<LogEntry>,
+}
+
+impl Model {
+    /// The row of the vehicle with system id `sysid`.
+    pub fn vehicle(&self, sysid: u8) -> Option<&VehicleRow> {
+        self.vehicles.iter().find(|v| v.sysid == sysid)
+    }
+}
+/// `h:mm:ss` (or `mm:ss` under an hour) of a duration in seconds; negative and NaN show as 0.
+pub fn format_hms(secs: f64) -> String {
+    let s = if secs.is_finite() && secs > 0.0 {
+        secs as u64
+    } else {
+        0
+    };
+    let (h, m, s) = (s / 3600, (s / 60) % 60, s % 60);
+    if h > 0 {
+        format!("{h}:{m:02}:{s:02}")
+    } else {
+        format!("{m:02}:{s:02}")
+    }
+}
+
+#[cfg(test)]
+mod tests;

@@ -1,0 +1,63 @@
+use super::*;
+use crate::geo::Cell;
+
+#[test]
+fn map_rows_are_north_up() {
+    let m = MapModel::from_rows(MapKind::Runway, 4.0, Cell::new(-1, 2), &["+.", "-#"])
+        .expect("valid rows");
+    assert_eq!((m.rows, m.cols), (2, 2));
+    // The last string is the southern row (row -1).
+    assert_eq!(m.get(Cell::new(-1, 2)), Some(CellState::Negative));
+    assert_eq!(m.get(Cell::new(-1, 3)), Some(CellState::Explored));
+    assert_eq!(m.get(Cell::new(0, 2)), Some(CellState::PositiveUnexplored));
+    assert_eq!(m.get(Cell::new(0, 3)), Some(CellState::Unknown));
+    assert_eq!(m.get(Cell::new(1, 2)), None);
+    assert_eq!(m.north_east(), Cell::new(0, 3));
+    assert_eq!(m.to_rows(), vec!["+.", "-#"]);
+}
+
+#[test]
+fn map_json_round_trips_and_rejects_bad_rows() {
+    let mut m = MapModel::new(MapKind::Classification, 10.0, Cell::new(0, 0), 3, 4);
+    assert!(m.set(Cell::new(2, 3), CellState::Keep));
+    assert!(!m.set(Cell::new(3, 0), CellState::Keep));
+    m.home = Some(Cell::new(0, 0));
+    let json = serde_json::to_string(&m).expect("serialise");
+    assert!(json.contains(r#""rows":["???K","????","????"]"#), "{json}");
+    let back: MapModel = serde_json::from_str(&json).expect("parse");
+    assert_eq!(back, m);
+
+    let ragged = r#"{"rows":["..","..."]}"#;
+    let err = serde_json::from_str::<MapModel>(ragged).unwrap_err();
+    assert!(err.to_string().contains("map row 1 has 3 cells"), "{err}");
+    let bad = r#"{"rows":["..Z"]}"#;
+    let err = serde_json::from_str::<MapModel>(bad).unwrap_err();
+    assert!(err.to_string().contains("'Z' is not a cell state"), "{err}");
+}
+
+#[test]
+fn glyphs_are_unique_and_kinds_partition_the_states() {
+    for a in CellState::ALL {
+        assert_eq!(CellState::from_glyph(a.glyph()), Some(a));
+    }
+    let runway = CellState::for_kind(MapKind::Runway);
+    let class = CellState::for_kind(MapKind::Classification);
+    assert_eq!(runway.len() + class.len(), CellState::ALL.len());
+    assert!(runway.iter().all(|s| !class.contains(s)));
+}
+
+#[test]
+fn hms_formats() {
+    assert_eq!(format_hms(0.0), "00:00");
+    assert_eq!(format_hms(75.9), "01:15");
+    assert_eq!(format_hms(3725.0), "1:02:05");
+    assert_eq!(format_hms(f64::NAN), "00:00");
+    assert_eq!(format_hms(-5.0), "00:00");
+}
+
+#[test]
+fn severity_from_wire() {
+    assert_eq!(Severity::from_mav(0), Severity::Emergency);
+    assert_eq!(Severity::from_mav(4), Severity::Warning);
+    assert_eq!(Severity::from_mav(200), Severity::Debug);
+}

@@ -1,0 +1,216 @@
+//! One fleet-pane row per vehicle: identity (role, firmware, airframe), battery, GPS, link
+//! and mission progress, as the adapter reads them from the vehicle's telemetry.
+
+use crate::geo::Cell;
+use serde::{Deserialize, Serialize};
+
+/// A vehicle's role in the mission.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Role {
+    /// A drone that takes images.
+    #[default]
+    Drone,
+    /// A mobile charging station (a rover).
+    Station,
+}
+
+impl Role {
+    /// Lower-case name shown in the fleet table.
+    pub fn name(self) -> &'static str {
+        match self {
+            Role::Drone => "drone",
+            Role::Station => "station",
+        }
+    }
+}
+
+/// The autopilot firmware, from HEARTBEAT.autopilot.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Autopilot {
+    /// MAV_AUTOPILOT_ARDUPILOTMEGA.
+    ArduPilot,
+    /// MAV_AUTOPILOT_PX4.
+    Px4,
+    /// Anything else (including the built-in simulator when it does not impersonate one).
+    #[default]
+    Other,
+}
+
+impl Autopilot {
+    /// Full name.
+    pub fn name(self) -> &'static str {
+        match self {
+            Autopilot::ArduPilot => "ArduPilot",
+            Autopilot::Px4 => "PX4",
+            Autopilot::Other => "other",
+        }
+    }
+
+    /// Short name for narrow tables.
+    pub fn short(self) -> &'static str {
+        match self {
+            Autopilot::ArduPilot => "AP",
+            Autopilot::Px4 => "PX4",
+            Autopilot::Other => "?",
+        }
+    }
+}
+
+/// The airframe class, from HEARTBEAT.type.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum VehicleType {
+    /// Multirotor.
+    Copter,
+    /// Fixed wing.
+    Plane,
+    /// Ground rover.
+    Rover,
+    /// Anything else.
+    #[default]
+    Other,
+}
+
+impl VehicleType {
+    /// Full name.
+    pub fn name(self) -> &'static str {
+        match self {
+            VehicleType::Copter => "copter",
+            VehicleType::Plane => "plane",
+            VehicleType::Rover => "rover",
+            VehicleType::Other => "other",
+        }
+    }
+
+    /// Three-letter name for narrow tables.
+    pub fn short(self) -> &'static str {
+        match self {
+            VehicleType::Copter => "cop",
+            VehicleType::Plane => "pln",
+            VehicleType::Rover => "rov",
+            VehicleType::Other => "oth",
+        }
+    }
+}
+
+/// Battery state (BATTERY_STATUS / SYS_STATUS).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Battery {
+    /// Remaining charge, percent (0–100), when the autopilot estimates it.
+    pub remaining_pct: Option<u8>,
+    /// Pack voltage, volts.
+    pub voltage_v: Option<f32>,
+    /// Number of cells in series, when known: the voltage thresholds are per cell.
+    pub cells: Option<u8>,
+}
+
+/// GPS fix type (GPS_RAW_INT.fix_type).
+#[derive(
+    Clone, Copy, Debug, Default, PartialEq, Eq, PartialOrd, Ord, Hash, Serialize, Deserialize,
+)]
+#[serde(rename_all = "snake_case")]
+pub enum GpsFix {
+    /// No GPS connected.
+    #[default]
+    NoGps,
+    /// GPS present, no fix.
+    NoFix,
+    /// 2D fix.
+    Fix2d,
+    /// 3D fix.
+    Fix3d,
+    /// DGPS/SBAS-aided 3D fix.
+    Dgps,
+    /// RTK float.
+    RtkFloat,
+    /// RTK fixed.
+    RtkFixed,
+}
+
+impl GpsFix {
+    /// Short label for the fleet table.
+    pub fn label(self) -> &'static str {
+        match self {
+            GpsFix::NoGps => "none",
+            GpsFix::NoFix => "nofix",
+            GpsFix::Fix2d => "2D",
+            GpsFix::Fix3d => "3D",
+            GpsFix::Dgps => "DGPS",
+            GpsFix::RtkFloat => "RTKfl",
+            GpsFix::RtkFixed => "RTKfx",
+        }
+    }
+
+    /// Whether the fix is good enough to fly a mission (3D or better).
+    pub fn is_3d(self) -> bool {
+        self >= GpsFix::Fix3d
+    }
+}
+
+/// GPS state.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct Gps {
+    /// Fix type.
+    pub fix: GpsFix,
+    /// Satellites visible, when reported.
+    pub satellites: Option<u8>,
+}
+
+/// Link state for one vehicle.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct LinkState {
+    /// Share of expected messages received recently, percent (0–100), when measured.
+    pub quality_pct: Option<u8>,
+    /// True when no heartbeat arrived within the liveness timeout.
+    pub lost: bool,
+    /// Seconds since the last message from this vehicle, when known.
+    pub last_heard_s: Option<f32>,
+}
+
+/// Position in the uploaded mission.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
+pub struct MissionProgress {
+    /// Current item (MISSION_CURRENT.seq).
+    pub current: u16,
+    /// Number of items (MISSION_CURRENT.total or the uploaded count).
+    pub total: u16,
+}
+
+/// One row of the fleet pane.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct VehicleRow {
+    /// MAVLink system id.
+    pub sysid: u8,
+    /// Drone or charging station.
+    pub role: Role,
+    /// Firmware.
+    pub autopilot: Autopilot,
+    /// Airframe class.
+    pub vehicle_type: VehicleType,
+    /// Flight mode name as the autopilot flavour names it ("AUTO", "GUIDED", "Mission", …).
+    pub mode: String,
+    /// Motors armed.
+    pub armed: bool,
+    /// Battery.
+    pub battery: Battery,
+    /// GPS.
+    pub gps: Gps,
+    /// Altitude above home, metres.
+    pub alt_m: Option<f32>,
+    /// Ground speed, metres per second.
+    pub speed_mps: Option<f32>,
+    /// Mission item / total.
+    pub mission: Option<MissionProgress>,
+    /// Link state.
+    pub link: LinkState,
+    /// The grid cell the vehicle is over, when its position is known and on the grid.
+    pub cell: Option<Cell>,
+    /// What the mission runner has it doing ("sweep lane 3", "DFS (4, 2)", "battery swap").
+    pub activity: Option<String>,
+}
