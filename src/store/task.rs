@@ -30,7 +30,7 @@ enum Inner {
     /// Jobs go to the dedicated thread, in order.
     Thread(std_mpsc::Sender<Job>),
     /// Current-thread runtime (or no runtime): jobs run inline on the caller.
-    Inline(std::sync::Mutex<RunDir>),
+    Inline(Box<std::sync::Mutex<RunDir>>),
 }
 
 /// The store task is gone (its thread panicked in a job): nothing more can be saved.
@@ -66,7 +66,7 @@ impl RunStore {
     /// Jobs run inline on the caller (tests, current-thread runtimes).
     pub fn inline(run: RunDir) -> RunStore {
         RunStore {
-            inner: Inner::Inline(std::sync::Mutex::new(run)),
+            inner: Inner::Inline(Box::new(std::sync::Mutex::new(run))),
         }
     }
 
