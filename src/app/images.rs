@@ -386,6 +386,20 @@ pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
     hub
 }
 
+/// The image intake for a run: its receivers wait 300 ms of *wall* time for missing packets
+/// whatever the fleet clock's speed-up (B images per visit arrive in bursts).
+pub fn image_hub(fleet: &FleetHandle) -> ImageHub {
+    let k = fleet.clock().speedup().clamp(1.0, 100.0);
+    let d = crate::imagery::transfer::ReceiverConfig::default();
+    spawn_with(
+        fleet,
+        crate::imagery::transfer::ReceiverConfig {
+            idle: d.idle.mul_f64(k),
+            ..d
+        },
+    )
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

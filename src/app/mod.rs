@@ -3,21 +3,25 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`images`] | every image the fleet takes as one stream (MAVLink image transmission, file URLs) |
+//! | [`run`] | the run core both runners share: state lock, durable commits through the store task, progress, view, tracker |
+//! | [`images`] | every image the fleet takes as one stream (MAVLink image transmission, file URLs), and the run's image hub |
+//! | [`crop`] | the centre crops of a picture both missions measure (3 × 3 cells, a share of one cell) |
 //! | [`flight`] | flight steps with timeouts: take off, fly to a point and settle, capture, land |
-//! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume) |
+//! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume): events, pilot, intake, sweep, runner |
 //! | [`report`] | the run's report, GeoJSON / KML / PNG exports, IoU against a simulated world |
-//! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume) |
+//! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume): events, runner, sortie, pilot, intake, upload |
 //! | [`bandit_report`] | its report (keep / reject / errors, per-epoch figures) and the progress PNG (Fig. 4) |
 //! | [`bandit_sim`] | the embedded simulator with drones and charging rovers (`fleetmap demo --bandit`, tests) |
 
 pub mod bandit;
 pub mod bandit_report;
 pub mod bandit_sim;
+pub mod crop;
 pub mod demo;
 pub mod flight;
 pub mod images;
 pub mod report;
+pub mod run;
 pub mod runway;
 pub mod session;
 

@@ -310,19 +310,26 @@ pub async fn run(
                         ..m.options
                     };
                     let r = runway::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
-                    let r = r.map(|outcome| match outcome {
-                        Outcome::Finished => {
-                            if let (Some(f), Ok(rd)) = (m.on_finish, RunDir::open(&path))
-                                && let Ok(Some(state)) = rd.load_state::<MappingState>()
-                            {
-                                f(&rd, &state);
-                            }
-                            None
+                    let r = match r {
+                        Ok(Outcome::Finished) => {
+                            // The outputs are file I/O: off the runtime workers.
+                            let at = path.clone();
+                            let on_finish = m.on_finish;
+                            let _ = runway::cpu(move || {
+                                if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at))
+                                    && let Ok(Some(state)) = rd.load_state::<MappingState>()
+                                {
+                                    f(&rd, &state);
+                                }
+                            })
+                            .await;
+                            Ok(None)
                         }
-                        Outcome::WaitingForOperator { sysids } => {
-                            Some(format!("vehicles {sysids:?} wait for the operator"))
+                        Ok(Outcome::WaitingForOperator { sysids }) => {
+                            Ok(Some(format!("vehicles {sysids:?} wait for the operator")))
                         }
-                    });
+                        Err(e) => Err(e),
+                    };
                     ((r, path), relay)
                 }
                 SessionRun::Classification(m) => {
@@ -341,14 +348,23 @@ pub async fn run(
                         pause: Some(pause_rx),
                         ..m.options
                     };
-                    let hub = bandit::image_hub(&fleet);
+                    let hub = crate::app::images::image_hub(&fleet);
                     let r = bandit::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
-                    let r = r.map(|state| {
-                        if let (Some(f), Ok(rd)) = (m.on_finish, RunDir::open(&path)) {
-                            f(&rd, &state);
+                    let r = match r {
+                        Ok(state) => {
+                            // The outputs are file I/O: off the runtime workers.
+                            let at = path.clone();
+                            let on_finish = m.on_finish;
+                            let _ = runway::cpu(move || {
+                                if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at)) {
+                                    f(&rd, &state);
+                                }
+                            })
+                            .await;
+                            Ok(None)
                         }
-                        None
-                    });
+                        Err(e) => Err(e),
+                    };
                     ((r, path), relay)
                 }
             };

@@ -691,7 +691,7 @@ pub async fn drive_classification(
     headless: bool,
 ) -> anyhow::Result<(ClassificationState, PathBuf)> {
     let path = run_dir.path().to_path_buf();
-    let hub = bandit::image_hub(fleet);
+    let hub = crate::app::images::image_hub(fleet);
     let mut printer = None;
     if headless && opts.progress.is_none() {
         let (tx, task) = print_progress();

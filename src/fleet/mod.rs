@@ -38,6 +38,7 @@ pub use handle::FleetHandle;
 pub use state::{FleetSnapshot, GeoPoint, LinkQuality, StatusText, VehicleSnapshot};
 
 use self::actor::Actor;
+use crate::clock::MonotonicClock;
 use crate::link::addr::ConnSpec;
 use crate::link::codec::Frame;
 use crate::link::transport::LinkError;
@@ -52,7 +53,6 @@ use crate::proto::command::CommandSender;
 use crate::proto::heartbeat::Liveness;
 use crate::proto::heartbeat::LivenessConfig;
 use crate::proto::mission::MissionConfig;
-use crate::clock::MonotonicClock;
 use std::collections::BTreeMap;
 use std::collections::HashMap;
 use std::sync::Arc;

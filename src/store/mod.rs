@@ -22,9 +22,11 @@ mod error;
 pub mod journal;
 pub mod migrate;
 pub mod run;
+pub mod task;
 
 pub use atomic::atomic_write;
 pub use error::StoreError;
 pub use journal::{EventLog, Logged, TornTail};
 pub use migrate::SCHEMA_VERSION;
 pub use run::{RunDir, RunMeta, StateEnvelope};
+pub use task::{RunStore, StoreGone};

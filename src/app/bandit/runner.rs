@@ -1,0 +1,562 @@
+//! The bandit runner: plans epochs and sorties (HiGHS), prepares and uploads them, and drives
+//! the run through [`ClassificationState::next`] until every cell is classified; also the
+//! airborne-time tracker and the run's start and final save.
+
+use super::*;
+
+impl Runner {
+    pub(super) fn fleet(&self) -> &FleetHandle {
+        &self.shared.fleet
+    }
+
+    pub(super) fn say(&self, line: String) {
+        self.shared.say(line);
+    }
+
+    pub(super) async fn upload_fences(&self) -> anyhow::Result<()> {
+        let (items, sysids) = self
+            .shared
+            .read(|s| {
+                (
+                    missions::fence_items(
+                        &s.grid,
+                        s.layout.rows,
+                        s.layout.cols,
+                        &s.layout.obstacles,
+                        (0.2 * s.grid.cell_size()).min(1.0),
+                    ),
+                    s.sysids(),
+                )
+            })
+            .await;
+        let items = items.context("building the geofence")?;
+        let mut tasks = tokio::task::JoinSet::new();
+        for sysid in sysids {
+            let fleet = self.fleet().clone();
+            let items = items.clone();
+            tasks.spawn(async move {
+                let r = async {
+                    upload_verified(&fleet, sysid, MissionType::Fence, &items, None).await?;
+                    let v = fleet
+                        .vehicle(sysid)
+                        .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
+                    enable_fence(&fleet, &v).await
+                }
+                .await;
+                (sysid, r)
+            });
+        }
+        let mut first_err = None;
+        while let Some(r) = tasks.join_next().await {
+            let (sysid, r) = r.context("fence task")?;
+            match r {
+                Ok(()) => {
+                    self.shared
+                        .commit(|_| {
+                            Ok((
+                                (),
+                                vec![BanditEvent::Fence {
+                                    sysid,
+                                    items: items.len(),
+                                }],
+                            ))
+                        })
+                        .await?;
+                }
+                Err(e) => {
+                    first_err.get_or_insert(anyhow::anyhow!(
+                        "vehicle {sysid} refused the geofence of the no-fly cells: {e:#}"
+                    ));
+                }
+            }
+        }
+        if let Some(e) = first_err {
+            return Err(e);
+        }
+        self.say(format!(
+            "geofence ({} items: the search area and its no-fly cells) on every vehicle",
+            items.len()
+        ));
+        Ok(())
+    }
+
+    /// Check that every vehicle stands on its start cell (fresh runs).
+    pub(super) async fn check_start_positions(&self) -> anyhow::Result<()> {
+        let snap = self.fleet().snapshot().vehicles;
+        let (config, members, grid) = self
+            .shared
+            .read(|s| {
+                let members: Vec<u8> = s.sysids();
+                (s.config.clone(), members, s.grid.clone())
+            })
+            .await;
+        let cells: Vec<Cell> = config
+            .drones
+            .iter()
+            .chain(&config.stations)
+            .copied()
+            .collect();
+        for (sysid, cell) in members.into_iter().zip(cells) {
+            let v = snap
+                .get(&sysid)
+                .with_context(|| format!("vehicle {sysid} is not heard"))?;
+            let p = v
+                .position
+                .with_context(|| format!("vehicle {sysid} reports no position yet"))?;
+            let c = grid.cell_center(cell);
+            let d = local::distance(p.lat, p.lon, c.lat, c.lon);
+            if d > 0.75 * grid.cell_size() {
+                anyhow::bail!(
+                    "vehicle {sysid} is {d:.1} m from the centre of its start cell {cell}: place \
+                     it there (or fix `start` in the mission file)"
+                );
+            }
+        }
+        Ok(())
+    }
+
+    pub(super) async fn begin_epoch(&self) -> anyhow::Result<()> {
+        let (p, goals) = self
+            .shared
+            .commit(|s| {
+                let goals = s.begin_epoch()?;
+                let p = s.bandit.epoch;
+                let ev = (!goals.is_empty()).then(|| BanditEvent::EpochStarted {
+                    epoch: p,
+                    goals: goals.clone(),
+                });
+                Ok(((p, goals), ev.into_iter().collect()))
+            })
+            .await?;
+        let list: Vec<String> = goals.iter().map(|c| c.to_string()).collect();
+        self.say(format!("epoch {p}: goals {}", list.join(" ")));
+        Ok(())
+    }
+
+    pub(super) async fn plan(&self, replan: bool) -> anyhow::Result<()> {
+        let (k0, p) = self.shared.read(|s| (s.params.k_max, s.bandit.epoch)).await;
+        let mut k = k0.max(1);
+        loop {
+            let inst = self.shared.read(|s| s.instance(k)).await?;
+            let goals = inst.goals.len();
+            let opts = PlanOptions {
+                time_limit: self.plan_time_limit_s,
+                ..PlanOptions::default()
+            };
+            let out = tokio::task::spawn_blocking(move || {
+                solve_instance(&inst, &opts, &crate::clock::stopwatch())
+            })
+            .await
+            .context("planner task")?;
+            match (out.status, out.plan) {
+                (PlanStatus::Optimal | PlanStatus::TimeLimit, Some(plan)) => {
+                    let secs = out.solve_seconds;
+                    self.shared
+                        .commit(|s| {
+                            s.accept_plan(&plan, secs)?;
+                            Ok((
+                                (),
+                                vec![BanditEvent::Planned {
+                                    epoch: p,
+                                    cycles: plan.cycles,
+                                    goals,
+                                    seconds: secs,
+                                    replan,
+                                }],
+                            ))
+                        })
+                        .await?;
+                    self.say(format!(
+                        "epoch {p}: {} planned in {} sensing cycle(s) ({:.2} s){}",
+                        if goals == 1 {
+                            "1 goal".to_string()
+                        } else {
+                            format!("{goals} goals")
+                        },
+                        plan.cycles,
+                        secs,
+                        if replan {
+                            ", re-planned from where the team is"
+                        } else {
+                            ""
+                        }
+                    ));
+                    return Ok(());
+                }
+                (PlanStatus::Infeasible, _) if k < MAX_K => {
+                    let secs = out.solve_seconds;
+                    self.shared
+                        .commit(|s| {
+                            s.note_solve(secs);
+                            Ok(((), Vec::new()))
+                        })
+                        .await?;
+                    k *= 2;
+                }
+                (status, _) => anyhow::bail!(
+                    "epoch {p}: the planner found no plan ({}{}): the goals cannot be reached \
+                     from where the team is within {k} sensing cycles",
+                    status.as_str(),
+                    if out.message.is_empty() {
+                        String::new()
+                    } else {
+                        format!(": {}", out.message)
+                    }
+                ),
+            }
+        }
+    }
+
+    pub(super) async fn prepare(&self) -> anyhow::Result<()> {
+        let (p, k, list) = self
+            .shared
+            .commit(|s| {
+                let c = s.prepare_cycle()?.clone();
+                // Check every mission before it goes anywhere.
+                let rules = |station: bool| AreaRules {
+                    rows: s.layout.rows,
+                    cols: s.layout.cols,
+                    obstacles: &s.layout.obstacles,
+                    roads: station.then_some(s.layout.roads.as_slice()),
+                };
+                for d in c.drones.iter().filter(|d| d.flies) {
+                    missions::check_mission(&s.grid, &rules(false), d.path[0], &d.items)
+                        .map_err(|e| anyhow::anyhow!("drone {}: {e}", d.sysid))?;
+                }
+                for st in c.stations.iter().filter(|st| st.drives) {
+                    missions::check_mission(&s.grid, &rules(true), st.path[0], &st.items)
+                        .map_err(|e| anyhow::anyhow!("station {}: {e}", st.sysid))?;
+                }
+                let list: Vec<(u8, usize)> = c
+                    .drones
+                    .iter()
+                    .filter(|d| d.flies)
+                    .map(|d| (d.sysid, d.items.len()))
+                    .chain(
+                        c.stations
+                            .iter()
+                            .filter(|x| x.drives)
+                            .map(|x| (x.sysid, x.items.len())),
+                    )
+                    .collect();
+                let p = s.bandit.epoch;
+                let ev = BanditEvent::SortiePrepared {
+                    epoch: p,
+                    cycle: c.k,
+                    missions: list.clone(),
+                };
+                Ok(((p, c.k, list), vec![ev]))
+            })
+            .await?;
+        let _ = (p, k, list);
+        Ok(())
+    }
+
+    pub(super) async fn upload(&self) -> anyhow::Result<()> {
+        let (p, cycle) = self
+            .shared
+            .read(|s| (s.bandit.epoch, s.cycle().cloned()))
+            .await;
+        let cycle = cycle.context("no sortie is prepared")?;
+        let state = Arc::new(self.shared.read(|s| s.clone()).await);
+        let mut tasks = tokio::task::JoinSet::new();
+        // Drones and the stations that drive: (sysid, items, start cell, is a station).
+        let uploads = cycle
+            .drones
+            .iter()
+            .filter(|d| d.flies)
+            .map(|d| (d.sysid, d.items.clone(), d.path[0], false))
+            .chain(
+                cycle
+                    .stations
+                    .iter()
+                    .filter(|s| s.drives)
+                    .map(|s| (s.sysid, s.items.clone(), s.path[0], true)),
+            );
+        for (sysid, items, start, station) in uploads {
+            let (fleet, state) = (self.fleet().clone(), state.clone());
+            tasks.spawn(async move {
+                let r = upload_verified(
+                    &fleet,
+                    sysid,
+                    MissionType::Mission,
+                    &items,
+                    Some((&state, start, station)),
+                )
+                .await;
+                (sysid, r)
+            });
+        }
+        let mut rejected = join_failures(&mut tasks, "upload task").await?;
+        rejected.sort();
+        if let Some((sysid, reason)) = rejected.first().cloned() {
+            let events = rejected
+                .iter()
+                .map(|(sysid, reason)| BanditEvent::SortieRejected {
+                    sysid: *sysid,
+                    reason: reason.clone(),
+                })
+                .collect();
+            self.shared.commit(|_| Ok(((), events))).await?;
+            return Err(SortieRejected {
+                epoch: p,
+                cycle: cycle.k,
+                sysid,
+                reason,
+            }
+            .into());
+        }
+        self.shared
+            .commit(|s| {
+                s.on_verified()?;
+                Ok((
+                    (),
+                    vec![BanditEvent::SortieVerified {
+                        epoch: p,
+                        cycle: cycle.k,
+                    }],
+                ))
+            })
+            .await?;
+        let n = cycle.drones.iter().filter(|d| d.flies).count()
+            + cycle.stations.iter().filter(|s| s.drives).count();
+        self.say(format!(
+            "epoch {p} cycle {}: {n} mission(s) uploaded and verified",
+            cycle.k
+        ));
+        Ok(())
+    }
+
+    /// " It is N m from station S." from telemetry (empty when a position is missing).
+    pub(super) async fn nearest_station(&self, sysid: u8) -> String {
+        let stations: Vec<u8> = self
+            .shared
+            .read(|s| s.stations.iter().map(|m| m.sysid).collect())
+            .await;
+        let Some(p) = self.fleet().vehicle(sysid).and_then(|v| v.position) else {
+            return String::new();
+        };
+        stations
+            .iter()
+            .filter_map(|&st| {
+                let q = self.fleet().vehicle(st)?.position?;
+                Some((local::distance(p.lat, p.lon, q.lat, q.lon), st))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(d, st)| format!(" It is {d:.1} m from station {st}."))
+            .unwrap_or_default()
+    }
+}
+
+/// Airborne time of every drone and flight time of the sortie (in memory; saved with the
+/// next change).
+pub(super) fn track(shared: &Shared, drones: Vec<u8>) -> tokio::task::JoinHandle<()> {
+    let fleet = shared.fleet.clone();
+    let reports_charging = shared.reports_charging.clone();
+    shared.run.spawn_tracker(move |state, dt| {
+        let airborne: Vec<u8> = drones
+            .iter()
+            .copied()
+            .filter(|&s| fleet.vehicle(s).is_some_and(|v| flight::airborne(&v)))
+            .collect();
+        if let Ok(mut set) = reports_charging.lock() {
+            for &s in &drones {
+                if fleet.vehicle(s).is_some_and(|v| v.charging == Some(true)) {
+                    set.insert(s);
+                }
+            }
+        }
+        state.on_tick(&airborne, dt);
+    })
+}
+
+/// A new spatial-classification state for `def` once every vehicle is heard and reports a
+/// position (`lock_step` overrides the separation the mission implies).
+pub async fn new_state(
+    fleet: &FleetHandle,
+    def: &crate::mission::definition::MissionDef,
+    wait: Duration,
+    lock_step: Option<bool>,
+) -> anyhow::Result<ClassificationState> {
+    crate::app::wait_for_team(fleet, def, wait).await?;
+    for v in &def.vehicles {
+        fleet
+            .wait_until(v.sysid, wait, |s| s.position.is_some())
+            .await
+            .map_err(|_| {
+                anyhow::anyhow!(
+                    "vehicle {} reported no position within {:.0} s",
+                    v.sysid,
+                    wait.as_secs_f64()
+                )
+            })?;
+    }
+    let grid = crate::app::mission_grid(fleet, def, wait).await?;
+    Ok(ClassificationState::new(def, grid, lock_step)?)
+}
+
+/// Run (or resume) a spatial-classification run with `fleet` until every cell is classified.
+/// The vehicles must already be heard. Returns the final state.
+pub async fn run(
+    fleet: FleetHandle,
+    hub: &ImageHub,
+    run_dir: RunDir,
+    mut state: ClassificationState,
+    mut opts: RunOptions,
+) -> anyhow::Result<ClassificationState> {
+    let resumed = state.measurements > 0 || state.epoch.is_some() || !state.epochs.is_empty();
+    if resumed {
+        state.on_resume();
+    }
+    let last = state.last_measurement.clone();
+    let drones: Vec<u8> = state.drones.iter().map(|d| d.sysid).collect();
+    let core = RunCore::new(
+        state,
+        run_dir,
+        fleet.clock().clone(),
+        opts.progress.take(),
+        opts.view.take(),
+    )?;
+    if resumed {
+        // The journal may lack the last measurement the state holds (killed between the
+        // two writes): append it now, so journal and state agree.
+        core.store()
+            .run(move |run_dir| -> anyhow::Result<()> {
+                let last_logged = run_dir
+                    .read_events::<BanditEvent>()?
+                    .events
+                    .iter()
+                    .rev()
+                    .find_map(|e| match &e.event {
+                        BanditEvent::Measurement(m) if m.counted => Some(m.n),
+                        _ => None,
+                    })
+                    .unwrap_or(0);
+                if let Some(m) = last
+                    && m.n > last_logged
+                {
+                    run_dir.append_event(&BanditEvent::Measurement(m))?;
+                }
+                Ok(())
+            })
+            .await??;
+    }
+    let shared = Arc::new(Shared {
+        run: Arc::new(core),
+        fleet: fleet.clone(),
+        patience: opts.patience,
+        reports_charging: Arc::new(std::sync::Mutex::new(BTreeSet::new())),
+    });
+    shared
+        .commit(|_| Ok(((), vec![BanditEvent::Started { resumed }])))
+        .await?;
+    let runner = Runner {
+        shared: shared.clone(),
+        plan_time_limit_s: opts.plan_time_limit_s,
+        min_takeoff_pct: opts.min_takeoff_pct,
+        pause: opts.pause.take(),
+    };
+    if !resumed {
+        runner.check_start_positions().await?;
+    }
+    runner.upload_fences().await?;
+    let tracker = track(&shared, drones);
+    let images = tokio::spawn(intake(shared.clone(), hub.subscribe()));
+    let result = drive(&runner, resumed).await;
+    tracker.abort();
+    images.abort();
+    let ok = result.is_ok();
+    shared
+        .commit(|state| {
+            let events = if ok && state.is_finished() {
+                vec![BanditEvent::Finished {
+                    keep: state.bandit.keep(),
+                    reject: state.bandit.reject(),
+                }]
+            } else {
+                Vec::new()
+            };
+            Ok(((), events))
+        })
+        .await?;
+    result?;
+    Ok(shared.read(|s| s.clone()).await)
+}
+
+pub(super) async fn drive(runner: &Runner, resumed: bool) -> anyhow::Result<()> {
+    let mut resume_follow = false;
+    if resumed {
+        let next = runner.shared.read(|s| s.next()).await;
+        match next {
+            Next::Upload | Next::Start => {
+                // Nothing had started: drop the sortie and plan again from where the team is.
+                let snap = runner.fleet().snapshot().vehicles;
+                let st = runner.shared.read(|s| s.clone()).await;
+                let actual = observed_config(&st, &snap, &st.config)?;
+                let p = st.bandit.epoch;
+                runner
+                    .shared
+                    .commit(|s| {
+                        s.abandon_cycle(actual)?;
+                        Ok(((), vec![BanditEvent::SortieDropped { epoch: p }]))
+                    })
+                    .await?;
+                runner.say(format!(
+                    "resumed: the prepared sortie of epoch {p} had not started; planning again"
+                ));
+            }
+            Next::Follow => {
+                resume_follow = true;
+                runner.say("resumed in the middle of a sortie: following it to its end".into());
+            }
+            Next::Plan | Next::Prepare => {
+                runner
+                    .shared
+                    .commit(|s| {
+                        if let Some(e) = &mut s.epoch {
+                            e.plan = None;
+                            e.next_cycle = 0;
+                        }
+                        Ok(((), Vec::new()))
+                    })
+                    .await?;
+            }
+            _ => {}
+        }
+    }
+    let mut replan = resumed;
+    loop {
+        let next = runner.shared.read(|s| s.next()).await;
+        match next {
+            Next::Finished => {
+                let (k, r) = runner
+                    .shared
+                    .read(|s| (s.bandit.keep(), s.bandit.reject()))
+                    .await;
+                let list: Vec<String> = k.iter().map(|c| c.to_string()).collect();
+                runner.say(format!(
+                    "every cell classified: keep {} ({}), reject {}",
+                    k.len(),
+                    list.join(" "),
+                    r.len()
+                ));
+                return Ok(());
+            }
+            Next::BeginEpoch => {
+                replan = false;
+                runner.begin_epoch().await?;
+            }
+            Next::Plan => {
+                runner.plan(replan).await?;
+                replan = true;
+            }
+            Next::Prepare => runner.prepare().await?,
+            Next::Upload => runner.upload().await?,
+            Next::Start => runner.start().await?,
+            Next::Follow => {
+                runner.follow(resume_follow).await?;
+                resume_follow = false;
+            }
+        }
+    }
+}

@@ -1,0 +1,154 @@
+//! The runway run's journal records (`events.jsonl`): one per acknowledged step, read back
+//! by the report and by `fleetmap resume`.
+
+use super::*;
+
+/// A journal record of the run (`events.jsonl`), one per acknowledged step.
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "event", rename_all = "snake_case")]
+pub enum MappingEvent {
+    /// The runner started (or resumed) with these drones.
+    Started {
+        /// Drones.
+        robots: Vec<u8>,
+        /// Whether this continues an earlier start.
+        resumed: bool,
+    },
+    /// A sweep image was classified.
+    SweepImage {
+        /// Vehicle.
+        sysid: u8,
+        /// Image name.
+        image_id: String,
+        /// Cell under the camera.
+        cell: Cell,
+        /// Labels (centre, north, west, south, east).
+        labels: [bool; 5],
+    },
+    /// A sweep image showed the region: confirmation of `cell` starts.
+    Candidate {
+        /// Vehicle.
+        sysid: u8,
+        /// The cell to confirm.
+        cell: Cell,
+    },
+    /// A cell-centre image was classified and its votes counted.
+    Image {
+        /// Vehicle.
+        sysid: u8,
+        /// Image name.
+        image_id: String,
+        /// The cell it was taken over.
+        cell: Cell,
+        /// Labels (centre, north, west, south, east).
+        labels: [bool; 5],
+        /// Black fractions (centre, top, left, bottom, right; image coordinates).
+        fractions: [f64; 5],
+        /// Cells whose state changed.
+        changed: Vec<(Cell, String)>,
+    },
+    /// The confirmation ended; `root` is where the DFS starts (`None`: back to sweeping).
+    Confirmed {
+        /// Vehicle.
+        sysid: u8,
+        /// The candidate.
+        cell: Cell,
+        /// The DFS root.
+        root: Option<Cell>,
+    },
+    /// A robot reached a vertex.
+    Arrived {
+        /// Vehicle.
+        sysid: u8,
+        /// The vertex.
+        cell: Cell,
+    },
+    /// A vertex was imaged; `added` are its new children.
+    Observed {
+        /// Vehicle.
+        sysid: u8,
+        /// The vertex.
+        cell: Cell,
+        /// Cells added to the tree.
+        added: Vec<Cell>,
+    },
+    /// A robot's sweep mission ended.
+    SweepComplete {
+        /// Vehicle.
+        sysid: u8,
+    },
+    /// A robot's battery is low: it goes home for a swap.
+    BatteryLow {
+        /// Vehicle.
+        sysid: u8,
+        /// Charge, percent.
+        pct: f64,
+        /// Charge the flight home needs, percent.
+        needed_pct: f64,
+    },
+    /// A robot landed for a battery swap.
+    LandedForSwap {
+        /// Vehicle.
+        sysid: u8,
+    },
+    /// A robot has a fresh battery.
+    Swapped {
+        /// Vehicle.
+        sysid: u8,
+        /// How it was noticed: "auto" or "operator".
+        by: String,
+    },
+    /// A robot flies home at the end.
+    GoingHome {
+        /// Vehicle.
+        sysid: u8,
+    },
+    /// A robot landed at the end.
+    Landed {
+        /// Vehicle.
+        sysid: u8,
+    },
+    /// A picture was dropped because it was not taken where it would be credited
+    /// ([`crate::vision::sanity::check_capture`]: position, altitude, tilt or heading out of
+    /// limits); a cell-centre picture is taken again.
+    ImageRejected {
+        /// Vehicle.
+        sysid: u8,
+        /// The cell it was taken for (`None`: a sweep picture, checked against the vehicle's
+        /// position).
+        cell: Option<Cell>,
+        /// Why, with the figures.
+        reason: String,
+        /// Failed pictures so far in this visit (a cell), or rejected in a row (the sweep).
+        retakes: u32,
+    },
+    /// The camera failed too often ([`RunOptions::max_retakes`]): nothing more of it is
+    /// credited; the vehicle leaves the tree, lands at home and waits for the operator.
+    CameraFault {
+        /// Vehicle.
+        sysid: u8,
+        /// The cell being imaged (`None`: in the sweep).
+        cell: Option<Cell>,
+        /// The last failure.
+        reason: String,
+    },
+    /// An image was lost or unreadable.
+    ImageFailed {
+        /// Vehicle.
+        sysid: u8,
+        /// Why.
+        reason: String,
+    },
+    /// A step failed and will be retried.
+    StepFailed {
+        /// Vehicle.
+        sysid: u8,
+        /// Why.
+        reason: String,
+    },
+    /// The run is over.
+    Finished {
+        /// Whether the region was found.
+        found: bool,
+    },
+}

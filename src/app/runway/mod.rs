@@ -1,0 +1,274 @@
+//! The runway-mapping run (runway paper §7) on real or simulated vehicles: the async shell
+//! around [`MappingState`].
+//!
+//! One **pilot** task per drone asks the state what to do ([`MappingState::directive`]),
+//! does it through the fleet ([`super::flight`]) and reports back; every report is saved
+//! before the pilot goes on (`state.json` replaced atomically, then one journal record in
+//! `events.jsonl`), so a GCS killed at any moment resumes from the last acknowledged step
+//! (`fleetmap resume RUN_DIR`) with every counted image kept. The vehicles need nothing
+//! from us to stay safe meanwhile: they hold position in GUIDED / Hold, or carry on with the
+//! sweep mission, and their own failsafes bring them home.
+//!
+//! * **Sweep**: the robot's strip ([`crate::explore::lawnmower`]) is uploaded, verified by
+//!   download, and flown in AUTO with a capture at every waypoint. Each image is classified
+//!   (cell = the one under the camera); the first positive region stops every sweep (the
+//!   robots hold) and the robot that saw it **confirms** the cell with five images at its
+//!   centre. Positive: the DFS starts there; negative: the sweeps go on.
+//! * **DFS**: Algorithm 1 ([`crate::explore::Explorer`]): go to the next cell centre
+//!   (DO_REPOSITION at the robot's altitude and the mission speed), wait until there and
+//!   steady, take five images, count their votes, give the explorer the neighbours' labels.
+//! * **Image sanity** ([`crate::vision::sanity`]): a picture counts for a cell only when it
+//!   was taken there — its position (the camera's CAMERA_IMAGE_CAPTURED / JPEG metadata, else
+//!   the telemetry at the shutter) within [`RunOptions::capture_limits`] of the cell centre
+//!   (default: the arrival tolerance + 0.5 m), its altitude within 1.5 m of the planned one,
+//!   the camera within 10° of level and of the vehicle's heading. Otherwise it is dropped
+//!   (journalled as [`MappingEvent::ImageRejected`]) and taken again; a picture that never
+//!   arrives or cannot be read is retried the same way. A sweep picture must have been taken
+//!   where the vehicle is (within one cell more than the cell limit), at the planned altitude
+//!   and within [`crate::vision::sanity::SWEEP_MAX_TILT_DEG`] (20°: sweep pictures are taken
+//!   while the copter brakes at a waypoint). After [`RunOptions::max_retakes`] retakes in
+//!   one visit (or that many rejected sweep pictures in a row) the camera is declared faulty
+//!   ([`MappingEvent::CameraFault`], a warning): nothing more of it is credited, the vehicle
+//!   leaves the tree (its vertex is kept, as for a battery swap), returns home, lands and
+//!   **waits for the operator** — never resuming by itself, since a fresh battery does not
+//!   repair a camera — who fixes the camera and resumes (`fleetmap resume`, or `b` in the UI).
+//! * **Where the camera looked**: when the picture's attitude is known (CAMERA_IMAGE_CAPTURED
+//!   `q`), the 3 × 3 cells are cut from it as a north-up orthophoto around the cell centre
+//!   ([`crate::vision::geometry::orthophoto`]: pinhole camera rotated by the attitude,
+//!   intersected with flat ground at the capture altitude), so tilt, heading and the offset
+//!   from the centre no longer move the regions; without it the centre crop
+//!   ([`crop_to_cells`]) turned by the heading is used, as before.
+//! * **Batteries**: before every step the pilot compares the charge with what the flight
+//!   home needs ([`MappingState::battery_needed_pct`]); below it the robot leaves the tree
+//!   (its vertex is saved), returns, lands and waits for a fresh battery — detected by
+//!   itself with `auto_resume` (the vehicle power-cycles and reports a full battery), or
+//!   announced by the operator ([`Operator::BatterySwapped`]). It then takes off again and
+//!   resumes from its vertex.
+//! * **End**: every robot back at the start (Algorithm 1), then home and landed; the run's
+//!   outputs are written by [`crate::app::report`].
+
+pub use crate::app::crop::crop_to_cells;
+use crate::app::flight::{self, FlightError, Patience};
+use crate::app::images::{ImageHub, ReceivedImage};
+use crate::app::run::RunCore;
+use crate::explore::dfs::Action;
+use crate::explore::mapping::{Directive, MappingError, MappingState, Phase, RobotStatus};
+use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
+use crate::geo::{Cell, LatLon, local};
+use crate::mission::MissionType;
+use crate::store::RunDir;
+use crate::time::Time;
+use crate::vision::camera::CameraModel;
+use crate::vision::geometry::{self, OrthoRequest};
+use crate::vision::load::{LoadLimits, load_image_bytes};
+use crate::vision::runway::{Classification, RunwayParams, classify};
+use crate::vision::sanity::{CaptureClaim, CaptureLimits, SWEEP_MAX_TILT_DEG, check_capture};
+use crate::vision::votes::{Detection, GeoPosition};
+use anyhow::Context as _;
+use mavlink::dialects::ardupilotmega::MavMessage;
+use nalgebra::UnitQuaternion;
+use serde::{Deserialize, Serialize};
+use std::collections::HashSet;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::{broadcast, mpsc, watch};
+
+mod events;
+mod intake;
+mod pilot;
+mod runner;
+mod sweep;
+
+pub use self::events::*;
+pub use self::intake::*;
+pub use self::runner::*;
+
+/// The run kind in `run.json`.
+pub const KIND: &str = "runway-mapping";
+
+/// Seconds of wall-clock time (scaled by the clock's speed-up) without any image data from a
+/// sweeping vehicle after which the pictures its camera announced and did not deliver count
+/// as missing. The receiver asks for a picture missing packets five times over 14 s
+/// (`imagery::transfer::ReceiverConfig`); 20 s covers that with room to spare.
+const SWEEP_IMAGE_STALL_S: f64 = 20.0;
+
+/// How many announced sweep pictures' reference positions a pilot keeps (a sweep's worth).
+const ANNOUNCED_KEPT: usize = 512;
+
+/// What the operator can ask of a running mission (the TUI's keys).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Operator {
+    /// Every robot holds where it is until [`Operator::Resume`].
+    Pause,
+    /// Carry on after a pause.
+    Resume,
+    /// The battery of this vehicle was swapped: it may take off again.
+    BatterySwapped(u8),
+    /// Send this vehicle home now for a battery swap (its vertex is kept).
+    Recall(u8),
+    /// Land this vehicle where it is (its vertex is kept; it waits on the ground as for a
+    /// battery swap, until [`Operator::BatterySwapped`]).
+    Land(u8),
+}
+
+/// How a run ended.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum Outcome {
+    /// The map is complete and every robot landed.
+    Finished,
+    /// Robots are on the ground waiting for the operator (battery swaps without
+    /// `auto_resume`): run `fleetmap resume` after the swaps.
+    WaitingForOperator {
+        /// The vehicles waiting.
+        sysids: Vec<u8>,
+    },
+}
+
+/// Options of a run.
+pub struct RunOptions {
+    /// Resume by itself after a battery swap (the vehicle power-cycles and reports a full
+    /// battery) instead of waiting for the operator.
+    pub auto_resume: bool,
+    /// Operator commands (the TUI); `None` in headless runs.
+    pub operator: Option<mpsc::UnboundedReceiver<Operator>>,
+    /// Progress lines for a headless run's stdout / the TUI's log.
+    pub progress: Option<mpsc::UnboundedSender<String>>,
+    /// The state after every step (the TUI's map and mission panes).
+    pub view: Option<watch::Sender<Arc<MappingState>>>,
+    /// Timeout scaling.
+    pub patience: Patience,
+    /// A vehicle is "there" within this horizontal distance of a cell centre, metres.
+    pub tolerance_m: f64,
+    /// Consecutive failed steps after which a pilot gives up (the run stops; resume later).
+    pub max_failures: u32,
+    /// Send MAV_CMD_USER_1 (the simulator's swap request) when a robot lands for a battery
+    /// swap — the in-process demo's stand-in for the operator.
+    pub sim_swap: bool,
+    /// Failed pictures (dropped by the sanity check, lost, unreadable) retaken per cell
+    /// visit, and rejected sweep pictures in a row, before the camera is declared faulty.
+    /// 5 = as many as a visit's own images: a healthy camera fails a picture rarely (a late
+    /// image, a gust), so more than half a visit's captures failing is no transient.
+    pub max_retakes: u32,
+    /// Limits of the image sanity check (`None`: [`CaptureLimits::runway`] of
+    /// `tolerance_m`, i.e. 1.0 m, 1.5 m, 10°, 10°).
+    pub capture_limits: Option<CaptureLimits>,
+}
+
+impl Default for RunOptions {
+    fn default() -> Self {
+        RunOptions {
+            auto_resume: false,
+            operator: None,
+            progress: None,
+            view: None,
+            patience: Patience::default(),
+            tolerance_m: 0.5,
+            max_failures: 20,
+            sim_swap: false,
+            max_retakes: 5,
+            capture_limits: None,
+        }
+    }
+}
+
+/// The runway run's shared part: the run core (state, store, progress, view) and the
+/// operator's requests and settings every pilot reads.
+struct Shared {
+    run: Arc<RunCore<MappingState>>,
+    paused: watch::Sender<bool>,
+    swapped: std::sync::Mutex<HashSet<u8>>,
+    recalled: std::sync::Mutex<HashSet<u8>>,
+    /// Vehicles the operator asked to land where they are (then they wait like a swap).
+    land_here: std::sync::Mutex<HashSet<u8>>,
+    fleet: FleetHandle,
+    auto_resume: bool,
+    interactive: bool,
+    patience: Patience,
+    tolerance_m: f64,
+    sim_swap: bool,
+    max_failures: u32,
+    max_retakes: u32,
+    limits: CaptureLimits,
+}
+
+impl Shared {
+    fn say(&self, line: String) {
+        self.run.say(line);
+    }
+
+    fn now(&self) -> Time {
+        self.run.now()
+    }
+
+    /// Mutate the state, save it, then journal `event`; notify everyone
+    /// ([`RunCore::commit`] with the runway's types).
+    async fn commit<T>(
+        &self,
+        f: impl FnOnce(&mut MappingState) -> Result<(T, Option<MappingEvent>), MappingError>,
+    ) -> anyhow::Result<T> {
+        self.run
+            .commit(|s| f(s).map(|(out, ev)| (out, Vec::from_iter(ev))))
+            .await
+    }
+
+    /// The next directive of `sysid`; saved (and the others woken) only when deciding it
+    /// changed the state.
+    async fn decide(&self, sysid: u8) -> anyhow::Result<Directive> {
+        self.run
+            .update(|s| {
+                s.directive_changed(sysid)
+                    .map(|(d, changed)| (d, Vec::<MappingEvent>::new(), changed))
+            })
+            .await
+    }
+
+    async fn read<T>(&self, f: impl FnOnce(&MappingState) -> T) -> T {
+        self.run.read(f).await
+    }
+}
+
+/// Where and how a picture was taken, as far as the GCS knows.
+#[derive(Clone, Debug)]
+struct ShotPose {
+    /// Latitude, degrees.
+    lat: f64,
+    /// Longitude, degrees.
+    lon: f64,
+    /// Altitude above home, metres (`None`: unknown).
+    alt_m: Option<f64>,
+    /// Heading of the image's top, degrees (the camera's, else the vehicle's, else 0).
+    heading_deg: f64,
+    /// The heading the camera itself reported, degrees.
+    camera_heading_deg: Option<f64>,
+    /// Attitude at the shutter, body → NED, its yaw the picture's heading (`None`: unknown).
+    attitude: Option<UnitQuaternion<f64>>,
+    /// The position came from the camera (not from the telemetry).
+    from_camera: bool,
+}
+
+/// What became of a cell-centre picture that does not count.
+enum PictureFailure {
+    /// It never arrived.
+    Lost(String),
+    /// It arrived but could not be decoded or classified.
+    Unreadable(String),
+    /// It was not taken where it would be credited.
+    Rejected(String),
+}
+
+struct Pilot {
+    sysid: u8,
+    shared: Arc<Shared>,
+    images: broadcast::Receiver<Arc<ReceivedImage>>,
+    capture_seq: u32,
+    held: bool,
+    /// No sweep entered yet by this process (a restart may have missed images).
+    first_sweep: bool,
+    /// Sweep pictures rejected in a row.
+    sweep_rejects: u32,
+}
+
+enum PilotEnd {
+    Done,
+    WaitingForOperator,
+}

@@ -1,0 +1,444 @@
+//! One vehicle's pilot: the loop that asks the mapping state for the next directive and
+//! drives the vehicle through it (fly to a cell, battery checks and swaps, home and land).
+//! The pictures of a visit are in [`super::intake`], the sweep in [`super::sweep`].
+
+use super::*;
+
+impl Pilot {
+    pub(super) fn fleet(&self) -> &FleetHandle {
+        &self.shared.fleet
+    }
+
+    pub(super) fn vehicle(&self) -> Option<VehicleSnapshot> {
+        self.fleet().vehicle(self.sysid)
+    }
+
+    /// Wait until the state changes, or `timeout`.
+    pub(super) async fn wait_change(&self, timeout: Duration) {
+        let mut rx = self.shared.run.subscribe();
+        rx.borrow_and_update();
+        let _ = tokio::time::timeout(timeout, rx.changed()).await;
+    }
+
+    pub(super) async fn wait_unpaused(&self) {
+        let mut rx = self.shared.paused.subscribe();
+        let mut told = false;
+        while *rx.borrow_and_update() {
+            if !told && !self.held {
+                let _ = flight::hold_here(self.fleet(), self.sysid).await;
+                told = true;
+            }
+            if rx.changed().await.is_err() {
+                return;
+            }
+        }
+    }
+
+    pub(super) async fn run(mut self) -> anyhow::Result<PilotEnd> {
+        let mut failures = 0u32;
+        loop {
+            self.wait_unpaused().await;
+            match self.step().await {
+                Ok(Some(end)) => return Ok(end),
+                Ok(None) => failures = 0,
+                Err(e) => {
+                    failures += 1;
+                    let reason = format!("{e:#}");
+                    self.shared
+                        .say(format!("vehicle {}: {reason} (retrying)", self.sysid));
+                    let sysid = self.sysid;
+                    let max = self.shared.patience.secs(2.0);
+                    let _ = self
+                        .shared
+                        .commit(|_| Ok(((), Some(MappingEvent::StepFailed { sysid, reason }))))
+                        .await;
+                    if failures >= self.shared.max_failures.max(1) {
+                        return Err(e.context(format!(
+                            "vehicle {sysid}: giving up after {failures} failed steps"
+                        )));
+                    }
+                    tokio::time::sleep(max).await;
+                }
+            }
+        }
+    }
+
+    /// One directive. `Some` ends the pilot.
+    pub(super) async fn step(&mut self) -> anyhow::Result<Option<PilotEnd>> {
+        let sysid = self.sysid;
+        // A recall from the operator, or a low battery, comes first.
+        if self.check_battery().await? {
+            return Ok(None);
+        }
+        let d = self.shared.decide(sysid).await?;
+        match d {
+            Directive::Sweep => {
+                self.held = false;
+                self.sweep().await?;
+            }
+            Directive::Hold => {
+                if !self.held
+                    && let Some(v) = self.vehicle()
+                    && flight::airborne(&v)
+                {
+                    flight::hold_here(self.fleet(), sysid).await?;
+                    self.held = true;
+                }
+                self.wait_change(Duration::from_millis(500)).await;
+            }
+            Directive::Confirm(cell) => {
+                self.held = false;
+                self.fly_to_cell(cell).await?;
+                if self.take_images(cell).await? {
+                    let now = self.shared.now();
+                    let root = self
+                        .shared
+                        .commit(|s| {
+                            let root = s.on_confirmed(sysid, cell, now)?;
+                            Ok((root, Some(MappingEvent::Confirmed { sysid, cell, root })))
+                        })
+                        .await?;
+                    match root {
+                        Some(r) => self.shared.say(format!(
+                            "vehicle {sysid}: cell {cell} confirmed: the recursive DFS starts at {r}"
+                        )),
+                        None => self.shared.say(format!(
+                            "vehicle {sysid}: cell {cell} is not runway after all: sweeping on"
+                        )),
+                    }
+                }
+            }
+            Directive::Dfs(Action::MoveTo(cell) | Action::Rejoin(cell)) => {
+                self.held = false;
+                self.fly_to_cell(cell).await?;
+                let now = self.shared.now();
+                self.shared
+                    .commit(|s| {
+                        s.on_arrived(sysid, cell, now)?;
+                        Ok(((), Some(MappingEvent::Arrived { sysid, cell })))
+                    })
+                    .await?;
+            }
+            Directive::Dfs(Action::Observe) => {
+                let cell = self
+                    .shared
+                    .read(|s| {
+                        s.explorer
+                            .as_ref()
+                            .map(|e| e.robot_cell(crate::explore::RobotId(sysid)))
+                    })
+                    .await
+                    .context("observing without an explorer")??;
+                if self.take_images(cell).await? {
+                    let now = self.shared.now();
+                    let added = self
+                        .shared
+                        .commit(|s| {
+                            let added = s.on_observed(sysid, cell, now)?;
+                            let ev = MappingEvent::Observed {
+                                sysid,
+                                cell,
+                                added: added.clone(),
+                            };
+                            Ok((added, Some(ev)))
+                        })
+                        .await?;
+                    let (explored, vertices) = self
+                        .shared
+                        .read(|s| {
+                            let e = s.explorer.as_ref();
+                            (
+                                e.map(|e| {
+                                    e.vertex_states()
+                                        .iter()
+                                        .filter(|(_, v)| {
+                                            *v == crate::explore::VertexState::Explored
+                                        })
+                                        .count()
+                                })
+                                .unwrap_or(0),
+                                e.map(|e| e.tree().real_count()).unwrap_or(0),
+                            )
+                        })
+                        .await;
+                    self.shared.say(format!(
+                        "vehicle {sysid}: vertex {cell} imaged, {} new ({} of {} vertices explored)",
+                        added.len(),
+                        explored,
+                        vertices
+                    ));
+                }
+            }
+            Directive::Dfs(Action::Wait) => {
+                if !self.held
+                    && let Some(v) = self.vehicle()
+                    && flight::airborne(&v)
+                {
+                    flight::hold_here(self.fleet(), sysid).await?;
+                    self.held = true;
+                }
+                self.wait_change(Duration::from_millis(500)).await;
+            }
+            Directive::Dfs(Action::ReturnHome) | Directive::Swap => {
+                self.held = false;
+                if let Some(end) = self.swap().await? {
+                    return Ok(Some(end));
+                }
+            }
+            Directive::Dfs(Action::Done) | Directive::GoHome => {
+                self.held = false;
+                self.go_home().await?;
+            }
+            Directive::Stop => return Ok(Some(PilotEnd::Done)),
+        }
+        Ok(None)
+    }
+
+    /// Low battery or an operator recall: leave the tree and fly home. Returns whether it
+    /// did.
+    pub(super) async fn check_battery(&mut self) -> anyhow::Result<bool> {
+        let sysid = self.sysid;
+        let recalled = self
+            .shared
+            .recalled
+            .lock()
+            .map(|mut r| r.remove(&sysid))
+            .unwrap_or(false);
+        let Some(v) = self.vehicle() else {
+            return Ok(false);
+        };
+        let status = self
+            .shared
+            .read(|s| s.robot(sysid).map(|r| r.status))
+            .await?;
+        if matches!(
+            status,
+            RobotStatus::ReturningForSwap
+                | RobotStatus::AwaitingSwap
+                | RobotStatus::ReturningHome
+                | RobotStatus::Landed
+        ) {
+            return Ok(false);
+        }
+        if self
+            .shared
+            .read(|s| matches!(s.phase, Phase::Finished { .. }))
+            .await
+        {
+            return Ok(false);
+        }
+        let alt = f64::from(v.alt_rel.unwrap_or(0.0));
+        let needed = self
+            .shared
+            .read(|s| s.battery_needed_pct(flight::distance_home(&v), alt))
+            .await;
+        let pct = v.battery_pct.map(f64::from).filter(|p| *p >= 0.0);
+        // The autopilot's own failsafe took over (RTL / LAND we did not ask for).
+        let failsafe = flight::airborne(&v)
+            && matches!(v.mode.as_str(), "RTL" | "LAND" | "SMART_RTL")
+            && status != RobotStatus::Idle;
+        let low = pct.is_some_and(|p| p <= needed) && flight::airborne(&v);
+        if !(recalled || low || failsafe) {
+            return Ok(false);
+        }
+        let now = self.shared.now();
+        let pct_v = pct.unwrap_or(-1.0);
+        self.shared
+            .commit(|s| {
+                s.abandon_confirmation(sysid);
+                s.on_battery_low(sysid, now)?;
+                Ok((
+                    (),
+                    Some(MappingEvent::BatteryLow {
+                        sysid,
+                        pct: pct_v,
+                        needed_pct: needed,
+                    }),
+                ))
+            })
+            .await?;
+        let why = if recalled {
+            "recalled by the operator".to_string()
+        } else if failsafe {
+            format!("the autopilot's failsafe took over ({})", v.mode)
+        } else {
+            format!("battery {pct_v:.0} % (home needs {needed:.0} %)")
+        };
+        self.shared.say(format!(
+            "vehicle {sysid}: {why}: returning home for a battery swap"
+        ));
+        Ok(true)
+    }
+
+    pub(super) async fn fly_to_cell(&mut self, cell: Cell) -> anyhow::Result<()> {
+        let sysid = self.sysid;
+        let (centre, alt, speed) = self
+            .shared
+            .read(|s| {
+                (
+                    s.grid.cell_center(cell),
+                    s.altitude_of(sysid),
+                    s.params.speed_m_s,
+                )
+            })
+            .await;
+        let alt = alt? as f32;
+        flight::ensure_airborne(self.fleet(), sysid, alt, self.shared.patience).await?;
+        let target = (centre.lat, centre.lon, alt);
+        flight::fly_to(
+            self.fleet(),
+            sysid,
+            target,
+            speed as f32,
+            self.shared.tolerance_m,
+            self.shared.patience,
+        )
+        .await?;
+        // The images are read as the cell and its four neighbours: camera aligned with the
+        // grid (the classifier then turns the regions by whole quarter turns).
+        flight::face_grid(self.fleet(), sysid, target, 3.0, self.shared.patience).await?;
+        Ok(())
+    }
+
+    /// Battery swap: home, land, wait for the fresh battery, then carry on.
+    pub(super) async fn swap(&mut self) -> anyhow::Result<Option<PilotEnd>> {
+        let sysid = self.sysid;
+        let fleet = self.fleet().clone();
+        let status = self
+            .shared
+            .read(|s| s.robot(sysid).map(|r| r.status))
+            .await?;
+        if status != RobotStatus::AwaitingSwap {
+            let (dist, speed) = match self.vehicle() {
+                Some(v) => (
+                    flight::distance_home(&v),
+                    self.shared.read(|s| s.params.speed_m_s).await,
+                ),
+                None => (100.0, 1.0),
+            };
+            let here = self
+                .shared
+                .land_here
+                .lock()
+                .map(|s| s.contains(&sysid))
+                .unwrap_or(false);
+            if here {
+                flight::land_here(&fleet, sysid, self.shared.patience).await?;
+            } else {
+                flight::return_and_land(&fleet, sysid, dist, speed, self.shared.patience).await?;
+            }
+            let reboots = self.vehicle().map(|v| v.reboots).unwrap_or(0);
+            let now = self.shared.now();
+            self.shared
+                .commit(|s| {
+                    s.on_landed_for_swap(sysid, reboots, now)?;
+                    Ok(((), Some(MappingEvent::LandedForSwap { sysid })))
+                })
+                .await?;
+            let fault = self.camera_fault_now().await;
+            if let Some(why) = &fault {
+                self.shared.say(format!(
+                    "vehicle {sysid}: landed: waiting for the operator to fix the camera ({why}); \
+                     it will not resume by itself"
+                ));
+            } else {
+                self.shared.say(format!(
+                    "vehicle {sysid}: landed: waiting for a battery swap{}",
+                    if self.shared.auto_resume {
+                        " (resumes by itself when a fresh battery is in)"
+                    } else {
+                        ""
+                    }
+                ));
+            }
+            if self.shared.sim_swap && fault.is_none() {
+                // The demo's operator: ask the simulated vehicle to swap its battery.
+                let _ = flight::request_sim_swap(&fleet, sysid).await;
+            }
+        }
+        if self
+            .shared
+            .read(|s| matches!(s.phase, Phase::Finished { .. }))
+            .await
+        {
+            return Ok(None);
+        }
+        let reboots_at = self
+            .shared
+            .read(|s| s.robot(sysid).ok().and_then(|r| r.reboots_at_landing))
+            .await;
+        loop {
+            let by_operator = self
+                .shared
+                .swapped
+                .lock()
+                .map(|mut s| s.remove(&sysid))
+                .unwrap_or(false);
+            let fresh = self.vehicle().is_some_and(|v| {
+                let rebooted = reboots_at.is_none_or(|r| v.reboots > r);
+                v.alive
+                    && v.battery_pct
+                        .is_some_and(|p| p >= 95 || (rebooted && p >= 90))
+                    && (rebooted || v.battery_pct.is_some_and(|p| p >= 95))
+            });
+            // A faulty camera waits for the operator: a fresh battery does not repair it.
+            let auto = self.shared.auto_resume && self.camera_fault_now().await.is_none();
+            if by_operator || (auto && fresh) {
+                let now = self.shared.now();
+                if let Ok(mut set) = self.shared.land_here.lock() {
+                    set.remove(&sysid);
+                }
+                let by = if by_operator { "operator" } else { "auto" }.to_string();
+                self.shared
+                    .commit(|s| {
+                        s.on_swapped(sysid, now)?;
+                        Ok(((), Some(MappingEvent::Swapped { sysid, by })))
+                    })
+                    .await?;
+                self.shared.say(format!(
+                    "vehicle {sysid}: fresh battery: taking off to resume"
+                ));
+                return Ok(None);
+            }
+            if !auto && !self.shared.interactive {
+                return Ok(Some(PilotEnd::WaitingForOperator));
+            }
+            if self
+                .shared
+                .read(|s| matches!(s.phase, Phase::Finished { .. }))
+                .await
+            {
+                return Ok(None);
+            }
+            self.wait_change(Duration::from_millis(500)).await;
+        }
+    }
+
+    pub(super) async fn go_home(&mut self) -> anyhow::Result<()> {
+        let sysid = self.sysid;
+        let now = self.shared.now();
+        self.shared
+            .commit(|s| {
+                s.on_going_home(sysid, now)?;
+                Ok(((), Some(MappingEvent::GoingHome { sysid })))
+            })
+            .await?;
+        let (dist, speed) = match self.vehicle() {
+            Some(v) => (
+                flight::distance_home(&v),
+                self.shared.read(|s| s.params.speed_m_s).await,
+            ),
+            None => (100.0, 1.0),
+        };
+        flight::return_and_land(self.fleet(), sysid, dist, speed, self.shared.patience).await?;
+        let now = self.shared.now();
+        self.shared
+            .commit(|s| {
+                s.on_landed(sysid, now)?;
+                Ok(((), Some(MappingEvent::Landed { sysid })))
+            })
+            .await?;
+        self.shared.say(format!("vehicle {sysid}: landed at home"));
+        Ok(())
+    }
+}

@@ -1,0 +1,168 @@
+//! Running (or resuming) a runway-mapping run: one pilot task per vehicle, the position
+//! tracker, the operator's commands, and the final save.
+
+use super::*;
+
+/// Follow every robot's position for its track, distance and airborne time (in memory; saved
+/// with the next step).
+pub(super) fn track(shared: &Shared, sysids: Vec<u8>) -> tokio::task::JoinHandle<()> {
+    let fleet = shared.fleet.clone();
+    shared.run.spawn_tracker(move |state, dt| {
+        for &sysid in &sysids {
+            let Some(v) = fleet.vehicle(sysid) else {
+                continue;
+            };
+            let Some(p) = v.position else { continue };
+            let Ok((e, n)) = state.grid.to_xy(LatLon {
+                lat: p.lat,
+                lon: p.lon,
+            }) else {
+                continue;
+            };
+            let air = if flight::airborne(&v) { dt } else { 0.0 };
+            let _ = state.on_position(sysid, e, n, air);
+        }
+    })
+}
+
+/// Run (or resume) a runway-mapping run with `fleet` until it finishes, or until robots wait
+/// for the operator. `run` holds the state; the vehicles must already be heard.
+pub async fn run(
+    fleet: FleetHandle,
+    hub: &ImageHub,
+    run_dir: RunDir,
+    state: MappingState,
+    mut opts: RunOptions,
+) -> anyhow::Result<Outcome> {
+    let sysids: Vec<u8> = state.robots.iter().map(|r| r.sysid).collect();
+    let resumed = state.started.is_some();
+    let (paused, _) = watch::channel(false);
+    let interactive = opts.operator.is_some();
+    let core = RunCore::new(
+        state,
+        run_dir,
+        fleet.clock().clone(),
+        opts.progress.take(),
+        opts.view.take(),
+    )?;
+    let shared = Arc::new(Shared {
+        run: Arc::new(core),
+        paused,
+        swapped: std::sync::Mutex::new(HashSet::new()),
+        recalled: std::sync::Mutex::new(HashSet::new()),
+        land_here: std::sync::Mutex::new(HashSet::new()),
+        fleet: fleet.clone(),
+        auto_resume: opts.auto_resume,
+        interactive,
+        patience: opts.patience,
+        tolerance_m: opts.tolerance_m,
+        sim_swap: opts.sim_swap,
+        max_failures: opts.max_failures,
+        max_retakes: opts.max_retakes,
+        limits: opts
+            .capture_limits
+            .unwrap_or_else(|| CaptureLimits::runway(opts.tolerance_m)),
+    });
+    // Saved and journalled before anything moves; also the view's first state.
+    let started = MappingEvent::Started {
+        robots: sysids.clone(),
+        resumed,
+    };
+    shared.commit(|_| Ok(((), Some(started)))).await?;
+    let tracker = track(&shared, sysids.clone());
+    let operator = opts.operator.take().map(|mut rx| {
+        let shared = shared.clone();
+        tokio::spawn(async move {
+            while let Some(cmd) = rx.recv().await {
+                match cmd {
+                    Operator::Pause => {
+                        shared.paused.send_replace(true);
+                        shared.say("operator: pause — every vehicle holds".into());
+                    }
+                    Operator::Resume => {
+                        shared.paused.send_replace(false);
+                        shared.say("operator: resume".into());
+                    }
+                    Operator::BatterySwapped(s) => {
+                        if let Ok(mut set) = shared.swapped.lock() {
+                            set.insert(s);
+                        }
+                        shared.say(format!("operator: vehicle {s} has a fresh battery"));
+                    }
+                    Operator::Land(s) => {
+                        if let Ok(mut set) = shared.land_here.lock() {
+                            set.insert(s);
+                        }
+                        if let Ok(mut set) = shared.recalled.lock() {
+                            set.insert(s);
+                        }
+                        shared.say(format!("operator: vehicle {s} lands where it is"));
+                    }
+                    Operator::Recall(s) => {
+                        if let Ok(mut set) = shared.recalled.lock() {
+                            set.insert(s);
+                        }
+                        shared.say(format!("operator: vehicle {s} recalled for a battery swap"));
+                    }
+                }
+                shared.run.notify();
+            }
+        })
+    });
+    let mut tasks = Vec::new();
+    for &sysid in &sysids {
+        let pilot = Pilot {
+            sysid,
+            shared: shared.clone(),
+            images: hub.subscribe(),
+            capture_seq: 0,
+            held: false,
+            first_sweep: true,
+            sweep_rejects: 0,
+        };
+        tasks.push((sysid, tokio::spawn(pilot.run())));
+    }
+    let mut waiting = Vec::new();
+    let mut first_err = None;
+    for (sysid, t) in tasks {
+        match t.await {
+            Ok(Ok(PilotEnd::Done)) => {}
+            Ok(Ok(PilotEnd::WaitingForOperator)) => waiting.push(sysid),
+            Ok(Err(e)) => {
+                if first_err.is_none() {
+                    first_err = Some(e);
+                }
+            }
+            Err(e) => {
+                if first_err.is_none() {
+                    first_err = Some(anyhow::anyhow!("vehicle {sysid}: pilot task failed: {e}"));
+                }
+            }
+        }
+    }
+    tracker.abort();
+    if let Some(op) = operator {
+        op.abort();
+    }
+    // Save the final track and times.
+    let now = fleet.clock().now();
+    shared
+        .commit(|state| {
+            if state.is_finished() {
+                let found = matches!(state.phase, Phase::Finished { found: true });
+                state.book.close_all(now);
+                Ok(((), Some(MappingEvent::Finished { found })))
+            } else {
+                Ok(((), None))
+            }
+        })
+        .await?;
+    if let Some(e) = first_err {
+        return Err(e);
+    }
+    if waiting.is_empty() {
+        Ok(Outcome::Finished)
+    } else {
+        Ok(Outcome::WaitingForOperator { sysids: waiting })
+    }
+}

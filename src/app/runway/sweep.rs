@@ -1,0 +1,404 @@
+//! The sweep phase: the vehicle flies its lanes with the camera on a timer, and every picture
+//! that arrives is checked, classified and voted into the map as it comes.
+
+use super::*;
+
+impl Pilot {
+    /// Fly (or keep flying) the sweep, classifying its images, until the phase changes, the
+    /// sweep ends or the battery runs low.
+    pub(super) async fn sweep(&mut self) -> anyhow::Result<()> {
+        let sysid = self.sysid;
+        let fleet = self.fleet().clone();
+        let (items, alt, speed, resume_item) = self
+            .shared
+            .read(|s| {
+                let sw = s.sweep_of(sysid).ok().cloned();
+                let r = s.robot(sysid).ok().cloned();
+                (
+                    sw.map(|w| w.items).unwrap_or_default(),
+                    r.as_ref().map(|r| r.altitude_m).unwrap_or(12.0),
+                    s.params.speed_m_s,
+                    r.and_then(|r| r.sweep_item),
+                )
+            })
+            .await;
+        let v = self
+            .vehicle()
+            .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
+        let mission_mode = v.flavour.mission_mode().ok();
+        let in_mission = mission_mode.is_some_and(|m| v.flavour.is_mode(v.custom_mode, m));
+        let holds_mission = v
+            .mission_total
+            .is_some_and(|t| usize::from(t) == items.len());
+        if !(flight::airborne(&v) && holds_mission) {
+            // Upload, verify by download, take off, start (or continue where it stopped).
+            fleet
+                .upload_mission(sysid, MissionType::Mission, items.clone())
+                .await?;
+            let (back, _) = fleet.download_mission(sysid, MissionType::Mission).await?;
+            crate::proto::mission::compare_items(&items, &back, v.flavour.home_item()).map_err(
+                |d| anyhow::anyhow!("vehicle {sysid}: the sweep read back differs: {d}"),
+            )?;
+            self.shared.say(format!(
+                "vehicle {sysid}: sweep mission uploaded and verified ({} items)",
+                items.len()
+            ));
+            flight::ensure_airborne(&fleet, sysid, alt as f32, self.shared.patience).await?;
+            if let Some(item) = resume_item.filter(|&i| i > 0) {
+                fleet.set_mission_current(sysid, item).await?;
+                let m = mission_mode.context("no mission mode")?;
+                fleet.set_mode(sysid, m.name).await?;
+            } else {
+                fleet.start_mission(sysid).await?;
+            }
+            let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
+            self.shared.say(format!("vehicle {sysid}: sweeping"));
+        } else if self.first_sweep || !in_mission {
+            // Back after a GCS restart (or a hold): the vehicle may have flown on while no one
+            // classified its images, so go back to the last capture we may have missed — the
+            // waypoint before the one it was heading for when we last saw it.
+            if self.first_sweep
+                && let Some(item) = resume_item
+            {
+                let back = items
+                    .iter()
+                    .enumerate()
+                    .take(usize::from(item))
+                    .rev()
+                    .find(|(_, it)| it.command == crate::mission::item::cmd::NAV_WAYPOINT)
+                    .map(|(j, _)| j as u16);
+                if let Some(j) = back {
+                    fleet.set_mission_current(sysid, j).await?;
+                }
+            }
+            let m = mission_mode.context("no mission mode")?;
+            fleet.set_mode(sysid, m.name).await?;
+            let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
+        }
+        self.first_sweep = false;
+        let last_nav = items
+            .iter()
+            .rposition(|it| it.command == crate::mission::item::cmd::NAV_WAYPOINT)
+            .unwrap_or(0) as u16;
+        let mut snaps = fleet.watch();
+        let mut changed = self.shared.run.subscribe();
+        changed.borrow_and_update();
+        let mut tick = tokio::time::interval(Duration::from_millis(500));
+        // Pictures the sweep's capture items should have produced and did not: an autopilot
+        // that cannot take pictures (ArduPilot without a camera backend, CAM1_TYPE = 0) or a
+        // camera that is not connected sends nothing at all — no rejected picture to count.
+        let captures_before = |c: u16| {
+            items
+                .iter()
+                .take(usize::from(c))
+                .filter(|it| it.command == crate::mission::item::cmd::IMAGE_START_CAPTURE)
+                .count()
+        };
+        let mut captures_at_start = None;
+        // Pictures that arrived, and pictures the camera announced (CAMERA_IMAGE_CAPTURED): an
+        // announced picture exists while its transmission is queued behind others (a slow
+        // payload link: PX4 SITL's carries 4 kB/s), so it is missing only once no image data
+        // at all has been heard from the vehicle for `SWEEP_IMAGE_STALL_S`.
+        let mut arrived = 0usize;
+        let mut announced = 0usize;
+        let mut progress = self.shared.now();
+        let stall = Duration::from_secs_f64(SWEEP_IMAGE_STALL_S * fleet.clock().speedup());
+        let mut frames = fleet.subscribe();
+        // Where the vehicle was when each picture was announced, by (time_boot_ms,
+        // image_index): the reference for a picture that arrives later, queued on a slow link.
+        let mut where_announced = std::collections::VecDeque::new();
+        // The vehicle has flown the whole sweep (its pictures may still be in transfer).
+        let mut flown = false;
+        loop {
+            tokio::select! {
+                f = frames.recv() => {
+                    match f {
+                        Ok(inc) if inc.frame.sysid() == sysid => match &inc.frame.message {
+                            Ok(MavMessage::CAMERA_IMAGE_CAPTURED(c)) => {
+                                if announced <= arrived {
+                                    progress = self.shared.now();
+                                }
+                                announced += 1;
+                                if let Some(p) = self.vehicle().and_then(|v| v.position) {
+                                    if where_announced.len() >= ANNOUNCED_KEPT {
+                                        where_announced.pop_front();
+                                    }
+                                    where_announced.push_back(((c.time_boot_ms, c.image_index), p));
+                                }
+                            }
+                            Ok(MavMessage::ENCAPSULATED_DATA(_) | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)) => {
+                                progress = self.shared.now();
+                            }
+                            _ => {}
+                        },
+                        Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
+                        Err(broadcast::error::RecvError::Closed) => anyhow::bail!("the fleet stopped"),
+                    }
+                }
+                r = self.images.recv() => {
+                    let img = match r {
+                        Ok(img) => img,
+                        Err(broadcast::error::RecvError::Lagged(_)) => continue,
+                        Err(broadcast::error::RecvError::Closed) => return Err(FlightError::ImagesClosed.into()),
+                    };
+                    if img.sysid != sysid {
+                        continue;
+                    }
+                    arrived += 1;
+                    progress = self.shared.now();
+                    let key = img.pose.as_ref().map(|p| (p.time_boot_ms, p.image_index));
+                    let announced_at = where_announced
+                        .iter()
+                        .find(|(k, _)| Some(*k) == key)
+                        .map(|&(_, p)| p);
+                    if self.sweep_image(&img, announced_at).await? {
+                        return Ok(());
+                    }
+                }
+                r = snaps.changed() => {
+                    if r.is_err() {
+                        anyhow::bail!("the fleet stopped");
+                    }
+                    let s = snaps.borrow_and_update().vehicles.get(&sysid).cloned();
+                    let Some(s) = s else { continue };
+                    if let Some(c) = s.mission_current {
+                        let passed = captures_before(c);
+                        let start = *captures_at_start.get_or_insert(passed);
+                        let pending = announced.saturating_sub(arrived);
+                        let stalled = self.shared.now().saturating_since(progress) > stall;
+                        let missing = passed
+                            .saturating_sub(start)
+                            .saturating_sub(arrived.max(announced))
+                            + if stalled { pending } else { 0 };
+                        if missing > self.shared.max_retakes as usize {
+                            let reason = format!(
+                                "{missing} sweep pictures did not arrive (the vehicle passed their \
+                                 capture points): check that the autopilot can take pictures \
+                                 (ArduPilot: a camera backend, CAM1_TYPE) and that the camera is \
+                                 connected"
+                            );
+                            self.camera_fault(None, reason).await?;
+                            return Ok(());
+                        }
+                    }
+                    if let Some(c) = s.mission_current
+                        && self.shared.read(|st| st.robot(sysid).ok().and_then(|r| r.sweep_item)).await != Some(c)
+                    {
+                        self.shared.commit(|st| Ok((st.on_sweep_progress(sysid, c)?, None))).await?;
+                    }
+                    let complete = s.mission_state == Some(5)
+                        || s.reached.contains(&last_nav)
+                        || s.mission_current.is_some_and(|c| c > last_nav);
+                    if complete && !flown {
+                        flown = true;
+                        let pending = announced.saturating_sub(arrived);
+                        if pending > 0 {
+                            self.shared.say(format!(
+                                "vehicle {sysid}: sweep flown; waiting for {pending} pictures still in transfer"
+                            ));
+                        }
+                    }
+                }
+                _ = changed.changed() => {
+                    // A new phase, or the operator's pause (the step loop holds the vehicle).
+                    if *self.shared.paused.borrow()
+                        || self.shared.read(|s| s.phase != Phase::Sweep).await
+                    {
+                        return Ok(());
+                    }
+                }
+                _ = tick.tick() => {
+                    if self.check_battery().await? {
+                        return Ok(());
+                    }
+                }
+            }
+            // The sweep is complete once flown and its announced pictures are in (or their
+            // transfer stalled: those were counted as missing above).
+            let stalled = self.shared.now().saturating_since(progress) > stall;
+            if flown && (announced <= arrived || stalled) {
+                let now = self.shared.now();
+                self.shared
+                    .commit(|st| {
+                        st.on_sweep_complete(sysid, now)?;
+                        Ok(((), Some(MappingEvent::SweepComplete { sysid })))
+                    })
+                    .await?;
+                self.shared.say(format!("vehicle {sysid}: sweep complete"));
+                return Ok(());
+            }
+        }
+    }
+
+    /// Classify a sweep image; returns true when the sweep must stop (it started a
+    /// confirmation, or the camera was declared faulty). The picture must have been taken
+    /// where the vehicle was: the camera's position within one cell more than the cell limit
+    /// of `announced_at`, the vehicle's position when the camera announced the picture (else
+    /// when it arrives: the vehicle flies on while it is transferred),
+    /// its altitude within the limit and its tilt within
+    /// [`crate::vision::sanity::SWEEP_MAX_TILT_DEG`]; otherwise it is dropped, and
+    /// [`RunOptions::max_retakes`] + 1 dropped in a row are a camera fault. With the attitude
+    /// known, the picture stands for the cell its optical axis met, cut as an orthophoto
+    /// around that point; without, for the cell under the vehicle, centre-cropped.
+    pub(super) async fn sweep_image(
+        &mut self,
+        img: &ReceivedImage,
+        announced_at: Option<GeoPoint>,
+    ) -> anyhow::Result<bool> {
+        let sysid = self.sysid;
+        let v = self.vehicle();
+        let Some(pose) = shot_pose(img, v.as_ref()) else {
+            return Ok(false);
+        };
+        let (params, camera, altitude, grid) = self
+            .shared
+            .read(|s| {
+                (
+                    s.params.runway,
+                    s.params.camera,
+                    s.altitude_of(sysid).unwrap_or(s.params.base_altitude_m),
+                    s.grid.clone(),
+                )
+            })
+            .await;
+        let cell_m = grid.cell_size();
+        let here = LatLon {
+            lat: pose.lat,
+            lon: pose.lon,
+        };
+        // The camera's position against the vehicle's (the telemetry's own is not checked).
+        let reference = announced_at.or_else(|| v.as_ref().and_then(|v| v.position));
+        let offset = match (reference, pose.from_camera) {
+            (Some(r), true) => Some(local::distance(r.lat, r.lon, pose.lat, pose.lon)),
+            // a vehicle that reports no position cannot vouch for its camera
+            (None, true) => v.as_ref().map(|_| f64::INFINITY),
+            (_, false) => None,
+        };
+        let limits = CaptureLimits {
+            horizontal_m: self.shared.limits.horizontal_m + cell_m,
+            max_tilt_deg: self.shared.limits.max_tilt_deg.max(SWEEP_MAX_TILT_DEG),
+            ..self.shared.limits
+        };
+        let claim = CaptureClaim {
+            horizontal_offset_m: offset,
+            altitude_m: pose.alt_m,
+            attitude: pose.attitude,
+            heading_deg: None,
+            expected_heading_deg: None,
+        };
+        let alt_m = pose.alt_m.unwrap_or(altitude);
+        // With the attitude known, the picture is of the cell its optical axis met: the
+        // orthophoto is centred there (grid metres from the point under the camera).
+        let gamma = grid
+            .convergence_and_scale(here)
+            .map(|(g, _)| g)
+            .unwrap_or(0.0);
+        let looked = pose.attitude.as_ref().and_then(|a| {
+            geometry::view_centre_offset(a, alt_m).map(|(n, e)| geometry::true_to_grid(n, e, gamma))
+        });
+        let cell = grid.to_xy(here).map(|(e, n)| {
+            let (de, dn) = looked.unwrap_or((0.0, 0.0));
+            grid.cell_of_xy(e + de, n + dn)
+        });
+        let verdict = match (check_capture(&claim, altitude, &limits), &cell) {
+            (Err(r), _) => Err(format!(
+                "sweep picture {r}; reference: where the vehicle was when it {}",
+                if announced_at.is_some() {
+                    "was announced"
+                } else {
+                    "arrived"
+                }
+            )),
+            (Ok(()), Err(e)) => Err(format!("sweep: the picture's position: {e}")),
+            (Ok(()), Ok(_)) => Ok(()),
+        };
+        if let Err(reason) = verdict {
+            self.sweep_rejects += 1;
+            let retakes = self.sweep_rejects;
+            tracing::info!("vehicle {sysid}: picture dropped: {reason}");
+            let r = reason.clone();
+            self.shared
+                .commit(|_| {
+                    Ok((
+                        (),
+                        Some(MappingEvent::ImageRejected {
+                            sysid,
+                            cell: None,
+                            reason: r,
+                            retakes,
+                        }),
+                    ))
+                })
+                .await?;
+            if retakes > self.shared.max_retakes {
+                self.camera_fault(
+                    None,
+                    format!("{retakes} sweep pictures in a row did not count; the last: {reason}"),
+                )
+                .await?;
+                return Ok(true);
+            }
+            return Ok(false);
+        }
+        self.sweep_rejects = 0;
+        let Ok(cell) = cell else {
+            return Ok(false);
+        };
+        let heading = pose.heading_deg;
+        let cut = match (pose.attitude, looked) {
+            (Some(attitude), Some(centre)) => Cut::Ortho {
+                attitude,
+                altitude_m: alt_m,
+                request: OrthoRequest {
+                    cell_m,
+                    centre_east_north_m: centre,
+                    grid_north_deg: gamma,
+                },
+            },
+            _ => Cut::Centre {
+                heading_deg: heading,
+                altitude_m: altitude,
+            },
+        };
+        let bytes = img.bytes.clone();
+        let result = cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m)).await?;
+        let c = match result {
+            Ok(c) => c,
+            Err(reason) => {
+                self.shared
+                    .commit(|s| {
+                        s.image_failures += 1;
+                        Ok(((), Some(MappingEvent::ImageFailed { sysid, reason })))
+                    })
+                    .await?;
+                return Ok(false);
+            }
+        };
+        let now = self.shared.now();
+        let candidate = self
+            .shared
+            .commit(|s| {
+                let image_id = s.next_image_id();
+                let cand = s.on_sweep_image(sysid, cell, heading, c.fractions, c.labels, now)?;
+                let ev = match cand {
+                    Some(cell) => MappingEvent::Candidate { sysid, cell },
+                    None => MappingEvent::SweepImage {
+                        sysid,
+                        image_id,
+                        cell,
+                        labels: labels5(&c),
+                    },
+                };
+                Ok((cand, Some(ev)))
+            })
+            .await?;
+        if let Some(cand) = candidate {
+            self.shared.say(format!(
+                "vehicle {sysid}: runway seen near cell {cand}: stopping the sweep to confirm it"
+            ));
+            flight::hold_here(self.fleet(), sysid).await?;
+            return Ok(true);
+        }
+        Ok(false)
+    }
+}
