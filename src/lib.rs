@@ -1,7 +1,7 @@
 //! fleetmap — a terminal ground-control station that maps regions of interest with fleets of
 //! PX4 and ArduPilot vehicles over MAVLink.
 //!
-//! The crate follows the layering of `DESIGN.md`: a pure core (no sockets, no files, no clock
+//! The crate follows the layering of `docs/architecture.md`: a pure core (no sockets, no files, no clock
 //! reads; time is a [`time::Time`] parameter) and a thin async shell (link, fleet, app, UI)
 //! built on tokio. Module responsibilities:
 //!
@@ -22,7 +22,8 @@
 //! | [`app`] | shell | mission runners (runway mapping, bandit sorties, resume) |
 //! | [`tui`] | shell | the ratatui operator interface |
 //! | [`experiment`] | batch | Monte Carlo studies reproducing the papers |
-//! | [`cli`] | entry | the `fleetmap` command line; [`cli::load`] holds the edge's loaders of mission and image files |
+//! | [`files`] | shell | the edge's loaders: the only place mission files, image files and `file://` URLs are read |
+//! | [`cli`] | entry | the `fleetmap` command line |
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]
@@ -32,6 +33,7 @@ pub mod cli;
 pub mod clock;
 pub mod experiment;
 pub mod explore;
+pub mod files;
 pub mod fleet;
 pub mod geo;
 pub mod imagery;

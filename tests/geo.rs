@@ -3,7 +3,7 @@
 //! - Every row of `assets/golden/utm_pyproj.csv` (PROJ via pyproj, generated once by
 //!   `scripts/gen_utm_golden.py`) is converted in both directions and must agree to 1 mm.
 //! - The `utm` crate is measured against the same rows (its numbers are printed and recorded
-//!   in the README's Geo section).
+//!   in docs/results/geo.md).
 //! - cell → GPS → cell is exact (proptest), polygon coverage matches analytic areas and an
 //!   independent polygon clipper, and the CLI rejects bad arguments with one line.
 

@@ -3,7 +3,7 @@
 //! gives its exact errors (line, column, message), random input never panics, and
 //! `fleetmap check` reports them end to end.
 
-use fleetmap::cli::load::load_mission;
+use fleetmap::files::load_mission;
 use fleetmap::geo::Cell;
 use fleetmap::mission::definition::{DefError, MissionDef, MissionKind, Origin, Role, SweepBox};
 use proptest::prelude::*;

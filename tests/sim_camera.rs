@@ -5,7 +5,7 @@
 
 #![allow(deprecated)]
 
-use fleetmap::cli::load::read_file_url;
+use fleetmap::files::read_file_url;
 use fleetmap::imagery::meta::read_meta;
 use fleetmap::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig};
 use fleetmap::link::codec::Codec;

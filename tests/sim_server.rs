@@ -156,7 +156,7 @@ async fn tcp_endpoint_and_image_files() {
     }
     let url = url.expect("CAMERA_IMAGE_CAPTURED over TCP");
     // the file exists by the time it is announced
-    let bytes = fleetmap::cli::load::read_file_url(&url, 10 << 20).unwrap();
+    let bytes = fleetmap::files::read_file_url(&url, 10 << 20).unwrap();
     let meta = fleetmap::imagery::meta::read_meta(&bytes).unwrap();
     assert_eq!(meta.sysid, 1);
     assert!(image::load_from_memory(&bytes).is_ok());
@@ -256,7 +256,7 @@ async fn camera_for_a_real_autopilot() {
         }
     }
     let url = url.expect("CAMERA_IMAGE_CAPTURED from the camera component");
-    let bytes = fleetmap::cli::load::read_file_url(&url, 10 << 20).unwrap();
+    let bytes = fleetmap::files::read_file_url(&url, 10 << 20).unwrap();
     let meta = fleetmap::imagery::meta::read_meta(&bytes).unwrap();
     assert_eq!(meta.sysid, 1);
     assert!((meta.alt_rel_m - 12.0).abs() < 0.01, "{meta:?}");

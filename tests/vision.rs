@@ -6,7 +6,7 @@
 //! specifications below and rewrites `assets/images/golden.json`
 //! (`scripts/gen-vision-images.sh` does exactly that).
 
-use fleetmap::cli::load::load_image_file;
+use fleetmap::files::load_image_file;
 use fleetmap::geo::{Cell, Dir4};
 use fleetmap::time::Time;
 use fleetmap::vision::green::{self, GreenParams};

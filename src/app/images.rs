@@ -21,7 +21,7 @@
 //! whole pose when no message was heard. The runners check this pose before a picture counts
 //! ([`crate::vision::sanity`]).
 
-use crate::cli::load::read_file_url;
+use crate::files::read_file_url;
 use crate::fleet::{FleetHandle, Incoming};
 use crate::imagery::meta::{ImageMeta, read_meta};
 use crate::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig};

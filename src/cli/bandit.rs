@@ -420,7 +420,7 @@ struct BenchPlanOutput {
     max_variables: usize,
 }
 
-/// Run `fleetmap bench plan`: the epochs of Algorithm 1 on the 10×10 default of FIXTURES.md
+/// Run `fleetmap bench plan`: the epochs of Algorithm 1 on the 10×10 default of docs/fixtures.md
 /// (Nd = 10, Nc = 5, Td = 8, Tc = 4, D = 8, 16 obstacles; μ drawn as in §VI with
 /// μ_worst = 0.8; the team carried over between epochs), solved one after the other, the
 /// solve time of each epoch recorded. Trials restart with new μ until `--epochs` are timed.
@@ -488,7 +488,7 @@ pub fn run_bench(args: BenchPlanArgs) -> anyhow::Result<ExitCode> {
     times.truncate(args.epochs);
     let q = |p: f64| study::quantile(&times, p).unwrap_or(f64::NAN);
     let result = BenchPlanOutput {
-        scenario: "sim-10x10 default (FIXTURES.md), Algorithm 1 epochs, mu_worst = 0.8",
+        scenario: "sim-10x10 default (docs/fixtures.md), Algorithm 1 epochs, mu_worst = 0.8",
         model: match opts.model {
             Model::Fast => "fast",
             Model::Plain => "plain",

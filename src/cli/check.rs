@@ -21,7 +21,7 @@ pub struct CheckArgs {
 
 /// Validate the file and report.
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
-    match super::load::load_mission(&args.mission) {
+    match crate::files::load_mission(&args.mission) {
         Ok(def) => {
             if args.json {
                 println!("{}", serde_json::to_string_pretty(&def)?);

@@ -13,7 +13,7 @@
 //! Exit status: 0 when every image was classified, 1 when at least one failed (all images
 //! are still processed and printed), 2 for bad arguments (clap).
 
-use super::load::load_image_file;
+use crate::files::load_image_file;
 use crate::vision::green::{self, GreenParams};
 use crate::vision::load::LoadLimits;
 use crate::vision::runway::{self, Classification, RunwayParams};

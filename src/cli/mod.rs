@@ -15,7 +15,6 @@ pub mod command;
 pub mod demo;
 pub mod experiment;
 pub mod grid;
-pub mod load;
 pub mod mission;
 pub mod plan;
 pub mod relay;

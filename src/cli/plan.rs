@@ -1,5 +1,5 @@
 //! `fleetmap plan --scenario FILE.json [--json]`: solve one epoch of the bandit paper's
-//! low-level planner (the IP (11), Algorithm 2) for a scenario file (specs/ip-scenario.md).
+//! low-level planner (the IP (11), Algorithm 2) for a scenario file (docs/ip-scenario.md).
 
 use crate::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, Scenario, solve_instance};
 use crate::planner::scenario::ScenarioError;
@@ -22,7 +22,7 @@ pub enum ModelArg {
 /// Arguments of `fleetmap plan`.
 #[derive(Debug, Args)]
 pub struct PlanArgs {
-    /// The scenario file (JSON, specs/ip-scenario.md).
+    /// The scenario file (JSON, docs/ip-scenario.md).
     #[arg(long, value_name = "FILE.json")]
     pub scenario: PathBuf,
     /// Print the result as JSON (the spec's output object) instead of text.
@@ -50,7 +50,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     let scenario = Scenario::from_json(&text)
         .with_context(|| format!("scenario {}", args.scenario.display()))?;
     // A well-formed scenario that no plan can satisfy whatever K is the answer "infeasible"
-    // (specs/ip-scenario.md lists what is malformed); only malformed input is an error.
+    // (docs/ip-scenario.md lists what is malformed); only malformed input is an error.
     // `Err(reason)`: no plan can exist whatever K.
     let inst: Result<_, String> = match scenario.instance() {
         Ok(inst) => Ok(inst),

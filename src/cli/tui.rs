@@ -51,7 +51,7 @@ pub struct TuiArgs {
     /// Playback speed factor for the replay or the sample animation.
     #[arg(long, default_value_t = 1.0)]
     pub speed: f64,
-    /// UI config file: [keys] and [thresholds] (TOML; see --print-config).
+    /// UI config file: its keys and thresholds tables (TOML; see --print-config).
     #[arg(long, value_name = "FILE")]
     pub config: Option<PathBuf>,
     /// Print the configuration (every action with its keys, every threshold) and exit.

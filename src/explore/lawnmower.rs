@@ -345,7 +345,7 @@ mod tests {
     use crate::mission::item::cmd;
 
     fn runway_box() -> LocalBox {
-        // FIXTURES.md: north −8 … +32 m, east −20 … +20 m.
+        // docs/fixtures.md: north −8 … +32 m, east −20 … +20 m.
         LocalBox {
             east_min: -20.0,
             east_max: 20.0,

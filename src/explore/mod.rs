@@ -1,5 +1,5 @@
 //! Runway-mapping exploration, pure: the lawnmower sweep and the multi-robot recursive DFS of
-//! the runway paper (`papers/online-roi-exploration-dfs.md`, §4.1 Algorithm 1, §4.2, §6, §7).
+//! the runway paper (Sung, Dixit and Tokekar; docs/papers.md, §4.1 Algorithm 1, §4.2, §6, §7).
 //!
 //! Nothing here does I/O or reads a clock. The pieces:
 //!
@@ -11,7 +11,7 @@
 //! | [`bounds`] | Lemma 1 (eq. 2), Lemma 2 (eq. 10) and §6's lawnmower baseline |
 //! | [`simulate`] | a discrete-event run of an [`Explorer`] on a known ROI with a perfect sensor (§6's simulations, the property tests) |
 //!
-//! Cells follow `DESIGN.md` §4 (rows grow north, columns east, cell (0, 0) centred on the grid
+//! Cells follow docs/grid.md (rows grow north, columns east, cell (0, 0) centred on the grid
 //! origin); the DFS works in the ROI's own frame, which equals the ground grid when the ROI is
 //! static.
 

@@ -4,7 +4,7 @@
 //!
 //! The ROI frame coincides with the ground grid at `epoch` and moves with the ROI: a point
 //! fixed in the ROI at ROI-frame coordinates `x` is at ground position `x + v·(t − epoch)`.
-//! Cells are indexed as in `DESIGN.md` §4 (cell (row, col) centred at (col·s, row·s) east,
+//! Cells are indexed as in docs/grid.md (cell (row, col) centred at (col·s, row·s) east,
 //! north of the grid origin).
 //!
 //! Moving along a unit direction `u` of the ROI frame at ground speed S_r, a robot progresses

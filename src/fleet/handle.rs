@@ -188,7 +188,7 @@ impl FleetHandle {
     }
 
     /// Wait until vehicle `sysid` has finished booting ([`VehicleSnapshot::booting`]), at
-    /// most [`OpsConfig::boot_wait`]; returns its snapshot then.
+    /// most [`super::OpsConfig::boot_wait`]; returns its snapshot then.
     pub async fn wait_booted(&self, sysid: u8) -> Result<VehicleSnapshot, FleetError> {
         let v = self.require(sysid)?;
         if !v.booting {

@@ -1,7 +1,7 @@
 //! The fleet actor: one task owning every vehicle's state and protocol machines, and a
 //! cloneable [`FleetHandle`] that the CLI, the TUI and the mission runners use.
 //!
-//! Shape (mini-redis style, DESIGN.md §2): the task owns its state; requests arrive on an
+//! Shape (mini-redis style, docs/architecture.md, "Layers"): the task owns its state; requests arrive on an
 //! mpsc channel and are answered on oneshot channels; link tasks send it received frames.
 //! It publishes a [`FleetSnapshot`] on a `watch` channel five times per second and every
 //! received frame on a `broadcast` channel ([`FleetHandle::subscribe`]) so other services

@@ -52,7 +52,7 @@ impl FleetHandle {
     }
 
     /// Wait until vehicle `sysid` is really ready to arm (GPS fix, position estimate, home,
-    /// pre-arm checks: see [`Flavour::arm_blockers`]), at most [`OpsConfig::arm_ready`];
+    /// pre-arm checks: see [`crate::proto::flavour::Flavour::arm_blockers`]), at most [`super::OpsConfig::arm_ready`];
     /// returns its snapshot at that moment, or [`FleetError::NotReady`] with what still
     /// blocks it.
     pub async fn wait_ready(&self, sysid: u8) -> Result<VehicleSnapshot, FleetError> {

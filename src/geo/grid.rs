@@ -3,7 +3,7 @@
 //! Cell (row, col) is the half-open square
 //! `[e₀ + (col − ½)s, e₀ + (col + ½)s) × [n₀ + (row − ½)s, n₀ + (row + ½)s)` in UTM metres,
 //! where (e₀, n₀) is the origin's UTM coordinate and s the cell size: the origin is the
-//! centre of cell (0, 0), rows grow north, columns east (DESIGN.md §4). The zone and
+//! centre of cell (0, 0), rows grow north, columns east (docs/grid.md). The zone and
 //! hemisphere are fixed when the grid is made and never change, also for cells in the next
 //! zone or across the equator.
 //!
@@ -348,7 +348,7 @@ impl Grid {
     /// polygons. The ring may be given closed or open, in either orientation; it must have
     /// at least 3 distinct vertices and not intersect itself (self-intersecting rings are
     /// filled with the even-odd rule). Cells touched only along an edge or at a corner
-    /// (fraction ≤ [`COVERAGE_EPS`]) are not listed.
+    /// (fraction ≤ `COVERAGE_EPS`) are not listed.
     pub fn polygon_coverage(&self, polygon: &[LatLon]) -> Result<Vec<(Cell, f64)>, GeoError> {
         let mut ring: Vec<Coord<f64>> = Vec::with_capacity(polygon.len() + 1);
         for (i, p) in polygon.iter().enumerate() {

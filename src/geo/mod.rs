@@ -1,13 +1,13 @@
 //! The mission grid: square cells anchored at a UTM origin, and conversions between cells,
 //! UTM coordinates and WGS84 latitude/longitude.
 //!
-//! Conventions (DESIGN.md §4): the origin is the centre of cell (0, 0); rows grow north and
+//! Conventions (docs/grid.md): the origin is the centre of cell (0, 0); rows grow north and
 //! columns grow east; cell (row, col) has its centre at origin + (col·s, row·s) in
 //! (easting, northing); indices may be negative.
 //!
 //! Modules:
 //! - [`utm`]: WGS84 ↔ UTM with Krüger's series to n⁶ (agrees with PROJ to nanometres; the
-//!   measured numbers are in the README's Geo section), zone rules with the Norway/Svalbard
+//!   measured numbers are in docs/results/geo.md), zone rules with the Norway/Svalbard
 //!   exceptions, and forced-zone conversion for grids that reach into the next zone.
 //! - [`Grid`] (in `grid.rs`): cells ↔ UTM ↔ WGS84, point → cell, polygon → covered cells.
 //! - [`export`]: cells and polygons → GeoJSON (RFC 7946) and KML (Google Earth, QGIS).

@@ -1,5 +1,5 @@
 //! Linear-assignment re-pairing of the vehicles between consecutive time steps (bandit paper
-//! §III-C, after Michael et al. [25]).
+//! §III-C, after Michael et al. \[25\]).
 //!
 //! For each step t → t + 1 of the plan, the cells the team occupies at t + 1 (a multiset
 //! 𝒯_{t+1}) are re-assigned to the vehicles at t by a bijection f minimising

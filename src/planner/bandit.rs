@@ -82,7 +82,7 @@ pub enum LogBase {
     /// Natural logarithms: the mathematical reading of the paper's `log`, and the default.
     #[default]
     Natural,
-    /// Base-10 logarithms: a sensitivity option only (see the README's Planner section —
+    /// Base-10 logarithms: a sensitivity option only (see docs/results/planner.md —
     /// the paper's Table I numbers are much closer to what this base gives). The `log₂` in
     /// (3b) stays base 2. Prop. 1's guarantee is stated for natural logarithms.
     Ten,
@@ -230,7 +230,7 @@ impl BanditState {
 
     /// The improved high level offered next to the faithful one: the `d` *most ambiguous*
     /// unclassified cells by the APT index of Locatelli, Gutzeit and Carpentier (ICML 2016,
-    /// the paper's ref. [18]), B_l = √|H_l| · (|μ̂_l − θ| + ε), smallest first (unsampled cells,
+    /// the paper's ref. \[18\]), B_l = √|H_l| · (|μ̂_l − θ| + ε), smallest first (unsampled cells,
     /// B = 0, first; ties by candidate index). It spends visits where (4) still needs data
     /// rather than on cells that merely look interesting, and keeps the labelling guarantee:
     /// Prop. 1 depends only on (3b) and (4), not on which cells are sampled.

@@ -2,7 +2,7 @@
 //! O, the station-admissible set R, and the king's-move neighbourhoods N(l) and N_c(l).
 //!
 //! Cells are addressed by [`Cell`] (`row`, `col`, 0-based, the IP scenario's indexing of
-//! `specs/ip-scenario.md`) at the API and by a dense row-major index `row·cols + col`
+//! `docs/ip-scenario.md`) at the API and by a dense row-major index `row·cols + col`
 //! internally. A move is one of the 8 king's moves or a pass (staying in place), so N(l)
 //! contains l itself: the spec's "a move goes to any of the 8 neighbours or stays in place".
 

@@ -4,7 +4,7 @@
 //! | module | what |
 //! |---|---|
 //! | [`grid`] | G, O, R and the king's-move neighbourhoods N(l), N_c(l) |
-//! | [`scenario`] | IP scenario files (specs/ip-scenario.md) and validated instances |
+//! | [`scenario`] | IP scenario files (docs/ip-scenario.md) and validated instances |
 //! | [`bandit`] | UCB (3), keep/reject sets (4), the APT variant, the bound P_max (12)–(14) |
 //! | [`baselines`] | the goal rules of §VI-5: Random, GreedyCov, GreedyTrav |
 //! | [`ip`] | the IP (11) with (7)–(10): the paper's plain model and the fast model |

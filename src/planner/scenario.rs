@@ -1,4 +1,4 @@
-//! IP scenario files and plan output (`specs/ip-scenario.md`): one epoch of the low-level
+//! IP scenario files and plan output (`docs/ip-scenario.md`): one epoch of the low-level
 //! planner (bandit paper Algorithm 2), read from JSON, validated into an [`Instance`], and
 //! the solved plan written back as JSON with exactly the spec's keys.
 

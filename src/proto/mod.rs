@@ -1,7 +1,7 @@
 //! Sans-IO MAVLink micro-services (heartbeat, command, mission transfer) and autopilot flavours.
 //!
 //! Every machine here is pure: no sockets, no clock reads. They follow the quinn-proto shape
-//! (DESIGN.md §2): feed received messages with `handle_message(header, msg, now)`, call
+//! (docs/architecture.md, "Layers"): feed received messages with `handle_message(header, msg, now)`, call
 //! `handle_timeout(now)` when `poll_timeout()` says so, send whatever `poll_transmit()`
 //! yields (messages carry their own target ids), and read results with `poll_event()`.
 //! The fleet actor (`crate::fleet`) runs one set of machines per vehicle.
@@ -20,7 +20,7 @@ pub mod mission;
 
 use mavlink::MavHeader;
 
-/// The GCS's MAVLink system id (DESIGN.md §4: 255, as QGroundControl and MAVProxy use).
+/// The GCS's MAVLink system id (docs/grid.md: 255, as QGroundControl and MAVProxy use).
 pub const GCS_SYSID: u8 = 255;
 /// The GCS's component id (MAV_COMP_ID_MISSIONPLANNER = 190, as QGroundControl uses).
 pub const GCS_COMPID: u8 = 190;

@@ -8,7 +8,7 @@
 //! - `rectangle = { center = [lat, lon], length_m, width_m, heading_deg }` (long axis heading,
 //!   clockwise from true north), or
 //! - `cells = [[row, col], …]` of the world's `[grid]` (origin = centre of cell (0, 0), rows
-//!   north, columns east, UTM-aligned as in DESIGN.md §4).
+//!   north, columns east, UTM-aligned as in docs/grid.md).
 //!
 //! Default homes are either listed (`[[home]] lat/lon`, `home_cells`) or generated
 //! (`[homes] reference, first_north_m/first_east_m, step_north_m/step_east_m`: vehicle k at
@@ -268,7 +268,7 @@ struct RegionFile {
 }
 
 /// The four corners (lat, lon) of grid cell (`row`, `col`) of the mission grid
-/// ([`crate::geo::Grid`], DESIGN.md §4: cell (0, 0) centred on `origin`, `size` metre cells
+/// ([`crate::geo::Grid`], docs/grid.md: cell (0, 0) centred on `origin`, `size` metre cells
 /// aligned with the UTM grid of the origin's zone), counter-clockwise from the south-west
 /// corner. An origin or size the grid rejects falls back to the tangent plane.
 pub fn grid_cell_corners(origin: (f64, f64), size: f64, row: i32, col: i32) -> Vec<(f64, f64)> {

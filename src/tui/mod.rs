@@ -1,7 +1,7 @@
 //! The terminal user interface (ratatui): app state, a pure update function and one view per
 //! pane.
 //!
-//! Layers (DESIGN.md §2): the UI reads [`Model`] snapshots from a `watch` channel and sends
+//! Layers (docs/architecture.md, "Layers"): the UI reads [`Model`] snapshots from a `watch` channel and sends
 //! [`CommandRequest`]s; it never touches the fleet actor or the network itself.
 //!
 //! - [`model`] — the view-model: plain `serde` data an adapter fills from fleet snapshots and

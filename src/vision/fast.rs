@@ -541,7 +541,7 @@ pub fn region_counts(img: &RgbImage, threshold: u8, radius: u32) -> RegionCounts
 }
 
 /// [`region_counts`] with caller-provided buffers, on the best kernel for this CPU
-/// (see [`dispatch`]).
+/// (see `dispatch`).
 pub fn region_counts_in(
     ws: &mut Workspace,
     img: &RgbImage,

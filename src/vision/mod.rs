@@ -1,7 +1,7 @@
 //! The sensing models of both papers: the runway classifier and green-pixel measurements,
 //! the per-cell vote book, camera footprint geometry, and image loading with limits.
 //!
-//! Public entry points (all pure: no clock, no sockets; only [`load_image`] reads a file):
+//! Public entry points (all pure: no clock, no sockets; files are opened at the edge, `crate::files`):
 //!
 //! | item | what |
 //! |---|---|
@@ -12,7 +12,7 @@
 //! | [`camera::CameraModel`] | footprint and the altitude at which the centre ninth covers one cell |
 //! | [`geometry::orthophoto`], [`geometry::CameraView`] | pinhole camera at the capture attitude (nalgebra): ground ↔ pixel, the 3 × 3 cells resampled north-up |
 //! | [`sanity::check_capture`] | whether a picture was taken where it is credited (position, altitude, tilt, heading) |
-//! | [`load_image`] | PNG/JPEG file or bytes → RGB image, dimensions checked before decoding |
+//! | [`load_image_bytes`] | PNG/JPEG bytes → RGB image, dimensions checked before decoding |
 //! | [`synth`] | deterministic synthetic runway / grass / green-tile images for tests and benches |
 //!
 //! Every step that OpenCV also does is pixel-exact with OpenCV (see [`color`] and

@@ -170,20 +170,10 @@ pub(super) async fn join_failures(
 /// Whether a failed operation may succeed when tried again: no answer (a lost frame, a busy
 /// link), as opposed to the vehicle saying no.
 pub(super) fn transient(e: &anyhow::Error) -> bool {
-    use crate::fleet::FleetError;
-    use crate::proto::mission::MissionError;
-    e.chain().any(|c| match c.downcast_ref::<FleetError>() {
-        Some(FleetError::Mission { error, .. }) => {
-            matches!(
-                error,
-                MissionError::Timeout { .. } | MissionError::OverBudget { .. }
-            )
-        }
-        Some(FleetError::Command { error, .. }) => {
-            matches!(error, crate::proto::command::CommandError::Timeout { .. })
-        }
-        Some(FleetError::NotConfirmed { .. }) => true,
-        _ => false,
+    // The rule itself is the fleet's ([`crate::fleet::FleetError::is_transient`]).
+    e.chain().any(|c| {
+        c.downcast_ref::<crate::fleet::FleetError>()
+            .is_some_and(crate::fleet::FleetError::is_transient)
     })
 }
 

@@ -320,7 +320,7 @@ impl World {
         ))
     }
 
-    /// The fixed 10×10 default of FIXTURES.md (seed-2024 layout, in the IP scenario's top-left
+    /// The fixed 10×10 default of docs/fixtures.md (seed-2024 layout, in the IP scenario's top-left
     /// indexing: row r there is row 9 − r here), with μ drawn from `rng` as in §VI for
     /// μ_worst = `mu_worst`. Ten drones, two on each of the five stations.
     pub fn default_10x10(mu_worst: f64, theta: f64, rng: &mut ChaCha8Rng) -> World {

@@ -24,7 +24,7 @@
 //! # Sharing
 //! The tree itself (which cells are ROI cells and who is whose child) is built by the GCS,
 //! which classifies every image; what robots share is the *vertex states* (line 7):
-//! - [`Sharing::Meet`] (the paper's model, after Higashikawa et al. [12]): each robot keeps its
+//! - [`Sharing::Meet`] (the paper's model, after Higashikawa et al. \[12\]): each robot keeps its
 //!   own states and two robots exchange everything they know when they are at the same cell
 //!   at the same time, or pass each other on the same edge;
 //! - [`Sharing::Gcs`]: every robot decides on the global states (the GCS hears every robot).

@@ -1,7 +1,7 @@
 //! Mission definition files: the human-edited TOML file that describes one field mission,
 //! for both mission kinds (runway mapping, runway paper §7; spatial classification, bandit
 //! paper §II–§VI). The annotated reference is `missions/runway-field-test.toml` (every key,
-//! with its default) and the README section "Mission files".
+//! with its default) and docs/mission-files.md.
 //!
 //! ```text
 //! name, kind ("runway-mapping" | "spatial-classification"), description?
@@ -22,7 +22,7 @@
 //!                   fraction_threshold = 0.2
 //! ```
 //!
-//! Cells are `[row, col]` in the grid convention (DESIGN.md §4): rows grow north, columns
+//! Cells are `[row, col]` in the grid convention (docs/grid.md): rows grow north, columns
 //! east, the origin is the centre of cell (0, 0), indices may be negative.
 //!
 //! # How errors are found and located
@@ -159,7 +159,7 @@ pub struct FlightDef {
     pub altitude_m: f64,
     /// Extra altitude per drone, metres: the k-th drone listed (k = 0, 1, …) flies at
     /// `altitude_m + k · altitude_separation_m` (bandit paper §III-B, collision avoidance by
-    /// altitude as in its ref. [5]). 0 = all at the same altitude.
+    /// altitude as in its ref. \[5\]). 0 = all at the same altitude.
     #[serde(default)]
     pub altitude_separation_m: f64,
     /// Drone ground speed, m/s. Runway paper: 1 m/s. Stations drive at
@@ -554,7 +554,7 @@ impl MissionDef {
     /// Parse and validate the raw bytes of a mission file named `file_name` (used in error
     /// messages): bytes that are not UTF-8 are an error at the line and column of the first
     /// bad byte, not a panic. Reading the file is the edge's job
-    /// (`crate::cli::load::load_mission`).
+    /// (`crate::files::load_mission`).
     pub fn from_bytes(bytes: &[u8], file_name: &str) -> Result<MissionDef, DefErrors> {
         match std::str::from_utf8(bytes) {
             Ok(text) => MissionDef::parse(text, file_name),

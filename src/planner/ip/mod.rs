@@ -21,7 +21,7 @@
 //! the solve statistics (`solve_seconds`, each attempt's `seconds`) and the time left of
 //! [`PlanOptions::time_limit`] between attempts. The plan never depends on it except through
 //! that budget and HiGHS's own time limit, which is a clock by nature. It is a CPU-bound batch computation, to be run on
-//! `spawn_blocking` or rayon by async callers (DESIGN.md §2).
+//! `spawn_blocking` or rayon by async callers (docs/architecture.md, "Layers").
 
 pub mod fast;
 pub mod plain;
@@ -162,7 +162,7 @@ pub struct PlanOutcome {
     pub message: String,
 }
 
-/// The `--json` output of `fleetmap plan` (specs/ip-scenario.md), with exactly its keys.
+/// The `--json` output of `fleetmap plan` (docs/ip-scenario.md), with exactly its keys.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct PlanOutput {
     /// "optimal" | "infeasible" | "time_limit" | "error".

@@ -10,7 +10,7 @@
 //!
 //! * (7a) "x_{i00l} = 1 ∀ l ∈ X_0" is read per vehicle: drone i starts on its own cell
 //!   X_0(i) (likewise y_{a00d} = 1 for station a's cell Y_0(a)); several drones may share a cell.
-//! * (7b), (7c): N(l) includes l itself (a pass is a move, specs/ip-scenario.md) and is empty
+//! * (7b), (7c): N(l) includes l itself (a pass is a move, docs/ip-scenario.md) and is empty
 //!   for an obstacle l (N is only defined on G \ O); N_c(l) = R ∩ N(l), empty for l ∉ R.
 //! * (7d) holds for every (b, k, l), cycle boundaries included (no index is excluded in the
 //!   paper, unlike (7e)).

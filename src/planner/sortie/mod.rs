@@ -13,8 +13,8 @@
 //!          └──────────────── finish_cycle ◄── record (images → H → (4)) ◄───────────┘
 //! ```
 //!
-//! * **Cells.** The state speaks mission cells (rows grow north, DESIGN.md §4); the IP
-//!   speaks the scenario's top-left indexing (specs/ip-scenario.md): row r of a mission with
+//! * **Cells.** The state speaks mission cells (rows grow north, docs/grid.md); the IP
+//!   speaks the scenario's top-left indexing (docs/ip-scenario.md): row r of a mission with
 //!   `rows` rows is planner row `rows − 1 − r` ([`Layout::to_planner`]).
 //! * **Epochs** (Algorithm 1): goals E_p = the top-D unclassified cells by J (3)
 //!   ([`crate::planner::bandit::epoch_goals`]); the IP (11) with K from the mission, doubled
@@ -89,7 +89,7 @@ pub enum SortieError {
 #[serde(rename_all = "kebab-case")]
 pub enum Separation {
     /// Each drone at its own altitude (`flight.altitude_separation_m > 0`; the paper's
-    /// alternative to (7e), its ref. [5]): missions fly freely, the team waits only at the
+    /// alternative to (7e), its ref. \[5\]): missions fly freely, the team waits only at the
     /// rendezvous.
     Altitude,
     /// The paper's mid-cycle separation (7e): drones at distinct cells at every time step,

@@ -95,7 +95,7 @@ pub struct MissionClient {
 
 impl MissionClient {
     /// A client speaking as `gcs` to the autopilot `target`. `home_item`: the autopilot
-    /// keeps home as mission item 0 (ArduPilot; see [`super::flavour::Flavour`]).
+    /// keeps home as mission item 0 (ArduPilot; see [`crate::proto::flavour::Flavour`]).
     pub fn new(gcs: Endpoint, target: Endpoint, home_item: bool, cfg: MissionConfig) -> Self {
         MissionClient {
             gcs,

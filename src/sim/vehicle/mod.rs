@@ -321,10 +321,10 @@ pub enum VehicleEvent {
 /// One simulated vehicle. See the module documentation.
 ///
 /// Its state is split by responsibility; each part lives with the methods that change it:
-/// [`power`] (power, boot, battery), [`estimator`] (GPS error and position estimate),
-/// [`flight`] (motion, navigation target, home), [`arming`], [`modes`] (flight mode and
-/// failsafes), [`geofence`], [`mission`] (the mission protocol server and execution),
-/// [`commands`] (COMMAND_LONG/COMMAND_INT handling) and [`telemetry`] (streams, outbox).
+/// `power` (power, boot, battery), `estimator` (GPS error and position estimate),
+/// `flight` (motion, navigation target, home), `arming`, `modes` (flight mode and
+/// failsafes), `geofence`, `mission` (the mission protocol server and execution),
+/// `commands` (COMMAND_LONG/COMMAND_INT handling) and `telemetry` (streams, outbox).
 #[derive(Debug)]
 pub struct SimVehicle {
     cfg: VehicleConfig,

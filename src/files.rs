@@ -16,7 +16,7 @@ use std::io::Read;
 use std::path::Path;
 
 /// Read, parse and validate the mission file at `path`. Errors name the file as given
-/// (an unreadable file: "cannot read the file: <reason>"; bytes that are not UTF-8: the line
+/// (an unreadable file: "cannot read the file: `<reason>`"; bytes that are not UTF-8: the line
 /// and column of the first bad byte).
 pub fn load_mission(path: impl AsRef<Path>) -> Result<MissionDef, DefErrors> {
     let path = path.as_ref();
