@@ -166,7 +166,7 @@ fn app(w: u16, h: u16) -> App {
     let mut fs = f.clone();
     if let Some(v) = fs.vehicles.get_mut(&2) {
         v.last_text = Some(StatusText {
-            severity: 4,
+            severity: Severity::Warning,
             text: "Battery 1 is low 14.30V".into(),
             at: Time::from_secs(132),
         });

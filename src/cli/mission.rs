@@ -9,6 +9,7 @@
 //! to launch and waits for the landing (rovers: for the arrival at home). It exits 0 only
 //! when every navigation item was flown and the vehicle is down.
 
+use crate::mission::item::cmd::is_nav;
 use super::vehicles::{ConnectArgs, Session, block_on};
 use crate::fleet::{FleetError, FleetHandle, VehicleSnapshot};
 use crate::mission::item::{cmd, frame};
@@ -332,11 +333,6 @@ fn say(json: bool, event: &str, text: String, extra: serde_json::Value) {
     }
 }
 
-/// MAV_CMD numbers below 100 are navigation commands (they are "reached"); DO and
-/// condition commands are not. Ours: takeoff, waypoint, loiter, land, RTL.
-fn is_nav(c: u16) -> bool {
-    c < 100
-}
 
 /// PX4 flies a mission's take-off item as a waypoint to the item's position
 /// (`navigator/mission.cpp`); one without a position (latitude/longitude 0, 0, which
@@ -522,7 +518,7 @@ async fn fly(
             }
         }
         let all_flown = nav.iter().all(|&k| flown[usize::from(k)]);
-        let complete = s.mission_state == Some(5);
+        let complete = s.mission_complete();
         if all_flown
             && (last_nav.is_none() || complete || last_nav.is_some_and(|l| flown[usize::from(l)]))
         {

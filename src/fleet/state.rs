@@ -4,8 +4,9 @@
 use crate::link::codec::SourceStats;
 use crate::proto::flavour::{ArmInputs, Flavour};
 use crate::proto::heartbeat::Beat;
+use crate::proto::severity::Severity;
 use crate::time::Time;
-use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::dialects::ardupilotmega::{MavLandedState, MavMessage, MissionState};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -24,8 +25,9 @@ pub struct GeoPoint {
 /// A STATUSTEXT.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct StatusText {
-    /// MAV_SEVERITY (0 emergency … 7 debug).
-    pub severity: u8,
+    /// MAV_SEVERITY (written as its number, 0 emergency … 7 debug, in JSON).
+    #[serde(serialize_with = "severity_number")]
+    pub severity: Severity,
     /// The text.
     pub text: String,
     /// When it arrived (fleet clock).
@@ -120,15 +122,18 @@ pub struct VehicleSnapshot {
     pub mission_current: Option<u16>,
     /// Mission items (user numbering).
     pub mission_total: Option<u16>,
-    /// MISSION_CURRENT mission_state (MISSION_STATE: 5 = complete), if reported.
-    pub mission_state: Option<u8>,
+    /// MISSION_CURRENT mission_state, if reported (and not MISSION_STATE_UNKNOWN). Written
+    /// as its MAVLink number in JSON.
+    #[serde(serialize_with = "number_or_null")]
+    pub mission_state: Option<MissionState>,
     /// Last MISSION_ITEM_REACHED (user numbering).
     pub last_reached: Option<u16>,
     /// Every user item reported reached since the last mission upload or start.
     pub reached: Vec<u16>,
     /// EXTENDED_SYS_STATE landed state (0 unknown, 1 on ground, 2 in air, 3 taking off,
     /// 4 landing).
-    pub landed_state: Option<u8>,
+    #[serde(serialize_with = "number_or_null")]
+    pub landed_state: Option<MavLandedState>,
     /// Last STATUSTEXT.
     pub last_text: Option<StatusText>,
     /// Last pre-arm failure text (ArduPilot "PreArm: …", PX4 "Preflight Fail: …").
@@ -153,11 +158,25 @@ impl VehicleSnapshot {
     /// Whether the autopilot says it is on the ground: EXTENDED_SYS_STATE when reported,
     /// otherwise disarmed.
     pub fn on_ground(&self) -> bool {
+        use MavLandedState::*;
         match self.landed_state {
-            Some(1) => true,
-            Some(2..=4) => false,
+            Some(MAV_LANDED_STATE_ON_GROUND) => true,
+            Some(MAV_LANDED_STATE_IN_AIR | MAV_LANDED_STATE_TAKEOFF | MAV_LANDED_STATE_LANDING) => {
+                false
+            }
             _ => !self.armed,
         }
+    }
+
+    /// Whether the autopilot reports its mission as being flown (MISSION_STATE_ACTIVE).
+    pub fn mission_active(&self) -> bool {
+        self.mission_state == Some(MissionState::MISSION_STATE_ACTIVE)
+    }
+
+    /// Whether the autopilot reports its mission as flown to the end
+    /// (MISSION_STATE_COMPLETE).
+    pub fn mission_complete(&self) -> bool {
+        self.mission_state == Some(MissionState::MISSION_STATE_COMPLETE)
     }
 
     /// The inputs of the arming check at time `now` (see [`Flavour::arm_blockers`]).
@@ -355,8 +374,8 @@ impl VehicleSnapshot {
                 } else if c.total == u16::MAX {
                     self.mission_total = Some(0);
                 }
-                if c.mission_state as u8 != 0 {
-                    self.mission_state = Some(c.mission_state as u8);
+                if c.mission_state != MissionState::MISSION_STATE_UNKNOWN {
+                    self.mission_state = Some(c.mission_state);
                 }
             }
             MavMessage::MISSION_ITEM_REACHED(r) => {
@@ -368,7 +387,7 @@ impl VehicleSnapshot {
                 }
             }
             MavMessage::EXTENDED_SYS_STATE(e) => {
-                self.landed_state = Some(e.landed_state as u8);
+                self.landed_state = Some(e.landed_state);
             }
             MavMessage::EKF_STATUS_REPORT(e) => {
                 self.ekf_flags = Some(e.flags.bits());
@@ -380,7 +399,7 @@ impl VehicleSnapshot {
                     .map(|s| s.trim_end_matches('\0').to_string())
                     .unwrap_or_else(|_| String::from_utf8_lossy(&t.text[..]).into_owned());
                 let st = StatusText {
-                    severity: t.severity as u8,
+                    severity: Severity::from_mav(t.severity as u8),
                     text: text.trim_end_matches('\0').to_string(),
                     at: now,
                 };
@@ -421,5 +440,23 @@ impl VehicleSnapshot {
         if let Some(s) = src {
             self.link_quality = LinkQuality::from_source(s, rate_hz);
         }
+    }
+}
+
+/// Serialises a severity as its MAVLink number (as the snapshot's JSON always had it).
+fn severity_number<S: serde::Serializer>(v: &Severity, s: S) -> Result<S::Ok, S::Error> {
+    s.serialize_u8(v.to_mav())
+}
+
+/// Serialises a MAVLink enum value as its number (the JSON of `fleetmap vehicles --json` and
+/// the run files keep the wire's numbers), `null` when absent.
+fn number_or_null<E, S>(v: &Option<E>, s: S) -> Result<S::Ok, S::Error>
+where
+    E: Copy + num_traits::ToPrimitive,
+    S: serde::Serializer,
+{
+    match v.and_then(|e| e.to_u8()) {
+        Some(n) => s.serialize_some(&n),
+        None => s.serialize_none(),
     }
 }

@@ -12,6 +12,17 @@ use serde::{Deserialize, Serialize};
 pub mod cmd {
     /// Fly to a position (param1 hold time s, param2 acceptance radius m, param4 yaw deg).
     pub const NAV_WAYPOINT: u16 = 16;
+    /// The highest navigation command id (MAV_CMD_NAV_LAST).
+    pub const NAV_LAST: u16 = 95;
+
+    /// Whether a MAV_CMD is a navigation command: one that is flown and "reached" (take-off,
+    /// waypoint, loiter, land, return…), as opposed to DO_ and CONDITION_ commands, which run
+    /// beside the navigation command before them. ArduPilot's rule (`AP_Mission::is_nav_cmd`,
+    /// `libraries/AP_Mission/AP_Mission.cpp`): ids up to MAV_CMD_NAV_LAST. The simulator's
+    /// mission execution and the command line's reached-item report both use it.
+    pub fn is_nav(cmd: u16) -> bool {
+        cmd <= NAV_LAST
+    }
     /// Loiter at a position for param1 seconds.
     pub const NAV_LOITER_TIME: u16 = 19;
     /// Return to the launch position.

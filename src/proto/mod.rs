@@ -16,6 +16,7 @@
 pub mod command;
 pub mod flavour;
 pub mod heartbeat;
+pub mod severity;
 pub mod mission;
 
 use mavlink::MavHeader;

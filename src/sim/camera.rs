@@ -38,8 +38,7 @@ use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Duration;
 
-/// MAV_COMP_ID_CAMERA.
-pub const CAMERA_COMPID: u8 = 100;
+pub use crate::proto::CAMERA_COMPID;
 /// Bytes of image per ENCAPSULATED_DATA packet.
 pub const PAYLOAD: usize = 253;
 /// MAVLink 2 framing around a payload, bytes: 10 of header (magic, lengths, flags, sequence,

@@ -64,7 +64,7 @@ impl LiveLog {
                 self.seen.insert(v.sysid, t.at);
                 self.push(
                     t.at,
-                    Severity::from_mav(t.severity),
+                    t.severity,
                     Some(v.sysid),
                     t.text.clone(),
                 );
@@ -661,7 +661,7 @@ mod tests {
         };
         let mut v = VehicleSnapshot::new(3, 1, &beat, 0, Time::ZERO);
         v.last_text = Some(crate::fleet::StatusText {
-            severity: 4,
+            severity: crate::proto::severity::Severity::Warning,
             text: "PreArm: Need Position Estimate".into(),
             at: Time::from_secs(2),
         });

@@ -21,11 +21,11 @@ impl DronePilot {
                 .fleet()
                 .vehicle(sysid)
                 .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
-            if v.mission_state == Some(3) {
+            if v.mission_active() {
                 seen_active = true;
             }
             if let Some(t) = &v.last_text
-                && t.severity <= 4
+                && t.severity <= crate::proto::severity::Severity::Warning
             {
                 warning = Some(t.text.clone());
             }

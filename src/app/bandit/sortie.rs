@@ -268,7 +268,7 @@ impl Runner {
                 let Some(v) = snap.get(&st.sysid) else {
                     continue;
                 };
-                if v.mission_state == Some(3) {
+                if v.mission_active() {
                     seen_active.insert(st.sysid);
                 }
                 let active = resumed || seen_active.contains(&st.sysid);

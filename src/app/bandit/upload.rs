@@ -10,7 +10,7 @@ pub(super) fn is_complete(v: &VehicleSnapshot, items: &[MissionItem], seen_activ
     };
     let last = last as u16;
     v.reached.contains(&last)
-        || (seen_active && v.mission_state == Some(5) && v.mission_current == Some(last))
+        || (seen_active && v.mission_complete() && v.mission_current == Some(last))
 }
 
 /// The items a vehicle is known to have done: those reported reached since the mission

@@ -186,7 +186,7 @@ impl Pilot {
                     {
                         self.shared.commit(|st| Ok((st.on_sweep_progress(sysid, c)?, None))).await?;
                     }
-                    let complete = s.mission_state == Some(5)
+                    let complete = s.mission_complete()
                         || s.reached.contains(&last_nav)
                         || s.mission_current.is_some_and(|c| c > last_nav);
                     if complete && !flown {

@@ -1,6 +1,7 @@
 //! Mission execution: the mission protocol server's events, the current item, nav and
 //! do-commands (ArduPilot `AP_Mission`, PX4 navigator), MISSION_ITEM_REACHED.
 
+use crate::mission::item::cmd::is_nav;
 use super::*;
 
 /// The mission protocol server, the execution state and whether the stored mission is valid.
@@ -621,11 +622,6 @@ impl SimVehicle {
     }
 }
 
-/// Whether a MAV_CMD is a navigation command (AP_Mission::is_nav_cmd: ids up to
-/// MAV_CMD_NAV_LAST = 95).
-fn is_nav(cmd: u16) -> bool {
-    cmd <= mi::NAV_LAST
-}
 
 fn cmd_name(cmd: u16) -> &'static str {
     match cmd {

@@ -101,8 +101,6 @@ mod mi {
     pub(super) const NAV_SPLINE_WAYPOINT: u16 = MavCmd::MAV_CMD_NAV_SPLINE_WAYPOINT as u16;
     /// MAV_CMD_NAV_DELAY (93).
     pub(super) const NAV_DELAY: u16 = MavCmd::MAV_CMD_NAV_DELAY as u16;
-    /// MAV_CMD_NAV_LAST (95).
-    pub(super) const NAV_LAST: u16 = MavCmd::MAV_CMD_NAV_LAST as u16;
     /// MAV_CMD_DO_JUMP (177).
     pub(super) const DO_JUMP: u16 = MavCmd::MAV_CMD_DO_JUMP as u16;
     /// MAV_CMD_DO_CHANGE_SPEED (178).
