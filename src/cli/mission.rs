@@ -9,9 +9,9 @@
 //! to launch and waits for the landing (rovers: for the arrival at home). It exits 0 only
 //! when every navigation item was flown and the vehicle is down.
 
-use crate::mission::item::cmd::is_nav;
 use super::vehicles::{ConnectArgs, Session, block_on};
 use crate::fleet::{FleetError, FleetHandle, VehicleSnapshot};
+use crate::mission::item::cmd::is_nav;
 use crate::mission::item::{cmd, frame};
 use crate::mission::plan::{Plan, parse_plan, write_plan};
 use crate::mission::wpl::{parse_wpl, write_wpl};
@@ -332,7 +332,6 @@ fn say(json: bool, event: &str, text: String, extra: serde_json::Value) {
         println!("{text}");
     }
 }
-
 
 /// PX4 flies a mission's take-off item as a waypoint to the item's position
 /// (`navigator/mission.cpp`); one without a position (latitude/longitude 0, 0, which

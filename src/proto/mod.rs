@@ -16,8 +16,8 @@
 pub mod command;
 pub mod flavour;
 pub mod heartbeat;
-pub mod severity;
 pub mod mission;
+pub mod severity;
 
 use mavlink::MavHeader;
 

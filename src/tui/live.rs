@@ -62,12 +62,7 @@ impl LiveLog {
                 && self.seen.get(&v.sysid) != Some(&t.at)
             {
                 self.seen.insert(v.sysid, t.at);
-                self.push(
-                    t.at,
-                    t.severity,
-                    Some(v.sysid),
-                    t.text.clone(),
-                );
+                self.push(t.at, t.severity, Some(v.sysid), t.text.clone());
             }
         }
     }

@@ -1,8 +1,8 @@
 //! Mission execution: the mission protocol server's events, the current item, nav and
 //! do-commands (ArduPilot `AP_Mission`, PX4 navigator), MISSION_ITEM_REACHED.
 
-use crate::mission::item::cmd::is_nav;
 use super::*;
+use crate::mission::item::cmd::is_nav;
 
 /// The mission protocol server, the execution state and whether the stored mission is valid.
 #[derive(Debug)]
@@ -621,7 +621,6 @@ impl SimVehicle {
         self.send_mission_current(now);
     }
 }
-
 
 fn cmd_name(cmd: u16) -> &'static str {
     match cmd {
