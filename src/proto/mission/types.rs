@@ -204,30 +204,10 @@ pub enum MissionError {
         /// What differs, or why it could not be read.
         detail: String,
     },
-    /// An item's command is not a MAV_CMD of the dialect (cannot be encoded).
-    #[error(
-        "mission item {index}: command {command} is not a MAV_CMD known to the MAVLink dialect"
-    )]
-    UnknownCommand {
-        /// User item index.
-        index: usize,
-        /// The command number.
-        command: u16,
-    },
-    /// An item's frame is not a MAV_FRAME of the dialect.
-    #[error("mission item {index}: frame {frame} is not a MAV_FRAME")]
-    UnknownFrame {
-        /// User item index.
-        index: usize,
-        /// The frame number.
-        frame: u8,
-    },
-    /// More items than the protocol can count.
-    #[error("mission has {count} items; the protocol counts at most 65535")]
-    TooMany {
-        /// Item count.
-        count: usize,
-    },
+    /// An item cannot be put on the wire (command or frame unknown to the dialect, too many
+    /// items); the message is the [`WireError`]'s.
+    #[error(transparent)]
+    Wire(#[from] WireError),
     /// A downloaded item could not be decoded (e.g. a command unknown to our dialect).
     #[error("mission download: item {seq} could not be decoded: {detail}")]
     Undecodable {
@@ -286,18 +266,5 @@ impl MissionError {
             self,
             MissionError::Timeout { .. } | MissionError::OverBudget { .. }
         )
-    }
-}
-
-impl From<WireError> for MissionError {
-    /// An item that cannot be put on the wire fails the operation with the same details.
-    fn from(e: WireError) -> Self {
-        match e {
-            WireError::UnknownCommand { index, command } => {
-                MissionError::UnknownCommand { index, command }
-            }
-            WireError::UnknownFrame { index, frame } => MissionError::UnknownFrame { index, frame },
-            WireError::TooMany { count } => MissionError::TooMany { count },
-        }
     }
 }
