@@ -596,11 +596,11 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
 
 /// The 10×10 default (§VI): 10 drones, 5 rovers, D = 8, B = 10, δ = 1e-4. Long (80 minutes
 /// of simulated sorties and charging, 8 minutes of wall time on 2 cores at 10×; measured in
-/// the README): `cargo test --test bandit_run -- --ignored sim_10x10 --nocapture`, with
+/// docs/results/bandit-run.md): `cargo test --test bandit_run -- --ignored sim_10x10 --nocapture`, with
 /// `FLEETMAP_KEEP_RUN=DIR` to keep the run. Prop. 1: with probability ≥ 1 − δ no cell is
 /// mislabelled; the images of a tile agree, so no error is expected.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
-#[ignore = "long: the 10x10 default flown to the end (not run in CI; see the README)"]
+#[ignore = "long: the 10x10 default flown to the end (not run in CI; see docs/results/bandit-run.md)"]
 async fn sim_10x10_default_labels_within_delta() {
     let t0 = Instant::now();
     let world = World::from_toml(bandit_sim::SIM10_WORLD).unwrap();

@@ -18,7 +18,7 @@
 //! (another build and three simulator runs beside it) image capture commands went
 //! unacknowledged for seconds at a time (the demo stretches its protocol timeouts by at most
 //! 4×, i.e. to 200 ms of wall time at 20×), so the run dragged on longer than at 10×. The
-//! bandit demo runs as `tests/bandit_run.rs` and the README's measurement do (20×, 160-pixel
+//! bandit demo runs as `tests/bandit_run.rs` and the measurement in docs/results/bandit-run.md do (20×, 160-pixel
 //! images with the same field of view; its fleet stretches every timeout by the whole
 //! speed-up).
 //!

@@ -159,7 +159,7 @@ fn utm_crate_against_proj() {
         "utm crate: {rejected} points rejected by its inverse (easting/northing range checks), \
          {zone_disagree} standard zones differ"
     );
-    // If the crate ever meets the 1 mm requirement this fails, and the README should change.
+    // If the crate ever meets the 1 mm requirement this fails, and docs/results/geo.md should change.
     assert!(fwd.max() > TOL_M && inv.max() > TOL_M);
 }
 
