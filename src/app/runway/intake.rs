@@ -186,17 +186,7 @@ impl Pilot {
             let v_now = self.vehicle();
             let at_shutter = shot.at_trigger.as_ref().or(v_now.as_ref());
             let pose = shot_pose(&shot.image, at_shutter);
-            let (params, camera, planned, grid) = self
-                .shared
-                .read(|s| {
-                    (
-                        s.params.runway,
-                        s.params.camera,
-                        s.altitude_of(sysid).unwrap_or(s.params.base_altitude_m),
-                        s.grid.clone(),
-                    )
-                })
-                .await;
+            let (params, camera, planned, grid) = self.shared.picture_setting(sysid).await;
             let cell_m = grid.cell_size();
             let centre = (f64::from(cell.col) * cell_m, f64::from(cell.row) * cell_m);
             let xy = pose.as_ref().and_then(|p| {

@@ -54,7 +54,7 @@ use crate::app::run::RunCore;
 use crate::explore::dfs::Action;
 use crate::explore::mapping::{Directive, MappingError, MappingState, Phase, RobotStatus};
 use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
-use crate::geo::{Cell, LatLon, local};
+use crate::geo::{Cell, Grid, LatLon, local};
 use crate::mission::MissionType;
 use crate::store::RunDir;
 use crate::time::Time;
@@ -224,6 +224,21 @@ impl Shared {
 
     async fn read<T>(&self, f: impl FnOnce(&MappingState) -> T) -> T {
         self.run.read(f).await
+    }
+
+    /// What judging a picture of `sysid` needs from the state: the classifier's and the
+    /// camera's parameters, the altitude it flies at (the run's base altitude if it has none)
+    /// and the grid.
+    async fn picture_setting(&self, sysid: u8) -> (RunwayParams, CameraModel, f64, Grid) {
+        self.read(|s| {
+            (
+                s.params.runway,
+                s.params.camera,
+                s.altitude_of(sysid).unwrap_or(s.params.base_altitude_m),
+                s.grid.clone(),
+            )
+        })
+        .await
     }
 }
 

@@ -250,17 +250,7 @@ impl Pilot {
         let Some(pose) = shot_pose(img, v.as_ref()) else {
             return Ok(false);
         };
-        let (params, camera, altitude, grid) = self
-            .shared
-            .read(|s| {
-                (
-                    s.params.runway,
-                    s.params.camera,
-                    s.altitude_of(sysid).unwrap_or(s.params.base_altitude_m),
-                    s.grid.clone(),
-                )
-            })
-            .await;
+        let (params, camera, altitude, grid) = self.shared.picture_setting(sysid).await;
         let cell_m = grid.cell_size();
         let here = LatLon {
             lat: pose.lat,
