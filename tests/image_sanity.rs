@@ -229,13 +229,13 @@ async fn fly_over(rule: Rule, seed: u64, payload_rate: Option<u32>) -> Flown {
     .unwrap();
     let path = run_dir.path().to_path_buf();
     let hub = images::spawn(&fleet);
-    let (tx, mut rx) = mpsc::unbounded_channel();
+    let (tx, mut rx) = mpsc::unbounded_channel::<fleetmap::app::run::Progress>();
     let lines = Arc::new(Mutex::new(Vec::new()));
     let kept = lines.clone();
     let printer = tokio::spawn(async move {
         while let Some(line) = rx.recv().await {
             eprintln!("{line}");
-            kept.lock().unwrap().push(line);
+            kept.lock().unwrap().push(line.text);
         }
     });
     let opts = RunOptions {

@@ -24,6 +24,7 @@
 use crate::app::bandit;
 use crate::app::flight;
 use crate::app::images;
+use crate::app::run::Progress;
 use crate::app::runway::{self, Operator, Outcome, RunOptions};
 use crate::explore::mapping::MappingState;
 use crate::fleet::FleetHandle;
@@ -151,23 +152,6 @@ pub enum SessionEnd {
     },
 }
 
-fn severity_of(line: &str) -> Severity {
-    let l = line.to_ascii_lowercase();
-    if l.contains("retrying") || l.contains("failed") || l.contains("giving up") {
-        Severity::Warning
-    } else if l.contains("battery") || l.contains("operator") {
-        Severity::Notice
-    } else {
-        Severity::Info
-    }
-}
-
-fn sysid_of(line: &str) -> Option<u8> {
-    let rest = line.strip_prefix("vehicle ")?;
-    let n: String = rest.chars().take_while(|c| c.is_ascii_digit()).collect();
-    n.parse().ok()
-}
-
 struct Shared {
     log: Mutex<LiveLog>,
     info: Mutex<RunInfo>,
@@ -274,19 +258,14 @@ pub async fn run(
             if let Ok(mut i) = shared.info.lock() {
                 i.started = true;
             }
-            let (ptx, mut prx) = mpsc::unbounded_channel::<String>();
+            let (ptx, mut prx) = mpsc::unbounded_channel::<Progress>();
             let logger = {
                 let shared = shared.clone();
                 let fleet = fleet.clone();
                 tokio::spawn(async move {
-                    while let Some(line) = prx.recv().await {
+                    while let Some(p) = prx.recv().await {
                         if let Ok(mut l) = shared.log.lock() {
-                            l.push(
-                                fleet.clock().now(),
-                                severity_of(&line),
-                                sysid_of(&line),
-                                line,
-                            );
+                            l.push(fleet.clock().now(), p.severity, p.sysid, p.text);
                         }
                     }
                 })

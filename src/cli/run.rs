@@ -224,10 +224,10 @@ pub fn run_world(run: &RunDir, override_: Option<&Path>) -> anyhow::Result<Optio
 
 /// Print progress lines as they come (headless runs).
 fn print_progress() -> (
-    tokio::sync::mpsc::UnboundedSender<String>,
+    tokio::sync::mpsc::UnboundedSender<crate::app::run::Progress>,
     tokio::task::JoinHandle<()>,
 ) {
-    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<String>();
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<crate::app::run::Progress>();
     let task = tokio::spawn(async move {
         let start = std::time::Instant::now();
         while let Some(line) = rx.recv().await {

@@ -36,7 +36,9 @@ pub(super) async fn intake(shared: Arc<Shared>, mut rx: broadcast::Receiver<Arc<
         match rx.recv().await {
             Ok(img) => batch.push(img),
             Err(broadcast::error::RecvError::Lagged(n)) => {
-                shared.say(format!("{n} image(s) dropped: the intake fell behind"));
+                shared.say(Progress::warning(format!(
+                    "{n} image(s) dropped: the intake fell behind"
+                )));
                 continue;
             }
             Err(broadcast::error::RecvError::Closed) => return,
@@ -45,7 +47,9 @@ pub(super) async fn intake(shared: Arc<Shared>, mut rx: broadcast::Receiver<Arc<
             match rx.try_recv() {
                 Ok(img) => batch.push(img),
                 Err(broadcast::error::TryRecvError::Lagged(n)) => {
-                    shared.say(format!("{n} image(s) dropped: the intake fell behind"));
+                    shared.say(Progress::warning(format!(
+                        "{n} image(s) dropped: the intake fell behind"
+                    )));
                 }
                 Err(broadcast::error::TryRecvError::Empty) => break,
                 Err(broadcast::error::TryRecvError::Closed) => {
@@ -55,7 +59,7 @@ pub(super) async fn intake(shared: Arc<Shared>, mut rx: broadcast::Receiver<Arc<
             }
         }
         if let Err(e) = take_images(&shared, batch).await {
-            shared.say(format!("images not recorded: {e:#}"));
+            shared.say(Progress::warning(format!("images not recorded: {e:#}")));
         }
     }
 }
@@ -138,7 +142,10 @@ pub(super) async fn take_images(
         match image_pose(shared, img) {
             Ok(p) => poses.push(Some(p)),
             Err(e) => {
-                shared.say(format!("vehicle {}: image not recorded: {e:#}", img.sysid));
+                shared.say(
+                    Progress::warning(format!("vehicle {}: image not recorded: {e:#}", img.sysid))
+                        .about(img.sysid),
+                );
                 poses.push(None);
             }
         }
@@ -289,14 +296,14 @@ pub(super) async fn take_images(
         })
         .await?;
     for (c, label, k, r, u) in classified {
-        shared.say(format!(
+        shared.say(Progress::info(format!(
             "cell {c}: {} (keep {k}, reject {r}, unclassified {u})",
             match label {
                 Label::Keep => "interesting — keep",
                 Label::Reject => "uninteresting — reject",
                 Label::Unclassified => "unclassified",
             }
-        ));
+        )));
     }
     Ok(())
 }

@@ -37,7 +37,7 @@ pub use crate::app::crop::crop_to_cell;
 use crate::app::flight::{self, Patience};
 pub use crate::app::images::image_hub;
 use crate::app::images::{ImageHub, ReceivedImage};
-use crate::app::run::RunCore;
+use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, VehicleSnapshot};
 use crate::geo::{Cell, LatLon, local};
 use crate::mission::{MissionItem, MissionType};
@@ -86,7 +86,7 @@ use self::upload::*;
 #[derive(Default)]
 pub struct RunOptions {
     /// Progress lines (headless stdout, the TUI's log).
-    pub progress: Option<mpsc::UnboundedSender<String>>,
+    pub progress: Option<mpsc::UnboundedSender<Progress>>,
     /// The state after every change (the TUI's panes).
     pub view: Option<watch::Sender<Arc<ClassificationState>>>,
     /// Timeout scaling.
@@ -131,8 +131,8 @@ struct Shared {
 }
 
 impl Shared {
-    fn say(&self, line: String) {
-        self.run.say(line);
+    fn say(&self, event: Progress) {
+        self.run.say(event);
     }
 
     /// Mutate the state, save it, then journal `events`; notify everyone

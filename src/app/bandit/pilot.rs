@@ -87,9 +87,12 @@ impl DronePilot {
                 break;
             }
             if !told {
-                self.shared.say(format!(
-                    "drone {sysid}: waiting over its last cell for station {station}"
-                ));
+                self.shared.say(
+                    Progress::info(format!(
+                        "drone {sysid}: waiting over its last cell for station {station}"
+                    ))
+                    .about(sysid),
+                );
                 told = true;
             }
             if tokio::time::Instant::now() > self.deadline {
@@ -150,9 +153,12 @@ impl DronePilot {
             })
             .await?;
         if d.is_finite() && d > 1.5 {
-            self.shared.say(format!(
-                "drone {sysid}: landed {d:.1} m from station {st} — off its charger"
-            ));
+            self.shared.say(
+                Progress::warning(format!(
+                    "drone {sysid}: landed {d:.1} m from station {st} — off its charger"
+                ))
+                .about(sysid),
+            );
         }
         Ok(())
     }
@@ -179,9 +185,12 @@ pub(super) async fn dock(
             match land_on(shared, sysid, station, alt, slot).await {
                 Ok(()) => break,
                 Err(e) if attempt < 5 => {
-                    shared.say(format!(
-                        "drone {sysid}: landing on station {station}: {e:#} (trying again)"
-                    ));
+                    shared.say(
+                        Progress::warning(format!(
+                            "drone {sysid}: landing on station {station}: {e:#} (trying again)"
+                        ))
+                        .about(sysid),
+                    );
                     if fleet
                         .vehicle(sysid)
                         .is_some_and(|v| v.on_ground() && !v.armed)
@@ -197,14 +206,17 @@ pub(super) async fn dock(
             return Ok(true);
         }
         if landing == 3 {
-            shared.say(format!(
-                "drone {sysid}: still off the charger of station {station} after 3 landings"
-            ));
+            shared.say(
+                Progress::warning(format!(
+                    "drone {sysid}: still off the charger of station {station} after 3 landings"
+                ))
+                .about(sysid),
+            );
             return Ok(false);
         }
-        shared.say(format!(
+        shared.say(Progress::warning(format!(
             "drone {sysid}: landed off the charger of station {station}: taking off to land again"
-        ));
+        )).about(sysid));
         flight::ensure_airborne(fleet, sysid, alt as f32, shared.patience).await?;
     }
     Ok(false)

@@ -9,8 +9,8 @@ impl Runner {
         &self.shared.fleet
     }
 
-    pub(super) fn say(&self, line: String) {
-        self.shared.say(line);
+    pub(super) fn say(&self, event: Progress) {
+        self.shared.say(event);
     }
 
     pub(super) async fn upload_fences(&self) -> anyhow::Result<()> {
@@ -73,10 +73,10 @@ impl Runner {
         if let Some(e) = first_err {
             return Err(e);
         }
-        self.say(format!(
+        self.say(Progress::info(format!(
             "geofence ({} items: the search area and its no-fly cells) on every vehicle",
             items.len()
-        ));
+        )));
         Ok(())
     }
 
@@ -129,7 +129,10 @@ impl Runner {
             })
             .await?;
         let list: Vec<String> = goals.iter().map(|c| c.to_string()).collect();
-        self.say(format!("epoch {p}: goals {}", list.join(" ")));
+        self.say(Progress::info(format!(
+            "epoch {p}: goals {}",
+            list.join(" ")
+        )));
         Ok(())
     }
 
@@ -166,7 +169,7 @@ impl Runner {
                             ))
                         })
                         .await?;
-                    self.say(format!(
+                    self.say(Progress::info(format!(
                         "epoch {p}: {} planned in {} sensing cycle(s) ({:.2} s){}",
                         if goals == 1 {
                             "1 goal".to_string()
@@ -180,7 +183,7 @@ impl Runner {
                         } else {
                             ""
                         }
-                    ));
+                    )));
                     return Ok(());
                 }
                 (PlanStatus::Infeasible, _) if k < MAX_K => {
@@ -320,10 +323,10 @@ impl Runner {
             .await?;
         let n = cycle.drones.iter().filter(|d| d.flies).count()
             + cycle.stations.iter().filter(|s| s.drives).count();
-        self.say(format!(
+        self.say(Progress::info(format!(
             "epoch {p} cycle {}: {n} mission(s) uploaded and verified",
             cycle.k
-        ));
+        )));
         Ok(())
     }
 
@@ -501,13 +504,15 @@ pub(super) async fn drive(runner: &Runner, resumed: bool) -> anyhow::Result<()> 
                         Ok(((), vec![BanditEvent::SortieDropped { epoch: p }]))
                     })
                     .await?;
-                runner.say(format!(
+                runner.say(Progress::info(format!(
                     "resumed: the prepared sortie of epoch {p} had not started; planning again"
-                ));
+                )));
             }
             Next::Follow => {
                 resume_follow = true;
-                runner.say("resumed in the middle of a sortie: following it to its end".into());
+                runner.say(Progress::info(
+                    "resumed in the middle of a sortie: following it to its end",
+                ));
             }
             Next::Plan | Next::Prepare => {
                 runner
@@ -534,12 +539,12 @@ pub(super) async fn drive(runner: &Runner, resumed: bool) -> anyhow::Result<()> 
                     .read(|s| (s.bandit.keep(), s.bandit.reject()))
                     .await;
                 let list: Vec<String> = k.iter().map(|c| c.to_string()).collect();
-                runner.say(format!(
+                runner.say(Progress::notice(format!(
                     "every cell classified: keep {} ({}), reject {}",
                     k.len(),
                     list.join(" "),
                     r.len()
-                ));
+                )));
                 return Ok(());
             }
             Next::BeginEpoch => {

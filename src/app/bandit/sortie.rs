@@ -38,9 +38,9 @@ impl Runner {
                 .vehicle(sysid)
                 .and_then(|v| v.battery_pct)
                 .unwrap_or(-1);
-            self.say(format!(
+            self.say(Progress::info(format!(
                 "drone {sysid}: charging on its station ({have} %, the sortie needs {need:.0} %)"
-            ));
+            )).about(sysid));
             // Charging, or stuck: a drone whose charge does not rise for two minutes (wall
             // clock × patience) is not on a charger.
             let stall = self.shared.patience.secs(120.0);
@@ -80,14 +80,16 @@ impl Runner {
         if !*rx.borrow_and_update() {
             return;
         }
-        self.say("paused by the operator: the next sortie waits for RESUME".into());
+        self.say(Progress::notice(
+            "paused by the operator: the next sortie waits for RESUME",
+        ));
         // A closed channel (the UI went away) lets the run carry on.
         while *rx.borrow_and_update() {
             if rx.changed().await.is_err() {
                 break;
             }
         }
-        self.say("resumed by the operator".into());
+        self.say(Progress::notice("resumed by the operator"));
     }
 
     pub(super) fn paused(&self) -> bool {
@@ -201,7 +203,10 @@ impl Runner {
                 failed.join("; ")
             );
         }
-        self.say(format!("epoch {p} cycle {}: flying", cycle.k));
+        self.say(Progress::info(format!(
+            "epoch {p} cycle {}: flying",
+            cycle.k
+        )));
         Ok(())
     }
 
@@ -307,7 +312,10 @@ impl Runner {
                             v.mission_state,
                             v.mission_current
                         );
-                        self.say(format!("station {sysid}: at the rendezvous"));
+                        self.say(
+                            Progress::info(format!("station {sysid}: at the rendezvous"))
+                                .about(sysid),
+                        );
                     }
                 }
             }
@@ -372,11 +380,11 @@ impl Runner {
                 Ok(((end, seconds, k), events))
             })
             .await?;
-        self.say(format!(
+        self.say(Progress::info(format!(
             "epoch {p} cycle {k}: every drone on its station after {seconds:.0} s"
-        ));
+        )));
         if let CycleEnd::EpochDone(stats) = end {
-            self.say(format!(
+            self.say(Progress::info(format!(
                 "epoch {p} done: {} cycle(s), planner {:.2} s, {} measurements; keep {}, reject {}, \
                  unclassified {}",
                 stats.cycles,
@@ -385,7 +393,7 @@ impl Runner {
                 stats.keep,
                 stats.reject,
                 stats.unclassified
-            ));
+            )));
         }
         Ok(())
     }
@@ -440,9 +448,12 @@ impl Runner {
                     self.shared
                         .commit(|_| Ok(((), vec![BanditEvent::Held { sysid, step }])))
                         .await?;
-                    self.say(format!(
-                        "drone {sysid}: holding at step {step} until the others catch up (7e)"
-                    ));
+                    self.say(
+                        Progress::info(format!(
+                            "drone {sysid}: holding at step {step} until the others catch up (7e)"
+                        ))
+                        .about(sysid),
+                    );
                 }
             } else if held.contains(&d.sysid) || !in_mission {
                 let m = v.flavour.mission_mode()?;

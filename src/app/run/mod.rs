@@ -9,6 +9,10 @@
 //! wrote the files themselves — but the JSON serialisation and the fsyncs happen on the store
 //! thread, never on a runtime worker.
 
+mod progress;
+
+pub use progress::Progress;
+
 use crate::clock::MonotonicClock;
 use crate::store::{RunDir, RunStore};
 use anyhow::Context as _;
@@ -25,7 +29,7 @@ pub struct RunCore<S> {
     state: Mutex<S>,
     store: RunStore,
     changed: watch::Sender<u64>,
-    progress: Option<mpsc::UnboundedSender<String>>,
+    progress: Option<mpsc::UnboundedSender<Progress>>,
     view: Option<watch::Sender<Arc<S>>>,
     clock: MonotonicClock,
 }
@@ -35,12 +39,12 @@ where
     S: Clone + Serialize + Send + Sync + 'static,
 {
     /// A core over `state`, saving to `run` (through a store task, see [`RunStore::spawn`]),
-    /// reading time from `clock`, sending progress lines to `progress` and states to `view`.
+    /// reading time from `clock`, sending progress events to `progress` and states to `view`.
     pub fn new(
         state: S,
         run: RunDir,
         clock: MonotonicClock,
-        progress: Option<mpsc::UnboundedSender<String>>,
+        progress: Option<mpsc::UnboundedSender<Progress>>,
         view: Option<watch::Sender<Arc<S>>>,
     ) -> anyhow::Result<RunCore<S>> {
         let store = RunStore::spawn(run).context("starting the run store thread")?;
@@ -66,11 +70,16 @@ where
         self.clock.now()
     }
 
-    /// Log `line` and pass it to the progress channel (headless stdout, the TUI's log).
-    pub fn say(&self, line: String) {
-        tracing::info!("{line}");
+    /// Log `event` and pass it to the progress channel (headless stdout, the TUI's log).
+    pub fn say(&self, event: Progress) {
+        match event.severity {
+            s if s <= crate::proto::severity::Severity::Warning => {
+                tracing::warn!("{}", event.text)
+            }
+            _ => tracing::info!("{}", event.text),
+        }
         if let Some(p) = &self.progress {
-            let _ = p.send(line);
+            let _ = p.send(event);
         }
     }
 

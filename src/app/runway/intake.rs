@@ -363,9 +363,12 @@ impl Pilot {
             .await?;
             return Ok(true);
         }
-        self.shared.say(format!(
-            "vehicle {sysid}: picture dropped ({reason}); taking it again ({retakes} of {max})"
-        ));
+        self.shared.say(
+            Progress::warning(format!(
+                "vehicle {sysid}: picture dropped ({reason}); taking it again ({retakes} of {max})"
+            ))
+            .about(sysid),
+        );
         Ok(false)
     }
 
@@ -394,8 +397,7 @@ impl Pilot {
              returns home, lands and waits for the operator (check where the camera gets its \
              position and attitude from, then `fleetmap resume` or `b`)"
         );
-        tracing::warn!("{line}");
-        self.shared.say(line);
+        self.shared.say(Progress::error(line).about(sysid));
         self.shared
             .commit(|s| {
                 s.on_camera_fault(sysid, reason.clone(), now)?;

@@ -50,7 +50,7 @@
 pub use crate::app::crop::crop_to_cells;
 use crate::app::flight::{self, FlightError, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};
-use crate::app::run::RunCore;
+use crate::app::run::{Progress, RunCore};
 use crate::explore::dfs::Action;
 use crate::explore::mapping::{Directive, MappingError, MappingState, Phase, RobotStatus};
 use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
@@ -132,7 +132,7 @@ pub struct RunOptions {
     /// Operator commands (the TUI); `None` in headless runs.
     pub operator: Option<mpsc::UnboundedReceiver<Operator>>,
     /// Progress lines for a headless run's stdout / the TUI's log.
-    pub progress: Option<mpsc::UnboundedSender<String>>,
+    pub progress: Option<mpsc::UnboundedSender<Progress>>,
     /// The state after every step (the TUI's map and mission panes).
     pub view: Option<watch::Sender<Arc<MappingState>>>,
     /// Timeout scaling.
@@ -192,8 +192,8 @@ struct Shared {
 }
 
 impl Shared {
-    fn say(&self, line: String) {
-        self.run.say(line);
+    fn say(&self, event: Progress) {
+        self.run.say(event);
     }
 
     fn now(&self) -> Time {

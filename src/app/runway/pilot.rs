@@ -44,8 +44,10 @@ impl Pilot {
                 Err(e) => {
                     failures += 1;
                     let reason = format!("{e:#}");
-                    self.shared
-                        .say(format!("vehicle {}: {reason} (retrying)", self.sysid));
+                    self.shared.say(
+                        Progress::warning(format!("vehicle {}: {reason} (retrying)", self.sysid))
+                            .about(self.sysid),
+                    );
                     let sysid = self.sysid;
                     let max = self.shared.patience.secs(2.0);
                     let _ = self
@@ -99,12 +101,12 @@ impl Pilot {
                         })
                         .await?;
                     match root {
-                        Some(r) => self.shared.say(format!(
+                        Some(r) => self.shared.say(Progress::info(format!(
                             "vehicle {sysid}: cell {cell} confirmed: the recursive DFS starts at {r}"
-                        )),
-                        None => self.shared.say(format!(
+                        )).about(sysid)),
+                        None => self.shared.say(Progress::info(format!(
                             "vehicle {sysid}: cell {cell} is not runway after all: sweeping on"
-                        )),
+                        )).about(sysid)),
                     }
                 }
             }
@@ -161,12 +163,12 @@ impl Pilot {
                             )
                         })
                         .await;
-                    self.shared.say(format!(
+                    self.shared.say(Progress::info(format!(
                         "vehicle {sysid}: vertex {cell} imaged, {} new ({} of {} vertices explored)",
                         added.len(),
                         explored,
                         vertices
-                    ));
+                    )).about(sysid));
                 }
             }
             Directive::Dfs(Action::Wait) => {
@@ -264,9 +266,12 @@ impl Pilot {
         } else {
             format!("battery {pct_v:.0} % (home needs {needed:.0} %)")
         };
-        self.shared.say(format!(
-            "vehicle {sysid}: {why}: returning home for a battery swap"
-        ));
+        self.shared.say(
+            Progress::notice(format!(
+                "vehicle {sysid}: {why}: returning home for a battery swap"
+            ))
+            .about(sysid),
+        );
         Ok(true)
     }
 
@@ -337,19 +342,22 @@ impl Pilot {
                 .await?;
             let fault = self.camera_fault_now().await;
             if let Some(why) = &fault {
-                self.shared.say(format!(
+                self.shared.say(Progress::notice(format!(
                     "vehicle {sysid}: landed: waiting for the operator to fix the camera ({why}); \
                      it will not resume by itself"
-                ));
+                )).about(sysid));
             } else {
-                self.shared.say(format!(
-                    "vehicle {sysid}: landed: waiting for a battery swap{}",
-                    if self.shared.auto_resume {
-                        " (resumes by itself when a fresh battery is in)"
-                    } else {
-                        ""
-                    }
-                ));
+                self.shared.say(
+                    Progress::notice(format!(
+                        "vehicle {sysid}: landed: waiting for a battery swap{}",
+                        if self.shared.auto_resume {
+                            " (resumes by itself when a fresh battery is in)"
+                        } else {
+                            ""
+                        }
+                    ))
+                    .about(sysid),
+                );
             }
             if self.shared.sim_swap && fault.is_none() {
                 // The demo's operator: ask the simulated vehicle to swap its battery.
@@ -395,9 +403,12 @@ impl Pilot {
                         Ok(((), Some(MappingEvent::Swapped { sysid, by })))
                     })
                     .await?;
-                self.shared.say(format!(
-                    "vehicle {sysid}: fresh battery: taking off to resume"
-                ));
+                self.shared.say(
+                    Progress::notice(format!(
+                        "vehicle {sysid}: fresh battery: taking off to resume"
+                    ))
+                    .about(sysid),
+                );
                 return Ok(None);
             }
             if !auto && !self.shared.interactive {
@@ -438,7 +449,8 @@ impl Pilot {
                 Ok(((), Some(MappingEvent::Landed { sysid })))
             })
             .await?;
-        self.shared.say(format!("vehicle {sysid}: landed at home"));
+        self.shared
+            .say(Progress::info(format!("vehicle {sysid}: landed at home")).about(sysid));
         Ok(())
     }
 }

@@ -77,17 +77,20 @@ pub async fn run(
                 match cmd {
                     Operator::Pause => {
                         shared.paused.send_replace(true);
-                        shared.say("operator: pause — every vehicle holds".into());
+                        shared.say(Progress::notice("operator: pause — every vehicle holds"));
                     }
                     Operator::Resume => {
                         shared.paused.send_replace(false);
-                        shared.say("operator: resume".into());
+                        shared.say(Progress::notice("operator: resume"));
                     }
                     Operator::BatterySwapped(s) => {
                         if let Ok(mut set) = shared.swapped.lock() {
                             set.insert(s);
                         }
-                        shared.say(format!("operator: vehicle {s} has a fresh battery"));
+                        shared.say(
+                            Progress::notice(format!("operator: vehicle {s} has a fresh battery"))
+                                .about(s),
+                        );
                     }
                     Operator::Land(s) => {
                         if let Ok(mut set) = shared.land_here.lock() {
@@ -96,13 +99,21 @@ pub async fn run(
                         if let Ok(mut set) = shared.recalled.lock() {
                             set.insert(s);
                         }
-                        shared.say(format!("operator: vehicle {s} lands where it is"));
+                        shared.say(
+                            Progress::notice(format!("operator: vehicle {s} lands where it is"))
+                                .about(s),
+                        );
                     }
                     Operator::Recall(s) => {
                         if let Ok(mut set) = shared.recalled.lock() {
                             set.insert(s);
                         }
-                        shared.say(format!("operator: vehicle {s} recalled for a battery swap"));
+                        shared.say(
+                            Progress::notice(format!(
+                                "operator: vehicle {s} recalled for a battery swap"
+                            ))
+                            .about(s),
+                        );
                     }
                 }
                 shared.run.notify();

@@ -39,10 +39,13 @@ impl Pilot {
             crate::proto::mission::compare_items(&items, &back, v.flavour.home_item()).map_err(
                 |d| anyhow::anyhow!("vehicle {sysid}: the sweep read back differs: {d}"),
             )?;
-            self.shared.say(format!(
-                "vehicle {sysid}: sweep mission uploaded and verified ({} items)",
-                items.len()
-            ));
+            self.shared.say(
+                Progress::info(format!(
+                    "vehicle {sysid}: sweep mission uploaded and verified ({} items)",
+                    items.len()
+                ))
+                .about(sysid),
+            );
             flight::ensure_airborne(&fleet, sysid, alt as f32, self.shared.patience).await?;
             if let Some(item) = resume_item.filter(|&i| i > 0) {
                 fleet.set_mission_current(sysid, item).await?;
@@ -52,7 +55,8 @@ impl Pilot {
                 fleet.start_mission(sysid).await?;
             }
             let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
-            self.shared.say(format!("vehicle {sysid}: sweeping"));
+            self.shared
+                .say(Progress::info(format!("vehicle {sysid}: sweeping")).about(sysid));
         } else if self.first_sweep || !in_mission {
             // Back after a GCS restart (or a hold): the vehicle may have flown on while no one
             // classified its images, so go back to the last capture we may have missed — the
@@ -193,9 +197,9 @@ impl Pilot {
                         flown = true;
                         let pending = announced.saturating_sub(arrived);
                         if pending > 0 {
-                            self.shared.say(format!(
+                            self.shared.say(Progress::info(format!(
                                 "vehicle {sysid}: sweep flown; waiting for {pending} pictures still in transfer"
-                            ));
+                            )).about(sysid));
                         }
                     }
                 }
@@ -224,7 +228,8 @@ impl Pilot {
                         Ok(((), Some(MappingEvent::SweepComplete { sysid })))
                     })
                     .await?;
-                self.shared.say(format!("vehicle {sysid}: sweep complete"));
+                self.shared
+                    .say(Progress::info(format!("vehicle {sysid}: sweep complete")).about(sysid));
                 return Ok(());
             }
         }
@@ -383,9 +388,9 @@ impl Pilot {
             })
             .await?;
         if let Some(cand) = candidate {
-            self.shared.say(format!(
+            self.shared.say(Progress::info(format!(
                 "vehicle {sysid}: runway seen near cell {cand}: stopping the sweep to confirm it"
-            ));
+            )).about(sysid));
             flight::hold_here(self.fleet(), sysid).await?;
             return Ok(true);
         }
