@@ -17,8 +17,8 @@
 //! field of view as the paper's 480-pixel camera: the measurement crops to the cell) and a
 //! 6-minute charger, so the drones do not sit waiting for a charge between every epoch.
 
+use fleetmap::app::bandit::report as bandit_report;
 use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
-use fleetmap::app::bandit_report;
 use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::geo::Cell;
 use fleetmap::mission::MissionType;

@@ -20,7 +20,7 @@
 //! level ones.
 
 use fleetmap::app::images;
-use fleetmap::app::report::truth_coverage;
+use fleetmap::app::runway::report::truth_coverage;
 use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions, crop_to_cells};
 use fleetmap::clock::MonotonicClock;
 use fleetmap::explore::Sharing;

@@ -5,7 +5,7 @@
 
 use fleetmap::app::demo::{self, DemoConfig};
 use fleetmap::app::images;
-use fleetmap::app::report::{report, truth_coverage};
+use fleetmap::app::runway::report::{report, truth_coverage};
 use fleetmap::app::runway::{self, Outcome, RunOptions};
 use fleetmap::explore::Sharing;
 use fleetmap::explore::mapping::{MappingState, RobotStatus};
@@ -16,7 +16,7 @@ use std::time::Duration;
 
 struct Finished {
     state: MappingState,
-    report: fleetmap::app::report::MappingReport,
+    report: fleetmap::app::runway::report::MappingReport,
     fleet: fleetmap::fleet::FleetHandle,
 }
 
@@ -72,7 +72,7 @@ async fn fly(drones: usize, seed: u64) -> Finished {
     }
 }
 
-fn print(r: &fleetmap::app::report::MappingReport) {
+fn print(r: &fleetmap::app::runway::report::MappingReport) {
     let t = r.truth.as_ref().unwrap();
     eprintln!(
         "runway: {} cells mapped, tree {} vertices, {} images, {} decisions ({} FP, {} FN), \

@@ -10,8 +10,8 @@
 //! the test is about losing nothing, not about the classifier's edge cases, and it keeps CI
 //! short.
 
-use fleetmap::app::report::truth_coverage;
 use fleetmap::app::runway::MappingEvent;
+use fleetmap::app::runway::report::truth_coverage;
 use fleetmap::explore::mapping::MappingState;
 use fleetmap::sim::world::World;
 use fleetmap::store::RunDir;

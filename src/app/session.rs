@@ -39,8 +39,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::{mpsc, watch};
 
-/// What to do with a finished run (write its exports).
-pub type OnFinish = Box<dyn FnOnce(&RunDir, &MappingState) + Send>;
+/// What to do with a finished run's final state `S` (write its exports).
+pub type OnFinish<S> = Box<dyn FnOnce(&RunDir, &S) + Send>;
 
 /// A run the session drives.
 pub struct MappingRun {
@@ -53,11 +53,8 @@ pub struct MappingRun {
     /// Options of the runner (operator, progress and view are set by the session).
     pub options: RunOptions,
     /// Called with the final state when the run finishes (exports, reports).
-    pub on_finish: Option<OnFinish>,
+    pub on_finish: Option<OnFinish<MappingState>>,
 }
-
-/// What to do with a finished spatial-classification run.
-pub type OnClassificationFinish = Box<dyn FnOnce(&RunDir, &ClassificationState) + Send>;
 
 /// A spatial-classification run the session drives.
 pub struct ClassificationRun {
@@ -70,7 +67,7 @@ pub struct ClassificationRun {
     /// Options of the runner (progress, view and pause are set by the session).
     pub options: bandit::RunOptions,
     /// Called with the final state when the run finishes.
-    pub on_finish: Option<OnClassificationFinish>,
+    pub on_finish: Option<OnFinish<ClassificationState>>,
 }
 
 /// The run attached to a session.

@@ -4,9 +4,10 @@
 
 use crate::app::demo::{self, DemoConfig};
 use crate::app::flight::Patience;
-use crate::app::report::{self, truth_coverage};
-use crate::app::runway::{self, Outcome, RunOptions};
-use crate::cli::run::{drive_mapping, write_exports};
+use crate::app::kind::{Outcome, RunKind};
+use crate::app::runway::report::MappingReport;
+use crate::app::runway::{RunOptions, Runway, cpu};
+use crate::cli::run::{drive, exports_on_finish, finish_exports, unix_ms};
 use crate::cli::vehicles::block_on;
 use crate::explore::Sharing;
 use crate::sim::world::World;
@@ -64,13 +65,6 @@ pub struct DemoArgs {
     pub camera_px: u32,
 }
 
-fn unix_ms() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_millis() as u64)
-        .unwrap_or(0)
-}
-
 /// Run `fleetmap demo`.
 pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
     if args.bandit {
@@ -118,72 +112,117 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         }
         let state =
             crate::app::new_mapping(&d.fleet, &def, Sharing::Gcs, Duration::from_secs(60)).await?;
-        let mut meta = RunMeta::new(runway::KIND, unix_ms());
-        meta.mission_path = Some("built-in runway-field-test.toml".into());
-        meta.connections = d
-            .sim
-            .bound
-            .iter()
-            .map(|b| format!("udpout:{}", b.local))
-            .collect();
-        // The world goes with the run (resolved relative to it) so `fleetmap report DIR`
-        // scores it later.
-        meta.extra = serde_json::json!({"world": "world.toml"});
-        let run_dir = RunDir::create(&dir, meta, Some(&text))
-            .with_context(|| format!("cannot create the run directory {}", dir.display()))?;
-        crate::store::atomic_write(&run_dir.path().join("world.toml"), world_text.as_bytes())?;
+        let demo = Demo {
+            dir,
+            mission_path: "built-in runway-field-test.toml",
+            text,
+            world,
+            world_text,
+            tui,
+            auto_start: !args.manual,
+            json: args.json,
+            label: format!(
+                "DEMO: {} simulated ArduPilot copter(s), {}x real time",
+                cfg.drones, cfg.speedup
+            ),
+        };
         let opts = RunOptions {
             auto_resume: !args.manual,
             patience: Patience { factor: 1.0 },
             ..RunOptions::default()
         };
-        if tui {
-            let w = world.clone();
-            let mission = crate::app::session::MappingRun {
+        let succeeded = |outcome: &Outcome, r: &MappingReport| {
+            matches!(outcome, Outcome::Finished) && r.finished
+        };
+        demo.fly::<Runway>(d.fleet, d.sim, state, opts, summary, succeeded)
+            .await
+    })?
+}
+
+/// What the demos share once their simulator is up and their state is made: the run
+/// directory (with the world beside the state, so `fleetmap report DIR` scores it later),
+/// then the run in the terminal UI or headless with the report.
+struct Demo {
+    dir: PathBuf,
+    mission_path: &'static str,
+    text: String,
+    world: World,
+    world_text: String,
+    tui: bool,
+    auto_start: bool,
+    json: bool,
+    label: String,
+}
+
+impl Demo {
+    /// Fly `state` on the simulated fleet to its end. Headless, the report's `summary` lines
+    /// (or its JSON) are printed, and `succeeded` says whether the exit status is 0.
+    async fn fly<K: RunKind>(
+        self,
+        fleet: crate::fleet::FleetHandle,
+        sim: crate::sim::server::SimHandle,
+        state: K::State,
+        options: K::Options,
+        summary: impl FnOnce(&K::Report) -> Vec<String>,
+        succeeded: impl FnOnce(&Outcome, &K::Report) -> bool,
+    ) -> anyhow::Result<ExitCode> {
+        let mut meta = RunMeta::new(K::KIND, unix_ms());
+        meta.mission_path = Some(self.mission_path.into());
+        meta.connections = sim
+            .bound
+            .iter()
+            .map(|b| format!("udpout:{}", b.local))
+            .collect();
+        meta.extra = serde_json::json!({"world": "world.toml"});
+        let (dir, text, world_text) = (self.dir.clone(), self.text, self.world_text);
+        let run_dir = cpu(move || -> anyhow::Result<RunDir> {
+            let run_dir = RunDir::create(&dir, meta, Some(&text))
+                .with_context(|| format!("cannot create the run directory {}", dir.display()))?;
+            crate::store::atomic_write(&run_dir.path().join("world.toml"), world_text.as_bytes())?;
+            Ok(run_dir)
+        })
+        .await??;
+        if self.tui {
+            let mission = K::session_run(
                 run_dir,
                 state,
-                auto_start: !args.manual,
-                options: opts,
-                on_finish: Some(Box::new(move |rd, st| {
-                    if let Err(e) = write_exports(rd, st, Some(&w)) {
-                        tracing::warn!("exports: {e:#}");
-                    }
-                })),
-            };
-            let label = format!(
-                "DEMO: {} simulated ArduPilot copter(s), {}x real time",
-                cfg.drones, cfg.speedup
+                options,
+                self.auto_start,
+                Some(exports_on_finish::<K>(Some(self.world.clone()))),
             );
-            return demo_in_ui(d.fleet, d.sim, mission.into(), label, &dir).await;
+            return demo_in_ui(fleet, sim, mission, self.label, &self.dir).await;
         }
-        println!("demo: run directory {}", dir.display());
-        let (outcome, path) = drive_mapping(&d.fleet, run_dir, state, opts, true).await?;
-        d.fleet.shutdown().await;
-        let _ = d.sim.stop().await;
-        let run_dir = RunDir::open(&path)?;
-        let state: crate::explore::mapping::MappingState =
-            run_dir.load_state()?.context("the demo saved no state")?;
-        let exports = write_exports(&run_dir, &state, Some(&world))?;
-        let cov = truth_coverage(&state.grid, &world, 0.0)?;
-        let r = report::report(&state, Some(&cov));
-        if args.json {
+        println!("demo: run directory {}", self.dir.display());
+        let result = drive::<K>(&fleet, run_dir, state, options, true).await;
+        fleet.shutdown().await;
+        let _ = sim.stop().await;
+        let (outcome, state, path) = result?;
+        let (exports, r) = finish_exports::<K>(&path, &state).await?;
+        if self.json {
             println!("{}", serde_json::to_string_pretty(&r)?);
         } else {
-            print_summary(&r);
+            for l in summary(&r) {
+                println!("{l}");
+            }
             for e in &exports {
                 println!("  wrote {}", e.display());
             }
             println!(
-                "  `fleetmap report {}` and `fleetmap export {} --format kml` work on this run",
+                "  `fleetmap report {}` and `fleetmap export {} --format {}` work on this run",
                 path.display(),
-                path.display()
+                path.display(),
+                match K::EXPORTS[0] {
+                    crate::app::kind::ExportFormat::Png => "png",
+                    _ => "kml",
+                }
             );
         }
-        Ok(match outcome {
-            Outcome::Finished if r.finished => ExitCode::SUCCESS,
-            _ => ExitCode::FAILURE,
+        Ok(if succeeded(&outcome, &r) {
+            ExitCode::SUCCESS
+        } else {
+            ExitCode::FAILURE
         })
-    })?
+    }
 }
 
 /// A demo in the terminal UI: `mission` on the in-process simulator until the operator
@@ -218,18 +257,21 @@ async fn demo_in_ui(
     Ok(ExitCode::SUCCESS)
 }
 
-fn print_summary(r: &report::MappingReport) {
-    println!("demo finished: {}", r.phase);
-    println!(
-        "  map: {} runway cells; tree {} vertices ({} explored); {} images at cell centres, {} decisions",
-        r.cells_mapped, r.tree_vertices, r.explored_vertices, r.images, r.detections
-    );
-    println!(
-        "  flight: {:.0} s airborne in all, {:.0} m, {} battery swap(s)",
-        r.flight_time_s, r.distance_m, r.battery_swaps
-    );
+/// The runway demo's report, as lines.
+fn summary(r: &MappingReport) -> Vec<String> {
+    let mut lines = vec![
+        format!("demo finished: {}", r.phase),
+        format!(
+            "  map: {} runway cells; tree {} vertices ({} explored); {} images at cell centres, {} decisions",
+            r.cells_mapped, r.tree_vertices, r.explored_vertices, r.images, r.detections
+        ),
+        format!(
+            "  flight: {:.0} s airborne in all, {:.0} m, {} battery swap(s)",
+            r.flight_time_s, r.distance_m, r.battery_swaps
+        ),
+    ];
     if let Some(t) = &r.truth {
-        println!(
+        lines.push(format!(
             "  IoU with the ground truth {:.1} % (best possible on this grid {:.1} %; the paper's field test {:.1} %); \
              {} false positive and {} false negative decision(s)",
             100.0 * t.iou,
@@ -237,8 +279,9 @@ fn print_summary(r: &report::MappingReport) {
             100.0 * t.paper_iou,
             t.false_positives,
             t.false_negatives
-        );
+        ));
     }
+    lines
 }
 
 /// `fleetmap demo --bandit [--headless]`: the simulator in-process (4 ArduPilot copters and 2
@@ -248,11 +291,8 @@ fn print_summary(r: &report::MappingReport) {
 /// the keep set (scored against the world's green tiles). Headless, the exit status is 0
 /// when every cell is classified and the keep set is the green tiles.
 pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+    use crate::app::bandit::{self, Classification, report::ClassificationReport};
     use crate::app::bandit_sim::{self, SimSetup};
-    use crate::app::{bandit, bandit_report};
-    use crate::cli::run::{
-        drive_classification, print_classification, write_classification_exports,
-    };
     if !(args.speedup.is_finite() && args.speedup > 0.0 && args.speedup <= 50.0) {
         bail!("--speedup must be in (0, 50]");
     }
@@ -289,69 +329,30 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
             );
         }
         let state = bandit::new_state(&d.fleet, &def, Duration::from_secs(60), None).await?;
-        let mut meta = RunMeta::new(bandit::KIND, unix_ms());
-        meta.mission_path = Some("built-in hardware-6x6.toml".into());
-        meta.connections = d
-            .sim
-            .bound
-            .iter()
-            .map(|b| format!("udpout:{}", b.local))
-            .collect();
-        meta.extra = serde_json::json!({"world": "world.toml"});
-        let run_dir = RunDir::create(&dir, meta, Some(&text))
-            .with_context(|| format!("cannot create the run directory {}", dir.display()))?;
-        crate::store::atomic_write(
-            &run_dir.path().join("world.toml"),
-            bandit_sim::HARDWARE_WORLD.as_bytes(),
-        )?;
-        let opts = bandit::RunOptions::default();
-        if tui {
-            let w = world.clone();
-            let mission = crate::app::session::ClassificationRun {
-                run_dir,
-                state,
-                auto_start: true,
-                options: opts,
-                on_finish: Some(Box::new(move |rd, st| {
-                    if let Err(e) = write_classification_exports(rd, st, Some(&w)) {
-                        tracing::warn!("exports: {e:#}");
-                    }
-                })),
-            };
-            let label = format!(
+        let demo = Demo {
+            dir,
+            mission_path: "built-in hardware-6x6.toml",
+            text,
+            world,
+            world_text: bandit_sim::HARDWARE_WORLD.to_string(),
+            tui,
+            auto_start: true,
+            json,
+            label: format!(
                 "DEMO: 4 simulated ArduPilot copters, 2 rovers, {}x real time",
                 setup.speedup
-            );
-            return demo_in_ui(d.fleet, d.sim, mission.into(), label, &dir).await;
-        }
-        println!("demo: run directory {}", dir.display());
-        let result = drive_classification(&d.fleet, run_dir, state, opts, true).await;
-        d.fleet.shutdown().await;
-        let _ = d.sim.stop().await;
-        let (state, path) = result?;
-        let run_dir = RunDir::open(&path)?;
-        let exports = write_classification_exports(&run_dir, &state, Some(&world))?;
-        let truth = bandit_sim::green_tiles(&world);
-        let r = bandit_report::report(&state, Some(&truth));
-        if json {
-            println!("{}", serde_json::to_string_pretty(&r)?);
-        } else {
-            println!("demo finished");
-            print_classification(&r);
-            for e in &exports {
-                println!("  wrote {}", e.display());
-            }
-            println!(
-                "  `fleetmap report {}` and `fleetmap export {} --format png` work on this run",
-                path.display(),
-                path.display()
-            );
-        }
-        let correct = r.finished && r.interesting_truth.as_ref() == Some(&r.keep);
-        Ok(if correct {
-            ExitCode::SUCCESS
-        } else {
-            ExitCode::FAILURE
-        })
+            ),
+        };
+        let summary = |r: &ClassificationReport| {
+            let mut lines = vec!["demo finished".to_string()];
+            lines.extend(Classification::report_lines(r));
+            lines
+        };
+        let succeeded = |_: &Outcome, r: &ClassificationReport| {
+            r.finished && r.interesting_truth.as_ref() == Some(&r.keep)
+        };
+        let opts = bandit::RunOptions::default();
+        demo.fly::<Classification>(d.fleet, d.sim, state, opts, summary, succeeded)
+            .await
     })?
 }

@@ -8,6 +8,9 @@
 //! as *not sent* because no vehicle is connected. `--snapshot COLSxROWS` prints one frame as text without
 //! a terminal; `fleetmap bench tui` measures the redraw rate.
 
+use crate::app::bandit::Classification;
+use crate::app::kind::RunKind;
+use crate::app::runway::Runway;
 use crate::clock::MonotonicClock;
 use crate::time::Time;
 use crate::tui::app::{App, CommandRequest, Event, JobResult, update};
@@ -289,47 +292,31 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
 /// `fleetmap tui --connect CONN [--mission FILE | --resume RUN_DIR]`: the UI on live
 /// vehicles, with a run (runway mapping or spatial classification) the operator starts.
 fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
-    use crate::app::bandit;
-    use crate::app::runway::{self, RunOptions};
-    use crate::app::session::{ClassificationRun, MappingRun, SessionRun};
-    use crate::explore::mapping::MappingState;
-    use crate::mission::definition::{MissionDef, MissionKind};
-    use crate::planner::sortie::ClassificationState;
+    use crate::app::kind::Kind;
+    use crate::mission::definition::MissionDef;
     use crate::store::{RunDir, RunMeta};
     if !interactive() {
         bail!("the terminal UI needs an interactive terminal on stdin and stdout");
     }
-    /// A run directory opened for the session, with its state.
-    enum Loaded {
-        Mapping(RunDir, Box<MappingState>),
-        Classification(RunDir, Box<ClassificationState>),
-    }
-    let mut run = None;
+    let settings = crate::app::kind::RunSettings {
+        auto_resume: args.auto_resume,
+        ..Default::default()
+    };
     let mut connect = args.connect.clone();
+    let mut resumed = None;
     if let Some(dir) = &args.resume {
         let rd =
             RunDir::open(dir).with_context(|| format!("cannot open the run {}", dir.display()))?;
-        let kind = rd.meta().kind.clone();
+        let kind = Kind::of_run(rd.meta())
+            .with_context(|| format!("{}: cannot be flown from the UI", dir.display()))?;
         if connect.is_empty() {
             for c in &rd.meta().connections {
                 connect.push(c.parse().map_err(|e| anyhow!("{c}: {e}"))?);
             }
         }
-        let none = || anyhow!("{} has no saved state yet", dir.display());
-        run = Some(if kind == runway::KIND {
-            let st: MappingState = rd.load_state()?.ok_or_else(none)?;
-            Loaded::Mapping(rd, Box::new(st))
-        } else if kind == bandit::KIND {
-            let st: ClassificationState = rd.load_state()?.ok_or_else(none)?;
-            if st.is_finished() {
-                bail!("{}: the run is already finished", dir.display());
-            }
-            Loaded::Classification(rd, Box::new(st))
-        } else {
-            bail!(
-                "{}: a {kind} run cannot be flown from the UI",
-                dir.display()
-            );
+        resumed = Some(match kind {
+            Kind::RunwayMapping => resumed_run::<Runway>(rd, &settings)?,
+            Kind::SpatialClassification => resumed_run::<Classification>(rd, &settings)?,
         });
     }
     if connect.is_empty() {
@@ -341,16 +328,24 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
                 .with_context(|| format!("cannot read {}", p.display()))?;
             let def =
                 MissionDef::parse(&text, &p.display().to_string()).map_err(|e| anyhow!("{e}"))?;
-            if !matches!(
-                def.kind,
-                MissionKind::RunwayMapping | MissionKind::SpatialClassification
-            ) {
-                bail!(
-                    "{}: this kind of mission cannot be flown from the UI",
-                    p.display()
-                );
-            }
-            Some((p.clone(), text, def))
+            let dir = args.run_dir.clone().unwrap_or_else(|| {
+                PathBuf::from("runs").join(format!(
+                    "{}-{}",
+                    def.name,
+                    crate::cli::run::unix_ms() / 1000
+                ))
+            });
+            let kind = Kind::of_mission(&def);
+            let mut meta = RunMeta::new(
+                match kind {
+                    Kind::RunwayMapping => Runway::KIND,
+                    Kind::SpatialClassification => Classification::KIND,
+                },
+                0,
+            );
+            meta.mission_path = Some(p.display().to_string());
+            meta.connections = connect.iter().map(|c| c.to_string()).collect();
+            Some((kind, text, def, dir, meta))
         }
         None => None,
     };
@@ -363,96 +358,79 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
             .collect::<Vec<_>>()
             .join(", ")
     );
-    let auto_resume = args.auto_resume;
-    let run_dir_arg = args.run_dir.clone();
     let log = log_file.map(|p| p.display().to_string());
     crate::cli::vehicles::block_on(async move {
         let session = crate::cli::vehicles::Session::open(&conn).await?;
-        if let Some((path, text, def)) = mission {
-            let dir = run_dir_arg.unwrap_or_else(|| {
-                PathBuf::from("runs").join(format!(
-                    "{}-{}",
-                    def.name,
-                    std::time::SystemTime::now()
-                        .duration_since(std::time::UNIX_EPOCH)
-                        .map(|d| d.as_secs())
-                        .unwrap_or(0)
-                ))
-            });
-            let classification = def.kind == MissionKind::SpatialClassification;
-            let kind = if classification {
-                bandit::KIND
-            } else {
-                runway::KIND
-            };
-            let mut meta = RunMeta::new(kind, 0);
-            meta.mission_path = Some(path.display().to_string());
-            meta.connections = conn.connect.iter().map(|c| c.to_string()).collect();
-            let wait = Duration::from_secs(60);
-            run = Some(if classification {
-                let state = bandit::new_state(&session.fleet, &def, wait, None).await?;
-                let rd = RunDir::create(&dir, meta, Some(&text)).with_context(|| {
-                    format!("cannot create the run directory {}", dir.display())
-                })?;
-                Loaded::Classification(rd, Box::new(state))
-            } else {
-                let state = crate::app::new_mapping(
-                    &session.fleet,
-                    &def,
-                    crate::explore::Sharing::Gcs,
-                    wait,
-                )
-                .await?;
-                let rd = RunDir::create(&dir, meta, Some(&text)).with_context(|| {
-                    format!("cannot create the run directory {}", dir.display())
-                })?;
-                Loaded::Mapping(rd, Box::new(state))
+        let mut run = resumed;
+        if let Some((kind, text, def, dir, meta)) = mission {
+            let fleet = &session.fleet;
+            run = Some(match kind {
+                Kind::RunwayMapping => {
+                    new_run::<Runway>(fleet, &def, text, dir, meta, &settings).await?
+                }
+                Kind::SpatialClassification => {
+                    new_run::<Classification>(fleet, &def, text, dir, meta, &settings).await?
+                }
             });
         }
-        let mission: Option<SessionRun> = run.map(|r| match r {
-            Loaded::Mapping(run_dir, state) => MappingRun {
-                run_dir,
-                state: *state,
-                auto_start: false,
-                options: RunOptions {
-                    auto_resume,
-                    ..RunOptions::default()
-                },
-                on_finish: Some(Box::new(|rd, st| {
-                    if let Err(e) = crate::cli::run::write_exports(rd, st, None) {
-                        tracing::warn!("exports: {e:#}");
-                    }
-                })),
-            }
-            .into(),
-            Loaded::Classification(run_dir, state) => {
-                let world = crate::cli::run::run_world(&run_dir, None).ok().flatten();
-                ClassificationRun {
-                    run_dir,
-                    state: *state,
-                    auto_start: false,
-                    options: bandit::RunOptions::default(),
-                    on_finish: Some(Box::new(move |rd, st| {
-                        if let Err(e) =
-                            crate::cli::run::write_classification_exports(rd, st, world.as_ref())
-                        {
-                            tracing::warn!("exports: {e:#}");
-                        }
-                    })),
-                }
-                .into()
-            }
-        });
         let cfg = crate::app::session::SessionConfig {
             label,
             ui: config,
             log_file: log,
         };
-        let end = crate::app::session::run(session.fleet.clone(), mission, cfg).await;
+        let end = crate::app::session::run(session.fleet.clone(), run, cfg).await;
         session.close().await?;
         end?;
         Ok(ExitCode::SUCCESS)
     })?
+}
+
+/// A saved run for the UI session to resume (the operator STARTs it); its exports are
+/// written when it finishes.
+fn resumed_run<K: RunKind>(
+    rd: crate::store::RunDir,
+    settings: &crate::app::kind::RunSettings,
+) -> anyhow::Result<crate::app::session::SessionRun> {
+    let st: K::State = rd
+        .load_state()?
+        .with_context(|| format!("{} has no saved state yet", rd.path().display()))?;
+    if K::is_finished(&st) {
+        bail!("{}: the run is already finished", rd.path().display());
+    }
+    let world = crate::cli::run::run_world(&rd, None).ok().flatten();
+    Ok(K::session_run(
+        rd,
+        st,
+        K::options(settings)?,
+        false,
+        Some(crate::cli::run::exports_on_finish::<K>(world)),
+    ))
+}
+
+/// A new run of `def` for the UI session (the operator STARTs it), once its vehicles are
+/// heard; its directory is created off the runtime's workers.
+async fn new_run<K: RunKind>(
+    fleet: &crate::fleet::FleetHandle,
+    def: &crate::mission::definition::MissionDef,
+    text: String,
+    dir: PathBuf,
+    meta: crate::store::RunMeta,
+    settings: &crate::app::kind::RunSettings,
+) -> anyhow::Result<crate::app::session::SessionRun> {
+    let state = K::new_state(fleet, def, settings, Duration::from_secs(60)).await?;
+    let options = K::options(settings)?;
+    let rd = crate::app::runway::cpu(move || {
+        crate::store::RunDir::create(&dir, meta, Some(&text))
+            .with_context(|| format!("cannot create the run directory {}", dir.display()))
+    })
+    .await??;
+    Ok(K::session_run(
+        rd,
+        state,
+        options,
+        false,
+        Some(crate::cli::run::exports_on_finish::<K>(None)),
+    ))
 }
 
 async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {

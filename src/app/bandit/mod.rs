@@ -68,6 +68,9 @@ use tokio::sync::{broadcast, mpsc, watch};
 pub use crate::planner::sortie::KIND;
 
 mod events;
+mod kind;
+pub mod report;
+pub use self::kind::Classification;
 mod intake;
 mod pilot;
 mod runner;

@@ -45,7 +45,7 @@
 //!   announced by the operator ([`Operator::BatterySwapped`]). It then takes off again and
 //!   resumes from its vertex.
 //! * **End**: every robot back at the start (Algorithm 1), then home and landed; the run's
-//!   outputs are written by [`crate::app::report`].
+//!   outputs are written by [`report`].
 
 pub use crate::app::crop::crop_to_cells;
 use crate::app::flight::{self, FlightError, Patience};
@@ -74,6 +74,9 @@ use std::time::Duration;
 use tokio::sync::{broadcast, mpsc, watch};
 
 mod events;
+mod kind;
+pub mod report;
+pub use self::kind::Runway;
 mod intake;
 mod pilot;
 mod runner;
@@ -111,18 +114,7 @@ pub enum Operator {
     Land(u8),
 }
 
-/// How a run ended.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Outcome {
-    /// The map is complete and every robot landed.
-    Finished,
-    /// Robots are on the ground waiting for the operator (battery swaps without
-    /// `auto_resume`): run `fleetmap resume` after the swaps.
-    WaitingForOperator {
-        /// The vehicles waiting.
-        sysids: Vec<u8>,
-    },
-}
+pub use crate::app::kind::Outcome;
 
 /// Options of a run.
 pub struct RunOptions {

@@ -216,7 +216,7 @@ pub fn progress(state: &ClassificationState, truth: Option<&[Cell]>) -> Vec<(f64
         .collect()
 }
 
-static FONT: &[u8] = include_bytes!("../../assets/fonts/DejaVuSans.ttf");
+static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 static REGISTER: Once = Once::new();
 
 /// The progress plot (Fig. 4) as PNG bytes, `width × height` pixels.

@@ -1,0 +1,242 @@
+//! Spatial classification as a [`RunKind`]: what the commands, the TUI session and the demo
+//! need.
+
+use super::report::{self, ClassificationReport};
+use super::{BanditEvent, KIND, RunOptions};
+use crate::app::flight::Patience;
+use crate::app::kind::{ExportFormat, Outcome, RunKind, RunSettings, heard};
+use crate::app::run::Progress;
+use crate::app::session::{ClassificationRun, OnFinish, SessionRun};
+use crate::fleet::FleetHandle;
+use crate::mission::definition::MissionDef;
+use crate::planner::sortie::ClassificationState;
+use crate::sim::world::World;
+use crate::store::RunDir;
+use anyhow::bail;
+use std::path::Path;
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+/// Spatial classification (the bandit paper): UCB epochs, integer-program sorties with
+/// charging rovers.
+pub struct Classification;
+
+/// The size of the progress PNG (the bandit paper's Fig. 4), pixels.
+const PROGRESS_PNG: (u32, u32) = (900, 560);
+
+impl RunKind for Classification {
+    const KIND: &'static str = KIND;
+    const EXPORTS: [ExportFormat; 3] =
+        [ExportFormat::Png, ExportFormat::Geojson, ExportFormat::Kml];
+    type State = ClassificationState;
+    type Options = RunOptions;
+    type Event = BanditEvent;
+    type Report = ClassificationReport;
+
+    fn mission(state: &ClassificationState) -> &str {
+        &state.mission
+    }
+
+    fn is_finished(state: &ClassificationState) -> bool {
+        state.is_finished()
+    }
+
+    fn sysids(state: &ClassificationState) -> Vec<u8> {
+        state.sysids()
+    }
+
+    fn options(settings: &RunSettings) -> anyhow::Result<RunOptions> {
+        if let Some(t) = settings.plan_time_limit_s
+            && !(t.is_finite() && t > 0.0)
+        {
+            bail!("--plan-time-limit must be a positive number of seconds");
+        }
+        Ok(RunOptions {
+            patience: Patience {
+                factor: settings.patience,
+            },
+            plan_time_limit_s: settings.plan_time_limit_s,
+            ..RunOptions::default()
+        })
+    }
+
+    async fn new_state(
+        fleet: &FleetHandle,
+        def: &MissionDef,
+        settings: &RunSettings,
+        wait: Duration,
+    ) -> anyhow::Result<ClassificationState> {
+        super::new_state(fleet, def, wait, settings.lock_step).await
+    }
+
+    fn started_line(dir: &Path, state: &ClassificationState) -> String {
+        format!(
+            "run directory {} — {}: {} candidate cells, {} drone(s), {} station(s), {:?} separation",
+            dir.display(),
+            state.mission,
+            state.bandit.len(),
+            state.drones.len(),
+            state.stations.len(),
+            state.params.separation
+        )
+    }
+
+    async fn prepare_resume(
+        fleet: &FleetHandle,
+        state: &mut ClassificationState,
+        _settings: &RunSettings,
+        wait: Duration,
+    ) -> anyhow::Result<String> {
+        for sysid in state.sysids() {
+            heard(fleet, sysid, wait).await?;
+            fleet
+                .wait_until(sysid, wait, |v| v.position.is_some())
+                .await
+                .map_err(|_| anyhow::anyhow!("vehicle {sysid} reports no position"))?;
+        }
+        Ok(format!(
+            "epoch {}, {} measurements so far, keep {}, reject {}, unclassified {}",
+            state.bandit.epoch,
+            state.measurements,
+            state.bandit.keep().len(),
+            state.bandit.reject().len(),
+            state.bandit.unclassified().len()
+        ))
+    }
+
+    async fn fly(
+        fleet: &FleetHandle,
+        run_dir: RunDir,
+        state: ClassificationState,
+        mut options: RunOptions,
+        progress: Option<mpsc::UnboundedSender<Progress>>,
+    ) -> anyhow::Result<(Outcome, ClassificationState)> {
+        if progress.is_some() {
+            options.progress = progress;
+        }
+        let hub = crate::app::images::image_hub(fleet);
+        let state = super::run(fleet.clone(), &hub, run_dir, state, options).await?;
+        Ok((Outcome::Finished, state))
+    }
+
+    fn session_run(
+        run_dir: RunDir,
+        state: ClassificationState,
+        options: RunOptions,
+        auto_start: bool,
+        on_finish: Option<OnFinish<ClassificationState>>,
+    ) -> SessionRun {
+        ClassificationRun {
+            run_dir,
+            state,
+            auto_start,
+            options,
+            on_finish,
+        }
+        .into()
+    }
+
+    fn report(
+        state: &ClassificationState,
+        world: Option<&World>,
+    ) -> anyhow::Result<ClassificationReport> {
+        let truth = world.map(crate::app::bandit_sim::green_tiles);
+        Ok(report::report(state, truth.as_deref()))
+    }
+
+    fn journal_figures(events: &[BanditEvent]) -> serde_json::Map<String, serde_json::Value> {
+        let counted = events
+            .iter()
+            .filter(|e| matches!(e, BanditEvent::Measurement(m) if m.counted))
+            .count();
+        let mut m = serde_json::Map::new();
+        m.insert("journal_records".into(), events.len().into());
+        m.insert("journal_measurements".into(), counted.into());
+        m
+    }
+
+    fn report_lines(r: &ClassificationReport) -> Vec<String> {
+        let cells = |v: &[[i32; 2]]| -> String {
+            if v.is_empty() {
+                "none".into()
+            } else {
+                v.iter()
+                    .map(|c| format!("({}, {})", c[0], c[1]))
+                    .collect::<Vec<_>>()
+                    .join(" ")
+            }
+        };
+        let mut lines = vec![
+            format!(
+                "  {}: {} epoch(s), {} measurements, {:.0} s of drone flight, {:.0} s of sorties",
+                if r.finished {
+                    "every cell classified"
+                } else {
+                    "not finished"
+                },
+                r.epochs,
+                r.measurements,
+                r.flight_time_s,
+                r.sortie_time_s
+            ),
+            format!("  keep ({}): {}", r.keep.len(), cells(&r.keep)),
+            format!("  reject ({}): {}", r.reject.len(), cells(&r.reject)),
+        ];
+        if !r.unclassified.is_empty() {
+            lines.push(format!(
+                "  unclassified ({}): {}",
+                r.unclassified.len(),
+                cells(&r.unclassified)
+            ));
+        }
+        if let (Some(t), Some(e)) = (&r.interesting_truth, &r.errors) {
+            lines.push(format!(
+                "  vs ground truth: interesting {}; {} labelling error(s){}",
+                cells(t),
+                e.len(),
+                if e.is_empty() {
+                    String::new()
+                } else {
+                    format!(": {}", cells(e))
+                }
+            ));
+        }
+        for e in &r.per_epoch {
+            lines.push(format!(
+                "  epoch {:>2}: {} cycle(s), planner {:.2} s, sorties {:.0} s, {} measurements, \
+                 keep {} reject {} unclassified {}",
+                e.epoch,
+                e.cycles,
+                e.planner_s,
+                e.flight_s,
+                e.measurements,
+                e.keep,
+                e.reject,
+                e.unclassified
+            ));
+        }
+        lines
+    }
+
+    fn export(
+        state: &ClassificationState,
+        world: Option<&World>,
+        format: ExportFormat,
+    ) -> anyhow::Result<(&'static str, Vec<u8>)> {
+        Ok(match format {
+            ExportFormat::Png => {
+                let truth = world.map(crate::app::bandit_sim::green_tiles);
+                let (w, h) = PROGRESS_PNG;
+                (
+                    "progress.png",
+                    report::progress_png(state, truth.as_deref(), w, h)?,
+                )
+            }
+            ExportFormat::Geojson => (
+                "cells.geojson",
+                serde_json::to_vec_pretty(&report::geojson(state))?,
+            ),
+            ExportFormat::Kml => ("cells.kml", report::kml(state).into_bytes()),
+        })
+    }
+}

@@ -1,0 +1,220 @@
+//! Runway mapping as a [`RunKind`]: what the commands, the TUI session and the demo need.
+
+use super::report::{self, truth_coverage, truth_outlines};
+use super::{KIND, MappingEvent, RunOptions, intake::cpu};
+use crate::app::flight::Patience;
+use crate::app::kind::{ExportFormat, Outcome, RunKind, RunSettings, heard, png_bytes};
+use crate::app::run::Progress;
+use crate::app::session::{MappingRun, OnFinish, SessionRun};
+use crate::explore::mapping::{MappingState, RobotStatus};
+use crate::fleet::FleetHandle;
+use crate::mission::definition::MissionDef;
+use crate::sim::world::World;
+use crate::store::RunDir;
+use anyhow::Context as _;
+use std::path::Path;
+use std::time::Duration;
+use tokio::sync::mpsc;
+
+/// Runway mapping (the runway paper): sweep, confirmation, the multi-robot DFS.
+pub struct Runway;
+
+impl RunKind for Runway {
+    const KIND: &'static str = KIND;
+    const EXPORTS: [ExportFormat; 3] =
+        [ExportFormat::Geojson, ExportFormat::Kml, ExportFormat::Png];
+    type State = MappingState;
+    type Options = RunOptions;
+    type Event = MappingEvent;
+    type Report = report::MappingReport;
+
+    fn mission(state: &MappingState) -> &str {
+        &state.mission
+    }
+
+    fn is_finished(state: &MappingState) -> bool {
+        state.is_finished()
+    }
+
+    fn sysids(state: &MappingState) -> Vec<u8> {
+        state.robots.iter().map(|r| r.sysid).collect()
+    }
+
+    fn options(settings: &RunSettings) -> anyhow::Result<RunOptions> {
+        Ok(RunOptions {
+            auto_resume: settings.auto_resume,
+            patience: Patience {
+                factor: settings.patience,
+            },
+            ..RunOptions::default()
+        })
+    }
+
+    async fn new_state(
+        fleet: &FleetHandle,
+        def: &MissionDef,
+        settings: &RunSettings,
+        wait: Duration,
+    ) -> anyhow::Result<MappingState> {
+        crate::app::new_mapping(fleet, def, settings.sharing, wait).await
+    }
+
+    fn started_line(dir: &Path, state: &MappingState) -> String {
+        format!(
+            "run directory {} — grid origin {:.7},{:.7}, {} m cells, {} drone(s)",
+            dir.display(),
+            state.grid.origin().lat,
+            state.grid.origin().lon,
+            state.grid.cell_size(),
+            state.robots.len()
+        )
+    }
+
+    async fn prepare_resume(
+        fleet: &FleetHandle,
+        state: &mut MappingState,
+        settings: &RunSettings,
+        wait: Duration,
+    ) -> anyhow::Result<String> {
+        for r in &state.robots {
+            heard(fleet, r.sysid, wait).await?;
+        }
+        if !settings.auto_resume {
+            // Running `fleetmap resume` is the operator's "battery swapped" for every robot
+            // that was waiting on the ground.
+            let now = fleet.clock().now();
+            for r in state.robots.clone() {
+                if r.status == RobotStatus::AwaitingSwap {
+                    state.on_swapped(r.sysid, now)?;
+                }
+            }
+        }
+        Ok(format!("{}, {} images so far", state.phase, state.images))
+    }
+
+    async fn fly(
+        fleet: &FleetHandle,
+        run_dir: RunDir,
+        state: MappingState,
+        mut options: RunOptions,
+        progress: Option<mpsc::UnboundedSender<Progress>>,
+    ) -> anyhow::Result<(Outcome, MappingState)> {
+        if progress.is_some() {
+            options.progress = progress;
+        }
+        let path = run_dir.path().to_path_buf();
+        let hub = crate::app::images::spawn(fleet);
+        let outcome = super::run(fleet.clone(), &hub, run_dir, state, options).await?;
+        // The runner saved every step; read the last one back (file I/O: off the workers).
+        let state = cpu(move || -> anyhow::Result<MappingState> {
+            RunDir::open(&path)?
+                .load_state()?
+                .context("the run saved no state")
+        })
+        .await??;
+        Ok((outcome, state))
+    }
+
+    fn session_run(
+        run_dir: RunDir,
+        state: MappingState,
+        options: RunOptions,
+        auto_start: bool,
+        on_finish: Option<OnFinish<MappingState>>,
+    ) -> SessionRun {
+        MappingRun {
+            run_dir,
+            state,
+            auto_start,
+            options,
+            on_finish,
+        }
+        .into()
+    }
+
+    fn report(state: &MappingState, world: Option<&World>) -> anyhow::Result<Self::Report> {
+        let cov = world
+            .map(|w| truth_coverage(&state.grid, w, 0.0))
+            .transpose()?;
+        Ok(report::report(state, cov.as_ref()))
+    }
+
+    fn journal_figures(events: &[MappingEvent]) -> serde_json::Map<String, serde_json::Value> {
+        let mut m = serde_json::Map::new();
+        m.insert("journal_records".into(), events.len().into());
+        m
+    }
+
+    fn report_lines(r: &Self::Report) -> Vec<String> {
+        let mut lines = vec![
+            format!(
+                "  {} ({})",
+                r.phase,
+                if r.finished {
+                    "every robot landed"
+                } else {
+                    "not finished"
+                }
+            ),
+            format!(
+                "  map: {} runway cells, {} non-runway; tree {} vertices ({} explored, {} unexplored)",
+                r.cells_mapped,
+                r.negative_cells,
+                r.tree_vertices,
+                r.explored_vertices,
+                r.unexplored_vertices
+            ),
+            format!(
+                "  images: {} at cell centres ({} decisions), {} in the sweep, {} lost",
+                r.images, r.detections, r.sweep_images, r.image_failures
+            ),
+            format!(
+                "  flight: {:.0} s airborne, {:.0} m, {} battery swap(s)",
+                r.flight_time_s, r.distance_m, r.battery_swaps
+            ),
+        ];
+        for rb in &r.robots {
+            lines.push(format!(
+                "  vehicle {} at {:.1} m: {}, {:.0} s, {:.0} m, {} swap(s), {} images",
+                rb.sysid,
+                rb.altitude_m,
+                rb.status,
+                rb.flight_time_s,
+                rb.distance_m,
+                rb.battery_swaps,
+                rb.images
+            ));
+        }
+        if let Some(t) = &r.truth {
+            lines.push(format!(
+                "  vs ground truth: IoU {:.1} % (best possible on this grid {:.1} %, paper {:.1} %); \
+                 {} of {} region cells mapped; decisions: {} false positive(s), {} false negative(s) of {}",
+                100.0 * t.iou,
+                100.0 * t.iou_best_possible,
+                100.0 * t.paper_iou,
+                t.region_cells_mapped,
+                t.region_cells,
+                t.false_positives,
+                t.false_negatives,
+                r.detections
+            ));
+        }
+        lines
+    }
+
+    fn export(
+        state: &MappingState,
+        world: Option<&World>,
+        format: ExportFormat,
+    ) -> anyhow::Result<(&'static str, Vec<u8>)> {
+        let outlines = world.map(|w| truth_outlines(w, 0.0)).unwrap_or_default();
+        Ok(match format {
+            ExportFormat::Geojson => (
+                "map.geojson",
+                serde_json::to_vec_pretty(&report::geojson(state, &outlines))?,
+            ),
+            ExportFormat::Kml => ("map.kml", report::kml(state, &outlines).into_bytes()),
+            ExportFormat::Png => ("map.png", png_bytes(&report::png(state, &outlines))?),
+        })
+    }
+}

@@ -1,0 +1,234 @@
+//! `fleetmap run MISSION.toml --connect CONN`, `fleetmap resume RUN_DIR`,
+//! `fleetmap report RUN_DIR [--json]`, `fleetmap export RUN_DIR --format geojson|kml|png`.
+//!
+//! Both mission kinds: runway mapping ([`crate::app::runway`]) and spatial classification
+//! ([`crate::app::bandit`]), each a [`crate::app::kind::RunKind`]: the commands are written
+//! once (`flow`) and dispatch on the kind once — `run` on the mission file's, `resume`,
+//! `report` and `export` on the one in `run.json`.
+//!
+//! A run lives in its directory (`src/store`): `run.json` remembers the kind, the mission
+//! file and the connection strings, so `fleetmap resume RUN_DIR` needs nothing else after a
+//! battery swap or a crashed laptop. `--world FILE` (a simulated world) is remembered too:
+//! the report then scores the map against its ground truth.
+
+mod dir;
+mod flow;
+
+pub use dir::run_world;
+pub(crate) use dir::unix_ms;
+pub use flow::{drive, exports_on_finish, finish_exports, ui_session};
+
+use crate::app::bandit::Classification;
+use crate::app::kind::{self, Kind, RunSettings};
+use crate::app::runway::Runway;
+use crate::cli::vehicles::ConnectArgs;
+use crate::explore::Sharing;
+use crate::link::ConnSpec;
+use crate::mission::definition::MissionDef;
+use crate::store::RunDir;
+use anyhow::Context as _;
+use clap::{Args, ValueEnum};
+use std::path::{Path, PathBuf};
+use std::process::ExitCode;
+
+/// Options shared by `run` and `resume`.
+#[derive(Debug, Clone, Args)]
+pub struct RunnerArgs {
+    /// Run without the terminal UI: progress lines on stdout.
+    #[arg(long)]
+    pub headless: bool,
+    /// After a battery swap, take off again by itself as soon as the vehicle reports a fresh
+    /// battery (otherwise the operator confirms the swap: the TUI's `b`, or `fleetmap resume`).
+    #[arg(long)]
+    pub auto_resume: bool,
+    /// Wait this long for every mission vehicle's heartbeat (and the home position), seconds.
+    #[arg(long, value_name = "SECONDS", default_value_t = 60.0)]
+    pub wait: f64,
+    /// Scale every flight timeout (2 = twice as patient; for slow links or slow simulators).
+    #[arg(long, value_name = "FACTOR", default_value_t = 1.0)]
+    pub patience: f64,
+    /// How robots share the DFS vertex states: gcs (default; the GCS hears every robot) or
+    /// meet (the paper's model: only when robots meet).
+    #[arg(long, value_name = "MODE", default_value = "gcs")]
+    pub sharing: SharingArg,
+    /// Spatial classification: keep the drones in step (the paper's mid-cycle separation,
+    /// 7e) even when the mission separates them by altitude.
+    #[arg(long)]
+    pub lock_step: bool,
+    /// Spatial classification: HiGHS time limit per integer-program solve, seconds.
+    #[arg(long, value_name = "SECONDS")]
+    pub plan_time_limit: Option<f64>,
+}
+
+impl RunnerArgs {
+    /// The run settings these options choose.
+    pub fn settings(&self) -> RunSettings {
+        RunSettings {
+            auto_resume: self.auto_resume,
+            patience: self.patience,
+            sharing: self.sharing.into(),
+            lock_step: self.lock_step.then_some(true),
+            plan_time_limit_s: self.plan_time_limit,
+        }
+    }
+}
+
+/// `--sharing`.
+#[derive(Debug, Clone, Copy, ValueEnum)]
+pub enum SharingArg {
+    /// Through the GCS.
+    Gcs,
+    /// When robots meet.
+    Meet,
+}
+
+impl From<SharingArg> for Sharing {
+    fn from(s: SharingArg) -> Sharing {
+        match s {
+            SharingArg::Gcs => Sharing::Gcs,
+            SharingArg::Meet => Sharing::Meet,
+        }
+    }
+}
+
+/// Arguments of `fleetmap run`.
+#[derive(Debug, Args)]
+pub struct RunArgs {
+    /// The mission definition (TOML).
+    pub mission: PathBuf,
+    /// Connection options.
+    #[command(flatten)]
+    pub conn: ConnectArgs,
+    /// Runner options.
+    #[command(flatten)]
+    pub runner: RunnerArgs,
+    /// The run directory (must not exist or be empty). Default: runs/NAME-YYYYMMDD-HHMMSS.
+    #[arg(long, value_name = "DIR")]
+    pub run_dir: Option<PathBuf>,
+    /// The simulated world the vehicles fly over (ground truth for the report's IoU).
+    #[arg(long, value_name = "FILE")]
+    pub world: Option<PathBuf>,
+}
+
+/// Arguments of `fleetmap resume`.
+#[derive(Debug, Args)]
+pub struct ResumeArgs {
+    /// The run directory.
+    pub run_dir: PathBuf,
+    /// Connection strings (default: the ones the run was started with).
+    #[arg(long = "connect", value_name = "CONN")]
+    pub connect: Vec<ConnSpec>,
+    /// MAVLink 2 signing key file.
+    #[arg(long, value_name = "FILE")]
+    pub signing_key: Option<PathBuf>,
+    /// Record every frame to this .tlog file.
+    #[arg(long, value_name = "FILE")]
+    pub tlog: Option<PathBuf>,
+    /// Runner options.
+    #[command(flatten)]
+    pub runner: RunnerArgs,
+}
+
+/// Arguments of `fleetmap report`.
+#[derive(Debug, Args)]
+pub struct ReportArgs {
+    /// The run directory.
+    pub run_dir: PathBuf,
+    /// Print JSON.
+    #[arg(long)]
+    pub json: bool,
+    /// Score against this world (default: the one the run was started with, if any).
+    #[arg(long, value_name = "FILE")]
+    pub world: Option<PathBuf>,
+}
+
+/// `fleetmap export --format`.
+#[derive(Debug, Clone, Copy, ValueEnum, PartialEq, Eq)]
+pub enum ExportFormat {
+    /// GeoJSON FeatureCollection (QGIS).
+    Geojson,
+    /// KML (Google Earth).
+    Kml,
+    /// PNG: the grid (runway mapping, the runway paper's Fig. 10) or the classification
+    /// progress per epoch (spatial classification, the bandit paper's Fig. 4).
+    Png,
+}
+
+impl From<ExportFormat> for kind::ExportFormat {
+    fn from(f: ExportFormat) -> kind::ExportFormat {
+        match f {
+            ExportFormat::Geojson => kind::ExportFormat::Geojson,
+            ExportFormat::Kml => kind::ExportFormat::Kml,
+            ExportFormat::Png => kind::ExportFormat::Png,
+        }
+    }
+}
+
+/// Arguments of `fleetmap export`.
+#[derive(Debug, Args)]
+pub struct ExportArgs {
+    /// The run directory.
+    pub run_dir: PathBuf,
+    /// What to write.
+    #[arg(long, value_enum)]
+    pub format: ExportFormat,
+    /// Output file (default: RUN_DIR/exports/map.EXT).
+    #[arg(long, short, value_name = "FILE")]
+    pub out: Option<PathBuf>,
+    /// Ground-truth world for the outline (default: the run's).
+    #[arg(long, value_name = "FILE")]
+    pub world: Option<PathBuf>,
+}
+
+/// `fleetmap run`.
+pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
+    let text = std::fs::read_to_string(&args.mission)
+        .with_context(|| format!("cannot read {}", args.mission.display()))?;
+    let def = MissionDef::parse(&text, &args.mission.display().to_string())
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    match Kind::of_mission(&def) {
+        Kind::RunwayMapping => flow::start::<Runway>(args, def, text),
+        Kind::SpatialClassification => flow::start::<Classification>(args, def, text),
+    }
+}
+
+/// Open the run directory at `dir` and name its kind.
+fn open_run(dir: &Path) -> anyhow::Result<(RunDir, Kind)> {
+    let run_dir =
+        RunDir::open(dir).with_context(|| format!("cannot open the run {}", dir.display()))?;
+    let kind = Kind::of_run(run_dir.meta()).with_context(|| format!("{}", dir.display()))?;
+    Ok((run_dir, kind))
+}
+
+/// `fleetmap resume`.
+pub fn resume(args: ResumeArgs) -> anyhow::Result<ExitCode> {
+    let (run_dir, kind) = open_run(&args.run_dir)?;
+    if let Some(t) = run_dir.torn_tail_at_open() {
+        println!(
+            "note: the journal's last record was cut short by the crash ({} bytes at line {}); it was never acknowledged and is dropped",
+            t.len, t.line
+        );
+    }
+    match kind {
+        Kind::RunwayMapping => flow::resume::<Runway>(args, run_dir),
+        Kind::SpatialClassification => flow::resume::<Classification>(args, run_dir),
+    }
+}
+
+/// `fleetmap report`.
+pub fn report_cmd(args: ReportArgs) -> anyhow::Result<ExitCode> {
+    let (run_dir, kind) = open_run(&args.run_dir)?;
+    match kind {
+        Kind::RunwayMapping => flow::report::<Runway>(args, run_dir),
+        Kind::SpatialClassification => flow::report::<Classification>(args, run_dir),
+    }
+}
+
+/// `fleetmap export`.
+pub fn export(args: ExportArgs) -> anyhow::Result<ExitCode> {
+    let (run_dir, kind) = open_run(&args.run_dir)?;
+    match kind {
+        Kind::RunwayMapping => flow::export::<Runway>(args, run_dir),
+        Kind::SpatialClassification => flow::export::<Classification>(args, run_dir),
+    }
+}
