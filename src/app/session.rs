@@ -231,23 +231,31 @@ pub async fn run(
     let (op_tx, op_rx) = mpsc::unbounded_channel::<Operator>();
     let (pause_tx, pause_rx) = watch::channel(false);
     let (start_tx, start_rx) = tokio::sync::oneshot::channel::<()>();
-    let kind = mission
-        .as_ref()
-        .map(|m| matches!(m, SessionRun::Mapping(_)));
-    let has_run = kind.is_some();
-    let classification = kind == Some(false);
-    let mut start_tx = Some(start_tx);
+    let mut controls = Controls {
+        kind: mission.as_ref().map(|m| match m {
+            SessionRun::Mapping(_) => AttachedKind::Mapping,
+            SessionRun::Classification(_) => AttachedKind::Classification,
+        }),
+        start: Some(start_tx),
+        operator: op_tx,
+        pause: pause_tx,
+    };
 
     // The runner.
     let runner = mission.map(|m| {
         let _ = view_tx.send(Some(m.view()));
         if m.auto_start()
-            && let Some(tx) = start_tx.take()
+            && let Some(tx) = controls.start.take()
         {
             let _ = tx.send(());
         }
         let fleet = fleet.clone();
         let shared = shared.clone();
+        let channels = RunChannels {
+            view: view_tx,
+            operator: op_rx,
+            pause: pause_rx,
+        };
         tokio::spawn(async move {
             if start_rx.await.is_err() {
                 return;
@@ -267,122 +275,8 @@ pub async fn run(
                     }
                 })
             };
-            let (result, relay) = match m {
-                SessionRun::Mapping(m) => {
-                    let m = *m;
-                    let hub = images::spawn(&fleet);
-                    let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
-                    let relay = tokio::spawn(async move {
-                        while vrx.changed().await.is_ok() {
-                            let s = vrx.borrow_and_update().clone();
-                            let _ = view_tx.send(Some(RunState::Mapping(s)));
-                        }
-                    });
-                    let path = m.run_dir.path().to_path_buf();
-                    let opts = RunOptions {
-                        operator: Some(op_rx),
-                        progress: Some(ptx),
-                        view: Some(vtx),
-                        ..m.options
-                    };
-                    let r = runway::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
-                    let r = match r {
-                        Ok(Outcome::Finished) => {
-                            // The outputs are file I/O: off the runtime workers.
-                            let at = path.clone();
-                            let on_finish = m.on_finish;
-                            let _ = runway::cpu(move || {
-                                if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at))
-                                    && let Ok(Some(state)) = rd.load_state::<MappingState>()
-                                {
-                                    f(&rd, &state);
-                                }
-                            })
-                            .await;
-                            Ok(None)
-                        }
-                        Ok(Outcome::WaitingForOperator { sysids }) => {
-                            Ok(Some(format!("vehicles {sysids:?} wait for the operator")))
-                        }
-                        Err(e) => Err(e),
-                    };
-                    ((r, path), relay)
-                }
-                SessionRun::Classification(m) => {
-                    let m = *m;
-                    let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
-                    let relay = tokio::spawn(async move {
-                        while vrx.changed().await.is_ok() {
-                            let s = vrx.borrow_and_update().clone();
-                            let _ = view_tx.send(Some(RunState::Classification(s)));
-                        }
-                    });
-                    let path = m.run_dir.path().to_path_buf();
-                    let opts = bandit::RunOptions {
-                        progress: Some(ptx),
-                        view: Some(vtx),
-                        pause: Some(pause_rx),
-                        ..m.options
-                    };
-                    let hub = crate::app::images::image_hub(&fleet);
-                    let r = bandit::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
-                    let r = match r {
-                        Ok(state) => {
-                            // The outputs are file I/O: off the runtime workers.
-                            let at = path.clone();
-                            let on_finish = m.on_finish;
-                            let _ = runway::cpu(move || {
-                                if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at)) {
-                                    f(&rd, &state);
-                                }
-                            })
-                            .await;
-                            Ok(None)
-                        }
-                        Err(e) => Err(e),
-                    };
-                    ((r, path), relay)
-                }
-            };
-            let (result, path) = result;
-            let now = fleet.clock().now();
-            match result {
-                Ok(None) => {
-                    if let Ok(mut f) = shared.finished.lock() {
-                        *f = true;
-                    }
-                    let msg = format!(
-                        "mission finished: every vehicle landed; results in {}",
-                        path.display()
-                    );
-                    if let Ok(mut l) = shared.log.lock() {
-                        l.push(now, Severity::Notice, None, msg);
-                    }
-                }
-                Ok(Some(waiting)) => {
-                    if let Ok(mut l) = shared.log.lock() {
-                        l.push(now, Severity::Warning, None, waiting);
-                    }
-                }
-                Err(e) => {
-                    let msg = format!("{e:#}");
-                    tracing::error!("the run stopped: {msg}");
-                    if let Ok(mut i) = shared.info.lock() {
-                        i.failed = Some(msg.clone());
-                    }
-                    if let Ok(mut l) = shared.log.lock() {
-                        l.push(
-                            now,
-                            Severity::Error,
-                            None,
-                            format!(
-                                "the run stopped: {msg} (state saved; `fleetmap resume {}`)",
-                                path.display()
-                            ),
-                        );
-                    }
-                }
-            }
+            let (result, path, relay) = drive_run(m, fleet.clone(), ptx, channels).await;
+            log_end(&shared, fleet.clock().now(), result, &path);
             tokio::time::sleep(Duration::from_millis(300)).await;
             logger.abort();
             relay.abort();
@@ -400,113 +294,7 @@ pub async fn run(
         let shared = shared.clone();
         tokio::spawn(async move {
             while let Some(req) = cmd_rx.recv().await {
-                let started = shared.info.lock().map(|i| i.started).unwrap_or(false);
-                let running = has_run && started;
-                // Runway mapping: mission-level commands go through the runner.
-                let mapping = running && !classification;
-                let set_paused = |p: bool| {
-                    if let Ok(mut i) = shared.info.lock() {
-                        i.paused = p;
-                    }
-                };
-                let fleet = fleet.clone();
-                let targets: Vec<u8> = match req.target {
-                    Target::Vehicle(v) => vec![v],
-                    Target::All => fleet.snapshot().vehicles.keys().copied().collect(),
-                };
-                let outcome: Result<String, String> = match req.command {
-                    Command::Start => {
-                        if !has_run {
-                            Err(
-                                "no mission is loaded (start fleetmap with --mission or --resume)"
-                                    .into(),
-                            )
-                        } else if let Some(tx) = start_tx.take() {
-                            let _ = tx.send(());
-                            Ok("mission started".into())
-                        } else {
-                            Err("the mission is already running".into())
-                        }
-                    }
-                    Command::Hold
-                        if running && classification && matches!(req.target, Target::All) =>
-                    {
-                        let _ = pause_tx.send(true);
-                        set_paused(true);
-                        Ok(
-                            "paused: no new sortie starts (drones in the air finish theirs \
-                            and land on their stations)"
-                                .into(),
-                        )
-                    }
-                    Command::Resume if running && classification => {
-                        let _ = pause_tx.send(false);
-                        set_paused(false);
-                        Ok("mission resumed".into())
-                    }
-                    Command::Hold if mapping => {
-                        let _ = op_tx.send(Operator::Pause);
-                        set_paused(true);
-                        Ok("every vehicle holds (the mission is paused)".into())
-                    }
-                    Command::Resume if mapping => {
-                        let _ = op_tx.send(Operator::Resume);
-                        set_paused(false);
-                        Ok("mission resumed".into())
-                    }
-                    Command::Resume => Err("no mission is running (START it first)".into()),
-                    Command::Rtl if mapping => {
-                        for v in &targets {
-                            let _ = op_tx.send(Operator::Recall(*v));
-                        }
-                        Ok(format!(
-                            "returning home: {targets:?} (their vertices are kept)"
-                        ))
-                    }
-                    Command::Land if mapping => {
-                        for v in &targets {
-                            let _ = op_tx.send(Operator::Land(*v));
-                        }
-                        Ok(format!("landing: {targets:?} (their vertices are kept)"))
-                    }
-                    Command::BatterySwapped => {
-                        if mapping {
-                            for v in &targets {
-                                let _ = op_tx.send(Operator::BatterySwapped(*v));
-                            }
-                            Ok("the vehicle resumes from its vertex".into())
-                        } else if running {
-                            Err(
-                                "the drones of a spatial-classification run charge on their \
-                                 stations: there is no battery swap to confirm"
-                                    .into(),
-                            )
-                        } else {
-                            Err("no mission is running".into())
-                        }
-                    }
-                    cmd => {
-                        let mut errors = Vec::new();
-                        for v in &targets {
-                            let r = match cmd {
-                                Command::Hold => flight::hold_here(&fleet, *v).await,
-                                Command::Rtl => fleet.rtl(*v).await,
-                                Command::Land => fleet.land(*v).await,
-                                Command::Arm => fleet.arm(*v).await,
-                                Command::Disarm => fleet.disarm(*v).await,
-                                _ => Ok(()),
-                            };
-                            if let Err(e) = r {
-                                errors.push(e.to_string());
-                            }
-                        }
-                        if errors.is_empty() {
-                            Ok("accepted".into())
-                        } else {
-                            Err(errors.join("; "))
-                        }
-                    }
-                };
+                let outcome = execute(&req, &mut controls, &fleet, &shared).await;
                 if result_tx
                     .send(JobResult {
                         id: req.id,
@@ -545,6 +333,285 @@ pub async fn run(
     }
     result?;
     Ok(SessionEnd::Quit { finished })
+}
+
+/// The kind of run attached to the session (what its mission-level commands mean).
+#[derive(Clone, Copy, PartialEq, Eq)]
+enum AttachedKind {
+    Mapping,
+    Classification,
+}
+
+/// What the command executor holds of the attached run.
+struct Controls {
+    /// The attached run's kind (`None`: the session has no run).
+    kind: Option<AttachedKind>,
+    /// The operator's START, until it is given.
+    start: Option<tokio::sync::oneshot::Sender<()>>,
+    /// Mission-level commands to the runway runner.
+    operator: mpsc::UnboundedSender<Operator>,
+    /// The spatial-classification runner's pause.
+    pause: watch::Sender<bool>,
+}
+
+/// What the runner task takes from the session: where to publish the view, and the
+/// operator's channels.
+struct RunChannels {
+    view: watch::Sender<Option<RunState>>,
+    operator: mpsc::UnboundedReceiver<Operator>,
+    pause: watch::Receiver<bool>,
+}
+
+/// Fly the attached run to its end (its final state goes to `on_finish`, off the runtime's
+/// workers). Returns `Ok(None)` when it finished, `Ok(Some(why))` when it waits for the
+/// operator, its run directory, and the task relaying its states to the view.
+async fn drive_run(
+    m: SessionRun,
+    fleet: FleetHandle,
+    progress: mpsc::UnboundedSender<Progress>,
+    channels: RunChannels,
+) -> (
+    anyhow::Result<Option<String>>,
+    std::path::PathBuf,
+    tokio::task::JoinHandle<()>,
+) {
+    let RunChannels {
+        view: view_tx,
+        operator,
+        pause,
+    } = channels;
+    match m {
+        SessionRun::Mapping(m) => {
+            let m = *m;
+            let hub = images::spawn(&fleet);
+            let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
+            let relay = tokio::spawn(async move {
+                while vrx.changed().await.is_ok() {
+                    let s = vrx.borrow_and_update().clone();
+                    let _ = view_tx.send(Some(RunState::Mapping(s)));
+                }
+            });
+            let path = m.run_dir.path().to_path_buf();
+            let opts = RunOptions {
+                operator: Some(operator),
+                progress: Some(progress),
+                view: Some(vtx),
+                ..m.options
+            };
+            let r = runway::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
+            let r = match r {
+                Ok(Outcome::Finished) => {
+                    // The outputs are file I/O: off the runtime workers.
+                    let at = path.clone();
+                    let on_finish = m.on_finish;
+                    let _ = runway::cpu(move || {
+                        if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at))
+                            && let Ok(Some(state)) = rd.load_state::<MappingState>()
+                        {
+                            f(&rd, &state);
+                        }
+                    })
+                    .await;
+                    Ok(None)
+                }
+                Ok(Outcome::WaitingForOperator { sysids }) => {
+                    Ok(Some(format!("vehicles {sysids:?} wait for the operator")))
+                }
+                Err(e) => Err(e),
+            };
+            (r, path, relay)
+        }
+        SessionRun::Classification(m) => {
+            let m = *m;
+            let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
+            let relay = tokio::spawn(async move {
+                while vrx.changed().await.is_ok() {
+                    let s = vrx.borrow_and_update().clone();
+                    let _ = view_tx.send(Some(RunState::Classification(s)));
+                }
+            });
+            let path = m.run_dir.path().to_path_buf();
+            let opts = bandit::RunOptions {
+                progress: Some(progress),
+                view: Some(vtx),
+                pause: Some(pause),
+                ..m.options
+            };
+            let hub = crate::app::images::image_hub(&fleet);
+            let r = bandit::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
+            let r = match r {
+                Ok(state) => {
+                    // The outputs are file I/O: off the runtime workers.
+                    let at = path.clone();
+                    let on_finish = m.on_finish;
+                    let _ = runway::cpu(move || {
+                        if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at)) {
+                            f(&rd, &state);
+                        }
+                    })
+                    .await;
+                    Ok(None)
+                }
+                Err(e) => Err(e),
+            };
+            (r, path, relay)
+        }
+    }
+}
+
+/// Tell the operator how the run ended (the log; the title bar for a failure).
+fn log_end(
+    shared: &Shared,
+    now: crate::time::Time,
+    result: anyhow::Result<Option<String>>,
+    path: &std::path::Path,
+) {
+    let (severity, line) = match result {
+        Ok(None) => {
+            if let Ok(mut f) = shared.finished.lock() {
+                *f = true;
+            }
+            (
+                Severity::Notice,
+                format!(
+                    "mission finished: every vehicle landed; results in {}",
+                    path.display()
+                ),
+            )
+        }
+        Ok(Some(waiting)) => (Severity::Warning, waiting),
+        Err(e) => {
+            let msg = format!("{e:#}");
+            tracing::error!("the run stopped: {msg}");
+            if let Ok(mut i) = shared.info.lock() {
+                i.failed = Some(msg.clone());
+            }
+            (
+                Severity::Error,
+                format!(
+                    "the run stopped: {msg} (state saved; `fleetmap resume {}`)",
+                    path.display()
+                ),
+            )
+        }
+    };
+    if let Ok(mut l) = shared.log.lock() {
+        l.push(now, severity, None, line);
+    }
+}
+
+/// Carry out one operator command: mission-level ones through the runner, vehicle-level ones
+/// through the fleet. Returns what to tell the operator.
+async fn execute(
+    req: &CommandRequest,
+    controls: &mut Controls,
+    fleet: &FleetHandle,
+    shared: &Shared,
+) -> Result<String, String> {
+    let started = shared.info.lock().map(|i| i.started).unwrap_or(false);
+    let has_run = controls.kind.is_some();
+    let running = has_run && started;
+    let classification = controls.kind == Some(AttachedKind::Classification);
+    // Runway mapping: mission-level commands go through the runner.
+    let mapping = running && !classification;
+    let set_paused = |p: bool| {
+        if let Ok(mut i) = shared.info.lock() {
+            i.paused = p;
+        }
+    };
+    let targets: Vec<u8> = match req.target {
+        Target::Vehicle(v) => vec![v],
+        Target::All => fleet.snapshot().vehicles.keys().copied().collect(),
+    };
+    let op = &controls.operator;
+    match req.command {
+        Command::Start => {
+            if !has_run {
+                Err("no mission is loaded (start fleetmap with --mission or --resume)".into())
+            } else if let Some(tx) = controls.start.take() {
+                let _ = tx.send(());
+                Ok("mission started".into())
+            } else {
+                Err("the mission is already running".into())
+            }
+        }
+        Command::Hold if running && classification && matches!(req.target, Target::All) => {
+            let _ = controls.pause.send(true);
+            set_paused(true);
+            Ok(
+                "paused: no new sortie starts (drones in the air finish theirs and land on \
+                 their stations)"
+                    .into(),
+            )
+        }
+        Command::Resume if running && classification => {
+            let _ = controls.pause.send(false);
+            set_paused(false);
+            Ok("mission resumed".into())
+        }
+        Command::Hold if mapping => {
+            let _ = op.send(Operator::Pause);
+            set_paused(true);
+            Ok("every vehicle holds (the mission is paused)".into())
+        }
+        Command::Resume if mapping => {
+            let _ = op.send(Operator::Resume);
+            set_paused(false);
+            Ok("mission resumed".into())
+        }
+        Command::Resume => Err("no mission is running (START it first)".into()),
+        Command::Rtl if mapping => {
+            for v in &targets {
+                let _ = op.send(Operator::Recall(*v));
+            }
+            Ok(format!(
+                "returning home: {targets:?} (their vertices are kept)"
+            ))
+        }
+        Command::Land if mapping => {
+            for v in &targets {
+                let _ = op.send(Operator::Land(*v));
+            }
+            Ok(format!("landing: {targets:?} (their vertices are kept)"))
+        }
+        Command::BatterySwapped => {
+            if mapping {
+                for v in &targets {
+                    let _ = op.send(Operator::BatterySwapped(*v));
+                }
+                Ok("the vehicle resumes from its vertex".into())
+            } else if running {
+                Err(
+                    "the drones of a spatial-classification run charge on their stations: \
+                     there is no battery swap to confirm"
+                        .into(),
+                )
+            } else {
+                Err("no mission is running".into())
+            }
+        }
+        cmd => {
+            let mut errors = Vec::new();
+            for v in &targets {
+                let r = match cmd {
+                    Command::Hold => flight::hold_here(fleet, *v).await,
+                    Command::Rtl => fleet.rtl(*v).await,
+                    Command::Land => fleet.land(*v).await,
+                    Command::Arm => fleet.arm(*v).await,
+                    Command::Disarm => fleet.disarm(*v).await,
+                    _ => Ok(()),
+                };
+                if let Err(e) = r {
+                    errors.push(e.to_string());
+                }
+            }
+            if errors.is_empty() {
+                Ok("accepted".into())
+            } else {
+                Err(errors.join("; "))
+            }
+        }
+    }
 }
 
 #[cfg(test)]
