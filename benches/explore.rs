@@ -50,6 +50,7 @@ fn lawnmower(c: &mut Criterion) {
         speed_mps: 1.0,
         heading: HeadingPolicy::Any,
         position_tolerance_m: 1.0,
+        lane_spacing_m: None,
         hold_s: 0.0,
         return_to_launch: true,
     };

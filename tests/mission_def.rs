@@ -257,6 +257,65 @@ cols = 3
     assert_eq!(d.flight.altitude_separation_m, 0.0);
     assert_eq!(d.camera, fleetmap::vision::camera::CameraModel::paper());
     assert!(d.area.roads_are_candidates);
+    assert_eq!(
+        (
+            d.battery.descent_rate_m_s,
+            d.battery.landing_margin_s,
+            d.battery.fresh_pct,
+            d.battery.fresh_after_reboot_pct
+        ),
+        (1.0, 30.0, 95.0, 90.0)
+    );
+}
+
+/// The sweep and battery keys that used to be constants are read, checked, and reach the
+/// runway state (lanes and the battery estimate).
+#[test]
+fn sweep_and_battery_keys_are_read_checked_and_used() {
+    use fleetmap::explore::Sharing;
+    use fleetmap::explore::mapping::MappingState;
+    let base = std::fs::read_to_string(root().join("missions/runway-field-test.toml")).unwrap();
+    let with = |runway: &str, battery: &str| {
+        // Each table's header line ends in a comment: the keys go on the lines after it.
+        base.replace("[runway]", &format!("[runway]\n{runway}\n#"))
+            .replace("[battery]", &format!("[battery]\n{battery}\n#"))
+    };
+    // The field test's origin is the first vehicle's home: put it at the paper's runway.
+    let grid = |d: &MissionDef| {
+        let origin = fleetmap::geo::LatLon {
+            lat: 37.1966,
+            lon: -80.5785,
+        };
+        fleetmap::geo::Grid::new(origin, d.grid.cell_size_m).unwrap()
+    };
+    let plain = MissionDef::parse(&base, "plain.toml").unwrap();
+    let s0 = MappingState::new(&plain, grid(&plain), Sharing::Gcs).unwrap();
+    let text = with(
+        "lane_spacing_m = 4.0\nsweep_position_tolerance_m = 0.5",
+        "descent_rate_m_s = 0.5\nlanding_margin_s = 60\nfresh_pct = 98",
+    );
+    let d = MissionDef::parse(&text, "keys.toml").unwrap();
+    assert_eq!(d.runway.as_ref().unwrap().lane_spacing_m, Some(4.0));
+    let s = MappingState::new(&d, grid(&d), Sharing::Gcs).unwrap();
+    assert!(
+        s.sweeps[0].lanes > s0.sweeps[0].lanes,
+        "narrower lanes, more of them"
+    );
+    assert!(s.sweeps[0].spacing.across_m <= 4.0 + 1e-9);
+    // 12 m at 0.5 m/s instead of 1 m/s, and 30 s more margin: 42 s more of a 720 s battery.
+    let more = s.battery_needed_pct(0.0, 12.0) - s0.battery_needed_pct(0.0, 12.0);
+    assert!((more - 100.0 * 42.0 / 720.0).abs() < 1e-9, "{more}");
+    assert!(!s.params.battery.is_fresh(97.0, false) && s.params.battery.is_fresh(98.0, false));
+    // A spacing with gaps, and out-of-range values, are clear errors.
+    let gapped = MissionDef::parse(&with("lane_spacing_m = 20.0", ""), "gap.toml").unwrap();
+    let err = MappingState::new(&gapped, grid(&gapped), Sharing::Gcs)
+        .unwrap_err()
+        .to_string();
+    assert!(err.contains("leaves gaps"), "{err}");
+    let bad = with("sweep_heading_error_deg = 50", "fresh_pct = 0");
+    let errs = MissionDef::parse(&bad, "bad.toml").unwrap_err().to_string();
+    assert!(errs.contains("runway.sweep_heading_error_deg"), "{errs}");
+    assert!(errs.contains("battery.fresh_pct"), "{errs}");
 }
 
 // ---- serde agrees with the reader ------------------------------------------------------

@@ -175,6 +175,10 @@ pub struct LawnmowerConfig {
     pub heading: HeadingPolicy,
     /// Worst distance between a waypoint and where the image is taken, metres.
     pub position_tolerance_m: f64,
+    /// The distance between lanes, metres (`None`: the widest that leaves no gap, per
+    /// robot, from [`capture_spacing`]). Wider than that is refused: it would leave gaps.
+    #[serde(default)]
+    pub lane_spacing_m: Option<f64>,
     /// Seconds to hold at each capture waypoint (0: fly through).
     pub hold_s: f64,
     /// End each mission with RETURN_TO_LAUNCH (the sweep found nothing).
@@ -242,8 +246,27 @@ where
     let spacings = cfg
         .altitudes_m
         .iter()
-        .map(|&a| capture_spacing(&cfg.camera, a, cfg.heading, cfg.position_tolerance_m))
-        .collect::<Result<Vec<_>, _>>()?;
+        .map(|&a| {
+            let mut s = capture_spacing(&cfg.camera, a, cfg.heading, cfg.position_tolerance_m)?;
+            if let Some(l) = cfg.lane_spacing_m {
+                if !(l.is_finite() && l > 0.0) {
+                    return Err(ExploreError::Lawnmower(format!(
+                        "lane spacing {l} m must be positive"
+                    )));
+                }
+                if l > s.across_m + 1e-9 {
+                    return Err(ExploreError::Lawnmower(format!(
+                        "a lane spacing of {l} m leaves gaps between the lanes: at {a} m the \
+                         camera covers at most {:.2} m across without one (heading {:?}, \
+                         position tolerance {} m)",
+                        s.across_m, cfg.heading, cfg.position_tolerance_m
+                    )));
+                }
+                s.across_m = l;
+            }
+            Ok(s)
+        })
+        .collect::<Result<Vec<_>, ExploreError>>()?;
     let ns = b.height() >= b.width();
     // (across, along) extents in metres, and a mapping back to (east, north).
     let (across0, across_len, along0, along_len) = if ns {
@@ -362,6 +385,7 @@ mod tests {
             speed_mps: 1.0,
             heading,
             position_tolerance_m: 1.0,
+            lane_spacing_m: None,
             hold_s: 0.0,
             return_to_launch: true,
         }
@@ -514,5 +538,23 @@ mod tests {
         assert!(s.captures[1].0 > s.captures[0].0);
         let last = s.captures.len() - 1;
         assert!(s.captures[last].0 < s.captures[last - 1].0);
+    }
+
+    #[test]
+    fn a_given_lane_spacing_is_flown_and_a_gapped_one_refused() {
+        // The paper's camera at 12 m: a 12 m footprint, 1 m tolerance → 10 m / √2 = 7.07 m.
+        let cam = CameraModel::paper();
+        let widest = capture_spacing(&cam, 12.0, HeadingPolicy::Any, 1.0).unwrap();
+        assert!((widest.across_m - 5.0 * std::f64::consts::SQRT_2).abs() < 1e-9);
+        let auto = plan(&cfg(vec![12.0], HeadingPolicy::Any), latlon).unwrap();
+        let mut c = cfg(vec![12.0], HeadingPolicy::Any);
+        c.lane_spacing_m = Some(4.0);
+        let narrow = plan(&c, latlon).unwrap();
+        assert!(narrow[0].spacing.across_m <= 4.0 + 1e-9);
+        assert!(narrow[0].lanes > auto[0].lanes);
+        assert_covered(&narrow, &cam, &[0.0, 45.0, 90.0], 1.0);
+        c.lane_spacing_m = Some(12.0);
+        let err = plan(&c, latlon).unwrap_err().to_string();
+        assert!(err.contains("leaves gaps") && err.contains("7.07"), "{err}");
     }
 }

@@ -1,10 +1,12 @@
 //! Camera footprint geometry for a downward-facing pinhole camera.
 //!
-//! The runway paper (§7) flies at 12 m so that the centre ninth of each image covers one
-//! 4 m × 4 m cell: the full footprint is then 12 m × 12 m, which is a field of view of
-//! 2·atan(6/12) = 53.13° across both image axes. [`CameraModel::paper`] is that camera;
-//! the paper's GoPro images were cropped to this view, which is the deviation we make
-//! explicit by modelling the camera as square.
+//! The runway paper (§7) flies at 12 m so that the centre region of the image's 3 × 3 split
+//! covers one 4 m × 4 m cell: the full footprint is then 12 m × 12 m, which is a field of
+//! view of 2·atan(6/12) = 53.13° across both image axes. [`CameraModel::paper`] is that
+//! camera. The paper does not give its GoPro HERO4's field of view or aspect ratio (a
+//! HERO4's is wider and 4:3 or 16:9); a square footprint is its §3 model of the sensor, and
+//! the classifier crops every picture to the 3 × 3 cells around its centre
+//! ([`crate::app::crop`]), so a wider real camera measures the same cells.
 
 use super::VisionError;
 use serde::{Deserialize, Serialize};

@@ -382,12 +382,12 @@ impl Pilot {
                 .lock()
                 .map(|mut s| s.remove(&sysid))
                 .unwrap_or(false);
+            let rules = self.shared.read(|s| s.params.battery.clone()).await;
             let fresh = self.vehicle().is_some_and(|v| {
                 let rebooted = reboots_at.is_none_or(|r| v.reboots > r);
                 v.alive
                     && v.battery_pct
-                        .is_some_and(|p| p >= 95 || (rebooted && p >= 90))
-                    && (rebooted || v.battery_pct.is_some_and(|p| p >= 95))
+                        .is_some_and(|p| rules.is_fresh(f64::from(p), rebooted))
             });
             // A faulty camera waits for the operator: a fresh battery does not repair it.
             let auto = self.shared.auto_resume && self.camera_fault_now().await.is_none();

@@ -13,15 +13,15 @@ impl Pilot {
             .shared
             .read(|s| {
                 let sw = s.sweep_of(sysid).ok().cloned();
-                let r = s.robot(sysid).ok().cloned();
-                (
+                let r = s.robot(sysid).cloned()?;
+                Ok::<_, MappingError>((
                     sw.map(|w| w.items).unwrap_or_default(),
-                    r.as_ref().map(|r| r.altitude_m).unwrap_or(12.0),
+                    r.altitude_m,
                     s.params.speed_m_s,
-                    r.and_then(|r| r.sweep_item),
-                )
+                    r.sweep_item,
+                ))
             })
-            .await;
+            .await?;
         let v = self
             .vehicle()
             .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;

@@ -86,6 +86,49 @@ pub struct MappingParams {
     pub rtl_reserve_pct: f64,
     /// How the robots share vertex states.
     pub sharing: Sharing,
+    /// The mission's return and swap rules (`[battery]`); a state saved before they were
+    /// mission keys reads the values they had as constants (the keys' defaults).
+    #[serde(default)]
+    pub battery: BatteryRules,
+}
+
+/// How the runner judges a drone's charge (the `[battery]` keys of the same names; see
+/// [`crate::mission::definition::BatteryDef`] for where each default comes from).
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+pub struct BatteryRules {
+    /// Descent rate assumed on the way home, m/s.
+    pub descent_rate_m_s: f64,
+    /// Seconds added for the approach, the landing and wind.
+    pub landing_margin_s: f64,
+    /// Charge at which a swapped drone counts as fresh, percent.
+    pub fresh_pct: f64,
+    /// The same after the autopilot rebooted since it landed, percent.
+    pub fresh_after_reboot_pct: f64,
+}
+
+impl From<&crate::mission::definition::BatteryDef> for BatteryRules {
+    fn from(b: &crate::mission::definition::BatteryDef) -> BatteryRules {
+        BatteryRules {
+            descent_rate_m_s: b.descent_rate_m_s,
+            landing_margin_s: b.landing_margin_s,
+            fresh_pct: b.fresh_pct,
+            fresh_after_reboot_pct: b.fresh_after_reboot_pct,
+        }
+    }
+}
+
+impl Default for BatteryRules {
+    fn default() -> Self {
+        BatteryRules::from(&crate::mission::definition::BatteryDef::default())
+    }
+}
+
+impl BatteryRules {
+    /// Whether a drone reporting `pct` percent has a fresh battery (`rebooted`: its
+    /// autopilot restarted since it landed, so the pack was unplugged).
+    pub fn is_fresh(&self, pct: f64, rebooted: bool) -> bool {
+        pct >= self.fresh_pct || (rebooted && pct >= self.fresh_after_reboot_pct)
+    }
 }
 
 /// Where the run is.
@@ -366,8 +409,12 @@ impl MappingState {
             camera: def.camera,
             altitudes_m: robots.iter().map(|r| r.altitude_m).collect(),
             speed_mps: def.flight.speed_m_s,
-            heading: HeadingPolicy::Any,
-            position_tolerance_m: 1.0,
+            heading: match rw.sweep_heading_error_deg {
+                None => HeadingPolicy::Any,
+                Some(max_error_deg) => HeadingPolicy::AlongTrack { max_error_deg },
+            },
+            position_tolerance_m: rw.sweep_position_tolerance_m,
+            lane_spacing_m: rw.lane_spacing_m,
             hold_s: 0.0,
             return_to_launch: false,
         };
@@ -390,6 +437,7 @@ impl MappingState {
                 flight_time_min: def.battery.flight_time_min,
                 rtl_reserve_pct: def.battery.rtl_reserve_pct,
                 sharing,
+                battery: BatteryRules::from(&def.battery),
             },
             phase: Phase::Sweep,
             robots,
@@ -541,13 +589,16 @@ impl MappingState {
     }
 
     /// Battery percentage `sysid` needs to get home from `distance_home_m` away at
-    /// `altitude_m` and land, plus the reserve: flight time home at the cruise speed, a
-    /// descent at 1 m/s, and 30 s of margin (approach, landing, wind), as a share of the
-    /// endurance.
+    /// `altitude_m` and land, plus the reserve: flight time home at the cruise speed, the
+    /// descent at `battery.descent_rate_m_s`, and `battery.landing_margin_s` (approach,
+    /// landing, wind), as a share of the endurance.
     pub fn battery_needed_pct(&self, distance_home_m: f64, altitude_m: f64) -> f64 {
         let p = &self.params;
+        let b = &p.battery;
         let endurance_s = (p.flight_time_min * 60.0).max(1.0);
-        let home_s = distance_home_m.max(0.0) / p.speed_m_s.max(0.1) + altitude_m.max(0.0) + 30.0;
+        let home_s = distance_home_m.max(0.0) / p.speed_m_s.max(0.1)
+            + altitude_m.max(0.0) / b.descent_rate_m_s.max(0.01)
+            + b.landing_margin_s.max(0.0);
         p.rtl_reserve_pct + 100.0 * home_s / endurance_s
     }
 }

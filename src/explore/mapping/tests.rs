@@ -108,6 +108,13 @@ fn sweep_detection_confirmation_and_dfs_to_the_end() {
     let back: MappingState = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
     assert_eq!(back.book, s.book);
     assert_eq!(back.phase, s.phase);
+    assert!(s.explorer.is_some(), "the DFS ran");
+    assert_eq!(
+        back.explorer, s.explorer,
+        "the DFS tree and the robots' places"
+    );
+    assert_eq!(back.robots, s.robots);
+    assert_eq!(back.params, s.params);
 }
 
 #[test]

@@ -178,6 +178,26 @@ pub struct BatteryDef {
     /// Our choice (20 %); the papers do not give one.
     #[serde(default = "default_rtl_reserve_pct")]
     pub rtl_reserve_pct: f64,
+    /// Descent rate assumed when estimating the charge a drone needs to get home and land,
+    /// m/s. 1 m/s lies between the autopilots' defaults: ArduCopter descends at
+    /// `WPNAV_SPEED_DN` = 1.5 m/s to `LAND_ALT_LOW` and at `LAND_SPEED` = 0.5 m/s below it;
+    /// PX4 lands at `MPC_LAND_SPEED` = 0.7 m/s.
+    #[serde(default = "default_descent_rate_m_s")]
+    pub descent_rate_m_s: f64,
+    /// Seconds added to that estimate for the approach, the landing and wind. Our choice
+    /// (30 s); the runway paper does not give one.
+    #[serde(default = "default_landing_margin_s")]
+    pub landing_margin_s: f64,
+    /// After a battery swap, a drone resumes by itself (with `--auto-resume`) once it
+    /// reports at least this charge, percent. Our choice (95 %): a freshly charged LiPo
+    /// reads 95–100 %, one that flew a leg reads less.
+    #[serde(default = "default_fresh_pct")]
+    pub fresh_pct: f64,
+    /// The same once the autopilot has rebooted since it landed (the battery was
+    /// unplugged, so it is another pack), percent. Our choice (90 %): a fresh pack's
+    /// voltage-based estimate can start a few percent low.
+    #[serde(default = "default_fresh_after_reboot_pct")]
+    pub fresh_after_reboot_pct: f64,
 }
 
 fn default_flight_time_min() -> f64 {
@@ -186,12 +206,28 @@ fn default_flight_time_min() -> f64 {
 fn default_rtl_reserve_pct() -> f64 {
     20.0
 }
+fn default_descent_rate_m_s() -> f64 {
+    1.0
+}
+fn default_landing_margin_s() -> f64 {
+    30.0
+}
+fn default_fresh_pct() -> f64 {
+    95.0
+}
+fn default_fresh_after_reboot_pct() -> f64 {
+    90.0
+}
 
 impl Default for BatteryDef {
     fn default() -> Self {
         BatteryDef {
             flight_time_min: default_flight_time_min(),
             rtl_reserve_pct: default_rtl_reserve_pct(),
+            descent_rate_m_s: default_descent_rate_m_s(),
+            landing_margin_s: default_landing_margin_s(),
+            fresh_pct: default_fresh_pct(),
+            fresh_after_reboot_pct: default_fresh_after_reboot_pct(),
         }
     }
 }
@@ -322,14 +358,31 @@ pub struct RunwayDef {
     /// pixels is black. The paper uses "a threshold" without giving it; 0.5 is our choice.
     #[serde(default = "default_black_fraction")]
     pub black_fraction: f64,
-    /// Distance between lawnmower lanes, metres. Absent: the camera footprint width at
-    /// `flight.altitude_m`.
+    /// Distance between the sweep's lawnmower lanes, metres. Absent: the widest spacing
+    /// that leaves no gap between the pictures of neighbouring lanes, for the camera at each
+    /// drone's altitude, the heading rule `sweep_heading_error_deg` and the position error
+    /// `sweep_position_tolerance_m` (7.07 m for the paper's camera at 12 m with the
+    /// defaults). A wider spacing would leave gaps and is refused.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub lane_spacing_m: Option<f64>,
+    /// How far the nose may be from the lane direction at a sweep picture, degrees (< 45).
+    /// Absent: any heading (the spacing then assumes the footprint may be rotated
+    /// arbitrarily: the disc inscribed in it). ArduPilot's default `WP_YAW_BEHAVIOR` turns
+    /// the nose towards the next waypoint, so an along-track rule usually holds, but a
+    /// gust or a PX4 vehicle need not keep it.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub sweep_heading_error_deg: Option<f64>,
+    /// Worst distance between a sweep waypoint and where its picture is taken, metres.
+    /// Our choice (1 m): the position limit of the image sanity check.
+    #[serde(default = "default_sweep_position_tolerance_m")]
+    pub sweep_position_tolerance_m: f64,
     /// The box to sweep.
     pub sweep: SweepBox,
 }
 
+pub(crate) fn default_sweep_position_tolerance_m() -> f64 {
+    1.0
+}
 fn default_images_per_cell() -> u32 {
     5
 }

@@ -156,6 +156,29 @@ fn check_flight(c: &mut Checker, def: &MissionDef) {
         (0.0..100.0).contains(&b.rtl_reserve_pct),
         "a number ≥ 0 and < 100 (percent)",
     );
+    c.number(
+        "battery.descent_rate_m_s",
+        b.descent_rate_m_s,
+        b.descent_rate_m_s > 0.0 && b.descent_rate_m_s <= 20.0,
+        "a number > 0 and ≤ 20 (m/s)",
+    );
+    c.number(
+        "battery.landing_margin_s",
+        b.landing_margin_s,
+        (0.0..=3600.0).contains(&b.landing_margin_s),
+        "a number ≥ 0 and ≤ 3600 (seconds)",
+    );
+    for (key, v) in [
+        ("battery.fresh_pct", b.fresh_pct),
+        ("battery.fresh_after_reboot_pct", b.fresh_after_reboot_pct),
+    ] {
+        c.number(
+            key,
+            v,
+            v > 0.0 && v <= 100.0,
+            "a number > 0 and ≤ 100 (percent)",
+        );
+    }
 }
 
 fn check_vehicles(c: &mut Checker, def: &MissionDef) {
@@ -376,6 +399,20 @@ fn check_runway(c: &mut Checker, def: &MissionDef) {
             "a number > 0 and ≤ 10000 (metres)",
         );
     }
+    if let Some(e) = r.sweep_heading_error_deg {
+        c.number(
+            "runway.sweep_heading_error_deg",
+            e,
+            (0.0..45.0).contains(&e),
+            "a number ≥ 0 and < 45 (degrees)",
+        );
+    }
+    c.number(
+        "runway.sweep_position_tolerance_m",
+        r.sweep_position_tolerance_m,
+        (0.0..=100.0).contains(&r.sweep_position_tolerance_m),
+        "a number ≥ 0 and ≤ 100 (metres)",
+    );
     match r.sweep {
         SweepBox::Local { north_m, east_m } => {
             for (key, [lo, hi]) in [("north_m", north_m), ("east_m", east_m)] {

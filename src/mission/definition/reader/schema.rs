@@ -199,11 +199,29 @@ fn read_camera(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> CameraModel {
 
 fn read_battery(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> BatteryDef {
     let d = BatteryDef::default();
-    let Some(t) = ctx.sub_table(root, "", "battery", &["flight_time_min", "rtl_reserve_pct"])
-    else {
+    let known = [
+        "flight_time_min",
+        "rtl_reserve_pct",
+        "descent_rate_m_s",
+        "landing_margin_s",
+        "fresh_pct",
+        "fresh_after_reboot_pct",
+    ];
+    let Some(t) = ctx.sub_table(root, "", "battery", &known) else {
         return d;
     };
+    let p = "battery";
     BatteryDef {
+        descent_rate_m_s: ctx.or(t, p, "descent_rate_m_s", d.descent_rate_m_s, Ctx::num_of),
+        landing_margin_s: ctx.or(t, p, "landing_margin_s", d.landing_margin_s, Ctx::num_of),
+        fresh_pct: ctx.or(t, p, "fresh_pct", d.fresh_pct, Ctx::num_of),
+        fresh_after_reboot_pct: ctx.or(
+            t,
+            p,
+            "fresh_after_reboot_pct",
+            d.fresh_after_reboot_pct,
+            Ctx::num_of,
+        ),
         flight_time_min: ctx.or(
             t,
             "battery",
@@ -286,6 +304,8 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
         "dilations",
         "black_fraction",
         "lane_spacing_m",
+        "sweep_heading_error_deg",
+        "sweep_position_tolerance_m",
         "sweep",
     ];
     let t = ctx.sub_table(root, "", "runway", &known)?;
@@ -311,6 +331,16 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
         Ctx::num_of,
     );
     let lane_spacing_m = ctx.opt(t, p, "lane_spacing_m", Ctx::num_of).unwrap_or(None);
+    let sweep_heading_error_deg = ctx
+        .opt(t, p, "sweep_heading_error_deg", Ctx::num_of)
+        .unwrap_or(None);
+    let sweep_position_tolerance_m = ctx.or(
+        t,
+        p,
+        "sweep_position_tolerance_m",
+        default_sweep_position_tolerance_m(),
+        Ctx::num_of,
+    );
     let sweep = read_sweep(ctx, t);
     Some(RunwayDef {
         images_per_cell,
@@ -319,6 +349,8 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
         dilations,
         black_fraction,
         lane_spacing_m,
+        sweep_heading_error_deg,
+        sweep_position_tolerance_m,
         sweep,
     })
 }
