@@ -36,7 +36,7 @@ impl SimVehicle {
     pub(super) fn prearm_failure(&self, now: Time) -> Option<&'static str> {
         let f = self.cfg.flavour;
         match f.autopilot {
-            Autopilot::ArduPilot => {
+            SimAutopilot::ArduPilot => {
                 if !self.gps_fix(now) {
                     Some("PreArm: GPS 1: Bad fix")
                 } else if !self.position_ok(now) {
@@ -51,7 +51,7 @@ impl SimVehicle {
                     None
                 }
             }
-            Autopilot::Px4 => {
+            SimAutopilot::Px4 => {
                 if self.cfg.px4_datalink_required
                     && self
                         .modes

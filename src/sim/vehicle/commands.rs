@@ -71,7 +71,7 @@ impl SimVehicle {
         // COMMAND_LONG position altitudes (takeoff, reposition) as AMSL
         let frame = match (self.cfg.flavour.autopilot, c.command) {
             (
-                Autopilot::ArduPilot,
+                SimAutopilot::ArduPilot,
                 C::MAV_CMD_NAV_TAKEOFF
                 | C::MAV_CMD_NAV_VTOL_TAKEOFF
                 | C::MAV_CMD_DO_SET_ROI_LOCATION

@@ -117,13 +117,13 @@ impl SimVehicle {
             self.estimator.position_ok_announced = true;
             self.set_home_here(now);
             match self.cfg.flavour.autopilot {
-                Autopilot::ArduPilot => {
+                SimAutopilot::ArduPilot => {
                     self.text(
                         mav::MavSeverity::MAV_SEVERITY_INFO,
                         "EKF3 IMU0 is using GPS",
                     );
                 }
-                Autopilot::Px4 => {
+                SimAutopilot::Px4 => {
                     self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Ready for takeoff!");
                 }
             }

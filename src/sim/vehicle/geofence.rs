@@ -25,7 +25,7 @@ impl SimVehicle {
             self.cfg.reference,
         );
         self.missions.valid = true;
-        if self.cfg.flavour.autopilot == Autopilot::Px4 && !self.geofence.fence.is_empty() {
+        if self.cfg.flavour.autopilot == SimAutopilot::Px4 && !self.geofence.fence.is_empty() {
             let bad = self
                 .missions
                 .server

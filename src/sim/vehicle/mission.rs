@@ -55,7 +55,7 @@ impl SimVehicle {
                     mission_type: MissionType::Mission,
                 } => {
                     self.rebuild_fence(true);
-                    if self.cfg.flavour.autopilot == Autopilot::Px4 {
+                    if self.cfg.flavour.autopilot == SimAutopilot::Px4 {
                         // navigator reloads the new mission from its current item
                         self.missions.exec.nav_index = None;
                         self.missions.exec.nav_started = false;
@@ -86,8 +86,8 @@ impl SimVehicle {
 
     pub(super) fn start_or_resume_mission(&mut self, now: Time) {
         let first = match self.cfg.flavour.autopilot {
-            Autopilot::ArduPilot => 1,
-            Autopilot::Px4 => 0,
+            SimAutopilot::ArduPilot => 1,
+            SimAutopilot::Px4 => 0,
         };
         if self.missions.exec.complete || self.missions.exec.nav_index.is_none() {
             self.missions.exec.nav_index = Some(self.missions.server.current().max(first));
@@ -187,10 +187,10 @@ impl SimVehicle {
             let reached = match self.cfg.flavour.autopilot {
                 // ArduCopter verify_command acknowledges DO_CHANGE_SPEED / DO_SET_HOME; the
                 // camera commands are verified inside AP_Mission without a message
-                Autopilot::ArduPilot => {
+                SimAutopilot::ArduPilot => {
                     matches!(item.command, mi::DO_CHANGE_SPEED | mi::DO_SET_HOME)
                 }
-                Autopilot::Px4 => true,
+                SimAutopilot::Px4 => true,
             };
             self.advance_item(idx, &item, reached, now);
         }
@@ -213,7 +213,7 @@ impl SimVehicle {
                 .items(MissionType::Mission)
                 .get(usize::from(idx + 1))
                 .is_some_and(|it| is_nav(it.command));
-            if next_is_nav || self.cfg.flavour.autopilot == Autopilot::Px4 {
+            if next_is_nav || self.cfg.flavour.autopilot == SimAutopilot::Px4 {
                 self.send_mission_current(now);
             }
         }
@@ -290,7 +290,7 @@ impl SimVehicle {
 
     pub(super) fn start_nav(&mut self, idx: u16, item: &MissionItem, now: Time) -> bool {
         let copter = self.cfg.flavour.is_copter();
-        let px4 = self.cfg.flavour.autopilot == Autopilot::Px4;
+        let px4 = self.cfg.flavour.autopilot == SimAutopilot::Px4;
         let p = self.item_point(item);
         self.missions.exec.nav_arrived = None;
         if self.cfg.flavour.is_ardupilot() {
@@ -405,7 +405,7 @@ impl SimVehicle {
 
     pub(super) fn verify_nav(&mut self, item: &MissionItem, now: Time) -> bool {
         let copter = self.cfg.flavour.is_copter();
-        let px4 = self.cfg.flavour.autopilot == Autopilot::Px4;
+        let px4 = self.cfg.flavour.autopilot == SimAutopilot::Px4;
         match item.command {
             mi::NAV_TAKEOFF if px4 && copter => {
                 let Some(target) = self.missions.exec.px4_takeoff_target else {
@@ -564,7 +564,7 @@ impl SimVehicle {
 
     pub(super) fn item_reached(&mut self, idx: u16, now: Time) {
         self.send_item_reached_msg(idx);
-        if self.cfg.flavour.autopilot == Autopilot::Px4 {
+        if self.cfg.flavour.autopilot == SimAutopilot::Px4 {
             self.missions.exec.reached = Some((idx, 0, now + Duration::from_secs(1)));
         }
     }
@@ -594,7 +594,7 @@ impl SimVehicle {
         self.missions.exec.complete = true;
         self.missions.exec.running = false;
         self.missions.server.set_mission_running(false);
-        let px4 = self.cfg.flavour.autopilot == Autopilot::Px4;
+        let px4 = self.cfg.flavour.autopilot == SimAutopilot::Px4;
         if self.arming.landed {
             if self.arming.armed {
                 if px4 {

@@ -47,7 +47,7 @@ impl SimVehicle {
             }
             // PX4 offboard needs a setpoint stream (COM_OF_LOSS_T 1 s)
             Mode::Guided
-                if self.cfg.flavour.autopilot == Autopilot::Px4
+                if self.cfg.flavour.autopilot == SimAutopilot::Px4
                     && self
                         .flight
                         .guided_target_at
@@ -239,7 +239,7 @@ impl SimVehicle {
             }
         }
         // PX4 data link loss (NAV_DLL_ACT = RTL after COM_DL_LOSS_T 10 s)
-        if self.cfg.flavour.autopilot == Autopilot::Px4
+        if self.cfg.flavour.autopilot == SimAutopilot::Px4
             && self.cfg.px4_datalink_required
             && self.arming.armed
             && !self.modes.datalink_lost
@@ -420,7 +420,7 @@ impl SimVehicle {
             return Err("requires position");
         }
         match (f.autopilot, mode) {
-            (Autopilot::ArduPilot, Mode::Auto) => {
+            (SimAutopilot::ArduPilot, Mode::Auto) => {
                 let n = self.missions.server.items(MissionType::Mission).len();
                 if n <= 1 {
                     self.text(
@@ -442,12 +442,12 @@ impl SimVehicle {
                 }
                 Ok(())
             }
-            (Autopilot::ArduPilot, Mode::Rtl | Mode::Land)
+            (SimAutopilot::ArduPilot, Mode::Rtl | Mode::Land)
                 if self.arming.landed && !self.arming.armed =>
             {
                 Ok(())
             }
-            (Autopilot::Px4, Mode::Auto) => {
+            (SimAutopilot::Px4, Mode::Auto) => {
                 if self.missions.server.items(MissionType::Mission).is_empty()
                     || !self.missions.valid
                 {
@@ -455,7 +455,7 @@ impl SimVehicle {
                 }
                 Ok(())
             }
-            (Autopilot::Px4, Mode::Guided) => {
+            (SimAutopilot::Px4, Mode::Guided) => {
                 if self
                     .flight
                     .guided_target_at
@@ -465,7 +465,7 @@ impl SimVehicle {
                 }
                 Ok(())
             }
-            (Autopilot::Px4, Mode::Rtl) if self.flight.home.is_none() => Err("no home"),
+            (SimAutopilot::Px4, Mode::Rtl) if self.flight.home.is_none() => Err("no home"),
             _ => Ok(()),
         }
     }

@@ -83,7 +83,7 @@ impl SimVehicle {
         self.rebuild_fence(false);
         self.arming.disarmed_landed_since = Some(now);
         match self.cfg.flavour.autopilot {
-            Autopilot::ArduPilot => {
+            SimAutopilot::ArduPilot => {
                 let name = if self.cfg.flavour.is_copter() {
                     "ArduCopter V4.5.7 (fleetmap sim)"
                 } else {
@@ -94,7 +94,7 @@ impl SimVehicle {
                     self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Frame: QUAD/X");
                 }
             }
-            Autopilot::Px4 => {}
+            SimAutopilot::Px4 => {}
         }
         self.telemetry.events.push_back(VehicleEvent::Booted {
             boot: self.power.boots,
