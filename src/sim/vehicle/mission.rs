@@ -634,3 +634,97 @@ fn cmd_name(cmd: u16) -> &'static str {
         _ => "Cmd",
     }
 }
+
+impl SimVehicle {
+    // ------------------------------------------------------------------ commands
+    // (dispatched by `commands::command`)
+
+    /// DO_SET_MISSION_CURRENT: param1 the item, param2 > 0.5 also resets the DO_JUMP counters.
+    pub(super) fn cmd_set_mission_current(
+        &mut self,
+        c: &mav::COMMAND_INT_DATA,
+        now: Time,
+    ) -> mav::MavResult {
+        use mav::MavResult as R;
+        let ap = self.cfg.flavour.is_ardupilot();
+        let seq = c.param1 as i64;
+        let n = self.missions.server.items(MissionType::Mission).len() as i64;
+        if seq >= 0 && seq < n {
+            self.set_current_item(seq.max(if ap { 1 } else { 0 }) as u16, now);
+            if c.param2 > 0.5 {
+                self.missions.exec.jumps.clear();
+            }
+            R::MAV_RESULT_ACCEPTED
+        } else if ap {
+            R::MAV_RESULT_FAILED
+        } else {
+            R::MAV_RESULT_DENIED
+        }
+    }
+
+    pub(super) fn cmd_mission_start(
+        &mut self,
+        c: &mav::COMMAND_INT_DATA,
+        now: Time,
+    ) -> mav::MavResult {
+        use mav::MavResult as R;
+        if self.cfg.flavour.is_ardupilot() {
+            if c.param1 != 0.0 || c.param2 != 0.0 {
+                return R::MAV_RESULT_DENIED;
+            }
+            if self.set_mode_request(
+                1,
+                self.cfg.flavour.custom_mode(Mode::Auto).unwrap_or(3),
+                now,
+            ) != R::MAV_RESULT_ACCEPTED
+            {
+                return R::MAV_RESULT_FAILED;
+            }
+            if !self.missions.exec.running || self.missions.exec.waiting_auto_armed {
+                self.start_or_resume_mission(now);
+            }
+            R::MAV_RESULT_ACCEPTED
+        } else {
+            if self.missions.server.items(MissionType::Mission).is_empty() || !self.missions.valid {
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Mission start denied! No valid mission",
+                );
+                return R::MAV_RESULT_DENIED;
+            }
+            if self.check_mode_allowed(Mode::Auto, now).is_err() {
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Switching to Mission is currently not possible",
+                );
+                return R::MAV_RESULT_TEMPORARILY_REJECTED;
+            }
+            if !self.arming.armed && self.arm(now, false).is_err() {
+                return R::MAV_RESULT_TEMPORARILY_REJECTED;
+            }
+            if self.modes.mode != Mode::Auto {
+                self.enter_mode(Mode::Auto, now);
+            } else {
+                self.start_or_resume_mission(now);
+            }
+            R::MAV_RESULT_ACCEPTED
+        }
+    }
+
+    /// DO_PAUSE_CONTINUE (ArduCopter): param1 0 pauses (hold here), 1 resumes the mission.
+    pub(super) fn cmd_pause_continue(&mut self, c: &mav::COMMAND_INT_DATA) -> mav::MavResult {
+        if self.modes.mode == Mode::Auto && !self.arming.landed {
+            if c.param1 < 0.5 {
+                self.missions.exec.running = false;
+                self.flight.nav = Nav::Hold(self.here());
+            } else {
+                self.missions.exec.running = true;
+                self.missions.exec.nav_started = false;
+            }
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Failed to pause");
+            mav::MavResult::MAV_RESULT_FAILED
+        }
+    }
+}

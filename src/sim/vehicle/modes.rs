@@ -490,3 +490,84 @@ impl SimVehicle {
         false
     }
 }
+
+impl SimVehicle {
+    // ------------------------------------------------------------------ commands
+    // (dispatched by `commands::command`)
+
+    /// DO_SET_MODE: ArduPilot custom_mode = param2; PX4 main mode = param2, sub mode = param3.
+    pub(super) fn cmd_do_set_mode(
+        &mut self,
+        c: &mav::COMMAND_INT_DATA,
+        now: Time,
+    ) -> mav::MavResult {
+        let ap = self.cfg.flavour.is_ardupilot();
+        let custom = if ap {
+            c.param2 as u32
+        } else {
+            ((c.param2 as u32) << 16) | ((c.param3 as u32) << 24)
+        };
+        let custom = if !ap && (c.param2 as u32) == 4 && (c.param3 as u32) == 0 {
+            (4 << 16) | (4 << 24) // AUTO without sub mode = mission
+        } else {
+            custom
+        };
+        self.set_mode_request(c.param1 as u8, custom, now)
+    }
+
+    /// NAV_LAND (copters only): land where it is.
+    pub(super) fn cmd_land(&mut self, now: Time) -> mav::MavResult {
+        use mav::MavResult as R;
+        if !self.cfg.flavour.is_copter() {
+            R::MAV_RESULT_UNSUPPORTED
+        } else if self.cfg.flavour.is_ardupilot() {
+            if self.check_mode_allowed(Mode::Land, now).is_ok() {
+                self.enter_mode(Mode::Land, now);
+                R::MAV_RESULT_ACCEPTED
+            } else {
+                R::MAV_RESULT_FAILED
+            }
+        } else {
+            self.enter_mode(Mode::Land, now);
+            self.text(
+                mav::MavSeverity::MAV_SEVERITY_INFO,
+                "Landing at current position",
+            );
+            R::MAV_RESULT_ACCEPTED
+        }
+    }
+
+    /// NAV_RETURN_TO_LAUNCH.
+    pub(super) fn cmd_rtl(&mut self, now: Time) -> mav::MavResult {
+        use mav::MavResult as R;
+        let ap = self.cfg.flavour.is_ardupilot();
+        match self.check_mode_allowed(Mode::Rtl, now) {
+            Ok(()) => {
+                self.enter_mode(Mode::Rtl, now);
+                if !ap {
+                    self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Returning to launch");
+                }
+                R::MAV_RESULT_ACCEPTED
+            }
+            Err(_) if ap => R::MAV_RESULT_FAILED,
+            Err(_) => R::MAV_RESULT_TEMPORARILY_REJECTED,
+        }
+    }
+
+    /// NAV_LOITER_UNLIM (ArduPilot): copters hold (LOITER), rovers loiter.
+    pub(super) fn cmd_loiter_unlim(&mut self, now: Time) -> mav::MavResult {
+        use mav::MavResult as R;
+        let m = if self.cfg.flavour.is_copter() {
+            Mode::Hold
+        } else {
+            Mode::Loiter
+        };
+        match self.check_mode_allowed(m, now) {
+            Ok(()) => {
+                self.enter_mode(m, now);
+                R::MAV_RESULT_ACCEPTED
+            }
+            Err(_) => R::MAV_RESULT_FAILED,
+        }
+    }
+}
