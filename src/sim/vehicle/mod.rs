@@ -318,11 +318,12 @@ pub enum VehicleEvent {
 
 /// One simulated vehicle. See the module documentation.
 ///
-/// Its state is split by responsibility; each part lives with the methods that change it:
-/// `power` (power, boot, battery), `estimator` (GPS error and position estimate),
-/// `flight` (motion, navigation target, home), `arming`, `modes` (flight mode and
-/// failsafes), `geofence`, `mission` (the mission protocol server and execution),
-/// `commands` (COMMAND_LONG/COMMAND_INT handling) and `telemetry` (streams, outbox).
+/// Its state is split by responsibility; each part lives with the methods that change it,
+/// including the handlers of the commands that change it: `power` (power, boot, battery),
+/// `estimator` (GPS error and position estimate), `flight` (motion, navigation target, home),
+/// `arming`, `modes` (flight mode and failsafes), `geofence`, `mission` (the mission protocol
+/// server and execution) and `telemetry` (streams, outbox); `commands` converts
+/// COMMAND_LONG/COMMAND_INT, dispatches them to the parts and acknowledges.
 #[derive(Debug)]
 pub struct SimVehicle {
     cfg: VehicleConfig,
