@@ -99,7 +99,7 @@ const MAV_AUTOPILOT_PX4: u8 = 12;
 
 impl Autopilot {
     /// The autopilot a HEARTBEAT.autopilot (MAV_AUTOPILOT) number names.
-    pub const fn from_mav(mav_autopilot: u8) -> Autopilot {
+    pub(crate) const fn from_mav(mav_autopilot: u8) -> Autopilot {
         match mav_autopilot {
             MAV_AUTOPILOT_ARDUPILOTMEGA => Autopilot::ArduPilot,
             MAV_AUTOPILOT_PX4 => Autopilot::Px4,
@@ -108,7 +108,7 @@ impl Autopilot {
     }
 
     /// The HEARTBEAT.autopilot (MAV_AUTOPILOT) number.
-    pub const fn mav_autopilot(self) -> u8 {
+    pub(crate) const fn mav_autopilot(self) -> u8 {
         match self {
             Autopilot::ArduPilot => MAV_AUTOPILOT_ARDUPILOTMEGA,
             Autopilot::Px4 => MAV_AUTOPILOT_PX4,

@@ -52,7 +52,7 @@ impl TryFrom<Autopilot> for SimAutopilot {
 
 impl SimAutopilot {
     /// The lower-case name of `--vehicles` and of the serialized form.
-    pub fn spec_name(self) -> &'static str {
+    pub(crate) fn spec_name(self) -> &'static str {
         match self {
             SimAutopilot::ArduPilot => "ardupilot",
             SimAutopilot::Px4 => "px4",
