@@ -11,7 +11,7 @@ use fleetmap::link::codec::Codec;
 use fleetmap::mission::{MissionItem, MissionType};
 use fleetmap::proto::Endpoint;
 use fleetmap::proto::mission::{MissionClient, MissionConfig, MissionEvent, MissionOp};
-use fleetmap::sim::flavour::Autopilot;
+use fleetmap::sim::flavour::SimAutopilot;
 use fleetmap::sim::mission_server::MissionServer;
 use fleetmap::time::Time;
 use mavlink::MavHeader;
@@ -107,9 +107,9 @@ fn upload_once(ap: bool, items: &[MissionItem]) -> usize {
     let mut client = MissionClient::new(Endpoint::gcs(), vehicle, ap, MissionConfig::default());
     let mut server = MissionServer::new(
         if ap {
-            Autopilot::ArduPilot
+            SimAutopilot::ArduPilot
         } else {
-            Autopilot::Px4
+            SimAutopilot::Px4
         },
         1,
         1,

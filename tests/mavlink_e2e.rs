@@ -16,7 +16,7 @@ use fleetmap::link::tlog::{read_tlog, spawn_tlog};
 use fleetmap::link::transport::{LinkOptions, unix_now_us};
 use fleetmap::mission::{MissionItem, MissionType};
 use fleetmap::proto::Endpoint;
-use fleetmap::sim::flavour::Autopilot;
+use fleetmap::sim::flavour::SimAutopilot;
 use fleetmap::sim::mission_server::{HomeItem, MissionServer};
 use fleetmap::time::Time;
 use mavlink::MavHeader;
@@ -52,7 +52,7 @@ async fn responder(
     };
     // The vehicle's protocol timers run `speedup` times faster than wall time.
     let clock = MonotonicClock::with_speedup(speedup);
-    let mut server = MissionServer::new(Autopilot::ArduPilot, sysid, 1);
+    let mut server = MissionServer::new(SimAutopilot::ArduPilot, sysid, 1);
     server.set_home(Some(HomeItem {
         lat_e7: 371_950_000,
         lon_e7: -805_800_000,

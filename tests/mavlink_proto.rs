@@ -16,7 +16,7 @@ use fleetmap::proto::mission::{
     MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,
     compare_items, normalize_frame,
 };
-use fleetmap::sim::flavour::Autopilot;
+use fleetmap::sim::flavour::SimAutopilot;
 use fleetmap::sim::mission_server::{
     ardupilot_store_fence_item, ardupilot_store_mission_item, ardupilot_store_rally_item,
     px4_parse_item,
@@ -58,9 +58,9 @@ impl DerefMut for Bench {
 impl Bench {
     fn new(ap: bool, seed: u64, faults: Faults) -> Bench {
         let autopilot = if ap {
-            Autopilot::ArduPilot
+            SimAutopilot::ArduPilot
         } else {
-            Autopilot::Px4
+            SimAutopilot::Px4
         };
         Bench {
             inner: TransferBench::new(autopilot, seed, faults),

@@ -4,7 +4,8 @@
 //! ([`crate::sim::transfer_bench`]). Virtual seconds are what an operator waits on a radio
 //! with those faults; computing them takes a fraction of that.
 
-use crate::sim::flavour::Autopilot;
+use crate::proto::flavour::Autopilot;
+use crate::sim::flavour::SimAutopilot;
 use crate::sim::transfer_bench::{NetFaults, TrialSummary, run_trials};
 use anyhow::bail;
 use clap::Args;
@@ -51,11 +52,8 @@ struct Row {
     summary: TrialSummary,
 }
 
-fn name(a: Autopilot) -> &'static str {
-    match a {
-        Autopilot::ArduPilot => "ArduPilot",
-        Autopilot::Px4 => "PX4",
-    }
+fn name(a: SimAutopilot) -> &'static str {
+    Autopilot::from(a).name()
 }
 
 fn secs(v: Option<f64>) -> String {
@@ -110,7 +108,7 @@ pub fn run(args: BenchTransferArgs) -> anyhow::Result<ExitCode> {
         );
     }
     let mut rows = Vec::new();
-    for autopilot in [Autopilot::ArduPilot, Autopilot::Px4] {
+    for autopilot in [SimAutopilot::ArduPilot, SimAutopilot::Px4] {
         for &loss in &args.loss {
             let faults = NetFaults {
                 loss: loss / 100.0,

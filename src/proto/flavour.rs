@@ -74,7 +74,12 @@ pub fn takeoff_reached(alt_rel: f32, target: f32) -> bool {
     alt_rel >= target - TAKEOFF_ALT_ACCEPTANCE_M - 0.05
 }
 
-/// Which autopilot firmware.
+/// Which autopilot firmware, from HEARTBEAT.autopilot (MAV_AUTOPILOT): the one vocabulary of
+/// the fleet, the simulator ([`crate::sim::flavour::SimAutopilot`] is the part of it the
+/// simulator imitates) and the TUI.
+///
+/// Serialized (fleet snapshots in JSON) as `"ArduPilot"`, `"Px4"`, `{"Other": n}`; the TUI's
+/// replay files use their own spelling (`crate::tui::model::VehicleRow::autopilot`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 pub enum Autopilot {
     /// ArduPilot (MAV_AUTOPILOT_ARDUPILOTMEGA = 3).
@@ -83,6 +88,58 @@ pub enum Autopilot {
     Px4,
     /// Anything else (MAV_AUTOPILOT number).
     Other(u8),
+}
+
+/// MAV_AUTOPILOT_ARDUPILOTMEGA (common.xml).
+const MAV_AUTOPILOT_ARDUPILOTMEGA: u8 = 3;
+/// MAV_AUTOPILOT_INVALID (common.xml): not a flight controller (a GCS, a camera…).
+const MAV_AUTOPILOT_INVALID: u8 = 8;
+/// MAV_AUTOPILOT_PX4 (common.xml).
+const MAV_AUTOPILOT_PX4: u8 = 12;
+
+impl Autopilot {
+    /// The autopilot a HEARTBEAT.autopilot (MAV_AUTOPILOT) number names.
+    pub(crate) const fn from_mav(mav_autopilot: u8) -> Autopilot {
+        match mav_autopilot {
+            MAV_AUTOPILOT_ARDUPILOTMEGA => Autopilot::ArduPilot,
+            MAV_AUTOPILOT_PX4 => Autopilot::Px4,
+            n => Autopilot::Other(n),
+        }
+    }
+
+    /// The HEARTBEAT.autopilot (MAV_AUTOPILOT) number.
+    pub(crate) const fn mav_autopilot(self) -> u8 {
+        match self {
+            Autopilot::ArduPilot => MAV_AUTOPILOT_ARDUPILOTMEGA,
+            Autopilot::Px4 => MAV_AUTOPILOT_PX4,
+            Autopilot::Other(n) => n,
+        }
+    }
+
+    /// Display name: "ArduPilot", "PX4", "other".
+    pub fn name(self) -> &'static str {
+        match self {
+            Autopilot::ArduPilot => "ArduPilot",
+            Autopilot::Px4 => "PX4",
+            Autopilot::Other(_) => "other",
+        }
+    }
+
+    /// Short name for narrow tables: "AP", "PX4", "?".
+    pub fn short(self) -> &'static str {
+        match self {
+            Autopilot::ArduPilot => "AP",
+            Autopilot::Px4 => "PX4",
+            Autopilot::Other(_) => "?",
+        }
+    }
+}
+
+impl Default for Autopilot {
+    /// Not known (yet): `Other(MAV_AUTOPILOT_INVALID)`, what a view shows before a heartbeat.
+    fn default() -> Autopilot {
+        Autopilot::Other(MAV_AUTOPILOT_INVALID)
+    }
 }
 
 /// What kind of vehicle.
@@ -282,11 +339,7 @@ const EKF_UNINITIALIZED: u16 = 1024;
 impl Flavour {
     /// The flavour of a heartbeat's (MAV_AUTOPILOT, MAV_TYPE).
     pub fn from_heartbeat(autopilot: u8, mav_type: u8) -> Flavour {
-        let autopilot = match autopilot {
-            3 => Autopilot::ArduPilot,
-            12 => Autopilot::Px4,
-            n => Autopilot::Other(n),
-        };
+        let autopilot = Autopilot::from_mav(autopilot);
         let class = match mav_type {
             // quad, coaxial, heli, hexa, octo, tri, dodeca, deca (MAV_TYPE)
             2 | 3 | 4 | 13 | 14 | 15 | 29 | 35 => VehicleClass::Copter,
@@ -737,9 +790,8 @@ impl Flavour {
 impl std::fmt::Display for Flavour {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         let ap = match self.autopilot {
-            Autopilot::ArduPilot => "ArduPilot".to_string(),
-            Autopilot::Px4 => "PX4".to_string(),
             Autopilot::Other(n) => format!("autopilot {n}"),
+            known => known.name().to_string(),
         };
         let class = match self.class {
             VehicleClass::Copter => "copter",
@@ -754,6 +806,20 @@ impl std::fmt::Display for Flavour {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Fleet snapshots (JSON, read by `hitl/conformance.py`) spell the autopilot this way.
+    #[test]
+    fn autopilot_snapshot_spelling_and_numbers() {
+        let json = |a: Autopilot| serde_json::to_string(&a).expect("serializes");
+        assert_eq!(json(Autopilot::ArduPilot), r#""ArduPilot""#);
+        assert_eq!(json(Autopilot::Px4), r#""Px4""#);
+        assert_eq!(json(Autopilot::Other(7)), r#"{"Other":7}"#);
+        for n in [0, 3, 8, 12, 255] {
+            assert_eq!(Autopilot::from_mav(n).mav_autopilot(), n);
+        }
+        assert_eq!(Autopilot::from_mav(3), Autopilot::ArduPilot);
+        assert_eq!(Autopilot::from_mav(12), Autopilot::Px4);
+    }
 
     #[test]
     fn mode_tables_round_trip() {

@@ -11,18 +11,53 @@
 //!   OFFBOARD 6, STABILIZED 7; AUTO sub modes READY 1, TAKEOFF 2, LOITER 3, MISSION 4, RTL 5,
 //!   LAND 6.
 
+use crate::proto::flavour::Autopilot;
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
-/// The autopilot firmware a simulated vehicle behaves like.
+/// The autopilot firmware a simulated vehicle behaves like: the [`Autopilot`]s the simulator
+/// imitates, ArduPilot or PX4 (`Autopilot::Other` has no behaviour to imitate, so
+/// `TryFrom<Autopilot>` refuses it). Serialized in lower case, `"ardupilot"` / `"px4"`, as
+/// `--vehicles` spells them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum Autopilot {
-    /// ArduPilot (ArduCopter / ArduRover).
+pub enum SimAutopilot {
+    /// [`Autopilot::ArduPilot`] (ArduCopter / ArduRover).
     ArduPilot,
-    /// PX4.
+    /// [`Autopilot::Px4`].
     Px4,
+}
+
+impl From<SimAutopilot> for Autopilot {
+    fn from(a: SimAutopilot) -> Autopilot {
+        match a {
+            SimAutopilot::ArduPilot => Autopilot::ArduPilot,
+            SimAutopilot::Px4 => Autopilot::Px4,
+        }
+    }
+}
+
+impl TryFrom<Autopilot> for SimAutopilot {
+    /// The autopilot the simulator cannot imitate.
+    type Error = Autopilot;
+    fn try_from(a: Autopilot) -> Result<SimAutopilot, Autopilot> {
+        match a {
+            Autopilot::ArduPilot => Ok(SimAutopilot::ArduPilot),
+            Autopilot::Px4 => Ok(SimAutopilot::Px4),
+            other @ Autopilot::Other(_) => Err(other),
+        }
+    }
+}
+
+impl SimAutopilot {
+    /// The lower-case name of `--vehicles` and of the serialized form.
+    pub(crate) fn spec_name(self) -> &'static str {
+        match self {
+            SimAutopilot::ArduPilot => "ardupilot",
+            SimAutopilot::Px4 => "px4",
+        }
+    }
 }
 
 /// The airframe.
@@ -39,7 +74,7 @@ pub enum VehicleKind {
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 pub struct Flavour {
     /// The firmware.
-    pub autopilot: Autopilot,
+    pub autopilot: SimAutopilot,
     /// The airframe.
     pub kind: VehicleKind,
 }
@@ -47,28 +82,28 @@ pub struct Flavour {
 impl Flavour {
     /// ArduCopter.
     pub const ARDU_COPTER: Flavour = Flavour {
-        autopilot: Autopilot::ArduPilot,
+        autopilot: SimAutopilot::ArduPilot,
         kind: VehicleKind::Copter,
     };
     /// ArduRover.
     pub const ARDU_ROVER: Flavour = Flavour {
-        autopilot: Autopilot::ArduPilot,
+        autopilot: SimAutopilot::ArduPilot,
         kind: VehicleKind::Rover,
     };
     /// PX4 multicopter.
     pub const PX4_COPTER: Flavour = Flavour {
-        autopilot: Autopilot::Px4,
+        autopilot: SimAutopilot::Px4,
         kind: VehicleKind::Copter,
     };
     /// PX4 rover.
     pub const PX4_ROVER: Flavour = Flavour {
-        autopilot: Autopilot::Px4,
+        autopilot: SimAutopilot::Px4,
         kind: VehicleKind::Rover,
     };
 
     /// Whether this is an ArduPilot vehicle.
     pub fn is_ardupilot(self) -> bool {
-        self.autopilot == Autopilot::ArduPilot
+        self.autopilot == SimAutopilot::ArduPilot
     }
 
     /// Whether this vehicle flies.
@@ -81,9 +116,9 @@ impl Flavour {
     /// configure with INITIAL_MODE), AUTO_LOITER ("Hold") for PX4.
     pub fn boot_mode(self) -> Mode {
         match (self.autopilot, self.kind) {
-            (Autopilot::ArduPilot, VehicleKind::Copter) => Mode::Stabilize,
-            (Autopilot::ArduPilot, VehicleKind::Rover) => Mode::Hold,
-            (Autopilot::Px4, _) => Mode::Hold,
+            (SimAutopilot::ArduPilot, VehicleKind::Copter) => Mode::Stabilize,
+            (SimAutopilot::ArduPilot, VehicleKind::Rover) => Mode::Hold,
+            (SimAutopilot::Px4, _) => Mode::Hold,
         }
     }
 
@@ -91,7 +126,7 @@ impl Flavour {
     /// has no such mode.
     pub fn custom_mode(self, mode: Mode) -> Option<u32> {
         match (self.autopilot, self.kind) {
-            (Autopilot::ArduPilot, VehicleKind::Copter) => match mode {
+            (SimAutopilot::ArduPilot, VehicleKind::Copter) => match mode {
                 Mode::Stabilize => Some(0),
                 Mode::AltHold => Some(2),
                 Mode::Auto => Some(3),
@@ -102,7 +137,7 @@ impl Flavour {
                 Mode::Brake => Some(17),
                 _ => None,
             },
-            (Autopilot::ArduPilot, VehicleKind::Rover) => match mode {
+            (SimAutopilot::ArduPilot, VehicleKind::Rover) => match mode {
                 Mode::Manual => Some(0),
                 Mode::Hold => Some(4),
                 Mode::Loiter => Some(5),
@@ -112,7 +147,7 @@ impl Flavour {
                 Mode::Initialising => Some(16),
                 _ => None,
             },
-            (Autopilot::Px4, kind) => {
+            (SimAutopilot::Px4, kind) => {
                 let (main, sub) = match mode {
                     Mode::Manual => (1, 0),
                     Mode::AltHold if kind == VehicleKind::Copter => (2, 0),
@@ -149,20 +184,17 @@ impl Flavour {
 
     /// MAV_AUTOPILOT of the HEARTBEAT.
     pub fn mav_autopilot(self) -> u8 {
-        match self.autopilot {
-            Autopilot::ArduPilot => 3, // MAV_AUTOPILOT_ARDUPILOTMEGA
-            Autopilot::Px4 => 12,      // MAV_AUTOPILOT_PX4
-        }
+        Autopilot::from(self.autopilot).mav_autopilot()
     }
 
     /// The name this flavour gives `mode` (as the autopilot's GCS shows it).
     pub fn mode_name(self, mode: Mode) -> &'static str {
         match (self.autopilot, self.kind, mode) {
-            (Autopilot::ArduPilot, VehicleKind::Copter, Mode::Hold) => "LOITER",
-            (Autopilot::Px4, _, Mode::Hold) => "HOLD",
-            (Autopilot::Px4, _, Mode::Auto) => "MISSION",
-            (Autopilot::Px4, _, Mode::Guided) => "OFFBOARD",
-            (Autopilot::Px4, _, Mode::Loiter) => "POSCTL",
+            (SimAutopilot::ArduPilot, VehicleKind::Copter, Mode::Hold) => "LOITER",
+            (SimAutopilot::Px4, _, Mode::Hold) => "HOLD",
+            (SimAutopilot::Px4, _, Mode::Auto) => "MISSION",
+            (SimAutopilot::Px4, _, Mode::Guided) => "OFFBOARD",
+            (SimAutopilot::Px4, _, Mode::Loiter) => "POSCTL",
             _ => mode.generic_name(),
         }
     }
@@ -174,11 +206,7 @@ impl fmt::Display for Flavour {
             VehicleKind::Copter => "copter",
             VehicleKind::Rover => "rover",
         };
-        let a = match self.autopilot {
-            Autopilot::ArduPilot => "ardupilot",
-            Autopilot::Px4 => "px4",
-        };
-        write!(f, "{k}:{a}")
+        write!(f, "{k}:{}", self.autopilot.spec_name())
     }
 }
 
@@ -195,8 +223,8 @@ impl FromStr for Flavour {
             other => return Err(format!("unknown vehicle type {other:?} (copter or rover)")),
         };
         let autopilot = match a.trim().to_ascii_lowercase().as_str() {
-            "ardupilot" | "apm" => Autopilot::ArduPilot,
-            "px4" => Autopilot::Px4,
+            "ardupilot" | "apm" => SimAutopilot::ArduPilot,
+            "px4" => SimAutopilot::Px4,
             other => return Err(format!("unknown autopilot {other:?} (ardupilot or px4)")),
         };
         Ok(Flavour { autopilot, kind })
@@ -306,6 +334,36 @@ mod tests {
             Some((4 << 16) | (4 << 24))
         );
         assert_eq!(Flavour::PX4_ROVER.custom_mode(Mode::Land), None);
+    }
+
+    /// The serialized form stays the lower-case one of `--vehicles`.
+    #[test]
+    fn serializes_in_lower_case() {
+        assert_eq!(
+            serde_json::to_string(&Flavour::ARDU_COPTER).expect("serializes"),
+            r#"{"autopilot":"ardupilot","kind":"copter"}"#
+        );
+        assert_eq!(
+            serde_json::from_str::<Flavour>(r#"{"autopilot":"px4","kind":"rover"}"#)
+                .expect("reads"),
+            Flavour::PX4_ROVER
+        );
+        assert!(
+            serde_json::from_str::<Flavour>(r#"{"autopilot":"other","kind":"rover"}"#).is_err()
+        );
+    }
+
+    #[test]
+    fn sim_autopilot_is_the_imitable_part_of_autopilot() {
+        for a in [SimAutopilot::ArduPilot, SimAutopilot::Px4] {
+            assert_eq!(SimAutopilot::try_from(Autopilot::from(a)), Ok(a));
+        }
+        assert_eq!(
+            SimAutopilot::try_from(Autopilot::Other(8)),
+            Err(Autopilot::Other(8))
+        );
+        assert_eq!(Flavour::ARDU_ROVER.mav_autopilot(), 3);
+        assert_eq!(Flavour::PX4_COPTER.mav_autopilot(), 12);
     }
 
     #[test]

@@ -7,7 +7,7 @@
 pub mod flavour;
 pub mod mission_server;
 
-pub use flavour::{Autopilot, Flavour, Mode, VehicleKind};
+pub use flavour::{Flavour, Mode, SimAutopilot, VehicleKind};
 pub use mission_server::{MissionEvent, MissionServer};
 pub mod battery;
 pub mod camera;

@@ -22,7 +22,7 @@ use crate::proto::mission::{
     MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,
     compare_items,
 };
-use crate::sim::flavour::Autopilot;
+use crate::sim::flavour::SimAutopilot;
 use crate::sim::mission_server::{self, HomeItem, MissionServer};
 use crate::time::Time;
 use mavlink::MavHeader;
@@ -285,20 +285,20 @@ pub struct TransferBench {
 impl TransferBench {
     /// A vehicle running `autopilot`'s mission protocol behind a network with `faults`
     /// seeded with `seed`, and a client with the default [`MissionConfig`].
-    pub fn new(autopilot: Autopilot, seed: u64, faults: NetFaults) -> TransferBench {
+    pub fn new(autopilot: SimAutopilot, seed: u64, faults: NetFaults) -> TransferBench {
         TransferBench::with_config(autopilot, seed, faults, MissionConfig::default())
     }
 
     /// As [`TransferBench::new`] with the client's timeouts `cfg`.
     pub fn with_config(
-        autopilot: Autopilot,
+        autopilot: SimAutopilot,
         seed: u64,
         faults: NetFaults,
         cfg: MissionConfig,
     ) -> TransferBench {
         let mut server = MissionServer::new(autopilot, VEHICLE.sysid, VEHICLE.compid);
         server.set_home(Some(HOME));
-        let home_item = autopilot == Autopilot::ArduPilot;
+        let home_item = autopilot == SimAutopilot::ArduPilot;
         TransferBench {
             client: MissionClient::new(Endpoint::gcs(), VEHICLE, home_item, cfg),
             server,
@@ -309,7 +309,7 @@ impl TransferBench {
 
     /// Whether the vehicle keeps home in mission slot 0 (ArduPilot).
     pub fn ardupilot(&self) -> bool {
-        self.server.autopilot() == Autopilot::ArduPilot
+        self.server.autopilot() == SimAutopilot::ArduPilot
     }
 
     /// Run one operation to completion in virtual time. A MISSION_SET_CURRENT the vehicle
@@ -518,7 +518,7 @@ fn percentile(v: &[f64], p: f64) -> Option<f64> {
 /// `faults`: trial k uses a fresh vehicle and network seeded with `seed + k` and the mission
 /// [`items_for`]`(Mission, items, k)`.
 pub fn run_trials(
-    autopilot: Autopilot,
+    autopilot: SimAutopilot,
     faults: NetFaults,
     items: usize,
     trials: u32,
@@ -569,7 +569,7 @@ mod tests {
 
     #[test]
     fn a_perfect_network_round_trips_at_once_for_both_autopilots() {
-        for ap in [Autopilot::ArduPilot, Autopilot::Px4] {
+        for ap in [SimAutopilot::ArduPilot, SimAutopilot::Px4] {
             let mut b = TransferBench::new(ap, 1, NetFaults::PERFECT);
             let rt = b
                 .round_trip(&items_for(MissionType::Mission, 20, 1))
@@ -598,8 +598,8 @@ mod tests {
             latency_ms: 20,
             jitter_ms: 0,
         };
-        let a = run_trials(Autopilot::Px4, f, 30, 3, 7).expect("no hang");
-        let b = run_trials(Autopilot::Px4, f, 30, 3, 7).expect("no hang");
+        let a = run_trials(SimAutopilot::Px4, f, 30, 3, 7).expect("no hang");
+        let b = run_trials(SimAutopilot::Px4, f, 30, 3, 7).expect("no hang");
         assert_eq!(a, b);
         assert_eq!(a.trials, 3);
     }

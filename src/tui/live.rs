@@ -7,9 +7,9 @@
 //! [`build_model`] is a function of its arguments.
 
 use super::model::{
-    Autopilot, Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind,
-    MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity,
-    Stat, Track, VehicleRow, VehicleType,
+    Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind, MapModel,
+    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity, Stat,
+    Track, VehicleRow, VehicleType,
 };
 use crate::explore::VertexState;
 use crate::explore::mapping::{self, MappingState, RobotStatus};
@@ -17,7 +17,7 @@ use crate::fleet::{FleetSnapshot, VehicleSnapshot};
 use crate::geo::{Cell, Grid, LatLon};
 use crate::planner::bandit::Label;
 use crate::planner::sortie::{ClassificationState, CyclePhase};
-use crate::proto::flavour::{self, VehicleClass};
+use crate::proto::flavour::VehicleClass;
 use crate::time::Time;
 use crate::vision::votes::CellState as VoteState;
 use std::collections::{BTreeMap, HashMap};
@@ -68,14 +68,6 @@ impl LiveLog {
     }
 }
 
-fn autopilot(f: &flavour::Flavour) -> Autopilot {
-    match f.autopilot {
-        flavour::Autopilot::ArduPilot => Autopilot::ArduPilot,
-        flavour::Autopilot::Px4 => Autopilot::Px4,
-        flavour::Autopilot::Other(_) => Autopilot::Other,
-    }
-}
-
 fn vehicle_type(c: VehicleClass) -> VehicleType {
     match c {
         VehicleClass::Copter => VehicleType::Copter,
@@ -116,7 +108,7 @@ pub fn vehicle_row(
     VehicleRow {
         sysid: v.sysid,
         role,
-        autopilot: autopilot(&v.flavour),
+        autopilot: v.flavour.autopilot,
         vehicle_type: vehicle_type(v.flavour.class),
         mode: v.mode.clone(),
         armed: v.armed,

@@ -54,7 +54,7 @@
 #![allow(deprecated)]
 
 use crate::mission::{MissionItem, MissionType};
-use crate::sim::flavour::Autopilot;
+use crate::sim::flavour::SimAutopilot;
 use crate::time::Time;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
@@ -158,6 +158,48 @@ pub enum MissionEvent {
     },
 }
 
+/// What both autopilots keep the same way: who the vehicle is, the stored lists and what is
+/// waiting to be sent. The per-autopilot transfer state is in [`Transfer`].
+#[derive(Clone, Debug)]
+struct Core {
+    sysid: u8,
+    compid: u8,
+    capacity: Capacity,
+    /// Mission, fence, rally (indexed by [`idx`]) in the autopilot's numbering.
+    lists: [Vec<MissionItem>; 3],
+    /// The current mission item (autopilot numbering).
+    current: u16,
+    outbox: VecDeque<MavMessage>,
+    events: VecDeque<MissionEvent>,
+}
+
+/// The transfer state of the autopilot imitated: each variant owns only its own fields.
+#[derive(Clone, Debug)]
+enum Transfer {
+    /// ArduPilot: one upload slot per list, stateless downloads.
+    ArduPilot(ArduPilotState),
+    /// PX4: one transfer at a time over all lists.
+    Px4(Px4State),
+}
+
+/// ArduPilot's side: per-list uploads and what survives in its storage.
+#[derive(Clone, Debug)]
+struct ArduPilotState {
+    /// The lists are loaded from storage (`AP_Mission::init`, before the vehicle leaves
+    /// MAV_STATE_BOOT); until then every list is empty and holds nothing.
+    loaded: bool,
+    /// Home, reported as mission item 0.
+    home: Option<HomeItem>,
+    /// The mission is being executed (MISSION_CLEAR_ALL is refused meanwhile).
+    mission_running: bool,
+    /// The upload in progress per list (mission, fence, rally).
+    uploads: [Option<ApUpload>; 3],
+    /// "got MISSION_REQUEST; use MISSION_REQUEST_INT!" was sent (once per upload).
+    warned_request: bool,
+    /// "got MISSION_ITEM; GCS should send MISSION_ITEM_INT" was sent (once per upload).
+    warned_item: bool,
+}
+
 #[derive(Clone, Debug)]
 struct ApUpload {
     partner: (u8, u8),
@@ -169,16 +211,19 @@ struct ApUpload {
     buffer: Vec<MissionItem>,
 }
 
+/// PX4's `MavlinkMissionManager::_state` (`mavlink_mission.h`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum Px4State {
+enum Px4Phase {
     Idle,
     GetList,
     SendList,
 }
 
+/// PX4's side: the one transfer (`mavlink_mission.cpp`), the GCS's int mode and the lists'
+/// opaque ids.
 #[derive(Clone, Debug)]
-struct Px4 {
-    state: Px4State,
+struct Px4State {
+    phase: Px4Phase,
     mission_type: MissionType,
     partner: (u8, u8),
     transfer_seq: u16,
@@ -189,29 +234,15 @@ struct Px4 {
     last_sent: Option<Time>,
     last_recv: Option<Time>,
     int_mode: bool,
+    /// The opaque id (CRC-32 of the items) of each stored list.
+    crc: [u32; 3],
 }
 
 /// The vehicle side of the mission protocol. See the module documentation.
 #[derive(Clone, Debug)]
 pub struct MissionServer {
-    autopilot: Autopilot,
-    sysid: u8,
-    compid: u8,
-    capacity: Capacity,
-    lists: [Vec<MissionItem>; 3],
-    crc: [u32; 3],
-    current: u16,
-    home: Option<HomeItem>,
-    mission_running: bool,
-    /// ArduPilot: the lists are loaded from storage (`AP_Mission::init`, before the vehicle
-    /// leaves MAV_STATE_BOOT); until then every list is empty and holds nothing.
-    loaded: bool,
-    ap_rx: [Option<ApUpload>; 3],
-    ap_warned_request: bool,
-    ap_warned_item: bool,
-    px4: Px4,
-    outbox: VecDeque<MavMessage>,
-    events: VecDeque<MissionEvent>,
+    core: Core,
+    transfer: Transfer,
 }
 
 fn idx(t: MissionType) -> usize {
@@ -249,51 +280,39 @@ struct RxItem {
 impl MissionServer {
     /// A server for the vehicle `sysid`/`compid` with empty lists and the autopilot's default
     /// capacity.
-    pub fn new(autopilot: Autopilot, sysid: u8, compid: u8) -> MissionServer {
-        let capacity = match autopilot {
-            Autopilot::ArduPilot => Capacity::ARDUPILOT,
-            Autopilot::Px4 => Capacity::PX4,
+    pub fn new(autopilot: SimAutopilot, sysid: u8, compid: u8) -> MissionServer {
+        let (capacity, transfer) = match autopilot {
+            SimAutopilot::ArduPilot => (
+                Capacity::ARDUPILOT,
+                Transfer::ArduPilot(ArduPilotState::new()),
+            ),
+            SimAutopilot::Px4 => (Capacity::PX4, Transfer::Px4(Px4State::new())),
         };
         MissionServer {
-            autopilot,
-            sysid,
-            compid,
-            capacity,
-            lists: [Vec::new(), Vec::new(), Vec::new()],
-            crc: [0; 3],
-            current: 0,
-            home: None,
-            mission_running: false,
-            loaded: true,
-            ap_rx: [None, None, None],
-            ap_warned_request: false,
-            ap_warned_item: false,
-            px4: Px4 {
-                state: Px4State::Idle,
-                mission_type: MissionType::Mission,
-                partner: (0, 0),
-                transfer_seq: 0,
-                transfer_count: 0,
-                transfer_items: Vec::new(),
-                transfer_current_seq: None,
-                transfer_crc: 0,
-                last_sent: None,
-                last_recv: None,
-                int_mode: false,
+            core: Core {
+                sysid,
+                compid,
+                capacity,
+                lists: [Vec::new(), Vec::new(), Vec::new()],
+                current: 0,
+                outbox: VecDeque::new(),
+                events: VecDeque::new(),
             },
-            outbox: VecDeque::new(),
-            events: VecDeque::new(),
+            transfer,
         }
     }
 
     /// Change the storage limits.
     pub fn set_capacity(&mut self, capacity: Capacity) {
-        self.capacity = capacity;
+        self.core.capacity = capacity;
     }
 
     /// The autopilot this server imitates.
-    pub fn autopilot(&self) -> Autopilot {
-        self.autopilot
+    pub fn autopilot(&self) -> SimAutopilot {
+        match self.transfer {
+            Transfer::ArduPilot(_) => SimAutopilot::ArduPilot,
+            Transfer::Px4(_) => SimAutopilot::Px4,
+        }
     }
 
     /// ArduPilot while it boots: the lists are not loaded yet, so an upload is refused
@@ -301,7 +320,9 @@ impl MissionServer {
     /// what a real ArduCopter does for about 2 s after power-up. PX4 answers as soon as its
     /// MAVLink instance runs (dataman is up before it), so this applies to ArduPilot only.
     pub fn set_loaded(&mut self, loaded: bool) {
-        self.loaded = loaded || self.autopilot == Autopilot::Px4;
+        if let Transfer::ArduPilot(ap) = &mut self.transfer {
+            ap.loaded = loaded;
+        }
     }
 
     /// A power cycle: the stored lists survive (ArduPilot EEPROM, PX4 dataman), transfers in
@@ -309,180 +330,103 @@ impl MissionServer {
     /// PX4: 0 — PX4 does persist `current_seq` in dataman, but the navigator resets it when
     /// the mission is loaded after boot) and PX4 forgets the GCS's int mode.
     pub fn reboot(&mut self) {
-        self.loaded = true;
-        self.ap_rx = [None, None, None];
-        self.ap_warned_request = false;
-        self.ap_warned_item = false;
-        self.px4.state = Px4State::Idle;
-        self.px4.transfer_seq = 0;
-        self.px4.transfer_count = 0;
-        self.px4.last_sent = None;
-        self.px4.last_recv = None;
-        self.px4.int_mode = false;
-        self.outbox.clear();
-        self.events.clear();
-        self.current = self.first_item();
-        self.mission_running = false;
+        match &mut self.transfer {
+            Transfer::ArduPilot(ap) => ap.reboot(),
+            Transfer::Px4(p) => p.reboot(),
+        }
+        self.core.outbox.clear();
+        self.core.events.clear();
+        self.core.current = self.first_item();
     }
 
     fn first_item(&self) -> u16 {
-        match self.autopilot {
-            Autopilot::ArduPilot => 1,
-            Autopilot::Px4 => 0,
+        match self.transfer {
+            Transfer::ArduPilot(_) => 1,
+            Transfer::Px4(_) => 0,
         }
     }
 
-    /// Set the home position that ArduPilot reports as mission item 0.
+    /// Set the home position that ArduPilot reports as mission item 0 (PX4 has no home
+    /// item: ignored).
     pub fn set_home(&mut self, home: Option<HomeItem>) {
-        self.home = home;
+        if let Transfer::ArduPilot(ap) = &mut self.transfer {
+            ap.home = home;
+        }
     }
 
     /// Tell the server whether the mission is being executed (ArduPilot refuses
-    /// MISSION_CLEAR_ALL while it runs).
+    /// MISSION_CLEAR_ALL while it runs; PX4 does not look).
     pub fn set_mission_running(&mut self, running: bool) {
-        self.mission_running = running;
+        if let Transfer::ArduPilot(ap) = &mut self.transfer {
+            ap.mission_running = running;
+        }
     }
 
     /// Set the current mission item (autopilot numbering), as the vehicle's mission logic
     /// advances; used for the `current` field of downloaded items.
     pub fn set_current(&mut self, seq: u16) {
-        self.current = seq;
+        self.core.current = seq;
     }
 
     /// The current mission item (autopilot numbering).
     pub fn current(&self) -> u16 {
-        self.current
+        self.core.current
     }
 
     /// The stored items of `t` in the autopilot's numbering (ArduPilot mission: index 0 is
     /// the home slot, as stored).
     pub fn items(&self, t: MissionType) -> &[MissionItem] {
-        &self.lists[idx(t)]
+        &self.core.lists[idx(t)]
     }
 
     /// The stored mission without ArduPilot's home slot (the user's items).
     pub fn user_items(&self) -> &[MissionItem] {
-        let m = &self.lists[0];
-        match self.autopilot {
-            Autopilot::ArduPilot if !m.is_empty() => &m[1..],
+        let m = &self.core.lists[0];
+        match self.transfer {
+            Transfer::ArduPilot(_) if !m.is_empty() => &m[1..],
             _ => m,
         }
     }
 
     /// The PX4 opaque id (CRC-32) of list `t`; 0 for ArduPilot.
     pub fn opaque_id(&self, t: MissionType) -> u32 {
-        self.crc[idx(t)]
+        match &self.transfer {
+            Transfer::ArduPilot(_) => 0,
+            Transfer::Px4(p) => p.crc[idx(t)],
+        }
     }
 
     /// Whether an upload is in progress for any list.
     pub fn receiving(&self) -> bool {
-        match self.autopilot {
-            Autopilot::ArduPilot => self.ap_rx.iter().any(|r| r.is_some()),
-            Autopilot::Px4 => self.px4.state == Px4State::GetList,
+        match &self.transfer {
+            Transfer::ArduPilot(ap) => ap.uploads.iter().any(|r| r.is_some()),
+            Transfer::Px4(p) => p.phase == Px4Phase::GetList,
         }
     }
 
     /// The next message to send, if any (from the autopilot component).
     pub fn poll_transmit(&mut self) -> Option<MavMessage> {
-        self.outbox.pop_front()
+        self.core.outbox.pop_front()
     }
 
     /// The next event for the vehicle logic, if any.
     pub fn poll_event(&mut self) -> Option<MissionEvent> {
-        self.events.pop_front()
+        self.core.events.pop_front()
     }
 
     /// When [`MissionServer::handle_timeout`] should be called next.
     pub fn poll_timeout(&self) -> Option<Time> {
-        match self.autopilot {
-            Autopilot::ArduPilot => self
-                .ap_rx
-                .iter()
-                .flatten()
-                .map(|r| {
-                    (r.last_request + ARDUPILOT_RESEND + Duration::from_millis(1))
-                        .min(r.last_receive + ARDUPILOT_UPLOAD_TIMEOUT + Duration::from_millis(1))
-                })
-                .min(),
-            Autopilot::Px4 => {
-                if self.px4.state == Px4State::Idle {
-                    return None;
-                }
-                let mut t = self
-                    .px4
-                    .last_recv
-                    .map(|r| r + PX4_PROTOCOL_TIMEOUT + Duration::from_micros(1));
-                if self.px4.state == Px4State::GetList
-                    && let Some(s) = self.px4.last_sent
-                {
-                    let retry = s + PX4_RETRY + Duration::from_micros(1);
-                    t = Some(t.map_or(retry, |t| t.min(retry)));
-                }
-                t
-            }
+        match &self.transfer {
+            Transfer::ArduPilot(ap) => ap.poll_timeout(),
+            Transfer::Px4(p) => p.poll_timeout(),
         }
     }
 
     /// Run the protocol's timers.
     pub fn handle_timeout(&mut self, now: Time) {
-        match self.autopilot {
-            Autopilot::ArduPilot => {
-                for t in [MissionType::Mission, MissionType::Fence, MissionType::Rally] {
-                    let Some(rx) = self.ap_rx[idx(t)].as_mut() else {
-                        continue;
-                    };
-                    if now.saturating_since(rx.last_receive) > ARDUPILOT_UPLOAD_TIMEOUT {
-                        let partner = rx.partner;
-                        self.ap_rx[idx(t)] = None;
-                        if t == MissionType::Mission {
-                            self.outbox.push_back(text(
-                                mav::MavSeverity::MAV_SEVERITY_WARNING,
-                                "Mission upload timeout",
-                            ));
-                        }
-                        self.outbox.push_back(self.ack_to(
-                            partner,
-                            t,
-                            mav::MavMissionResult::MAV_MISSION_OPERATION_CANCELLED,
-                            0,
-                        ));
-                        self.events
-                            .push_back(MissionEvent::UploadFailed { mission_type: t });
-                    } else if now.saturating_since(rx.last_request) > ARDUPILOT_RESEND {
-                        rx.last_request = now;
-                        let (partner, seq) = (rx.partner, rx.request_i);
-                        self.outbox
-                            .push_back(self.request_msg(partner, seq, t, false));
-                    }
-                }
-            }
-            Autopilot::Px4 => {
-                let p = &self.px4;
-                if p.state == Px4State::GetList
-                    && p.last_sent
-                        .is_some_and(|s| now.saturating_since(s) > PX4_RETRY)
-                {
-                    let (partner, seq, t, int) =
-                        (p.partner, p.transfer_seq, p.mission_type, p.int_mode);
-                    self.px4_send_request(partner, seq, t, int, now);
-                } else if p.state != Px4State::Idle
-                    && p.last_recv
-                        .is_some_and(|r| now.saturating_since(r) > PX4_PROTOCOL_TIMEOUT)
-                {
-                    self.outbox.push_back(text(
-                        mav::MavSeverity::MAV_SEVERITY_CRITICAL,
-                        "Operation timeout",
-                    ));
-                    if self.px4.state == Px4State::GetList {
-                        self.events.push_back(MissionEvent::UploadFailed {
-                            mission_type: self.px4.mission_type,
-                        });
-                    }
-                    self.px4.state = Px4State::Idle;
-                    self.px4.last_sent = None;
-                    self.px4.last_recv = None;
-                }
-            }
+        match &mut self.transfer {
+            Transfer::ArduPilot(ap) => ap.handle_timeout(&mut self.core, now),
+            Transfer::Px4(p) => p.handle_timeout(&mut self.core, now),
         }
     }
 
@@ -493,14 +437,18 @@ impl MissionServer {
             u8::try_from(header.system_id).unwrap_or(u8::MAX),
             header.component_id,
         );
+        let core = &mut self.core;
         match msg {
             MavMessage::MISSION_COUNT(m) => {
-                if let Some(t) =
-                    self.accept_target(m.target_system, m.target_component, m.mission_type)
-                {
-                    match self.autopilot {
-                        Autopilot::ArduPilot => self.ap_count(from, t, m.count, now),
-                        Autopilot::Px4 => self.px4_count(from, t, m.count, now),
+                if let Some(t) = self.transfer.accept_target(
+                    core,
+                    m.target_system,
+                    m.target_component,
+                    m.mission_type,
+                ) {
+                    match &mut self.transfer {
+                        Transfer::ArduPilot(ap) => ap.count(core, from, t, m.count, now),
+                        Transfer::Px4(p) => p.count(core, from, t, m.count, now),
                     }
                 }
             }
@@ -526,8 +474,11 @@ impl MissionServer {
                 };
                 if mtype(m.mission_type).is_some() {
                     self.handle_item(from, rx, m.current, now);
-                } else if self.is_for_me(m.target_system, m.target_component) {
-                    self.outbox.push_back(self.ack_raw(
+                } else if self
+                    .transfer
+                    .is_for_me(core, m.target_system, m.target_component)
+                {
+                    core.outbox.push_back(ack_raw(
                         from,
                         m.mission_type,
                         mav::MavMissionResult::MAV_MISSION_UNSUPPORTED,
@@ -540,7 +491,7 @@ impl MissionServer {
                 // parameters 5/6 otherwise (ArduPilot convert_MISSION_ITEM_to_MISSION_ITEM_INT
                 // scales all but DIGICAM commands; PX4 treats x/y as doubles in float mode).
                 let cmd = m.command as u16;
-                let scaled = self.float_xy_is_degrees(cmd, m.frame as u8);
+                let scaled = self.transfer.float_xy_is_degrees(cmd, m.frame as u8);
                 let (x, y) = if scaled {
                     (
                         (f64::from(m.x) * 1e7).round() as i32,
@@ -573,56 +524,78 @@ impl MissionServer {
                 }
             }
             MavMessage::MISSION_REQUEST_LIST(m) => {
-                if let Some(t) =
-                    self.accept_target(m.target_system, m.target_component, m.mission_type)
-                {
-                    match self.autopilot {
-                        Autopilot::ArduPilot => self.ap_request_list(from, t),
-                        Autopilot::Px4 => self.px4_request_list(from, t, now),
+                if let Some(t) = self.transfer.accept_target(
+                    core,
+                    m.target_system,
+                    m.target_component,
+                    m.mission_type,
+                ) {
+                    match &mut self.transfer {
+                        Transfer::ArduPilot(ap) => ap.request_list(core, from, t),
+                        Transfer::Px4(p) => p.request_list(core, from, t, now),
                     }
                 }
             }
             MavMessage::MISSION_REQUEST_INT(m) => {
-                if let Some(t) =
-                    self.accept_target(m.target_system, m.target_component, m.mission_type)
-                {
-                    match self.autopilot {
-                        Autopilot::ArduPilot => self.ap_request(from, t, m.seq, true),
-                        Autopilot::Px4 => {
-                            self.px4.int_mode = true;
-                            self.px4_request(from, t, m.seq, now);
+                if let Some(t) = self.transfer.accept_target(
+                    core,
+                    m.target_system,
+                    m.target_component,
+                    m.mission_type,
+                ) {
+                    match &mut self.transfer {
+                        Transfer::ArduPilot(ap) => ap.request(core, from, t, m.seq, true),
+                        Transfer::Px4(p) => {
+                            p.int_mode = true;
+                            p.request(core, from, t, m.seq, now);
                         }
                     }
                 }
             }
             MavMessage::MISSION_REQUEST(m) => {
-                if let Some(t) =
-                    self.accept_target(m.target_system, m.target_component, m.mission_type)
-                {
-                    match self.autopilot {
-                        Autopilot::ArduPilot => self.ap_request(from, t, m.seq, false),
-                        Autopilot::Px4 => {
-                            self.px4.int_mode = false;
-                            self.px4_request(from, t, m.seq, now);
+                if let Some(t) = self.transfer.accept_target(
+                    core,
+                    m.target_system,
+                    m.target_component,
+                    m.mission_type,
+                ) {
+                    match &mut self.transfer {
+                        Transfer::ArduPilot(ap) => ap.request(core, from, t, m.seq, false),
+                        Transfer::Px4(p) => {
+                            p.int_mode = false;
+                            p.request(core, from, t, m.seq, now);
                         }
                     }
                 }
             }
             MavMessage::MISSION_CLEAR_ALL(m) => {
-                if self.is_for_me(m.target_system, m.target_component) {
-                    self.clear_all(from, m.mission_type, now);
+                if self
+                    .transfer
+                    .is_for_me(core, m.target_system, m.target_component)
+                {
+                    match &mut self.transfer {
+                        Transfer::ArduPilot(ap) => ap.clear_all(core, from, m.mission_type),
+                        Transfer::Px4(p) => p.clear_all(core, from, m.mission_type, now),
+                    }
                 }
             }
             MavMessage::MISSION_ACK(m) => {
-                if self.autopilot == Autopilot::Px4
-                    && self.is_for_me(m.target_system, m.target_component)
+                // ArduPilot ignores MISSION_ACK (its uploads end with its own ACK).
+                if let Transfer::Px4(p) = &mut self.transfer
+                    && is_for_me(core, true, m.target_system, m.target_component)
                 {
-                    self.px4_ack(from, m, now);
+                    p.ack(core, from, m, now);
                 }
             }
             MavMessage::MISSION_SET_CURRENT(m) => {
-                if self.is_for_me(m.target_system, m.target_component) {
-                    self.set_current_request(m.seq, now);
+                if self
+                    .transfer
+                    .is_for_me(core, m.target_system, m.target_component)
+                {
+                    match &mut self.transfer {
+                        Transfer::ArduPilot(_) => ArduPilotState::set_current(core, m.seq),
+                        Transfer::Px4(p) => p.set_current(core, m.seq, now),
+                    }
                 }
             }
             _ => return false,
@@ -630,132 +603,16 @@ impl MissionServer {
         true
     }
 
-    // ------------------------------------------------------------------ shared
-
     fn handle_item(&mut self, from: (u8, u8), rx: RxItem, current: u8, now: Time) {
-        if !self.is_for_me(rx.target.0, rx.target.1) {
+        let core = &mut self.core;
+        if !self.transfer.is_for_me(core, rx.target.0, rx.target.1) {
             return;
         }
-        if self.autopilot == Autopilot::ArduPilot
-            && rx.mission_type == MissionType::Mission
-            && (current == 2 || current == 3)
-        {
-            // Guided-mode waypoint requests through MISSION_ITEM (GCS_Common.cpp
-            // handle_mission_item) are not supported by the simulator: DO_REPOSITION and
-            // SET_POSITION_TARGET_GLOBAL_INT are.
-            self.outbox.push_back(self.ack_to(
-                from,
-                MissionType::Mission,
-                mav::MavMissionResult::MAV_MISSION_UNSUPPORTED,
-                0,
-            ));
-            return;
-        }
-        if rx.float && self.autopilot == Autopilot::Px4 {
-            self.px4.int_mode = false;
-        } else if self.autopilot == Autopilot::Px4 {
-            self.px4.int_mode = true;
-        }
-        match self.autopilot {
-            Autopilot::ArduPilot => self.ap_item(from, rx, now),
-            Autopilot::Px4 => self.px4_item(from, rx, now),
-        }
-    }
-
-    fn clear_all(&mut self, from: (u8, u8), t: mav::MavMissionType, now: Time) {
-        let types: Vec<MissionType> = match mtype(t) {
-            Some(x) => vec![x],
-            None if t == mav::MavMissionType::MAV_MISSION_TYPE_ALL
-                && self.autopilot == Autopilot::Px4 =>
-            {
-                vec![MissionType::Mission, MissionType::Fence, MissionType::Rally]
-            }
-            None => {
-                self.outbox.push_back(self.ack_raw(
-                    from,
-                    t,
-                    mav::MavMissionResult::MAV_MISSION_UNSUPPORTED,
-                    0,
-                ));
-                return;
-            }
-        };
-        match self.autopilot {
-            Autopilot::ArduPilot => {
-                let mt = types[0];
-                let ok = self.ap_rx[idx(mt)].is_none()
-                    && !(mt == MissionType::Mission && self.mission_running);
-                if ok {
-                    self.lists[idx(mt)].clear();
-                    if mt == MissionType::Mission {
-                        self.current = 1;
-                    }
-                    self.events
-                        .push_back(MissionEvent::Cleared { mission_type: mt });
-                }
-                let r = if ok {
-                    mav::MavMissionResult::MAV_MISSION_ACCEPTED
-                } else {
-                    mav::MavMissionResult::MAV_MISSION_ERROR
-                };
-                self.outbox.push_back(self.ack_to(from, mt, r, 0));
-            }
-            Autopilot::Px4 => {
-                if self.px4.state != Px4State::Idle {
-                    self.outbox.push_back(text(
-                        mav::MavSeverity::MAV_SEVERITY_CRITICAL,
-                        "WPM: IGN CLEAR CMD: Busy",
-                    ));
-                    return;
-                }
-                self.px4.last_recv = Some(now);
-                for mt in &types {
-                    self.lists[idx(*mt)].clear();
-                    self.crc[idx(*mt)] = 0;
-                    if *mt == MissionType::Mission {
-                        self.current = 0;
-                    }
-                    self.events
-                        .push_back(MissionEvent::Cleared { mission_type: *mt });
-                }
-                self.outbox.push_back(self.ack_raw(
-                    from,
-                    t,
-                    mav::MavMissionResult::MAV_MISSION_ACCEPTED,
-                    0,
-                ));
-            }
-        }
-    }
-
-    fn set_current_request(&mut self, seq: u16, now: Time) {
-        let n = self.lists[0].len() as u16;
-        match self.autopilot {
-            Autopilot::ArduPilot => {
-                // AP_Mission::set_current_cmd: index 0 restarts at 1; needs a mission.
-                if seq < n && n > 1 {
-                    self.events
-                        .push_back(MissionEvent::SetCurrent { seq: seq.max(1) });
-                }
-            }
-            Autopilot::Px4 => {
-                if self.px4.state != Px4State::Idle {
-                    self.outbox.push_back(text(
-                        mav::MavSeverity::MAV_SEVERITY_CRITICAL,
-                        "WPM: IGN WP CURR CMD: Busy",
-                    ));
-                    return;
-                }
-                self.px4.last_recv = Some(now);
-                if seq < n {
-                    self.current = seq;
-                    self.events.push_back(MissionEvent::SetCurrent { seq });
-                } else {
-                    self.outbox.push_back(text(
-                        mav::MavSeverity::MAV_SEVERITY_CRITICAL,
-                        "WPM: WP CURR CMD: Not in list",
-                    ));
-                }
+        match &mut self.transfer {
+            Transfer::ArduPilot(ap) => ap.item(core, from, rx, current, now),
+            Transfer::Px4(p) => {
+                p.int_mode = !rx.float;
+                p.item(core, from, rx, now);
             }
         }
     }
@@ -767,6 +624,8 @@ mod messages;
 mod px4;
 #[cfg(test)]
 mod tests;
+
+use messages::{ack_raw, ack_to, count_msg, is_for_me, item_msg, request_msg};
 
 pub use items::{
     ardupilot_store_fence_item, ardupilot_store_mission_item, ardupilot_store_rally_item,

@@ -69,7 +69,7 @@ fn sample() -> Vec<MissionItem> {
 
 #[test]
 fn ardupilot_upload_uses_mission_request_and_is_lossy() {
-    let mut s = MissionServer::new(Autopilot::ArduPilot, 1, 1);
+    let mut s = MissionServer::new(SimAutopilot::ArduPilot, 1, 1);
     s.set_home(Some(HomeItem {
         lat_e7: 371_960_000,
         lon_e7: -805_800_000,
@@ -118,7 +118,7 @@ fn ardupilot_upload_uses_mission_request_and_is_lossy() {
 
 #[test]
 fn ardupilot_count_truncates_at_once_and_times_out() {
-    let mut s = MissionServer::new(Autopilot::ArduPilot, 1, 1);
+    let mut s = MissionServer::new(SimAutopilot::ArduPilot, 1, 1);
     upload(&mut s, &sample(), Time::ZERO);
     let mt = mav::MavMissionType::MAV_MISSION_TYPE_MISSION;
     s.handle_message(&GCS, &count(3, mt), Time::from_secs(1));
@@ -148,7 +148,7 @@ fn ardupilot_count_truncates_at_once_and_times_out() {
 
 #[test]
 fn ardupilot_wrong_seq_and_item_without_transfer() {
-    let mut s = MissionServer::new(Autopilot::ArduPilot, 1, 1);
+    let mut s = MissionServer::new(SimAutopilot::ArduPilot, 1, 1);
     let mt = mav::MavMissionType::MAV_MISSION_TYPE_MISSION;
     let it = MissionItem::waypoint(1.0, 2.0, 3.0);
     s.handle_message(&GCS, &item_int(0, &it, mt), Time::ZERO);
@@ -174,7 +174,7 @@ fn ardupilot_wrong_seq_and_item_without_transfer() {
 
 #[test]
 fn px4_upload_switches_to_int_mode_and_reacks_duplicates() {
-    let mut s = MissionServer::new(Autopilot::Px4, 1, 1);
+    let mut s = MissionServer::new(SimAutopilot::Px4, 1, 1);
     let items = &sample()[1..];
     let out = upload(&mut s, items, Time::ZERO);
     // first request is the float variant, then INT once the GCS sent MISSION_ITEM_INT
@@ -220,7 +220,7 @@ fn px4_upload_switches_to_int_mode_and_reacks_duplicates() {
 
 #[test]
 fn px4_rejects_rtl_in_a_global_frame_and_retries() {
-    let mut s = MissionServer::new(Autopilot::Px4, 1, 1);
+    let mut s = MissionServer::new(SimAutopilot::Px4, 1, 1);
     let mt = mav::MavMissionType::MAV_MISSION_TYPE_MISSION;
     s.handle_message(&GCS, &count(1, mt), Time::ZERO);
     drain(&mut s);
@@ -237,13 +237,16 @@ fn px4_rejects_rtl_in_a_global_frame_and_retries() {
 
 #[test]
 fn reboot_keeps_lists() {
-    for ap in [Autopilot::ArduPilot, Autopilot::Px4] {
+    for ap in [SimAutopilot::ArduPilot, SimAutopilot::Px4] {
         let mut s = MissionServer::new(ap, 1, 1);
         upload(&mut s, &sample(), Time::ZERO);
         s.set_current(3);
         s.reboot();
         assert_eq!(s.items(MissionType::Mission).len(), 6);
-        assert_eq!(s.current(), if ap == Autopilot::ArduPilot { 1 } else { 0 });
+        assert_eq!(
+            s.current(),
+            if ap == SimAutopilot::ArduPilot { 1 } else { 0 }
+        );
     }
 }
 
@@ -253,7 +256,7 @@ fn reboot_keeps_lists() {
 #[test]
 fn ardupilot_refuses_uploads_and_reads_empty_while_booting() {
     let mt = mav::MavMissionType::MAV_MISSION_TYPE_MISSION;
-    let mut s = MissionServer::new(Autopilot::ArduPilot, 1, 1);
+    let mut s = MissionServer::new(SimAutopilot::ArduPilot, 1, 1);
     upload(&mut s, &sample(), Time::ZERO);
     s.reboot();
     s.set_loaded(false);
@@ -285,7 +288,7 @@ fn ardupilot_refuses_uploads_and_reads_empty_while_booting() {
             .iter()
             .any(|m| matches!(m, MavMessage::MISSION_COUNT(c) if c.count == 6))
     );
-    let mut p = MissionServer::new(Autopilot::Px4, 1, 1);
+    let mut p = MissionServer::new(SimAutopilot::Px4, 1, 1);
     p.set_loaded(false);
     let out = upload(&mut p, &sample()[1..], Time::ZERO);
     assert!(out.iter().any(|m| matches!(m, MavMessage::MISSION_ACK(a)

@@ -36,7 +36,7 @@ impl SimVehicle {
     pub(super) fn prearm_failure(&self, now: Time) -> Option<&'static str> {
         let f = self.cfg.flavour;
         match f.autopilot {
-            Autopilot::ArduPilot => {
+            SimAutopilot::ArduPilot => {
                 if !self.gps_fix(now) {
                     Some("PreArm: GPS 1: Bad fix")
                 } else if !self.position_ok(now) {
@@ -51,7 +51,7 @@ impl SimVehicle {
                     None
                 }
             }
-            Autopilot::Px4 => {
+            SimAutopilot::Px4 => {
                 if self.cfg.px4_datalink_required
                     && self
                         .modes
@@ -187,5 +187,46 @@ impl SimVehicle {
             alt_amsl_m: alt as f32,
         }));
         self.queue(AUTOPILOT_COMPID, self.home_position_msg(now));
+    }
+}
+
+/// COMPONENT_ARM_DISARM param2 that forces arming/disarming (ArduPilot and PX4 magic value).
+const ARM_DISARM_FORCE: f32 = 21196.0;
+
+impl SimVehicle {
+    // ------------------------------------------------------------------ commands
+    // (dispatched by `commands::command`)
+
+    /// COMPONENT_ARM_DISARM: param1 1 arm / 0 disarm; 21196 in param2 forces.
+    pub(super) fn cmd_arm_disarm(
+        &mut self,
+        c: &mav::COMMAND_INT_DATA,
+        now: Time,
+    ) -> mav::MavResult {
+        use mav::MavResult as R;
+        let ap = self.cfg.flavour.is_ardupilot();
+        let copter = self.cfg.flavour.is_copter();
+        let forced = (c.param2 - ARM_DISARM_FORCE).abs() < 0.5;
+        if c.param1 > 0.5 {
+            match self.arm(now, forced) {
+                Ok(()) => R::MAV_RESULT_ACCEPTED,
+                Err(r) => r,
+            }
+        } else if !self.arming.armed {
+            R::MAV_RESULT_ACCEPTED
+        } else if !self.arming.landed && !forced && copter {
+            if ap {
+                R::MAV_RESULT_FAILED
+            } else {
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Disarming denied: not landed",
+                );
+                R::MAV_RESULT_TEMPORARILY_REJECTED
+            }
+        } else {
+            self.disarm(now, "external command");
+            R::MAV_RESULT_ACCEPTED
+        }
     }
 }

@@ -117,13 +117,13 @@ impl SimVehicle {
             self.estimator.position_ok_announced = true;
             self.set_home_here(now);
             match self.cfg.flavour.autopilot {
-                Autopilot::ArduPilot => {
+                SimAutopilot::ArduPilot => {
                     self.text(
                         mav::MavSeverity::MAV_SEVERITY_INFO,
                         "EKF3 IMU0 is using GPS",
                     );
                 }
-                Autopilot::Px4 => {
+                SimAutopilot::Px4 => {
                     self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Ready for takeoff!");
                 }
             }
@@ -347,6 +347,330 @@ impl SimVehicle {
             self.flight.nav = Nav::Land {
                 p: self.here(),
                 descending: true,
+            };
+        }
+    }
+}
+
+/// Whether a command's frame gives altitudes relative to home (GLOBAL_RELATIVE_ALT, its
+/// _INT form) rather than AMSL.
+fn is_relative_alt(frame: mav::MavFrame) -> bool {
+    matches!(
+        frame,
+        mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+            | mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+    )
+}
+
+impl SimVehicle {
+    // ------------------------------------------------------------------ commands
+    // (dispatched by `commands::command`)
+
+    pub(super) fn cmd_takeoff(&mut self, c: &mav::COMMAND_INT_DATA, now: Time) -> mav::MavResult {
+        use mav::MavResult as R;
+        let ap = self.cfg.flavour.is_ardupilot();
+        if !self.cfg.flavour.is_copter() {
+            return if ap {
+                R::MAV_RESULT_UNSUPPORTED
+            } else {
+                R::MAV_RESULT_TEMPORARILY_REJECTED
+            };
+        }
+        if ap {
+            // GCS_MAVLINK_Copter::handle_MAV_CMD_NAV_TAKEOFF / Mode::do_user_takeoff
+            if c.frame != mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT {
+                return R::MAV_RESULT_DENIED;
+            }
+            let alt = f64::from(c.z);
+            let user_takeoff = matches!(self.modes.mode, Mode::Guided | Mode::Hold | Mode::AltHold);
+            if !self.arming.armed || !self.arming.landed || !user_takeoff || alt <= self.flight.m.u
+            {
+                return R::MAV_RESULT_FAILED;
+            }
+            let here = self.here();
+            self.flight.nav = Nav::Takeoff(Point { u: alt, ..here });
+            R::MAV_RESULT_ACCEPTED
+        } else {
+            if self.check_mode_allowed(Mode::Takeoff, now).is_err() || !self.arming.landed {
+                let msg = format!(
+                    "Switching to {} is currently not possible",
+                    self.cfg.flavour.mode_name(Mode::Takeoff)
+                );
+                self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, &msg);
+                return R::MAV_RESULT_TEMPORARILY_REJECTED;
+            }
+            // param7 is an AMSL altitude; NaN → MIS_TAKEOFF_ALT
+            let alt = if c.z.is_finite() {
+                match c.frame {
+                    mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+                    | mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT => f64::from(c.z),
+                    _ => {
+                        f64::from(c.z)
+                            - self
+                                .flight
+                                .home
+                                .map(|h| h.alt_amsl)
+                                .unwrap_or(self.ground_amsl())
+                    }
+                }
+            } else {
+                2.5
+            };
+            self.enter_mode(Mode::Takeoff, now);
+            let here = self.here();
+            self.flight.nav = Nav::Takeoff(Point {
+                u: alt.max(1.0),
+                ..here
+            });
+            R::MAV_RESULT_ACCEPTED
+        }
+    }
+
+    /// DO_CHANGE_SPEED: param2 the ground speed, m/s (ArduPilot denies a speed ≤ 0, PX4
+    /// accepts and ignores it).
+    pub(super) fn cmd_change_speed(&mut self, c: &mav::COMMAND_INT_DATA) -> mav::MavResult {
+        use mav::MavResult as R;
+        if c.param2 <= 0.0 {
+            if self.cfg.flavour.is_ardupilot() {
+                R::MAV_RESULT_DENIED
+            } else {
+                R::MAV_RESULT_ACCEPTED
+            }
+        } else {
+            self.flight.speed_override = Some(f64::from(c.param2));
+            R::MAV_RESULT_ACCEPTED
+        }
+    }
+
+    /// GET_HOME_POSITION: HOME_POSITION, or FAILED before home is set.
+    pub(super) fn cmd_get_home_position(&mut self, now: Time) -> mav::MavResult {
+        if self.flight.home.is_some() {
+            self.queue(AUTOPILOT_COMPID, self.home_position_msg(now));
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            mav::MavResult::MAV_RESULT_FAILED
+        }
+    }
+
+    /// DO_SET_HOME: param1 = 1 the current position, else the given latitude/longitude
+    /// (degrees × 1e7) and altitude (relative frames add the current home's altitude).
+    pub(super) fn cmd_set_home(&mut self, c: &mav::COMMAND_INT_DATA, now: Time) -> mav::MavResult {
+        use mav::MavResult as R;
+        if c.param1 > 0.5 {
+            return if self.position_ok(now) {
+                self.set_home_here(now);
+                R::MAV_RESULT_ACCEPTED
+            } else {
+                R::MAV_RESULT_FAILED
+            };
+        }
+        let lat = f64::from(c.x) * 1e-7;
+        let lon = f64::from(c.y) * 1e-7;
+        if !(-90.0..=90.0).contains(&lat)
+            || !(-180.0..=180.0).contains(&lon)
+            || (c.x == 0 && c.y == 0)
+        {
+            return R::MAV_RESULT_DENIED;
+        }
+        let (n, e) = local::delta(self.cfg.reference.0, self.cfg.reference.1, lat, lon);
+        let alt = if is_relative_alt(c.frame) {
+            self.flight
+                .home
+                .map(|h| h.alt_amsl)
+                .unwrap_or(self.ground_amsl())
+                + f64::from(c.z)
+        } else {
+            f64::from(c.z)
+        };
+        self.flight.home = Some(Home {
+            lat,
+            lon,
+            alt_amsl: alt,
+            e,
+            n,
+        });
+        self.missions.server.set_home(Some(HomeItem {
+            lat_e7: c.x,
+            lon_e7: c.y,
+            alt_amsl_m: alt as f32,
+        }));
+        self.queue(AUTOPILOT_COMPID, self.home_position_msg(now));
+        R::MAV_RESULT_ACCEPTED
+    }
+
+    pub(super) fn target_from_command(
+        &self,
+        c: &mav::COMMAND_INT_DATA,
+        long: bool,
+        nan_pos: bool,
+    ) -> Point {
+        let here = self.here();
+        let px4 = !self.cfg.flavour.is_ardupilot();
+        let (e, n) = if nan_pos || (c.x == 0 && c.y == 0) {
+            (here.e, here.n)
+        } else {
+            let (dn, de) = local::delta(
+                self.cfg.reference.0,
+                self.cfg.reference.1,
+                f64::from(c.x) * 1e-7,
+                f64::from(c.y) * 1e-7,
+            );
+            (de, dn)
+        };
+        let u = if !c.z.is_finite() {
+            here.u
+        } else {
+            match c.frame {
+                mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT
+                | mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT_INT
+                | mav::MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT
+                | mav::MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT_INT => f64::from(c.z),
+                _ => {
+                    // AMSL (COMMAND_LONG to ArduPilot is converted with frame GLOBAL; PX4's
+                    // reposition altitude is AMSL)
+                    let _ = (long, px4);
+                    f64::from(c.z) - self.ground_amsl()
+                }
+            }
+        };
+        let u = if self.cfg.flavour.is_copter() {
+            u.max(0.0)
+        } else {
+            0.0
+        };
+        Point { e, n, u }
+    }
+
+    pub(super) fn cmd_reposition(
+        &mut self,
+        c: &mav::COMMAND_INT_DATA,
+        long: bool,
+        nan_pos: bool,
+        now: Time,
+    ) -> mav::MavResult {
+        use mav::MavResult as R;
+        let change_mode = (c.param2 as i32) & 1 == 1;
+        // PX4's navigator flies a reposition at param1 (ground speed) when positive;
+        // ArduCopter ignores it (GUIDED keeps WPNAV_SPEED or the last DO_CHANGE_SPEED)
+        let speed = if c.param1 > 0.0 && !self.cfg.flavour.is_ardupilot() {
+            Some(f64::from(c.param1))
+        } else {
+            None
+        };
+        if self.cfg.flavour.is_ardupilot() {
+            // GCS_MAVLINK_Copter::handle_command_int_do_reposition
+            if self.modes.mode != Mode::Guided && !change_mode {
+                return R::MAV_RESULT_DENIED;
+            }
+            if !nan_pos && (c.x.abs() > 900_000_000 || c.y.abs() > 1_800_000_000) {
+                return R::MAV_RESULT_DENIED;
+            }
+            if !self.position_ok(now) {
+                return R::MAV_RESULT_FAILED;
+            }
+            let p = self.target_from_command(c, long, nan_pos);
+            if self.modes.mode != Mode::Guided
+                && self.set_mode_request(
+                    1,
+                    self.cfg.flavour.custom_mode(Mode::Guided).unwrap_or(4),
+                    now,
+                ) != R::MAV_RESULT_ACCEPTED
+            {
+                return R::MAV_RESULT_FAILED;
+            }
+            self.flight.guided_target_at = Some(now);
+            // A new destination returns the yaw to WP_YAW_BEHAVIOR (ModeGuided::set_destination
+            // without a yaw): a CONDITION_YAW must come after it.
+            self.flight.yaw_target_deg = None;
+            if !(self.arming.landed && self.cfg.flavour.is_copter()) {
+                self.flight.nav = Nav::Goto { p, speed };
+            }
+            R::MAV_RESULT_ACCEPTED
+        } else {
+            // Commander: only the change-mode bit is supported; the navigator flies there in Hold
+            if !change_mode || (c.param2 as i32) & !1 != 0 {
+                return R::MAV_RESULT_UNSUPPORTED;
+            }
+            if self.check_mode_allowed(Mode::Hold, now).is_err() {
+                let msg = format!(
+                    "Switching to {} is currently not possible",
+                    self.cfg.flavour.mode_name(Mode::Hold)
+                );
+                self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, &msg);
+                return R::MAV_RESULT_TEMPORARILY_REJECTED;
+            }
+            let p = self.target_from_command(c, long, nan_pos);
+            self.enter_mode(Mode::Hold, now);
+            // navigator_main.cpp: a finite param4 is the yaw setpoint, in radians.
+            self.flight.yaw_target_deg = c
+                .param4
+                .is_finite()
+                .then(|| f64::from(c.param4).to_degrees().rem_euclid(360.0));
+            if !(self.arming.landed && self.cfg.flavour.is_copter()) {
+                self.flight.nav = Nav::Goto { p, speed };
+            }
+            R::MAV_RESULT_ACCEPTED
+        }
+    }
+
+    /// ArduCopter's MAV_CMD_CONDITION_YAW outside a mission (GCS_MAVLINK_Copter): param1
+    /// the angle (0..360), param2 the rate (0 = default), param3 the direction, param4 1 =
+    /// relative to the current heading, 0 = absolute; anything else FAILED. It sets a fixed
+    /// yaw for the guided flight; in other modes the yaw is accepted and soon forgotten.
+    pub(super) fn cmd_condition_yaw(&mut self, c: &mav::COMMAND_INT_DATA) -> mav::MavResult {
+        use mav::MavResult as R;
+        let relative = c.param4 == 1.0;
+        if !(0.0..=360.0).contains(&c.param1) || !(c.param4 == 0.0 || relative) {
+            return R::MAV_RESULT_FAILED;
+        }
+        let angle = f64::from(c.param1);
+        let target = if relative {
+            let dir = if c.param3 < 0.0 { -1.0 } else { 1.0 };
+            self.flight.m.heading_deg + dir * angle
+        } else {
+            angle
+        };
+        if self.modes.mode == Mode::Guided {
+            self.flight.yaw_target_deg = Some(target.rem_euclid(360.0));
+        }
+        R::MAV_RESULT_ACCEPTED
+    }
+
+    pub(super) fn position_target(
+        &mut self,
+        p: &mav::SET_POSITION_TARGET_GLOBAL_INT_DATA,
+        now: Time,
+    ) {
+        let mask = p.type_mask.bits();
+        let pos_ignore = mask & 0b111 == 0b111;
+        let ap = self.cfg.flavour.is_ardupilot();
+        if ap && self.modes.mode != Mode::Guided {
+            return; // ignored outside GUIDED
+        }
+        if pos_ignore {
+            return; // velocity/acceleration targets are not simulated
+        }
+        let frame = p.coordinate_frame as u8;
+        let c = mav::COMMAND_INT_DATA {
+            x: p.lat_int,
+            y: p.lon_int,
+            z: p.alt,
+            frame: mav::MavFrame::from_u8(frame).unwrap_or(mav::MavFrame::MAV_FRAME_GLOBAL),
+            ..mav::COMMAND_INT_DATA::default()
+        };
+        if !matches!(frame, 0 | 3 | 5 | 6 | 10 | 11) {
+            return;
+        }
+        let target = self.target_from_command(&c, false, false);
+        self.flight.guided_target_at = Some(now);
+        self.flight.yaw_target_deg = None;
+        // ArduCopter does not take off for a position target; PX4 offboard does
+        if self.modes.mode == Mode::Guided
+            && !(ap && self.arming.landed && self.cfg.flavour.is_copter())
+        {
+            self.flight.nav = Nav::Goto {
+                p: target,
+                speed: None,
             };
         }
     }

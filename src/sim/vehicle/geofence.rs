@@ -25,7 +25,7 @@ impl SimVehicle {
             self.cfg.reference,
         );
         self.missions.valid = true;
-        if self.cfg.flavour.autopilot == Autopilot::Px4 && !self.geofence.fence.is_empty() {
+        if self.cfg.flavour.autopilot == SimAutopilot::Px4 && !self.geofence.fence.is_empty() {
             let bad = self
                 .missions
                 .server
@@ -101,5 +101,27 @@ impl SimVehicle {
             }
         }
         self.geofence.breached = breached;
+    }
+}
+
+impl SimVehicle {
+    // ------------------------------------------------------------------ commands
+    // (dispatched by `commands::command`)
+
+    /// DO_FENCE_ENABLE (ArduPilot): 0 disable, 1 enable, 2 disable the floor only.
+    pub(super) fn cmd_fence_enable(&mut self, c: &mav::COMMAND_INT_DATA) -> mav::MavResult {
+        use mav::MavResult as R;
+        match c.param1 as i32 {
+            0 => {
+                self.geofence.enabled = false;
+                R::MAV_RESULT_ACCEPTED
+            }
+            1 => {
+                self.geofence.enabled = true;
+                R::MAV_RESULT_ACCEPTED
+            }
+            2 => R::MAV_RESULT_ACCEPTED,
+            _ => R::MAV_RESULT_FAILED,
+        }
     }
 }

@@ -55,7 +55,7 @@ impl SimVehicle {
                     mission_type: MissionType::Mission,
                 } => {
                     self.rebuild_fence(true);
-                    if self.cfg.flavour.autopilot == Autopilot::Px4 {
+                    if self.cfg.flavour.autopilot == SimAutopilot::Px4 {
                         // navigator reloads the new mission from its current item
                         self.missions.exec.nav_index = None;
                         self.missions.exec.nav_started = false;
@@ -86,8 +86,8 @@ impl SimVehicle {
 
     pub(super) fn start_or_resume_mission(&mut self, now: Time) {
         let first = match self.cfg.flavour.autopilot {
-            Autopilot::ArduPilot => 1,
-            Autopilot::Px4 => 0,
+            SimAutopilot::ArduPilot => 1,
+            SimAutopilot::Px4 => 0,
         };
         if self.missions.exec.complete || self.missions.exec.nav_index.is_none() {
             self.missions.exec.nav_index = Some(self.missions.server.current().max(first));
@@ -187,10 +187,10 @@ impl SimVehicle {
             let reached = match self.cfg.flavour.autopilot {
                 // ArduCopter verify_command acknowledges DO_CHANGE_SPEED / DO_SET_HOME; the
                 // camera commands are verified inside AP_Mission without a message
-                Autopilot::ArduPilot => {
+                SimAutopilot::ArduPilot => {
                     matches!(item.command, mi::DO_CHANGE_SPEED | mi::DO_SET_HOME)
                 }
-                Autopilot::Px4 => true,
+                SimAutopilot::Px4 => true,
             };
             self.advance_item(idx, &item, reached, now);
         }
@@ -213,7 +213,7 @@ impl SimVehicle {
                 .items(MissionType::Mission)
                 .get(usize::from(idx + 1))
                 .is_some_and(|it| is_nav(it.command));
-            if next_is_nav || self.cfg.flavour.autopilot == Autopilot::Px4 {
+            if next_is_nav || self.cfg.flavour.autopilot == SimAutopilot::Px4 {
                 self.send_mission_current(now);
             }
         }
@@ -290,7 +290,7 @@ impl SimVehicle {
 
     pub(super) fn start_nav(&mut self, idx: u16, item: &MissionItem, now: Time) -> bool {
         let copter = self.cfg.flavour.is_copter();
-        let px4 = self.cfg.flavour.autopilot == Autopilot::Px4;
+        let px4 = self.cfg.flavour.autopilot == SimAutopilot::Px4;
         let p = self.item_point(item);
         self.missions.exec.nav_arrived = None;
         if self.cfg.flavour.is_ardupilot() {
@@ -405,7 +405,7 @@ impl SimVehicle {
 
     pub(super) fn verify_nav(&mut self, item: &MissionItem, now: Time) -> bool {
         let copter = self.cfg.flavour.is_copter();
-        let px4 = self.cfg.flavour.autopilot == Autopilot::Px4;
+        let px4 = self.cfg.flavour.autopilot == SimAutopilot::Px4;
         match item.command {
             mi::NAV_TAKEOFF if px4 && copter => {
                 let Some(target) = self.missions.exec.px4_takeoff_target else {
@@ -564,7 +564,7 @@ impl SimVehicle {
 
     pub(super) fn item_reached(&mut self, idx: u16, now: Time) {
         self.send_item_reached_msg(idx);
-        if self.cfg.flavour.autopilot == Autopilot::Px4 {
+        if self.cfg.flavour.autopilot == SimAutopilot::Px4 {
             self.missions.exec.reached = Some((idx, 0, now + Duration::from_secs(1)));
         }
     }
@@ -594,7 +594,7 @@ impl SimVehicle {
         self.missions.exec.complete = true;
         self.missions.exec.running = false;
         self.missions.server.set_mission_running(false);
-        let px4 = self.cfg.flavour.autopilot == Autopilot::Px4;
+        let px4 = self.cfg.flavour.autopilot == SimAutopilot::Px4;
         if self.arming.landed {
             if self.arming.armed {
                 if px4 {
@@ -632,5 +632,99 @@ fn cmd_name(cmd: u16) -> &'static str {
         mi::NAV_TAKEOFF => "Takeoff",
         mi::NAV_DELAY => "Delay",
         _ => "Cmd",
+    }
+}
+
+impl SimVehicle {
+    // ------------------------------------------------------------------ commands
+    // (dispatched by `commands::command`)
+
+    /// DO_SET_MISSION_CURRENT: param1 the item, param2 > 0.5 also resets the DO_JUMP counters.
+    pub(super) fn cmd_set_mission_current(
+        &mut self,
+        c: &mav::COMMAND_INT_DATA,
+        now: Time,
+    ) -> mav::MavResult {
+        use mav::MavResult as R;
+        let ap = self.cfg.flavour.is_ardupilot();
+        let seq = c.param1 as i64;
+        let n = self.missions.server.items(MissionType::Mission).len() as i64;
+        if seq >= 0 && seq < n {
+            self.set_current_item(seq.max(if ap { 1 } else { 0 }) as u16, now);
+            if c.param2 > 0.5 {
+                self.missions.exec.jumps.clear();
+            }
+            R::MAV_RESULT_ACCEPTED
+        } else if ap {
+            R::MAV_RESULT_FAILED
+        } else {
+            R::MAV_RESULT_DENIED
+        }
+    }
+
+    pub(super) fn cmd_mission_start(
+        &mut self,
+        c: &mav::COMMAND_INT_DATA,
+        now: Time,
+    ) -> mav::MavResult {
+        use mav::MavResult as R;
+        if self.cfg.flavour.is_ardupilot() {
+            if c.param1 != 0.0 || c.param2 != 0.0 {
+                return R::MAV_RESULT_DENIED;
+            }
+            if self.set_mode_request(
+                1,
+                self.cfg.flavour.custom_mode(Mode::Auto).unwrap_or(3),
+                now,
+            ) != R::MAV_RESULT_ACCEPTED
+            {
+                return R::MAV_RESULT_FAILED;
+            }
+            if !self.missions.exec.running || self.missions.exec.waiting_auto_armed {
+                self.start_or_resume_mission(now);
+            }
+            R::MAV_RESULT_ACCEPTED
+        } else {
+            if self.missions.server.items(MissionType::Mission).is_empty() || !self.missions.valid {
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Mission start denied! No valid mission",
+                );
+                return R::MAV_RESULT_DENIED;
+            }
+            if self.check_mode_allowed(Mode::Auto, now).is_err() {
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_CRITICAL,
+                    "Switching to Mission is currently not possible",
+                );
+                return R::MAV_RESULT_TEMPORARILY_REJECTED;
+            }
+            if !self.arming.armed && self.arm(now, false).is_err() {
+                return R::MAV_RESULT_TEMPORARILY_REJECTED;
+            }
+            if self.modes.mode != Mode::Auto {
+                self.enter_mode(Mode::Auto, now);
+            } else {
+                self.start_or_resume_mission(now);
+            }
+            R::MAV_RESULT_ACCEPTED
+        }
+    }
+
+    /// DO_PAUSE_CONTINUE (ArduCopter): param1 0 pauses (hold here), 1 resumes the mission.
+    pub(super) fn cmd_pause_continue(&mut self, c: &mav::COMMAND_INT_DATA) -> mav::MavResult {
+        if self.modes.mode == Mode::Auto && !self.arming.landed {
+            if c.param1 < 0.5 {
+                self.missions.exec.running = false;
+                self.flight.nav = Nav::Hold(self.here());
+            } else {
+                self.missions.exec.running = true;
+                self.missions.exec.nav_started = false;
+            }
+            mav::MavResult::MAV_RESULT_ACCEPTED
+        } else {
+            self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Failed to pause");
+            mav::MavResult::MAV_RESULT_FAILED
+        }
     }
 }

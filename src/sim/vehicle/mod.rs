@@ -54,7 +54,7 @@ use crate::mission::{MissionItem, MissionType};
 use crate::sim::battery::{Battery, BatteryConfig};
 use crate::sim::camera::{CAMERA_COMPID, CameraConfig, CaptureContext, CapturedImage, SimCamera};
 use crate::sim::fence::Fence;
-use crate::sim::flavour::{Autopilot, Flavour, Mode, VehicleKind};
+use crate::sim::flavour::{Flavour, Mode, SimAutopilot, VehicleKind};
 use crate::sim::mission_server::{HomeItem, MissionEvent, MissionServer};
 use crate::sim::motion::{self, Command, Limits};
 use crate::sim::render::CameraPose;
@@ -240,7 +240,7 @@ impl VehicleConfig {
     /// and, for copters, the paper's camera.
     pub fn new(sysid: u8, flavour: Flavour, start: (f64, f64)) -> VehicleConfig {
         let copter = flavour.kind == VehicleKind::Copter;
-        let ardupilot = flavour.autopilot == Autopilot::ArduPilot;
+        let ardupilot = flavour.autopilot == SimAutopilot::ArduPilot;
         VehicleConfig {
             sysid,
             flavour,
@@ -265,8 +265,8 @@ impl VehicleConfig {
             },
             limits: match (flavour.autopilot, flavour.kind) {
                 (_, VehicleKind::Rover) => Limits::ROVER,
-                (Autopilot::ArduPilot, _) => Limits::ARDUCOPTER,
-                (Autopilot::Px4, _) => Limits::PX4_COPTER,
+                (SimAutopilot::ArduPilot, _) => Limits::ARDUCOPTER,
+                (SimAutopilot::Px4, _) => Limits::PX4_COPTER,
             },
             gps_fix_after_s: 3.0,
             position_ready_after_s: if ardupilot { 15.0 } else { 8.0 },
@@ -318,11 +318,12 @@ pub enum VehicleEvent {
 
 /// One simulated vehicle. See the module documentation.
 ///
-/// Its state is split by responsibility; each part lives with the methods that change it:
-/// `power` (power, boot, battery), `estimator` (GPS error and position estimate),
-/// `flight` (motion, navigation target, home), `arming`, `modes` (flight mode and
-/// failsafes), `geofence`, `mission` (the mission protocol server and execution),
-/// `commands` (COMMAND_LONG/COMMAND_INT handling) and `telemetry` (streams, outbox).
+/// Its state is split by responsibility; each part lives with the methods that change it,
+/// including the handlers of the commands that change it: `power` (power, boot, battery),
+/// `estimator` (GPS error and position estimate), `flight` (motion, navigation target, home),
+/// `arming`, `modes` (flight mode and failsafes), `geofence`, `mission` (the mission protocol
+/// server and execution) and `telemetry` (streams, outbox); `commands` converts
+/// COMMAND_LONG/COMMAND_INT, dispatches them to the parts and acknowledges.
 #[derive(Debug)]
 pub struct SimVehicle {
     cfg: VehicleConfig,
@@ -627,7 +628,7 @@ impl SimVehicle {
                 // PX4 turns SET_MODE into VEHICLE_CMD_DO_SET_MODE and acknowledges that
                 // command; ArduPilot acknowledges with command = 11 (the SET_MODE message id),
                 // which is not a MAV_CMD the mavlink crate can encode, so it is left out.
-                if self.cfg.flavour.autopilot == Autopilot::Px4 {
+                if self.cfg.flavour.autopilot == SimAutopilot::Px4 {
                     self.ack(from, mav::MavCmd::MAV_CMD_DO_SET_MODE, result);
                 }
             }

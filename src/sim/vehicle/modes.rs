@@ -47,7 +47,7 @@ impl SimVehicle {
             }
             // PX4 offboard needs a setpoint stream (COM_OF_LOSS_T 1 s)
             Mode::Guided
-                if self.cfg.flavour.autopilot == Autopilot::Px4
+                if self.cfg.flavour.autopilot == SimAutopilot::Px4
                     && self
                         .flight
                         .guided_target_at
@@ -239,7 +239,7 @@ impl SimVehicle {
             }
         }
         // PX4 data link loss (NAV_DLL_ACT = RTL after COM_DL_LOSS_T 10 s)
-        if self.cfg.flavour.autopilot == Autopilot::Px4
+        if self.cfg.flavour.autopilot == SimAutopilot::Px4
             && self.cfg.px4_datalink_required
             && self.arming.armed
             && !self.modes.datalink_lost
@@ -420,7 +420,7 @@ impl SimVehicle {
             return Err("requires position");
         }
         match (f.autopilot, mode) {
-            (Autopilot::ArduPilot, Mode::Auto) => {
+            (SimAutopilot::ArduPilot, Mode::Auto) => {
                 let n = self.missions.server.items(MissionType::Mission).len();
                 if n <= 1 {
                     self.text(
@@ -442,12 +442,12 @@ impl SimVehicle {
                 }
                 Ok(())
             }
-            (Autopilot::ArduPilot, Mode::Rtl | Mode::Land)
+            (SimAutopilot::ArduPilot, Mode::Rtl | Mode::Land)
                 if self.arming.landed && !self.arming.armed =>
             {
                 Ok(())
             }
-            (Autopilot::Px4, Mode::Auto) => {
+            (SimAutopilot::Px4, Mode::Auto) => {
                 if self.missions.server.items(MissionType::Mission).is_empty()
                     || !self.missions.valid
                 {
@@ -455,7 +455,7 @@ impl SimVehicle {
                 }
                 Ok(())
             }
-            (Autopilot::Px4, Mode::Guided) => {
+            (SimAutopilot::Px4, Mode::Guided) => {
                 if self
                     .flight
                     .guided_target_at
@@ -465,7 +465,7 @@ impl SimVehicle {
                 }
                 Ok(())
             }
-            (Autopilot::Px4, Mode::Rtl) if self.flight.home.is_none() => Err("no home"),
+            (SimAutopilot::Px4, Mode::Rtl) if self.flight.home.is_none() => Err("no home"),
             _ => Ok(()),
         }
     }
@@ -488,5 +488,86 @@ impl SimVehicle {
             }
         }
         false
+    }
+}
+
+impl SimVehicle {
+    // ------------------------------------------------------------------ commands
+    // (dispatched by `commands::command`)
+
+    /// DO_SET_MODE: ArduPilot custom_mode = param2; PX4 main mode = param2, sub mode = param3.
+    pub(super) fn cmd_do_set_mode(
+        &mut self,
+        c: &mav::COMMAND_INT_DATA,
+        now: Time,
+    ) -> mav::MavResult {
+        let ap = self.cfg.flavour.is_ardupilot();
+        let custom = if ap {
+            c.param2 as u32
+        } else {
+            ((c.param2 as u32) << 16) | ((c.param3 as u32) << 24)
+        };
+        let custom = if !ap && (c.param2 as u32) == 4 && (c.param3 as u32) == 0 {
+            (4 << 16) | (4 << 24) // AUTO without sub mode = mission
+        } else {
+            custom
+        };
+        self.set_mode_request(c.param1 as u8, custom, now)
+    }
+
+    /// NAV_LAND (copters only): land where it is.
+    pub(super) fn cmd_land(&mut self, now: Time) -> mav::MavResult {
+        use mav::MavResult as R;
+        if !self.cfg.flavour.is_copter() {
+            R::MAV_RESULT_UNSUPPORTED
+        } else if self.cfg.flavour.is_ardupilot() {
+            if self.check_mode_allowed(Mode::Land, now).is_ok() {
+                self.enter_mode(Mode::Land, now);
+                R::MAV_RESULT_ACCEPTED
+            } else {
+                R::MAV_RESULT_FAILED
+            }
+        } else {
+            self.enter_mode(Mode::Land, now);
+            self.text(
+                mav::MavSeverity::MAV_SEVERITY_INFO,
+                "Landing at current position",
+            );
+            R::MAV_RESULT_ACCEPTED
+        }
+    }
+
+    /// NAV_RETURN_TO_LAUNCH.
+    pub(super) fn cmd_rtl(&mut self, now: Time) -> mav::MavResult {
+        use mav::MavResult as R;
+        let ap = self.cfg.flavour.is_ardupilot();
+        match self.check_mode_allowed(Mode::Rtl, now) {
+            Ok(()) => {
+                self.enter_mode(Mode::Rtl, now);
+                if !ap {
+                    self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Returning to launch");
+                }
+                R::MAV_RESULT_ACCEPTED
+            }
+            Err(_) if ap => R::MAV_RESULT_FAILED,
+            Err(_) => R::MAV_RESULT_TEMPORARILY_REJECTED,
+        }
+    }
+
+    /// NAV_LOITER_UNLIM (ArduPilot): copters hold (LOITER), rovers loiter.
+    pub(super) fn cmd_loiter_unlim(&mut self, now: Time) -> mav::MavResult {
+        use mav::MavResult as R;
+        let m = if self.cfg.flavour.is_copter() {
+            Mode::Hold
+        } else {
+            Mode::Loiter
+        };
+        match self.check_mode_allowed(m, now) {
+            Ok(()) => {
+                self.enter_mode(m, now);
+                R::MAV_RESULT_ACCEPTED
+            }
+            Err(_) => R::MAV_RESULT_FAILED,
+        }
     }
 }

@@ -83,7 +83,7 @@ impl SimVehicle {
         self.rebuild_fence(false);
         self.arming.disarmed_landed_since = Some(now);
         match self.cfg.flavour.autopilot {
-            Autopilot::ArduPilot => {
+            SimAutopilot::ArduPilot => {
                 let name = if self.cfg.flavour.is_copter() {
                     "ArduCopter V4.5.7 (fleetmap sim)"
                 } else {
@@ -94,7 +94,7 @@ impl SimVehicle {
                     self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Frame: QUAD/X");
                 }
             }
-            Autopilot::Px4 => {}
+            SimAutopilot::Px4 => {}
         }
         self.telemetry.events.push_back(VehicleEvent::Booted {
             boot: self.power.boots,
@@ -116,5 +116,45 @@ impl SimVehicle {
                 .events
                 .push_back(VehicleEvent::BatterySwapped);
         }
+    }
+}
+
+impl SimVehicle {
+    // ------------------------------------------------------------------ commands
+    // (dispatched by `commands::command`)
+
+    /// PREFLIGHT_REBOOT_SHUTDOWN: param1 = 1 reboots the autopilot (disarmed only); the ACK
+    /// leaves before the power goes.
+    pub(super) fn cmd_reboot(
+        &mut self,
+        from: (u8, u8),
+        c: &mav::COMMAND_INT_DATA,
+        now: Time,
+    ) -> Option<mav::MavResult> {
+        if c.param1 as i32 == 1 && !self.arming.armed {
+            self.ack(from, c.command, mav::MavResult::MAV_RESULT_ACCEPTED);
+            self.power_cycle(now, false);
+            None
+        } else if self.cfg.flavour.is_ardupilot() {
+            Some(mav::MavResult::MAV_RESULT_FAILED)
+        } else {
+            Some(mav::MavResult::MAV_RESULT_DENIED)
+        }
+    }
+
+    /// [`CMD_BATTERY_SWAP`]: landed and disarmed, power-cycle with a full battery (the ACK
+    /// leaves first).
+    pub(super) fn cmd_battery_swap(
+        &mut self,
+        from: (u8, u8),
+        c: &mav::COMMAND_INT_DATA,
+        now: Time,
+    ) -> Option<mav::MavResult> {
+        if self.arming.landed && !self.arming.armed {
+            self.ack(from, c.command, mav::MavResult::MAV_RESULT_ACCEPTED);
+            self.power_cycle(now, true);
+            return None;
+        }
+        Some(mav::MavResult::MAV_RESULT_DENIED)
     }
 }

@@ -107,8 +107,8 @@ impl SimVehicle {
         };
         set(id::HEARTBEAT, 1.0); // HEARTBEAT
         match (f.autopilot, f.kind) {
-            (Autopilot::ArduPilot, VehicleKind::Copter) => {}
-            (Autopilot::ArduPilot, VehicleKind::Rover) => {
+            (SimAutopilot::ArduPilot, VehicleKind::Copter) => {}
+            (SimAutopilot::ArduPilot, VehicleKind::Rover) => {
                 for id in [
                     id::SYS_STATUS,
                     id::GPS_RAW_INT,
@@ -122,7 +122,7 @@ impl SimVehicle {
                     set(id, 1.0);
                 }
             }
-            (Autopilot::Px4, _) => {
+            (SimAutopilot::Px4, _) => {
                 set(id::SYS_STATUS, 1.0); // SYS_STATUS
                 set(id::GPS_RAW_INT, 1.0); // GPS_RAW_INT
                 set(id::ATTITUDE, 15.0); // ATTITUDE
@@ -343,8 +343,8 @@ impl SimVehicle {
             | mav::MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_FENCE
             | mav::MavProtocolCapability::MAV_PROTOCOL_CAPABILITY_MISSION_RALLY;
         let version = match self.cfg.flavour.autopilot {
-            Autopilot::ArduPilot => (4 << 24) | (5 << 16) | (7 << 8) | 255,
-            Autopilot::Px4 => (1 << 24) | (15 << 16) | (4 << 8) | 255,
+            SimAutopilot::ArduPilot => (4 << 24) | (5 << 16) | (7 << 8) | 255,
+            SimAutopilot::Px4 => (1 << 24) | (15 << 16) | (4 << 8) | 255,
         };
         MavMessage::AUTOPILOT_VERSION(mav::AUTOPILOT_VERSION_DATA {
             capabilities: caps,
@@ -403,14 +403,14 @@ impl SimVehicle {
             id::HEARTBEAT => {
                 let mut base = mav::MavModeFlag::MAV_MODE_FLAG_CUSTOM_MODE_ENABLED;
                 match f.autopilot {
-                    Autopilot::ArduPilot => {
+                    SimAutopilot::ArduPilot => {
                         base |= mav::MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED
                             | mav::MavModeFlag::MAV_MODE_FLAG_MANUAL_INPUT_ENABLED;
                         if self.modes.mode.requires_position() && !self.arming.landed {
                             base |= mav::MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED;
                         }
                     }
-                    Autopilot::Px4 => {
+                    SimAutopilot::Px4 => {
                         base |= mav::MavModeFlag::MAV_MODE_FLAG_STABILIZE_ENABLED;
                         if self.modes.mode.requires_position() {
                             base |= mav::MavModeFlag::MAV_MODE_FLAG_GUIDED_ENABLED;

@@ -61,3 +61,31 @@ fn severity_from_wire() {
     assert_eq!(Severity::from_mav(4), Severity::Warning);
     assert_eq!(Severity::from_mav(200), Severity::Debug);
 }
+
+/// Replay files spell the autopilot as the TUI's own enum did before it became
+/// `proto::flavour::Autopilot` (snake_case unit variants); the MAV_AUTOPILOT number of
+/// `Other` is not recorded.
+#[test]
+fn replay_files_keep_the_autopilot_spelling() {
+    let spelled = |a: Autopilot| {
+        let row = VehicleRow {
+            autopilot: a,
+            ..VehicleRow::default()
+        };
+        serde_json::to_value(&row).expect("a row serializes")["autopilot"].clone()
+    };
+    assert_eq!(spelled(Autopilot::ArduPilot), "ardu_pilot");
+    assert_eq!(spelled(Autopilot::Px4), "px4");
+    assert_eq!(spelled(Autopilot::Other(0)), "other");
+    assert_eq!(spelled(Autopilot::default()), "other");
+    let read = |s: &str| -> VehicleRow {
+        serde_json::from_str(&format!(r#"{{"sysid": 3, "autopilot": "{s}"}}"#))
+            .expect("a recorded row reads back")
+    };
+    assert_eq!(read("ardu_pilot").autopilot, Autopilot::ArduPilot);
+    assert_eq!(read("px4").autopilot, Autopilot::Px4);
+    assert_eq!(read("other").autopilot, Autopilot::default());
+    assert!(serde_json::from_str::<VehicleRow>(r#"{"autopilot": "ArduPilot"}"#).is_err());
+    let missing: VehicleRow = serde_json::from_str(r#"{"sysid": 3}"#).expect("defaults");
+    assert_eq!(missing.autopilot, Autopilot::default());
+}

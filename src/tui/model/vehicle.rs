@@ -25,36 +25,39 @@ impl Role {
     }
 }
 
-/// The autopilot firmware, from HEARTBEAT.autopilot.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Autopilot {
-    /// MAV_AUTOPILOT_ARDUPILOTMEGA.
-    ArduPilot,
-    /// MAV_AUTOPILOT_PX4.
-    Px4,
-    /// Anything else (including the built-in simulator when it does not impersonate one).
-    #[default]
-    Other,
-}
+/// The autopilot firmware, from HEARTBEAT.autopilot: the protocol layer's vocabulary.
+pub use crate::proto::flavour::Autopilot;
 
-impl Autopilot {
-    /// Full name.
-    pub fn name(self) -> &'static str {
-        match self {
-            Autopilot::ArduPilot => "ArduPilot",
-            Autopilot::Px4 => "PX4",
-            Autopilot::Other => "other",
-        }
+/// How replay files spell [`VehicleRow::autopilot`]: `"ardu_pilot"`, `"px4"`, `"other"` (the
+/// MAV_AUTOPILOT number of `Other` is not recorded; it reads back as [`Autopilot::default`]).
+mod autopilot_replay {
+    use super::Autopilot;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// The recorded form (snake_case unit variants).
+    #[derive(Serialize, Deserialize)]
+    #[serde(rename_all = "snake_case")]
+    enum Recorded {
+        ArduPilot,
+        Px4,
+        Other,
     }
 
-    /// Short name for narrow tables.
-    pub fn short(self) -> &'static str {
-        match self {
-            Autopilot::ArduPilot => "AP",
-            Autopilot::Px4 => "PX4",
-            Autopilot::Other => "?",
+    pub(super) fn serialize<S: Serializer>(a: &Autopilot, s: S) -> Result<S::Ok, S::Error> {
+        match a {
+            Autopilot::ArduPilot => Recorded::ArduPilot,
+            Autopilot::Px4 => Recorded::Px4,
+            Autopilot::Other(_) => Recorded::Other,
         }
+        .serialize(s)
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Autopilot, D::Error> {
+        Ok(match Recorded::deserialize(d)? {
+            Recorded::ArduPilot => Autopilot::ArduPilot,
+            Recorded::Px4 => Autopilot::Px4,
+            Recorded::Other => Autopilot::default(),
+        })
     }
 }
 
@@ -190,6 +193,7 @@ pub struct VehicleRow {
     /// Drone or charging station.
     pub role: Role,
     /// Firmware.
+    #[serde(with = "autopilot_replay")]
     pub autopilot: Autopilot,
     /// Airframe class.
     pub vehicle_type: VehicleType,
