@@ -637,7 +637,8 @@ fn moves_only_over_tree_cells_between_neighbours() {
 }
 
 /// The smallest instance (found by search over random ROIs) where meeting-only sharing
-/// exceeds Lemma 1's bound while GCS sharing stays well within it (see the module docs).
+/// exceeds Lemma 1's bound while GCS sharing stays well within it: the counterexample worked
+/// step by step in docs/results/dfs.md (see also the module docs). The cost is pinned.
 #[test]
 fn meeting_sharing_can_exceed_lemma_1() {
     use crate::explore::bounds::lemma1_upper_bound;
@@ -661,5 +662,21 @@ fn meeting_sharing_can_exceed_lemma_1() {
     assert_eq!(bound, 9.0);
     assert_eq!(meet.cost, 10.0);
     assert_eq!(gcs.cost, 6.0);
+    // The excess comes from the one uninformed choice worked out in docs/results/dfs.md:
+    // robot 2, back at t = 2, takes the dummy's first child, which robot 1 already took.
+    assert_eq!(meet.explorer.uninformed_decisions(), 1);
+    assert_eq!(gcs.explorer.uninformed_decisions(), 0);
+    let t = meet.explorer.tree();
+    let root = t.node(Tree::ROOT);
+    assert_eq!(root.children.len(), 2);
+    let dummy = root.children[1];
+    assert_eq!(t.node(dummy).kind, NodeKind::Dummy);
+    let cells: Vec<Cell> = t
+        .node(dummy)
+        .children
+        .iter()
+        .map(|&n| t.node(n).cell)
+        .collect();
+    assert_eq!(cells, vec![c(0, 1), c(1, 2)]);
     assert!(gcs.cost <= lemma1_upper_bound(7, gcs.d_max, 2, 1.0, 0.0));
 }
