@@ -321,6 +321,8 @@ pub struct TrialRecord {
     /// Σ flight time / (R · ALG): the share of the team's time spent flying (the rest is
     /// robots done early, waiting at home).
     pub flight_share: f64,
+    /// Decisions made differently from a fully informed team (meeting sharing; 0 with GCS).
+    pub uninformed_decisions: u64,
 }
 
 /// Mean, minimum and maximum over the trials.
@@ -384,6 +386,10 @@ pub struct ConfigSummary {
     pub max_ratio_to_lemma1: f64,
     /// Trials where the cost exceeded Lemma 1.
     pub violations: usize,
+    /// Of those, the trials without any uninformed decision (0 in every run so far).
+    pub informed_violations: usize,
+    /// Trials with at least one uninformed decision.
+    pub uninformed_trials: usize,
     /// Eq. (8) (only with R = 1; `null` otherwise).
     pub eq8_upper: Option<Stats>,
     /// Trials above eq. (8) (R = 1 only).
@@ -546,6 +552,7 @@ pub fn run_trial(
         reach_lower,
         moves: out.moves.iter().sum(),
         opening_moves: out.opening_moves.iter().sum(),
+        uninformed_decisions: out.explorer.uninformed_decisions(),
         flight_share: if team_time > 0.0 {
             out.flight_time.iter().sum::<f64>() / team_time
         } else {
@@ -601,6 +608,11 @@ pub fn run(args: &DfsArgs, tick: &(dyn Fn() + Sync)) -> Result<Study, DfsStudyEr
                     .map(|r| r.cost / r.lemma1_upper)
                     .fold(0.0, f64::max),
                 violations: rs.iter().filter(|r| !r.within_lemma1).count(),
+                informed_violations: rs
+                    .iter()
+                    .filter(|r| !r.within_lemma1 && r.uninformed_decisions == 0)
+                    .count(),
+                uninformed_trials: rs.iter().filter(|r| r.uninformed_decisions > 0).count(),
                 eq8_upper: (conf.robots == 1)
                     .then(|| Stats::of(rs.iter().filter_map(|r| r.eq8_upper))),
                 eq8_violations: rs
@@ -639,12 +651,12 @@ pub fn trials_csv(study: &Study) -> String {
     let mut s = String::from(
         "sweep,sharing,cells,robots,speed_ratio,trial,direction,cost,lemma1_upper,lemma2_lower,\
          lawnmower_lower,d_max,tree_cells,eq8_upper,opt_lower,theorem1_upper,theorem2_upper,\
-         reach_lower,moves,opening_moves,flight_share,within_lemma1\n",
+         reach_lower,moves,opening_moves,flight_share,uninformed_decisions,within_lemma1\n",
     );
     for r in &study.records {
         let c = &study.configurations[r.config];
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             c.sweep,
             c.sharing,
             c.cells,
@@ -666,6 +678,7 @@ pub fn trials_csv(study: &Study) -> String {
             r.moves,
             r.opening_moves,
             r.flight_share,
+            r.uninformed_decisions,
             r.within_lemma1
         ));
     }
