@@ -650,12 +650,48 @@ fn meeting_sharing_can_exceed_lemma_1() {
             &SimConfig {
                 robots: 2,
                 sharing,
+                record_paths: true,
                 ..SimConfig::default()
             },
         )
         .unwrap()
     };
     let meet = run(Sharing::Meet);
+    // The trace of docs/results/dfs.md: robot 2 follows robot 1 into (0,1) at t = 3, they
+    // pool there and go on together.
+    let cells = |v: &[(i32, i32)]| v.iter().map(|&(r, q)| c(r, q)).collect::<Vec<_>>();
+    assert_eq!(
+        meet.paths[0],
+        cells(&[
+            (1, 1),
+            (0, 1),
+            (0, 0),
+            (0, 1),
+            (0, 2),
+            (0, 1),
+            (1, 1),
+            (1, 2),
+            (1, 3),
+            (1, 2),
+            (1, 1)
+        ])
+    );
+    assert_eq!(
+        meet.paths[1],
+        cells(&[
+            (1, 1),
+            (2, 1),
+            (1, 1),
+            (0, 1),
+            (0, 2),
+            (0, 1),
+            (1, 1),
+            (1, 2),
+            (1, 3),
+            (1, 2),
+            (1, 1)
+        ])
+    );
     let gcs = run(Sharing::Gcs);
     assert_eq!(meet.d_max, 2);
     let bound = lemma1_upper_bound(7, meet.d_max, 2, 1.0, 0.0);
