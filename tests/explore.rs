@@ -100,7 +100,7 @@ fn run_case(
 }
 
 proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+    #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
 
     /// GCS sharing, random ROIs, R = 1…20, static or translating ROI, perfect or noisy
     /// sensing: the invariants of §4 hold and the cost never exceeds Lemma 1 (eq. 2, with
