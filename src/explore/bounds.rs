@@ -11,6 +11,14 @@
 //! backbone edge. So the base is 2. It is also the stricter reading: eq. (2) is
 //! `2(C + d·k)/((S_r − S_p)(1 + k))`, which decreases in `k` whenever `d_max < C` (always
 //! true, `d_max ≤ C − 1`), and base 2 gives the largest `k`.
+//!
+//! **What the bounds are about.** `d_max` is the depth of the farthest vertex of the tree the
+//! run built (§4.2: real edges length 1, dummy edges 0), not a grid distance. ALG is Problem 1's
+//! exploration time: when the last robot is back at the start. Eq. (2) charges every move at the
+//! slowest relative speed S_r − S_p; a simulation that charges each move at its own relative
+//! speed (against, with or across the flow) can only be faster. The proof's eq. (3) assumes every
+//! robot heads home as soon as the last leaf is reached, and its eq. (1) that no robot walks a rib
+//! edge forward a second time; meeting-only sharing breaks both (docs/results/dfs.md).
 
 use crate::geo::Cell;
 
