@@ -3,11 +3,12 @@
 //! call, and the `fleetmap experiment dfs` command.
 
 use fleetmap::explore::bounds::lemma1_upper_bound;
-use fleetmap::explore::simulate::{SimConfig, random_roi, simulate};
+use fleetmap::explore::dfs::NodeKind;
+use fleetmap::explore::simulate::{SimConfig, SimOutcome, random_roi, simulate, simulate_sensed};
 use fleetmap::explore::{Action, Explorer, ExplorerConfig, RobotId, Sharing};
 use fleetmap::geo::{Cell, Dir4};
 use proptest::prelude::*;
-use rand::SeedableRng;
+use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::HashSet;
 use std::process::Command;
@@ -18,68 +19,160 @@ fn roi_from_seed(seed: u64, cells: usize) -> (HashSet<Cell>, Cell) {
 
 const DIRS: [(f64, f64); 4] = [(0.0, 1.0), (0.0, -1.0), (1.0, 0.0), (-1.0, 0.0)];
 
-proptest! {
-    #![proptest_config(ProptestConfig { cases: 256, ..ProptestConfig::default() })]
+/// A sensor that flips each label with probability `noise` (a noisy classifier, §7).
+fn noisy_sensor(roi: &HashSet<Cell>, seed: u64, noise: f64) -> impl FnMut(Cell) -> [bool; 4] + '_ {
+    let mut rng = ChaCha8Rng::seed_from_u64(seed ^ 0x5eed_5e45_0000_0001);
+    move |c: Cell| {
+        Dir4::ALL.map(|d| {
+            let truth = roi.contains(&c.step(d));
+            if noise > 0.0 && rng.random_bool(noise) {
+                !truth
+            } else {
+                truth
+            }
+        })
+    }
+}
 
-    /// With a perfect sensor and GCS sharing, every ROI cell is visited, the run terminates
-    /// with every robot at the start, and the cost is within Lemma 1 (eq. 2).
+/// The invariants of §4 on a finished run: termination (the run returned and the explorer
+/// says finished), a binary tree (dummies over all children, each with two), every mapped
+/// cell visited (every ROI cell with a perfect sensor), every robot back home, every move a
+/// step between neighbours.
+fn check_invariants(
+    out: &SimOutcome,
+    roi: &HashSet<Cell>,
+    start: Cell,
+    perfect: bool,
+) -> Result<(), TestCaseError> {
+    prop_assert!(out.explorer.is_finished());
+    let tree = out.explorer.tree();
+    for n in tree.nodes() {
+        prop_assert!(
+            n.children.len() <= 2,
+            "{} has {} children",
+            n.cell,
+            n.children.len()
+        );
+        if n.kind == NodeKind::Dummy {
+            prop_assert_eq!(n.children.len(), 2);
+        }
+    }
+    let visited: HashSet<Cell> = out.paths.iter().flatten().copied().collect();
+    let mapped: HashSet<Cell> = tree.cells().collect();
+    prop_assert_eq!(&visited, &mapped);
+    if perfect {
+        prop_assert_eq!(&mapped, roi);
+    }
+    for p in &out.paths {
+        prop_assert_eq!(p.last(), Some(&start));
+        for w in p.windows(2) {
+            prop_assert_eq!(w[0].manhattan(w[1]), 1);
+        }
+    }
+    Ok(())
+}
+
+fn run_case(
+    seed: u64,
+    cells: usize,
+    robots: usize,
+    ratio: f64,
+    dir: usize,
+    noise: f64,
+    sharing: Sharing,
+) -> (SimOutcome, HashSet<Cell>, Cell, f64) {
+    let (roi, start) = roi_from_seed(seed, cells);
+    let sp = if ratio == 0.0 { 0.0 } else { 1.0 / ratio };
+    let v = (DIRS[dir].0 * sp, DIRS[dir].1 * sp);
+    let cfg = SimConfig {
+        robots,
+        sharing,
+        robot_speed: 1.0,
+        roi_velocity: v,
+        observe_time: 0.0,
+        record_paths: true,
+    };
+    let out = {
+        let mut sense = noisy_sensor(&roi, seed, noise);
+        simulate_sensed(&roi, start, &cfg, &mut sense).expect("the exploration terminates")
+    };
+    (out, roi, start, sp)
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
+
+    /// GCS sharing, random ROIs, R = 1…20, static or translating ROI, perfect or noisy
+    /// sensing: the invariants of §4 hold and the cost never exceeds Lemma 1 (eq. 2, with
+    /// C the cells of the tree the run built — the outer approximation of §5 when the sensor
+    /// lies).
     #[test]
     fn dfs_covers_terminates_and_meets_lemma_1(
         seed in any::<u64>(),
         cells in 1usize..160,
-        robots in 1usize..=32,
+        robots in 1usize..=20,
         ratio in prop_oneof![Just(0.0), 1.2f64..6.0],
         dir in 0usize..4,
+        noise in prop_oneof![Just(0.0), 0.0f64..0.15],
     ) {
-        let (roi, start) = roi_from_seed(seed, cells);
-        let sp = if ratio == 0.0 { 0.0 } else { 1.0 / ratio };
-        let v = (DIRS[dir].0 * sp, DIRS[dir].1 * sp);
-        let out = simulate(&roi, start, &SimConfig {
-            robots,
-            sharing: Sharing::Gcs,
-            robot_speed: 1.0,
-            roi_velocity: v,
-            observe_time: 0.0,
-            record_paths: true,
-        }).expect("the exploration terminates");
-        // Every ROI cell was visited by some robot, and nothing else.
-        let visited: HashSet<Cell> = out.paths.iter().flatten().copied().collect();
-        prop_assert_eq!(&visited, &roi);
-        let mapped: HashSet<Cell> = out.explorer.tree().cells().collect();
-        prop_assert_eq!(&mapped, &roi);
-        prop_assert!(out.explorer.is_finished());
-        // Everyone is back at the start; every move is one step between ROI cells.
-        for p in &out.paths {
-            prop_assert_eq!(p.last(), Some(&start));
-            for w in p.windows(2) {
-                prop_assert_eq!(w[0].manhattan(w[1]), 1);
-            }
-        }
-        let bound = lemma1_upper_bound(cells, out.d_max, robots, 1.0, sp);
+        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, Sharing::Gcs);
+        check_invariants(&out, &roi, start, noise == 0.0)?;
+        prop_assert_eq!(out.explorer.uninformed_decisions(), 0);
+        let c = out.tree_cells;
+        let bound = lemma1_upper_bound(c, out.d_max, robots, 1.0, sp);
         prop_assert!(out.cost <= bound * (1.0 + 1e-9),
             "cost {} > Lemma 1 bound {} (C {}, R {}, d_max {}, S_p {})",
-            out.cost, bound, cells, robots, out.d_max, sp);
+            out.cost, bound, c, robots, out.d_max, sp);
     }
 
-    /// With meeting-only sharing the exploration is still complete and terminates (the
-    /// bound is what it loses, see `explore::dfs`).
+    /// Meeting-only sharing (the paper's model): the invariants of §4 hold, and the cost
+    /// exceeds Lemma 1 only in runs where some decision was uninformed (the class worked out
+    /// in docs/results/dfs.md: a robot chose where a fully informed team would not have).
     #[test]
-    fn meeting_sharing_still_covers_and_terminates(
+    fn meeting_sharing_covers_terminates_and_exceeds_lemma_1_only_when_uninformed(
         seed in any::<u64>(),
-        cells in 1usize..60,
-        robots in 1usize..=12,
+        cells in 1usize..100,
+        robots in 1usize..=20,
+        ratio in prop_oneof![Just(0.0), 1.2f64..6.0],
+        dir in 0usize..4,
+        noise in prop_oneof![Just(0.0), 0.0f64..0.15],
     ) {
-        let (roi, start) = roi_from_seed(seed, cells);
-        let out = simulate(&roi, start, &SimConfig {
-            robots,
-            sharing: Sharing::Meet,
+        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, Sharing::Meet);
+        check_invariants(&out, &roi, start, noise == 0.0)?;
+        let c = out.tree_cells;
+        let bound = lemma1_upper_bound(c, out.d_max, robots, 1.0, sp);
+        if out.explorer.uninformed_decisions() == 0 {
+            prop_assert!(out.cost <= bound * (1.0 + 1e-9),
+                "informed run: cost {} > Lemma 1 bound {} (C {}, R {}, d_max {}, S_p {})",
+                out.cost, bound, c, robots, out.d_max, sp);
+        }
+    }
+}
+
+/// The case the property test once found with GCS sharing (seed 12612413762222925005,
+/// 156 cells, 17 robots, static ROI): before robots meeting at a vertex were pooled and
+/// decisions at one instant waited for that instant's images, it cost 128 > Lemma 1's 124.8.
+#[test]
+fn gcs_regression_156_cells_17_robots() {
+    let (roi, start) = roi_from_seed(12612413762222925005, 156);
+    let out = simulate(
+        &roi,
+        start,
+        &SimConfig {
+            robots: 17,
+            sharing: Sharing::Gcs,
             record_paths: true,
             ..SimConfig::default()
-        }).expect("the exploration terminates");
-        let visited: HashSet<Cell> = out.paths.iter().flatten().copied().collect();
-        prop_assert_eq!(visited, roi);
-        prop_assert!(out.explorer.is_finished());
-    }
+        },
+    )
+    .expect("the exploration terminates");
+    let bound = lemma1_upper_bound(156, out.d_max, 17, 1.0, 0.0);
+    eprintln!("cost {} bound {} d_max {}", out.cost, bound, out.d_max);
+    assert!(
+        out.cost <= bound,
+        "cost {} > Lemma 1 bound {bound}",
+        out.cost
+    );
 }
 
 /// Over 200 random ROIs of 80 cells, the mean exploration time does not grow as robots are

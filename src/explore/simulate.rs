@@ -58,6 +58,11 @@ pub struct SimOutcome {
     pub d_max: u32,
     /// Unit tree edges flown by each robot.
     pub moves: Vec<u64>,
+    /// Moves of each robot onto a cell no robot had reached before (they sum to C − 1 with
+    /// a perfect sensor): the moves that open the ROI, the others are transit.
+    pub opening_moves: Vec<u64>,
+    /// Time each robot spent flying (the rest of `cost` it waited or was home already).
+    pub flight_time: Vec<f64>,
     /// Each robot's cells in the order it reached them (when `record_paths`).
     pub paths: Vec<Vec<Cell>>,
     /// The final explorer.
@@ -72,9 +77,16 @@ enum Kind {
     Arrive(Cell),
 }
 
+/// An event of the run. Events are ordered by time (quantised to 10⁻⁹ time units, so that
+/// robots whose float travel times differ only by rounding are simultaneous), then by
+/// `class`, then by creation order: at one instant every arrival is processed first, then
+/// every image, then every decision, so a decision at time t uses everything the team
+/// learned at t (what "the robots at v" and the shared states mean in continuous time).
 #[derive(Clone, Copy, Debug)]
 struct Event {
     time: f64,
+    tick: i64,
+    class: u8,
     seq: u64,
     robot: usize,
     kind: Kind,
@@ -93,7 +105,10 @@ impl PartialOrd for Event {
 }
 impl Ord for Event {
     fn cmp(&self, o: &Self) -> Ordering {
-        self.time.total_cmp(&o.time).then(self.seq.cmp(&o.seq))
+        self.tick
+            .cmp(&o.tick)
+            .then(self.class.cmp(&o.class))
+            .then(self.seq.cmp(&o.seq))
     }
 }
 
@@ -103,6 +118,21 @@ pub fn simulate(
     roi: &HashSet<Cell>,
     start: Cell,
     cfg: &SimConfig,
+) -> Result<SimOutcome, ExploreError> {
+    simulate_sensed(roi, start, cfg, &mut |c: Cell| {
+        Dir4::ALL.map(|d| roi.contains(&c.step(d)))
+    })
+}
+
+/// [`simulate`] with a given sensor: `sense(cell)` returns the labels of an image taken at
+/// `cell` (north, west, south, east, as [`Explorer::observe`] takes them). It may lie (a
+/// noisy classifier); the explorer then maps the cells it was told about (a false positive
+/// is kept, a false negative is overridden by a later positive, §7).
+pub fn simulate_sensed(
+    roi: &HashSet<Cell>,
+    start: Cell,
+    cfg: &SimConfig,
+    sense: &mut dyn FnMut(Cell) -> [bool; 4],
 ) -> Result<SimOutcome, ExploreError> {
     let n = cfg.robots;
     if n == 0 {
@@ -133,9 +163,22 @@ pub fn simulate(
     let mut paths: Vec<Vec<Cell>> = vec![Vec::new(); n];
     let mut heap = BinaryHeap::new();
     let mut seq = 0u64;
-    let mut push = |heap: &mut BinaryHeap<Reverse<Event>>, time, robot, kind| {
+    // Class of a poll: 1 if the robot stands at a vertex not yet imaged (it will observe),
+    // 2 otherwise (it will decide); arrivals are class 0.
+    let poll_class = |ex: &Explorer, id: RobotId| -> u8 {
+        match ex.robot(id) {
+            Ok(r) => {
+                let real = ex.tree().real_of(r.node);
+                if ex.tree().node(real).observed { 2 } else { 1 }
+            }
+            Err(_) => 2,
+        }
+    };
+    let mut push = |heap: &mut BinaryHeap<Reverse<Event>>, time: f64, robot, kind, class| {
         heap.push(Reverse(Event {
             time,
+            tick: (time * 1e9).round() as i64,
+            class,
             seq,
             robot,
             kind,
@@ -155,9 +198,12 @@ pub fn simulate(
         if cfg.record_paths {
             paths[r].push(start);
         }
-        push(&mut heap, 0.0, r, Kind::Poll);
+        push(&mut heap, 0.0, r, Kind::Poll, poll_class(&ex, id));
     }
     let mut waiting: Vec<usize> = Vec::new();
+    let mut seen: HashSet<Cell> = HashSet::from([start]);
+    let mut opening_moves = vec![0u64; n];
+    let mut flight = vec![0.0f64; n];
     let mut events = 0u64;
     let limit = 200_000u64 + 50_000 * (roi.len() as u64) * (n as u64);
     while let Some(Reverse(ev)) = heap.pop() {
@@ -175,7 +221,10 @@ pub fn simulate(
                 if cfg.record_paths {
                     paths[r].push(c);
                 }
-                push(&mut heap, t, r, Kind::Poll);
+                if seen.insert(c) {
+                    opening_moves[r] += 1;
+                }
+                push(&mut heap, t, r, Kind::Poll, poll_class(&ex, id));
                 true
             }
             Kind::Poll => match ex.next_action(id)? {
@@ -187,19 +236,21 @@ pub fn simulate(
                         )));
                     }
                     let dt = motion.travel_time(pos[r], c, 1.0, cfg.robot_speed)?;
-                    push(&mut heap, t + dt, r, Kind::Arrive(c));
+                    flight[r] += dt;
+                    push(&mut heap, t + dt, r, Kind::Arrive(c), 0);
                     true
                 }
                 Action::Rejoin(c) => {
                     let dt = motion.travel_time(pos[r], c, 1.0, cfg.robot_speed)?;
-                    push(&mut heap, t + dt, r, Kind::Arrive(c));
+                    flight[r] += dt;
+                    push(&mut heap, t + dt, r, Kind::Arrive(c), 0);
                     true
                 }
                 Action::Observe => {
                     let c = pos[r];
-                    let labels = Dir4::ALL.map(|d| roi.contains(&c.step(d)));
-                    ex.observe(id, c, labels)?;
-                    push(&mut heap, t + cfg.observe_time, r, Kind::Poll);
+                    ex.observe(id, c, sense(c))?;
+                    let t2 = t + cfg.observe_time;
+                    push(&mut heap, t2, r, Kind::Poll, poll_class(&ex, id));
                     true
                 }
                 Action::Wait => {
@@ -219,7 +270,7 @@ pub fn simulate(
         };
         if progressed {
             for w in waiting.drain(..) {
-                push(&mut heap, t, w, Kind::Poll);
+                push(&mut heap, t, w, Kind::Poll, poll_class(&ex, ids[w]));
             }
         }
     }
@@ -238,6 +289,8 @@ pub fn simulate(
         tree_cells: ex.tree().real_count(),
         d_max: ex.d_max(),
         moves: ex.robots().iter().map(|r| r.moves).collect(),
+        opening_moves,
+        flight_time: flight,
         paths,
         explorer: ex,
         events,

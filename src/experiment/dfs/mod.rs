@@ -15,7 +15,10 @@
 
 pub mod plot;
 
-use crate::explore::bounds::{lawnmower_baseline, lemma1_upper_bound, lemma2_lower_bound};
+use crate::explore::bounds::{
+    eq8_single_robot_bound, lawnmower_baseline, lemma1_upper_bound, lemma2_lower_bound,
+    opt_lower_bound, round_trip_time, theorem_bound_at, theorem1_ratio, theorem2_ratio,
+};
 use crate::explore::simulate::{SimConfig, random_roi, simulate};
 use crate::explore::{ExploreError, Sharing};
 use crate::geo::Cell;
@@ -300,6 +303,26 @@ pub struct TrialRecord {
     pub tree_cells: usize,
     /// Whether cost ≤ Lemma 1.
     pub within_lemma1: bool,
+    /// Eq. (8), the single-robot bound (`None` when R > 1, where it does not apply).
+    pub eq8_upper: Option<f64>,
+    /// The lower bound on OPT of the theorems' proofs: max(Lemma 2, d_max/(S_r + S_p)).
+    pub opt_lower: f64,
+    /// Theorem 1 (eq. 13) at OPT = `opt_lower`: an upper bound on ALG, ≥ Lemma 1.
+    pub theorem1_upper: f64,
+    /// Theorem 2 (eq. 18) at OPT = `opt_lower`.
+    pub theorem2_upper: f64,
+    /// The longest straight round trip from the start to a ROI cell (time units): a lower
+    /// bound on any strategy, which the lawnmower baseline leaves out.
+    pub reach_lower: f64,
+    /// Unit tree edges flown, all robots together.
+    pub moves: u64,
+    /// Moves onto a cell no robot had reached before (C − 1): the rest is transit.
+    pub opening_moves: u64,
+    /// Σ flight time / (R · ALG): the share of the team's time spent flying (the rest is
+    /// robots done early, waiting at home).
+    pub flight_share: f64,
+    /// Decisions made differently from a fully informed team (meeting sharing; 0 with GCS).
+    pub uninformed_decisions: u64,
 }
 
 /// Mean, minimum and maximum over the trials.
@@ -363,6 +386,35 @@ pub struct ConfigSummary {
     pub max_ratio_to_lemma1: f64,
     /// Trials where the cost exceeded Lemma 1.
     pub violations: usize,
+    /// Of those, the trials without any uninformed decision (0 in every run so far).
+    pub informed_violations: usize,
+    /// Trials with at least one uninformed decision.
+    pub uninformed_trials: usize,
+    /// Eq. (8) (only with R = 1; `null` otherwise).
+    pub eq8_upper: Option<Stats>,
+    /// Trials above eq. (8) (R = 1 only).
+    pub eq8_violations: usize,
+    /// Theorem 1 at OPT's lower bound.
+    pub theorem1_upper: Stats,
+    /// Theorem 2 at OPT's lower bound.
+    pub theorem2_upper: Stats,
+    /// The competitive ratio of Theorem 1 (the factor of OPT in eq. 13).
+    pub theorem1_ratio: f64,
+    /// The competitive ratio of Theorem 2 (the factor of OPT in eq. 18).
+    pub theorem2_ratio: f64,
+    /// Largest ALG / OPT's lower bound (≥ the true ALG/OPT), to set beside the ratios.
+    pub max_ratio_to_opt_lower: f64,
+    /// The longest round trip from the start (see [`TrialRecord::reach_lower`]).
+    pub reach_lower: Stats,
+    /// Mean over trials of cost / max(lawnmower, round trip).
+    pub mean_ratio_to_lawnmower_or_reach: f64,
+    /// Mean over trials of 2 d_max/(S_r − S_p) / cost: the share of the cost the Lemma 1
+    /// proof charges to the depth (out to d_max and back at the slowest speed).
+    pub mean_depth_share: f64,
+    /// Mean share of all moves that are transit (onto already reached cells).
+    pub mean_transit_share: f64,
+    /// Mean share of the team's time spent flying (the rest: done early, at home).
+    pub mean_flight_share: f64,
 }
 
 /// A finished study.
@@ -471,6 +523,16 @@ pub fn run_trial(
     )?;
     let c = roi.len();
     let lemma1 = lemma1_upper_bound(c, out.d_max, conf.robots, 1.0, sp);
+    let opt_lower = opt_lower_bound(c, out.d_max, conf.robots, 1.0, sp);
+    let reach_lower = roi
+        .iter()
+        .map(|x| {
+            let dx = f64::from(x.col - start.col);
+            let dy = f64::from(x.row - start.row);
+            round_trip_time(dx, dy, 1.0, v)
+        })
+        .fold(0.0, f64::max);
+    let team_time = conf.robots as f64 * out.cost;
     Ok(TrialRecord {
         config: ci,
         trial,
@@ -483,6 +545,19 @@ pub fn run_trial(
         tree_cells: out.tree_cells,
         // Exact arithmetic up to rounding in the relative-speed edge times.
         within_lemma1: out.cost <= lemma1 * (1.0 + 1e-9),
+        eq8_upper: (conf.robots == 1).then(|| eq8_single_robot_bound(c, 1.0, sp)),
+        opt_lower,
+        theorem1_upper: theorem_bound_at(theorem1_ratio(conf.robots, 1.0, sp), opt_lower),
+        theorem2_upper: theorem_bound_at(theorem2_ratio(conf.robots, 1.0, sp), opt_lower),
+        reach_lower,
+        moves: out.moves.iter().sum(),
+        opening_moves: out.opening_moves.iter().sum(),
+        uninformed_decisions: out.explorer.uninformed_decisions(),
+        flight_share: if team_time > 0.0 {
+            out.flight_time.iter().sum::<f64>() / team_time
+        } else {
+            1.0
+        },
     })
 }
 
@@ -514,6 +589,10 @@ pub fn run(args: &DfsArgs, tick: &(dyn Fn() + Sync)) -> Result<Study, DfsStudyEr
             let ratio = |f: &dyn Fn(&TrialRecord) -> f64| {
                 rs.iter().map(|r| r.cost / f(r)).sum::<f64>() / rs.len() as f64
             };
+            let mean = |f: &dyn Fn(&TrialRecord) -> f64| {
+                rs.iter().map(|r| f(r)).sum::<f64>() / rs.len() as f64
+            };
+            let sp = conf.speed_ratio.roi_speed();
             ConfigSummary {
                 config: *conf,
                 trials: rs.len(),
@@ -529,6 +608,29 @@ pub fn run(args: &DfsArgs, tick: &(dyn Fn() + Sync)) -> Result<Study, DfsStudyEr
                     .map(|r| r.cost / r.lemma1_upper)
                     .fold(0.0, f64::max),
                 violations: rs.iter().filter(|r| !r.within_lemma1).count(),
+                informed_violations: rs
+                    .iter()
+                    .filter(|r| !r.within_lemma1 && r.uninformed_decisions == 0)
+                    .count(),
+                uninformed_trials: rs.iter().filter(|r| r.uninformed_decisions > 0).count(),
+                eq8_upper: (conf.robots == 1)
+                    .then(|| Stats::of(rs.iter().filter_map(|r| r.eq8_upper))),
+                eq8_violations: rs
+                    .iter()
+                    .filter(|r| r.eq8_upper.is_some_and(|b| r.cost > b * (1.0 + 1e-9)))
+                    .count(),
+                theorem1_upper: Stats::of(rs.iter().map(|r| r.theorem1_upper)),
+                theorem2_upper: Stats::of(rs.iter().map(|r| r.theorem2_upper)),
+                theorem1_ratio: theorem1_ratio(conf.robots, 1.0, sp).0,
+                theorem2_ratio: theorem2_ratio(conf.robots, 1.0, sp).0,
+                max_ratio_to_opt_lower: rs.iter().map(|r| r.cost / r.opt_lower).fold(0.0, f64::max),
+                reach_lower: Stats::of(rs.iter().map(|r| r.reach_lower)),
+                mean_ratio_to_lawnmower_or_reach: ratio(&|r| r.lawnmower_lower.max(r.reach_lower)),
+                mean_depth_share: mean(&|r| 2.0 * f64::from(r.d_max) / (1.0 - sp) / r.cost),
+                mean_transit_share: mean(&|r| {
+                    1.0 - r.opening_moves as f64 / (r.moves as f64).max(1.0)
+                }),
+                mean_flight_share: mean(&|r| r.flight_share),
             }
         })
         .collect();
@@ -548,12 +650,13 @@ pub fn run(args: &DfsArgs, tick: &(dyn Fn() + Sync)) -> Result<Study, DfsStudyEr
 pub fn trials_csv(study: &Study) -> String {
     let mut s = String::from(
         "sweep,sharing,cells,robots,speed_ratio,trial,direction,cost,lemma1_upper,lemma2_lower,\
-         lawnmower_lower,d_max,tree_cells,within_lemma1\n",
+         lawnmower_lower,d_max,tree_cells,eq8_upper,opt_lower,theorem1_upper,theorem2_upper,\
+         reach_lower,moves,opening_moves,flight_share,uninformed_decisions,within_lemma1\n",
     );
     for r in &study.records {
         let c = &study.configurations[r.config];
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             c.sweep,
             c.sharing,
             c.cells,
@@ -567,6 +670,15 @@ pub fn trials_csv(study: &Study) -> String {
             r.lawnmower_lower,
             r.d_max,
             r.tree_cells,
+            r.eq8_upper.map(|b| b.to_string()).unwrap_or_default(),
+            r.opt_lower,
+            r.theorem1_upper,
+            r.theorem2_upper,
+            r.reach_lower,
+            r.moves,
+            r.opening_moves,
+            r.flight_share,
+            r.uninformed_decisions,
             r.within_lemma1
         ));
     }
@@ -621,10 +733,13 @@ pub fn write_outputs(study: &Study, dir: &Path) -> Result<Vec<PathBuf>, DfsStudy
     Ok(files)
 }
 
-/// A fixed-width table of the summaries (one line per configuration).
+/// A fixed-width table of the summaries (one line per configuration): ALG, Lemma 1, eq. (8)
+/// (R = 1 only), Theorem 1 at OPT's lower bound, the lawnmower baseline, Lemma 2, the mean
+/// ratios ALG/LM and ALG/max(LM, longest round trip), the worst ALG/Lemma 1, the trials
+/// above Lemma 1, and the team's flight and transit shares.
 pub fn table(study: &Study) -> String {
     let mut s = format!(
-        "{:<6} {:<4} {:>5} {:>4} {:>6} | {:>8} {:>8} {:>8} | {:>9} {:>9} {:>8} | {:>7} {:>6} {:>4}\n",
+        "{:<6} {:<4} {:>5} {:>4} {:>6} | {:>8} {:>8} {:>8} | {:>9} {:>7} {:>8} | {:>9} {:>8} | {:>7} {:>7} {:>6} {:>4} | {:>6} {:>7}\n",
         "sweep",
         "shr",
         "C",
@@ -634,16 +749,25 @@ pub fn table(study: &Study) -> String {
         "min",
         "max",
         "Lemma1 UB",
+        "eq8 UB",
+        "Thm1 UB",
         "lawnmower",
         "Lemma2",
         "ALG/LM",
+        "ALG/LR",
         "max/UB",
-        "viol"
+        "viol",
+        "flight",
+        "transit"
     );
     for x in &study.summaries {
         let c = &x.config;
+        let eq8 = x
+            .eq8_upper
+            .map(|e| format!("{:.1}", e.mean))
+            .unwrap_or_else(|| "-".into());
         s.push_str(&format!(
-            "{:<6} {:<4} {:>5} {:>4} {:>6} | {:>8.1} {:>8.1} {:>8.1} | {:>9.1} {:>9.1} {:>8.2} | {:>7.2} {:>6.3} {:>4}\n",
+            "{:<6} {:<4} {:>5} {:>4} {:>6} | {:>8.1} {:>8.1} {:>8.1} | {:>9.1} {:>7} {:>8.1} | {:>9.1} {:>8.2} | {:>7.2} {:>7.2} {:>6.3} {:>4} | {:>6.2} {:>7.2}\n",
             c.sweep.to_string(),
             c.sharing.to_string(),
             c.cells,
@@ -653,11 +777,16 @@ pub fn table(study: &Study) -> String {
             x.cost.min,
             x.cost.max,
             x.lemma1_upper.mean,
+            eq8,
+            x.theorem1_upper.mean,
             x.lawnmower_lower.mean,
             x.lemma2_lower.mean,
             x.mean_ratio_to_lawnmower,
+            x.mean_ratio_to_lawnmower_or_reach,
             x.max_ratio_to_lemma1,
-            x.violations
+            x.violations,
+            x.mean_flight_share,
+            x.mean_transit_share
         ));
     }
     s

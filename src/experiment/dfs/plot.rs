@@ -1,6 +1,7 @@
 //! PNG plots of the DFS study, like the paper's Fig. 7: (a) an example ROI with the tree the
 //! run built, (b–d) cost against cells, robots and speed ratio, with Lemma 1, the lawnmower
-//! baseline and Lemma 2 (mean, with min–max bars over the trials).
+//! baseline, Lemma 2 and the longest round trip from the start to a cell (mean, with min–max
+//! bars over the trials).
 //!
 //! Rendering is plotters' bitmap backend into a memory buffer, encoded with `image`; text
 //! uses DejaVu Sans embedded from `assets/fonts/` through plotters' `ab_glyph` feature, so no
@@ -150,6 +151,7 @@ const ALG: [RGBColor; 2] = [RGBColor(31, 119, 180), RGBColor(255, 127, 14)];
 const UPPER: [RGBColor; 2] = [RGBColor(214, 39, 40), RGBColor(148, 103, 189)];
 const LAWN: RGBColor = RGBColor(44, 160, 44);
 const LEMMA2: RGBColor = RGBColor(127, 127, 127);
+const REACH: RGBColor = RGBColor(23, 190, 207);
 
 fn sweep_chart(
     study: &Study,
@@ -244,6 +246,17 @@ fn sweep_chart(
                     .iter()
                     .map(|s| {
                         let b = s.lemma2_lower;
+                        (x_of(s), b.mean, b.min, b.max)
+                    })
+                    .collect(),
+            });
+            series.push(Series {
+                name: "longest round trip from the start".into(),
+                color: REACH,
+                points: mine
+                    .iter()
+                    .map(|s| {
+                        let b = s.reach_lower;
                         (x_of(s), b.mean, b.min, b.max)
                     })
                     .collect(),

@@ -9,17 +9,21 @@
 //! cycles"), so the tree is built online and never has a cycle: lines 9–12 (dropping an
 //! under-exploration neighbour whose move would close a cycle) are implied by construction.
 //! Each vertex is *unexplored*, *under exploration* or *explored* ([`VertexState`], Fig. 3).
-//! At a vertex the group of robots that arrived together drops the explored children
-//! (line 8); with more than two candidates, dummy vertices joined by zero-length edges keep
-//! the tree binary (line 15, footnote 3: three candidates `[a, b, c]` become
-//! `[dummy{b, c}, a]`, four at the root become two dummies of two); the group is split as
-//! evenly as possible, ⌈k/2⌉ to the first candidate and ⌊k/2⌋ to the second (line 19); with
-//! one candidate the whole group moves there (line 22); with none the vertex is explored and
-//! the group moves back to the parent (lines 3–5, 24). Candidates nobody has been sent to
-//! come before those under exploration, so a lone robot opens new branches first and a robot
-//! that finished its branch goes to help in a sibling branch that is still under exploration.
-//! A group at the root with nothing left to explore is done: every robot ends at the start,
-//! and the exploration ends when all robots are back and the root is explored.
+//! The tree is kept binary as it grows (line 15, footnote 3): a third child of a vertex is
+//! paired with an existing child slot under a dummy vertex joined by a zero-length edge
+//! (`[a, b] + c → [a, dummy{b, c}]`, a fourth at the root gives `[dummy{a, d}, dummy{b, c}]`),
+//! over all children, explored or not — so every vertex has at most two children whatever
+//! the sensing did ([`Tree::attach`]). At a vertex, *all* the robots standing there decide
+//! together (line 19 splits "the robots at v"): robots of different groups that meet at a
+//! vertex are pooled and re-split. They drop the explored children (line 8); with two
+//! candidates the robots are split as evenly as possible, ⌈k/2⌉ to the first and ⌊k/2⌋ to
+//! the second (line 19); with one the whole pool moves there (line 22); with none the vertex
+//! is explored and the pool moves back to the parent (lines 3–5, 24). Candidates nobody has
+//! been sent to come before those under exploration (so a lone robot opens new branches
+//! first and a robot that finished its branch helps in a sibling branch still under
+//! exploration), and a dummy slot (two grid branches) before a single cell. A pool at the
+//! root with nothing left to explore is done: every robot ends at the start, and the
+//! exploration ends when all robots are back and the root is explored.
 //!
 //! # Sharing
 //! The tree itself (which cells are ROI cells and who is whose child) is built by the GCS,
@@ -29,17 +33,19 @@
 //!   at the same time, or pass each other on the same edge;
 //! - [`Sharing::Gcs`]: every robot decides on the global states (the GCS hears every robot).
 //!
-//! Lemma 1 needs more than meetings. Its proof (the reward argument of Higashikawa et al.)
-//! counts on every robot collecting reward while it moves: never walking again where others
-//! already went. With meeting-only sharing, a robot that finished its branch and goes to
-//! help a sibling branch under exploration does not know which sub-branch the robots there
-//! took, so it follows them instead of opening the untouched one. Smallest case found
-//! (`tests::meeting_sharing_can_exceed_lemma_1`): 7 cells, 2 robots, the start with three
-//! children; the robot back from the short branch follows the other into the branch it is
-//! already doing, and the team is home at t = 10 where eq. (2) allows 9 (GCS sharing: 6).
-//! `fleetmap experiment dfs --sharing meet` measures it on random ROIs (above the bound in
-//! most trials); with [`Sharing::Gcs`] the bound held on every trial we ran. So the GCS's
-//! global view is the default, and the meeting model is kept for the study.
+//! Lemma 1 needs more than meetings. Its proof (eq. 1, the reward argument of Higashikawa
+//! et al.) needs the robots to collect reward at rate 1 + ⌊log₂ R⌋ until the last leaf is
+//! reached, i.e. never to walk forward again over a rib edge another group already took.
+//! With meeting-only sharing a robot that finished its branch and goes to help a sibling
+//! branch cannot know which child the robots there took, and line 20 ("move to one of two
+//! children") lets it take the same one. Smallest case (`tests::meeting_sharing_can_exceed_lemma_1`,
+//! worked by hand in docs/results/dfs.md): 7 cells, 2 robots, the start with three children;
+//! the robot back from the one-cell branch follows the other into the branch it is doing,
+//! and the team is home at t = 10 where eq. (2) allows 9 (GCS sharing: 6). Every meeting-only
+//! run above the bound that we have seen made at least one *uninformed* decision
+//! ([`Explorer::uninformed_decisions`]: a decision a fully informed team would have made
+//! differently); with [`Sharing::Gcs`] there are none. So the GCS's global view is the
+//! default, and the meeting model is kept for the study.
 //!
 //! # Driving it (per robot)
 //! ```text
@@ -208,6 +214,14 @@ pub struct Explorer {
     negatives: BTreeSet<Cell>,
     /// Number of `observe` calls.
     observations: u64,
+    /// With [`Sharing::Meet`]: what all robots know together (every visit and every claim),
+    /// kept only to tell when a robot decides differently from a robot that knew it all.
+    #[serde(default)]
+    team: Knowledge,
+    /// With [`Sharing::Meet`]: decisions whose targets differ from those the same robots
+    /// would have chosen with the whole team's knowledge ([`Explorer::uninformed_decisions`]).
+    #[serde(default)]
+    uninformed: u64,
 }
 
 impl Explorer {
@@ -248,6 +262,8 @@ impl Explorer {
             knowledge: vec![Knowledge::default(); nk],
             negatives: BTreeSet::new(),
             observations: 0,
+            team: Knowledge::default(),
+            uninformed: 0,
         })
     }
 
@@ -290,6 +306,15 @@ impl Explorer {
     /// Number of observations received.
     pub fn observations(&self) -> u64 {
         self.observations
+    }
+
+    /// With [`Sharing::Meet`], how many decisions (Algorithm 1 at a vertex, for the robots
+    /// there) sent robots elsewhere than the same rule would have with everything the team
+    /// knew at that moment — a robot following into a branch another group already took,
+    /// or walking into a subtree already explored. Always 0 with [`Sharing::Gcs`]. A run
+    /// with no such decision made exactly the decisions of a fully informed team.
+    pub fn uninformed_decisions(&self) -> u64 {
+        self.uninformed
     }
 
     /// d_max of the tree built so far (§4.2).
@@ -429,38 +454,35 @@ impl Explorer {
                 self.robots[i].phase = Phase::Observing;
                 return Action::Observe;
             }
-            // The group decides together (line 19 splits the robots at v): wait for all.
-            let group: Vec<usize> = self.robots[i]
-                .companions
-                .iter()
-                .filter_map(|c| self.robots.iter().position(|r| r.id == *c))
+            // Line 19 splits "the robots at v": every robot standing at v decides together,
+            // whichever group it came with (robots of different groups that meet at a vertex
+            // are pooled and re-split). Robots travelling together arrive together, so wait
+            // until every companion of the robots here has arrived too.
+            let group: Vec<usize> = (0..self.robots.len())
+                .filter(|&j| self.robots[j].phase == Phase::AtVertex && self.robots[j].node == v)
                 .collect();
-            if group
-                .iter()
-                .any(|&j| self.robots[j].phase != Phase::AtVertex || self.robots[j].node != v)
-            {
+            let all_here = group.iter().all(|&j| {
+                self.robots[j].companions.iter().all(|c| {
+                    self.robots
+                        .iter()
+                        .find(|r| r.id == *c)
+                        .is_none_or(|r| r.phase == Phase::AtVertex && r.node == v)
+                })
+            });
+            if !all_here {
                 return Action::Wait;
             }
+            // Line 7: the robots at v tell each other what they know.
+            self.merge(&group);
             let k = self.kidx(i);
-            // Line 8: N(v) ← N(v) \ explored. (Lines 9–12: no child closes a cycle, by
-            // construction of the tree.)
-            let mut cands: Vec<NodeId> = self
-                .tree
-                .node(v)
-                .children
-                .iter()
-                .copied()
-                .filter(|&c| !self.knowledge[k].explored(c))
-                .collect();
-            // Lines 15–17: dummy vertices keep the tree binary.
-            if cands.len() > 2 {
-                let [small, big] = self.tree.binarise(v, &cands);
-                self.after_binarise(&[small, big], v);
-                // The half with more vertices gets the larger share of the robots.
-                cands = vec![big, small];
+            let cands = self.candidates(&self.knowledge[k], v);
+            if self.config.sharing == Sharing::Meet {
+                let informed = self.candidates(&self.team, v);
+                let n = if group.len() == 1 { 1 } else { 2 };
+                if cands.iter().take(n).ne(informed.iter().take(n)) {
+                    self.uninformed += 1;
+                }
             }
-            // Open new branches before joining ones under exploration (stable order).
-            cands.sort_by_key(|&c| self.state_in(k, c) != VertexState::Unexplored);
             if cands.is_empty() {
                 // Lines 3–5, 23–24: v is explored; go back to the parent.
                 match self.tree.node(v).parent {
@@ -486,6 +508,8 @@ impl Explorer {
                     self.knowledge[k].claim(cands[0]);
                     self.knowledge[k].claim(cands[1]);
                 }
+                self.team.claim(cands[0]);
+                self.team.claim(cands[1]);
                 self.dispatch(&group[..h], v, cands[0]);
                 self.dispatch(&group[h..], v, cands[1]);
             }
@@ -499,16 +523,35 @@ impl Explorer {
         }
     }
 
-    /// After dummies were inserted under `v`: their explored state in every knowledge.
-    fn after_binarise(&mut self, created: &[NodeId], v: NodeId) {
-        for k in &mut self.knowledge {
-            for &d in created {
-                if self.tree.node(d).kind == NodeKind::Dummy {
-                    k.refresh(&self.tree, d);
-                }
+    /// Lines 8–17 of Algorithm 1 at `v` with knowledge `kn`: the children of `v` that are
+    /// not explored, new branches first, then the slot standing for more grid branches.
+    /// Line 8: N(v) ← N(v) \ explored. Lines 9–12 (dropping a neighbour whose move would
+    /// close a cycle) hold by construction of the tree; lines 15–17 (dummies) are applied as
+    /// the tree grows ([`Tree::attach`]), so there are at most two candidates.
+    fn candidates(&self, kn: &Knowledge, v: NodeId) -> Vec<NodeId> {
+        let mut cands: Vec<NodeId> = self
+            .tree
+            .node(v)
+            .children
+            .iter()
+            .copied()
+            .filter(|&c| !kn.explored(c))
+            .collect();
+        debug_assert!(cands.len() <= 2, "the tree is binary");
+        let state = |c: NodeId| {
+            if kn.visited(c) || kn.claimed(c) {
+                VertexState::UnderExploration
+            } else {
+                VertexState::Unexplored
             }
-            k.refresh(&self.tree, v);
-        }
+        };
+        cands.sort_by_key(|&c| {
+            (
+                state(c) != VertexState::Unexplored,
+                std::cmp::Reverse(self.tree.branches(c)),
+            )
+        });
+        cands
     }
 
     /// Send `group` (robot indices) from `from` to the adjacent vertex `to`.
@@ -518,6 +561,9 @@ impl Explorer {
             let k = self.kidx(j);
             self.knowledge[k].claim(to);
             self.robots[j].companions = ids.clone();
+        }
+        if self.config.sharing == Sharing::Meet {
+            self.team.claim(to);
         }
         if self.cell(to) == self.cell(from) {
             for &j in group {
@@ -597,6 +643,9 @@ impl Explorer {
         let k = self.kidx(i);
         self.knowledge[k].visit(&self.tree, node);
         if self.config.sharing == Sharing::Meet {
+            self.team.visit(&self.tree, node);
+        }
+        if self.config.sharing == Sharing::Meet {
             let here: Vec<usize> = self
                 .robots
                 .iter()
@@ -645,7 +694,18 @@ impl Explorer {
             if positive {
                 self.negatives.remove(&n);
                 if !self.tree.contains(n) {
-                    self.tree.add_child(v, n);
+                    let (_, dummy) = self.tree.attach(v, n);
+                    if let Some(d) = dummy {
+                        // The dummy takes the place of an existing child slot: it is under
+                        // exploration for whoever knew that slot was.
+                        let slot = self.tree.node(d).children[0];
+                        for k in self.knowledge.iter_mut().chain([&mut self.team]) {
+                            if k.visited(slot) || k.claimed(slot) || k.explored(slot) {
+                                k.claim(d);
+                            }
+                            k.refresh(&self.tree, d);
+                        }
+                    }
                     added.push(n);
                 }
             } else if !self.tree.contains(n) {
@@ -653,7 +713,7 @@ impl Explorer {
             }
         }
         self.tree.set_observed(v);
-        for k in &mut self.knowledge {
+        for k in self.knowledge.iter_mut().chain([&mut self.team]) {
             k.refresh(&self.tree, v);
         }
         if self.robots[i].phase == Phase::Observing {

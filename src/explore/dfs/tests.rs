@@ -637,7 +637,8 @@ fn moves_only_over_tree_cells_between_neighbours() {
 }
 
 /// The smallest instance (found by search over random ROIs) where meeting-only sharing
-/// exceeds Lemma 1's bound while GCS sharing stays well within it (see the module docs).
+/// exceeds Lemma 1's bound while GCS sharing stays well within it: the counterexample worked
+/// step by step in docs/results/dfs.md (see also the module docs). The cost is pinned.
 #[test]
 fn meeting_sharing_can_exceed_lemma_1() {
     use crate::explore::bounds::lemma1_upper_bound;
@@ -649,17 +650,69 @@ fn meeting_sharing_can_exceed_lemma_1() {
             &SimConfig {
                 robots: 2,
                 sharing,
+                record_paths: true,
                 ..SimConfig::default()
             },
         )
         .unwrap()
     };
     let meet = run(Sharing::Meet);
+    // The trace of docs/results/dfs.md: robot 2 follows robot 1 into (0,1) at t = 3, they
+    // pool there and go on together.
+    let cells = |v: &[(i32, i32)]| v.iter().map(|&(r, q)| c(r, q)).collect::<Vec<_>>();
+    assert_eq!(
+        meet.paths[0],
+        cells(&[
+            (1, 1),
+            (0, 1),
+            (0, 0),
+            (0, 1),
+            (0, 2),
+            (0, 1),
+            (1, 1),
+            (1, 2),
+            (1, 3),
+            (1, 2),
+            (1, 1)
+        ])
+    );
+    assert_eq!(
+        meet.paths[1],
+        cells(&[
+            (1, 1),
+            (2, 1),
+            (1, 1),
+            (0, 1),
+            (0, 2),
+            (0, 1),
+            (1, 1),
+            (1, 2),
+            (1, 3),
+            (1, 2),
+            (1, 1)
+        ])
+    );
     let gcs = run(Sharing::Gcs);
     assert_eq!(meet.d_max, 2);
     let bound = lemma1_upper_bound(7, meet.d_max, 2, 1.0, 0.0);
     assert_eq!(bound, 9.0);
     assert_eq!(meet.cost, 10.0);
     assert_eq!(gcs.cost, 6.0);
+    // The excess comes from the one uninformed choice worked out in docs/results/dfs.md:
+    // robot 2, back at t = 2, takes the dummy's first child, which robot 1 already took.
+    assert_eq!(meet.explorer.uninformed_decisions(), 1);
+    assert_eq!(gcs.explorer.uninformed_decisions(), 0);
+    let t = meet.explorer.tree();
+    let root = t.node(Tree::ROOT);
+    assert_eq!(root.children.len(), 2);
+    let dummy = root.children[1];
+    assert_eq!(t.node(dummy).kind, NodeKind::Dummy);
+    let cells: Vec<Cell> = t
+        .node(dummy)
+        .children
+        .iter()
+        .map(|&n| t.node(n).cell)
+        .collect();
+    assert_eq!(cells, vec![c(0, 1), c(1, 2)]);
     assert!(gcs.cost <= lemma1_upper_bound(7, gcs.d_max, 2, 1.0, 0.0));
 }

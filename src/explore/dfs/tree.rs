@@ -5,8 +5,8 @@
 //! The tree is only ever grown: a positive neighbour that is not yet in the tree becomes a
 //! child of the observing vertex ("unless those cells have been previously added to the tree.
 //! This condition prevents cycles", §4.1), so every cell appears at most once and the
-//! structure stays a tree. Dummy vertices are inserted at decision time, when a vertex has
-//! more than two candidate children.
+//! structure stays a tree. Dummy vertices are inserted as children are added, over all the
+//! children of a vertex (explored or not), so the tree is binary at every moment.
 
 use crate::geo::Cell;
 use serde::{Deserialize, Serialize};
@@ -175,10 +175,26 @@ impl Tree {
         self.nodes[id.index()].observed = true;
     }
 
-    /// Add `cell` as a new real child of the real vertex `parent`. The caller checks that
-    /// the cell is not yet in the tree.
+    /// Add `cell` as a new real child of the real vertex `parent`, keeping the tree binary
+    /// (Algorithm 1, line 15 and footnote 3). The caller checks that the cell is not yet in
+    /// the tree. Returns the new vertex and the dummy vertex created for it, if any.
+    ///
+    /// The first two children hang from `parent` itself. A further child `c` is paired with
+    /// the child slot `s` of `parent` that leads to the fewest real branches (the later slot
+    /// on a tie): `s` is replaced by a dummy vertex at `parent`'s cell, joined by an edge of
+    /// length 0, whose children are `s` and `c`. So children added in the order `a, b, c, d`
+    /// (four only at the root) give `[a, b]`, then `[a, dummy{b, c}]`, then
+    /// `[dummy{a, d}, dummy{b, c}]`. Dummies are built over *all* children, explored or not,
+    /// so the tree is binary whatever the sensing did (a late positive label included).
+    #[cfg(test)]
     pub(crate) fn add_child(&mut self, parent: NodeId, cell: Cell) -> NodeId {
+        self.attach(parent, cell).0
+    }
+
+    /// [`Tree::add_child`], also returning the dummy vertex it created.
+    pub(crate) fn attach(&mut self, parent: NodeId, cell: Cell) -> (NodeId, Option<NodeId>) {
         debug_assert!(!self.contains(cell));
+        debug_assert_eq!(self.node(parent).kind, NodeKind::Real);
         let id = NodeId(self.nodes.len() as u32);
         let depth = self.node(parent).depth + 1;
         self.nodes.push(Node {
@@ -189,56 +205,41 @@ impl Tree {
             observed: false,
             depth,
         });
-        self.nodes[parent.index()].children.push(id);
         self.index.insert(cell, id);
-        id
-    }
-
-    /// Move the children `group` of `v` under a new dummy vertex (a child of `v` at `v`'s
-    /// cell, zero-length edge). Returns the dummy.
-    pub(crate) fn insert_dummy(&mut self, v: NodeId, group: &[NodeId]) -> NodeId {
-        let id = NodeId(self.nodes.len() as u32);
-        let (cell, depth) = (self.node(v).cell, self.node(v).depth);
-        let children = &mut self.nodes[v.index()].children;
-        let pos = children
-            .iter()
-            .position(|c| group.contains(c))
-            .unwrap_or(children.len());
-        children.retain(|c| !group.contains(c));
-        children.insert(pos.min(children.len()), id);
-        self.nodes.push(Node {
-            cell,
-            kind: NodeKind::Dummy,
-            parent: Some(v),
-            children: group.to_vec(),
-            observed: true,
-            depth,
-        });
-        for &c in group {
-            self.nodes[c.index()].parent = Some(id);
+        let slots = self.node(parent).children.clone();
+        if slots.len() < 2 {
+            self.nodes[parent.index()].children.push(id);
+            return (id, None);
         }
-        id
+        let (pos, &slot) = slots
+            .iter()
+            .enumerate()
+            .rev()
+            .min_by_key(|&(_, &s)| self.branches(s))
+            .unwrap_or((slots.len() - 1, &slots[slots.len() - 1]));
+        let dummy = NodeId(self.nodes.len() as u32);
+        self.nodes.push(Node {
+            cell: self.node(parent).cell,
+            kind: NodeKind::Dummy,
+            parent: Some(parent),
+            children: vec![slot, id],
+            observed: true,
+            depth: self.node(parent).depth,
+        });
+        self.nodes[parent.index()].children[pos] = dummy;
+        self.nodes[slot.index()].parent = Some(dummy);
+        self.nodes[id.index()].parent = Some(dummy);
+        (id, Some(dummy))
     }
 
-    /// Line 15 of Algorithm 1: make the candidate set of `v` binary. The candidates are split
-    /// into two halves in order; a half with more than one vertex is grouped under a dummy
-    /// vertex. Three candidates `[a, b, c]` become `[a, dummy{b, c}]`; four (only possible at
-    /// the root) become `[dummy{a, b}, dummy{c, d}]`. Returns the two new candidates.
-    pub(crate) fn binarise(&mut self, v: NodeId, candidates: &[NodeId]) -> [NodeId; 2] {
-        debug_assert!(candidates.len() > 2);
-        let half = candidates.len() / 2;
-        let (left, right) = candidates.split_at(half);
-        let l = if left.len() == 1 {
-            left[0]
-        } else {
-            self.insert_dummy(v, left)
-        };
-        let r = if right.len() == 1 {
-            right[0]
-        } else {
-            self.insert_dummy(v, right)
-        };
-        [l, r]
+    /// Number of real vertices reached from `n` through dummy edges only (1 for a real
+    /// vertex): how many grid branches the slot `n` stands for.
+    pub fn branches(&self, n: NodeId) -> usize {
+        let node = self.node(n);
+        match node.kind {
+            NodeKind::Real => 1,
+            NodeKind::Dummy => node.children.iter().map(|&c| self.branches(c)).sum(),
+        }
     }
 
     /// The vertices in post-order (children before parents), from the root.
@@ -269,32 +270,38 @@ mod tests {
     use super::*;
 
     #[test]
-    fn binarise_three_and_four() {
+    fn children_are_binarised_as_they_are_added() {
         let mut t = Tree::new(Cell::new(0, 0));
         let a = t.add_child(Tree::ROOT, Cell::new(1, 0));
         let b = t.add_child(Tree::ROOT, Cell::new(0, -1));
-        let c = t.add_child(Tree::ROOT, Cell::new(-1, 0));
-        let d = t.add_child(Tree::ROOT, Cell::new(0, 1));
-        let [l, r] = t.binarise(Tree::ROOT, &[a, b, c, d]);
-        assert_eq!(t.node(l).kind, NodeKind::Dummy);
-        assert_eq!(t.node(r).kind, NodeKind::Dummy);
-        assert_eq!(t.node(l).children, vec![a, b]);
-        assert_eq!(t.node(r).children, vec![c, d]);
-        assert_eq!(t.node(Tree::ROOT).children, vec![l, r]);
-        assert_eq!(t.node(a).parent, Some(l));
+        assert_eq!(t.node(Tree::ROOT).children, vec![a, b]);
+        let (c, d1) = t.attach(Tree::ROOT, Cell::new(-1, 0));
+        let d1 = d1.expect("a third child needs a dummy");
+        assert_eq!(t.node(Tree::ROOT).children, vec![a, d1]);
+        assert_eq!(t.node(d1).children, vec![b, c]);
+        let (d, d2) = t.attach(Tree::ROOT, Cell::new(0, 1));
+        let d2 = d2.expect("a fourth child needs a dummy");
+        assert_eq!(t.node(Tree::ROOT).children, vec![d2, d1]);
+        assert_eq!(t.node(d2).children, vec![a, d]);
+        assert_eq!(t.node(d2).kind, NodeKind::Dummy);
+        assert_eq!(t.node(a).parent, Some(d2));
         assert_eq!(t.node(a).depth, 1);
-        assert_eq!(t.node(l).depth, 0);
-        assert_eq!(t.real_of(l), Tree::ROOT);
+        assert_eq!(t.node(d2).depth, 0);
+        assert_eq!(t.real_of(d2), Tree::ROOT);
+        assert_eq!(t.branches(d1), 2);
+        assert_eq!(t.branches(Tree::ROOT), 1);
 
         let e = t.add_child(a, Cell::new(2, 0));
         let f = t.add_child(a, Cell::new(1, -1));
-        let g = t.add_child(a, Cell::new(1, 1));
-        let [x, y] = t.binarise(a, &[e, f, g]);
-        assert_eq!(x, e);
+        let (g, y) = t.attach(a, Cell::new(1, 1));
+        let y = y.unwrap();
         assert_eq!(t.node(y).children, vec![f, g]);
         assert_eq!(t.node(a).children, vec![e, y]);
         assert_eq!(t.d_max(), 2);
         assert_eq!(t.real_count(), 8);
+        for n in t.nodes() {
+            assert!(n.children.len() <= 2);
+        }
         // Post-order lists every vertex once, children first.
         let po = t.post_order();
         assert_eq!(po.len(), t.len());
