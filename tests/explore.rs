@@ -102,7 +102,7 @@ fn run_case(
 proptest! {
     #![proptest_config(ProptestConfig { cases: 1024, ..ProptestConfig::default() })]
 
-    /// GCS sharing, random ROIs, R = 1…20, static or translating ROI, perfect or noisy
+    /// GCS sharing, random ROIs, R = 1…32, static or translating ROI, perfect or noisy
     /// sensing: the invariants of §4 hold and the cost never exceeds Lemma 1 (eq. 2, with
     /// C the cells of the tree the run built — the outer approximation of §5 when the sensor
     /// lies).
@@ -110,7 +110,7 @@ proptest! {
     fn dfs_covers_terminates_and_meets_lemma_1(
         seed in any::<u64>(),
         cells in 1usize..160,
-        robots in 1usize..=20,
+        robots in 1usize..=32,
         ratio in prop_oneof![Just(0.0), 1.2f64..6.0],
         dir in 0usize..4,
         noise in prop_oneof![Just(0.0), 0.0f64..0.15],
@@ -132,7 +132,7 @@ proptest! {
     fn meeting_sharing_covers_terminates_and_exceeds_lemma_1_only_when_uninformed(
         seed in any::<u64>(),
         cells in 1usize..100,
-        robots in 1usize..=20,
+        robots in 1usize..=32,
         ratio in prop_oneof![Just(0.0), 1.2f64..6.0],
         dir in 0usize..4,
         noise in prop_oneof![Just(0.0), 0.0f64..0.15],
