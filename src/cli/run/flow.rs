@@ -181,6 +181,22 @@ fn wait_of(secs: f64) -> anyhow::Result<Duration> {
     Ok(Duration::from_secs_f64(secs))
 }
 
+/// [`fly`] on an open session (connected with `conn`), then close the session whatever the
+/// run's result.
+async fn fly_then_close<K: RunKind>(
+    session: Session,
+    conn: &ConnectArgs,
+    run_dir: RunDir,
+    state: K::State,
+    options: K::Options,
+    headless: bool,
+) -> anyhow::Result<ExitCode> {
+    let label = format!("LIVE {}", connections_label(&conn.connect));
+    let result = fly::<K>(&session.fleet, run_dir, state, options, headless, label).await;
+    session.close().await?;
+    result
+}
+
 /// `fleetmap run` for a mission of kind `K` (`text` is the mission file, already parsed as
 /// `def`).
 pub fn start<K: RunKind>(args: RunArgs, def: MissionDef, text: String) -> anyhow::Result<ExitCode> {
@@ -209,18 +225,8 @@ pub fn start<K: RunKind>(args: RunArgs, def: MissionDef, text: String) -> anyhow
         })
         .await??;
         println!("{}", K::started_line(&dir, &state));
-        let label = format!("LIVE {}", connections_label(&args.conn.connect));
-        let result = fly::<K>(
-            &session.fleet,
-            run_dir,
-            state,
-            options,
-            args.runner.headless,
-            label,
-        )
-        .await;
-        session.close().await?;
-        result
+        let headless = args.runner.headless;
+        fly_then_close::<K>(session, &args.conn, run_dir, state, options, headless).await
     })?
 }
 
@@ -253,18 +259,8 @@ pub fn resume<K: RunKind>(args: ResumeArgs, run_dir: RunDir) -> anyhow::Result<E
         let session = Session::open(&conn).await?;
         let how = K::prepare_resume(&session.fleet, &mut state, &settings, wait).await?;
         println!("resuming {} ({how})", args.run_dir.display());
-        let label = format!("LIVE {}", connections_label(&conn.connect));
-        let result = fly::<K>(
-            &session.fleet,
-            run_dir,
-            state,
-            options,
-            args.runner.headless,
-            label,
-        )
-        .await;
-        session.close().await?;
-        result
+        let headless = args.runner.headless;
+        fly_then_close::<K>(session, &conn, run_dir, state, options, headless).await
     })?
 }
 

@@ -22,6 +22,32 @@ impl Transfer {
     }
 
     /// The list a message to `sys`/`comp` is about, if it is for this vehicle and names one.
+    /// A MISSION_REQUEST (`int` false) or MISSION_REQUEST_INT (`int` true) for item `seq`
+    /// from `from`, addressed to `target` (system, component): answered when it is for this
+    /// vehicle (PX4 answers in the form it was asked in: `int_mode`).
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn on_request(
+        &mut self,
+        core: &mut Core,
+        from: (u8, u8),
+        target: (u8, u8),
+        mission_type: mav::MavMissionType,
+        seq: u16,
+        int: bool,
+        now: Time,
+    ) {
+        let Some(t) = self.accept_target(core, target.0, target.1, mission_type) else {
+            return;
+        };
+        match self {
+            Transfer::ArduPilot(ap) => ap.request(core, from, t, seq, int),
+            Transfer::Px4(p) => {
+                p.int_mode = int;
+                p.request(core, from, t, seq, now);
+            }
+        }
+    }
+
     pub(super) fn accept_target(
         &self,
         core: &Core,

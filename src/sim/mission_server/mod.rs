@@ -537,36 +537,14 @@ impl MissionServer {
                 }
             }
             MavMessage::MISSION_REQUEST_INT(m) => {
-                if let Some(t) = self.transfer.accept_target(
-                    core,
-                    m.target_system,
-                    m.target_component,
-                    m.mission_type,
-                ) {
-                    match &mut self.transfer {
-                        Transfer::ArduPilot(ap) => ap.request(core, from, t, m.seq, true),
-                        Transfer::Px4(p) => {
-                            p.int_mode = true;
-                            p.request(core, from, t, m.seq, now);
-                        }
-                    }
-                }
+                let target = (m.target_system, m.target_component);
+                self.transfer
+                    .on_request(core, from, target, m.mission_type, m.seq, true, now);
             }
             MavMessage::MISSION_REQUEST(m) => {
-                if let Some(t) = self.transfer.accept_target(
-                    core,
-                    m.target_system,
-                    m.target_component,
-                    m.mission_type,
-                ) {
-                    match &mut self.transfer {
-                        Transfer::ArduPilot(ap) => ap.request(core, from, t, m.seq, false),
-                        Transfer::Px4(p) => {
-                            p.int_mode = false;
-                            p.request(core, from, t, m.seq, now);
-                        }
-                    }
-                }
+                let target = (m.target_system, m.target_component);
+                self.transfer
+                    .on_request(core, from, target, m.mission_type, m.seq, false, now);
             }
             MavMessage::MISSION_CLEAR_ALL(m) => {
                 if self
