@@ -290,7 +290,10 @@ impl BanditState {
             }
             let (m, u) = (self.mean(l), self.width(l));
             let label = match (m - u >= lo, m + u <= hi) {
-                (true, true) if m >= self.theta => Label::Keep,
+                // Both (4a) and (4b) at once: μ̂ is within ε of θ and either label meets the
+                // criterion (2). Fig. 2 rejects its μ = 0.5 cell, whose mean settles at θ:
+                // a tie goes to R unless μ̂ is strictly above θ.
+                (true, true) if m > self.theta => Label::Keep,
                 (true, true) => Label::Reject,
                 (true, false) => Label::Keep,
                 (false, true) => Label::Reject,
@@ -385,9 +388,9 @@ mod tests {
     #[test]
     fn fig2_classifies_the_three_example_cells() {
         // Fig. 2: μ ∈ {0.05, 0.5, 0.95}, θ = 0.5, ε = 0.05, |G| = 100, δ = 1e-4: 0.05 and 0.5
-        // go to R, 0.95 to K. Empirical means 0.05, 0.49 (the figure's μ = 0.5 run ends just
-        // below θ) and 0.95, in batches of 100.
-        for (ones, want) in [(5, Label::Reject), (49, Label::Reject), (95, Label::Keep)] {
+        // go to R, 0.95 to K. Empirical means exactly 0.05, 0.5 and 0.95, in batches of 100
+        // (at 0.5, (4a) and (4b) hold in the same epoch: the tie goes to R as in the figure).
+        for (ones, want) in [(5, Label::Reject), (50, Label::Reject), (95, Label::Keep)] {
             let cells: Vec<Cell> = (0..100).map(|i| Cell::new(i / 10, i % 10)).collect();
             let mut s = BanditState::new(cells, 0.5, 0.05, 1e-4).unwrap();
             let mut n = 0u64;

@@ -13,12 +13,15 @@
 //! 2. **Epochs** ([`run_trial`]): goals by the chosen rule (UCB (3) for the paper's
 //!    Algorithm 1); the fast IP (K up to `k_max`; if no plan exists within it, K is doubled, up
 //!    to 64); each drone measures every unclassified cell along its path: its epoch path with
-//!    consecutive repeats collapsed (a hover or a recharge at the same cell is one visit), each
-//!    visit giving B Bernoulli(μ_l) samples, for cells unclassified at the start of the epoch
+//!    consecutive repeats collapsed (a hover or a recharge at the same cell is one visit, also
+//!    across epochs: an epoch's first cell is where the drone ended the previous epoch, the
+//!    same visit, measured once), each visit giving B Bernoulli(μ_l) samples, for cells
+//!    unclassified at the start of the epoch
 //!    (§V: "at each unclassified cell along a sensor's path"); then (4); the team's final
 //!    configuration is the next epoch's start (Algorithm 1's (X_0, Y_0) at epoch p + 1).
 //! 3. **Outcome** ([`TrialResult`]): epochs until every truly interesting cell (μ ≥ θ) is
-//!    classified, until every cell is, solve time per epoch, and labelling errors.
+//!    classified, until every cell is, solve time per epoch (every attempt of the epoch, the
+//!    infeasible ones at smaller K included), and labelling errors.
 //!
 //! Randomness: trial t of a study uses world seed = f(seed, t) for every variant, so variants
 //! are compared on the same worlds; the sensing stream is seeded separately per variant and
@@ -447,6 +450,21 @@ pub fn visits(path: &[usize]) -> Vec<usize> {
     v
 }
 
+/// The cells a drone measures along its epoch `path` (one B-sample batch each): every visit
+/// (`Sensing::Visits`) or every step (`Sensing::Steps`). With `continues`, the path's first
+/// cell is where the drone ended the previous epoch, at the same instant: that visit was
+/// measured then, so it is not measured again.
+pub fn sensed_cells(path: &[usize], sensing: Sensing, continues: bool) -> Vec<usize> {
+    let mut cells = match sensing {
+        Sensing::Visits => visits(path),
+        Sensing::Steps => path.to_vec(),
+    };
+    if continues && !cells.is_empty() {
+        cells.remove(0);
+    }
+    cells
+}
+
 /// Run Algorithm 1 on `world` until every cell is classified or `cfg.max_epochs`.
 /// `on_epoch` sees every epoch's instance and outcome (for benchmarks and scenario dumps).
 pub fn run_trial(
@@ -495,6 +513,9 @@ pub fn run_trial(
     }
     let (mut drones, mut stations) = (world.drones.clone(), world.stations.clone());
     let mut opts = PlanOptions::default();
+    // Whether each drone's cell at the start of this epoch was already measured, as the end
+    // of the previous epoch's path: the same visit (the same instant), not a second one.
+    let mut measured_start = vec![false; drones.len()];
     for epoch in 0..cfg.max_epochs {
         if state.is_done() {
             break;
@@ -514,7 +535,9 @@ pub fn run_trial(
             .map(|l| dense[l])
             .collect();
         let mut k = cfg.k_max;
-        let (outcome, timelines, n_goals, secs) = loop {
+        // Solve time of the epoch: every attempt, the infeasible ones at smaller K included.
+        let mut secs = 0.0;
+        let (outcome, timelines, n_goals) = loop {
             let inst = match Instance::new(
                 g.clone(),
                 drones.clone(),
@@ -532,6 +555,7 @@ pub fn run_trial(
                 }
             };
             let out = solve_instance(&inst, &opts, &crate::clock::stopwatch());
+            secs += out.solve_seconds;
             on_epoch(&inst, &out);
             match (&out.status, &out.plan) {
                 (PlanStatus::Optimal, Some(plan)) => {
@@ -539,7 +563,7 @@ pub fn run_trial(
                         result.failure = Some("plan does not chain".into());
                         return result;
                     };
-                    break (out.clone(), t, inst.goals.len(), out.solve_seconds);
+                    break (out.clone(), t, inst.goals.len());
                 }
                 (PlanStatus::Infeasible, _) if k < 64 => k *= 2,
                 _ => {
@@ -554,12 +578,9 @@ pub fn run_trial(
         };
         // Measurements along every drone's path, for cells unclassified at the epoch start.
         let mut measured = 0usize;
-        for path in &timelines.drones {
-            let cells = match cfg.sensing {
-                Sensing::Visits => visits(path),
-                Sensing::Steps => path.clone(),
-            };
-            for c in cells {
+        for (i, path) in timelines.drones.iter().enumerate() {
+            let continues = measured_start.get(i).copied().unwrap_or(false);
+            for c in sensed_cells(path, cfg.sensing, continues) {
                 let l = cand_of[c];
                 if l == usize::MAX || !state.is_unclassified(l) {
                     continue;
@@ -571,6 +592,7 @@ pub fn run_trial(
             }
         }
         state.update();
+        measured_start = vec![true; timelines.drones.len()];
         drones = timelines.drones.iter().map(|p| p[p.len() - 1]).collect();
         stations = timelines.stations.iter().map(|p| p[p.len() - 1]).collect();
         let (mut ci, mut cu) = (0, 0);
@@ -796,5 +818,18 @@ mod tests {
     #[test]
     fn visits_collapse_hovers() {
         assert_eq!(visits(&[1, 1, 2, 2, 1, 3, 3]), vec![1, 2, 1, 3]);
+    }
+
+    #[test]
+    fn a_drone_parked_across_two_epochs_is_one_visit() {
+        // Epoch p ends on station cell 3; epoch p + 1 starts there (the same instant).
+        let (end_of_p, next) = ([1, 2, 3, 3], [3, 3, 4, 3]);
+        assert_eq!(
+            sensed_cells(&end_of_p, Sensing::Visits, false),
+            vec![1, 2, 3]
+        );
+        assert_eq!(sensed_cells(&next, Sensing::Visits, true), vec![4, 3]);
+        assert_eq!(sensed_cells(&next, Sensing::Steps, true), vec![3, 4, 3]);
+        assert_eq!(sensed_cells(&[5], Sensing::Visits, false), vec![5]);
     }
 }
