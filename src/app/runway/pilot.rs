@@ -341,7 +341,18 @@ impl Pilot {
                 })
                 .await?;
             let fault = self.camera_fault_now().await;
-            if let Some(why) = &fault {
+            let retired = self
+                .shared
+                .read(|s| s.robot(sysid).map(|r| r.status == RobotStatus::Landed))
+                .await?;
+            if retired {
+                self.shared.say(
+                    Progress::info(format!(
+                        "vehicle {sysid}: landed: the map is complete, no battery swap needed"
+                    ))
+                    .about(sysid),
+                );
+            } else if let Some(why) = &fault {
                 self.shared.say(Progress::notice(format!(
                     "vehicle {sysid}: landed: waiting for the operator to fix the camera ({why}); \
                      it will not resume by itself"
@@ -359,7 +370,7 @@ impl Pilot {
                     .about(sysid),
                 );
             }
-            if self.shared.sim_swap && fault.is_none() {
+            if self.shared.sim_swap && fault.is_none() && !retired {
                 // The demo's operator: ask the simulated vehicle to swap its battery.
                 let _ = flight::request_sim_swap(&fleet, sysid).await;
             }

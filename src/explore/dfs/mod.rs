@@ -738,6 +738,21 @@ impl Explorer {
         Ok(())
     }
 
+    /// A paused robot that knows every vertex is explored has nothing to come back for: it
+    /// is done where it is (at home, which ends its tour as the start does for the others).
+    /// Returns whether it was retired.
+    pub fn retire(&mut self, robot: RobotId) -> Result<bool, ExploreError> {
+        let i = self.idx(robot)?;
+        if self.robots[i].phase != Phase::Paused
+            || !self.knowledge[self.kidx(i)].explored(Tree::ROOT)
+        {
+            return Ok(false);
+        }
+        self.robots[i].node = Tree::ROOT;
+        self.robots[i].phase = Phase::Done;
+        Ok(true)
+    }
+
     /// Bring a paused robot back: it flies to its saved vertex ([`Action::Rejoin`]) and
     /// carries on from there alone — or straight to the start if it knows everything is
     /// already explored.

@@ -39,7 +39,8 @@ impl MappingState {
         Ok(())
     }
 
-    /// `sysid` landed for its swap; `reboots` is the vehicle's reboot counter then.
+    /// `sysid` landed for its swap; `reboots` is the vehicle's reboot counter then. When it
+    /// knows the map is complete it is retired instead ([`Explorer::retire`]): landed for good.
     pub fn on_landed_for_swap(
         &mut self,
         sysid: u8,
@@ -47,9 +48,18 @@ impl MappingState {
         now: Time,
     ) -> Result<(), MappingError> {
         self.touch(now);
+        // Landed when the map is complete: nothing to swap the battery for.
+        let retired = match self.explorer.as_mut() {
+            Some(ex) => ex.retire(RobotId(sysid))?,
+            None => false,
+        };
         let r = self.robot_mut(sysid)?;
-        r.status = RobotStatus::AwaitingSwap;
-        r.reboots_at_landing = Some(reboots);
+        if retired {
+            r.status = RobotStatus::Landed;
+        } else {
+            r.status = RobotStatus::AwaitingSwap;
+            r.reboots_at_landing = Some(reboots);
+        }
         self.check_finished();
         Ok(())
     }
