@@ -5,7 +5,7 @@
 use fleetmap::explore::bounds::lemma1_upper_bound;
 use fleetmap::explore::dfs::NodeKind;
 use fleetmap::explore::simulate::{SimConfig, SimOutcome, random_roi, simulate, simulate_sensed};
-use fleetmap::explore::{Action, Explorer, ExplorerConfig, RobotId, Sharing};
+use fleetmap::explore::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing};
 use fleetmap::geo::{Cell, Dir4};
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
@@ -79,7 +79,7 @@ fn run_case(
     ratio: f64,
     dir: usize,
     noise: f64,
-    sharing: Sharing,
+    (sharing, allocation): (Sharing, Allocation),
 ) -> (SimOutcome, HashSet<Cell>, Cell, f64) {
     let (roi, start) = roi_from_seed(seed, cells);
     let sp = if ratio == 0.0 { 0.0 } else { 1.0 / ratio };
@@ -87,6 +87,7 @@ fn run_case(
     let cfg = SimConfig {
         robots,
         sharing,
+        allocation,
         robot_speed: 1.0,
         roi_velocity: v,
         observe_time: 0.0,
@@ -115,9 +116,32 @@ proptest! {
         dir in 0usize..4,
         noise in prop_oneof![Just(0.0), 0.0f64..0.15],
     ) {
-        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, Sharing::Gcs);
+        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Gcs, Allocation::Paper));
         check_invariants(&out, &roi, start, noise == 0.0)?;
         prop_assert_eq!(out.explorer.uninformed_decisions(), 0);
+        let c = out.tree_cells;
+        let bound = lemma1_upper_bound(c, out.d_max, robots, 1.0, sp);
+        prop_assert!(out.cost <= bound * (1.0 + 1e-9),
+            "cost {} > Lemma 1 bound {} (C {}, R {}, d_max {}, S_p {})",
+            out.cost, bound, c, robots, out.d_max, sp);
+    }
+
+    /// GCS sharing with the nearest-frontier allocation, on the same cases: the invariants
+    /// of §4 hold (binary tree, every mapped cell visited, every robot home, termination) and
+    /// the cost never exceeds Lemma 1.
+    #[test]
+    fn nearest_frontier_covers_terminates_and_meets_lemma_1(
+        seed in any::<u64>(),
+        cells in 1usize..160,
+        robots in 1usize..=20,
+        ratio in prop_oneof![Just(0.0), 1.2f64..6.0],
+        dir in 0usize..4,
+        noise in prop_oneof![Just(0.0), 0.0f64..0.15],
+    ) {
+        let (out, roi, start, sp) =
+            run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Gcs, Allocation::NearestFrontier));
+        check_invariants(&out, &roi, start, noise == 0.0)?;
+        prop_assert_eq!(out.explorer.config().allocation, Allocation::NearestFrontier);
         let c = out.tree_cells;
         let bound = lemma1_upper_bound(c, out.d_max, robots, 1.0, sp);
         prop_assert!(out.cost <= bound * (1.0 + 1e-9),
@@ -137,7 +161,7 @@ proptest! {
         dir in 0usize..4,
         noise in prop_oneof![Just(0.0), 0.0f64..0.15],
     ) {
-        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, Sharing::Meet);
+        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Meet, Allocation::Paper));
         check_invariants(&out, &roi, start, noise == 0.0)?;
         let c = out.tree_cells;
         let bound = lemma1_upper_bound(c, out.d_max, robots, 1.0, sp);
@@ -161,6 +185,7 @@ fn gcs_regression_156_cells_17_robots() {
         &SimConfig {
             robots: 17,
             sharing: Sharing::Gcs,
+            allocation: Allocation::Paper,
             record_paths: true,
             ..SimConfig::default()
         },

@@ -22,7 +22,7 @@ pub mod mapping;
 pub mod motion;
 pub mod simulate;
 
-pub use dfs::{Action, Explorer, ExplorerConfig, RobotId, Sharing, VertexState};
+pub use dfs::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing, VertexState};
 
 use crate::geo::Cell;
 

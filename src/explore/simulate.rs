@@ -8,7 +8,7 @@
 //! The cost is the time at which the last robot is back at the start (Problem 1).
 
 use super::ExploreError;
-use super::dfs::{Action, Explorer, ExplorerConfig, RobotId, Sharing};
+use super::dfs::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing};
 use super::motion::RoiMotion;
 use crate::geo::{Cell, Dir4};
 use crate::time::Time;
@@ -22,6 +22,8 @@ pub struct SimConfig {
     pub robots: usize,
     /// How vertex states are shared.
     pub sharing: Sharing,
+    /// How the robots at a vertex are allocated (Algorithm 1's split or nearest frontier).
+    pub allocation: Allocation,
     /// S_r, cells per time unit (relative to the ground).
     pub robot_speed: f64,
     /// The ROI's velocity (east, north), cells per time unit; |v| = S_p < S_r.
@@ -37,6 +39,7 @@ impl Default for SimConfig {
         SimConfig {
             robots: 1,
             sharing: Sharing::Gcs,
+            allocation: Allocation::default(),
             robot_speed: 1.0,
             roi_velocity: (0.0, 0.0),
             observe_time: 0.0,
@@ -154,6 +157,7 @@ pub fn simulate_sensed(
     let mut ex = Explorer::new(
         ExplorerConfig {
             sharing: cfg.sharing,
+            allocation: cfg.allocation,
         },
         start,
         &ids,

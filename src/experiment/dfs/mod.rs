@@ -20,7 +20,7 @@ use crate::explore::bounds::{
     opt_lower_bound, round_trip_time, theorem_bound_at, theorem1_ratio, theorem2_ratio,
 };
 use crate::explore::simulate::{SimConfig, random_roi, simulate};
-use crate::explore::{ExploreError, Sharing};
+use crate::explore::{Allocation, ExploreError, Sharing};
 use crate::geo::Cell;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -130,6 +130,28 @@ impl SharingChoice {
     }
 }
 
+/// Which allocations to run (with GCS sharing; meeting-only sharing always runs the paper's).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+pub enum AllocationChoice {
+    /// Algorithm 1's split ([`Allocation::Paper`]).
+    Paper,
+    /// Idle robots to the nearest unexplored vertex ([`Allocation::NearestFrontier`]).
+    NearestFrontier,
+    /// Both, on the same ROIs.
+    Both,
+}
+
+impl AllocationChoice {
+    fn allocations(self, sharing: Sharing) -> Vec<Allocation> {
+        match (sharing, self) {
+            // Nearest-frontier needs the global view: with meetings it is the paper's rule.
+            (Sharing::Meet, _) | (_, AllocationChoice::Paper) => vec![Allocation::Paper],
+            (_, AllocationChoice::NearestFrontier) => vec![Allocation::NearestFrontier],
+            (_, AllocationChoice::Both) => Allocation::ALL.to_vec(),
+        }
+    }
+}
+
 /// Parameters of `fleetmap experiment dfs`.
 #[derive(Clone, Debug, clap::Args)]
 pub struct DfsArgs {
@@ -145,6 +167,9 @@ pub struct DfsArgs {
     /// How robots share vertex states.
     #[arg(long, value_enum, default_value_t = SharingChoice::Gcs)]
     pub sharing: SharingChoice,
+    /// How the robots at a vertex are allocated (with GCS sharing).
+    #[arg(long, value_enum, default_value_t = AllocationChoice::Paper)]
+    pub allocation: AllocationChoice,
     /// Which sweeps to run (comma-separated).
     #[arg(
         long,
@@ -196,6 +221,7 @@ impl DfsArgs {
             seed,
             out,
             sharing: SharingChoice::Gcs,
+            allocation: AllocationChoice::Paper,
             sweeps: vec![Sweep::Cells, Sweep::Robots, Sweep::Ratio],
             cells: vec![40, 60, 80, 100, 120, 140, 160, 180, 200],
             robots: vec![1, 2, 4, 8, 12, 16, 20, 24, 28, 32],
@@ -234,7 +260,7 @@ impl DfsArgs {
 }
 
 /// Which variable a configuration sweeps (Fig. 7b, c, d).
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, clap::ValueEnum)]
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, clap::ValueEnum)]
 #[serde(rename_all = "lowercase")]
 pub enum Sweep {
     /// Number of ROI cells (Fig. 7b).
@@ -262,6 +288,8 @@ pub struct Configuration {
     pub sweep: Sweep,
     /// How robots share states.
     pub sharing: Sharing,
+    /// How the robots at a vertex are allocated.
+    pub allocation: Allocation,
     /// C.
     pub cells: usize,
     /// R.
@@ -274,8 +302,8 @@ impl fmt::Display for Configuration {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         write!(
             f,
-            "{} sweep, {} sharing, C = {}, R = {}, ratio {}",
-            self.sweep, self.sharing, self.cells, self.robots, self.speed_ratio
+            "{} sweep, {} sharing, C = {}, R = {}, ratio {}, {} allocation",
+            self.sweep, self.sharing, self.cells, self.robots, self.speed_ratio, self.allocation
         )
     }
 }
@@ -435,15 +463,160 @@ pub struct Study {
     pub summaries: Vec<ConfigSummary>,
     /// Total trials above Lemma 1.
     pub violations: usize,
+    /// Over all trials, per (sharing, allocation): the allocation comparison.
+    pub modes: Vec<ModeSummary>,
+}
+
+/// All trials of one (sharing, allocation) pair, pooled over every sweep point, and how they
+/// compare with Algorithm 1's split on the same ROIs and directions (common random numbers).
+#[derive(Clone, Debug, Serialize)]
+pub struct ModeSummary {
+    /// Sharing.
+    pub sharing: Sharing,
+    /// Allocation.
+    pub allocation: Allocation,
+    /// Trials.
+    pub trials: usize,
+    /// ALG over the trials (time units: cell lengths / S_r).
+    pub cost: Stats,
+    /// Mean over trials of ALG / lawnmower lower bound.
+    pub mean_ratio_to_lawnmower: f64,
+    /// Largest ALG / lawnmower lower bound.
+    pub max_ratio_to_lawnmower: f64,
+    /// Largest ALG / Lemma 1 (eq. 2).
+    pub max_ratio_to_lemma1: f64,
+    /// Trials above Lemma 1.
+    pub violations: usize,
+    /// Mean over trials of ALG / ALG of the paper's split on the same trial (1 for the
+    /// paper's split itself; `None` when the study did not run the paper's split).
+    pub mean_ratio_to_paper: Option<f64>,
+    /// Trials cheaper than the paper's split on the same trial.
+    pub cheaper_than_paper: usize,
+    /// Trials dearer than the paper's split on the same trial.
+    pub dearer_than_paper: usize,
+}
+
+fn mode_summaries(configs: &[Configuration], records: &[TrialRecord]) -> Vec<ModeSummary> {
+    let mut modes: Vec<(Sharing, Allocation)> = Vec::new();
+    for c in configs {
+        if !modes.contains(&(c.sharing, c.allocation)) {
+            modes.push((c.sharing, c.allocation));
+        }
+    }
+    // The paper's split on the same sweep point, sharing and trial.
+    let key = |r: &TrialRecord| {
+        let c = &configs[r.config];
+        (
+            c.sweep,
+            c.sharing,
+            c.cells,
+            c.robots,
+            c.speed_ratio.to_string(),
+            r.trial,
+        )
+    };
+    let paper: std::collections::HashMap<_, f64> = records
+        .iter()
+        .filter(|r| configs[r.config].allocation == Allocation::Paper)
+        .map(|r| (key(r), r.cost))
+        .collect();
+    modes
+        .into_iter()
+        .map(|(sharing, allocation)| {
+            let rs: Vec<&TrialRecord> = records
+                .iter()
+                .filter(|r| {
+                    let c = &configs[r.config];
+                    c.sharing == sharing && c.allocation == allocation
+                })
+                .collect();
+            let n = rs.len().max(1) as f64;
+            let vs: Vec<(f64, f64)> = rs
+                .iter()
+                .filter_map(|r| paper.get(&key(r)).map(|&p| (r.cost, p)))
+                .collect();
+            let eps = 1e-9;
+            ModeSummary {
+                sharing,
+                allocation,
+                trials: rs.len(),
+                cost: Stats::of(rs.iter().map(|r| r.cost)),
+                mean_ratio_to_lawnmower: rs.iter().map(|r| r.cost / r.lawnmower_lower).sum::<f64>()
+                    / n,
+                max_ratio_to_lawnmower: rs
+                    .iter()
+                    .map(|r| r.cost / r.lawnmower_lower)
+                    .fold(0.0, f64::max),
+                max_ratio_to_lemma1: rs
+                    .iter()
+                    .map(|r| r.cost / r.lemma1_upper)
+                    .fold(0.0, f64::max),
+                violations: rs.iter().filter(|r| !r.within_lemma1).count(),
+                mean_ratio_to_paper: (vs.len() == rs.len() && !vs.is_empty())
+                    .then(|| vs.iter().map(|(a, p)| a / p).sum::<f64>() / vs.len() as f64),
+                cheaper_than_paper: vs.iter().filter(|(a, p)| *a < p - eps).count(),
+                dearer_than_paper: vs.iter().filter(|(a, p)| *a > p + eps).count(),
+            }
+        })
+        .collect()
+}
+
+/// The allocation comparison (one line per sharing and allocation, over all trials): mean,
+/// worst and best ALG, mean and worst ALG/lawnmower, worst ALG/Lemma 1, trials above
+/// Lemma 1, and against the paper's split on the same trials.
+pub fn modes_table(study: &Study) -> String {
+    let mut s = format!(
+        "{:<4} {:<16} {:>6} | {:>8} {:>8} {:>8} | {:>7} {:>7} | {:>6} {:>4} | {:>8} {:>7} {:>6}\n",
+        "shr",
+        "allocation",
+        "trials",
+        "ALG mean",
+        "worst",
+        "best",
+        "ALG/LM",
+        "worst",
+        "max/UB",
+        "viol",
+        "/paper",
+        "cheaper",
+        "dearer"
+    );
+    for m in &study.modes {
+        s.push_str(&format!(
+            "{:<4} {:<16} {:>6} | {:>8.2} {:>8.1} {:>8.1} | {:>7.2} {:>7.2} | {:>6.3} {:>4} | {:>8} {:>7} {:>6}\n",
+            m.sharing.to_string(),
+            m.allocation.name(),
+            m.trials,
+            m.cost.mean,
+            m.cost.max,
+            m.cost.min,
+            m.mean_ratio_to_lawnmower,
+            m.max_ratio_to_lawnmower,
+            m.max_ratio_to_lemma1,
+            m.violations,
+            m.mean_ratio_to_paper
+                .map(|x| format!("{x:.4}"))
+                .unwrap_or_else(|| "-".into()),
+            m.cheaper_than_paper,
+            m.dearer_than_paper
+        ));
+    }
+    s
 }
 
 /// The configurations of the three sweeps, for every sharing mode.
 pub fn configurations(args: &DfsArgs) -> Vec<Configuration> {
     let mut out = Vec::new();
-    for sharing in args.sharing.modes() {
+    for (sharing, allocation) in args.sharing.modes().into_iter().flat_map(|sh| {
+        args.allocation
+            .allocations(sh)
+            .into_iter()
+            .map(move |a| (sh, a))
+    }) {
         let base = |sweep| Configuration {
             sweep,
             sharing,
+            allocation,
             cells: args.base_cells,
             robots: args.base_robots,
             speed_ratio: args.base_ratio,
@@ -515,6 +688,7 @@ pub fn run_trial(
         &SimConfig {
             robots: conf.robots,
             sharing: conf.sharing,
+            allocation: conf.allocation,
             robot_speed: 1.0,
             roi_velocity: v,
             observe_time: 0.0,
@@ -635,6 +809,7 @@ pub fn run(args: &DfsArgs, tick: &(dyn Fn() + Sync)) -> Result<Study, DfsStudyEr
         })
         .collect();
     let violations = records.iter().filter(|r| !r.within_lemma1).count();
+    let modes = mode_summaries(&configs, &records);
     Ok(Study {
         trials: args.trials,
         seed: args.seed,
@@ -643,22 +818,24 @@ pub fn run(args: &DfsArgs, tick: &(dyn Fn() + Sync)) -> Result<Study, DfsStudyEr
         records,
         summaries,
         violations,
+        modes,
     })
 }
 
 /// The trials as CSV (one row per trial).
 pub fn trials_csv(study: &Study) -> String {
     let mut s = String::from(
-        "sweep,sharing,cells,robots,speed_ratio,trial,direction,cost,lemma1_upper,lemma2_lower,\
+        "sweep,sharing,allocation,cells,robots,speed_ratio,trial,direction,cost,lemma1_upper,lemma2_lower,\
          lawnmower_lower,d_max,tree_cells,eq8_upper,opt_lower,theorem1_upper,theorem2_upper,\
          reach_lower,moves,opening_moves,flight_share,uninformed_decisions,within_lemma1\n",
     );
     for r in &study.records {
         let c = &study.configurations[r.config];
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{},{}\n",
             c.sweep,
             c.sharing,
+            c.allocation,
             c.cells,
             c.robots,
             c.speed_ratio,
@@ -736,12 +913,14 @@ pub fn write_outputs(study: &Study, dir: &Path) -> Result<Vec<PathBuf>, DfsStudy
 /// A fixed-width table of the summaries (one line per configuration): ALG, Lemma 1, eq. (8)
 /// (R = 1 only), Theorem 1 at OPT's lower bound, the lawnmower baseline, Lemma 2, the mean
 /// ratios ALG/LM and ALG/max(LM, longest round trip), the worst ALG/Lemma 1, the trials
-/// above Lemma 1, and the team's flight and transit shares.
+/// above Lemma 1, and the team's flight and transit shares; then, after a blank line, the
+/// allocation comparison over all trials ([`modes_table`]).
 pub fn table(study: &Study) -> String {
     let mut s = format!(
-        "{:<6} {:<4} {:>5} {:>4} {:>6} | {:>8} {:>8} {:>8} | {:>9} {:>7} {:>8} | {:>9} {:>8} | {:>7} {:>7} {:>6} {:>4} | {:>6} {:>7}\n",
+        "{:<6} {:<4} {:<5} {:>5} {:>4} {:>6} | {:>8} {:>8} {:>8} | {:>9} {:>7} {:>8} | {:>9} {:>8} | {:>7} {:>7} {:>6} {:>4} | {:>6} {:>7}\n",
         "sweep",
         "shr",
+        "alloc",
         "C",
         "R",
         "ratio",
@@ -767,9 +946,13 @@ pub fn table(study: &Study) -> String {
             .map(|e| format!("{:.1}", e.mean))
             .unwrap_or_else(|| "-".into());
         s.push_str(&format!(
-            "{:<6} {:<4} {:>5} {:>4} {:>6} | {:>8.1} {:>8.1} {:>8.1} | {:>9.1} {:>7} {:>8.1} | {:>9.1} {:>8.2} | {:>7.2} {:>7.2} {:>6.3} {:>4} | {:>6.2} {:>7.2}\n",
+            "{:<6} {:<4} {:<5} {:>5} {:>4} {:>6} | {:>8.1} {:>8.1} {:>8.1} | {:>9.1} {:>7} {:>8.1} | {:>9.1} {:>8.2} | {:>7.2} {:>7.2} {:>6.3} {:>4} | {:>6.2} {:>7.2}\n",
             c.sweep.to_string(),
             c.sharing.to_string(),
+            match c.allocation {
+                Allocation::Paper => "paper",
+                Allocation::NearestFrontier => "near",
+            },
             c.cells,
             c.robots,
             c.speed_ratio.to_string(),
@@ -789,6 +972,8 @@ pub fn table(study: &Study) -> String {
             x.mean_transit_share
         ));
     }
+    s.push('\n');
+    s.push_str(&modes_table(study));
     s
 }
 
@@ -829,6 +1014,7 @@ mod tests {
         // 2 sharing modes × (2 + 2 + 2) points.
         assert_eq!(s1.configurations.len(), 12);
         assert_eq!(s1.records.len(), 36);
+        assert_eq!(s1.modes.len(), 2);
         // GCS never exceeds Lemma 1.
         for (c, x) in s1.configurations.iter().zip(&s1.summaries) {
             if c.sharing == Sharing::Gcs {
@@ -838,9 +1024,33 @@ mod tests {
         }
         let csv = trials_csv(&s1);
         assert_eq!(csv.lines().count(), 37);
-        assert!(csv.starts_with("sweep,sharing,cells"));
+        assert!(csv.starts_with("sweep,sharing,allocation,cells"));
         let t = table(&s1);
-        assert_eq!(t.lines().count(), 13);
+        // Header and 12 configurations, a blank line, header and 2 modes.
+        assert_eq!(t.lines().count(), 13 + 1 + 3);
+    }
+
+    #[test]
+    fn both_allocations_run_on_the_same_trials() {
+        let args = DfsArgs {
+            allocation: AllocationChoice::Both,
+            ..small(3)
+        };
+        let s = run(&args, &|| {}).unwrap();
+        // GCS × 2 allocations + meeting-only × the paper's split, 6 points each.
+        assert_eq!(s.configurations.len(), 18);
+        assert_eq!(s.modes.len(), 3);
+        for m in &s.modes {
+            assert_eq!(m.trials, 18);
+            if m.allocation == Allocation::Paper {
+                assert_eq!(m.mean_ratio_to_paper, Some(1.0));
+                assert_eq!((m.cheaper_than_paper, m.dearer_than_paper), (0, 0));
+            } else {
+                assert_eq!(m.sharing, Sharing::Gcs);
+                assert!(m.mean_ratio_to_paper.is_some());
+            }
+        }
+        assert!(trials_csv(&s).contains(",gcs,nearest_frontier,"));
     }
 
     #[test]

@@ -8,9 +8,9 @@
 //! fontconfig is needed on the machine.
 
 use super::{DfsStudyError, SpeedRatio, Study, Sweep, trial_roi};
-use crate::explore::Sharing;
 use crate::explore::dfs::NodeKind;
 use crate::explore::simulate::{SimConfig, simulate};
+use crate::explore::{Allocation, Sharing};
 use image::ImageEncoder;
 use plotters::prelude::*;
 use std::sync::Once;
@@ -147,8 +147,16 @@ fn line_chart(
     encode(name, &buf, W, H)
 }
 
-const ALG: [RGBColor; 2] = [RGBColor(31, 119, 180), RGBColor(255, 127, 14)];
-const UPPER: [RGBColor; 2] = [RGBColor(214, 39, 40), RGBColor(148, 103, 189)];
+const ALG: [RGBColor; 3] = [
+    RGBColor(31, 119, 180),
+    RGBColor(255, 127, 14),
+    RGBColor(188, 189, 34),
+];
+const UPPER: [RGBColor; 3] = [
+    RGBColor(214, 39, 40),
+    RGBColor(148, 103, 189),
+    RGBColor(140, 86, 75),
+];
 const LAWN: RGBColor = RGBColor(44, 160, 44);
 const LEMMA2: RGBColor = RGBColor(127, 127, 127);
 const REACH: RGBColor = RGBColor(23, 190, 207);
@@ -160,8 +168,12 @@ fn sweep_chart(
     title: &str,
     x_desc: &str,
 ) -> Result<Option<Vec<u8>>, DfsStudyError> {
-    let modes: Vec<Sharing> = {
-        let mut m: Vec<Sharing> = study.configurations.iter().map(|c| c.sharing).collect();
+    let modes: Vec<(Sharing, Allocation)> = {
+        let mut m: Vec<(Sharing, Allocation)> = study
+            .configurations
+            .iter()
+            .map(|c| (c.sharing, c.allocation))
+            .collect();
         m.dedup();
         m
     };
@@ -180,7 +192,10 @@ fn sweep_chart(
             Sweep::Robots => s.config.robots as f64,
             Sweep::Ratio => rows
                 .iter()
-                .filter(|r| r.config.sharing == rows[0].config.sharing)
+                .filter(|r| {
+                    (r.config.sharing, r.config.allocation)
+                        == (rows[0].config.sharing, rows[0].config.allocation)
+                })
                 .position(|r| r.config.speed_ratio == s.config.speed_ratio)
                 .unwrap_or(0) as f64,
         }
@@ -202,15 +217,18 @@ fn sweep_chart(
     }
     let mut series = Vec::new();
     for (mi, mode) in modes.iter().enumerate() {
-        let mine: Vec<_> = rows.iter().filter(|s| s.config.sharing == *mode).collect();
+        let mine: Vec<_> = rows
+            .iter()
+            .filter(|s| (s.config.sharing, s.config.allocation) == *mode)
+            .collect();
         let suffix = if modes.len() > 1 {
-            format!(" ({mode} sharing)")
+            format!(" ({} sharing, {} allocation)", mode.0, mode.1)
         } else {
             String::new()
         };
         series.push(Series {
             name: format!("Algorithm 1{suffix}"),
-            color: ALG[mi % 2],
+            color: ALG[mi % ALG.len()],
             points: mine
                 .iter()
                 .map(|s| (x_of(s), s.cost.mean, s.cost.min, s.cost.max))
@@ -218,7 +236,7 @@ fn sweep_chart(
         });
         series.push(Series {
             name: format!("Lemma 1 upper bound{suffix}"),
-            color: UPPER[mi % 2],
+            color: UPPER[mi % UPPER.len()],
             points: mine
                 .iter()
                 .map(|s| {
@@ -284,6 +302,7 @@ fn roi_figure(study: &Study) -> Result<Vec<u8>, DfsStudyError> {
         &SimConfig {
             robots: conf.robots,
             sharing: conf.sharing,
+            allocation: conf.allocation,
             ..SimConfig::default()
         },
     )

@@ -47,6 +47,30 @@
 //! differently); with [`Sharing::Gcs`] there are none. So the GCS's global view is the
 //! default, and the meeting model is kept for the study.
 //!
+//! # Allocation
+//! [`ExplorerConfig::allocation`] chooses how the robots at a vertex are sent on:
+//! - [`Allocation::Paper`]: Algorithm 1 as above.
+//! - [`Allocation::NearestFrontier`] (GCS sharing only): a *frontier* vertex is a real vertex
+//!   nobody has reached or been sent to (a known ROI cell, left behind at a branch). The
+//!   non-explored children whose subtree holds a frontier vertex are the candidates, the one
+//!   with the shallowest such vertex first (ties in Algorithm 1's order), split as in
+//!   line 19 or taken whole as in line 22. If no child's subtree holds one but the tree does
+//!   elsewhere, the robots go back to the parent (line 24's move, made before v is explored)
+//!   rather than follow another group into a subtree with nothing left to open. With no
+//!   frontier anywhere, Algorithm 1's rule applies (the groups still out may find more).
+//!
+//! The tree, the dummies and the vertex states are built exactly as before, so the tree is
+//! binary and every robot's move is a tree edge. Every robot either moves towards a frontier
+//! vertex along the tree path (which stays finite: vertices only become non-frontier) or
+//! acts as Algorithm 1, so every ROI cell is reached, and the exploration ends with every
+//! robot at the start. With one robot the two allocations make the same moves (a lone robot
+//! only leaves a child when it is explored, so every non-explored child is itself a frontier
+//! vertex at the same depth): eq. (8) and the single-robot bounds carry over unchanged. For
+//! R > 1 we have no proof that Lemma 1 still holds (the reward argument of Higashikawa et al.
+//! is written for the paper's split); it is checked, not proved — by the property test
+//! `nearest_frontier_covers_terminates_and_meets_lemma_1` and on the Fig. 7 trials (see
+//! docs/results/dfs.md, "Allocation").
+//!
 //! # Driving it (per robot)
 //! ```text
 //! loop {
@@ -111,11 +135,59 @@ impl fmt::Display for Sharing {
     }
 }
 
-/// Options of the explorer.
+/// How the robots at a vertex are allocated to the work left (see the module documentation,
+/// "Allocation").
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum Allocation {
+    /// Algorithm 1 as written: unexplored children before those under exploration, then
+    /// more grid branches first; split ⌈k/2⌉/⌊k/2⌋ over two (line 19), all to one (line 22),
+    /// back to the parent when no child is left (line 24).
+    Paper,
+    /// With [`Sharing::Gcs`] only: the robots at v go where the nearest unexplored vertex
+    /// (a known ROI cell nobody has reached or been sent to) is, in tree distance. Children
+    /// whose subtree holds one come first, nearest first, and are split as in line 19; when
+    /// no child's subtree holds one but some other part of the tree does, the robots walk
+    /// back up (line 24) instead of following a group into a subtree with nothing left to
+    /// open; when nothing anywhere is unexplored, Algorithm 1's rule applies. With
+    /// [`Sharing::Meet`] this is the same as [`Allocation::Paper`] (a robot does not know
+    /// where the frontier is).
+    ///
+    /// The default: on the 2 800 Fig. 7 trials (seed 2019) it has the lower mean cost
+    /// (0.977 of the paper's split per trial) with no trial above Lemma 1, the criterion of
+    /// docs/results/dfs.md ("Allocation").
+    #[default]
+    NearestFrontier,
+}
+
+impl Allocation {
+    /// Both allocations, the paper's first.
+    pub const ALL: [Allocation; 2] = [Allocation::Paper, Allocation::NearestFrontier];
+
+    /// A stable name (the serde name): `paper` or `nearest_frontier`, for reports.
+    pub fn name(self) -> &'static str {
+        match self {
+            Allocation::Paper => "paper",
+            Allocation::NearestFrontier => "nearest_frontier",
+        }
+    }
+}
+
+impl fmt::Display for Allocation {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// Options of the explorer. Fields missing from a saved state take their defaults.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
 pub struct ExplorerConfig {
     /// How vertex states are shared.
+    #[serde(default)]
     pub sharing: Sharing,
+    /// How the robots at a vertex are allocated (only [`Sharing::Gcs`] tells them apart).
+    #[serde(default)]
+    pub allocation: Allocation,
 }
 
 /// What a robot should do next.
@@ -475,7 +547,26 @@ impl Explorer {
             // Line 7: the robots at v tell each other what they know.
             self.merge(&group);
             let k = self.kidx(i);
-            let cands = self.candidates(&self.knowledge[k], v);
+            let mut cands = self.candidates(&self.knowledge[k], v);
+            // Nearest-frontier allocation: `up` sends the robots back to the parent although
+            // a child is not explored (nothing is left to open in it, something is elsewhere).
+            let mut up = false;
+            if self.config.sharing == Sharing::Gcs
+                && self.config.allocation == Allocation::NearestFrontier
+            {
+                let kn = &self.knowledge[k];
+                let mut open: Vec<(u32, NodeId)> = cands
+                    .iter()
+                    .filter_map(|&c| self.frontier_depth(kn, c).map(|d| (d, c)))
+                    .collect();
+                if !open.is_empty() {
+                    // Stable: ties keep Algorithm 1's order.
+                    open.sort_by_key(|&(d, _)| d);
+                    cands = open.into_iter().map(|(_, c)| c).collect();
+                } else if self.tree.node(v).parent.is_some() && self.any_frontier(kn) {
+                    up = true;
+                }
+            }
             if self.config.sharing == Sharing::Meet {
                 let informed = self.candidates(&self.team, v);
                 let n = if group.len() == 1 { 1 } else { 2 };
@@ -483,8 +574,9 @@ impl Explorer {
                     self.uninformed += 1;
                 }
             }
-            if cands.is_empty() {
-                // Lines 3–5, 23–24: v is explored; go back to the parent.
+            if cands.is_empty() || up {
+                // Lines 3–5, 23–24: v is explored (or, nearest-frontier, has nothing left to
+                // open); go back to the parent.
                 match self.tree.node(v).parent {
                     None => {
                         let ids: Vec<RobotId> = group.iter().map(|&j| self.robots[j].id).collect();
@@ -552,6 +644,37 @@ impl Explorer {
             )
         });
         cands
+    }
+
+    /// The smallest depth (tree distance from the root, §4.2: real edges 1, dummy edges 0)
+    /// of an unexplored real vertex — a known ROI cell nobody has reached or been sent to —
+    /// in the subtree of `c`, by knowledge `kn`; `None` if there is none.
+    fn frontier_depth(&self, kn: &Knowledge, c: NodeId) -> Option<u32> {
+        let mut best: Option<u32> = None;
+        let mut stack = vec![c];
+        while let Some(n) = stack.pop() {
+            if kn.explored(n) {
+                continue;
+            }
+            let node = self.tree.node(n);
+            if best.is_some_and(|b| node.depth >= b) {
+                continue;
+            }
+            if node.kind == NodeKind::Real && !kn.visited(n) && !kn.claimed(n) {
+                best = Some(node.depth);
+                continue;
+            }
+            stack.extend(node.children.iter().copied());
+        }
+        best
+    }
+
+    /// Whether any real vertex of the tree is unexplored by knowledge `kn`.
+    fn any_frontier(&self, kn: &Knowledge) -> bool {
+        self.tree.nodes().iter().enumerate().any(|(i, n)| {
+            let id = NodeId(i as u32);
+            n.kind == NodeKind::Real && !kn.visited(id) && !kn.claimed(id) && !kn.explored(id)
+        })
     }
 
     /// Send `group` (robot indices) from `from` to the adjacent vertex `to`.

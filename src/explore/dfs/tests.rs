@@ -276,6 +276,7 @@ fn explored_state_propagates_up_like_fig_3() {
     let mut ex = Explorer::new(
         ExplorerConfig {
             sharing: Sharing::Gcs,
+            ..ExplorerConfig::default()
         },
         c(0, 0),
         &ids(2),
@@ -343,6 +344,7 @@ fn meeting_sharing_only_learns_on_meeting() {
     let mut ex = Explorer::new(
         ExplorerConfig {
             sharing: Sharing::Meet,
+            ..ExplorerConfig::default()
         },
         c(0, 0),
         &ids(2),
@@ -394,6 +396,7 @@ fn gcs_sharing_knows_at_once() {
     let mut ex = Explorer::new(
         ExplorerConfig {
             sharing: Sharing::Gcs,
+            ..ExplorerConfig::default()
         },
         c(0, 0),
         &ids(2),
@@ -715,4 +718,59 @@ fn meeting_sharing_can_exceed_lemma_1() {
         .collect();
     assert_eq!(cells, vec![c(0, 1), c(1, 2)]);
     assert!(gcs.cost <= lemma1_upper_bound(7, gcs.d_max, 2, 1.0, 0.0));
+}
+
+/// A saved configuration or explorer from before the allocation existed (no `allocation`
+/// key) loads with the default allocation; the names are the serde names.
+#[test]
+fn allocation_is_optional_in_saved_states_and_named_stably() {
+    let old: ExplorerConfig = serde_json::from_str(r#"{"sharing":"meet"}"#).unwrap();
+    assert_eq!(old.sharing, Sharing::Meet);
+    assert_eq!(old.allocation, Allocation::default());
+    let empty: ExplorerConfig = serde_json::from_str("{}").unwrap();
+    assert_eq!(empty, ExplorerConfig::default());
+    for a in Allocation::ALL {
+        assert_eq!(
+            serde_json::to_string(&a).unwrap(),
+            format!("\"{}\"", a.name())
+        );
+        assert_eq!(a.to_string(), a.name());
+    }
+    let ex = Explorer::new(ExplorerConfig::default(), c(0, 0), &ids(2)).unwrap();
+    let mut v = serde_json::to_value(&ex).unwrap();
+    v["config"]
+        .as_object_mut()
+        .unwrap()
+        .remove("allocation")
+        .unwrap();
+    let back: Explorer = serde_json::from_value(v).unwrap();
+    assert_eq!(back, ex);
+}
+
+/// With meeting-only sharing the nearest-frontier allocation is Algorithm 1's split: the
+/// same moves on the same ROIs.
+#[test]
+fn nearest_frontier_is_the_paper_split_with_meeting_sharing() {
+    use crate::explore::simulate::random_roi;
+    use rand::SeedableRng;
+    for seed in 0..20u64 {
+        let (roi, start) = random_roi(&mut rand_chacha::ChaCha8Rng::seed_from_u64(seed), 60);
+        let run = |allocation| {
+            simulate(
+                &roi,
+                start,
+                &SimConfig {
+                    robots: 1 + (seed as usize % 8),
+                    sharing: Sharing::Meet,
+                    allocation,
+                    record_paths: true,
+                    ..SimConfig::default()
+                },
+            )
+            .unwrap()
+        };
+        let (a, b) = (run(Allocation::Paper), run(Allocation::NearestFrontier));
+        assert_eq!(a.paths, b.paths, "seed {seed}");
+        assert_eq!(a.cost, b.cost, "seed {seed}");
+    }
 }

@@ -65,6 +65,7 @@ impl MappingState {
                 let mut ex = Explorer::new(
                     ExplorerConfig {
                         sharing: self.params.sharing,
+                        ..ExplorerConfig::default()
                     },
                     root,
                     &ids,
