@@ -148,13 +148,15 @@ impl RunKind for Runway {
     fn report_lines(r: &Self::Report) -> Vec<String> {
         let mut lines = vec![
             format!(
-                "  {} ({})",
+                "  {} ({}); DFS allocation {}, {} sharing",
                 r.phase,
                 if r.finished {
                     "every robot landed"
                 } else {
                     "not finished"
-                }
+                },
+                r.allocation,
+                r.sharing
             ),
             format!(
                 "  map: {} runway cells, {} non-runway; tree {} vertices ({} explored, {} unexplored)",

@@ -147,6 +147,12 @@ pub struct MappingReport {
     pub kind: &'static str,
     /// Mission name.
     pub mission: String,
+    /// How the DFS allocated the robots at a vertex: `paper` (Algorithm 1's split) or
+    /// `nearest_frontier` (ours; `runway.allocation`), and how they shared what they saw
+    /// (`gcs` or `meet`).
+    pub allocation: &'static str,
+    /// Vertex-state sharing: `gcs` or `meet`.
+    pub sharing: String,
     /// Where the run is.
     pub phase: String,
     /// Whether the run is over (every robot landed).
@@ -251,6 +257,11 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
     MappingReport {
         kind: crate::app::runway::KIND,
         mission: state.mission.clone(),
+        allocation: state.params.allocation.name(),
+        sharing: serde_json::to_value(state.params.sharing)
+            .ok()
+            .and_then(|v| v.as_str().map(str::to_string))
+            .unwrap_or_default(),
         phase: state.phase.to_string(),
         finished: state.is_finished(),
         found: state.explorer.is_some(),

@@ -161,6 +161,11 @@ pub enum Allocation {
 }
 
 impl Allocation {
+    /// Algorithm 1's split (the serde default of saved explorers that predate the choice).
+    pub fn paper() -> Allocation {
+        Allocation::Paper
+    }
+
     /// Both allocations, the paper's first.
     pub const ALL: [Allocation; 2] = [Allocation::Paper, Allocation::NearestFrontier];
 
@@ -185,8 +190,9 @@ pub struct ExplorerConfig {
     /// How vertex states are shared.
     #[serde(default)]
     pub sharing: Sharing,
-    /// How the robots at a vertex are allocated (only [`Sharing::Gcs`] tells them apart).
-    #[serde(default)]
+    /// How the robots at a vertex are allocated (only [`Sharing::Gcs`] tells them apart). An
+    /// explorer saved before this field existed ran the paper's split and keeps it on resume.
+    #[serde(default = "Allocation::paper")]
     pub allocation: Allocation,
 }
 

@@ -65,7 +65,7 @@ impl MappingState {
                 let mut ex = Explorer::new(
                     ExplorerConfig {
                         sharing: self.params.sharing,
-                        ..ExplorerConfig::default()
+                        allocation: self.params.allocation,
                     },
                     root,
                     &ids,

@@ -27,7 +27,7 @@ mod sweep;
 mod vehicle;
 
 use super::ExploreError;
-use super::dfs::{Action, Explorer, ExplorerConfig, RobotId, Sharing, VertexState};
+use super::dfs::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing, VertexState};
 use super::lawnmower::{self, HeadingPolicy, LawnmowerConfig, LocalBox, Sweep};
 use crate::geo::{Cell, Dir4, Grid, LatLon};
 use crate::mission::definition::{MissionDef, MissionKind, SweepBox};
@@ -86,6 +86,10 @@ pub struct MappingParams {
     pub rtl_reserve_pct: f64,
     /// How the robots share vertex states.
     pub sharing: Sharing,
+    /// How the DFS allocates the robots at a vertex (`runway.allocation`); a state saved
+    /// before the choice existed ran the paper's split.
+    #[serde(default = "Allocation::paper")]
+    pub allocation: Allocation,
     /// The mission's return and swap rules (`[battery]`); a state saved before they were
     /// mission keys reads the values they had as constants (the keys' defaults).
     #[serde(default)]
@@ -437,6 +441,7 @@ impl MappingState {
                 flight_time_min: def.battery.flight_time_min,
                 rtl_reserve_pct: def.battery.rtl_reserve_pct,
                 sharing,
+                allocation: rw.allocation,
                 battery: BatteryRules::from(&def.battery),
             },
             phase: Phase::Sweep,

@@ -376,6 +376,11 @@ pub struct RunwayDef {
     /// Our choice (1 m): the position limit of the image sanity check.
     #[serde(default = "default_sweep_position_tolerance_m")]
     pub sweep_position_tolerance_m: f64,
+    /// How the DFS sends the robots at a vertex on (`"paper"`: Algorithm 1's split;
+    /// `"nearest_frontier"`: towards the nearest unexplored vertex, with GCS sharing). Default:
+    /// the better of the two on the Fig. 7 trials (`docs/results/dfs.md`), nearest frontier.
+    #[serde(default)]
+    pub allocation: crate::explore::dfs::Allocation,
     /// The box to sweep.
     pub sweep: SweepBox,
 }

@@ -3,6 +3,7 @@
 //! `[area]`, `[runway]`, `[classification]`), through the typed readers of [`Ctx`].
 
 use super::*;
+use crate::explore::dfs::Allocation;
 
 const ROOT_KEYS: &[&str] = &[
     "name",
@@ -306,6 +307,7 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
         "lane_spacing_m",
         "sweep_heading_error_deg",
         "sweep_position_tolerance_m",
+        "allocation",
         "sweep",
     ];
     let t = ctx.sub_table(root, "", "runway", &known)?;
@@ -341,6 +343,10 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
         default_sweep_position_tolerance_m(),
         Ctx::num_of,
     );
+    let allocations = Allocation::ALL.map(|a| (a.name(), a));
+    let allocation = ctx.or(t, p, "allocation", Allocation::default(), |c, p, v| {
+        c.word_of(p, v, &allocations)
+    });
     let sweep = read_sweep(ctx, t);
     Some(RunwayDef {
         images_per_cell,
@@ -351,6 +357,7 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
         lane_spacing_m,
         sweep_heading_error_deg,
         sweep_position_tolerance_m,
+        allocation,
         sweep,
     })
 }
