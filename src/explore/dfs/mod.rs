@@ -190,6 +190,18 @@ pub struct ExplorerConfig {
     pub allocation: Allocation,
 }
 
+impl ExplorerConfig {
+    /// The allocation that actually runs: `allocation` with [`Sharing::Gcs`], always
+    /// [`Allocation::Paper`] with [`Sharing::Meet`] (nearest-frontier needs the global view).
+    /// What a field report should name.
+    pub fn effective_allocation(&self) -> Allocation {
+        match self.sharing {
+            Sharing::Gcs => self.allocation,
+            Sharing::Meet => Allocation::Paper,
+        }
+    }
+}
+
 /// What a robot should do next.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub enum Action {
@@ -551,9 +563,7 @@ impl Explorer {
             // Nearest-frontier allocation: `up` sends the robots back to the parent although
             // a child is not explored (nothing is left to open in it, something is elsewhere).
             let mut up = false;
-            if self.config.sharing == Sharing::Gcs
-                && self.config.allocation == Allocation::NearestFrontier
-            {
+            if self.config.effective_allocation() == Allocation::NearestFrontier {
                 let kn = &self.knowledge[k];
                 let mut open: Vec<(u32, NodeId)> = cands
                     .iter()
