@@ -290,8 +290,9 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
     };
     let plain = MissionDef::parse(&base, "plain.toml").unwrap();
     let s0 = MappingState::new(&plain, grid(&plain), Sharing::Gcs).unwrap();
+    assert_eq!(s0.params.allocation, fleetmap::explore::Allocation::Paper);
     let text = with(
-        "lane_spacing_m = 4.0\nsweep_position_tolerance_m = 0.5",
+        "lane_spacing_m = 4.0\nsweep_position_tolerance_m = 0.5\nallocation = \"nearest_frontier\"",
         "descent_rate_m_s = 0.5\nlanding_margin_s = 60\nfresh_pct = 98",
     );
     let d = MissionDef::parse(&text, "keys.toml").unwrap();
@@ -302,6 +303,10 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
         "narrower lanes, more of them"
     );
     assert!(s.sweeps[0].spacing.across_m <= 4.0 + 1e-9);
+    assert_eq!(
+        s.params.allocation,
+        fleetmap::explore::Allocation::NearestFrontier
+    );
     // 12 m at 0.5 m/s instead of 1 m/s, and 30 s more margin: 42 s more of a 720 s battery.
     let more = s.battery_needed_pct(0.0, 12.0) - s0.battery_needed_pct(0.0, 12.0);
     assert!((more - 100.0 * 42.0 / 720.0).abs() < 1e-9, "{more}");
@@ -312,10 +317,17 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
         .unwrap_err()
         .to_string();
     assert!(err.contains("leaves gaps"), "{err}");
-    let bad = with("sweep_heading_error_deg = 50", "fresh_pct = 0");
+    let bad = with(
+        "sweep_heading_error_deg = 50\nallocation = \"closest\"",
+        "fresh_pct = 0",
+    );
     let errs = MissionDef::parse(&bad, "bad.toml").unwrap_err().to_string();
     assert!(errs.contains("runway.sweep_heading_error_deg"), "{errs}");
     assert!(errs.contains("battery.fresh_pct"), "{errs}");
+    assert!(
+        errs.contains("runway.allocation") && errs.contains("\"nearest_frontier\""),
+        "{errs}"
+    );
 }
 
 // ---- serde agrees with the reader ------------------------------------------------------

@@ -15,6 +15,7 @@
 //!   when more than half of it is.
 
 use crate::explore::VertexState;
+use crate::explore::dfs::ExplorerConfig;
 use crate::explore::mapping::{MappingState, Phase};
 use crate::geo::{Cell, GeoError, Grid, LatLon};
 use crate::sim::world::{Surface, World};
@@ -148,8 +149,7 @@ pub struct MappingReport {
     /// Mission name.
     pub mission: String,
     /// How the DFS allocated the robots at a vertex: `paper` (Algorithm 1's split) or
-    /// `nearest_frontier` (ours; `runway.allocation`), and how they shared what they saw
-    /// (`gcs` or `meet`).
+    /// `nearest_frontier` (ours; `runway.allocation`, with GCS sharing only).
     pub allocation: &'static str,
     /// Vertex-state sharing: `gcs` or `meet`.
     pub sharing: String,
@@ -257,7 +257,12 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
     MappingReport {
         kind: crate::app::runway::KIND,
         mission: state.mission.clone(),
-        allocation: state.params.allocation.name(),
+        allocation: ExplorerConfig {
+            sharing: state.params.sharing,
+            allocation: state.params.allocation,
+        }
+        .effective_allocation()
+        .name(),
         sharing: serde_json::to_value(state.params.sharing)
             .ok()
             .and_then(|v| v.as_str().map(str::to_string))

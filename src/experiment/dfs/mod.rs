@@ -1053,6 +1053,25 @@ mod tests {
         assert!(trials_csv(&s).contains(",gcs,nearest_frontier,"));
     }
 
+    /// The trial of the 2 800 (seed 2019) where nearest-frontier gains most over the paper's
+    /// split (C = 80, R = 20, ratio 2.5, trial 97), pinned with docs/results/dfs.md's numbers.
+    #[test]
+    fn nearest_frontier_gain_on_the_best_trial_is_pinned() {
+        let conf = |allocation| Configuration {
+            sweep: Sweep::Cells,
+            sharing: Sharing::Gcs,
+            allocation,
+            cells: 80,
+            robots: 20,
+            speed_ratio: SpeedRatio::Ratio(2.5),
+        };
+        let p = run_trial(2019, 0, &conf(Allocation::Paper), 97).unwrap();
+        let n = run_trial(2019, 0, &conf(Allocation::NearestFrontier), 97).unwrap();
+        assert!((p.cost - 47.813).abs() < 1e-3, "{}", p.cost);
+        assert!((n.cost - 27.975).abs() < 1e-3, "{}", n.cost);
+        assert!(p.within_lemma1 && n.within_lemma1);
+    }
+
     #[test]
     fn bad_parameters_are_errors() {
         let mut a = small(0);

@@ -143,6 +143,12 @@ pub enum Allocation {
     /// Algorithm 1 as written: unexplored children before those under exploration, then
     /// more grid branches first; split ⌈k/2⌉/⌊k/2⌋ over two (line 19), all to one (line 22),
     /// back to the parent when no child is left (line 24).
+    ///
+    /// The default. Nearest frontier has the lower mean cost on the 2 800 Fig. 7 trials
+    /// (0.977 of this split's per trial, no trial above Lemma 1) but a worse worst ratio to
+    /// the lawnmower bound (14.0 against 13.1), and Lemma 1 is proved for this split only
+    /// (docs/results/dfs.md, "Allocation").
+    #[default]
     Paper,
     /// With [`Sharing::Gcs`] only: the robots at v go where the nearest unexplored vertex
     /// (a known ROI cell nobody has reached or been sent to) is, in tree distance. Children
@@ -152,11 +158,6 @@ pub enum Allocation {
     /// open; when nothing anywhere is unexplored, Algorithm 1's rule applies. With
     /// [`Sharing::Meet`] this is the same as [`Allocation::Paper`] (a robot does not know
     /// where the frontier is).
-    ///
-    /// The default: on the 2 800 Fig. 7 trials (seed 2019) it has the lower mean cost
-    /// (0.977 of the paper's split per trial) with no trial above Lemma 1, the criterion of
-    /// docs/results/dfs.md ("Allocation").
-    #[default]
     NearestFrontier,
 }
 
@@ -194,6 +195,18 @@ pub struct ExplorerConfig {
     /// explorer saved before this field existed ran the paper's split and keeps it on resume.
     #[serde(default = "Allocation::paper")]
     pub allocation: Allocation,
+}
+
+impl ExplorerConfig {
+    /// The allocation that actually runs: `allocation` with [`Sharing::Gcs`], always
+    /// [`Allocation::Paper`] with [`Sharing::Meet`] (nearest-frontier needs the global view).
+    /// What a field report should name.
+    pub fn effective_allocation(&self) -> Allocation {
+        match self.sharing {
+            Sharing::Gcs => self.allocation,
+            Sharing::Meet => Allocation::Paper,
+        }
+    }
 }
 
 /// What a robot should do next.
@@ -557,9 +570,7 @@ impl Explorer {
             // Nearest-frontier allocation: `up` sends the robots back to the parent although
             // a child is not explored (nothing is left to open in it, something is elsewhere).
             let mut up = false;
-            if self.config.sharing == Sharing::Gcs
-                && self.config.allocation == Allocation::NearestFrontier
-            {
+            if self.config.effective_allocation() == Allocation::NearestFrontier {
                 let kn = &self.knowledge[k];
                 let mut open: Vec<(u32, NodeId)> = cands
                     .iter()

@@ -736,6 +736,15 @@ fn allocation_is_optional_in_saved_states_and_named_stably() {
         );
         assert_eq!(a.to_string(), a.name());
     }
+    let meet = ExplorerConfig {
+        sharing: Sharing::Meet,
+        allocation: Allocation::NearestFrontier,
+    };
+    assert_eq!(meet.effective_allocation(), Allocation::Paper);
+    assert_eq!(
+        ExplorerConfig::default().effective_allocation(),
+        Allocation::default()
+    );
     let ex = Explorer::new(ExplorerConfig::default(), c(0, 0), &ids(2)).unwrap();
     let mut v = serde_json::to_value(&ex).unwrap();
     v["config"]

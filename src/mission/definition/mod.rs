@@ -378,7 +378,8 @@ pub struct RunwayDef {
     pub sweep_position_tolerance_m: f64,
     /// How the DFS sends the robots at a vertex on (`"paper"`: Algorithm 1's split;
     /// `"nearest_frontier"`: towards the nearest unexplored vertex, with GCS sharing). Default:
-    /// the better of the two on the Fig. 7 trials (`docs/results/dfs.md`), nearest frontier.
+    /// the paper's, proved within Lemma 1; nearest frontier is 2 % cheaper on average on the
+    /// Fig. 7 trials but unproved, with a worse worst case (`docs/results/dfs.md`).
     #[serde(default)]
     pub allocation: crate::explore::dfs::Allocation,
     /// The box to sweep.
