@@ -13,7 +13,7 @@
 //! paired with an existing child slot under a dummy vertex joined by a zero-length edge
 //! (`[a, b] + c → [a, dummy{b, c}]`, a fourth at the root gives `[dummy{a, d}, dummy{b, c}]`),
 //! over all children, explored or not — so every vertex has at most two children whatever
-//! the sensing did ([`Tree::attach`]). At a vertex, *all* the robots standing there decide
+//! the sensing did (`Tree::attach`). At a vertex, *all* the robots standing there decide
 //! together (line 19 splits "the robots at v"): robots of different groups that meet at a
 //! vertex are pooled and re-split. They drop the explored children (line 8); with two
 //! candidates the robots are split as evenly as possible, ⌈k/2⌉ to the first and ⌊k/2⌋ to
