@@ -6,7 +6,9 @@ use crate::proto::flavour::{ArmInputs, Flavour};
 use crate::proto::heartbeat::Beat;
 use crate::proto::severity::Severity;
 use crate::time::Time;
-use mavlink::dialects::ardupilotmega::{MavLandedState, MavMessage, MissionState};
+use mavlink::dialects::ardupilotmega::{
+    GLOBAL_POSITION_INT_DATA, MavLandedState, MavMessage, MissionState,
+};
 use serde::Serialize;
 use std::collections::BTreeMap;
 use std::time::Duration;
@@ -20,6 +22,17 @@ pub struct GeoPoint {
     pub lon: f64,
     /// Altitude above mean sea level, metres.
     pub alt_amsl: f32,
+}
+
+impl GeoPoint {
+    /// The position a GLOBAL_POSITION_INT reports (1e-7 degrees, millimetres AMSL).
+    pub fn of_global_position(p: &GLOBAL_POSITION_INT_DATA) -> GeoPoint {
+        GeoPoint {
+            lat: f64::from(p.lat) / 1e7,
+            lon: f64::from(p.lon) / 1e7,
+            alt_amsl: p.alt as f32 / 1000.0,
+        }
+    }
 }
 
 /// A STATUSTEXT.
@@ -298,11 +311,7 @@ impl VehicleSnapshot {
         self.last_message = now;
         match msg {
             MavMessage::GLOBAL_POSITION_INT(p) => {
-                self.position = Some(GeoPoint {
-                    lat: f64::from(p.lat) / 1e7,
-                    lon: f64::from(p.lon) / 1e7,
-                    alt_amsl: p.alt as f32 / 1000.0,
-                });
+                self.position = Some(GeoPoint::of_global_position(p));
                 self.position_at = Some(now);
                 self.alt_rel = Some(p.relative_alt as f32 / 1000.0);
                 if p.hdg != u16::MAX {

@@ -99,42 +99,21 @@ impl Pilot {
                 .count()
         };
         let mut captures_at_start = None;
-        // Pictures that arrived, and pictures the camera announced (CAMERA_IMAGE_CAPTURED): an
-        // announced picture exists while its transmission is queued behind others (a slow
-        // payload link: PX4 SITL's carries 4 kB/s), so it is missing only once no image data
-        // at all has been heard from the vehicle for `SWEEP_IMAGE_STALL_S`.
-        let mut arrived = 0usize;
-        let mut announced = 0usize;
-        let mut progress = self.shared.now();
+        // The sweep's pictures as its frames tell of them (see `SweepFrames`).
+        let mut heard = SweepFrames::new(v.compid, self.shared.now());
         let stall = Duration::from_secs_f64(SWEEP_IMAGE_STALL_S * fleet.clock().speedup());
         let mut frames = fleet.subscribe();
-        // Where the vehicle was when each picture was announced, by (time_boot_ms,
-        // image_index): the reference for a picture that arrives later, queued on a slow link.
-        let mut where_announced = std::collections::VecDeque::new();
         // The vehicle has flown the whole sweep (its pictures may still be in transfer).
         let mut flown = false;
         loop {
             tokio::select! {
                 f = frames.recv() => {
                     match f {
-                        Ok(inc) if inc.frame.sysid() == sysid => match &inc.frame.message {
-                            Ok(MavMessage::CAMERA_IMAGE_CAPTURED(c)) => {
-                                if announced <= arrived {
-                                    progress = self.shared.now();
-                                }
-                                announced += 1;
-                                if let Some(p) = self.vehicle().and_then(|v| v.position) {
-                                    if where_announced.len() >= ANNOUNCED_KEPT {
-                                        where_announced.pop_front();
-                                    }
-                                    where_announced.push_back(((c.time_boot_ms, c.image_index), p));
-                                }
+                        Ok(inc) if inc.frame.sysid() == sysid => {
+                            if let Ok(m) = &inc.frame.message {
+                                heard.on_message(inc.frame.compid(), m, self.shared.now());
                             }
-                            Ok(MavMessage::ENCAPSULATED_DATA(_) | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)) => {
-                                progress = self.shared.now();
-                            }
-                            _ => {}
-                        },
+                        }
                         Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
                         Err(broadcast::error::RecvError::Closed) => anyhow::bail!("the fleet stopped"),
                     }
@@ -148,13 +127,24 @@ impl Pilot {
                     if img.sysid != sysid {
                         continue;
                     }
-                    arrived += 1;
-                    progress = self.shared.now();
+                    // The frames before this image (its announcement among them) may still be
+                    // queued: `select!` picks among ready branches at random, and a busy
+                    // machine leaves both ready. Read them first.
+                    let now = self.shared.now();
+                    loop {
+                        match frames.try_recv() {
+                            Ok(inc) if inc.frame.sysid() == sysid => {
+                                if let Ok(m) = &inc.frame.message {
+                                    heard.on_message(inc.frame.compid(), m, now);
+                                }
+                            }
+                            Ok(_) | Err(broadcast::error::TryRecvError::Lagged(_)) => {}
+                            Err(_) => break,
+                        }
+                    }
+                    heard.on_image(now);
                     let key = img.pose.as_ref().map(|p| (p.time_boot_ms, p.image_index));
-                    let announced_at = where_announced
-                        .iter()
-                        .find(|(k, _)| Some(*k) == key)
-                        .map(|&(_, p)| p);
+                    let announced_at = key.and_then(|k| heard.announced_at(k));
                     if self.sweep_image(&img, announced_at).await? {
                         return Ok(());
                     }
@@ -168,11 +158,11 @@ impl Pilot {
                     if let Some(c) = s.mission_current {
                         let passed = captures_before(c);
                         let start = *captures_at_start.get_or_insert(passed);
-                        let pending = announced.saturating_sub(arrived);
-                        let stalled = self.shared.now().saturating_since(progress) > stall;
+                        let pending = heard.pending();
+                        let stalled = heard.stalled(self.shared.now(), stall);
                         let missing = passed
                             .saturating_sub(start)
-                            .saturating_sub(arrived.max(announced))
+                            .saturating_sub(heard.arrived.max(heard.announced))
                             + if stalled { pending } else { 0 };
                         if missing > self.shared.max_retakes as usize {
                             let reason = format!(
@@ -195,7 +185,7 @@ impl Pilot {
                         || s.mission_current.is_some_and(|c| c > last_nav);
                     if complete && !flown {
                         flown = true;
-                        let pending = announced.saturating_sub(arrived);
+                        let pending = heard.pending();
                         if pending > 0 {
                             self.shared.say(Progress::info(format!(
                                 "vehicle {sysid}: sweep flown; waiting for {pending} pictures still in transfer"
@@ -219,8 +209,7 @@ impl Pilot {
             }
             // The sweep is complete once flown and its announced pictures are in (or their
             // transfer stalled: those were counted as missing above).
-            let stalled = self.shared.now().saturating_since(progress) > stall;
-            if flown && (announced <= arrived || stalled) {
+            if flown && (heard.pending() == 0 || heard.stalled(self.shared.now(), stall)) {
                 let now = self.shared.now();
                 self.shared
                     .commit(|st| {
@@ -395,5 +384,138 @@ impl Pilot {
             return Ok(true);
         }
         Ok(false)
+    }
+}
+
+/// What a sweeping vehicle's frames tell of its pictures, read in the order the frames
+/// arrived: the pictures its camera announced (CAMERA_IMAGE_CAPTURED) and the pictures that
+/// arrived, the last time any image news was heard, and where the vehicle reported itself
+/// (GLOBAL_POSITION_INT) when each picture was announced.
+///
+/// The reference position is the vehicle's last report *before the announcement in the
+/// stream*, not its position when this task gets to run: on a busy machine the task can run
+/// a third of a second late, and a vehicle sped up 20× flies 30 m in that time.
+struct SweepFrames {
+    /// The autopilot's component id: only its position reports are the vehicle's.
+    autopilot: u8,
+    /// Pictures the camera announced.
+    announced: usize,
+    /// Pictures that arrived.
+    arrived: usize,
+    /// When image news (an announcement while none was pending, or image data) was last heard.
+    progress: Time,
+    /// The vehicle's last reported position, in stream order.
+    position: Option<GeoPoint>,
+    /// Where the vehicle was when each picture was announced, by (time_boot_ms, image_index),
+    /// the last [`ANNOUNCED_KEPT`].
+    where_announced: std::collections::VecDeque<((u32, i32), GeoPoint)>,
+}
+
+impl SweepFrames {
+    fn new(autopilot: u8, now: Time) -> SweepFrames {
+        SweepFrames {
+            autopilot,
+            announced: 0,
+            arrived: 0,
+            progress: now,
+            position: None,
+            where_announced: std::collections::VecDeque::new(),
+        }
+    }
+
+    /// One message from the vehicle (any of its components), received at `now`.
+    fn on_message(&mut self, compid: u8, msg: &MavMessage, now: Time) {
+        match msg {
+            MavMessage::GLOBAL_POSITION_INT(p) if compid == self.autopilot => {
+                self.position = Some(GeoPoint::of_global_position(p));
+            }
+            MavMessage::CAMERA_IMAGE_CAPTURED(c) => {
+                if self.pending() == 0 {
+                    self.progress = now;
+                }
+                self.announced += 1;
+                if let Some(p) = self.position {
+                    if self.where_announced.len() >= ANNOUNCED_KEPT {
+                        self.where_announced.pop_front();
+                    }
+                    self.where_announced
+                        .push_back(((c.time_boot_ms, c.image_index), p));
+                }
+            }
+            MavMessage::ENCAPSULATED_DATA(_) | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) => {
+                self.progress = now;
+            }
+            _ => {}
+        }
+    }
+
+    /// A picture arrived at `now`.
+    fn on_image(&mut self, now: Time) {
+        self.arrived += 1;
+        self.progress = now;
+    }
+
+    /// Where the vehicle was when picture `key` (time_boot_ms, image_index) was announced.
+    fn announced_at(&self, key: (u32, i32)) -> Option<GeoPoint> {
+        self.where_announced
+            .iter()
+            .find(|(k, _)| *k == key)
+            .map(|&(_, p)| p)
+    }
+
+    /// Announced pictures that have not arrived.
+    fn pending(&self) -> usize {
+        self.announced.saturating_sub(self.arrived)
+    }
+
+    /// No image news for longer than `stall`.
+    fn stalled(&self, now: Time, stall: Duration) -> bool {
+        now.saturating_since(self.progress) > stall
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, GLOBAL_POSITION_INT_DATA};
+
+    fn at(lat_deg: f64) -> MavMessage {
+        MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+            lat: (lat_deg * 1e7) as i32,
+            lon: 1_490_000_000,
+            ..Default::default()
+        })
+    }
+
+    fn captured(index: i32) -> MavMessage {
+        MavMessage::CAMERA_IMAGE_CAPTURED(CAMERA_IMAGE_CAPTURED_DATA {
+            time_boot_ms: 1000 + index as u32,
+            image_index: index,
+            ..Default::default()
+        })
+    }
+
+    #[test]
+    fn the_reference_is_the_report_before_the_announcement_in_the_stream() {
+        let mut heard = SweepFrames::new(1, Time::ZERO);
+        heard.on_message(1, &at(-35.0), Time::ZERO);
+        heard.on_message(100, &captured(0), Time::from_secs(1));
+        // Reports after the announcement, and a camera's own position, move nothing.
+        heard.on_message(1, &at(-35.001), Time::from_secs(2));
+        heard.on_message(100, &at(-36.0), Time::from_secs(2));
+        heard.on_message(100, &captured(1), Time::from_secs(3));
+        let first = heard.announced_at((1000, 0)).map(|p| p.lat);
+        let second = heard.announced_at((1001, 1)).map(|p| p.lat);
+        assert!(first.is_some_and(|l| (l + 35.0).abs() < 1e-9), "{first:?}");
+        assert!(
+            second.is_some_and(|l| (l + 35.001).abs() < 1e-9),
+            "{second:?}"
+        );
+        assert_eq!(heard.announced_at((1002, 2)), None);
+        assert_eq!(heard.pending(), 2);
+        heard.on_image(Time::from_secs(4));
+        assert_eq!(heard.pending(), 1);
+        assert!(!heard.stalled(Time::from_secs(5), Duration::from_secs(2)));
+        assert!(heard.stalled(Time::from_secs(7), Duration::from_secs(2)));
     }
 }
