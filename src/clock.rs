@@ -10,6 +10,15 @@ use crate::time::Time;
 use std::time::Duration;
 use tokio::time::Instant;
 
+/// Wall-clock milliseconds since the Unix epoch (0 if the clock is before it): run
+/// directories' creation times, and a moving region's epoch.
+pub fn unix_ms() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| d.as_millis() as u64)
+        .unwrap_or(0)
+}
+
 /// The shell's clock: real monotonic time since the clock was created.
 ///
 /// It reads `tokio::time::Instant`, which is the system's monotonic clock — except in a

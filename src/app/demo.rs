@@ -14,6 +14,7 @@ use crate::link::transport::{LinkOptions, open_link, open_memory_link};
 use crate::mission::definition::MissionDef;
 use crate::sim::harness::{Sim, SimConfig};
 use crate::sim::server::{self, Endpoint, MemorySimHandle, ServeOptions, SimHandle};
+use crate::app::runway::report::ROI_SURFACES;
 use crate::sim::world::World;
 use crate::time::Time;
 use anyhow::Context as _;
@@ -54,19 +55,59 @@ impl Default for DemoConfig {
     }
 }
 
+/// The plume mission (`missions/plume.toml`), flown over a world whose region moves.
+pub const PLUME_MISSION: &str = include_str!("../../missions/plume.toml");
+
 /// The runway mission with `cfg.drones` drones and the demo's separation.
 pub fn runway_mission(cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
-    let mut text = RUNWAY_MISSION.replace(
+    mission_with(RUNWAY_MISSION, cfg)
+}
+
+/// The mission the demo flies over `world`: the runway field test, or the plume mission
+/// when the world's region of interest moves, its velocity given as the world's own (the
+/// demo's forecast is exact). Regions that move at different velocities are refused: the
+/// runner maps one frame.
+pub fn mission_for(world: &World, cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
+    let mut moving = world
+        .regions
+        .iter()
+        .filter(|r| ROI_SURFACES.contains(&r.surface) && r.velocity_ne != (0.0, 0.0))
+        .map(|r| r.velocity_ne);
+    let Some((vn, ve)) = moving.next() else {
+        return runway_mission(cfg);
+    };
+    if moving.any(|v| v != (vn, ve)) {
+        anyhow::bail!(
+            "the world {} has regions of interest moving at different velocities; the runner \
+             maps one moving frame",
+            world.name
+        );
+    }
+    let text = PLUME_MISSION.replace(
+        "roi_velocity_ne_mps = [0.0, 0.3]",
+        &format!("roi_velocity_ne_mps = [{vn:?}, {ve:?}]"),
+    );
+    mission_with(&text, cfg)
+}
+
+fn mission_with(base: &str, cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
+    let mut text = base.replace(
         "altitude_separation_m = 0.0",
         &format!("altitude_separation_m = {:?}", cfg.altitude_separation_m),
     );
+    // Appended at the end: after the sweep table, so a [[vehicles]] header starts its own
+    // array-of-tables entry.
     for k in 2..=cfg.drones {
         text.push_str(&format!(
             "\n[[vehicles]]\nsysid = {k}\nrole = \"drone\"\nname = \"uav{k}\"\n"
         ));
     }
-    let def = MissionDef::parse(&text, "runway-field-test.toml (built in)")
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let name = if base == RUNWAY_MISSION {
+        "runway-field-test.toml (built in)"
+    } else {
+        "plume.toml (built in)"
+    };
+    let def = MissionDef::parse(&text, name).map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok((text, def))
 }
 
@@ -94,6 +135,9 @@ pub struct DemoFleet {
     pub sim: SimHandle,
     /// The world.
     pub world: World,
+    /// When the simulator started, ms since the Unix epoch: its world's time 0 (where a
+    /// moving region's polygon is as written), the demo run's region epoch.
+    pub started_unix_ms: u64,
 }
 
 /// The simulator with `spec` vehicles over `world` behind in-process links and a fleet on
@@ -139,6 +183,7 @@ fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<SimC
 /// vehicle over loopback UDP, clocked at the simulator's speed.
 pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<DemoFleet> {
     let sim = Sim::new(sim_config(spec, world.clone(), cfg)?, Time::ZERO)?;
+    let started_unix_ms = crate::clock::unix_ms();
     let handle = server::spawn(
         sim,
         ServeOptions {
@@ -171,5 +216,6 @@ pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result
         fleet,
         sim: handle,
         world,
+        started_unix_ms,
     })
 }

@@ -87,13 +87,13 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         altitude_separation_m: args.separation,
         ..DemoConfig::default()
     };
-    let (text, def) = demo::runway_mission(&cfg)?;
     let world_text = match &args.world {
         Some(p) => std::fs::read_to_string(p)
             .with_context(|| format!("cannot read the world {}", p.display()))?,
         None => demo::RUNWAY_WORLD.to_string(),
     };
     let world = World::from_toml(&world_text).context("the demo world")?;
+    let (text, def) = demo::mission_for(&world, &cfg)?;
     let tui = !args.headless
         && std::io::IsTerminal::is_terminal(&std::io::stdin())
         && std::io::IsTerminal::is_terminal(&std::io::stdout());
@@ -110,11 +110,19 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
                 cfg.drones, world.name, cfg.speedup
             );
         }
-        let state =
+        let mut state =
             crate::app::new_mapping(&d.fleet, &def, Sharing::Gcs, Duration::from_secs(60)).await?;
+        // A moving region is where the world file draws it at the simulator's start.
+        if state.params.motion().speed() > 0.0 {
+            state.roi_epoch_unix_ms = Some(d.started_unix_ms);
+        }
         let demo = Demo {
             dir,
-            mission_path: "built-in runway-field-test.toml",
+            mission_path: if def.name == "plume" {
+                "built-in plume.toml"
+            } else {
+                "built-in runway-field-test.toml"
+            },
             text,
             world,
             world_text,

@@ -131,7 +131,36 @@ pub(super) fn shot_pose(img: &ReceivedImage, v: Option<&VehicleSnapshot>) -> Opt
     })
 }
 
+/// How far ahead of the region a vehicle aims before each picture of a visit, seconds of
+/// its drift: a picture is taken as soon as the vehicle has stopped over the point, and the
+/// cell should then be coming under it, not leaving.
+const REAIM_LEAD_S: f64 = 0.5;
+
 impl Pilot {
+    /// The run's cruise speed, m/s.
+    async fn speed(&self) -> f64 {
+        self.shared.read(|s| s.params.speed_m_s).await
+    }
+
+    /// Whether region cell `cell` of a moving region has drifted more than the arrival
+    /// tolerance from under the vehicle (always false for a static region).
+    async fn drifted_from(&self, cell: Cell) -> anyhow::Result<bool> {
+        let roi = self.shared.roi;
+        if roi.is_static() {
+            return Ok(false);
+        }
+        let Some(p) = self.vehicle().and_then(|v| v.position) else {
+            return Ok(true);
+        };
+        let grid = self.shared.read(|s| s.grid.clone()).await;
+        let (e, n) = grid.to_xy(LatLon {
+            lat: p.lat,
+            lon: p.lon,
+        })?;
+        let (ce, cn) = roi.cell_centre(cell, self.shared.now(), grid.cell_size());
+        Ok((ce - e).hypot(cn - n) > self.shared.tolerance_m)
+    }
+
     /// Take the images still missing for this visit of `cell`, counting each one's votes.
     /// A picture counts only when it was taken over the cell ([`check_capture`]); one that
     /// does not, never arrives or cannot be read is taken again, up to
@@ -156,8 +185,25 @@ impl Pilot {
                     return Ok(false);
                 }
             }
+            // A moving region moves on under a hovering vehicle: once the cell's centre is
+            // more than the arrival tolerance away, over it again first.
+            if self.drifted_from(cell).await?
+                && let Some(p) = self.aim_at(cell, self.speed().await, REAIM_LEAD_S).await?
+            {
+                let alt = self.shared.read(|s| s.altitude_of(sysid)).await? as f32;
+                flight::fly_to(
+                    self.fleet(),
+                    sysid,
+                    (p.lat, p.lon, alt),
+                    self.speed().await as f32,
+                    self.shared.tolerance_m,
+                    self.shared.patience,
+                )
+                .await?;
+            }
             self.capture_seq += 1;
             let fleet = self.shared.fleet.clone();
+            let shutter = self.shared.now();
             let shot = match flight::capture(
                 &fleet,
                 &mut self.images,
@@ -189,12 +235,14 @@ impl Pilot {
             let (params, camera, planned, grid) = self.shared.picture_setting(sysid).await;
             let cell_m = grid.cell_size();
             let centre = (f64::from(cell.col) * cell_m, f64::from(cell.row) * cell_m);
+            // In the region's frame (the grid's own for a static region) at the shutter.
             let xy = pose.as_ref().and_then(|p| {
                 grid.to_xy(LatLon {
                     lat: p.lat,
                     lon: p.lon,
                 })
                 .ok()
+                .map(|(e, n)| self.shared.roi.to_roi(e, n, shutter))
             });
             let verdict = match (&pose, xy) {
                 (Some(p), Some((e, n))) => check_capture(

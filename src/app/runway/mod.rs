@@ -53,6 +53,7 @@ use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::explore::dfs::Action;
 use crate::explore::mapping::{Directive, MappingError, MappingState, Phase, RobotStatus};
+use crate::explore::motion::RoiMotion;
 use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
 use crate::geo::{Cell, Grid, LatLon, local};
 use crate::mission::MissionType;
@@ -181,6 +182,93 @@ struct Shared {
     max_failures: u32,
     max_retakes: u32,
     limits: CaptureLimits,
+    /// Where a moving region is (static: the grid itself).
+    roi: RoiClock,
+}
+
+/// The region's frame against the fleet clock: a moving region
+/// ([`MappingParams::motion`](crate::explore::mapping::MappingParams::motion)) has moved
+/// `v · s` since its epoch, where `s` is the region's time. The shell reads the wall clock
+/// once, when the run starts: `s = since_epoch_s + (t − at)` for fleet-clock time `t`
+/// (scaled like the fleet clock, so a simulator sped up N× moves its region N× faster in
+/// wall time and the same in simulated time).
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct RoiClock {
+    motion: RoiMotion,
+    /// Fleet-clock time of the reading.
+    at: Time,
+    /// The region's time then, seconds since its epoch.
+    since_epoch_s: f64,
+}
+
+impl RoiClock {
+    /// The clock of `motion` whose epoch was `epoch_unix_ms`, read at wall time `unix_ms`
+    /// and fleet time `at` on a clock `speedup` times faster than the wall.
+    pub(crate) fn new(
+        motion: RoiMotion,
+        epoch_unix_ms: u64,
+        unix_ms: u64,
+        at: Time,
+        speedup: f64,
+    ) -> RoiClock {
+        let wall_s = (unix_ms as f64 - epoch_unix_ms as f64) / 1000.0;
+        RoiClock {
+            motion,
+            at,
+            since_epoch_s: (wall_s * speedup).max(0.0),
+        }
+    }
+
+    /// A region that does not move.
+    pub(crate) fn fixed() -> RoiClock {
+        RoiClock {
+            motion: RoiMotion::STATIC,
+            at: Time::ZERO,
+            since_epoch_s: 0.0,
+        }
+    }
+
+    pub(crate) fn is_static(&self) -> bool {
+        self.motion.speed() == 0.0
+    }
+
+    /// The region's time at fleet time `t`.
+    pub(crate) fn roi_time(&self, t: Time) -> Time {
+        let s = self.since_epoch_s + t.as_secs_f64() - self.at.as_secs_f64();
+        Time::from_secs_f64(s.max(0.0))
+    }
+
+    /// Grid metres (east, north) on the ground at fleet time `t` → the region's frame.
+    pub(crate) fn to_roi(&self, east: f64, north: f64, t: Time) -> (f64, f64) {
+        self.motion.ground_to_roi(east, north, self.roi_time(t))
+    }
+
+    /// Where the centre of region cell `cell` is on the ground at fleet time `t`, grid metres.
+    pub(crate) fn cell_centre(&self, cell: Cell, t: Time, cell_m: f64) -> (f64, f64) {
+        self.motion.cell_centre(cell, self.roi_time(t), cell_m)
+    }
+
+    /// Where a vehicle at grid metres (`east`, `north`) at fleet time `t`, flying straight at
+    /// `speed` m/s, meets the centre of region cell `cell` (the runway paper's visit of a
+    /// translating ROI: [`RoiMotion::intercept`]), moved on by the region's drift over
+    /// `lead_s` more seconds; grid metres.
+    pub(crate) fn intercept(
+        &self,
+        (east, north): (f64, f64),
+        t: Time,
+        cell: Cell,
+        cell_m: f64,
+        speed: f64,
+        lead_s: f64,
+    ) -> Result<(f64, f64), crate::explore::ExploreError> {
+        let (_, (e, n)) =
+            self.motion
+                .intercept(east, north, self.roi_time(t), cell, cell_m, speed)?;
+        Ok((
+            e + self.motion.velocity_east * lead_s,
+            n + self.motion.velocity_north * lead_s,
+        ))
+    }
 }
 
 impl Shared {

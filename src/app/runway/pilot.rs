@@ -289,7 +289,10 @@ impl Pilot {
             .await;
         let alt = alt? as f32;
         flight::ensure_airborne(self.fleet(), sysid, alt, self.shared.patience).await?;
-        let target = (centre.lat, centre.lon, alt);
+        let target = match self.aim_at(cell, speed, 0.0).await? {
+            Some(p) => (p.lat, p.lon, alt),
+            None => (centre.lat, centre.lon, alt),
+        };
         flight::fly_to(
             self.fleet(),
             sysid,
@@ -303,6 +306,35 @@ impl Pilot {
         // grid (the classifier then turns the regions by whole quarter turns).
         flight::face_grid(self.fleet(), sysid, target, 3.0, self.shared.patience).await?;
         Ok(())
+    }
+
+    /// Where to fly to meet region cell `cell` of a moving region: the intercept from where
+    /// the vehicle is now at `speed` m/s, `lead_s` seconds further along the region's path
+    /// (the time to settle over it). `None` for a static region (the cell's centre).
+    pub(super) async fn aim_at(
+        &self,
+        cell: Cell,
+        speed: f64,
+        lead_s: f64,
+    ) -> anyhow::Result<Option<LatLon>> {
+        let roi = self.shared.roi;
+        if roi.is_static() {
+            return Ok(None);
+        }
+        let grid = self.shared.read(|s| s.grid.clone()).await;
+        let v = self
+            .vehicle()
+            .ok_or(crate::fleet::FleetError::NoVehicle { sysid: self.sysid })?;
+        let p = v
+            .position
+            .with_context(|| format!("vehicle {}: no position to aim from", self.sysid))?;
+        let (e, n) = grid.to_xy(LatLon {
+            lat: p.lat,
+            lon: p.lon,
+        })?;
+        let now = self.shared.now();
+        let (me, mn) = roi.intercept((e, n), now, cell, grid.cell_size(), speed, lead_s)?;
+        Ok(Some(grid.from_xy(me, mn)?))
     }
 
     /// Battery swap: home, land, wait for the fresh battery, then carry on.

@@ -34,7 +34,24 @@ pub async fn run(
     state: MappingState,
     mut opts: RunOptions,
 ) -> anyhow::Result<Outcome> {
+    let mut state = state;
     let sysids: Vec<u8> = state.robots.iter().map(|r| r.sysid).collect();
+    // A moving region: its epoch is this start unless the state has one (a resumed run, or
+    // the demo's simulator start); read against the wall clock once.
+    let motion = state.params.motion();
+    let roi = if motion.speed() > 0.0 {
+        let unix_ms = crate::clock::unix_ms();
+        let epoch = *state.roi_epoch_unix_ms.get_or_insert(unix_ms);
+        RoiClock::new(
+            motion,
+            epoch,
+            unix_ms,
+            fleet.clock().now(),
+            fleet.clock().speedup(),
+        )
+    } else {
+        RoiClock::fixed()
+    };
     let resumed = state.started.is_some();
     let (paused, _) = watch::channel(false);
     let interactive = opts.operator.is_some();
@@ -62,6 +79,7 @@ pub async fn run(
         limits: opts
             .capture_limits
             .unwrap_or_else(|| CaptureLimits::runway(opts.tolerance_m)),
+        roi,
     });
     // Saved and journalled before anything moves; also the view's first state.
     let started = MappingEvent::Started {

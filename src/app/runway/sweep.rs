@@ -237,8 +237,11 @@ impl Pilot {
     pub(super) async fn sweep_image(
         &mut self,
         img: &ReceivedImage,
-        announced_at: Option<GeoPoint>,
+        announced: Option<(GeoPoint, Time)>,
     ) -> anyhow::Result<bool> {
+        let announced_at = announced.map(|(p, _)| p);
+        // When the picture was taken, as near as the GCS knows: its announcement, else now.
+        let shutter = announced.map_or_else(|| self.shared.now(), |(_, t)| t);
         let sysid = self.sysid;
         let v = self.vehicle();
         let Some(pose) = shot_pose(img, v.as_ref()) else {
@@ -280,9 +283,11 @@ impl Pilot {
         let looked = pose.attitude.as_ref().and_then(|a| {
             geometry::view_centre_offset(a, alt_m).map(|(n, e)| geometry::true_to_grid(n, e, gamma))
         });
+        // The cell of the region's frame (the grid's own for a static region) at the shutter.
         let cell = grid.to_xy(here).map(|(e, n)| {
             let (de, dn) = looked.unwrap_or((0.0, 0.0));
-            grid.cell_of_xy(e + de, n + dn)
+            let (e, n) = self.shared.roi.to_roi(e + de, n + dn, shutter);
+            grid.cell_of_xy(e, n)
         });
         let verdict = match (check_capture(&claim, altitude, &limits), &cell) {
             (Err(r), _) => Err(format!(
@@ -406,9 +411,9 @@ struct SweepFrames {
     progress: Time,
     /// The vehicle's last reported position, in stream order.
     position: Option<GeoPoint>,
-    /// Where the vehicle was when each picture was announced, by (time_boot_ms, image_index),
-    /// the last [`ANNOUNCED_KEPT`].
-    where_announced: std::collections::VecDeque<((u32, i32), GeoPoint)>,
+    /// Where the vehicle was when each picture was announced, and when that was read, by
+    /// (time_boot_ms, image_index), the last [`ANNOUNCED_KEPT`].
+    where_announced: std::collections::VecDeque<((u32, i32), GeoPoint, Time)>,
 }
 
 impl SweepFrames {
@@ -439,7 +444,7 @@ impl SweepFrames {
                         self.where_announced.pop_front();
                     }
                     self.where_announced
-                        .push_back(((c.time_boot_ms, c.image_index), p));
+                        .push_back(((c.time_boot_ms, c.image_index), p, now));
                 }
             }
             MavMessage::ENCAPSULATED_DATA(_) | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) => {
@@ -455,12 +460,13 @@ impl SweepFrames {
         self.progress = now;
     }
 
-    /// Where the vehicle was when picture `key` (time_boot_ms, image_index) was announced.
-    fn announced_at(&self, key: (u32, i32)) -> Option<GeoPoint> {
+    /// Where the vehicle was when picture `key` (time_boot_ms, image_index) was announced,
+    /// and when.
+    fn announced_at(&self, key: (u32, i32)) -> Option<(GeoPoint, Time)> {
         self.where_announced
             .iter()
-            .find(|(k, _)| *k == key)
-            .map(|&(_, p)| p)
+            .find(|(k, ..)| *k == key)
+            .map(|&(_, p, t)| (p, t))
     }
 
     /// Announced pictures that have not arrived.
@@ -504,8 +510,8 @@ mod tests {
         heard.on_message(1, &at(-35.001), Time::from_secs(2));
         heard.on_message(100, &at(-36.0), Time::from_secs(2));
         heard.on_message(100, &captured(1), Time::from_secs(3));
-        let first = heard.announced_at((1000, 0)).map(|p| p.lat);
-        let second = heard.announced_at((1001, 1)).map(|p| p.lat);
+        let first = heard.announced_at((1000, 0)).map(|(p, _)| p.lat);
+        let second = heard.announced_at((1001, 1)).map(|(p, _)| p.lat);
         assert!(first.is_some_and(|l| (l + 35.0).abs() < 1e-9), "{first:?}");
         assert!(
             second.is_some_and(|l| (l + 35.001).abs() < 1e-9),

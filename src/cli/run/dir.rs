@@ -7,13 +7,7 @@ use crate::store::RunDir;
 use anyhow::Context as _;
 use std::path::{Path, PathBuf};
 
-/// Milliseconds since the Unix epoch (0 if the clock is before it).
-pub(crate) fn unix_ms() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_millis() as u64)
-        .unwrap_or(0)
-}
+pub(crate) use crate::clock::unix_ms;
 
 /// `runs/NAME-YYYYMMDD-HHMMSS` (UTC), with the mission name made safe for a path.
 pub(crate) fn default_run_dir(name: &str) -> PathBuf {

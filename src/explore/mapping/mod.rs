@@ -29,6 +29,7 @@ mod vehicle;
 use super::ExploreError;
 use super::dfs::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing, VertexState};
 use super::lawnmower::{self, HeadingPolicy, LawnmowerConfig, LocalBox, Sweep};
+use super::motion::RoiMotion;
 use crate::geo::{Cell, Dir4, Grid, LatLon};
 use crate::mission::definition::{MissionDef, MissionKind, SweepBox};
 use crate::time::Time;
@@ -94,6 +95,21 @@ pub struct MappingParams {
     /// mission keys reads the values they had as constants (the keys' defaults).
     #[serde(default)]
     pub battery: BatteryRules,
+    /// The region's velocity over the ground, `[north, east]` m/s (`runway.roi_velocity_ne_mps`;
+    /// absent: static, as every state saved before the key existed).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub roi_velocity_ne_mps: Option<[f64; 2]>,
+}
+
+impl MappingParams {
+    /// The region's motion, its frame equal to the grid at ROI time zero (the run's epoch:
+    /// [`MappingState::roi_epoch_unix_ms`]; times passed to it are seconds since then).
+    pub fn motion(&self) -> RoiMotion {
+        match self.roi_velocity_ne_mps {
+            Some([n, e]) => RoiMotion::new(e, n, Time::ZERO),
+            None => RoiMotion::STATIC,
+        }
+    }
 }
 
 /// How the runner judges a drone's charge (the `[battery]` keys of the same names; see
@@ -324,6 +340,12 @@ pub struct MappingState {
     pub started: Option<Time>,
     /// The latest time the state was updated.
     pub updated: Option<Time>,
+    /// When the region was where the mission's geometry puts it, ms since the Unix epoch
+    /// (wall clock, or the simulator's start scaled by its speed-up): the ROI frame equals
+    /// the grid then. Set by the shell when a run with a moving region starts (the
+    /// simulator's start in the demo); kept across resumes. `None`: not set yet, or static.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub roi_epoch_unix_ms: Option<u64>,
 }
 
 /// Convert the mission's sweep box to the grid's local frame.
@@ -443,6 +465,7 @@ impl MappingState {
                 sharing,
                 allocation: rw.allocation,
                 battery: BatteryRules::from(&def.battery),
+                roi_velocity_ne_mps: rw.roi_velocity_ne_mps,
             },
             phase: Phase::Sweep,
             robots,
@@ -455,6 +478,7 @@ impl MappingState {
             image_failures: 0,
             started: None,
             updated: None,
+            roi_epoch_unix_ms: None,
         })
     }
 

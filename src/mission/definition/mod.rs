@@ -382,6 +382,14 @@ pub struct RunwayDef {
     /// Fig. 7 trials but unproved, with a worse worst case (`docs/results/dfs.md`).
     #[serde(default)]
     pub allocation: crate::explore::dfs::Allocation,
+    /// The region's velocity over the ground, `[north, east]` metres per second, when it
+    /// translates (a plume in a current or a steady wind, from a forecast or a plume model;
+    /// runway paper §3–4). The region is where the mission's geometry says at the run's
+    /// start (`run-directory.md`: `roi_epoch_unix_ms`); the DFS maps it in its own frame and
+    /// each visit aims at where the cell will be when the vehicle gets there. Absent: a
+    /// static region. Must be slower than `flight.speed_m_s`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub roi_velocity_ne_mps: Option<[f64; 2]>,
     /// The box to sweep.
     pub sweep: SweepBox,
 }

@@ -413,6 +413,22 @@ fn check_runway(c: &mut Checker, def: &MissionDef) {
         (0.0..=100.0).contains(&r.sweep_position_tolerance_m),
         "a number ≥ 0 and ≤ 100 (metres)",
     );
+    if let Some([n, e]) = r.roi_velocity_ne_mps {
+        let speed = n.hypot(e);
+        if !(n.is_finite() && e.is_finite() && speed < def.flight.speed_m_s) {
+            c.value(
+                "runway.roi_velocity_ne_mps",
+                &["flight.speed_m_s"],
+                format!(
+                    "expected [north, east] m/s slower than flight.speed_m_s = {} (a robot \
+                     must outrun the region to visit its cells), found [{}, {}]",
+                    num(def.flight.speed_m_s),
+                    num(n),
+                    num(e)
+                ),
+            );
+        }
+    }
     match r.sweep {
         SweepBox::Local { north_m, east_m } => {
             for (key, [lo, hi]) in [("north_m", north_m), ("east_m", east_m)] {

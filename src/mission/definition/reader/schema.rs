@@ -308,6 +308,7 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
         "sweep_heading_error_deg",
         "sweep_position_tolerance_m",
         "allocation",
+        "roi_velocity_ne_mps",
         "sweep",
     ];
     let t = ctx.sub_table(root, "", "runway", &known)?;
@@ -347,6 +348,12 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
     let allocation = ctx.or(t, p, "allocation", Allocation::default(), |c, p, v| {
         c.word_of(p, v, &allocations)
     });
+    let velocity = "[north, east] (metres per second)";
+    let roi_velocity_ne_mps = ctx
+        .opt(t, p, "roi_velocity_ne_mps", |c, p, v| {
+            c.nums_of::<2>(p, v, velocity)
+        })
+        .unwrap_or(None);
     let sweep = read_sweep(ctx, t);
     Some(RunwayDef {
         images_per_cell,
@@ -358,6 +365,7 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
         sweep_heading_error_deg,
         sweep_position_tolerance_m,
         allocation,
+        roi_velocity_ne_mps,
         sweep,
     })
 }
