@@ -490,6 +490,80 @@ fn runway_demo_headless_report_and_exports() {
     );
 }
 
+/// Issue 16 item 4: the moving plume (`assets/worlds/plume.toml`, 0.3 m/s east) mapped end
+/// to end by three drones. The map is in the plume's frame, so it matches the plume where it
+/// was at the simulator's start, and not where it is at the end (it has moved on by then by
+/// more than its own length): crediting pictures to ground cells would score badly on the
+/// first and better on the second.
+#[test]
+fn plume_demo_headless_maps_the_moving_plume() {
+    use fleetmap::app::runway::report::{iou, truth_coverage};
+    use fleetmap::explore::mapping::MappingState;
+    use fleetmap::sim::world::World;
+    let tmp = tempfile::tempdir().unwrap();
+    let run = tmp.path().join("run");
+    let run_s = run.to_str().expect("utf-8 path").to_string();
+    let world_path = Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/worlds/plume.toml");
+    let world_s = world_path.to_str().expect("utf-8 path");
+    // About 2 minutes of wall time at 10x; the limit only stops a hung run.
+    let out = fleetmap(
+        &[
+            "demo",
+            "--headless",
+            "--world",
+            world_s,
+            "--run-dir",
+            &run_s,
+        ],
+        tmp.path(),
+        "plume",
+        Duration::from_secs(20 * 60),
+    );
+    assert_eq!(out.code, 0, "{}", out.dump());
+    let text = &out.stdout;
+    assert!(
+        line_with(text, "demo: simulator with").contains("plume world"),
+        "{text}"
+    );
+    assert!(text.contains("demo finished: finished"), "{}", out.dump());
+    assert!(
+        line_with(text, "the region moved at").contains("0.30 m/s"),
+        "{text}"
+    );
+    let iou_line = line_with(text, "IoU with the ground truth");
+    let printed = number_before(iou_line, "% (best possible");
+    let best = number_before(iou_line, "%; the paper's");
+    assert!(
+        printed >= best - 5.0,
+        "IoU {printed} % against the best possible {best} %: {}",
+        out.dump()
+    );
+    let r = report_json(&run, tmp.path(), "report");
+    assert_eq!(r["finished"], Value::Bool(true), "{r}");
+    assert_eq!(r["mission"], "plume", "{r}");
+    assert_eq!(r["roi_velocity_ne_mps"], serde_json::json!([0.0, 0.3]), "{r}");
+    // Against the plume at the simulator's start (the run's epoch) and at the end of the run.
+    let state: MappingState = fleetmap::store::RunDir::open(&run)
+        .expect("the run directory")
+        .load_state()
+        .expect("the state loads")
+        .expect("a saved state");
+    let world = World::load(&world_path).expect("the plume world");
+    let map: std::collections::BTreeSet<_> = state.book.positive_cells().into_iter().collect();
+    let at_epoch = iou(&map, &truth_coverage(&state.grid, &world, 0.0).unwrap());
+    let end_s = state.updated.expect("an updated state").as_secs_f64();
+    let at_end = iou(&map, &truth_coverage(&state.grid, &world, end_s).unwrap());
+    assert!(
+        (at_epoch - printed / 100.0).abs() < 1e-3,
+        "{at_epoch} against the printed {printed} %"
+    );
+    assert!(
+        at_end < 0.2 && end_s * 0.3 > 44.0,
+        "the plume moved {:.0} m in the {end_s:.0} s of the run; IoU with where it ended {at_end}",
+        end_s * 0.3
+    );
+}
+
 #[test]
 fn bandit_demo_headless_keeps_the_green_tiles() {
     let tmp = tempfile::tempdir().unwrap();

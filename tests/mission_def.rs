@@ -330,6 +330,44 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
     );
 }
 
+#[test]
+fn a_moving_region_is_read_checked_and_kept_by_the_state() {
+    use fleetmap::explore::Sharing;
+    use fleetmap::explore::mapping::MappingState;
+    let base = std::fs::read_to_string(root().join("missions/runway-field-test.toml")).unwrap();
+    let with = |key: &str| base.replace("[runway]", &format!("[runway]\n{key}\n#"));
+    let origin = fleetmap::geo::LatLon {
+        lat: 37.1966,
+        lon: -80.5785,
+    };
+    let d = MissionDef::parse(&with("roi_velocity_ne_mps = [0.1, -0.2]"), "moving.toml").unwrap();
+    assert_eq!(
+        d.runway.as_ref().unwrap().roi_velocity_ne_mps,
+        Some([0.1, -0.2])
+    );
+    let s = MappingState::new(&d, fleetmap::geo::Grid::new(origin, 4.0).unwrap(), Sharing::Gcs)
+        .unwrap();
+    let m = s.params.motion();
+    assert_eq!((m.velocity_north, m.velocity_east), (0.1, -0.2));
+    assert_eq!(s.roi_epoch_unix_ms, None, "the shell sets it when the run starts");
+    // A state saved before the key existed loads as a static region.
+    let mut json = serde_json::to_value(&s).unwrap();
+    json["params"].as_object_mut().unwrap().remove("roi_velocity_ne_mps");
+    let old: MappingState = serde_json::from_value(json).unwrap();
+    assert_eq!(old.params.motion().speed(), 0.0);
+    // The field test flies at 1 m/s: a region as fast, or a malformed velocity, is refused.
+    for bad in [
+        "roi_velocity_ne_mps = [0.6, 0.8]",
+        "roi_velocity_ne_mps = [0.1]",
+        "roi_velocity_ne_mps = \"east\"",
+    ] {
+        let errs = MissionDef::parse(&with(bad), "bad.toml")
+            .unwrap_err()
+            .to_string();
+        assert!(errs.contains("runway.roi_velocity_ne_mps"), "{bad}: {errs}");
+    }
+}
+
 // ---- serde agrees with the reader ------------------------------------------------------
 
 #[test]

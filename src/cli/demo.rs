@@ -278,6 +278,13 @@ fn summary(r: &MappingReport) -> Vec<String> {
             r.flight_time_s, r.distance_m, r.battery_swaps
         ),
     ];
+    if let Some([n, e]) = r.roi_velocity_ne_mps {
+        lines.push(format!(
+            "  the region moved at {:.2} m/s (north {n:.2}, east {e:.2}): mapped in its own frame, \
+             scored against where it was at the simulator's start",
+            n.hypot(e)
+        ));
+    }
     if let Some(t) = &r.truth {
         lines.push(format!(
             "  IoU with the ground truth {:.1} % (best possible on this grid {:.1} %; the paper's field test {:.1} %); \

@@ -175,6 +175,13 @@ impl RunKind for Runway {
                 r.flight_time_s, r.distance_m, r.battery_swaps
             ),
         ];
+        if let Some([n, e]) = r.roi_velocity_ne_mps {
+            lines.push(format!(
+                "  region moving at {:.2} m/s (north {n:.2}, east {e:.2}): the map is in its frame \
+                 at the run's epoch",
+                n.hypot(e)
+            ));
+        }
         for rb in &r.robots {
             lines.push(format!(
                 "  vehicle {} at {:.1} m: {}, {:.0} s, {:.0} m, {} swap(s), {} images",

@@ -367,3 +367,42 @@ enum PilotEnd {
     Done,
     WaitingForOperator,
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_region_clock_follows_the_fleet_clock_from_its_epoch() {
+        // Moving east at 0.3 m/s; the epoch 2 s of wall time before the reading, on a
+        // clock 10× faster than the wall: 20 s of region time, 6 m, at fleet time 5 s.
+        let m = RoiMotion::new(0.3, 0.0, Time::ZERO);
+        let roi = RoiClock::new(m, 1_000_000, 1_002_000, Time::from_secs(5), 10.0);
+        assert!(!roi.is_static() && RoiClock::fixed().is_static());
+        assert_eq!(roi.roi_time(Time::from_secs(5)), Time::from_secs(20));
+        assert_eq!(roi.roi_time(Time::from_secs(15)), Time::from_secs(30));
+        let (e, n) = roi.to_roi(10.0, 4.0, Time::from_secs(5));
+        assert!((e - 4.0).abs() < 1e-9 && (n - 4.0).abs() < 1e-9, "{e} {n}");
+        // The ground centre of a region cell, taken back to the region, is that cell's centre.
+        let cell = Cell::new(2, -1);
+        let (ce, cn) = roi.cell_centre(cell, Time::from_secs(8), 4.0);
+        assert!((ce - (-4.0 + 0.3 * 23.0)).abs() < 1e-9 && (cn - 8.0).abs() < 1e-9);
+        let (re, rn) = roi.to_roi(ce, cn, Time::from_secs(8));
+        assert!((re + 4.0).abs() < 1e-9 && (rn - 8.0).abs() < 1e-9);
+        // The intercept is where the cell is when a 2 m/s flight from the origin gets there,
+        // then the drift over the lead.
+        let (ie, in_) = roi
+            .intercept((0.0, 0.0), Time::from_secs(5), cell, 4.0, 2.0, 0.5)
+            .unwrap();
+        let (me, mn) = (ie - 0.3 * 0.5, in_);
+        let tau = me.hypot(mn) / 2.0;
+        let (we, wn) = roi.cell_centre(cell, Time::from_secs_f64(5.0 + tau), 4.0);
+        assert!((me - we).abs() < 1e-6 && (mn - wn).abs() < 1e-6);
+        // A static region is the grid.
+        let fixed = RoiClock::fixed();
+        assert_eq!(fixed.to_roi(3.0, -2.0, Time::from_secs(99)), (3.0, -2.0));
+        // A reading before the epoch (a wall clock set back) counts from the epoch.
+        let early = RoiClock::new(m, 5_000, 1_000, Time::ZERO, 1.0);
+        assert_eq!(early.roi_time(Time::ZERO), Time::ZERO);
+    }
+}

@@ -153,6 +153,11 @@ pub struct MappingReport {
     pub allocation: &'static str,
     /// Vertex-state sharing: `gcs` or `meet`.
     pub sharing: String,
+    /// The region's velocity over the ground, `[north, east]` m/s, when it moved: the map
+    /// is then in the region's own frame, which is the grid at the run's epoch (where the
+    /// mission put the region), and the truth is the region at that epoch.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub roi_velocity_ne_mps: Option<[f64; 2]>,
     /// Where the run is.
     pub phase: String,
     /// Whether the run is over (every robot landed).
@@ -267,6 +272,7 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
             .ok()
             .and_then(|v| v.as_str().map(str::to_string))
             .unwrap_or_default(),
+        roi_velocity_ne_mps: state.params.roi_velocity_ne_mps,
         phase: state.phase.to_string(),
         finished: state.is_finished(),
         found: state.explorer.is_some(),
