@@ -541,7 +541,11 @@ fn plume_demo_headless_maps_the_moving_plume() {
     let r = report_json(&run, tmp.path(), "report");
     assert_eq!(r["finished"], Value::Bool(true), "{r}");
     assert_eq!(r["mission"], "plume", "{r}");
-    assert_eq!(r["roi_velocity_ne_mps"], serde_json::json!([0.0, 0.3]), "{r}");
+    assert_eq!(
+        r["roi_velocity_ne_mps"],
+        serde_json::json!([0.0, 0.3]),
+        "{r}"
+    );
     // Against the plume at the simulator's start (the run's epoch) and at the end of the run.
     let state: MappingState = fleetmap::store::RunDir::open(&run)
         .expect("the run directory")

@@ -345,14 +345,24 @@ fn a_moving_region_is_read_checked_and_kept_by_the_state() {
         d.runway.as_ref().unwrap().roi_velocity_ne_mps,
         Some([0.1, -0.2])
     );
-    let s = MappingState::new(&d, fleetmap::geo::Grid::new(origin, 4.0).unwrap(), Sharing::Gcs)
-        .unwrap();
+    let s = MappingState::new(
+        &d,
+        fleetmap::geo::Grid::new(origin, 4.0).unwrap(),
+        Sharing::Gcs,
+    )
+    .unwrap();
     let m = s.params.motion();
     assert_eq!((m.velocity_north, m.velocity_east), (0.1, -0.2));
-    assert_eq!(s.roi_epoch_unix_ms, None, "the shell sets it when the run starts");
+    assert_eq!(
+        s.roi_epoch_unix_ms, None,
+        "the shell sets it when the run starts"
+    );
     // A state saved before the key existed loads as a static region.
     let mut json = serde_json::to_value(&s).unwrap();
-    json["params"].as_object_mut().unwrap().remove("roi_velocity_ne_mps");
+    json["params"]
+        .as_object_mut()
+        .unwrap()
+        .remove("roi_velocity_ne_mps");
     let old: MappingState = serde_json::from_value(json).unwrap();
     assert_eq!(old.params.motion().speed(), 0.0);
     // The field test flies at 1 m/s: a region as fast, or a malformed velocity, is refused.

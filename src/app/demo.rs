@@ -7,6 +7,7 @@
 //! and the flight times keep their real-time meaning in simulated seconds. The world and
 //! the mission are compiled into the binary, so the demo runs from any directory.
 
+use crate::app::runway::report::ROI_SURFACES;
 use crate::clock::MonotonicClock;
 use crate::fleet::{self, FleetConfig, FleetHandle};
 use crate::link::ConnSpec;
@@ -14,7 +15,6 @@ use crate::link::transport::{LinkOptions, open_link, open_memory_link};
 use crate::mission::definition::MissionDef;
 use crate::sim::harness::{Sim, SimConfig};
 use crate::sim::server::{self, Endpoint, MemorySimHandle, ServeOptions, SimHandle};
-use crate::app::runway::report::ROI_SURFACES;
 use crate::sim::world::World;
 use crate::time::Time;
 use anyhow::Context as _;

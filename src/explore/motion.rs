@@ -153,7 +153,8 @@ impl RoiMotion {
     /// Where and when a robot at ground point (`east`, `north`) at time `now`, flying
     /// straight at `robot_speed`, meets the centre of ROI-frame `cell`: (seconds of flight,
     /// ground (east, north) of the meeting point). The experiments' model of a visit to a
-    /// translating ROI; the field runner flies to static cells and does not call it yet.
+    /// translating ROI, and where the field runner flies for one (`app::runway`'s
+    /// `RoiClock::intercept`).
     pub fn intercept(
         &self,
         east: f64,

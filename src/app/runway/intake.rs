@@ -242,7 +242,7 @@ impl Pilot {
                     lon: p.lon,
                 })
                 .ok()
-                .map(|(e, n)| self.shared.roi.to_roi(e, n, shutter))
+                .map(|(e, n)| self.shared.roi.in_region(e, n, shutter))
             });
             let verdict = match (&pose, xy) {
                 (Some(p), Some((e, n))) => check_capture(

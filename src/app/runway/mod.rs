@@ -239,7 +239,7 @@ impl RoiClock {
     }
 
     /// Grid metres (east, north) on the ground at fleet time `t` → the region's frame.
-    pub(crate) fn to_roi(&self, east: f64, north: f64, t: Time) -> (f64, f64) {
+    pub(crate) fn in_region(&self, east: f64, north: f64, t: Time) -> (f64, f64) {
         self.motion.ground_to_roi(east, north, self.roi_time(t))
     }
 
@@ -381,13 +381,13 @@ mod tests {
         assert!(!roi.is_static() && RoiClock::fixed().is_static());
         assert_eq!(roi.roi_time(Time::from_secs(5)), Time::from_secs(20));
         assert_eq!(roi.roi_time(Time::from_secs(15)), Time::from_secs(30));
-        let (e, n) = roi.to_roi(10.0, 4.0, Time::from_secs(5));
+        let (e, n) = roi.in_region(10.0, 4.0, Time::from_secs(5));
         assert!((e - 4.0).abs() < 1e-9 && (n - 4.0).abs() < 1e-9, "{e} {n}");
         // The ground centre of a region cell, taken back to the region, is that cell's centre.
         let cell = Cell::new(2, -1);
         let (ce, cn) = roi.cell_centre(cell, Time::from_secs(8), 4.0);
         assert!((ce - (-4.0 + 0.3 * 23.0)).abs() < 1e-9 && (cn - 8.0).abs() < 1e-9);
-        let (re, rn) = roi.to_roi(ce, cn, Time::from_secs(8));
+        let (re, rn) = roi.in_region(ce, cn, Time::from_secs(8));
         assert!((re + 4.0).abs() < 1e-9 && (rn - 8.0).abs() < 1e-9);
         // The intercept is where the cell is when a 2 m/s flight from the origin gets there,
         // then the drift over the lead.
@@ -400,7 +400,7 @@ mod tests {
         assert!((me - we).abs() < 1e-6 && (mn - wn).abs() < 1e-6);
         // A static region is the grid.
         let fixed = RoiClock::fixed();
-        assert_eq!(fixed.to_roi(3.0, -2.0, Time::from_secs(99)), (3.0, -2.0));
+        assert_eq!(fixed.in_region(3.0, -2.0, Time::from_secs(99)), (3.0, -2.0));
         // A reading before the epoch (a wall clock set back) counts from the epoch.
         let early = RoiClock::new(m, 5_000, 1_000, Time::ZERO, 1.0);
         assert_eq!(early.roi_time(Time::ZERO), Time::ZERO);

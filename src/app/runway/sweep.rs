@@ -286,7 +286,7 @@ impl Pilot {
         // The cell of the region's frame (the grid's own for a static region) at the shutter.
         let cell = grid.to_xy(here).map(|(e, n)| {
             let (de, dn) = looked.unwrap_or((0.0, 0.0));
-            let (e, n) = self.shared.roi.to_roi(e + de, n + dn, shutter);
+            let (e, n) = self.shared.roi.in_region(e + de, n + dn, shutter);
             grid.cell_of_xy(e, n)
         });
         let verdict = match (check_capture(&claim, altitude, &limits), &cell) {
