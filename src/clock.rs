@@ -19,6 +19,15 @@ pub fn unix_ms() -> u64 {
         .unwrap_or(0)
 }
 
+/// Wall-clock microseconds since the Unix epoch (0 if the clock is before it): the
+/// timestamp the links put on every frame they receive (`fleet::Incoming::unix_us`).
+pub fn unix_us() -> u64 {
+    std::time::SystemTime::now()
+        .duration_since(std::time::UNIX_EPOCH)
+        .map(|d| u64::try_from(d.as_micros()).unwrap_or(u64::MAX))
+        .unwrap_or(0)
+}
+
 /// The shell's clock: real monotonic time since the clock was created.
 ///
 /// It reads `tokio::time::Instant`, which is the system's monotonic clock — except in a

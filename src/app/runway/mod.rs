@@ -280,6 +280,15 @@ impl Shared {
         self.run.now()
     }
 
+    /// The fleet-clock time at which a frame stamped `unix_us` by its link arrived: now, less
+    /// the wall time since (scaled like the fleet clock). A task that runs late on a busy
+    /// machine still dates what it reads by its arrival.
+    fn received_at(&self, unix_us: u64) -> Time {
+        let late_us = crate::clock::unix_us().saturating_sub(unix_us);
+        let speedup = self.fleet.clock().speedup();
+        self.now() - Duration::from_secs_f64(late_us as f64 / 1e6 * speedup)
+    }
+
     /// Mutate the state, save it, then journal `event`; notify everyone
     /// ([`RunCore::commit`] with the runway's types).
     async fn commit<T>(

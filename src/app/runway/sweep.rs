@@ -111,7 +111,7 @@ impl Pilot {
                     match f {
                         Ok(inc) if inc.frame.sysid() == sysid => {
                             if let Ok(m) = &inc.frame.message {
-                                heard.on_message(inc.frame.compid(), m, self.shared.now());
+                                heard.on_message(inc.frame.compid(), m, self.shared.received_at(inc.unix_us));
                             }
                         }
                         Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
@@ -135,7 +135,7 @@ impl Pilot {
                         match frames.try_recv() {
                             Ok(inc) if inc.frame.sysid() == sysid => {
                                 if let Ok(m) = &inc.frame.message {
-                                    heard.on_message(inc.frame.compid(), m, now);
+                                    heard.on_message(inc.frame.compid(), m, self.shared.received_at(inc.unix_us));
                                 }
                             }
                             Ok(_) | Err(broadcast::error::TryRecvError::Lagged(_)) => {}
