@@ -149,14 +149,10 @@ impl Pilot {
         if roi.is_static() {
             return Ok(false);
         }
-        let Some(p) = self.vehicle().and_then(|v| v.position) else {
+        let grid = self.shared.read(|s| s.grid.clone()).await;
+        let Some((e, n)) = self.vehicle_xy(&grid)? else {
             return Ok(true);
         };
-        let grid = self.shared.read(|s| s.grid.clone()).await;
-        let (e, n) = grid.to_xy(LatLon {
-            lat: p.lat,
-            lon: p.lon,
-        })?;
         let (ce, cn) = roi.cell_centre(cell, self.shared.now(), grid.cell_size());
         Ok((ce - e).hypot(cn - n) > self.shared.tolerance_m)
     }

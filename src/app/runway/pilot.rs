@@ -308,6 +308,17 @@ impl Pilot {
         Ok(())
     }
 
+    /// Where the vehicle is on `grid` (east, north metres), if it reports a position.
+    pub(super) fn vehicle_xy(&self, grid: &Grid) -> anyhow::Result<Option<(f64, f64)>> {
+        let Some(p) = self.vehicle().and_then(|v| v.position) else {
+            return Ok(None);
+        };
+        Ok(Some(grid.to_xy(LatLon {
+            lat: p.lat,
+            lon: p.lon,
+        })?))
+    }
+
     /// Where to fly to meet region cell `cell` of a moving region: the intercept from where
     /// the vehicle is now at `speed` m/s, `lead_s` seconds further along the region's path
     /// (the time to settle over it). `None` for a static region (the cell's centre).
@@ -322,16 +333,9 @@ impl Pilot {
             return Ok(None);
         }
         let grid = self.shared.read(|s| s.grid.clone()).await;
-        let v = self
-            .vehicle()
-            .ok_or(crate::fleet::FleetError::NoVehicle { sysid: self.sysid })?;
-        let p = v
-            .position
+        let (e, n) = self
+            .vehicle_xy(&grid)?
             .with_context(|| format!("vehicle {}: no position to aim from", self.sysid))?;
-        let (e, n) = grid.to_xy(LatLon {
-            lat: p.lat,
-            lon: p.lon,
-        })?;
         let now = self.shared.now();
         let (me, mn) = roi.intercept((e, n), now, cell, grid.cell_size(), speed, lead_s)?;
         Ok(Some(grid.from_xy(me, mn)?))

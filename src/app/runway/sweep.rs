@@ -109,12 +109,8 @@ impl Pilot {
             tokio::select! {
                 f = frames.recv() => {
                     match f {
-                        Ok(inc) if inc.frame.sysid() == sysid => {
-                            if let Ok(m) = &inc.frame.message {
-                                heard.on_message(inc.frame.compid(), m, self.shared.received_at(inc.unix_us));
-                            }
-                        }
-                        Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
+                        Ok(inc) => heard.on_frame(sysid, &inc, &self.shared),
+                        Err(broadcast::error::RecvError::Lagged(_)) => {}
                         Err(broadcast::error::RecvError::Closed) => anyhow::bail!("the fleet stopped"),
                     }
                 }
@@ -133,12 +129,8 @@ impl Pilot {
                     let now = self.shared.now();
                     loop {
                         match frames.try_recv() {
-                            Ok(inc) if inc.frame.sysid() == sysid => {
-                                if let Ok(m) = &inc.frame.message {
-                                    heard.on_message(inc.frame.compid(), m, self.shared.received_at(inc.unix_us));
-                                }
-                            }
-                            Ok(_) | Err(broadcast::error::TryRecvError::Lagged(_)) => {}
+                            Ok(inc) => heard.on_frame(sysid, &inc, &self.shared),
+                            Err(broadcast::error::TryRecvError::Lagged(_)) => {}
                             Err(_) => break,
                         }
                     }
@@ -395,7 +387,10 @@ impl Pilot {
 /// What a sweeping vehicle's frames tell of its pictures, read in the order the frames
 /// arrived: the pictures its camera announced (CAMERA_IMAGE_CAPTURED) and the pictures that
 /// arrived, the last time any image news was heard, and where the vehicle reported itself
-/// (GLOBAL_POSITION_INT) when each picture was announced.
+/// (GLOBAL_POSITION_INT) when each picture was announced. An announced picture exists while
+/// its transmission is queued behind others (a slow payload link: PX4 SITL's carries 4 kB/s),
+/// so it is missing only once no image data at all has been heard for a while
+/// ([`SweepFrames::stalled`]).
 ///
 /// The reference position is the vehicle's last report *before the announcement in the
 /// stream*, not its position when this task gets to run: on a busy machine the task can run
@@ -425,6 +420,16 @@ impl SweepFrames {
             progress: now,
             position: None,
             where_announced: std::collections::VecDeque::new(),
+        }
+    }
+
+    /// A frame from the fleet: `sysid`'s (any of its components) are taken, dated by their
+    /// arrival.
+    fn on_frame(&mut self, sysid: u8, inc: &crate::fleet::Incoming, shared: &Shared) {
+        if inc.frame.sysid() == sysid
+            && let Ok(m) = &inc.frame.message
+        {
+            self.on_message(inc.frame.compid(), m, shared.received_at(inc.unix_us));
         }
     }
 
