@@ -72,7 +72,7 @@ pub struct FastPlainArgs {
     #[arg(long)]
     pub json: bool,
     /// Directory for fast_plain.csv, fast_plain.json and the scenario file of every difference
-    /// (created if missing).
+    /// and every unknown instance (created if missing).
     #[arg(long, value_name = "DIR", default_value = "experiment-fast-plain")]
     pub out: std::path::PathBuf,
 }
@@ -136,8 +136,12 @@ fn run_fast_plain(args: FastPlainArgs) -> anyhow::Result<ExitCode> {
     ];
     for r in &study.rows {
         if let Some(scen) = &r.scenario {
+            let kind = match r.verdict {
+                fastplain::Verdict::Difference(_) => "difference",
+                _ => "unknown",
+            };
             files.push(write(
-                &format!("difference-C{}-{}.json", r.capacity, r.index),
+                &format!("{kind}-C{}-{}.json", r.capacity, r.index),
                 scen.as_bytes(),
             )?);
         }

@@ -436,7 +436,8 @@ pub struct Row {
     /// The comparison.
     pub verdict: Verdict,
     /// The instance as a scenario file (docs/ip-scenario.md) when the verdict is a
-    /// difference, so it can be replayed with `fleetmap plan --scenario`.
+    /// difference or unknown, so it can be replayed with `fleetmap plan --scenario` (e.g. the
+    /// plain model with a longer `--time-limit`).
     pub scenario: Option<String>,
 }
 
@@ -460,9 +461,9 @@ pub fn compare(generated: &Generated, time_limit: Option<f64>, clock: &dyn Fn() 
     let fast = Solved::of(inst, &fast_out);
     let plain = Solved::of(inst, &plain_out);
     let verdict = verdict(&fast, &plain);
-    let scenario = matches!(verdict, Verdict::Difference(_)).then(|| {
+    let scenario = (verdict != Verdict::Same).then(|| {
         inst.to_scenario(&format!(
-            "fast-plain difference: C={}, instance {}, world seed {}",
+            "fast-plain: C={}, instance {}, world seed {}",
             generated.capacity, generated.index, generated.world_seed
         ))
         .to_json()
