@@ -2,3 +2,4 @@
 
 pub mod bandit;
 pub mod dfs;
+pub mod fastplain;
