@@ -232,7 +232,8 @@ impl Pilot {
         announced: Option<(GeoPoint, Time)>,
     ) -> anyhow::Result<bool> {
         let announced_at = announced.map(|(p, _)| p);
-        // When the picture was taken, as near as the GCS knows: its announcement, else now.
+        // When the picture was taken, as near as the GCS knows: by the camera's clock when it
+        // announced the picture, else now.
         let shutter = announced.map_or_else(|| self.shared.now(), |(_, t)| t);
         let sysid = self.sysid;
         let v = self.vehicle();
@@ -278,8 +279,8 @@ impl Pilot {
         // The cell of the region's frame (the grid's own for a static region) at the shutter.
         let cell = grid.to_xy(here).map(|(e, n)| {
             let (de, dn) = looked.unwrap_or((0.0, 0.0));
-            let (e, n) = self.shared.roi.in_region(e + de, n + dn, shutter);
-            grid.cell_of_xy(e, n)
+            let (re, rn) = self.shared.roi.in_region(e + de, n + dn, shutter);
+            grid.cell_of_xy(re, rn)
         });
         let verdict = match (check_capture(&claim, altitude, &limits), &cell) {
             (Err(r), _) => Err(format!(
@@ -404,11 +405,15 @@ struct SweepFrames {
     arrived: usize,
     /// When image news (an announcement while none was pending, or image data) was last heard.
     progress: Time,
-    /// The vehicle's last reported position, in stream order.
+    /// The vehicle's last reported position, in stream order, and its boot time.
     position: Option<GeoPoint>,
-    /// Where the vehicle was when each picture was announced, and when that was read, by
+    position_boot_ms: Option<u32>,
+    /// Where the vehicle was when each picture was announced, and when it was taken, by
     /// (time_boot_ms, image_index), the last [`ANNOUNCED_KEPT`].
     where_announced: std::collections::VecDeque<((u32, i32), GeoPoint, Time)>,
+    /// Per component: its boot clock against ours — the smallest (arrival − time_boot_ms)
+    /// seen since it last booted, µs — and its latest time_boot_ms (a smaller one is a reboot).
+    boot: std::collections::BTreeMap<u8, (i64, u32)>,
 }
 
 impl SweepFrames {
@@ -419,8 +424,47 @@ impl SweepFrames {
             arrived: 0,
             progress: now,
             position: None,
+            position_boot_ms: None,
             where_announced: std::collections::VecDeque::new(),
+            boot: std::collections::BTreeMap::new(),
         }
+    }
+
+    /// Take a message of component `compid` stamped `time_boot_ms` that arrived at `now`;
+    /// returns that component's clock offset (fleet-clock µs − boot-clock µs).
+    ///
+    /// A frame is never early, only late (the link, or a busy GCS that reads its socket late),
+    /// so the smallest offset seen is the best (the minimum-delay filter of NTP and of PX4's
+    /// and MAVSDK's TIMESYNC). It assumes the vehicle's clock runs at the fleet clock's rate,
+    /// as it does for a real vehicle and for the simulator with the GCS at its speed-up.
+    fn clock_offset(&mut self, compid: u8, time_boot_ms: u32, now: Time) -> i64 {
+        let off = now.as_micros() as i64 - i64::from(time_boot_ms) * 1000;
+        let e = self.boot.entry(compid).or_insert((off, time_boot_ms));
+        if time_boot_ms < e.1 {
+            *e = (off, time_boot_ms);
+        } else {
+            *e = (e.0.min(off), time_boot_ms);
+        }
+        e.0
+    }
+
+    /// When a picture announced by component `compid` with boot time `time_boot_ms` was
+    /// taken, on the fleet clock. The camera sends its announcement right after the shutter,
+    /// so the autopilot's last position report before it *in the stream* gives the vehicle's
+    /// boot time then (within a report period), whatever the camera's own clock; that boot
+    /// time is converted with the autopilot's offset, measured on many reports. A camera
+    /// whose boot time agrees within 2 s shares the autopilot's clock (an autopilot's own
+    /// camera, the simulator's): its own stamp is used. Without position reports yet, the
+    /// camera's own offset.
+    fn shutter(&mut self, compid: u8, time_boot_ms: u32, now: Time) -> Time {
+        let own = self.clock_offset(compid, time_boot_ms, now);
+        let (boot_ms, off) = match (self.position_boot_ms, self.boot.get(&self.autopilot)) {
+            (Some(p), Some(&(ap, _))) if time_boot_ms.abs_diff(p) < 2000 => (time_boot_ms, ap),
+            (Some(p), Some(&(ap, _))) => (p, ap),
+            _ => (time_boot_ms, own),
+        };
+        let us = i64::from(boot_ms) * 1000 + off;
+        Time::from_micros(u64::try_from(us).unwrap_or(0).min(now.as_micros()))
     }
 
     /// A frame from the fleet: `sysid`'s (any of its components) are taken, dated by their
@@ -438,8 +482,11 @@ impl SweepFrames {
         match msg {
             MavMessage::GLOBAL_POSITION_INT(p) if compid == self.autopilot => {
                 self.position = Some(GeoPoint::of_global_position(p));
+                self.position_boot_ms = Some(p.time_boot_ms);
+                self.clock_offset(compid, p.time_boot_ms, now);
             }
             MavMessage::CAMERA_IMAGE_CAPTURED(c) => {
+                let taken = self.shutter(compid, c.time_boot_ms, now);
                 if self.pending() == 0 {
                     self.progress = now;
                 }
@@ -449,7 +496,7 @@ impl SweepFrames {
                         self.where_announced.pop_front();
                     }
                     self.where_announced
-                        .push_back(((c.time_boot_ms, c.image_index), p, now));
+                        .push_back(((c.time_boot_ms, c.image_index), p, taken));
                 }
             }
             MavMessage::ENCAPSULATED_DATA(_) | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) => {
@@ -523,10 +570,56 @@ mod tests {
             "{second:?}"
         );
         assert_eq!(heard.announced_at((1002, 2)), None);
+        // Both announced on time: taken when they arrived (the boot clock runs from 0 at 0).
+        assert_eq!(
+            heard.announced_at((1000, 0)).map(|(_, t)| t),
+            Some(Time::from_secs(1))
+        );
         assert_eq!(heard.pending(), 2);
         heard.on_image(Time::from_secs(4));
         assert_eq!(heard.pending(), 1);
         assert!(!heard.stalled(Time::from_secs(5), Duration::from_secs(2)));
         assert!(heard.stalled(Time::from_secs(7), Duration::from_secs(2)));
+    }
+
+    #[test]
+    fn a_picture_read_late_is_dated_by_the_vehicles_clock() {
+        let mut heard = SweepFrames::new(1, Time::ZERO);
+        let report = |boot_ms: u32| {
+            MavMessage::GLOBAL_POSITION_INT(GLOBAL_POSITION_INT_DATA {
+                time_boot_ms: boot_ms,
+                ..Default::default()
+            })
+        };
+        // The vehicle booted 50 s before our clock's 60 s; reports arrive 0–300 ms late.
+        for (k, late_ms) in [300u64, 20, 150, 0, 90].into_iter().enumerate() {
+            let boot_ms = 10_000 + 100 * k as u32;
+            heard.on_message(
+                1,
+                &report(boot_ms),
+                Time::from_millis(60_000 + 100 * k as u64 + late_ms),
+            );
+        }
+        // A picture taken at boot 10.6 s (our 60.6 s) read 3.4 s late: dated 60.6 s.
+        let mut c = captured(7);
+        if let MavMessage::CAMERA_IMAGE_CAPTURED(d) = &mut c {
+            d.time_boot_ms = 10_600;
+        }
+        heard.on_message(100, &c, Time::from_secs(64));
+        assert_eq!(
+            heard.announced_at((10_600, 7)).map(|(_, t)| t),
+            Some(Time::from_millis(60_600))
+        );
+        // After a reboot the boot clock starts again: the offset is measured afresh.
+        heard.on_message(1, &report(500), Time::from_secs(200));
+        let mut c = captured(0);
+        if let MavMessage::CAMERA_IMAGE_CAPTURED(d) = &mut c {
+            d.time_boot_ms = 600;
+        }
+        heard.on_message(100, &c, Time::from_millis(200_100));
+        assert_eq!(
+            heard.announced_at((600, 0)).map(|(_, t)| t),
+            Some(Time::from_millis(200_100))
+        );
     }
 }
