@@ -107,7 +107,13 @@ fn history_of_state(s: &ClassificationState) -> BTreeMap<Cell, (u64, u64)> {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn hardware_mission_keeps_the_green_tiles() {
     let t0 = Instant::now();
-    let (world, def) = hardware();
+    let (world, mut def) = hardware();
+    // The paper's (3b), as in its §V test (the figures below are (3b)'s); the other flights
+    // here use the field default, the KL bound, which labels every cell within one visit
+    // (`planner::sortie` tests pin its 19 samples a cell).
+    if let Some(c) = def.classification.as_mut() {
+        c.bound = fleetmap::planner::bandit::ConfidenceBound::Paper;
+    }
     let green = bandit_sim::green_tiles(&world);
     assert_eq!(green.len(), 4);
     let d = bandit_sim::start_team(bandit_sim::HARDWARE_TEAM, &world, &setup(20.0))

@@ -242,6 +242,8 @@ cols = 3
     let d = MissionDef::parse(text, "minimal.toml").unwrap();
     let c = d.classification.unwrap();
     assert_eq!((c.theta, c.epsilon, c.delta), (0.5, 0.05, 0.0001));
+    // Not the paper's (3b) but the KL bound with the same guarantee (issue 17, item 4).
+    assert_eq!(c.bound, fleetmap::planner::bandit::ConfidenceBound::Kl);
     assert_eq!(
         (
             c.epoch_goals,
@@ -376,6 +378,28 @@ fn a_moving_region_is_read_checked_and_kept_by_the_state() {
             .to_string();
         assert!(errs.contains("runway.roi_velocity_ne_mps"), "{bad}: {errs}");
     }
+}
+
+#[test]
+fn classification_bound_is_read_and_checked() {
+    use fleetmap::planner::bandit::ConfidenceBound;
+    let text = std::fs::read_to_string(root().join("missions/hardware-6x6.toml")).unwrap();
+    let with = |line: &str| {
+        assert!(text.contains("[classification]"));
+        text.replace("[classification]", &format!("[classification]\n{line}"))
+    };
+    let d = MissionDef::parse(&with("bound = \"paper\""), "paper.toml").unwrap();
+    assert_eq!(d.classification.unwrap().bound, ConfidenceBound::Paper);
+    let d = MissionDef::parse(&with("bound = \"kl\""), "kl.toml").unwrap();
+    assert_eq!(d.classification.unwrap().bound, ConfidenceBound::Kl);
+    let errs = MissionDef::parse(&with("bound = \"hoeffding\""), "bad.toml")
+        .unwrap_err()
+        .to_string();
+    assert!(
+        errs.contains("classification.bound") && errs.contains("\"paper\" or \"kl\""),
+        "{errs}"
+    );
+    assert_eq!(errs.trim().lines().count(), 1, "{errs}");
 }
 
 // ---- serde agrees with the reader ------------------------------------------------------

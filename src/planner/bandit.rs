@@ -2,6 +2,13 @@
 //! (3a, 3b), the top-D epoch goals among the unclassified cells, the keep and reject sets
 //! (4a, 4b), and the completion bound P_max of Proposition 2 (12)–(14).
 //!
+//! Beyond the paper, a second confidence interval can replace (3b) in both the goal score (3)
+//! and the labels (4): [`ConfidenceBound::Kl`], the Bernoulli KL form of Robbins' beta-binomial
+//! mixture confidence sequence ([`kl_interval`]). It keeps Prop. 1's guarantee at the same δ
+//! (P(some cell is ever mislabelled) ≤ δ, over all cells and all sample counts) and needs about
+//! a quarter of (3b)'s samples; the proof and its conditions are in `kl_interval` and in
+//! docs/results/bandit-bound.md.
+//!
 //! Conventions:
 //! * **Logarithms.** (3b) writes `log` and `log₂`: `log` is the natural logarithm, `log₂` the
 //!   binary one, exactly where written; (13) writes `log` only: natural logarithms.
@@ -70,9 +77,162 @@ pub struct BanditState {
     pub classified_at: Vec<Option<u64>>,
     /// The current epoch p (number of updates so far).
     pub epoch: u64,
-    /// The base of `log` in (3b) (natural unless a study asks otherwise).
+    /// The base of `log` in (3b) (natural unless a study asks otherwise; unused by
+    /// [`ConfidenceBound::Kl`]).
     #[serde(default)]
     pub log_base: LogBase,
+    /// The confidence interval behind (3) and (4). Saved states from before the choice existed
+    /// ran the paper's (3b), so that is their serde default; [`BanditState::new`] also starts
+    /// with the paper's, and the field runner and the study set what the mission or the
+    /// command line asks for.
+    #[serde(default = "ConfidenceBound::paper")]
+    pub bound: ConfidenceBound,
+}
+
+/// The confidence interval [lo, hi] around μ̂_l that the goal score (3) and the labels (4) use:
+/// J = hi, (4a) is lo ≥ θ − ε, (4b) is hi ≤ θ + ε (the tie rule of [`BanditState::classify`]
+/// unchanged).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum ConfidenceBound {
+    /// The paper's (3b): [μ̂ − U, μ̂ + U], for reproducing its figures and tables.
+    Paper,
+    /// The Bernoulli KL form of the beta-binomial mixture confidence sequence
+    /// ([`kl_interval`]): the same guarantee (Prop. 1 at the same δ), about 4× fewer samples
+    /// (40 instead of 210 for a cell at μ̂ = 0.1 with |C| = 100, δ = 10⁻⁴, ε = 0.05). The
+    /// field default (docs/results/bandit-bound.md).
+    Kl,
+}
+
+impl ConfidenceBound {
+    /// Both bounds, the paper's first.
+    pub const ALL: [ConfidenceBound; 2] = [ConfidenceBound::Paper, ConfidenceBound::Kl];
+
+    /// The paper's (3b): the serde default of saved states that predate the choice.
+    pub fn paper() -> ConfidenceBound {
+        ConfidenceBound::Paper
+    }
+
+    /// What a new field run uses unless its mission file says otherwise: the KL bound, which
+    /// classified Table I's μ_worst = 0.8 row in fewer epochs with no mislabelled cell
+    /// (docs/results/bandit-bound.md).
+    pub fn field_default() -> ConfidenceBound {
+        ConfidenceBound::Kl
+    }
+
+    /// A stable name (the serde name): `paper` or `kl`.
+    pub fn name(self) -> &'static str {
+        match self {
+            ConfidenceBound::Paper => "paper",
+            ConfidenceBound::Kl => "kl",
+        }
+    }
+}
+
+impl std::fmt::Display for ConfidenceBound {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+/// kl(p, q) = p ln(p/q) + (1 − p) ln((1 − p)/(1 − q)), the Kullback–Leibler divergence between
+/// Bernoulli(p) and Bernoulli(q), in nats, with 0 · ln 0 = 0; +∞ when q ∈ {0, 1} and p ≠ q.
+/// Arguments are clamped to [0, 1].
+pub fn bernoulli_kl(p: f64, q: f64) -> f64 {
+    let (p, q) = (p.clamp(0.0, 1.0), q.clamp(0.0, 1.0));
+    let term = |a: f64, b: f64| {
+        if a <= 0.0 {
+            0.0
+        } else if b <= 0.0 {
+            f64::INFINITY
+        } else {
+            a * (a / b).ln()
+        }
+    };
+    (term(p, q) + term(1.0 - p, 1.0 - q)).max(0.0)
+}
+
+/// ln P(Bin(n, k/n) = k): the log-probability of the observed count under the binomial whose
+/// mean is the observed frequency (≤ 0, and ≥ −ln(n + 1) since k is a mode). Exact sums of
+/// logarithms, O(min(k, n − k)).
+fn ln_binomial_at_mean(k: u64, n: u64) -> f64 {
+    if n == 0 || k == 0 || k >= n {
+        return 0.0;
+    }
+    let f = n - k;
+    let m = k.min(f);
+    // ln C(n, m) = Σ_{i=1..m} ln((n − m + i) / i).
+    let ln_choose: f64 = (1..=m).map(|i| ((n - m + i) as f64 / i as f64).ln()).sum();
+    let (kf, ff, nf) = (k as f64, f as f64, n as f64);
+    (ln_choose + kf * (kf / nf).ln() + ff * (ff / nf).ln()).min(0.0)
+}
+
+/// β of the KL bound for a cell with `ones` positive measurements out of `n`, among
+/// `n_cells = |C|` candidates, at level δ: the interval is {q : n·kl(μ̂, q) ≤ β}, with
+///
+/// β = ln(|C|/δ) + ln(n + 1) + ln P(Bin(n, μ̂) = ones).
+///
+/// This is the beta-binomial mixture of Robbins (1970) with a uniform Beta(1, 1) prior,
+/// rewritten in KL form: the likelihood ratio mixed over the prior,
+/// M_n(μ) = ∫₀¹ pˢ(1 − p)ⁿ⁻ˢ dp / (μˢ(1 − μ)ⁿ⁻ˢ) = 1 / ((n + 1) C(n, S) μˢ(1 − μ)ⁿ⁻ˢ),
+/// satisfies ln M_n(μ) = n·kl(μ̂, μ) − (β − ln(|C|/δ)), so M_n(μ) ≥ |C|/δ exactly when
+/// n·kl(μ̂, μ) ≥ β. β ≥ ln(|C|/δ) (the observed count is a mode of Bin(n, μ̂)) and
+/// β ≤ ln(|C|(n + 1)/δ): beyond ln(|C|/δ) it grows like ½ ln n (a plain union bound over n
+/// would add about 2 ln n).
+pub fn kl_threshold(ones: u64, n: u64, n_cells: usize, delta: f64) -> f64 {
+    (n_cells.max(1) as f64 / delta).ln()
+        + ((n + 1) as f64).ln()
+        + ln_binomial_at_mean(ones.min(n), n)
+}
+
+/// The KL confidence interval [lo, hi] of a cell with `ones` positive measurements out of `n`
+/// among `n_cells = |C|` candidates, at level δ; (−∞, +∞) when `n = 0`.
+///
+/// lo = min{q ≤ μ̂ : n·kl(μ̂, q) ≤ β}, hi = max{q ≥ μ̂ : n·kl(μ̂, q) ≤ β}, β =
+/// [`kl_threshold`], found by bisection (kl(μ̂, ·) is convex with its minimum 0 at μ̂);
+/// the bisection returns the outer end of its last bracket, so the interval computed contains
+/// the exact one.
+///
+/// **Guarantee (Prop. 1 at the same δ).** P(∃ cell l, ∃ n ≥ 1: μ_l ∉ [lo, hi]) ≤ δ.
+/// Proof: fix a cell with mean μ ∈ (0, 1). Its measurements, in the order taken, are i.i.d.
+/// Bernoulli(μ) whatever rule chose when to take them (the "stack of rewards" model of a
+/// bandit: Lattimore & Szepesvári, *Bandit Algorithms*, 2020, §4.6), so M_n(μ) of
+/// [`kl_threshold`] is a mixture over p of likelihood-ratio martingales, each with
+/// E[M_{n+1} | past] = M_n since E[(p/μ)^X ((1 − p)/(1 − μ))^{1−X}] = 1, and M_0 = 1.
+/// Ville's inequality (Ville 1939; Howard, Ramdas, McAuliffe & Sekhon, Ann. Statist. 49(2),
+/// 2021) gives P(∃ n: M_n(μ) ≥ |C|/δ) ≤ δ/|C|, and μ ∉ [lo, hi] implies n·kl(μ̂, μ) > β, i.e.
+/// M_n(μ) > |C|/δ. If μ ∈ {0, 1} the data are constant, μ̂ = μ and μ is never excluded.
+/// A union over the |C| cells gives δ. The bound holds for every n at once, so it does not
+/// matter that samples come in batches of B per visit, nor how often (4) is checked; with
+/// (4a)/(4b) as in the paper, Prop. 1's argument then gives P(any cell mislabelled) ≤ δ.
+pub fn kl_interval(ones: u64, n: u64, n_cells: usize, delta: f64) -> (f64, f64) {
+    if n == 0 {
+        return (f64::NEG_INFINITY, f64::INFINITY);
+    }
+    let ones = ones.min(n);
+    let m = ones as f64 / n as f64;
+    let beta = kl_threshold(ones, n, n_cells, delta);
+    let inside = |q: f64| n as f64 * bernoulli_kl(m, q) <= beta;
+    // Bisection between a point inside (μ̂) and an end; returns the end-side bracket bound.
+    let search = |end: f64| -> f64 {
+        if inside(end) {
+            return end;
+        }
+        let (mut a, mut b) = (m, end);
+        for _ in 0..200 {
+            let c = 0.5 * (a + b);
+            if c == a || c == b {
+                break;
+            }
+            if inside(c) {
+                a = c;
+            } else {
+                b = c;
+            }
+        }
+        b
+    };
+    (search(0.0), search(1.0))
 }
 
 /// The base of the logarithms written `log` in (3b).
@@ -145,6 +305,7 @@ impl BanditState {
             classified_at: vec![None; n],
             epoch: 0,
             log_base: LogBase::Natural,
+            bound: ConfidenceBound::Paper,
         })
     }
 
@@ -172,14 +333,34 @@ impl BanditState {
         }
     }
 
-    /// U_l(p, δ) (3b).
+    /// U_l(p, δ) of (3b) (the paper's half-width, whichever bound the state uses; see
+    /// [`BanditState::interval`]).
     pub fn width(&self, l: usize) -> f64 {
         ucb_width_base(self.samples[l], self.len(), self.delta, self.log_base)
     }
 
-    /// J(l, p, δ) = μ̂_l + U_l (3a); ∞ without samples.
+    /// The confidence interval [lo, hi] of cell `l` under [`BanditState::bound`]:
+    /// [μ̂_l − U_l, μ̂_l + U_l] for the paper's (3b), [`kl_interval`] for the KL bound;
+    /// (−∞, +∞) without samples.
+    pub fn interval(&self, l: usize) -> (f64, f64) {
+        if self.samples[l] == 0 {
+            return (f64::NEG_INFINITY, f64::INFINITY);
+        }
+        match self.bound {
+            ConfidenceBound::Paper => {
+                let (m, u) = (self.mean(l), self.width(l));
+                (m - u, m + u)
+            }
+            ConfidenceBound::Kl => {
+                kl_interval(self.ones[l], self.samples[l], self.len(), self.delta)
+            }
+        }
+    }
+
+    /// J(l, p, δ) (3a): the upper end of the interval, μ̂_l + U_l with (3b) (the KL-UCB index
+    /// of Garivier & Cappé, COLT 2011, with the KL bound); ∞ without samples.
     pub fn score(&self, l: usize) -> f64 {
-        self.mean(l) + self.width(l)
+        self.interval(l).1
     }
 
     /// Whether cell `l` is still unclassified.
@@ -280,7 +461,7 @@ impl BanditState {
     /// settled in the middle of an epoch is not imaged again in the epoch's later sensing
     /// cycles. Prop. 1 still holds: (15) — [19, Lem. 1], a law-of-the-iterated-logarithm
     /// bound — holds for every sample count n simultaneously, so (4) may be checked after
-    /// any number of samples.
+    /// any number of samples; so does the KL bound's ([`kl_interval`]).
     pub fn classify(&mut self) -> Vec<usize> {
         let mut newly = Vec::new();
         let (lo, hi) = (self.theta - self.epsilon, self.theta + self.epsilon);
@@ -288,8 +469,9 @@ impl BanditState {
             if !self.is_unclassified(l) || self.samples[l] == 0 {
                 continue;
             }
-            let (m, u) = (self.mean(l), self.width(l));
-            let label = match (m - u >= lo, m + u <= hi) {
+            let m = self.mean(l);
+            let (below, above) = self.interval(l);
+            let label = match (below >= lo, above <= hi) {
                 // Both (4a) and (4b) at once: μ̂ is within ε of θ and either label meets the
                 // criterion (2). Fig. 2 rejects its μ = 0.5 cell, whose mean settles at θ:
                 // a tie goes to R unless μ̂ is strictly above θ.
@@ -404,6 +586,182 @@ mod tests {
     }
 
     #[test]
+    fn fig2_with_the_kl_bound_gives_the_same_labels() {
+        // The same three cells under both bounds: the same labels (the tie at 50/100 goes to
+        // R under either), after (pinned) numbers of samples: half with KL in batches of 100
+        // at 0.05 and 0.95, 4.8× fewer at 0.5.
+        for (ones, want, paper_n, kl_n) in [
+            (5, Label::Reject, 200, 100),
+            (50, Label::Reject, 17_400, 3_600),
+            (95, Label::Keep, 200, 100),
+        ] {
+            let mut needed = Vec::new();
+            for bound in ConfidenceBound::ALL {
+                let cells: Vec<Cell> = (0..100).map(|i| Cell::new(i / 10, i % 10)).collect();
+                let mut s = BanditState::new(cells, 0.5, 0.05, 1e-4).unwrap();
+                s.bound = bound;
+                let mut n = 0u64;
+                while s.labels[0] == Label::Unclassified && n < 1_000_000 {
+                    n += 100;
+                    s.record(0, ones, 100);
+                    s.update();
+                }
+                assert_eq!(s.labels[0], want, "{ones} ones per 100, {bound}");
+                needed.push(n);
+            }
+            assert_eq!(
+                needed,
+                [paper_n, kl_n],
+                "{ones} ones per 100: samples [paper, kl]"
+            );
+            assert!(2 * kl_n <= paper_n);
+        }
+    }
+
+    #[test]
+    fn bernoulli_kl_by_hand() {
+        // kl(0.1, 0.55) = 0.1 ln(0.1/0.55) + 0.9 ln(0.9/0.45).
+        let want = 0.1 * (0.1f64 / 0.55).ln() + 0.9 * 2f64.ln();
+        assert!((bernoulli_kl(0.1, 0.55) - want).abs() < 1e-15);
+        assert_eq!(bernoulli_kl(0.3, 0.3), 0.0);
+        assert_eq!(bernoulli_kl(0.0, 0.0), 0.0);
+        assert_eq!(bernoulli_kl(1.0, 1.0), 0.0);
+        assert!((bernoulli_kl(0.0, 0.5) - 2f64.ln()).abs() < 1e-15);
+        assert!(bernoulli_kl(0.2, 1.0).is_infinite());
+        assert!(bernoulli_kl(0.2, 0.0).is_infinite());
+        // β by hand: n = 10, 1 one, |C| = 100, δ = 1e-4: ln(1e6) + ln 11 + ln(10 · 0.1 · 0.9⁹).
+        let b = 1e6f64.ln() + 11f64.ln() + (10.0 * 0.1 * 0.9f64.powi(9)).ln();
+        assert!((kl_threshold(1, 10, 100, 1e-4) - b).abs() < 1e-12);
+        // All ones or all zeros: P(Bin(n, μ̂) = S) = 1.
+        assert!((kl_threshold(0, 10, 100, 1e-4) - (1e6f64 * 11.0).ln()).abs() < 1e-12);
+        assert!((kl_threshold(10, 10, 100, 1e-4) - (1e6f64 * 11.0).ln()).abs() < 1e-12);
+    }
+
+    /// The smallest n (a multiple of the batch, so that μ̂ = `mu` exactly) at which a cell
+    /// with empirical mean `mu` is labelled, for |C| = 100, δ = 1e-4, θ = 0.5, ε = 0.05.
+    fn samples_to_label(mu_tenths: u64, bound: ConfidenceBound) -> u64 {
+        let cells: Vec<Cell> = (0..100).map(|i| Cell::new(i / 10, i % 10)).collect();
+        let mut s = BanditState::new(cells, 0.5, 0.05, 1e-4).unwrap();
+        s.bound = bound;
+        let mut n = 0;
+        while s.labels[0] == Label::Unclassified {
+            s.record(0, mu_tenths, 10);
+            n += 10;
+            s.classify();
+            assert!(n < 100_000);
+        }
+        n
+    }
+
+    #[test]
+    fn kl_needs_about_a_quarter_of_the_3b_samples() {
+        // The figures ("roughly 40 against about 200" at μ = 0.1), computed exactly.
+        use ConfidenceBound::{Kl, Paper};
+        for (mu, kl, paper) in [
+            (0, 30, 140),
+            (1, 40, 210),
+            (2, 70, 340),
+            (3, 130, 680),
+            (7, 130, 680),
+            (8, 70, 340),
+            (9, 40, 210),
+            (10, 30, 140),
+        ] {
+            assert_eq!(samples_to_label(mu, Kl), kl, "KL at μ̂ = 0.{mu}");
+            assert_eq!(samples_to_label(mu, Paper), paper, "(3b) at μ̂ = 0.{mu}");
+        }
+    }
+
+    #[test]
+    fn kl_interval_contains_the_mean_is_narrower_than_3b_and_shrinks() {
+        for tenths in 0..=10u64 {
+            let mut prev = f64::INFINITY;
+            for j in 1..=2000u64 {
+                let n = 10 * j;
+                let ones = tenths * j;
+                let m = ones as f64 / n as f64;
+                let (lo, hi) = kl_interval(ones, n, 100, 1e-4);
+                assert!(0.0 <= lo && lo <= m && m <= hi && hi <= 1.0, "{ones}/{n}");
+                let u = ucb_width(n, 100, 1e-4);
+                assert!(hi - m < u && m - lo < u, "{ones}/{n}: [{lo}, {hi}] vs ±{u}");
+                assert!(hi - lo <= prev, "{ones}/{n}: wider than with fewer samples");
+                prev = hi - lo;
+                // The ends are where n·kl(μ̂, q) reaches β (or 0 and 1).
+                let beta = kl_threshold(ones, n, 100, 1e-4);
+                for q in [lo, hi] {
+                    if q > 0.0 && q < 1.0 {
+                        let v = n as f64 * bernoulli_kl(m, q);
+                        assert!((v - beta).abs() < 1e-6 * beta, "{ones}/{n}: {v} vs {beta}");
+                    }
+                }
+            }
+        }
+        assert_eq!(
+            kl_interval(0, 0, 100, 1e-4),
+            (f64::NEG_INFINITY, f64::INFINITY)
+        );
+    }
+
+    #[test]
+    fn kl_interval_covers_the_mean_at_all_times_in_simulation() {
+        // 2,000 seeded sequences of up to 500 Bernoulli(μ) samples, one cell, δ = 0.1: the
+        // fraction whose interval ever misses μ must be at most δ (Ville's inequality).
+        use rand::{RngExt, SeedableRng};
+        let delta = 0.1;
+        let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(17);
+        let mus = [0.05, 0.3, 0.5, 0.8];
+        let (runs, horizon) = (2000, 500u64);
+        let mut missed = 0;
+        for r in 0..runs {
+            let mu = mus[r % mus.len()];
+            let mut ones = 0;
+            for n in 1..=horizon {
+                ones += u64::from(rng.random_bool(mu));
+                let (lo, hi) = kl_interval(ones, n, 1, delta);
+                if mu < lo || mu > hi {
+                    missed += 1;
+                    break;
+                }
+            }
+        }
+        let rate = missed as f64 / runs as f64;
+        eprintln!("KL coverage: {missed} of {runs} sequences left the interval (rate {rate})");
+        assert!(rate <= delta, "miss rate {rate}");
+        // Not vacuous: the intervals are tight enough that some sequences do leave them.
+        assert!(missed > 0);
+    }
+
+    #[test]
+    fn saved_states_without_a_bound_load_with_the_papers() {
+        let cells: Vec<Cell> = (0..3).map(|i| Cell::new(0, i)).collect();
+        let mut s = BanditState::new(cells, 0.5, 0.05, 0.1).unwrap();
+        s.bound = ConfidenceBound::Kl;
+        let mut v = serde_json::to_value(&s).unwrap();
+        assert_eq!(v["bound"], "kl");
+        assert_eq!(serde_json::from_value::<BanditState>(v.clone()).unwrap(), s);
+        v.as_object_mut().unwrap().remove("bound");
+        let old: BanditState = serde_json::from_value(v).unwrap();
+        assert_eq!(old.bound, ConfidenceBound::Paper);
+    }
+
+    #[test]
+    fn the_kl_score_is_the_upper_end_and_ranks_goals() {
+        let cells: Vec<Cell> = (0..3).map(|i| Cell::new(0, i)).collect();
+        let mut s = BanditState::new(cells, 0.5, 0.05, 1e-4).unwrap();
+        s.bound = ConfidenceBound::Kl;
+        s.record(0, 9, 10);
+        s.record(1, 1, 10);
+        assert_eq!(s.score(0), kl_interval(9, 10, 3, 1e-4).1);
+        assert_eq!(
+            s.ucb_goal_indices(3),
+            vec![2, 0, 1],
+            "unsampled, then higher J"
+        );
+        s.bound = ConfidenceBound::Paper;
+        assert_eq!(s.score(1), s.mean(1) + s.width(1));
+    }
+
+    #[test]
     fn goals_are_top_d_by_j_with_index_ties_and_sets_are_monotone() {
         let cells: Vec<Cell> = (0..6).map(|i| Cell::new(0, i)).collect();
         let mut s = BanditState::new(cells, 0.5, 0.05, 0.1).unwrap();
@@ -452,5 +810,32 @@ mod tests {
         let want = (p(0.9) + p(0.1)) / 2.0 + p(0.45).max(p(0.0));
         assert!((p_max(&mu, theta, eps, delta, b, 2) - want).abs() < 1e-9);
         assert!(p(0.45) > p(0.9), "smaller gaps need more visits");
+    }
+
+    mod props {
+        use super::*;
+        use proptest::prelude::*;
+
+        proptest! {
+            /// lo ≤ μ̂ ≤ hi inside [0, 1], and twice the samples at the same μ̂ never widen it.
+            #[test]
+            fn kl_interval_brackets_the_mean_and_shrinks(
+                n in 1u64..5000,
+                frac in 0.0f64..=1.0,
+                cells in 1usize..500,
+                delta in 1e-8f64..0.5,
+            ) {
+                let ones = ((n as f64) * frac).round() as u64;
+                let m = ones as f64 / n as f64;
+                let (lo, hi) = kl_interval(ones, n, cells, delta);
+                prop_assert!(0.0 <= lo && lo <= m && m <= hi && hi <= 1.0);
+                let (lo2, hi2) = kl_interval(2 * ones, 2 * n, cells, delta);
+                prop_assert!(lo2 >= lo - 1e-12 && hi2 <= hi + 1e-12,
+                    "[{}, {}] then [{}, {}]", lo, hi, lo2, hi2);
+                // A smaller δ gives a wider interval.
+                let (lo3, hi3) = kl_interval(ones, n, cells, delta / 10.0);
+                prop_assert!(lo3 <= lo + 1e-12 && hi3 >= hi - 1e-12);
+            }
+        }
     }
 }

@@ -119,7 +119,7 @@ pub struct ClassificationReport {
     pub samples: Vec<(CellPair, u64)>,
     /// Times the run was resumed.
     pub resumes: u32,
-    /// θ, ε, δ, D, B.
+    /// θ, ε, δ, the confidence bound (`paper` or `kl`), D, B, Td, Tc, K, C, separation.
     pub parameters: serde_json::Value,
 }
 
@@ -186,6 +186,7 @@ pub fn report(state: &ClassificationState, truth: Option<&[Cell]>) -> Classifica
         resumes: state.resumes,
         parameters: serde_json::json!({
             "theta": p.theta, "epsilon": p.epsilon, "delta": p.delta,
+            "bound": b.bound.name(),
             "epoch_goals": p.epoch_goals, "batch_size": p.batch,
             "drone_cycle_steps": p.td, "station_cycle_steps": p.tc, "max_cycles": p.k_max,
             "charger_capacity": p.capacity, "separation": p.separation,

@@ -56,6 +56,7 @@ mod reader;
 mod validate;
 
 use crate::geo::Cell;
+use crate::planner::bandit::ConfidenceBound;
 use crate::vision::camera::CameraModel;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::HashSet;
@@ -465,6 +466,12 @@ pub struct ClassificationDef {
     /// δ ∈ (0, 1): labelling error probability (eq. 2, 3b). Default 0.0001.
     #[serde(default = "default_delta")]
     pub delta: f64,
+    /// The confidence interval behind the goal score (3) and the labels (4): `"kl"` (the
+    /// default: the KL form of the beta-binomial mixture confidence sequence, same guarantee
+    /// as Prop. 1 at the same δ, about 4× fewer samples; docs/results/bandit-bound.md) or
+    /// `"paper"` ((3b) as printed). A saved run resumes with the bound it started with.
+    #[serde(default = "ConfidenceBound::field_default")]
+    pub bound: ConfidenceBound,
     /// D ≥ 1: epoch goals chosen per epoch (Algorithm 1 step 3). Default 8.
     #[serde(default = "default_epoch_goals")]
     pub epoch_goals: u32,
@@ -520,6 +527,7 @@ impl Default for ClassificationDef {
             theta: default_theta(),
             epsilon: default_epsilon(),
             delta: default_delta(),
+            bound: ConfidenceBound::field_default(),
             epoch_goals: default_epoch_goals(),
             batch_size: default_batch_size(),
             drone_cycle_steps: default_drone_cycle_steps(),

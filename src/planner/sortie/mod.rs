@@ -251,8 +251,9 @@ impl ClassificationState {
             drones: def.drones().map(start).collect::<Result<_, _>>()?,
             stations: def.stations().map(start).collect::<Result<_, _>>()?,
         };
-        let bandit = BanditState::new(def.candidate_cells(), c.theta, c.epsilon, c.delta)
+        let mut bandit = BanditState::new(def.candidate_cells(), c.theta, c.epsilon, c.delta)
             .map_err(|e| bad(e.to_string()))?;
+        bandit.bound = c.bound;
         let separation = match lock_step {
             Some(true) => Separation::LockStep,
             Some(false) => Separation::Altitude,

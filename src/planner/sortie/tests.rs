@@ -1,6 +1,7 @@
 use super::missions::{AreaRules, check_mission};
 use super::*;
 use crate::geo::LatLon;
+use crate::planner::bandit::ConfidenceBound;
 use crate::planner::ip::{PlanOptions, PlanStatus, solve_instance};
 
 const HARDWARE: &str = include_str!("../../../missions/hardware-6x6.toml");
@@ -102,9 +103,12 @@ fn fly(s: &mut ClassificationState, key: &mut i32) {
     assert!(s.cycle().unwrap().complete());
 }
 
-#[test]
-fn algorithm_1_on_the_hardware_field_keeps_the_green_tiles() {
+/// Algorithm 1 on the hardware field with the given confidence bound, to the end.
+fn hardware_field_run(bound: Option<ConfidenceBound>) -> ClassificationState {
     let mut s = state(HARDWARE, None);
+    if let Some(b) = bound {
+        s.bandit.bound = b;
+    }
     assert_eq!(s.params.separation, Separation::Altitude);
     assert_eq!(
         s.bandit.len(),
@@ -144,13 +148,34 @@ fn algorithm_1_on_the_hardware_field_keeps_the_green_tiles() {
     let total: u64 = s.epochs.iter().map(|e| e.measurements).sum();
     assert_eq!(total, s.measurements);
     assert_eq!(s.bandit.samples.iter().sum::<u64>(), s.measurements);
+    assert!(s.epochs.iter().all(|e| e.cycles >= 1 && e.solves >= 1));
+    s
+}
+
+#[test]
+fn algorithm_1_on_the_hardware_field_keeps_the_green_tiles() {
+    let s = hardware_field_run(Some(ConfidenceBound::Paper));
     // (3b) with |C| = 14, δ = 1e-4 needs ≈ 150 samples for μ̂ ∈ {0, 1}: 5 visits of B = 30
     assert!(
         s.bandit.samples.iter().all(|&n| (120..=300).contains(&n)),
         "{:?}",
         s.bandit.samples
     );
-    assert!(s.epochs.iter().all(|e| e.cycles >= 1 && e.solves >= 1));
+}
+
+#[test]
+fn the_hardware_field_with_the_default_kl_bound_needs_19_samples_a_cell() {
+    let s = hardware_field_run(None);
+    assert_eq!(
+        s.bandit.bound,
+        ConfidenceBound::Kl,
+        "the mission file's default"
+    );
+    // The KL bound with |C| = 14, δ = 1e-4 labels μ̂ ∈ {0, 1} after 19 samples:
+    // 19·ln(1/0.45) = 15.17 ≥ β(19) = ln(14/δ) + ln 20 = 14.85, while 18·ln(1/0.45) = 14.37 <
+    // β(18) = 14.79. (4) runs after every measurement, so each cell stops there, within its
+    // first visit of B = 30.
+    assert_eq!(s.bandit.samples, vec![19; 14]);
 }
 
 #[test]

@@ -436,6 +436,7 @@ fn read_classification(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<Classifi
         "theta",
         "epsilon",
         "delta",
+        "bound",
         "epoch_goals",
         "batch_size",
         "drone_cycle_steps",
@@ -452,6 +453,9 @@ fn read_classification(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<Classifi
         theta: ctx.or(t, p, "theta", d.theta, Ctx::num_of),
         epsilon: ctx.or(t, p, "epsilon", d.epsilon, Ctx::num_of),
         delta: ctx.or(t, p, "delta", d.delta, Ctx::num_of),
+        bound: ctx.or(t, p, "bound", d.bound, |c, p, v| {
+            c.word_of(p, v, &ConfidenceBound::ALL.map(|b| (b.name(), b)))
+        }),
         epoch_goals: ctx.or(t, p, "epoch_goals", d.epoch_goals, count),
         batch_size: ctx.or(t, p, "batch_size", d.batch_size, count),
         drone_cycle_steps: ctx.or(t, p, "drone_cycle_steps", d.drone_cycle_steps, count),
