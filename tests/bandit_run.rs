@@ -669,7 +669,8 @@ fn sortie_flying(s: &ClassificationState) -> bool {
 /// `fleetmap demo --bandit` in a pseudo-terminal (issue 9): the terminal UI shows the
 /// spatial-classification run live; PAUSE (`p`) lets the sortie in the air land and starts
 /// no new one; RESUME (`r`, `y`) lets the run go on to the end with the keep set equal to
-/// the green tiles; then quit (`q`, `y`).
+/// the green tiles; then quit (`q`, `y`). It flies the paper's bound (`--bound paper`): with
+/// the KL default the mission is labelled in two epochs, over before a pause can be shown.
 #[test]
 fn bandit_demo_in_a_pty_pause_resume_done() {
     if !pty::have_script() {
@@ -680,7 +681,7 @@ fn bandit_demo_in_a_pty_pause_resume_done() {
     let run = tmp.path().join("run");
     let log = tmp.path().join("ui.log");
     let cmd = format!(
-        "{} --log-file {} demo --bandit --run-dir {} --speedup 20 --camera-px 160",
+        "{} --log-file {} demo --bandit --bound paper --run-dir {} --speedup 20 --camera-px 160",
         pty::bin(),
         log.display(),
         run.display()

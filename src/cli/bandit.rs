@@ -106,7 +106,8 @@ pub enum BoundArg {
 }
 
 impl BoundArg {
-    fn bound(self) -> ConfidenceBound {
+    /// The planner's bound.
+    pub fn bound(self) -> ConfidenceBound {
         match self {
             BoundArg::Paper => ConfidenceBound::Paper,
             BoundArg::Kl => ConfidenceBound::Kl,

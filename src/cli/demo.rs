@@ -63,6 +63,11 @@ pub struct DemoArgs {
     /// measures 9 times the pixels and made the demo 6 times slower on 2 cores.
     #[arg(long, value_name = "PX", default_value_t = 160)]
     pub camera_px: u32,
+    /// With --bandit: the confidence bound (`classification.bound`; default the mission's,
+    /// the KL bound). `paper` flies the paper's (3b), which needs about four times the
+    /// samples (and epochs) before every cell is labelled.
+    #[arg(long, value_enum)]
+    pub bound: Option<crate::cli::bandit::BoundArg>,
 }
 
 /// Run `fleetmap demo`.
@@ -318,7 +323,14 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         bail!("--camera-px must be between 16 and 1920");
     }
     let world = World::from_toml(bandit_sim::HARDWARE_WORLD).context("the built-in 6x6 world")?;
-    let text = bandit_sim::HARDWARE_MISSION.to_string();
+    let text = match args.bound {
+        None => bandit_sim::HARDWARE_MISSION.to_string(),
+        Some(b) => bandit_sim::HARDWARE_MISSION.replacen(
+            "[classification]",
+            &format!("[classification]\nbound = \"{}\"", b.bound().name()),
+            1,
+        ),
+    };
     let def = crate::mission::definition::MissionDef::parse(&text, "hardware-6x6.toml (built in)")
         .map_err(|e| anyhow::anyhow!("{e}"))?;
     let dir = args
