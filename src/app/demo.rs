@@ -60,21 +60,29 @@ pub const PLUME_MISSION: &str = include_str!("../../missions/plume.toml");
 
 /// The runway mission with `cfg.drones` drones and the demo's separation.
 pub fn runway_mission(cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
-    mission_with(RUNWAY_MISSION, cfg)
+    mission_with(RUNWAY_MISSION, RUNWAY_MISSION_FILE, cfg)
 }
+
+/// The file names of the built-in missions (under `missions/`).
+const RUNWAY_MISSION_FILE: &str = "runway-field-test.toml";
+const PLUME_MISSION_FILE: &str = "plume.toml";
 
 /// The mission the demo flies over `world`: the runway field test, or the plume mission
 /// when the world's region of interest moves, its velocity given as the world's own (the
 /// demo's forecast is exact). Regions that move at different velocities are refused: the
-/// runner maps one frame.
-pub fn mission_for(world: &World, cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
+/// runner maps one frame. Also returns the built-in mission's file name.
+pub fn mission_for(
+    world: &World,
+    cfg: &DemoConfig,
+) -> anyhow::Result<(String, MissionDef, &'static str)> {
     let mut moving = world
         .regions
         .iter()
         .filter(|r| ROI_SURFACES.contains(&r.surface) && r.velocity_ne != (0.0, 0.0))
         .map(|r| r.velocity_ne);
     let Some((vn, ve)) = moving.next() else {
-        return runway_mission(cfg);
+        let (text, def) = runway_mission(cfg)?;
+        return Ok((text, def, RUNWAY_MISSION_FILE));
     };
     if moving.any(|v| v != (vn, ve)) {
         anyhow::bail!(
@@ -87,10 +95,12 @@ pub fn mission_for(world: &World, cfg: &DemoConfig) -> anyhow::Result<(String, M
         "roi_velocity_ne_mps = [0.0, 0.3]",
         &format!("roi_velocity_ne_mps = [{vn:?}, {ve:?}]"),
     );
-    mission_with(&text, cfg)
+    let (text, def) = mission_with(&text, PLUME_MISSION_FILE, cfg)?;
+    Ok((text, def, PLUME_MISSION_FILE))
 }
 
-fn mission_with(base: &str, cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
+/// Mission text `base` (built-in file `file`) with `cfg`'s drones and separation.
+fn mission_with(base: &str, file: &str, cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
     let mut text = base.replace(
         "altitude_separation_m = 0.0",
         &format!("altitude_separation_m = {:?}", cfg.altitude_separation_m),
@@ -102,12 +112,8 @@ fn mission_with(base: &str, cfg: &DemoConfig) -> anyhow::Result<(String, Mission
             "\n[[vehicles]]\nsysid = {k}\nrole = \"drone\"\nname = \"uav{k}\"\n"
         ));
     }
-    let name = if base == RUNWAY_MISSION {
-        "runway-field-test.toml (built in)"
-    } else {
-        "plume.toml (built in)"
-    };
-    let def = MissionDef::parse(&text, name).map_err(|e| anyhow::anyhow!("{e}"))?;
+    let def = MissionDef::parse(&text, &format!("{file} (built in)"))
+        .map_err(|e| anyhow::anyhow!("{e}"))?;
     Ok((text, def))
 }
 

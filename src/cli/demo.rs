@@ -98,7 +98,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         None => demo::RUNWAY_WORLD.to_string(),
     };
     let world = World::from_toml(&world_text).context("the demo world")?;
-    let (text, def) = demo::mission_for(&world, &cfg)?;
+    let (text, def, mission_file) = demo::mission_for(&world, &cfg)?;
     let tui = !args.headless
         && std::io::IsTerminal::is_terminal(&std::io::stdin())
         && std::io::IsTerminal::is_terminal(&std::io::stdout());
@@ -123,11 +123,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         }
         let demo = Demo {
             dir,
-            mission_path: if def.name == "plume" {
-                "built-in plume.toml"
-            } else {
-                "built-in runway-field-test.toml"
-            },
+            mission_path: format!("built-in {mission_file}"),
             text,
             world,
             world_text,
@@ -157,7 +153,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
 /// then the run in the terminal UI or headless with the report.
 struct Demo {
     dir: PathBuf,
-    mission_path: &'static str,
+    mission_path: String,
     text: String,
     world: World,
     world_text: String,
@@ -358,7 +354,7 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         let state = bandit::new_state(&d.fleet, &def, Duration::from_secs(60), None).await?;
         let demo = Demo {
             dir,
-            mission_path: "built-in hardware-6x6.toml",
+            mission_path: "built-in hardware-6x6.toml".into(),
             text,
             world,
             world_text: bandit_sim::HARDWARE_WORLD.to_string(),

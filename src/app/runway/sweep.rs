@@ -546,8 +546,12 @@ mod tests {
     }
 
     fn captured(index: i32) -> MavMessage {
+        captured_at(index, 1000 + index as u32)
+    }
+
+    fn captured_at(index: i32, time_boot_ms: u32) -> MavMessage {
         MavMessage::CAMERA_IMAGE_CAPTURED(CAMERA_IMAGE_CAPTURED_DATA {
-            time_boot_ms: 1000 + index as u32,
+            time_boot_ms,
             image_index: index,
             ..Default::default()
         })
@@ -601,22 +605,14 @@ mod tests {
             );
         }
         // A picture taken at boot 10.6 s (our 60.6 s) read 3.4 s late: dated 60.6 s.
-        let mut c = captured(7);
-        if let MavMessage::CAMERA_IMAGE_CAPTURED(d) = &mut c {
-            d.time_boot_ms = 10_600;
-        }
-        heard.on_message(100, &c, Time::from_secs(64));
+        heard.on_message(100, &captured_at(7, 10_600), Time::from_secs(64));
         assert_eq!(
             heard.announced_at((10_600, 7)).map(|(_, t)| t),
             Some(Time::from_millis(60_600))
         );
         // After a reboot the boot clock starts again: the offset is measured afresh.
         heard.on_message(1, &report(500), Time::from_secs(200));
-        let mut c = captured(0);
-        if let MavMessage::CAMERA_IMAGE_CAPTURED(d) = &mut c {
-            d.time_boot_ms = 600;
-        }
-        heard.on_message(100, &c, Time::from_millis(200_100));
+        heard.on_message(100, &captured_at(0, 600), Time::from_millis(200_100));
         assert_eq!(
             heard.announced_at((600, 0)).map(|(_, t)| t),
             Some(Time::from_millis(200_100))
