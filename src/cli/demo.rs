@@ -176,7 +176,7 @@ impl Demo {
         succeeded: impl FnOnce(&Outcome, &K::Report) -> bool,
     ) -> anyhow::Result<ExitCode> {
         let mut meta = RunMeta::new(K::KIND, unix_ms());
-        meta.mission_path = Some(self.mission_path.into());
+        meta.mission_path = Some(self.mission_path);
         meta.connections = sim
             .bound
             .iter()
