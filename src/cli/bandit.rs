@@ -1,8 +1,10 @@
 //! `fleetmap experiment bandit` (the bandit paper's Monte Carlo study, §VI) and
 //! `fleetmap bench plan` (per-epoch IP solve time on the 10×10 default).
 
+use crate::experiment::bandit::shard::{self, SHARD_FORMAT, Shard, ShardFile};
 use crate::experiment::bandit::{
-    self as study, Preset, Sensing, Spread, StudyConfig, TrialResult, VariantSummary, World, plot,
+    self as study, Preset, Sensing, Study, StudyConfig, TrialResult, VariantSummary, World, paper,
+    plot, table,
 };
 use crate::planner::bandit::{ConfidenceBound, LogBase};
 use crate::planner::baselines::GoalRule;
@@ -16,7 +18,7 @@ use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
 use serde::Serialize;
 use std::fmt::Write as _;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 
 /// The presets of `fleetmap experiment bandit`.
@@ -115,19 +117,60 @@ impl BoundArg {
     }
 }
 
+/// The paper's tables and figure, as `--table` names them.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
+pub enum TableArg {
+    /// Table I and Fig. 5 (worst-case sensor accuracy).
+    #[value(name = "I")]
+    I,
+    /// Table II (epoch goals D).
+    #[value(name = "II")]
+    Ii,
+    /// Table III (agility Td, Tc).
+    #[value(name = "III")]
+    Iii,
+    /// Table IV (team size Nd, Nc).
+    #[value(name = "IV")]
+    Iv,
+    /// Fig. 6 (Algorithm 1 against the baselines).
+    #[value(name = "fig6")]
+    Fig6,
+}
+
+impl TableArg {
+    fn preset(self) -> Preset {
+        match self {
+            TableArg::I => Preset::Table1,
+            TableArg::Ii => Preset::Table2,
+            TableArg::Iii => Preset::Table3,
+            TableArg::Iv => Preset::Table4,
+            TableArg::Fig6 => Preset::Fig6,
+        }
+    }
+}
+
 /// Arguments of `fleetmap experiment bandit`.
 #[derive(Debug, Args)]
 pub struct ExperimentBanditArgs {
-    /// Which table or figure of the paper to reproduce.
+    /// The paper's table or figure to reproduce, with the paper's number of trials; the
+    /// printed table puts the paper's row under ours.
+    #[arg(long, value_enum, conflicts_with = "preset")]
+    pub table: Option<TableArg>,
+    /// The same studies by preset name, and `compare` (Algorithm 1 beside its improvements).
     #[arg(long, value_enum, default_value_t = PresetArg::Table1)]
     pub preset: PresetArg,
-    /// Monte Carlo trials per variant (the paper: 100 for Table I, 50 for the others).
+    /// Monte Carlo trials per variant (default: the paper's, 100 for Table I, 50 for the others).
     #[arg(long)]
     pub trials: Option<usize>,
     /// Study seed (trial t uses the same world in every variant).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Output directory for trials.csv, epochs.csv, summary.json and progress.png.
+    /// Run only part K of N of the trials (those with trial mod N = K − 1) and write them to
+    /// shard-K-of-N.json in --out; `fleetmap experiment merge` joins the N parts.
+    #[arg(long, value_name = "K/N")]
+    pub shard: Option<Shard>,
+    /// Output directory for trials.csv, epochs.csv, table.csv, table.txt, summary.json and
+    /// progress.png (default results/bandit-PRESET).
     #[arg(long, value_name = "DIR")]
     pub out: Option<PathBuf>,
     /// Only the variants whose label contains this text (e.g. `mu_worst=0.8`).
@@ -166,33 +209,24 @@ pub struct ExperimentBanditArgs {
     pub quiet: bool,
 }
 
-/// The summary file of a study.
-#[derive(Debug, Serialize)]
-struct StudySummary<'a> {
-    preset: &'a str,
-    seed: u64,
-    trials: usize,
-    /// How the quantiles are computed.
-    quantiles: &'a str,
-    variants: &'a [VariantSummary],
+/// Arguments of `fleetmap experiment merge`.
+#[derive(Debug, Args)]
+pub struct MergeArgs {
+    /// The parts: shard-K-of-N.json files, or directories holding them.
+    #[arg(required = true, value_name = "PART")]
+    pub parts: Vec<PathBuf>,
+    /// Where to write the joined study's trials.csv, epochs.csv, table.csv, table.txt,
+    /// summary.json and progress.png.
+    #[arg(long, value_name = "DIR")]
+    pub out: PathBuf,
+    /// Print the summary as JSON on stdout instead of the table.
+    #[arg(long)]
+    pub json: bool,
 }
 
-fn fmt_spread(s: &Option<Spread>, digits: usize) -> String {
-    match s {
-        None => "n/a".into(),
-        Some(s) => format!(
-            "{:.d$} ({:.d$}, {:.d$})",
-            s.median,
-            s.q10,
-            s.q90,
-            d = digits
-        ),
-    }
-}
-
-/// Run `fleetmap experiment bandit`.
-pub fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitCode> {
-    let preset = args.preset.preset();
+/// The study the arguments describe (preset, variants with the options applied, trials).
+fn study_of(args: &ExperimentBanditArgs) -> anyhow::Result<Study> {
+    let preset = args.table.map_or(args.preset.preset(), TableArg::preset);
     let mut variants: Vec<StudyConfig> = preset.variants();
     if let Some(only) = &args.only {
         variants.retain(|v| v.label.contains(only.as_str()));
@@ -247,16 +281,40 @@ pub fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitCode> {
             v.label = format!("{} [bound {}]", v.label, v.bound);
         }
     }
-    let trials = args
-        .trials
-        .unwrap_or(if preset == Preset::Table1 { 100 } else { 50 });
+    let trials = args.trials.unwrap_or(paper::trials(preset));
     if trials == 0 {
         anyhow::bail!("--trials must be at least 1");
     }
+    Ok(Study {
+        preset,
+        seed: args.seed,
+        trials,
+        variants,
+    })
+}
+
+/// The command line that is running, for the summary (how the results were made).
+fn command_line() -> String {
+    let mut words = vec!["fleetmap".to_string()];
+    words.extend(std::env::args().skip(1).map(|a| {
+        if a.is_empty() || a.contains(char::is_whitespace) {
+            format!("{a:?}")
+        } else {
+            a
+        }
+    }));
+    words.join(" ")
+}
+
+/// Run `fleetmap experiment bandit`: the whole study (outputs in --out, the table on stdout),
+/// or one part of it (`--shard`: a shard file in --out).
+pub fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitCode> {
+    let study = study_of(&args)?;
+    let shard = args.shard.unwrap_or(Shard::WHOLE);
     let out_dir = args
         .out
         .clone()
-        .unwrap_or_else(|| PathBuf::from(format!("results/bandit-{}", preset.name())));
+        .unwrap_or_else(|| PathBuf::from(format!("results/bandit-{}", study.preset.name())));
     std::fs::create_dir_all(&out_dir)
         .with_context(|| format!("cannot create output directory {}", out_dir.display()))?;
     let jobs = args
@@ -267,9 +325,7 @@ pub fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitCode> {
         .num_threads(jobs)
         .build()
         .context("cannot start the worker threads")?;
-    let tasks: Vec<(usize, usize)> = (0..variants.len())
-        .flat_map(|v| (0..trials).map(move |t| (v, t)))
-        .collect();
+    let tasks = study.tasks(shard);
     let bar = if args.quiet {
         ProgressBar::hidden()
     } else {
@@ -281,132 +337,121 @@ pub fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitCode> {
             )
             .unwrap_or_else(|_| ProgressStyle::default_bar()),
         );
-        b.set_prefix(format!("bandit {}", preset.name()));
+        b.set_prefix(format!("bandit {} {shard}", study.preset.name()));
         b
     };
     let results: Vec<TrialResult> = pool.install(|| {
         tasks
             .par_iter()
             .map(|&(v, t)| {
-                let r = study::run_seeded(&variants[v], args.seed, t, v);
+                let r = study.run(v, t);
                 bar.inc(1);
                 r
             })
             .collect()
     });
     bar.finish_and_clear();
-    let summaries: Vec<VariantSummary> = variants
-        .iter()
-        .map(|cfg| {
-            let mine: Vec<TrialResult> = results
-                .iter()
-                .filter(|r| r.label == cfg.label)
-                .cloned()
-                .collect();
-            study::summarise(cfg, &mine)
+    if shard != Shard::WHOLE {
+        let file = ShardFile {
+            format: SHARD_FORMAT,
+            study,
+            shard,
+            results,
+        };
+        let path = out_dir.join(shard.file_name());
+        let json = serde_json::to_vec(&file)?;
+        atomic_write(&path, &json).with_context(|| format!("cannot write {}", path.display()))?;
+        super::plan::emit(&format!(
+            "part {shard} of the study: {} trials in {}; join the {} parts with `fleetmap experiment merge PART... --out DIR`\n",
+            file.results.len(),
+            path.display(),
+            shard.count
+        ))?;
+        return Ok(ExitCode::SUCCESS);
+    }
+    write_study(&study, &results, &out_dir, &command_line(), args.json)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// The shard files a merge argument names: the file itself, or a directory's
+/// `shard-*.json` files.
+fn shard_files(p: &Path) -> anyhow::Result<Vec<PathBuf>> {
+    if !p.is_dir() {
+        return Ok(vec![p.to_path_buf()]);
+    }
+    let mut found: Vec<PathBuf> = std::fs::read_dir(p)
+        .with_context(|| format!("cannot list {}", p.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|f| {
+            f.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("shard-") && n.ends_with(".json"))
         })
         .collect();
-    // CSV files.
-    let mut trials_csv = String::from(
-        "variant,trial,world_seed,epochs_interesting,epochs_all,label_errors,epochs_run,median_solve_seconds,failure\n",
-    );
-    let mut epochs_csv = String::from(
-        "variant,trial,epoch,solve_seconds,cycles,goals,variables,interesting_classified,uninteresting_classified,batches\n",
-    );
-    let opt = |x: Option<usize>| x.map_or(String::new(), |v| v.to_string());
-    for r in &results {
-        let solve: Vec<f64> = r.epochs.iter().map(|e| e.solve_seconds).collect();
-        writeln!(
-            trials_csv,
-            "\"{}\",{},{},{},{},{},{},{},\"{}\"",
-            r.label,
-            r.trial,
-            r.world_seed,
-            opt(r.epochs_interesting),
-            opt(r.epochs_all),
-            r.label_errors,
-            r.epochs.len(),
-            study::quantile(&solve, 0.5).map_or(String::new(), |s| format!("{s:.4}")),
-            r.failure.clone().unwrap_or_default().replace('"', "'")
-        )?;
-        for e in &r.epochs {
-            writeln!(
-                epochs_csv,
-                "\"{}\",{},{},{:.5},{},{},{},{},{},{}",
-                r.label,
-                r.trial,
-                e.epoch,
-                e.solve_seconds,
-                e.cycles,
-                e.goals,
-                e.variables,
-                e.interesting_classified,
-                e.uninteresting_classified,
-                e.batches
-            )?;
+    if found.is_empty() {
+        anyhow::bail!("{} holds no shard-K-of-N.json file", p.display());
+    }
+    found.sort();
+    Ok(found)
+}
+
+/// Run `fleetmap experiment merge`: join the parts of a study and write what the undivided
+/// run would have written.
+pub fn run_merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
+    let mut parts = Vec::new();
+    for p in &args.parts {
+        for f in shard_files(p)? {
+            let bytes =
+                std::fs::read(&f).with_context(|| format!("cannot read {}", f.display()))?;
+            let part: ShardFile = serde_json::from_slice(&bytes)
+                .with_context(|| format!("{} is not a part of a study", f.display()))?;
+            parts.push((f.display().to_string(), part));
         }
     }
+    let (study, results) = shard::merge(parts)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
+    write_study(&study, &results, &args.out, &command_line(), args.json)?;
+    Ok(ExitCode::SUCCESS)
+}
+
+/// Write a whole study's outputs to `out_dir` and print its table (or its summary JSON).
+fn write_study(
+    study: &Study,
+    results: &[TrialResult],
+    out_dir: &Path,
+    command: &str,
+    json: bool,
+) -> anyhow::Result<()> {
+    let summaries: Vec<VariantSummary> = study.summarise(results);
     let write = |name: &str, bytes: &[u8]| -> anyhow::Result<()> {
         let p = out_dir.join(name);
         atomic_write(&p, bytes).with_context(|| format!("cannot write {}", p.display()))
     };
-    write("trials.csv", trials_csv.as_bytes())?;
-    write("epochs.csv", epochs_csv.as_bytes())?;
-    let summary = StudySummary {
-        preset: preset.name(),
-        seed: args.seed,
-        trials,
-        quantiles: "linear interpolation between order statistics (numpy default); epochs over finished trials; solve time over all epochs of all trials",
-        variants: &summaries,
-    };
+    write("trials.csv", table::trials_csv(results).as_bytes())?;
+    write("epochs.csv", table::epochs_csv(results).as_bytes())?;
+    write("table.csv", table::table_csv(&summaries).as_bytes())?;
+    let printed = table::printed(study, &summaries, &out_dir.display().to_string());
+    write("table.txt", printed.as_bytes())?;
+    let summary = table::StudySummary::new(study, command, &summaries);
     let summary_json = serde_json::to_string_pretty(&summary)?;
     write("summary.json", summary_json.as_bytes())?;
-    let title = match preset {
+    let title = match study.preset {
         Preset::Table1 => {
             "Classification progress vs worst-case sensor accuracy (Fig. 5)".to_string()
         }
         Preset::Fig6 => "Classification progress: Algorithm 1 vs baselines (Fig. 6)".to_string(),
-        p => format!("Classification progress ({})", p.name()),
+        p => format!("Classification progress, {}", table::title(p)),
     };
-    let png = plot::progress_png(&title, &summaries, preset == Preset::Table1, 1100, 700)?;
+    let png = plot::progress_png(
+        &title,
+        &summaries,
+        study.preset == Preset::Table1,
+        1100,
+        700,
+    )?;
     write("progress.png", &png)?;
-    let mut out = String::new();
-    if args.json {
-        out.push_str(&summary_json);
-        out.push('\n');
-    } else {
-        writeln!(
-            out,
-            "bandit study, preset {} ({trials} trials per variant, seed {}), results in {}",
-            preset.name(),
-            args.seed,
-            out_dir.display()
-        )?;
-        writeln!(
-            out,
-            "{:<24} {:>26} {:>22} {:>22} {:>8} {:>6}",
-            "variant",
-            "solve s/epoch med (q10,q90)",
-            "epochs: interesting",
-            "epochs: all cells",
-            "censored",
-            "errors"
-        )?;
-        for s in &summaries {
-            writeln!(
-                out,
-                "{:<24} {:>26} {:>22} {:>22} {:>8} {:>6}",
-                s.config.label,
-                fmt_spread(&s.solve_seconds, 3),
-                fmt_spread(&s.epochs_interesting, 1),
-                fmt_spread(&s.epochs_all, 1),
-                s.censored,
-                s.label_errors
-            )?;
-        }
-    }
-    super::plan::emit(&out)?;
-    Ok(ExitCode::SUCCESS)
+    super::plan::emit(&if json { summary_json + "\n" } else { printed })
 }
 
 /// Arguments of `fleetmap bench plan`.

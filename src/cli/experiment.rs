@@ -19,6 +19,9 @@ pub enum ExperimentCommand {
     Dfs(crate::experiment::dfs::DfsArgs),
     /// The bandit paper's Monte Carlo study (Tables I–IV, Fig. 5, Fig. 6).
     Bandit(super::bandit::ExperimentBanditArgs),
+    /// Join the parts of a bandit study run with `experiment bandit --shard K/N` (e.g. the
+    /// tasks of a cluster's job array) into the study's CSV, summary, table and plot.
+    Merge(super::bandit::MergeArgs),
     /// Fast = plain at the bandit paper's scale (issue 17, item 2): both IP models on random
     /// Algorithm 1 epochs (10×10, 10 drones, 5 stations, Td = 8, Tc = 4, C = 1, 2, 3); exit
     /// status 1 on any difference.
@@ -82,6 +85,7 @@ pub fn run(args: ExperimentArgs) -> anyhow::Result<ExitCode> {
     match args.which {
         ExperimentCommand::Dfs(a) => run_dfs(a),
         ExperimentCommand::Bandit(a) => super::bandit::run_experiment(a),
+        ExperimentCommand::Merge(a) => super::bandit::run_merge(a),
         ExperimentCommand::FastPlain(a) => run_fast_plain(a),
     }
 }

@@ -27,10 +27,13 @@
 //! are compared on the same worlds; the sensing stream is seeded separately per variant and
 //! trial.
 
+pub mod paper;
 pub mod plot;
+pub mod shard;
+pub mod table;
 
 use crate::geo::Cell;
-use crate::planner::bandit::{BanditState, ConfidenceBound, Label, LogBase};
+use crate::planner::bandit::{BanditState, ConfidenceBound, Label, LogBase, p_max};
 use crate::planner::baselines::{GoalRule, choose_goals};
 use crate::planner::grid::Grid;
 use crate::planner::ip::{Instance, PlanOptions, PlanStatus, Timelines, solve_instance};
@@ -435,6 +438,11 @@ pub struct TrialResult {
     pub epochs: Vec<EpochRecord>,
     /// Set when the trial stopped on a planner failure (message).
     pub failure: Option<String>,
+    /// P_max of Proposition 2 ((12)–(14)) for this world's μ: the epochs within which
+    /// Algorithm 1 terminates with probability ≥ 1 − δ. Only for the bound it is proved for,
+    /// (3b) with natural logarithms; `None` otherwise (and in results written before it).
+    #[serde(default)]
+    pub p_max: Option<f64>,
 }
 
 /// A stable 64-bit mix (SplitMix64 finaliser) to derive per-trial seeds.
@@ -496,6 +504,7 @@ pub fn run_trial(
         n_cells: cells.len(),
         epochs: Vec::new(),
         failure: None,
+        p_max: None,
     };
     let mut state = match BanditState::new(cells, cfg.theta, cfg.epsilon, cfg.delta) {
         Ok(mut s) => {
@@ -517,6 +526,17 @@ pub fn run_trial(
     let mut cand_of = vec![usize::MAX; g.len()];
     for (l, &i) in dense.iter().enumerate() {
         cand_of[i] = l;
+    }
+    if cfg.bound == ConfidenceBound::Paper && cfg.log_base == LogBase::Natural {
+        let mu: Vec<f64> = dense.iter().map(|&i| world.mu[i]).collect();
+        result.p_max = Some(p_max(
+            &mu,
+            cfg.theta,
+            cfg.epsilon,
+            cfg.delta,
+            cfg.batch,
+            cfg.d,
+        ));
     }
     let (mut drones, mut stations) = (world.drones.clone(), world.stations.clone());
     let mut opts = PlanOptions::default();
@@ -700,6 +720,14 @@ pub struct VariantSummary {
     pub label_errors: usize,
     /// Epochs whose plan needed more than one sensing cycle.
     pub multi_cycle_epochs: usize,
+    /// P_max of Proposition 2 over the trials' worlds (`None` for a bound it is not proved
+    /// for, see [`TrialResult::p_max`]).
+    #[serde(default)]
+    pub p_max: Option<Spread>,
+    /// The paper's row this variant reproduces ([`paper::row_for`]), set by
+    /// [`Study::summarise`].
+    #[serde(default)]
+    pub paper: Option<paper::PaperRow>,
     /// Mean fraction of interesting / uninteresting cells classified after each epoch
     /// (finished trials count as fully classified after they end) — the curves of Fig. 5/6.
     pub progress: Vec<(f64, f64)>,
@@ -752,7 +780,59 @@ pub fn summarise(config: &StudyConfig, trials: &[TrialResult]) -> VariantSummary
             .flat_map(|t| &t.epochs)
             .filter(|e| e.cycles > 1)
             .count(),
+        p_max: Spread::of(&trials.iter().filter_map(|t| t.p_max).collect::<Vec<f64>>()),
+        paper: None,
         progress,
+    }
+}
+
+/// A study: the variants of a preset, the trials per variant and the seed. Trial t of every
+/// variant runs on the same world ([`run_seeded`]), so any subset of the trials can run
+/// anywhere (a [`shard::Shard`]) and the parts join into the same study.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct Study {
+    /// The table or figure.
+    pub preset: Preset,
+    /// Study seed.
+    pub seed: u64,
+    /// Trials per variant.
+    pub trials: usize,
+    /// The variants (rows), in order.
+    pub variants: Vec<StudyConfig>,
+}
+
+impl Study {
+    /// The (variant, trial) pairs of `shard`, variant-major.
+    pub fn tasks(&self, shard: shard::Shard) -> Vec<(usize, usize)> {
+        (0..self.variants.len())
+            .flat_map(|v| {
+                (0..self.trials)
+                    .filter(move |&t| shard.holds(t))
+                    .map(move |t| (v, t))
+            })
+            .collect()
+    }
+
+    /// Run trial `trial` of variant `variant`.
+    pub fn run(&self, variant: usize, trial: usize) -> TrialResult {
+        run_seeded(&self.variants[variant], self.seed, trial, variant)
+    }
+
+    /// One summary per variant, with the paper's row beside it.
+    pub fn summarise(&self, results: &[TrialResult]) -> Vec<VariantSummary> {
+        self.variants
+            .iter()
+            .map(|cfg| {
+                let mine: Vec<TrialResult> = results
+                    .iter()
+                    .filter(|r| r.label == cfg.label)
+                    .cloned()
+                    .collect();
+                let mut s = summarise(cfg, &mine);
+                s.paper = paper::row_for(self.preset, cfg);
+                s
+            })
+            .collect()
     }
 }
 
@@ -782,6 +862,7 @@ pub fn run_seeded(cfg: &StudyConfig, seed: u64, trial: usize, variant: usize) ->
             n_cells: 0,
             epochs: Vec::new(),
             failure: Some(e.to_string()),
+            p_max: None,
         },
     }
 }
