@@ -240,3 +240,200 @@ fn both_bounds_on_a_small_world_are_pinned() {
 
 /// Epochs to classify every cell, per trial: (3b) first, then the KL bound.
 const PINNED_SMALL: [[usize; 3]; 2] = [[46, 51, 45], [11, 11, 12]];
+
+fn lines_without_column(text: &str, column: usize) -> Vec<String> {
+    text.lines()
+        .map(|l| {
+            let mut f: Vec<&str> = l.split(',').collect();
+            f.remove(column);
+            f.join(",")
+        })
+        .collect()
+}
+
+/// Issue 17, item 1: a study run in two parts (`--shard 1/2`, `--shard 2/2`) and joined with
+/// `experiment merge` writes the trials and epochs of the undivided run (the solve times
+/// aside: they are measured wherever a part runs), and the table with the paper's rows.
+#[test]
+fn table_parts_merge_into_the_undivided_study() {
+    let dir = tempfile::tempdir().unwrap();
+    let path = |p: &str| dir.path().join(p).to_str().unwrap().to_string();
+    let study = |extra: &[&str]| {
+        let mut args = vec![
+            "experiment",
+            "bandit",
+            "--table",
+            "I",
+            "--only",
+            "mu_worst=1",
+            "--trials",
+            "3",
+            "--max-epochs",
+            "3",
+            "--quiet",
+        ];
+        args.extend_from_slice(extra);
+        let o = fleetmap(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        String::from_utf8(o.stdout).unwrap()
+    };
+    let whole = study(&["--out", &path("whole")]);
+    assert!(whole.contains("Table I"), "{whole}");
+    let paper_line = whole.lines().find(|l| l.contains(" paper ")).unwrap();
+    assert!(paper_line.contains("15.0 (12.0, 19.0)"), "{whole}");
+    for k in ["1/2", "2/2"] {
+        let part = study(&["--shard", k, "--out", &path("parts")]);
+        assert!(part.contains(&format!("part {k}")), "{part}");
+    }
+    assert!(!dir.path().join("parts/trials.csv").exists());
+    let o = fleetmap(&[
+        "experiment",
+        "merge",
+        &path("parts"),
+        "--out",
+        &path("merged"),
+    ]);
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let read = |d: &str, f: &str| std::fs::read_to_string(dir.path().join(d).join(f)).unwrap();
+    // trials.csv column 7 is the trial's median solve time, epochs.csv column 3 the epoch's.
+    assert_eq!(
+        lines_without_column(&read("merged", "trials.csv"), 7),
+        lines_without_column(&read("whole", "trials.csv"), 7)
+    );
+    assert_eq!(
+        lines_without_column(&read("merged", "epochs.csv"), 3),
+        lines_without_column(&read("whole", "epochs.csv"), 3)
+    );
+    assert_eq!(read("merged", "trials.csv").lines().count(), 4);
+    assert!(read("merged", "table.txt").contains(" paper "));
+    let summary = read_json(&dir.path().join("merged/summary.json"));
+    assert!(
+        summary["command"]
+            .as_str()
+            .unwrap()
+            .contains("experiment merge")
+    );
+    assert_eq!(
+        summary["variants"][0]["paper"]["epochs_all"]["median"],
+        15.0
+    );
+    assert!(summary["variants"][0]["p_max"]["median"].as_f64().unwrap() > 100.0);
+    // One part alone is not the study.
+    let o = fleetmap(&[
+        "experiment",
+        "merge",
+        &path("parts/shard-1-of-2.json"),
+        "--out",
+        &path("half"),
+    ]);
+    assert!(!o.status.success());
+    let err = String::from_utf8_lossy(&o.stderr);
+    assert!(err.contains("parts missing: 2 (of 2)"), "{err}");
+}
+
+/// A line of the study's CSV files: the quoted variant label (it may hold commas, e.g.
+/// `Td=8,Tc=4`), then the numeric fields.
+fn csv_fields(line: &str) -> (String, Vec<String>) {
+    let rest = line.strip_prefix('"').unwrap();
+    let (label, rest) = rest.split_once("\",").unwrap();
+    (
+        label.to_string(),
+        rest.split(',').map(str::to_string).collect(),
+    )
+}
+
+/// Issue 17: a small version of every table and of Fig. 6 — one trial of each variant, two
+/// epochs — with each epoch's model size and sample batches pinned, so a drift in the worlds,
+/// the goal rules, the team's constraints or the planner shows up here before it shows up in
+/// the committed results (docs/results/bandit-tables.md). (Two epochs classify no cell under
+/// (3b); the bound itself is pinned by the tests above.)
+#[test]
+fn every_table_small_version_is_pinned() {
+    let dir = tempfile::tempdir().unwrap();
+    let mut got: Vec<String> = Vec::new();
+    for table in ["I", "II", "III", "IV", "fig6"] {
+        let out = dir.path().join(table);
+        let o = fleetmap(&[
+            "experiment",
+            "bandit",
+            "--table",
+            table,
+            "--trials",
+            "1",
+            "--max-epochs",
+            "2",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let epochs = std::fs::read_to_string(out.join("epochs.csv")).unwrap();
+        for l in epochs.lines().skip(1) {
+            // trial, epoch, solve_seconds, cycles, goals, variables, interesting_classified,
+            // uninteresting_classified, batches
+            let (label, f) = csv_fields(l);
+            got.push(format!(
+                "{table} {label} epoch {}: {} cycles, {} goals, {} variables, {} batches",
+                f[1], f[3], f[4], f[5], f[8]
+            ));
+        }
+    }
+    let want: Vec<String> = PINNED_TABLES.iter().map(|s| s.to_string()).collect();
+    assert_eq!(got, want);
+}
+
+/// Trial 0 of seed 1 of every variant, its first two epochs.
+const PINNED_TABLES: [&str; 52] = [
+    "I mu_worst=0.6 epoch 0: 1 cycles, 8 goals, 3186 variables, 61 batches",
+    "I mu_worst=0.6 epoch 1: 1 cycles, 8 goals, 3400 variables, 53 batches",
+    "I mu_worst=0.8 epoch 0: 1 cycles, 8 goals, 3186 variables, 61 batches",
+    "I mu_worst=0.8 epoch 1: 1 cycles, 8 goals, 3400 variables, 53 batches",
+    "I mu_worst=1 epoch 0: 1 cycles, 8 goals, 3186 variables, 61 batches",
+    "I mu_worst=1 epoch 1: 1 cycles, 8 goals, 3400 variables, 53 batches",
+    "II D=5 epoch 0: 1 cycles, 5 goals, 3186 variables, 63 batches",
+    "II D=5 epoch 1: 1 cycles, 5 goals, 3006 variables, 58 batches",
+    "II D=8 epoch 0: 1 cycles, 8 goals, 3186 variables, 61 batches",
+    "II D=8 epoch 1: 1 cycles, 8 goals, 3400 variables, 53 batches",
+    "II D=10 epoch 0: 1 cycles, 10 goals, 3186 variables, 66 batches",
+    "II D=10 epoch 1: 1 cycles, 10 goals, 3270 variables, 51 batches",
+    "II D=15 epoch 0: 1 cycles, 15 goals, 3186 variables, 74 batches",
+    "II D=15 epoch 1: 1 cycles, 15 goals, 3172 variables, 57 batches",
+    "III Td=8,Tc=4 epoch 0: 1 cycles, 8 goals, 3186 variables, 61 batches",
+    "III Td=8,Tc=4 epoch 1: 1 cycles, 8 goals, 3400 variables, 53 batches",
+    "III Td=12,Tc=4 epoch 0: 1 cycles, 8 goals, 5418 variables, 99 batches",
+    "III Td=12,Tc=4 epoch 1: 1 cycles, 8 goals, 5070 variables, 73 batches",
+    "III Td=16,Tc=4 epoch 0: 1 cycles, 8 goals, 7650 variables, 123 batches",
+    "III Td=16,Tc=4 epoch 1: 1 cycles, 8 goals, 7912 variables, 113 batches",
+    "III Td=12,Tc=6 epoch 0: 1 cycles, 8 goals, 6534 variables, 99 batches",
+    "III Td=12,Tc=6 epoch 1: 1 cycles, 8 goals, 6758 variables, 94 batches",
+    "III Td=18,Tc=6 epoch 0: 1 cycles, 8 goals, 9882 variables, 146 batches",
+    "III Td=18,Tc=6 epoch 1: 1 cycles, 8 goals, 9480 variables, 133 batches",
+    "III Td=24,Tc=6 epoch 0: 1 cycles, 8 goals, 13230 variables, 180 batches",
+    "III Td=24,Tc=6 epoch 1: 1 cycles, 8 goals, 13658 variables, 185 batches",
+    "III Td=16,Tc=8 epoch 0: 1 cycles, 8 goals, 9882 variables, 131 batches",
+    "III Td=16,Tc=8 epoch 1: 1 cycles, 8 goals, 10538 variables, 126 batches",
+    "III Td=24,Tc=8 epoch 0: 1 cycles, 8 goals, 14346 variables, 208 batches",
+    "III Td=24,Tc=8 epoch 1: 1 cycles, 8 goals, 14718 variables, 179 batches",
+    "III Td=32,Tc=8 epoch 0: 1 cycles, 8 goals, 18810 variables, 235 batches",
+    "III Td=32,Tc=8 epoch 1: 1 cycles, 8 goals, 18948 variables, 256 batches",
+    "IV Nd=5,Nc=5 epoch 0: 1 cycles, 8 goals, 3186 variables, 32 batches",
+    "IV Nd=5,Nc=5 epoch 1: 2 cycles, 8 goals, 8302 variables, 56 batches",
+    "IV Nd=7,Nc=7 epoch 0: 1 cycles, 8 goals, 3770 variables, 50 batches",
+    "IV Nd=7,Nc=7 epoch 1: 1 cycles, 8 goals, 3934 variables, 38 batches",
+    "IV Nd=10,Nc=5 epoch 0: 1 cycles, 8 goals, 3186 variables, 61 batches",
+    "IV Nd=10,Nc=5 epoch 1: 1 cycles, 8 goals, 3400 variables, 53 batches",
+    "IV Nd=10,Nc=10 epoch 0: 1 cycles, 8 goals, 4024 variables, 69 batches",
+    "IV Nd=10,Nc=10 epoch 1: 1 cycles, 8 goals, 4153 variables, 55 batches",
+    "IV Nd=14,Nc=7 epoch 0: 1 cycles, 8 goals, 3770 variables, 87 batches",
+    "IV Nd=14,Nc=7 epoch 1: 1 cycles, 8 goals, 3864 variables, 84 batches",
+    "fig6 ucb epoch 0: 1 cycles, 10 goals, 3186 variables, 66 batches",
+    "fig6 ucb epoch 1: 1 cycles, 10 goals, 3270 variables, 51 batches",
+    "fig6 random epoch 0: 1 cycles, 10 goals, 3186 variables, 73 batches",
+    "fig6 random epoch 1: 1 cycles, 10 goals, 3552 variables, 58 batches",
+    "fig6 greedy-cov epoch 0: 1 cycles, 10 goals, 3186 variables, 71 batches",
+    "fig6 greedy-cov epoch 1: 1 cycles, 10 goals, 3354 variables, 58 batches",
+    "fig6 greedy-trav epoch 0: 1 cycles, 10 goals, 3186 variables, 62 batches",
+    "fig6 greedy-trav epoch 1: 1 cycles, 10 goals, 3216 variables, 49 batches",
+    "fig6 apt epoch 0: 1 cycles, 10 goals, 3186 variables, 66 batches",
+    "fig6 apt epoch 1: 1 cycles, 10 goals, 3270 variables, 51 batches",
+];
