@@ -154,7 +154,7 @@ impl TableArg {
 pub struct ExperimentBanditArgs {
     /// The paper's table or figure to reproduce, with the paper's number of trials; the
     /// printed table puts the paper's row under ours.
-    #[arg(long, value_enum, conflicts_with = "preset")]
+    #[arg(long, value_enum, ignore_case = true, conflicts_with = "preset")]
     pub table: Option<TableArg>,
     /// The same studies by preset name, and `compare` (Algorithm 1 beside its improvements).
     #[arg(long, value_enum, default_value_t = PresetArg::Table1)]
