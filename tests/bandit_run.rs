@@ -51,6 +51,7 @@ fn setup(speedup: f64) -> SimSetup {
         camera_px: 160,
         battery_minutes: 12.0,
         charge_minutes: 6.0,
+        sensor_flip: 0.0,
     }
 }
 
