@@ -71,7 +71,7 @@ pub struct DemoArgs {
     /// With --bandit: a degraded sensor — each simulated camera image, independently with
     /// probability P (0 ≤ P < 0.5), shows the other class of tile (green tiles drawn grey,
     /// grey ones green), as the bandit paper's degraded-sensor hardware run (§V) added 5 %
-    /// classification noise: `--sensor-flip 0.05`. The GCS is unchanged. Default 0.
+    /// classification noise: `--sensor-flip 0.05`. The GCS is unchanged; 0: no image is flipped.
     #[arg(
         long,
         value_name = "P",

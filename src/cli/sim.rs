@@ -51,7 +51,7 @@ pub struct SimArgs {
     /// A degraded sensor: each camera image, independently with probability P (0 ≤ P < 0.5),
     /// shows the other class of tile — green tiles drawn grey and grey ones green — as the
     /// bandit paper's degraded-sensor hardware run (§V) added 5 % classification noise
-    /// (`--sensor-flip 0.05`). Default 0: a perfect sensor.
+    /// (`--sensor-flip 0.05`); 0: no image is flipped.
     #[arg(
         long,
         value_name = "P",
