@@ -824,3 +824,90 @@ fn paired_camera_wakes_a_silent_arducopter() {
     assert!((img.true_pose.lon - f64::from(p.lon) * 1e-7).abs() < 1e-6);
     assert_eq!(cams.refused(), 0);
 }
+
+// ------------------------------------------------------------------ degraded sensor (§V)
+
+/// The degraded sensor (`CameraConfig::misclassify_probability`) fools the GCS's own
+/// measurement: a flipped image of a green tile of the bandit paper's hardware field is
+/// measured not green, a flipped image of a grey tile green, and unflipped images the other
+/// way round. The images are the simulated camera's JPEGs (160 px, as the bandit tests fly)
+/// measured with the parameters the GCS's run takes from the hardware mission.
+#[test]
+fn a_flipped_image_is_measured_as_the_other_class_by_the_gcs() {
+    use fleetmap::app::bandit::measure_image;
+    use fleetmap::app::bandit_sim::{HARDWARE_MISSION, HARDWARE_WORLD};
+    use fleetmap::geo::{Grid, LatLon};
+    use fleetmap::mission::definition::{MissionDef, Origin};
+    use fleetmap::planner::sortie::ClassificationState;
+    use fleetmap::sim::camera::{CaptureContext, SimCamera};
+
+    let world = World::from_toml(HARDWARE_WORLD).unwrap();
+    let def = MissionDef::parse(HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
+    let Origin::Coordinates(o) = def.grid.origin else {
+        panic!("the hardware mission has a fixed origin");
+    };
+    let cell_m = def.grid.cell_size_m;
+    let grid = Grid::new(LatLon::new(o.lat, o.lon), cell_m).unwrap();
+    let params = ClassificationState::new(&def, grid, None).unwrap().params;
+    // The GCS's measurement of one image of cell (row, col) taken from `alt` m by a camera
+    // that flips with probability `p` (0 or 1 here: never or always).
+    let measured = |p: f64, (row, col): (i32, i32), alt: f64, seed: u64| -> bool {
+        let mut cfg = CameraConfig {
+            misclassify_probability: p,
+            mavlink_transfer: false,
+            ..CameraConfig::default()
+        };
+        cfg.model.width_px = 160;
+        cfg.model.height_px = 160;
+        let mut cam = SimCamera::new(1, cfg, seed);
+        let (lat, lon) = grid_cell_center((o.lat, o.lon), cell_m, row, col);
+        let ctx = CaptureContext {
+            true_pose: CameraPose {
+                lat,
+                lon,
+                alt_agl_m: alt,
+                heading_deg: 0.0,
+                roll_deg: 0.0,
+                pitch_deg: 0.0,
+            },
+            reported: (lat, lon, alt),
+            alt_amsl_m: 600.0 + alt,
+            time_boot_ms: 1_000,
+            now: Time::from_secs(1),
+            world_t_s: 1.0,
+        };
+        cam.capture_now(&ctx, Some(&world));
+        let img = cam.poll_image().expect("an image of the field");
+        assert_eq!(img.misclassified, p >= 1.0);
+        let (f, positive) = measure_image(
+            &img.jpeg,
+            &params.green,
+            &params.camera,
+            alt,
+            cell_m,
+            params.crop_fraction,
+        )
+        .unwrap();
+        println!("p {p} cell ({row}, {col}) at {alt} m: green share {f:.3}");
+        positive
+    };
+    let green = world.cells_of(Surface::GreenTile);
+    let grey = world.cells_of(Surface::GreyTile);
+    assert_eq!((green.len(), grey.len()), (4, 10));
+    // every tile, from the drones' four altitudes (10, 12, 14, 16 m)
+    for (k, &cell) in green.iter().chain(&grey).enumerate() {
+        let is_green = green.contains(&cell);
+        let alt = 10.0 + 2.0 * (k % 4) as f64;
+        let seed = k as u64;
+        assert_eq!(
+            measured(0.0, cell, alt, seed),
+            is_green,
+            "{cell:?} as it is"
+        );
+        assert_eq!(
+            measured(1.0, cell, alt, seed),
+            !is_green,
+            "{cell:?} flipped"
+        );
+    }
+}

@@ -43,6 +43,10 @@ pub struct SimSetup {
     /// Minutes a copter battery takes to charge from empty on a station (30: a typical
     /// charger; the paper's wireless pads are slower).
     pub charge_minutes: f64,
+    /// A degraded sensor: the probability that a camera image shows the other class of tile
+    /// (0: none; the bandit paper's §V degraded-sensor run: 0.05). See
+    /// [`crate::sim::camera::CameraConfig::misclassify_probability`].
+    pub sensor_flip: f64,
 }
 
 impl Default for SimSetup {
@@ -53,6 +57,7 @@ impl Default for SimSetup {
             camera_px: 480,
             battery_minutes: 12.0,
             charge_minutes: 30.0,
+            sensor_flip: 0.0,
         }
     }
 }
@@ -70,6 +75,7 @@ pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> anyhow::Result
         if let Some(c) = v.camera.as_mut() {
             c.model.width_px = setup.camera_px.max(8);
             c.model.height_px = setup.camera_px.max(8);
+            c.misclassify_probability = setup.sensor_flip;
         }
     }
     Ok(sc)

@@ -68,12 +68,26 @@ pub struct DemoArgs {
     /// samples (and epochs) before every cell is labelled.
     #[arg(long, value_enum)]
     pub bound: Option<crate::cli::bandit::BoundArg>,
+    /// With --bandit: a degraded sensor — each simulated camera image, independently with
+    /// probability P (0 ≤ P < 0.5), shows the other class of tile (green tiles drawn grey,
+    /// grey ones green), as the bandit paper's degraded-sensor hardware run (§V) added 5 %
+    /// classification noise: `--sensor-flip 0.05`. The GCS is unchanged; 0: no image is flipped.
+    #[arg(
+        long,
+        value_name = "P",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub sensor_flip: f64,
 }
 
 /// Run `fleetmap demo`.
 pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
     if args.bandit {
         return run_bandit(&args);
+    }
+    if args.sensor_flip != 0.0 {
+        bail!("--sensor-flip is for the spatial-classification demo (--bandit)");
     }
     if !(1..=8).contains(&args.drones) {
         bail!("--drones must be between 1 and 8");
@@ -134,6 +148,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
                 "DEMO: {} simulated ArduPilot copter(s), {}x real time",
                 cfg.drones, cfg.speedup
             ),
+            extra: serde_json::Value::Null,
         };
         let opts = RunOptions {
             auto_resume: !args.manual,
@@ -161,6 +176,9 @@ struct Demo {
     auto_start: bool,
     json: bool,
     label: String,
+    /// More of the run's settings for `run.json`'s `extra` (an object; anything else is
+    /// ignored): the simulated sensor of a degraded-sensor demo.
+    extra: serde_json::Value,
 }
 
 impl Demo {
@@ -183,6 +201,11 @@ impl Demo {
             .map(|b| format!("udpout:{}", b.local))
             .collect();
         meta.extra = serde_json::json!({"world": "world.toml"});
+        if let (Some(extra), serde_json::Value::Object(more)) =
+            (meta.extra.as_object_mut(), self.extra)
+        {
+            extra.extend(more);
+        }
         let (dir, text, world_text) = (self.dir.clone(), self.text, self.world_text);
         let run_dir = cpu(move || -> anyhow::Result<RunDir> {
             let run_dir = RunDir::create(&dir, meta, Some(&text))
@@ -318,6 +341,14 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     if !(16..=1920).contains(&args.camera_px) {
         bail!("--camera-px must be between 16 and 1920");
     }
+    let sensor_flip = crate::cli::sim::check_sensor_flip(args.sensor_flip)?;
+    // How the run's settings name the sensor: in the progress lines, the UI title and
+    // run.json.
+    let sensor = if sensor_flip > 0.0 {
+        format!(", degraded sensor (flip {sensor_flip})")
+    } else {
+        String::new()
+    };
     let world = World::from_toml(bandit_sim::HARDWARE_WORLD).context("the built-in 6x6 world")?;
     let text = match args.bound {
         None => bandit_sim::HARDWARE_MISSION.to_string(),
@@ -338,6 +369,7 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         seed: args.seed,
         camera_px: args.camera_px,
         battery_minutes: args.battery_minutes,
+        sensor_flip,
         ..SimSetup::default()
     };
     let json = args.json;
@@ -347,7 +379,7 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         if !tui {
             println!(
                 "demo: simulator with 4 ArduPilot copters and 2 ArduPilot rovers (charging \
-                 stations) over the bandit paper's 6x6 field, {}x real time",
+                 stations) over the bandit paper's 6x6 field, {}x real time{sensor}",
                 setup.speedup
             );
         }
@@ -362,9 +394,10 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
             auto_start: true,
             json,
             label: format!(
-                "DEMO: 4 simulated ArduPilot copters, 2 rovers, {}x real time",
+                "DEMO: 4 simulated ArduPilot copters, 2 rovers, {}x real time{sensor}",
                 setup.speedup
             ),
+            extra: serde_json::json!({ "sensor_flip": sensor_flip }),
         };
         let summary = |r: &ClassificationReport| {
             let mut lines = vec!["demo finished".to_string()];

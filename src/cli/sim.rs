@@ -48,6 +48,17 @@ pub struct SimArgs {
     /// faster with the same field of view.
     #[arg(long, value_name = "PX", default_value_t = 480)]
     pub camera_px: u32,
+    /// A degraded sensor: each camera image, independently with probability P (0 ≤ P < 0.5),
+    /// shows the other class of tile — green tiles drawn grey and grey ones green — as the
+    /// bandit paper's degraded-sensor hardware run (§V) added 5 % classification noise
+    /// (`--sensor-flip 0.05`); 0: no image is flipped.
+    #[arg(
+        long,
+        value_name = "P",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub sensor_flip: f64,
     /// Battery level (percent) that triggers the failsafe RTL (default: the autopilot's).
     #[arg(long, value_name = "PCT")]
     pub low_battery: Option<f64>,
@@ -117,6 +128,16 @@ fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
     Ok((a, b))
 }
 
+/// Check a `--sensor-flip` probability: at least 0 and below 0.5 (at 0.5 an image says
+/// nothing about its cell; above, the sensor would be a better one with its classes
+/// swapped).
+pub fn check_sensor_flip(p: f64) -> anyhow::Result<f64> {
+    if !(p.is_finite() && (0.0..0.5).contains(&p)) {
+        bail!("--sensor-flip must be a probability at least 0 and below 0.5 (got {p})");
+    }
+    Ok(p)
+}
+
 /// Build the simulation `fleetmap sim` would serve (also used by tests).
 pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     let world = match &args.world {
@@ -145,6 +166,7 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     if !(8..=4096).contains(&args.camera_px) {
         bail!("--camera-px must be between 8 and 4096");
     }
+    let sensor_flip = check_sensor_flip(args.sensor_flip)?;
     let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?;
     let faults = args.faults.faults()?;
     cfg = cfg.with_faults(faults);
@@ -194,6 +216,7 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
             c.model.height_px = args.camera_px;
             c.mavlink_transfer = !args.no_image_transfer;
             c.file_dir = image_dir.as_ref().map(|d| d.display().to_string());
+            c.misclassify_probability = sensor_flip;
         }
     }
     Ok(cfg)
@@ -211,6 +234,7 @@ fn run_camera_only(args: SimArgs, endpoints: Vec<Endpoint>) -> anyhow::Result<Ex
         mavlink_transfer: !args.no_image_transfer,
         // 0 = one burst per image, as the embedded simulator's cameras send
         transfer_rate_bps: (args.image_rate > 0).then_some(f64::from(args.image_rate)),
+        misclassify_probability: check_sensor_flip(args.sensor_flip)?,
         ..crate::sim::camera::CameraConfig::default()
     };
     if let Some(d) = &args.image_dir {
@@ -340,5 +364,70 @@ mod tests {
         let cfg = super::build(&args).unwrap();
         let (lat, lon) = cfg.vehicles[0].start;
         assert!((lat + 35.363261).abs() < 1e-9 && (lon - 149.165230).abs() < 1e-9);
+    }
+
+    fn parse(extra: &[&str]) -> anyhow::Result<Command> {
+        let mut argv = vec!["fleetmap"];
+        argv.extend(extra);
+        Ok(Cli::try_parse_from(argv)?.command)
+    }
+
+    /// `--sensor-flip P` reaches every camera of `fleetmap sim` (default 0); P must be a
+    /// probability below 0.5, for `fleetmap sim` and `fleetmap demo --bandit` alike, and the
+    /// runway demo has no use for it.
+    #[test]
+    fn sensor_flip_reaches_every_camera_and_is_checked() {
+        let sim = |flip: &str| -> anyhow::Result<crate::sim::harness::SimConfig> {
+            let Command::Sim(args) = parse(&[
+                "sim",
+                "--connect",
+                "udpout:127.0.0.1:14550",
+                "--vehicles",
+                "2xcopter:ardupilot",
+                "--home",
+                "37.0,-80.0",
+                "--sensor-flip",
+                flip,
+            ])?
+            else {
+                panic!("not sim")
+            };
+            super::build(&args)
+        };
+        let cfg = sim("0.05").unwrap();
+        let cams: Vec<f64> = cfg
+            .vehicles
+            .iter()
+            .filter_map(|v| v.camera.as_ref().map(|c| c.misclassify_probability))
+            .collect();
+        assert_eq!(cams, vec![0.05, 0.05]);
+        let cfg = sim("0").unwrap();
+        assert!(
+            cfg.vehicles
+                .iter()
+                .filter_map(|v| v.camera.as_ref())
+                .all(|c| c.misclassify_probability == 0.0)
+        );
+        for bad in ["0.5", "0.7", "-0.01", "NaN", "inf"] {
+            let e = sim(bad).expect_err(bad).to_string();
+            assert!(
+                e.contains("--sensor-flip must be a probability"),
+                "{bad}: {e}"
+            );
+        }
+        let demo = |argv: &[&str]| -> anyhow::Result<std::process::ExitCode> {
+            let Command::Demo(args) = parse(argv)? else {
+                panic!("not demo")
+            };
+            crate::cli::demo::run(args)
+        };
+        let e = demo(&["demo", "--bandit", "--headless", "--sensor-flip", "0.5"]).unwrap_err();
+        assert!(
+            e.to_string()
+                .contains("--sensor-flip must be a probability"),
+            "{e}"
+        );
+        let e = demo(&["demo", "--headless", "--sensor-flip", "0.05"]).unwrap_err();
+        assert!(e.to_string().contains("--bandit"), "{e}");
     }
 }

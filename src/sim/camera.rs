@@ -26,6 +26,12 @@
 //! it otherwise (`MAVLink_routing::check_and_forward`, `comm_get_txspace`), so a 60–100 KB
 //! JPEG sent as one burst loses a large share of its packets. CAMERA_IMAGE_CAPTURED is never
 //! held back by the pacing.
+//!
+//! A degraded sensor ([`CameraConfig::misclassify_probability`]): each image, independently
+//! and with that probability, shows the bandit field's green tiles as grey and its grey
+//! tiles as green, as the bandit paper's degraded-sensor run (§V) added 5 % classification
+//! noise to its measurements. The GCS is not told; [`CapturedImage::misclassified`] says it
+//! for scoring.
 
 use crate::imagery::meta::{ImageMeta, insert_meta};
 use crate::sim::render::{CameraPose, Disturbances, render};
@@ -34,6 +40,8 @@ use crate::time::Time;
 use crate::vision::camera::CameraModel;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
+use rand::{RngExt, SeedableRng};
+use rand_chacha::ChaCha8Rng;
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Duration;
@@ -76,6 +84,16 @@ pub struct CameraConfig {
     /// `None` (the default) queues an image's handshake and all its packets at once.
     /// Values that are not finite and positive count as `None`.
     pub transfer_rate_bps: Option<f64>,
+    /// A degraded sensor: the probability (0–1, per image) that a picture shows the other
+    /// class of the bandit field — rendered with every green tile drawn as a grey tile and
+    /// every grey tile as a green one ([`Disturbances::swap_tiles`]), so the GCS's unchanged
+    /// green-share measurement reads 0 over a green tile and 1 over a grey one. Drawn
+    /// independently for each image from the camera's seed and the image's name (vehicle,
+    /// boot, index): the same seed flips the same images. The bandit paper's degraded-sensor
+    /// hardware run (§V) added 5 % of such classification noise: 0.05. 0 (the default), a
+    /// negative or a non-finite value: no image is flipped. Other surfaces are drawn as they
+    /// are.
+    pub misclassify_probability: f64,
 }
 
 impl Default for CameraConfig {
@@ -87,6 +105,7 @@ impl Default for CameraConfig {
             file_dir: None,
             min_interval_s: 0.2,
             transfer_rate_bps: None,
+            misclassify_probability: 0.0,
         }
     }
 }
@@ -104,6 +123,9 @@ pub struct CapturedImage {
     pub file_name: String,
     /// When it was taken.
     pub time: Time,
+    /// Whether the image shows the other class of tiles
+    /// ([`CameraConfig::misclassify_probability`]); the JPEG does not say so.
+    pub misclassified: bool,
 }
 
 /// Pose inputs for a capture.
@@ -139,6 +161,20 @@ pub fn attitude_quaternion(roll_deg: f64, pitch_deg: f64, yaw_deg: f64) -> [f32;
         (cr * sp * cy + sr * cp * sy) as f32,
         (cr * cp * sy - sr * sp * cy) as f32,
     ]
+}
+
+/// Whether the image with per-image seed `image_seed` shows the other class of tiles, for a
+/// sensor that misclassifies with probability `p` (see
+/// [`CameraConfig::misclassify_probability`]): a uniform draw in [0, 1) from the seed, below
+/// `p`. Pure: the same seed and `p` always give the same answer, and a larger `p` flips a
+/// superset of the images a smaller one flips.
+pub fn shows_other_class(image_seed: u64, p: f64) -> bool {
+    if !(p.is_finite() && p > 0.0) {
+        return false;
+    }
+    // salted apart from the disturbances drawn from the same seed (render::Disturbances::draw)
+    let mut rng = ChaCha8Rng::seed_from_u64(image_seed ^ 0xF11B_5E45_0C1A_55E5);
+    rng.random_range(0.0..1.0) < p
 }
 
 /// How many recent images a camera keeps to send again on request.
@@ -474,20 +510,14 @@ impl SimCamera {
             self.sysid, self.boot, index
         );
         let mut jpeg = None;
+        let seed = self.image_seed(index);
+        let misclassified = shows_other_class(seed, self.config.misclassify_probability);
         if let Some(w) = world {
-            let seed = self
-                .seed
-                .wrapping_mul(0x9E37_79B9_7F4A_7C15)
-                .wrapping_add(u64::from(self.sysid) << 40)
-                .wrapping_add(u64::from(self.boot) << 24)
-                .wrapping_add(index as u64);
-            let img = render(
-                w,
-                &ctx.true_pose,
-                &model,
-                ctx.world_t_s,
-                &Disturbances::draw(seed),
-            );
+            let dist = Disturbances {
+                swap_tiles: misclassified,
+                ..Disturbances::draw(seed)
+            };
+            let img = render(w, &ctx.true_pose, &model, ctx.world_t_s, &dist);
             let mut raw = Vec::new();
             let ok = image::codecs::jpeg::JpegEncoder::new_with_quality(
                 &mut raw,
@@ -548,8 +578,19 @@ impl SimCamera {
                 jpeg: j.clone(),
                 file_name,
                 time: ctx.now,
+                misclassified,
             });
         }
+    }
+
+    /// The seed of image `index` of this boot: its disturbances and whether it is flipped
+    /// ([`shows_other_class`]) are drawn from it.
+    fn image_seed(&self, index: i32) -> u64 {
+        self.seed
+            .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+            .wrapping_add(u64::from(self.sysid) << 40)
+            .wrapping_add(u64::from(self.boot) << 24)
+            .wrapping_add(index as u64)
     }
 
     fn queue_transfer(&mut self, jpeg: &[u8]) {
@@ -834,6 +875,80 @@ mod tests {
         assert_eq!(cam.drop_due(Time::from_secs(4)), 1);
         assert_eq!(cam.drop_due(Time::from_secs(9)), 0);
         assert_eq!(cam.image_count(), 0);
+    }
+
+    /// Take `n` 16-pixel pictures over a flat green field with a sensor that misclassifies
+    /// with probability `p`; returns which of them were flipped.
+    fn flips(p: f64, n: usize, seed: u64) -> Vec<bool> {
+        let world = World::flat(crate::sim::world::Surface::GreenTile, (37.0, -80.0), 100.0);
+        let mut cfg = CameraConfig {
+            misclassify_probability: p,
+            min_interval_s: 0.0,
+            mavlink_transfer: false,
+            ..CameraConfig::default()
+        };
+        cfg.model.width_px = 16;
+        cfg.model.height_px = 16;
+        let mut cam = SimCamera::new(2, cfg, seed);
+        let pose = CameraPose {
+            lat: 37.0,
+            lon: -80.0,
+            alt_agl_m: 10.0,
+            heading_deg: 0.0,
+            roll_deg: 0.0,
+            pitch_deg: 0.0,
+        };
+        (0..n)
+            .map(|i| {
+                let ctx = CaptureContext {
+                    true_pose: pose,
+                    reported: (37.0, -80.0, 10.0),
+                    alt_amsl_m: 110.0,
+                    time_boot_ms: i as u32 * 100,
+                    now: Time::from_millis(i as u64 * 100),
+                    world_t_s: i as f64 * 0.1,
+                };
+                cam.capture_now(&ctx, Some(&world));
+                cam.poll_image()
+                    .expect("an image of the world")
+                    .misclassified
+            })
+            .collect()
+    }
+
+    /// A degraded sensor flips a share of its images within a binomial 5-sigma band of its
+    /// probability, independently per image and the same way for the same seed; a perfect
+    /// one (the default 0) never does.
+    #[test]
+    fn a_degraded_sensor_flips_its_share_of_images() {
+        let n = 2000;
+        assert!(flips(0.0, n, 7).iter().all(|&f| !f));
+        assert_eq!(CameraConfig::default().misclassify_probability, 0.0);
+        for p in [0.05, 0.2] {
+            let k = flips(p, n, 7).iter().filter(|&&f| f).count() as f64;
+            let (mean, sigma) = (n as f64 * p, (n as f64 * p * (1.0 - p)).sqrt());
+            assert!(
+                (k - mean).abs() <= 5.0 * sigma,
+                "p = {p}: {k} of {n} flipped, expected {mean} ± {:.1}",
+                5.0 * sigma
+            );
+        }
+        // deterministic in the seed, different between seeds
+        let a = flips(0.05, 400, 7);
+        assert_eq!(a, flips(0.05, 400, 7));
+        assert_ne!(a, flips(0.05, 400, 8));
+        // consecutive images are not correlated: flips come apart, not in one run
+        let flipped: Vec<usize> = a
+            .iter()
+            .enumerate()
+            .filter(|(_, f)| **f)
+            .map(|(i, _)| i)
+            .collect();
+        assert!(flipped.len() >= 5 && flipped.windows(2).any(|w| w[1] - w[0] > 1));
+        // not a probability: nothing flipped
+        for p in [f64::NAN, -0.1, f64::INFINITY] {
+            assert!(!shows_other_class(1, p));
+        }
     }
 
     #[test]

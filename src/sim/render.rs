@@ -16,6 +16,10 @@
 //! draws, so the runway paper's classifier (grey, threshold 150, 7 dilations, §7 and Fig. 9)
 //! sees the asphalt black and the grass — after dilation closes its gaps — white. The
 //! runway's dashed white centreline is a realistic false "white" inside the runway.
+//!
+//! A degraded sensor ([`Disturbances::swap_tiles`]): the image draws the bandit field's green
+//! tiles with the grey tiles' texture and the grey tiles with the green ones', so the GCS's
+//! green-share measurement of that image says the other class.
 
 use crate::sim::world::{Surface, World};
 use crate::vision::camera::CameraModel;
@@ -57,6 +61,12 @@ pub struct Disturbances {
     pub noise_sigma: f64,
     /// Seed of the noise and cloud field of this image.
     pub seed: u64,
+    /// Render every green tile as a grey tile and every grey tile as a green one: the image
+    /// shows the other class of the bandit field's tiles (a misclassifying sensor,
+    /// [`crate::sim::camera::CameraConfig::misclassify_probability`]). Never drawn by
+    /// [`Disturbances::draw`]; the camera sets it.
+    #[serde(default)]
+    pub swap_tiles: bool,
 }
 
 impl Disturbances {
@@ -69,6 +79,7 @@ impl Disturbances {
             blur_px: 0.0,
             noise_sigma: 0.0,
             seed: 0,
+            swap_tiles: false,
         }
     }
 
@@ -83,6 +94,7 @@ impl Disturbances {
             blur_px: rng.random_range(0.5..1.1),
             noise_sigma: rng.random_range(2.0..4.0),
             seed,
+            swap_tiles: false,
         }
     }
 }
@@ -373,6 +385,13 @@ pub fn render(
                             && on_centreline(world, i, e, n, t_s);
                         break;
                     }
+                }
+                if dist.swap_tiles {
+                    surface = match surface {
+                        Surface::GreenTile => Surface::GreyTile,
+                        Surface::GreyTile => Surface::GreenTile,
+                        s => s,
+                    };
                 }
                 let mut c = texture(surface, e, n, world_salt, rel, marking, gsd);
                 let mut k = dist.exposure;
