@@ -194,8 +194,9 @@ fn kl_bound_table1_row_is_pinned() {
     assert_eq!(epochs, PINNED_KL_TABLE1, "{trials}");
 }
 
-/// (epochs until every interesting cell, epochs until every cell) of the two trials above.
-const PINNED_KL_TABLE1: [(usize, usize); 2] = [(11, 12), (9, 13)];
+/// (epochs until every interesting cell, epochs until every cell) of the two trials above:
+/// trials 0 and 1 of the row in docs/results/bandit/table1-kl/trials.csv.
+const PINNED_KL_TABLE1: [(usize, usize); 2] = [(8, 14), (7, 12)];
 
 /// The same small study with both bounds on a 6×6 world (5 obstacles, 4 interesting cells,
 /// 4 drones on 2 stations, D = 4, μ_worst = 0.8, δ = 10⁻⁴), 3 seeded trials each, through the
@@ -436,4 +437,64 @@ const PINNED_TABLES: [&str; 52] = [
     "fig6 greedy-trav epoch 1: 1 cycles, 10 goals, 3216 variables, 49 batches",
     "fig6 apt epoch 0: 1 cycles, 10 goals, 3186 variables, 66 batches",
     "fig6 apt epoch 1: 1 cycles, 10 goals, 3270 variables, 51 batches",
+];
+
+/// The committed tables (docs/results/bandit/) are what this code computes: trial 0 of one
+/// row of each, run again alone (`--only`, the row keeps its table's sensing stream), gives
+/// the committed line of trials.csv — epochs, labelling errors, the world's P_max — so a
+/// change that would alter the published results fails here.
+#[test]
+fn committed_tables_reproduce() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("docs/results/bandit");
+    let dir = tempfile::tempdir().unwrap();
+    for (table_dir, table, only, extra) in COMMITTED_ROWS {
+        let committed = std::fs::read_to_string(root.join(table_dir).join("trials.csv"))
+            .unwrap_or_else(|e| panic!("{table_dir}: {e}"));
+        let header = committed.lines().next().unwrap().to_string();
+        let want = committed
+            .lines()
+            .skip(1)
+            .find(|l| {
+                let (label, f) = csv_fields(l);
+                label.contains(only) && f[0] == "0"
+            })
+            .unwrap_or_else(|| panic!("{table_dir}: no trial 0 of {only}"));
+        let out = dir.path().join(table_dir);
+        let mut args = vec![
+            "experiment",
+            "bandit",
+            "--table",
+            table,
+            "--only",
+            only,
+            "--trials",
+            "1",
+            "--quiet",
+            "--out",
+            out.to_str().unwrap(),
+        ];
+        args.extend_from_slice(extra);
+        let o = fleetmap(&args);
+        assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+        let got = std::fs::read_to_string(out.join("trials.csv")).unwrap();
+        assert_eq!(got.lines().next().unwrap(), header);
+        // Every column but the median solve time (index 7 after the label).
+        let strip = |l: &str| {
+            let (label, mut f) = csv_fields(l);
+            f.remove(6);
+            (label, f)
+        };
+        assert_eq!(
+            strip(got.lines().nth(1).unwrap()),
+            strip(want),
+            "{table_dir}"
+        );
+    }
+}
+
+/// (directory under docs/results/bandit, --table, --only, more arguments): a quick row of
+/// each committed table.
+const COMMITTED_ROWS: [(&str, &str, &str, &[&str]); 2] = [
+    ("table1", "I", "mu_worst=1", &[]),
+    ("table1-kl", "I", "mu_worst=0.8", &["--bound", "kl"]),
 ];

@@ -227,9 +227,15 @@ pub struct MergeArgs {
 /// The study the arguments describe (preset, variants with the options applied, trials).
 fn study_of(args: &ExperimentBanditArgs) -> anyhow::Result<Study> {
     let preset = args.table.map_or(args.preset.preset(), TableArg::preset);
-    let mut variants: Vec<StudyConfig> = preset.variants();
+    // Each row keeps its position in the whole table as its sensing stream.
+    let (mut streams, mut variants): (Vec<usize>, Vec<StudyConfig>) =
+        preset.variants().into_iter().enumerate().unzip();
     if let Some(only) = &args.only {
-        variants.retain(|v| v.label.contains(only.as_str()));
+        (streams, variants) = streams
+            .into_iter()
+            .zip(variants)
+            .filter(|(_, v)| v.label.contains(only.as_str()))
+            .unzip();
         if variants.is_empty() {
             anyhow::bail!(
                 "--only {only:?} matches no variant of {} (labels: {})",
@@ -290,6 +296,7 @@ fn study_of(args: &ExperimentBanditArgs) -> anyhow::Result<Study> {
         seed: args.seed,
         trials,
         variants,
+        streams,
     })
 }
 

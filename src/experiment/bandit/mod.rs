@@ -799,6 +799,11 @@ pub struct Study {
     pub trials: usize,
     /// The variants (rows), in order.
     pub variants: Vec<StudyConfig>,
+    /// Each variant's sensing stream ([`run_seeded`]'s `variant`): its position in the
+    /// preset's full list, so that a row picked alone (`--only`) measures exactly as it does
+    /// in the whole table. Empty: the variants' positions in `variants`.
+    #[serde(default)]
+    pub streams: Vec<usize>,
 }
 
 impl Study {
@@ -815,7 +820,8 @@ impl Study {
 
     /// Run trial `trial` of variant `variant`.
     pub fn run(&self, variant: usize, trial: usize) -> TrialResult {
-        run_seeded(&self.variants[variant], self.seed, trial, variant)
+        let stream = self.streams.get(variant).copied().unwrap_or(variant);
+        run_seeded(&self.variants[variant], self.seed, trial, stream)
     }
 
     /// One summary per variant, with the paper's row beside it.

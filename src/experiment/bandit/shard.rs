@@ -217,6 +217,7 @@ mod tests {
                     ..StudyConfig::default()
                 },
             ],
+            streams: Vec::new(),
         }
     }
 

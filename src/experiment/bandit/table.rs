@@ -307,6 +307,7 @@ mod tests {
             seed: 1,
             trials: 2,
             variants: Preset::Table1.variants(),
+            streams: Vec::new(),
         };
         let results: Vec<TrialResult> = (0..2)
             .map(|t| trial("mu_worst=0.8", t, Some(44 + t)))
@@ -342,6 +343,7 @@ mod tests {
             seed: 1,
             trials: 1,
             variants: Preset::Fig6.variants(),
+            streams: Vec::new(),
         };
         let results: Vec<TrialResult> = study
             .variants
