@@ -818,6 +818,15 @@ impl Study {
             .collect()
     }
 
+    /// The same study with [`Study::streams`] spelled out (empty: the positions), so parts
+    /// written either way compare equal.
+    pub fn normalized(mut self) -> Study {
+        if self.streams.is_empty() {
+            self.streams = (0..self.variants.len()).collect();
+        }
+        self
+    }
+
     /// Run trial `trial` of variant `variant`.
     pub fn run(&self, variant: usize, trial: usize) -> TrialResult {
         let stream = self.streams.get(variant).copied().unwrap_or(variant);

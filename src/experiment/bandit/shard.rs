@@ -132,7 +132,11 @@ pub fn merge(parts: Vec<(String, ShardFile)>) -> Result<(Study, Vec<TrialResult>
     let Some((first_name, first)) = parts.first() else {
         return Err(MergeError::Empty);
     };
-    let (first_name, study, count) = (first_name.clone(), first.study.clone(), first.shard.count);
+    let (first_name, study, count) = (
+        first_name.clone(),
+        first.study.clone().normalized(),
+        first.shard.count,
+    );
     let mut seen = vec![false; count];
     let mut results = Vec::new();
     for (name, part) in parts {
@@ -142,7 +146,7 @@ pub fn merge(parts: Vec<(String, ShardFile)>) -> Result<(Study, Vec<TrialResult>
                 found: part.format,
             });
         }
-        if part.study != study {
+        if part.study.normalized() != study {
             return Err(MergeError::OtherStudy {
                 first: first_name,
                 part: name,
@@ -284,8 +288,12 @@ mod tests {
             .map(|&k| part(&s, Shard { index: k, count: 3 }))
             .collect();
         let (joined, results) = merge(parts).unwrap();
-        assert_eq!(joined, s);
+        assert_eq!(joined, s.clone().normalized());
         assert_eq!(results, whole);
+        // A part that names the streams joins one that leaves them implicit.
+        let mut named = part(&s, Shard { index: 1, count: 2 });
+        named.1.study = named.1.study.normalized();
+        assert!(merge(vec![named, part(&s, Shard { index: 2, count: 2 })]).is_ok());
     }
 
     #[test]
