@@ -24,8 +24,11 @@
 //!    infeasible ones at smaller K included), and labelling errors.
 //!
 //! Randomness: trial t of a study uses world seed = f(seed, t) for every variant, so variants
-//! are compared on the same worlds; the sensing stream is seeded separately per variant and
-//! trial.
+//! are compared on the same worlds; the sensing stream is seeded separately per variant (its
+//! position in the preset's list, [`Study::streams`]) and trial.
+//!
+//! A study can be split into parts that run anywhere and join again ([`shard`]); what it writes
+//! and prints, with the paper's row under each of ours, is in [`table`] and [`paper`].
 
 pub mod paper;
 pub mod plot;
