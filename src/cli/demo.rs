@@ -68,17 +68,9 @@ pub struct DemoArgs {
     /// samples (and epochs) before every cell is labelled.
     #[arg(long, value_enum)]
     pub bound: Option<crate::cli::bandit::BoundArg>,
-    /// With --bandit: a degraded sensor — each simulated camera image, independently with
-    /// probability P (0 ≤ P < 0.5), shows the other class of tile (green tiles drawn grey,
-    /// grey ones green), as the bandit paper's degraded-sensor hardware run (§V) added 5 %
-    /// classification noise: `--sensor-flip 0.05`. The GCS is unchanged; 0: no image is flipped.
-    #[arg(
-        long,
-        value_name = "P",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    pub sensor_flip: f64,
+    /// With --bandit: the simulated cameras' sensor (the bandit paper's degraded sensor, §V).
+    #[command(flatten)]
+    pub sensor: crate::cli::sim::SensorArgs,
 }
 
 /// Run `fleetmap demo`.
@@ -86,7 +78,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
     if args.bandit {
         return run_bandit(&args);
     }
-    if args.sensor_flip != 0.0 {
+    if args.sensor.flip != 0.0 {
         bail!("--sensor-flip is for the spatial-classification demo (--bandit)");
     }
     if !(1..=8).contains(&args.drones) {
@@ -341,7 +333,7 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     if !(16..=1920).contains(&args.camera_px) {
         bail!("--camera-px must be between 16 and 1920");
     }
-    let sensor_flip = crate::cli::sim::check_sensor_flip(args.sensor_flip)?;
+    let sensor_flip = args.sensor.probability()?;
     // How the run's settings name the sensor: in the progress lines, the UI title and
     // run.json.
     let sensor = if sensor_flip > 0.0 {

@@ -48,17 +48,9 @@ pub struct SimArgs {
     /// faster with the same field of view.
     #[arg(long, value_name = "PX", default_value_t = 480)]
     pub camera_px: u32,
-    /// A degraded sensor: each camera image, independently with probability P (0 ≤ P < 0.5),
-    /// shows the other class of tile — green tiles drawn grey and grey ones green — as the
-    /// bandit paper's degraded-sensor hardware run (§V) added 5 % classification noise
-    /// (`--sensor-flip 0.05`); 0: no image is flipped.
-    #[arg(
-        long,
-        value_name = "P",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    pub sensor_flip: f64,
+    /// The simulated cameras' sensor.
+    #[command(flatten)]
+    pub sensor: SensorArgs,
     /// Battery level (percent) that triggers the failsafe RTL (default: the autopilot's).
     #[arg(long, value_name = "PCT")]
     pub low_battery: Option<f64>,
@@ -128,14 +120,33 @@ fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
     Ok((a, b))
 }
 
-/// Check a `--sensor-flip` probability: at least 0 and below 0.5 (at 0.5 an image says
-/// nothing about its cell; above, the sensor would be a better one with its classes
-/// swapped).
-pub fn check_sensor_flip(p: f64) -> anyhow::Result<f64> {
-    if !(p.is_finite() && (0.0..0.5).contains(&p)) {
-        bail!("--sensor-flip must be a probability at least 0 and below 0.5 (got {p})");
+/// `--sensor-flip P`, shared by `fleetmap sim` and `fleetmap demo --bandit`.
+#[derive(Debug, Clone, Args)]
+pub struct SensorArgs {
+    /// A degraded sensor: each camera image, independently with probability P (0 ≤ P < 0.5),
+    /// shows the other class of tile — green tiles drawn grey and grey ones green — as the
+    /// bandit paper's degraded-sensor hardware run (§V) added 5 % classification noise
+    /// (`--sensor-flip 0.05`); the GCS is unchanged. 0: no image is flipped. In `fleetmap
+    /// demo`, only with --bandit.
+    #[arg(
+        long = "sensor-flip",
+        value_name = "P",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub flip: f64,
+}
+
+impl SensorArgs {
+    /// The flip probability, checked: at least 0 and below 0.5 (at 0.5 an image says nothing
+    /// about its cell; above, the sensor would be a better one with its classes swapped).
+    pub fn probability(&self) -> anyhow::Result<f64> {
+        let p = self.flip;
+        if !(p.is_finite() && (0.0..0.5).contains(&p)) {
+            bail!("--sensor-flip must be a probability at least 0 and below 0.5 (got {p})");
+        }
+        Ok(p)
     }
-    Ok(p)
 }
 
 /// Build the simulation `fleetmap sim` would serve (also used by tests).
@@ -166,7 +177,7 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     if !(8..=4096).contains(&args.camera_px) {
         bail!("--camera-px must be between 8 and 4096");
     }
-    let sensor_flip = check_sensor_flip(args.sensor_flip)?;
+    let sensor_flip = args.sensor.probability()?;
     let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?;
     let faults = args.faults.faults()?;
     cfg = cfg.with_faults(faults);
@@ -234,7 +245,7 @@ fn run_camera_only(args: SimArgs, endpoints: Vec<Endpoint>) -> anyhow::Result<Ex
         mavlink_transfer: !args.no_image_transfer,
         // 0 = one burst per image, as the embedded simulator's cameras send
         transfer_rate_bps: (args.image_rate > 0).then_some(f64::from(args.image_rate)),
-        misclassify_probability: check_sensor_flip(args.sensor_flip)?,
+        misclassify_probability: args.sensor.probability()?,
         ..crate::sim::camera::CameraConfig::default()
     };
     if let Some(d) = &args.image_dir {
