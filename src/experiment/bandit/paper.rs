@@ -70,30 +70,29 @@ fn row(trials: usize, t: [f64; 9]) -> PaperRow {
 /// informative paths, a charger capacity, another grid).
 pub fn row_for(preset: Preset, cfg: &StudyConfig) -> Option<PaperRow> {
     let base = StudyConfig::default();
-    let same = |c: &StudyConfig| {
-        c.rows == base.rows
-            && c.cols == base.cols
-            && c.n_obstacles == base.n_obstacles
-            && c.n_interesting == base.n_interesting
-            && c.batch == base.batch
-            && c.theta == base.theta
-            && c.capacity.is_none()
-            && c.rule == GoalRule::Ucb
-            && !c.informative
+    // Every §VI parameter but the one the table varies must be the paper's default.
+    let mut probe = cfg.clone();
+    match preset {
+        Preset::Table1 => probe.mu_worst = base.mu_worst,
+        Preset::Table2 => probe.d = base.d,
+        Preset::Table3 => (probe.td, probe.tc) = (base.td, base.tc),
+        Preset::Table4 => (probe.nd, probe.nc) = (base.nd, base.nc),
+        Preset::Fig6 | Preset::Compare => return None,
+    }
+    let key = |c: &StudyConfig| {
+        (
+            (c.rows, c.cols, c.n_obstacles, c.n_interesting, c.batch),
+            (c.d, c.td, c.tc, c.nd, c.nc),
+            (c.mu_worst, c.theta, c.capacity, c.rule, c.informative),
+        )
     };
-    if !same(cfg) {
+    if key(&probe) != key(&base) {
         return None;
     }
     let m = trials(preset);
-    let defaults = |c: &StudyConfig, mu: bool, d: bool, t: bool, n: bool| {
-        (mu || c.mu_worst == base.mu_worst)
-            && (d || c.d == base.d)
-            && (t || (c.td, c.tc) == (base.td, base.tc))
-            && (n || (c.nd, c.nc) == (base.nd, base.nc))
-    };
     let near = |a: f64, b: f64| (a - b).abs() < 1e-9;
     match preset {
-        Preset::Table1 if defaults(cfg, true, false, false, false) => {
+        Preset::Table1 => {
             let v = if near(cfg.mu_worst, 0.6) {
                 [9.70, 4.83, 487.21, 74.0, 15.0, 141.0, 116.0, 79.0, 141.0]
             } else if near(cfg.mu_worst, 0.8) {
@@ -105,7 +104,7 @@ pub fn row_for(preset: Preset, cfg: &StudyConfig) -> Option<PaperRow> {
             };
             Some(row(m, v))
         }
-        Preset::Table2 if defaults(cfg, false, true, false, false) => {
+        Preset::Table2 => {
             let v = match cfg.d {
                 5 => [9.18, 5.87, 3354.36, 19.0, 12.0, 25.0, 29.0, 25.0, 36.0],
                 8 => [11.37, 6.46, 387.38, 17.0, 12.0, 21.0, 26.0, 23.0, 30.0],
@@ -115,7 +114,7 @@ pub fn row_for(preset: Preset, cfg: &StudyConfig) -> Option<PaperRow> {
             };
             Some(row(m, v))
         }
-        Preset::Table3 if defaults(cfg, false, false, true, false) => {
+        Preset::Table3 => {
             let v = match (cfg.td, cfg.tc) {
                 (8, 4) => [11.38, 6.54, 389.24, 17.0, 12.0, 21.0, 26.0, 23.0, 30.0],
                 (12, 4) => [14.26, 8.97, 835.76, 14.0, 10.0, 23.0, 22.0, 17.0, 26.0],
@@ -130,7 +129,7 @@ pub fn row_for(preset: Preset, cfg: &StudyConfig) -> Option<PaperRow> {
             };
             Some(row(m, v))
         }
-        Preset::Table4 if defaults(cfg, false, false, false, true) => {
+        Preset::Table4 => {
             let v = match (cfg.nd, cfg.nc) {
                 (5, 5) => [6.17, 3.77, 192.55, 23.0, 17.0, 33.0, 41.0, 36.0, 46.0],
                 (7, 7) => [8.07, 5.73, 140.56, 22.0, 13.0, 30.0, 36.0, 32.0, 42.0],
@@ -141,7 +140,7 @@ pub fn row_for(preset: Preset, cfg: &StudyConfig) -> Option<PaperRow> {
             };
             Some(row(m, v))
         }
-        _ => None,
+        Preset::Fig6 | Preset::Compare => None,
     }
 }
 
