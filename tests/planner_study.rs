@@ -494,9 +494,10 @@ fn committed_tables_reproduce() {
 
 /// (directory under docs/results/bandit, --table, --only, more arguments): a quick row of
 /// each committed table.
-const COMMITTED_ROWS: [(&str, &str, &str, &[&str]); 5] = [
+const COMMITTED_ROWS: [(&str, &str, &str, &[&str]); 6] = [
     ("table1", "I", "mu_worst=1", &[]),
     ("table2", "II", "D=15", &[]),
+    ("table3", "III", "Td=32,Tc=8", &[]),
     ("table4", "IV", "Nd=14", &[]),
     ("fig6", "fig6", "ucb", &[]),
     ("table1-kl", "I", "mu_worst=0.8", &["--bound", "kl"]),
