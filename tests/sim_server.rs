@@ -263,3 +263,103 @@ async fn camera_for_a_real_autopilot() {
     let _ = stop_tx.send(());
     task.await.unwrap().unwrap();
 }
+
+/// A simulator on a starved machine still answers within the GCS's command timeout. Its
+/// runtime gets one turn every ~95 ms (a blocking task holds the only thread in between),
+/// while its clock keeps pace with the wall at 20×: every turn produces two simulated
+/// seconds of telemetry from six vehicles. Before the outgoing links were paced on the wall
+/// clock and aged (`sim::tx_queue`), one burst of 32 datagrams per vehicle left per turn, the
+/// backlog grew without bound and a COMMAND_ACK waited behind seconds of stale telemetry
+/// until the fleet's four attempts ran out (the lock-step flight's failure under CI load).
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn a_starved_simulator_still_answers_commands_in_time() {
+    use fleetmap::app::bandit_sim::{HARDWARE_TEAM, fleet_config};
+    use fleetmap::clock::MonotonicClock;
+    use fleetmap::link::ConnSpec;
+    use fleetmap::link::transport::{LinkOptions, open_link};
+    use std::sync::Arc;
+    use std::sync::atomic::{AtomicBool, Ordering};
+    use std::time::Instant;
+
+    const SPEEDUP: f64 = 20.0;
+    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
+    let spec: ConnSpec = "udpin:127.0.0.1:0".parse().unwrap();
+    let link = open_link(0, spec, &LinkOptions::default(), ev_tx)
+        .await
+        .unwrap();
+    let gcs = link.local.unwrap();
+    let stop = Arc::new(AtomicBool::new(false));
+    let stop_sim = stop.clone();
+    let sim_thread = std::thread::spawn(move || {
+        let rt = tokio::runtime::Builder::new_current_thread()
+            .enable_all()
+            .build()
+            .unwrap();
+        rt.block_on(async move {
+            let cfg = SimConfig::from_spec(HARDWARE_TEAM, None, Some(HOME), 1).unwrap();
+            let h = spawn(
+                Sim::new(cfg, Time::ZERO).unwrap(),
+                ServeOptions {
+                    endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
+                    speedup: SPEEDUP,
+                    gcs_speedup: SPEEDUP,
+                    image_dir: None,
+                    duration_s: None,
+                },
+            )
+            .await
+            .unwrap();
+            // the hog: the thread is blocked but for one turn of the runtime every 95 ms
+            while !stop_sim.load(Ordering::Relaxed) {
+                std::thread::sleep(Duration::from_millis(95));
+                tokio::task::yield_now().await;
+            }
+            h.stop().await.unwrap()
+        })
+    });
+    let fleet = fleetmap::fleet::spawn(
+        vec![link],
+        ev_rx,
+        fleet_config(SPEEDUP),
+        MonotonicClock::with_speedup(SPEEDUP),
+    );
+    for sysid in 1..=6u8 {
+        fleet
+            .wait_vehicle(sysid, Duration::from_secs(20))
+            .await
+            .unwrap();
+        fleet.wait_booted(sysid).await.unwrap();
+    }
+    // The fleet asks every vehicle for its telemetry streams; let the backlog build.
+    tokio::time::sleep(Duration::from_secs(3)).await;
+    let mut worst = Duration::ZERO;
+    for round in 0..8 {
+        let mut set = tokio::task::JoinSet::new();
+        for sysid in 1..=6u8 {
+            let fleet = fleet.clone();
+            let mode = match (sysid <= 4, round % 2) {
+                (true, 0) => "ALT_HOLD",
+                (true, _) => "STABILIZE",
+                (false, 0) => "HOLD",
+                (false, _) => "MANUAL",
+            };
+            set.spawn(async move {
+                let t = Instant::now();
+                let r = fleet.set_mode(sysid, mode).await;
+                (sysid, mode, r, t.elapsed())
+            });
+        }
+        while let Some(r) = set.join_next().await {
+            let (sysid, mode, r, took) = r.unwrap();
+            r.unwrap_or_else(|e| panic!("round {round}: vehicle {sysid} to {mode}: {e}"));
+            worst = worst.max(took);
+        }
+    }
+    stop.store(true, Ordering::Relaxed);
+    fleet.shutdown().await;
+    let sim = sim_thread.join().unwrap();
+    println!("48 mode changes on a starved simulator: slowest {worst:?}");
+    // one attempt's worth of wall time (1 s) and the turn it waits for
+    assert!(worst < Duration::from_millis(1500), "slowest {worst:?}");
+    drop(sim);
+}

@@ -15,7 +15,7 @@
 //!
 //! Pacing ([`CameraConfig::transfer_rate_bps`]): by default the handshake and every packet
 //! are queued at once, as the embedded simulator's vehicles have always done (their shell,
-//! [`crate::sim::server`], paces UDP datagrams per vehicle with `UDP_BURST` / `UDP_PACE`).
+//! [`crate::sim::server`], paces UDP datagrams per vehicle: [`crate::sim::tx_queue`]).
 //! With a rate, the image transmission leaves through a token bucket in bytes per second of
 //! the camera's own clock (the `now` of [`SimCamera::update`] / [`SimCamera::advance`]):
 //! each message costs its MAVLink 2 frame (10 header bytes, the payload, 2 CRC bytes: 267

@@ -20,5 +20,6 @@ pub mod paired;
 pub mod render;
 pub mod server;
 pub mod transfer_bench;
+pub mod tx_queue;
 pub mod vehicle;
 pub mod world;

@@ -16,6 +16,7 @@
 
 use crate::clock::MonotonicClock;
 use crate::sim::harness::Sim;
+use crate::sim::tx_queue::{Expired, TxQueue};
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -302,10 +303,8 @@ async fn open(
     Ok((bound, ios))
 }
 
-/// Datagrams sent to one vehicle's UDP peer per [`UDP_PACE`] (≈ 1.8 MB/s of MAVLink 2
-/// frames): the simulated link's bandwidth.
-pub const UDP_BURST: usize = 32;
-/// Pacing period of UDP sends when a vehicle has a backlog.
+/// Shortest wait between two turns of sending while a vehicle's link has a backlog (its
+/// bandwidth and age limit: [`TxQueue`]).
 pub const UDP_PACE: std::time::Duration = std::time::Duration::from_millis(5);
 
 /// Simulated seconds per second of the GCS's clock under `opts` (see
@@ -340,8 +339,9 @@ where
         .duration_s
         .map(|d| start + std::time::Duration::from_secs_f64(d.max(0.0)));
     tokio::pin!(shutdown);
-    let mut pending: Vec<std::collections::VecDeque<Vec<u8>>> =
-        vec![std::collections::VecDeque::new(); sysids.len()];
+    // the outgoing links are paced and aged on the wall clock (see `TxQueue`)
+    let wall = MonotonicClock::new();
+    let mut pending: Vec<TxQueue> = sysids.iter().map(|_| TxQueue::new()).collect();
     loop {
         let now = start + std::time::Duration::from_micros(clock.now().as_micros());
         sim.advance_to(now);
@@ -357,10 +357,23 @@ where
         while let Some((sysid, ev)) = sim.poll_event() {
             log_event(sysid, &ev);
         }
-        let mut backlog = false;
+        let mut next_send: Option<crate::time::Time> = None;
+        let wall_now = wall.now();
         for (k, &sysid) in sysids.iter().enumerate() {
+            let q = &mut pending[k];
             while let Some(d) = sim.recv_bytes(sysid) {
-                pending[k].push_back(d);
+                q.push(wall_now, d);
+            }
+            match q.expire(wall_now) {
+                Expired::None => {}
+                Expired::Began(n) => tracing::warn!(
+                    "simulator: vehicle {sysid}'s link is dropping datagrams older than {} ms \
+                     ({n} so far; {} in this run): this machine cannot serve {}× speed-up now",
+                    TxQueue::MAX_AGE.as_millis(),
+                    q.dropped(),
+                    opts.speedup
+                ),
+                Expired::More(_) => {}
             }
             match &ios[k] {
                 Io::Udp { sock, peer } => {
@@ -368,18 +381,19 @@ where
                     // would overflow the receiver's socket buffer at once, which no real
                     // link does (a Wi-Fi camera link carries ~1–2 MB/s).
                     let to = peer.lock().ok().and_then(|p| *p);
-                    for _ in 0..UDP_BURST {
-                        let Some(d) = pending[k].pop_front() else {
-                            break;
-                        };
+                    q.refill(wall_now);
+                    while let Some(d) = q.ready() {
                         if let Some(to) = to {
-                            let _ = sock.try_send_to(&d, to);
+                            let _ = sock.try_send_to(d, to);
                         }
+                        q.sent();
                     }
-                    backlog |= !pending[k].is_empty();
+                    if let Some(t) = q.next_send(wall_now) {
+                        next_send = Some(next_send.map_or(t, |n| n.min(t)));
+                    }
                 }
                 Io::Tcp { out } => {
-                    while let Some(d) = pending[k].pop_front() {
+                    for d in q.take_all() {
                         let _ = out.send(d);
                     }
                 }
@@ -390,8 +404,8 @@ where
         }
         let next = sim.poll_timeout();
         let mut wait = clock.wall_until(next - std::time::Duration::from_micros(start.as_micros()));
-        if backlog {
-            wait = wait.min(UDP_PACE);
+        if let Some(t) = next_send {
+            wait = wait.min(t.saturating_since(wall.now()).max(UDP_PACE));
         }
         tokio::select! {
             r = rx.recv() => {
@@ -477,8 +491,8 @@ pub async fn spawn(sim: Sim, opts: ServeOptions) -> Result<SimHandle, ServerErro
 /// image for every picture the autopilots take and answer as their camera components, on
 /// the wall clock. Images go to `image_dir` (and over MAVLink if the camera config says so,
 /// paced by the cameras themselves when [`crate::sim::camera::CameraConfig::transfer_rate_bps`]
-/// is set). UDP datagrams leave at most [`UDP_BURST`] per [`UDP_PACE`] as in [`serve`]; a
-/// datagram the socket cannot take yet waits for the next turn instead of being dropped.
+/// is set). UDP datagrams are paced and aged as in [`serve`] ([`TxQueue`]); a datagram the
+/// socket cannot take yet waits for the next turn.
 /// What the cameras report ([`crate::sim::paired::PairedEvent`]) is logged: a stale pose
 /// warns once per episode of refused captures, not once per capture.
 pub async fn serve_paired<F>(
@@ -510,7 +524,7 @@ where
         .unwrap_or(0);
     let mut codec = Codec::new();
     let end = duration_s.map(|d| Time::ZERO + std::time::Duration::from_secs_f64(d.max(0.0)));
-    let mut pending: std::collections::VecDeque<Vec<u8>> = std::collections::VecDeque::new();
+    let mut pending = TxQueue::new();
     tokio::pin!(shutdown);
     let result = loop {
         let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
@@ -528,7 +542,16 @@ where
         }
         while let Some((h, m)) = cams.poll_transmit() {
             let unix = unix0 + now.as_micros();
-            pending.push_back(codec.encode_with_header(&h, &m, mavlink::MavlinkVersion::V2, unix));
+            let frame = codec.encode_with_header(&h, &m, mavlink::MavlinkVersion::V2, unix);
+            pending.push(now, frame);
+        }
+        if let Expired::Began(n) = pending.expire(now) {
+            tracing::warn!(
+                "simulated cameras: the link is dropping datagrams older than {} ms ({n} so \
+                 far; {} in this run)",
+                TxQueue::MAX_AGE.as_millis(),
+                pending.dropped()
+            );
         }
         let mut backlog = false;
         match &ios[0] {
@@ -536,17 +559,13 @@ where
                 let to = peer.lock().ok().and_then(|p| *p);
                 match to {
                     Some(to) => {
-                        for _ in 0..UDP_BURST {
-                            let Some(d) = pending.front() else {
-                                break;
-                            };
+                        pending.refill(now);
+                        while let Some(d) = pending.ready() {
                             match sock.try_send_to(d, to) {
                                 Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
                                 // sent, or an error a retry would not mend (e.g. ICMP
                                 // port unreachable reported on this send)
-                                _ => {
-                                    pending.pop_front();
-                                }
+                                _ => pending.sent(),
                             }
                         }
                     }
@@ -556,7 +575,7 @@ where
                 backlog = !pending.is_empty();
             }
             Io::Tcp { out } => {
-                while let Some(d) = pending.pop_front() {
+                for d in pending.take_all() {
                     let _ = out.send(d);
                 }
             }
