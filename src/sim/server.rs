@@ -368,7 +368,7 @@ where
                 Expired::None => {}
                 Expired::Began(n) => tracing::warn!(
                     "simulator: vehicle {sysid}'s link is dropping datagrams older than {} ms \
-                     ({n} so far; {} in this run): this machine cannot serve {}× speed-up now",
+                     ({n} now, {} in all): this machine cannot serve {}× speed-up now",
                     TxQueue::MAX_AGE.as_millis(),
                     q.dropped(),
                     opts.speedup
@@ -547,8 +547,8 @@ where
         }
         if let Expired::Began(n) = pending.expire(now) {
             tracing::warn!(
-                "simulated cameras: the link is dropping datagrams older than {} ms ({n} so \
-                 far; {} in this run)",
+                "simulated cameras: the link is dropping datagrams older than {} ms ({n} now, \
+                 {} in all)",
                 TxQueue::MAX_AGE.as_millis(),
                 pending.dropped()
             );
