@@ -199,8 +199,8 @@ fn upload_loopback(c: &mut Criterion) {
             Sim::new(cfg, Time::ZERO).expect("sim"),
             ServeOptions {
                 endpoints: vec![SimEndpoint::parse("udpin:127.0.0.1:0").expect("endpoint")],
-                speedup: 1.0,
-                gcs_speedup: 1.0,
+                speed: fleetmap::sim::pace::Speed::Times(1.0),
+                gcs: fleetmap::sim::server::GcsClock::Wall,
                 image_dir: None,
                 duration_s: None,
             },

@@ -7,6 +7,8 @@
 //! sim logic, geo, time) may.
 
 use crate::time::Time;
+use std::sync::Arc;
+use std::sync::atomic::{AtomicU64, Ordering};
 use std::time::Duration;
 use tokio::time::Instant;
 
@@ -28,7 +30,8 @@ pub fn unix_us() -> u64 {
         .unwrap_or(0)
 }
 
-/// The shell's clock: real monotonic time since the clock was created.
+/// The shell's clock: real monotonic time since the clock was created, or the time of a
+/// simulator served in this process.
 ///
 /// It reads `tokio::time::Instant`, which is the system's monotonic clock — except in a
 /// tokio runtime whose clock is paused (tests with `start_paused`), where it is tokio's
@@ -38,11 +41,21 @@ pub fn unix_us() -> u64 {
 ///
 /// Only the async shell (link, fleet, UI, the simulator's socket server) reads it; it hands
 /// the resulting [`Time`] to the pure core. `speedup` makes simulated time run faster than
-/// wall time (`fleetmap sim --speedup X`).
+/// wall time (`fleetmap sim --speedup X`). A GCS in the same process as the simulator it
+/// flies (the demo, the tests) follows the simulator's own time instead
+/// ([`MonotonicClock::following`]): the simulator runs in lock-step and slows down when the
+/// machine is busy (`crate::sim::pace`), and the GCS's timeouts slow down with it.
 #[derive(Clone, Debug)]
 pub struct MonotonicClock {
-    start: Instant,
-    speedup: f64,
+    source: Source,
+}
+
+#[derive(Clone, Debug)]
+enum Source {
+    /// Wall time since `start`, times `speedup`.
+    Wall { start: Instant, speedup: f64 },
+    /// A simulator's published time.
+    Simulator(SimTime),
 }
 
 impl MonotonicClock {
@@ -60,25 +73,151 @@ impl MonotonicClock {
             1.0
         };
         MonotonicClock {
-            start: Instant::now(),
-            speedup,
+            source: Source::Wall {
+                start: Instant::now(),
+                speedup,
+            },
+        }
+    }
+
+    /// A clock that reads the simulated time `sim` publishes (its epoch: the simulator's
+    /// start).
+    pub fn following(sim: &SimTime) -> Self {
+        MonotonicClock {
+            source: Source::Simulator(sim.clone()),
+        }
+    }
+
+    /// The simulator this clock follows, if it follows one.
+    pub fn simulator(&self) -> Option<&SimTime> {
+        match &self.source {
+            Source::Simulator(s) => Some(s),
+            Source::Wall { .. } => None,
         }
     }
 
     /// The current time on this clock.
     pub fn now(&self) -> Time {
-        Time::from_secs_f64(self.start.elapsed().as_secs_f64() * self.speedup)
+        match &self.source {
+            Source::Wall { start, speedup } => {
+                Time::from_secs_f64(start.elapsed().as_secs_f64() * speedup)
+            }
+            Source::Simulator(s) => s.now(),
+        }
     }
 
-    /// The speed factor of this clock relative to wall time.
+    /// The speed factor of this clock relative to wall time: the speed-up it was made with,
+    /// or, following a simulator, the speed the simulator achieves now (its ceiling until
+    /// measured; 1 when it has neither).
     pub fn speedup(&self) -> f64 {
-        self.speedup
+        match &self.source {
+            Source::Wall { speedup, .. } => *speedup,
+            Source::Simulator(s) => s.achieved().or(s.ceiling()).unwrap_or(1.0),
+        }
     }
 
-    /// The wall-clock duration until this clock reaches `t` (zero if already past).
+    /// The wall-clock duration until this clock reaches `t` (zero if already past). Following
+    /// a simulator, a lower bound (the simulator never runs faster than its ceiling; without
+    /// one, at most [`SimTime::MAX_WAIT`]): a caller that wakes before `t` sleeps again.
     pub fn wall_until(&self, t: Time) -> Duration {
-        let sim = t.saturating_since(self.now());
-        Duration::from_secs_f64(sim.as_secs_f64() / self.speedup)
+        let left = t.saturating_since(self.now());
+        match &self.source {
+            Source::Wall { speedup, .. } => left.div_f64(*speedup),
+            Source::Simulator(s) => match s.ceiling() {
+                Some(x) => left.div_f64(x),
+                None => left
+                    .div_f64(s.achieved().unwrap_or(1.0).max(1.0))
+                    .min(SimTime::MAX_WAIT),
+            },
+        }
+    }
+
+    /// Seconds on this clock since the wall-clock moment `epoch_unix_ms`, now: the wall time
+    /// since then times the speed-up; following a simulator, its time since its start plus
+    /// the wall time from `epoch_unix_ms` to that start at its ceiling (exactly the simulated
+    /// time when the epoch is the simulator's start, [`SimTime::started_unix_ms`]). May be
+    /// negative for an epoch in the future.
+    pub fn secs_since_unix_ms(&self, epoch_unix_ms: u64) -> f64 {
+        match &self.source {
+            Source::Wall { speedup, .. } => {
+                (unix_ms() as f64 - epoch_unix_ms as f64) / 1000.0 * speedup
+            }
+            Source::Simulator(s) => {
+                let before = (s.started_unix_ms() as f64 - epoch_unix_ms as f64) / 1000.0;
+                s.now().as_secs_f64() + before * s.ceiling().unwrap_or(1.0)
+            }
+        }
+    }
+}
+
+/// The time of a simulator served in this process, as its shell publishes it after every
+/// step (`crate::sim::server`), with the speed it achieves: what a GCS in the same process
+/// follows ([`MonotonicClock::following`]) and what the demo's screen shows. Cheap to clone
+/// (shared).
+#[derive(Clone, Debug)]
+pub struct SimTime {
+    inner: Arc<SimTimeInner>,
+}
+
+#[derive(Debug)]
+struct SimTimeInner {
+    /// Simulated microseconds since the simulator's start.
+    sim_us: AtomicU64,
+    /// Achieved simulated seconds per wall second (f64 bits; 0: not measured yet).
+    achieved: AtomicU64,
+    /// The ceiling (f64 bits; 0: none, `--speedup max`).
+    ceiling: AtomicU64,
+    /// When simulated time 0 was, ms since the Unix epoch.
+    started_unix_ms: u64,
+}
+
+impl SimTime {
+    /// Longest sleep of a clock following a simulator without a ceiling.
+    pub const MAX_WAIT: Duration = Duration::from_millis(20);
+
+    /// A simulator's time, at 0 now, that will run at most `ceiling` times faster than wall
+    /// time (`None`: as fast as it can).
+    pub fn new(ceiling: Option<f64>) -> SimTime {
+        let ceiling = ceiling.filter(|x| x.is_finite() && *x > 0.0).unwrap_or(0.0);
+        SimTime {
+            inner: Arc::new(SimTimeInner {
+                sim_us: AtomicU64::new(0),
+                achieved: AtomicU64::new(0f64.to_bits()),
+                ceiling: AtomicU64::new(ceiling.to_bits()),
+                started_unix_ms: unix_ms(),
+            }),
+        }
+    }
+
+    /// The simulator now stands at `t` (since its start) and runs at `achieved` simulated
+    /// seconds per wall second (`None`: not measured yet). Time never goes back.
+    pub fn publish(&self, t: Time, achieved: Option<f64>) {
+        self.inner.sim_us.fetch_max(t.as_micros(), Ordering::Release);
+        if let Some(a) = achieved.filter(|a| a.is_finite() && *a > 0.0) {
+            self.inner.achieved.store(a.to_bits(), Ordering::Release);
+        }
+    }
+
+    /// Simulated time since the simulator's start.
+    pub fn now(&self) -> Time {
+        Time::from_micros(self.inner.sim_us.load(Ordering::Acquire))
+    }
+
+    /// Simulated seconds per wall second over the last few seconds, once measured.
+    pub fn achieved(&self) -> Option<f64> {
+        let a = f64::from_bits(self.inner.achieved.load(Ordering::Acquire));
+        (a > 0.0).then_some(a)
+    }
+
+    /// The most simulated seconds per wall second it may run (`None`: no ceiling).
+    pub fn ceiling(&self) -> Option<f64> {
+        let c = f64::from_bits(self.inner.ceiling.load(Ordering::Acquire));
+        (c > 0.0).then_some(c)
+    }
+
+    /// When simulated time 0 was, ms since the Unix epoch.
+    pub fn started_unix_ms(&self) -> u64 {
+        self.inner.started_unix_ms
     }
 }
 

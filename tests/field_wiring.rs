@@ -42,8 +42,8 @@ async fn one_port(spec: &str, speedup: f64) -> (FleetHandle, server::SimHandle) 
         sim,
         ServeOptions {
             endpoints: vec![server::Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
-            speedup,
-            gcs_speedup: 1.0,
+            speed: fleetmap::sim::pace::Speed::Times(speedup),
+            gcs: server::GcsClock::Wall,
             image_dir: None,
             duration_s: None,
         },

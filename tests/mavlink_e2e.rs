@@ -460,8 +460,8 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
         sim,
         ServeOptions {
             endpoints: vec![server::Endpoint::parse("udpin:127.0.0.1:0").unwrap()],
-            speedup: 1.0,
-            gcs_speedup: 1.0,
+            speed: fleetmap::sim::pace::Speed::Times(1.0),
+            gcs: fleetmap::sim::server::GcsClock::Wall,
             image_dir: None,
             duration_s: None,
         },

@@ -40,8 +40,8 @@ async fn udp_endpoints_per_vehicle() {
         sim,
         ServeOptions {
             endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0").unwrap()],
-            speedup: 20.0,
-            gcs_speedup: 1.0,
+            speed: fleetmap::sim::pace::Speed::Times(20.0),
+            gcs: fleetmap::sim::server::GcsClock::Wall,
             image_dir: None,
             duration_s: None,
         },
@@ -110,8 +110,8 @@ async fn tcp_endpoint_and_image_files() {
         sim,
         ServeOptions {
             endpoints: vec![Endpoint::parse("tcpin:127.0.0.1:0").unwrap()],
-            speedup: 10.0,
-            gcs_speedup: 1.0,
+            speed: fleetmap::sim::pace::Speed::Times(10.0),
+            gcs: fleetmap::sim::server::GcsClock::Wall,
             image_dir: Some(dir.path().to_path_buf()),
             duration_s: None,
         },
@@ -265,12 +265,13 @@ async fn camera_for_a_real_autopilot() {
 }
 
 /// A simulator on a starved machine still answers within the GCS's command timeout. Its
-/// runtime gets one turn every ~95 ms (a blocking task holds the only thread in between),
-/// while its clock keeps pace with the wall at 20×: every turn produces two simulated
-/// seconds of telemetry from six vehicles. Before the outgoing links were paced on the wall
-/// clock and aged (`sim::tx_queue`), one burst of 32 datagrams per vehicle left per turn, the
-/// backlog grew without bound and a COMMAND_ACK waited behind seconds of stale telemetry
-/// until the fleet's four attempts ran out (the lock-step flight's failure under CI load).
+/// runtime gets one turn every ~95 ms (a blocking task holds the only thread in between) at
+/// a ceiling of 20×. When its clock kept pace with the wall, every turn produced two
+/// simulated seconds of telemetry from six vehicles; before the outgoing links were paced
+/// (`sim::tx_queue`), the backlog grew without bound and a COMMAND_ACK waited behind seconds
+/// of stale telemetry until the fleet's four attempts ran out (the lock-step flight's
+/// failure under CI load). In lock-step (`sim::pace`) it steps at most 200 ms per turn and
+/// runs at about 2×; the fleet follows its time.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_starved_simulator_still_answers_commands_in_time() {
     use fleetmap::app::bandit_sim::{HARDWARE_TEAM, fleet_config};
@@ -290,6 +291,7 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
     let gcs = link.local.unwrap();
     let stop = Arc::new(AtomicBool::new(false));
     let stop_sim = stop.clone();
+    let (time_tx, time_rx) = tokio::sync::oneshot::channel();
     let sim_thread = std::thread::spawn(move || {
         let rt = tokio::runtime::Builder::new_current_thread()
             .enable_all()
@@ -301,14 +303,15 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
                 Sim::new(cfg, Time::ZERO).unwrap(),
                 ServeOptions {
                     endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
-                    speedup: SPEEDUP,
-                    gcs_speedup: SPEEDUP,
+                    speed: fleetmap::sim::pace::Speed::Times(SPEEDUP),
+                    gcs: fleetmap::sim::server::GcsClock::Simulator,
                     image_dir: None,
                     duration_s: None,
                 },
             )
             .await
             .unwrap();
+            let _ = time_tx.send(h.time.clone());
             // the hog: the thread is blocked but for one turn of the runtime every 95 ms
             while !stop_sim.load(Ordering::Relaxed) {
                 std::thread::sleep(Duration::from_millis(95));
@@ -317,11 +320,12 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
             h.stop().await.unwrap()
         })
     });
+    let sim_time = time_rx.await.expect("the simulator's time");
     let fleet = fleetmap::fleet::spawn(
         vec![link],
         ev_rx,
         fleet_config(SPEEDUP),
-        MonotonicClock::with_speedup(SPEEDUP),
+        MonotonicClock::following(&sim_time),
     );
     for sysid in 1..=6u8 {
         fleet

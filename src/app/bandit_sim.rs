@@ -4,12 +4,12 @@
 //! GCS clock running at the simulator's speed-up — what `fleetmap demo --bandit` and the
 //! end-to-end tests fly.
 
-use crate::clock::MonotonicClock;
 use crate::fleet::{self, FleetConfig, FleetHandle};
 use crate::link::ConnSpec;
 use crate::link::transport::{LinkOptions, open_link};
 use crate::sim::harness::{Sim, SimConfig};
-use crate::sim::server::{self, Endpoint, ServeOptions, SimHandle};
+use crate::sim::pace::Speed;
+use crate::sim::server::{self, Endpoint, GcsClock, ServeOptions, SimHandle};
 use crate::sim::world::{Surface, World};
 use crate::time::Time;
 use anyhow::Context as _;
@@ -104,7 +104,8 @@ pub struct SimFleet {
     pub sim: SimHandle,
 }
 
-/// Serve `sim` at `speedup` and connect a fleet to it, its clock at the same speed, wired
+/// Serve `sim` at up to `speedup` and connect a fleet to it on the simulator's own time
+/// (slower when the machine is busy: [`crate::sim::pace`]), wired
 /// as field teams wire several vehicles: the fleet listens on one loopback UDP port
 /// (`udpin:127.0.0.1:0`) and every vehicle sends to it from its own socket (the simulator's
 /// `udpout`), as several SITL instances or Wi-Fi drones do.
@@ -121,9 +122,9 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
         sim,
         ServeOptions {
             endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}"))?],
-            speedup,
-            // the fleet below runs on a clock as fast as the simulator's
-            gcs_speedup: speedup,
+            speed: Speed::times(speedup).context("the speed-up must be positive")?,
+            // the fleet below follows the simulator's time
+            gcs: GcsClock::Simulator,
             image_dir: None,
             duration_s: None,
         },
@@ -134,7 +135,7 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
         vec![link],
         ev_rx,
         fleet_config(speedup),
-        MonotonicClock::with_speedup(speedup),
+        handle.clock(),
     );
     Ok(SimFleet { fleet, sim: handle })
 }

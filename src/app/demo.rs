@@ -14,7 +14,8 @@ use crate::link::ConnSpec;
 use crate::link::transport::{LinkOptions, open_link, open_memory_link};
 use crate::mission::definition::MissionDef;
 use crate::sim::harness::{Sim, SimConfig};
-use crate::sim::server::{self, Endpoint, MemorySimHandle, ServeOptions, SimHandle};
+use crate::sim::pace::Speed;
+use crate::sim::server::{self, Endpoint, GcsClock, MemorySimHandle, ServeOptions, SimHandle};
 use crate::sim::world::World;
 use crate::time::Time;
 use anyhow::Context as _;
@@ -186,17 +187,17 @@ fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<SimC
 }
 
 /// Start the simulator with `spec` vehicles over `world` and a fleet connected to each
-/// vehicle over loopback UDP, clocked at the simulator's speed.
+/// vehicle over loopback UDP, on the simulator's own time (at most `cfg.speedup` times the
+/// wall clock's, slower when the machine is busy).
 pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<DemoFleet> {
     let sim = Sim::new(sim_config(spec, world.clone(), cfg)?, Time::ZERO)?;
-    let started_unix_ms = crate::clock::unix_ms();
     let handle = server::spawn(
         sim,
         ServeOptions {
             endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0")?],
-            speedup: cfg.speedup,
-            // the fleet below runs on a clock as fast as the simulator's
-            gcs_speedup: cfg.speedup,
+            speed: Speed::times(cfg.speedup).context("the speed-up must be positive")?,
+            // the fleet below follows the simulator's time
+            gcs: GcsClock::Simulator,
             image_dir: None,
             duration_s: None,
         },
@@ -216,12 +217,12 @@ pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result
         links,
         ev_rx,
         demo_fleet_config(cfg.speedup),
-        MonotonicClock::with_speedup(cfg.speedup),
+        handle.clock(),
     );
     Ok(DemoFleet {
         fleet,
+        started_unix_ms: handle.time.started_unix_ms(),
         sim: handle,
         world,
-        started_unix_ms,
     })
 }

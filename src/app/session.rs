@@ -178,7 +178,9 @@ fn spawn_model_producer(
                     return;
                 };
                 log.absorb(&snap);
-                build_model(&snap, view.as_ref().map(|s| (s.view(), &info)), &log)
+                let mut m = build_model(&snap, view.as_ref().map(|s| (s.view(), &info)), &log);
+                m.sim_speed = fleet.clock().simulator().and_then(|s| s.achieved());
+                m
             };
             if snap_tx.is_closed() {
                 return;

@@ -1,7 +1,9 @@
 //! `fleetmap sim …`: serve simulated ArduPilot / PX4 copters and rovers over MAVLink.
 
 use crate::sim::harness::{Sim, SimConfig};
-use crate::sim::server::{Endpoint, ServeOptions, serve};
+use crate::clock::SimTime;
+use crate::sim::pace::Speed;
+use crate::sim::server::{Endpoint, GcsClock, ServeOptions, serve};
 use crate::sim::world::{Wind, World};
 use crate::time::Time;
 use anyhow::{Context, bail};
@@ -27,9 +29,11 @@ pub struct SimArgs {
     /// world's homes.
     #[arg(long, value_name = "LAT,LON", allow_hyphen_values = true)]
     pub home: Option<String>,
-    /// Simulated seconds per wall second.
-    #[arg(long, default_value_t = 1.0)]
-    pub speedup: f64,
+    /// The most simulated seconds per wall second, or `max` (as fast as this machine can).
+    /// The simulator runs in lock-step, as SITL does: on a busy machine it runs slower than
+    /// asked rather than skipping ahead; it prints the speed it achieves every 10 s.
+    #[arg(long, value_name = "N|max", default_value = "1")]
+    pub speedup: Speed,
     /// Faults of every vehicle's link, each way.
     #[command(flatten)]
     pub faults: crate::cli::relay::FaultArgs,
@@ -165,9 +169,6 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
         }
         None => None,
     };
-    if !(args.speedup.is_finite() && args.speedup > 0.0) {
-        bail!("--speedup must be positive");
-    }
     if !(args.battery_minutes.is_finite() && args.battery_minutes > 0.0) {
         bail!("--battery-minutes must be positive");
     }
@@ -300,10 +301,10 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
     let sim = Sim::new(cfg, Time::ZERO)?;
     let opts = ServeOptions {
         endpoints,
-        speedup: args.speedup,
+        speed: args.speedup,
         // the GCS is another process, on the wall clock: PX4's GCS-link timeouts are
-        // judged over `speedup` times as many simulated seconds
-        gcs_speedup: 1.0,
+        // judged over as many more simulated seconds as the simulator achieves per second
+        gcs: GcsClock::Wall,
         image_dir: args.image_dir.clone(),
         duration_s: args.duration,
     };
@@ -319,7 +320,8 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
         serve(
             sim,
             opts,
-            |bound| {
+            |bound, time| {
+                tokio::spawn(report_speed(time.clone(), json));
                 for (b, d) in bound.iter().zip(&descr) {
                     if json {
                         println!(
@@ -346,6 +348,41 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
         .await
     })?;
     Ok(ExitCode::SUCCESS)
+}
+
+/// How often `fleetmap sim` prints the speed it achieves, wall time.
+const SPEED_REPORT: std::time::Duration = std::time::Duration::from_secs(10);
+
+/// Print the simulator's achieved speed every [`SPEED_REPORT`]: a line of text, or with
+/// `--json` an object `{"sim_time_s", "speed", "speedup"}` (`speedup`: the ceiling asked,
+/// `null` for `max`).
+async fn report_speed(time: SimTime, json: bool) {
+    let mut tick = tokio::time::interval(SPEED_REPORT);
+    tick.tick().await;
+    loop {
+        tick.tick().await;
+        let Some(speed) = time.achieved() else {
+            continue;
+        };
+        let t = time.now().as_secs_f64();
+        if json {
+            println!(
+                "{}",
+                serde_json::json!({
+                    "sim_time_s": (t * 1000.0).round() / 1000.0,
+                    "speed": (speed * 100.0).round() / 100.0,
+                    "speedup": time.ceiling(),
+                })
+            );
+        } else {
+            let asked = time
+                .ceiling()
+                .map_or("max".to_string(), |c| format!("{c}×"));
+            println!("simulator: {t:.1} s simulated, running at {speed:.1}× ({asked} asked)");
+        }
+        use std::io::Write;
+        let _ = std::io::stdout().flush();
+    }
 }
 
 #[cfg(test)]

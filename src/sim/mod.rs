@@ -16,6 +16,7 @@ pub use crate::link::faults;
 pub mod fence;
 pub mod harness;
 pub mod motion;
+pub mod pace;
 pub mod paired;
 pub mod render;
 pub mod server;

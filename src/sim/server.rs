@@ -14,9 +14,12 @@
 //! are written (atomically) to the image directory before the frames that announce them are
 //! sent.
 
-use crate::clock::MonotonicClock;
+use crate::clock::{MonotonicClock, SimTime};
 use crate::sim::harness::Sim;
+use crate::sim::pace::{Pacer, Speed, SpeedMeter};
 use crate::sim::tx_queue::{Expired, TxQueue};
+use crate::time::Time;
+use std::time::Duration;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -117,20 +120,30 @@ impl std::fmt::Display for Endpoint {
     }
 }
 
+/// Whose clock the GCS keeps, which decides how the simulated vehicles judge its link.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum GcsClock {
+    /// Another process on the wall clock (`fleetmap run`, QGroundControl, MAVProxy): it
+    /// heartbeats at 1 Hz of wall time, so the vehicles judge its link (PX4's COM_DL_LOSS_T)
+    /// over as many more simulated seconds as the simulator achieves per wall second
+    /// ([`crate::sim::vehicle::VehicleConfig::gcs_time_scale`], updated as the speed changes).
+    Wall,
+    /// A fleet in this process on the simulator's own time
+    /// ([`crate::clock::MonotonicClock::following`] the [`SimTime`] of [`SimHandle::time`]):
+    /// its heartbeats are 1 Hz of simulated time.
+    Simulator,
+}
+
 /// Serving options.
 #[derive(Clone, Debug)]
 pub struct ServeOptions {
     /// One endpoint shared by all vehicles, or one per vehicle.
     pub endpoints: Vec<Endpoint>,
-    /// Simulated seconds per wall second.
-    pub speedup: f64,
-    /// How fast the GCS's clock runs, in its seconds per wall second: 1 for a GCS on the
-    /// wall clock (a `fleetmap` process, QGroundControl, MAVProxy), `speedup` for a fleet in
-    /// the same process on `MonotonicClock::with_speedup(speedup)` (the demo). The vehicles
-    /// judge the GCS link (PX4's COM_DL_LOSS_T) over `speedup / gcs_speedup` times as many
-    /// simulated seconds ([`crate::sim::vehicle::VehicleConfig::gcs_time_scale`]), so a
-    /// GCS heartbeating at 1 Hz of its own time is never taken for lost.
-    pub gcs_speedup: f64,
+    /// The most simulated seconds per wall second (lock-step: slower when the machine cannot
+    /// keep up, [`crate::sim::pace`]), or as fast as it can.
+    pub speed: Speed,
+    /// Whose clock the GCS keeps.
+    pub gcs: GcsClock,
     /// Directory the camera images are written to (None: images only over MAVLink).
     pub image_dir: Option<PathBuf>,
     /// Stop after this much simulated time (None: until shut down).
@@ -305,21 +318,173 @@ async fn open(
 
 /// Shortest wait between two turns of sending while a vehicle's link has a backlog (its
 /// bandwidth and age limit: [`TxQueue`]).
-pub const UDP_PACE: std::time::Duration = std::time::Duration::from_millis(5);
+pub const UDP_PACE: Duration = Duration::from_millis(5);
 
-/// Simulated seconds per second of the GCS's clock under `opts` (see
-/// [`ServeOptions::gcs_speedup`]; values that are not finite and positive count as 1).
-pub fn gcs_time_scale(opts: &ServeOptions) -> f64 {
-    let valid = |x: f64| if x.is_finite() && x > 0.0 { x } else { 1.0 };
-    valid(opts.speedup) / valid(opts.gcs_speedup)
+/// How often the shell checks the speed it achieves (reports a shortfall, rescales the
+/// vehicles' judgement of a wall-clock GCS), wall time.
+pub const SPEED_CHECK: Duration = Duration::from_secs(5);
+
+/// A speed below this share of the ceiling is reported as a shortfall.
+const SHORTFALL: f64 = 0.9;
+
+/// Simulated seconds per second of the GCS's clock: 1 for a GCS on the simulator's time,
+/// the speed achieved (`achieved`, else the ceiling, else 1) for one on the wall clock.
+pub fn gcs_time_scale(gcs: GcsClock, speed: Speed, achieved: Option<f64>) -> f64 {
+    match gcs {
+        GcsClock::Simulator => 1.0,
+        GcsClock::Wall => achieved.or(speed.ceiling()).unwrap_or(1.0).max(1e-3),
+    }
+}
+
+/// The lock-step core the socket and in-memory shells share: the simulation, its schedule,
+/// the speed it achieves and the time it publishes. Simulated time advances in whole physics
+/// steps ([`Sim::poll_timeout`]), never ahead of the schedule ([`Pacer`]); what the GCS sends
+/// acts at the simulated time it arrives at.
+struct Stepper {
+    sim: Sim,
+    start: Time,
+    pacer: Pacer,
+    meter: SpeedMeter,
+    time: SimTime,
+    end: Option<Time>,
+}
+
+impl Stepper {
+    fn new(sim: Sim, speed: Speed, duration_s: Option<f64>) -> Stepper {
+        let start = sim.now();
+        Stepper {
+            end: duration_s.map(|d| start + Duration::from_secs_f64(d.max(0.0))),
+            start,
+            pacer: Pacer::new(speed),
+            meter: SpeedMeter::new(),
+            time: SimTime::new(speed.ceiling()),
+            sim,
+        }
+    }
+
+    /// What vehicle `sysid`'s endpoint received: it acts now, in simulated time.
+    fn receive(&mut self, sysid: u8, bytes: &[u8]) {
+        self.sim.send_bytes(sysid, bytes);
+    }
+
+    /// Let the vehicles answer what they received, at the current simulated time (a mission
+    /// request or an ACK does not wait for the next physics step).
+    fn deliver(&mut self) {
+        let now = self.sim.now();
+        self.sim.advance_to(now);
+    }
+
+    /// Step as far as the schedule allows at wall time `wall`: whole physics steps, not past
+    /// the end.
+    fn step(&mut self, wall: Time) {
+        let mut limit = self.pacer.allowed(wall, self.sim.now());
+        if let Some(e) = self.end {
+            limit = limit.min(e);
+        }
+        while self.sim.poll_timeout() <= limit {
+            let t = self.sim.poll_timeout();
+            self.sim.advance_to(t);
+        }
+        if self.end.is_some_and(|e| e <= limit) {
+            self.sim.advance_to(limit);
+        }
+    }
+
+    /// Measure and publish where the simulation stands at wall time `wall`.
+    fn record(&mut self, wall: Time) {
+        self.meter.record(wall, self.sim.now());
+        self.time.publish(
+            Time::ZERO + self.sim.now().saturating_since(self.start),
+            self.meter.current(),
+        );
+    }
+
+    fn finished(&self) -> bool {
+        self.end.is_some_and(|e| self.sim.now() >= e)
+    }
+
+    /// Wall time from `wall` until the next physics step is on the schedule (zero: now).
+    fn wait(&self, wall: Time) -> Duration {
+        self.pacer
+            .wall_at(self.sim.poll_timeout())
+            .map_or(Duration::ZERO, |w| w.saturating_since(wall))
+    }
+}
+
+/// Sleep `d`, or with nothing to wait for, let the runtime's other tasks (the sockets, an
+/// in-process GCS) run once.
+async fn pause(d: Duration) {
+    if d.is_zero() {
+        tokio::task::yield_now().await;
+    } else {
+        tokio::time::sleep(d).await;
+    }
+}
+
+/// Tells the log when the simulator runs short of its ceiling, once per episode, and keeps a
+/// wall-clock GCS's link judged at the speed achieved.
+#[derive(Debug, Default)]
+struct SpeedWatch {
+    checked_at: Option<Time>,
+    short: bool,
+}
+
+impl SpeedWatch {
+    fn check(&mut self, wall: Time, stepper: &mut Stepper, gcs: GcsClock) {
+        if self
+            .checked_at
+            .is_some_and(|t| wall.saturating_since(t) < SPEED_CHECK)
+        {
+            return;
+        }
+        self.checked_at = Some(wall);
+        let Some(now) = stepper.meter.current() else {
+            return;
+        };
+        let speed = stepper.pacer.speed();
+        stepper
+            .sim
+            .set_gcs_time_scale(gcs_time_scale(gcs, speed, Some(now)));
+        let Some(ceiling) = speed.ceiling() else {
+            return;
+        };
+        let short = now < SHORTFALL * ceiling;
+        if short && !self.short {
+            tracing::warn!(
+                "simulator: running at {now:.1}× of the {ceiling}× asked: this machine cannot                  keep up, so simulated time runs slower (lock-step, as SITL; nothing is skipped)"
+            );
+        } else if !short && self.short {
+            tracing::info!("simulator: back at {now:.1}× ({ceiling}× asked)");
+        }
+        self.short = short;
+    }
+}
+
+/// What the simulator achieved over its whole run, for the log at its end.
+fn log_totals(stepper: &Stepper) {
+    let (sim, wall) = stepper.meter.totals();
+    if let Some(x) = stepper.meter.overall() {
+        tracing::info!(
+            "simulator: {:.1} s simulated in {:.1} s, {x:.2}× ({} asked)",
+            sim.as_secs_f64(),
+            wall.as_secs_f64(),
+            stepper.pacer.speed()
+        );
+    }
 }
 
 /// Serve `sim` until `shutdown` resolves (or the configured duration passes). `on_bound`
-/// is called once every endpoint is open.
+/// is called once every endpoint is open, with the simulator's published time (what a GCS in
+/// this process follows, and where the speed achieved is read).
+///
+/// Lock-step: simulated time advances in whole physics steps, at most at `opts.speed`, and
+/// not while a vehicle's outgoing link is backed up ([`TxQueue::backlogged`]) — on a busy
+/// machine the simulator runs slower, as SITL does, rather than producing moments nobody
+/// hears.
 pub async fn serve<F>(
-    mut sim: Sim,
+    sim: Sim,
     opts: ServeOptions,
-    on_bound: impl FnOnce(&[Bound]),
+    on_bound: impl FnOnce(&[Bound], &SimTime),
     shutdown: F,
 ) -> Result<Sim, ServerError>
 where
@@ -328,25 +493,39 @@ where
     let sysids = sim.sysids();
     let (tx, mut rx) = mpsc::channel::<(usize, Vec<u8>)>(4096);
     let (bound, ios) = open(&sysids, &opts.endpoints, tx).await?;
-    on_bound(&bound);
     if let Some(dir) = &opts.image_dir {
         std::fs::create_dir_all(dir).map_err(io_err(dir.display().to_string()))?;
     }
-    let clock = MonotonicClock::with_speedup(opts.speedup);
-    sim.set_gcs_time_scale(gcs_time_scale(&opts));
-    let start = sim.now();
-    let end = opts
-        .duration_s
-        .map(|d| start + std::time::Duration::from_secs_f64(d.max(0.0)));
+    let mut stepper = Stepper::new(sim, opts.speed, opts.duration_s);
+    stepper
+        .sim
+        .set_gcs_time_scale(gcs_time_scale(opts.gcs, opts.speed, None));
+    on_bound(&bound, &stepper.time);
     tokio::pin!(shutdown);
     // the outgoing links are paced and aged on the wall clock (see `TxQueue`)
     let wall = MonotonicClock::new();
     let mut pending: Vec<TxQueue> = sysids.iter().map(|_| TxQueue::new()).collect();
+    let mut watch = SpeedWatch::default();
     loop {
-        let now = start + std::time::Duration::from_micros(clock.now().as_micros());
-        sim.advance_to(now);
+        // what arrived since the last turn acts at the current simulated time
+        let mut got = false;
+        while let Ok((k, bytes)) = rx.try_recv() {
+            stepper.receive(sysids[k], &bytes);
+            got = true;
+        }
+        if got {
+            stepper.deliver();
+        }
+        let wall_now = wall.now();
+        // a link that cannot carry what was produced holds the simulation back
+        let held = pending.iter().any(TxQueue::backlogged);
+        if !held {
+            stepper.step(wall_now);
+        }
+        stepper.record(wall_now);
+        watch.check(wall_now, &mut stepper, opts.gcs);
         // files first, so a CAMERA_IMAGE_CAPTURED never names a missing file
-        while let Some((_, img)) = sim.poll_image() {
+        while let Some((_, img)) = stepper.sim.poll_image() {
             if let Some(dir) = &opts.image_dir {
                 let path = dir.join(&img.file_name);
                 if let Err(e) = crate::store::atomic_write(&path, &img.jpeg) {
@@ -354,24 +533,23 @@ where
                 }
             }
         }
-        while let Some((sysid, ev)) = sim.poll_event() {
+        while let Some((sysid, ev)) = stepper.sim.poll_event() {
             log_event(sysid, &ev);
         }
-        let mut next_send: Option<crate::time::Time> = None;
+        let mut next_send: Option<Time> = None;
         let wall_now = wall.now();
         for (k, &sysid) in sysids.iter().enumerate() {
             let q = &mut pending[k];
-            while let Some(d) = sim.recv_bytes(sysid) {
+            while let Some(d) = stepper.sim.recv_bytes(sysid) {
                 q.push(wall_now, d);
             }
             match q.expire(wall_now) {
                 Expired::None => {}
                 Expired::Began(n) => tracing::warn!(
                     "simulator: vehicle {sysid}'s link is dropping datagrams older than {} ms \
-                     ({n} now, {} in all): this machine cannot serve {}× speed-up now",
+                     ({n} now, {} in all)",
                     TxQueue::MAX_AGE.as_millis(),
                     q.dropped(),
-                    opts.speedup
                 ),
                 Expired::More(_) => {}
             }
@@ -399,28 +577,31 @@ where
                 }
             }
         }
-        if end.is_some_and(|e| now >= e) {
-            return Ok(sim);
+        if stepper.finished() {
+            log_totals(&stepper);
+            return Ok(stepper.sim);
         }
-        let next = sim.poll_timeout();
-        let mut wait = clock.wall_until(next - std::time::Duration::from_micros(start.as_micros()));
+        let wall_now = wall.now();
+        let held = pending.iter().any(TxQueue::backlogged);
+        let mut wait = if held {
+            UDP_PACE
+        } else {
+            stepper.wait(wall_now)
+        };
         if let Some(t) = next_send {
-            wait = wait.min(t.saturating_since(wall.now()).max(UDP_PACE));
+            wait = wait.min(t.saturating_since(wall_now).max(UDP_PACE));
         }
         tokio::select! {
             r = rx.recv() => {
                 if let Some((k, bytes)) = r {
-                    let now = start + std::time::Duration::from_micros(clock.now().as_micros());
-                    sim.advance_to(now);
-                    sim.send_bytes(sysids[k], &bytes);
-                    // take everything else that is already waiting
-                    while let Ok((k, bytes)) = rx.try_recv() {
-                        sim.send_bytes(sysids[k], &bytes);
-                    }
+                    stepper.receive(sysids[k], &bytes);
                 }
             }
-            _ = tokio::time::sleep(wait) => {}
-            _ = &mut shutdown => return Ok(sim),
+            _ = pause(wait) => {}
+            _ = &mut shutdown => {
+                log_totals(&stepper);
+                return Ok(stepper.sim);
+            }
         }
     }
 }
@@ -430,11 +611,19 @@ where
 pub struct SimHandle {
     /// Where each vehicle can be reached.
     pub bound: Vec<Bound>,
+    /// The simulator's time and speed as it publishes them.
+    pub time: SimTime,
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     task: tokio::task::JoinHandle<Result<Sim, ServerError>>,
 }
 
 impl SimHandle {
+    /// A clock on the simulator's time, for a fleet in this process
+    /// ([`GcsClock::Simulator`]).
+    pub fn clock(&self) -> MonotonicClock {
+        MonotonicClock::following(&self.time)
+    }
+
     /// Stop serving and get the simulation back (for inspection).
     pub async fn stop(mut self) -> Result<Sim, ServerError> {
         if let Some(s) = self.stop.take() {
@@ -461,8 +650,8 @@ pub async fn spawn(sim: Sim, opts: ServeOptions) -> Result<SimHandle, ServerErro
         serve(
             sim,
             opts,
-            move |b| {
-                let _ = bound_tx.send(b.to_vec());
+            move |b, time| {
+                let _ = bound_tx.send((b.to_vec(), time.clone()));
             },
             async move {
                 let _ = stop_rx.await;
@@ -471,8 +660,9 @@ pub async fn spawn(sim: Sim, opts: ServeOptions) -> Result<SimHandle, ServerErro
         .await
     });
     match bound_rx.await {
-        Ok(bound) => Ok(SimHandle {
+        Ok((bound, time)) => Ok(SimHandle {
             bound,
+            time,
             stop: Some(stop_tx),
             task,
         }),
@@ -507,7 +697,6 @@ where
     F: std::future::Future<Output = ()>,
 {
     use crate::link::codec::Codec;
-    use crate::time::Time;
     /// Longest sleep between two camera steps (heartbeats, interval captures, requests for
     /// telemetry are due on this grid at worst).
     const STEP: std::time::Duration = std::time::Duration::from_millis(20);
@@ -707,7 +896,7 @@ impl MemorySimHandle {
 /// fleet share tokio's virtual time, which jumps to the next timer whenever every task
 /// waits, so simulated minutes cost only the CPU time of the work done.
 pub fn spawn_memory(
-    mut sim: Sim,
+    sim: Sim,
     ports: Vec<crate::link::transport::MemoryPort>,
 ) -> MemorySimHandle {
     let (stop_tx, mut stop_rx) = tokio::sync::oneshot::channel::<()>();
@@ -732,44 +921,40 @@ pub fn spawn_memory(
     drop(tx);
     let task = tokio::spawn(async move {
         let clock = MonotonicClock::new();
-        let start = sim.now();
+        let mut stepper = Stepper::new(sim, Speed::REAL_TIME, None);
         let mut open = true;
         loop {
-            let now = start + std::time::Duration::from_micros(clock.now().as_micros());
-            sim.advance_to(now);
-            while sim.poll_image().is_some() {}
-            while let Some((sysid, ev)) = sim.poll_event() {
+            let wall = clock.now();
+            stepper.step(wall);
+            stepper.record(wall);
+            while stepper.sim.poll_image().is_some() {}
+            while let Some((sysid, ev)) = stepper.sim.poll_event() {
                 log_event(sysid, &ev);
             }
             for (k, &sysid) in sysids.iter().enumerate() {
-                while let Some(d) = sim.recv_bytes(sysid) {
+                while let Some(d) = stepper.sim.recv_bytes(sysid) {
                     if let Some(o) = outs.get(k) {
                         let _ = o.send(d);
                     }
                 }
             }
-            let next = sim.poll_timeout();
-            let wait = clock.wall_until(next - std::time::Duration::from_micros(start.as_micros()));
+            let wait = stepper.wait(clock.now());
             tokio::select! {
                 r = rx.recv(), if open => {
                     if r.is_none() {
                         open = false;
                     }
-                    if let Some((k, bytes)) = r {
-                        let now = start + std::time::Duration::from_micros(clock.now().as_micros());
-                        sim.advance_to(now);
+                    let mut next = r;
+                    while let Some((k, bytes)) = next {
                         if let Some(&s) = sysids.get(k) {
-                            sim.send_bytes(s, &bytes);
+                            stepper.receive(s, &bytes);
                         }
-                        while let Ok((k, bytes)) = rx.try_recv() {
-                            if let Some(&s) = sysids.get(k) {
-                                sim.send_bytes(s, &bytes);
-                            }
-                        }
+                        next = rx.try_recv().ok();
                     }
+                    stepper.deliver();
                 }
-                _ = tokio::time::sleep(wait) => {}
-                _ = &mut stop_rx => return sim,
+                _ = pause(wait) => {}
+                _ = &mut stop_rx => return stepper.sim,
             }
         }
     });

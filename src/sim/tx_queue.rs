@@ -63,6 +63,12 @@ impl TxQueue {
     /// as QGroundControl's), so a resend's acknowledgement is never the one thrown away.
     pub const MAX_AGE: Duration = Duration::from_millis(500);
 
+    /// Backlog, datagrams, beyond which the simulator stops stepping until the link has
+    /// carried it (about 100 ms of [`TxQueue::RATE`]): in lock-step (`crate::sim::pace`) a
+    /// link that cannot keep up slows the simulation down, as a starved SITL slows down,
+    /// instead of ageing out what it produced.
+    pub const HOLD: usize = 640;
+
     /// An empty queue with a full bucket.
     pub fn new() -> Self {
         TxQueue {
@@ -147,6 +153,11 @@ impl TxQueue {
     /// Datagrams waiting.
     pub fn len(&self) -> usize {
         self.queue.len()
+    }
+
+    /// More waiting than [`TxQueue::HOLD`].
+    pub fn backlogged(&self) -> bool {
+        self.queue.len() > Self::HOLD
     }
 
     /// Nothing waiting.

@@ -584,6 +584,7 @@ pub fn build_model(
         map,
         mission: mission_model,
         log: log.entries.clone(),
+        sim_speed: None,
     }
 }
 

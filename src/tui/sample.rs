@@ -182,6 +182,7 @@ pub fn runway_fixture() -> Model {
                 "Battery 1 is low 14.4V used 2950 mAh",
             ),
         ],
+        sim_speed: None,
     }
 }
 
@@ -254,6 +255,7 @@ pub fn classification_fixture() -> Model {
             log(1201, Severity::Info, None, "epoch 4: IP solved in 3.1 s"),
             log(1260, Severity::Notice, None, "paused by operator"),
         ],
+        sim_speed: None,
     }
 }
 
@@ -354,6 +356,7 @@ pub fn generated(n: usize, seed: u64) -> Model {
             ..Default::default()
         },
         log,
+        sim_speed: None,
     }
 }
 
@@ -675,6 +678,7 @@ impl SampleRun {
                 stats: Vec::new(),
             },
             log: self.log.clone(),
+            sim_speed: None,
         }
     }
 

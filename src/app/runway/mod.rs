@@ -188,10 +188,10 @@ struct Shared {
 
 /// The region's frame against the fleet clock: a moving region
 /// ([`MappingParams::motion`](crate::explore::mapping::MappingParams::motion)) has moved
-/// `v · s` since its epoch, where `s` is the region's time. The shell reads the wall clock
+/// `v · s` since its epoch, where `s` is the region's time. The shell reads the fleet clock
 /// once, when the run starts: `s = since_epoch_s + (t − at)` for fleet-clock time `t`
-/// (scaled like the fleet clock, so a simulator sped up N× moves its region N× faster in
-/// wall time and the same in simulated time).
+/// (`MonotonicClock::secs_since_unix_ms`: on a fleet following the demo's simulator the
+/// region's time is the simulated time, however fast the simulator runs).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct RoiClock {
     motion: RoiMotion,
@@ -202,20 +202,13 @@ pub(crate) struct RoiClock {
 }
 
 impl RoiClock {
-    /// The clock of `motion` whose epoch was `epoch_unix_ms`, read at wall time `unix_ms`
-    /// and fleet time `at` on a clock `speedup` times faster than the wall.
-    pub(crate) fn new(
-        motion: RoiMotion,
-        epoch_unix_ms: u64,
-        unix_ms: u64,
-        at: Time,
-        speedup: f64,
-    ) -> RoiClock {
-        let wall_s = (unix_ms as f64 - epoch_unix_ms as f64) / 1000.0;
+    /// The clock of `motion` read at fleet time `at`, when `since_epoch_s` seconds of the
+    /// fleet clock had passed since its epoch (an epoch in the future counts as now).
+    pub(crate) fn new(motion: RoiMotion, at: Time, since_epoch_s: f64) -> RoiClock {
         RoiClock {
             motion,
             at,
-            since_epoch_s: (wall_s * speedup).max(0.0),
+            since_epoch_s: since_epoch_s.max(0.0),
         }
     }
 
@@ -383,10 +376,10 @@ mod tests {
 
     #[test]
     fn the_region_clock_follows_the_fleet_clock_from_its_epoch() {
-        // Moving east at 0.3 m/s; the epoch 2 s of wall time before the reading, on a
-        // clock 10× faster than the wall: 20 s of region time, 6 m, at fleet time 5 s.
+        // Moving east at 0.3 m/s; the epoch 20 s of fleet time before the reading at fleet
+        // time 5 s: 20 s of region time, 6 m.
         let m = RoiMotion::new(0.3, 0.0, Time::ZERO);
-        let roi = RoiClock::new(m, 1_000_000, 1_002_000, Time::from_secs(5), 10.0);
+        let roi = RoiClock::new(m, Time::from_secs(5), 20.0);
         assert!(!roi.is_static() && RoiClock::fixed().is_static());
         assert_eq!(roi.roi_time(Time::from_secs(5)), Time::from_secs(20));
         assert_eq!(roi.roi_time(Time::from_secs(15)), Time::from_secs(30));
@@ -411,7 +404,7 @@ mod tests {
         let fixed = RoiClock::fixed();
         assert_eq!(fixed.in_region(3.0, -2.0, Time::from_secs(99)), (3.0, -2.0));
         // A reading before the epoch (a wall clock set back) counts from the epoch.
-        let early = RoiClock::new(m, 5_000, 1_000, Time::ZERO, 1.0);
+        let early = RoiClock::new(m, Time::ZERO, -4.0);
         assert_eq!(early.roi_time(Time::ZERO), Time::ZERO);
     }
 }

@@ -37,18 +37,14 @@ pub async fn run(
     let mut state = state;
     let sysids: Vec<u8> = state.robots.iter().map(|r| r.sysid).collect();
     // A moving region: its epoch is this start unless the state has one (a resumed run, or
-    // the demo's simulator start); read against the wall clock once.
+    // the demo's simulator start); read against the fleet clock once.
     let motion = state.params.motion();
     let roi = if motion.speed() > 0.0 {
-        let unix_ms = crate::clock::unix_ms();
-        let epoch = *state.roi_epoch_unix_ms.get_or_insert(unix_ms);
-        RoiClock::new(
-            motion,
-            epoch,
-            unix_ms,
-            fleet.clock().now(),
-            fleet.clock().speedup(),
-        )
+        let epoch = *state
+            .roi_epoch_unix_ms
+            .get_or_insert_with(crate::clock::unix_ms);
+        let clock = fleet.clock();
+        RoiClock::new(motion, clock.now(), clock.secs_since_unix_ms(epoch))
     } else {
         RoiClock::fixed()
     };

@@ -42,6 +42,10 @@ pub struct Model {
     pub mission: MissionModel,
     /// Recent messages, oldest first (the adapter keeps it bounded).
     pub log: Vec<LogEntry>,
+    /// Simulated seconds per wall second the simulator achieves, when the fleet runs on a
+    /// simulator's time (the demo): below its ceiling on a busy machine (lock-step).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub sim_speed: Option<f64>,
 }
 
 impl Model {

@@ -246,6 +246,10 @@ fn title_bar(app: &App, frame: &mut Frame, area: Rect) {
         format!(" T+{} ", format_hms(app.model.time.as_secs_f64())),
         theme::text(),
     ));
+    if let Some(x) = app.model.sim_speed {
+        // the simulator's achieved speed (lock-step: below its ceiling on a busy machine)
+        essentials.push(Span::styled(format!(" {x:.1}× "), theme::text()));
+    }
     if !app.pending.is_empty() {
         essentials.push(Span::styled(
             format!(" {} cmd pending ", app.pending.len()),
