@@ -3,8 +3,8 @@
 //! time they were simulated for.
 //!
 //! An ArduCopter and a PX4 copter at a ceiling of 20× share their runtime's only thread with
-//! a CPU-bound task that holds it for 50 ms between two turns (the simulator gets a few
-//! milliseconds in every 50), beside two CPU-bound threads that keep the machine's cores
+//! a CPU-bound task that holds it for 25 ms between two turns (at most 200 ms of simulated
+//! time per turn in lock-step: 8×), beside two CPU-bound threads that keep the machine's cores
 //! busy. A fleet on the simulator's own time flies a mission on both to the end. What SITL
 //! guarantees is checked on everything the vehicles sent:
 //! - the simulator ran slower than asked (well under 20×), and reports that speed;
@@ -15,9 +15,8 @@
 //!   flight allows for the time simulated;
 //! - every command was answered (take-off, mission start) and both missions flown to the end.
 //!
-//! Before lock-step (the simulator's clock kept pace with the wall), the same starvation made
-//! every turn step two simulated seconds at once and age out most of what they produced: the
-//! first check found gaps of seconds.
+//! Before lock-step the simulator's clock kept pace with the wall whatever CPU it got: here it
+//! would have stepped half a simulated second per turn at 20× — the speed checks fail.
 
 use fleetmap::app::bandit_sim::fleet_config;
 use fleetmap::clock::MonotonicClock;
@@ -67,7 +66,8 @@ fn metres(a: (f64, f64), b: (f64, f64)) -> f64 {
 
 fn mission(k: u8) -> Vec<MissionItem> {
     let east = f64::from(k) * 3e-4;
-    let mut v = vec![MissionItem::takeoff(10.0)];
+    // with its position: PX4 flies a take-off item to it (one at 0, 0 is never reached)
+    let mut v = vec![MissionItem::takeoff_at(HOME.0, HOME.1 + east, 10.0)];
     for (dn, de) in [(2e-4, 0.0), (2e-4, 2e-4), (0.0, 2e-4), (0.0, 0.0)] {
         v.push(MissionItem::waypoint(HOME.0 + dn, HOME.1 + east + de, 12.0));
     }
@@ -120,9 +120,9 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
             .await
             .unwrap();
             let _ = time_tx.send(h.time.clone());
-            // the simulator's thread is held on the CPU for 50 ms between two turns
+            // the simulator's thread is held on the CPU for 25 ms between two turns
             while !stop_sim.load(Ordering::Relaxed) {
-                burn(Duration::from_millis(50));
+                burn(Duration::from_millis(25));
                 tokio::task::yield_now().await;
             }
             h.stop().await.unwrap()
@@ -138,10 +138,15 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
 
     // everything the vehicles send, from the start
     let mut frames = fleet.subscribe();
+    let (done_tx, mut done) = tokio::sync::oneshot::channel::<()>();
     let collector = tokio::spawn(async move {
         let mut heard: BTreeMap<u8, Heard> = BTreeMap::new();
         loop {
-            match frames.recv().await {
+            let r = tokio::select! {
+                r = frames.recv() => r,
+                _ = &mut done => return heard,
+            };
+            match r {
                 Ok(Incoming { frame, .. }) => {
                     let h = heard.entry(frame.sysid()).or_default();
                     match &frame.message {
@@ -226,6 +231,7 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
     }
     let speed = sim_time.achieved().expect("the simulator measured its speed");
     let simulated = sim_time.now();
+    let _ = done_tx.send(());
     fleet.shutdown().await;
     stop.store(true, Ordering::Relaxed);
     let sim = sim_thread.join().expect("the simulator's thread");

@@ -36,6 +36,7 @@ fn gcs() -> MavHeader {
 async fn udp_endpoints_per_vehicle() {
     let cfg = SimConfig::from_spec("2xcopter:px4", None, Some(HOME), 1).unwrap();
     let sim = Sim::new(cfg, Time::ZERO).unwrap();
+    let t0 = std::time::Instant::now();
     let h = spawn(
         sim,
         ServeOptions {
@@ -97,7 +98,10 @@ async fn udp_endpoints_per_vehicle() {
     );
     assert_eq!(sysids.into_iter().collect::<Vec<_>>(), vec![2]);
     let sim = h.stop().await.unwrap();
-    assert!(sim.now() > Time::ZERO);
+    // lock-step: never ahead of 20× the wall time it was served for
+    let ceiling = t0.elapsed().as_secs_f64() * 20.0;
+    assert!(sim.now().as_secs_f64() <= ceiling, "{} > {ceiling}", sim.now());
+    assert!(sim.vehicle(2).is_some_and(|v| v.boots() == 1));
 }
 
 #[tokio::test]
@@ -359,10 +363,13 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
             worst = worst.max(took);
         }
     }
+    let speed = sim_time.achieved().expect("the simulator measured its speed");
     stop.store(true, Ordering::Relaxed);
     fleet.shutdown().await;
     sim_thread.join().expect("the simulator's thread");
-    println!("48 mode changes on a starved simulator: slowest {worst:?}");
+    println!("48 mode changes on a starved simulator at {speed:.1}×: slowest {worst:?}");
+    // lock-step: at most 200 ms of simulated time per 95 ms turn
+    assert!(speed < 2.5, "the starved simulator ran at {speed:.1}×");
     // one attempt's worth of wall time (1 s) and the turn it waits for
     assert!(worst < Duration::from_millis(1500), "slowest {worst:?}");
 }

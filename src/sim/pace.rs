@@ -3,15 +3,18 @@
 //!
 //! ArduPilot's and PX4's SITL run in lock-step: the physics advances one fixed step at a
 //! time and `--speedup N` is a ceiling, so on a busy machine the vehicle runs slower than N×
-//! and everything it does stays consistent with the time it was simulated for (ArduPilot:
-//! `SITL::Aircraft::sync_frame_time`, which sleeps only when the frame is *ahead* of
-//! `speedup × wall time`; PX4 SIH: `Sih::Run`, paced by the lockstep scheduler). The
-//! simulator here does the same: [`Pacer::allowed`] says up to which simulated time the
-//! shell may step now. When the shell falls behind by more than [`Pacer::max_lag`] (it was
-//! starved: a busy CPU, a slow link), the schedule is moved instead of caught up — the
-//! simulator never steps a burst of simulated seconds to make up for wall time it did not
-//! get, it just runs slower, as SITL does. [`Speed::Max`] has no ceiling: every turn of the
-//! shell steps one batch ([`Pacer::MAX_BATCH`]) and lets the I/O run.
+//! and everything it does stays consistent with the time it was simulated for. ArduPilot's
+//! `Aircraft::sync_frame_time` (libraries/SITL/SIM_Aircraft.cpp) keeps a sleep debt: it sleeps
+//! only while the frames run ahead of `speedup × wall time`, and never lets the debt fall
+//! below −100 ms, so a late frame is made up for by at most 100 ms of wall time and the rest
+//! is simply lost speed; PX4's SITL steps its modules from the simulator's time through its
+//! lock-step scheduler (platforms/posix lockstep_scheduler). The simulator here does the
+//! same: [`Pacer::allowed`] says up to which simulated time the shell may step now. When the
+//! shell falls behind by more than [`Pacer::max_lag`] (it was starved: a busy CPU, a slow
+//! link), the schedule is moved instead of caught up — the simulator never steps a burst of
+//! simulated seconds to make up for wall time it did not get, it just runs slower.
+//! [`Speed::Max`] has no ceiling: every turn of the shell steps one batch
+//! ([`Pacer::MAX_BATCH`]) and lets the I/O run.
 //!
 //! [`SpeedMeter`] measures the speed achieved (simulated seconds per wall second over the
 //! last few seconds), which the shell reports and the GCS clock follows
