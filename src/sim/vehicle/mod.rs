@@ -226,7 +226,7 @@ pub struct VehicleConfig {
     /// time: a GCS on the wall clock heartbeats at 1 Hz of *its* time, so a simulator
     /// running 10× faster than wall time must judge it over 10× as many simulated seconds,
     /// or it would see 0.1 heartbeats per simulated second and declare the link lost. The
-    /// socket server sets it ([`crate::sim::server::ServeOptions::gcs_speedup`]).
+    /// socket server sets it from whose clock the GCS keeps ([`crate::sim::server::GcsClock`]).
     pub gcs_time_scale: f64,
     /// Power-off time of a battery swap, seconds (the vehicle is silent meanwhile).
     pub power_off_s: f64,
