@@ -313,7 +313,9 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
         .build()
         .context("cannot start the async runtime")?;
     let json = args.json;
-    rt.block_on(async move {
+    let started = std::time::Instant::now();
+    let mut served_time = None;
+    rt.block_on(async {
         let shutdown = async {
             let _ = tokio::signal::ctrl_c().await;
         };
@@ -321,6 +323,7 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
             sim,
             opts,
             |bound, time| {
+                served_time = Some(time.clone());
                 tokio::spawn(report_speed(time.clone(), json));
                 for (b, d) in bound.iter().zip(&descr) {
                     if json {
@@ -347,7 +350,38 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
         )
         .await
     })?;
+    if let Some(time) = served_time {
+        print_speed(
+            time.now().as_secs_f64(),
+            started.elapsed().as_secs_f64(),
+            time.ceiling(),
+            json,
+        );
+    }
     Ok(ExitCode::SUCCESS)
+}
+
+/// The whole run's speed, when `fleetmap sim` ends: a line of text, or with `--json` an
+/// object `{"sim_time_s", "wall_s", "speed", "speedup"}`.
+fn print_speed(sim_s: f64, wall_s: f64, ceiling: Option<f64>, json: bool) {
+    let speed = if wall_s > 0.0 { sim_s / wall_s } else { 0.0 };
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "sim_time_s": (sim_s * 1000.0).round() / 1000.0,
+                "wall_s": (wall_s * 1000.0).round() / 1000.0,
+                "speed": (speed * 100.0).round() / 100.0,
+                "speedup": ceiling,
+            })
+        );
+    } else {
+        let asked = ceiling.map_or("max".to_string(), |c| format!("{c}×"));
+        println!(
+            "simulator: {sim_s:.1} s simulated in {wall_s:.1} s of wall time, {speed:.1}× \
+             ({asked} asked)"
+        );
+    }
 }
 
 /// How often `fleetmap sim` prints the speed it achieves, wall time.

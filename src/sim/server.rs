@@ -451,7 +451,8 @@ impl SpeedWatch {
         let short = now < SHORTFALL * ceiling;
         if short && !self.short {
             tracing::warn!(
-                "simulator: running at {now:.1}× of the {ceiling}× asked: this machine cannot                  keep up, so simulated time runs slower (lock-step, as SITL; nothing is skipped)"
+                "simulator: running at {now:.1}× of the {ceiling}× asked: this machine cannot \
+                 keep up, so simulated time runs slower (lock-step, as SITL; nothing is skipped)"
             );
         } else if !short && self.short {
             tracing::info!("simulator: back at {now:.1}× ({ceiling}× asked)");
