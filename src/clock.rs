@@ -192,7 +192,9 @@ impl SimTime {
     /// The simulator now stands at `t` (since its start) and runs at `achieved` simulated
     /// seconds per wall second (`None`: not measured yet). Time never goes back.
     pub fn publish(&self, t: Time, achieved: Option<f64>) {
-        self.inner.sim_us.fetch_max(t.as_micros(), Ordering::Release);
+        self.inner
+            .sim_us
+            .fetch_max(t.as_micros(), Ordering::Release);
         if let Some(a) = achieved.filter(|a| a.is_finite() && *a > 0.0) {
             self.inner.achieved.store(a.to_bits(), Ordering::Release);
         }

@@ -151,12 +151,14 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
                     let h = heard.entry(frame.sysid()).or_default();
                     match &frame.message {
                         // (0, 0): no position estimate yet
-                        Ok(MavMessage::GLOBAL_POSITION_INT(p)) if p.lat != 0 || p.lon != 0 => h.positions.push((
-                            p.time_boot_ms,
-                            f64::from(p.lat) / 1e7,
-                            f64::from(p.lon) / 1e7,
-                            f64::from(p.relative_alt) / 1e3,
-                        )),
+                        Ok(MavMessage::GLOBAL_POSITION_INT(p)) if p.lat != 0 || p.lon != 0 => {
+                            h.positions.push((
+                                p.time_boot_ms,
+                                f64::from(p.lat) / 1e7,
+                                f64::from(p.lon) / 1e7,
+                                f64::from(p.relative_alt) / 1e3,
+                            ))
+                        }
                         Ok(MavMessage::SYS_STATUS(s)) if s.battery_remaining >= 0 => {
                             let at = h.positions.last().map_or(0, |p| p.0);
                             h.battery.push((at, s.battery_remaining));
@@ -229,7 +231,9 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
         let sysid = r.unwrap();
         println!("vehicle {sysid}: mission flown, landed, disarmed");
     }
-    let speed = sim_time.achieved().expect("the simulator measured its speed");
+    let speed = sim_time
+        .achieved()
+        .expect("the simulator measured its speed");
     let simulated = sim_time.now();
     let _ = done_tx.send(());
     fleet.shutdown().await;
@@ -256,7 +260,11 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
 
     for sysid in 1..=2u8 {
         let h = &heard[&sysid];
-        assert!(h.positions.len() > 100, "vehicle {sysid}: {:?}", h.positions.len());
+        assert!(
+            h.positions.len() > 100,
+            "vehicle {sysid}: {:?}",
+            h.positions.len()
+        );
         let mut worst_gap = 0u32;
         let mut fastest = 0f64;
         for w in h.positions.windows(2) {

@@ -100,7 +100,11 @@ async fn udp_endpoints_per_vehicle() {
     let sim = h.stop().await.unwrap();
     // lock-step: never ahead of 20× the wall time it was served for
     let ceiling = t0.elapsed().as_secs_f64() * 20.0;
-    assert!(sim.now().as_secs_f64() <= ceiling, "{} > {ceiling}", sim.now());
+    assert!(
+        sim.now().as_secs_f64() <= ceiling,
+        "{} > {ceiling}",
+        sim.now()
+    );
     assert!(sim.vehicle(2).is_some_and(|v| v.boots() == 1));
 }
 
@@ -363,7 +367,9 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
             worst = worst.max(took);
         }
     }
-    let speed = sim_time.achieved().expect("the simulator measured its speed");
+    let speed = sim_time
+        .achieved()
+        .expect("the simulator measured its speed");
     stop.store(true, Ordering::Relaxed);
     fleet.shutdown().await;
     sim_thread.join().expect("the simulator's thread");

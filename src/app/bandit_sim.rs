@@ -131,12 +131,7 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
     )
     .await
     .context("starting the simulator")?;
-    let fleet = fleet::spawn(
-        vec![link],
-        ev_rx,
-        fleet_config(speedup),
-        handle.clock(),
-    );
+    let fleet = fleet::spawn(vec![link], ev_rx, fleet_config(speedup), handle.clock());
     Ok(SimFleet { fleet, sim: handle })
 }
 

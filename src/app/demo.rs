@@ -213,12 +213,7 @@ pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result
         links.push(open_link(i, spec, &LinkOptions::default(), ev_tx.clone()).await?);
     }
     drop(ev_tx);
-    let fleet = fleet::spawn(
-        links,
-        ev_rx,
-        demo_fleet_config(cfg.speedup),
-        handle.clock(),
-    );
+    let fleet = fleet::spawn(links, ev_rx, demo_fleet_config(cfg.speedup), handle.clock());
     Ok(DemoFleet {
         fleet,
         started_unix_ms: handle.time.started_unix_ms(),

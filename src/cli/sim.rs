@@ -1,7 +1,7 @@
 //! `fleetmap sim …`: serve simulated ArduPilot / PX4 copters and rovers over MAVLink.
 
-use crate::sim::harness::{Sim, SimConfig};
 use crate::clock::SimTime;
+use crate::sim::harness::{Sim, SimConfig};
 use crate::sim::pace::Speed;
 use crate::sim::server::{Endpoint, GcsClock, ServeOptions, serve};
 use crate::sim::world::{Wind, World};

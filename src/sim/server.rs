@@ -19,10 +19,10 @@ use crate::sim::harness::Sim;
 use crate::sim::pace::{Pacer, Speed, SpeedMeter};
 use crate::sim::tx_queue::{Expired, TxQueue};
 use crate::time::Time;
-use std::time::Duration;
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 use thiserror::Error;
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
 use tokio::net::{TcpListener, UdpSocket};
@@ -896,10 +896,7 @@ impl MemorySimHandle {
 /// (tests with `start_paused`) this is a fully virtual run: the simulator, the links and the
 /// fleet share tokio's virtual time, which jumps to the next timer whenever every task
 /// waits, so simulated minutes cost only the CPU time of the work done.
-pub fn spawn_memory(
-    sim: Sim,
-    ports: Vec<crate::link::transport::MemoryPort>,
-) -> MemorySimHandle {
+pub fn spawn_memory(sim: Sim, ports: Vec<crate::link::transport::MemoryPort>) -> MemorySimHandle {
     let (stop_tx, mut stop_rx) = tokio::sync::oneshot::channel::<()>();
     let sysids = sim.sysids();
     let (tx, mut rx) = mpsc::unbounded_channel::<(usize, Vec<u8>)>();
