@@ -18,16 +18,15 @@
 //! Before lock-step the simulator's clock kept pace with the wall whatever CPU it got: here it
 //! would have stepped half a simulated second per turn at 20× — the speed checks fail.
 
+mod common;
+
 use fleetmap::app::bandit_sim::fleet_config;
 use fleetmap::clock::MonotonicClock;
 use fleetmap::fleet::Incoming;
 use fleetmap::link::ConnSpec;
 use fleetmap::link::transport::{LinkOptions, open_link};
 use fleetmap::mission::{MissionItem, MissionType};
-use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::pace::Speed;
-use fleetmap::sim::server::{Endpoint, GcsClock, ServeOptions, spawn};
-use fleetmap::time::Time;
+use fleetmap::sim::harness::SimConfig;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -97,38 +96,11 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
         .await
         .unwrap();
     let gcs = link.local.unwrap();
-    let (time_tx, time_rx) = tokio::sync::oneshot::channel();
-    let stop_sim = stop.clone();
-    let sim_thread = std::thread::spawn(move || {
-        let rt = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .unwrap();
-        rt.block_on(async move {
-            let cfg = SimConfig::from_spec("1xcopter:ardupilot,1xcopter:px4", None, Some(HOME), 3)
-                .unwrap();
-            let h = spawn(
-                Sim::new(cfg, Time::ZERO).unwrap(),
-                ServeOptions {
-                    endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
-                    speed: Speed::Times(CEILING),
-                    gcs: GcsClock::Simulator,
-                    image_dir: None,
-                    duration_s: None,
-                },
-            )
-            .await
-            .unwrap();
-            let _ = time_tx.send(h.time.clone());
-            // the simulator's thread is held on the CPU for 25 ms between two turns
-            while !stop_sim.load(Ordering::Relaxed) {
-                burn(Duration::from_millis(25));
-                tokio::task::yield_now().await;
-            }
-            h.stop().await.unwrap()
-        })
-    });
-    let sim_time = time_rx.await.expect("the simulator's time");
+    let cfg = SimConfig::from_spec("1xcopter:ardupilot,1xcopter:px4", None, Some(HOME), 3).unwrap();
+    // the simulator's thread is held on the CPU for 25 ms between two turns
+    let starved =
+        common::StarvedSim::start(cfg, CEILING, gcs, || burn(Duration::from_millis(25))).await;
+    let sim_time = starved.time.clone();
     let fleet = fleetmap::fleet::spawn(
         vec![link],
         ev_rx,
@@ -237,8 +209,8 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
     let simulated = sim_time.now();
     let _ = done_tx.send(());
     fleet.shutdown().await;
+    let sim = starved.stop();
     stop.store(true, Ordering::Relaxed);
-    let sim = sim_thread.join().expect("the simulator's thread");
     for h in hogs {
         h.join().unwrap();
     }

@@ -2,6 +2,8 @@
 //! speaking MAVLink 2 frames that an independent codec decodes; commands get answered;
 //! captured images are written before they are announced.
 
+mod common;
+
 use fleetmap::link::codec::Codec;
 use fleetmap::sim::harness::{Sim, SimConfig};
 use fleetmap::sim::server::{Endpoint, ServeOptions, spawn};
@@ -286,8 +288,6 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
     use fleetmap::clock::MonotonicClock;
     use fleetmap::link::ConnSpec;
     use fleetmap::link::transport::{LinkOptions, open_link};
-    use std::sync::Arc;
-    use std::sync::atomic::{AtomicBool, Ordering};
     use std::time::Instant;
 
     const SPEEDUP: f64 = 20.0;
@@ -297,43 +297,17 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
         .await
         .unwrap();
     let gcs = link.local.unwrap();
-    let stop = Arc::new(AtomicBool::new(false));
-    let stop_sim = stop.clone();
-    let (time_tx, time_rx) = tokio::sync::oneshot::channel();
-    let sim_thread = std::thread::spawn(move || {
-        let rt = tokio::runtime::Builder::new_current_thread()
-            .enable_all()
-            .build()
-            .unwrap();
-        rt.block_on(async move {
-            let cfg = SimConfig::from_spec(HARDWARE_TEAM, None, Some(HOME), 1).unwrap();
-            let h = spawn(
-                Sim::new(cfg, Time::ZERO).unwrap(),
-                ServeOptions {
-                    endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
-                    speed: fleetmap::sim::pace::Speed::Times(SPEEDUP),
-                    gcs: fleetmap::sim::server::GcsClock::Simulator,
-                    image_dir: None,
-                    duration_s: None,
-                },
-            )
-            .await
-            .unwrap();
-            let _ = time_tx.send(h.time.clone());
-            // the hog: the thread is blocked but for one turn of the runtime every 95 ms
-            while !stop_sim.load(Ordering::Relaxed) {
-                std::thread::sleep(Duration::from_millis(95));
-                tokio::task::yield_now().await;
-            }
-            h.stop().await.unwrap()
-        })
-    });
-    let sim_time = time_rx.await.expect("the simulator's time");
+    let cfg = SimConfig::from_spec(HARDWARE_TEAM, None, Some(HOME), 1).unwrap();
+    // the hog: the thread is blocked but for one turn of the runtime every 95 ms
+    let starved = common::StarvedSim::start(cfg, SPEEDUP, gcs, || {
+        std::thread::sleep(Duration::from_millis(95))
+    })
+    .await;
     let fleet = fleetmap::fleet::spawn(
         vec![link],
         ev_rx,
         fleet_config(SPEEDUP),
-        MonotonicClock::following(&sim_time),
+        MonotonicClock::following(&starved.time),
     );
     for sysid in 1..=6u8 {
         fleet
@@ -367,12 +341,12 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
             worst = worst.max(took);
         }
     }
-    let speed = sim_time
+    let speed = starved
+        .time
         .achieved()
         .expect("the simulator measured its speed");
-    stop.store(true, Ordering::Relaxed);
     fleet.shutdown().await;
-    sim_thread.join().expect("the simulator's thread");
+    starved.stop();
     println!("48 mode changes on a starved simulator at {speed:.1}×: slowest {worst:?}");
     // lock-step: at most 200 ms of simulated time per 95 ms turn
     assert!(speed < 2.5, "the starved simulator ran at {speed:.1}×");

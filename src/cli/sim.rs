@@ -351,71 +351,57 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
         .await
     })?;
     if let Some(time) = served_time {
-        print_speed(
-            time.now().as_secs_f64(),
-            started.elapsed().as_secs_f64(),
-            time.ceiling(),
-            json,
-        );
+        // the whole run's speed
+        let (sim_s, wall_s) = (time.now().as_secs_f64(), started.elapsed().as_secs_f64());
+        let speed = if wall_s > 0.0 { sim_s / wall_s } else { 0.0 };
+        speed_line(sim_s, speed, time.ceiling(), Some(wall_s), json);
     }
     Ok(ExitCode::SUCCESS)
 }
 
-/// The whole run's speed, when `fleetmap sim` ends: a line of text, or with `--json` an
-/// object `{"sim_time_s", "wall_s", "speed", "speedup"}`.
-fn print_speed(sim_s: f64, wall_s: f64, ceiling: Option<f64>, json: bool) {
-    let speed = if wall_s > 0.0 { sim_s / wall_s } else { 0.0 };
+/// The speed achieved, as `fleetmap sim` prints it: a line of text, or with `--json` an
+/// object `{"sim_time_s", "speed", "speedup"}` (`speedup`: the ceiling asked, `null` for
+/// `max`), with `"wall_s"` for the whole run at its end (`wall_s` given).
+fn speed_line(sim_s: f64, speed: f64, ceiling: Option<f64>, wall_s: Option<f64>, json: bool) {
+    let round = |x: f64, k: f64| (x * k).round() / k;
     if json {
-        println!(
-            "{}",
-            serde_json::json!({
-                "sim_time_s": (sim_s * 1000.0).round() / 1000.0,
-                "wall_s": (wall_s * 1000.0).round() / 1000.0,
-                "speed": (speed * 100.0).round() / 100.0,
-                "speedup": ceiling,
-            })
-        );
+        let mut o = serde_json::json!({
+            "sim_time_s": round(sim_s, 1000.0),
+            "speed": round(speed, 100.0),
+            "speedup": ceiling,
+        });
+        if let (Some(w), Some(m)) = (wall_s, o.as_object_mut()) {
+            m.insert("wall_s".into(), round(w, 1000.0).into());
+        }
+        println!("{o}");
     } else {
         let asked = ceiling.map_or("max".to_string(), |c| format!("{c}×"));
-        println!(
-            "simulator: {sim_s:.1} s simulated in {wall_s:.1} s of wall time, {speed:.1}× \
-             ({asked} asked)"
-        );
+        match wall_s {
+            Some(w) => println!(
+                "simulator: {sim_s:.1} s simulated in {w:.1} s of wall time, {speed:.1}× \
+                 ({asked} asked)"
+            ),
+            None => println!(
+                "simulator: {sim_s:.1} s simulated, running at {speed:.1}× ({asked} asked)"
+            ),
+        }
     }
+    use std::io::Write;
+    let _ = std::io::stdout().flush();
 }
 
 /// How often `fleetmap sim` prints the speed it achieves, wall time.
 const SPEED_REPORT: std::time::Duration = std::time::Duration::from_secs(10);
 
-/// Print the simulator's achieved speed every [`SPEED_REPORT`]: a line of text, or with
-/// `--json` an object `{"sim_time_s", "speed", "speedup"}` (`speedup`: the ceiling asked,
-/// `null` for `max`).
+/// Print the simulator's speed over the last seconds every [`SPEED_REPORT`] ([`speed_line`]).
 async fn report_speed(time: SimTime, json: bool) {
     let mut tick = tokio::time::interval(SPEED_REPORT);
     tick.tick().await;
     loop {
         tick.tick().await;
-        let Some(speed) = time.achieved() else {
-            continue;
-        };
-        let t = time.now().as_secs_f64();
-        if json {
-            println!(
-                "{}",
-                serde_json::json!({
-                    "sim_time_s": (t * 1000.0).round() / 1000.0,
-                    "speed": (speed * 100.0).round() / 100.0,
-                    "speedup": time.ceiling(),
-                })
-            );
-        } else {
-            let asked = time
-                .ceiling()
-                .map_or("max".to_string(), |c| format!("{c}×"));
-            println!("simulator: {t:.1} s simulated, running at {speed:.1}× ({asked} asked)");
+        if let Some(speed) = time.achieved() {
+            speed_line(time.now().as_secs_f64(), speed, time.ceiling(), None, json);
         }
-        use std::io::Write;
-        let _ = std::io::stdout().flush();
     }
 }
 

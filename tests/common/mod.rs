@@ -69,3 +69,67 @@ pub fn strip_mission() -> String {
     );
     fixed
 }
+
+/// A simulator served at up to `ceiling`× to a GCS listening on `gcs` (every vehicle from its
+/// own socket, `udpout`), from a thread of its own whose single-threaded runtime gives it one
+/// turn between two calls of `hold` (which keeps the thread busy or blocked: a starved
+/// machine). A fleet in the test follows its time ([`StarvedSim::time`]).
+#[allow(dead_code)] // only the starved-simulator tests
+pub struct StarvedSim {
+    /// The simulator's published time.
+    pub time: fleetmap::clock::SimTime,
+    stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
+    thread: std::thread::JoinHandle<fleetmap::sim::harness::Sim>,
+}
+
+#[allow(dead_code)] // only the starved-simulator tests
+impl StarvedSim {
+    /// Serve `cfg` as described on [`StarvedSim`].
+    pub async fn start(
+        cfg: fleetmap::sim::harness::SimConfig,
+        ceiling: f64,
+        gcs: std::net::SocketAddr,
+        hold: fn(),
+    ) -> StarvedSim {
+        use fleetmap::sim::server::{Endpoint, GcsClock, ServeOptions, spawn};
+        use std::sync::atomic::Ordering;
+        let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
+        let stop_sim = stop.clone();
+        let (time_tx, time_rx) = tokio::sync::oneshot::channel();
+        let thread = std::thread::spawn(move || {
+            let rt = tokio::runtime::Builder::new_current_thread()
+                .enable_all()
+                .build()
+                .unwrap();
+            rt.block_on(async move {
+                let sim = fleetmap::sim::harness::Sim::new(cfg, fleetmap::time::Time::ZERO);
+                let h = spawn(
+                    sim.unwrap(),
+                    ServeOptions {
+                        endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
+                        speed: fleetmap::sim::pace::Speed::Times(ceiling),
+                        gcs: GcsClock::Simulator,
+                        image_dir: None,
+                        duration_s: None,
+                    },
+                )
+                .await
+                .unwrap();
+                let _ = time_tx.send(h.time.clone());
+                while !stop_sim.load(Ordering::Relaxed) {
+                    hold();
+                    tokio::task::yield_now().await;
+                }
+                h.stop().await.unwrap()
+            })
+        });
+        let time = time_rx.await.expect("the simulator's time");
+        StarvedSim { time, stop, thread }
+    }
+
+    /// Stop serving; the simulation as it ended.
+    pub fn stop(self) -> fleetmap::sim::harness::Sim {
+        self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
+        self.thread.join().expect("the simulator's thread")
+    }
+}
