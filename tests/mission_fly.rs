@@ -226,3 +226,46 @@ fn ardupilot_rover_drives_a_waypoints_file() {
         "back at home",
     );
 }
+
+/// A file as Mission Planner and ArduPilot's own test missions write them (issue 28): tabs and
+/// spaces mixed, numbered 0, 1, 2, 4, 12 (ArduCopter's weathervane mission has that gap), and
+/// an RTL line in frame 3 carrying the last waypoint's position, which ArduCopter stores as
+/// frame 0 without a position (`AP_Mission::stored_in_location`). `mission fly` renumbers
+/// with a warning, verifies the read-back by ArduPilot's storage rules and flies it home.
+#[test]
+fn ardupilot_copter_flies_a_mission_planner_file_with_gaps_and_a_frame_3_rtl() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("weathervane-like.txt");
+    let (a, b) = (at(15.0, 0.0), at(15.0, 15.0));
+    let text = format!(
+        "QGC WPL 110\n\
+         0\t1\t0\t16\t0\t0\t0\t0\t{h0:.8}\t{h1:.8}\t0\t1\n\
+         1\t0\t3\t22\t0.0 0.0 0.0 0.0\t0\t0\t6.000000\t1\n\
+         2\t0\t3\t16\t0\t0\t0\t0\t{a0:.8}\t{a1:.8}\t6\t1\n\
+         4 0 3 16 0 0 0 0 {b0:.8} {b1:.8} 6 1\n\
+         12\t0\t3\t20\t0\t0\t0\t0\t{b0:.8}\t{b1:.8}\t6\t1\n",
+        h0 = HOME.0,
+        h1 = HOME.1,
+        a0 = a.0,
+        a1 = a.1,
+        b0 = b.0,
+        b1 = b.1,
+    );
+    std::fs::write(&file, text).unwrap();
+    let port = free_udp_port();
+    let sim_log = dir.path().join("sim.log");
+    let _sim = start_sim("1xcopter:ardupilot", port, &sim_log);
+    let (code, out, err) = fly(port, &file);
+    let context = format!("exit {code}\n--- stdout\n{out}\n--- stderr\n{err}");
+    assert_eq!(code, 0, "{context}");
+    assert!(
+        err.contains("items renumbered in file order: line 5 is numbered 4, read as item 3"),
+        "{context}"
+    );
+    assert!(
+        out.contains("verified: the vehicle holds the same mission"),
+        "{context}"
+    );
+    assert!(out.contains("every mission item flown"), "{context}");
+    assert!(out.contains("landed and disarmed"), "{context}");
+}

@@ -136,6 +136,9 @@ pub fn read_list(
         Ok((items, home))
     } else {
         let w = parse_wpl(&text).with_context(|| format!("{}", path.display()))?;
+        for warning in &w.warnings {
+            eprintln!("warning: {}: {warning}", path.display());
+        }
         Ok((w.items, w.home))
     }
 }

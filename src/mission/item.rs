@@ -23,6 +23,19 @@ pub mod cmd {
     pub fn is_nav(cmd: u16) -> bool {
         cmd <= NAV_LAST
     }
+
+    /// Whether ArduPilot stores a command's position (frame, latitude, longitude, altitude)
+    /// with it (`AP_Mission::stored_in_location`, `libraries/AP_Mission/AP_Mission.cpp`):
+    /// waypoints, loiters, land and take-off, spline waypoints, guided enable, set home, land
+    /// start, go-around, set ROI, VTOL take-off and land, payload place. For every other
+    /// command it keeps only the command's own fields: a download returns frame 0 and no
+    /// position, whatever was uploaded (Mission Planner writes frame 3 on an RTL line).
+    pub fn ardupilot_stores_location(cmd: u16) -> bool {
+        matches!(
+            cmd,
+            16 | 17 | 18 | 19 | 21 | 22 | 30 | 31 | 82 | 92 | 179 | 189 | 191 | 201 | 84 | 85 | 94
+        )
+    }
     /// Loiter at a position for param1 seconds.
     pub const NAV_LOITER_TIME: u16 = 19;
     /// Return to the launch position.

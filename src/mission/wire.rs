@@ -147,7 +147,8 @@ fn same_f32(a: f32, b: f32, tol: f32) -> bool {
     (a.is_nan() && b.is_nan()) || a == b || (a - b).abs() <= tol * a.abs().max(b.abs()).max(1.0)
 }
 
-/// Compare what was sent with what was read back, as far as autopilots store items:
+/// Compare what was sent with what was read back, as far as the autopilot stores items
+/// (`ardupilot`: ArduPilot's rules, else PX4's):
 ///
 /// * the command must be the same;
 /// * a position item (sent in a global frame) must come back in the same kind of frame
@@ -155,18 +156,21 @@ fn same_f32(a: f32, b: f32, tol: f32) -> bool {
 ///   `_INT` frames, ArduPilot in the plain ones) with x and y exactly and z within 1 cm
 ///   (ArduPilot stores centimetres); for other commands the frame is not compared
 ///   (ArduPilot returns 0 for them, `AP_Mission::mission_cmd_to_mavlink_int`);
+/// * ArduPilot stores no position for a command outside
+///   [`cmd::ardupilot_stores_location`] (RTL, DO_ and CONDITION_ commands): neither its frame
+///   nor its x, y, z are compared (Mission Planner writes such lines in frame 3, some with the
+///   previous waypoint's position; ArduCopter reads them back as frame 0 and zeros);
 /// * parameters must match within 1e-4 (relative), except that a NaN sent may come back
-///   as 0 (neither autopilot stores NaN "unchanged" markers) and, when `drops_params`
-///   (ArduPilot: `AP_Mission` keeps only the parameters its packed 15-byte command has,
-///   e.g. a waypoint keeps its delay but not its acceptance radius or yaw), a parameter
-///   may come back as 0;
+///   as 0 (neither autopilot stores NaN "unchanged" markers) and, for ArduPilot
+///   (`AP_Mission` keeps only the parameters its packed 15-byte command has, e.g. a waypoint
+///   keeps its delay but not its acceptance radius or yaw), a parameter may come back as 0;
 /// * `current` and `autocontinue` are not compared (the vehicle sets them).
 ///
-/// Returns a description of the first difference.
+/// Returns a description of the first difference: the item, the field, both values.
 pub fn compare_items(
     sent: &[MissionItem],
     got: &[MissionItem],
-    drops_params: bool,
+    ardupilot: bool,
 ) -> Result<(), String> {
     if sent.len() != got.len() {
         return Err(format!(
@@ -182,17 +186,21 @@ pub fn compare_items(
         if a.command != b.command {
             return diff("command", a.command.to_string(), b.command.to_string());
         }
-        if is_global_frame(a.frame) && normalize_frame(a.frame) != normalize_frame(b.frame) {
+        let positioned = !ardupilot || cmd::ardupilot_stores_location(a.command);
+        if positioned
+            && is_global_frame(a.frame)
+            && normalize_frame(a.frame) != normalize_frame(b.frame)
+        {
             return diff("frame", a.frame.to_string(), b.frame.to_string());
         }
-        if a.x != b.x || a.y != b.y {
+        if positioned && (a.x != b.x || a.y != b.y) {
             return diff(
                 "x/y",
                 format!("{}/{}", a.x, a.y),
                 format!("{}/{}", b.x, b.y),
             );
         }
-        if !(same_f32(a.z, b.z, 0.0) || (a.z - b.z).abs() <= 0.01) {
+        if positioned && !(same_f32(a.z, b.z, 0.0) || (a.z - b.z).abs() <= 0.01) {
             return diff("z", a.z.to_string(), b.z.to_string());
         }
         for (k, (p, q)) in [
@@ -204,7 +212,7 @@ pub fn compare_items(
         .into_iter()
         .enumerate()
         {
-            let dropped = q == 0.0 && (p.is_nan() || drops_params);
+            let dropped = q == 0.0 && (p.is_nan() || ardupilot);
             if !same_f32(p, q, 1e-4) && !dropped {
                 return diff(&format!("param{}", k + 1), p.to_string(), q.to_string());
             }
@@ -290,4 +298,40 @@ pub fn from_wire_list(
         }
     }
     (items, home)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Mission Planner's RTL line (frame 3, the last waypoint's position) against what
+    /// ArduCopter reads back (frame 0, no position): equal by ArduPilot's storage rules, still
+    /// different by PX4's; a waypoint's position is compared under both.
+    #[test]
+    fn a_frame_3_rtl_reads_back_as_arducopter_stores_it() {
+        let mut rtl = MissionItem::return_to_launch();
+        rtl.frame = frame::GLOBAL_RELATIVE_ALT;
+        rtl.x = 371_968_000;
+        rtl.y = -805_781_000;
+        rtl.z = 6.0;
+        let stored = MissionItem {
+            frame: frame::GLOBAL,
+            x: 0,
+            y: 0,
+            z: 0.0,
+            ..rtl
+        };
+        let wp = MissionItem::waypoint(37.1968, -80.5781, 6.0);
+        assert_eq!(compare_items(&[wp, rtl], &[wp, stored], true), Ok(()));
+        assert_eq!(
+            compare_items(&[rtl], &[stored], false),
+            Err("item 0: frame sent 3, read back 0".to_string())
+        );
+        let mut moved = wp;
+        moved.x += 10;
+        assert_eq!(
+            compare_items(&[wp], &[moved], true),
+            Err("item 0: x/y sent 371968000/-805781000, read back 371968010/-805781000".into())
+        );
+    }
 }

@@ -42,6 +42,8 @@ pub struct WplFile {
     pub home: Option<MissionItem>,
     /// The items, user numbering (no home).
     pub items: Vec<MissionItem>,
+    /// What was read differently from what the file says (items renumbered), for the user.
+    pub warnings: Vec<String>,
 }
 
 fn err(line: usize, message: impl Into<String>) -> WplError {
@@ -70,6 +72,8 @@ pub fn parse_wpl(text: &str) -> Result<WplFile, WplError> {
         }
     };
     let mut all = Vec::new();
+    // (line, index in the file, index given)
+    let mut renumbered: Vec<(usize, usize, usize)> = Vec::new();
     for (i, line) in lines {
         let n = i + 1;
         let line = line.trim();
@@ -119,13 +123,11 @@ pub fn parse_wpl(text: &str) -> Result<WplFile, WplError> {
         };
         let index = int(0, "index", u64::from(u16::MAX))? as usize;
         if index != all.len() {
-            return Err(err(
-                n,
-                format!(
-                    "item index {index}, expected {} (items must be numbered in order)",
-                    all.len()
-                ),
-            ));
+            // Gaps and repeats are taken in file order, as pymavlink's loader does
+            // (`MAVWPLoader.add` numbers each item by its position), so MAVProxy and
+            // ArduPilot's own test suite fly such files (ArduCopter's weathervane mission
+            // is numbered 0, 1, 2, 4, 12).
+            renumbered.push((n, index, all.len()));
         }
         let current = int(1, "current", 1)? == 1;
         let frame = int(2, "frame", 255)? as u8;
@@ -192,7 +194,23 @@ pub fn parse_wpl(text: &str) -> Result<WplFile, WplError> {
             }
         }
     }
-    Ok(WplFile { home, items: all })
+    let warnings = match renumbered.as_slice() {
+        [] => Vec::new(),
+        [(line, was, is), rest @ ..] => vec![format!(
+            "items renumbered in file order: line {line} is numbered {was}, read as item {is}{} \
+             (as pymavlink and MAVProxy read it; DO_JUMP targets are taken as written)",
+            if rest.is_empty() {
+                String::new()
+            } else {
+                format!(", and {} more line(s)", rest.len())
+            }
+        )],
+    };
+    Ok(WplFile {
+        home,
+        items: all,
+        warnings,
+    })
 }
 
 fn num(v: f32) -> String {
@@ -291,6 +309,36 @@ mod tests {
         assert_eq!(parse_wpl(&text).unwrap().items, vec![d]);
     }
 
+    /// ArduPilot's `Tools/autotest/ArduCopter_Tests/Weathervane/weathervane_mission.txt` is
+    /// numbered 0, 1, 2, 4, 12, with tabs and spaces mixed; pymavlink renumbers it in file order.
+    #[test]
+    fn gaps_in_the_numbering_are_renumbered_in_file_order_with_a_warning() {
+        let text = "QGC WPL 110\n\
+            0\t1\t0\t16\t0\t0\t0\t0\t-35.36\t149.16\t584\t1\n\
+            1 0 3\t22 0 0 0 0 0 0 10 1\n\
+            2\t0\t3\t16\t0\t0\t0\t0\t-35.361\t149.16\t10\t1\n\
+            4\t0\t3\t16 0 0 0 0 -35.362 149.16 10 1\n\
+            12\t0\t3\t20\t0\t0\t0\t0\t0\t0\t0\t1\n";
+        let f = parse_wpl(text).unwrap();
+        let cmds: Vec<u16> = f.items.iter().map(|i| i.command).collect();
+        assert_eq!(cmds, vec![22, 16, 16, 20]);
+        assert_eq!(f.items[2].x, -353_620_000);
+        assert_eq!(f.warnings.len(), 1, "{:?}", f.warnings);
+        assert!(
+            f.warnings[0].contains("line 5 is numbered 4, read as item 3, and 1 more line"),
+            "{:?}",
+            f.warnings
+        );
+        // a file numbered in order says nothing
+        assert!(parse_wpl(MP).unwrap().warnings.is_empty());
+        // a repeated number too
+        let rep = "QGC WPL 110\n0 1 0 16 0 0 0 0 0 0 0 1\n1 0 3 16 0 0 0 0 0 0 5 1\n1 0 3 16 0 0 0 0 0 0 6 1\n";
+        let f = parse_wpl(rep).unwrap();
+        assert_eq!(f.items.len(), 2);
+        assert_eq!(f.items[1].z, 6.0);
+        assert!(f.warnings[0].contains("line 4 is numbered 1, read as item 2"));
+    }
+
     #[test]
     fn version_120_has_no_home() {
         let f = parse_wpl("QGC WPL 120\n0 1 3 16 0 0 0 0 1.5 2.5 10 1\n").unwrap();
@@ -305,11 +353,6 @@ mod tests {
             ("", 1, "empty"),
             ("QGC WPL 999\n", 1, "expected \"QGC WPL 110\""),
             ("QGC WPL 110\n0\t1\t0\t16\t0\n", 2, "expected 12 fields"),
-            (
-                "QGC WPL 110\n0 1 0 16 0 0 0 0 0 0 0 1\n2 0 3 16 0 0 0 0 0 0 0 1\n",
-                3,
-                "index 2, expected 1",
-            ),
             (
                 "QGC WPL 110\n0 1 0 16 0 0 0 0 0 0 0 1\n1 0 3 16 0 0 0 0 95.0 0 0 1\n",
                 3,

@@ -3,13 +3,6 @@
 
 use super::*;
 
-/// Commands whose position AP_Mission stores in a `Location` (AP_Mission::stored_in_location).
-fn ardupilot_stored_in_location(cmd: u16) -> bool {
-    matches!(
-        cmd,
-        16 | 17 | 18 | 19 | 21 | 22 | 30 | 31 | 82 | 92 | 179 | 189 | 191 | 201 | 84 | 85 | 94
-    )
-}
 
 fn check_nan_params(item: &MissionItem, nan_ok_mask: u8) -> Result<(), mav::MavMissionResult> {
     use mav::MavMissionResult as R;
@@ -128,7 +121,7 @@ pub fn ardupilot_store_mission_item(
         2001 => out.param1 = u16p(item.param1),
         _ => return Err(R::MAV_MISSION_UNSUPPORTED),
     }
-    if ardupilot_stored_in_location(item.command) {
+    if crate::mission::item::cmd::ardupilot_stores_location(item.command) {
         if !(-900_000_000..=900_000_000).contains(&item.x) {
             return Err(R::MAV_MISSION_INVALID_PARAM5_X);
         }
