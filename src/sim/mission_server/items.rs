@@ -3,7 +3,6 @@
 
 use super::*;
 
-
 fn check_nan_params(item: &MissionItem, nan_ok_mask: u8) -> Result<(), mav::MavMissionResult> {
     use mav::MavMissionResult as R;
     let ps = [item.param1, item.param2, item.param3, item.param4];
