@@ -306,8 +306,20 @@ impl FleetHandle {
     }
 
     /// Start the uploaded mission (MAV_CMD_MISSION_START; the vehicle must be armed, and
-    /// airborne if it flies — see [`FleetHandle::takeoff`]).
+    /// airborne if it flies — see [`FleetHandle::takeoff`]). An ArduRover still in AUTO (its
+    /// last mission finished there) is switched to HOLD first: MISSION_START in AUTO is
+    /// accepted and starts nothing ([`crate::proto::flavour::Flavour::
+    /// mission_start_needs_leaving_auto`]); from HOLD, MISSION_START enters AUTO and runs the
+    /// mission from its current item (seen on ArduRover SITL V4.7.0-dev).
     pub async fn start_mission(&self, sysid: u8) -> Result<(), FleetError> {
+        let v = self.require(sysid)?;
+        if v.flavour.mission_start_needs_leaving_auto()
+            && let Ok(auto) = v.flavour.mission_mode()
+            && v.flavour.is_mode(v.custom_mode, auto)
+        {
+            let hold = v.flavour.hold_mode().map_err(Self::flavour_err(sysid))?;
+            self.set_mode_to(&v, hold).await?;
+        }
         let v = self.require(sysid)?;
         self.reset_progress(sysid).await?;
         let steps = v

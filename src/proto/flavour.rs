@@ -498,6 +498,20 @@ impl Flavour {
         matches!(self.class, VehicleClass::Copter | VehicleClass::Plane)
     }
 
+    /// Whether MAV_CMD_MISSION_START does nothing while the vehicle is in its mission mode
+    /// already, so that a mission is started again only by leaving AUTO first. ArduRover:
+    /// its MISSION_START handler only asks for AUTO (`GCS_MAVLINK_Rover::
+    /// handle_command_int_packet`, Rover/GCS_MAVLink_Rover.cpp) and `Rover::set_mode`
+    /// returns at once for the mode it is in, so `ModeAuto::_enter` (which calls
+    /// `mission.start_or_resume()`) does not run; a finished mission leaves the rover in AUTO
+    /// (MIS_DONE_BEHAVE 0). Seen on ArduRover SITL V4.7.0-dev (90700977): a second
+    /// MISSION_START is ACCEPTED, and no item runs, no MISSION_ITEM_REACHED comes,
+    /// MISSION_CURRENT stays NOT_STARTED. ArduCopter's handler also calls
+    /// `start_or_resume()` when the mission is not running; PX4 restarts it.
+    pub fn mission_start_needs_leaving_auto(&self) -> bool {
+        self.autopilot == Autopilot::ArduPilot && self.class == VehicleClass::Rover
+    }
+
     /// MISSION_CURRENT / MISSION_ITEM_REACHED seq → user item index (None for ArduPilot's
     /// home, seq 0).
     pub fn user_seq(&self, wire_seq: u16) -> Option<u16> {

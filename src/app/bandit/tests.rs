@@ -105,3 +105,106 @@ fn a_green_tile_under_the_camera_is_a_positive_measurement() {
     assert!(f < 0.2, "{f}");
     assert!(measure_image(b"not an image", &g, &cam, 10.0, 5.0, 0.6).is_err());
 }
+
+/// A station's snapshot (ArduRover: MAV_TYPE_GROUND_ROVER, MAV_AUTOPILOT_ARDUPILOTMEGA) and
+/// the messages ArduRover SITL V4.7.0-dev (90700977) sent for a station mission of one
+/// waypoint on the cell the rover stood on (DO_CHANGE_SPEED, NAV_WAYPOINT: wire seq 1, 2).
+mod ardurover_arrival {
+    use super::*;
+    use crate::time::Time;
+    use mavlink::dialects::ardupilotmega::{
+        MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, MavMessage, MissionState,
+    };
+
+    fn rover() -> VehicleSnapshot {
+        let beat = crate::proto::heartbeat::Beat {
+            custom_mode: 0,
+            mav_type: 10,
+            autopilot: 3,
+            base_mode: 0,
+            system_status: 3,
+        };
+        VehicleSnapshot::new(5, 1, &beat, 0, Time::ZERO)
+    }
+
+    fn current(seq: u16, state: MissionState) -> MavMessage {
+        MavMessage::MISSION_CURRENT(MISSION_CURRENT_DATA {
+            seq,
+            total: 2,
+            mission_state: state,
+            ..Default::default()
+        })
+    }
+
+    fn reached(seq: u16) -> MavMessage {
+        MavMessage::MISSION_ITEM_REACHED(MISSION_ITEM_REACHED_DATA { seq })
+    }
+
+    fn items() -> Vec<MissionItem> {
+        vec![
+            MissionItem::change_speed(1.0),
+            MissionItem::waypoint(37.195135, -80.579943, 0.0),
+        ]
+    }
+
+    /// Uploaded, made current from item 0 (ArduPilot moves on to the next nav command: seq
+    /// 2), armed, then MISSION_START (the fleet forgets the progress first).
+    fn started() -> VehicleSnapshot {
+        let mut v = rover();
+        let t = Time::ZERO;
+        v.apply(&current(0, MissionState::MISSION_STATE_NOT_STARTED), t);
+        v.apply(&current(2, MissionState::MISSION_STATE_NOT_STARTED), t);
+        v.reset_progress();
+        v
+    }
+
+    #[test]
+    fn the_whole_sequence_is_an_arrival() {
+        let mut v = started();
+        let t = Time::ZERO;
+        v.apply(&reached(1), t);
+        v.apply(&current(2, MissionState::MISSION_STATE_ACTIVE), t);
+        let seen_active = v.mission_active();
+        v.apply(&reached(2), t);
+        v.apply(&current(2, MissionState::MISSION_STATE_COMPLETE), t);
+        let it = items();
+        assert!(is_complete(&v, &it, seen_active));
+        assert_eq!(done_items(&v, &it, true, false), vec![0, 1]);
+    }
+
+    /// The waypoint was reached within a second: the GCS never sampled the ACTIVE report,
+    /// and the last MISSION_ITEM_REACHED was lost; MISSION_ITEM_REACHED of item 0 and
+    /// MISSION_CURRENT COMPLETE on the last item still say it arrived.
+    #[test]
+    fn complete_on_the_last_item_after_an_early_reached_is_an_arrival() {
+        let mut v = started();
+        let t = Time::ZERO;
+        v.apply(&reached(1), t);
+        v.apply(&current(2, MissionState::MISSION_STATE_COMPLETE), t);
+        let it = items();
+        assert!(is_complete(&v, &it, false));
+        assert_eq!(done_items(&v, &it, true, false), vec![0, 1]);
+    }
+
+    /// The next sortie: the last mission finished (COMPLETE on its last item, the rover left
+    /// in AUTO), a new one made current; MISSION_START in AUTO starts nothing on ArduRover.
+    /// Nothing of the old mission may count as an arrival.
+    #[test]
+    fn the_previous_missions_completion_is_no_arrival() {
+        let mut v = rover();
+        let t = Time::ZERO;
+        v.apply(&reached(2), t);
+        v.apply(&current(2, MissionState::MISSION_STATE_COMPLETE), t);
+        v.apply(&current(2, MissionState::MISSION_STATE_NOT_STARTED), t);
+        v.reset_progress();
+        let it = items();
+        assert!(!is_complete(&v, &it, false));
+        // Stale COMPLETE before the reset of the new start is not this mission's either.
+        let mut w = rover();
+        w.apply(&current(2, MissionState::MISSION_STATE_COMPLETE), t);
+        w.reset_progress();
+        w.apply(&current(2, MissionState::MISSION_STATE_COMPLETE), t);
+        assert!(!is_complete(&w, &it, false));
+        assert!(done_items(&w, &it, false, false).is_empty());
+    }
+}

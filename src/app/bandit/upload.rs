@@ -4,13 +4,26 @@
 
 use super::*;
 
+/// Whether the vehicle has done its whole mission `items`: MISSION_ITEM_REACHED of the last
+/// item, or MISSION_CURRENT COMPLETE on the last item once this mission is known to have
+/// run — MISSION_STATE_ACTIVE was seen (`seen_active`), or an item of it was reported
+/// reached (the fleet forgets reached items when a mission starts, so any is this one's).
+///
+/// What ArduRover sends (SITL V4.7.0-dev 90700977, fleetmap's station mission
+/// DO_CHANGE_SPEED + NAV_WAYPOINT, wire seq 1 and 2 behind home): on MISSION_START at once
+/// MISSION_ITEM_REACHED 1 (AP_Mission reports the do-command as it starts the next nav
+/// command), MISSION_CURRENT seq 2 ACTIVE, then MISSION_ITEM_REACHED 2 with "Reached
+/// waypoint #2" and "Mission Complete", MISSION_CURRENT seq 2 COMPLETE, the rover staying in
+/// AUTO. A waypoint within WP_RADIUS is reached within a second of the start, so the one
+/// ACTIVE report (MISSION_CURRENT comes at 1 Hz) is easily missed; the early MISSION_ITEM_
+/// REACHED of item 0 still says the mission ran when the last item's report is lost.
 pub(super) fn is_complete(v: &VehicleSnapshot, items: &[MissionItem], seen_active: bool) -> bool {
     let Some(last) = items.len().checked_sub(1) else {
         return true;
     };
     let last = last as u16;
-    v.reached.contains(&last)
-        || (seen_active && v.mission_complete() && v.mission_current == Some(last))
+    let ran = seen_active || !v.reached.is_empty();
+    v.reached.contains(&last) || (ran && v.mission_complete() && v.mission_current == Some(last))
 }
 
 /// The items a vehicle is known to have done: those reported reached since the mission
@@ -137,8 +150,19 @@ pub(super) fn charge_needed_pct(state: &ClassificationState, estimate_s: f64) ->
     (state.params.rtl_reserve_pct + 1.5 * use_pct).min(98.0)
 }
 
+/// Enable the uploaded fence on an ArduPilot drone (DO_FENCE_ENABLE). Not on an ArduPilot
+/// rover: with its fence enabled, ArduRover's simple avoidance (AVOID_ENABLE fence bit, on by
+/// default) keeps it AVOID_MARGIN (2 m) from every fence edge and backs it off
+/// (`Mode::calc_throttle` → `AC_Avoid::adjust_speed`, ArduPilot/ardupilot Rover/mode.cpp),
+/// and the no-fly polygons, shrunk by at most 1 m, lie only 1–1.5 m from a station's road:
+/// on ArduRover SITL V4.7.0-dev (90700977), hardware-6x6 epoch 0, station 5 rocked for
+/// minutes 2 m from no-fly cell (2, 2)'s polygon — on the diagonal leg (2, 1) → (3, 2), and,
+/// with that leg routed through (3, 1), on the U-turn at (3, 2) — its waypoint never reached
+/// (issue 25). A station's list is checked by the GCS instead (road cells only, no leg
+/// through a no-fly cell: [`missions::check_mission`], in [`upload_once`]); the fence stays
+/// uploaded (disabled) for the operator to see.
 pub(super) async fn enable_fence(fleet: &FleetHandle, v: &VehicleSnapshot) -> anyhow::Result<()> {
-    if v.flavour.home_item() {
+    if v.flavour.home_item() && v.flavour.flies() {
         // ArduPilot: FENCE_ENABLE follows DO_FENCE_ENABLE; PX4 enforces an uploaded fence.
         let cmd = Command::long(
             Endpoint::new(v.sysid, v.compid),

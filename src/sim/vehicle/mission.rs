@@ -680,7 +680,13 @@ impl SimVehicle {
             {
                 return R::MAV_RESULT_FAILED;
             }
-            if !self.missions.exec.running || self.missions.exec.waiting_auto_armed {
+            // ArduRover's MISSION_START is only a switch to AUTO (GCS_MAVLINK_Rover::
+            // handle_command_int_packet, ArduPilot/ardupilot Rover/GCS_MAVLink_Rover.cpp): in
+            // AUTO already — a finished mission leaves the rover there — it is ACCEPTED and
+            // starts nothing (the mode switch above was a no-op). ArduCopter's handler also
+            // calls `mission.start_or_resume()` when the mission is not running.
+            let rover = self.cfg.flavour.kind == VehicleKind::Rover;
+            if !rover && (!self.missions.exec.running || self.missions.exec.waiting_auto_armed) {
                 self.start_or_resume_mission(now);
             }
             R::MAV_RESULT_ACCEPTED

@@ -386,7 +386,14 @@ impl SimVehicle {
         };
         match self.check_mode_allowed(mode, now) {
             Ok(()) => {
-                if self.modes.mode == mode && mode != Mode::Auto {
+                // ArduRover changes nothing when asked for the mode it is in, AUTO included:
+                // `Rover::set_mode` returns true at once when `control_mode == &new_mode`
+                // (ArduPilot/ardupilot Rover/system.cpp, V4.7.0-dev), so ModeAuto::_enter and
+                // its `mission.start_or_resume()` do not run again. A finished mission (MIS_
+                // DONE_BEHAVE 0 leaves the rover in AUTO) is not restarted by AUTO or by
+                // MISSION_START (seen on ArduRover SITL V4.7.0-dev 90700977).
+                let rover_ap = f.is_ardupilot() && f.kind == VehicleKind::Rover;
+                if self.modes.mode == mode && (mode != Mode::Auto || rover_ap) {
                     return R::MAV_RESULT_ACCEPTED;
                 }
                 self.enter_mode(mode, now);

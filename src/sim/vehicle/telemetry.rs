@@ -590,7 +590,15 @@ impl SimVehicle {
                     mav::MissionState::MISSION_STATE_COMPLETE
                 } else if self.missions.exec.running {
                     mav::MissionState::MISSION_STATE_ACTIVE
-                } else if self.missions.exec.nav_index.is_some() && self.modes.mode == Mode::Auto {
+                } else if !ap
+                    && self.missions.exec.nav_index.is_some()
+                    && self.modes.mode == Mode::Auto
+                {
+                    // PX4 only. ArduPilot never reports PAUSED: `GCS_MAVLINK::mission_state`
+                    // (libraries/GCS_MAVLink/GCS_Common.cpp) maps AP_Mission's STOPPED to
+                    // NOT_STARTED, RUNNING to ACTIVE, COMPLETE to COMPLETE — e.g. an ArduRover
+                    // left in AUTO whose new mission MISSION_START did not start reports
+                    // NOT_STARTED (SITL V4.7.0-dev 90700977).
                     mav::MissionState::MISSION_STATE_PAUSED
                 } else {
                     mav::MissionState::MISSION_STATE_NOT_STARTED
