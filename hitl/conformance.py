@@ -6,6 +6,7 @@ autopilot (ArduPilot SITL, PX4 SITL, a vehicle on the bench).
     hitl/conformance.py sim:px4-copter
     hitl/conformance.py tcp:127.0.0.1:5762 --sysid 1    # an ArduPilot SITL's SERIAL1
     hitl/conformance.py udpout:127.0.0.1:18570          # a PX4 SITL's GCS port
+    hitl/conformance.py tcp:127.0.0.1:5760 --checks files --missions DIR --fly 3   # mission files
 
 Everything goes through `fleetmap relay` (a lossy MAVLink relay) between fleetmap and the
 vehicle, so the checks at 0, 30 and 50 % loss see the real autopilot's behaviour over a poor
@@ -28,6 +29,12 @@ radio. Each check prints one line; `--json FILE` writes them all. The checks:
             give --camera-link, where the autopilot's camera port sends (e.g. ArduPilot
             `--serial1 udpclient:127.0.0.1:14552` → udpin:127.0.0.1:14552); this runner
             starts `fleetmap sim --camera-only` there.
+  files     (not run by default) every .txt, .waypoints and .plan file in --missions DIR, e.g.
+            ArduPilot's Tools/autotest missions, through `fleetmap mission upload --verify`
+            (upload, read back, compare by the autopilot's storage rules): verified, or the
+            first difference or error. With --fly N, the first N verified files whose first
+            position is within --fly-radius of the vehicle are flown with `fleetmap mission fly`.
+            A table (file, items, verified, flown, error) is printed and goes into --json.
 
 Only standard-library Python; the binary is $FLEETMAP (default: fleetmap on the PATH, else
 target/debug/fleetmap). Run it against simulators, or real vehicles in a safe open area only:
@@ -201,6 +208,55 @@ def mission_file(path, lat, lon, n, flies):
         f.write("\n".join(rows) + "\n")
 
 
+def first_position(path):
+    """(lat, lon) of the first mission item with a position in a QGC WPL file (not home, line
+    0), or None (a .plan, or no item with a position)."""
+    try:
+        lines = open(path, errors="replace").read().splitlines()
+    except OSError:
+        return None
+    if not lines or not lines[0].startswith("QGC WPL"):
+        return None
+    for line in lines[2:]:
+        f = line.split()
+        if len(f) < 12:
+            continue
+        try:
+            lat, lon = float(f[8]), float(f[9])
+        except ValueError:
+            continue
+        if lat != 0.0 or lon != 0.0:
+            return lat, lon
+    return None
+
+
+def distance_m(a, b):
+    """Great-circle distance between two (lat, lon) points, metres."""
+    la1, lo1, la2, lo2 = map(math.radians, (*a, *b))
+    h = math.sin((la2 - la1) / 2) ** 2 + math.cos(la1) * math.cos(la2) * math.sin((lo2 - lo1) / 2) ** 2
+    return 2 * 6371000.0 * math.asin(min(1.0, math.sqrt(h)))
+
+
+def fleetmap_error(err, code):
+    """What a failed fleetmap command said: its last line on stderr without the "fleetmap: "
+    prefix, else its exit code."""
+    e = last_line(err)
+    return e[len("fleetmap: "):] if e.startswith("fleetmap: ") else (e or f"exit {code}")
+
+
+def json_lines(text):
+    """The JSON objects among the lines of `text` (fleetmap --json prints one a line)."""
+    out = []
+    for line in text.splitlines():
+        try:
+            o = json.loads(line)
+        except ValueError:
+            continue
+        if isinstance(o, dict):
+            out.append(o)
+    return out
+
+
 def read_wpl(path):
     rows = [l.split("\t") for l in open(path).read().splitlines()[1:] if l.strip()]
     return [(int(r[3]), round(float(r[8]), 6), round(float(r[9]), 6), round(float(r[10]), 2)) for r in rows[1:]]
@@ -332,6 +388,66 @@ class Checks:
         code, out, err, secs = run(["mission", "fly", *self.b.conn("--sysid", str(self.b.sysid), "--wait", "30"), path],
                                    timeout=900)
         return self.record("fly", code == 0, last_line(out) if code == 0 else last_line(err), secs)
+
+    def files(self):
+        """Every mission file of --missions through `mission upload --verify`; --fly N of them
+        flown. One line per file, then the table."""
+        d = self.args.missions
+        if not d or not os.path.isdir(d):
+            return self.record("files", False, f"give --missions DIR (a directory of mission files; got {d!r})", 0)
+        names = sorted(os.path.relpath(os.path.join(root, f), d)
+                       for root, _, fs in os.walk(d) for f in fs
+                       if f.lower().endswith((".txt", ".waypoints", ".plan")))
+        if not names:
+            return self.record("files", False, f"no .txt, .waypoints or .plan file in {d}", 0)
+        sysid = ["--sysid", str(self.b.sysid), "--wait", "30"]
+        table = []
+        for name in names:
+            path = os.path.join(d, name)
+            code, out, err, secs = run(["mission", "upload", *self.b.conn(*sysid, "--json"), "--verify", path],
+                                       timeout=600)
+            lines = json_lines(out)
+            items = next((o.get("uploaded") for o in lines if "uploaded" in o), None)
+            verified = code == 0 and any(o.get("event") == "verified" for o in lines)
+            # The first difference or error: fleetmap's last line on stderr ("fleetmap: ...").
+            error = "" if verified else fleetmap_error(err, code)
+            row = {"file": name, "items": items, "verified": verified, "flown": None, "error": error,
+                   "seconds": round(secs, 1)}
+            table.append(row)
+            self.record(f"file {name}", verified, "verified" if verified else error, secs,
+                        items=items, verified=verified)
+        flights = 0
+        for row in table:
+            if flights >= self.args.fly or not row["verified"]:
+                continue
+            path = os.path.join(d, row["file"])
+            first = first_position(path)
+            if first is not None and distance_m(first, self.pos) > self.args.fly_radius:
+                row["error"] = (f"not flown: its first position is {distance_m(first, self.pos) / 1000:.1f} km "
+                                f"from the vehicle (--fly-radius {self.args.fly_radius:.0f} m)")
+                continue
+            flights += 1
+            code, out, err, secs = run(["mission", "fly", *self.b.conn(*sysid), "--timeout",
+                                        str(self.args.fly_timeout), path], timeout=self.args.fly_timeout + 60)
+            row["flown"] = code == 0
+            row["fly_seconds"] = round(secs, 1)
+            if code != 0:
+                row["error"] = "fly: " + fleetmap_error(err, code)
+            self.record(f"fly {row['file']}", code == 0, last_line(out) if code == 0 else row["error"], secs)
+        n_ok = sum(r["verified"] for r in table)
+        width = max(len(r["file"]) for r in table)
+        print(f"\n{'file':<{width}}  items  verified  flown  error")
+        for r in table:
+            flown = {None: "-", True: "yes", False: "no"}[r["flown"]]
+            items = "-" if r["items"] is None else str(r["items"])
+            print(f"{r['file']:<{width}}  {items:>5}  {'yes' if r['verified'] else 'no':<8}  {flown:<5}  {r['error']}")
+        print(flush=True)
+        flown = sum(1 for r in table if r["flown"])
+        tried = sum(1 for r in table if r["flown"] is not None)
+        # The summary line passes when every file verified and every flight tried landed.
+        return self.record("files", n_ok == len(table) and flown == tried,
+                           f"{n_ok}/{len(table)} files verified, {flown}/{tried} flown", 0,
+                           files=table, verified=n_ok, total=len(table), flown=flown, flights=tried)
 
     def signing(self):
         key = os.path.join(self.b.work, "team.key")
@@ -481,6 +597,11 @@ def main():
     ap.add_argument("--runway-speedup", type=float, default=10.0, help="runway check on a simulator: its speed")
     ap.add_argument("--kill-after", type=int, default=60, help="runway check: kill the GCS after this many images")
     ap.add_argument("--runway-timeout", type=int, default=7200, help="runway check: seconds")
+    ap.add_argument("--missions", metavar="DIR", help="files check: a directory of mission files")
+    ap.add_argument("--fly", type=int, default=0, metavar="N", help="files check: fly the first N verified files")
+    ap.add_argument("--fly-radius", type=float, default=2000.0, metavar="METRES",
+                    help="files check: fly only files whose first position is this close to the vehicle")
+    ap.add_argument("--fly-timeout", type=int, default=900, help="files check: seconds per flight")
     ap.add_argument("--power-cycle", metavar="CMD",
                     help="shell command that power-cycles the vehicle (default: MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN)")
     ap.add_argument("--json", help="write the results here")

@@ -269,3 +269,78 @@ fn ardupilot_copter_flies_a_mission_planner_file_with_gaps_and_a_frame_3_rtl() {
     assert!(out.contains("every mission item flown"), "{context}");
     assert!(out.contains("landed and disarmed"), "{context}");
 }
+
+/// Run `fleetmap mission upload --verify` on vehicle 1 at 127.0.0.1:`port` with `file`;
+/// returns (exit code, stdout, stderr). Killed after 120 s.
+fn upload_verify(port: u16, file: &Path) -> (i32, String, String) {
+    let mut child = Command::new(bin())
+        .args([
+            "mission",
+            "upload",
+            "--connect",
+            &format!("udpout:127.0.0.1:{port}"),
+            "--sysid",
+            "1",
+            "--wait",
+            "60",
+            "--verify",
+            file.to_str().unwrap(),
+        ])
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("start fleetmap mission upload");
+    let t0 = Instant::now();
+    while child.try_wait().unwrap().is_none() {
+        if t0.elapsed() > Duration::from_secs(120) {
+            let _ = child.kill();
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(100));
+    }
+    let out = child.wait_with_output().unwrap();
+    (
+        out.status.code().unwrap_or(-1),
+        String::from_utf8_lossy(&out.stdout).into_owned(),
+        String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// `mission upload --verify` (issue 28): a Mission Planner file whose RTL line is written in
+/// frame 3 with the last waypoint's position, which ArduCopter stores as frame 0 without a
+/// position, is uploaded, read back and judged by ArduPilot's storage rules: it verifies.
+#[test]
+fn ardupilot_copter_upload_verify_accepts_a_frame_3_rtl() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("rtl-frame-3.waypoints");
+    let (a, b) = (at(20.0, 0.0), at(20.0, 20.0));
+    let text = format!(
+        "QGC WPL 110\n\
+         0\t1\t0\t16\t0\t0\t0\t0\t{h0:.8}\t{h1:.8}\t0\t1\n\
+         1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t10\t1\n\
+         2\t0\t3\t16\t0\t0\t0\t0\t{a0:.8}\t{a1:.8}\t10\t1\n\
+         3\t0\t3\t16\t0\t0\t0\t0\t{b0:.8}\t{b1:.8}\t12.5\t1\n\
+         4\t0\t3\t20\t0\t0\t0\t0\t{b0:.8}\t{b1:.8}\t12.5\t1\n",
+        h0 = HOME.0,
+        h1 = HOME.1,
+        a0 = a.0,
+        a1 = a.1,
+        b0 = b.0,
+        b1 = b.1,
+    );
+    std::fs::write(&file, text).unwrap();
+    let port = free_udp_port();
+    let sim_log = dir.path().join("sim.log");
+    let _sim = start_sim("1xcopter:ardupilot", port, &sim_log);
+    let (code, out, err) = upload_verify(port, &file);
+    let context = format!("exit {code}\n--- stdout\n{out}\n--- stderr\n{err}");
+    assert_eq!(code, 0, "{context}");
+    assert!(
+        out.contains("uploaded 4 mission item(s) to vehicle 1"),
+        "{context}"
+    );
+    assert!(
+        out.contains("verified: the vehicle holds the same mission"),
+        "{context}"
+    );
+}

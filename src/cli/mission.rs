@@ -3,6 +3,9 @@
 //! Files: `.plan` (QGroundControl JSON; `--type` picks its mission, geofence or rally
 //! points) or QGC WPL 110 text (`.waypoints`, anything else).
 //!
+//! `upload --verify` reads the mission back after the upload and compares it with the file by
+//! the autopilot's storage rules ([`verify_mission`], what `fly` does before it takes off).
+//!
 //! `fly` uploads, verifies by download, takes off the way the autopilot wants it (ArduCopter:
 //! GUIDED + arm + NAV_TAKEOFF; PX4: arm + NAV_TAKEOFF with AMSL altitude; rovers just arm),
 //! starts the mission (MAV_CMD_MISSION_START), prints a line per item reached, then returns
@@ -80,6 +83,11 @@ pub enum MissionCommand {
         target: Target,
         /// A .plan or .waypoints file.
         file: PathBuf,
+        /// After the upload, read the mission back and compare it with the file by the
+        /// autopilot's storage rules (as `mission fly` does); exit non-zero with the first
+        /// difference. Mission lists only.
+        #[arg(long)]
+        verify: bool,
     },
     /// Download a list to FILE (or stdout as QGC WPL 110).
     Download {
@@ -186,8 +194,18 @@ fn wait_of(t: &Target) -> anyhow::Result<Duration> {
 /// Run `fleetmap mission …`.
 pub fn run(args: MissionArgs) -> anyhow::Result<ExitCode> {
     match args.what {
-        MissionCommand::Upload { target, file } => {
+        MissionCommand::Upload {
+            target,
+            file,
+            verify,
+        } => {
             let kind: MissionType = target.kind.into();
+            if verify && kind != MissionType::Mission {
+                bail!(
+                    "--verify checks mission lists only: fence and rally points are stored \
+                     by rules of their own (ArduPilot keeps rally altitudes in whole metres)"
+                );
+            }
             let (items, _home) = read_list(&file, kind)?;
             block_on(async move {
                 let s = Session::open(&target.conn).await?;
@@ -196,7 +214,10 @@ pub fn run(args: MissionArgs) -> anyhow::Result<ExitCode> {
                     if let Some(why) = px4_takeoff_without_position(&v, &items) {
                         eprintln!("warning: {why}");
                     }
-                    let out = s.fleet.upload_mission(target.sysid, kind, items).await?;
+                    let out = s
+                        .fleet
+                        .upload_mission(target.sysid, kind, items.clone())
+                        .await?;
                     if let MissionOutcome::Uploaded {
                         count,
                         verified_by_download,
@@ -219,6 +240,15 @@ pub fn run(args: MissionArgs) -> anyhow::Result<ExitCode> {
                                 }
                             );
                         }
+                    }
+                    if verify {
+                        verify_mission(&s.fleet, target.sysid, &v, &items).await?;
+                        say(
+                            target.conn.json,
+                            "verified",
+                            VERIFIED.into(),
+                            serde_json::json!({"verified": true, "count": items.len()}),
+                        );
                     }
                     anyhow::Ok(())
                 }
@@ -354,6 +384,28 @@ fn px4_takeoff_without_position(v: &VehicleSnapshot, items: &[MissionItem]) -> O
     ))
 }
 
+/// What `upload --verify` and `fly` print when the read-back matches.
+const VERIFIED: &str = "verified: the vehicle holds the same mission";
+
+/// Read vehicle `sysid`'s mission back and compare it with `sent`, the items just uploaded,
+/// by the storage rules of the vehicle's autopilot (`v`; [`compare_items`]: ArduPilot keeps
+/// no position for commands outside `AP_Mission::stored_in_location` and only the parameters
+/// its packed command has). The error names the first difference: the item, the field, what
+/// was sent and what came back.
+async fn verify_mission(
+    fleet: &FleetHandle,
+    sysid: u8,
+    v: &VehicleSnapshot,
+    sent: &[MissionItem],
+) -> anyhow::Result<()> {
+    let (back, _) = fleet
+        .download_mission(sysid, MissionType::Mission)
+        .await
+        .context("reading the mission back to verify it")?;
+    compare_items(sent, &back, v.flavour.home_item())
+        .map_err(|d| anyhow::anyhow!("the mission read back from the vehicle differs: {d}"))
+}
+
 async fn fly(
     fleet: &FleetHandle,
     target: &Target,
@@ -394,15 +446,8 @@ async fn fly(
         format!("uploaded {} items", items.len()),
         serde_json::json!({"count": items.len()}),
     );
-    let (back, _) = fleet.download_mission(sysid, MissionType::Mission).await?;
-    compare_items(&items, &back, v.flavour.home_item())
-        .map_err(|d| anyhow::anyhow!("the mission read back from the vehicle differs: {d}"))?;
-    say(
-        json,
-        "verified",
-        "verified: the vehicle holds the same mission".into(),
-        serde_json::json!({}),
-    );
+    verify_mission(fleet, sysid, &v, &items).await?;
+    say(json, "verified", VERIFIED.into(), serde_json::json!({}));
     let nav: Vec<u16> = items
         .iter()
         .enumerate()

@@ -157,9 +157,11 @@ fn same_f32(a: f32, b: f32, tol: f32) -> bool {
 ///   (ArduPilot stores centimetres); for other commands the frame is not compared
 ///   (ArduPilot returns 0 for them, `AP_Mission::mission_cmd_to_mavlink_int`);
 /// * ArduPilot stores no position for a command outside
-///   [`cmd::ardupilot_stores_location`] (RTL, DO_ and CONDITION_ commands): neither its frame
-///   nor its x, y, z are compared (Mission Planner writes such lines in frame 3, some with the
-///   previous waypoint's position; ArduCopter reads them back as frame 0 and zeros);
+///   [`cmd::ardupilot_stores_location`] (RTL, DO_ and CONDITION_ commands): its frame is not
+///   compared, nor an x, y or z read back as 0 (Mission Planner writes such lines in frame 3,
+///   some with the previous waypoint's position; ArduCopter reads them back as frame 0 and
+///   zeros); where it keeps only a direction (NAV_LOITER_TIME param3, NAV_LAND param4) the
+///   sign is compared;
 /// * parameters must match within 1e-4 (relative), except that a NaN sent may come back
 ///   as 0 (neither autopilot stores NaN "unchanged" markers) and, for ArduPilot
 ///   (`AP_Mission` keeps only the parameters its packed 15-byte command has, e.g. a waypoint
@@ -193,14 +195,18 @@ pub fn compare_items(
         {
             return diff("frame", a.frame.to_string(), b.frame.to_string());
         }
-        if positioned && (a.x != b.x || a.y != b.y) {
+        // Outside stored_in_location ArduPilot keeps x, y, z only where the command has
+        // a field for them (DO_DIGICAM_CONTROL's shooting command, NAV_ATTITUDE_TIME's climb
+        // rate): a 0 read back is "not stored", any other value is compared.
+        let kept = |got: f64| positioned || got != 0.0;
+        if (kept(f64::from(b.x)) && a.x != b.x) || (kept(f64::from(b.y)) && a.y != b.y) {
             return diff(
                 "x/y",
                 format!("{}/{}", a.x, a.y),
                 format!("{}/{}", b.x, b.y),
             );
         }
-        if positioned && !(same_f32(a.z, b.z, 0.0) || (a.z - b.z).abs() <= 0.01) {
+        if kept(f64::from(b.z)) && !(same_f32(a.z, b.z, 0.0) || (a.z - b.z).abs() <= 0.01) {
             return diff("z", a.z.to_string(), b.z.to_string());
         }
         for (k, (p, q)) in [
@@ -213,12 +219,34 @@ pub fn compare_items(
         .enumerate()
         {
             let dropped = q == 0.0 && (p.is_nan() || ardupilot);
+            let p = if ardupilot {
+                ardupilot_direction(a.command, k + 1, p)
+            } else {
+                p
+            };
             if !same_f32(p, q, 1e-4) && !dropped {
                 return diff(&format!("param{}", k + 1), p.to_string(), q.to_string());
             }
         }
     }
     Ok(())
+}
+
+/// What ArduPilot reads back for parameter `n` (1–4) sent as `p` where it keeps only a
+/// direction (`AP_Mission::mission_cmd_to_mavlink_int`: `loiter_ccw ? -1 : 1`): NAV_LOITER_TIME
+/// param3 and NAV_LAND param4 come back as −1 when sent negative, else 1 (a 0 in a Mission
+/// Planner file reads back as 1). Other parameters as sent.
+fn ardupilot_direction(command: u16, n: usize, p: f32) -> f32 {
+    match (command, n) {
+        (cmd::NAV_LOITER_TIME, 3) | (cmd::NAV_LAND, 4) => {
+            if p < 0.0 {
+                -1.0
+            } else {
+                1.0
+            }
+        }
+        _ => p,
+    }
 }
 
 /// The all-zero home placeholder sent at ArduPilot's seq 0 when no home is known.
@@ -327,6 +355,32 @@ mod tests {
             compare_items(&[rtl], &[stored], false),
             Err("item 0: frame sent 3, read back 0".to_string())
         );
+        // NAV_LAND param4 and NAV_LOITER_TIME param3 come back as a direction, ±1
+        let mut land = MissionItem::at(cmd::NAV_LAND, 37.1968, -80.5781, 0.0);
+        let mut loiter = MissionItem::at(cmd::NAV_LOITER_TIME, 37.1968, -80.5781, 10.0);
+        loiter.param1 = 5.0;
+        let (mut land_back, mut loiter_back) = (land, loiter);
+        land_back.param4 = 1.0;
+        loiter_back.param3 = 1.0;
+        assert_eq!(
+            compare_items(&[land, loiter], &[land_back, loiter_back], true),
+            Ok(())
+        );
+        land.param4 = -3.0;
+        loiter.param3 = -1.0;
+        assert!(compare_items(&[land], &[land_back], true).is_err());
+        land_back.param4 = -1.0;
+        loiter_back.param3 = -1.0;
+        assert_eq!(
+            compare_items(&[land, loiter], &[land_back, loiter_back], true),
+            Ok(())
+        );
+        // a command with a field in x (DO_DIGICAM_CONTROL's shooting command) keeps it
+        let mut shoot = MissionItem::command(cmd::DO_DIGICAM_CONTROL);
+        shoot.x = 1;
+        let mut not_shot = shoot;
+        not_shot.x = 2;
+        assert!(compare_items(&[shoot], &[not_shot], true).is_err());
         let mut moved = wp;
         moved.x += 10;
         assert_eq!(
