@@ -75,28 +75,28 @@ fn start_sim(spec: &str, port: u16, log: &Path) -> Proc {
     proc
 }
 
-/// Run `fleetmap mission fly` on vehicle 1 at 127.0.0.1:`port` with `file`; returns (exit
-/// code, stdout, stderr). Killed after 240 s.
-fn fly(port: u16, file: &Path) -> (i32, String, String) {
+/// Run `fleetmap mission VERB` on vehicle 1 at 127.0.0.1:`port` with `extra` options and
+/// `file`; returns (exit code, stdout, stderr). Killed after `limit`.
+fn mission_cmd(
+    verb: &str,
+    port: u16,
+    extra: &[&str],
+    file: &Path,
+    limit: Duration,
+) -> (i32, String, String) {
+    let connect = format!("udpout:127.0.0.1:{port}");
+    let mut args = vec!["mission", verb, "--connect", &connect, "--sysid", "1"];
+    args.extend_from_slice(extra);
+    args.push(file.to_str().unwrap());
     let mut child = Command::new(bin())
-        .args([
-            "mission",
-            "fly",
-            "--connect",
-            &format!("udpout:127.0.0.1:{port}"),
-            "--sysid",
-            "1",
-            "--timeout",
-            "200",
-            file.to_str().unwrap(),
-        ])
+        .args(&args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
-        .expect("start fleetmap mission fly");
+        .expect("start fleetmap mission");
     let t0 = Instant::now();
     while child.try_wait().unwrap().is_none() {
-        if t0.elapsed() > Duration::from_secs(240) {
+        if t0.elapsed() > limit {
             let _ = child.kill();
             break;
         }
@@ -107,6 +107,17 @@ fn fly(port: u16, file: &Path) -> (i32, String, String) {
         out.status.code().unwrap_or(-1),
         String::from_utf8_lossy(&out.stdout).into_owned(),
         String::from_utf8_lossy(&out.stderr).into_owned(),
+    )
+}
+
+/// `fleetmap mission fly` with a 200 s flight budget, killed after 240 s.
+fn fly(port: u16, file: &Path) -> (i32, String, String) {
+    mission_cmd(
+        "fly",
+        port,
+        &["--timeout", "200"],
+        file,
+        Duration::from_secs(240),
     )
 }
 
@@ -270,39 +281,14 @@ fn ardupilot_copter_flies_a_mission_planner_file_with_gaps_and_a_frame_3_rtl() {
     assert!(out.contains("landed and disarmed"), "{context}");
 }
 
-/// Run `fleetmap mission upload --verify` on vehicle 1 at 127.0.0.1:`port` with `file`;
-/// returns (exit code, stdout, stderr). Killed after 120 s.
+/// `fleetmap mission upload --verify` (waiting up to 60 s for the vehicle), killed after 120 s.
 fn upload_verify(port: u16, file: &Path) -> (i32, String, String) {
-    let mut child = Command::new(bin())
-        .args([
-            "mission",
-            "upload",
-            "--connect",
-            &format!("udpout:127.0.0.1:{port}"),
-            "--sysid",
-            "1",
-            "--wait",
-            "60",
-            "--verify",
-            file.to_str().unwrap(),
-        ])
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("start fleetmap mission upload");
-    let t0 = Instant::now();
-    while child.try_wait().unwrap().is_none() {
-        if t0.elapsed() > Duration::from_secs(120) {
-            let _ = child.kill();
-            break;
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-    let out = child.wait_with_output().unwrap();
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
+    mission_cmd(
+        "upload",
+        port,
+        &["--wait", "60", "--verify"],
+        file,
+        Duration::from_secs(120),
     )
 }
 
