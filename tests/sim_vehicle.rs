@@ -1406,3 +1406,95 @@ fn px4_never_reaches_a_take_off_item_without_a_position() {
         assert!(alt > 9.0, "airborne either way, at {alt:.1} m");
     }
 }
+
+/// A finished mission leaves ArduRover in AUTO (MIS_DONE_BEHAVE 0), and there
+/// MAV_CMD_MISSION_START is accepted but starts nothing: its handler only asks for AUTO
+/// (`GCS_MAVLINK_Rover::handle_command_int_packet`, Rover/GCS_MAVLink_Rover.cpp) and
+/// `Rover::set_mode` returns at once for the mode it is in (seen on ArduRover SITL V4.7.0-dev
+/// 90700977; issue 25). Leaving AUTO first (HOLD) lets MISSION_START run the mission again.
+#[test]
+fn ardurover_in_auto_ignores_mission_start_until_it_leaves_auto() {
+    const MISSION_START: u16 = 300;
+    const SET_CURRENT: u16 = 224;
+    let mut g = Gcs::new("1xrover:ardupilot", 5);
+    g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
+        .expect("home");
+    let ok = mav::MavResult::MAV_RESULT_ACCEPTED;
+    // a station mission as fleetmap builds it, behind ArduPilot's home slot
+    let station = |to: (f64, f64)| {
+        vec![
+            MissionItem::waypoint(HOME.0, HOME.1, 0.0),
+            MissionItem::change_speed(1.0),
+            MissionItem::waypoint(to.0, to.1, 0.0),
+        ]
+    };
+    let reached_last = |g: &mut Gcs| {
+        g.wait(
+            60.0,
+            |m| matches!(m, MavMessage::MISSION_ITEM_REACHED(r) if r.seq == 2),
+        )
+        .is_some()
+    };
+    // First sortie: one cell (5 m) east, started as fleetmap starts a station.
+    let accepted = mav::MavMissionResult::MAV_MISSION_ACCEPTED;
+    assert_eq!(g.upload(&station(at(0.0, 5.0))), accepted);
+    assert_eq!(
+        g.command(SET_CURRENT, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        ok
+    );
+    // ArduRover arms in MANUAL without RC; the simulated rover arms in any mode
+    assert_eq!(g.command(400, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]), ok);
+    assert_eq!(g.command(MISSION_START, [0.0; 7]), ok);
+    assert!(
+        reached_last(&mut g),
+        "the first mission is driven to its end"
+    );
+    let auto = Flavour::ARDU_ROVER.custom_mode(Mode::Auto).unwrap();
+    let in_auto = g.wait(
+        3.0,
+        |m| matches!(m, MavMessage::HEARTBEAT(h) if h.custom_mode == auto),
+    );
+    assert!(
+        in_auto.is_some(),
+        "a finished mission leaves ArduRover in AUTO"
+    );
+
+    // Second sortie: back to the start cell.
+    assert_eq!(g.upload(&station(at(0.0, 0.0))), accepted);
+    assert_eq!(
+        g.command(SET_CURRENT, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
+        ok
+    );
+    assert_eq!(
+        g.command(MISSION_START, [0.0; 7]),
+        ok,
+        "accepted, as ArduRover does"
+    );
+    let mut states = Vec::new();
+    let anything = g.wait(15.0, |m| match m {
+        MavMessage::MISSION_ITEM_REACHED(_) => true,
+        MavMessage::MISSION_CURRENT(c) => {
+            states.push(c.mission_state);
+            c.mission_state == mav::MissionState::MISSION_STATE_ACTIVE
+        }
+        _ => false,
+    });
+    assert!(
+        anything.is_none(),
+        "MISSION_START in AUTO must start nothing: {anything:?}"
+    );
+    assert!(
+        states
+            .iter()
+            .all(|s| *s == mav::MissionState::MISSION_STATE_NOT_STARTED),
+        "{states:?}"
+    );
+
+    // Leaving AUTO first: HOLD, then MISSION_START runs the mission.
+    assert_eq!(g.set_mode(Flavour::ARDU_ROVER, Mode::Hold), ok);
+    assert_eq!(g.command(MISSION_START, [0.0; 7]), ok);
+    assert!(
+        reached_last(&mut g),
+        "from HOLD the mission runs to its end"
+    );
+}
