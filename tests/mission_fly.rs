@@ -238,15 +238,13 @@ fn ardupilot_rover_drives_a_waypoints_file() {
     );
 }
 
-/// A file as Mission Planner and ArduPilot's own test missions write them (issue 28): tabs and
-/// spaces mixed, numbered 0, 1, 2, 4, 12 (ArduCopter's weathervane mission has that gap), and
-/// an RTL line in frame 3 carrying the last waypoint's position, which ArduCopter stores as
-/// frame 0 without a position (`AP_Mission::stored_in_location`). `mission fly` renumbers
-/// with a warning, verifies the read-back by ArduPilot's storage rules and flies it home.
-#[test]
-fn ardupilot_copter_flies_a_mission_planner_file_with_gaps_and_a_frame_3_rtl() {
-    let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("weathervane-like.txt");
+/// A file as Mission Planner and ArduPilot's own test missions write them (issue 28), in
+/// `dir`: tabs and spaces mixed, numbered 0, 1, 2, 4, 12 (ArduCopter's weathervane mission has
+/// that gap), and an RTL line in frame 3 carrying the last waypoint's position, which
+/// ArduCopter stores as frame 0 without a position (`AP_Mission::stored_in_location`). Four
+/// items behind the home line.
+fn mission_planner_file(dir: &Path) -> std::path::PathBuf {
+    let file = dir.join("weathervane-like.txt");
     let (a, b) = (at(15.0, 0.0), at(15.0, 15.0));
     let text = format!(
         "QGC WPL 110\n\
@@ -263,6 +261,15 @@ fn ardupilot_copter_flies_a_mission_planner_file_with_gaps_and_a_frame_3_rtl() {
         b1 = b.1,
     );
     std::fs::write(&file, text).unwrap();
+    file
+}
+
+/// `mission fly` renumbers [`mission_planner_file`] with a warning, verifies the read-back by
+/// ArduPilot's storage rules and flies it home.
+#[test]
+fn ardupilot_copter_flies_a_mission_planner_file_with_gaps_and_a_frame_3_rtl() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = mission_planner_file(dir.path());
     let port = free_udp_port();
     let sim_log = dir.path().join("sim.log");
     let _sim = start_sim("1xcopter:ardupilot", port, &sim_log);
@@ -292,29 +299,13 @@ fn upload_verify(port: u16, file: &Path) -> (i32, String, String) {
     )
 }
 
-/// `mission upload --verify` (issue 28): a Mission Planner file whose RTL line is written in
-/// frame 3 with the last waypoint's position, which ArduCopter stores as frame 0 without a
-/// position, is uploaded, read back and judged by ArduPilot's storage rules: it verifies.
+/// `mission upload --verify` (issue 28): [`mission_planner_file`], whose RTL line ArduCopter
+/// stores as frame 0 without a position, is uploaded, read back and judged by ArduPilot's
+/// storage rules: it verifies.
 #[test]
 fn ardupilot_copter_upload_verify_accepts_a_frame_3_rtl() {
     let dir = tempfile::tempdir().unwrap();
-    let file = dir.path().join("rtl-frame-3.waypoints");
-    let (a, b) = (at(20.0, 0.0), at(20.0, 20.0));
-    let text = format!(
-        "QGC WPL 110\n\
-         0\t1\t0\t16\t0\t0\t0\t0\t{h0:.8}\t{h1:.8}\t0\t1\n\
-         1\t0\t3\t22\t0\t0\t0\t0\t0\t0\t10\t1\n\
-         2\t0\t3\t16\t0\t0\t0\t0\t{a0:.8}\t{a1:.8}\t10\t1\n\
-         3\t0\t3\t16\t0\t0\t0\t0\t{b0:.8}\t{b1:.8}\t12.5\t1\n\
-         4\t0\t3\t20\t0\t0\t0\t0\t{b0:.8}\t{b1:.8}\t12.5\t1\n",
-        h0 = HOME.0,
-        h1 = HOME.1,
-        a0 = a.0,
-        a1 = a.1,
-        b0 = b.0,
-        b1 = b.1,
-    );
-    std::fs::write(&file, text).unwrap();
+    let file = mission_planner_file(dir.path());
     let port = free_udp_port();
     let sim_log = dir.path().join("sim.log");
     let _sim = start_sim("1xcopter:ardupilot", port, &sim_log);
