@@ -55,6 +55,7 @@ fn setup(speedup: f64) -> SimSetup {
         battery_minutes: 12.0,
         charge_minutes: 6.0,
         sensor_flip: 0.0,
+        onboard: None,
     }
 }
 

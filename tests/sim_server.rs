@@ -197,6 +197,7 @@ async fn camera_for_a_real_autopilot() {
     let image_dir = dir.path().to_path_buf();
     let task = tokio::spawn(fleetmap::sim::server::serve_paired(
         cams,
+        None,
         Endpoint::parse("udpin:127.0.0.1:0").unwrap(),
         Some(image_dir),
         None,

@@ -47,6 +47,10 @@ pub struct SimSetup {
     /// (0: none; the bandit paper's §V degraded-sensor run: 0.05). See
     /// [`crate::sim::camera::CameraConfig::misclassify_probability`].
     pub sensor_flip: f64,
+    /// Cameras that measure on board with this definition (the mission's:
+    /// [`crate::app::bandit::green_spec_of`]) and send the green share instead of the
+    /// picture; `None`: every picture is sent whole.
+    pub onboard: Option<crate::imagery::onboard::GreenSpec>,
 }
 
 impl Default for SimSetup {
@@ -58,6 +62,7 @@ impl Default for SimSetup {
             battery_minutes: 12.0,
             charge_minutes: 30.0,
             sensor_flip: 0.0,
+            onboard: None,
         }
     }
 }
@@ -76,6 +81,7 @@ pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> anyhow::Result
             c.model.width_px = setup.camera_px.max(8);
             c.model.height_px = setup.camera_px.max(8);
             c.misclassify_probability = setup.sensor_flip;
+            c.onboard = setup.onboard;
         }
     }
     Ok(sc)

@@ -13,6 +13,13 @@
 //! time_boot_ms, image_index) — from CAMERA_IMAGE_CAPTURED, or from the metadata the JPEG
 //! carries ([`crate::imagery::meta`]).
 //!
+//! **On-board measurements** ([`crate::imagery::onboard`]): a camera that measures its pictures
+//! itself sends, after a capture's CAMERA_IMAGE_CAPTURED, a DEBUG_FLOAT_ARRAY with the green
+//! share, and keeps the picture. When the measurement was made with the definition the run
+//! accepts ([`ImageHub::accept_onboard`], by fingerprint) it is delivered as a
+//! [`ReceivedImage`] without bytes; otherwise the intake asks the camera for the picture (a
+//! DATA_TRANSMISSION_HANDSHAKE naming its size) and the picture is delivered when it arrives.
+//!
 //! **Pose** ([`CapturePose`]): where the camera says it took the picture. CAMERA_IMAGE_CAPTURED
 //! (the camera protocol's record of the shutter: lat, lon, relative_alt, attitude `q`) is
 //! remembered by its capture name, and an image that arrives by image transmission carrying
@@ -24,13 +31,14 @@
 use crate::files::read_file_url;
 use crate::fleet::{FleetHandle, Incoming};
 use crate::imagery::meta::{ImageMeta, read_meta};
+use crate::imagery::onboard::OnboardMeasurement;
 use crate::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig};
 use crate::time::Time;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::broadcast;
+use tokio::sync::{broadcast, watch};
 
 /// Largest image file read from a URL, bytes.
 pub const MAX_IMAGE_FILE: u64 = 64 << 20;
@@ -62,13 +70,17 @@ pub struct CapturePose {
 pub struct ReceivedImage {
     /// The vehicle (system id).
     pub sysid: u8,
-    /// The JPEG (or other encoded image) bytes.
+    /// The JPEG (or other encoded image) bytes; empty when the camera measured the picture on
+    /// board and kept it (`onboard`).
     pub bytes: Arc<Vec<u8>>,
+    /// The camera's own measurement of the picture, with a definition the run accepts
+    /// ([`ImageHub::accept_onboard`]).
+    pub onboard: Option<OnboardMeasurement>,
     /// The capture pose, when the camera told it.
     pub pose: Option<CapturePose>,
     /// When it was complete, on the fleet's clock.
     pub received: Time,
-    /// How it came: `"mavlink"` or the file path.
+    /// How it came: `"mavlink"`, `"on board"` (a measurement only) or the file path.
     pub source: String,
 }
 
@@ -78,6 +90,9 @@ type CaptureKey = (u8, u32, i32);
 /// CAMERA_IMAGE_CAPTURED records kept for images still in transfer: a few hundred captures
 /// (ten drones' batches of ten images, several times over).
 const CAPTURED_KEPT: usize = 512;
+/// On-board measurements kept while their CAMERA_IMAGE_CAPTURED has not arrived (a reordered
+/// or delayed link); the oldest is dropped beyond.
+const MEASURED_KEPT: usize = 256;
 
 fn pose_of_meta(m: &ImageMeta) -> CapturePose {
     CapturePose {
@@ -115,6 +130,18 @@ fn merge_poses(captured: &CapturePose, meta: &ImageMeta) -> CapturePose {
     }
 }
 
+/// A GCS's request for the picture of `size` bytes: the request form of the image
+/// transmission protocol (a DATA_TRANSMISSION_HANDSHAKE from the GCS), naming the picture by
+/// the size its on-board measurement announced.
+fn picture_request(size: u32) -> MavMessage {
+    use mavlink::dialects::ardupilotmega as mav;
+    MavMessage::DATA_TRANSMISSION_HANDSHAKE(mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
+        size,
+        mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
+        ..mav::DATA_TRANSMISSION_HANDSHAKE_DATA::default()
+    })
+}
+
 /// Yaw (degrees clockwise from north, 0..360) of an attitude quaternion [w, x, y, z] (NED).
 fn yaw_of_quaternion(q: [f32; 4]) -> Option<f64> {
     let [w, x, y, z] = q.map(f64::from);
@@ -136,7 +163,16 @@ pub struct Intake {
     /// CAMERA_IMAGE_CAPTURED poses of the latest captures (for images that arrive by image
     /// transmission, whose JPEG metadata names the capture), at most [`CAPTURED_KEPT`].
     captured: VecDeque<(CaptureKey, CapturePose)>,
+    /// On-board measurements whose CAMERA_IMAGE_CAPTURED has not arrived: (camera, measurement).
+    measured: VecDeque<((u8, u8), OnboardMeasurement)>,
+    /// The fingerprint of the on-board measurement definition the run uses (`None`: none;
+    /// every on-board measurement is then replaced by its picture).
+    accept: Option<u32>,
+    /// Requests for pictures to send to cameras.
+    requests: VecDeque<((u8, u8), MavMessage)>,
     out: VecDeque<ReceivedImage>,
+    /// Pictures asked for because their on-board measurement could not be used.
+    pub pictures_requested: u64,
     /// Images that could not be read (file errors, lost transfers), with the reason.
     pub failures: VecDeque<String>,
 }
@@ -154,6 +190,47 @@ impl Intake {
             gcs,
             config,
             ..Intake::default()
+        }
+    }
+
+    /// Use on-board measurements made with the definition of fingerprint `spec`
+    /// ([`crate::imagery::onboard::GreenSpec::fingerprint`]); `None`: ask for every picture.
+    pub fn accept_onboard(&mut self, spec: Option<u32>) {
+        self.accept = spec;
+    }
+
+    /// An on-board measurement `m` from camera `cam` whose capture's pose is `pose`: delivered
+    /// when its definition is the accepted one, else the picture is asked for.
+    fn measured(&mut self, cam: (u8, u8), m: OnboardMeasurement, pose: CapturePose, now: Time) {
+        let key = (cam.0, pose.time_boot_ms, pose.image_index);
+        if self.delivered.contains(&key) {
+            return;
+        }
+        if self.accept == Some(m.spec) {
+            self.seen(key);
+            self.out.push_back(ReceivedImage {
+                sysid: cam.0,
+                bytes: Arc::new(Vec::new()),
+                onboard: Some(m),
+                pose: Some(pose),
+                received: now,
+                source: "on board".into(),
+            });
+            return;
+        }
+        // Measured with another definition: measure the picture here. It arrives by image
+        // transmission with the capture's name in its metadata, and takes this pose.
+        self.remember_pose(key, pose);
+        self.pictures_requested += 1;
+        self.requests
+            .push_back((cam, picture_request(m.picture_bytes)));
+    }
+
+    fn remember_pose(&mut self, key: CaptureKey, pose: CapturePose) {
+        self.captured.retain(|(k, _)| *k != key);
+        self.captured.push_back((key, pose));
+        if self.captured.len() > CAPTURED_KEPT {
+            self.captured.pop_front();
         }
     }
 
@@ -180,6 +257,25 @@ impl Intake {
                 rx.handle_message(from, msg, now);
                 self.drain(from, now);
             }
+            MavMessage::DEBUG_FLOAT_ARRAY(d) => {
+                let Some(m) = OnboardMeasurement::from_message(d) else {
+                    return;
+                };
+                let pose = self
+                    .captured
+                    .iter()
+                    .find(|(k, _)| k.0 == from.0 && m.is_of(k.1, k.2))
+                    .map(|(_, p)| p.clone());
+                match pose {
+                    Some(p) => self.measured(from, m, p, now),
+                    None => {
+                        self.measured.push_back((from, m));
+                        if self.measured.len() > MEASURED_KEPT {
+                            self.measured.pop_front();
+                        }
+                    }
+                }
+            }
             MavMessage::CAMERA_IMAGE_CAPTURED(c) => {
                 if c.capture_result != mavlink::dialects::ardupilotmega::MavBool::MAV_BOOL_TRUE {
                     self.failures.push_back(format!(
@@ -200,12 +296,14 @@ impl Intake {
                 }
                 let pose = pose_of_captured(c);
                 if !url.starts_with("file://") {
-                    // The image comes by image transmission (or not at all): keep the pose
-                    // for it.
-                    self.captured.retain(|(k, _)| *k != key);
-                    self.captured.push_back((key, pose));
-                    if self.captured.len() > CAPTURED_KEPT {
-                        self.captured.pop_front();
+                    // The image comes by image transmission, as an on-board measurement, or
+                    // not at all: keep the pose for it.
+                    let early = self.measured.iter().position(|(cam, m)| {
+                        *cam == from && m.is_of(c.time_boot_ms, c.image_index)
+                    });
+                    match early.and_then(|i| self.measured.remove(i)) {
+                        Some((cam, m)) => self.measured(cam, m, pose, now),
+                        None => self.remember_pose(key, pose),
                     }
                     return;
                 }
@@ -220,6 +318,7 @@ impl Intake {
                         self.out.push_back(ReceivedImage {
                             sysid: from.0,
                             bytes: Arc::new(bytes),
+                            onboard: None,
                             pose: Some(pose),
                             received: now,
                             source: url,
@@ -258,6 +357,7 @@ impl Intake {
                     self.out.push_back(ReceivedImage {
                         sysid: cam.0,
                         bytes: Arc::new(jpeg),
+                        onboard: None,
                         pose,
                         received: now,
                         source: "mavlink".into(),
@@ -296,6 +396,9 @@ impl Intake {
 
     /// Messages to send: (camera (sysid, compid), message).
     pub fn poll_transmit(&mut self) -> Option<((u8, u8), MavMessage)> {
+        if let Some(r) = self.requests.pop_front() {
+            return Some(r);
+        }
         for (cam, rx) in &mut self.receivers {
             if let Some(m) = rx.poll_transmit() {
                 return Some((*cam, m));
@@ -315,12 +418,20 @@ impl Intake {
 pub struct ImageHub {
     tx: broadcast::Sender<Arc<ReceivedImage>>,
     failures: broadcast::Sender<String>,
+    accept: Arc<watch::Sender<Option<u32>>>,
 }
 
 impl ImageHub {
     /// Images received from now on.
     pub fn subscribe(&self) -> broadcast::Receiver<Arc<ReceivedImage>> {
         self.tx.subscribe()
+    }
+
+    /// Use the cameras' on-board measurements made with the definition of fingerprint `spec`
+    /// ([`crate::imagery::onboard::GreenSpec::fingerprint`]); `None` (the start): ask for the
+    /// picture of every on-board measurement.
+    pub fn accept_onboard(&self, spec: Option<u32>) {
+        self.accept.send_replace(spec);
     }
 
     /// Image failures (lost transfers, unreadable files) from now on.
@@ -338,9 +449,11 @@ pub fn spawn(fleet: &FleetHandle) -> ImageHub {
 pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
     let (tx, _) = broadcast::channel(256);
     let (ftx, _) = broadcast::channel(64);
+    let (accept, mut accepted) = watch::channel(None);
     let hub = ImageHub {
         tx: tx.clone(),
         failures: ftx.clone(),
+        accept: Arc::new(accept),
     };
     let mut frames = fleet.subscribe();
     let fleet = fleet.clone();
@@ -367,6 +480,7 @@ pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
                     Err(broadcast::error::RecvError::Closed) => return,
                 },
                 _ = tokio::time::sleep(wait) => intake.handle_timeout(fleet.clock().now()),
+                Ok(()) = accepted.changed() => intake.accept_onboard(*accepted.borrow_and_update()),
             }
             while let Some(((sysid, compid), msg)) = intake.poll_transmit() {
                 tracing::debug!("asking camera {sysid}/{compid} to send its image again");

@@ -362,6 +362,8 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         camera_px: args.camera_px,
         battery_minutes: args.battery_minutes,
         sensor_flip,
+        // a field camera measures on board: the green share, not the picture, on the link
+        onboard: bandit::green_spec_of(&def),
         ..SimSetup::default()
     };
     let json = args.json;

@@ -9,6 +9,7 @@ pub mod bandit;
 pub mod bench;
 pub mod bench_fleet;
 pub mod bench_transfer;
+pub mod camera;
 pub mod check;
 pub mod classify;
 pub mod command;
@@ -54,6 +55,9 @@ pub enum Command {
     Experiment(experiment::ExperimentArgs),
     /// Serve simulated ArduPilot / PX4 copters and rovers over MAVLink.
     Sim(Box<sim::SimArgs>),
+    /// A MAVLink camera on a companion computer next to an autopilot: pictures from a folder
+    /// (or rendered, for SITL), measured on board, sent as small measurements.
+    Camera(Box<camera::CameraArgs>),
     /// Convert between mission-grid cells and GPS/UTM coordinates; export cells as GeoJSON/KML.
     Grid(grid::GridArgs),
     /// Classify images with the runway sensing model (and the green-pixel measurement).
@@ -165,6 +169,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Check(args) => check::run(args),
         Command::Experiment(args) => experiment::run(args),
         Command::Sim(args) => sim::run(*args),
+        Command::Camera(args) => camera::run(*args),
         Command::Grid(args) => grid::run(args),
         Command::Classify(args) => classify::run(args),
         Command::Tui(args) => tui::run(args, log_file.as_deref()),

@@ -1,11 +1,12 @@
-//! `fleetmap relay --gcs CONN --vehicle CONN [--loss P] [--dup P] …`: relay MAVLink between
-//! a GCS and a vehicle, losing, duplicating, delaying or corrupting frames on the way
-//! ([`crate::link::relay`]); e.g. between `fleetmap` and a real SITL to judge mission
-//! transfers over a poor radio. Also home of the fault options that `fleetmap sim` shares.
+//! `fleetmap relay --gcs CONN --vehicle CONN [--rate B/S] [--loss P] [--dup P] …`: relay
+//! MAVLink between a GCS and a vehicle at a radio's byte rate, losing, duplicating, delaying
+//! or corrupting frames on the way ([`crate::link::relay`]); e.g. between `fleetmap` and a
+//! real SITL to judge mission transfers over a poor radio. Also home of the fault options
+//! that `fleetmap sim` shares.
 
 use crate::link::ConnSpec;
 use crate::link::faults::{LinkFaults, parse_blackouts};
-use crate::link::relay::{self, RelayStats};
+use crate::link::relay::{self, RateLimiter, RelayOptions, RelayStats};
 use clap::Args;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -67,7 +68,12 @@ pub struct RelayArgs {
     /// The vehicle's side, e.g. `tcp:127.0.0.1:5762` (a SITL's SERIAL1).
     #[arg(long, value_name = "CONN")]
     pub vehicle: ConnSpec,
-    /// Faults, each way.
+    /// Byte rate each way, bytes per second (0: unlimited), as a telemetry radio carries:
+    /// about 5000 for a 57,600-baud SiK radio. Frames wait in a queue of 1850 bytes (a SiK
+    /// radio's serial buffer) and one that would overflow it is dropped.
+    #[arg(long, value_name = "BYTES_PER_S", default_value_t = 0)]
+    pub rate: u32,
+    /// Faults, each way (on the air: after the rate limit).
     #[command(flatten)]
     pub faults: FaultArgs,
     /// Seed of the faults (same seed and traffic, same losses).
@@ -84,7 +90,9 @@ pub struct RelayArgs {
     pub json: bool,
 }
 
-fn print(stats: &RelayStats, json: bool) {
+/// Print the counts: JSON (every field of [`RelayStats`]) or a line per direction, with the
+/// rate limit's drops and queue peak when `opts.rate` is set.
+fn print(stats: &RelayStats, json: bool, opts: &RelayOptions) {
     if json {
         if let Ok(s) = serde_json::to_string(stats) {
             println!("{s}");
@@ -92,9 +100,27 @@ fn print(stats: &RelayStats, json: bool) {
         return;
     }
     for (name, d) in [("gcs→vehicle", &stats.up), ("vehicle→gcs", &stats.down)] {
+        let limit = if opts.rate > 0 {
+            format!(
+                "; rate {} B/s: {} dropped on a full queue, queue peak {} of {} bytes",
+                opts.rate,
+                d.rate_dropped,
+                d.peak_queue_bytes,
+                opts.queue_bytes.max(RateLimiter::MAX_FRAME_BYTES)
+            )
+        } else {
+            String::new()
+        };
         println!(
-            "{name}: {} frames in, {} out, {} dropped, {} duplicated, {} corrupted",
-            d.frames_in, d.frames_out, d.dropped, d.duplicated, d.corrupted
+            "{name}: {} frames in ({} bytes), {} out ({} bytes), {} dropped, {} duplicated, \
+             {} corrupted{limit}",
+            d.frames_in,
+            d.bytes_in,
+            d.frames_out,
+            d.bytes_out,
+            d.dropped,
+            d.duplicated,
+            d.corrupted
         );
     }
 }
@@ -117,8 +143,15 @@ pub fn run(args: RelayArgs) -> anyhow::Result<ExitCode> {
     };
     let json = args.json;
     let duration = args.duration;
-    let stats = crate::cli::vehicles::block_on(async move {
-        let stop = async move {
+    let opts = RelayOptions {
+        faults,
+        seed: args.seed,
+        rate: args.rate,
+        ..RelayOptions::default()
+    };
+    let shown = opts.clone();
+    let stats = crate::cli::vehicles::block_on(async {
+        let stop = async {
             match duration {
                 Some(d) => {
                     tokio::select! {
@@ -134,14 +167,13 @@ pub fn run(args: RelayArgs) -> anyhow::Result<ExitCode> {
         relay::run(
             args.gcs,
             args.vehicle,
-            faults,
-            args.seed,
+            opts,
             every,
-            |s| print(s, json),
+            |s| print(s, json, &shown),
             stop,
         )
         .await
     })??;
-    print(&stats, json);
+    print(&stats, json, &shown);
     Ok(ExitCode::SUCCESS)
 }

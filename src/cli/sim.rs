@@ -67,6 +67,11 @@ pub struct SimArgs {
     /// Do not push images over MAVLink image transmission.
     #[arg(long)]
     pub no_image_transfer: bool,
+    /// The cameras measure every picture on board with this mission file's definition (a
+    /// spatial-classification mission) and send the green share instead of the picture, as
+    /// `fleetmap camera --mission` does; the picture is sent when the GCS asks.
+    #[arg(long, value_name = "FILE")]
+    pub camera_mission: Option<PathBuf>,
     /// Stop after this many simulated seconds.
     #[arg(long)]
     pub duration: Option<f64>,
@@ -210,6 +215,11 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
         }
         None => None,
     };
+    let onboard = args
+        .camera_mission
+        .as_deref()
+        .map(crate::cli::camera::onboard_spec)
+        .transpose()?;
     for v in &mut cfg.vehicles {
         if v.flavour.is_copter() {
             v.battery.minutes = args.battery_minutes;
@@ -227,6 +237,7 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
             c.model.width_px = args.camera_px;
             c.model.height_px = args.camera_px;
             c.mavlink_transfer = !args.no_image_transfer;
+            c.onboard = onboard;
             c.file_dir = image_dir.as_ref().map(|d| d.display().to_string());
             c.misclassify_probability = sensor_flip;
         }
@@ -234,52 +245,27 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     Ok(cfg)
 }
 
-/// `fleetmap sim --camera-only`: cameras for real autopilots.
-fn run_camera_only(args: SimArgs, endpoints: Vec<Endpoint>) -> anyhow::Result<ExitCode> {
-    let [endpoint] = <[Endpoint; 1]>::try_from(endpoints)
+/// `fleetmap sim --camera-only`: `fleetmap camera --source render` for the one endpoint.
+fn run_camera_only(args: SimArgs) -> anyhow::Result<ExitCode> {
+    let [connect] = <[String; 1]>::try_from(args.connect)
         .map_err(|_| anyhow::anyhow!("--camera-only takes one --connect endpoint"))?;
-    let Some(world) = &args.world else {
+    if args.world.is_none() {
         bail!("--camera-only needs --world");
-    };
-    let world = std::sync::Arc::new(World::load(world)?);
-    let mut cfg = crate::sim::camera::CameraConfig {
-        mavlink_transfer: !args.no_image_transfer,
-        // 0 = one burst per image, as the embedded simulator's cameras send
-        transfer_rate_bps: (args.image_rate > 0).then_some(f64::from(args.image_rate)),
-        misclassify_probability: args.sensor.probability()?,
-        ..crate::sim::camera::CameraConfig::default()
-    };
-    if let Some(d) = &args.image_dir {
-        std::fs::create_dir_all(d).with_context(|| format!("cannot create {}", d.display()))?;
-        cfg.file_dir = Some(
-            d.canonicalize()
-                .with_context(|| format!("cannot resolve {}", d.display()))?
-                .display()
-                .to_string(),
-        );
     }
-    let cams = crate::sim::paired::PairedCameras::new(world, cfg, args.seed);
-    let rt = tokio::runtime::Builder::new_current_thread()
-        .enable_all()
-        .build()
-        .context("cannot start the async runtime")?;
-    rt.block_on(crate::sim::server::serve_paired(
-        cams,
-        endpoint,
-        args.image_dir.clone(),
-        args.duration,
-        |bound| {
-            for b in bound {
-                println!("cameras listening on {} (local {})", b.endpoint, b.local);
-            }
-            use std::io::Write;
-            let _ = std::io::stdout().flush();
-        },
-        async {
-            let _ = tokio::signal::ctrl_c().await;
-        },
-    ))?;
-    Ok(ExitCode::SUCCESS)
+    crate::cli::camera::run(crate::cli::camera::CameraArgs {
+        connect,
+        source: crate::cli::camera::Source::Render,
+        world: args.world,
+        mission: args.camera_mission,
+        push_pictures: false,
+        image_dir: args.image_dir,
+        no_image_transfer: args.no_image_transfer,
+        image_rate: args.image_rate,
+        wait_ms: 0,
+        duration: args.duration,
+        seed: args.seed,
+        sensor: args.sensor,
+    })
 }
 
 /// Run `fleetmap sim`.
@@ -290,7 +276,7 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
         .map(|c| Endpoint::parse(c))
         .collect::<Result<Vec<_>, _>>()?;
     if args.camera_only {
-        return run_camera_only(args, endpoints);
+        return run_camera_only(args);
     }
     let cfg = build(&args)?;
     let descr: Vec<String> = cfg

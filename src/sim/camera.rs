@@ -34,10 +34,12 @@
 //! for scoring.
 
 use crate::imagery::meta::{ImageMeta, insert_meta};
+use crate::imagery::onboard::{GreenSpec, OnboardMeasurement};
 use crate::sim::render::{CameraPose, Disturbances, render};
 use crate::sim::world::World;
 use crate::time::Time;
 use crate::vision::camera::CameraModel;
+use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use rand::{RngExt, SeedableRng};
@@ -94,6 +96,16 @@ pub struct CameraConfig {
     /// negative or a non-finite value: no image is flipped. Other surfaces are drawn as they
     /// are.
     pub misclassify_probability: f64,
+    /// Measure every picture on board with this definition and send the measurement
+    /// (DEBUG_FLOAT_ARRAY, [`crate::imagery::onboard`]) after CAMERA_IMAGE_CAPTURED instead
+    /// of pushing the picture: the picture is kept ([`RECENT_IMAGES`]) and sent when a GCS
+    /// asks for it. `None` (the default): no measurement, pictures pushed as
+    /// `mavlink_transfer` says.
+    pub onboard: Option<GreenSpec>,
+    /// The pictures come from outside (a real camera's folder, a video device) instead of
+    /// the renderer: a capture becomes a [`Shot`] the shell takes with
+    /// [`SimCamera::poll_shot`] and completes with [`SimCamera::deliver`].
+    pub external: bool,
 }
 
 impl Default for CameraConfig {
@@ -106,6 +118,8 @@ impl Default for CameraConfig {
             min_interval_s: 0.2,
             transfer_rate_bps: None,
             misclassify_probability: 0.0,
+            onboard: None,
+            external: false,
         }
     }
 }
@@ -177,6 +191,20 @@ pub fn shows_other_class(image_seed: u64, p: f64) -> bool {
     rng.random_range(0.0..1.0) < p
 }
 
+/// A picture the camera fired and has not delivered yet: with an outside source
+/// ([`CameraConfig::external`]) the shell gets the picture and hands it back with
+/// [`SimCamera::deliver`].
+#[derive(Clone, Copy, Debug)]
+pub struct Shot {
+    /// The camera's image index (since boot).
+    pub index: i32,
+    /// The pose and time at the shutter.
+    pub ctx: CaptureContext,
+    /// Whether a degraded sensor shows this picture's tiles as the other class (rendered
+    /// pictures only).
+    misclassified: bool,
+}
+
 /// How many recent images a camera keeps to send again on request.
 pub const RECENT_IMAGES: usize = 16;
 
@@ -201,6 +229,8 @@ pub struct SimCamera {
     paced: VecDeque<MavMessage>,
     pacer: Option<Pacer>,
     images: VecDeque<CapturedImage>,
+    /// Shots waiting for their picture from outside ([`CameraConfig::external`]).
+    shots: VecDeque<Shot>,
 }
 
 /// A token bucket in bytes per second on the camera's clock.
@@ -294,6 +324,7 @@ impl SimCamera {
                 .filter(|r| r.is_finite() && *r > 0.0)
                 .map(Pacer::new),
             images: VecDeque::new(),
+            shots: VecDeque::new(),
             config,
         }
     }
@@ -315,6 +346,7 @@ impl SimCamera {
         self.recent.clear();
         self.outbox.clear();
         self.paced.clear();
+        self.shots.clear();
     }
 
     /// Images taken since boot.
@@ -492,7 +524,60 @@ impl SimCamera {
         let index = self.image_count;
         self.image_count += 1;
         self.last_capture = Some(ctx.now);
-        let model = self.config.model;
+        let seed = self.image_seed(index);
+        let misclassified = shows_other_class(seed, self.config.misclassify_probability);
+        let shot = Shot {
+            index,
+            ctx: *ctx,
+            misclassified,
+        };
+        if self.config.external {
+            self.shots.push_back(shot);
+            return;
+        }
+        let img = world.map(|w| {
+            let dist = Disturbances {
+                swap_tiles: misclassified,
+                ..Disturbances::draw(seed)
+            };
+            render(w, &ctx.true_pose, &self.config.model, ctx.world_t_s, &dist)
+        });
+        self.finish(shot, img.as_ref());
+    }
+
+    /// The next picture to take from outside ([`CameraConfig::external`]): get it and give
+    /// it to [`SimCamera::deliver`]. Shots come out in the order they were fired.
+    pub fn poll_shot(&mut self) -> Option<Shot> {
+        self.shots.pop_front()
+    }
+
+    /// The picture of `shot` (None: the source had none: the capture failed), at `now`: the
+    /// capture is announced (CAMERA_IMAGE_CAPTURED), measured when the camera measures on
+    /// board, and sent or kept as a rendered one would be. A shot of an earlier boot is
+    /// dropped.
+    pub fn deliver(&mut self, shot: Shot, img: Option<&RgbImage>, now: Time) {
+        if shot.index >= self.image_count {
+            return; // fired before a reboot
+        }
+        if let Some(p) = self.pacer.as_mut() {
+            p.refill(now, !self.paced.is_empty());
+        }
+        self.finish(shot, img);
+        self.release();
+    }
+
+    /// Announce, measure and send (or keep) the picture of `shot`.
+    fn finish(&mut self, shot: Shot, img: Option<&RgbImage>) {
+        let Shot {
+            index,
+            ctx,
+            misclassified,
+        } = shot;
+        let ctx = &ctx;
+        let (width, height) = img.map_or(
+            (self.config.model.width_px, self.config.model.height_px),
+            |i| i.dimensions(),
+        );
         let meta = ImageMeta {
             sysid: self.sysid,
             boot: self.boot,
@@ -502,28 +587,27 @@ impl SimCamera {
             lon: ctx.reported.1,
             alt_rel_m: ctx.reported.2,
             heading_deg: ctx.true_pose.heading_deg,
-            width: model.width_px,
-            height: model.height_px,
+            width,
+            height,
         };
         let file_name = format!(
             "sys{:03}_boot{:03}_img{:05}.jpg",
             self.sysid, self.boot, index
         );
         let mut jpeg = None;
-        let seed = self.image_seed(index);
-        let misclassified = shows_other_class(seed, self.config.misclassify_probability);
-        if let Some(w) = world {
-            let dist = Disturbances {
-                swap_tiles: misclassified,
-                ..Disturbances::draw(seed)
-            };
-            let img = render(w, &ctx.true_pose, &model, ctx.world_t_s, &dist);
+        let mut measured = None;
+        if let Some(img) = img {
+            // measured at the altitude the capture message reports, as the GCS would
+            measured = self
+                .config
+                .onboard
+                .map(|spec| (spec.fingerprint(), spec.measure(img, ctx.reported.2)));
             let mut raw = Vec::new();
             let ok = image::codecs::jpeg::JpegEncoder::new_with_quality(
                 &mut raw,
                 self.config.jpeg_quality.clamp(1, 100),
             )
-            .encode_image(&img)
+            .encode_image(img)
             .is_ok();
             if ok {
                 jpeg = insert_meta(&raw, &meta).map(Arc::new);
@@ -557,8 +641,20 @@ impl SimCamera {
                 file_url: url.as_str().into(),
             },
         ));
+        if let (Some(j), Some((spec, value))) = (&jpeg, measured) {
+            self.outbox.push_back(
+                OnboardMeasurement {
+                    time_boot_ms: ctx.time_boot_ms,
+                    image_index_lo: index as u16,
+                    spec,
+                    picture_bytes: j.len() as u32,
+                    value,
+                }
+                .to_message(),
+            );
+        }
         if let Some(j) = &jpeg {
-            if self.config.mavlink_transfer {
+            if self.config.mavlink_transfer && measured.is_none() {
                 // The announcement just sent counts against the image's pacing: the
                 // handshake does not follow it back to back.
                 if let Some(p) = self.pacer.as_mut() {

@@ -52,10 +52,13 @@
 // CAMERA_FEEDBACK and CAMERA_TRIGGER are ArduPilot / legacy messages.
 #![allow(deprecated)]
 
-use crate::sim::camera::{CAMERA_COMPID, CameraConfig, CaptureContext, CapturedImage, SimCamera};
+use crate::sim::camera::{
+    CAMERA_COMPID, CameraConfig, CaptureContext, CapturedImage, Shot, SimCamera,
+};
 use crate::sim::render::CameraPose;
 use crate::sim::world::World;
 use crate::time::Time;
+use image::RgbImage;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -138,7 +141,11 @@ struct Tracked {
 /// Cameras for the autopilots heard on one link. See the module documentation.
 #[derive(Debug)]
 pub struct PairedCameras {
-    world: Arc<World>,
+    /// What the cameras render; `None` with an outside source ([`CameraConfig::external`]).
+    world: Option<Arc<World>>,
+    /// Where local east/north are measured from for distance triggering without a world:
+    /// the first position heard (degrees).
+    origin: Option<(f64, f64)>,
     config: CameraConfig,
     seed: u64,
     max_pose_age: Duration,
@@ -153,8 +160,24 @@ impl PairedCameras {
     /// Cameras rendering `world` with `config`, seeded; poses may be
     /// [`DEFAULT_MAX_POSE_AGE`] old.
     pub fn new(world: Arc<World>, config: CameraConfig, seed: u64) -> PairedCameras {
+        PairedCameras::with_world(Some(world), config, seed)
+    }
+
+    /// Cameras whose pictures come from outside: every capture is a [`Shot`] to take with
+    /// [`PairedCameras::poll_shot`] and complete with [`PairedCameras::deliver`] (`config`'s
+    /// `external` is set).
+    pub fn external(config: CameraConfig, seed: u64) -> PairedCameras {
+        let config = CameraConfig {
+            external: true,
+            ..config
+        };
+        PairedCameras::with_world(None, config, seed)
+    }
+
+    fn with_world(world: Option<Arc<World>>, config: CameraConfig, seed: u64) -> PairedCameras {
         PairedCameras {
             world,
+            origin: None,
             config,
             seed,
             max_pose_age: DEFAULT_MAX_POSE_AGE,
@@ -289,7 +312,7 @@ impl PairedCameras {
                     t.pose = Some(pose);
                     t.alt_amsl_m = f64::from(f.alt_msl);
                     let ctx = Self::ctx(t, pose, now);
-                    t.camera.capture_now(&ctx, Some(&world));
+                    t.camera.capture_now(&ctx, world.as_deref());
                     return;
                 }
                 MavMessage::CAMERA_TRIGGER(_) => {
@@ -537,6 +560,7 @@ impl PairedCameras {
     /// and counted otherwise), and the release of paced image packets.
     pub fn step(&mut self, now: Time) {
         let world = self.world.clone();
+        let mut origin = self.origin;
         let max_age = self.max_pose_age;
         let mut out = Vec::new();
         let mut dropped = Vec::new();
@@ -560,8 +584,11 @@ impl PairedCameras {
             match Self::fresh_pose(t, now, max_age) {
                 Some(pose) => {
                     let ctx = Self::ctx(t, pose, now);
-                    let (e, n) = world.to_local(pose.lat, pose.lon);
-                    t.camera.update(&ctx, (e, n), Some(&world));
+                    let (e, n) = match &world {
+                        Some(w) => w.to_local(pose.lat, pose.lon),
+                        None => local_en(origin.get_or_insert((pose.lat, pose.lon)), &pose),
+                    };
+                    t.camera.update(&ctx, (e, n), world.as_deref());
                 }
                 None => {
                     let n = t.camera.drop_due(now);
@@ -577,6 +604,7 @@ impl PairedCameras {
                 self.images.push_back((sysid, img));
             }
         }
+        self.origin = origin;
         for (sysid, m) in out {
             self.push(sysid, m);
         }
@@ -618,6 +646,43 @@ impl PairedCameras {
     pub fn poll_event(&mut self) -> Option<PairedEvent> {
         self.events.pop_front()
     }
+
+    /// The next picture to get from outside (cameras made by [`PairedCameras::external`]),
+    /// with the vehicle it is for.
+    pub fn poll_shot(&mut self) -> Option<(u8, Shot)> {
+        self.tracked
+            .iter_mut()
+            .find_map(|(&sysid, t)| t.camera.poll_shot().map(|s| (sysid, s)))
+    }
+
+    /// The picture of `shot` on vehicle `sysid`'s camera (None: the source had none), at
+    /// `now`: announced, measured and sent as [`SimCamera::deliver`] does.
+    pub fn deliver(&mut self, sysid: u8, shot: Shot, img: Option<&RgbImage>, now: Time) {
+        let Some(t) = self.tracked.get_mut(&sysid) else {
+            return;
+        };
+        t.camera.deliver(shot, img, now);
+        let mut out = Vec::new();
+        while let Some(m) = t.camera.poll_transmit() {
+            out.push(m);
+        }
+        while let Some(img) = t.camera.poll_image() {
+            self.images.push_back((sysid, img));
+        }
+        for m in out {
+            self.push(sysid, m);
+        }
+    }
+}
+
+/// East and north of `pose` from `origin` (degrees), metres, on a local tangent plane (an
+/// equirectangular approximation: within 0.1 % over the few hundred metres a distance
+/// trigger spans).
+fn local_en(origin: &(f64, f64), pose: &CameraPose) -> (f64, f64) {
+    const R: f64 = 6_371_000.0;
+    let n = (pose.lat - origin.0).to_radians() * R;
+    let e = (pose.lon - origin.1).to_radians() * R * origin.0.to_radians().cos();
+    (e, n)
 }
 
 #[cfg(test)]

@@ -688,6 +688,7 @@ pub async fn spawn(sim: Sim, opts: ServeOptions) -> Result<SimHandle, ServerErro
 /// warns once per episode of refused captures, not once per capture.
 pub async fn serve_paired<F>(
     mut cams: crate::sim::paired::PairedCameras,
+    mut source: Option<crate::app::pictures::FolderSource>,
     endpoint: Endpoint,
     image_dir: Option<PathBuf>,
     duration_s: Option<f64>,
@@ -721,6 +722,47 @@ where
         cams.step(now);
         while let Some(ev) = cams.poll_event() {
             log_paired_event(&ev);
+        }
+        // Pictures from outside: read on a blocking thread, one shot at a time.
+        while let Some((sysid, shot)) = cams.poll_shot() {
+            let picture = match source.take() {
+                Some(mut src) => {
+                    let r = tokio::task::spawn_blocking(move || {
+                        let p = src.next_picture();
+                        (src, p)
+                    })
+                    .await;
+                    match r {
+                        Ok((mut src, p)) => {
+                            for s in src.skipped.drain(..) {
+                                tracing::warn!("camera: picture skipped: {s}");
+                            }
+                            source = Some(src);
+                            match p {
+                                Ok(Some(p)) => Some(p.image),
+                                Ok(None) => {
+                                    tracing::warn!(
+                                        "camera {sysid}: no new picture in the folder: capture {} failed",
+                                        shot.index
+                                    );
+                                    None
+                                }
+                                Err(e) => {
+                                    tracing::warn!("camera {sysid}: {e:#}");
+                                    None
+                                }
+                            }
+                        }
+                        Err(e) => {
+                            tracing::warn!("camera {sysid}: picture source stopped: {e}");
+                            None
+                        }
+                    }
+                }
+                None => None,
+            };
+            let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
+            cams.deliver(sysid, shot, picture.as_ref(), now);
         }
         while let Some((_, img)) = cams.poll_image() {
             if let Some(dir) = &image_dir {

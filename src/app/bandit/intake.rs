@@ -4,7 +4,8 @@
 use super::*;
 
 /// The measurement of one received image (blocking work: decode, crop, count green
-/// pixels): the green share and the Bernoulli realisation.
+/// pixels): the green share and the Bernoulli realisation — [`GreenSpec::measure`], the
+/// computation a camera that measures on board runs.
 pub fn measure_image(
     bytes: &[u8],
     green: &GreenParams,
@@ -14,9 +15,38 @@ pub fn measure_image(
     fraction: f64,
 ) -> Result<(f64, bool), String> {
     let img = load_image_bytes(bytes, &LoadLimits::default()).map_err(|e| e.to_string())?;
-    let img = crop_to_cell(&img, camera, altitude_m, cell_m, fraction);
-    let f = green_fraction(&img, green);
-    Ok((f, img.width() > 0 && f >= green.min_fraction))
+    let spec = GreenSpec {
+        green: *green,
+        camera: *camera,
+        cell_m,
+        crop_fraction: fraction,
+    };
+    let m = spec.measure(&img, altitude_m);
+    Ok((m.share, m.positive(green)))
+}
+
+/// The measurement definition of the spatial-classification mission `def` — what
+/// [`green_spec`] gives for its runs — or `None` for another kind of mission.
+pub fn green_spec_of(def: &crate::mission::definition::MissionDef) -> Option<GreenSpec> {
+    (def.kind == crate::mission::definition::MissionKind::SpatialClassification).then(|| {
+        GreenSpec {
+            green: crate::planner::sortie::green_params(def),
+            camera: def.camera,
+            cell_m: def.grid.cell_size_m,
+            crop_fraction: crate::planner::sortie::CROP_FRACTION,
+        }
+    })
+}
+
+/// The run's measurement definition, as a camera that measures on board must be given it
+/// (`fleetmap camera --mission`): the mission's green box, camera, cell size and crop.
+pub fn green_spec(s: &ClassificationState) -> GreenSpec {
+    GreenSpec {
+        green: s.params.green,
+        camera: s.params.camera,
+        cell_m: s.grid.cell_size(),
+        crop_fraction: s.params.crop_fraction,
+    }
 }
 
 /// Most images measured and saved together (one state write for the batch).
@@ -193,11 +223,19 @@ pub(super) async fn take_images(
             (pre, s.params.clone(), s.grid.cell_size())
         })
         .await;
+    // Measured on board (the intake delivers only measurements made with this run's
+    // definition): nothing to decode.
+    let mut onboard = BTreeMap::new();
+    for (i, p) in pre.iter().enumerate() {
+        if let (Some(Ok(_)), Some(m)) = (p, &batch[i].onboard) {
+            onboard.insert(i, Ok((m.value.share, m.value.positive(&params.green))));
+        }
+    }
     let jobs: Vec<(usize, Arc<Vec<u8>>, f64)> = pre
         .iter()
         .enumerate()
         .filter_map(|(i, p)| match p {
-            Some(Ok(alt)) => Some((i, batch[i].bytes.clone(), *alt)),
+            Some(Ok(alt)) if !onboard.contains_key(&i) => Some((i, batch[i].bytes.clone(), *alt)),
             _ => None,
         })
         .collect();
@@ -219,6 +257,7 @@ pub(super) async fn take_images(
     .await
     .context("measurement task")?;
     let mut measured = measured;
+    measured.extend(onboard);
     let taken: Vec<Taken> = pre
         .into_iter()
         .enumerate()

@@ -413,6 +413,9 @@ pub async fn run(
     }
     let last = state.last_measurement.clone();
     let drones: Vec<u8> = state.drones.iter().map(|d| d.sysid).collect();
+    // Cameras that measure on board with this run's definition send the green share, not
+    // the picture.
+    hub.accept_onboard(Some(green_spec(&state).fingerprint()));
     let core = RunCore::new(
         state,
         run_dir,

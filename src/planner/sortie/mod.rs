@@ -98,6 +98,10 @@ pub enum Separation {
     LockStep,
 }
 
+/// Side of the measured square of a picture as a fraction of the cell side
+/// ([`SortieParams::crop_fraction`]).
+pub const CROP_FRACTION: f64 = 0.6;
+
 /// The run's parameters (from the mission file; see [`crate::mission::definition`]).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct SortieParams {
@@ -184,7 +188,8 @@ pub struct ClassificationState {
     pub resumes: u32,
 }
 
-fn green_params(def: &MissionDef) -> GreenParams {
+/// The green-pixel measurement of `def` (`[classification.green]`, defaults when absent).
+pub fn green_params(def: &MissionDef) -> GreenParams {
     let g = def
         .classification
         .as_ref()
@@ -276,7 +281,7 @@ impl ClassificationState {
             green: green_params(def),
             camera: def.camera,
             capture_interval_s: 0.5,
-            crop_fraction: 0.6,
+            crop_fraction: CROP_FRACTION,
             capture_tolerance: 0.3,
             flight_time_min: def.battery.flight_time_min,
             rtl_reserve_pct: def.battery.rtl_reserve_pct,

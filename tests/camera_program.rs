@@ -1,0 +1,223 @@
+//! `fleetmap camera` (issue 25): the camera program on a companion computer, taking its
+//! pictures from a folder, beside a simulated ArduCopter, wired as a companion computer is —
+//! a MAVLink router (as mavlink-router does: every datagram from one endpoint to all the
+//! others) between the autopilot, the camera and the GCS. The GCS receives the camera's
+//! on-board measurements (DEBUG_FLOAT_ARRAY tied to CAMERA_IMAGE_CAPTURED), not its pictures;
+//! with a measurement definition the GCS does not share, it asks for the picture and gets it.
+
+use fleetmap::app::images;
+use fleetmap::fleet::{self, FleetConfig};
+use fleetmap::link::ConnSpec;
+use fleetmap::link::transport::{LinkOptions, open_link};
+use fleetmap::sim::harness::{Sim, SimConfig};
+use fleetmap::sim::pace::Speed;
+use fleetmap::sim::server::{self, Endpoint, GcsClock, ServeOptions};
+use fleetmap::time::Time;
+use image::RgbImage;
+use mavlink::dialects::ardupilotmega as mav;
+use mavlink::dialects::ardupilotmega::MavMessage;
+use std::net::SocketAddr;
+use std::path::Path;
+use std::process::{Command, Stdio};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
+use tokio::net::UdpSocket;
+
+mod common;
+use common::free_udp_port;
+use common::pty::bin;
+
+const GREEN: [u8; 3] = [40, 160, 50];
+const GREY: [u8; 3] = [128, 128, 128];
+
+/// A router as mavlink-router runs on a companion computer: whatever one endpoint sends goes
+/// to every other one. `vehicle` learns its peer from the first datagram (the simulated
+/// autopilot sends to it); the camera and the GCS listen at fixed addresses.
+async fn router(vehicle: UdpSocket, camera: SocketAddr, gcs: SocketAddr) -> SocketAddr {
+    let vehicle = Arc::new(vehicle);
+    let to_cam = Arc::new(UdpSocket::bind("127.0.0.1:0").await.unwrap());
+    let to_gcs = Arc::new(UdpSocket::bind("127.0.0.1:0").await.unwrap());
+    let vehicle_addr = vehicle.local_addr().unwrap();
+    let vehicle_peer: Arc<Mutex<Option<SocketAddr>>> = Arc::new(Mutex::new(None));
+    // (socket we hear on, the others: (socket to send from, fixed address or the vehicle's))
+    let ends: [(Arc<UdpSocket>, usize); 3] = [(vehicle, 0), (to_cam, 1), (to_gcs, 2)];
+    let socks: Vec<Arc<UdpSocket>> = ends.iter().map(|(s, _)| s.clone()).collect();
+    for (sock, me) in ends {
+        let socks = socks.clone();
+        let peer = vehicle_peer.clone();
+        tokio::spawn(async move {
+            let mut buf = vec![0u8; 65536];
+            while let Ok((n, from)) = sock.recv_from(&mut buf).await {
+                if me == 0 {
+                    *peer.lock().unwrap() = Some(from);
+                }
+                for (k, s) in socks.iter().enumerate() {
+                    if k == me {
+                        continue;
+                    }
+                    let to = match k {
+                        0 => *peer.lock().unwrap(),
+                        1 => Some(camera),
+                        _ => Some(gcs),
+                    };
+                    if let Some(to) = to {
+                        let _ = s.send_to(&buf[..n], to).await;
+                    }
+                }
+            }
+        });
+    }
+    vehicle_addr
+}
+
+fn picture(dir: &Path, name: &str, rgb: [u8; 3]) {
+    RgbImage::from_pixel(64, 64, image::Rgb(rgb))
+        .save(dir.join(name))
+        .unwrap();
+    // distinct modification times: the camera takes the oldest first
+    std::thread::sleep(Duration::from_millis(15));
+}
+
+fn start_capture(count: f32) -> MavMessage {
+    MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+        param2: 0.5, // seconds between pictures
+        param3: count,
+        command: mav::MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+        target_system: 1,
+        target_component: 100,
+        ..mav::COMMAND_LONG_DATA::default()
+    })
+}
+
+struct Killed(std::process::Child);
+
+impl Drop for Killed {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
+    let mission = concat!(env!("CARGO_MANIFEST_DIR"), "/missions/hardware-6x6.toml");
+    let spec = fleetmap::cli::camera::onboard_spec(Path::new(mission)).unwrap();
+    let folder = tempfile::tempdir().unwrap();
+    let colours = [GREEN, GREY, GREEN, GREEN, GREY, GREY];
+    for (i, c) in colours.iter().enumerate() {
+        picture(folder.path(), &format!("shot{i}.png"), *c);
+    }
+    picture(folder.path(), "shot6.png", GREEN);
+
+    // the GCS: one UDP port, the image hub accepting the mission's measurements
+    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
+    let spec_gcs: ConnSpec = "udpin:127.0.0.1:0".parse().unwrap();
+    let link = open_link(0, spec_gcs, &LinkOptions::default(), ev_tx)
+        .await
+        .unwrap();
+    let gcs_addr = link.local.unwrap();
+
+    // the camera program, listening where the router sends
+    let cam_port = free_udp_port();
+    let cam_addr: SocketAddr = format!("127.0.0.1:{cam_port}").parse().unwrap();
+    let _camera = Killed(
+        Command::new(bin())
+            .args([
+                "camera",
+                "--connect",
+                &format!("udpin:127.0.0.1:{cam_port}"),
+                "--source",
+                &format!("folder:{}", folder.path().display()),
+                "--mission",
+                mission,
+                "--wait-ms",
+                "300",
+            ])
+            .stdout(Stdio::null())
+            .spawn()
+            .unwrap(),
+    );
+
+    // the router, and a simulated ArduCopter without a camera of its own sending to it
+    let vehicle_sock = UdpSocket::bind("127.0.0.1:0").await.unwrap();
+    let router_vehicle = router(vehicle_sock, cam_addr, gcs_addr).await;
+    let mut cfg =
+        SimConfig::from_spec("1xcopter:ardupilot", None, Some((37.195, -80.58)), 1).unwrap();
+    cfg.vehicles[0].camera = None;
+    let sim = server::spawn(
+        Sim::new(cfg, Time::ZERO).unwrap(),
+        ServeOptions {
+            endpoints: vec![Endpoint::parse(&format!("udpout:{router_vehicle}")).unwrap()],
+            speed: Speed::times(1.0).unwrap(),
+            gcs: GcsClock::Simulator,
+            image_dir: None,
+            duration_s: None,
+        },
+    )
+    .await
+    .unwrap();
+    let fleet = fleet::spawn(vec![link], ev_rx, FleetConfig::default(), sim.clock());
+    let hub = images::spawn(&fleet);
+    hub.accept_onboard(Some(spec.fingerprint()));
+    let mut rx = hub.subscribe();
+    fleet
+        .wait_vehicle(1, Duration::from_secs(30))
+        .await
+        .expect("the autopilot is heard through the router");
+
+    // Until the camera has the autopilot's position it refuses to shoot: ask until it takes.
+    let mut got = Vec::new();
+    let deadline = tokio::time::Instant::now() + Duration::from_secs(60);
+    fleet.send(start_capture(6.0)).await.unwrap();
+    let mut last_ask = tokio::time::Instant::now();
+    while got.len() < 6 {
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "{} of 6 measurements in 60 s",
+            got.len()
+        );
+        match tokio::time::timeout(Duration::from_millis(500), rx.recv()).await {
+            Ok(Ok(img)) => got.push(img),
+            Ok(Err(e)) => panic!("image hub: {e}"),
+            Err(_) if got.is_empty() && last_ask.elapsed() > Duration::from_secs(2) => {
+                fleet.send(start_capture(6.0)).await.unwrap();
+                last_ask = tokio::time::Instant::now();
+            }
+            Err(_) => {}
+        }
+    }
+    for (img, colour) in got.iter().zip(colours) {
+        let m = img.onboard.expect("measured on board");
+        assert!(img.bytes.is_empty(), "no picture on the link");
+        assert_eq!(img.source, "on board");
+        let want = if colour == GREEN { 1.0 } else { 0.0 };
+        assert!((m.value.share - want).abs() < 0.02, "{m:?} for {colour:?}");
+        assert_eq!(m.value.positive(&spec.green), colour == GREEN);
+        let pose = img.pose.as_ref().expect("the capture's pose");
+        assert!((pose.lat - 37.195).abs() < 1e-3, "{pose:?}");
+        assert!(m.picture_bytes > 0);
+    }
+
+    // A GCS that measures differently asks for the picture and measures it itself.
+    hub.accept_onboard(Some(spec.fingerprint() ^ 1));
+    fleet.send(start_capture(1.0)).await.unwrap();
+    let img = tokio::time::timeout(Duration::from_secs(30), rx.recv())
+        .await
+        .expect("the picture is sent when asked for")
+        .unwrap();
+    assert!(img.onboard.is_none());
+    assert_eq!(img.source, "mavlink");
+    let share = fleetmap::app::bandit::measure_image(
+        &img.bytes,
+        &spec.green,
+        &spec.camera,
+        0.0,
+        spec.cell_m,
+        spec.crop_fraction,
+    )
+    .unwrap();
+    assert!(share.1, "the seventh picture is green: {share:?}");
+    assert!(img.pose.is_some());
+    fleet.shutdown().await;
+    let _ = sim.stop().await;
+}

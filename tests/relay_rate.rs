@@ -1,0 +1,304 @@
+//! `fleetmap relay --rate`: a relay limited to 5,000 B/s each way (a 57,600-baud SiK radio)
+//! carries a flood of frames at that rate, whole and in order, drops what overflows its queue
+//! and counts it, and leaves the other direction free. On tokio's paused clock between two
+//! in-process links (exact: the figure does not depend on the machine), and once through the
+//! real binary over UDP on the wall clock (margins for a busy machine).
+
+use fleetmap::link::codec::Codec;
+use fleetmap::link::relay::{RateLimiter, Relay, RelayOptions};
+use fleetmap::link::transport::MemoryPort;
+use mavlink::dialects::ardupilotmega::{ENCAPSULATED_DATA_DATA, MavMessage, SYSTEM_TIME_DATA};
+use std::time::Duration;
+
+/// The rate under test, bytes per second.
+const RATE: f64 = 5000.0;
+
+/// Flood frame `i`: ENCAPSULATED_DATA numbered `i`, 15 to 267 bytes on the wire (its data is
+/// non-zero up to a length that varies with `i`, so MAVLink 2 does not trim it).
+fn chunk(i: u16) -> MavMessage {
+    let n = 1 + (usize::from(i) * 37) % 253;
+    let mut data = [0u8; 253];
+    for (k, b) in data[..n].iter_mut().enumerate() {
+        *b = (k as u8) | 1;
+    }
+    MavMessage::ENCAPSULATED_DATA(ENCAPSULATED_DATA_DATA { seqnr: i, data })
+}
+
+fn ping(ms: u32) -> MavMessage {
+    MavMessage::SYSTEM_TIME(SYSTEM_TIME_DATA {
+        time_unix_usec: 1,
+        time_boot_ms: ms,
+    })
+}
+
+/// A received datagram or channel item: it must be exactly one whole frame (CRC checked).
+/// Returns its message.
+fn one_frame(codec: &mut Codec, bytes: &[u8]) -> MavMessage {
+    let frames = codec.decode(bytes, 0);
+    assert_eq!(frames.len(), 1, "{} bytes are not one frame", bytes.len());
+    assert_eq!(frames[0].raw, bytes, "the frame arrived altered");
+    frames[0].message.clone().expect("a known message")
+}
+
+/// Bytes per second of the frames after the first, between the first and the last arrival:
+/// what the queue let out while it was never empty.
+fn throughput(arrivals: &[(Duration, usize)]) -> f64 {
+    let bytes: usize = arrivals[1..].iter().map(|(_, n)| n).sum();
+    let span = arrivals[arrivals.len() - 1].0 - arrivals[0].0;
+    bytes as f64 / span.as_secs_f64()
+}
+
+/// 60 s of virtual time: the GCS offers a frame every 10 ms (about 14 kB/s, nearly three
+/// times the rate) through a relay at 5,000 B/s, while the vehicle sends a small frame every
+/// second the other way. The flood arrives at 5,000 B/s within 2 % (exactly, but for tokio's
+/// 1 ms timer), whole and in order, what overflowed the 1850-byte queue is counted, and the
+/// vehicle's frames cross the idle direction in their own transmission time.
+#[tokio::test(start_paused = true)]
+async fn rate_5000_carries_5000_bytes_per_second_one_way() {
+    let opts = RelayOptions {
+        rate: 5000,
+        ..RelayOptions::default()
+    };
+    let (relay, gcs, vehicle) = Relay::memory("radio", opts);
+    let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
+    let relay = tokio::spawn(relay.run(Duration::from_secs(3600), |_| {}, async move {
+        let _ = stop_rx.await;
+    }));
+    // on each end, `to_gcs` goes into the relay and `from_gcs` comes out of it
+    let MemoryPort {
+        from_gcs: at_gcs,
+        to_gcs: gcs_tx,
+    } = gcs;
+    let MemoryPort {
+        from_gcs: at_vehicle,
+        to_gcs: vehicle_tx,
+    } = vehicle;
+    let t0 = tokio::time::Instant::now();
+    // what arrives on each side, with its (virtual) time since t0
+    let collect = |mut rx: tokio::sync::mpsc::UnboundedReceiver<Vec<u8>>| {
+        tokio::spawn(async move {
+            let mut got = Vec::new();
+            while let Ok(Some(b)) = tokio::time::timeout(Duration::from_secs(3), rx.recv()).await {
+                got.push((t0.elapsed(), b));
+            }
+            got
+        })
+    };
+    let up_rx = collect(at_vehicle);
+    let down_rx = collect(at_gcs);
+    let (mut gc, mut vc) = (Codec::new(), Codec::new());
+    let n: u16 = 6000;
+    let mut offered = 0usize;
+    let mut pings = Vec::new();
+    for i in 0..n {
+        let bytes = gc.encode(255, 190, &chunk(i), 0);
+        offered += bytes.len();
+        gcs_tx.send(bytes).unwrap();
+        if i % 100 == 0 {
+            let p = vc.encode(1, 1, &ping(u32::from(i)), 0);
+            pings.push((t0.elapsed(), p.len()));
+            vehicle_tx.send(p).unwrap();
+        }
+        tokio::time::sleep_until(t0 + Duration::from_millis(10 * (u64::from(i) + 1))).await;
+    }
+    let up = up_rx.await.unwrap();
+    let down = down_rx.await.unwrap();
+    let _ = stop_tx.send(());
+    let stats = relay.await.unwrap();
+
+    // whole and in order
+    let mut rx = Codec::new();
+    let mut last = None;
+    let mut arrivals = Vec::new();
+    for (t, bytes) in &up {
+        let MavMessage::ENCAPSULATED_DATA(d) = one_frame(&mut rx, bytes) else {
+            panic!("not a flood frame");
+        };
+        assert!(last < Some(d.seqnr), "{:?} then {}", last, d.seqnr);
+        last = Some(d.seqnr);
+        arrivals.push((*t, bytes.len()));
+    }
+    // from the second frame on: the first (15 bytes) leaves 7 ms before the next arrives,
+    // the only time the radio is idle
+    let rate = throughput(&arrivals[1..]);
+    let carried: usize = arrivals.iter().map(|(_, n)| n).sum();
+    eprintln!(
+        "offered {offered} B in {:.1} s ({:.0} B/s); carried {carried} B in {} of {n} frames \
+         at {rate:.1} B/s; {} dropped on a full queue, queue peak {} B",
+        f64::from(n) / 100.0,
+        offered as f64 / (f64::from(n) / 100.0),
+        up.len(),
+        stats.up.rate_dropped,
+        stats.up.peak_queue_bytes
+    );
+    assert!((rate - RATE).abs() < 0.02 * RATE, "{rate:.1} B/s");
+    // the counts
+    assert_eq!(stats.up.frames_in, u64::from(n));
+    assert_eq!(stats.up.bytes_in, offered as u64);
+    assert_eq!(stats.up.frames_out, up.len() as u64);
+    assert_eq!(stats.up.bytes_out, carried as u64);
+    assert_eq!(stats.up.frames_out + stats.up.rate_dropped, u64::from(n));
+    assert!(stats.up.rate_dropped > 0);
+    let cap = u64::from(RateLimiter::SIK_QUEUE_BYTES);
+    assert!(
+        stats.up.peak_queue_bytes <= cap && stats.up.peak_queue_bytes > cap - 267,
+        "queue peak {}",
+        stats.up.peak_queue_bytes
+    );
+    // the other direction is a radio of its own: nothing waits, nothing is dropped
+    assert_eq!(down.len(), pings.len());
+    assert_eq!(stats.down.rate_dropped, 0);
+    for ((sent, len), (got, bytes)) in pings.iter().zip(&down) {
+        assert!(matches!(
+            one_frame(&mut rx, bytes),
+            MavMessage::SYSTEM_TIME(_)
+        ));
+        let wire = Duration::from_secs_f64(*len as f64 / RATE);
+        assert!(
+            *got >= *sent + wire && *got <= *sent + wire + Duration::from_millis(2),
+            "sent at {sent:?}, {len} B, arrived at {got:?}"
+        );
+    }
+}
+
+/// Kills the relay process if the test fails before it does.
+struct Child(std::process::Child);
+
+impl Drop for Child {
+    fn drop(&mut self) {
+        let _ = self.0.kill();
+        let _ = self.0.wait();
+    }
+}
+
+/// The real binary, `fleetmap relay --rate 5000 --json`, between two UDP sockets on the wall
+/// clock: 4 s of a flood at about 14 kB/s arrive at 5,000 B/s (between 85 % and 105 %: a
+/// busy machine can stall the sender, which only lowers the figure, or delay the first
+/// arrival, which raises it a little; the exact figure is the paused-clock test's), whole
+/// and in order, and the JSON counts add up with what arrived.
+#[test]
+fn cli_relay_rate_5000_over_udp() {
+    use std::net::UdpSocket;
+    use std::time::Instant;
+    let vehicle = UdpSocket::bind("127.0.0.1:0").unwrap();
+    vehicle
+        .set_read_timeout(Some(Duration::from_millis(1500)))
+        .unwrap();
+    let vport = vehicle.local_addr().unwrap().port();
+    let gport = UdpSocket::bind("127.0.0.1:0")
+        .unwrap()
+        .local_addr()
+        .unwrap()
+        .port();
+    let child = std::process::Command::new(env!("CARGO_BIN_EXE_fleetmap"))
+        .args([
+            "relay",
+            "--gcs",
+            &format!("udpin:127.0.0.1:{gport}"),
+            "--vehicle",
+            &format!("udpout:127.0.0.1:{vport}"),
+            "--rate",
+            "5000",
+            "--report-every",
+            "0",
+            "--duration",
+            "120",
+            "--json",
+        ])
+        .stdout(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    let mut child = Child(child);
+    let gcs = UdpSocket::bind("127.0.0.1:0").unwrap();
+    let mut c = Codec::new();
+    let mut rx = Codec::new();
+    let mut buf = [0u8; 600];
+    // the relay is up when a probe comes through
+    vehicle
+        .set_read_timeout(Some(Duration::from_millis(50)))
+        .unwrap();
+    let mut probes = 0u64;
+    let start = Instant::now();
+    loop {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "the relay never started"
+        );
+        gcs.send_to(&c.encode(255, 190, &ping(0), 0), ("127.0.0.1", gport))
+            .unwrap();
+        probes += 1;
+        if let Ok(n) = vehicle.recv(&mut buf) {
+            assert!(matches!(
+                one_frame(&mut rx, &buf[..n]),
+                MavMessage::SYSTEM_TIME(_)
+            ));
+            break;
+        }
+    }
+    vehicle
+        .set_read_timeout(Some(Duration::from_millis(1500)))
+        .unwrap();
+    let receiver = std::thread::spawn(move || {
+        let mut got = Vec::new();
+        let mut buf = [0u8; 600];
+        while let Ok(n) = vehicle.recv(&mut buf) {
+            got.push((Instant::now(), buf[..n].to_vec()));
+        }
+        got
+    });
+    let n: u16 = 400;
+    let t0 = Instant::now();
+    for i in 0..n {
+        gcs.send_to(&c.encode(255, 190, &chunk(i), 0), ("127.0.0.1", gport))
+            .unwrap();
+        let next = t0 + Duration::from_millis(10 * (u64::from(i) + 1));
+        std::thread::sleep(next.saturating_duration_since(Instant::now()));
+    }
+    let got = receiver.join().unwrap();
+    let status = std::process::Command::new("kill")
+        .args(["-INT", &child.0.id().to_string()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let mut out = String::new();
+    std::io::Read::read_to_string(child.0.stdout.as_mut().unwrap(), &mut out).unwrap();
+    assert!(child.0.wait().unwrap().success());
+
+    let mut last = None;
+    let mut arrivals = Vec::new();
+    let mut late_probes = 0u64;
+    for (t, bytes) in &got {
+        match one_frame(&mut rx, bytes) {
+            MavMessage::ENCAPSULATED_DATA(d) => {
+                assert!(last < Some(d.seqnr), "{:?} then {}", last, d.seqnr);
+                last = Some(d.seqnr);
+                arrivals.push((t.duration_since(t0), bytes.len()));
+            }
+            MavMessage::SYSTEM_TIME(_) => late_probes += 1,
+            m => panic!("unexpected {m:?}"),
+        }
+    }
+    let rate = throughput(&arrivals[1..]); // as above: from the second frame on
+    eprintln!(
+        "CLI over UDP: {} of {n} frames at {rate:.1} B/s; stats {}",
+        arrivals.len(),
+        out.trim()
+    );
+    assert!(
+        rate > 0.85 * RATE && rate < 1.05 * RATE,
+        "{rate:.1} B/s over UDP"
+    );
+    let stats: serde_json::Value = serde_json::from_str(out.lines().last().unwrap()).unwrap();
+    let up = &stats["up"];
+    let count = |k: &str| up[k].as_u64().unwrap();
+    // every probe that reached the relay came through (its queue was empty then)
+    assert!(late_probes < probes);
+    assert_eq!(count("frames_in"), 1 + late_probes + u64::from(n));
+    assert_eq!(count("frames_out"), 1 + late_probes + arrivals.len() as u64);
+    assert_eq!(
+        count("frames_out") + count("rate_dropped"),
+        count("frames_in")
+    );
+    assert!(count("rate_dropped") > 0);
+    assert!(count("peak_queue_bytes") <= u64::from(RateLimiter::SIK_QUEUE_BYTES));
+}
