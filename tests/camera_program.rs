@@ -221,3 +221,30 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
     fleet.shutdown().await;
     let _ = sim.stop().await;
 }
+
+#[test]
+fn camera_help_names_its_sources() {
+    let out = Command::new(bin())
+        .args(["camera", "--help"])
+        .output()
+        .unwrap();
+    assert!(out.status.success());
+    let help = String::from_utf8_lossy(&out.stdout);
+    for source in ["render", "folder:DIR"] {
+        assert!(help.contains(source), "{source} missing from:\n{help}");
+    }
+    // an unknown source is refused with the list
+    let out = Command::new(bin())
+        .args([
+            "camera",
+            "--connect",
+            "udpin:127.0.0.1:0",
+            "--source",
+            "v4l2:/dev/video0",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("`render` or `folder:DIR`"), "{err}");
+}

@@ -74,7 +74,8 @@ pub enum Command {
     /// Arm, disarm, change mode, take off, go to, return, land.
     Command(command::CommandArgs),
     /// Relay MAVLink between a GCS and a vehicle, losing, duplicating or delaying frames on
-    /// the way (to try a real autopilot over a poor radio).
+    /// the way and carrying at most a radio's bytes per second (to try a real autopilot over
+    /// a poor radio).
     Relay(relay::RelayArgs),
     /// MAVLink 2 signing keys: make one, install one on a vehicle.
     Signing(signing::SigningArgs),

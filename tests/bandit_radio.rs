@@ -1,0 +1,210 @@
+//! Issue 25: the bandit paper's 6×6 mission over telemetry radios. Every vehicle sends to one
+//! GCS port through its own `fleetmap relay --rate 5000` (a 57,600-baud SiK radio: about
+//! 5,000 bytes a second each way, a 1,850-byte queue, tail drop), on the simulator's clock;
+//! the drones' cameras measure on board and send the green share (52 bytes) instead of the
+//! picture. The mission ends with keep = the green tiles, no labelling error, and no more
+//! epochs than the same flight on unlimited links.
+
+use fleetmap::app::bandit::report as bandit_report;
+use fleetmap::app::bandit::{self, RunOptions};
+use fleetmap::app::bandit_sim::{self, SimSetup};
+use fleetmap::fleet;
+use fleetmap::link::ConnSpec;
+use fleetmap::link::relay::{Relay, RelayOptions, RelayStats};
+use fleetmap::link::transport::{LinkOptions, open_link};
+use fleetmap::mission::definition::MissionDef;
+use fleetmap::sim::harness::Sim;
+use fleetmap::sim::pace::Speed;
+use fleetmap::sim::server::{self, Endpoint, GcsClock, ServeOptions};
+use fleetmap::sim::world::World;
+use fleetmap::store::{RunDir, RunMeta};
+use fleetmap::time::Time;
+use std::time::{Duration, Instant};
+
+/// Simulated seconds per wall second (the relays follow the simulator's clock).
+const SPEEDUP: f64 = 20.0;
+
+struct Flight {
+    report: bandit_report::ClassificationReport,
+    keep_is_truth: bool,
+    /// Each relay's counts (empty without relays).
+    radios: Vec<RelayStats>,
+}
+
+/// Fly the hardware mission with on-board measurement, each vehicle behind a relay limited to
+/// `rate` bytes a second each way (`None`: straight to the GCS port).
+async fn fly(name: &str, rate: Option<u32>) -> Flight {
+    let _ = tracing_subscriber::fmt()
+        .with_test_writer()
+        .with_env_filter("warn,highs=error")
+        .try_init();
+    let t0 = Instant::now();
+    let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
+    let def = MissionDef::parse(bandit_sim::HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
+    let green = bandit_sim::green_tiles(&world);
+    let setup = SimSetup {
+        speedup: SPEEDUP,
+        seed: 3,
+        camera_px: 160,
+        charge_minutes: 6.0,
+        onboard: bandit::green_spec_of(&def),
+        ..SimSetup::default()
+    };
+    let sim = Sim::new(
+        bandit_sim::sim_config(bandit_sim::HARDWARE_TEAM, &world, &setup).unwrap(),
+        Time::ZERO,
+    )
+    .unwrap();
+
+    // The GCS: one UDP port for the whole team.
+    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
+    let gcs_spec: ConnSpec = "udpin:127.0.0.1:0".parse().unwrap();
+    let link = open_link(0, gcs_spec, &LinkOptions::default(), ev_tx)
+        .await
+        .unwrap();
+    let gcs = link.local.unwrap();
+
+    // One radio per vehicle, each sending to the GCS port from its own socket.
+    let mut relays = Vec::new();
+    let mut endpoints = Vec::new();
+    for _ in 0..6 {
+        match rate {
+            Some(rate) => {
+                let r = Relay::open(
+                    format!("udpout:{gcs}").parse().unwrap(),
+                    "udpin:127.0.0.1:0".parse().unwrap(),
+                    RelayOptions {
+                        rate,
+                        ..RelayOptions::default()
+                    },
+                )
+                .await
+                .unwrap();
+                let v = r.vehicle_local().unwrap();
+                endpoints.push(Endpoint::parse(&format!("udpout:{v}")).unwrap());
+                relays.push(r);
+            }
+            None => endpoints.push(Endpoint::parse(&format!("udpout:{gcs}")).unwrap()),
+        }
+    }
+    let handle = server::spawn(
+        sim,
+        ServeOptions {
+            endpoints,
+            speed: Speed::times(SPEEDUP).unwrap(),
+            gcs: GcsClock::Simulator,
+            image_dir: None,
+            duration_s: None,
+        },
+    )
+    .await
+    .unwrap();
+    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let radios: Vec<_> = relays
+        .into_iter()
+        .map(|r| {
+            let mut stop = stop_rx.clone();
+            tokio::spawn(r.with_clock(handle.clock()).run(
+                Duration::from_secs(3600),
+                |_| {},
+                async move {
+                    let _ = stop.wait_for(|s| *s).await;
+                },
+            ))
+        })
+        .collect();
+    let fleet = fleet::spawn(
+        vec![link],
+        ev_rx,
+        bandit_sim::fleet_config(SPEEDUP),
+        handle.clock(),
+    );
+    let state = bandit::new_state(&fleet, &def, Duration::from_secs(60), None)
+        .await
+        .unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let run = RunDir::create(
+        &tmp.path().join("run"),
+        RunMeta::new(bandit::KIND, 0),
+        Some(bandit_sim::HARDWARE_MISSION),
+    )
+    .unwrap();
+    let hub = bandit::image_hub(&fleet);
+    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
+    let label = name.to_string();
+    let printer = tokio::spawn(async move {
+        while let Some(l) = rx.recv().await {
+            println!("[{label} {:6.1} s] {l}", t0.elapsed().as_secs_f64());
+        }
+    });
+    let done = tokio::time::timeout(
+        Duration::from_secs(400),
+        bandit::run(
+            fleet.clone(),
+            &hub,
+            run,
+            state,
+            RunOptions {
+                progress: Some(tx),
+                ..RunOptions::default()
+            },
+        ),
+    )
+    .await
+    .unwrap_or_else(|_| panic!("{name}: the run did not finish within 400 s"))
+    .unwrap_or_else(|e| panic!("{name}: the run failed: {e:#}"));
+    fleet.shutdown().await;
+    let _ = stop_tx.send(true);
+    let mut stats = Vec::new();
+    for r in radios {
+        stats.push(r.await.unwrap());
+    }
+    let _ = handle.stop().await;
+    printer.abort();
+    let report = bandit_report::report(&done, Some(&green));
+    println!(
+        "{name}: {} epochs, {} measurements, {} images ignored, {} failed, {:.0} s of drone \
+         flight, wall {:.1} s; radios (up, down): {:?}",
+        report.epochs,
+        report.measurements,
+        done.ignored_images,
+        done.image_failures,
+        report.flight_time_s,
+        t0.elapsed().as_secs_f64(),
+        stats
+            .iter()
+            .map(|s| (
+                s.up.bytes_out,
+                s.up.rate_dropped,
+                s.down.bytes_out,
+                s.down.rate_dropped
+            ))
+            .collect::<Vec<_>>()
+    );
+    Flight {
+        keep_is_truth: done.is_finished() && done.bandit.keep() == green,
+        report,
+        radios: stats,
+    }
+}
+
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn hardware_mission_through_5000_byte_radios_measured_on_board() {
+    let open = fly("unlimited links", None).await;
+    assert!(open.keep_is_truth, "unlimited: keep is not the green tiles");
+    let radio = fly("5000 B/s radios", Some(5000)).await;
+    assert!(radio.keep_is_truth, "radios: keep is not the green tiles");
+    assert_eq!(radio.report.errors.as_deref(), Some(&[][..]));
+    assert_eq!(radio.radios.len(), 6);
+    assert!(
+        radio.report.epochs <= open.report.epochs,
+        "{} epochs through the radios, {} on unlimited links",
+        radio.report.epochs,
+        open.report.epochs
+    );
+    // The radios carried the run: every vehicle's link was used, and none carried more than
+    // its 5,000 bytes a second of simulated time (the vehicles' flight time bounds the run).
+    for s in &radio.radios {
+        assert!(s.down.bytes_out > 0 && s.up.bytes_out > 0, "{s:?}");
+    }
+}
