@@ -171,8 +171,6 @@ pub struct Intake {
     /// Requests for pictures to send to cameras.
     requests: VecDeque<((u8, u8), MavMessage)>,
     out: VecDeque<ReceivedImage>,
-    /// Pictures asked for because their on-board measurement could not be used.
-    pub pictures_requested: u64,
     /// Images that could not be read (file errors, lost transfers), with the reason.
     pub failures: VecDeque<String>,
 }
@@ -221,7 +219,6 @@ impl Intake {
         // Measured with another definition: measure the picture here. It arrives by image
         // transmission with the capture's name in its metadata, and takes this pose.
         self.remember_pose(key, pose);
-        self.pictures_requested += 1;
         self.requests
             .push_back((cam, picture_request(m.picture_bytes)));
     }
