@@ -19,56 +19,16 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use std::net::SocketAddr;
 use std::path::Path;
 use std::process::{Command, Stdio};
-use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::net::UdpSocket;
 
 mod common;
 use common::free_udp_port;
 use common::pty::bin;
+use common::router::{self, End};
 
 const GREEN: [u8; 3] = [40, 160, 50];
 const GREY: [u8; 3] = [128, 128, 128];
-
-/// A router as mavlink-router runs on a companion computer: whatever one endpoint sends goes
-/// to every other one. `vehicle` learns its peer from the first datagram (the simulated
-/// autopilot sends to it); the camera and the GCS listen at fixed addresses.
-async fn router(vehicle: UdpSocket, camera: SocketAddr, gcs: SocketAddr) -> SocketAddr {
-    let vehicle = Arc::new(vehicle);
-    let to_cam = Arc::new(UdpSocket::bind("127.0.0.1:0").await.unwrap());
-    let to_gcs = Arc::new(UdpSocket::bind("127.0.0.1:0").await.unwrap());
-    let vehicle_addr = vehicle.local_addr().unwrap();
-    let vehicle_peer: Arc<Mutex<Option<SocketAddr>>> = Arc::new(Mutex::new(None));
-    // (socket we hear on, the others: (socket to send from, fixed address or the vehicle's))
-    let ends: [(Arc<UdpSocket>, usize); 3] = [(vehicle, 0), (to_cam, 1), (to_gcs, 2)];
-    let socks: Vec<Arc<UdpSocket>> = ends.iter().map(|(s, _)| s.clone()).collect();
-    for (sock, me) in ends {
-        let socks = socks.clone();
-        let peer = vehicle_peer.clone();
-        tokio::spawn(async move {
-            let mut buf = vec![0u8; 65536];
-            while let Ok((n, from)) = sock.recv_from(&mut buf).await {
-                if me == 0 {
-                    *peer.lock().unwrap() = Some(from);
-                }
-                for (k, s) in socks.iter().enumerate() {
-                    if k == me {
-                        continue;
-                    }
-                    let to = match k {
-                        0 => *peer.lock().unwrap(),
-                        1 => Some(camera),
-                        _ => Some(gcs),
-                    };
-                    if let Some(to) = to {
-                        let _ = s.send_to(&buf[..n], to).await;
-                    }
-                }
-            }
-        });
-    }
-    vehicle_addr
-}
 
 fn picture(dir: &Path, name: &str, rgb: [u8; 3]) {
     RgbImage::from_pixel(64, 64, image::Rgb(rgb))
@@ -140,7 +100,13 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
 
     // the router, and a simulated ArduCopter without a camera of its own sending to it
     let vehicle_sock = UdpSocket::bind("127.0.0.1:0").await.unwrap();
-    let router_vehicle = router(vehicle_sock, cam_addr, gcs_addr).await;
+    let router_vehicle = vehicle_sock.local_addr().unwrap();
+    router::spawn(vec![
+        End::Learn(vehicle_sock),
+        End::Fixed(cam_addr),
+        End::Fixed(gcs_addr),
+    ])
+    .await;
     let mut cfg =
         SimConfig::from_spec("1xcopter:ardupilot", None, Some((37.195, -80.58)), 1).unwrap();
     cfg.vehicles[0].camera = None;

@@ -4,6 +4,10 @@
 //!   own, as several SITL instances or Wi-Fi drones do: every vehicle gets its telemetry
 //!   (the GCS answers each at the address it speaks from), acknowledges commands, and takes
 //!   a mission upload, all of them at once.
+//! * The same with a MAVLink router in between (as mavlink-router or MAVProxy `--out` merge
+//!   the vehicles): the GCS hears two copters from the router's one address, and telemetry,
+//!   commands, uploads and downloads work for each (docs/field-wiring.md, "A router in
+//!   between").
 //! * `fleetmap mission upload` started before the vehicles power up: the ArduPilot copter
 //!   heartbeats MAV_STATE_BOOT and refuses MISSION_COUNT with MAV_MISSION_NO_SPACE for its
 //!   first 2 s, the PX4 copter answers at once; both uploads succeed once they are ready.
@@ -22,26 +26,49 @@ use std::collections::HashSet;
 use std::time::{Duration, Instant};
 
 mod common;
+use common::router::{self, End};
 
 const HOME: (f64, f64) = (37.1968, -80.5781);
 
-/// A fleet listening on one loopback UDP port and the simulator serving `spec` to it, each
-/// vehicle from its own socket (`fleetmap sim --connect udpout:…`), at `speedup`.
-async fn one_port(spec: &str, speedup: f64) -> (FleetHandle, server::SimHandle) {
+/// How the vehicles reach the GCS's one UDP port.
+#[derive(Clone, Copy, PartialEq)]
+enum Wiring {
+    /// Each vehicle sends to it from its own socket (`fleetmap sim --connect udpout:…`).
+    Direct,
+    /// Each vehicle sends to its own port of a router, which sends everything on to the GCS
+    /// from one socket and everything from the GCS to every vehicle.
+    Router,
+}
+
+/// A fleet listening on one loopback UDP port and the simulator serving `spec` to it, wired
+/// as `wiring` says, at `speedup`.
+async fn one_port(spec: &str, speedup: f64, wiring: Wiring) -> (FleetHandle, server::SimHandle) {
     let listen: ConnSpec = "udpin:127.0.0.1:0".parse().unwrap();
     let f = fleet::start(&[listen], &LinkOptions::default(), FleetConfig::default())
         .await
         .unwrap();
     let gcs = f.links()[0].local.expect("the port the GCS listens on");
-    let sim = Sim::new(
-        SimConfig::from_spec(spec, None, Some(HOME), 11).unwrap(),
-        Time::ZERO,
-    )
-    .unwrap();
+    let cfg = SimConfig::from_spec(spec, None, Some(HOME), 11).unwrap();
+    let endpoints = match wiring {
+        Wiring::Direct => vec![server::Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
+        Wiring::Router => {
+            let mut ends = vec![End::Fixed(gcs)];
+            let mut endpoints = Vec::new();
+            for _ in &cfg.vehicles {
+                let s = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
+                let a = s.local_addr().unwrap();
+                endpoints.push(server::Endpoint::parse(&format!("udpout:{a}")).unwrap());
+                ends.push(End::Learn(s));
+            }
+            router::spawn(ends).await;
+            endpoints
+        }
+    };
+    let sim = Sim::new(cfg, Time::ZERO).unwrap();
     let served = server::spawn(
         sim,
         ServeOptions {
-            endpoints: vec![server::Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
+            endpoints,
             speed: fleetmap::sim::pace::Speed::Times(speedup),
             gcs: server::GcsClock::Wall,
             image_dir: None,
@@ -65,9 +92,9 @@ fn mission(k: u8) -> Vec<MissionItem> {
     v
 }
 
-async fn every_vehicle_works(spec: &str, n: u8) {
+async fn every_vehicle_works(spec: &str, n: u8, wiring: Wiring) {
     let t0 = Instant::now();
-    let (f, served) = one_port(spec, 5.0).await;
+    let (f, served) = one_port(spec, 5.0, wiring).await;
     // Each vehicle speaks from its own socket, bound to loopback like the GCS it talks to.
     let senders: HashSet<_> = served.bound.iter().map(|b| b.local).collect();
     assert_eq!(senders.len(), usize::from(n));
@@ -83,7 +110,9 @@ async fn every_vehicle_works(spec: &str, n: u8) {
     }
     tokio::time::sleep(Duration::from_millis(300)).await;
     let st = f.links()[0].status();
-    assert_eq!(st.peers.len(), usize::from(n), "peers {:?}", st.peers);
+    // Directly, one peer per vehicle; through a router, the router's one address.
+    let peers = if wiring == Wiring::Router { 1 } else { n };
+    assert_eq!(st.peers.len(), usize::from(peers), "peers {:?}", st.peers);
 
     // Commands and mission uploads, every vehicle at once.
     let mut tasks = Vec::new();
@@ -122,19 +151,31 @@ async fn every_vehicle_works(spec: &str, n: u8) {
         assert_eq!(stored.len() - home, 20, "vehicle {k}");
     }
     eprintln!(
-        "{n} vehicles on one UDP port: telemetry, commands and uploads in {:.1} s",
+        "{n} vehicles on one UDP port ({}): telemetry, commands and uploads in {:.1} s",
+        if wiring == Wiring::Router {
+            "through a router"
+        } else {
+            "directly"
+        },
         t0.elapsed().as_secs_f64()
     );
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn three_copters_on_one_udp_port() {
-    every_vehicle_works("3xcopter:ardupilot", 3).await;
+    every_vehicle_works("3xcopter:ardupilot", 3, Wiring::Direct).await;
+}
+
+/// docs/field-wiring.md's router row: an ArduPilot and a PX4 copter behind a MAVLink router
+/// that merges them onto one address, as mavlink-router and MAVProxy `--out` do.
+#[tokio::test(flavor = "multi_thread", worker_threads = 2)]
+async fn two_copters_behind_a_router() {
+    every_vehicle_works("1xcopter:ardupilot,1xcopter:px4", 2, Wiring::Router).await;
 }
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fifty_copters_on_one_udp_port() {
-    every_vehicle_works("25xcopter:ardupilot,25xcopter:px4", 50).await;
+    every_vehicle_works("25xcopter:ardupilot,25xcopter:px4", 50, Wiring::Direct).await;
 }
 
 /// `fleetmap mission upload` started before the simulator: it hears each vehicle's first

@@ -2,6 +2,8 @@
 
 #[allow(dead_code)] // not every test binary drives a pseudo-terminal
 pub mod pty;
+#[allow(dead_code)] // only the tests with a router between the GCS and the vehicles
+pub mod router;
 
 /// A UDP port on 127.0.0.1 that was free a moment ago (for a `fleetmap sim` to listen on).
 #[allow(dead_code)] // not every test binary starts a simulator process
