@@ -124,7 +124,7 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
         .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let run = RunDir::create(
-        &tmp.path().join("run"),
+        tmp.path().join("run"),
         RunMeta::new(bandit::KIND, 0),
         Some(bandit_sim::HARDWARE_MISSION),
     )
