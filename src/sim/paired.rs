@@ -325,9 +325,19 @@ impl PairedCameras {
                     }
                     return;
                 }
-                // commands from the autopilot itself are not taken: PX4 with the MAVLink
-                // trigger interface sends IMAGE_START_CAPTURE to component 100 *and* streams
-                // CAMERA_TRIGGER for the same picture
+                // PX4 1.16 passes a mission's interval capture (IMAGE_START_CAPTURE with an
+                // interval, or a count other than one) on to component 100 as a command of
+                // its own, and its camera_trigger module sends no CAMERA_TRIGGER for it: the
+                // camera takes those, and IMAGE_STOP_CAPTURE (seen on PX4 SIH with the 6×6
+                // mission: without this its drones' cameras took nothing).
+                MavMessage::COMMAND_LONG(c)
+                    if c.target_component == CAMERA_COMPID
+                        && (c.command == mav::MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE
+                            || (c.command == mav::MavCmd::MAV_CMD_IMAGE_START_CAPTURE
+                                && (c.param2 > 0.0 || c.param3 != 1.0))) => {}
+                // other commands from the autopilot itself are not taken: PX4 with the
+                // MAVLink trigger interface sends a single IMAGE_START_CAPTURE to component
+                // 100 *and* streams CAMERA_TRIGGER for the same picture
                 _ => return,
             }
         }
@@ -883,6 +893,53 @@ mod tests {
             Time::from_secs(1),
         );
         assert!(cams.sysids().is_empty());
+    }
+
+    /// PX4 1.16 passes a mission's interval capture on to the camera as a command from the
+    /// autopilot (component 1) and sends no CAMERA_TRIGGER for it: the camera takes it. A
+    /// single shot from the autopilot comes with a CAMERA_TRIGGER and is not taken twice.
+    #[test]
+    fn px4_interval_captures_from_the_autopilot_are_taken() {
+        let capture = |interval: f32, count: f32| {
+            MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+                param2: interval,
+                param3: count,
+                command: mav::MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+                target_system: 3,
+                target_component: CAMERA_COMPID,
+                ..mav::COMMAND_LONG_DATA::default()
+            })
+        };
+        let captured = |msgs: &[MavMessage]| {
+            msgs.iter()
+                .filter(|m| matches!(m, MavMessage::CAMERA_IMAGE_CAPTURED(_)))
+                .count()
+        };
+        let mut cams = PairedCameras::new(flat(), small(), 1);
+        cams.handle_message(
+            &AP,
+            &heartbeat(mav::MavAutopilot::MAV_AUTOPILOT_PX4),
+            Time::from_secs(1),
+        );
+        let _ = sent(&mut cams);
+        let mut shots = 0;
+        for (k, (interval, count)) in [(0.0, 1.0), (0.5, 3.0)].into_iter().enumerate() {
+            let t0 = Time::from_secs(2 + 10 * k as u64);
+            cams.handle_message(&AP, &position(2000 + 10_000 * k as u32), t0);
+            cams.handle_message(&AP, &capture(interval, count), t0);
+            for i in 0..40u64 {
+                let t = t0 + Duration::from_millis(50 * i);
+                cams.handle_message(&AP, &position(2000 + 10_000 * k as u32 + 50 * i as u32), t);
+                cams.step(t);
+            }
+            shots += captured(&sent(&mut cams));
+            // the single shot is not taken (its CAMERA_TRIGGER is); the interval one is
+            assert_eq!(
+                shots,
+                if k == 0 { 0 } else { 3 },
+                "after {interval} s × {count}"
+            );
+        }
     }
 
     #[test]
