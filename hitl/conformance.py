@@ -7,6 +7,7 @@ autopilot (ArduPilot SITL, PX4 SITL, a vehicle on the bench).
     hitl/conformance.py tcp:127.0.0.1:5762 --sysid 1    # an ArduPilot SITL's SERIAL1
     hitl/conformance.py udpout:127.0.0.1:18570          # a PX4 SITL's GCS port
     hitl/conformance.py tcp:127.0.0.1:5760 --checks files --missions DIR --fly 3   # mission files
+    hitl/conformance.py --checks bandit-fleet --ardupilot DIR --speedup 5           # a SITL team
 
 Everything goes through `fleetmap relay` (a lossy MAVLink relay) between fleetmap and the
 vehicle, so the checks at 0, 30 and 50 % loss see the real autopilot's behaviour over a poor
@@ -35,6 +36,27 @@ radio. Each check prints one line; `--json FILE` writes them all. The checks:
             first difference or error. With --fly N, the first N verified files whose first
             position is within --fly-radius of the vehicle are flown with `fleetmap mission fly`.
             A table (file, items, verified, flown, error) is printed and goes into --json.
+  bandit-fleet  (not run by default; needs no target) the spatial-classification mission
+            (--mission, default missions/hardware-6x6.toml over assets/worlds/hardware-6x6.toml)
+            on a team of SITL autopilots this runner starts, each at the start cell the mission
+            gives it: --team lists them in the order of the mission's vehicles (arducopter or
+            px4 drones, ardurover stations; default 4xarducopter,2xardurover). ArduPilot comes
+            from --ardupilot DIR (build/sitl/bin/arducopter, ardurover and
+            Tools/autotest/default_params), PX4 SIH from --px4 DIR (build/px4_sitl_default);
+            every SITL runs at --speedup with BATT_CAPACITY --battery-mah (PX4: SIM_BAT_DRAIN
+            --px4-battery-s) and no stream-rate parameter. Every vehicle sends to one GCS UDP
+            port (--wiring shared) or each to its own (per-vehicle: one --connect each); the
+            copters' camera port (ArduPilot SERIAL1, PX4's payload link) goes to one
+            `fleetmap camera --source render --mission M` (measures on board; --camera-pictures:
+            pushes every picture instead). Then `fleetmap run M --headless --auto-resume
+            --tlog` to its end. One row: wiring, team, epochs, samples (measurements counted),
+            pictures sent / lost by image transmission (0 / 0 when the camera measures on
+            board), seconds per epoch on the wall clock and on the vehicles' clock
+            (time_boot_ms), the longest drone flight of each epoch by the autopilots' own
+            reports (landed state, vehicle clock), keep / reject / unclassified, errors,
+            result (pass: the run finished, keep = the world's interesting cells, nothing
+            unclassified, no labelling error). The figures beyond fleetmap's report come from
+            the GCS's .tlog; the row is printed as a Markdown table row and goes into --json.
 
 Only standard-library Python; the binary is $FLEETMAP (default: fleetmap on the PATH, else
 target/debug/fleetmap). Run it against simulators, or real vehicles in a safe open area only:
@@ -42,15 +64,19 @@ target/debug/fleetmap). Run it against simulators, or real vehicles in a safe op
 """
 
 import argparse
+import bisect
 import json
 import math
 import os
+import re
 import shutil
 import signal
 import socket
+import struct
 import subprocess
 import sys
 import tempfile
+import threading
 import time
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -85,9 +111,9 @@ def offset(lat, lon, north, east):
 class Proc:
     """A background process whose output goes to a log file."""
 
-    def __init__(self, args, log):
+    def __init__(self, args, log, cwd=None, env=None):
         self.log = open(log, "w")
-        self.p = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT)
+        self.p = subprocess.Popen(args, stdout=self.log, stderr=subprocess.STDOUT, cwd=cwd, env=env)
 
     def stop(self, sig=signal.SIGINT):
         if self.p.poll() is None:
@@ -491,8 +517,8 @@ def runway_check(checks):
     work = os.path.join(b.work, "runway")
     os.makedirs(work, exist_ok=True)
     run_dir = os.path.join(work, "run")
-    world = os.path.abspath(args.world)
-    mission = os.path.abspath(args.mission)
+    world = os.path.abspath(args.world or os.path.join(REPO, "assets", "worlds", "runway.toml"))
+    mission = os.path.abspath(args.mission or os.path.join(REPO, "missions", "runway-field-test.toml"))
     t0 = time.monotonic()
     extra = []
     if b.sim is not None:
@@ -579,19 +605,402 @@ def runway_check(checks):
     return checks.record("runway", ok, detail, secs, iou=iou, iou_best_possible=best, killed=killed)
 
 
+
+# ---------------------------------------------------------------------------------------------
+# bandit-fleet: the spatial-classification mission on a team of real autopilots (SITL)
+
+# Team kinds: what each runs as, and what role it can take in the mission.
+FLEET_KINDS = {"arducopter": "drone", "px4": "drone", "ardurover": "station"}
+
+
+def parse_team(spec):
+    """`4xarducopter,2xardurover` → ["arducopter"] * 4 + ["ardurover"] * 2 (in order)."""
+    team = []
+    for part in spec.split(","):
+        part = part.strip()
+        if not part:
+            continue
+        n, x, kind = part.partition("x")
+        if not x or not n.isdigit():
+            n, kind = "1", part
+        if kind not in FLEET_KINDS:
+            sys.exit(f"--team: unknown kind {kind!r} (arducopter, px4, ardurover)")
+        team += [kind] * int(n)
+    return team
+
+
+def cell_centre(origin, cell_m, cell):
+    """(lat, lon) of the centre of cell (row, col), from `fleetmap grid to-gps` (the GCS's own
+    grid, UTM-aligned)."""
+    code, out, err, _ = run(["grid", "--origin", f"{origin[0]},{origin[1]}", "--cell-size", str(cell_m),
+                             "to-gps", str(cell[0]), str(cell[1])], timeout=30)
+    if code != 0:
+        sys.exit(f"fleetmap grid: {last_line(err)}")
+    o = json.loads(last_line(out))
+    return o["lat"], o["lon"]
+
+
+def mavlink_frames(path):
+    """Every frame of a .tlog as (unix seconds, sysid, compid, msgid, payload); MAVLink 1 and 2,
+    payloads as sent (MAVLink 2 trims trailing zeros: pad before unpacking)."""
+    try:
+        data = open(path, "rb").read()
+    except OSError:
+        return
+    i, n = 0, len(data)
+    while i + 8 < n:
+        (ts,) = struct.unpack_from(">Q", data, i)
+        i += 8
+        magic = data[i]
+        if magic == 0xFD and i + 10 <= n:
+            ln, incompat = data[i + 1], data[i + 2]
+            sysid, compid = data[i + 5], data[i + 6]
+            msgid = data[i + 7] | data[i + 8] << 8 | data[i + 9] << 16
+            payload = data[i + 10:i + 10 + ln]
+            i += 12 + ln + (13 if incompat & 1 else 0)
+        elif magic == 0xFE and i + 6 <= n:
+            ln = data[i + 1]
+            sysid, compid, msgid = data[i + 3], data[i + 4], data[i + 5]
+            payload = data[i + 6:i + 6 + ln]
+            i += 8 + ln
+        else:
+            return  # not a record boundary: the file is damaged from here
+        yield ts / 1e6, sysid, compid, msgid, payload
+
+
+def tlog_figures(path, drones, epochs):
+    """What the autopilots and the camera said during the run, from the GCS's .tlog:
+    per epoch (wall-clock spans `epochs` = [(epoch, t0, t1)]) the vehicle time that passed
+    (the drones' time_boot_ms) and the drones' time in the air by their own reports
+    (EXTENDED_SYS_STATE landed state, else armed in HEARTBEAT), on the vehicle clock; the
+    camera's captures, on-board measurements and pictures (image transmission: announced,
+    complete); the lowest battery and the charge states each drone reported."""
+    pad = lambda p, k: p + bytes(max(0, k - len(p)))
+    clock = {s: [] for s in drones}          # sysid → [(wall, time_boot_s)]
+    in_air = {s: False for s in drones}
+    has_landed_state = set()
+    flights = {s: [] for s in drones}        # sysid → [(wall, seconds in the air since last sample)]
+    last_boot = {}
+    captures, onboard = set(), 0
+    pictures = {}                            # (sysid, size) → [packets, set of seqnr]
+    current = {}                             # sysid → the picture being received
+    requests = 0
+    battery = {s: None for s in drones}
+    charge_states = {s: set() for s in drones}
+    for ts, sysid, compid, msgid, p in mavlink_frames(path):
+        if sysid == 255:
+            if msgid == 130:  # a GCS asking a camera for a picture again
+                requests += 1
+            continue
+        if msgid == 263 and compid == 100:  # CAMERA_IMAGE_CAPTURED
+            time_boot, image_index = struct.unpack_from("<I", pad(p, 255), 8)[0], \
+                struct.unpack_from("<i", pad(p, 255), 44)[0]
+            captures.add((sysid, time_boot, image_index))
+        elif msgid == 350 and compid == 100:  # DEBUG_FLOAT_ARRAY: an on-board measurement
+            onboard += 1
+        elif msgid == 130 and compid == 100:  # DATA_TRANSMISSION_HANDSHAKE: a picture follows
+            size, _, _, packets = struct.unpack_from("<IHHH", pad(p, 13), 0)
+            if size > 0 and packets > 0:
+                pictures.setdefault((sysid, size), [packets, set()])
+                current[sysid] = (sysid, size)
+        elif msgid == 131 and sysid in current:  # ENCAPSULATED_DATA
+            pictures[current[sysid]][1].add(struct.unpack_from("<H", pad(p, 2), 0)[0])
+        if sysid not in clock or compid != 1:
+            continue
+        if msgid == 0:  # HEARTBEAT
+            if sysid not in has_landed_state:
+                in_air[sysid] = bool(pad(p, 9)[6] & 128)
+        elif msgid == 245:  # EXTENDED_SYS_STATE
+            has_landed_state.add(sysid)
+            in_air[sysid] = pad(p, 2)[1] in (2, 3, 4)
+        elif msgid == 1:  # SYS_STATUS
+            pct = struct.unpack_from("<b", pad(p, 31), 30)[0]
+            if pct >= 0:
+                battery[sysid] = pct if battery[sysid] is None else min(battery[sysid], pct)
+        elif msgid == 147:  # BATTERY_STATUS
+            charge_states[sysid].add(pad(p, 41)[40])
+        elif msgid == 33:  # GLOBAL_POSITION_INT
+            boot = struct.unpack_from("<I", pad(p, 4), 0)[0] / 1000.0
+            clock[sysid].append((ts, boot))
+            if sysid in last_boot and in_air[sysid] and boot > last_boot[sysid]:
+                flights[sysid].append((ts, boot - last_boot[sysid]))
+            last_boot[sysid] = boot
+    per_epoch = []
+    for epoch, t0, t1 in epochs:
+        spans, air = [], []
+        for s in drones:
+            c = clock[s]
+            walls = [w for w, _ in c]
+            a, b = bisect.bisect_left(walls, t0), bisect.bisect_right(walls, t1) - 1
+            if 0 <= a < len(c) and a < b:
+                spans.append(c[b][1] - c[a][1])
+            air.append(sum(d for w, d in flights[s] if t0 <= w <= t1))
+        per_epoch.append({"epoch": epoch, "wall_s": round(t1 - t0, 1),
+                          "vehicle_s": round(sum(spans) / len(spans), 1) if spans else None,
+                          "flight_max_s": round(max(air), 1) if air else None,
+                          "flight_total_s": round(sum(air), 1)})
+    lost = sum(1 for packets, got in pictures.values() if len(got) < packets)
+    return {"per_epoch": per_epoch, "captures": len(captures), "onboard_measurements": onboard,
+            "pictures_sent": len(pictures), "pictures_lost": lost, "picture_requests": requests,
+            "lowest_battery_pct": battery,
+            "charge_states": {s: sorted(v) for s, v in charge_states.items()}}
+
+
+class Team:
+    """The SITL autopilots of a bandit-fleet check, each at the start cell the mission gives
+    it: ArduCopter / ArduRover SITL (`--ardupilot DIR`: a build tree with build/sitl/bin and
+    Tools/autotest/default_params) with SERIAL0 to the GCS and a copter's SERIAL1 to the
+    camera; PX4 SIH (`--px4 DIR`: a tree with build/px4_sitl_default) with its GCS link to the
+    GCS and its payload link to the camera. Every vehicle sends to a GCS UDP port (one for
+    all with `--wiring shared`, one each with `per-vehicle`); the GCS listens (udpin)."""
+
+    def __init__(self, args, work, members, gcs_ports, camera_port, ground_alt):
+        self.procs = []
+        self.work = work
+        self.args = args
+        self.ground_alt = ground_alt    # the world's ground, metres above sea level (homes)
+        self.members = members          # [(sysid, kind, (lat, lon))]
+        for i, (sysid, kind, (lat, lon)) in enumerate(members):
+            gcs = gcs_ports[i]
+            if kind == "px4":
+                self.start_px4(sysid, lat, lon, gcs, camera_port)
+            else:
+                self.start_ardupilot(sysid, kind, lat, lon, gcs, camera_port)
+
+    def start_ardupilot(self, sysid, kind, lat, lon, gcs, camera):
+        root = self.args.ardupilot
+        if not root:
+            sys.exit("an ArduPilot team member needs --ardupilot DIR (an ArduPilot tree built for SITL)")
+        copter = kind == "arducopter"
+        binary = os.path.join(root, "build", "sitl", "bin", kind)
+        defaults = os.path.join(root, "Tools", "autotest", "default_params",
+                                "copter.parm" if copter else "rover.parm")
+        for f in (binary, defaults):
+            if not os.path.exists(f):
+                sys.exit(f"--ardupilot {root}: no {f}")
+        d = os.path.join(self.work, f"vehicle{sysid}")
+        os.makedirs(d, exist_ok=True)
+        extra = os.path.join(d, "fleet.parm")
+        # No stream-rate parameters: the GCS asks for what it needs. A copter takes pictures
+        # through a MAVLink camera (CAM1_TYPE 1, with CAM2_TYPE 0 beside it: see hitl/README.md).
+        lines = [f"MAV_SYSID {sysid}", f"BATT_CAPACITY {self.args.battery_mah}"]
+        if copter:
+            lines += ["CAM1_TYPE 1", "CAM2_TYPE 0"]
+        open(extra, "w").write("\n".join(lines) + "\n")
+        cmd = [binary, "--model", "+" if copter else "rover", "--speedup", f"{self.args.speedup:g}",
+               "-I", str(self.args.instance_base + sysid), "--home", f"{lat:.8f},{lon:.8f},{self.ground_alt},0",
+               "--defaults", f"{defaults},{extra}", "--serial0", f"udpclient:127.0.0.1:{gcs}"]
+        if copter:
+            cmd += ["--serial1", f"udpclient:127.0.0.1:{camera}"]
+        self.procs.append(Proc(cmd, os.path.join(d, "sitl.log"), cwd=d))
+
+    def start_px4(self, sysid, lat, lon, gcs, camera):
+        root = self.args.px4
+        if not root:
+            sys.exit("a PX4 team member needs --px4 DIR (a PX4-Autopilot tree built with make px4_sitl_default)")
+        build = os.path.join(root, "build", "px4_sitl_default")
+        etc = os.path.join(build, "etc")
+        binary = os.path.join(build, "bin", "px4")
+        if not os.path.exists(binary):
+            sys.exit(f"--px4 {root}: no {binary}")
+        instance = self.args.instance_base + sysid
+        d = os.path.join(self.work, f"vehicle{sysid}")
+        os.makedirs(d, exist_ok=True)
+        # Copies of two start-up scripts: the system id (rcS sets instance + 1), the GCS link
+        # sent to the GCS's port and the camera (payload) link to the camera's.
+        rcs = open(os.path.join(etc, "init.d-posix", "rcS")).read()
+        rcs = rcs.replace("param set MAV_SYS_ID $((px4_instance+1))", f"param set MAV_SYS_ID {sysid}")
+        rcs = rcs.replace("\n. px4-rc.mavlink\n", f"\n. {d}/px4-rc.mavlink\n")
+        links = open(os.path.join(etc, "init.d-posix", "px4-rc.mavlink")).read()
+        links = links.replace("mavlink start -x -u $udp_gcs_port_local -r 4000000 -f\n",
+                              f"mavlink start -x -u $udp_gcs_port_local -r 4000000 -f -o {gcs}\n")
+        links = links.replace("-o $udp_onboard_payload_port_remote", f"-o {camera}")
+        if f"MAV_SYS_ID {sysid}" not in rcs or f"-o {gcs}" not in links or f"-o {camera}" not in links:
+            sys.exit(f"--px4 {root}: its rcS / px4-rc.mavlink are not the ones this runner knows (v1.16)")
+        open(os.path.join(d, "rcS"), "w").write(rcs)
+        open(os.path.join(d, "px4-rc.mavlink"), "w").write(links)
+        env = dict(os.environ, PX4_SYS_AUTOSTART="10040", PX4_SIMULATOR="sihsim", PX4_SIM_MODEL="quadx",
+                   PX4_SIM_SPEED_FACTOR=f"{self.args.px4_speedup or self.args.speedup:g}",
+                   PX4_HOME_LAT=f"{lat:.8f}", PX4_HOME_LON=f"{lon:.8f}", PX4_HOME_ALT=str(self.ground_alt),
+                   # pictures through a MAVLink camera at each capture item; a battery that
+                   # lasts the run (SIH drains to SIM_BAT_MIN_PCT in SIM_BAT_DRAIN seconds)
+                   PX4_PARAM_TRIG_MODE="1", PX4_PARAM_TRIG_INTERFACE="3",
+                   PX4_PARAM_SIM_BAT_DRAIN=str(self.args.px4_battery_s))
+        self.procs.append(Proc([binary, "-i", str(instance), "-d", "-w", d, "-s", os.path.join(d, "rcS"), etc],
+                               os.path.join(d, "px4.log"), cwd=d, env=env))
+
+    def close(self):
+        for p in self.procs:
+            p.stop(signal.SIGTERM)
+
+
+def bandit_fleet_check(checks, work):
+    """The spatial-classification mission on a team of SITL autopilots with the camera
+    process and `fleetmap run`, to its end: one row (see the module's docstring)."""
+    import tomllib  # Python 3.11; only this check reads TOML
+    args = checks.args
+    work = os.path.join(work, "bandit-fleet")
+    os.makedirs(work, exist_ok=True)
+    mission = os.path.abspath(args.mission or os.path.join(REPO, "missions", "hardware-6x6.toml"))
+    world = os.path.abspath(args.world or os.path.join(REPO, "assets", "worlds", "hardware-6x6.toml"))
+    definition = tomllib.load(open(mission, "rb"))
+    ground_alt = tomllib.load(open(world, "rb")).get("ground_alt_amsl_m", 0.0)
+    team = parse_team(args.team)
+    vehicles = definition.get("vehicles", [])
+    if len(team) != len(vehicles):
+        return checks.record("bandit-fleet", False, f"--team has {len(team)} vehicles, the mission "
+                             f"{len(vehicles)}", 0)
+    origin = definition["grid"]["origin"]
+    origin = (origin["lat"], origin["lon"])
+    members = []
+    for kind, v in zip(team, vehicles):
+        role = v.get("role", "drone")
+        if FLEET_KINDS[kind] != role:
+            return checks.record("bandit-fleet", False, f"--team: vehicle {v['sysid']} is a {role} in the "
+                                 f"mission, not a {kind}", 0)
+        members.append((v["sysid"], kind, cell_centre(origin, definition["grid"]["cell_size_m"], v["start"])))
+    drones = [s for s, k, _ in members if FLEET_KINDS[k] == "drone"]
+    names = {"arducopter": "ArduCopter", "ardurover": "ArduRover", "px4": "PX4 SIH"}
+    team_label = " + ".join(f"{team.count(k)} {names[k]}" for k in dict.fromkeys(team))
+    shared = args.wiring == "shared"
+    if shared:
+        gcs_ports = [free_udp_port()] * len(members)
+    else:
+        gcs_ports = [free_udp_port() for _ in members]
+    camera_port = free_udp_port()
+    run_dir = os.path.join(work, "run")
+    tlog = os.path.join(work, "gcs.tlog")
+    t0 = time.monotonic()
+    fleet = camera = gcs = None
+    lines = []  # (unix time, line) of the GCS's output
+
+    def read_lines(stream, log):
+        for line in stream:
+            lines.append((time.time(), line.rstrip("\n")))
+            log.write(line)
+            log.flush()
+            if re.search(r"epoch \d+ done|every cell classified|run finished", line):
+                print(f"  | {line.rstrip()}", flush=True)
+
+    result, stopped, err_lines = None, False, []
+    try:
+        fleet = Team(args, work, members, gcs_ports, camera_port, ground_alt)
+        # The camera measures on board (the mission's definition) and sends 52 bytes a picture;
+        # with --camera-pictures it pushes every picture instead (image transmission).
+        measure = [] if args.camera_pictures else ["--mission", mission]
+        camera = Proc([args.camera_bin or BIN, "camera", "--source", "render", "--world", world, *measure,
+                       "--image-rate", str(args.image_rate), "--connect", f"udpin:127.0.0.1:{camera_port}"],
+                      os.path.join(work, "camera.log"))
+        conns = []
+        for p in dict.fromkeys(gcs_ports):
+            conns += ["--connect", f"udpin:127.0.0.1:{p}"]
+        cmd = [BIN, "run", mission, *conns, "--world", world, "--headless", "--auto-resume",
+               "--run-dir", run_dir, "--tlog", tlog, "--wait", str(args.fleet_wait)]
+        gcs_log = open(os.path.join(work, "run.log"), "w")
+        gcs = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+        reader = threading.Thread(target=read_lines, args=(gcs.stdout, gcs_log), daemon=True)
+        reader.start()
+        err_reader = threading.Thread(target=lambda: err_lines.extend(gcs.stderr), daemon=True)
+        err_reader.start()
+        try:
+            result = gcs.wait(timeout=args.fleet_timeout)
+        except subprocess.TimeoutExpired:
+            result = None
+        except (KeyboardInterrupt, SystemExit):
+            # stopped (Ctrl-C, SIGTERM): the row still says how far the run got
+            result, stopped = None, True
+        reader.join(timeout=5)
+        err_reader.join(timeout=5)
+    finally:
+        if gcs is not None and gcs.poll() is None:
+            gcs.send_signal(signal.SIGINT)
+            try:
+                gcs.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                gcs.kill()
+        if camera:
+            camera.stop()
+        if fleet:
+            fleet.close()
+    secs = time.monotonic() - t0
+    open(os.path.join(work, "run.err"), "w").write("".join(err_lines))
+    # The epochs' wall-clock spans, from the GCS's progress lines.
+    starts, ends = {}, {}
+    for t, line in lines:
+        m = re.search(r"\] epoch (\d+): goals", line)
+        if m:
+            starts.setdefault(int(m.group(1)), t)
+        m = re.search(r"\] epoch (\d+) done:", line)
+        if m:
+            ends[int(m.group(1))] = t
+    spans = [(e, starts[e], ends[e]) for e in sorted(ends) if e in starts]
+    figures = tlog_figures(tlog, drones, spans)
+    row = {"wiring": "one port" if shared else "one port per vehicle", "team": team_label,
+           "camera": "pictures" if args.camera_pictures else "on board",
+           "speedup": args.speedup, "seconds": round(secs, 1), "exit": result, **figures}
+    code, out, err, _ = run(["report", run_dir, "--world", world, "--json"], timeout=120)
+    try:
+        rep = json.loads(out)
+    except ValueError:
+        rep = {}
+    keep = sorted(map(tuple, rep.get("keep", [])))
+    truth = sorted(map(tuple, rep.get("interesting_truth", [])))
+    row.update(epochs=rep.get("epochs"), samples=rep.get("measurements"), keep=keep,
+               reject=len(rep.get("reject", [])), unclassified=len(rep.get("unclassified", [])),
+               labelling_errors=len(rep.get("errors", [])), fleetmap_flight_s_per_epoch=[
+                   round(x, 1) for x in rep.get("flight_seconds_per_epoch", [])])
+    if stopped:
+        error = f"stopped after {secs:.0f} s"
+    elif result is None:
+        error = f"not finished within {args.fleet_timeout} s"
+    elif result != 0:
+        error = f"the run exited {result}: " + fleetmap_error("".join(err_lines), result)
+    elif not rep:
+        error = f"report: {last_line(err)}"
+    else:
+        error = ""
+    ok = (not error and rep.get("finished") and keep == truth and row["unclassified"] == 0
+          and row["labelling_errors"] == 0)
+    row["error"] = error
+    row["result"] = "pass" if ok else "fail"
+    epochs = "; ".join(
+        f"{e['wall_s']:.0f} s ({e['vehicle_s']:.0f} s vehicle, flight {e['flight_max_s']:.0f} s)"
+        if e["vehicle_s"] is not None else f"{e['wall_s']:.0f} s" for e in figures["per_epoch"])
+    detail = (f"{row['wiring']}, {team_label}, ×{args.speedup:g}: {row['epochs']} epoch(s), "
+              f"{row['samples']} samples, pictures {figures['pictures_sent']}/{figures['pictures_lost']} "
+              f"sent/lost ({figures['onboard_measurements']} measured on board of {figures['captures']} "
+              f"captures); per epoch {epochs or '-'}; keep {len(keep)} reject {row['reject']} unclassified "
+              f"{row['unclassified']}; errors: {error or 'none'}, {row['labelling_errors']} labelling; "
+              f"work {work}")
+    # The row as docs/results/conformance.md tabulates it.
+    per = figures["per_epoch"]
+    cells = [row["wiring"], f"{team_label}, ×{args.speedup:g}", str(row["epochs"]), str(row["samples"]),
+             f"{figures['pictures_sent']} / {figures['pictures_lost']}",
+             ", ".join(f"{e['wall_s']:.0f} ({e['vehicle_s']:.0f})" if e["vehicle_s"] is not None
+                       else f"{e['wall_s']:.0f}" for e in per) or "-",
+             ", ".join(f"{e['flight_max_s']:.0f}" for e in per) or "-",
+             f"{len(keep)} / {row['reject']} / {row['unclassified']}",
+             error or f"none ({row['labelling_errors']} labelling)", row["result"]]
+    print("| " + " | ".join(cells) + " |", flush=True)
+    return checks.record("bandit-fleet", bool(ok), detail, secs, row=row)
+
+
 def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("target", help="sim:ardupilot-copter | sim:ardupilot-rover | sim:px4-copter | a connection string")
+    ap.add_argument("target", nargs="?",
+                    help="sim:ardupilot-copter | sim:ardupilot-rover | sim:px4-copter | a connection string "
+                         "(none for --checks bandit-fleet, which starts its own team)")
     ap.add_argument("--sysid", type=int, default=1)
     ap.add_argument("--checks", default="ready,boot,transfer,fly,signing")
     ap.add_argument("--items", type=int, default=100, help="mission items per round trip")
     ap.add_argument("--trials", type=int, default=3, help="round trips per loss level")
     ap.add_argument("--losses", default="0,30,50", help="loss levels, percent each way")
-    ap.add_argument("--speedup", type=float, default=1.0, help="simulator speed (sim: targets only)")
-    ap.add_argument("--world", default=os.path.join(REPO, "assets", "worlds", "runway.toml"),
-                    help="runway check: the simulated world")
-    ap.add_argument("--mission", default=os.path.join(REPO, "missions", "runway-field-test.toml"),
-                    help="runway check: the mission file")
+    ap.add_argument("--speedup", type=float, default=1.0,
+                    help="simulator speed (sim: targets), the SITLs' --speedup (bandit-fleet)")
+    ap.add_argument("--world", help="runway, bandit-fleet checks: the simulated world "
+                    "(default: assets/worlds/runway.toml, hardware-6x6.toml)")
+    ap.add_argument("--mission", help="runway, bandit-fleet checks: the mission file "
+                    "(default: missions/runway-field-test.toml, hardware-6x6.toml)")
     ap.add_argument("--camera-link", help="runway check on a real autopilot: where its camera port sends")
     ap.add_argument("--image-rate", type=int, default=60000, help="runway check: camera bytes per second")
     ap.add_argument("--runway-speedup", type=float, default=10.0, help="runway check on a simulator: its speed")
@@ -602,6 +1011,31 @@ def main():
     ap.add_argument("--fly-radius", type=float, default=2000.0, metavar="METRES",
                     help="files check: fly only files whose first position is this close to the vehicle")
     ap.add_argument("--fly-timeout", type=int, default=900, help="files check: seconds per flight")
+    ap.add_argument("--team", default="4xarducopter,2xardurover",
+                    help="bandit-fleet: the autopilots, in the order of the mission's vehicles "
+                         "(arducopter, px4 drones; ardurover stations), e.g. 2xpx4,2xarducopter,2xardurover")
+    ap.add_argument("--wiring", choices=["shared", "per-vehicle"], default="shared",
+                    help="bandit-fleet: every vehicle to one GCS UDP port, or one port (and --connect) each")
+    ap.add_argument("--ardupilot", metavar="DIR",
+                    help="bandit-fleet: an ArduPilot tree built for SITL (build/sitl/bin/arducopter, "
+                         "ardurover; Tools/autotest/default_params)")
+    ap.add_argument("--px4", metavar="DIR",
+                    help="bandit-fleet: a PX4-Autopilot tree built with make px4_sitl_default (SIH)")
+    ap.add_argument("--px4-speedup", type=float, help="bandit-fleet: PX4 SIH's speed (default --speedup)")
+    ap.add_argument("--battery-mah", type=int, default=30000,
+                    help="bandit-fleet: ArduPilot BATT_CAPACITY (a SITL battery never charges)")
+    ap.add_argument("--px4-battery-s", type=int, default=7200,
+                    help="bandit-fleet: PX4 SIM_BAT_DRAIN, seconds (a SITL battery never charges)")
+    ap.add_argument("--instance-base", type=int, default=20,
+                    help="bandit-fleet: SITL instance = this + system id (ports, working files)")
+    ap.add_argument("--camera-pictures", action="store_true",
+                    help="bandit-fleet: the camera sends every picture (image transmission, --image-rate) "
+                         "instead of measuring on board")
+    ap.add_argument("--camera-bin", metavar="PATH",
+                    help="bandit-fleet: the fleetmap binary that plays the camera (default: $FLEETMAP)")
+    ap.add_argument("--fleet-wait", type=int, default=180,
+                    help="bandit-fleet: the GCS waits this long for every vehicle (`run --wait`)")
+    ap.add_argument("--fleet-timeout", type=int, default=7200, help="bandit-fleet: seconds")
     ap.add_argument("--power-cycle", metavar="CMD",
                     help="shell command that power-cycles the vehicle (default: MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN)")
     ap.add_argument("--json", help="write the results here")
@@ -610,27 +1044,38 @@ def main():
     # A runner stopped with SIGTERM (or Ctrl-C) still stops what it started (the finally below).
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     args.losses = [int(x) for x in args.losses.split(",") if x.strip()]
-    work = tempfile.mkdtemp(prefix="fleetmap-conformance.")
-    bench = Bench(args.target, args.sysid, work, args.speedup)
-    checks = Checks(bench, args)
     order = [c.strip() for c in args.checks.split(",") if c.strip()]
-    unknown = [c for c in order if c != "runway" and (not hasattr(checks, c) or c.startswith("_"))]
+    own = ("runway", "bandit-fleet")
+    unknown = [c for c in order if c not in own and (not hasattr(Checks, c) or c.startswith("_"))]
     if unknown:
         sys.exit(f"unknown check(s): {', '.join(unknown)}")
-    print(f"conformance: {args.target} (system {args.sysid}), fleetmap {BIN}, work {work}", flush=True)
+    # bandit-fleet starts its own team: a target is needed only for the other checks.
+    needs_target = any(c != "bandit-fleet" for c in order)
+    if needs_target and not args.target:
+        sys.exit("give a target (sim:ardupilot-copter, a connection string), or only --checks bandit-fleet")
+    work = tempfile.mkdtemp(prefix="fleetmap-conformance.")
+    bench = Bench(args.target, args.sysid, work, args.speedup) if needs_target else None
+    checks = Checks(bench, args)
+    if bench:
+        print(f"conformance: {args.target} (system {args.sysid}), fleetmap {BIN}, work {work}", flush=True)
+    else:
+        print(f"conformance: team {args.team}, wiring {args.wiring}, fleetmap {BIN}, work {work}", flush=True)
     try:
-        if order and order[0] != "ready":
+        if bench and order and order[0] != "ready":
             checks.ready()
         for c in order:
             if c == "runway":
                 runway_check(checks)
+            elif c == "bandit-fleet":
+                bandit_fleet_check(checks, work)
             else:
                 getattr(checks, c)()
     finally:
-        bench.close()
+        if bench:
+            bench.close()
     ok = all(r["pass"] for r in checks.results)
-    report = {"target": args.target, "autopilot": bench.autopilot, "sysid": args.sysid, "pass": ok,
-              "checks": checks.results, "work": work}
+    report = {"target": args.target, "autopilot": bench.autopilot if bench else args.team,
+              "sysid": args.sysid, "pass": ok, "checks": checks.results, "work": work}
     if args.json:
         with open(args.json, "w") as f:
             json.dump(report, f, indent=1)

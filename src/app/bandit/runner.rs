@@ -100,9 +100,9 @@ impl Runner {
             let v = snap
                 .get(&sysid)
                 .with_context(|| format!("vehicle {sysid} is not heard"))?;
-            let p = v
-                .position
-                .with_context(|| format!("vehicle {sysid} reports no position yet"))?;
+            let p = known_position(v).with_context(|| {
+                format!("vehicle {sysid} reports no position yet (no GPS fix and home)")
+            })?;
             let c = grid.cell_center(cell);
             let d = local::distance(p.lat, p.lon, c.lat, c.lon);
             if d > 0.75 * grid.cell_size() {
@@ -351,6 +351,33 @@ impl Runner {
     }
 }
 
+/// Stop the run when [`MAX_EPOCHS_WITHOUT_MEASUREMENT`] epochs in a row (of those that ended
+/// since epoch index `since`) had capture visits and no measurement: the pictures do not
+/// reach the GCS, and the next epoch would fly the same goals again.
+///
+/// [`MAX_EPOCHS_WITHOUT_MEASUREMENT`]: crate::planner::sortie::MAX_EPOCHS_WITHOUT_MEASUREMENT
+pub(super) async fn no_measurement_stop(runner: &Runner, since: usize) -> anyhow::Result<()> {
+    use crate::planner::sortie::MAX_EPOCHS_WITHOUT_MEASUREMENT as MAX;
+    let (dry, visits) = runner
+        .shared
+        .read(|s| {
+            let n = s.epochs_without_measurement(since);
+            let visits: u64 = s.epochs.iter().rev().take(n).map(|e| e.visits).sum();
+            (n, visits)
+        })
+        .await;
+    if dry >= MAX {
+        anyhow::bail!(
+            "no measurement reached the GCS in the last {dry} epochs ({visits} capture visits): \
+             the drones' pictures (or their cameras' on-board measurements) do not arrive — \
+             check that each drone's camera takes its pictures and that its messages \
+             (CAMERA_IMAGE_CAPTURED with DEBUG_FLOAT_ARRAY, or image transmission) reach the \
+             GCS, then `fleetmap resume` the run"
+        );
+    }
+    Ok(())
+}
+
 /// Airborne time of every drone and flight time of the sortie (in memory; saved with the
 /// next change).
 pub(super) fn track(shared: &Shared, drones: Vec<u8>) -> tokio::task::JoinHandle<()> {
@@ -373,8 +400,17 @@ pub(super) fn track(shared: &Shared, drones: Vec<u8>) -> tokio::task::JoinHandle
     })
 }
 
+/// Where a vehicle stands, once its autopilot knows: its reported position once it has a
+/// home, and never 0° N 0° E. ArduPilot sends GLOBAL_POSITION_INT at 0°, 0° until its EKF has
+/// an origin (ArduCopter SITL V4.7.0-dev for its first 2–3 s after boot: a GCS started with
+/// the vehicles found drone 1 "9868047.0 m from the centre of its start cell").
+pub(super) fn known_position(v: &VehicleSnapshot) -> Option<crate::fleet::GeoPoint> {
+    v.position
+        .filter(|p| v.home.is_some() && (p.lat != 0.0 || p.lon != 0.0))
+}
+
 /// A new spatial-classification state for `def` once every vehicle is heard and reports a
-/// position (`lock_step` overrides the separation the mission implies).
+/// position ([`known_position`]; `lock_step` overrides the separation the mission implies).
 pub async fn new_state(
     fleet: &FleetHandle,
     def: &crate::mission::definition::MissionDef,
@@ -384,11 +420,11 @@ pub async fn new_state(
     crate::app::wait_for_team(fleet, def, wait).await?;
     for v in &def.vehicles {
         fleet
-            .wait_until(v.sysid, wait, |s| s.position.is_some())
+            .wait_until(v.sysid, wait, |s| known_position(s).is_some())
             .await
             .map_err(|_| {
                 anyhow::anyhow!(
-                    "vehicle {} reported no position within {:.0} s",
+                    "vehicle {} reported no position (a GPS fix and a home) within {:.0} s",
                     v.sysid,
                     wait.as_secs_f64()
                 )
@@ -491,6 +527,8 @@ pub async fn run(
 
 pub(super) async fn drive(runner: &Runner, resumed: bool) -> anyhow::Result<()> {
     let mut resume_follow = false;
+    // Epochs that end from here on (a resume gives a repaired camera a fresh count).
+    let since = runner.shared.read(|s| s.epochs.len()).await;
     if resumed {
         let next = runner.shared.read(|s| s.next()).await;
         match next {
@@ -552,6 +590,7 @@ pub(super) async fn drive(runner: &Runner, resumed: bool) -> anyhow::Result<()> 
             }
             Next::BeginEpoch => {
                 replan = false;
+                no_measurement_stop(runner, since).await?;
                 runner.begin_epoch().await?;
             }
             Next::Plan => {
@@ -566,5 +605,48 @@ pub(super) async fn drive(runner: &Runner, resumed: bool) -> anyhow::Result<()> 
                 resume_follow = false;
             }
         }
+    }
+}
+
+#[cfg(test)]
+mod position_tests {
+    use super::*;
+
+    /// ArduCopter SITL (V4.7.0-dev) sends GLOBAL_POSITION_INT at 0° N 0° E, and no home, for
+    /// its first seconds after boot, before its EKF has an origin: a GCS started with the
+    /// vehicles took that for where drone 1 stood and stopped ("9868047.0 m from the centre of
+    /// its start cell"). A position counts once the vehicle has a home, and never at 0°, 0°.
+    #[test]
+    fn a_position_before_the_autopilot_has_an_origin_is_not_where_it_stands() {
+        let beat = crate::proto::heartbeat::Beat {
+            custom_mode: 0,
+            mav_type: 2,
+            autopilot: 3,
+            base_mode: 0,
+            system_status: 3,
+        };
+        let mut v = VehicleSnapshot::new(1, 1, &beat, 0, crate::time::Time::ZERO);
+        let null = crate::fleet::GeoPoint {
+            lat: 0.0,
+            lon: 0.0,
+            alt_amsl: 0.0,
+        };
+        let here = crate::fleet::GeoPoint {
+            lat: 37.195135,
+            lon: -80.579943,
+            alt_amsl: 600.0,
+        };
+        v.position = Some(null);
+        assert_eq!(known_position(&v), None, "0°, 0° without a home");
+        v.home = Some(here);
+        assert_eq!(
+            known_position(&v),
+            None,
+            "0°, 0° (the last report before the origin)"
+        );
+        v.position = Some(here);
+        assert_eq!(known_position(&v), Some(here));
+        v.home = None;
+        assert_eq!(known_position(&v), None, "a position without a home");
     }
 }

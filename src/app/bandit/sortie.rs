@@ -354,6 +354,7 @@ impl Runner {
             }
             last = now;
         }
+        self.warn_short_visits().await;
         // The rendezvous: where is everyone?
         let snap = self.fleet().snapshot().vehicles;
         let planned = self
@@ -396,6 +397,33 @@ impl Runner {
             )));
         }
         Ok(())
+    }
+
+    /// One warning per drone whose capture visits of the sortie ended short of their B
+    /// images: a camera that takes no picture, or whose pictures do not reach the GCS, is
+    /// otherwise seen only as an epoch with no measurement.
+    pub(super) async fn warn_short_visits(&self) {
+        let (short, b) = self
+            .shared
+            .read(|s| (s.short_visits(), s.params.batch))
+            .await;
+        let mut by_drone: BTreeMap<u8, Vec<String>> = BTreeMap::new();
+        for (sysid, cell, counted) in short {
+            by_drone
+                .entry(sysid)
+                .or_default()
+                .push(format!("{counted} of {b} at cell {cell}"));
+        }
+        for (sysid, cells) in by_drone {
+            self.say(
+                Progress::warning(format!(
+                    "drone {sysid}: images missing after the sortie ({}): does its camera \
+                     take the pictures, and do they reach the GCS?",
+                    cells.join(", ")
+                ))
+                .about(sysid),
+            );
+        }
     }
 
     /// Hold the drones that are a step ahead; release the others.

@@ -67,6 +67,13 @@ pub const MAX_K: usize = 64;
 /// flown, even if a goal is still unmeasured.
 pub const MAX_SOLVES: u32 = 4;
 
+/// Epochs in a row whose capture visits brought no measurement after which a run stops: the
+/// drones' pictures (or their cameras' on-board measurements) do not reach the GCS, and
+/// flying on would only repeat the same goals (the bandit's choice does not change without a
+/// sample). Seen on PX4 SIH drones whose camera never took a picture: twelve epochs, none
+/// measured, the same three goals each time.
+pub const MAX_EPOCHS_WITHOUT_MEASUREMENT: usize = 3;
+
 /// Why the classification state refuses something.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 pub enum SortieError {
@@ -391,6 +398,31 @@ impl ClassificationState {
                 .filter(|v| v.counted < b)
                 .count()
         })
+    }
+
+    /// The capture visits of the current sortie short of their B images: (drone, cell,
+    /// images counted), in the sortie's order.
+    pub fn short_visits(&self) -> Vec<(u8, Cell, u32)> {
+        let b = self.params.batch;
+        self.cycle().map_or_else(Vec::new, |c| {
+            c.drones
+                .iter()
+                .flat_map(|d| d.captures.iter().map(move |v| (d.sysid, v)))
+                .filter(|(_, v)| v.counted < b)
+                .map(|(sysid, v)| (sysid, v.cell, v.counted))
+                .collect()
+        })
+    }
+
+    /// How many of the last epochs, among those from index `since` of [`Self::epochs`] on,
+    /// had capture visits and not one measurement, in a row up to the latest.
+    pub fn epochs_without_measurement(&self, since: usize) -> usize {
+        self.epochs
+            .iter()
+            .skip(since)
+            .rev()
+            .take_while(|e| e.visits > 0 && e.measurements == 0)
+            .count()
     }
 
     /// The station leg a drone lands on in the current sortie.

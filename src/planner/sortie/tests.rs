@@ -281,3 +281,61 @@ fn cells_flip_between_mission_and_planner_indexing() {
     assert!(g.is_station_ok(g.index(Cell::new(2, 4)).unwrap()));
     assert!(g.is_blocked(g.index(Cell::new(0, 2)).unwrap()));
 }
+
+/// A sortie whose cameras delivered nothing: every capture visit is short, by drone and cell;
+/// the epoch it ends has visits and no measurement, and such epochs are counted in a row from
+/// the latest (only those from index `since` on), a measured epoch ending the row.
+#[test]
+fn visits_without_images_and_epochs_without_measurement() {
+    // Fly an epoch to its end; `measure`: every capture gets its B images, else none.
+    fn epoch(s: &mut ClassificationState, measure: bool, key: &mut i32) {
+        assert_eq!(s.next(), Next::BeginEpoch);
+        s.begin_epoch().unwrap();
+        while !matches!(s.next(), Next::BeginEpoch | Next::Finished) {
+            match s.next() {
+                Next::Plan => plan(s),
+                Next::Prepare => {
+                    s.prepare_cycle().unwrap();
+                    if measure {
+                        fly(s, key);
+                        assert!(s.short_visits().is_empty());
+                    } else {
+                        s.on_verified().unwrap();
+                        s.on_started().unwrap();
+                        let c = s.cycle().unwrap();
+                        let visits: Vec<(u8, Cell, u32)> = c
+                            .drones
+                            .iter()
+                            .flat_map(|d| d.captures.iter().map(move |v| (d.sysid, v.cell, 0)))
+                            .collect();
+                        assert_eq!(s.short_visits(), visits);
+                    }
+                    let end = s.cycle().unwrap().planned_end();
+                    s.finish_cycle(end, false).unwrap();
+                }
+                other => panic!("{other:?}"),
+            }
+        }
+    }
+    let mut s = state(HARDWARE, None);
+    let mut key = 0;
+    epoch(&mut s, true, &mut key);
+    assert_eq!(s.epochs_without_measurement(0), 0);
+    epoch(&mut s, false, &mut key);
+    epoch(&mut s, false, &mut key);
+    assert_eq!(s.epochs.len(), 3);
+    assert!(
+        s.epochs[1..]
+            .iter()
+            .all(|e| e.visits > 0 && e.measurements == 0)
+    );
+    assert_eq!(s.epochs_without_measurement(0), 2);
+    assert_eq!(s.epochs_without_measurement(2), 1, "from epoch index 2 on");
+    assert_eq!(s.epochs_without_measurement(3), 0);
+    epoch(&mut s, true, &mut key);
+    assert_eq!(
+        s.epochs_without_measurement(0),
+        0,
+        "a measured epoch ends the row"
+    );
+}
