@@ -26,6 +26,10 @@ pub enum ExperimentCommand {
     /// Algorithm 1 epochs (10×10, 10 drones, 5 stations, Td = 8, Tc = 4, C = 1, 2, 3); exit
     /// status 1 on any difference.
     FastPlain(FastPlainArgs),
+    /// Issue 26: the runway field test flown by teams of drones on the embedded simulator —
+    /// time to the complete map and to the last landing, IoU and swaps per team size, and
+    /// where each drone's time went (CSV, JSON summary, PNG in --out).
+    Runway(crate::experiment::runway::RunwayArgs),
 }
 
 /// Arguments of `fleetmap experiment fast-plain` (defaults: the paper's §VI setting).
@@ -87,6 +91,39 @@ pub fn run(args: ExperimentArgs) -> anyhow::Result<ExitCode> {
         ExperimentCommand::Bandit(a) => super::bandit::run_experiment(a),
         ExperimentCommand::Merge(a) => super::bandit::run_merge(a),
         ExperimentCommand::FastPlain(a) => run_fast_plain(a),
+        ExperimentCommand::Runway(a) => run_runway(a),
+    }
+}
+
+/// `fleetmap experiment runway`: fly every trial (a line on stderr as each ends), write the
+/// outputs, print the tables (or the study as JSON with `--json`); exit status 1 when a trial
+/// did not finish.
+fn run_runway(args: crate::experiment::runway::RunwayArgs) -> anyhow::Result<ExitCode> {
+    use crate::experiment::runway;
+    runway::validate(&args)?;
+    eprintln!(
+        "runway study: {} trial(s) of {:?} drone(s), the simulator at {} real time at most",
+        args.trials, args.drones, args.speedup
+    );
+    let study = runway::run(&args, &mut |t| eprintln!("{}", runway::trial_line(t)))?;
+    let files = runway::write_outputs(&study, &args.out)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&study)?);
+    } else {
+        print!("{}", runway::table(&study));
+        for f in &files {
+            println!("wrote {}", f.display());
+        }
+    }
+    let unfinished = study.trials.iter().filter(|t| !t.finished).count();
+    if unfinished == 0 {
+        Ok(ExitCode::SUCCESS)
+    } else {
+        eprintln!(
+            "fleetmap: {unfinished} of {} trial(s) did not finish (see runway_trials.csv)",
+            study.trials.len()
+        );
+        Ok(ExitCode::FAILURE)
     }
 }
 

@@ -3,3 +3,4 @@
 pub mod bandit;
 pub mod dfs;
 pub mod fastplain;
+pub mod runway;

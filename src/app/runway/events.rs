@@ -2,6 +2,7 @@
 //! by the report and by `fleetmap resume`.
 
 use super::*;
+use crate::explore::mapping::MilestoneKind;
 
 /// A journal record of the run (`events.jsonl`), one per acknowledged step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -145,6 +146,14 @@ pub enum MappingEvent {
         sysid: u8,
         /// Why.
         reason: String,
+    },
+    /// A milestone of the mission clock was reached (journalled with the step that reached
+    /// it, or with the next step for the first take-off, which the clock's sampling sees).
+    Milestone {
+        /// `first_takeoff`, `dfs_start`, `map_complete` or `last_landing`.
+        what: MilestoneKind,
+        /// Seconds of the fleet clock since the first take-off.
+        mission_s: f64,
     },
     /// The run is over.
     Finished {

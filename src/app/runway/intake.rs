@@ -165,6 +165,7 @@ impl Pilot {
     /// camera fault).
     pub(super) async fn take_images(&mut self, cell: Cell) -> anyhow::Result<bool> {
         let sysid = self.sysid;
+        self.doing(Activity::Imaging);
         let mut retakes = 0u32;
         loop {
             let missing = self.shared.read(|s| s.images_missing(sysid, cell)).await;

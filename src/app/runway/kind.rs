@@ -174,6 +174,7 @@ impl RunKind for Runway {
                 "  flight: {:.0} s airborne, {:.0} m, {} battery swap(s)",
                 r.flight_time_s, r.distance_m, r.battery_swaps
             ),
+            mission_time_line(&r.mission_time),
         ];
         if let Some([n, e]) = r.roi_velocity_ne_mps {
             lines.push(format!(
@@ -183,15 +184,33 @@ impl RunKind for Runway {
             ));
         }
         for rb in &r.robots {
+            let t = &rb.time;
             lines.push(format!(
-                "  vehicle {} at {:.1} m: {}, {:.0} s, {:.0} m, {} swap(s), {} images",
+                "  vehicle {} at {:.1} m: {}, {:.0} s, {:.0} m, {} swap(s), {} images; \
+                 of {:.0} s: flying {:.0} % ({:.0} s imaging, {:.0} s back to the start, \
+                 {:.0} s home), waiting {:.0} % \
+                 ({:.0} s confirmation, {:.0} s DFS start, {:.0} s vertex, {:.0} s sweep), \
+                 ground {:.0} % ({:.0} s swaps, {:.0} s done)",
                 rb.sysid,
                 rb.altitude_m,
                 rb.status,
                 rb.flight_time_s,
                 rb.distance_m,
                 rb.battery_swaps,
-                rb.images
+                rb.images,
+                t.elapsed_s,
+                100.0 * t.flying_share,
+                t.imaging_s,
+                t.returning_s,
+                t.homing_s,
+                100.0 * t.waiting_share,
+                t.waiting.confirmation_s,
+                t.waiting.dfs_start_s,
+                t.waiting.vertex_s,
+                t.waiting.sweep_s + t.waiting.pictures_s,
+                100.0 * t.ground_share,
+                t.ground_swap_s,
+                t.ground_done_s
             ));
         }
         if let Some(t) = &r.truth {
@@ -226,4 +245,28 @@ impl RunKind for Runway {
             ExportFormat::Png => ("map.png", png_bytes(&report::png(state, &outlines))?),
         })
     }
+}
+
+/// The report's mission-time line: first take-off to the DFS's start, the complete map and the
+/// last landing (fleet-clock seconds), and the team's shares.
+fn mission_time_line(m: &report::MissionTime) -> String {
+    let at = |t: Option<f64>| t.map_or_else(|| "—".to_string(), |t| format!("{t:.0} s"));
+    format!(
+        "  mission time (vehicles' clock, from the first take-off): DFS start {}, map complete {}, \
+         last landing {}{}; team {:.0} % flying, {:.0} % waiting, {:.0} % on the ground",
+        at(m.to_dfs_start_s),
+        at(m.to_map_complete_s),
+        at(m.to_last_landing_s),
+        if m.starts > 1 {
+            format!(
+                " ({} starts: the time between a stop and its resume is not counted)",
+                m.starts
+            )
+        } else {
+            String::new()
+        },
+        100.0 * m.flying_share,
+        100.0 * m.waiting_share,
+        100.0 * m.ground_share
+    )
 }

@@ -52,7 +52,9 @@ use crate::app::flight::{self, FlightError, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::explore::dfs::Action;
-use crate::explore::mapping::{Directive, MappingError, MappingState, Phase, RobotStatus};
+use crate::explore::mapping::{
+    Activity, Directive, MappingError, MappingState, Phase, RobotStatus, Wait,
+};
 use crate::explore::motion::RoiMotion;
 use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
 use crate::geo::{Cell, Grid, LatLon, local};
@@ -69,7 +71,7 @@ use anyhow::Context as _;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
-use std::collections::HashSet;
+use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::{broadcast, mpsc, watch};
@@ -184,6 +186,8 @@ struct Shared {
     limits: CaptureLimits,
     /// Where a moving region is (static: the grid itself).
     roi: RoiClock,
+    /// What each pilot is doing now, for the mission clock's samples (absent: working).
+    doing: std::sync::Mutex<HashMap<u8, Activity>>,
 }
 
 /// The region's frame against the fleet clock: a moving region
@@ -282,26 +286,49 @@ impl Shared {
         self.now() - Duration::from_secs_f64(late_us as f64 / 1e6 * speedup)
     }
 
-    /// Mutate the state, save it, then journal `event`; notify everyone
-    /// ([`RunCore::commit`] with the runway's types).
+    /// Mutate the state, save it, then journal `event` and after it the mission clock's
+    /// milestones reached since the last step; notify everyone ([`RunCore::commit`] with the
+    /// runway's types).
     async fn commit<T>(
         &self,
         f: impl FnOnce(&mut MappingState) -> Result<(T, Option<MappingEvent>), MappingError>,
     ) -> anyhow::Result<T> {
         self.run
-            .commit(|s| f(s).map(|(out, ev)| (out, Vec::from_iter(ev))))
+            .commit(|s| {
+                f(s).map(|(out, ev)| {
+                    let mut events = Vec::from_iter(ev);
+                    events.extend(milestone_events(s));
+                    (out, events)
+                })
+            })
             .await
     }
 
     /// The next directive of `sysid`; saved (and the others woken) only when deciding it
-    /// changed the state.
+    /// changed the state or a milestone waits for the journal.
     async fn decide(&self, sysid: u8) -> anyhow::Result<Directive> {
         self.run
             .update(|s| {
                 s.directive_changed(sysid)
-                    .map(|(d, changed)| (d, Vec::<MappingEvent>::new(), changed))
+                    .map(|(d, changed)| (d, milestone_events(s), changed))
             })
             .await
+    }
+
+    /// What the pilot of `sysid` is doing now (the mission clock's next samples).
+    fn doing(&self, sysid: u8, activity: Activity) {
+        if let Ok(mut m) = self.doing.lock() {
+            m.insert(sysid, activity);
+        }
+    }
+
+    /// What the pilot of `sysid` is doing, as last told.
+    fn activity(&self, sysid: u8) -> Activity {
+        self.doing
+            .lock()
+            .ok()
+            .and_then(|m| m.get(&sysid).copied())
+            .unwrap_or(Activity::Working)
     }
 
     async fn read<T>(&self, f: impl FnOnce(&MappingState) -> T) -> T {
@@ -322,6 +349,18 @@ impl Shared {
         })
         .await
     }
+}
+
+/// The journal records of the milestones `state` reached since they were last taken.
+fn milestone_events(state: &mut MappingState) -> Vec<MappingEvent> {
+    state
+        .take_milestones()
+        .into_iter()
+        .map(|m| MappingEvent::Milestone {
+            what: m.what,
+            mission_s: m.mission_s,
+        })
+        .collect()
 }
 
 /// Where and how a picture was taken, as far as the GCS knows.

@@ -20,10 +20,16 @@ impl Pilot {
         let _ = tokio::time::timeout(timeout, rx.changed()).await;
     }
 
+    /// What this pilot is doing now, for the mission clock.
+    pub(super) fn doing(&self, activity: Activity) {
+        self.shared.doing(self.sysid, activity);
+    }
+
     pub(super) async fn wait_unpaused(&self) {
         let mut rx = self.shared.paused.subscribe();
         let mut told = false;
         while *rx.borrow_and_update() {
+            self.doing(Activity::Waiting(Wait::Operator));
             if !told && !self.held {
                 let _ = flight::hold_here(self.fleet(), self.sysid).await;
                 told = true;
@@ -70,15 +76,27 @@ impl Pilot {
         let sysid = self.sysid;
         // A recall from the operator, or a low battery, comes first.
         if self.check_battery().await? {
+            self.doing(Activity::Working);
             return Ok(None);
         }
         let d = self.shared.decide(sysid).await?;
         match d {
             Directive::Sweep => {
                 self.held = false;
+                self.doing(Activity::Working);
                 self.sweep().await?;
             }
             Directive::Hold => {
+                // Held by another drone's confirmation, or by the others' sweeps.
+                let confirming = self
+                    .shared
+                    .read(|s| matches!(s.phase, Phase::Confirm { .. }))
+                    .await;
+                self.doing(Activity::Waiting(if confirming {
+                    Wait::Confirmation
+                } else {
+                    Wait::Sweep
+                }));
                 if !self.held
                     && let Some(v) = self.vehicle()
                     && flight::airborne(&v)
@@ -90,6 +108,7 @@ impl Pilot {
             }
             Directive::Confirm(cell) => {
                 self.held = false;
+                self.doing(Activity::Working);
                 self.fly_to_cell(cell).await?;
                 if self.take_images(cell).await? {
                     let now = self.shared.now();
@@ -112,6 +131,7 @@ impl Pilot {
             }
             Directive::Dfs(Action::MoveTo(cell) | Action::Rejoin(cell)) => {
                 self.held = false;
+                self.doing(Activity::Working);
                 self.fly_to_cell(cell).await?;
                 let now = self.shared.now();
                 self.shared
@@ -172,6 +192,20 @@ impl Pilot {
                 }
             }
             Directive::Dfs(Action::Wait) => {
+                // Before the team's first split every robot is still at the root it flew to.
+                let start = self
+                    .shared
+                    .read(|s| {
+                        s.explorer
+                            .as_ref()
+                            .is_some_and(|e| e.robots().iter().all(|r| r.moves == 0))
+                    })
+                    .await;
+                self.doing(Activity::Waiting(if start {
+                    Wait::DfsStart
+                } else {
+                    Wait::Vertex
+                }));
                 if !self.held
                     && let Some(v) = self.vehicle()
                     && flight::airborne(&v)
@@ -183,12 +217,14 @@ impl Pilot {
             }
             Directive::Dfs(Action::ReturnHome) | Directive::Swap => {
                 self.held = false;
+                self.doing(Activity::Working);
                 if let Some(end) = self.swap().await? {
                     return Ok(Some(end));
                 }
             }
             Directive::Dfs(Action::Done) | Directive::GoHome => {
                 self.held = false;
+                self.doing(Activity::Working);
                 self.go_home().await?;
             }
             Directive::Stop => return Ok(Some(PilotEnd::Done)),

@@ -99,6 +99,97 @@ impl From<crate::vision::votes::Confusion> for Counts {
     }
 }
 
+/// The run's mission time (issue 26), seconds of the fleet clock — the vehicles' clock: the
+/// wall clock with real vehicles, the simulator's time when it runs in the GCS's process —
+/// from the first take-off ([`crate::explore::mapping::MissionClock`]). What a team plans its
+/// day by, and the runway paper's figure (§7: one UAV, 73 minutes, six battery swaps).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct MissionTime {
+    /// From the runner's start to the first take-off (uploads, arming), seconds.
+    pub before_takeoff_s: f64,
+    /// From the first take-off to the start of the DFS (the sweep and the confirmation);
+    /// `None` until a confirmation found the region.
+    pub to_dfs_start_s: Option<f64>,
+    /// From the first take-off to the complete map (every cell decided); `None` until then.
+    pub to_map_complete_s: Option<f64>,
+    /// From the first take-off to the last landing; `None` while a drone is out.
+    pub to_last_landing_s: Option<f64>,
+    /// Since the first take-off as far as the run got (the last landing once finished).
+    pub elapsed_s: f64,
+    /// Times a runner started on the run (1: never resumed); the time between a stop and its
+    /// resume is not counted.
+    pub starts: u32,
+    /// Share of the drones' time (drones × `elapsed_s`) spent flying and working.
+    pub flying_share: f64,
+    /// Share spent airborne and holding (waiting for a confirmation, a vertex, pictures …).
+    pub waiting_share: f64,
+    /// Share spent on the ground (before the first flight, swaps, landed at the end).
+    pub ground_share: f64,
+}
+
+/// One drone's time since the team's first take-off, seconds of the fleet clock, sampled
+/// every [`crate::explore::mapping::CLOCK_SAMPLE_S`] s: its flying, waiting and ground
+/// seconds add up to `elapsed_s`.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct RobotTimeReport {
+    /// The three shares added up (the run's elapsed mission time).
+    pub elapsed_s: f64,
+    /// Airborne and working: sweep, flights to cells, pictures, flights home.
+    pub flying_s: f64,
+    /// Of `flying_s`: over a cell taking its pictures.
+    pub imaging_s: f64,
+    /// Of `flying_s`: flying home — for a battery swap (or to land for good when the map is
+    /// complete by then), or at the end.
+    pub homing_s: f64,
+    /// Of `flying_s`: after the map was complete, back to the DFS's start (Algorithm 1 ends
+    /// with every robot there) before homing.
+    pub returning_s: f64,
+    /// Airborne and holding.
+    pub waiting_s: f64,
+    /// `waiting_s` by what it waited for: `confirmation_s` (another drone confirming),
+    /// `sweep_s` (its sweep flown, the others' not), `pictures_s` (sweep pictures in
+    /// transfer), `dfs_start_s` (at the root before the team's first split), `vertex_s` (at a
+    /// later vertex: companions on their way, another drone imaging the cell), `operator_s`.
+    pub waiting: crate::explore::mapping::WaitTimes,
+    /// On the ground.
+    pub ground_s: f64,
+    /// Of `ground_s`: before its first take-off.
+    pub ground_before_s: f64,
+    /// Of `ground_s`: between two flights (battery swap, camera fault, the take-off after).
+    pub ground_swap_s: f64,
+    /// Of `ground_s`: landed for good while others still flew.
+    pub ground_done_s: f64,
+    /// `flying_s` / `elapsed_s` (0 when nothing elapsed).
+    pub flying_share: f64,
+    /// `waiting_s` / `elapsed_s`.
+    pub waiting_share: f64,
+    /// `ground_s` / `elapsed_s`.
+    pub ground_share: f64,
+}
+
+impl RobotTimeReport {
+    fn of(t: &crate::explore::mapping::RobotTimes) -> RobotTimeReport {
+        let elapsed = t.accounted_s();
+        let share = |x: f64| if elapsed > 0.0 { x / elapsed } else { 0.0 };
+        RobotTimeReport {
+            elapsed_s: elapsed,
+            flying_s: t.flying_s,
+            imaging_s: t.imaging_s,
+            homing_s: t.homing_s,
+            returning_s: t.returning_s,
+            waiting_s: t.waiting_s(),
+            waiting: t.waiting,
+            ground_s: t.ground_s,
+            ground_before_s: t.ground_before_s,
+            ground_swap_s: t.ground_swap_s,
+            ground_done_s: t.ground_done_s,
+            flying_share: share(t.flying_s),
+            waiting_share: share(t.waiting_s()),
+            ground_share: share(t.ground_s),
+        }
+    }
+}
+
 /// Per-robot figures.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RobotReport {
@@ -116,6 +207,8 @@ pub struct RobotReport {
     pub battery_swaps: u32,
     /// Images classified.
     pub images: u64,
+    /// Its time since the team's first take-off: flying, waiting, on the ground.
+    pub time: RobotTimeReport,
 }
 
 /// Scores against the ground truth.
@@ -190,6 +283,8 @@ pub struct MappingReport {
     pub distance_m: f64,
     /// Battery swaps of all robots.
     pub battery_swaps: u32,
+    /// Mission time: first take-off to the complete map and to the last landing.
+    pub mission_time: MissionTime,
     /// Per robot.
     pub robots: Vec<RobotReport>,
     /// Against the ground truth, when the run's world is known.
@@ -257,8 +352,29 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
             distance_m: r.distance_m,
             battery_swaps: r.battery_swaps,
             images: r.images,
+            time: RobotTimeReport::of(&r.times),
         })
         .collect();
+    let clock = &state.clock;
+    let team_s: f64 = robots.iter().map(|r| r.time.elapsed_s).sum();
+    let team_share = |f: fn(&RobotTimeReport) -> f64| {
+        if team_s > 0.0 {
+            robots.iter().map(|r| f(&r.time)).sum::<f64>() / team_s
+        } else {
+            0.0
+        }
+    };
+    let mission_time = MissionTime {
+        before_takeoff_s: clock.before_takeoff_s,
+        to_dfs_start_s: clock.dfs_start_s,
+        to_map_complete_s: clock.map_complete_s,
+        to_last_landing_s: clock.last_landing_s,
+        elapsed_s: clock.elapsed_s,
+        starts: clock.starts,
+        flying_share: team_share(|t| t.flying_s),
+        waiting_share: team_share(|t| t.waiting_s),
+        ground_share: team_share(|t| t.ground_s),
+    };
     MappingReport {
         kind: crate::app::runway::KIND,
         mission: state.mission.clone(),
@@ -289,6 +405,7 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
         flight_time_s: robots.iter().map(|r| r.flight_time_s).sum(),
         distance_m: robots.iter().map(|r| r.distance_m).sum(),
         battery_swaps: robots.iter().map(|r| r.battery_swaps).sum(),
+        mission_time,
         iou: truth.as_ref().map(|t| t.iou),
         iou_best_possible: truth.as_ref().map(|t| t.iou_best_possible),
         truth,

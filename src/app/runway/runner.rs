@@ -2,6 +2,7 @@
 //! tracker, the operator's commands, and the final save.
 
 use super::*;
+use crate::explore::mapping::CLOCK_SAMPLE_S;
 
 /// Follow every robot's position for its track, distance and airborne time (in memory; saved
 /// with the next step).
@@ -21,6 +22,46 @@ pub(super) fn track(shared: &Shared, sysids: Vec<u8>) -> tokio::task::JoinHandle
             };
             let air = if flight::airborne(&v) { dt } else { 0.0 };
             let _ = state.on_position(sysid, e, n, air);
+        }
+    })
+}
+
+/// Sample every robot for the mission clock every [`CLOCK_SAMPLE_S`] seconds of the fleet
+/// clock — airborne or not (the fleet's snapshot) and what its pilot is doing (in memory;
+/// saved with the next step). On the fleet clock, not the runtime's, so that the samples stay
+/// [`CLOCK_SAMPLE_S`] apart in the vehicles' time however fast a simulator in this process
+/// runs.
+fn sample_clock(shared: &Arc<Shared>, sysids: Vec<u8>) -> tokio::task::JoinHandle<()> {
+    let shared = shared.clone();
+    tokio::spawn(async move {
+        let clock = shared.fleet.clock().clone();
+        let period = Duration::from_secs_f64(CLOCK_SAMPLE_S);
+        let mut next = clock.now();
+        loop {
+            let now = clock.now();
+            if now < next {
+                // A lower bound when following a simulator: check again.
+                tokio::time::sleep(clock.wall_until(next).max(Duration::from_millis(1))).await;
+                continue;
+            }
+            let drones: Vec<(u8, bool, Activity)> = sysids
+                .iter()
+                .map(|&sysid| {
+                    let airborne = shared
+                        .fleet
+                        .vehicle(sysid)
+                        .is_some_and(|v| flight::airborne(&v));
+                    (sysid, airborne, shared.activity(sysid))
+                })
+                .collect();
+            let _ = shared
+                .run
+                .update(|s| {
+                    s.sample_clock(now, &drones);
+                    Ok::<_, MappingError>(((), Vec::<MappingEvent>::new(), false))
+                })
+                .await;
+            next = now + period;
         }
     })
 }
@@ -49,6 +90,9 @@ pub async fn run(
         RoiClock::fixed()
     };
     let resumed = state.started.is_some();
+    // This runner's fleet clock is not the last one's: the mission clock waits for its
+    // first sample.
+    state.restart_clock();
     let (paused, _) = watch::channel(false);
     let interactive = opts.operator.is_some();
     let core = RunCore::new(
@@ -76,6 +120,7 @@ pub async fn run(
             .capture_limits
             .unwrap_or_else(|| CaptureLimits::runway(opts.tolerance_m)),
         roi,
+        doing: std::sync::Mutex::new(HashMap::new()),
     });
     // Saved and journalled before anything moves; also the view's first state.
     let started = MappingEvent::Started {
@@ -84,6 +129,7 @@ pub async fn run(
     };
     shared.commit(|_| Ok(((), Some(started)))).await?;
     let tracker = track(&shared, sysids.clone());
+    let sampler = sample_clock(&shared, sysids.clone());
     let operator = opts.operator.take().map(|mut rx| {
         let shared = shared.clone();
         tokio::spawn(async move {
@@ -166,10 +212,11 @@ pub async fn run(
         }
     }
     tracker.abort();
+    sampler.abort();
     if let Some(op) = operator {
         op.abort();
     }
-    // Save the final track and times.
+    // Save the final track and times (and the milestones not journalled yet).
     let now = fleet.clock().now();
     shared
         .commit(|state| {

@@ -179,6 +179,7 @@ impl Pilot {
                         flown = true;
                         let pending = heard.pending();
                         if pending > 0 {
+                            self.doing(Activity::Waiting(Wait::Pictures));
                             self.shared.say(Progress::info(format!(
                                 "vehicle {sysid}: sweep flown; waiting for {pending} pictures still in transfer"
                             )).about(sysid));

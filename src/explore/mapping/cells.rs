@@ -88,6 +88,7 @@ impl MappingState {
                         _ => r.status = RobotStatus::Exploring,
                     }
                 }
+                self.note_milestones(now);
                 Ok(Some(root))
             }
             None => {
@@ -135,6 +136,8 @@ impl MappingState {
         self.robot_mut(sysid)?.visit = None;
         let labels = Dir4::ALL.map(|d| self.book.state(cell.step(d)) == CellState::Positive);
         let ex = self.explorer_mut(sysid, "an observation")?;
-        Ok(ex.observe(RobotId(sysid), cell, labels)?)
+        let added = ex.observe(RobotId(sysid), cell, labels)?;
+        self.note_milestones(now);
+        Ok(added)
     }
 }

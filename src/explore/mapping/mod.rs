@@ -24,7 +24,13 @@
 
 mod cells;
 mod sweep;
+mod times;
 mod vehicle;
+
+pub use self::times::{
+    Activity, CLOCK_SAMPLE_S, Milestone, MilestoneKind, MissionClock, RobotTimes, Share, Wait,
+    WaitTimes,
+};
 
 use super::ExploreError;
 use super::dfs::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing, VertexState};
@@ -267,6 +273,10 @@ pub struct RobotRecord {
     /// before this field existed.
     #[serde(default)]
     pub camera_fault: Option<String>,
+    /// Its time since the team's first take-off: flying, waiting, on the ground
+    /// ([`MissionClock`]); zero in runs saved before it was measured.
+    #[serde(default)]
+    pub times: RobotTimes,
 }
 
 /// A sweep-phase image: classified, but not a vote (it was not taken over a cell centre).
@@ -346,6 +356,11 @@ pub struct MappingState {
     /// simulator's start in the demo); kept across resumes. `None`: not set yet, or static.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub roi_epoch_unix_ms: Option<u64>,
+    /// The mission clock: time to the DFS's start, to the complete map and to the last
+    /// landing, fleet-clock seconds since the first take-off ([`MissionClock`]); empty in
+    /// runs saved before it was measured.
+    #[serde(default)]
+    pub clock: MissionClock,
 }
 
 /// Convert the mission's sweep box to the grid's local frame.
@@ -419,6 +434,7 @@ impl MappingState {
                 camera_fault: None,
                 visit: None,
                 sweep_item: None,
+                times: RobotTimes::default(),
             })
             .collect();
         if robots.is_empty() {
@@ -479,6 +495,7 @@ impl MappingState {
             started: None,
             updated: None,
             roi_epoch_unix_ms: None,
+            clock: MissionClock::default(),
         })
     }
 
@@ -599,12 +616,13 @@ impl MappingState {
     }
 
     /// The DFS is over once the explorer says so (robots away for a battery count as home).
-    fn check_finished(&mut self) {
+    fn check_finished(&mut self, now: Time) {
         if let Phase::Explore { .. } = self.phase
             && self.explorer.as_ref().is_some_and(Explorer::is_finished)
         {
             self.phase = Phase::Finished { found: true };
         }
+        self.note_milestones(now);
     }
 
     /// Every cell the run knows something about and what: the vote book's state plus the DFS

@@ -95,6 +95,7 @@ impl MappingState {
         {
             self.phase = Phase::Finished { found: false };
         }
+        self.note_milestones(now);
         Ok(())
     }
 }

@@ -201,3 +201,114 @@ fn not_a_runway_mission() {
         Err(MappingError::Mission(_))
     ));
 }
+
+/// The mission clock on a two-drone run: time before the first take-off, the shares of every
+/// sample's interval, the milestones in the order of the mission, the interval up to the
+/// last landing, and a JSON round trip (a resumed run keeps the figures; older states load).
+#[test]
+fn the_mission_clock_accounts_every_drone_from_the_first_take_off_to_the_last_landing() {
+    let mut s = MappingState::new(&def(2), grid(), Sharing::Gcs).unwrap();
+    let t = Time::from_secs_f64;
+    let work = Activity::Working;
+    s.restart_clock();
+    s.sample_clock(t(0.0), &[(1, false, work), (2, false, work)]);
+    s.sample_clock(t(1.0), &[(1, false, work), (2, false, work)]);
+    assert!(!s.clock.took_off);
+    // Drone 1 leaves the ground: the clock starts.
+    s.sample_clock(t(2.0), &[(1, true, work), (2, false, work)]);
+    assert!(s.clock.took_off);
+    assert_eq!(s.clock.before_takeoff_s, 2.0);
+    s.sample_clock(t(3.0), &[(1, true, work), (2, false, work)]);
+    s.sample_clock(t(4.0), &[(1, true, work), (2, true, work)]);
+    assert_eq!(s.robot(2).unwrap().times.ground_before_s, 1.0);
+    // Drone 2 sees the region; drone 1 holds while 2 confirms.
+    let c = Cell::new(3, 2);
+    let pos = NeighbourLabels {
+        center: true,
+        ..NeighbourLabels::default()
+    };
+    s.on_sweep_image(2, c, 0.0, RegionFractions::default(), pos, t(4.5))
+        .unwrap();
+    assert_eq!(s.directive(1).unwrap(), Directive::Hold);
+    let held = Activity::Waiting(Wait::Confirmation);
+    s.sample_clock(t(6.0), &[(1, true, held), (2, true, Activity::Imaging)]);
+    for k in 0..5 {
+        s.on_cell_image(det(2, c, k, false)).unwrap();
+    }
+    assert_eq!(s.on_confirmed(2, c, t(6.5)).unwrap(), Some(c));
+    assert_eq!(s.clock.dfs_start_s, Some(4.5));
+    // Both fly to the root; 1 images it while 2 waits; nothing around it is runway.
+    s.directive(1).unwrap();
+    s.directive(2).unwrap();
+    s.on_arrived(1, c, t(7.0)).unwrap();
+    s.on_arrived(2, c, t(7.0)).unwrap();
+    assert_eq!(s.directive(1).unwrap(), Directive::Dfs(Action::Observe));
+    assert_eq!(s.directive(2).unwrap(), Directive::Dfs(Action::Wait));
+    let start = Activity::Waiting(Wait::DfsStart);
+    s.sample_clock(t(8.0), &[(1, true, Activity::Imaging), (2, true, start)]);
+    assert!(!s.map_complete());
+    for k in 5..10 {
+        s.on_cell_image(det(1, c, k, false)).unwrap();
+    }
+    s.on_observed(1, c, t(8.25)).unwrap();
+    assert!(s.map_complete());
+    assert_eq!(s.clock.map_complete_s, Some(6.25));
+    assert_eq!(s.directive(1).unwrap(), Directive::GoHome);
+    assert_eq!(s.directive(2).unwrap(), Directive::GoHome);
+    s.on_going_home(1, t(8.5)).unwrap();
+    s.on_going_home(2, t(8.5)).unwrap();
+    s.sample_clock(t(9.0), &[(1, true, work), (2, true, work)]);
+    s.on_landed(1, t(9.5)).unwrap();
+    s.sample_clock(t(10.0), &[(1, false, work), (2, true, work)]);
+    assert_eq!(s.clock.last_landing_s, None);
+    s.on_landed(2, t(10.4)).unwrap();
+    assert!(s.is_finished());
+    let end = s.clock.last_landing_s.unwrap();
+    assert!((end - 8.4).abs() < 1e-9, "{end}");
+    // After the last landing nothing counts.
+    s.sample_clock(t(20.0), &[(1, false, work), (2, false, work)]);
+    assert!((s.clock.elapsed_s - end).abs() < 1e-9);
+    for r in &s.robots {
+        let sum = r.times.accounted_s();
+        assert!(
+            (sum - end).abs() < 1e-9,
+            "vehicle {}: {sum} of {end}",
+            r.sysid
+        );
+    }
+    let (one, two) = (&s.robot(1).unwrap().times, &s.robot(2).unwrap().times);
+    assert!((one.waiting.confirmation_s - 2.0).abs() < 1e-9);
+    assert!((one.imaging_s - 2.0).abs() < 1e-9);
+    assert!((one.ground_done_s - 1.4).abs() < 1e-9, "{one:?}");
+    assert!((two.waiting.dfs_start_s - 2.0).abs() < 1e-9);
+    assert!((two.imaging_s - 2.0).abs() < 1e-9);
+    assert!((two.ground_before_s - 1.0).abs() < 1e-9);
+    // The milestones, in order, once each.
+    let got: Vec<MilestoneKind> = s.take_milestones().iter().map(|m| m.what).collect();
+    assert_eq!(
+        got,
+        [
+            MilestoneKind::FirstTakeoff,
+            MilestoneKind::DfsStart,
+            MilestoneKind::MapComplete,
+            MilestoneKind::LastLanding
+        ]
+    );
+    assert!(s.take_milestones().is_empty());
+    // Saved and read back: the same figures (a resumed run carries on from them).
+    let json = serde_json::to_string(&s).unwrap();
+    let mut back: MappingState = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.clock, s.clock);
+    assert_eq!(back.robots, s.robots);
+    back.restart_clock();
+    assert_eq!((back.clock.starts, back.clock.sampled_at), (2, None));
+    // A state saved before the clock existed loads with an empty one.
+    let mut v: serde_json::Value = serde_json::from_str(&json).unwrap();
+    v.as_object_mut().unwrap().remove("clock");
+    for r in v["robots"].as_array_mut().unwrap() {
+        r.as_object_mut().unwrap().remove("times");
+    }
+    let old: MappingState = serde_json::from_value(v).unwrap();
+    assert_eq!(old.clock, MissionClock::default());
+    assert_eq!(old.robot(1).unwrap().times, RobotTimes::default());
+}

@@ -60,7 +60,7 @@ impl MappingState {
             r.status = RobotStatus::AwaitingSwap;
             r.reboots_at_landing = Some(reboots);
         }
-        self.check_finished();
+        self.check_finished(now);
         Ok(())
     }
 
@@ -136,7 +136,7 @@ impl MappingState {
     pub fn on_landed(&mut self, sysid: u8, now: Time) -> Result<(), MappingError> {
         self.touch(now);
         self.robot_mut(sysid)?.status = RobotStatus::Landed;
-        self.check_finished();
+        self.check_finished(now);
         Ok(())
     }
 }
