@@ -27,6 +27,24 @@
 //! JPEG sent as one burst loses a large share of its packets. CAMERA_IMAGE_CAPTURED is never
 //! held back by the pacing.
 //!
+//! Re-sends ([`SimCamera::handle_handshake_request`]): a GCS that missed packets asks for the
+//! image again by its size. The request has no target (DATA_TRANSMISSION_HANDSHAKE has no
+//! target fields), so an autopilot forwards it to every port it has heard a component on
+//! (ArduPilot `MAVLink_routing::check_and_forward`: no target system is a broadcast; PX4
+//! `Mavlink::forward_message`: target 0 goes to every forwarding instance that has seen a
+//! component), and every camera behind a shared port hears it, once per autopilot. So
+//! - only a camera holding an image of that size answers: one it sent lately (the last
+//!   [`RECENT_IMAGES`] whose transmission started) or one it captured lately (the last
+//!   [`RECENT_IMAGES`] captures: a picture measured on board and not sent). A paced camera
+//!   with a queue sends pictures captured long ago, so "captured lately" alone missed the
+//!   very image being asked for, and the old fallback to the latest image answered every
+//!   such request — from every camera — with a picture the GCS already had;
+//! - the same request heard again while that re-send waits or is leaving is ignored;
+//! - a re-send goes out before the pictures still queued, as soon as the image leaving now
+//!   is finished (never in the middle of one: ENCAPSULATED_DATA carries no image id, so the
+//!   GCS counts every packet after an announcement for the image announced). Queued behind
+//!   minutes of pictures, it came after the GCS had given up.
+//!
 //! A degraded sensor ([`CameraConfig::misclassify_probability`]): each image, independently
 //! and with that probability, shows the bandit field's green tiles as grey and its grey
 //! tiles as green, as the bandit paper's degraded-sensor run (§V) added 5 % classification
@@ -221,12 +239,28 @@ pub struct SimCamera {
     pending: u32,
     last_capture: Option<Time>,
     last_jpeg: Option<Arc<Vec<u8>>>,
-    /// The latest images (newest last, at most [`RECENT_IMAGES`]): a GCS may ask for one of
-    /// them again by its size ([`SimCamera::handle_handshake_request`]).
+    /// The latest images captured (newest last, at most [`RECENT_IMAGES`]): a GCS may ask for
+    /// one of them by its size ([`SimCamera::handle_handshake_request`]), e.g. a picture
+    /// measured on board and not sent.
     recent: VecDeque<Arc<Vec<u8>>>,
+    /// The latest images whose transmission started (newest last, at most
+    /// [`RECENT_IMAGES`]): the ones a GCS may be missing packets of. With a queue, these
+    /// were captured long before the images in `recent`.
+    sent: VecDeque<Arc<Vec<u8>>>,
     outbox: VecDeque<MavMessage>,
-    /// Image transmission waiting for the token bucket (only when paced).
+    /// Image transmission waiting for the token bucket (only when paced): first
+    /// transmissions, in the order of capture.
     paced: VecDeque<MavMessage>,
+    /// The images whose first transmission waits in `paced`, in order (they move to `sent`
+    /// when their handshake leaves).
+    queued: VecDeque<Arc<Vec<u8>>>,
+    /// Re-sends a GCS asked for, waiting for the token bucket (only when paced): they leave
+    /// before the next image of `paced`.
+    resends: VecDeque<MavMessage>,
+    /// Whether the image leaving now comes from `resends`.
+    resending: bool,
+    /// Size of the image leaving now (its handshake was the last one to leave).
+    in_flight: Option<u32>,
     pacer: Option<Pacer>,
     images: VecDeque<CapturedImage>,
     /// Shots waiting for their picture from outside ([`CameraConfig::external`]).
@@ -303,6 +337,33 @@ fn frame_len(msg: &MavMessage) -> usize {
         }
 }
 
+/// Whether the next paced message comes from the re-sends: the image leaving now goes on to
+/// its last packet (from `resends` when `resending`, else from `paced`); at a boundary
+/// between images a waiting re-send goes first.
+fn resend_next(
+    resends: &VecDeque<MavMessage>,
+    paced: &VecDeque<MavMessage>,
+    resending: bool,
+) -> bool {
+    let mid_image =
+        |q: &VecDeque<MavMessage>| matches!(q.front(), Some(MavMessage::ENCAPSULATED_DATA(_)));
+    if resending && mid_image(resends) {
+        return true;
+    }
+    if !resending && mid_image(paced) {
+        return false;
+    }
+    !resends.is_empty()
+}
+
+/// Keep `jpeg` as the newest of `store`, which holds at most [`RECENT_IMAGES`].
+fn keep_recent(store: &mut VecDeque<Arc<Vec<u8>>>, jpeg: Arc<Vec<u8>>) {
+    store.push_back(jpeg);
+    if store.len() > RECENT_IMAGES {
+        store.pop_front();
+    }
+}
+
 impl SimCamera {
     /// A camera on vehicle `sysid`; `seed` drives the image disturbances.
     pub fn new(sysid: u8, config: CameraConfig, seed: u64) -> SimCamera {
@@ -317,8 +378,13 @@ impl SimCamera {
             last_capture: None,
             last_jpeg: None,
             recent: VecDeque::new(),
+            sent: VecDeque::new(),
             outbox: VecDeque::new(),
             paced: VecDeque::new(),
+            queued: VecDeque::new(),
+            resends: VecDeque::new(),
+            resending: false,
+            in_flight: None,
             pacer: config
                 .transfer_rate_bps
                 .filter(|r| r.is_finite() && *r > 0.0)
@@ -344,8 +410,13 @@ impl SimCamera {
         self.last_capture = None;
         self.last_jpeg = None;
         self.recent.clear();
+        self.sent.clear();
         self.outbox.clear();
         self.paced.clear();
+        self.queued.clear();
+        self.resends.clear();
+        self.resending = false;
+        self.in_flight = None;
         self.shots.clear();
     }
 
@@ -364,8 +435,9 @@ impl SimCamera {
     /// Bring the camera's clock to `now` without a pose (no triggers run): the pacing bucket
     /// refills and releases the image packets due by then.
     pub fn advance(&mut self, now: Time) {
+        let backlog = self.transfer_backlog() > 0;
         if let Some(p) = self.pacer.as_mut() {
-            p.refill(now, !self.paced.is_empty());
+            p.refill(now, backlog);
         }
         self.release();
     }
@@ -373,7 +445,9 @@ impl SimCamera {
     /// When the next paced image packet can leave (None: nothing is waiting for the bucket).
     /// A shell that sleeps until then and calls [`SimCamera::advance`] keeps the rate.
     pub fn poll_timeout(&self) -> Option<Time> {
-        let (p, front) = (self.pacer.as_ref()?, self.paced.front()?);
+        let resend = resend_next(&self.resends, &self.paced, self.resending);
+        let queue = if resend { &self.resends } else { &self.paced };
+        let (p, front) = (self.pacer.as_ref()?, queue.front()?);
         let at = p.at?;
         let missing = frame_len(front) as f64 - p.tokens;
         if missing <= 0.0 {
@@ -383,27 +457,47 @@ impl SimCamera {
         Some(at + Duration::from_micros((missing / p.rate * 1e6).ceil() as u64))
     }
 
-    /// Messages of image transmission still waiting for the pacing bucket.
+    /// Messages of image transmission still waiting for the pacing bucket (first
+    /// transmissions and re-sends).
     pub fn transfer_backlog(&self) -> usize {
-        self.paced.len()
+        self.paced.len() + self.resends.len()
     }
 
+    /// Move what the bucket allows to the outbox: the image leaving now to its end, then a
+    /// re-send if one waits, else the next queued image.
     fn release(&mut self) {
         let Some(p) = self.pacer.as_mut() else {
             return;
         };
-        while let Some(front) = self.paced.front() {
+        loop {
+            let resend = resend_next(&self.resends, &self.paced, self.resending);
+            let queue = if resend {
+                &mut self.resends
+            } else {
+                &mut self.paced
+            };
+            let Some(front) = queue.front() else {
+                break;
+            };
             let cost = frame_len(front) as f64;
             // a tolerance for the rounding of the bucket's microsecond clock
             if p.tokens + 1e-6 < cost {
                 break;
             }
             p.tokens -= cost;
-            if let Some(m) = self.paced.pop_front() {
-                self.outbox.push_back(m);
+            let Some(m) = queue.pop_front() else {
+                break;
+            };
+            if let MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) = &m {
+                self.in_flight = Some(h.size);
+                self.resending = resend;
+                if !resend && let Some(j) = self.queued.pop_front() {
+                    keep_recent(&mut self.sent, j);
+                }
             }
+            self.outbox.push_back(m);
         }
-        if self.paced.is_empty() {
+        if self.paced.is_empty() && self.resends.is_empty() {
             p.tokens = p.tokens.min(p.burst);
         }
     }
@@ -433,8 +527,9 @@ impl SimCamera {
     /// Take one picture now at `ctx`'s pose, whatever the triggers and the minimum interval
     /// say: the shutter an autopilot has already fired (ArduPilot's CAMERA_FEEDBACK).
     pub fn capture_now(&mut self, ctx: &CaptureContext, world: Option<&World>) {
+        let backlog = self.transfer_backlog() > 0;
         if let Some(p) = self.pacer.as_mut() {
-            p.refill(ctx.now, !self.paced.is_empty());
+            p.refill(ctx.now, backlog);
         }
         self.capture(ctx, world);
         self.release();
@@ -489,8 +584,9 @@ impl SimCamera {
     /// Run the camera: distance and interval triggers, pending captures, and (when paced)
     /// the release of image packets due by `ctx.now`.
     pub fn update(&mut self, ctx: &CaptureContext, pos: (f64, f64), world: Option<&World>) {
+        let backlog = self.transfer_backlog() > 0;
         if let Some(p) = self.pacer.as_mut() {
-            p.refill(ctx.now, !self.paced.is_empty());
+            p.refill(ctx.now, backlog);
         }
         if let Some((d, last)) = self.trigger_dist
             && (pos.0 - last.0).hypot(pos.1 - last.1) >= d
@@ -559,8 +655,9 @@ impl SimCamera {
         if shot.index >= self.image_count {
             return; // fired before a reboot
         }
+        let backlog = self.transfer_backlog() > 0;
         if let Some(p) = self.pacer.as_mut() {
-            p.refill(now, !self.paced.is_empty());
+            p.refill(now, backlog);
         }
         self.finish(shot, img);
         self.release();
@@ -689,15 +786,43 @@ impl SimCamera {
             .wrapping_add(index as u64)
     }
 
-    fn queue_transfer(&mut self, jpeg: &[u8]) {
+    /// Queue the first transmission of `jpeg` (paced: behind the images already queued).
+    fn queue_transfer(&mut self, jpeg: &Arc<Vec<u8>>) {
+        if self.pacer.is_some() {
+            self.queued.push_back(jpeg.clone());
+            let mut q = std::mem::take(&mut self.paced);
+            self.transfer_messages(jpeg, &mut q);
+            self.paced = q;
+        } else {
+            keep_recent(&mut self.sent, jpeg.clone());
+            let mut q = std::mem::take(&mut self.outbox);
+            self.transfer_messages(jpeg, &mut q);
+            self.outbox = q;
+        }
+    }
+
+    /// Queue a re-send of `jpeg` (paced: before the images still queued, after the one
+    /// leaving now).
+    fn queue_resend(&mut self, jpeg: &[u8]) {
+        let mut q = if self.pacer.is_some() {
+            std::mem::take(&mut self.resends)
+        } else {
+            std::mem::take(&mut self.outbox)
+        };
+        self.transfer_messages(jpeg, &mut q);
+        if self.pacer.is_some() {
+            self.resends = q;
+        } else {
+            self.outbox = q;
+        }
+    }
+
+    /// The image transmission of `jpeg`: its DATA_TRANSMISSION_HANDSHAKE, then its
+    /// ENCAPSULATED_DATA packets, appended to `queue`.
+    fn transfer_messages(&self, jpeg: &[u8], queue: &mut VecDeque<MavMessage>) {
         let packets = jpeg.len().div_ceil(PAYLOAD);
         let model = self.config.model;
         let quality = self.config.jpeg_quality;
-        let queue = if self.pacer.is_some() {
-            &mut self.paced
-        } else {
-            &mut self.outbox
-        };
         queue.push_back(MavMessage::DATA_TRANSMISSION_HANDSHAKE(
             mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
                 size: jpeg.len() as u32,
@@ -719,24 +844,47 @@ impl SimCamera {
         }
     }
 
-    /// A GCS's DATA_TRANSMISSION_HANDSHAKE asking for an image again: the recent image of
-    /// `size` bytes when the request names one (a paced camera may have taken newer pictures
-    /// since), else the latest; paced like the first transmission, and not queued twice
-    /// while a copy still waits to go out.
+    /// A GCS's DATA_TRANSMISSION_HANDSHAKE asking for an image again (see the module
+    /// documentation): the image of `size` bytes among those sent or captured lately, or the
+    /// latest image when the request names no size (0). A size this camera does not hold is
+    /// not answered: the request is for another camera behind the same autopilot port, or
+    /// for a picture too old to keep. The re-send is paced like a first transmission and
+    /// leaves before the images still queued; a request for an image whose transmission
+    /// waits or is leaving is ignored (every autopilot on a shared port forwards the same
+    /// request).
     pub fn handle_handshake_request(&mut self, size: u32) {
-        let wanted = (size > 0)
-            .then(|| self.recent.iter().rev().find(|j| j.len() == size as usize))
-            .flatten()
-            .cloned()
-            .or_else(|| self.last_jpeg.clone());
+        let wanted = if size == 0 {
+            self.last_jpeg.clone()
+        } else {
+            self.sent
+                .iter()
+                .rev()
+                .chain(self.recent.iter().rev())
+                .find(|j| j.len() == size as usize)
+                .cloned()
+        };
         let Some(j) = wanted else {
             return;
         };
-        let already = self.paced.iter().any(|m| {
-            matches!(m, MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) if h.size as usize == j.len())
-        });
-        if !already {
-            self.queue_transfer(&j);
+        let size = j.len() as u32;
+        let queued = self
+            .paced
+            .iter()
+            .chain(&self.resends)
+            .chain(&self.outbox)
+            .any(|m| matches!(m, MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) if h.size == size));
+        let leaving_queue = if self.resending {
+            &self.resends
+        } else {
+            &self.paced
+        };
+        let leaving = self.in_flight == Some(size)
+            && matches!(
+                leaving_queue.front(),
+                Some(MavMessage::ENCAPSULATED_DATA(_))
+            );
+        if !(queued || leaving) {
+            self.queue_resend(&j);
         }
     }
 
@@ -821,8 +969,23 @@ mod tests {
         out
     }
 
+    /// Sizes announced by the handshakes waiting in `cam`'s paced queues, in the order they
+    /// will leave.
+    fn announced(cam: &SimCamera) -> Vec<u32> {
+        let hs = |q: &VecDeque<MavMessage>| -> Vec<u32> {
+            q.iter()
+                .filter_map(|m| match m {
+                    MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => Some(h.size),
+                    _ => None,
+                })
+                .collect()
+        };
+        [hs(&cam.resends), hs(&cam.paced)].concat()
+    }
+
     /// A request naming an image's size gets that image back, not the latest; a request that
-    /// names none gets the latest; a paced copy still waiting is not queued twice.
+    /// names none gets the latest; one naming a size the camera does not hold (another
+    /// camera's picture) gets nothing; a paced copy still waiting is not queued twice.
     #[test]
     fn a_re_send_request_names_the_image_it_wants() {
         let cfg = CameraConfig {
@@ -833,21 +996,76 @@ mod tests {
         let (old, new) = (Arc::new(vec![1u8; 3_000]), Arc::new(vec![2u8; 5_000]));
         cam.recent.extend([old.clone(), new.clone()]);
         cam.last_jpeg = Some(new.clone());
-        let announced = |cam: &SimCamera| -> Vec<u32> {
-            cam.paced
-                .iter()
-                .filter_map(|m| match m {
-                    MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => Some(h.size),
-                    _ => None,
-                })
-                .collect()
-        };
         cam.handle_handshake_request(3_000);
         assert_eq!(announced(&cam), vec![3_000]);
         cam.handle_handshake_request(3_000);
         assert_eq!(announced(&cam), vec![3_000], "queued once");
+        cam.handle_handshake_request(4_444);
+        assert_eq!(announced(&cam), vec![3_000], "not this camera's picture");
         cam.handle_handshake_request(0);
         assert_eq!(announced(&cam), vec![3_000, 5_000]);
+    }
+
+    /// A paced camera with a queue: the image being sent was captured long before the
+    /// latest captures, and a request for it is still answered — after the image leaving
+    /// now, before the queued ones — and is not answered twice while it leaves.
+    #[test]
+    fn a_re_send_goes_between_images_ahead_of_the_queue() {
+        let mut cam = paced(2_670.0); // ten packets a second
+        let t0 = Time::from_secs(1);
+        cam.advance(t0);
+        // the first picture and 2 × RECENT_IMAGES more queued behind it
+        let pictures: Vec<Arc<Vec<u8>>> = (0..=2 * RECENT_IMAGES)
+            .map(|k| Arc::new(vec![k as u8; 3 * PAYLOAD + 10 + k]))
+            .collect();
+        for p in &pictures {
+            cam.queue_transfer(p);
+            keep_recent(&mut cam.recent, p.clone());
+        }
+        // half of the first picture leaves: its handshake, then two packets
+        let mut out = Vec::new();
+        while out.len() < 3 {
+            let t = cam.poll_timeout().expect("packets wait");
+            cam.advance(t);
+            out.extend(std::iter::from_fn(|| cam.poll_transmit()));
+        }
+        let first = pictures[0].len() as u32;
+        assert_eq!(cam.in_flight, Some(first));
+        assert!(
+            !cam.recent.iter().any(|j| j.len() as u32 == first),
+            "captured too long ago"
+        );
+        // asked for while it is still leaving (every autopilot forwards the request): nothing
+        cam.handle_handshake_request(first);
+        assert_eq!(cam.resends.len(), 0);
+        // the rest of it (4 packets in all) leaves, then the request comes again: the
+        // re-send goes next
+        while out.len() < 5 {
+            let t = cam.poll_timeout().expect("packets wait");
+            cam.advance(t);
+            out.extend(std::iter::from_fn(|| cam.poll_transmit()));
+        }
+        assert_eq!(out.len(), 5);
+        cam.handle_handshake_request(first);
+        cam.handle_handshake_request(first);
+        assert_eq!(announced(&cam)[..2], [first, pictures[1].len() as u32]);
+        // … once the first picture's last packet is out
+        let sizes: Vec<u32> = std::iter::from_fn(|| {
+            let t = cam.poll_timeout()?;
+            cam.advance(t);
+            Some(std::iter::from_fn(|| cam.poll_transmit()).collect::<Vec<_>>())
+        })
+        .flatten()
+        .filter_map(|m| match m {
+            MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => Some(h.size),
+            _ => None,
+        })
+        .collect();
+        assert_eq!(sizes[..2], [first, pictures[1].len() as u32], "{sizes:?}");
+        assert_eq!(sizes.len(), 2 * RECENT_IMAGES + 1);
+        // a request now for the first picture: sent long ago, no longer kept
+        cam.handle_handshake_request(first);
+        assert_eq!(cam.transfer_backlog(), 0);
     }
 
     /// PX4 forwards two messages at a time: after an idle spell a paced camera starts with one

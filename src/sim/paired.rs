@@ -48,6 +48,27 @@
 //! Image transmission is paced when the camera configuration says so
 //! ([`super::camera::CameraConfig::transfer_rate_bps`]): a routing autopilot drops what its
 //! ports cannot take.
+//!
+//! **Several cameras behind one port: each is paced on its own.** The budget a pacing rate
+//! protects is the autopilot's: the port the camera talks to and the GCS link it forwards
+//! to (ArduPilot forwards a frame only when the outgoing port's `comm_get_txspace` has room,
+//! `MAVLink_routing::check_and_forward`; PX4 passes on two frames per loop of the outgoing
+//! instance, `Mavlink::pass_message`). Each autopilot has its own, so each camera gets the
+//! whole rate, provided its frames go through its own autopilot: the shell sends camera k's
+//! frames to the address autopilot k was last heard from ([`crate::sim::server::serve_paired`]),
+//! as a camera wired to that autopilot's serial port would. Sharing one rate among the N
+//! cameras would make every picture N times slower to arrive for no link's sake. What the
+//! cameras do share is the GCS's own port, which gets N × the rate: a UDP socket on the GCS
+//! machine (four cameras at the default 20 000 B/s are 80 kB/s, 300 datagrams a second),
+//! or in the field N radios, one per vehicle, each carrying its own camera.
+//!
+//! **Requests to send a picture again** (a GCS's DATA_TRANSMISSION_HANDSHAKE) name no
+//! vehicle: DATA_TRANSMISSION_HANDSHAKE has no target fields, every autopilot on the shared
+//! port forwards it (ArduPilot: no target system is a broadcast, sent to every port with a
+//! learned route; PX4: target 0 reaches every forwarding instance that has seen a
+//! component), and the request reaches every camera here once per autopilot. Each camera is
+//! offered it; only the one holding a picture of the size it names answers, once
+//! ([`SimCamera::handle_handshake_request`]).
 
 // CAMERA_FEEDBACK and CAMERA_TRIGGER are ArduPilot / legacy messages.
 #![allow(deprecated)]
@@ -353,6 +374,8 @@ impl PairedCameras {
                 (c.target_system, c.target_component),
                 [c.param1, c.param2, c.param3],
             ),
+            // A request to send a picture again (no target: see the module documentation):
+            // the camera holding a picture of that size answers, the others ignore it.
             MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => {
                 for t in self.tracked.values_mut() {
                     t.camera.handle_handshake_request(h.size);

@@ -19,6 +19,7 @@ use crate::sim::harness::Sim;
 use crate::sim::pace::{Pacer, Speed, SpeedMeter};
 use crate::sim::tx_queue::{Expired, TxQueue};
 use crate::time::Time;
+use std::collections::{BTreeMap, HashMap};
 use std::net::SocketAddr;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
@@ -183,12 +184,15 @@ async fn resolve(a: &str) -> Result<SocketAddr, ServerError> {
         .ok_or_else(|| ServerError::Endpoint(a.to_string()))
 }
 
+/// What an endpoint received: (vehicle index, bytes, the UDP sender's address; None for TCP).
+type Received = (usize, Vec<u8>, Option<SocketAddr>);
+
 /// Open every vehicle's endpoint. Returns the bound sockets (for printing) and the I/O
-/// plumbing; received datagrams / TCP bytes arrive on `rx` as (vehicle index, bytes).
+/// plumbing; received datagrams / TCP bytes arrive on `rx` as [`Received`].
 async fn open(
     sysids: &[u8],
     endpoints: &[Endpoint],
-    tx: mpsc::Sender<(usize, Vec<u8>)>,
+    tx: mpsc::Sender<Received>,
 ) -> Result<(Vec<Bound>, Vec<Io>), ServerError> {
     let n = sysids.len();
     if endpoints.len() != 1 && endpoints.len() != n {
@@ -232,7 +236,11 @@ async fn open(
                                 if !fixed && let Ok(mut p) = p2.lock() {
                                     *p = Some(from);
                                 }
-                                if tx2.send((k, buf[..len].to_vec())).await.is_err() {
+                                if tx2
+                                    .send((k, buf[..len].to_vec(), Some(from)))
+                                    .await
+                                    .is_err()
+                                {
                                     return;
                                 }
                             }
@@ -274,7 +282,7 @@ async fn open(
                                 match r.read(&mut buf).await {
                                     Ok(0) | Err(_) => return,
                                     Ok(n) => {
-                                        if tx3.send((k, buf[..n].to_vec())).await.is_err() {
+                                        if tx3.send((k, buf[..n].to_vec(), None)).await.is_err() {
                                             return;
                                         }
                                     }
@@ -492,7 +500,7 @@ where
     F: std::future::Future<Output = ()>,
 {
     let sysids = sim.sysids();
-    let (tx, mut rx) = mpsc::channel::<(usize, Vec<u8>)>(4096);
+    let (tx, mut rx) = mpsc::channel::<Received>(4096);
     let (bound, ios) = open(&sysids, &opts.endpoints, tx).await?;
     if let Some(dir) = &opts.image_dir {
         std::fs::create_dir_all(dir).map_err(io_err(dir.display().to_string()))?;
@@ -510,7 +518,7 @@ where
     loop {
         // what arrived since the last turn acts at the current simulated time
         let mut got = false;
-        while let Ok((k, bytes)) = rx.try_recv() {
+        while let Ok((k, bytes, _)) = rx.try_recv() {
             stepper.receive(sysids[k], &bytes);
             got = true;
         }
@@ -594,7 +602,7 @@ where
         }
         tokio::select! {
             r = rx.recv() => {
-                if let Some((k, bytes)) = r {
+                if let Some((k, bytes, _)) = r {
                     stepper.receive(sysids[k], &bytes);
                 }
             }
@@ -702,7 +710,7 @@ where
     /// Longest sleep between two camera steps (heartbeats, interval captures, requests for
     /// telemetry are due on this grid at worst).
     const STEP: std::time::Duration = std::time::Duration::from_millis(20);
-    let (tx, mut rx) = mpsc::channel::<(usize, Vec<u8>)>(4096);
+    let (tx, mut rx) = mpsc::channel::<Received>(4096);
     let (bound, ios) = open(&[0], std::slice::from_ref(&endpoint), tx).await?;
     on_bound(&bound);
     if let Some(dir) = &image_dir {
@@ -715,7 +723,20 @@ where
         .unwrap_or(0);
     let mut codec = Codec::new();
     let end = duration_s.map(|d| Time::ZERO + std::time::Duration::from_secs_f64(d.max(0.0)));
-    let mut pending = TxQueue::new();
+    // One outgoing queue per camera, each sent to the address its own autopilot was last
+    // heard from (see `routes` below).
+    let mut pending: BTreeMap<u8, TxQueue> = BTreeMap::new();
+    // Where each vehicle's autopilot (component 1) was last heard from. Several autopilots
+    // send to one `udpin` port (each copter's SERIAL1 in a SITL fleet): camera k's frames go
+    // back to autopilot k, as a camera wired to its own autopilot's serial port would send
+    // them. Sending everything to the last sender (as before) spread one camera's packets
+    // over every autopilot: their paths differ in delay, so packets arrived out of order —
+    // 29 reorderings in 120 pictures through four ArduCopter SITLs, and a packet that crossed
+    // an image's DATA_TRANSMISSION_HANDSHAKE counted for the wrong image (pictures short of
+    // packet 0, 1 or the last ones) — and requests for one autopilot's telemetry went to
+    // another, which does not forward them back to the port they came from
+    // (MAVLink_routing::check_and_forward), so a camera could wait minutes for a position.
+    let mut routes: HashMap<u8, SocketAddr> = HashMap::new();
     tokio::pin!(shutdown);
     let result = loop {
         let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
@@ -775,40 +796,49 @@ where
         while let Some((h, m)) = cams.poll_transmit() {
             let unix = unix0 + now.as_micros();
             let frame = codec.encode_with_header(&h, &m, mavlink::MavlinkVersion::V2, unix);
-            pending.push(now, frame);
+            let sysid = u8::try_from(h.system_id).unwrap_or(0);
+            pending.entry(sysid).or_default().push(now, frame);
         }
-        if let Expired::Began(n) = pending.expire(now) {
-            tracing::warn!(
-                "simulated cameras: the link is dropping datagrams older than {} ms ({n} now, \
-                 {} in all)",
-                TxQueue::MAX_AGE.as_millis(),
-                pending.dropped()
-            );
+        for (sysid, q) in pending.iter_mut() {
+            if let Expired::Began(n) = q.expire(now) {
+                tracing::warn!(
+                    "simulated camera {sysid}: the link is dropping datagrams older than {} ms \
+                     ({n} now, {} in all)",
+                    TxQueue::MAX_AGE.as_millis(),
+                    q.dropped()
+                );
+            }
         }
         let mut backlog = false;
         match &ios[0] {
             Io::Udp { sock, peer } => {
-                let to = peer.lock().ok().and_then(|p| *p);
-                match to {
-                    Some(to) => {
-                        pending.refill(now);
-                        while let Some(d) = pending.ready() {
-                            match sock.try_send_to(d, to) {
-                                Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => break,
-                                // sent, or an error a retry would not mend (e.g. ICMP
-                                // port unreachable reported on this send)
-                                _ => pending.sent(),
+                let last = peer.lock().ok().and_then(|p| *p);
+                for (sysid, q) in pending.iter_mut() {
+                    match routes.get(sysid).copied().or(last) {
+                        Some(to) => {
+                            q.refill(now);
+                            while let Some(d) = q.ready() {
+                                match sock.try_send_to(d, to) {
+                                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
+                                        break;
+                                    }
+                                    // sent, or an error a retry would not mend (e.g. ICMP
+                                    // port unreachable reported on this send)
+                                    _ => q.sent(),
+                                }
                             }
                         }
+                        // nobody has spoken to us yet: nowhere to send
+                        None => q.clear(),
                     }
-                    // nobody has spoken to us yet: nowhere to send
-                    None => pending.clear(),
+                    backlog |= !q.is_empty();
                 }
-                backlog = !pending.is_empty();
             }
             Io::Tcp { out } => {
-                for d in pending.take_all() {
-                    let _ = out.send(d);
+                for q in pending.values_mut() {
+                    for d in q.take_all() {
+                        let _ = out.send(d);
+                    }
                 }
             }
         }
@@ -827,9 +857,14 @@ where
         }
         tokio::select! {
             r = rx.recv() => {
-                if let Some((_, bytes)) = r {
+                if let Some((_, bytes, from)) = r {
                     let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
                     for f in codec.decode(&bytes, unix0 + now.as_micros()) {
+                        if let (Some(a), 1) = (from, f.header.component_id)
+                            && let Ok(sysid) = u8::try_from(f.header.system_id)
+                        {
+                            routes.insert(sysid, a);
+                        }
                         if let Ok(m) = f.message {
                             cams.handle_message(&f.header, &m, now);
                         }
