@@ -190,12 +190,24 @@ fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<SimC
 /// vehicle over loopback UDP, on the simulator's own time (at most `cfg.speedup` times the
 /// wall clock's, slower when the machine is busy).
 pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<DemoFleet> {
+    let speed = Speed::times(cfg.speedup).context("the speed-up must be positive")?;
+    start_at(spec, world, cfg, speed).await
+}
+
+/// [`start`] at `speed` (`Speed::Max`: as fast as the machine can; the fleet's timeouts are
+/// then stretched as for 4×), `cfg.speedup` aside.
+pub async fn start_at(
+    spec: &str,
+    world: World,
+    cfg: &DemoConfig,
+    speed: Speed,
+) -> anyhow::Result<DemoFleet> {
     let sim = Sim::new(sim_config(spec, world.clone(), cfg)?, Time::ZERO)?;
     let handle = server::spawn(
         sim,
         ServeOptions {
             endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0")?],
-            speed: Speed::times(cfg.speedup).context("the speed-up must be positive")?,
+            speed,
             // the fleet below follows the simulator's time
             gcs: GcsClock::Simulator,
             image_dir: None,
@@ -213,7 +225,8 @@ pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result
         links.push(open_link(i, spec, &LinkOptions::default(), ev_tx.clone()).await?);
     }
     drop(ev_tx);
-    let fleet = fleet::spawn(links, ev_rx, demo_fleet_config(cfg.speedup), handle.clock());
+    let ceiling = speed.ceiling().unwrap_or(4.0);
+    let fleet = fleet::spawn(links, ev_rx, demo_fleet_config(ceiling), handle.clock());
     Ok(DemoFleet {
         fleet,
         started_unix_ms: handle.time.started_unix_ms(),

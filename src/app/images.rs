@@ -32,7 +32,7 @@ use crate::files::read_file_url;
 use crate::fleet::{FleetHandle, Incoming};
 use crate::imagery::meta::{ImageMeta, read_meta};
 use crate::imagery::onboard::OnboardMeasurement;
-use crate::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig};
+use crate::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig, request_image};
 use crate::time::Time;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use std::collections::{HashMap, VecDeque};
@@ -130,18 +130,6 @@ fn merge_poses(captured: &CapturePose, meta: &ImageMeta) -> CapturePose {
     }
 }
 
-/// A GCS's request for the picture of `size` bytes: the request form of the image
-/// transmission protocol (a DATA_TRANSMISSION_HANDSHAKE from the GCS), naming the picture by
-/// the size its on-board measurement announced.
-fn picture_request(size: u32) -> MavMessage {
-    use mavlink::dialects::ardupilotmega as mav;
-    MavMessage::DATA_TRANSMISSION_HANDSHAKE(mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
-        size,
-        mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
-        ..mav::DATA_TRANSMISSION_HANDSHAKE_DATA::default()
-    })
-}
-
 /// Yaw (degrees clockwise from north, 0..360) of an attitude quaternion [w, x, y, z] (NED).
 fn yaw_of_quaternion(q: [f32; 4]) -> Option<f64> {
     let [w, x, y, z] = q.map(f64::from);
@@ -220,7 +208,7 @@ impl Intake {
         // transmission with the capture's name in its metadata, and takes this pose.
         self.remember_pose(key, pose);
         self.requests
-            .push_back((cam, picture_request(m.picture_bytes)));
+            .push_back((cam, request_image(m.picture_bytes, 0, 0)));
     }
 
     fn remember_pose(&mut self, key: CaptureKey, pose: CapturePose) {

@@ -4,5 +4,5 @@
 //! makes on board ([`onboard`]).
 
 pub mod meta;
-pub mod transfer;
 pub mod onboard;
+pub mod transfer;

@@ -120,6 +120,22 @@ struct Transfer {
     unneeded: bool,
 }
 
+/// A GCS's request for the image of `size` bytes: the request form of the image transmission
+/// protocol, a DATA_TRANSMISSION_HANDSHAKE from the GCS naming the image by its size, and by
+/// its packets and payload per packet when known (0 when not: a picture known only from its
+/// on-board measurement).
+pub fn request_image(size: u32, packets: u16, payload: u8) -> MavMessage {
+    MavMessage::DATA_TRANSMISSION_HANDSHAKE(mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
+        size,
+        width: 0,
+        height: 0,
+        packets,
+        mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
+        payload,
+        jpg_quality: 0,
+    })
+}
+
 /// How many interrupted images a receiver keeps, waiting for them to be sent again.
 pub const MAX_WAITING: usize = 8;
 
@@ -392,17 +408,7 @@ impl ImageReceiver {
         t.retries += 1;
         self.requests += 1;
         self.outbox
-            .push_back(MavMessage::DATA_TRANSMISSION_HANDSHAKE(
-                mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
-                    size: t.size,
-                    width: 0,
-                    height: 0,
-                    packets: t.packets,
-                    mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
-                    payload: t.payload,
-                    jpg_quality: 0,
-                },
-            ));
+            .push_back(request_image(t.size, t.packets, t.payload));
     }
 
     /// The next message to send to the camera (a re-send request).

@@ -28,15 +28,9 @@ use crate::app::{demo, images};
 use crate::clock::unix_ms;
 use crate::explore::Sharing;
 use crate::explore::mapping::{MappingState, WaitTimes};
-use crate::fleet;
-use crate::link::ConnSpec;
-use crate::link::transport::{LinkOptions, open_link};
-use crate::sim::harness::{Sim, SimConfig};
 use crate::sim::pace::Speed;
-use crate::sim::server::{self, Endpoint, GcsClock, ServeOptions};
 use crate::sim::world::World;
 use crate::store::{RunDir, RunMeta};
-use crate::time::Time;
 use anyhow::Context as _;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
@@ -382,40 +376,9 @@ async fn fly(
         crate::mission::definition::MissionDef::parse(&text, "runway-field-test.toml (built in)")
             .map_err(|e| anyhow::anyhow!("{e}"))?;
     let spec = format!("{drones}xcopter:ardupilot");
-    let mut sc = SimConfig::from_spec(&spec, Some(world.clone()), None, seed)?;
-    for v in &mut sc.vehicles {
-        v.battery.minutes = args.battery_minutes;
-        v.swap_after_s = Some(args.swap_after);
-    }
-    let sim = Sim::new(sc, Time::ZERO)?;
-    let handle = server::spawn(
-        sim,
-        ServeOptions {
-            endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0")?],
-            speed: args.speedup,
-            gcs: GcsClock::Simulator,
-            image_dir: None,
-            duration_s: None,
-        },
-    )
-    .await
-    .context("starting the simulator")?;
-    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
-    let mut links = Vec::new();
-    for (i, b) in handle.bound.iter().enumerate() {
-        let spec: ConnSpec = format!("udpout:{}", b.local)
-            .parse()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
-        links.push(open_link(i, spec, &LinkOptions::default(), ev_tx.clone()).await?);
-    }
-    drop(ev_tx);
-    let ceiling = args.speedup.ceiling().unwrap_or(4.0);
-    let fleet = fleet::spawn(
-        links,
-        ev_rx,
-        demo::demo_fleet_config(ceiling),
-        handle.clock(),
-    );
+    // the demo's team: the same simulator and fleet set-up, at the experiment's speed
+    let team = demo::start_at(&spec, world, &cfg, args.speedup).await?;
+    let (fleet, handle) = (team.fleet, team.sim);
     let result = async {
         let state =
             crate::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60)).await?;
