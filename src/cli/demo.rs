@@ -293,6 +293,7 @@ fn summary(r: &MappingReport) -> Vec<String> {
             "  flight: {:.0} s airborne in all, {:.0} m, {} battery swap(s)",
             r.flight_time_s, r.distance_m, r.battery_swaps
         ),
+        crate::app::runway::mission_time_line(&r.mission_time),
     ];
     if let Some([n, e]) = r.roi_velocity_ne_mps {
         lines.push(format!(

@@ -249,7 +249,7 @@ impl RunKind for Runway {
 
 /// The report's mission-time line: first take-off to the DFS's start, the complete map and the
 /// last landing (fleet-clock seconds), and the team's shares.
-fn mission_time_line(m: &report::MissionTime) -> String {
+pub(crate) fn mission_time_line(m: &report::MissionTime) -> String {
     let at = |t: Option<f64>| t.map_or_else(|| "—".to_string(), |t| format!("{t:.0} s"));
     format!(
         "  mission time (vehicles' clock, from the first take-off): DFS start {}, map complete {}, \

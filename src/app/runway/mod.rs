@@ -80,6 +80,7 @@ mod events;
 mod kind;
 pub mod report;
 pub use self::kind::Runway;
+pub(crate) use self::kind::mission_time_line;
 mod intake;
 mod pilot;
 mod runner;
