@@ -8,7 +8,8 @@
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use fleetmap::clock::stopwatch;
 use fleetmap::experiment::bandit::{StudyConfig, World, run_trial};
-use fleetmap::planner::ip::{Instance, Model, PlanOptions, Scenario, solve_instance};
+use fleetmap::planner::ip::{Model, PlanOptions, solve_instance};
+use fleetmap::planner::scenario::{Instance, Scenario};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;

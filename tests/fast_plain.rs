@@ -11,7 +11,8 @@ use fleetmap::experiment::fastplain::{
 };
 use fleetmap::geo::Cell;
 use fleetmap::planner::grid::Grid;
-use fleetmap::planner::ip::{Instance, PlanStatus};
+use fleetmap::planner::ip::PlanStatus;
+use fleetmap::planner::scenario::Instance;
 
 fn assert_same(r: &Row) {
     eprintln!("{}", fastplain::row_line(r));

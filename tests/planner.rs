@@ -6,7 +6,8 @@ use fleetmap::clock::stopwatch;
 use fleetmap::geo::Cell;
 use fleetmap::planner::check::{CheckOptions, check_plan_with};
 use fleetmap::planner::grid::Grid;
-use fleetmap::planner::ip::{Instance, Model, PlanOptions, PlanStatus, Scenario, solve_instance};
+use fleetmap::planner::ip::{Model, PlanOptions, PlanStatus, solve_instance};
+use fleetmap::planner::scenario::{Instance, Scenario};
 use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -181,7 +182,7 @@ fn cli_solves_the_shipped_scenarios_in_the_spec_format() {
                     })
                     .collect()
             };
-            let plan = fleetmap::planner::ip::Plan {
+            let plan = fleetmap::planner::plan::Plan {
                 cycles: cycles as usize,
                 drones: parse(&v["drones"]),
                 stations: parse(&v["stations"]),

@@ -1,7 +1,8 @@
 //! `fleetmap plan --scenario FILE.json [--json]`: solve one epoch of the bandit paper's
 //! low-level planner (the IP (11), Algorithm 2) for a scenario file (docs/ip-scenario.md).
 
-use crate::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, Scenario, solve_instance};
+use crate::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
+use crate::planner::scenario::Scenario;
 use crate::planner::scenario::ScenarioError;
 use anyhow::Context;
 use clap::{Args, ValueEnum};

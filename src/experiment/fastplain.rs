@@ -42,7 +42,8 @@
 
 use super::bandit::{Spread, StudyConfig, World, mix, run_trial};
 use crate::planner::check::{CheckOptions, check_plan_with};
-use crate::planner::ip::{Instance, Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
+use crate::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
+use crate::planner::scenario::Instance;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};

@@ -37,7 +37,8 @@
 //! Euclidean optimum. Forbidden pairs weigh more than any legal assignment can.
 
 use super::grid::Grid;
-use super::ip::{Instance, Timelines};
+use super::plan::Timelines;
+use super::scenario::Instance;
 use pathfinding::prelude::{Matrix, kuhn_munkres_min};
 
 /// The scale M of the integer weights (see the module documentation).

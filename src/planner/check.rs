@@ -4,7 +4,8 @@
 //! not with the grid's neighbour lists — so that a bug in a model or in the re-pairing cannot
 //! hide itself.
 
-use super::ip::{Instance, Plan};
+use super::plan::Plan;
+use super::scenario::Instance;
 use crate::geo::Cell;
 use std::collections::{BTreeMap, BTreeSet};
 

@@ -7,6 +7,7 @@
 //! | [`scenario`] | IP scenario files (docs/ip-scenario.md) and validated instances |
 //! | [`bandit`] | UCB (3), keep/reject sets (4), the APT variant, the bound P_max (12)–(14) |
 //! | [`baselines`] | the goal rules of §VI-5: Random, GreedyCov, GreedyTrav |
+//! | [`plan`] | a plan: cells per vehicle and sensing cycle, and the models' timelines |
 //! | [`ip`] | the IP (11) with (7)–(10): the paper's plain model and the fast model |
 //! | [`assign`] | linear-assignment re-pairing of §III-C |
 //! | [`check`] | an independent checker of plans |
@@ -18,5 +19,6 @@ pub mod baselines;
 pub mod check;
 pub mod grid;
 pub mod ip;
+pub mod plan;
 pub mod scenario;
 pub mod sortie;

@@ -56,9 +56,9 @@
 //!    plan is returned changes. If the objective's time limit passes before any plan is found,
 //!    the K' model is solved again without objective.
 
-use super::{
-    Attempt, Instance, PlanOptions, PlanStatus, RawResult, Timelines, classify, configure,
-};
+use super::{Attempt, PlanOptions, PlanStatus, RawResult, classify, configure};
+use crate::planner::plan::Timelines;
+use crate::planner::scenario::Instance;
 use good_lp::{Expression, ProblemVariables, Solution, SolverModel, Variable, highs, variable};
 use std::collections::HashMap;
 

@@ -29,9 +29,9 @@
 //! * (11) sums λ_k over k ∈ N_[1, K]; the cycles are indexed [0, K − 1] by (6), so the
 //!   objective is Σ_{k=0}^{K−1} λ_k.
 
-use super::{
-    Attempt, Instance, PlanOptions, PlanStatus, RawResult, Timelines, classify, configure,
-};
+use super::{Attempt, PlanOptions, PlanStatus, RawResult, classify, configure};
+use crate::planner::plan::Timelines;
+use crate::planner::scenario::Instance;
 use good_lp::{Expression, ProblemVariables, Solution, SolverModel, Variable, highs, variable};
 
 /// Solve the paper's model with K = `inst.k_max` cycles. `elapsed` is the caller's clock
