@@ -126,8 +126,8 @@ fn samples() -> Vec<(&'static str, RgbImage)> {
 struct Golden {
     width: u32,
     height: u32,
-    counts: runway::RegionCounts,
-    fractions: runway::RegionFractions,
+    counts: fleetmap::vision::regions::RegionCounts,
+    fractions: fleetmap::vision::regions::RegionFractions,
     labels_heading_0: runway::NeighbourLabels,
     labels_heading_90: runway::NeighbourLabels,
     green_fraction: f64,

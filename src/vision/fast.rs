@@ -29,7 +29,7 @@
 //! random images of any size, including sizes below 15 pixels and not a multiple of 64.
 
 use super::color;
-use super::runway::{Region, RegionCounts, RegionGrid};
+use super::regions::{Region, RegionCounts, RegionGrid};
 use image::{GrayImage, RgbImage};
 
 /// A binary image, one bit per pixel, rows padded to whole `u64` words with zero bits.

@@ -25,6 +25,7 @@ pub mod geometry;
 pub mod green;
 pub mod load;
 pub mod reference;
+pub mod regions;
 pub mod runway;
 pub mod sanity;
 pub mod synth;

@@ -5,7 +5,7 @@
 //! Each function is the direct transcription of the OpenCV call it stands for.
 
 use super::color;
-use super::runway::{Region, RegionCounts, RegionGrid};
+use super::regions::{Region, RegionCounts, RegionGrid};
 use image::{GrayImage, Luma, RgbImage};
 
 /// `cv2.cvtColor(img, cv2.COLOR_RGB2GRAY)`.

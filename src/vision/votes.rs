@@ -32,7 +32,8 @@
 //!   are counted afterwards against ground truth ([`VoteBook::evaluate`]).
 
 use super::VisionError;
-use super::runway::{NeighbourLabels, RegionFractions};
+use super::regions::RegionFractions;
+use super::runway::NeighbourLabels;
 use crate::geo::{Cell, Dir4};
 use crate::time::Time;
 use serde::{Deserialize, Serialize};
