@@ -8,6 +8,7 @@ autopilot (ArduPilot SITL, PX4 SITL, a vehicle on the bench).
     hitl/conformance.py udpout:127.0.0.1:18570          # a PX4 SITL's GCS port
     hitl/conformance.py tcp:127.0.0.1:5760 --checks files --missions DIR --fly 3   # mission files
     hitl/conformance.py --checks bandit-fleet --ardupilot DIR --speedup 5           # a SITL team
+    hitl/conformance.py --checks runway --team 3xarducopter --ardupilot DIR --speedup 5   # runway, a team
 
 Everything goes through `fleetmap relay` (a lossy MAVLink relay) between fleetmap and the
 vehicle, so the checks at 0, 30 and 50 % loss see the real autopilot's behaviour over a poor
@@ -30,6 +31,29 @@ radio. Each check prints one line; `--json FILE` writes them all. The checks:
             give --camera-link, where the autopilot's camera port sends (e.g. ArduPilot
             `--serial1 udpclient:127.0.0.1:14552` → udpin:127.0.0.1:14552); this runner
             starts `fleetmap sim --camera-only` there.
+            With --team and no target, the runner starts a team of SITL copters itself, as
+            bandit-fleet does (--team e.g. 3xarducopter or 2xarducopter,1xpx4; --wiring,
+            --ardupilot, --px4, --speedup, --instance-base): the k-th drone of the mission at
+            the world's k-th home ([homes]); a mission that lists fewer drones is written to
+            the work directory with drones appended (sysid k, as `fleetmap experiment runway
+            --drones N` does), its battery.flight_time_min set to --runway-battery-min (default
+            6: the GCS's endurance estimate, below what the SITL batteries give). Batteries
+            small enough for swaps: ArduPilot BATT_CAPACITY --battery-mah (default 4000; the
+            SITL quad draws about 28 A hovering, about 8.5 minutes), PX4 SIH SIM_BAT_DRAIN
+            --px4-battery-s (default 450 s) down to SIM_BAT_MIN_PCT 5. One `fleetmap camera
+            --source render` serves every copter's camera port (pictures by image transmission
+            at --image-rate). When the GCS says "vehicle N: landed: waiting for a battery swap"
+            the crew power-cycles that drone at once: ArduPilot rebooted from GCS id 250 on its
+            SERIAL2 (TCP 5762 + 10 × instance), PX4 (which refuses the reboot command) by
+            restarting its process; PX4 SIH refills its battery when it disarms, so a PX4 drone
+            the GCS sent up again before the crew came is not restarted (counted apart). One
+            row: team, wiring, IoU (best possible), battery swaps (power cycles), cells,
+            pictures (cell-centre + sweep), pictures lost (the report's image failures), wall
+            seconds, mission time to the complete map / to the last landing (`fleetmap report
+            --json`: the GCS's clock, i.e. wall seconds; the row adds the rate the SITLs' own
+            clocks ran at, from the .tlog), result (pass: finished, GCS killed and resumed, IoU within
+            1 point of the best, at least one swap and every power cycle done, no picture lost,
+            every drone landed).
   files     (not run by default) every .txt, .waypoints and .plan file in --missions DIR, e.g.
             ArduPilot's Tools/autotest missions, through `fleetmap mission upload --verify`
             (upload, read back, compare by the autopilot's storage rules): verified, or the
@@ -607,6 +631,315 @@ def runway_check(checks):
 
 
 # ---------------------------------------------------------------------------------------------
+# runway --team: the runway field test on a team of SITL copters
+
+SWAP_WANTED = re.compile(r"vehicle (\d+): landed: waiting for a battery swap")
+
+
+def world_homes(world, n):
+    """(lat, lon) of the world's first `n` homes: vehicle k (k = 0, 1, ...) at the [homes]
+    reference plus first + k steps, metres north and east, as `fleetmap sim --vehicles`
+    places its vehicles."""
+    h = world.get("homes")
+    if not h:
+        sys.exit("--team: the world has no [homes] table (where the vehicles start)")
+    ref = h["reference"]
+    return [offset(ref[0], ref[1], h.get("first_north_m", 0.0) + k * h.get("step_north_m", 0.0),
+                   h.get("first_east_m", 0.0) + k * h.get("step_east_m", 0.0)) for k in range(n)]
+
+
+def team_runway_mission(path, n, out, battery_min):
+    """The runway mission `path` for a team of `n` drones: the file's own when it lists `n`
+    drones, else a variant written to `out` with drones appended as `fleetmap experiment
+    runway --drones N` adds them (sysid k, name uavk); with `battery_min`, its
+    battery.flight_time_min (the GCS's endurance estimate) set to that. Returns (path, sysids)
+    or (None, why)."""
+    import tomllib
+    text = open(path).read()
+    vehicles = tomllib.loads(text).get("vehicles", [])
+    if any(v.get("role", "drone") != "drone" for v in vehicles):
+        return None, f"{path}: a runway team is drones only"
+    if len(vehicles) > n:
+        return None, f"--team has {n} drones, the mission {len(vehicles)}"
+    sysids = [v["sysid"] for v in vehicles]
+    k = 1
+    while len(sysids) < n:
+        while k in sysids:
+            k += 1
+        # appended at the end, after every table: the header starts its own entry
+        text += f'\n[[vehicles]]\nsysid = {k}\nrole = "drone"\nname = "uav{k}"\n'
+        sysids.append(k)
+    if battery_min is not None:
+        line = f"flight_time_min = {battery_min:g}"
+        text, hits = re.subn(r"(?m)^flight_time_min\s*=\s*[-+0-9.eE]+", line, text)
+        if hits == 0:
+            text, hits = re.subn(r"(?m)^\[battery\][ \t]*(#.*)?$", lambda m: m.group(0) + "\n" + line, text)
+        if hits == 0:
+            text += f"\n[battery]\n{line}\n"
+    if text == open(path).read():
+        return path, sysids
+    open(out, "w").write(text)
+    code, _, err, _ = run(["check", out], timeout=60)
+    if code != 0:
+        return None, f"the team's mission {out}: {fleetmap_error(err, code)}"
+    return out, sysids
+
+
+def vehicle_clock_rate(tlogs, drones):
+    """Vehicle seconds per wall second over the run: the drones' time_boot_ms (in
+    GLOBAL_POSITION_INT) against the .tlogs' wall clock, each step between two reports
+    counted when the clock went forward (a reboot restarts it), mean over the drones; None
+    without reports. The GCS's clock is the wall clock: a SITL at --speedup runs faster."""
+    pad = lambda p, k: p + bytes(max(0, k - len(p)))
+    rates = []
+    for s in drones:
+        vehicle = wall = 0.0
+        for path in tlogs:
+            last = None
+            for ts, sysid, compid, msgid, p in mavlink_frames(path):
+                if sysid != s or compid != 1 or msgid != 33:
+                    continue
+                boot = struct.unpack_from("<I", pad(p, 4), 0)[0] / 1000.0
+                if last is not None and boot > last[1] and ts - last[0] < 5.0:
+                    vehicle += boot - last[1]
+                    wall += ts - last[0]
+                last = (ts, boot)
+        if wall > 0:
+            rates.append(vehicle / wall)
+    return round(sum(rates) / len(rates), 2) if rates else None
+
+
+class Gcs:
+    """`fleetmap run` or `resume` whose output lines are handed to `on_line` as they come
+    (and written to `log`)."""
+
+    def __init__(self, args, log, on_line):
+        self.log = open(log, "w")
+        self.p = subprocess.Popen([BIN, *args], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                                  errors="replace")
+        self.reader = threading.Thread(target=self.read, args=(on_line,), daemon=True)
+        self.reader.start()
+
+    def read(self, on_line):
+        for line in self.p.stdout:
+            self.log.write(line)
+            self.log.flush()
+            on_line(line.rstrip("\n"))
+
+    def stop(self, sig=signal.SIGINT):
+        if self.p.poll() is None:
+            self.p.send_signal(sig)
+            try:
+                self.p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                self.p.kill()
+                self.p.wait()
+        self.reader.join(timeout=5)
+        self.log.close()
+
+
+def runway_team_check(checks, work):
+    """The runway field test on a team of SITL copters this runner starts (--team, --wiring,
+    as bandit-fleet): each drone at the world's home for its place in the mission, batteries
+    small enough that the GCS sends drones home for swaps, every swap a power cycle done by
+    the crew as soon as the GCS says a drone waits for one, the GCS killed (SIGKILL) once and
+    resumed. One row (see the module's docstring)."""
+    import tomllib
+    args = checks.args
+    work = os.path.join(work, "runway-team")
+    os.makedirs(work, exist_ok=True)
+    world = os.path.abspath(args.world or os.path.join(REPO, "assets", "worlds", "runway.toml"))
+    base = os.path.abspath(args.mission or os.path.join(REPO, "missions", "runway-field-test.toml"))
+    team = parse_team(args.team)
+    if any(FLEET_KINDS[k] != "drone" for k in team):
+        return checks.record("runway", False, f"--team {args.team}: the runway team is copters only "
+                             "(arducopter, px4)", 0)
+    # The GCS's endurance estimate (battery.flight_time_min) below what the SITL batteries
+    # below give: 6 minutes by default
+    mission, sysids = team_runway_mission(base, len(team), os.path.join(work, "mission.toml"),
+                                          args.runway_battery_min or 6.0)
+    if mission is None:
+        return checks.record("runway", False, sysids, 0)
+    world_def = tomllib.load(open(world, "rb"))
+    members = [(s, k, home) for s, k, home in zip(sysids, team, world_homes(world_def, len(team)))]
+    label = team_label(team)
+    wiring = "one port" if args.wiring == "shared" else "one port per vehicle"
+    # SITL batteries: ArduPilot's BATT_CAPACITY, PX4 SIH draining to 5 % (its default stops at
+    # 50 %, where the GCS would never send it home) in --px4-battery-s seconds of flight
+    battery_mah = args.battery_mah or 4000
+    px4_battery_s = args.px4_battery_s or 450
+    run_dir = os.path.join(work, "run")
+    log_path = os.path.join(work, "run.log")
+    camera_port = free_udp_port()
+    lock = threading.Lock()
+    lines = []                      # (wall, line) of every GCS process
+    cycles = []                     # (sysid, ok, how, wall seconds it took)
+    busy = set()                    # drones being power-cycled
+    resumed = set()                 # drones the GCS sent up again since they landed for a swap
+    refills = []                    # PX4 drones resumed before their power cycle
+    crews = []
+
+    def crew(sysid):
+        t = time.monotonic()
+        with lock:
+            refilled = sysid in resumed and fleet.kinds[sysid] == "px4"
+        if refilled:
+            # PX4 SIH refills its simulated battery when it disarms (battery_simulator): the
+            # GCS may see a full battery and take off again before the crew could restart the
+            # process; it is not restarted under a drone that is taking off.
+            with lock:
+                refills.append(sysid)
+                busy.discard(sysid)
+            print(f"  | crew: vehicle {sysid} resumed before its power cycle (PX4 SIH refills its "
+                  "battery at disarm): not restarted", flush=True)
+            return
+        ok, how = fleet.power_cycle(sysid)
+        with lock:
+            cycles.append((sysid, ok, how, round(time.monotonic() - t, 1)))
+            busy.discard(sysid)
+        print(f"  | crew: vehicle {sysid} {how} ({'ok' if ok else 'FAILED'})", flush=True)
+
+    def on_line(line):
+        with lock:
+            lines.append((time.time(), line))
+        m = re.search(r"vehicle (\d+): fresh battery", line)
+        if m:
+            with lock:
+                resumed.add(int(m.group(1)))
+        m = SWAP_WANTED.search(line)
+        if m:
+            sysid = int(m.group(1))
+            with lock:
+                resumed.discard(sysid)
+                if sysid in busy or sysid not in fleet.kinds:
+                    return
+                busy.add(sysid)
+            t = threading.Thread(target=crew, args=(sysid,), daemon=True)
+            crews.append(t)
+            t.start()
+        if re.search(r"battery swap|fresh battery|map is complete|finished|error|lost", line, re.I):
+            print(f"  | {line}", flush=True)
+
+    def images():
+        path = os.path.join(run_dir, "events.jsonl")
+        if not os.path.exists(path):
+            return 0
+        return sum(1 for l in open(path, errors="replace") if '"event":"image"' in l)
+
+    t0 = time.monotonic()
+    fleet = camera = gcs = None
+    killed, result, stopped = False, None, False
+    tlogs = [os.path.join(work, "gcs.tlog"), os.path.join(work, "gcs-resume.tlog")]
+    try:
+        fleet, conns = start_team(args, work, members, world_def.get("ground_alt_amsl_m", 0.0), camera_port,
+                                  battery_mah=battery_mah, px4_battery_s=px4_battery_s, px4_min_pct=5)
+        # one camera for every copter: renders the world at each capture and sends the
+        # picture back through the copter's autopilot (image transmission)
+        camera = Proc([args.camera_bin or BIN, "camera", "--source", "render", "--world", world,
+                       "--image-rate", str(args.image_rate), "--connect", f"udpin:127.0.0.1:{camera_port}"],
+                      os.path.join(work, "camera.log"))
+        gcs = Gcs(["run", mission, *conns, "--world", world, "--headless", "--auto-resume", "--run-dir", run_dir,
+                   "--tlog", tlogs[0], "--wait", str(args.fleet_wait)], log_path, on_line)
+        deadline = t0 + args.runway_timeout
+        while time.monotonic() < deadline:
+            time.sleep(1)
+            if not killed and images() >= args.kill_after:
+                gcs.stop(signal.SIGKILL)
+                killed = True
+                print(f"  | GCS killed (SIGKILL) after {images()} images; resuming", flush=True)
+                time.sleep(2)
+                gcs = Gcs(["resume", run_dir, *conns, "--headless", "--auto-resume", "--tlog", tlogs[1],
+                           "--wait", str(args.fleet_wait)], log_path + ".resume", on_line)
+                continue
+            if gcs.p.poll() is not None:
+                result = gcs.p.returncode
+                break
+    except (KeyboardInterrupt, SystemExit):
+        stopped = True
+    finally:
+        if gcs is not None:
+            gcs.stop(signal.SIGINT)
+        for t in crews:
+            t.join(timeout=60)
+        if camera:
+            camera.stop()
+        if fleet:
+            fleet.close()
+    secs = time.monotonic() - t0
+    code, out, err, _ = run(["report", run_dir, "--world", world, "--json"], timeout=120)
+    try:
+        rep = json.loads(out)
+    except ValueError:
+        rep = {}
+    tl = [tlog_figures(t, sysids, []) for t in tlogs if os.path.exists(t)]
+    # the report's mission times are on the GCS's clock (wall seconds); the SITLs' own clock
+    # ran this many times faster
+    rate = vehicle_clock_rate([t for t in tlogs if os.path.exists(t)], sysids)
+    iou, best = rep.get("iou") or 0.0, rep.get("iou_best_possible") or 0.0
+    mt = rep.get("mission_time") or {}
+    robots = rep.get("robots") or []
+    not_landed = [f"{r['sysid']} ({r['status']})" for r in robots if r.get("status") != "landed"]
+    cycled_ok = sum(1 for c in cycles if c[1])
+    failed_cycles = [f"vehicle {c[0]}: {c[2]}" for c in cycles if not c[1]]
+    lost = rep.get("image_failures")
+    if stopped:
+        error = f"stopped after {secs:.0f} s"
+    elif result is None:
+        error = f"not finished within {args.runway_timeout} s ({images()} images)"
+    elif result != 0:
+        error = f"the run exited {result}: {last_line(open(log_path + ('.resume' if killed else '')).read())}"
+    elif not rep:
+        error = f"report: {last_line(err)}"
+    else:
+        error = ""
+    problems = [p for p in [
+        error,
+        "" if rep.get("finished") else "the run did not finish",
+        "" if killed else "the GCS was never killed",
+        "" if best - iou <= 0.01 else f"IoU {100 * (best - iou):.1f} points below the best",
+        "" if (rep.get("battery_swaps") or 0) > 0 else "no battery swap",
+        "; ".join(failed_cycles),
+        "" if lost == 0 else f"{lost} pictures lost",
+        "" if not not_landed else "not landed: " + ", ".join(not_landed),
+    ] if p]
+    ok = not problems
+    row = {"team": label, "wiring": wiring, "speedup": args.speedup, "iou": iou, "iou_best_possible": best,
+           "battery_swaps": rep.get("battery_swaps"), "power_cycles": cycled_ok,
+           "power_cycles_by_vehicle": {s: sum(1 for c in cycles if c[0] == s and c[1]) for s in sysids},
+           "resumed_before_power_cycle": {s: refills.count(s) for s in sysids if s in refills},
+           "swaps_by_vehicle": {r["sysid"]: r.get("battery_swaps") for r in robots},
+           "cells": rep.get("cells_mapped"), "pictures": rep.get("images"), "sweep_pictures": rep.get("sweep_images"),
+           "lost_pictures": lost, "pictures_incomplete_in_tlog": sum(f["pictures_lost"] for f in tl),
+           "pictures_announced_in_tlog": sum(f["pictures_sent"] for f in tl),
+           "lowest_battery_pct": {s: min((f["lowest_battery_pct"].get(s) for f in tl
+                                          if f["lowest_battery_pct"].get(s) is not None), default=None)
+                                  for s in sysids},
+           "killed": killed, "seconds": round(secs, 1), "to_map_complete_s": mt.get("to_map_complete_s"),
+           "to_last_landing_s": mt.get("to_last_landing_s"), "vehicle_clock_rate": rate,
+           "battery_mah": battery_mah,
+           "px4_battery_s": px4_battery_s, "mission": mission, "problems": problems,
+           "result": "pass" if ok else "fail"}
+    fmt = lambda x: "-" if x is None else f"{x:.0f}"
+    detail = (f"{wiring}, {label}, ×{args.speedup:g}: IoU {100 * iou:.1f} % (best possible {100 * best:.1f} %), "
+              f"{row['cells']} cells, {row['pictures']} pictures + {row['sweep_pictures']} sweep, {lost} lost, "
+              f"battery swaps {row['battery_swaps']} ({cycled_ok} power cycles: {row['power_cycles_by_vehicle']}"
+              + (f"; resumed before the power cycle: {row['resumed_before_power_cycle']}" if refills else "")
+              + "), "
+              f"GCS killed and resumed: {'yes' if killed else 'NO'}, mission time (GCS clock) to map complete "
+              f"{fmt(row['to_map_complete_s'])} s, to last landing {fmt(row['to_last_landing_s'])} s, the "
+              f"vehicles' clock ran ×{rate}; "
+              f"{'; '.join(problems) or 'no problem'}; work {work}")
+    cells = [f"{label}, ×{args.speedup:g}", wiring, f"{100 * iou:.1f} % ({100 * best:.1f} %)",
+             f"{row['battery_swaps']} ({cycled_ok} power cycles"
+             + (f", {len(refills)} resumed before theirs" if refills else "") + ")", str(row["cells"]),
+             f"{row['pictures']} + {row['sweep_pictures']}", str(lost), f"{secs:.0f}",
+             f"{fmt(row['to_map_complete_s'])} / {fmt(row['to_last_landing_s'])} (vehicles ×{rate})",
+             "pass" if ok else "fail: " + "; ".join(problems)]
+    print("| " + " | ".join(cells) + " |", flush=True)
+    return checks.record("runway", ok, detail, secs, row=row)
+
+
+# ---------------------------------------------------------------------------------------------
 # bandit-fleet: the spatial-classification mission on a team of real autopilots (SITL)
 
 # Team kinds: what each runs as, and what role it can take in the mission.
@@ -747,25 +1080,43 @@ def tlog_figures(path, drones, epochs):
 
 
 class Team:
-    """The SITL autopilots of a bandit-fleet check, each at the start cell the mission gives
-    it: ArduCopter / ArduRover SITL (`--ardupilot DIR`: a build tree with build/sitl/bin and
-    Tools/autotest/default_params) with SERIAL0 to the GCS and a copter's SERIAL1 to the
-    camera; PX4 SIH (`--px4 DIR`: a tree with build/px4_sitl_default) with its GCS link to the
-    GCS and its payload link to the camera. Every vehicle sends to a GCS UDP port (one for
-    all with `--wiring shared`, one each with `per-vehicle`); the GCS listens (udpin)."""
+    """A team of SITL autopilots (bandit-fleet, runway with --team), each at the position its
+    check gives it: ArduCopter / ArduRover SITL (`--ardupilot DIR`: a build tree with
+    build/sitl/bin and Tools/autotest/default_params) with SERIAL0 to the GCS, a copter's
+    SERIAL1 to the camera and SERIAL2 a TCP port for the crew; PX4 SIH (`--px4 DIR`: a tree
+    with build/px4_sitl_default) with its GCS link to the GCS and its payload link to the
+    camera. Every vehicle sends to a GCS UDP port (one for all with `--wiring shared`, one
+    each with `per-vehicle`); the GCS listens (udpin). Batteries: ArduPilot BATT_CAPACITY
+    `battery_mah`; PX4 SIM_BAT_DRAIN `px4_battery_s` (and SIM_BAT_MIN_PCT `px4_min_pct`
+    when given: SIH's default stops the drain at 50 %)."""
 
-    def __init__(self, args, work, members, gcs_ports, camera_port, ground_alt):
-        self.procs = []
+    def __init__(self, args, work, members, gcs_ports, camera_port, ground_alt, battery_mah,
+                 px4_battery_s, px4_min_pct=None):
+        self.procs = {}                 # sysid → Proc
+        self.starts = {}                # sysid → (args, log, cwd, env): to start it again
+        self.crew = {}                  # sysid → the crew's connection (ArduPilot SERIAL2)
         self.work = work
         self.args = args
         self.ground_alt = ground_alt    # the world's ground, metres above sea level (homes)
         self.members = members          # [(sysid, kind, (lat, lon))]
-        for i, (sysid, kind, (lat, lon)) in enumerate(members):
-            gcs = gcs_ports[i]
-            if kind == "px4":
-                self.start_px4(sysid, lat, lon, gcs, camera_port)
-            else:
-                self.start_ardupilot(sysid, kind, lat, lon, gcs, camera_port)
+        self.battery_mah = battery_mah
+        self.px4_battery_s = px4_battery_s
+        self.px4_min_pct = px4_min_pct
+        self.kinds = {sysid: kind for sysid, kind, _ in members}
+        try:
+            for i, (sysid, kind, (lat, lon)) in enumerate(members):
+                gcs = gcs_ports[i]
+                if kind == "px4":
+                    self.start_px4(sysid, lat, lon, gcs, camera_port)
+                else:
+                    self.start_ardupilot(sysid, kind, lat, lon, gcs, camera_port)
+        except BaseException:
+            self.close()
+            raise
+
+    def spawn(self, sysid, cmd, log, cwd, env=None):
+        self.starts[sysid] = (cmd, log, cwd, env)
+        self.procs[sysid] = Proc(cmd, log, cwd=cwd, env=env)
 
     def start_ardupilot(self, sysid, kind, lat, lon, gcs, camera):
         root = self.args.ardupilot
@@ -783,16 +1134,20 @@ class Team:
         extra = os.path.join(d, "fleet.parm")
         # No stream-rate parameters: the GCS asks for what it needs. A copter takes pictures
         # through a MAVLink camera (CAM1_TYPE 1, with CAM2_TYPE 0 beside it: see hitl/README.md).
-        lines = [f"MAV_SYSID {sysid}", f"BATT_CAPACITY {self.args.battery_mah}"]
+        lines = [f"MAV_SYSID {sysid}", f"BATT_CAPACITY {self.battery_mah}"]
         if copter:
             lines += ["CAM1_TYPE 1", "CAM2_TYPE 0"]
         open(extra, "w").write("\n".join(lines) + "\n")
+        instance = self.args.instance_base + sysid
         cmd = [binary, "--model", "+" if copter else "rover", "--speedup", f"{self.args.speedup:g}",
-               "-I", str(self.args.instance_base + sysid), "--home", f"{lat:.8f},{lon:.8f},{self.ground_alt},0",
+               "-I", str(instance), "--home", f"{lat:.8f},{lon:.8f},{self.ground_alt},0",
                "--defaults", f"{defaults},{extra}", "--serial0", f"udpclient:127.0.0.1:{gcs}"]
         if copter:
             cmd += ["--serial1", f"udpclient:127.0.0.1:{camera}"]
-        self.procs.append(Proc(cmd, os.path.join(d, "sitl.log"), cwd=d))
+        # SERIAL2 (MAVLink 2 by default) listens on TCP 5760 + 2 + 10 × instance for the crew.
+        cmd += ["--serial2", "tcp:2"]
+        self.crew[sysid] = f"tcp:127.0.0.1:{5762 + 10 * instance}"
+        self.spawn(sysid, cmd, os.path.join(d, "sitl.log"), d)
 
     def start_px4(self, sysid, lat, lon, gcs, camera):
         root = self.args.px4
@@ -822,16 +1177,58 @@ class Team:
         env = dict(os.environ, PX4_SYS_AUTOSTART="10040", PX4_SIMULATOR="sihsim", PX4_SIM_MODEL="quadx",
                    PX4_SIM_SPEED_FACTOR=f"{self.args.px4_speedup or self.args.speedup:g}",
                    PX4_HOME_LAT=f"{lat:.8f}", PX4_HOME_LON=f"{lon:.8f}", PX4_HOME_ALT=str(self.ground_alt),
-                   # pictures through a MAVLink camera at each capture item; a battery that
-                   # lasts the run (SIH drains to SIM_BAT_MIN_PCT in SIM_BAT_DRAIN seconds)
+                   # pictures through a MAVLink camera at each capture item; the battery
+                   # (SIH drains to SIM_BAT_MIN_PCT in SIM_BAT_DRAIN seconds while armed)
                    PX4_PARAM_TRIG_MODE="1", PX4_PARAM_TRIG_INTERFACE="3",
-                   PX4_PARAM_SIM_BAT_DRAIN=str(self.args.px4_battery_s))
-        self.procs.append(Proc([binary, "-i", str(instance), "-d", "-w", d, "-s", os.path.join(d, "rcS"), etc],
-                               os.path.join(d, "px4.log"), cwd=d, env=env))
+                   PX4_PARAM_SIM_BAT_DRAIN=str(self.px4_battery_s))
+        if self.px4_min_pct is not None:
+            env["PX4_PARAM_SIM_BAT_MIN_PCT"] = f"{self.px4_min_pct:g}"
+        self.spawn(sysid, [binary, "-i", str(instance), "-d", "-w", d, "-s", os.path.join(d, "rcS"), etc],
+                   os.path.join(d, "px4.log"), d, env)
+
+    def power_cycle(self, sysid):
+        """A battery swap on vehicle `sysid` as its crew does it: ArduPilot is rebooted with
+        MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN from a second GCS id (250) on its SERIAL2; PX4 SITL
+        refuses that command (it cannot restart its own process), so its process is stopped
+        and started again in its working directory (parameters and missions kept).
+        Returns (ok, how)."""
+        if self.kinds.get(sysid) == "px4":
+            self.procs[sysid].stop(signal.SIGTERM)
+            cmd, log, cwd, env = self.starts[sysid]
+            restarts = sum(1 for f in os.listdir(cwd) if f.startswith("px4.log"))
+            self.procs[sysid] = Proc(cmd, f"{log}.{restarts}", cwd=cwd, env=env)
+            return True, "process restarted"
+        code, out, err, _ = run(["command", "--connect", self.crew[sysid], "--gcs-sysid", "250",
+                                 "--sysid", str(sysid), "--wait", "30", "reboot"], timeout=180)
+        return code == 0, "rebooted" if code == 0 else f"reboot: {fleetmap_error(err, code)}"
 
     def close(self):
-        for p in self.procs:
+        for p in self.procs.values():
             p.stop(signal.SIGTERM)
+
+
+TEAM_NAMES = {"arducopter": "ArduCopter", "ardurover": "ArduRover", "px4": "PX4 SIH"}
+
+
+def team_label(team):
+    """["arducopter"] * 2 + ["px4"] → "2 ArduCopter + 1 PX4 SIH"."""
+    return " + ".join(f"{team.count(k)} {TEAM_NAMES[k]}" for k in dict.fromkeys(team))
+
+
+def start_team(args, work, members, ground_alt, camera_port, battery_mah, px4_battery_s, px4_min_pct=None):
+    """Starts the SITL team `members` [(sysid, kind, (lat, lon))] wired as --wiring says: every
+    vehicle to one GCS UDP port (shared) or each to its own (per-vehicle). Returns the Team
+    and the GCS's --connect arguments (one udpin per port)."""
+    if args.wiring == "shared":
+        gcs_ports = [free_udp_port()] * len(members)
+    else:
+        gcs_ports = [free_udp_port() for _ in members]
+    team = Team(args, work, members, gcs_ports, camera_port, ground_alt, battery_mah, px4_battery_s,
+                px4_min_pct)
+    conns = []
+    for p in dict.fromkeys(gcs_ports):
+        conns += ["--connect", f"udpin:127.0.0.1:{p}"]
+    return team, conns
 
 
 def bandit_fleet_check(checks, work):
@@ -845,7 +1242,7 @@ def bandit_fleet_check(checks, work):
     world = os.path.abspath(args.world or os.path.join(REPO, "assets", "worlds", "hardware-6x6.toml"))
     definition = tomllib.load(open(mission, "rb"))
     ground_alt = tomllib.load(open(world, "rb")).get("ground_alt_amsl_m", 0.0)
-    team = parse_team(args.team)
+    team = parse_team(args.team or "4xarducopter,2xardurover")
     vehicles = definition.get("vehicles", [])
     if len(team) != len(vehicles):
         return checks.record("bandit-fleet", False, f"--team has {len(team)} vehicles, the mission "
@@ -860,13 +1257,8 @@ def bandit_fleet_check(checks, work):
                                  f"mission, not a {kind}", 0)
         members.append((v["sysid"], kind, cell_centre(origin, definition["grid"]["cell_size_m"], v["start"])))
     drones = [s for s, k, _ in members if FLEET_KINDS[k] == "drone"]
-    names = {"arducopter": "ArduCopter", "ardurover": "ArduRover", "px4": "PX4 SIH"}
-    team_label = " + ".join(f"{team.count(k)} {names[k]}" for k in dict.fromkeys(team))
+    label = team_label(team)
     shared = args.wiring == "shared"
-    if shared:
-        gcs_ports = [free_udp_port()] * len(members)
-    else:
-        gcs_ports = [free_udp_port() for _ in members]
     camera_port = free_udp_port()
     run_dir = os.path.join(work, "run")
     tlog = os.path.join(work, "gcs.tlog")
@@ -884,16 +1276,15 @@ def bandit_fleet_check(checks, work):
 
     result, stopped, err_lines = None, False, []
     try:
-        fleet = Team(args, work, members, gcs_ports, camera_port, ground_alt)
+        fleet, conns = start_team(args, work, members, ground_alt, camera_port,
+                                  battery_mah=args.battery_mah or 30000,
+                                  px4_battery_s=args.px4_battery_s or 7200)
         # The camera measures on board (the mission's definition) and sends 52 bytes a picture;
         # with --camera-pictures it pushes every picture instead (image transmission).
         measure = [] if args.camera_pictures else ["--mission", mission]
         camera = Proc([args.camera_bin or BIN, "camera", "--source", "render", "--world", world, *measure,
                        "--image-rate", str(args.image_rate), "--connect", f"udpin:127.0.0.1:{camera_port}"],
                       os.path.join(work, "camera.log"))
-        conns = []
-        for p in dict.fromkeys(gcs_ports):
-            conns += ["--connect", f"udpin:127.0.0.1:{p}"]
         cmd = [BIN, "run", mission, *conns, "--world", world, "--headless", "--auto-resume",
                "--run-dir", run_dir, "--tlog", tlog, "--wait", str(args.fleet_wait)]
         gcs_log = open(os.path.join(work, "run.log"), "w")
@@ -935,7 +1326,7 @@ def bandit_fleet_check(checks, work):
             ends[int(m.group(1))] = t
     spans = [(e, starts[e], ends[e]) for e in sorted(ends) if e in starts]
     figures = tlog_figures(tlog, drones, spans)
-    row = {"wiring": "one port" if shared else "one port per vehicle", "team": team_label,
+    row = {"wiring": "one port" if shared else "one port per vehicle", "team": label,
            "camera": "pictures" if args.camera_pictures else "on board",
            "speedup": args.speedup, "seconds": round(secs, 1), "exit": result, **figures}
     code, out, err, _ = run(["report", run_dir, "--world", world, "--json"], timeout=120)
@@ -966,7 +1357,7 @@ def bandit_fleet_check(checks, work):
     epochs = "; ".join(
         f"{e['wall_s']:.0f} s ({e['vehicle_s']:.0f} s vehicle, flight {e['flight_max_s']:.0f} s)"
         if e["vehicle_s"] is not None else f"{e['wall_s']:.0f} s" for e in figures["per_epoch"])
-    detail = (f"{row['wiring']}, {team_label}, ×{args.speedup:g}: {row['epochs']} epoch(s), "
+    detail = (f"{row['wiring']}, {label}, ×{args.speedup:g}: {row['epochs']} epoch(s), "
               f"{row['samples']} samples, pictures {figures['pictures_sent']}/{figures['pictures_lost']} "
               f"sent/lost ({figures['onboard_measurements']} measured on board of {figures['captures']} "
               f"captures); per epoch {epochs or '-'}; keep {len(keep)} reject {row['reject']} unclassified "
@@ -974,7 +1365,7 @@ def bandit_fleet_check(checks, work):
               f"work {work}")
     # The row as docs/results/conformance.md tabulates it.
     per = figures["per_epoch"]
-    cells = [row["wiring"], f"{team_label}, ×{args.speedup:g}", str(row["epochs"]), str(row["samples"]),
+    cells = [row["wiring"], f"{label}, ×{args.speedup:g}", str(row["epochs"]), str(row["samples"]),
              f"{figures['pictures_sent']} / {figures['pictures_lost']}",
              ", ".join(f"{e['wall_s']:.0f} ({e['vehicle_s']:.0f})" if e["vehicle_s"] is not None
                        else f"{e['wall_s']:.0f}" for e in per) or "-",
@@ -989,14 +1380,14 @@ def main():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("target", nargs="?",
                     help="sim:ardupilot-copter | sim:ardupilot-rover | sim:px4-copter | a connection string "
-                         "(none for --checks bandit-fleet, which starts its own team)")
+                         "(none for --checks bandit-fleet or runway with --team: they start their own team)")
     ap.add_argument("--sysid", type=int, default=1)
     ap.add_argument("--checks", default="ready,boot,transfer,fly,signing")
     ap.add_argument("--items", type=int, default=100, help="mission items per round trip")
     ap.add_argument("--trials", type=int, default=3, help="round trips per loss level")
     ap.add_argument("--losses", default="0,30,50", help="loss levels, percent each way")
     ap.add_argument("--speedup", type=float, default=1.0,
-                    help="simulator speed (sim: targets), the SITLs' --speedup (bandit-fleet)")
+                    help="simulator speed (sim: targets), the SITLs' --speedup (bandit-fleet, runway --team)")
     ap.add_argument("--world", help="runway, bandit-fleet checks: the simulated world "
                     "(default: assets/worlds/runway.toml, hardware-6x6.toml)")
     ap.add_argument("--mission", help="runway, bandit-fleet checks: the mission file "
@@ -1006,26 +1397,34 @@ def main():
     ap.add_argument("--runway-speedup", type=float, default=10.0, help="runway check on a simulator: its speed")
     ap.add_argument("--kill-after", type=int, default=60, help="runway check: kill the GCS after this many images")
     ap.add_argument("--runway-timeout", type=int, default=7200, help="runway check: seconds")
+    ap.add_argument("--runway-battery-min", type=float, metavar="MIN",
+                    help="runway --team: the mission's battery.flight_time_min (the GCS's endurance "
+                         "estimate), written to the team's mission variant (default: the mission's)")
     ap.add_argument("--missions", metavar="DIR", help="files check: a directory of mission files")
     ap.add_argument("--fly", type=int, default=0, metavar="N", help="files check: fly the first N verified files")
     ap.add_argument("--fly-radius", type=float, default=2000.0, metavar="METRES",
                     help="files check: fly only files whose first position is this close to the vehicle")
     ap.add_argument("--fly-timeout", type=int, default=900, help="files check: seconds per flight")
-    ap.add_argument("--team", default="4xarducopter,2xardurover",
+    ap.add_argument("--team",
                     help="bandit-fleet: the autopilots, in the order of the mission's vehicles "
-                         "(arducopter, px4 drones; ardurover stations), e.g. 2xpx4,2xarducopter,2xardurover")
+                         "(arducopter, px4 drones; ardurover stations; default 4xarducopter,2xardurover), "
+                         "e.g. 2xpx4,2xarducopter,2xardurover; runway without a target: the copters to "
+                         "start (e.g. 3xarducopter, 2xarducopter,1xpx4)")
     ap.add_argument("--wiring", choices=["shared", "per-vehicle"], default="shared",
-                    help="bandit-fleet: every vehicle to one GCS UDP port, or one port (and --connect) each")
+                    help="bandit-fleet, runway --team: every vehicle to one GCS UDP port, or one port (and "
+                         "--connect) each")
     ap.add_argument("--ardupilot", metavar="DIR",
                     help="bandit-fleet: an ArduPilot tree built for SITL (build/sitl/bin/arducopter, "
                          "ardurover; Tools/autotest/default_params)")
     ap.add_argument("--px4", metavar="DIR",
                     help="bandit-fleet: a PX4-Autopilot tree built with make px4_sitl_default (SIH)")
     ap.add_argument("--px4-speedup", type=float, help="bandit-fleet: PX4 SIH's speed (default --speedup)")
-    ap.add_argument("--battery-mah", type=int, default=30000,
-                    help="bandit-fleet: ArduPilot BATT_CAPACITY (a SITL battery never charges)")
-    ap.add_argument("--px4-battery-s", type=int, default=7200,
-                    help="bandit-fleet: PX4 SIM_BAT_DRAIN, seconds (a SITL battery never charges)")
+    ap.add_argument("--battery-mah", type=int,
+                    help="bandit-fleet, runway --team: ArduPilot BATT_CAPACITY (a SITL battery never "
+                         "charges; default 30000 for bandit-fleet, 4000 for runway: swaps)")
+    ap.add_argument("--px4-battery-s", type=int,
+                    help="bandit-fleet, runway --team: PX4 SIM_BAT_DRAIN, seconds of flight from full to "
+                         "empty (default 7200 for bandit-fleet, 450 for runway: swaps)")
     ap.add_argument("--instance-base", type=int, default=20,
                     help="bandit-fleet: SITL instance = this + system id (ports, working files)")
     ap.add_argument("--camera-pictures", action="store_true",
@@ -1049,10 +1448,15 @@ def main():
     unknown = [c for c in order if c not in own and (not hasattr(Checks, c) or c.startswith("_"))]
     if unknown:
         sys.exit(f"unknown check(s): {', '.join(unknown)}")
-    # bandit-fleet starts its own team: a target is needed only for the other checks.
-    needs_target = any(c != "bandit-fleet" for c in order)
+    # bandit-fleet, and runway with --team and no target, start their own team: a target is
+    # needed only for the other checks.
+    team_runway = "runway" in order and args.team and not args.target
+    if not args.team and "bandit-fleet" in order:
+        args.team = "4xarducopter,2xardurover"
+    needs_target = any(c != "bandit-fleet" and not (c == "runway" and team_runway) for c in order)
     if needs_target and not args.target:
-        sys.exit("give a target (sim:ardupilot-copter, a connection string), or only --checks bandit-fleet")
+        sys.exit("give a target (sim:ardupilot-copter, a connection string), or only --checks bandit-fleet "
+                 "or runway with --team")
     work = tempfile.mkdtemp(prefix="fleetmap-conformance.")
     bench = Bench(args.target, args.sysid, work, args.speedup) if needs_target else None
     checks = Checks(bench, args)
@@ -1065,7 +1469,10 @@ def main():
             checks.ready()
         for c in order:
             if c == "runway":
-                runway_check(checks)
+                if bench:
+                    runway_check(checks)
+                else:
+                    runway_team_check(checks, work)
             elif c == "bandit-fleet":
                 bandit_fleet_check(checks, work)
             else:
