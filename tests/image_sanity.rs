@@ -624,8 +624,9 @@ fn tilted_renders_resampled_read_like_level_ones() {
     };
     let img0 = render(&world, &level, &cam, 0.0, &Disturbances::none());
     let f0 = classify(&img0, 0.0, &params).unwrap().fractions;
-    let regions =
-        |f: fleetmap::vision::regions::RegionFractions| [f.center, f.top, f.left, f.bottom, f.right];
+    let regions = |f: fleetmap::vision::regions::RegionFractions| {
+        [f.center, f.top, f.left, f.bottom, f.right]
+    };
     let mut worst_crop = 0.0f64;
     for (roll, pitch, yaw) in [
         (0.0, 6.0, 0.0),

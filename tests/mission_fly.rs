@@ -321,3 +321,37 @@ fn ardupilot_copter_upload_verify_accepts_a_frame_3_rtl() {
         "{context}"
     );
 }
+
+/// `mission upload --verify` on PX4 (issue 28): a `.plan` shaped like PX4's own
+/// `MC_mission_box.plan` (integration tests), whose take-off carries QGroundControl's pitch 15
+/// in param1, with a waypoint yawing to −90°. PX4 keeps neither a take-off pitch nor a negative
+/// yaw (`format_mavlink_mission_item` returns param1 0 and 270°); the simulated PX4 stores
+/// items as PX4 does, and the read-back verifies by PX4's rules.
+#[test]
+fn px4_copter_upload_verify_accepts_what_px4_keeps_of_a_qgc_plan() {
+    let dir = tempfile::tempdir().unwrap();
+    let file = dir.path().join("box.plan");
+    let mut items = copter_mission(Some(HOME));
+    items[0].param1 = 15.0;
+    items[1].param4 = -90.0;
+    std::fs::write(
+        &file,
+        write_plan(&Plan {
+            mission: items,
+            home: Some((HOME.0, HOME.1, 0.0)),
+            firmware_type: 12,
+            ..Plan::default()
+        }),
+    )
+    .unwrap();
+    let port = free_udp_port();
+    let sim_log = dir.path().join("sim.log");
+    let _sim = start_sim("1xcopter:px4", port, &sim_log);
+    let (code, out, err) = upload_verify(port, &file);
+    let context = format!("exit {code}\n--- stdout\n{out}\n--- stderr\n{err}");
+    assert_eq!(code, 0, "{context}");
+    assert!(
+        out.contains("verified: the vehicle holds the same mission"),
+        "{context}"
+    );
+}

@@ -36,6 +36,8 @@ pub mod cmd {
             16 | 17 | 18 | 19 | 21 | 22 | 30 | 31 | 82 | 92 | 179 | 189 | 191 | 201 | 84 | 85 | 94
         )
     }
+    /// Loiter at a position until told otherwise.
+    pub const NAV_LOITER_UNLIM: u16 = 17;
     /// Loiter at a position for param1 seconds.
     pub const NAV_LOITER_TIME: u16 = 19;
     /// Return to the launch position.
@@ -44,6 +46,12 @@ pub mod cmd {
     pub const NAV_LAND: u16 = 21;
     /// Take off to the item's altitude.
     pub const NAV_TAKEOFF: u16 = 22;
+    /// Climb or descend while loitering until the item's altitude is reached.
+    pub const NAV_LOITER_TO_ALT: u16 = 31;
+    /// VTOL take-off: rise vertically, then transition to forward flight.
+    pub const NAV_VTOL_TAKEOFF: u16 = 84;
+    /// VTOL landing: transition to hover, then land vertically.
+    pub const NAV_VTOL_LAND: u16 = 85;
     /// Jump to item param1, param2 times (−1 = forever).
     pub const DO_JUMP: u16 = 177;
     /// Change speed: param1 speed type, param2 speed m/s.

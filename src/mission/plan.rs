@@ -103,8 +103,11 @@ impl Default for Plan {
     }
 }
 
+/// The top level of a `.plan`. Keys it does not name are ignored, as QGroundControl
+/// (`PlanMasterController::loadFromFile` checks only the keys it needs) and MAVSDK
+/// (`MissionImport::parse_json`, which loads PX4's integration-test plans) do: PX4's
+/// `multicopter_mission_geofence_avoid.plan` carries a `"UUID"`.
 #[derive(Deserialize)]
-#[serde(deny_unknown_fields)]
 #[allow(dead_code)]
 struct FileJ {
     #[serde(rename = "fileType")]
@@ -265,8 +268,62 @@ fn simple_item(v: &Value) -> Result<(MissionItem, Option<i64>), String> {
     ))
 }
 
+/// `text` with its `//` and `/* */` comments outside strings blanked (each comment character
+/// a space, line breaks kept, so serde_json's line and column still point into the file).
+/// MAVSDK reads `.plan` files with jsoncpp's default reader, which allows such comments
+/// (`MissionImport::parse_json`, `Json::CharReaderBuilder`), and PX4's own
+/// `test/mavsdk_tests/fw_mission.plan` has one after an item's `params`.
+fn blank_comments(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    let mut chars = text.chars().peekable();
+    let (mut in_string, mut escaped) = (false, false);
+    while let Some(c) = chars.next() {
+        if in_string {
+            out.push(c);
+            match (escaped, c) {
+                (true, _) => escaped = false,
+                (false, '\\') => escaped = true,
+                (false, '"') => in_string = false,
+                _ => {}
+            }
+            continue;
+        }
+        match (c, chars.peek()) {
+            ('"', _) => {
+                in_string = true;
+                out.push(c);
+            }
+            ('/', Some('/')) => {
+                out.push(' ');
+                while let Some(&n) = chars.peek() {
+                    if n == '\n' {
+                        break;
+                    }
+                    out.push(if n == '\r' { n } else { ' ' });
+                    chars.next();
+                }
+            }
+            ('/', Some('*')) => {
+                chars.next();
+                out.push_str("  ");
+                let mut prev = ' ';
+                for n in chars.by_ref() {
+                    out.push(if n == '\n' || n == '\r' { n } else { ' ' });
+                    if prev == '*' && n == '/' {
+                        break;
+                    }
+                    prev = n;
+                }
+            }
+            _ => out.push(c),
+        }
+    }
+    out
+}
+
 /// Parse a `.plan` file.
 pub fn parse_plan(text: &str) -> Result<Plan, PlanError> {
+    let text = &blank_comments(text);
     let f: FileJ = serde_json::from_str(text).map_err(|e| PlanError::Json(e.to_string()))?;
     let invalid = |line: usize, message: String| PlanError::Invalid { line, message };
     if f.file_type != "Plan" {
@@ -729,5 +786,38 @@ mod tests {
             parse_plan(&not_plan),
             Err(PlanError::Invalid { line: 2, .. })
         ));
+    }
+
+    /// PX4's integration-test plans as MAVSDK reads them (issue 28): `fw_mission.plan` has a
+    /// `//` comment after an item's params and `multicopter_mission_geofence_avoid.plan` a
+    /// top-level `"UUID"`; both were refused. Comments are skipped outside strings only, and
+    /// an error after a comment still names its line.
+    #[test]
+    fn reads_comments_and_unknown_keys_as_mavsdk_does() {
+        let with_comment = QGC.replacen(
+            "[0, 0, 0, null, 47.3977419, 8.5455938, 15]",
+            "[0, 0, 0, null, 47.3977419, 8.5455938, 15]  // radius 75, \"quoted\" */\n  /* a\n block */",
+            1,
+        );
+        // (compared as written: the items hold NaN, which is never equal to itself)
+        let written = |text: &str| parse_plan(text).map(|p| write_plan(&p));
+        assert_eq!(written(&with_comment), written(QGC));
+        let with_uuid = QGC.replacen(
+            "\"fileType\": \"Plan\"",
+            "\"UUID\": \"0123456789abcdef0123456789abcdef01234567\", \"fileType\": \"Plan\"",
+            1,
+        );
+        assert_eq!(written(&with_uuid), written(QGC));
+        // "//" inside a string is not a comment
+        let url = QGC.replacen(
+            "\"groundStation\": \"QGroundControl\"",
+            "\"groundStation\": \"http://example.org/*x*/\"",
+            1,
+        );
+        assert!(parse_plan(&url).is_ok());
+        assert_eq!(blank_comments("\"a//b\" // c\n1"), "\"a//b\"     \n1");
+        let bad_after_comment = format!("// header\n{}", &QGC[..40]);
+        let e = parse_plan(&bad_after_comment).unwrap_err();
+        assert!(e.to_string().contains("line"), "{e}");
     }
 }

@@ -17,9 +17,18 @@ use num_traits::FromPrimitive;
 /// `MissionError` variants of the same names).
 #[derive(Clone, Debug, PartialEq, thiserror::Error)]
 pub enum WireError {
-    /// An item's command is not a MAV_CMD of the dialect (cannot be encoded).
+    /// An item's command is not a MAV_CMD of the dialects fleetmap is built with (common,
+    /// ardupilotmega). It is refused before anything is sent, not carried as a raw number:
+    /// the `mavlink` crate's MISSION_ITEM_INT holds a closed `MavCmd` enum (it can neither
+    /// encode such an item nor parse one read back: `ParserError::InvalidEnum`), and both
+    /// autopilots refuse a command they do not know with MAV_MISSION_UNSUPPORTED
+    /// (`AP_Mission::mavlink_int_to_mission_cmd`, PX4 `MavlinkMissionManager::
+    /// parse_mavlink_mission_item`) — ArduCopter 4.7 SITL then keeps the items before it as
+    /// its mission, while refusing here leaves the vehicle's mission as it was.
     #[error(
-        "mission item {index}: command {command} is not a MAV_CMD known to the MAVLink dialect"
+        "mission item {index}: command {command} is not a MAV_CMD of MAVLink's common or \
+         ardupilotmega dialect; not sent (ArduPilot and PX4 refuse a command they do not know: \
+         MAV_MISSION_UNSUPPORTED)"
     )]
     UnknownCommand {
         /// User item index.
@@ -166,6 +175,9 @@ fn same_f32(a: f32, b: f32, tol: f32) -> bool {
 ///   as 0 (neither autopilot stores NaN "unchanged" markers) and, for ArduPilot
 ///   (`AP_Mission` keeps only the parameters its packed 15-byte command has, e.g. a waypoint
 ///   keeps its delay but not its acceptance radius or yaw), a parameter may come back as 0;
+/// * PX4 keeps, of an item sent in a global frame, only the parameters its `mission_item_s`
+///   has for the command, some as flags or a wrapped yaw: what it reads back is expected
+///   ([`px4_position_param`]);
 /// * `current` and `autocontinue` are not compared (the vehicle sets them).
 ///
 /// Returns a description of the first difference: the item, the field, both values.
@@ -221,6 +233,8 @@ pub fn compare_items(
             let dropped = q == 0.0 && (p.is_nan() || ardupilot);
             let p = if ardupilot {
                 ardupilot_direction(a.command, k + 1, p)
+            } else if is_global_frame(a.frame) {
+                px4_position_param(a.command, k + 1, p)
             } else {
                 p
             };
@@ -245,6 +259,42 @@ fn ardupilot_direction(command: u16, n: usize, p: f32) -> f32 {
                 1.0
             }
         }
+        _ => p,
+    }
+}
+
+/// What PX4 reads back for parameter `n` (1–4) sent as `p` of a command sent in a global
+/// frame. PX4 parses such an item into the fields its `mission_item_s` has for the command
+/// and formats a download from those fields only (`MavlinkMissionManager::
+/// parse_mavlink_mission_item` and `format_mavlink_mission_item`,
+/// `src/modules/mavlink/mavlink_mission.cpp`), so:
+///
+/// * a yaw (waypoint, loiter, land, take-off, VTOL take-off and land param4) is stored in
+///   radians wrapped to [0, 2π) and comes back in degrees in [0, 360) (NaN stays NaN);
+/// * a flag comes back as 1 when sent positive, else 0 (NAV_LOITER_TIME param2 heading
+///   required and param4 exit cross-track; NAV_LOITER_TO_ALT param1 and param4);
+/// * a parameter the command has no field for comes back as 0: a take-off's param1 (the
+///   pitch QGroundControl writes, 15 in PX4's own `MC_mission_box.plan`), a land's param1
+///   and param3, a waypoint's param3, VTOL take-off and land param1–3;
+/// * any other parameter (hold time, acceptance radius, loiter radius, precision landing)
+///   as sent. Commands not listed here are returned as sent.
+pub fn px4_position_param(command: u16, n: usize, p: f32) -> f32 {
+    let yaw = |p: f32| if p.is_nan() { p } else { p.rem_euclid(360.0) };
+    let flag = |p: f32| if p > 0.0 { 1.0 } else { 0.0 };
+    match (command, n) {
+        (cmd::NAV_WAYPOINT, 3) => 0.0,
+        (cmd::NAV_WAYPOINT, 4) => yaw(p),
+        (cmd::NAV_LOITER_UNLIM, 1 | 2) => 0.0,
+        (cmd::NAV_LOITER_UNLIM, 4) => yaw(p),
+        (cmd::NAV_LOITER_TIME, 2 | 4) => flag(p),
+        (cmd::NAV_LAND, 1 | 3) => 0.0,
+        (cmd::NAV_LAND, 4) => yaw(p),
+        (cmd::NAV_TAKEOFF, 1..=3) => 0.0,
+        (cmd::NAV_TAKEOFF, 4) => yaw(p),
+        (cmd::NAV_LOITER_TO_ALT, 1 | 4) => flag(p),
+        (cmd::NAV_LOITER_TO_ALT, 3) => 0.0,
+        (cmd::NAV_VTOL_TAKEOFF | cmd::NAV_VTOL_LAND, 1..=3) => 0.0,
+        (cmd::NAV_VTOL_TAKEOFF | cmd::NAV_VTOL_LAND, 4) => yaw(p),
         _ => p,
     }
 }
@@ -387,5 +437,66 @@ mod tests {
             compare_items(&[wp], &[moved], true),
             Err("item 0: x/y sent 371968000/-805781000, read back 371968010/-805781000".into())
         );
+    }
+
+    /// PX4's `MC_mission_box.plan` (its integration tests) takes off with param1 15, QGroundControl's
+    /// pitch: PX4 keeps no pitch for a take-off and reads it back as 0 — the same mission by
+    /// PX4's storage rules, as are a waypoint's yaw of −90° read back as 270° and a loiter's
+    /// "heading required" 5 read back as the flag 1. A waypoint's hold time or a take-off's yaw
+    /// that changed is still a difference.
+    #[test]
+    fn px4_reads_back_what_its_mission_item_keeps() {
+        let mut takeoff = MissionItem::at(cmd::NAV_TAKEOFF, 47.3977394, 8.5455904, 5.0);
+        takeoff.param1 = 15.0;
+        takeoff.param4 = f32::NAN;
+        let mut wp = MissionItem::waypoint(47.3978729, 8.5455933, 10.0);
+        wp.param4 = -90.0;
+        let mut loiter = MissionItem::loiter_time(5.0, 47.3978729, 8.5453415, 10.0);
+        loiter.param2 = 5.0;
+        let (mut takeoff_back, mut wp_back, mut loiter_back) = (takeoff, wp, loiter);
+        takeoff_back.frame = 6; // GLOBAL_RELATIVE_ALT_INT, as PX4 answers
+        takeoff_back.param1 = 0.0;
+        wp_back.param4 = 270.0;
+        loiter_back.param2 = 1.0;
+        let sent = [takeoff, wp, loiter];
+        assert_eq!(
+            compare_items(&sent, &[takeoff_back, wp_back, loiter_back], false),
+            Ok(())
+        );
+        let mut held = wp_back;
+        held.param1 = 3.0;
+        assert_eq!(
+            compare_items(&[wp], &[held], false),
+            Err("item 0: param1 sent 0, read back 3".to_string())
+        );
+        let mut turned = takeoff_back;
+        turned.param4 = 90.0;
+        assert!(compare_items(&[takeoff], &[turned], false).is_err());
+    }
+
+    /// ArduCopter's `ConditionLocation` autotest mission has a command 116 between two
+    /// waypoints, a number in no MAVLink dialect: refused before upload, with the item, the
+    /// number and what an autopilot would answer.
+    #[test]
+    fn a_command_in_no_dialect_is_refused_before_upload_and_says_why() {
+        let mut unknown = MissionItem::at(116, -35.362364, 149.165237, 20.0);
+        unknown.frame = frame::GLOBAL_RELATIVE_ALT;
+        let items = [
+            MissionItem::takeoff(20.0),
+            MissionItem::waypoint(-35.362993, 149.165237, 20.0),
+            unknown,
+        ];
+        let e = build_wire(MissionType::Mission, &items, None, true, (1, 1))
+            .expect_err("command 116 cannot be encoded");
+        assert_eq!(
+            e,
+            WireError::UnknownCommand {
+                index: 2,
+                command: 116
+            }
+        );
+        let text = e.to_string();
+        assert!(text.starts_with("mission item 2: command 116 "), "{text}");
+        assert!(text.contains("MAV_MISSION_UNSUPPORTED"), "{text}");
     }
 }

@@ -64,6 +64,19 @@ pub fn parse_wpl(text: &str) -> Result<WplFile, WplError> {
     let with_home = match words.as_slice() {
         ["QGC", "WPL", "110"] => true,
         ["QGC", "WPL", "120"] => false,
+        [lat, lon] if lat.parse::<f64>().is_ok() && lon.parse::<f64>().is_ok() => {
+            // MAVProxy's fence point list (`fence load`, the `fence-*.txt` files of
+            // ArduPilot's Tools/autotest): one "latitude longitude" pair a line, the first
+            // the return point. A geofence, not a mission: say so rather than only that the
+            // header is missing.
+            return Err(err(
+                1,
+                format!(
+                    "expected \"QGC WPL 110\" (or 120), found {header:?}: a list of \
+                     \"latitude longitude\" points (a MAVProxy fence point file), not a mission"
+                ),
+            ));
+        }
         _ => {
             return Err(err(
                 1,
@@ -379,5 +392,20 @@ mod tests {
             assert_eq!(e.line, line, "{text:?}: {e}");
             assert!(e.to_string().contains(what), "{e}");
         }
+    }
+
+    /// A MAVProxy fence point list shaped like ArduPilot's
+    /// `Tools/autotest/Generic_Missions/fence-in-middle-of-nowhere.txt` (one tab-separated
+    /// "latitude longitude" pair a line): refused as a mission, and the message says what the
+    /// file is instead.
+    #[test]
+    fn a_fence_point_list_is_named_as_such() {
+        let text = "-35.361359\t149.162872\n-35.3608\t149.1620\n-35.3620\t149.1620\n";
+        let e = parse_wpl(text).unwrap_err();
+        assert_eq!(e.line, 1);
+        assert!(e.to_string().contains("a MAVProxy fence point file"), "{e}");
+        // a header that is not two numbers keeps the plain message
+        let e = parse_wpl("hello world\n").unwrap_err();
+        assert!(!e.to_string().contains("fence"), "{e}");
     }
 }
