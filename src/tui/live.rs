@@ -269,6 +269,8 @@ pub fn runway_mission(state: &MappingState, info: &RunInfo) -> MissionModel {
     };
     let status = if info.failed.is_some() {
         RunStatus::Failed
+    } else if state.phase.finish_reason() == Some(mapping::FinishReason::BeyondReach) {
+        RunStatus::BeyondReach
     } else if state.is_finished() {
         RunStatus::Done
     } else if !info.started {
@@ -312,6 +314,15 @@ pub fn runway_mission(state: &MappingState, info: &RunInfo) -> MissionModel {
         stats.push(Stat {
             label: "confirming".into(),
             value: format!("{cell} (vehicle {sysid})"),
+        });
+    }
+    if let mapping::Phase::Finished {
+        gave_up: Some(g), ..
+    } = &state.phase
+    {
+        stats.push(Stat {
+            label: "ended".into(),
+            value: g.to_string(),
         });
     }
     if let Some(e) = &info.failed {
@@ -634,6 +645,38 @@ mod tests {
             m.map.cols
         );
         assert_eq!(m.map.get(Cell::new(0, 0)), Some(CellState::Unknown));
+    }
+
+    #[test]
+    fn a_run_beyond_reach_says_so_from_the_moment_it_gives_up() {
+        let mut s = state();
+        let info = RunInfo {
+            name: "plume".into(),
+            started: true,
+            ..RunInfo::default()
+        };
+        let why = crate::explore::reach::Unreachable::Outpaced {
+            drift_m_s: 1.5,
+            speed_m_s: 1.0,
+        };
+        s.on_beyond_reach(1, Cell::new(2, 3), why, Time::from_secs(60))
+            .unwrap();
+        let m = runway_mission(&s, &info);
+        assert_eq!(m.status, RunStatus::BeyondReach);
+        assert_eq!(m.status.label(), "BEYOND REACH");
+        assert_eq!(m.phase, Phase::Return, "the drone still flies home");
+        let ended = m.stats.iter().find(|x| x.label == "ended").unwrap();
+        assert!(
+            ended.value.starts_with("beyond reach (vehicle 1 to cell")
+                && ended.value.contains("1.50 m/s"),
+            "{}",
+            ended.value
+        );
+        s.on_going_home(1, Time::from_secs(61)).unwrap();
+        s.on_landed(1, Time::from_secs(90)).unwrap();
+        let m = runway_mission(&s, &info);
+        assert_eq!(m.status, RunStatus::BeyondReach);
+        assert_eq!(m.phase, Phase::Done);
     }
 
     #[test]

@@ -409,6 +409,14 @@ impl VoteBook {
         updates
     }
 
+    /// Drop every open visit without deciding anything more: the targets its pictures had
+    /// not settled stay as they were (a run that gives up labels nothing for it). The
+    /// detections counted so far stay in the record. Returns the vehicles whose visit was
+    /// dropped.
+    pub fn drop_open_visits(&mut self) -> Vec<u8> {
+        std::mem::take(&mut self.open).into_keys().collect()
+    }
+
     /// Close every open visit.
     pub fn close_all(&mut self, now: Time) -> Vec<CellUpdate> {
         let vehicles: Vec<u8> = self.open.keys().copied().collect();

@@ -2,7 +2,8 @@
 //! by the report and by `fleetmap resume`.
 
 use super::*;
-use crate::explore::mapping::MilestoneKind;
+use crate::explore::mapping::{FinishReason, MilestoneKind};
+use crate::explore::reach::Unreachable;
 
 /// A journal record of the run (`events.jsonl`), one per acknowledged step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -155,9 +156,23 @@ pub enum MappingEvent {
         /// Seconds of the fleet clock since the first take-off.
         mission_s: f64,
     },
+    /// A drone's flight to a cell was judged beyond reach ([`crate::explore::reach`]): the
+    /// run finishes ([`crate::explore::mapping::GaveUp::BeyondReach`]), every drone goes
+    /// home, and nothing is labelled for it.
+    BeyondReach {
+        /// Vehicle.
+        sysid: u8,
+        /// The region cell it was to fly to.
+        cell: Cell,
+        /// Why, with the figures.
+        why: Unreachable,
+    },
     /// The run is over.
     Finished {
         /// Whether the region was found.
         found: bool,
+        /// How it ended (absent in journals written before it was recorded).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        reason: Option<FinishReason>,
     },
 }

@@ -168,7 +168,19 @@ impl Pilot {
         self.doing(Activity::Imaging);
         let mut retakes = 0u32;
         loop {
-            let missing = self.shared.read(|s| s.images_missing(sysid, cell)).await;
+            let (missing, over) = self
+                .shared
+                .read(|s| {
+                    (
+                        s.images_missing(sysid, cell),
+                        matches!(s.phase, Phase::Finished { .. }),
+                    )
+                })
+                .await;
+            if over {
+                // The run ended meanwhile (the region beyond reach): the visit is cut short.
+                return Ok(false);
+            }
             if missing == 0 {
                 return Ok(true);
             }

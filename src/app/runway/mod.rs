@@ -403,6 +403,9 @@ struct Pilot {
     first_sweep: bool,
     /// Sweep pictures rejected in a row.
     sweep_rejects: u32,
+    /// Where the vehicle's home was last known, grid metres (east, north): the reach rule's
+    /// home while the autopilot reports none.
+    home_xy: Option<(f64, f64)>,
 }
 
 enum PilotEnd {

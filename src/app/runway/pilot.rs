@@ -3,6 +3,17 @@
 //! The pictures of a visit are in [`super::intake`], the sweep in [`super::sweep`].
 
 use super::*;
+use crate::explore::reach::Reach;
+
+/// Seconds a drone is counted over a cell per picture still to take, when the reach rule
+/// charges a visit (the cell drifts on meanwhile). Measured on the embedded simulator's
+/// plume demo: 2–3 s per picture (capture, transfer of a 480 × 480 JPEG, classification),
+/// rounded up.
+const DWELL_PER_PICTURE_S: f64 = 3.0;
+
+/// Longest hold, seconds of the fleet clock, before a drone waiting for a drifting cell to
+/// come within reach asks again.
+const REACH_RECHECK_S: f64 = 10.0;
 
 impl Pilot {
     pub(super) fn fleet(&self) -> &FleetHandle {
@@ -107,6 +118,9 @@ impl Pilot {
                 self.wait_change(Duration::from_millis(500)).await;
             }
             Directive::Confirm(cell) => {
+                if !self.in_reach(cell).await? {
+                    return Ok(None);
+                }
                 self.held = false;
                 self.doing(Activity::Working);
                 self.fly_to_cell(cell).await?;
@@ -130,6 +144,9 @@ impl Pilot {
                 }
             }
             Directive::Dfs(Action::MoveTo(cell) | Action::Rejoin(cell)) => {
+                if !self.in_reach(cell).await? {
+                    return Ok(None);
+                }
                 self.held = false;
                 self.doing(Activity::Working);
                 self.fly_to_cell(cell).await?;
@@ -309,6 +326,146 @@ impl Pilot {
             .about(sysid),
         );
         Ok(true)
+    }
+
+    /// The reach rule before flying out to `cell` of a moving region
+    /// ([`MappingState::reach_of`], [`crate::explore::reach`]): the charge now, less the leg
+    /// out to where the cell will be and the time over it, must cover the return from there.
+    /// Returns whether to fly now. Otherwise it has done what the rule said: sent the drone
+    /// home for a swap first (as a low battery does), held it while the cell drifts closer, or
+    /// finished the run beyond reach (every drone then goes home). A static region, or a
+    /// vehicle that reports no position or charge (or no home, airborne, and never did), is
+    /// not judged here (the battery check between steps still is).
+    pub(super) async fn in_reach(&mut self, cell: Cell) -> anyhow::Result<bool> {
+        let sysid = self.sysid;
+        let roi = self.shared.roi;
+        if roi.is_static() {
+            return Ok(true);
+        }
+        // An autopilot that rebooted for its swap reports its position and charge again a
+        // few seconds later: wait for them rather than fly unjudged.
+        let known =
+            |v: &VehicleSnapshot| v.position.is_some() && v.battery_pct.is_some_and(|p| p >= 0);
+        let v = match self
+            .fleet()
+            .wait_until(sysid, self.shared.patience.secs(30.0), known)
+            .await
+        {
+            Ok(v) => v,
+            Err(Some(v)) => v,
+            Err(None) => return Ok(true),
+        };
+        let (Some(p), Some(pct)) = (
+            v.position,
+            v.battery_pct.map(f64::from).filter(|p| *p >= 0.0),
+        ) else {
+            return Ok(true);
+        };
+        let grid = self.shared.read(|s| s.grid.clone()).await;
+        let from = grid.to_xy(LatLon {
+            lat: p.lat,
+            lon: p.lon,
+        })?;
+        // Home: as the vehicle reports it; an autopilot that rebooted for its swap has none
+        // until it arms, and stands on it then; else where it was last reported.
+        let home = match v.home {
+            Some(h) => Some(grid.to_xy(LatLon {
+                lat: h.lat,
+                lon: h.lon,
+            })?),
+            None if !flight::airborne(&v) => Some(from),
+            None => self.home_xy,
+        };
+        let Some(home) = home else {
+            return Ok(true);
+        };
+        self.home_xy = Some(home);
+        let now = self.shared.now();
+        let roi_now = roi.roi_time(now);
+        let verdict = self
+            .shared
+            .read(|s| {
+                let dwell_s = f64::from(s.images_missing(sysid, cell)) * DWELL_PER_PICTURE_S;
+                s.reach_of(sysid, cell, from, home, pct, dwell_s, roi_now)
+            })
+            .await?;
+        tracing::info!(
+            "vehicle {sysid}: reach of cell {cell} at region time {:.1} s from ({:.1}, {:.1}) \
+             with {pct:.0} %, home ({:.1}, {:.1}): {verdict:?}",
+            roi_now.as_secs_f64(),
+            from.0,
+            from.1,
+            home.0,
+            home.1
+        );
+        match verdict {
+            Reach::Fly { .. } => Ok(true),
+            Reach::SwapFirst { needed_pct } => {
+                self.shared
+                    .commit(|s| {
+                        s.abandon_confirmation(sysid);
+                        s.on_battery_low(sysid, now)?;
+                        Ok((
+                            (),
+                            Some(MappingEvent::BatteryLow {
+                                sysid,
+                                pct,
+                                needed_pct,
+                            }),
+                        ))
+                    })
+                    .await?;
+                self.shared.say(
+                    Progress::notice(format!(
+                        "vehicle {sysid}: battery {pct:.0} % does not cover the flight to cell \
+                         {cell} and back from where it will be ({needed_pct:.0} %): returning \
+                         home for a battery swap first"
+                    ))
+                    .about(sysid),
+                );
+                Ok(false)
+            }
+            Reach::Wait { secs } => {
+                self.doing(Activity::Waiting(Wait::Vertex));
+                if !self.held && flight::airborne(&v) {
+                    flight::hold_here(self.fleet(), sysid).await?;
+                    self.held = true;
+                }
+                tracing::info!(
+                    "vehicle {sysid}: cell {cell} is out of reach for {secs:.0} s more: waiting"
+                );
+                let until = now + Duration::from_secs_f64(secs.clamp(0.5, REACH_RECHECK_S));
+                let wall = self.fleet().clock().wall_until(until);
+                self.wait_change(wall.max(Duration::from_millis(50))).await;
+                Ok(false)
+            }
+            Reach::BeyondReach(why) => {
+                let finished = self
+                    .shared
+                    .commit(|s| {
+                        let before = s.phase.finish_reason();
+                        s.on_beyond_reach(sysid, cell, why, now)?;
+                        let ev = before.is_none().then_some(MappingEvent::BeyondReach {
+                            sysid,
+                            cell,
+                            why,
+                        });
+                        Ok((ev.is_some(), ev))
+                    })
+                    .await?;
+                if finished {
+                    self.shared.say(
+                        Progress::error(format!(
+                            "vehicle {sysid}: the region is beyond reach — cell {cell}: {why}. \
+                             The run ends here (nothing labelled for it); every drone returns \
+                             home"
+                        ))
+                        .about(sysid),
+                    );
+                }
+                Ok(false)
+            }
+        }
     }
 
     pub(super) async fn fly_to_cell(&mut self, cell: Cell) -> anyhow::Result<()> {

@@ -16,7 +16,7 @@
 
 use crate::explore::VertexState;
 use crate::explore::dfs::ExplorerConfig;
-use crate::explore::mapping::{MappingState, Phase};
+use crate::explore::mapping::{FinishReason, GaveUp, MappingState};
 use crate::geo::{Cell, GeoError, Grid, LatLon};
 use crate::sim::world::{Surface, World};
 use crate::vision::votes::CellState;
@@ -234,6 +234,21 @@ pub struct TruthReport {
     pub false_negatives: u64,
 }
 
+/// Why a run ended beyond reach ([`GaveUp::BeyondReach`]).
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct BeyondReachReport {
+    /// The vehicle whose flight was judged.
+    pub sysid: u8,
+    /// The region cell it was to fly to, `[row, col]`.
+    pub cell: [i32; 2],
+    /// The figures: `outpaced` (`drift_m_s`, `speed_m_s`) or `out_of_range` (`distance_m`,
+    /// `needed_pct`, `full_pct`).
+    #[serde(flatten)]
+    pub why: crate::explore::reach::Unreachable,
+    /// The same in words.
+    pub reason: String,
+}
+
 /// `fleetmap report RUN_DIR --json` for a runway-mapping run.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MappingReport {
@@ -257,6 +272,12 @@ pub struct MappingReport {
     pub finished: bool,
     /// Whether the region was found.
     pub found: bool,
+    /// How the run ended: `mapped`, `region_not_found` or `beyond_reach` (`null` while it
+    /// goes on).
+    pub finish_reason: Option<FinishReason>,
+    /// When the run ended beyond reach: which flight was judged and why.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub beyond_reach: Option<BeyondReachReport>,
     /// Cells mapped as region.
     pub cells_mapped: usize,
     /// The mapped cells, `[row, col]`.
@@ -392,6 +413,19 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
         phase: state.phase.to_string(),
         finished: state.is_finished(),
         found: state.explorer.is_some(),
+        finish_reason: state.phase.finish_reason(),
+        beyond_reach: match &state.phase {
+            crate::explore::mapping::Phase::Finished {
+                gave_up: Some(g @ GaveUp::BeyondReach { sysid, cell, why }),
+                ..
+            } => Some(BeyondReachReport {
+                sysid: *sysid,
+                cell: [cell.row, cell.col],
+                why: *why,
+                reason: g.to_string(),
+            }),
+            _ => None,
+        },
         cells_mapped: map.len(),
         positive_cells: map.iter().map(|c| [c.row, c.col]).collect(),
         negative_cells: negative,
@@ -613,7 +647,7 @@ pub fn png(state: &MappingState, outlines: &[Vec<LatLon>]) -> RgbImage {
 
 /// Whether the run found the region and finished (for exit statuses).
 pub fn succeeded(state: &MappingState) -> bool {
-    state.is_finished() && matches!(state.phase, Phase::Finished { found: true })
+    state.is_finished() && state.phase.finish_reason() == Some(FinishReason::Mapped)
 }
 
 #[cfg(test)]

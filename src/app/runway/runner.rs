@@ -190,6 +190,7 @@ pub async fn run(
             held: false,
             first_sweep: true,
             sweep_rejects: 0,
+            home_xy: None,
         };
         tasks.push((sysid, tokio::spawn(pilot.run())));
     }
@@ -221,9 +222,10 @@ pub async fn run(
     shared
         .commit(|state| {
             if state.is_finished() {
-                let found = matches!(state.phase, Phase::Finished { found: true });
+                let found = matches!(state.phase, Phase::Finished { found: true, .. });
+                let reason = state.phase.finish_reason();
                 state.book.close_all(now);
-                Ok(((), Some(MappingEvent::Finished { found })))
+                Ok(((), Some(MappingEvent::Finished { found, reason })))
             } else {
                 Ok(((), None))
             }

@@ -4,12 +4,17 @@
 use super::*;
 
 impl MappingState {
-    /// A cell-centre image (confirmation or DFS) of `sysid` was classified: count its votes.
-    /// Returns the cells whose state changed.
+    /// A cell-centre image (confirmation or DFS) of `sysid` was classified: count its votes
+    /// (none once the run is finished). Returns the cells whose state changed.
     pub fn on_cell_image(&mut self, det: Detection) -> Result<Vec<CellUpdate>, MappingError> {
         let sysid = det.vehicle;
         let cell = det.cell;
         self.touch(det.time);
+        if matches!(self.phase, Phase::Finished { .. }) {
+            // A picture that arrives after the run ended (given up while a drone was over a
+            // cell) counts for nothing.
+            return Ok(Vec::new());
+        }
         self.images += 1;
         let r = self.robot_mut(sysid)?;
         r.images += 1;

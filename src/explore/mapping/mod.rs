@@ -36,6 +36,7 @@ use super::ExploreError;
 use super::dfs::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing, VertexState};
 use super::lawnmower::{self, HeadingPolicy, LawnmowerConfig, LocalBox, Sweep};
 use super::motion::RoiMotion;
+use super::reach::{self, BatteryModel, Leg, Reach, Unreachable};
 use crate::geo::{Cell, Dir4, Grid, LatLon};
 use crate::mission::definition::{MissionDef, MissionKind, SweepBox};
 use crate::time::Time;
@@ -158,8 +159,60 @@ impl BatteryRules {
     }
 }
 
+/// Why a run ended before its map was complete (saved in the phase, so a resumed run keeps
+/// it).
+#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
+#[serde(tag = "reason", rename_all = "snake_case")]
+pub enum GaveUp {
+    /// The region drifted beyond reach (issue 26): not even a full battery from home could
+    /// fly vehicle `sysid` out to region cell `cell` and bring it back, now or later
+    /// ([`crate::explore::reach`]). Nothing was labelled for it: the visits then open were
+    /// dropped undecided.
+    BeyondReach {
+        /// The vehicle whose flight was judged.
+        sysid: u8,
+        /// The region cell it was to fly to.
+        cell: Cell,
+        /// Why, with the figures.
+        why: Unreachable,
+    },
+}
+
+impl std::fmt::Display for GaveUp {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            GaveUp::BeyondReach { sysid, cell, why } => {
+                write!(f, "beyond reach (vehicle {sysid} to cell {cell}: {why})")
+            }
+        }
+    }
+}
+
+/// How a finished run ended: what `fleetmap report` and the TUI say.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "snake_case")]
+pub enum FinishReason {
+    /// The DFS ran to its end: the region is mapped.
+    Mapped,
+    /// The sweep ended without finding the region.
+    RegionNotFound,
+    /// The region drifted beyond the drones' reach ([`GaveUp::BeyondReach`]).
+    BeyondReach,
+}
+
+impl FinishReason {
+    /// A short name for displays.
+    pub fn name(self) -> &'static str {
+        match self {
+            FinishReason::Mapped => "mapped",
+            FinishReason::RegionNotFound => "region not found",
+            FinishReason::BeyondReach => "beyond reach",
+        }
+    }
+}
+
 /// Where the run is.
-#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "phase", rename_all = "snake_case")]
 pub enum Phase {
     /// The lawnmower sweep of the bounding box.
@@ -180,7 +233,26 @@ pub enum Phase {
     Finished {
         /// Whether the DFS ran (false: the sweep ended without a detection).
         found: bool,
+        /// Why the run stopped short of a complete map (absent: it ran to its end; states
+        /// saved before this existed have none).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        gave_up: Option<GaveUp>,
     },
+}
+
+impl Phase {
+    /// How the run ended (`None` while it goes on).
+    pub fn finish_reason(&self) -> Option<FinishReason> {
+        match self {
+            Phase::Finished {
+                gave_up: Some(GaveUp::BeyondReach { .. }),
+                ..
+            } => Some(FinishReason::BeyondReach),
+            Phase::Finished { found: true, .. } => Some(FinishReason::Mapped),
+            Phase::Finished { found: false, .. } => Some(FinishReason::RegionNotFound),
+            _ => None,
+        }
+    }
 }
 
 impl std::fmt::Display for Phase {
@@ -189,8 +261,11 @@ impl std::fmt::Display for Phase {
             Phase::Sweep => write!(f, "sweeping"),
             Phase::Confirm { sysid, cell } => write!(f, "confirming {cell} (vehicle {sysid})"),
             Phase::Explore { root } => write!(f, "exploring from {root}"),
-            Phase::Finished { found: true } => write!(f, "finished"),
-            Phase::Finished { found: false } => write!(f, "finished (region not found)"),
+            Phase::Finished {
+                gave_up: Some(g), ..
+            } => write!(f, "finished: {g}"),
+            Phase::Finished { found: true, .. } => write!(f, "finished"),
+            Phase::Finished { found: false, .. } => write!(f, "finished (region not found)"),
         }
     }
 }
@@ -621,7 +696,10 @@ impl MappingState {
         if let Phase::Explore { .. } = self.phase
             && self.explorer.as_ref().is_some_and(Explorer::is_finished)
         {
-            self.phase = Phase::Finished { found: true };
+            self.phase = Phase::Finished {
+                found: true,
+                gave_up: None,
+            };
         }
         self.note_milestones(now);
     }
@@ -641,13 +719,96 @@ impl MappingState {
     /// descent at `battery.descent_rate_m_s`, and `battery.landing_margin_s` (approach,
     /// landing, wind), as a share of the endurance.
     pub fn battery_needed_pct(&self, distance_home_m: f64, altitude_m: f64) -> f64 {
+        self.battery_model().return_pct(distance_home_m, altitude_m)
+    }
+
+    /// How the run charges flights against a battery (the endurance, cruise speed, reserve
+    /// and return rules of the mission).
+    pub fn battery_model(&self) -> BatteryModel {
         let p = &self.params;
-        let b = &p.battery;
-        let endurance_s = (p.flight_time_min * 60.0).max(1.0);
-        let home_s = distance_home_m.max(0.0) / p.speed_m_s.max(0.1)
-            + altitude_m.max(0.0) / b.descent_rate_m_s.max(0.01)
-            + b.landing_margin_s.max(0.0);
-        p.rtl_reserve_pct + 100.0 * home_s / endurance_s
+        BatteryModel {
+            endurance_s: p.flight_time_min * 60.0,
+            speed_m_s: p.speed_m_s,
+            reserve_pct: p.rtl_reserve_pct,
+            descent_rate_m_s: p.battery.descent_rate_m_s,
+            landing_margin_s: p.battery.landing_margin_s,
+        }
+    }
+
+    /// The charge a swapped battery is guaranteed to report, percent: the lower of the
+    /// `[battery]` fresh thresholds (a drone takes off again with no less) — what the reach
+    /// rule counts a full battery as.
+    pub fn full_charge_pct(&self) -> f64 {
+        let b = &self.params.battery;
+        b.fresh_pct.min(b.fresh_after_reboot_pct)
+    }
+
+    /// Whether `sysid` may fly out to region cell `cell` now ([`crate::explore::reach`]): from
+    /// `from` (ground metres of the grid) with `charge_pct`, home at `home`, staying `dwell_s`
+    /// over the cell, at region time `roi_now`. Once the map is complete a flight to a cell is
+    /// only the way back to the DFS's start: anything but [`Reach::Fly`] then sends the drone
+    /// home ([`Reach::SwapFirst`], after which it lands for good), never ends the run.
+    #[allow(clippy::too_many_arguments)]
+    pub fn reach_of(
+        &self,
+        sysid: u8,
+        cell: Cell,
+        from: (f64, f64),
+        home: (f64, f64),
+        charge_pct: f64,
+        dwell_s: f64,
+        roi_now: Time,
+    ) -> Result<Reach, MappingError> {
+        let leg = Leg {
+            from,
+            home,
+            altitude_m: self.altitude_of(sysid)?,
+            charge_pct,
+            dwell_s,
+        };
+        let r = reach::reach(
+            &self.params.motion(),
+            cell,
+            self.grid.cell_size(),
+            roi_now,
+            &leg,
+            &self.battery_model(),
+            self.full_charge_pct(),
+        );
+        Ok(match r {
+            Reach::Wait { .. } | Reach::BeyondReach(_) if self.map_complete() => Reach::SwapFirst {
+                needed_pct: charge_pct,
+            },
+            r => r,
+        })
+    }
+
+    /// The region is beyond reach: `sysid` could not fly to `cell` and back even on a full
+    /// battery from home (`why`). The run finishes with [`GaveUp::BeyondReach`]; every robot
+    /// goes home. Nothing is labelled for giving up: open visits are dropped undecided (the
+    /// cells their pictures had not settled keep their state). Idempotent once finished.
+    pub fn on_beyond_reach(
+        &mut self,
+        sysid: u8,
+        cell: Cell,
+        why: Unreachable,
+        now: Time,
+    ) -> Result<(), MappingError> {
+        self.robot(sysid)?;
+        self.touch(now);
+        if matches!(self.phase, Phase::Finished { .. }) {
+            return Ok(());
+        }
+        self.book.drop_open_visits();
+        for r in &mut self.robots {
+            r.visit = None;
+        }
+        self.phase = Phase::Finished {
+            found: self.explorer.is_some(),
+            gave_up: Some(GaveUp::BeyondReach { sysid, cell, why }),
+        };
+        self.note_milestones(now);
+        Ok(())
     }
 }
 

@@ -93,7 +93,10 @@ impl MappingState {
                 )
             })
         {
-            self.phase = Phase::Finished { found: false };
+            self.phase = Phase::Finished {
+                found: false,
+                gave_up: None,
+            };
         }
         self.note_milestones(now);
         Ok(())

@@ -102,7 +102,13 @@ fn sweep_detection_confirmation_and_dfs_to_the_end() {
     assert!(!s.is_finished());
     s.on_landed(1, Time::from_secs(40)).unwrap();
     assert!(s.is_finished());
-    assert_eq!(s.phase, Phase::Finished { found: true });
+    assert_eq!(
+        s.phase,
+        Phase::Finished {
+            found: true,
+            gave_up: None
+        }
+    );
     assert_eq!(s.book.positive_cells(), vec![c, n]);
     // the whole state survives a JSON round trip
     let back: MappingState = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
@@ -149,7 +155,13 @@ fn a_negative_confirmation_rejects_the_cell_and_sweeps_on() {
     s.on_sweep_complete(1, Time::from_secs(9)).unwrap();
     assert_eq!(s.phase, Phase::Sweep);
     s.on_sweep_complete(2, Time::from_secs(9)).unwrap();
-    assert_eq!(s.phase, Phase::Finished { found: false });
+    assert_eq!(
+        s.phase,
+        Phase::Finished {
+            found: false,
+            gave_up: None
+        }
+    );
     assert_eq!(s.directive(1).unwrap(), Directive::GoHome);
 }
 
@@ -311,4 +323,129 @@ fn the_mission_clock_accounts_every_drone_from_the_first_take_off_to_the_last_la
     let old: MappingState = serde_json::from_value(v).unwrap();
     assert_eq!(old.clock, MissionClock::default());
     assert_eq!(old.robot(1).unwrap().times, RobotTimes::default());
+}
+
+#[test]
+fn beyond_reach_finishes_the_run_with_its_reason_and_labels_nothing() {
+    // Two drones in the DFS; drone 2 is over a cell with two of its five pictures when drone 1's
+    // next flight is judged beyond reach.
+    let mut s = MappingState::new(&def(2), grid(), Sharing::Gcs).unwrap();
+    s.params.roi_velocity_ne_mps = Some([0.0, 3.0]); // east at 3 m/s, drones at 1 m/s
+    let c = Cell::new(3, 2);
+    let pos = NeighbourLabels {
+        center: true,
+        ..NeighbourLabels::default()
+    };
+    s.on_sweep_image(1, c, 0.0, RegionFractions::default(), pos, Time::ZERO)
+        .unwrap();
+    for k in 0..5 {
+        s.on_cell_image(det(1, c, k, true)).unwrap();
+    }
+    assert_eq!(s.on_confirmed(1, c, Time::from_secs(5)).unwrap(), Some(c));
+    let n = c.step(Dir4::North);
+    let undecided = Cell::new(9, 9);
+    for k in 5..7 {
+        let mut d = det(2, undecided, k, false);
+        d.labels.center = true; // two votes for: not yet settled either way
+        s.on_cell_image(d).unwrap();
+    }
+    assert_eq!(s.book.state(undecided), CellState::Unknown);
+    assert_eq!(s.robot(2).unwrap().visit, Some((undecided, 2)));
+    let decisions = s.book.decisions().len();
+    // The reach rule says so: outpaced, whatever the charge.
+    let verdict = s
+        .reach_of(
+            1,
+            n,
+            (0.0, 0.0),
+            (0.0, 0.0),
+            100.0,
+            10.0,
+            Time::from_secs(8),
+        )
+        .unwrap();
+    let Reach::BeyondReach(why) = verdict else {
+        panic!("{verdict:?}")
+    };
+    assert!(matches!(why, Unreachable::Outpaced { .. }));
+    s.on_beyond_reach(1, n, why, Time::from_secs(8)).unwrap();
+    assert_eq!(s.phase.finish_reason(), Some(FinishReason::BeyondReach));
+    assert!(
+        s.phase
+            .to_string()
+            .starts_with("finished: beyond reach (vehicle 1")
+    );
+    // Nothing labelled by giving up: the open visit was dropped, not closed.
+    assert_eq!(s.book.decisions().len(), decisions);
+    assert_eq!(s.book.state(undecided), CellState::Unknown);
+    assert_eq!(s.book.open_visit(2), None);
+    assert_eq!(s.robot(2).unwrap().visit, None);
+    // A picture still arriving counts for nothing.
+    let mut late = det(2, undecided, 7, false);
+    late.labels.center = true;
+    assert!(s.on_cell_image(late).unwrap().is_empty());
+    assert_eq!(s.book.state(undecided), CellState::Unknown);
+    // The map is not complete; everyone goes home, and then the run is finished.
+    assert!(!s.map_complete());
+    assert_eq!(s.directive(1).unwrap(), Directive::GoHome);
+    assert_eq!(s.directive(2).unwrap(), Directive::GoHome);
+    for sysid in [1, 2] {
+        s.on_going_home(sysid, Time::from_secs(9)).unwrap();
+        s.on_landed(sysid, Time::from_secs(30)).unwrap();
+    }
+    assert!(s.is_finished());
+    assert_eq!(s.clock.map_complete_s, None);
+    // Saved and read back (a resumed run keeps it), and giving up again changes nothing.
+    let mut back: MappingState = serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+    assert_eq!(back.phase, s.phase);
+    back.on_beyond_reach(2, c, why, Time::from_secs(40))
+        .unwrap();
+    assert_eq!(back.phase, s.phase);
+    // A state saved before the reason existed reads as an ordinary end.
+    let old: Phase = serde_json::from_str(r#"{"phase":"finished","found":true}"#).unwrap();
+    assert_eq!(old.finish_reason(), Some(FinishReason::Mapped));
+}
+
+#[test]
+fn once_the_map_is_complete_an_unreachable_flight_sends_the_drone_home_instead() {
+    let mut s = MappingState::new(&def(1), grid(), Sharing::Gcs).unwrap();
+    s.params.roi_velocity_ne_mps = Some([0.0, 3.0]);
+    let c = Cell::new(0, 0);
+    let pos = NeighbourLabels {
+        center: true,
+        ..NeighbourLabels::default()
+    };
+    s.on_sweep_image(1, c, 0.0, RegionFractions::default(), pos, Time::ZERO)
+        .unwrap();
+    for k in 0..5 {
+        let mut d = det(1, c, k, false);
+        d.labels.center = true;
+        s.on_cell_image(d).unwrap();
+    }
+    s.on_confirmed(1, c, Time::from_secs(5)).unwrap();
+    assert!(!s.map_complete());
+    let v = s
+        .reach_of(1, c, (0.0, 0.0), (0.0, 0.0), 100.0, 0.0, Time::from_secs(6))
+        .unwrap();
+    assert!(matches!(v, Reach::BeyondReach(_)), "{v:?}");
+    s.on_arrived(1, c, Time::from_secs(6)).unwrap();
+    for k in 6..11 {
+        let mut d = det(1, c, k, false);
+        d.labels.center = true;
+        s.on_cell_image(d).unwrap();
+    }
+    s.on_observed(1, c, Time::from_secs(11)).unwrap();
+    assert!(s.map_complete());
+    let v = s
+        .reach_of(
+            1,
+            c,
+            (0.0, 0.0),
+            (0.0, 0.0),
+            100.0,
+            0.0,
+            Time::from_secs(12),
+        )
+        .unwrap();
+    assert!(matches!(v, Reach::SwapFirst { .. }), "{v:?}");
 }

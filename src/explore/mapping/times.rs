@@ -348,8 +348,13 @@ impl MappingState {
     /// Whether every cell the run will decide is decided: every vertex of the DFS tree imaged
     /// (nothing can add one then: only a vertex's pictures add children), or the run over.
     pub fn map_complete(&self) -> bool {
-        if matches!(self.phase, Phase::Finished { .. }) {
-            return true;
+        match self.phase {
+            // Given up: complete only if every vertex had been imaged by then.
+            Phase::Finished {
+                gave_up: Some(_), ..
+            } => {}
+            Phase::Finished { .. } => return true,
+            _ => {}
         }
         self.explorer.as_ref().is_some_and(|e| {
             e.tree()

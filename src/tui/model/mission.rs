@@ -66,6 +66,9 @@ pub enum RunStatus {
     BatterySwap,
     /// Completed.
     Done,
+    /// Ended because the region drifted beyond the drones' reach (runway mapping; shown from
+    /// the moment the run gives up, while the drones fly home).
+    BeyondReach,
     /// Stopped on an error.
     Failed,
 }
@@ -79,6 +82,7 @@ impl RunStatus {
             RunStatus::Paused => "PAUSED",
             RunStatus::BatterySwap => "BATTERY SWAP",
             RunStatus::Done => "DONE",
+            RunStatus::BeyondReach => "BEYOND REACH",
             RunStatus::Failed => "FAILED",
         }
     }

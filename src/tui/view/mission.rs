@@ -53,7 +53,9 @@ fn lines(m: &MissionModel, width: u16) -> Vec<Line<'static>> {
         crate::tui::model::RunStatus::Failed | crate::tui::model::RunStatus::BatterySwap => {
             theme::alarm()
         }
-        crate::tui::model::RunStatus::Paused => theme::warn(),
+        crate::tui::model::RunStatus::Paused | crate::tui::model::RunStatus::BeyondReach => {
+            theme::warn()
+        }
         _ => theme::strong(),
     };
     out.push(Line::from(vec![

@@ -215,7 +215,7 @@ fn title_bar(app: &App, frame: &mut Frame, area: Rect) {
     };
     let status_style = match m.status {
         RunStatus::Failed | RunStatus::BatterySwap => theme::alarm(),
-        RunStatus::Paused => theme::warn(),
+        RunStatus::Paused | RunStatus::BeyondReach => theme::warn(),
         _ => theme::strong(),
     };
     // What must always show, in order; the long source label and the mission name are added
