@@ -100,12 +100,27 @@ pub fn mission_for(
     Ok((text, def, PLUME_MISSION_FILE))
 }
 
-/// Mission text `base` (built-in file `file`) with `cfg`'s drones and separation.
+/// Mission text `base` (built-in file `file`) with `cfg`'s drones, separation and battery: the
+/// mission's `flight_time_min` (the endurance the GCS judges returns and reach by) is the
+/// simulated batteries' `battery_minutes`, so that a shorter battery is not flown as a
+/// 12-minute one.
 fn mission_with(base: &str, file: &str, cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
-    let mut text = base.replace(
-        "altitude_separation_m = 0.0",
-        &format!("altitude_separation_m = {:?}", cfg.altitude_separation_m),
-    );
+    const BATTERY_LINE: &str = "flight_time_min = 12.0";
+    if !base.contains(BATTERY_LINE) {
+        anyhow::bail!(
+            "the built-in mission {file} has no line `{BATTERY_LINE}` to set the battery in"
+        );
+    }
+    let mut text = base
+        .replace(
+            "altitude_separation_m = 0.0",
+            &format!("altitude_separation_m = {:?}", cfg.altitude_separation_m),
+        )
+        .replacen(
+            BATTERY_LINE,
+            &format!("flight_time_min = {:?}", cfg.battery_minutes),
+            1,
+        );
     // Appended at the end: after the sweep table, so a [[vehicles]] header starts its own
     // array-of-tables entry.
     for k in 2..=cfg.drones {

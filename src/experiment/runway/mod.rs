@@ -370,11 +370,7 @@ async fn fly(
         swap_after_s: args.swap_after,
         ..demo::DemoConfig::default()
     };
-    let (text, _) = demo::runway_mission(&cfg)?;
-    let text = with_battery(&text, args.battery_minutes)?;
-    let def =
-        crate::mission::definition::MissionDef::parse(&text, "runway-field-test.toml (built in)")
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let (text, def) = demo::runway_mission(&cfg)?;
     let spec = format!("{drones}xcopter:ardupilot");
     // the demo's team: the same simulator and fleet set-up, at the experiment's speed
     let team = demo::start_at(&spec, world, &cfg, args.speedup).await?;
@@ -404,15 +400,6 @@ async fn fly(
     fleet.shutdown().await;
     let _ = handle.stop().await;
     result
-}
-
-/// The mission text with `minutes` of battery (the field test's 12 otherwise).
-fn with_battery(text: &str, minutes: f64) -> anyhow::Result<String> {
-    const LINE: &str = "flight_time_min = 12.0";
-    if !text.contains(LINE) {
-        anyhow::bail!("the field-test mission's battery line moved");
-    }
-    Ok(text.replacen(LINE, &format!("flight_time_min = {minutes:?}"), 1))
 }
 
 fn trial_row(
@@ -834,9 +821,16 @@ mod tests {
     }
 
     #[test]
-    fn the_battery_line_of_the_field_test_is_where_it_is_changed() {
-        let (text, _) = demo::runway_mission(&demo::DemoConfig::default()).unwrap();
-        let t = with_battery(&text, 6.0).unwrap();
-        assert!(t.contains("flight_time_min = 6.0"));
+    fn the_missions_fly_on_the_simulated_batteries() {
+        let cfg = demo::DemoConfig {
+            battery_minutes: 6.0,
+            ..demo::DemoConfig::default()
+        };
+        let (text, def) = demo::runway_mission(&cfg).unwrap();
+        assert!(text.contains("flight_time_min = 6.0"));
+        assert_eq!(def.battery.flight_time_min, 6.0);
+        let plume = World::from_toml(include_str!("../../../assets/worlds/plume.toml")).unwrap();
+        let (_, def, _) = demo::mission_for(&plume, &cfg).unwrap();
+        assert_eq!(def.battery.flight_time_min, 6.0);
     }
 }
