@@ -298,20 +298,7 @@ impl Pilot {
         }
         let now = self.shared.now();
         let pct_v = pct.unwrap_or(-1.0);
-        self.shared
-            .commit(|s| {
-                s.abandon_confirmation(sysid);
-                s.on_battery_low(sysid, now)?;
-                Ok((
-                    (),
-                    Some(MappingEvent::BatteryLow {
-                        sysid,
-                        pct: pct_v,
-                        needed_pct: needed,
-                    }),
-                ))
-            })
-            .await?;
+        self.send_for_swap(now, pct_v, needed).await?;
         let why = if recalled {
             "recalled by the operator".to_string()
         } else if failsafe {
@@ -326,6 +313,28 @@ impl Pilot {
             .about(sysid),
         );
         Ok(true)
+    }
+
+    /// Send this drone home for a battery swap (a low battery, a recall, the autopilot's
+    /// failsafe, or a flight the reach rule says the charge does not cover): its confirmation
+    /// is given up and the state and journal say so, `pct` the charge it reported (−1 when it
+    /// reports none) and `needed_pct` what the flight home (or out and back) needs, percent.
+    async fn send_for_swap(&self, now: Time, pct: f64, needed_pct: f64) -> anyhow::Result<()> {
+        let sysid = self.sysid;
+        self.shared
+            .commit(|s| {
+                s.abandon_confirmation(sysid);
+                s.on_battery_low(sysid, now)?;
+                Ok((
+                    (),
+                    Some(MappingEvent::BatteryLow {
+                        sysid,
+                        pct,
+                        needed_pct,
+                    }),
+                ))
+            })
+            .await
     }
 
     /// The reach rule before flying out to `cell` of a moving region
@@ -401,20 +410,7 @@ impl Pilot {
         match verdict {
             Reach::Fly { .. } => Ok(true),
             Reach::SwapFirst { needed_pct } => {
-                self.shared
-                    .commit(|s| {
-                        s.abandon_confirmation(sysid);
-                        s.on_battery_low(sysid, now)?;
-                        Ok((
-                            (),
-                            Some(MappingEvent::BatteryLow {
-                                sysid,
-                                pct,
-                                needed_pct,
-                            }),
-                        ))
-                    })
-                    .await?;
+                self.send_for_swap(now, pct, needed_pct).await?;
                 self.shared.say(
                     Progress::notice(format!(
                         "vehicle {sysid}: battery {pct:.0} % does not cover the flight to cell \
