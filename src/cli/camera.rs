@@ -99,7 +99,36 @@ pub struct CameraArgs {
     pub seed: u64,
     /// A degraded rendered sensor (see `fleetmap sim --sensor-flip`).
     #[command(flatten)]
-    pub sensor: crate::cli::sim::SensorArgs,
+    pub sensor: SensorArgs,
+}
+
+/// `--sensor-flip P`, shared by `fleetmap camera`, `fleetmap sim` and `fleetmap demo --bandit`.
+#[derive(Debug, Clone, Args)]
+pub struct SensorArgs {
+    /// A degraded sensor: each camera image, independently with probability P (0 ≤ P < 0.5),
+    /// shows the other class of tile — green tiles drawn grey and grey ones green — as the
+    /// bandit paper's degraded-sensor hardware run (§V) added 5 % classification noise
+    /// (`--sensor-flip 0.05`); the GCS is unchanged. 0: no image is flipped. In `fleetmap
+    /// demo`, only with --bandit.
+    #[arg(
+        long = "sensor-flip",
+        value_name = "P",
+        default_value_t = 0.0,
+        allow_negative_numbers = true
+    )]
+    pub flip: f64,
+}
+
+impl SensorArgs {
+    /// The flip probability, checked: at least 0 and below 0.5 (at 0.5 an image says nothing
+    /// about its cell; above, the sensor would be a better one with its classes swapped).
+    pub fn probability(&self) -> anyhow::Result<f64> {
+        let p = self.flip;
+        if !(p.is_finite() && (0.0..0.5).contains(&p)) {
+            bail!("--sensor-flip must be a probability at least 0 and below 0.5 (got {p})");
+        }
+        Ok(p)
+    }
 }
 
 /// The on-board measurement definition of the mission file at `path`: an error unless it is a

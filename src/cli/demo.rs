@@ -70,7 +70,7 @@ pub struct DemoArgs {
     pub bound: Option<crate::cli::bandit::BoundArg>,
     /// With --bandit: the simulated cameras' sensor (the bandit paper's degraded sensor, §V).
     #[command(flatten)]
-    pub sensor: crate::cli::sim::SensorArgs,
+    pub sensor: crate::cli::camera::SensorArgs,
 }
 
 /// Run `fleetmap demo`.

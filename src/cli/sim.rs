@@ -54,7 +54,7 @@ pub struct SimArgs {
     pub camera_px: u32,
     /// The simulated cameras' sensor.
     #[command(flatten)]
-    pub sensor: SensorArgs,
+    pub sensor: crate::cli::camera::SensorArgs,
     /// Battery level (percent) that triggers the failsafe RTL (default: the autopilot's).
     #[arg(long, value_name = "PCT")]
     pub low_battery: Option<f64>,
@@ -127,35 +127,6 @@ fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
         bail!("{what}: numbers must be finite");
     }
     Ok((a, b))
-}
-
-/// `--sensor-flip P`, shared by `fleetmap sim` and `fleetmap demo --bandit`.
-#[derive(Debug, Clone, Args)]
-pub struct SensorArgs {
-    /// A degraded sensor: each camera image, independently with probability P (0 ≤ P < 0.5),
-    /// shows the other class of tile — green tiles drawn grey and grey ones green — as the
-    /// bandit paper's degraded-sensor hardware run (§V) added 5 % classification noise
-    /// (`--sensor-flip 0.05`); the GCS is unchanged. 0: no image is flipped. In `fleetmap
-    /// demo`, only with --bandit.
-    #[arg(
-        long = "sensor-flip",
-        value_name = "P",
-        default_value_t = 0.0,
-        allow_negative_numbers = true
-    )]
-    pub flip: f64,
-}
-
-impl SensorArgs {
-    /// The flip probability, checked: at least 0 and below 0.5 (at 0.5 an image says nothing
-    /// about its cell; above, the sensor would be a better one with its classes swapped).
-    pub fn probability(&self) -> anyhow::Result<f64> {
-        let p = self.flip;
-        if !(p.is_finite() && (0.0..0.5).contains(&p)) {
-            bail!("--sensor-flip must be a probability at least 0 and below 0.5 (got {p})");
-        }
-        Ok(p)
-    }
 }
 
 /// Build the simulation `fleetmap sim` would serve (also used by tests).
