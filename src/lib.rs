@@ -40,6 +40,7 @@ pub mod imagery;
 pub mod link;
 pub mod mission;
 pub mod planner;
+mod plot;
 pub mod proto;
 pub mod sim;
 pub mod store;

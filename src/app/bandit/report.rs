@@ -13,10 +13,8 @@ use crate::geo::Cell;
 use crate::planner::bandit::Label;
 use crate::planner::sortie::{ClassificationState, EpochStats};
 use plotters::prelude::*;
-use plotters::style::FontStyle;
 use serde::Serialize;
 use std::collections::BTreeSet;
-use std::sync::Once;
 
 /// A cell as `[row, col]` (the mission-file form).
 pub type CellPair = [i32; 2];
@@ -217,9 +215,6 @@ pub fn progress(state: &ClassificationState, truth: Option<&[Cell]>) -> Vec<(f64
         .collect()
 }
 
-static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
-static REGISTER: Once = Once::new();
-
 /// The progress plot (Fig. 4) as PNG bytes, `width × height` pixels.
 pub fn progress_png(
     state: &ClassificationState,
@@ -227,10 +222,7 @@ pub fn progress_png(
     width: u32,
     height: u32,
 ) -> anyhow::Result<Vec<u8>> {
-    REGISTER.call_once(|| {
-        // The shipped font is valid; if it were not, the plot would lack its text only.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
-    });
+    crate::plot::register_font();
     let pts = progress(state, truth);
     let mut series: Vec<(f64, f64, f64, f64)> = vec![(0.0, 0.0, 0.0, 0.0)];
     series.extend(

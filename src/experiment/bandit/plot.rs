@@ -8,8 +8,6 @@
 
 use super::VariantSummary;
 use plotters::prelude::*;
-use plotters::style::FontStyle;
-use std::sync::Once;
 
 /// Why a plot could not be drawn.
 #[derive(Debug, thiserror::Error)]
@@ -20,17 +18,6 @@ pub enum PlotError {
     /// PNG encoding failed.
     #[error("PNG encoding failed: {0}")]
     Encode(String),
-}
-
-static FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
-static REGISTER: Once = Once::new();
-
-fn register_font() {
-    REGISTER.call_once(|| {
-        // The shipped font is a valid TrueType file; if it were not, text would be missing
-        // from the plot but drawing would go on.
-        let _ = plotters::style::register_font("sans-serif", FontStyle::Normal, FONT);
-    });
 }
 
 const COLOURS: [RGBColor; 6] = [
@@ -51,7 +38,7 @@ pub fn progress_png(
     width: u32,
     height: u32,
 ) -> Result<Vec<u8>, PlotError> {
-    register_font();
+    crate::plot::register_font();
     let mut buf = vec![0u8; (width * height * 3) as usize];
     let longest = variants
         .iter()

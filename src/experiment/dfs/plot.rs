@@ -13,25 +13,9 @@ use crate::explore::simulate::{SimConfig, simulate};
 use crate::explore::{Allocation, Sharing};
 use image::ImageEncoder;
 use plotters::prelude::*;
-use std::sync::Once;
 
 const W: u32 = 960;
 const H: u32 = 640;
-
-static FONT: Once = Once::new();
-
-/// Make "sans-serif" resolve to the embedded DejaVu Sans.
-fn register_font() {
-    FONT.call_once(|| {
-        // The bytes are a valid TrueType file shipped with the source; a failure here would
-        // only lose the text, which plotters then reports as a drawing error.
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            include_bytes!("../../../assets/fonts/DejaVuSans.ttf"),
-        );
-    });
-}
 
 fn err(name: &str, e: impl std::fmt::Display) -> DfsStudyError {
     DfsStudyError::Output {
@@ -63,7 +47,7 @@ fn line_chart(
     xs: &[(f64, String)],
     series: &[Series],
 ) -> Result<Vec<u8>, DfsStudyError> {
-    register_font();
+    crate::plot::register_font();
     let mut buf = vec![0u8; (W * H * 3) as usize];
     {
         let root = BitMapBackend::with_buffer(&mut buf, (W, H)).into_drawing_area();
@@ -288,7 +272,7 @@ fn sweep_chart(
 /// Algorithm 1 built on it and the start cell in red.
 fn roi_figure(study: &Study) -> Result<Vec<u8>, DfsStudyError> {
     const NAME: &str = "fig7a_roi.png";
-    register_font();
+    crate::plot::register_font();
     let conf = study
         .configurations
         .iter()

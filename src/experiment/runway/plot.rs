@@ -9,25 +9,9 @@
 use super::{GOALS, Stat, Study};
 use image::ImageEncoder;
 use plotters::prelude::*;
-use std::sync::Once;
 
 const W: u32 = 960;
 const H: u32 = 640;
-
-static FONT: Once = Once::new();
-
-/// Make "sans-serif" resolve to the embedded DejaVu Sans.
-fn register_font() {
-    FONT.call_once(|| {
-        // The bytes are a valid TrueType file shipped with the source; a failure here would
-        // only lose the text, which plotters then reports as a drawing error.
-        let _ = plotters::style::register_font(
-            "sans-serif",
-            FontStyle::Normal,
-            include_bytes!("../../../assets/fonts/DejaVuSans.ttf"),
-        );
-    });
-}
 
 const MAP: RGBColor = RGBColor(31, 119, 180);
 const LANDING: RGBColor = RGBColor(255, 127, 14);
@@ -36,7 +20,7 @@ const GOAL: RGBColor = RGBColor(214, 39, 40);
 
 /// `runway_team.png`: simulated seconds from the first take-off against the team size.
 pub fn team_png(study: &Study) -> anyhow::Result<Vec<u8>> {
-    register_font();
+    crate::plot::register_font();
     let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("plotting runway_team.png: {e}");
     let points = |f: fn(&super::TeamSummary) -> Option<Stat>| -> Vec<(f64, Stat)> {
         study
