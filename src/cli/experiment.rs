@@ -102,7 +102,7 @@ fn run_runway(args: crate::experiment::runway::RunwayArgs) -> anyhow::Result<Exi
     use crate::experiment::runway;
     runway::validate(&args)?;
     eprintln!(
-        "runway study: {} trial(s) of {:?} drone(s), the simulator at {} real time at most",
+        "runway study: {} trial(s) of {:?} drone(s), the simulator in {}",
         args.trials, args.drones, args.speedup
     );
     let study = runway::run(&args, &mut |t| eprintln!("{}", runway::trial_line(t)))?;

@@ -2,13 +2,24 @@
 //! (issue 26).
 //!
 //! Every trial flies the runway field-test mission (`missions/runway-field-test.toml`, the
-//! world `assets/worlds/runway.toml`) with a team of simulated ArduPilot copters, as
-//! `fleetmap demo` does: the embedded simulator on loopback UDP (`crate::sim::server`, one
-//! socket per vehicle), the GCS in the same process on the simulator's own time
-//! ([`crate::clock::MonotonicClock::following`]), 12-minute batteries swapped by the simulated
-//! crew 30 s after a landing, the runner resuming by itself. The simulator runs in lock-step
-//! at up to `--speedup` times real time (or as fast as it can with `max`); every figure is in
-//! simulated seconds — the report's mission time ([`crate::app::runway::report::MissionTime`]).
+//! world `assets/worlds/runway.toml`) with a team of simulated ArduPilot copters, the GCS in
+//! the same process: 12-minute batteries swapped by the simulated crew 30 s after a landing,
+//! the runner resuming by itself. Every figure is in simulated seconds — the report's mission
+//! time ([`crate::app::runway::report::MissionTime`]).
+//!
+//! **The clock** (`--speedup`). By default (`virtual`) a trial runs in virtual time, as the
+//! end-to-end tests do: the simulator behind in-process links
+//! ([`crate::app::demo::start_virtual`]) on a current-thread runtime whose clock is paused,
+//! so time moves only when every task waits, and the GCS's own work (decoding and
+//! classifying ~600 pictures) takes no simulated time — as at 1× in the field, where it is a
+//! few milliseconds a picture against seconds of flight. The figures then describe the
+//! algorithm and the vehicles, not this machine's load. With a number (or `max`) the trial
+//! runs as `fleetmap demo` does, on loopback UDP in lock-step at up to that many times real
+//! time: the GCS's work then costs simulated time (×N), and a team whose pictures arrive
+//! faster than the GCS classifies them hovers while it catches up. Measured (2026-12-04, six
+//! drones at 10×): the same seed mapped in 393–412 s on a quiet machine and 651–745 s beside
+//! a build, where the drones' time over their cells rose from 0.3 s to 0.9 s a picture and
+//! every drone needed a swap.
 //!
 //! Trial `k` of every team size uses the simulator seed `seed + k`, so the team sizes are
 //! compared on the same GPS noise and the same wind (common random numbers).
@@ -52,20 +63,22 @@ pub struct RunwayArgs {
     /// Simulator seed of trial 0 (trial k uses seed + k, for every team size).
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// Most simulated seconds per wall second (the simulator runs in lock-step and slows down
-    /// when the machine is busy), or `max`. Every figure is simulated time; a GCS that gets
-    /// behind a fast simulator (classifying pictures on a busy machine) leaves the drones
-    /// hovering longer than it would in real time, so keep it moderate (the demo flies at 10×).
-    #[arg(long, default_value = "10")]
-    pub speedup: Speed,
+    /// `virtual` (the default): in-process links on a paused clock, the GCS's work taking no
+    /// simulated time, figures independent of the machine's load. Or the most simulated
+    /// seconds per wall second over loopback UDP, as the demo flies (lock-step, slower when the
+    /// machine is busy), or `max`: the GCS's work then costs simulated time, more the busier
+    /// the machine.
+    #[arg(long, default_value = "virtual")]
+    pub speedup: StudyClock,
     /// Battery endurance of the simulated copters and of the mission, minutes.
     #[arg(long, default_value_t = 12.0)]
     pub battery_minutes: f64,
     /// Seconds after a landing until the simulated crew has swapped the battery.
     #[arg(long, default_value_t = 30.0)]
     pub swap_after: f64,
-    /// Give a trial up after this many minutes of wall time (it is reported as unfinished).
-    #[arg(long, default_value_t = 45.0)]
+    /// Give a trial up after this many minutes (it is reported as unfinished): of simulated
+    /// time with the virtual clock, of wall time otherwise.
+    #[arg(long, default_value_t = 120.0)]
     pub trial_timeout_min: f64,
     /// Keep every trial's run directory under OUT/runs (`fleetmap report` and `export` work
     /// on them); otherwise they are removed once the trial is read.
@@ -77,6 +90,36 @@ pub struct RunwayArgs {
     /// Directory for the CSVs, the JSON summary and the PNG (created if missing).
     #[arg(long, value_name = "DIR", default_value = "experiment-runway")]
     pub out: PathBuf,
+}
+
+/// How a trial's time runs (`--speedup`).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum StudyClock {
+    /// In-process links on a paused current-thread runtime: simulated time moves only while
+    /// every task waits.
+    Virtual,
+    /// Loopback UDP, the simulator in lock-step at this speed (as `fleetmap demo`).
+    Paced(Speed),
+}
+
+impl std::str::FromStr for StudyClock {
+    type Err = <Speed as std::str::FromStr>::Err;
+    fn from_str(s: &str) -> Result<Self, Self::Err> {
+        if s.trim().eq_ignore_ascii_case("virtual") {
+            Ok(StudyClock::Virtual)
+        } else {
+            s.parse().map(StudyClock::Paced)
+        }
+    }
+}
+
+impl std::fmt::Display for StudyClock {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            StudyClock::Virtual => write!(f, "virtual time"),
+            StudyClock::Paced(s) => write!(f, "lock-step at {s} over loopback UDP"),
+        }
+    }
 }
 
 /// One trial: a team flying the field test to its end.
@@ -300,18 +343,30 @@ pub fn run(args: &RunwayArgs, progress: &mut dyn FnMut(&TrialRow)) -> anyhow::Re
                     .with_context(|| format!("cannot remove the old {}", dir.display()))?;
             }
             let watch = crate::clock::stopwatch();
-            let rt = tokio::runtime::Builder::new_multi_thread()
-                .worker_threads(2)
-                .enable_all()
-                .build()
-                .context("cannot start the async runtime")?;
+            let rt = match args.speedup {
+                // Paused: tokio advances the clock only when every task waits, and the
+                // classifier runs inline on the one thread (app::runway::intake::cpu).
+                StudyClock::Virtual => tokio::runtime::Builder::new_current_thread()
+                    .enable_all()
+                    .start_paused(true)
+                    .build(),
+                StudyClock::Paced(_) => tokio::runtime::Builder::new_multi_thread()
+                    .worker_threads(2)
+                    .enable_all()
+                    .build(),
+            }
+            .context("cannot start the async runtime")?;
             let limit = Duration::from_secs_f64(args.trial_timeout_min * 60.0);
             let flown = rt.block_on(async {
                 match tokio::time::timeout(limit, fly(args, n, seed, &dir)).await {
                     Ok(r) => r,
                     Err(_) => Err(anyhow::anyhow!(
-                        "no end after {} minutes of wall time",
-                        args.trial_timeout_min
+                        "no end after {} minutes of {}",
+                        args.trial_timeout_min,
+                        match args.speedup {
+                            StudyClock::Virtual => "simulated time",
+                            StudyClock::Paced(_) => "wall time",
+                        }
                     )),
                 }
             });
@@ -372,9 +427,17 @@ async fn fly(
     };
     let (text, def) = demo::runway_mission(&cfg)?;
     let spec = format!("{drones}xcopter:ardupilot");
-    // the demo's team: the same simulator and fleet set-up, at the experiment's speed
-    let team = demo::start_at(&spec, world, &cfg, args.speedup).await?;
-    let (fleet, handle) = (team.fleet, team.sim);
+    // the demo's team: the same simulator, in virtual time or at the experiment's speed
+    let (fleet, sim) = match args.speedup {
+        StudyClock::Virtual => {
+            let (fleet, sim) = demo::start_virtual(&spec, world, &cfg).await?;
+            (fleet, TeamSim::Memory(sim))
+        }
+        StudyClock::Paced(speed) => {
+            let team = demo::start_at(&spec, world, &cfg, speed).await?;
+            (team.fleet, TeamSim::Udp(team.sim))
+        }
+    };
     let result = async {
         let state =
             crate::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60)).await?;
@@ -398,8 +461,17 @@ async fn fly(
     }
     .await;
     fleet.shutdown().await;
-    let _ = handle.stop().await;
+    let _ = match sim {
+        TeamSim::Memory(h) => h.stop().await,
+        TeamSim::Udp(h) => h.stop().await,
+    };
     result
+}
+
+/// The simulator a trial's team flies on.
+enum TeamSim {
+    Memory(crate::sim::server::MemorySimHandle),
+    Udp(crate::sim::server::SimHandle),
 }
 
 fn trial_row(
@@ -795,7 +867,7 @@ mod tests {
             },
         ];
         let study = Study {
-            speedup: "10×".into(),
+            speedup: "virtual time".into(),
             battery_minutes: 12.0,
             swap_after_s: 30.0,
             summaries: summarise(&[1, 3], &trials, &[]),
@@ -818,6 +890,34 @@ mod tests {
         assert!(table.contains("0.45×"), "{table}");
         let png = plot::team_png(&study).unwrap();
         assert_eq!(&png[1..4], b"PNG");
+    }
+
+    #[test]
+    fn the_clock_is_virtual_unless_a_speed_is_given() {
+        use clap::Parser as _;
+        #[derive(clap::Parser)]
+        struct Cli {
+            #[command(flatten)]
+            args: RunwayArgs,
+        }
+        let parse = |extra: &[&str]| {
+            let argv = std::iter::once("study").chain(extra.iter().copied());
+            Cli::try_parse_from(argv).map(|c| c.args.speedup)
+        };
+        assert_eq!(parse(&[]).unwrap(), StudyClock::Virtual);
+        assert_eq!(
+            parse(&["--speedup", "VIRTUAL"]).unwrap(),
+            StudyClock::Virtual
+        );
+        assert_eq!(
+            parse(&["--speedup", "10"]).unwrap(),
+            StudyClock::Paced(Speed::times(10.0).unwrap())
+        );
+        assert_eq!(
+            parse(&["--speedup", "max"]).unwrap(),
+            StudyClock::Paced(Speed::Max)
+        );
+        assert!(parse(&["--speedup", "soon"]).is_err());
     }
 
     #[test]

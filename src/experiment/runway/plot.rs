@@ -57,7 +57,7 @@ pub fn team_png(study: &Study) -> anyhow::Result<Vec<u8>> {
         let mut chart = ChartBuilder::on(&root)
             .caption(
                 format!(
-                    "Runway field test: mission time by team size (simulator at {}, {} min batteries)",
+                    "Runway field test: mission time by team size (simulator in {}, {} min batteries)",
                     study.speedup, study.battery_minutes
                 ),
                 ("sans-serif", 22),
