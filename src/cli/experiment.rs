@@ -105,12 +105,14 @@ fn run_runway(args: crate::experiment::runway::RunwayArgs) -> anyhow::Result<Exi
         "runway study: {} trial(s) of {:?} drone(s), the simulator in {}",
         args.trials, args.drones, args.speedup
     );
-    let study = runway::run(&args, &mut |t| eprintln!("{}", runway::trial_line(t)))?;
-    let files = runway::write_outputs(&study, &args.out)?;
+    let study = runway::run(&args, &mut |t| {
+        eprintln!("{}", runway::output::trial_line(t))
+    })?;
+    let files = runway::output::write_outputs(&study, &args.out)?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&study)?);
     } else {
-        print!("{}", runway::table(&study));
+        print!("{}", runway::output::table(&study));
         for f in &files {
             println!("wrote {}", f.display());
         }
