@@ -181,6 +181,17 @@ impl VehicleSnapshot {
         }
     }
 
+    /// The mode of the last heartbeat, when its flavour's table has it
+    /// ([`Flavour::mode_of`]); [`VehicleSnapshot::mode`] is its name.
+    pub fn flight_mode(&self) -> Option<crate::proto::mode::Mode> {
+        self.flavour.mode_of(self.custom_mode)
+    }
+
+    /// Whether the heartbeat shows `mode`.
+    pub fn in_mode(&self, mode: crate::proto::mode::Mode) -> bool {
+        self.flavour.is_mode(self.custom_mode, mode)
+    }
+
     /// Whether the autopilot reports its mission as being flown (MISSION_STATE_ACTIVE).
     pub fn mission_active(&self) -> bool {
         self.mission_state == Some(MissionState::MISSION_STATE_ACTIVE)
