@@ -2,7 +2,8 @@
 //! and the snapshot types the TUI and the runners read.
 
 use crate::link::codec::SourceStats;
-use crate::proto::flavour::{ArmInputs, Flavour};
+use crate::proto::arming::ArmInputs;
+use crate::proto::flavour::Flavour;
 use crate::proto::heartbeat::Beat;
 use crate::proto::severity::Severity;
 use crate::time::Time;
