@@ -79,12 +79,11 @@ pub struct VehicleSnapshot {
     pub sysid: u8,
     /// Autopilot component id.
     pub compid: u8,
-    /// Autopilot and vehicle class.
+    /// Autopilot and vehicle class, from HEARTBEAT.autopilot (MAV_AUTOPILOT:
+    /// `flavour.autopilot.mav_autopilot()`) and HEARTBEAT.type.
     pub flavour: Flavour,
     /// MAV_TYPE.
     pub mav_type: u8,
-    /// MAV_AUTOPILOT.
-    pub autopilot: u8,
     /// The mode's name for this flavour (`MODE(n)` if unknown).
     pub mode: String,
     /// HEARTBEAT custom_mode.
@@ -261,7 +260,6 @@ impl VehicleSnapshot {
             compid,
             flavour,
             mav_type: beat.mav_type,
-            autopilot: beat.autopilot,
             mode: flavour.mode_name(beat.custom_mode),
             custom_mode: beat.custom_mode,
             armed: beat.armed(),
@@ -311,7 +309,6 @@ impl VehicleSnapshot {
         }
         self.flavour = Flavour::from_heartbeat(beat.autopilot, beat.mav_type);
         self.mav_type = beat.mav_type;
-        self.autopilot = beat.autopilot;
         self.custom_mode = beat.custom_mode;
         self.mode = self.flavour.mode_name(beat.custom_mode);
         self.armed = beat.armed();
