@@ -241,7 +241,7 @@ async fn fleet_over_udp_sees_two_vehicles_routes_commands_and_transfers_missions
         .unwrap();
     assert_eq!(a.battery_pct, Some(87));
     // Commands are routed to the right vehicle only.
-    f.set_mode(2, "GUIDED").await.unwrap();
+    f.set_mode_named(2, "GUIDED").await.unwrap();
     assert_eq!(v2.seen.lock().unwrap().custom_mode, 4);
     assert_eq!(v1.seen.lock().unwrap().custom_mode, 0);
     f.arm(2).await.unwrap();
@@ -303,7 +303,7 @@ async fn signing_drops_unsigned_third_parties_and_wrong_keys() {
         .await
         .unwrap();
     f.wait_vehicle(1, Duration::from_secs(5)).await.unwrap();
-    f.set_mode(1, "LOITER").await.unwrap();
+    f.set_mode_named(1, "LOITER").await.unwrap();
     assert_eq!(v.seen.lock().unwrap().custom_mode, 5);
 
     // A third party without the key sends an ARM command: ignored.

@@ -332,7 +332,7 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
             };
             set.spawn(async move {
                 let t = Instant::now();
-                let r = fleet.set_mode(sysid, mode).await;
+                let r = fleet.set_mode_named(sysid, mode).await;
                 (sysid, mode, r, t.elapsed())
             });
         }

@@ -105,7 +105,7 @@ pub fn run(args: CommandArgs) -> anyhow::Result<ExitCode> {
                     "disarmed".to_string()
                 }
                 Action::Mode { name } => {
-                    f.set_mode(sysid, name).await?;
+                    f.set_mode_named(sysid, name).await?;
                     format!(
                         "mode {}",
                         f.vehicle(sysid).map(|v| v.mode).unwrap_or_default()

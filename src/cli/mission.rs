@@ -164,7 +164,7 @@ pub fn write_list(
         .is_some_and(|e| e.eq_ignore_ascii_case("plan"))
     {
         let mut p = Plan {
-            firmware_type: v.autopilot,
+            firmware_type: v.flavour.autopilot.mav_autopilot(),
             vehicle_type: v.mav_type,
             home: home
                 .map(|h| (h.lat(), h.lon(), f64::from(h.z)))

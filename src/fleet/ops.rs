@@ -11,6 +11,7 @@ use crate::proto::command::CommandError;
 use crate::proto::flavour::Autopilot;
 use crate::proto::flavour::FlavourError;
 use crate::proto::flavour::Step;
+use crate::proto::mode::Mode;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use std::time::Duration;
 
@@ -19,8 +20,16 @@ impl FleetHandle {
         move |error| FleetError::Flavour { sysid, error }
     }
 
-    /// Switch to mode `name` and wait until the heartbeat shows it.
-    pub async fn set_mode(&self, sysid: u8, name: &str) -> Result<(), FleetError> {
+    /// Switch to `mode` and wait until the heartbeat shows it.
+    pub async fn set_mode(&self, sysid: u8, mode: Mode) -> Result<(), FleetError> {
+        let v = self.require(sysid)?;
+        self.set_mode_to(&v, mode).await
+    }
+
+    /// [`FleetHandle::set_mode`] to the mode a user typed: `name` as the vehicle's autopilot
+    /// names it (case-insensitive, QGroundControl / MAVProxy aliases:
+    /// [`crate::proto::flavour::Flavour::mode`]).
+    pub async fn set_mode_named(&self, sysid: u8, name: &str) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         let mode = v.flavour.mode(name).map_err(Self::flavour_err(sysid))?;
         self.set_mode_to(&v, mode).await
@@ -29,7 +38,7 @@ impl FleetHandle {
     pub(super) async fn set_mode_to(
         &self,
         v: &VehicleSnapshot,
-        mode: crate::proto::flavour::Mode,
+        mode: Mode,
     ) -> Result<(), FleetError> {
         let sysid = v.sysid;
         let current = self.require(sysid)?;
@@ -45,7 +54,7 @@ impl FleetHandle {
             .map(|_| ())
             .map_err(|now| FleetError::NotConfirmed {
                 sysid,
-                what: format!("mode {}", mode.name),
+                what: format!("mode {}", mode.name()),
                 waited_s: timeout.as_secs_f64(),
                 now: now.map(|v| format!("mode {}", v.mode)).unwrap_or_default(),
             })

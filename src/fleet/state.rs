@@ -2,7 +2,8 @@
 //! and the snapshot types the TUI and the runners read.
 
 use crate::link::codec::SourceStats;
-use crate::proto::flavour::{ArmInputs, Flavour};
+use crate::proto::arming::ArmInputs;
+use crate::proto::flavour::Flavour;
 use crate::proto::heartbeat::Beat;
 use crate::proto::severity::Severity;
 use crate::time::Time;
@@ -78,12 +79,11 @@ pub struct VehicleSnapshot {
     pub sysid: u8,
     /// Autopilot component id.
     pub compid: u8,
-    /// Autopilot and vehicle class.
+    /// Autopilot and vehicle class, from HEARTBEAT.autopilot (MAV_AUTOPILOT:
+    /// `flavour.autopilot.mav_autopilot()`) and HEARTBEAT.type.
     pub flavour: Flavour,
     /// MAV_TYPE.
     pub mav_type: u8,
-    /// MAV_AUTOPILOT.
-    pub autopilot: u8,
     /// The mode's name for this flavour (`MODE(n)` if unknown).
     pub mode: String,
     /// HEARTBEAT custom_mode.
@@ -181,6 +181,17 @@ impl VehicleSnapshot {
         }
     }
 
+    /// The mode of the last heartbeat, when its flavour's table has it
+    /// ([`Flavour::mode_of`]); [`VehicleSnapshot::mode`] is its name.
+    pub fn flight_mode(&self) -> Option<crate::proto::mode::Mode> {
+        self.flavour.mode_of(self.custom_mode)
+    }
+
+    /// Whether the heartbeat shows `mode`.
+    pub fn in_mode(&self, mode: crate::proto::mode::Mode) -> bool {
+        self.flavour.is_mode(self.custom_mode, mode)
+    }
+
     /// Whether the autopilot reports its mission as being flown (MISSION_STATE_ACTIVE).
     pub fn mission_active(&self) -> bool {
         self.mission_state == Some(MissionState::MISSION_STATE_ACTIVE)
@@ -249,7 +260,6 @@ impl VehicleSnapshot {
             compid,
             flavour,
             mav_type: beat.mav_type,
-            autopilot: beat.autopilot,
             mode: flavour.mode_name(beat.custom_mode),
             custom_mode: beat.custom_mode,
             armed: beat.armed(),
@@ -299,7 +309,6 @@ impl VehicleSnapshot {
         }
         self.flavour = Flavour::from_heartbeat(beat.autopilot, beat.mav_type);
         self.mav_type = beat.mav_type;
-        self.autopilot = beat.autopilot;
         self.custom_mode = beat.custom_mode;
         self.mode = self.flavour.mode_name(beat.custom_mode);
         self.armed = beat.armed();

@@ -25,8 +25,11 @@ use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
 
-/// A WGS84 position: latitude and longitude in degrees (north and east positive).
+/// A WGS84 position: latitude and longitude in degrees (north and east positive). The one
+/// position type of the grid, the mission definitions (`{ lat = …, lon = … }`, other keys
+/// refused) and the GCS.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct LatLon {
     /// Latitude in degrees, −90..=90 (UTM needs −80..=84).
     pub lat: f64,

@@ -33,15 +33,7 @@
 //!   AUTO_RTL / AUTO_LAND).
 //! * Mission numbering: ArduPilot's mission item 0 is home (`AP_Mission`), so MISSION_CURRENT
 //!   and MISSION_ITEM_REACHED count from 1 for the user's first item; PX4 from 0.
-//! * Arming for real: a flag is not enough. We require a heartbeat in STANDBY or later, a
-//!   3D GPS fix, a position estimate (GLOBAL_POSITION_INT with a position; ArduPilot's
-//!   EKF_STATUS_REPORT with an absolute horizontal position and not in constant-position
-//!   mode when it is sent), a home position (HOME_POSITION), the SYS_STATUS
-//!   MAV_SYS_STATUS_PREARM_CHECK health bit when the autopilot reports it (ArduPilot
-//!   `GCS_MAVLINK::send_sys_status` sets it from the last pre-arm result, PX4 from its
-//!   health and arming checks), and no pre-arm failure in STATUSTEXT ("PreArm: …" from
-//!   ArduPilot `AP_Arming::check_failed`, "Preflight Fail: …" from PX4) when the bit is
-//!   not reported.
+//! * Arming for real: see [`super::arming`].
 
 // Deliberately handles deprecated messages and frames (MISSION_REQUEST, MISSION_ITEM,
 // MISSION_SET_CURRENT, *_INT frames) because deployed autopilots still send or need them.
@@ -49,6 +41,7 @@
 
 use super::Endpoint;
 use super::command::Command;
+use super::mode::{CopterMode, Mode, Px4Mode, RoverMode};
 use mavlink::dialects::ardupilotmega::{
     MavCmd, MavFrame, MavMessage, PositionTargetTypemask, SET_POSITION_TARGET_GLOBAL_INT_DATA,
 };
@@ -142,8 +135,12 @@ impl Default for Autopilot {
     }
 }
 
-/// What kind of vehicle.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+/// What kind of vehicle, from HEARTBEAT.type (MAV_TYPE, [`Flavour::from_heartbeat`]): the
+/// one vocabulary of the fleet and the TUI.
+///
+/// Serialized (fleet snapshots in JSON) as `"Copter"`, `"Rover"`, …; the TUI's replay files
+/// use their own spelling (`crate::tui::model::VehicleRow::vehicle_type`).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
 pub enum VehicleClass {
     /// Multirotor or helicopter.
     Copter,
@@ -151,8 +148,31 @@ pub enum VehicleClass {
     Rover,
     /// Fixed wing (modes not mapped; protocol only).
     Plane,
-    /// Anything else.
+    /// Anything else (and not known yet, before a heartbeat).
+    #[default]
     Other,
+}
+
+impl VehicleClass {
+    /// Full name: "copter", "rover", "plane", "other".
+    pub fn name(self) -> &'static str {
+        match self {
+            VehicleClass::Copter => "copter",
+            VehicleClass::Rover => "rover",
+            VehicleClass::Plane => "plane",
+            VehicleClass::Other => "other",
+        }
+    }
+
+    /// Three-letter name for narrow tables: "cop", "rov", "pln", "oth".
+    pub fn short(self) -> &'static str {
+        match self {
+            VehicleClass::Copter => "cop",
+            VehicleClass::Rover => "rov",
+            VehicleClass::Plane => "pln",
+            VehicleClass::Other => "oth",
+        }
+    }
 }
 
 /// Autopilot + vehicle class: decides modes and how actions are done.
@@ -195,93 +215,6 @@ pub enum FlavourError {
     },
 }
 
-/// A mode: its display name and how it is encoded.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct Mode {
-    /// Upper-case name.
-    pub name: &'static str,
-    /// HEARTBEAT custom_mode.
-    pub custom_mode: u32,
-}
-
-const fn m(name: &'static str, custom_mode: u32) -> Mode {
-    Mode { name, custom_mode }
-}
-
-const fn px4(name: &'static str, main: u32, sub: u32) -> Mode {
-    Mode {
-        name,
-        custom_mode: (sub << 24) | (main << 16),
-    }
-}
-
-/// ArduCopter `enum class Number` (ArduCopter/mode.h).
-pub const COPTER_MODES: &[Mode] = &[
-    m("STABILIZE", 0),
-    m("ACRO", 1),
-    m("ALT_HOLD", 2),
-    m("AUTO", 3),
-    m("GUIDED", 4),
-    m("LOITER", 5),
-    m("RTL", 6),
-    m("CIRCLE", 7),
-    m("LAND", 9),
-    m("DRIFT", 11),
-    m("SPORT", 13),
-    m("FLIP", 14),
-    m("AUTOTUNE", 15),
-    m("POSHOLD", 16),
-    m("BRAKE", 17),
-    m("THROW", 18),
-    m("AVOID_ADSB", 19),
-    m("GUIDED_NOGPS", 20),
-    m("SMART_RTL", 21),
-    m("FLOWHOLD", 22),
-    m("FOLLOW", 23),
-    m("ZIGZAG", 24),
-    m("SYSTEMID", 25),
-    m("AUTOROTATE", 26),
-    m("AUTO_RTL", 27),
-    m("TURTLE", 28),
-];
-
-/// ArduRover `enum class Number` (Rover/mode.h).
-pub const ROVER_MODES: &[Mode] = &[
-    m("MANUAL", 0),
-    m("ACRO", 1),
-    m("STEERING", 3),
-    m("HOLD", 4),
-    m("LOITER", 5),
-    m("FOLLOW", 6),
-    m("SIMPLE", 7),
-    m("DOCK", 8),
-    m("CIRCLE", 9),
-    m("AUTO", 10),
-    m("RTL", 11),
-    m("SMART_RTL", 12),
-    m("GUIDED", 15),
-    m("INITIALISING", 16),
-];
-
-/// PX4 main/sub modes (px4_custom_mode.h), QGroundControl's names upper-cased.
-pub const PX4_MODES: &[Mode] = &[
-    px4("MANUAL", 1, 0),
-    px4("ALTCTL", 2, 0),
-    px4("POSCTL", 3, 0),
-    px4("ORBIT", 3, 1),
-    px4("READY", 4, 1),
-    px4("TAKEOFF", 4, 2),
-    px4("HOLD", 4, 3),
-    px4("MISSION", 4, 4),
-    px4("RTL", 4, 5),
-    px4("LAND", 4, 6),
-    px4("FOLLOW_ME", 4, 8),
-    px4("PRECLAND", 4, 9),
-    px4("ACRO", 5, 0),
-    px4("OFFBOARD", 6, 0),
-    px4("STABILIZED", 7, 0),
-];
-
 /// Accepted alternative names → canonical names (QGroundControl / MAVProxy spellings).
 const ALIASES: &[(&str, &str)] = &[
     ("POSITION", "POSCTL"),
@@ -309,32 +242,6 @@ pub enum Step {
     /// Send a message without acknowledgement.
     Send(Box<MavMessage>),
 }
-
-/// What the arming check looks at (filled from telemetry by the fleet).
-#[derive(Clone, Debug, Default, PartialEq)]
-pub struct ArmInputs {
-    /// HEARTBEAT system_status (MAV_STATE).
-    pub system_status: u8,
-    /// Already armed.
-    pub armed: bool,
-    /// GPS_RAW_INT fix_type, if received.
-    pub gps_fix: Option<u8>,
-    /// A position estimate: GLOBAL_POSITION_INT received recently with lat/lon ≠ 0.
-    pub position: bool,
-    /// HOME_POSITION received.
-    pub home: bool,
-    /// ArduPilot EKF_STATUS_REPORT flags, if received.
-    pub ekf_flags: Option<u16>,
-    /// SYS_STATUS pre-arm health bit: `None` when the autopilot does not report it.
-    pub prearm_ok: Option<bool>,
-    /// A recent pre-arm failure STATUSTEXT, if any.
-    pub prearm_text: Option<String>,
-}
-
-/// EKF_STATUS_REPORT flags (ardupilotmega.xml EKF_STATUS_FLAGS).
-const EKF_POS_HORIZ_ABS: u16 = 16;
-const EKF_CONST_POS_MODE: u16 = 128;
-const EKF_UNINITIALIZED: u16 = 1024;
 
 impl Flavour {
     /// The flavour of a heartbeat's (MAV_AUTOPILOT, MAV_TYPE).
@@ -376,28 +283,36 @@ impl Flavour {
         self.autopilot == Autopilot::ArduPilot
     }
 
-    /// The mode table.
+    /// The mode table ([`super::mode`]): PX4's, ArduRover's for ArduPilot rovers,
+    /// ArduCopter's for other ArduPilot vehicles, none for other autopilots.
     pub fn modes(&self) -> &'static [Mode] {
         match (self.autopilot, self.class) {
-            (Autopilot::Px4, _) => PX4_MODES,
-            (Autopilot::ArduPilot, VehicleClass::Rover) => ROVER_MODES,
-            (Autopilot::ArduPilot, _) => COPTER_MODES,
+            (Autopilot::Px4, _) => Px4Mode::MODES,
+            (Autopilot::ArduPilot, VehicleClass::Rover) => RoverMode::MODES,
+            (Autopilot::ArduPilot, _) => CopterMode::MODES,
             _ => &[],
         }
     }
 
-    /// The name of the mode in a heartbeat (`custom_mode`), or `MODE(n)` if unknown.
-    pub fn mode_name(&self, custom_mode: u32) -> String {
+    /// The mode a heartbeat's `custom_mode` is in, if this flavour's table has it (PX4's
+    /// reserved low 16 bits ignored).
+    pub fn mode_of(&self, custom_mode: u32) -> Option<Mode> {
         let cm = match self.autopilot {
-            // PX4: the low 16 bits are reserved.
             Autopilot::Px4 => custom_mode & 0xFFFF_0000,
             _ => custom_mode,
         };
-        if let Some(m) = self.modes().iter().find(|m| m.custom_mode == cm) {
-            return m.name.to_string();
+        self.modes().iter().copied().find(|m| m.custom_mode() == cm)
+    }
+
+    /// The name of the mode in a heartbeat (`custom_mode`), or `MODE(n)` if unknown.
+    pub fn mode_name(&self, custom_mode: u32) -> String {
+        if let Some(m) = self.mode_of(custom_mode) {
+            return m.name().to_string();
         }
         if self.autopilot == Autopilot::Px4 {
-            // PX4 reports AUTO sub modes it has no name for; show main.sub.
+            // PX4 reports AUTO sub modes it has no name for; show main.sub (the low 16 bits
+            // are reserved).
+            let cm = custom_mode & 0xFFFF_0000;
             return format!("MODE({}.{})", (cm >> 16) & 0xFF, cm >> 24);
         }
         format!("MODE({custom_mode})")
@@ -407,7 +322,7 @@ impl Flavour {
     pub fn mode(&self, name: &str) -> Result<Mode, FlavourError> {
         let up = name.trim().to_ascii_uppercase().replace(' ', "_");
         let modes = self.modes();
-        let find = |n: &str| modes.iter().find(|m| m.name == n).copied();
+        let find = |n: &str| modes.iter().find(|m| m.name() == n).copied();
         if let Some(m) = find(&up) {
             return Ok(m);
         }
@@ -416,22 +331,19 @@ impl Flavour {
         {
             return Ok(m);
         }
-        Err(FlavourError::UnknownMode {
-            name: name.to_string(),
-            flavour: self.to_string(),
-            known: modes.iter().map(|m| m.name).collect::<Vec<_>>().join(", "),
-        })
+        Err(self.unknown_mode(name))
     }
 
     /// The MAV_CMD_DO_SET_MODE command for `mode`.
     pub fn set_mode_command(&self, target: Endpoint, mode: Mode) -> Command {
         // MAV_MODE_FLAG_CUSTOM_MODE_ENABLED = 1.
+        let custom_mode = mode.custom_mode();
         let (p2, p3) = match self.autopilot {
             Autopilot::Px4 => (
-                ((mode.custom_mode >> 16) & 0xFF) as f32,
-                (mode.custom_mode >> 24) as f32,
+                ((custom_mode >> 16) & 0xFF) as f32,
+                (custom_mode >> 24) as f32,
             ),
-            _ => (mode.custom_mode as f32, 0.0),
+            _ => (custom_mode as f32, 0.0),
         };
         Command::long(
             target,
@@ -443,34 +355,54 @@ impl Flavour {
     /// Whether the heartbeat's `custom_mode` is `mode`.
     pub fn is_mode(&self, custom_mode: u32, mode: Mode) -> bool {
         match self.autopilot {
-            Autopilot::Px4 => custom_mode & 0xFFFF_0000 == mode.custom_mode,
-            _ => custom_mode == mode.custom_mode,
+            Autopilot::Px4 => custom_mode & 0xFFFF_0000 == mode.custom_mode(),
+            _ => custom_mode == mode.custom_mode(),
         }
     }
 
-    fn named(&self, name: &str) -> Result<Mode, FlavourError> {
-        self.mode(name)
+    /// This flavour's mode among ArduCopter's, ArduRover's and PX4's choice of it: the
+    /// table [`Flavour::modes`] picks. `Err` for an autopilot without a table.
+    fn pick(
+        &self,
+        copter: CopterMode,
+        rover: RoverMode,
+        px4: Px4Mode,
+    ) -> Result<Mode, FlavourError> {
+        match (self.autopilot, self.class) {
+            (Autopilot::Px4, _) => Ok(Mode::Px4(px4)),
+            (Autopilot::ArduPilot, VehicleClass::Rover) => Ok(Mode::Rover(rover)),
+            (Autopilot::ArduPilot, _) => Ok(Mode::Copter(copter)),
+            (Autopilot::Other(_), _) => Err(self.unknown_mode(copter.name())),
+        }
+    }
+
+    /// [`FlavourError::UnknownMode`] for `name`, listing this flavour's modes.
+    fn unknown_mode(&self, name: &str) -> FlavourError {
+        FlavourError::UnknownMode {
+            name: name.to_string(),
+            flavour: self.to_string(),
+            known: self
+                .modes()
+                .iter()
+                .map(|m| m.name())
+                .collect::<Vec<_>>()
+                .join(", "),
+        }
     }
 
     /// The mode in which a mission runs (AUTO / MISSION).
     pub fn mission_mode(&self) -> Result<Mode, FlavourError> {
-        match self.autopilot {
-            Autopilot::Px4 => self.named("MISSION"),
-            _ => self.named("AUTO"),
-        }
+        self.pick(CopterMode::Auto, RoverMode::Auto, Px4Mode::Mission)
     }
 
     /// The mode for commanded positions (GUIDED; PX4 HOLD, which DO_REPOSITION uses).
     pub fn guided_mode(&self) -> Result<Mode, FlavourError> {
-        match self.autopilot {
-            Autopilot::Px4 => self.named("HOLD"),
-            _ => self.named("GUIDED"),
-        }
+        self.pick(CopterMode::Guided, RoverMode::Guided, Px4Mode::Hold)
     }
 
     /// The return-to-launch mode.
     pub fn rtl_mode(&self) -> Result<Mode, FlavourError> {
-        self.named("RTL")
+        self.pick(CopterMode::Rtl, RoverMode::Rtl, Px4Mode::Rtl)
     }
 
     /// The mode that stops the vehicle where it is and holds there: ArduCopter BRAKE (stops
@@ -480,8 +412,11 @@ impl Flavour {
     /// landed in BRAKE: pause only vehicles that are in the air.
     pub fn hold_mode(&self) -> Result<Mode, FlavourError> {
         match (self.autopilot, self.class) {
-            (Autopilot::ArduPilot, VehicleClass::Copter) => self.named("BRAKE"),
-            _ => self.named("HOLD"),
+            (Autopilot::ArduPilot, VehicleClass::Copter) => Ok(Mode::Copter(CopterMode::Brake)),
+            (Autopilot::ArduPilot, VehicleClass::Rover) => Ok(Mode::Rover(RoverMode::Hold)),
+            (Autopilot::Px4, _) => Ok(Mode::Px4(Px4Mode::Hold)),
+            // ArduPilot planes and other frames use ArduCopter's table, which has no HOLD.
+            _ => Err(self.unknown_mode("HOLD")),
         }
     }
 
@@ -729,7 +664,7 @@ impl Flavour {
             return Err(self.not_applicable("landing"));
         }
         match self.autopilot {
-            Autopilot::ArduPilot => Ok(vec![Step::SetMode(self.named("LAND")?)]),
+            Autopilot::ArduPilot => Ok(vec![Step::SetMode(Mode::Copter(CopterMode::Land))]),
             Autopilot::Px4 => {
                 let nan = f32::NAN;
                 Ok(vec![Step::Command(Command::long(
@@ -740,64 +675,6 @@ impl Flavour {
             }
             Autopilot::Other(_) => Err(self.not_applicable("landing")),
         }
-    }
-
-    /// The arm / disarm command (param2 = 0: no force).
-    pub fn arm_command(&self, target: Endpoint, arm: bool) -> Command {
-        Command::long(
-            target,
-            MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
-            [f32::from(u8::from(arm)), 0.0, 0.0, 0.0, 0.0, 0.0, 0.0],
-        )
-    }
-
-    /// Why the vehicle cannot be armed yet (empty when it can). See the module docs.
-    pub fn arm_blockers(&self, s: &ArmInputs) -> Vec<String> {
-        let mut why = Vec::new();
-        if s.system_status < 3 {
-            why.push(format!(
-                "autopilot not ready (MAV_STATE {}: still booting or calibrating)",
-                s.system_status
-            ));
-        }
-        match s.gps_fix {
-            None => why.push("no GPS_RAW_INT received".into()),
-            Some(f) if f < 3 => why.push(format!("GPS fix type {f} (a 3D fix is needed)")),
-            _ => {}
-        }
-        if !s.position {
-            why.push("no position estimate (GLOBAL_POSITION_INT without a position)".into());
-        }
-        if let Some(flags) = s.ekf_flags
-            && (flags & EKF_POS_HORIZ_ABS == 0
-                || flags & EKF_CONST_POS_MODE != 0
-                || flags & EKF_UNINITIALIZED != 0)
-        {
-            why.push(format!(
-                "EKF has no absolute horizontal position yet (EKF_STATUS_REPORT flags 0x{flags:04x})"
-            ));
-        }
-        if !s.home {
-            why.push("home position not set (no HOME_POSITION)".into());
-        }
-        match (s.prearm_ok, &s.prearm_text) {
-            (Some(false), t) => why.push(format!(
-                "pre-arm checks failing{}",
-                t.as_ref().map(|t| format!(": {t}")).unwrap_or_default()
-            )),
-            (None, Some(t)) => why.push(format!("pre-arm failure reported: {t}")),
-            _ => {}
-        }
-        why
-    }
-
-    /// Whether a STATUSTEXT reports a pre-arm / pre-flight failure.
-    pub fn is_prearm_failure_text(text: &str) -> bool {
-        let t = text.trim_start();
-        t.starts_with("PreArm:")
-            || t.starts_with("Arm:")
-            || t.starts_with("Preflight Fail")
-            || t.starts_with("Arming denied")
     }
 }
 
@@ -838,18 +715,18 @@ mod tests {
     #[test]
     fn mode_tables_round_trip() {
         let c = Flavour::ARDU_COPTER;
-        assert_eq!(c.mode("guided").unwrap().custom_mode, 4);
+        assert_eq!(c.mode("guided").unwrap().custom_mode(), 4);
         assert_eq!(c.mode_name(6), "RTL");
         assert_eq!(c.mode_name(99), "MODE(99)");
         let r = Flavour::ARDU_ROVER;
-        assert_eq!(r.mode("auto").unwrap().custom_mode, 10);
+        assert_eq!(r.mode("auto").unwrap().custom_mode(), 10);
         assert_eq!(r.mode_name(15), "GUIDED");
         let p = Flavour::PX4_COPTER;
         let mission = p.mode("Mission").unwrap();
-        assert_eq!(mission.custom_mode, (4 << 24) | (4 << 16));
-        assert_eq!(p.mode("auto.rtl").unwrap().name, "RTL");
-        assert_eq!(p.mode_name(mission.custom_mode | 0x1234), "MISSION");
-        assert_eq!(p.mode("position").unwrap().custom_mode, 3 << 16);
+        assert_eq!(mission.custom_mode(), (4 << 24) | (4 << 16));
+        assert_eq!(p.mode("auto.rtl").unwrap().name(), "RTL");
+        assert_eq!(p.mode_name(mission.custom_mode() | 0x1234), "MISSION");
+        assert_eq!(p.mode("position").unwrap().custom_mode(), 3 << 16);
         assert!(matches!(
             c.mode("MISSION"),
             Err(FlavourError::UnknownMode { .. })
@@ -936,39 +813,5 @@ mod tests {
         assert!(takeoff_reached(5.3, 5.0));
         assert!(!takeoff_reached(4.0, 5.0));
         assert!(!takeoff_reached(0.0, 1.0));
-    }
-
-    #[test]
-    fn arming_needs_more_than_a_flag() {
-        let f = Flavour::ARDU_COPTER;
-        let mut s = ArmInputs {
-            system_status: 3,
-            gps_fix: Some(3),
-            position: true,
-            home: true,
-            prearm_ok: Some(true),
-            ..Default::default()
-        };
-        assert!(f.arm_blockers(&s).is_empty());
-        s.ekf_flags = Some(EKF_CONST_POS_MODE | EKF_POS_HORIZ_ABS);
-        assert_eq!(f.arm_blockers(&s).len(), 1);
-        s.ekf_flags = None;
-        s.home = false;
-        s.gps_fix = Some(2);
-        assert_eq!(f.arm_blockers(&s).len(), 2);
-        s = ArmInputs {
-            system_status: 3,
-            gps_fix: Some(3),
-            position: true,
-            home: true,
-            prearm_ok: None,
-            prearm_text: Some("PreArm: Compass not calibrated".into()),
-            ..Default::default()
-        };
-        assert!(f.arm_blockers(&s)[0].contains("Compass"));
-        assert!(Flavour::is_prearm_failure_text("PreArm: Need 3D Fix"));
-        assert!(Flavour::is_prearm_failure_text(
-            "Preflight Fail: ekf2 missing data"
-        ));
     }
 }

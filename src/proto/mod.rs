@@ -9,14 +9,19 @@
 //! * [`heartbeat`] — the GCS heartbeat (1 Hz) and vehicle liveness (lost after 3 s of
 //!   silence, back on the next heartbeat, reboots detected).
 //! * [`command`] — COMMAND_LONG / COMMAND_INT with COMMAND_ACK, retries, IN_PROGRESS.
+//! * [`arming`] — when a vehicle may be armed (more than the autopilot's flag).
 //! * [`mission`] — mission, fence and rally upload / download / clear / set current.
 //! * [`flavour`] — everything that differs between ArduPilot Copter, ArduPilot Rover and
-//!   PX4: mode numbers, how to arm, take off, start a mission, go to a point, return, land.
+//!   PX4: which mode table, how to arm, take off, start a mission, go to a point, return, land.
+//! * [`mode`] — the one table of flight modes per autopilot (names and `custom_mode`
+//!   numbers), shared by the GCS and the simulator.
 
+pub mod arming;
 pub mod command;
 pub mod flavour;
 pub mod heartbeat;
 pub mod mission;
+pub mod mode;
 pub mod severity;
 
 use mavlink::MavHeader;

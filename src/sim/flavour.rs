@@ -1,17 +1,12 @@
 //! Which autopilot and which airframe a simulated vehicle imitates, and the flight modes with
 //! the numbers each autopilot puts on the wire.
 //!
-//! Mode numbers:
-//! - ArduCopter `Mode::Number` (ArduPilot `ArduCopter/mode.h`): STABILIZE 0, ALT_HOLD 2,
-//!   AUTO 3, GUIDED 4, LOITER 5, RTL 6, LAND 9, BRAKE 17, SMART_RTL 21.
-//! - ArduRover `Mode::Number` (ArduPilot `Rover/mode.h`): MANUAL 0, HOLD 4, LOITER 5, AUTO 10,
-//!   RTL 11, SMART_RTL 12, GUIDED 15, INITIALISING 16.
-//! - PX4 packs `custom_mode` as `main_mode << 16 | sub_mode << 24` (PX4
-//!   `src/modules/commander/px4_custom_mode.h`): main MANUAL 1, ALTCTL 2, POSCTL 3, AUTO 4,
-//!   OFFBOARD 6, STABILIZED 7; AUTO sub modes READY 1, TAKEOFF 2, LOITER 3, MISSION 4, RTL 5,
-//!   LAND 6.
+//! The simulator's [`Mode`] is what a simulated vehicle does; which of its autopilot's modes
+//! that is, and so the numbers and names on the wire, comes from the GCS's own table,
+//! [`crate::proto::mode`] ([`Flavour::autopilot_mode`]).
 
 use crate::proto::flavour::Autopilot;
+use crate::proto::mode::{CopterMode, Mode as ProtoMode, Px4Mode, RoverMode};
 use serde::{Deserialize, Serialize};
 use std::fmt;
 use std::str::FromStr;
@@ -122,48 +117,54 @@ impl Flavour {
         }
     }
 
+    /// The autopilot's mode ([`crate::proto::mode`], the one table of numbers and names)
+    /// that behaves as `mode` for this flavour, or `None` when this flavour has no such mode.
+    /// ArduCopter holds in LOITER; PX4 holds in AUTO_LOITER ("HOLD"), loiters under pilot
+    /// control in POSCTL and is guided in OFFBOARD.
+    pub fn autopilot_mode(self, mode: Mode) -> Option<ProtoMode> {
+        use ProtoMode::{Copter, Px4, Rover};
+        Some(match (self.autopilot, self.kind) {
+            (SimAutopilot::ArduPilot, VehicleKind::Copter) => Copter(match mode {
+                Mode::Stabilize => CopterMode::Stabilize,
+                Mode::AltHold => CopterMode::AltHold,
+                Mode::Auto => CopterMode::Auto,
+                Mode::Guided => CopterMode::Guided,
+                Mode::Hold => CopterMode::Loiter,
+                Mode::Rtl => CopterMode::Rtl,
+                Mode::Land => CopterMode::Land,
+                Mode::Brake => CopterMode::Brake,
+                _ => return None,
+            }),
+            (SimAutopilot::ArduPilot, VehicleKind::Rover) => Rover(match mode {
+                Mode::Manual => RoverMode::Manual,
+                Mode::Hold => RoverMode::Hold,
+                Mode::Loiter => RoverMode::Loiter,
+                Mode::Auto => RoverMode::Auto,
+                Mode::Rtl => RoverMode::Rtl,
+                Mode::Guided => RoverMode::Guided,
+                Mode::Initialising => RoverMode::Initialising,
+                _ => return None,
+            }),
+            (SimAutopilot::Px4, kind) => Px4(match mode {
+                Mode::Manual => Px4Mode::Manual,
+                Mode::AltHold if kind == VehicleKind::Copter => Px4Mode::AltCtl,
+                Mode::Stabilize => Px4Mode::Stabilized,
+                Mode::Loiter => Px4Mode::PosCtl,
+                Mode::Takeoff => Px4Mode::Takeoff,
+                Mode::Hold => Px4Mode::Hold,
+                Mode::Auto => Px4Mode::Mission,
+                Mode::Rtl => Px4Mode::Rtl,
+                Mode::Land if kind == VehicleKind::Copter => Px4Mode::Land,
+                Mode::Guided => Px4Mode::Offboard,
+                _ => return None,
+            }),
+        })
+    }
+
     /// The HEARTBEAT `custom_mode` of `mode` for this flavour, or `None` when this flavour
     /// has no such mode.
     pub fn custom_mode(self, mode: Mode) -> Option<u32> {
-        match (self.autopilot, self.kind) {
-            (SimAutopilot::ArduPilot, VehicleKind::Copter) => match mode {
-                Mode::Stabilize => Some(0),
-                Mode::AltHold => Some(2),
-                Mode::Auto => Some(3),
-                Mode::Guided => Some(4),
-                Mode::Hold => Some(5), // LOITER
-                Mode::Rtl => Some(6),
-                Mode::Land => Some(9),
-                Mode::Brake => Some(17),
-                _ => None,
-            },
-            (SimAutopilot::ArduPilot, VehicleKind::Rover) => match mode {
-                Mode::Manual => Some(0),
-                Mode::Hold => Some(4),
-                Mode::Loiter => Some(5),
-                Mode::Auto => Some(10),
-                Mode::Rtl => Some(11),
-                Mode::Guided => Some(15),
-                Mode::Initialising => Some(16),
-                _ => None,
-            },
-            (SimAutopilot::Px4, kind) => {
-                let (main, sub) = match mode {
-                    Mode::Manual => (1, 0),
-                    Mode::AltHold if kind == VehicleKind::Copter => (2, 0),
-                    Mode::Stabilize => (7, 0),
-                    Mode::Loiter => (3, 0), // POSCTL
-                    Mode::Takeoff => (4, 2),
-                    Mode::Hold => (4, 3),
-                    Mode::Auto => (4, 4),
-                    Mode::Rtl => (4, 5),
-                    Mode::Land if kind == VehicleKind::Copter => (4, 6),
-                    Mode::Guided => (6, 0), // OFFBOARD
-                    _ => return None,
-                };
-                Some((main << 16) | (sub << 24))
-            }
-        }
+        self.autopilot_mode(mode).map(ProtoMode::custom_mode)
     }
 
     /// The mode a HEARTBEAT/SET_MODE `custom_mode` names for this flavour.
@@ -187,16 +188,12 @@ impl Flavour {
         Autopilot::from(self.autopilot).mav_autopilot()
     }
 
-    /// The name this flavour gives `mode` (as the autopilot's GCS shows it).
+    /// The name this flavour gives `mode` (as the autopilot's GCS shows it): the table's
+    /// name of [`Flavour::autopilot_mode`], or a generic upper-case name for a mode this
+    /// flavour does not have.
     pub fn mode_name(self, mode: Mode) -> &'static str {
-        match (self.autopilot, self.kind, mode) {
-            (SimAutopilot::ArduPilot, VehicleKind::Copter, Mode::Hold) => "LOITER",
-            (SimAutopilot::Px4, _, Mode::Hold) => "HOLD",
-            (SimAutopilot::Px4, _, Mode::Auto) => "MISSION",
-            (SimAutopilot::Px4, _, Mode::Guided) => "OFFBOARD",
-            (SimAutopilot::Px4, _, Mode::Loiter) => "POSCTL",
-            _ => mode.generic_name(),
-        }
+        self.autopilot_mode(mode)
+            .map_or_else(|| mode.generic_name(), ProtoMode::name)
     }
 }
 
@@ -334,6 +331,68 @@ mod tests {
             Some((4 << 16) | (4 << 24))
         );
         assert_eq!(Flavour::PX4_ROVER.custom_mode(Mode::Land), None);
+    }
+
+    /// The numbers and names the simulator put on the wire before it read them from
+    /// `proto::mode`, for every flavour and mode.
+    #[test]
+    fn wire_numbers_and_names_unchanged() {
+        let px4 = |main: u32, sub: u32| Some((main << 16) | (sub << 24));
+        use Mode::*;
+        let expected: [(Flavour, Mode, Option<u32>, &str); 48] = [
+            (Flavour::ARDU_COPTER, Stabilize, Some(0), "STABILIZE"),
+            (Flavour::ARDU_COPTER, AltHold, Some(2), "ALT_HOLD"),
+            (Flavour::ARDU_COPTER, Manual, None, "MANUAL"),
+            (Flavour::ARDU_COPTER, Hold, Some(5), "LOITER"),
+            (Flavour::ARDU_COPTER, Loiter, None, "LOITER"),
+            (Flavour::ARDU_COPTER, Auto, Some(3), "AUTO"),
+            (Flavour::ARDU_COPTER, Guided, Some(4), "GUIDED"),
+            (Flavour::ARDU_COPTER, Rtl, Some(6), "RTL"),
+            (Flavour::ARDU_COPTER, Land, Some(9), "LAND"),
+            (Flavour::ARDU_COPTER, Takeoff, None, "TAKEOFF"),
+            (Flavour::ARDU_COPTER, Brake, Some(17), "BRAKE"),
+            (Flavour::ARDU_COPTER, Initialising, None, "INITIALISING"),
+            (Flavour::ARDU_ROVER, Stabilize, None, "STABILIZE"),
+            (Flavour::ARDU_ROVER, AltHold, None, "ALT_HOLD"),
+            (Flavour::ARDU_ROVER, Manual, Some(0), "MANUAL"),
+            (Flavour::ARDU_ROVER, Hold, Some(4), "HOLD"),
+            (Flavour::ARDU_ROVER, Loiter, Some(5), "LOITER"),
+            (Flavour::ARDU_ROVER, Auto, Some(10), "AUTO"),
+            (Flavour::ARDU_ROVER, Guided, Some(15), "GUIDED"),
+            (Flavour::ARDU_ROVER, Rtl, Some(11), "RTL"),
+            (Flavour::ARDU_ROVER, Land, None, "LAND"),
+            (Flavour::ARDU_ROVER, Takeoff, None, "TAKEOFF"),
+            (Flavour::ARDU_ROVER, Brake, None, "BRAKE"),
+            (Flavour::ARDU_ROVER, Initialising, Some(16), "INITIALISING"),
+            (Flavour::PX4_COPTER, Stabilize, px4(7, 0), "STABILIZED"),
+            (Flavour::PX4_COPTER, AltHold, px4(2, 0), "ALTCTL"),
+            (Flavour::PX4_COPTER, Manual, px4(1, 0), "MANUAL"),
+            (Flavour::PX4_COPTER, Hold, px4(4, 3), "HOLD"),
+            (Flavour::PX4_COPTER, Loiter, px4(3, 0), "POSCTL"),
+            (Flavour::PX4_COPTER, Auto, px4(4, 4), "MISSION"),
+            (Flavour::PX4_COPTER, Guided, px4(6, 0), "OFFBOARD"),
+            (Flavour::PX4_COPTER, Rtl, px4(4, 5), "RTL"),
+            (Flavour::PX4_COPTER, Land, px4(4, 6), "LAND"),
+            (Flavour::PX4_COPTER, Takeoff, px4(4, 2), "TAKEOFF"),
+            (Flavour::PX4_COPTER, Brake, None, "BRAKE"),
+            (Flavour::PX4_COPTER, Initialising, None, "INITIALISING"),
+            (Flavour::PX4_ROVER, Stabilize, px4(7, 0), "STABILIZED"),
+            (Flavour::PX4_ROVER, AltHold, None, "ALT_HOLD"),
+            (Flavour::PX4_ROVER, Manual, px4(1, 0), "MANUAL"),
+            (Flavour::PX4_ROVER, Hold, px4(4, 3), "HOLD"),
+            (Flavour::PX4_ROVER, Loiter, px4(3, 0), "POSCTL"),
+            (Flavour::PX4_ROVER, Auto, px4(4, 4), "MISSION"),
+            (Flavour::PX4_ROVER, Guided, px4(6, 0), "OFFBOARD"),
+            (Flavour::PX4_ROVER, Rtl, px4(4, 5), "RTL"),
+            (Flavour::PX4_ROVER, Land, None, "LAND"),
+            (Flavour::PX4_ROVER, Takeoff, px4(4, 2), "TAKEOFF"),
+            (Flavour::PX4_ROVER, Brake, None, "BRAKE"),
+            (Flavour::PX4_ROVER, Initialising, None, "INITIALISING"),
+        ];
+        for (f, m, number, name) in expected {
+            assert_eq!(f.custom_mode(m), number, "{f} {m:?}");
+            assert_eq!(f.mode_name(m), name, "{f} {m:?}");
+        }
     }
 
     /// The serialized form stays the lower-case one of `--vehicles`.

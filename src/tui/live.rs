@@ -9,7 +9,7 @@
 use super::model::{
     Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind, MapModel,
     MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity, Stat,
-    Track, VehicleRow, VehicleType,
+    Track, VehicleRow,
 };
 use crate::explore::VertexState;
 use crate::explore::mapping::{self, MappingState, RobotStatus};
@@ -68,15 +68,6 @@ impl LiveLog {
     }
 }
 
-fn vehicle_type(c: VehicleClass) -> VehicleType {
-    match c {
-        VehicleClass::Copter => VehicleType::Copter,
-        VehicleClass::Rover => VehicleType::Rover,
-        VehicleClass::Plane => VehicleType::Plane,
-        VehicleClass::Other => VehicleType::Other,
-    }
-}
-
 fn gps_fix(fix: Option<u8>) -> GpsFix {
     match fix {
         None | Some(0) => GpsFix::NoGps,
@@ -109,7 +100,7 @@ pub fn vehicle_row(
         sysid: v.sysid,
         role,
         autopilot: v.flavour.autopilot,
-        vehicle_type: vehicle_type(v.flavour.class),
+        vehicle_type: v.flavour.class,
         mode: v.mode.clone(),
         armed: v.armed,
         battery: Battery {

@@ -50,6 +50,6 @@ pub use keymap::{Action, Context, Key, KeyMap};
 pub use model::{
     Autopilot, Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind,
     MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity,
-    Stat, Track, VehicleRow, VehicleType,
+    Stat, Track, VehicleClass, VehicleRow,
 };
 pub use shell::{REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, run, run_loop};

@@ -18,7 +18,7 @@ fn copter(sysid: u8) -> VehicleRow {
         sysid,
         role: Role::Drone,
         autopilot: Autopilot::ArduPilot,
-        vehicle_type: VehicleType::Copter,
+        vehicle_type: VehicleClass::Copter,
         mode: "AUTO".into(),
         armed: true,
         battery: Battery {
@@ -207,7 +207,7 @@ pub fn classification_fixture() -> Model {
     };
     let rover = |id: u8, cell: Cell| VehicleRow {
         role: Role::Station,
-        vehicle_type: VehicleType::Rover,
+        vehicle_type: VehicleClass::Rover,
         mode: "AUTO".into(),
         alt_m: Some(0.0),
         speed_mps: Some(0.8),
@@ -298,9 +298,9 @@ pub fn generated(n: usize, seed: u64) -> Model {
                     Autopilot::ArduPilot
                 },
                 vehicle_type: if station {
-                    VehicleType::Rover
+                    VehicleClass::Rover
                 } else {
-                    VehicleType::Copter
+                    VehicleClass::Copter
                 },
                 mode: modes[rng.random_range(0..modes.len())].into(),
                 armed: rng.random(),

@@ -485,7 +485,7 @@ impl Runner {
                 }
             } else if held.contains(&d.sysid) || !in_mission {
                 let m = v.flavour.mission_mode()?;
-                self.fleet().set_mode(d.sysid, m.name).await?;
+                self.fleet().set_mode(d.sysid, m).await?;
                 held.remove(&d.sysid);
             }
         }

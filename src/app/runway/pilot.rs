@@ -290,7 +290,8 @@ impl Pilot {
         let pct = v.battery_pct.map(f64::from).filter(|p| *p >= 0.0);
         // The autopilot's own failsafe took over (RTL / LAND we did not ask for).
         let failsafe = flight::airborne(&v)
-            && matches!(v.mode.as_str(), "RTL" | "LAND" | "SMART_RTL")
+            && v.flight_mode()
+                .is_some_and(|m| m.is_failsafe_return_or_land())
             && status != RobotStatus::Idle;
         let low = pct.is_some_and(|p| p <= needed) && flight::airborne(&v);
         if !(recalled || low || failsafe) {

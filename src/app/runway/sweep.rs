@@ -50,7 +50,7 @@ impl Pilot {
             if let Some(item) = resume_item.filter(|&i| i > 0) {
                 fleet.set_mission_current(sysid, item).await?;
                 let m = mission_mode.context("no mission mode")?;
-                fleet.set_mode(sysid, m.name).await?;
+                fleet.set_mode(sysid, m).await?;
             } else {
                 fleet.start_mission(sysid).await?;
             }
@@ -76,7 +76,7 @@ impl Pilot {
                 }
             }
             let m = mission_mode.context("no mission mode")?;
-            fleet.set_mode(sysid, m.name).await?;
+            fleet.set_mode(sysid, m).await?;
             let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
         }
         self.first_sweep = false;

@@ -93,15 +93,9 @@ impl fmt::Display for MissionKind {
     }
 }
 
-/// A WGS84 position, degrees.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct LatLon {
-    /// Latitude, degrees north (−80 … 84, the UTM range).
-    pub lat: f64,
-    /// Longitude, degrees east (−180 … 180).
-    pub lon: f64,
-}
+/// A WGS84 position, degrees: the grid's own type. A definition's positions must lie in
+/// the UTM range (latitude −80 … 84), checked by `validate`.
+pub use crate::geo::LatLon;
 
 /// Where the grid's origin (the centre of cell (0, 0)) is.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -2,6 +2,7 @@
 //! the dispatch of received messages and timers to the upload and download sub-machines.
 
 use super::download::{DlStep, Download, download_budget};
+use super::peer::Peer;
 use super::types::{
     MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome, MissionResultCode, OpId,
 };
@@ -12,15 +13,14 @@ use crate::proto::Endpoint;
 use crate::time::Time;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega::{
-    MISSION_ACK_DATA, MISSION_CLEAR_ALL_DATA, MISSION_COUNT_DATA, MISSION_REQUEST_INT_DATA,
-    MISSION_REQUEST_LIST_DATA, MISSION_SET_CURRENT_DATA, MavMessage, MavMissionResult,
+    MISSION_CLEAR_ALL_DATA, MISSION_SET_CURRENT_DATA, MavMessage, MavMissionResult,
 };
 use std::collections::VecDeque;
 use std::time::Duration;
 
 /// The state of the active operation, by kind.
 #[derive(Debug)]
-pub(super) enum ActiveKind {
+enum ActiveKind {
     Upload(Upload),
     Download(Download),
     Clear {
@@ -36,17 +36,17 @@ pub(super) enum ActiveKind {
 
 /// The active operation.
 #[derive(Debug)]
-pub(super) struct Active {
-    pub(super) id: OpId,
-    pub(super) name: &'static str,
+struct Active {
+    id: OpId,
+    name: &'static str,
     /// The overall deadline (a download's grows when the vehicle tells its count).
-    pub(super) overall: Time,
-    pub(super) budget: Duration,
+    overall: Time,
+    budget: Duration,
     /// The last mission-protocol message from the vehicle for this operation.
-    pub(super) last_answer: Time,
+    last_answer: Time,
     /// The last answer or restart: a stall is measured from here.
-    pub(super) quiet_since: Time,
-    pub(super) kind: ActiveKind,
+    quiet_since: Time,
+    kind: ActiveKind,
 }
 
 impl Active {
@@ -79,18 +79,13 @@ impl Active {
 /// The GCS side of the mission protocol for one vehicle.
 #[derive(Debug)]
 pub struct MissionClient {
-    pub(super) gcs: Endpoint,
-    pub(super) target: Endpoint,
-    pub(super) home_item: bool,
-    pub(super) cfg: MissionConfig,
-    pub(super) queue: VecDeque<(OpId, MissionOp)>,
-    pub(super) active: Option<Active>,
-    pub(super) settle_until: Time,
-    pub(super) next_id: OpId,
-    pub(super) out: VecDeque<MavMessage>,
-    pub(super) events: VecDeque<MissionEvent>,
-    /// Mission messages dropped because they matched no operation (late duplicates).
-    pub ignored: u64,
+    /// Endpoints, configuration, outgoing messages and events, shared with the transfer
+    /// machines.
+    peer: Peer,
+    queue: VecDeque<(OpId, MissionOp)>,
+    active: Option<Active>,
+    settle_until: Time,
+    next_id: OpId,
 }
 
 impl MissionClient {
@@ -98,33 +93,32 @@ impl MissionClient {
     /// keeps home as mission item 0 (ArduPilot; see [`crate::proto::flavour::Flavour`]).
     pub fn new(gcs: Endpoint, target: Endpoint, home_item: bool, cfg: MissionConfig) -> Self {
         MissionClient {
-            gcs,
-            target,
-            home_item,
-            cfg,
+            peer: Peer::new(gcs, target, home_item, cfg),
             queue: VecDeque::new(),
             active: None,
             settle_until: Time::ZERO,
             next_id: 1,
-            out: VecDeque::new(),
-            events: VecDeque::new(),
-            ignored: 0,
         }
+    }
+
+    /// Mission messages dropped because they matched no operation (late duplicates).
+    pub fn ignored(&self) -> u64 {
+        self.peer.ignored
     }
 
     /// Change whether home is item 0 (when the flavour becomes known).
     pub fn set_home_item(&mut self, home_item: bool) {
-        self.home_item = home_item;
+        self.peer.home_item = home_item;
     }
 
     /// Whether home is mission item 0 for this vehicle.
     pub fn home_item(&self) -> bool {
-        self.home_item
+        self.peer.home_item
     }
 
     /// The configuration.
     pub fn config(&self) -> &MissionConfig {
-        &self.cfg
+        &self.peer.cfg
     }
 
     /// No operation active or queued.
@@ -165,7 +159,7 @@ impl MissionClient {
     pub fn cancel(&mut self, id: OpId, now: Time) {
         if let Some(pos) = self.queue.iter().position(|(i, _)| *i == id) {
             if let Some((_, op)) = self.queue.remove(pos) {
-                self.events.push_back(MissionEvent::Done {
+                self.peer.events.push_back(MissionEvent::Done {
                     id,
                     result: Err(MissionError::Cancelled { op: op.name() }),
                 });
@@ -179,7 +173,8 @@ impl MissionClient {
                 _ => None,
             };
             if let Some(kind) = kind {
-                self.send_ack(kind, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED);
+                self.peer
+                    .send_ack(kind, MavMissionResult::MAV_MISSION_OPERATION_CANCELLED);
             }
             let name = self.active.as_ref().map(|a| a.name).unwrap_or("operation");
             self.finish(Err(MissionError::Cancelled { op: name }), now);
@@ -188,12 +183,12 @@ impl MissionClient {
 
     /// The next message to send.
     pub fn poll_transmit(&mut self) -> Option<MavMessage> {
-        self.out.pop_front()
+        self.peer.out.pop_front()
     }
 
     /// The next event.
     pub fn poll_event(&mut self) -> Option<MissionEvent> {
-        self.events.pop_front()
+        self.peer.events.pop_front()
     }
 
     /// When [`MissionClient::handle_timeout`] must be called next.
@@ -209,14 +204,17 @@ impl MissionClient {
                     ActiveKind::Clear { deadline, .. } => *deadline,
                     ActiveKind::SetCurrent { deadline, .. } => *deadline,
                 };
-                Some(step.min(a.overall).min(a.last_answer + self.cfg.silence))
+                Some(
+                    step.min(a.overall)
+                        .min(a.last_answer + self.peer.cfg.silence),
+                )
             }
             None if !self.queue.is_empty() => Some(self.settle_until),
             None => None,
         }
     }
 
-    pub(super) fn maybe_begin(&mut self, now: Time) {
+    fn maybe_begin(&mut self, now: Time) {
         if self.active.is_some() || now < self.settle_until {
             return;
         }
@@ -226,8 +224,8 @@ impl MissionClient {
         let budget = match op {
             // Set from the count (see `download_item`'s caller); until then the silence
             // budget ends a download that never gets one.
-            MissionOp::Download { .. } => self.cfg.silence + self.cfg.timeout,
-            _ => MissionClient::budget(&self.cfg, &op),
+            MissionOp::Download { .. } => self.peer.cfg.silence + self.peer.cfg.timeout,
+            _ => MissionClient::budget(&self.peer.cfg, &op),
         };
         let name = op.name();
         let kind = match op {
@@ -236,8 +234,8 @@ impl MissionClient {
                     kind,
                     &items,
                     home.as_ref(),
-                    self.home_item,
-                    (self.target.sysid, self.target.compid),
+                    self.peer.home_item,
+                    (self.peer.target.sysid, self.peer.target.compid),
                 ) {
                     Ok(wire) => {
                         let n = wire.len();
@@ -254,16 +252,16 @@ impl MissionClient {
                             stale_accepts: 0,
                             last_sent: None,
                             phase: UpPhase::Count,
-                            deadline: now + self.cfg.timeout,
+                            deadline: now + self.peer.cfg.timeout,
                             idle_timeouts: 0,
                             nack: None,
                             verify_returns: 0,
                             busy_answers: 0,
-                            restarts_left: self.cfg.restarts,
+                            restarts_left: self.peer.cfg.restarts,
                         })
                     }
                     Err(e) => {
-                        self.events.push_back(MissionEvent::Done {
+                        self.peer.events.push_back(MissionEvent::Done {
                             id,
                             result: Err(e.into()),
                         });
@@ -273,16 +271,16 @@ impl MissionClient {
             }
             MissionOp::Download { kind } => ActiveKind::Download(Download::new(
                 kind,
-                now + self.cfg.timeout,
+                now + self.peer.cfg.timeout,
                 false,
-                self.cfg.restarts,
+                self.peer.cfg.restarts,
             )),
             MissionOp::Clear { kind } => ActiveKind::Clear {
                 kind,
-                deadline: now + self.cfg.timeout,
+                deadline: now + self.peer.cfg.timeout,
             },
             MissionOp::SetCurrent { seq } => {
-                let wire_seq = if self.home_item {
+                let wire_seq = if self.peer.home_item {
                     seq.saturating_add(1)
                 } else {
                     seq
@@ -290,7 +288,7 @@ impl MissionClient {
                 ActiveKind::SetCurrent {
                     user_seq: seq,
                     wire_seq,
-                    deadline: now + self.cfg.timeout,
+                    deadline: now + self.peer.cfg.timeout,
                 }
             }
         };
@@ -307,72 +305,35 @@ impl MissionClient {
     }
 
     /// Send the first message of the active operation (also used for resends).
-    pub(super) fn send_initial(&mut self) {
+    fn send_initial(&mut self) {
         let Some(a) = &self.active else { return };
         let msg = match &a.kind {
-            ActiveKind::Upload(u) => self.count_msg(u.kind, u.wire.len() as u16),
-            ActiveKind::Download(d) => self.request_list_msg(d.kind),
+            ActiveKind::Upload(u) => self.peer.count_msg(u.kind, u.wire.len() as u16),
+            ActiveKind::Download(d) => self.peer.request_list_msg(d.kind),
             ActiveKind::Clear { kind, .. } => {
                 MavMessage::MISSION_CLEAR_ALL(MISSION_CLEAR_ALL_DATA {
-                    target_system: self.target.sysid,
-                    target_component: self.target.compid,
+                    target_system: self.peer.target.sysid,
+                    target_component: self.peer.target.compid,
                     mission_type: mav_type(*kind),
                 })
             }
             ActiveKind::SetCurrent { wire_seq, .. } => {
                 MavMessage::MISSION_SET_CURRENT(MISSION_SET_CURRENT_DATA {
                     seq: *wire_seq,
-                    target_system: self.target.sysid,
-                    target_component: self.target.compid,
+                    target_system: self.peer.target.sysid,
+                    target_component: self.peer.target.compid,
                 })
             }
         };
-        self.out.push_back(msg);
+        self.peer.out.push_back(msg);
     }
 
-    pub(super) fn count_msg(&self, kind: MissionType, count: u16) -> MavMessage {
-        MavMessage::MISSION_COUNT(MISSION_COUNT_DATA {
-            count,
-            target_system: self.target.sysid,
-            target_component: self.target.compid,
-            mission_type: mav_type(kind),
-            opaque_id: 0,
-        })
-    }
-
-    pub(super) fn request_list_msg(&self, kind: MissionType) -> MavMessage {
-        MavMessage::MISSION_REQUEST_LIST(MISSION_REQUEST_LIST_DATA {
-            target_system: self.target.sysid,
-            target_component: self.target.compid,
-            mission_type: mav_type(kind),
-        })
-    }
-
-    pub(super) fn request_item_msg(&self, kind: MissionType, seq: u16) -> MavMessage {
-        MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
-            seq,
-            target_system: self.target.sysid,
-            target_component: self.target.compid,
-            mission_type: mav_type(kind),
-        })
-    }
-
-    pub(super) fn send_ack(&mut self, kind: MissionType, result: MavMissionResult) {
-        self.out
-            .push_back(MavMessage::MISSION_ACK(MISSION_ACK_DATA {
-                target_system: self.target.sysid,
-                target_component: self.target.compid,
-                mavtype: result,
-                mission_type: mav_type(kind),
-                opaque_id: 0,
-            }));
-    }
-
-    pub(super) fn finish(&mut self, result: Result<MissionOutcome, MissionError>, now: Time) {
+    fn finish(&mut self, result: Result<MissionOutcome, MissionError>, now: Time) {
         if let Some(a) = self.active.take() {
-            self.events
+            self.peer
+                .events
                 .push_back(MissionEvent::Done { id: a.id, result });
-            self.settle_until = now + self.cfg.settle;
+            self.settle_until = now + self.peer.cfg.settle;
         }
         self.maybe_begin(now);
     }
@@ -380,10 +341,10 @@ impl MissionClient {
     /// A received message. Messages not from the target autopilot, not addressed to us,
     /// or not part of the mission protocol are ignored.
     pub fn handle_message(&mut self, header: &MavHeader, msg: &MavMessage, now: Time) {
-        if Endpoint::of(header) != self.target {
+        if Endpoint::of(header) != self.peer.target {
             return;
         }
-        let for_us = |ts: u8, tc: u8| self.gcs.is_addressed_by(ts, tc);
+        let for_us = |ts: u8, tc: u8| self.peer.gcs.is_addressed_by(ts, tc);
         let relevant = match msg {
             MavMessage::MISSION_REQUEST(m) => for_us(m.target_system, m.target_component),
             MavMessage::MISSION_REQUEST_INT(m) => for_us(m.target_system, m.target_component),
@@ -399,7 +360,7 @@ impl MissionClient {
         }
         if self.active.is_none() {
             if !matches!(msg, MavMessage::MISSION_CURRENT(_)) {
-                self.ignored += 1;
+                self.peer.ignored += 1;
             }
             return;
         }
@@ -413,13 +374,13 @@ impl MissionClient {
         }
         let id = active.id;
         let outcome = match &mut active.kind {
-            ActiveKind::Upload(u) => self.upload_message(id, u, msg, now),
+            ActiveKind::Upload(u) => u.on_message(&mut self.peer, id, msg, now),
             ActiveKind::Download(d) => {
                 let had_count = d.count.is_some();
-                let step = self.download_message(id, d, msg, now);
+                let step = d.on_message(&mut self.peer, id, msg, now);
                 if !had_count && let Some(c) = d.count {
                     // The vehicle told its count: the deadline now follows the list's size.
-                    let budget = download_budget(&self.cfg, usize::from(c));
+                    let budget = download_budget(&self.peer.cfg, usize::from(c));
                     active.budget = active.budget.max(budget);
                     active.overall = active.overall.max(now + budget);
                 }
@@ -427,7 +388,7 @@ impl MissionClient {
                     DlStep::Continue => UpStep::Continue,
                     DlStep::Restarted(why) => UpStep::Restarted(why),
                     DlStep::Done(wire) => {
-                        let (items, home) = from_wire_list(d.kind, &wire, self.home_item);
+                        let (items, home) = from_wire_list(d.kind, &wire, self.peer.home_item);
                         UpStep::Finish(Ok(MissionOutcome::Downloaded { items, home }))
                     }
                     DlStep::Failed(e) => UpStep::Finish(Err(e)),
@@ -463,7 +424,7 @@ impl MissionClient {
     }
 
     /// Report a restart or finish the operation, as a step decided.
-    pub(super) fn after_step(&mut self, step: UpStep, now: Time) {
+    fn after_step(&mut self, step: UpStep, now: Time) {
         match step {
             UpStep::Continue => {}
             UpStep::Restarted(reason) => {
@@ -477,7 +438,7 @@ impl MissionClient {
                         ActiveKind::Download(d) => d.restarts_left,
                         _ => 0,
                     };
-                    self.events.push_back(MissionEvent::Restarted {
+                    self.peer.events.push_back(MissionEvent::Restarted {
                         id: a.id,
                         reason,
                         left,
@@ -492,7 +453,7 @@ impl MissionClient {
     /// dialect lacks): fails a download waiting for that item with a precise error instead
     /// of timing out.
     pub fn handle_unparsed_item(&mut self, from: Endpoint, seq: u16, detail: &str, now: Time) {
-        if from != self.target {
+        if from != self.peer.target {
             return;
         }
         let waiting = match self.active.as_ref().map(|a| &a.kind) {
@@ -533,7 +494,7 @@ impl MissionClient {
             return;
         }
         let silent = now.saturating_since(active.last_answer);
-        if silent >= self.cfg.silence {
+        if silent >= self.peer.cfg.silence {
             let err = MissionError::Timeout {
                 op: active.name,
                 waiting_for: active.waiting_for(),
@@ -543,11 +504,11 @@ impl MissionClient {
             self.finish(Err(err), now);
             return;
         }
-        let stalled = now.saturating_since(active.quiet_since) >= self.cfg.stall;
-        let timeout = self.cfg.timeout;
+        let stalled = now.saturating_since(active.quiet_since) >= self.peer.cfg.stall;
+        let timeout = self.peer.cfg.timeout;
         let step = match &mut active.kind {
-            ActiveKind::Upload(u) => self.upload_timeout(u, stalled, now),
-            ActiveKind::Download(d) => match self.download_timeout(d, stalled, now) {
+            ActiveKind::Upload(u) => u.on_timeout(&mut self.peer, stalled, now),
+            ActiveKind::Download(d) => match d.on_timeout(&mut self.peer, stalled, now) {
                 DlStep::Continue | DlStep::Done(_) => UpStep::Continue,
                 DlStep::Restarted(why) => UpStep::Restarted(why),
                 DlStep::Failed(e) => UpStep::Finish(Err(e)),

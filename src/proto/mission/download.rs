@@ -2,7 +2,7 @@
 //! item, the final MISSION_ACK. It also reads a list back to verify an upload whose final
 //! ACK was lost or ambiguous.
 
-use super::client::MissionClient;
+use super::peer::Peer;
 use super::types::{MissionConfig, MissionError, MissionEvent, MissionResultCode, OpId};
 use crate::mission::MissionType;
 use crate::mission::wire::{item_int_from_float, mav_type};
@@ -58,14 +58,16 @@ impl Download {
     }
 }
 
-impl MissionClient {
-    pub(super) fn download_message(
+impl Download {
+    /// A received mission message.
+    pub(super) fn on_message(
         &mut self,
+        p: &mut Peer,
         id: OpId,
-        d: &mut Download,
         msg: &MavMessage,
         now: Time,
     ) -> DlStep {
+        let d = self;
         let kind = mav_type(d.kind);
         match msg {
             MavMessage::MISSION_COUNT(c) if c.mission_type == kind => {
@@ -74,18 +76,18 @@ impl MissionClient {
                 }
                 d.count = Some(c.count);
                 if c.count == 0 {
-                    self.send_ack(d.kind, MavMissionResult::MAV_MISSION_ACCEPTED);
+                    p.send_ack(d.kind, MavMissionResult::MAV_MISSION_ACCEPTED);
                     return DlStep::Done(Vec::new());
                 }
-                d.deadline = now + self.cfg.item_timeout;
-                self.out.push_back(self.request_item_msg(d.kind, 0));
+                d.deadline = now + p.cfg.item_timeout;
+                p.out.push_back(p.request_item_msg(d.kind, 0));
                 DlStep::Continue
             }
             MavMessage::MISSION_ITEM_INT(it) if it.mission_type == kind => {
-                self.download_item(id, d, it.clone(), now)
+                d.on_item(p, id, it.clone(), now)
             }
             MavMessage::MISSION_ITEM(it) if it.mission_type == kind => {
-                self.download_item(id, d, item_int_from_float(it), now)
+                d.on_item(p, id, item_int_from_float(it), now)
             }
             MavMessage::MISSION_ACK(a) if a.mission_type == kind => match a.mavtype {
                 MavMissionResult::MAV_MISSION_ACCEPTED
@@ -95,7 +97,7 @@ impl MissionClient {
                     DlStep::Continue
                 }
                 MavMissionResult::MAV_MISSION_ERROR if d.restarts_left > 0 => {
-                    self.restart_download(d, now);
+                    d.restart(p, now);
                     DlStep::Restarted("the vehicle aborted the download (MAV_MISSION_ERROR)".into())
                 }
                 r => DlStep::Failed(MissionError::Rejected {
@@ -108,13 +110,8 @@ impl MissionClient {
         }
     }
 
-    pub(super) fn download_item(
-        &mut self,
-        id: OpId,
-        d: &mut Download,
-        it: MISSION_ITEM_INT_DATA,
-        now: Time,
-    ) -> DlStep {
+    fn on_item(&mut self, p: &mut Peer, id: OpId, it: MISSION_ITEM_INT_DATA, now: Time) -> DlStep {
+        let d = self;
         let Some(count) = d.count else {
             return DlStep::Continue;
         };
@@ -123,69 +120,66 @@ impl MissionClient {
         }
         d.items.push(it);
         if d.items.len() == usize::from(count) {
-            self.send_ack(d.kind, MavMissionResult::MAV_MISSION_ACCEPTED);
+            p.send_ack(d.kind, MavMissionResult::MAV_MISSION_ACCEPTED);
             return DlStep::Done(std::mem::take(&mut d.items));
         }
         if !d.verify {
-            self.events.push_back(MissionEvent::Progress {
+            p.events.push_back(MissionEvent::Progress {
                 id,
                 done: d.items.len(),
                 total: usize::from(count),
             });
         }
-        if !self.home_item && !self.cfg.px4_request_gap.is_zero() {
+        if !p.home_item && !p.cfg.px4_request_gap.is_zero() {
             // PX4: the next request goes out after the gap (see `px4_request_gap`).
             d.gap = true;
-            d.deadline = now + self.cfg.px4_request_gap;
+            d.deadline = now + p.cfg.px4_request_gap;
             return DlStep::Continue;
         }
-        d.deadline = now + self.cfg.item_timeout;
-        self.out
-            .push_back(self.request_item_msg(d.kind, d.items.len() as u16));
+        d.deadline = now + p.cfg.item_timeout;
+        p.out
+            .push_back(p.request_item_msg(d.kind, d.items.len() as u16));
         DlStep::Continue
     }
 
     /// Start a download over (the vehicle aborted it, or stalled).
-    pub(super) fn restart_download(&mut self, d: &mut Download, now: Time) {
+    pub(super) fn restart(&mut self, p: &mut Peer, now: Time) {
+        let d = self;
         d.restarts_left = d.restarts_left.saturating_sub(1);
         d.gap = false;
         d.count = None;
         d.items.clear();
-        d.deadline = now + self.cfg.timeout;
-        self.out.push_back(self.request_list_msg(d.kind));
+        d.deadline = now + p.cfg.timeout;
+        p.out.push_back(p.request_list_msg(d.kind));
     }
 
     /// A download's timer: request again, or start over after a stall in the middle of
     /// the list (PX4 has then left its side of the transfer and ignores requests).
-    pub(super) fn download_timeout(
-        &mut self,
-        d: &mut Download,
-        stalled: bool,
-        now: Time,
-    ) -> DlStep {
+    pub(super) fn on_timeout(&mut self, p: &mut Peer, stalled: bool, now: Time) -> DlStep {
+        let d = self;
         if now < d.deadline {
             return DlStep::Continue;
         }
         if d.gap {
             d.gap = false;
-            d.deadline = now + self.cfg.item_timeout;
-            self.out
-                .push_back(self.request_item_msg(d.kind, d.items.len() as u16));
+            d.deadline = now + p.cfg.item_timeout;
+            p.out
+                .push_back(p.request_item_msg(d.kind, d.items.len() as u16));
             return DlStep::Continue;
         }
         if stalled && d.count.is_some() && d.restarts_left > 0 {
-            self.restart_download(d, now);
-            return DlStep::Restarted(format!("no item for {:.0} s", self.cfg.stall.as_secs_f64()));
+            d.restart(p, now);
+            return DlStep::Restarted(format!("no item for {:.0} s", p.cfg.stall.as_secs_f64()));
         }
         match d.count {
             None => {
-                d.deadline = now + self.cfg.timeout;
-                self.out.push_back(self.request_list_msg(d.kind));
+                d.deadline = now + p.cfg.timeout;
+                p.out.push_back(p.request_list_msg(d.kind));
             }
             Some(_) => {
-                d.deadline = now + self.cfg.item_timeout;
-                self.out
-                    .push_back(self.request_item_msg(d.kind, d.items.len() as u16));
+                d.deadline = now + p.cfg.item_timeout;
+                p.out
+                    .push_back(p.request_item_msg(d.kind, d.items.len() as u16));
             }
         }
         DlStep::Continue

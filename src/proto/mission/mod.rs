@@ -85,9 +85,11 @@
 // MISSION_SET_CURRENT, *_INT frames) because deployed autopilots still send or need them.
 //!
 //! The machine is split along its state: `types.rs` (configuration, operations, outcomes,
-//! errors, events), `upload.rs` and `download.rs` (the two transfer sub-machines and their
-//! handlers), and `client.rs` ([`MissionClient`]: the queue, the settle time, and the
-//! dispatch of messages and timers to the sub-machines). The wire conversions of
+//! errors, events), `peer.rs` (what every machine shares: endpoints, configuration, the
+//! outgoing queue, events, ignored messages, and the message builders), `upload.rs` and
+//! `download.rs` (the two transfer sub-machines, which take the peer), and `client.rs`
+//! ([`MissionClient`]: owns the peer and the active machine; the queue, the settle time, and
+//! the dispatch of messages and timers to the sub-machines). The wire conversions of
 //! items live in [`crate::mission::wire`] and are re-exported here.
 
 // Deliberately handles deprecated messages and frames (MISSION_REQUEST, MISSION_ITEM,
@@ -96,6 +98,7 @@
 
 mod client;
 mod download;
+mod peer;
 mod types;
 mod upload;
 

@@ -2,8 +2,8 @@
 //! unrequested after a timeout), the final MISSION_ACK, and the read-back when that ACK is
 //! lost or ambiguous (see the module docs of [`super`]).
 
-use super::client::MissionClient;
 use super::download::{DlStep, Download};
+use super::peer::Peer;
 use super::types::{
     MAX_OFFERED, MissionError, MissionEvent, MissionOutcome, MissionResultCode, OpId,
 };
@@ -77,16 +77,16 @@ impl Upload {
             self.n_ever_sent += 1;
         }
     }
-}
 
-impl MissionClient {
-    pub(super) fn upload_message(
+    /// A received mission message.
+    pub(super) fn on_message(
         &mut self,
+        p: &mut Peer,
         id: OpId,
-        u: &mut Upload,
         msg: &MavMessage,
         now: Time,
     ) -> UpStep {
+        let u = self;
         let kind = mav_type(u.kind);
         let request = match msg {
             MavMessage::MISSION_REQUEST(r) if r.mission_type == kind => Some(r.seq),
@@ -95,7 +95,7 @@ impl MissionClient {
         };
         if let Some(seq) = request {
             if usize::from(seq) >= u.wire.len() {
-                self.ignored += 1;
+                p.ignored += 1;
                 return UpStep::Continue;
             }
             if matches!(u.phase, UpPhase::Verify(_)) {
@@ -117,8 +117,8 @@ impl MissionClient {
                 u.requested[i] = true;
                 u.n_requested += 1;
                 u.idle_timeouts = 0;
-                u.deadline = now + self.cfg.timeout;
-                self.events.push_back(MissionEvent::Progress {
+                u.deadline = now + p.cfg.timeout;
+                p.events.push_back(MissionEvent::Progress {
                     id,
                     done: u.n_requested,
                     total: u.wire.len(),
@@ -126,16 +126,16 @@ impl MissionClient {
             }
             u.last_sent = Some(seq);
             u.mark_sent(i);
-            self.out
+            p.out
                 .push_back(MavMessage::MISSION_ITEM_INT(u.wire[i].clone()));
             return UpStep::Continue;
         }
         if let UpPhase::Verify(d) = &mut u.phase {
-            return match self.download_message(id, d, msg, now) {
+            return match d.on_message(p, id, msg, now) {
                 DlStep::Continue => UpStep::Continue,
                 DlStep::Restarted(why) => UpStep::Restarted(why),
-                DlStep::Done(wire) => UpStep::Finish(self.verify_result(u, &wire)),
-                DlStep::Failed(e) => UpStep::Finish(self.verify_failed(u, e)),
+                DlStep::Done(wire) => UpStep::Finish(u.verify_result(p, &wire)),
+                DlStep::Failed(e) => UpStep::Finish(u.verify_failed(e)),
             };
         }
         let MavMessage::MISSION_ACK(ack) = msg else {
@@ -168,14 +168,14 @@ impl MissionClient {
                 // Ambiguous: read the list back (seen in the property test: a restart on a
                 // PX4 "busy" ERROR, then ACCEPTED for the earlier transfer, ignored, and the
                 // last item resent and ACCEPTED again until the overall deadline).
-                self.begin_verify(u, now);
+                u.begin_verify(p, now);
                 UpStep::Continue
             }
             MavMissionResult::MAV_MISSION_ACCEPTED => {
                 // Premature or stale: keep waiting for requests, a bounded number of times.
-                self.ignored += 1;
+                p.ignored += 1;
                 u.stale_accepts += 1;
-                if u.stale_accepts <= self.cfg.restarts + 1 {
+                if u.stale_accepts <= p.cfg.restarts + 1 {
                     return UpStep::Continue;
                 }
                 u.stale_accepts = 0;
@@ -186,7 +186,7 @@ impl MissionClient {
                             .into(),
                     }));
                 }
-                self.restart_upload(u, now);
+                u.restart(p, now);
                 UpStep::Restarted("the vehicle accepted a transfer we did not complete".into())
             }
             MavMissionResult::MAV_MISSION_INVALID_SEQUENCE => {
@@ -198,7 +198,7 @@ impl MissionClient {
                 // (`handle_mission_count`: "busy, already receiving"); it ends that one
                 // after 5 s of silence. Resent at the next timeout, a bounded number of times.
                 u.busy_answers += 1;
-                if u.busy_answers > self.cfg.restarts + 1 {
+                if u.busy_answers > p.cfg.restarts + 1 {
                     return rejected(ack.mavtype);
                 }
                 UpStep::Continue
@@ -212,7 +212,7 @@ impl MissionClient {
                 if u.restarts_left == 0 {
                     return rejected(r);
                 }
-                self.restart_upload(u, now);
+                u.restart(p, now);
                 UpStep::Restarted(format!("the vehicle answered {r:?}"))
             }
             MavMissionResult::MAV_MISSION_OPERATION_CANCELLED => rejected(ack.mavtype),
@@ -220,7 +220,7 @@ impl MissionClient {
                 // Could be a real refusal of the last item, or ArduPilot's "not receiving"
                 // answer to a repeated last item after its ACK was lost: read back.
                 u.nack = Some(r);
-                self.begin_verify(u, now);
+                u.begin_verify(p, now);
                 UpStep::Continue
             }
             r => rejected(r),
@@ -228,7 +228,8 @@ impl MissionClient {
     }
 
     /// Start an upload over from MISSION_COUNT (the vehicle cancelled or stalled).
-    pub(super) fn restart_upload(&mut self, u: &mut Upload, now: Time) {
+    pub(super) fn restart(&mut self, p: &mut Peer, now: Time) {
+        let u = self;
         u.restarts_left = u.restarts_left.saturating_sub(1);
         u.requested.fill(false);
         u.sent.fill(false);
@@ -239,24 +240,25 @@ impl MissionClient {
         u.idle_timeouts = 0;
         u.nack = None;
         u.busy_answers = 0;
-        u.deadline = now + self.cfg.timeout;
-        self.out
-            .push_back(self.count_msg(u.kind, u.wire.len() as u16));
+        u.deadline = now + p.cfg.timeout;
+        p.out.push_back(p.count_msg(u.kind, u.wire.len() as u16));
     }
 
-    pub(super) fn begin_verify(&mut self, u: &mut Upload, now: Time) {
-        let d = Download::new(u.kind, now + self.cfg.timeout, true, self.cfg.restarts);
-        self.out.push_back(self.request_list_msg(u.kind));
+    pub(super) fn begin_verify(&mut self, p: &mut Peer, now: Time) {
+        let u = self;
+        let d = Download::new(u.kind, now + p.cfg.timeout, true, p.cfg.restarts);
+        p.out.push_back(p.request_list_msg(u.kind));
         u.phase = UpPhase::Verify(Box::new(d));
     }
 
-    pub(super) fn verify_result(
-        &mut self,
-        u: &Upload,
+    fn verify_result(
+        &self,
+        p: &Peer,
         wire: &[MISSION_ITEM_INT_DATA],
     ) -> Result<MissionOutcome, MissionError> {
-        let (items, _home) = from_wire_list(u.kind, wire, self.home_item);
-        match compare_items(&u.user, &items, self.home_item) {
+        let u = self;
+        let (items, _home) = from_wire_list(u.kind, wire, p.home_item);
+        match compare_items(&u.user, &items, p.home_item) {
             Ok(()) => Ok(MissionOutcome::Uploaded {
                 count: u.user.len(),
                 verified_by_download: true,
@@ -272,11 +274,8 @@ impl MissionClient {
         }
     }
 
-    pub(super) fn verify_failed(
-        &mut self,
-        u: &Upload,
-        e: MissionError,
-    ) -> Result<MissionOutcome, MissionError> {
+    fn verify_failed(&self, e: MissionError) -> Result<MissionOutcome, MissionError> {
+        let u = self;
         match u.nack {
             Some(r) => Err(MissionError::Rejected {
                 op: "upload",
@@ -289,12 +288,13 @@ impl MissionClient {
         }
     }
 
-    pub(super) fn upload_timeout(&mut self, u: &mut Upload, stalled: bool, now: Time) -> UpStep {
+    pub(super) fn on_timeout(&mut self, p: &mut Peer, stalled: bool, now: Time) -> UpStep {
+        let u = self;
         if let UpPhase::Verify(d) = &mut u.phase {
-            return match self.download_timeout(d, stalled, now) {
+            return match d.on_timeout(p, stalled, now) {
                 DlStep::Continue | DlStep::Done(_) => UpStep::Continue,
                 DlStep::Restarted(why) => UpStep::Restarted(format!("read-back: {why}")),
-                DlStep::Failed(e) => UpStep::Finish(self.verify_failed(u, e)),
+                DlStep::Failed(e) => UpStep::Finish(u.verify_failed(e)),
             };
         }
         if now < u.deadline {
@@ -304,19 +304,19 @@ impl MissionClient {
         if stalled && matches!(u.phase, UpPhase::Items) {
             if all_sent {
                 // Everything went out and the final ACK never came: read the list back.
-                self.begin_verify(u, now);
+                u.begin_verify(p, now);
                 return UpStep::Continue;
             }
             if u.restarts_left > 0 {
-                self.restart_upload(u, now);
+                u.restart(p, now);
                 return UpStep::Restarted(format!(
                     "no request for {:.0} s",
-                    self.cfg.stall.as_secs_f64()
+                    p.cfg.stall.as_secs_f64()
                 ));
             }
         }
         u.idle_timeouts += 1;
-        u.deadline = now + self.cfg.timeout;
+        u.deadline = now + p.cfg.timeout;
         let highest = u.requested.iter().rposition(|r| *r);
         match (&u.phase, highest) {
             (UpPhase::Items, Some(h)) => {
@@ -324,18 +324,17 @@ impl MissionClient {
                 // if the vehicle's request for the next one may have been lost instead,
                 // offer that one too — and one more for every further timeout without
                 // progress. See "A lost request" in the module docs.
-                self.out
+                p.out
                     .push_back(MavMessage::MISSION_ITEM_INT(u.wire[h].clone()));
                 let ahead = (u.idle_timeouts as usize).clamp(1, MAX_OFFERED);
                 for i in (h + 1..u.wire.len()).take(ahead) {
                     u.mark_sent(i);
-                    self.out
+                    p.out
                         .push_back(MavMessage::MISSION_ITEM_INT(u.wire[i].clone()));
                 }
             }
             _ => {
-                self.out
-                    .push_back(self.count_msg(u.kind, u.wire.len() as u16));
+                p.out.push_back(p.count_msg(u.kind, u.wire.len() as u16));
             }
         }
         UpStep::Continue

@@ -22,7 +22,7 @@ pub use log::{LogEntry, Severity};
 pub use map::{CellState, MapError, MapKind, MapModel, Track};
 pub use mission::{DfsProgress, MissionKind, MissionModel, Phase, RunStatus, Stat};
 pub use vehicle::{
-    Autopilot, Battery, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleRow, VehicleType,
+    Autopilot, Battery, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleClass, VehicleRow,
 };
 
 use crate::time::Time;

@@ -61,40 +61,42 @@ mod autopilot_replay {
     }
 }
 
-/// The airframe class, from HEARTBEAT.type.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum VehicleType {
-    /// Multirotor.
-    Copter,
-    /// Fixed wing.
-    Plane,
-    /// Ground rover.
-    Rover,
-    /// Anything else.
-    #[default]
-    Other,
-}
+/// The airframe class, from HEARTBEAT.type: the protocol layer's vocabulary.
+pub use crate::proto::flavour::VehicleClass;
 
-impl VehicleType {
-    /// Full name.
-    pub fn name(self) -> &'static str {
-        match self {
-            VehicleType::Copter => "copter",
-            VehicleType::Plane => "plane",
-            VehicleType::Rover => "rover",
-            VehicleType::Other => "other",
-        }
+/// How replay files spell [`VehicleRow::vehicle_type`]: `"copter"`, `"plane"`, `"rover"`,
+/// `"other"`.
+mod class_replay {
+    use super::VehicleClass;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// The recorded form (snake_case unit variants).
+    #[derive(Serialize, Deserialize)]
+    #[serde(rename_all = "snake_case")]
+    enum Recorded {
+        Copter,
+        Plane,
+        Rover,
+        Other,
     }
 
-    /// Three-letter name for narrow tables.
-    pub fn short(self) -> &'static str {
-        match self {
-            VehicleType::Copter => "cop",
-            VehicleType::Plane => "pln",
-            VehicleType::Rover => "rov",
-            VehicleType::Other => "oth",
+    pub(super) fn serialize<S: Serializer>(c: &VehicleClass, s: S) -> Result<S::Ok, S::Error> {
+        match c {
+            VehicleClass::Copter => Recorded::Copter,
+            VehicleClass::Plane => Recorded::Plane,
+            VehicleClass::Rover => Recorded::Rover,
+            VehicleClass::Other => Recorded::Other,
         }
+        .serialize(s)
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<VehicleClass, D::Error> {
+        Ok(match Recorded::deserialize(d)? {
+            Recorded::Copter => VehicleClass::Copter,
+            Recorded::Plane => VehicleClass::Plane,
+            Recorded::Rover => VehicleClass::Rover,
+            Recorded::Other => VehicleClass::Other,
+        })
     }
 }
 
@@ -196,7 +198,8 @@ pub struct VehicleRow {
     #[serde(with = "autopilot_replay")]
     pub autopilot: Autopilot,
     /// Airframe class.
-    pub vehicle_type: VehicleType,
+    #[serde(with = "class_replay")]
+    pub vehicle_type: VehicleClass,
     /// Flight mode name as the autopilot flavour names it ("AUTO", "GUIDED", "Mission", …).
     pub mode: String,
     /// Motors armed.
