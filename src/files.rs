@@ -6,9 +6,15 @@
 //! these functions read the file first, with the same checks and the same errors (the path
 //! as given plus the reason, never a panic), and hand the bytes over. The command line, the
 //! application layer and the tests call them.
+//!
+//! [`pictures`]: a folder a real camera writes into, as the pictures of `fleetmap camera`
+//! (the simulator's camera server reads it without depending on the GCS's application layer).
+
+pub mod pictures;
 
 use crate::imagery::transfer::{FileUrlError, file_url_path};
 use crate::mission::definition::{DefErrors, MissionDef};
+use crate::sim::world::{World, WorldError};
 use crate::vision::VisionError;
 use crate::vision::load::{LoadLimits, load_image_bytes};
 use image::RgbImage;
@@ -23,6 +29,17 @@ pub fn load_mission(path: impl AsRef<Path>) -> Result<MissionDef, DefErrors> {
     let file = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| MissionDef::unreadable(&file, &e))?;
     MissionDef::from_bytes(&bytes, &file)
+}
+
+/// Read and check the world file at `path` (a simulated world, [`World`]). Errors name the
+/// file as given.
+pub fn load_world(path: &Path) -> Result<World, WorldError> {
+    let file = path.display().to_string();
+    let text = std::fs::read_to_string(path).map_err(|source| WorldError::Io {
+        path: file.clone(),
+        source,
+    })?;
+    World::from_toml_file(&text, &file)
 }
 
 /// Where an image comes from.

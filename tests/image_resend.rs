@@ -15,7 +15,7 @@
 //! latest *captures*, and answered a size it did not hold with its latest picture, every
 //! camera behind the port at once): the picture was lost.
 
-use fleetmap::app::images::Intake;
+use fleetmap::app::images::{ImageFailure, Intake};
 use fleetmap::sim::camera::{CameraConfig, RECENT_IMAGES};
 use fleetmap::sim::paired::PairedCameras;
 use fleetmap::sim::world::World;
@@ -43,7 +43,7 @@ const LATENCY: Duration = Duration::from_millis(20);
 
 fn world() -> Arc<World> {
     Arc::new(
-        World::load(std::path::Path::new(concat!(
+        fleetmap::files::load_world(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/assets/worlds/hardware-6x6.toml"
         )))
@@ -84,7 +84,7 @@ struct Bench {
     received: Vec<(u8, Arc<Vec<u8>>, Time)>,
     /// GCS requests: (the camera whose receiver asked, when, size asked for)
     requests: Vec<(u8, Time, u32)>,
-    failures: Vec<String>,
+    failures: Vec<ImageFailure>,
 }
 
 impl Bench {

@@ -32,13 +32,64 @@ use crate::files::read_file_url;
 use crate::fleet::{FleetHandle, Incoming};
 use crate::imagery::meta::{ImageMeta, read_meta};
 use crate::imagery::onboard::OnboardMeasurement;
-use crate::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig, request_image};
+use crate::imagery::transfer::{
+    FileUrlError, ImageEvent, ImageReceiver, ReceiverConfig, request_image,
+};
 use crate::time::Time;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::{broadcast, watch};
+
+/// An image that did not arrive, and why: what the intake logs (its `Display` is the log
+/// line) and what [`Intake::failures`] holds.
+#[derive(Debug, thiserror::Error)]
+pub enum ImageFailure {
+    /// CAMERA_IMAGE_CAPTURED said the capture failed.
+    #[error("vehicle {sysid}: camera reports capture {image_index} failed")]
+    CaptureFailed {
+        /// The vehicle (system id).
+        sysid: u8,
+        /// The camera's image index of the failed capture.
+        image_index: i32,
+    },
+    /// The file a CAMERA_IMAGE_CAPTURED URL names could not be read.
+    #[error("vehicle {sysid}: {source}")]
+    File {
+        /// The vehicle (system id).
+        sysid: u8,
+        /// Why the file was not read.
+        source: FileUrlError,
+    },
+    /// An image transmission gave up with packets missing.
+    #[error("vehicle {sysid}: image of {size} bytes lost ({received} of {packets} packets)")]
+    Lost {
+        /// The vehicle (system id).
+        sysid: u8,
+        /// The image's announced size, bytes.
+        size: u32,
+        /// Packets received.
+        received: u16,
+        /// Packets announced.
+        packets: u16,
+    },
+}
+
+/// A picture a camera wrote to a file (CAMERA_IMAGE_CAPTURED with a `file://` URL) that the
+/// intake wants read: the driving task reads it off the runtime's workers
+/// ([`tokio::task::spawn_blocking`]) and hands the bytes back ([`Intake::file_read`]).
+#[derive(Clone, Debug)]
+pub struct FileRead {
+    /// The `file://` URL.
+    pub url: String,
+    /// The capture: (system, time_boot_ms, image_index).
+    key: CaptureKey,
+    /// The pose CAMERA_IMAGE_CAPTURED gave.
+    pose: CapturePose,
+    /// When the message was heard (the image's `received` time).
+    heard: Time,
+}
 
 /// Largest image file read from a URL, bytes.
 pub const MAX_IMAGE_FILE: u64 = 64 << 20;
@@ -158,9 +209,11 @@ pub struct Intake {
     accept: Option<u32>,
     /// Requests for pictures to send to cameras.
     requests: VecDeque<((u8, u8), MavMessage)>,
+    /// Files named by CAMERA_IMAGE_CAPTURED, to read ([`Intake::poll_file_read`]).
+    reads: VecDeque<FileRead>,
     out: VecDeque<ReceivedImage>,
-    /// Images that could not be read (file errors, lost transfers), with the reason.
-    pub failures: VecDeque<String>,
+    /// Images that did not arrive (failed captures, unreadable files, lost transfers).
+    pub failures: VecDeque<ImageFailure>,
 }
 
 impl Intake {
@@ -263,10 +316,10 @@ impl Intake {
             }
             MavMessage::CAMERA_IMAGE_CAPTURED(c) => {
                 if c.capture_result != mavlink::dialects::ardupilotmega::MavBool::MAV_BOOL_TRUE {
-                    self.failures.push_back(format!(
-                        "vehicle {}: camera reports capture {} failed",
-                        from.0, c.image_index
-                    ));
+                    self.failures.push_back(ImageFailure::CaptureFailed {
+                        sysid: from.0,
+                        image_index: c.image_index,
+                    });
                     return;
                 }
                 let url: String = c
@@ -292,27 +345,54 @@ impl Intake {
                     }
                     return;
                 }
-                match read_file_url(&url, MAX_IMAGE_FILE) {
-                    Ok(bytes) => {
-                        self.seen(key);
-                        // The JPEG's own metadata, when present, has the camera's heading.
-                        let pose = read_meta(&bytes)
-                            .filter(|m| m.image_index == c.image_index)
-                            .map(|m| merge_poses(&pose, &m))
-                            .unwrap_or(pose);
-                        self.out.push_back(ReceivedImage {
-                            sysid: from.0,
-                            bytes: Arc::new(bytes),
-                            onboard: None,
-                            pose: Some(pose),
-                            received: now,
-                            source: url,
-                        });
-                    }
-                    Err(e) => self.failures.push_back(format!("vehicle {}: {e}", from.0)),
-                }
+                self.reads.push_back(FileRead {
+                    url,
+                    key,
+                    pose,
+                    heard: now,
+                });
             }
             _ => {}
+        }
+    }
+
+    /// The next file to read ([`FileRead`]): read it (at most [`MAX_IMAGE_FILE`] bytes,
+    /// [`crate::files::read_file_url`]) and hand the result to [`Intake::file_read`].
+    pub fn poll_file_read(&mut self) -> Option<FileRead> {
+        self.reads.pop_front()
+    }
+
+    /// The outcome of reading `read`'s file: the image, or a failure.
+    pub fn file_read(&mut self, read: FileRead, bytes: Result<Vec<u8>, FileUrlError>) {
+        let FileRead {
+            url,
+            key,
+            pose,
+            heard,
+        } = read;
+        match bytes {
+            Ok(bytes) => {
+                if self.seen(key) {
+                    return;
+                }
+                // The JPEG's own metadata, when present, has the camera's heading.
+                let pose = read_meta(&bytes)
+                    .filter(|m| m.image_index == key.2)
+                    .map(|m| merge_poses(&pose, &m))
+                    .unwrap_or(pose);
+                self.out.push_back(ReceivedImage {
+                    sysid: key.0,
+                    bytes: Arc::new(bytes),
+                    onboard: None,
+                    pose: Some(pose),
+                    received: heard,
+                    source: url,
+                });
+            }
+            Err(source) => self.failures.push_back(ImageFailure::File {
+                sysid: key.0,
+                source,
+            }),
         }
     }
 
@@ -352,10 +432,12 @@ impl Intake {
                     size,
                     received,
                     packets,
-                } => self.failures.push_back(format!(
-                    "vehicle {}: image of {size} bytes lost ({received} of {packets} packets)",
-                    cam.0
-                )),
+                } => self.failures.push_back(ImageFailure::Lost {
+                    sysid: cam.0,
+                    size,
+                    received,
+                    packets,
+                }),
             }
         }
     }
@@ -402,7 +484,6 @@ impl Intake {
 #[derive(Clone, Debug)]
 pub struct ImageHub {
     tx: broadcast::Sender<Arc<ReceivedImage>>,
-    failures: broadcast::Sender<String>,
     accept: Arc<watch::Sender<Option<u32>>>,
 }
 
@@ -418,14 +499,12 @@ impl ImageHub {
     pub fn accept_onboard(&self, spec: Option<u32>) {
         self.accept.send_replace(spec);
     }
-
-    /// Image failures (lost transfers, unreadable files) from now on.
-    pub fn failures(&self) -> broadcast::Receiver<String> {
-        self.failures.subscribe()
-    }
 }
 
-/// Start the intake on `fleet`'s received frames; it runs until the fleet stops.
+/// Start the intake on `fleet`'s received frames; it runs until the fleet stops. Images that
+/// do not arrive ([`ImageFailure`]) are logged (warnings); the runners count the pictures
+/// they miss themselves. Files are read on tokio's blocking pool, one at a time, in the order
+/// their messages came.
 pub fn spawn(fleet: &FleetHandle) -> ImageHub {
     spawn_with(fleet, ReceiverConfig::default())
 }
@@ -433,11 +512,9 @@ pub fn spawn(fleet: &FleetHandle) -> ImageHub {
 /// [`spawn`] with the image receivers' configuration.
 pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
     let (tx, _) = broadcast::channel(256);
-    let (ftx, _) = broadcast::channel(64);
     let (accept, mut accepted) = watch::channel(None);
     let hub = ImageHub {
         tx: tx.clone(),
-        failures: ftx.clone(),
         accept: Arc::new(accept),
     };
     let mut frames = fleet.subscribe();
@@ -458,14 +535,25 @@ pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
                         }
                     }
                     Err(broadcast::error::RecvError::Lagged(n)) => {
-                        let f = format!("image intake fell behind: {n} frames skipped");
-                        tracing::warn!("{f}");
-                        let _ = ftx.send(f);
+                        tracing::warn!("image intake fell behind: {n} frames skipped");
                     }
                     Err(broadcast::error::RecvError::Closed) => return,
                 },
                 _ = tokio::time::sleep(wait) => intake.handle_timeout(fleet.clock().now()),
                 Ok(()) = accepted.changed() => intake.accept_onboard(*accepted.borrow_and_update()),
+            }
+            while let Some(read) = intake.poll_file_read() {
+                let url = read.url.clone();
+                let bytes =
+                    tokio::task::spawn_blocking(move || read_file_url(&url, MAX_IMAGE_FILE))
+                        .await
+                        .unwrap_or_else(|e| {
+                            Err(FileUrlError::Io {
+                                path: read.url.clone(),
+                                source: std::io::Error::other(e),
+                            })
+                        });
+                intake.file_read(read, bytes);
             }
             while let Some(((sysid, compid), msg)) = intake.poll_transmit() {
                 tracing::debug!("asking camera {sysid}/{compid} to send its image again");
@@ -478,7 +566,6 @@ pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
             }
             while let Some(f) = intake.failures.pop_front() {
                 tracing::warn!("{f}");
-                let _ = ftx.send(f);
             }
         }
     });

@@ -7,7 +7,6 @@
 //! | [`images`] | every image the fleet takes as one stream (MAVLink image transmission, file URLs), and the run's image hub |
 //! | [`crop`] | the centre crops of a picture both missions measure (3 × 3 cells, a share of one cell) |
 //! | [`flight`] | flight steps with timeouts: take off, fly to a point and settle, capture, land |
-//! | [`pictures`] | where `fleetmap camera` takes its pictures from: a folder a camera writes into |
 //! | [`kind`] | one mission kind ([`kind::RunKind`]): what run, resume, report, export, the TUI session and the demo need of a runner |
 //! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume): events, pilot, intake, sweep, runner; its report and GeoJSON / KML / PNG exports, IoU against a simulated world |
 //! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume): events, runner, sortie, pilot, intake, upload; its report (keep / reject / errors, per-epoch figures) and the progress PNG (Fig. 4) |
@@ -20,7 +19,6 @@ pub mod demo;
 pub mod flight;
 pub mod images;
 pub mod kind;
-pub mod pictures;
 pub mod run;
 pub mod runway;
 pub mod session;

@@ -13,12 +13,11 @@
 //!
 //! Sources: `render` draws the picture from a world file at the reported pose (what
 //! `fleetmap sim --camera-only` has always done, for SITL); `folder:DIR` takes each shot's
-//! picture from a folder a real camera writes into ([`crate::app::pictures`]).
+//! picture from a folder a real camera writes into ([`crate::files::pictures`]).
 
 use crate::sim::camera::CameraConfig;
 use crate::sim::paired::PairedCameras;
 use crate::sim::server::Endpoint;
-use crate::sim::world::World;
 use anyhow::{Context, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -173,12 +172,14 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
             let Some(world) = &args.world else {
                 bail!("--source render needs --world");
             };
-            let world = Arc::new(World::load(world)?);
+            let world = Arc::new(crate::files::load_world(world)?);
             (PairedCameras::new(world, cfg, args.seed), None)
         }
         Source::Folder(dir) => {
-            let f =
-                crate::app::pictures::FolderSource::new(dir, Duration::from_millis(args.wait_ms))?;
+            let f = crate::files::pictures::FolderSource::new(
+                dir,
+                Duration::from_millis(args.wait_ms),
+            )?;
             (PairedCameras::external(cfg, args.seed), Some(f))
         }
     };

@@ -443,7 +443,9 @@ async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
         _ => "not sent: this is the built-in sample, no vehicles are connected",
     };
     // Commands: nothing can execute them here, so each gets an honest failure.
-    let commands = tokio::spawn(async move {
+    // The command answerer and the model producer end with the UI (the set is dropped).
+    let mut tasks = tokio::task::JoinSet::new();
+    tasks.spawn(async move {
         while let Some(req) = cmd_rx.recv().await {
             let r = JobResult {
                 id: req.id,
@@ -455,7 +457,7 @@ async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
         }
     });
     let producer_clock = clock.clone();
-    let producer = tokio::spawn(async move {
+    tasks.spawn(async move {
         match source {
             Source::Static(m) => {
                 snap_tx.send_replace(*m);
@@ -496,8 +498,7 @@ async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
         clock,
     };
     let result = crate::tui::run(app, io, options).await;
-    producer.abort();
-    commands.abort();
+    drop(tasks);
     result?;
     Ok(())
 }

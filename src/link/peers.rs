@@ -18,10 +18,10 @@
 //!   forgotten when it disconnects.
 
 use super::codec::StreamBuffer;
+use crate::time::Time;
 use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::time::Duration;
-use tokio::time::Instant;
 
 /// A peer that stays silent this long is forgotten (and no longer sent to). Long enough
 /// for a vehicle's battery swap or reboot to come back from the same address without a
@@ -41,7 +41,8 @@ pub enum PeerKey {
 struct Peer {
     /// The address, for display.
     name: String,
-    last_heard: Instant,
+    /// When it was last heard, on the link's clock.
+    last_heard: Time,
     stream: StreamBuffer,
 }
 
@@ -71,7 +72,7 @@ impl PeerTable {
 
     /// Bytes arrived from `key` (named `name` for display); returns its reassembly buffer
     /// and whether the peer is new.
-    pub fn heard(&mut self, key: PeerKey, name: &str, now: Instant) -> (&mut StreamBuffer, bool) {
+    pub fn heard(&mut self, key: PeerKey, name: &str, now: Time) -> (&mut StreamBuffer, bool) {
         let mut new = false;
         let p = self.peers.entry(key).or_insert_with(|| {
             new = true;
@@ -101,13 +102,13 @@ impl PeerTable {
     /// Forget UDP peers silent for longer than the table's limit; returns their names. A
     /// TCP client stays while its connection is open, however quiet ([`PeerTable::remove`]
     /// forgets it when it disconnects).
-    pub fn expire(&mut self, now: Instant) -> Vec<String> {
+    pub fn expire(&mut self, now: Time) -> Vec<String> {
         let limit = self.forget_after;
         let gone: Vec<PeerKey> = self
             .peers
             .iter()
             .filter(|(k, _)| matches!(k, PeerKey::Addr(_)))
-            .filter(|(_, p)| now.saturating_duration_since(p.last_heard) > limit)
+            .filter(|(_, p)| now.saturating_since(p.last_heard) > limit)
             .map(|(k, _)| *k)
             .collect();
         gone.iter().filter_map(|k| self.remove(*k)).collect()
@@ -142,7 +143,7 @@ mod tests {
 
     #[test]
     fn routes_follow_systems_and_broadcasts_reach_everyone() {
-        let t0 = Instant::now();
+        let t0 = Time::ZERO;
         let mut t = PeerTable::default();
         let (a, b) = (addr(1000), addr(1001));
         assert!(t.heard(a, "a", t0).1);
@@ -167,7 +168,7 @@ mod tests {
 
     #[test]
     fn silent_peers_are_forgotten_with_their_routes() {
-        let t0 = Instant::now();
+        let t0 = Time::ZERO;
         let mut t = PeerTable::new(Duration::from_secs(10));
         let (a, b) = (addr(1000), addr(1001));
         t.heard(a, "a", t0);

@@ -7,7 +7,7 @@
 //! use fleetmap::sim::harness::{Sim, SimConfig};
 //! use fleetmap::time::Time;
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let world = fleetmap::sim::world::World::load("assets/worlds/runway.toml".as_ref())?;
+//! let world = fleetmap::files::load_world("assets/worlds/runway.toml".as_ref())?;
 //! let cfg = SimConfig::from_spec("2xcopter:ardupilot,1xrover:px4", Some(world), None, 42)?;
 //! let mut sim = Sim::new(cfg, Time::ZERO)?;
 //! sim.advance_to(Time::from_secs(20));             // boot, GPS, position estimate

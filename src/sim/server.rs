@@ -11,22 +11,31 @@
 //!   all of them.
 //!
 //! One endpoint is shared out this way; or give one endpoint per vehicle. Captured images
-//! are written (atomically) to the image directory before the frames that announce them are
-//! sent.
+//! are written (atomically, on tokio's blocking pool) to the image directory before the
+//! frames that announce them are sent.
+//!
+//! The parts: this module's lock-step serve loop for simulated vehicles ([`serve`],
+//! [`spawn`]); the sockets it and the cameras' loop open (`sockets`); the paired cameras'
+//! loop for real autopilots ([`serve_paired`]); the in-process server ([`spawn_memory`]).
+
+mod memory;
+mod paired;
+mod sockets;
+
+pub use memory::{MemorySimHandle, spawn_memory};
+pub use paired::serve_paired;
 
 use crate::clock::{MonotonicClock, SimTime};
+use crate::sim::camera::CapturedImage;
 use crate::sim::harness::Sim;
 use crate::sim::pace::{Pacer, Speed, SpeedMeter};
 use crate::sim::tx_queue::{Expired, TxQueue};
 use crate::time::Time;
-use std::collections::{BTreeMap, HashMap};
+use sockets::{Io, Received, io_err, open};
 use std::net::SocketAddr;
-use std::path::PathBuf;
-use std::sync::{Arc, Mutex};
+use std::path::{Path, PathBuf};
 use std::time::Duration;
 use thiserror::Error;
-use tokio::io::{AsyncReadExt, AsyncWriteExt};
-use tokio::net::{TcpListener, UdpSocket};
 use tokio::sync::mpsc;
 
 /// Errors of the socket server.
@@ -160,168 +169,6 @@ pub struct Bound {
     pub endpoint: Endpoint,
     /// The local address of its socket / listener.
     pub local: SocketAddr,
-}
-
-enum Io {
-    Udp {
-        sock: Arc<UdpSocket>,
-        peer: Arc<Mutex<Option<SocketAddr>>>,
-    },
-    Tcp {
-        out: mpsc::UnboundedSender<Vec<u8>>,
-    },
-}
-
-fn io_err(what: String) -> impl FnOnce(std::io::Error) -> ServerError {
-    move |source| ServerError::Io { what, source }
-}
-
-async fn resolve(a: &str) -> Result<SocketAddr, ServerError> {
-    tokio::net::lookup_host(a)
-        .await
-        .map_err(io_err(a.to_string()))?
-        .next()
-        .ok_or_else(|| ServerError::Endpoint(a.to_string()))
-}
-
-/// What an endpoint received: (vehicle index, bytes, the UDP sender's address; None for TCP).
-type Received = (usize, Vec<u8>, Option<SocketAddr>);
-
-/// Open every vehicle's endpoint. Returns the bound sockets (for printing) and the I/O
-/// plumbing; received datagrams / TCP bytes arrive on `rx` as [`Received`].
-async fn open(
-    sysids: &[u8],
-    endpoints: &[Endpoint],
-    tx: mpsc::Sender<Received>,
-) -> Result<(Vec<Bound>, Vec<Io>), ServerError> {
-    let n = sysids.len();
-    if endpoints.len() != 1 && endpoints.len() != n {
-        return Err(ServerError::Count {
-            endpoints: endpoints.len(),
-            vehicles: n,
-        });
-    }
-    let mut bound = Vec::new();
-    let mut ios = Vec::new();
-    for (k, &sysid) in sysids.iter().enumerate() {
-        let ep = if endpoints.len() == 1 {
-            endpoints[0].for_vehicle(k)?
-        } else {
-            endpoints[k].clone()
-        };
-        match &ep {
-            Endpoint::UdpOut(a) | Endpoint::UdpIn(a) => {
-                let target = resolve(a).await?;
-                let (bind, peer) = match &ep {
-                    Endpoint::UdpOut(_) => {
-                        (crate::link::transport::local_for(target), Some(target))
-                    }
-                    _ => (target, None),
-                };
-                let sock = Arc::new(
-                    UdpSocket::bind(bind)
-                        .await
-                        .map_err(io_err(ep.to_string()))?,
-                );
-                crate::link::transport::enlarge_recv_buffer(&sock);
-                let local = sock.local_addr().map_err(io_err(ep.to_string()))?;
-                let peer = Arc::new(Mutex::new(peer));
-                let fixed = matches!(ep, Endpoint::UdpOut(_));
-                let (s2, p2, tx2) = (sock.clone(), peer.clone(), tx.clone());
-                tokio::spawn(async move {
-                    let mut buf = vec![0u8; 65536];
-                    loop {
-                        match s2.recv_from(&mut buf).await {
-                            Ok((len, from)) => {
-                                if !fixed && let Ok(mut p) = p2.lock() {
-                                    *p = Some(from);
-                                }
-                                if tx2
-                                    .send((k, buf[..len].to_vec(), Some(from)))
-                                    .await
-                                    .is_err()
-                                {
-                                    return;
-                                }
-                            }
-                            // ICMP port unreachable on Linux surfaces here; keep listening
-                            Err(_) => tokio::task::yield_now().await,
-                        }
-                    }
-                });
-                bound.push(Bound {
-                    sysid,
-                    endpoint: ep.clone(),
-                    local,
-                });
-                ios.push(Io::Udp { sock, peer });
-            }
-            Endpoint::TcpIn(a) => {
-                let addr = resolve(a).await?;
-                let listener = TcpListener::bind(addr)
-                    .await
-                    .map_err(io_err(ep.to_string()))?;
-                let local = listener.local_addr().map_err(io_err(ep.to_string()))?;
-                let (out_tx, mut out_rx) = mpsc::unbounded_channel::<Vec<u8>>();
-                let (client_tx, mut client_rx) = mpsc::unbounded_channel();
-                let tx2 = tx.clone();
-                tokio::spawn(async move {
-                    loop {
-                        let Ok((stream, _)) = listener.accept().await else {
-                            continue;
-                        };
-                        let _ = stream.set_nodelay(true);
-                        let (mut r, w) = stream.into_split();
-                        if client_tx.send(w).is_err() {
-                            return;
-                        }
-                        let tx3 = tx2.clone();
-                        tokio::spawn(async move {
-                            let mut buf = vec![0u8; 8192];
-                            loop {
-                                match r.read(&mut buf).await {
-                                    Ok(0) | Err(_) => return,
-                                    Ok(n) => {
-                                        if tx3.send((k, buf[..n].to_vec(), None)).await.is_err() {
-                                            return;
-                                        }
-                                    }
-                                }
-                            }
-                        });
-                    }
-                });
-                tokio::spawn(async move {
-                    let mut clients: Vec<tokio::net::tcp::OwnedWriteHalf> = Vec::new();
-                    loop {
-                        tokio::select! {
-                            c = client_rx.recv() => match c {
-                                Some(c) => clients.push(c),
-                                None => return,
-                            },
-                            d = out_rx.recv() => {
-                                let Some(d) = d else { return };
-                                let mut alive = Vec::new();
-                                for mut c in clients.drain(..) {
-                                    if c.write_all(&d).await.is_ok() {
-                                        alive.push(c);
-                                    }
-                                }
-                                clients = alive;
-                            }
-                        }
-                    }
-                });
-                bound.push(Bound {
-                    sysid,
-                    endpoint: ep.clone(),
-                    local,
-                });
-                ios.push(Io::Tcp { out: out_tx });
-            }
-        }
-    }
-    Ok((bound, ios))
 }
 
 /// Shortest wait between two turns of sending while a vehicle's link has a backlog (its
@@ -503,7 +350,7 @@ where
     let (tx, mut rx) = mpsc::channel::<Received>(4096);
     let (bound, ios) = open(&sysids, &opts.endpoints, tx).await?;
     if let Some(dir) = &opts.image_dir {
-        std::fs::create_dir_all(dir).map_err(io_err(dir.display().to_string()))?;
+        create_image_dir(dir).await?;
     }
     let mut stepper = Stepper::new(sim, opts.speed, opts.duration_s);
     stepper
@@ -534,13 +381,12 @@ where
         stepper.record(wall_now);
         watch.check(wall_now, &mut stepper, opts.gcs);
         // files first, so a CAMERA_IMAGE_CAPTURED never names a missing file
+        let mut images = Vec::new();
         while let Some((_, img)) = stepper.sim.poll_image() {
-            if let Some(dir) = &opts.image_dir {
-                let path = dir.join(&img.file_name);
-                if let Err(e) = crate::store::atomic_write(&path, &img.jpeg) {
-                    tracing::warn!("cannot write image {}: {e}", path.display());
-                }
-            }
+            images.push(img);
+        }
+        if let Some(dir) = &opts.image_dir {
+            write_images(dir, images).await;
         }
         while let Some((sysid, ev)) = stepper.sim.poll_event() {
             log_event(sysid, &ev);
@@ -685,236 +531,46 @@ pub async fn spawn(sim: Sim, opts: ServeOptions) -> Result<SimHandle, ServerErro
     }
 }
 
-/// Serve simulated cameras for real autopilots (see [`crate::sim::paired`]): listen on
-/// `endpoint` (typically `udpin:` where a SITL or MAVProxy sends its telemetry), render an
-/// image for every picture the autopilots take and answer as their camera components, on
-/// the wall clock. Images go to `image_dir` (and over MAVLink if the camera config says so,
-/// paced by the cameras themselves when [`crate::sim::camera::CameraConfig::transfer_rate_bps`]
-/// is set). UDP datagrams are paced and aged as in [`serve`] ([`TxQueue`]); a datagram the
-/// socket cannot take yet waits for the next turn.
-/// What the cameras report ([`crate::sim::paired::PairedEvent`]) is logged: a stale pose
-/// warns once per episode of refused captures, not once per capture.
-pub async fn serve_paired<F>(
-    mut cams: crate::sim::paired::PairedCameras,
-    mut source: Option<crate::app::pictures::FolderSource>,
-    endpoint: Endpoint,
-    image_dir: Option<PathBuf>,
-    duration_s: Option<f64>,
-    on_bound: impl FnOnce(&[Bound]),
-    shutdown: F,
-) -> Result<crate::sim::paired::PairedCameras, ServerError>
-where
-    F: std::future::Future<Output = ()>,
-{
-    use crate::link::codec::Codec;
-    /// Longest sleep between two camera steps (heartbeats, interval captures, requests for
-    /// telemetry are due on this grid at worst).
-    const STEP: std::time::Duration = std::time::Duration::from_millis(20);
-    let (tx, mut rx) = mpsc::channel::<Received>(4096);
-    let (bound, ios) = open(&[0], std::slice::from_ref(&endpoint), tx).await?;
-    on_bound(&bound);
-    if let Some(dir) = &image_dir {
-        std::fs::create_dir_all(dir).map_err(io_err(dir.display().to_string()))?;
-    }
-    let clock = MonotonicClock::with_speedup(1.0);
-    let unix0 = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_micros() as u64)
-        .unwrap_or(0);
-    let mut codec = Codec::new();
-    let end = duration_s.map(|d| Time::ZERO + std::time::Duration::from_secs_f64(d.max(0.0)));
-    // One outgoing queue per camera, each sent to the address its own autopilot was last
-    // heard from (see `routes` below).
-    let mut pending: BTreeMap<u8, TxQueue> = BTreeMap::new();
-    // Where each vehicle's autopilot (component 1) was last heard from. Several autopilots
-    // send to one `udpin` port (each copter's SERIAL1 in a SITL fleet): camera k's frames go
-    // back to autopilot k, as a camera wired to its own autopilot's serial port would send
-    // them. Sending everything to the last sender (as before) spread one camera's packets
-    // over every autopilot: their paths differ in delay, so packets arrived out of order —
-    // 29 reorderings in 120 pictures through four ArduCopter SITLs, and a packet that crossed
-    // an image's DATA_TRANSMISSION_HANDSHAKE counted for the wrong image (pictures short of
-    // packet 0, 1 or the last ones) — and requests for one autopilot's telemetry went to
-    // another, which does not forward them back to the port they came from
-    // (MAVLink_routing::check_and_forward), so a camera could wait minutes for a position.
-    let mut routes: HashMap<u8, SocketAddr> = HashMap::new();
-    tokio::pin!(shutdown);
-    let result = loop {
-        let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
-        cams.step(now);
-        while let Some(ev) = cams.poll_event() {
-            log_paired_event(&ev);
-        }
-        // Pictures from outside: read on a blocking thread, one shot at a time.
-        while let Some((sysid, shot)) = cams.poll_shot() {
-            let picture = match source.take() {
-                Some(mut src) => {
-                    let r = tokio::task::spawn_blocking(move || {
-                        let p = src.next_picture();
-                        (src, p)
-                    })
-                    .await;
-                    match r {
-                        Ok((mut src, p)) => {
-                            for s in src.skipped.drain(..) {
-                                tracing::warn!("camera: picture skipped: {s}");
-                            }
-                            source = Some(src);
-                            match p {
-                                Ok(Some(p)) => Some(p.image),
-                                Ok(None) => {
-                                    tracing::warn!(
-                                        "camera {sysid}: no new picture in the folder: capture {} failed",
-                                        shot.index
-                                    );
-                                    None
-                                }
-                                Err(e) => {
-                                    tracing::warn!("camera {sysid}: {e:#}");
-                                    None
-                                }
-                            }
-                        }
-                        Err(e) => {
-                            tracing::warn!("camera {sysid}: picture source stopped: {e}");
-                            None
-                        }
-                    }
-                }
-                None => None,
-            };
-            let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
-            cams.deliver(sysid, shot, picture.as_ref(), now);
-        }
-        while let Some((_, img)) = cams.poll_image() {
-            if let Some(dir) = &image_dir {
-                let path = dir.join(&img.file_name);
-                if let Err(e) = crate::store::atomic_write(&path, &img.jpeg) {
-                    tracing::warn!("cannot write image {}: {e}", path.display());
-                }
-            }
-        }
-        while let Some((h, m)) = cams.poll_transmit() {
-            let unix = unix0 + now.as_micros();
-            let frame = codec.encode_with_header(&h, &m, mavlink::MavlinkVersion::V2, unix);
-            let sysid = u8::try_from(h.system_id).unwrap_or(0);
-            pending.entry(sysid).or_default().push(now, frame);
-        }
-        for (sysid, q) in pending.iter_mut() {
-            if let Expired::Began(n) = q.expire(now) {
-                tracing::warn!(
-                    "simulated camera {sysid}: the link is dropping datagrams older than {} ms \
-                     ({n} now, {} in all)",
-                    TxQueue::MAX_AGE.as_millis(),
-                    q.dropped()
-                );
-            }
-        }
-        let mut backlog = false;
-        match &ios[0] {
-            Io::Udp { sock, peer } => {
-                let last = peer.lock().ok().and_then(|p| *p);
-                for (sysid, q) in pending.iter_mut() {
-                    match routes.get(sysid).copied().or(last) {
-                        Some(to) => {
-                            q.refill(now);
-                            while let Some(d) = q.ready() {
-                                match sock.try_send_to(d, to) {
-                                    Err(e) if e.kind() == std::io::ErrorKind::WouldBlock => {
-                                        break;
-                                    }
-                                    // sent, or an error a retry would not mend (e.g. ICMP
-                                    // port unreachable reported on this send)
-                                    _ => q.sent(),
-                                }
-                            }
-                        }
-                        // nobody has spoken to us yet: nowhere to send
-                        None => q.clear(),
-                    }
-                    backlog |= !q.is_empty();
-                }
-            }
-            Io::Tcp { out } => {
-                for q in pending.values_mut() {
-                    for d in q.take_all() {
-                        let _ = out.send(d);
-                    }
-                }
-            }
-        }
-        if end.is_some_and(|e| now >= e) {
-            break cams;
-        }
-        let mut wait = STEP;
-        if let Some(t) = cams.poll_timeout() {
-            wait = wait.min(
-                t.saturating_since(now)
-                    .max(std::time::Duration::from_millis(1)),
-            );
-        }
-        if backlog {
-            wait = wait.min(UDP_PACE);
-        }
-        tokio::select! {
-            r = rx.recv() => {
-                if let Some((_, bytes, from)) = r {
-                    let now = Time::ZERO + std::time::Duration::from_micros(clock.now().as_micros());
-                    for f in codec.decode(&bytes, unix0 + now.as_micros()) {
-                        if let (Some(a), 1) = (from, f.header.component_id)
-                            && let Ok(sysid) = u8::try_from(f.header.system_id)
-                        {
-                            routes.insert(sysid, a);
-                        }
-                        if let Ok(m) = f.message {
-                            cams.handle_message(&f.header, &m, now);
-                        }
-                    }
-                }
-            }
-            _ = tokio::time::sleep(wait) => {}
-            _ = &mut shutdown => break cams,
-        }
-    };
-    if result.refused() > 0 {
-        tracing::warn!(
-            "simulated cameras: {} captures refused in all for want of a fresh position",
-            result.refused()
-        );
-    }
-    Ok(result)
+/// Create the image directory `dir` (and its parents) on tokio's blocking pool.
+async fn create_image_dir(dir: &Path) -> Result<(), ServerError> {
+    let d = dir.to_path_buf();
+    let made = tokio::task::spawn_blocking(move || std::fs::create_dir_all(&d))
+        .await
+        .unwrap_or_else(|e| Err(std::io::Error::other(e)));
+    made.map_err(io_err(dir.display().to_string()))
 }
 
-/// Log what the paired cameras report: stale poses as warnings (once per episode), the rest
-/// at info.
-fn log_paired_event(ev: &crate::sim::paired::PairedEvent) {
-    use crate::sim::paired::PairedEvent as E;
-    match ev {
-        E::Discovered { sysid, autopilot } => tracing::info!(
-            "camera for vehicle {sysid} ({autopilot:?}): asked for GLOBAL_POSITION_INT and \
-             ATTITUDE at {} Hz",
-            crate::sim::paired::TELEMETRY_HZ
-        ),
-        E::Rebooted { sysid } => {
-            tracing::info!("vehicle {sysid} rebooted: camera asked for its telemetry again")
+/// Write `images` into `dir`, each atomically ([`crate::store::atomic_write`]: fsynced), in
+/// order, on tokio's blocking pool; returns once all are on disk. One that cannot be written
+/// is logged and skipped.
+async fn write_images(dir: &Path, images: Vec<CapturedImage>) {
+    if images.is_empty() {
+        return;
+    }
+    let dir = dir.to_path_buf();
+    let written = tokio::task::spawn_blocking(move || {
+        for img in images {
+            let path = dir.join(&img.file_name);
+            if let Err(e) = crate::store::atomic_write(&path, &img.jpeg) {
+                tracing::warn!("cannot write image {}: {e}", path.display());
+            }
         }
-        E::PoseStale {
-            sysid,
-            age,
-            refused_total,
-        } => match age {
-            Some(a) => tracing::warn!(
-                "camera for vehicle {sysid}: no position for {:.1} s, refusing captures \
-                 ({refused_total} refused so far)",
-                a.as_secs_f64()
-            ),
-            None => tracing::warn!(
-                "camera for vehicle {sysid}: never had a position, refusing captures \
-                 ({refused_total} refused so far)"
-            ),
-        },
-        E::PoseRestored { sysid, refused } => tracing::info!(
-            "camera for vehicle {sysid}: position again after {refused} refused captures"
-        ),
+    })
+    .await;
+    if let Err(e) = written {
+        tracing::warn!("the image writer stopped: {e}");
+    }
+}
+
+/// Log a vehicle event: failsafes and fence breaches as warnings (what a field team must hear
+/// of), the rest (boots, arming, landings) at info.
+fn log_event(sysid: u8, ev: &crate::sim::vehicle::VehicleEvent) {
+    use crate::sim::vehicle::VehicleEvent as E;
+    match ev {
+        E::FenceBreached { .. } | E::BatteryFailsafe(_) => {
+            tracing::warn!("simulated vehicle {sysid}: {ev:?}")
+        }
+        _ => tracing::info!("simulated vehicle {sysid}: {ev:?}"),
     }
 }
 
@@ -945,108 +601,5 @@ mod tests {
         assert!(Endpoint::parse("serial:/dev/ttyUSB0:57600").is_err());
         assert!(Endpoint::parse("udpin:14550").is_err());
         assert!(Endpoint::parse("udpin::x").is_err());
-    }
-}
-
-/// A simulation served over in-process links (see [`spawn_memory`]).
-#[derive(Debug)]
-pub struct MemorySimHandle {
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    task: tokio::task::JoinHandle<Sim>,
-}
-
-impl MemorySimHandle {
-    /// Stop serving and get the simulation back (for inspection).
-    pub async fn stop(mut self) -> Result<Sim, ServerError> {
-        if let Some(s) = self.stop.take() {
-            let _ = s.send(());
-        }
-        self.task.await.map_err(|e| ServerError::Io {
-            what: "simulator task".into(),
-            source: std::io::Error::other(e.to_string()),
-        })
-    }
-}
-
-/// Serve `sim` over in-process links, one [`crate::link::transport::MemoryPort`] per vehicle
-/// in system-id order, on the runtime's clock at real speed. With tokio's clock paused
-/// (tests with `start_paused`) this is a fully virtual run: the simulator, the links and the
-/// fleet share tokio's virtual time, which jumps to the next timer whenever every task
-/// waits, so simulated minutes cost only the CPU time of the work done.
-pub fn spawn_memory(sim: Sim, ports: Vec<crate::link::transport::MemoryPort>) -> MemorySimHandle {
-    let (stop_tx, mut stop_rx) = tokio::sync::oneshot::channel::<()>();
-    let sysids = sim.sysids();
-    let (tx, mut rx) = mpsc::unbounded_channel::<(usize, Vec<u8>)>();
-    let mut outs = Vec::new();
-    for (k, p) in ports.into_iter().enumerate() {
-        let crate::link::transport::MemoryPort {
-            mut from_gcs,
-            to_gcs,
-        } = p;
-        outs.push(to_gcs);
-        let tx = tx.clone();
-        tokio::spawn(async move {
-            while let Some(b) = from_gcs.recv().await {
-                if tx.send((k, b)).is_err() {
-                    return;
-                }
-            }
-        });
-    }
-    drop(tx);
-    let task = tokio::spawn(async move {
-        let clock = MonotonicClock::new();
-        let mut stepper = Stepper::new(sim, Speed::REAL_TIME, None);
-        let mut open = true;
-        loop {
-            let wall = clock.now();
-            stepper.step(wall);
-            stepper.record(wall);
-            while stepper.sim.poll_image().is_some() {}
-            while let Some((sysid, ev)) = stepper.sim.poll_event() {
-                log_event(sysid, &ev);
-            }
-            for (k, &sysid) in sysids.iter().enumerate() {
-                while let Some(d) = stepper.sim.recv_bytes(sysid) {
-                    if let Some(o) = outs.get(k) {
-                        let _ = o.send(d);
-                    }
-                }
-            }
-            let wait = stepper.wait(clock.now());
-            tokio::select! {
-                r = rx.recv(), if open => {
-                    if r.is_none() {
-                        open = false;
-                    }
-                    let mut next = r;
-                    while let Some((k, bytes)) = next {
-                        if let Some(&s) = sysids.get(k) {
-                            stepper.receive(s, &bytes);
-                        }
-                        next = rx.try_recv().ok();
-                    }
-                    stepper.deliver();
-                }
-                _ = pause(wait) => {}
-                _ = &mut stop_rx => return stepper.sim,
-            }
-        }
-    });
-    MemorySimHandle {
-        stop: Some(stop_tx),
-        task,
-    }
-}
-
-/// Log a vehicle event: failsafes and fence breaches as warnings (what a field team must hear
-/// of), the rest (boots, arming, landings) at info.
-fn log_event(sysid: u8, ev: &crate::sim::vehicle::VehicleEvent) {
-    use crate::sim::vehicle::VehicleEvent as E;
-    match ev {
-        E::FenceBreached { .. } | E::BatteryFailsafe(_) => {
-            tracing::warn!("simulated vehicle {sysid}: {ev:?}")
-        }
-        _ => tracing::info!("simulated vehicle {sysid}: {ev:?}"),
     }
 }

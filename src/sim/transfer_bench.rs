@@ -245,7 +245,31 @@ pub struct RoundTrip {
     /// `Ok` when both succeeded and the items read back are the items sent (as
     /// [`compare_items`] judges, with ArduPilot's dropped parameters allowed); otherwise what
     /// went wrong.
-    pub verdict: Result<(), String>,
+    pub verdict: Result<(), RoundTripFailure>,
+}
+
+/// What went wrong in a [`RoundTrip`].
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum RoundTripFailure {
+    /// Both transfers succeeded but the items read back differ from those sent
+    /// ([`compare_items`]'s description of the first difference).
+    #[error("read back differs: {0}")]
+    Differs(String),
+    /// The download succeeded without producing items.
+    #[error("download produced {0:?}")]
+    NotDownloaded(MissionOutcome),
+    /// The upload, the download or both failed.
+    #[error(
+        "upload {} / download {}",
+        .upload.as_ref().map_or("ok".into(), |e| e.to_string()),
+        .download.as_ref().map_or("ok".into(), |e| e.to_string())
+    )]
+    Failed {
+        /// Why the upload failed (`None`: it succeeded).
+        upload: Option<MissionError>,
+        /// Why the download failed (`None`: it succeeded).
+        download: Option<MissionError>,
+    },
 }
 
 impl RoundTrip {
@@ -399,15 +423,13 @@ impl TransferBench {
         })?;
         let verdict = match (&upload.result, &download.result) {
             (Ok(_), Ok(MissionOutcome::Downloaded { items: got, .. })) => {
-                compare_items(items, got, self.ardupilot())
-                    .map_err(|d| format!("read back differs: {d}"))
+                compare_items(items, got, self.ardupilot()).map_err(RoundTripFailure::Differs)
             }
-            (Ok(_), Ok(other)) => Err(format!("download produced {other:?}")),
-            (up, down) => Err(format!(
-                "upload {} / download {}",
-                up.as_ref().err().map_or("ok".into(), |e| e.to_string()),
-                down.as_ref().err().map_or("ok".into(), |e| e.to_string())
-            )),
+            (Ok(_), Ok(other)) => Err(RoundTripFailure::NotDownloaded(other.clone())),
+            (up, down) => Err(RoundTripFailure::Failed {
+                upload: up.as_ref().err().cloned(),
+                download: down.as_ref().err().cloned(),
+            }),
         };
         Ok(RoundTrip {
             upload,

@@ -20,7 +20,6 @@
 
 use crate::geo::local;
 use serde::{Deserialize, Serialize};
-use std::path::Path;
 use thiserror::Error;
 
 /// Errors reading or using a world.
@@ -335,15 +334,12 @@ fn valid_latlon(lat: f64, lon: f64) -> bool {
 }
 
 impl World {
-    /// Read and check a world file.
-    pub fn load(path: &Path) -> Result<World, WorldError> {
-        let text = std::fs::read_to_string(path).map_err(|source| WorldError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        World::from_toml(&text).map_err(|e| match e {
+    /// Parse and check the text of the world file `file` (named in a parse error); the shell
+    /// reads the file ([`crate::files::load_world`]).
+    pub fn from_toml_file(text: &str, file: &str) -> Result<World, WorldError> {
+        World::from_toml(text).map_err(|e| match e {
             WorldError::Parse { message, .. } => WorldError::Parse {
-                path: path.display().to_string(),
+                path: file.to_string(),
                 message,
             },
             other => other,

@@ -30,7 +30,24 @@ use std::path::Path;
 pub const SCHEMA_VERSION: u32 = 1;
 
 /// One upgrade step: a version-v document in, a version-(v+1) document out.
-type Step = fn(Value) -> Result<Value, String>;
+type Step = fn(Value) -> Result<Value, StepError>;
+
+/// Why an upgrade step cannot convert a document (the store reports it as
+/// [`StoreError::Corrupt`], naming the file, the line and the version).
+#[derive(Debug, thiserror::Error)]
+pub enum StepError {
+    /// A field the step needs is missing.
+    #[error("missing {0:?}")]
+    Missing(&'static str),
+    /// A field holds a value the step cannot convert.
+    #[error("{field:?} cannot be upgraded from {found}")]
+    Invalid {
+        /// The field.
+        field: &'static str,
+        /// What it holds.
+        found: Value,
+    },
+}
 
 /// Upgrades of `run.json`, indexed by `from_version - 1`.
 const META_STEPS: &[Step] = &[];

@@ -163,9 +163,12 @@ pub async fn run(app: App, io: ShellIo, options: ShellOptions) -> Result<App, Tu
     let guard = TerminalGuard::enter()?;
     let mut terminal = Terminal::new(ratatui::backend::CrosstermBackend::new(io::stdout()))?;
     let (tx, rx) = mpsc::channel(64);
-    let reader = tokio::spawn(forward_terminal_events(tx));
+    // The terminal reader ends with the loop (dropping the set aborts it), before the
+    // terminal is restored.
+    let mut reader = tokio::task::JoinSet::new();
+    reader.spawn(forward_terminal_events(tx));
     let result = run_loop(&mut terminal, app, rx, io, options).await;
-    reader.abort();
+    drop(reader);
     drop(guard);
     result
 }

@@ -2,6 +2,35 @@
 //! measurement (on a blocking thread), committed in groups.
 
 use super::*;
+use crate::vision::VisionError;
+
+/// Why a received picture does not count: journalled (its `Display`) as the reason of
+/// [`BanditEvent::ImageIgnored`] or, for a picture that could not be measured,
+/// [`BanditEvent::ImageFailed`].
+#[derive(Debug, thiserror::Error)]
+pub(super) enum NotCounted {
+    /// It matches no capture visit of the sortie (the state's reason).
+    #[error("{0}")]
+    NoVisit(String),
+    /// Its capture was counted already.
+    #[error("already counted")]
+    AlreadyCounted,
+    /// Its position is outside the grid's zone.
+    #[error("position outside the grid's zone")]
+    OutsideGrid,
+    /// Taken at the wrong altitude or not level enough ([`check_capture`]).
+    #[error("picture {0}")]
+    Picture(crate::vision::sanity::Rejection),
+    /// The state refused to record it.
+    #[error("{0}")]
+    NotRecorded(crate::planner::sortie::SortieError),
+    /// It could not be decoded.
+    #[error(transparent)]
+    Unreadable(#[from] VisionError),
+    /// It was due to be measured but no measurement came back.
+    #[error("not measured")]
+    NotMeasured,
+}
 
 /// The measurement of one received image (blocking work: decode, crop, count green
 /// pixels): the green share and the Bernoulli realisation — [`GreenSpec::measure`], the
@@ -13,8 +42,8 @@ pub fn measure_image(
     altitude_m: f64,
     cell_m: f64,
     fraction: f64,
-) -> Result<(f64, bool), String> {
-    let img = load_image_bytes(bytes, &LoadLimits::default()).map_err(|e| e.to_string())?;
+) -> Result<(f64, bool), VisionError> {
+    let img = load_image_bytes(bytes, &LoadLimits::default())?;
     let spec = GreenSpec {
         green: *green,
         camera: *camera,
@@ -156,10 +185,10 @@ pub(super) fn intake_limits() -> CaptureLimits {
 pub(super) enum Taken {
     /// Not during a sortie of this drone: not journalled.
     NotFlying,
-    /// Matched no capture visit.
-    Ignored(String),
+    /// Matched no capture visit (or not a picture that counts).
+    Ignored(NotCounted),
     /// Its measurement, or why it could not be measured.
-    Measured(Result<(f64, bool), String>),
+    Measured(Result<(f64, bool), NotCounted>),
 }
 
 /// Measure a batch of images and record them in one commit (see [`intake`]).
@@ -183,7 +212,7 @@ pub(super) async fn take_images(
     // Which images match a capture visit (the commit below checks again, in order).
     let (pre, params, cell_m) = shared
         .read(|s| {
-            let pre: Vec<Option<Result<f64, String>>> = batch
+            let pre: Vec<Option<Result<f64, NotCounted>>> = batch
                 .iter()
                 .zip(&poses)
                 .map(|(img, pose)| {
@@ -197,9 +226,11 @@ pub(super) async fn take_images(
                         return None;
                     }
                     let m = match grid_xy(s, lat, lon) {
-                        Some((e, n)) if !s.seen(key) => s.match_image(img.sysid, e, n),
-                        Some(_) => Err("already counted".to_string()),
-                        None => Err("position outside the grid's zone".to_string()),
+                        Some((e, n)) if !s.seen(key) => {
+                            s.match_image(img.sysid, e, n).map_err(NotCounted::NoVisit)
+                        }
+                        Some(_) => Err(NotCounted::AlreadyCounted),
+                        None => Err(NotCounted::OutsideGrid),
                     };
                     let planned = s
                         .drones
@@ -215,7 +246,7 @@ pub(super) async fn take_images(
                     };
                     let m = m.and_then(|_| {
                         check_capture(&claim, planned, &intake_limits())
-                            .map_err(|r| format!("picture {r}"))
+                            .map_err(NotCounted::Picture)
                     });
                     Some(m.map(|_| pose.alt_m.unwrap_or(planned)))
                 })
@@ -250,9 +281,9 @@ pub(super) async fn take_images(
                     cell_m,
                     params.crop_fraction,
                 );
-                (i, m)
+                (i, m.map_err(NotCounted::from))
             })
-            .collect::<BTreeMap<usize, Result<(f64, bool), String>>>()
+            .collect::<BTreeMap<usize, Result<(f64, bool), NotCounted>>>()
     })
     .await
     .context("measurement task")?;
@@ -264,11 +295,9 @@ pub(super) async fn take_images(
         .map(|(i, p)| match p {
             None => Taken::NotFlying,
             Some(Err(reason)) => Taken::Ignored(reason),
-            Some(Ok(_)) => Taken::Measured(
-                measured
-                    .remove(&i)
-                    .unwrap_or_else(|| Err("not measured".to_string())),
-            ),
+            Some(Ok(_)) => {
+                Taken::Measured(measured.remove(&i).unwrap_or(Err(NotCounted::NotMeasured)))
+            }
         })
         .collect();
     if taken.iter().all(|t| matches!(t, Taken::NotFlying)) {
@@ -286,8 +315,9 @@ pub(super) async fn take_images(
                 let reason = match t {
                     Taken::NotFlying => continue,
                     Taken::Ignored(reason) => reason,
-                    Taken::Measured(Err(reason)) => {
+                    Taken::Measured(Err(e)) => {
                         s.image_failures += 1;
+                        let reason = e.to_string();
                         events.push(BanditEvent::ImageFailed { sysid, reason });
                         continue;
                     }
@@ -295,14 +325,16 @@ pub(super) async fn take_images(
                         // Matched again: an earlier image of this batch may have taken the
                         // visit's last slot or the same capture.
                         let m = match grid_xy(s, lat, lon) {
-                            Some((e, n)) if !s.seen(key) => s.match_image(sysid, e, n),
-                            Some(_) => Err("already counted".to_string()),
-                            None => Err("position outside the grid's zone".to_string()),
+                            Some((e, n)) if !s.seen(key) => {
+                                s.match_image(sysid, e, n).map_err(NotCounted::NoVisit)
+                            }
+                            Some(_) => Err(NotCounted::AlreadyCounted),
+                            None => Err(NotCounted::OutsideGrid),
                         };
                         // `record` fails before it changes anything.
                         match m.and_then(|(visit, _)| {
                             s.record(sysid, visit, key, fraction, positive)
-                                .map_err(|e| e.to_string())
+                                .map_err(NotCounted::NotRecorded)
                         }) {
                             Ok(r) => {
                                 events.push(BanditEvent::Measurement(r.measurement.clone()));
@@ -329,6 +361,7 @@ pub(super) async fn take_images(
                     }
                 };
                 s.ignored_images += 1;
+                let reason = reason.to_string();
                 events.push(BanditEvent::ImageIgnored { sysid, reason });
             }
             Ok((classified, events))

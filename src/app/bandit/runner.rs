@@ -379,11 +379,11 @@ pub(super) async fn no_measurement_stop(runner: &Runner, since: usize) -> anyhow
 }
 
 /// Airborne time of every drone and flight time of the sortie (in memory; saved with the
-/// next change).
-pub(super) fn track(shared: &Shared, drones: Vec<u8>) -> tokio::task::JoinHandle<()> {
+/// next change), as a task in `tasks`.
+pub(super) fn track(shared: &Shared, drones: Vec<u8>, tasks: &mut tokio::task::JoinSet<()>) {
     let fleet = shared.fleet.clone();
     let reports_charging = shared.reports_charging.clone();
-    shared.run.spawn_tracker(move |state, dt| {
+    shared.run.spawn_tracker(tasks, move |state, dt| {
         let airborne: Vec<u8> = drones
             .iter()
             .copied()
@@ -502,11 +502,13 @@ pub async fn run(
         runner.check_start_positions().await?;
     }
     runner.upload_fences().await?;
-    let tracker = track(&shared, drones);
-    let images = tokio::spawn(intake(shared.clone(), hub.subscribe()));
+    // The tracker and the image intake end with the drive (shut down below; dropped with
+    // this future if it is cancelled).
+    let mut background = tokio::task::JoinSet::new();
+    track(&shared, drones, &mut background);
+    background.spawn(intake(shared.clone(), hub.subscribe()));
     let result = drive(&runner, resumed).await;
-    tracker.abort();
-    images.abort();
+    background.shutdown().await;
     let ok = result.is_ok();
     shared
         .commit(|state| {

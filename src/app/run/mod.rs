@@ -164,13 +164,15 @@ where
 
     /// Every [`TRACK_PERIOD`], call `tick(state, dt_s)` with the fleet-clock seconds since the
     /// last call (positions, airborne time: kept in memory, saved with the next commit) and
-    /// publish the view. Runs until the returned task is aborted.
+    /// publish the view. The task runs in `tasks` until the runner shuts that set down (or
+    /// drops it).
     pub fn spawn_tracker(
         self: &Arc<Self>,
+        tasks: &mut tokio::task::JoinSet<()>,
         mut tick: impl FnMut(&mut S, f64) + Send + 'static,
-    ) -> tokio::task::JoinHandle<()> {
+    ) {
         let core = self.clone();
-        tokio::spawn(async move {
+        tasks.spawn(async move {
             let mut last = core.now();
             let mut interval = tokio::time::interval(TRACK_PERIOD);
             loop {
@@ -184,6 +186,6 @@ where
                     let _ = v.send(Arc::new(state.clone()));
                 }
             }
-        })
+        });
     }
 }

@@ -2,6 +2,7 @@
 //! (on a blocking thread), and a visit's pictures with their retakes and camera faults.
 
 use super::*;
+use crate::vision::VisionError;
 
 pub(super) fn labels5(c: &Classification) -> [bool; 5] {
     let l = c.labels;
@@ -14,6 +15,7 @@ pub(super) fn fractions5(c: &Classification) -> [f64; 5] {
 }
 
 /// Decode and classify one received image (blocking work: call it on a blocking thread).
+/// Errors: the picture cannot be decoded or classified.
 pub fn classify_received(
     bytes: &[u8],
     heading_deg: f64,
@@ -21,7 +23,7 @@ pub fn classify_received(
     camera: &CameraModel,
     altitude_m: f64,
     cell_m: f64,
-) -> Result<Classification, String> {
+) -> Result<Classification, VisionError> {
     classify_cut(
         bytes,
         &Cut::Centre {
@@ -57,31 +59,31 @@ pub enum Cut {
     },
 }
 
-/// Decode a received image, cut it as `cut` says and classify it (blocking work).
+/// Decode a received image, cut it as `cut` says and classify it (blocking work). Errors:
+/// the picture cannot be decoded, cut (no orthophoto from this pose) or classified.
 pub fn classify_cut(
     bytes: &[u8],
     cut: &Cut,
     params: &RunwayParams,
     camera: &CameraModel,
     cell_m: f64,
-) -> Result<Classification, String> {
-    let img = load_image_bytes(bytes, &LoadLimits::default()).map_err(|e| e.to_string())?;
+) -> Result<Classification, VisionError> {
+    let img = load_image_bytes(bytes, &LoadLimits::default())?;
     match cut {
         Cut::Centre {
             heading_deg,
             altitude_m,
         } => {
             let img = crop_to_cells(img, camera, *altitude_m, cell_m);
-            classify(&img, *heading_deg, params).map_err(|e| e.to_string())
+            classify(&img, *heading_deg, params)
         }
         Cut::Ortho {
             attitude,
             altitude_m,
             request,
         } => {
-            let o = geometry::orthophoto(&img, camera, attitude, *altitude_m, request)
-                .map_err(|e| e.to_string())?;
-            classify(&o.image, 0.0, params).map_err(|e| e.to_string())
+            let o = geometry::orthophoto(&img, camera, attitude, *altitude_m, request)?;
+            classify(&o.image, 0.0, params)
         }
     }
 }

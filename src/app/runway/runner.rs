@@ -3,12 +3,13 @@
 
 use super::*;
 use crate::explore::mapping::CLOCK_SAMPLE_S;
+use tokio::task::JoinSet;
 
 /// Follow every robot's position for its track, distance and airborne time (in memory; saved
-/// with the next step).
-pub(super) fn track(shared: &Shared, sysids: Vec<u8>) -> tokio::task::JoinHandle<()> {
+/// with the next step), as a task in `tasks`.
+pub(super) fn track(shared: &Shared, sysids: Vec<u8>, tasks: &mut JoinSet<()>) {
     let fleet = shared.fleet.clone();
-    shared.run.spawn_tracker(move |state, dt| {
+    shared.run.spawn_tracker(tasks, move |state, dt| {
         for &sysid in &sysids {
             let Some(v) = fleet.vehicle(sysid) else {
                 continue;
@@ -23,17 +24,17 @@ pub(super) fn track(shared: &Shared, sysids: Vec<u8>) -> tokio::task::JoinHandle
             let air = if flight::airborne(&v) { dt } else { 0.0 };
             let _ = state.on_position(sysid, e, n, air);
         }
-    })
+    });
 }
 
 /// Sample every robot for the mission clock every [`CLOCK_SAMPLE_S`] seconds of the fleet
 /// clock — airborne or not (the fleet's snapshot) and what its pilot is doing (in memory;
 /// saved with the next step). On the fleet clock, not the runtime's, so that the samples stay
 /// [`CLOCK_SAMPLE_S`] apart in the vehicles' time however fast a simulator in this process
-/// runs.
-fn sample_clock(shared: &Arc<Shared>, sysids: Vec<u8>) -> tokio::task::JoinHandle<()> {
+/// runs. A task in `tasks`.
+fn sample_clock(shared: &Arc<Shared>, sysids: Vec<u8>, tasks: &mut JoinSet<()>) {
     let shared = shared.clone();
-    tokio::spawn(async move {
+    tasks.spawn(async move {
         let clock = shared.fleet.clock().clone();
         let period = Duration::from_secs_f64(CLOCK_SAMPLE_S);
         let mut next = clock.now();
@@ -63,7 +64,7 @@ fn sample_clock(shared: &Arc<Shared>, sysids: Vec<u8>) -> tokio::task::JoinHandl
                 .await;
             next = now + period;
         }
-    })
+    });
 }
 
 /// Run (or resume) a runway-mapping run with `fleet` until it finishes, or until robots wait
@@ -128,11 +129,14 @@ pub async fn run(
         resumed,
     };
     shared.commit(|_| Ok(((), Some(started)))).await?;
-    let tracker = track(&shared, sysids.clone());
-    let sampler = sample_clock(&shared, sysids.clone());
-    let operator = opts.operator.take().map(|mut rx| {
+    // The tracker, the clock sampler and the operator's commands: they end with the pilots
+    // (shut down below; dropped with this future if it is cancelled).
+    let mut background = JoinSet::new();
+    track(&shared, sysids.clone(), &mut background);
+    sample_clock(&shared, sysids.clone(), &mut background);
+    if let Some(mut rx) = opts.operator.take() {
         let shared = shared.clone();
-        tokio::spawn(async move {
+        background.spawn(async move {
             while let Some(cmd) = rx.recv().await {
                 match cmd {
                     Operator::Pause => {
@@ -178,8 +182,8 @@ pub async fn run(
                 }
                 shared.run.notify();
             }
-        })
-    });
+        });
+    }
     let mut tasks = Vec::new();
     for &sysid in &sysids {
         let pilot = Pilot {
@@ -212,11 +216,7 @@ pub async fn run(
             }
         }
     }
-    tracker.abort();
-    sampler.abort();
-    if let Some(op) = operator {
-        op.abort();
-    }
+    background.shutdown().await;
     // Save the final track and times (and the milestones not journalled yet).
     let now = fleet.clock().now();
     shared

@@ -347,7 +347,8 @@ impl Pilot {
         let result = cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m)).await?;
         let c = match result {
             Ok(c) => c,
-            Err(reason) => {
+            Err(e) => {
+                let reason = e.to_string();
                 self.shared
                     .commit(|s| {
                         s.image_failures += 1;

@@ -64,7 +64,7 @@ pub fn run_world(run: &RunDir, override_: Option<&Path>) -> anyhow::Result<Optio
     });
     match path {
         Some(p) => Ok(Some(
-            World::load(&p).with_context(|| format!("world {}", p.display()))?,
+            crate::files::load_world(&p).with_context(|| format!("world {}", p.display()))?,
         )),
         None => Ok(None),
     }

@@ -3,6 +3,8 @@
 //! what a frame is sent to (one fixed peer, every UDP sender heard, every TCP client).
 
 use super::super::peers::PeerTable;
+use crate::clock::MonotonicClock;
+use crate::time::Time;
 use std::collections::HashMap;
 use std::net::SocketAddr;
 use std::sync::Arc;
@@ -36,8 +38,10 @@ pub(super) enum Reader {
         /// `select!` (which drops this future whenever a message is sent) cannot cancel a
         /// half-open connection.
         pending: Option<tokio::task::JoinHandle<std::io::Result<TcpStream>>>,
-        /// Earliest time of the next attempt after a failure.
-        retry_at: Option<tokio::time::Instant>,
+        /// Earliest time of the next attempt after a failure, on `clock`.
+        retry_at: Option<Time>,
+        /// The clock of `retry_at` (wall time).
+        clock: MonotonicClock,
     },
     TcpServer {
         listener: TcpListener,
@@ -99,6 +103,7 @@ impl Reader {
                 backoff,
                 pending,
                 retry_at,
+                clock,
             } => match half {
                 Some(h) => match h.read(buf).await {
                     Ok(0) => {
@@ -115,7 +120,7 @@ impl Reader {
                     // Every await below is cancel-safe: state lives in `pending` and
                     // `retry_at`, so a dropped future resumes where it was.
                     if let Some(t) = *retry_at {
-                        tokio::time::sleep_until(t).await;
+                        tokio::time::sleep(clock.wall_until(t)).await;
                         *retry_at = None;
                     }
                     let task = pending.get_or_insert_with(|| {
@@ -134,7 +139,7 @@ impl Reader {
                             return ReadOutcome::Connected(w, peer);
                         }
                         _ => {
-                            *retry_at = Some(tokio::time::Instant::now() + *backoff);
+                            *retry_at = Some(clock.now() + *backoff);
                             *backoff = (*backoff * 2).min(Duration::from_secs(5));
                         }
                     }

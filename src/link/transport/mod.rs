@@ -22,6 +22,7 @@ use super::codec::{Codec, Frame, LinkStats};
 use super::peers::PeerTable;
 use super::signing::Signing;
 use super::tlog::TlogHandle;
+use crate::clock::MonotonicClock;
 use crate::proto::Endpoint;
 use io::{Reader, Writer};
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -246,6 +247,7 @@ pub async fn open_link(
                 backoff: Duration::from_millis(500),
                 pending: None,
                 retry_at: None,
+                clock: MonotonicClock::new(),
             },
             Writer::Tcp(None),
         ),
@@ -363,6 +365,7 @@ fn start_link(
         tlog: opts.tlog.clone(),
         status: initial,
         status_tx,
+        clock: MonotonicClock::new(),
     };
     tokio::spawn(task.run());
     LinkHandle {

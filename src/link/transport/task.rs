@@ -4,6 +4,7 @@
 
 use super::io::{ReadOutcome, Reader, Writer};
 use super::{LinkCmd, LinkEvent, LinkId, LinkStatus, unix_now_us};
+use crate::clock::MonotonicClock;
 use crate::link::codec::Codec;
 use crate::link::peers::{PeerKey, PeerTable};
 use crate::link::tlog::TlogHandle;
@@ -24,6 +25,8 @@ pub(super) struct LinkTask {
     pub(super) tlog: Option<TlogHandle>,
     pub(super) status: LinkStatus,
     pub(super) status_tx: watch::Sender<LinkStatus>,
+    /// The link's clock (wall time: when peers were last heard).
+    pub(super) clock: MonotonicClock,
 }
 
 impl LinkTask {
@@ -56,7 +59,7 @@ impl LinkTask {
                     }
                 }
                 _ = tick.tick() => {
-                    for gone in self.peers.expire(tokio::time::Instant::now()) {
+                    for gone in self.peers.expire(self.clock.now()) {
                         tracing::info!("link {}: peer {gone} silent, forgotten", self.status.name);
                     }
                     self.publish();
@@ -142,7 +145,7 @@ impl LinkTask {
         let now = unix_now_us();
         let frames = match &peer {
             Some((key, name)) => {
-                let (stream, new) = self.peers.heard(*key, name, tokio::time::Instant::now());
+                let (stream, new) = self.peers.heard(*key, name, self.clock.now());
                 let frames = self.codec.decode_stream(stream, data, now);
                 if new && !self.status_event(true, format!("peer {name}")).await {
                     return false;
@@ -197,11 +200,8 @@ impl LinkTask {
                 if let Writer::TcpServer(clients) = &mut self.writer {
                     clients.insert(c, (w, reader));
                 }
-                self.peers.heard(
-                    PeerKey::Client(c),
-                    &from.to_string(),
-                    tokio::time::Instant::now(),
-                );
+                self.peers
+                    .heard(PeerKey::Client(c), &from.to_string(), self.clock.now());
                 self.status.connects += 1;
                 self.publish();
                 self.status_event(true, format!("client {from} connected"))
