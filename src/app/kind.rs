@@ -3,15 +3,15 @@
 //!
 //! The two kinds are [`crate::app::runway::Runway`] (runway mapping, `run.json` kind
 //! `runway-mapping`) and [`crate::app::bandit::Classification`] (spatial classification,
-//! `spatial-classification`). A run directory remembers its kind; [`Kind`] is that name read
-//! back, and the commands dispatch on it once.
+//! `spatial-classification`). A run directory remembers its kind; the commands dispatch on
+//! it once, through the registry [`crate::app::kinds`].
 
 use crate::app::run::Progress;
 use crate::app::session::SessionRun;
 use crate::fleet::FleetHandle;
 use crate::mission::definition::MissionDef;
 use crate::sim::world::World;
-use crate::store::{RunDir, RunMeta};
+use crate::store::RunDir;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::future::Future;
@@ -58,6 +58,10 @@ pub struct RunSettings {
     pub lock_step: Option<bool>,
     /// Spatial classification: HiGHS time limit per integer-program solve, seconds.
     pub plan_time_limit_s: Option<f64>,
+    /// Runway mapping with a moving region: when the region was where the mission's world
+    /// draws it, milliseconds since the Unix epoch (the demo's simulator start; `None`: the
+    /// run's start).
+    pub roi_epoch_unix_ms: Option<u64>,
 }
 
 impl Default for RunSettings {
@@ -68,12 +72,13 @@ impl Default for RunSettings {
             sharing: crate::explore::Sharing::Gcs,
             lock_step: None,
             plan_time_limit_s: None,
+            roi_epoch_unix_ms: None,
         }
     }
 }
 
 /// A mission kind (see the module docs). Its methods are the parts in which the two missions
-/// differ; [`Kind`] and the generic commands in `cli::run` do the rest once.
+/// differ; the generic commands ([`crate::app::launch`], `cli::run`) do the rest once.
 pub trait RunKind: Send + Sync + 'static {
     /// The `kind` in `run.json`.
     const KIND: &'static str;
@@ -147,41 +152,6 @@ pub trait RunKind: Send + Sync + 'static {
         world: Option<&World>,
         format: ExportFormat,
     ) -> anyhow::Result<(&'static str, Vec<u8>)>;
-}
-
-/// The kind of a run directory, as `run.json` names it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
-    /// [`crate::app::runway::Runway`].
-    RunwayMapping,
-    /// [`crate::app::bandit::Classification`].
-    SpatialClassification,
-}
-
-impl Kind {
-    /// The kind of a mission definition.
-    pub fn of_mission(def: &MissionDef) -> Kind {
-        match def.kind {
-            crate::mission::definition::MissionKind::RunwayMapping => Kind::RunwayMapping,
-            crate::mission::definition::MissionKind::SpatialClassification => {
-                Kind::SpatialClassification
-            }
-        }
-    }
-
-    /// The kind `run.json` names, or a clear error for a kind this build does not know.
-    pub fn of_run(meta: &RunMeta) -> anyhow::Result<Kind> {
-        use crate::app::{bandit::Classification, runway::Runway};
-        match meta.kind.as_str() {
-            Runway::KIND => Ok(Kind::RunwayMapping),
-            Classification::KIND => Ok(Kind::SpatialClassification),
-            other => anyhow::bail!(
-                "a {other} run; this build knows {} and {} runs",
-                Runway::KIND,
-                Classification::KIND
-            ),
-        }
-    }
 }
 
 /// Wait up to `wait` for vehicle `sysid`'s heartbeat (a clear error when it stays silent).

@@ -20,6 +20,8 @@ pub mod demo;
 pub mod flight;
 pub mod images;
 pub mod kind;
+pub mod kinds;
+pub mod launch;
 pub mod pictures;
 pub mod run;
 pub mod runway;

@@ -56,7 +56,11 @@ impl RunKind for Runway {
         settings: &RunSettings,
         wait: Duration,
     ) -> anyhow::Result<MappingState> {
-        crate::app::new_mapping(fleet, def, settings.sharing, wait).await
+        let mut state = crate::app::new_mapping(fleet, def, settings.sharing, wait).await?;
+        if state.params.motion().speed() > 0.0 {
+            state.roi_epoch_unix_ms = settings.roi_epoch_unix_ms;
+        }
+        Ok(state)
     }
 
     fn started_line(dir: &Path, state: &MappingState) -> String {
