@@ -591,7 +591,7 @@ fn dangerous_commands_need_y_and_n_or_esc_cancel() {
         &mut app,
         Event::JobResult(JobResult {
             id: req.id,
-            outcome: Err("COMMAND_ACK: denied".into()),
+            outcome: Err(CommandError::Vehicles(vec!["COMMAND_ACK: denied".into()])),
         }),
     );
     assert!(app.pending.is_empty());

@@ -7,17 +7,19 @@
 //! it once, through the registry [`crate::app::kinds`].
 
 use crate::app::run::Progress;
-use crate::app::session::SessionRun;
 use crate::fleet::FleetHandle;
 use crate::mission::definition::MissionDef;
 use crate::sim::world::World;
 use crate::store::RunDir;
+use crate::tui::live::RunView;
+use crate::tui::{Command, CommandError, Target};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::future::Future;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, watch};
 
 /// How a run ended.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -42,6 +44,43 @@ pub enum ExportFormat {
     /// PNG: the grid (runway mapping, the runway paper's Fig. 10) or the classification
     /// progress per epoch (spatial classification, the bandit paper's Fig. 4).
     Png,
+}
+
+/// What the TUI session gives a run it flies ([`RunKind::fly_attached`]).
+pub struct Attached<K: RunKind + ?Sized> {
+    /// Progress lines (the session's log).
+    pub progress: mpsc::UnboundedSender<Progress>,
+    /// The state after every change (the panes).
+    pub view: watch::Sender<Arc<K::State>>,
+    /// The operator's mission-level commands.
+    pub operator: mpsc::UnboundedReceiver<K::Operator>,
+}
+
+/// A mission-level command's reply ([`RunKind::command`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CommandReply {
+    /// What to tell the operator.
+    pub text: String,
+    /// The run is now paused (`Some(true)`) or running again (`Some(false)`).
+    pub paused: Option<bool>,
+}
+
+impl CommandReply {
+    /// A reply that does not change whether the run is paused.
+    pub fn text(text: impl Into<String>) -> CommandReply {
+        CommandReply {
+            text: text.into(),
+            paused: None,
+        }
+    }
+
+    /// A reply to a pause (`true`) or resume (`false`).
+    pub fn paused(paused: bool, text: impl Into<String>) -> CommandReply {
+        CommandReply {
+            text: text.into(),
+            paused: Some(paused),
+        }
+    }
 }
 
 /// The operator's choices for a run (`fleetmap run` / `resume` options, the demo's, the TUI's).
@@ -92,6 +131,8 @@ pub trait RunKind: Send + Sync + 'static {
     type Event: DeserializeOwned + Send + 'static;
     /// What `fleetmap report` shows (its JSON form is `--json`).
     type Report: Serialize + Send + 'static;
+    /// A mission-level command of the operator, as the runner takes it (the TUI session).
+    type Operator: Send + 'static;
 
     /// The mission's name.
     fn mission(state: &Self::State) -> &str;
@@ -131,14 +172,27 @@ pub trait RunKind: Send + Sync + 'static {
         options: Self::Options,
         progress: Option<mpsc::UnboundedSender<Progress>>,
     ) -> impl Future<Output = anyhow::Result<(Outcome, Self::State)>> + Send;
-    /// The run for the TUI session; `on_finish` is called with the final state.
-    fn session_run(
+    /// Fly the run in the TUI session ([`crate::app::session`]): like [`RunKind::fly`], with
+    /// the state published after every change and the operator's mission-level commands
+    /// (those [`RunKind::command`] sent) taken as they come.
+    fn fly_attached(
+        fleet: &FleetHandle,
         run_dir: RunDir,
         state: Self::State,
         options: Self::Options,
-        auto_start: bool,
-        on_finish: Option<crate::app::session::OnFinish<Self::State>>,
-    ) -> SessionRun;
+        attached: Attached<Self>,
+    ) -> impl Future<Output = anyhow::Result<(Outcome, Self::State)>> + Send;
+    /// What the operator's `command` to `target` (the vehicles `targets`) means for a
+    /// running run of this kind: a mission-level command sent on `operator` and the reply,
+    /// a refusal, or `None` when the command goes to the vehicles themselves.
+    fn command(
+        command: Command,
+        target: Target,
+        targets: &[u8],
+        operator: &mpsc::UnboundedSender<Self::Operator>,
+    ) -> Option<Result<CommandReply, CommandError>>;
+    /// The state as the TUI's panes show it.
+    fn view(state: &Self::State) -> RunView<'_>;
 
     /// The report, scored against `world`'s ground truth when there is one.
     fn report(state: &Self::State, world: Option<&World>) -> anyhow::Result<Self::Report>;

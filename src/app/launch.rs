@@ -12,7 +12,7 @@
 use crate::app::kind::{Outcome, RunKind, RunSettings, write_exports};
 use crate::app::run::Progress;
 use crate::app::runway::cpu;
-use crate::app::session::{OnFinish, SessionConfig, SessionEnd};
+use crate::app::session::{OnFinish, SessionConfig, SessionEnd, SessionRun};
 use crate::fleet::FleetHandle;
 use crate::mission::definition::MissionDef;
 use crate::sim::world::World;
@@ -221,7 +221,7 @@ impl<K: RunKind> Ready<K> {
                 })
                 .await?
                 .flatten();
-                let mission = K::session_run(
+                let mission = SessionRun::new::<K>(
                     self.run_dir,
                     self.state,
                     self.options,

@@ -418,7 +418,7 @@ async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
         while let Some(req) = cmd_rx.recv().await {
             let r = JobResult {
                 id: req.id,
-                outcome: Err(not_sent.to_string()),
+                outcome: Err(crate::tui::CommandError::NotSent(not_sent)),
             };
             if result_tx.send(r).await.is_err() {
                 break;

@@ -132,8 +132,34 @@ pub enum Effect {
 pub struct JobResult {
     /// The request's id.
     pub id: u64,
-    /// `Ok(detail)` when the vehicles accepted it, `Err(reason)` otherwise.
-    pub outcome: Result<String, String>,
+    /// `Ok(detail)` when the vehicles accepted it, `Err(why)` otherwise.
+    pub outcome: Result<String, CommandError>,
+}
+
+/// Why a command the UI asked for was not carried out.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum CommandError {
+    /// START without a run.
+    #[error("no mission is loaded (start fleetmap with --mission or --resume)")]
+    NoMission,
+    /// START again.
+    #[error("the mission is already running")]
+    AlreadyRunning,
+    /// A mission-level command before START.
+    #[error("no mission is running (START it first)")]
+    NotStarted,
+    /// A mission-level command without a running run.
+    #[error("no mission is running")]
+    NotRunning,
+    /// The command has no meaning for this kind of mission (why).
+    #[error("{0}")]
+    NotForThisMission(&'static str),
+    /// One or more vehicles refused or did not answer (each one's reason).
+    #[error("{}", .0.join("; "))]
+    Vehicles(Vec<String>),
+    /// The command never left the UI (why, saying so: a replay, the sample, a full queue…).
+    #[error("{0}")]
+    NotSent(&'static str),
 }
 
 /// The panes.

@@ -42,8 +42,8 @@ pub mod shell;
 pub mod view;
 
 pub use app::{
-    App, Command, CommandRequest, Effect, Event, JobResult, MapMode, Overlay, Pane, Pending,
-    Target, update,
+    App, Command, CommandError, CommandRequest, Effect, Event, JobResult, MapMode, Overlay, Pane,
+    Pending, Target, update,
 };
 pub use config::{Thresholds, UiConfig};
 pub use keymap::{Action, Context, Key, KeyMap};
