@@ -203,8 +203,8 @@ impl<K: RunKind> Attach for KindRun<K> {
 
 /// Settings of the UI.
 pub struct SessionConfig {
-    /// Title-bar source text ("LIVE udpin:…", "DEMO (simulated)").
-    pub label: String,
+    /// The title bar's source ("LIVE udpin:…", "DEMO (simulated)").
+    pub source: crate::tui::Source,
     /// Keys and thresholds.
     pub ui: UiConfig,
     /// Where the log file is (shown in the help).
@@ -379,7 +379,7 @@ pub async fn run(
         })
     };
 
-    let mut app = App::new(cfg.ui, cfg.label);
+    let mut app = App::new(cfg.ui, cfg.source);
     app.log_file = cfg.log_file;
     let io = ShellIo {
         snapshots: snap_rx,

@@ -189,7 +189,13 @@ async fn measure(args: &BenchFleetArgs, exe: &Path) -> anyhow::Result<Figures> {
     )
     .await?;
 
-    let mut app = App::new(UiConfig::default(), format!("BENCH udpin:127.0.0.1:{port}"));
+    let mut app = App::new(
+        UiConfig::default(),
+        crate::tui::Source::new(
+            crate::tui::SourceKind::Bench,
+            format!("BENCH udpin:127.0.0.1:{port}"),
+        ),
+    );
     let _ = update(&mut app, Event::Resize(SCREEN.0, SCREEN.1));
     let mut terminal = Terminal::new(TestBackend::new(SCREEN.0, SCREEN.1))?;
     let mut log = LiveLog::default();

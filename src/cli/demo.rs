@@ -199,7 +199,10 @@ impl Demo {
         let path = ready.run_dir.path().to_path_buf();
         if self.tui {
             let face = Face::Ui {
-                config: crate::cli::run::ui_session(self.label),
+                config: crate::cli::run::ui_session(crate::tui::Source::new(
+                    crate::tui::SourceKind::Demo,
+                    self.label,
+                )),
                 auto_start: self.auto_start,
             };
             let end = ready.fly(&fleet, face).await;

@@ -170,16 +170,26 @@ enum Source {
 }
 
 impl Source {
-    fn label(&self) -> String {
+    fn label(&self) -> crate::tui::Source {
+        use crate::tui::{Source as S, SourceKind};
         match self {
-            Source::Replay(p, _) => format!(
-                "REPLAY {} (recorded, no vehicles connected)",
-                p.file_name()
-                    .map(|n| n.to_string_lossy().into_owned())
-                    .unwrap_or_default()
+            Source::Replay(p, _) => S::new(
+                SourceKind::Replay,
+                format!(
+                    "REPLAY {} (recorded, no vehicles connected)",
+                    p.file_name()
+                        .map(|n| n.to_string_lossy().into_owned())
+                        .unwrap_or_default()
+                ),
             ),
-            Source::Animated(_) => "SAMPLE: synthetic data, no vehicles connected".into(),
-            Source::Static(_) => "SAMPLE: static fixture, no vehicles connected".into(),
+            Source::Animated(_) => S::new(
+                SourceKind::Sample,
+                "SAMPLE: synthetic data, no vehicles connected",
+            ),
+            Source::Static(_) => S::new(
+                SourceKind::Sample,
+                "SAMPLE: static fixture, no vehicles connected",
+            ),
         }
     }
 
@@ -331,7 +341,10 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
             ..Default::default()
         },
         config: crate::app::session::SessionConfig {
-            label: format!("LIVE {}", connections.join(", ")),
+            source: crate::tui::Source::new(
+                crate::tui::SourceKind::Live,
+                format!("LIVE {}", connections.join(", ")),
+            ),
             ui: config,
             log_file: log_file.map(|p| p.display().to_string()),
         },
@@ -499,7 +512,10 @@ pub fn bench(args: TuiBenchArgs) -> anyhow::Result<ExitCode> {
     let apps: Vec<App> = [1u64, 2]
         .iter()
         .map(|&seed| {
-            let mut app = App::new(UiConfig::default(), "BENCH generated");
+            let mut app = App::new(
+                UiConfig::default(),
+                crate::tui::Source::new(crate::tui::SourceKind::Bench, "BENCH generated"),
+            );
             update(&mut app, Event::Resize(w, h));
             update(
                 &mut app,

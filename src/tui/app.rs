@@ -31,6 +31,41 @@ pub enum Event {
     Resize(u16, u16),
 }
 
+/// Where the UI's data comes from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum SourceKind {
+    /// Vehicles on MAVLink links (the title bar's source shows in the "ok" colour; every
+    /// other source in the warning colour: nothing there is flying for real).
+    Live,
+    /// The embedded simulator (`fleetmap demo`).
+    Demo,
+    /// A built-in sample (synthetic or a fixture).
+    Sample,
+    /// A recorded replay file.
+    Replay,
+    /// Generated data for a benchmark.
+    Bench,
+}
+
+/// The title bar's source: what kind of data the screen shows, and how to say so.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Source {
+    /// The kind of data.
+    pub kind: SourceKind,
+    /// The text, its first word the short form ("LIVE udpin:0.0.0.0:14550").
+    pub label: String,
+}
+
+impl Source {
+    /// A source of `kind` shown as `label`.
+    pub fn new(kind: SourceKind, label: impl Into<String>) -> Source {
+        Source {
+            kind,
+            label: label.into(),
+        }
+    }
+}
+
 /// Which vehicles a command is for.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum Target {
@@ -274,7 +309,7 @@ pub struct App {
     /// The latest snapshot.
     pub model: Model,
     /// What the screen shows, said plainly in the title bar ("LIVE", "REPLAY file", "SAMPLE").
-    pub source: String,
+    pub source: Source,
     /// Pane with the keyboard focus.
     pub focus: Pane,
     /// In the compact layout, the pane shown below the fleet table.
@@ -306,11 +341,11 @@ pub struct App {
 
 impl App {
     /// A UI with `config`, an empty model and `source` in the title bar.
-    pub fn new(config: UiConfig, source: impl Into<String>) -> App {
+    pub fn new(config: UiConfig, source: Source) -> App {
         App {
             config,
             model: Model::default(),
-            source: source.into(),
+            source,
             focus: Pane::Fleet,
             lower: Pane::Map,
             selected: None,

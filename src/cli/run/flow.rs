@@ -39,7 +39,7 @@ pub async fn fly<K: RunKind>(
     fleet: &FleetHandle,
     ready: Ready<K>,
     headless: bool,
-    label: String,
+    source: crate::tui::Source,
 ) -> anyhow::Result<ExitCode> {
     let path = ready.run_dir.path().to_path_buf();
     if headless || !crate::cli::tui::interactive() {
@@ -74,7 +74,7 @@ pub async fn fly<K: RunKind>(
         };
     }
     let face = Face::Ui {
-        config: ui_session(label),
+        config: ui_session(source),
         auto_start: true,
     };
     let finished = matches!(ready.fly(fleet, face).await?, Flown::Ui { finished: true });
@@ -93,9 +93,9 @@ pub async fn fly<K: RunKind>(
 }
 
 /// The UI settings of a terminal session: default keys and thresholds, the UI log file.
-pub fn ui_session(label: String) -> crate::app::session::SessionConfig {
+pub fn ui_session(source: crate::tui::Source) -> crate::app::session::SessionConfig {
     crate::app::session::SessionConfig {
-        label,
+        source,
         ui: crate::tui::UiConfig::default(),
         log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
     }
@@ -120,14 +120,17 @@ async fn connect_and_fly<K: RunKind>(
 ) -> anyhow::Result<ExitCode> {
     let session = Session::open(conn).await?;
     let connections: Vec<String> = conn.connect.iter().map(|c| c.to_string()).collect();
-    let label = format!("LIVE {}", connections_label(&conn.connect));
+    let source = crate::tui::Source::new(
+        crate::tui::SourceKind::Live,
+        format!("LIVE {}", connections_label(&conn.connect)),
+    );
     let result = async {
         let ready = prepare::<K>(&session.fleet, &connections, start, settings, wait).await?;
         match resumed {
             Some(dir) => println!("resuming {} ({})", dir.display(), ready.line),
             None => println!("{}", ready.line),
         }
-        fly::<K>(&session.fleet, ready, headless, label).await
+        fly::<K>(&session.fleet, ready, headless, source).await
     }
     .await;
     session.close().await?;
