@@ -10,9 +10,10 @@
 use crate::fleet::{self, FleetConfig, FleetHandle, VehicleSnapshot};
 use crate::link::ConnSpec;
 use crate::link::transport::LinkOptions;
-use crate::tui::app::{App, Event, update};
+use crate::tui::app::{App, Event};
 use crate::tui::config::UiConfig;
 use crate::tui::live::{LiveLog, build_model};
+use crate::tui::update::update;
 use crate::tui::{REFRESH, view};
 use anyhow::{Context, bail};
 use clap::Args;

@@ -39,11 +39,12 @@ pub mod model;
 pub mod replay;
 pub mod sample;
 pub mod shell;
+pub mod update;
 pub mod view;
 
 pub use app::{
     App, Command, CommandError, CommandRequest, Effect, Event, JobResult, MapMode, Overlay, Pane,
-    Pending, Source, SourceKind, Target, update,
+    Pending, Source, SourceKind, Target,
 };
 pub use config::{Thresholds, UiConfig};
 pub use keymap::{Action, Context, Key, KeyMap};
@@ -53,3 +54,4 @@ pub use model::{
     Stat, Track, VehicleRow, VehicleType,
 };
 pub use shell::{REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, run, run_loop};
+pub use update::update;
