@@ -6,13 +6,16 @@
 //! generated 50-vehicle fleet so that the diff is never empty.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fleetmap::tui::{App, Event, UiConfig, sample, update, view};
+use fleetmap::tui::{App, Event, Source, SourceKind, UiConfig, sample, update, view};
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 use std::hint::black_box;
 
 fn app_with(n: usize, seed: u64, w: u16, h: u16) -> App {
-    let mut app = App::new(UiConfig::default(), "BENCH generated");
+    let mut app = App::new(
+        UiConfig::default(),
+        Source::new(SourceKind::Bench, "BENCH generated"),
+    );
     update(&mut app, Event::Resize(w, h));
     update(
         &mut app,

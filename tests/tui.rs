@@ -23,7 +23,10 @@ use common::pty;
 // ---------------------------------------------------------------- helpers
 
 fn app_with(model: Model, w: u16, h: u16) -> App {
-    let mut app = App::new(UiConfig::default(), "SAMPLE: test fixture");
+    let mut app = App::new(
+        UiConfig::default(),
+        Source::new(SourceKind::Sample, "SAMPLE: test fixture"),
+    );
     update(&mut app, Event::Resize(w, h));
     update(&mut app, Event::Tick(model.time));
     update(&mut app, Event::Snapshot(Box::new(model)));
@@ -125,7 +128,10 @@ fn snapshot_every_pane_at_both_sizes() {
         insta::assert_snapshot!(format!("{tag}_fifty_vehicles"), draw(&app, w, h).backend());
 
         // Nothing received yet.
-        let app = App::new(UiConfig::default(), "LIVE udpin:0.0.0.0:14550");
+        let app = App::new(
+            UiConfig::default(),
+            Source::new(SourceKind::Live, "LIVE udpin:0.0.0.0:14550"),
+        );
         insta::assert_snapshot!(format!("{tag}_empty"), draw(&app, w, h).backend());
     }
     let app = app_with(sample::runway_fixture(), 50, 12);
@@ -301,7 +307,7 @@ fn warnings_use_colour_and_selection_uses_reverse_video() {
 fn battery_thresholds_are_configurable() {
     let cfg = UiConfig::from_toml_str("[thresholds]\nbattery_warn_pct = 10\nbattery_crit_pct = 5\ncell_warn_v = 3.0\ncell_crit_v = 2.9\n")
         .expect("valid config");
-    let mut app = App::new(cfg, "SAMPLE");
+    let mut app = App::new(cfg, Source::new(SourceKind::Sample, "SAMPLE"));
     update(&mut app, Event::Resize(250, 70));
     update(
         &mut app,
@@ -481,7 +487,7 @@ fn the_help_lists_every_binding_from_the_key_map() {
     // Rebind a few keys: the help must follow.
     let cfg = UiConfig::from_toml_str("[keys]\nland = \"L\"\nrtl_all = [\"T\", \"ctrl-r\"]\n")
         .expect("valid");
-    let mut app = App::new(cfg.clone(), "SAMPLE");
+    let mut app = App::new(cfg.clone(), Source::new(SourceKind::Sample, "SAMPLE"));
     update(
         &mut app,
         Event::Snapshot(Box::new(sample::runway_fixture())),
@@ -591,7 +597,7 @@ fn dangerous_commands_need_y_and_n_or_esc_cancel() {
         &mut app,
         Event::JobResult(JobResult {
             id: req.id,
-            outcome: Err("COMMAND_ACK: denied".into()),
+            outcome: Err(CommandError::Vehicles(vec!["COMMAND_ACK: denied".into()])),
         }),
     );
     assert!(app.pending.is_empty());
@@ -642,7 +648,7 @@ fn quit_asks_and_ctrl_c_does_not() {
 
 #[test]
 fn commands_without_a_selected_vehicle_explain_why() {
-    let mut app = App::new(UiConfig::default(), "LIVE");
+    let mut app = App::new(UiConfig::default(), Source::new(SourceKind::Live, "LIVE"));
     assert!(press(&mut app, ch('t')).is_empty());
     assert_eq!(app.overlay, Overlay::None);
     assert_eq!(
@@ -735,7 +741,10 @@ async fn the_shell_loop_routes_snapshots_keys_commands_and_results() {
         tick: Duration::from_millis(20),
         clock: MonotonicClock::new(),
     };
-    let app = App::new(UiConfig::default(), "LIVE test");
+    let app = App::new(
+        UiConfig::default(),
+        Source::new(SourceKind::Live, "LIVE test"),
+    );
     let ui = tokio::spawn(async move {
         let mut terminal = Terminal::new(TestBackend::new(80, 24)).expect("backend");
         let app = run_loop(&mut terminal, app, input_rx, io, options).await;
@@ -821,7 +830,10 @@ async fn frames_drawn(secs: f64, feed: Option<(Duration, Duration)>) -> usize {
     };
     let options = ShellOptions::default();
     assert_eq!(options.tick, REFRESH);
-    let app = App::new(UiConfig::default(), "LIVE test");
+    let app = App::new(
+        UiConfig::default(),
+        Source::new(SourceKind::Live, "LIVE test"),
+    );
     let feeder = tokio::spawn(async move {
         let Some((every, phase)) = feed else {
             return snap_tx;

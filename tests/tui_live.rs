@@ -180,7 +180,10 @@ fn app(w: u16, h: u16) -> App {
         failed: None,
     };
     let model = build_model(&fs, Some(((&s).into(), &info)), &log);
-    let mut app = App::new(UiConfig::default(), "LIVE udpout:127.0.0.1:14560");
+    let mut app = App::new(
+        UiConfig::default(),
+        Source::new(SourceKind::Live, "LIVE udpout:127.0.0.1:14560"),
+    );
     update(&mut app, Event::Resize(w, h));
     update(&mut app, Event::Tick(model.time));
     update(&mut app, Event::Snapshot(Box::new(model)));
@@ -379,7 +382,10 @@ fn live_classification_run_shows_labels_obstacles_roads_and_the_team() {
     assert_eq!(m.vehicles[0].activity.as_deref(), Some("charging (3, 1)"));
     assert_eq!(m.vehicles[5].activity.as_deref(), Some("station (3, 4)"));
 
-    let mut app = App::new(UiConfig::default(), "DEMO (simulated)");
+    let mut app = App::new(
+        UiConfig::default(),
+        Source::new(SourceKind::Demo, "DEMO (simulated)"),
+    );
     for (w, h) in [(250u16, 70u16), (80, 24)] {
         update(&mut app, Event::Resize(w, h));
         update(&mut app, Event::Tick(m.time));

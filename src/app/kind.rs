@@ -3,21 +3,23 @@
 //!
 //! The two kinds are [`crate::app::runway::Runway`] (runway mapping, `run.json` kind
 //! `runway-mapping`) and [`crate::app::bandit::Classification`] (spatial classification,
-//! `spatial-classification`). A run directory remembers its kind; [`Kind`] is that name read
-//! back, and the commands dispatch on it once.
+//! `spatial-classification`). A run directory remembers its kind; the commands dispatch on
+//! it once, through the registry [`crate::app::kinds`].
 
 use crate::app::run::Progress;
-use crate::app::session::SessionRun;
 use crate::fleet::FleetHandle;
 use crate::mission::definition::MissionDef;
 use crate::sim::world::World;
-use crate::store::{RunDir, RunMeta};
+use crate::store::RunDir;
+use crate::tui::live::RunView;
+use crate::tui::{Command, CommandError, Target};
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::future::Future;
 use std::path::PathBuf;
+use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, watch};
 
 /// How a run ended.
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -44,6 +46,43 @@ pub enum ExportFormat {
     Png,
 }
 
+/// What the TUI session gives a run it flies ([`RunKind::fly_attached`]).
+pub struct Attached<K: RunKind + ?Sized> {
+    /// Progress lines (the session's log).
+    pub progress: mpsc::UnboundedSender<Progress>,
+    /// The state after every change (the panes).
+    pub view: watch::Sender<Arc<K::State>>,
+    /// The operator's mission-level commands.
+    pub operator: mpsc::UnboundedReceiver<K::Operator>,
+}
+
+/// A mission-level command's reply ([`RunKind::command`]).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct CommandReply {
+    /// What to tell the operator.
+    pub text: String,
+    /// The run is now paused (`Some(true)`) or running again (`Some(false)`).
+    pub paused: Option<bool>,
+}
+
+impl CommandReply {
+    /// A reply that does not change whether the run is paused.
+    pub fn text(text: impl Into<String>) -> CommandReply {
+        CommandReply {
+            text: text.into(),
+            paused: None,
+        }
+    }
+
+    /// A reply to a pause (`true`) or resume (`false`).
+    pub fn paused(paused: bool, text: impl Into<String>) -> CommandReply {
+        CommandReply {
+            text: text.into(),
+            paused: Some(paused),
+        }
+    }
+}
+
 /// The operator's choices for a run (`fleetmap run` / `resume` options, the demo's, the TUI's).
 #[derive(Clone, Debug)]
 pub struct RunSettings {
@@ -58,6 +97,10 @@ pub struct RunSettings {
     pub lock_step: Option<bool>,
     /// Spatial classification: HiGHS time limit per integer-program solve, seconds.
     pub plan_time_limit_s: Option<f64>,
+    /// Runway mapping with a moving region: when the region was where the mission's world
+    /// draws it, milliseconds since the Unix epoch (the demo's simulator start; `None`: the
+    /// run's start).
+    pub roi_epoch_unix_ms: Option<u64>,
 }
 
 impl Default for RunSettings {
@@ -68,12 +111,13 @@ impl Default for RunSettings {
             sharing: crate::explore::Sharing::Gcs,
             lock_step: None,
             plan_time_limit_s: None,
+            roi_epoch_unix_ms: None,
         }
     }
 }
 
 /// A mission kind (see the module docs). Its methods are the parts in which the two missions
-/// differ; [`Kind`] and the generic commands in `cli::run` do the rest once.
+/// differ; the generic commands ([`crate::app::launch`], `cli::run`) do the rest once.
 pub trait RunKind: Send + Sync + 'static {
     /// The `kind` in `run.json`.
     const KIND: &'static str;
@@ -87,6 +131,8 @@ pub trait RunKind: Send + Sync + 'static {
     type Event: DeserializeOwned + Send + 'static;
     /// What `fleetmap report` shows (its JSON form is `--json`).
     type Report: Serialize + Send + 'static;
+    /// A mission-level command of the operator, as the runner takes it (the TUI session).
+    type Operator: Send + 'static;
 
     /// The mission's name.
     fn mission(state: &Self::State) -> &str;
@@ -126,14 +172,27 @@ pub trait RunKind: Send + Sync + 'static {
         options: Self::Options,
         progress: Option<mpsc::UnboundedSender<Progress>>,
     ) -> impl Future<Output = anyhow::Result<(Outcome, Self::State)>> + Send;
-    /// The run for the TUI session; `on_finish` is called with the final state.
-    fn session_run(
+    /// Fly the run in the TUI session ([`crate::app::session`]): like [`RunKind::fly`], with
+    /// the state published after every change and the operator's mission-level commands
+    /// (those [`RunKind::command`] sent) taken as they come.
+    fn fly_attached(
+        fleet: &FleetHandle,
         run_dir: RunDir,
         state: Self::State,
         options: Self::Options,
-        auto_start: bool,
-        on_finish: Option<crate::app::session::OnFinish<Self::State>>,
-    ) -> SessionRun;
+        attached: Attached<Self>,
+    ) -> impl Future<Output = anyhow::Result<(Outcome, Self::State)>> + Send;
+    /// What the operator's `command` to `target` (the vehicles `targets`) means for a
+    /// running run of this kind: a mission-level command sent on `operator` and the reply,
+    /// a refusal, or `None` when the command goes to the vehicles themselves.
+    fn command(
+        command: Command,
+        target: Target,
+        targets: &[u8],
+        operator: &mpsc::UnboundedSender<Self::Operator>,
+    ) -> Option<Result<CommandReply, CommandError>>;
+    /// The state as the TUI's panes show it.
+    fn view(state: &Self::State) -> RunView<'_>;
 
     /// The report, scored against `world`'s ground truth when there is one.
     fn report(state: &Self::State, world: Option<&World>) -> anyhow::Result<Self::Report>;
@@ -147,41 +206,6 @@ pub trait RunKind: Send + Sync + 'static {
         world: Option<&World>,
         format: ExportFormat,
     ) -> anyhow::Result<(&'static str, Vec<u8>)>;
-}
-
-/// The kind of a run directory, as `run.json` names it.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Kind {
-    /// [`crate::app::runway::Runway`].
-    RunwayMapping,
-    /// [`crate::app::bandit::Classification`].
-    SpatialClassification,
-}
-
-impl Kind {
-    /// The kind of a mission definition.
-    pub fn of_mission(def: &MissionDef) -> Kind {
-        match def.kind {
-            crate::mission::definition::MissionKind::RunwayMapping => Kind::RunwayMapping,
-            crate::mission::definition::MissionKind::SpatialClassification => {
-                Kind::SpatialClassification
-            }
-        }
-    }
-
-    /// The kind `run.json` names, or a clear error for a kind this build does not know.
-    pub fn of_run(meta: &RunMeta) -> anyhow::Result<Kind> {
-        use crate::app::{bandit::Classification, runway::Runway};
-        match meta.kind.as_str() {
-            Runway::KIND => Ok(Kind::RunwayMapping),
-            Classification::KIND => Ok(Kind::SpatialClassification),
-            other => anyhow::bail!(
-                "a {other} run; this build knows {} and {} runs",
-                Runway::KIND,
-                Classification::KIND
-            ),
-        }
-    }
 }
 
 /// Wait up to `wait` for vehicle `sysid`'s heartbeat (a clear error when it stays silent).

@@ -19,6 +19,8 @@ pub mod demo;
 pub mod flight;
 pub mod images;
 pub mod kind;
+pub mod kinds;
+pub mod launch;
 pub mod run;
 pub mod runway;
 pub mod session;

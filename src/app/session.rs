@@ -8,33 +8,30 @@
 //!   differ from the previous one; the fleet is asked to publish its snapshots at least as
 //!   often (in wall time), so that each frame shows fresh telemetry;
 //! * the **command executor** carries out the operator's commands — mission-level ones
-//!   through the runner's [`Operator`] channel (pause, resume, recall, land, battery
-//!   swapped), vehicle-level ones through the fleet (arm, disarm, RTL, land, hold) — and
-//!   answers each with a [`JobResult`];
-//! * the **runner** ([`crate::app::runway::run`] or [`crate::app::bandit::run`]) once the
-//!   operator starts the mission (or at once with `auto_start`).
+//!   through the runner, as the run's kind means them ([`RunKind::command`]: runway
+//!   mapping's pause, resume, recall, land, battery swapped; spatial classification's
+//!   pause of the next sortie), vehicle-level ones through the fleet (arm, disarm, RTL,
+//!   land, hold) — and answers each with a [`JobResult`];
+//! * the **runner** ([`RunKind::fly_attached`]) once the operator starts the mission (or
+//!   at once with `auto_start`).
 //!
-//! A spatial-classification run has no per-vehicle mission commands: its PAUSE holds the
-//! next sortie (the drones in the air finish theirs and land on their stations), and RTL,
-//! LAND, ARM and DISARM go straight to the vehicle (the run then stops at the next
-//! rendezvous it misses; `fleetmap resume` re-plans from where the team is).
+//! The session knows no mission kind: a [`SessionRun`] is any [`RunKind`]'s run.
 //!
 //! The UI never waits on any of them: it only reads the latest model and queues commands.
 
-use crate::app::bandit;
 use crate::app::flight;
-use crate::app::images;
+use crate::app::kind::{Attached, CommandReply, Outcome, RunKind};
 use crate::app::run::Progress;
-use crate::app::runway::{self, Operator, Outcome, RunOptions};
-use crate::explore::mapping::MappingState;
+use crate::app::runway::cpu;
 use crate::fleet::FleetHandle;
-use crate::planner::sortie::ClassificationState;
 use crate::store::RunDir;
 use crate::tui::live::{LiveLog, RunInfo, RunView, build_model};
 use crate::tui::{
-    App, Command, CommandRequest, JobResult, Model, REFRESH, Severity, ShellIo, ShellOptions,
-    Target, UiConfig,
+    App, Command, CommandError, CommandRequest, JobResult, Model, REFRESH, Severity, ShellIo,
+    ShellOptions, Target, UiConfig,
 };
+use std::future::Future;
+use std::pin::Pin;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::{mpsc, watch};
@@ -42,97 +39,172 @@ use tokio::sync::{mpsc, watch};
 /// What to do with a finished run's final state `S` (write its exports).
 pub type OnFinish<S> = Box<dyn FnOnce(&RunDir, &S) + Send>;
 
-/// A run the session drives.
-pub struct MappingRun {
-    /// Its directory.
-    pub run_dir: RunDir,
-    /// Its state (new or loaded).
-    pub state: MappingState,
-    /// Start at once instead of waiting for the operator's START.
-    pub auto_start: bool,
-    /// Options of the runner (operator, progress and view are set by the session).
-    pub options: RunOptions,
-    /// Called with the final state when the run finishes (exports, reports).
-    pub on_finish: Option<OnFinish<MappingState>>,
-}
-
-/// A spatial-classification run the session drives.
-pub struct ClassificationRun {
-    /// Its directory.
-    pub run_dir: RunDir,
-    /// Its state (new or loaded).
-    pub state: ClassificationState,
-    /// Start at once instead of waiting for the operator's START.
-    pub auto_start: bool,
-    /// Options of the runner (progress, view and pause are set by the session).
-    pub options: bandit::RunOptions,
-    /// Called with the final state when the run finishes.
-    pub on_finish: Option<OnFinish<ClassificationState>>,
-}
-
-/// The run attached to a session.
-pub enum SessionRun {
-    /// Runway mapping.
-    Mapping(Box<MappingRun>),
-    /// Spatial classification.
-    Classification(Box<ClassificationRun>),
-}
-
-impl From<MappingRun> for SessionRun {
-    fn from(m: MappingRun) -> Self {
-        SessionRun::Mapping(Box::new(m))
-    }
-}
-
-impl From<ClassificationRun> for SessionRun {
-    fn from(m: ClassificationRun) -> Self {
-        SessionRun::Classification(Box::new(m))
-    }
-}
+/// A run the session drives, of any kind (the session is written once, for every
+/// [`RunKind`]).
+pub struct SessionRun(Box<dyn Attach>);
 
 impl SessionRun {
+    /// The run in `run_dir` of kind `K` from `state`, flown with `options`; it starts at
+    /// once with `auto_start`, otherwise on the operator's START; `on_finish` is called
+    /// with the final state when it finishes (exports, reports).
+    pub fn new<K: RunKind>(
+        run_dir: RunDir,
+        state: K::State,
+        options: K::Options,
+        auto_start: bool,
+        on_finish: Option<OnFinish<K::State>>,
+    ) -> SessionRun {
+        SessionRun(Box::new(KindRun::<K> {
+            run_dir,
+            state,
+            options,
+            auto_start,
+            on_finish,
+        }))
+    }
+}
+
+/// A run of kind `K`, before it starts.
+struct KindRun<K: RunKind> {
+    run_dir: RunDir,
+    state: K::State,
+    options: K::Options,
+    auto_start: bool,
+    on_finish: Option<OnFinish<K::State>>,
+}
+
+/// The latest state of the attached run (what the panes show), of whatever kind.
+type RunState = Arc<dyn ShowRun>;
+
+/// A run's state as the panes show it.
+trait ShowRun: Send + Sync {
+    fn view(&self) -> RunView<'_>;
+}
+
+/// A state of kind `K`.
+struct Shown<K: RunKind>(Arc<K::State>);
+
+impl<K: RunKind> ShowRun for Shown<K> {
+    fn view(&self) -> RunView<'_> {
+        K::view(&self.0)
+    }
+}
+
+/// The operator's mission-level commands to a running run, of whatever kind.
+trait MissionCommands: Send {
+    /// See [`RunKind::command`].
+    fn command(
+        &self,
+        command: Command,
+        target: Target,
+        targets: &[u8],
+    ) -> Option<Result<CommandReply, CommandError>>;
+}
+
+/// The command channel of a run of kind `K`.
+struct Operators<K: RunKind>(mpsc::UnboundedSender<K::Operator>);
+
+impl<K: RunKind> MissionCommands for Operators<K> {
+    fn command(
+        &self,
+        command: Command,
+        target: Target,
+        targets: &[u8],
+    ) -> Option<Result<CommandReply, CommandError>> {
+        K::command(command, target, targets, &self.0)
+    }
+}
+
+/// How a run the session flew ended: `Ok(None)` when it finished, `Ok(Some(why))` when it
+/// waits for the operator; its run directory; the task relaying its states to the view.
+type Driven = (
+    anyhow::Result<Option<String>>,
+    std::path::PathBuf,
+    tokio::task::JoinHandle<()>,
+);
+
+/// The flight of an attached run, once started.
+type Flight = Pin<Box<dyn Future<Output = Driven> + Send>>;
+
+/// A run of some kind, type-erased for the session.
+trait Attach: Send {
+    fn name(&self) -> String;
+    fn auto_start(&self) -> bool;
+    fn view(&self) -> RunState;
+    /// Its mission-level commands, and the flight to run once the operator STARTs it
+    /// (progress lines to `progress`, states to `view`).
+    fn fly(
+        self: Box<Self>,
+        fleet: FleetHandle,
+        progress: mpsc::UnboundedSender<Progress>,
+        view: watch::Sender<Option<RunState>>,
+    ) -> (Box<dyn MissionCommands>, Flight);
+}
+
+impl<K: RunKind> Attach for KindRun<K> {
     fn name(&self) -> String {
-        match self {
-            SessionRun::Mapping(m) => m.state.mission.clone(),
-            SessionRun::Classification(m) => m.state.mission.clone(),
-        }
+        K::mission(&self.state).to_string()
     }
 
     fn auto_start(&self) -> bool {
-        match self {
-            SessionRun::Mapping(m) => m.auto_start,
-            SessionRun::Classification(m) => m.auto_start,
-        }
+        self.auto_start
     }
 
     fn view(&self) -> RunState {
-        match self {
-            SessionRun::Mapping(m) => RunState::Mapping(Arc::new(m.state.clone())),
-            SessionRun::Classification(m) => RunState::Classification(Arc::new(m.state.clone())),
-        }
+        Arc::new(Shown::<K>(Arc::new(self.state.clone())))
     }
-}
 
-/// The latest state of the attached run (what the panes show).
-#[derive(Clone)]
-enum RunState {
-    Mapping(Arc<MappingState>),
-    Classification(Arc<ClassificationState>),
-}
-
-impl RunState {
-    fn view(&self) -> RunView<'_> {
-        match self {
-            RunState::Mapping(s) => RunView::Mapping(s),
-            RunState::Classification(s) => RunView::Classification(s),
-        }
+    fn fly(
+        self: Box<Self>,
+        fleet: FleetHandle,
+        progress: mpsc::UnboundedSender<Progress>,
+        view_tx: watch::Sender<Option<RunState>>,
+    ) -> (Box<dyn MissionCommands>, Flight) {
+        let (op_tx, op_rx) = mpsc::unbounded_channel::<K::Operator>();
+        let m = *self;
+        let flight = async move {
+            let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
+            let relay = tokio::spawn(async move {
+                while vrx.changed().await.is_ok() {
+                    let s = vrx.borrow_and_update().clone();
+                    let _ = view_tx.send(Some(Arc::new(Shown::<K>(s))));
+                }
+            });
+            let path = m.run_dir.path().to_path_buf();
+            let attached = Attached {
+                progress,
+                view: vtx,
+                operator: op_rx,
+            };
+            let r = K::fly_attached(&fleet, m.run_dir, m.state, m.options, attached).await;
+            let r = match r {
+                Ok((Outcome::Finished, state)) => {
+                    // The outputs are file I/O: off the runtime workers.
+                    let at = path.clone();
+                    let on_finish = m.on_finish;
+                    let _ = cpu(move || {
+                        if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at)) {
+                            f(&rd, &state);
+                        }
+                    })
+                    .await;
+                    Ok(None)
+                }
+                Ok((Outcome::WaitingForOperator { sysids }, _)) => {
+                    Ok(Some(format!("vehicles {sysids:?} wait for the operator")))
+                }
+                Err(e) => Err(e),
+            };
+            (r, path, relay)
+        };
+        (Box::new(Operators::<K>(op_tx)), Box::pin(flight))
     }
 }
 
 /// Settings of the UI.
 pub struct SessionConfig {
-    /// Title-bar source text ("LIVE udpin:…", "DEMO (simulated)").
-    pub label: String,
+    /// The title bar's source ("LIVE udpin:…", "DEMO (simulated)").
+    pub source: crate::tui::Source,
     /// Keys and thresholds.
     pub ui: UiConfig,
     /// Where the log file is (shown in the help).
@@ -220,7 +292,7 @@ pub async fn run(
         tracing::warn!("the fleet did not take the UI's snapshot period: {e}");
     }
     let (view_tx, view_rx) = watch::channel::<Option<RunState>>(None);
-    let name = mission.as_ref().map(SessionRun::name).unwrap_or_default();
+    let name = mission.as_ref().map(|m| m.0.name()).unwrap_or_default();
     let shared = Arc::new(Shared {
         log: Mutex::new(LiveLog::default()),
         info: Mutex::new(RunInfo {
@@ -230,34 +302,22 @@ pub async fn run(
         view: view_rx,
         finished: Mutex::new(false),
     });
-    let (op_tx, op_rx) = mpsc::unbounded_channel::<Operator>();
-    let (pause_tx, pause_rx) = watch::channel(false);
     let (start_tx, start_rx) = tokio::sync::oneshot::channel::<()>();
-    let mut controls = Controls {
-        kind: mission.as_ref().map(|m| match m {
-            SessionRun::Mapping(_) => AttachedKind::Mapping,
-            SessionRun::Classification(_) => AttachedKind::Classification,
-        }),
-        start: Some(start_tx),
-        operator: op_tx,
-        pause: pause_tx,
-    };
+    let has_run = mission.is_some();
+    let mut start = Some(start_tx);
 
-    // The runner.
-    let runner = mission.map(|m| {
+    // The runner: it flies once the operator STARTs it; its mission-level commands reach
+    // the executor when it does.
+    let (commands_tx, commands_rx) = tokio::sync::oneshot::channel::<Box<dyn MissionCommands>>();
+    let runner = mission.map(|SessionRun(m)| {
         let _ = view_tx.send(Some(m.view()));
         if m.auto_start()
-            && let Some(tx) = controls.start.take()
+            && let Some(tx) = start.take()
         {
             let _ = tx.send(());
         }
         let fleet = fleet.clone();
         let shared = shared.clone();
-        let channels = RunChannels {
-            view: view_tx,
-            operator: op_rx,
-            pause: pause_rx,
-        };
         tokio::spawn(async move {
             if start_rx.await.is_err() {
                 return;
@@ -277,13 +337,21 @@ pub async fn run(
                     }
                 })
             };
-            let (result, path, relay) = drive_run(m, fleet.clone(), ptx, channels).await;
+            let (commands, flight) = m.fly(fleet.clone(), ptx, view_tx);
+            let _ = commands_tx.send(commands);
+            let (result, path, relay) = flight.await;
             log_end(&shared, fleet.clock().now(), result, &path);
             tokio::time::sleep(Duration::from_millis(300)).await;
             logger.abort();
             relay.abort();
         })
     });
+    let mut controls = Controls {
+        has_run,
+        start,
+        commands: None,
+        commands_rx: Some(commands_rx),
+    };
 
     // The model producer.
     let (producer, snap_rx) = spawn_model_producer(fleet.clone(), shared.clone(), REFRESH);
@@ -311,7 +379,7 @@ pub async fn run(
         })
     };
 
-    let mut app = App::new(cfg.ui, cfg.label);
+    let mut app = App::new(cfg.ui, cfg.source);
     app.log_file = cfg.log_file;
     let io = ShellIo {
         snapshots: snap_rx,
@@ -337,127 +405,28 @@ pub async fn run(
     Ok(SessionEnd::Quit { finished })
 }
 
-/// The kind of run attached to the session (what its mission-level commands mean).
-#[derive(Clone, Copy, PartialEq, Eq)]
-enum AttachedKind {
-    Mapping,
-    Classification,
-}
-
 /// What the command executor holds of the attached run.
 struct Controls {
-    /// The attached run's kind (`None`: the session has no run).
-    kind: Option<AttachedKind>,
+    /// Whether the session has a run.
+    has_run: bool,
     /// The operator's START, until it is given.
     start: Option<tokio::sync::oneshot::Sender<()>>,
-    /// Mission-level commands to the runway runner.
-    operator: mpsc::UnboundedSender<Operator>,
-    /// The spatial-classification runner's pause.
-    pause: watch::Sender<bool>,
+    /// The running run's mission-level commands.
+    commands: Option<Box<dyn MissionCommands>>,
+    /// Where they come from once the run starts.
+    commands_rx: Option<tokio::sync::oneshot::Receiver<Box<dyn MissionCommands>>>,
 }
 
-/// What the runner task takes from the session: where to publish the view, and the
-/// operator's channels.
-struct RunChannels {
-    view: watch::Sender<Option<RunState>>,
-    operator: mpsc::UnboundedReceiver<Operator>,
-    pause: watch::Receiver<bool>,
-}
-
-/// Fly the attached run to its end (its final state goes to `on_finish`, off the runtime's
-/// workers). Returns `Ok(None)` when it finished, `Ok(Some(why))` when it waits for the
-/// operator, its run directory, and the task relaying its states to the view.
-async fn drive_run(
-    m: SessionRun,
-    fleet: FleetHandle,
-    progress: mpsc::UnboundedSender<Progress>,
-    channels: RunChannels,
-) -> (
-    anyhow::Result<Option<String>>,
-    std::path::PathBuf,
-    tokio::task::JoinHandle<()>,
-) {
-    let RunChannels {
-        view: view_tx,
-        operator,
-        pause,
-    } = channels;
-    match m {
-        SessionRun::Mapping(m) => {
-            let m = *m;
-            let hub = images::spawn(&fleet);
-            let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
-            let relay = tokio::spawn(async move {
-                while vrx.changed().await.is_ok() {
-                    let s = vrx.borrow_and_update().clone();
-                    let _ = view_tx.send(Some(RunState::Mapping(s)));
-                }
-            });
-            let path = m.run_dir.path().to_path_buf();
-            let opts = RunOptions {
-                operator: Some(operator),
-                progress: Some(progress),
-                view: Some(vtx),
-                ..m.options
-            };
-            let r = runway::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
-            let r = match r {
-                Ok(Outcome::Finished) => {
-                    // The outputs are file I/O: off the runtime workers.
-                    let at = path.clone();
-                    let on_finish = m.on_finish;
-                    let _ = runway::cpu(move || {
-                        if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at))
-                            && let Ok(Some(state)) = rd.load_state::<MappingState>()
-                        {
-                            f(&rd, &state);
-                        }
-                    })
-                    .await;
-                    Ok(None)
-                }
-                Ok(Outcome::WaitingForOperator { sysids }) => {
-                    Ok(Some(format!("vehicles {sysids:?} wait for the operator")))
-                }
-                Err(e) => Err(e),
-            };
-            (r, path, relay)
+impl Controls {
+    /// The running run's mission-level commands, once it has started (`None` before).
+    async fn mission(&mut self, started: bool) -> Option<&dyn MissionCommands> {
+        if self.commands.is_none()
+            && started
+            && let Some(rx) = self.commands_rx.take()
+        {
+            self.commands = rx.await.ok();
         }
-        SessionRun::Classification(m) => {
-            let m = *m;
-            let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
-            let relay = tokio::spawn(async move {
-                while vrx.changed().await.is_ok() {
-                    let s = vrx.borrow_and_update().clone();
-                    let _ = view_tx.send(Some(RunState::Classification(s)));
-                }
-            });
-            let path = m.run_dir.path().to_path_buf();
-            let opts = bandit::RunOptions {
-                progress: Some(progress),
-                view: Some(vtx),
-                pause: Some(pause),
-                ..m.options
-            };
-            let hub = crate::app::images::image_hub(&fleet);
-            let r = bandit::run(fleet.clone(), &hub, m.run_dir, m.state, opts).await;
-            let r = match r {
-                Ok(state) => {
-                    // The outputs are file I/O: off the runtime workers.
-                    let at = path.clone();
-                    let on_finish = m.on_finish;
-                    let _ = runway::cpu(move || {
-                        if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at)) {
-                            f(&rd, &state);
-                        }
-                    })
-                    .await;
-                    Ok(None)
-                }
-                Err(e) => Err(e),
-            };
-            (r, path, relay)
-        }
+        self.commands.as_deref()
     }
 }
 
@@ -502,117 +471,66 @@ fn log_end(
     }
 }
 
-/// Carry out one operator command: mission-level ones through the runner, vehicle-level ones
-/// through the fleet. Returns what to tell the operator.
+/// Carry out one operator command: mission-level ones through the runner (what they mean
+/// is the run's kind's [`RunKind::command`]), vehicle-level ones through the fleet. Returns
+/// what to tell the operator.
 async fn execute(
     req: &CommandRequest,
     controls: &mut Controls,
     fleet: &FleetHandle,
     shared: &Shared,
-) -> Result<String, String> {
+) -> Result<String, CommandError> {
     let started = shared.info.lock().map(|i| i.started).unwrap_or(false);
-    let has_run = controls.kind.is_some();
-    let running = has_run && started;
-    let classification = controls.kind == Some(AttachedKind::Classification);
-    // Runway mapping: mission-level commands go through the runner.
-    let mapping = running && !classification;
-    let set_paused = |p: bool| {
-        if let Ok(mut i) = shared.info.lock() {
-            i.paused = p;
-        }
-    };
     let targets: Vec<u8> = match req.target {
         Target::Vehicle(v) => vec![v],
         Target::All => fleet.snapshot().vehicles.keys().copied().collect(),
     };
-    let op = &controls.operator;
+    if req.command == Command::Start {
+        return if !controls.has_run {
+            Err(CommandError::NoMission)
+        } else if let Some(tx) = controls.start.take() {
+            let _ = tx.send(());
+            Ok("mission started".into())
+        } else {
+            Err(CommandError::AlreadyRunning)
+        };
+    }
+    let running = controls.has_run && started;
+    if running
+        && let Some(mission) = controls.mission(started).await
+        && let Some(reply) = mission.command(req.command, req.target, &targets)
+    {
+        let reply = reply?;
+        if let Some(p) = reply.paused
+            && let Ok(mut i) = shared.info.lock()
+        {
+            i.paused = p;
+        }
+        return Ok(reply.text);
+    }
     match req.command {
-        Command::Start => {
-            if !has_run {
-                Err("no mission is loaded (start fleetmap with --mission or --resume)".into())
-            } else if let Some(tx) = controls.start.take() {
-                let _ = tx.send(());
-                Ok("mission started".into())
-            } else {
-                Err("the mission is already running".into())
-            }
+        Command::Resume => return Err(CommandError::NotStarted),
+        Command::BatterySwapped => return Err(CommandError::NotRunning),
+        _ => {}
+    }
+    let mut errors = Vec::new();
+    for v in &targets {
+        let r = match req.command {
+            Command::Hold => flight::hold_here(fleet, *v).await,
+            Command::Rtl => fleet.rtl(*v).await,
+            Command::Land => fleet.land(*v).await,
+            Command::Arm => fleet.arm(*v).await,
+            Command::Disarm => fleet.disarm(*v).await,
+            Command::Start | Command::Resume | Command::BatterySwapped => Ok(()),
+        };
+        if let Err(e) = r {
+            errors.push(e.to_string());
         }
-        Command::Hold if running && classification && matches!(req.target, Target::All) => {
-            let _ = controls.pause.send(true);
-            set_paused(true);
-            Ok(
-                "paused: no new sortie starts (drones in the air finish theirs and land on \
-                 their stations)"
-                    .into(),
-            )
-        }
-        Command::Resume if running && classification => {
-            let _ = controls.pause.send(false);
-            set_paused(false);
-            Ok("mission resumed".into())
-        }
-        Command::Hold if mapping => {
-            let _ = op.send(Operator::Pause);
-            set_paused(true);
-            Ok("every vehicle holds (the mission is paused)".into())
-        }
-        Command::Resume if mapping => {
-            let _ = op.send(Operator::Resume);
-            set_paused(false);
-            Ok("mission resumed".into())
-        }
-        Command::Resume => Err("no mission is running (START it first)".into()),
-        Command::Rtl if mapping => {
-            for v in &targets {
-                let _ = op.send(Operator::Recall(*v));
-            }
-            Ok(format!(
-                "returning home: {targets:?} (their vertices are kept)"
-            ))
-        }
-        Command::Land if mapping => {
-            for v in &targets {
-                let _ = op.send(Operator::Land(*v));
-            }
-            Ok(format!("landing: {targets:?} (their vertices are kept)"))
-        }
-        Command::BatterySwapped => {
-            if mapping {
-                for v in &targets {
-                    let _ = op.send(Operator::BatterySwapped(*v));
-                }
-                Ok("the vehicle resumes from its vertex".into())
-            } else if running {
-                Err(
-                    "the drones of a spatial-classification run charge on their stations: \
-                     there is no battery swap to confirm"
-                        .into(),
-                )
-            } else {
-                Err("no mission is running".into())
-            }
-        }
-        cmd => {
-            let mut errors = Vec::new();
-            for v in &targets {
-                let r = match cmd {
-                    Command::Hold => flight::hold_here(fleet, *v).await,
-                    Command::Rtl => fleet.rtl(*v).await,
-                    Command::Land => fleet.land(*v).await,
-                    Command::Arm => fleet.arm(*v).await,
-                    Command::Disarm => fleet.disarm(*v).await,
-                    _ => Ok(()),
-                };
-                if let Err(e) = r {
-                    errors.push(e.to_string());
-                }
-            }
-            if errors.is_empty() {
-                Ok("accepted".into())
-            } else {
-                Err(errors.join("; "))
-            }
-        }
+    }
+    if errors.is_empty() {
+        Ok("accepted".into())
+    } else {
+        Err(CommandError::Vehicles(errors))
     }
 }
 

@@ -10,9 +10,10 @@
 use crate::fleet::{self, FleetConfig, FleetHandle, VehicleSnapshot};
 use crate::link::ConnSpec;
 use crate::link::transport::LinkOptions;
-use crate::tui::app::{App, Event, update};
+use crate::tui::app::{App, Event};
 use crate::tui::config::UiConfig;
 use crate::tui::live::{LiveLog, build_model};
+use crate::tui::update::update;
 use crate::tui::{REFRESH, view};
 use anyhow::{Context, bail};
 use clap::Args;
@@ -189,7 +190,13 @@ async fn measure(args: &BenchFleetArgs, exe: &Path) -> anyhow::Result<Figures> {
     )
     .await?;
 
-    let mut app = App::new(UiConfig::default(), format!("BENCH udpin:127.0.0.1:{port}"));
+    let mut app = App::new(
+        UiConfig::default(),
+        crate::tui::Source::new(
+            crate::tui::SourceKind::Bench,
+            format!("BENCH udpin:127.0.0.1:{port}"),
+        ),
+    );
     let _ = update(&mut app, Event::Resize(SCREEN.0, SCREEN.1));
     let mut terminal = Terminal::new(TestBackend::new(SCREEN.0, SCREEN.1))?;
     let mut log = LiveLog::default();

@@ -3,15 +3,13 @@
 //! mission flown to the end, battery swaps included, sped up to finish within minutes.
 
 use crate::app::demo::{self, DemoConfig};
-use crate::app::flight::Patience;
-use crate::app::kind::{Outcome, RunKind};
+use crate::app::kind::{Outcome, RunKind, RunSettings};
+use crate::app::launch::{Face, Flown, NewRun, Start, finish_exports, prepare};
+use crate::app::runway::Runway;
 use crate::app::runway::report::MappingReport;
-use crate::app::runway::{RunOptions, Runway, cpu};
-use crate::cli::run::{drive, exports_on_finish, finish_exports, unix_ms};
 use crate::cli::vehicles::block_on;
-use crate::explore::Sharing;
+use crate::clock::unix_ms;
 use crate::sim::world::World;
-use crate::store::{RunDir, RunMeta};
 use anyhow::{Context as _, bail};
 use clap::Args;
 use std::path::PathBuf;
@@ -121,18 +119,15 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
                 cfg.drones, world.name, cfg.speedup
             );
         }
-        let mut state =
-            crate::app::new_mapping(&d.fleet, &def, Sharing::Gcs, Duration::from_secs(60)).await?;
-        // A moving region is where the world file draws it at the simulator's start.
-        if state.params.motion().speed() > 0.0 {
-            state.roi_epoch_unix_ms = Some(d.started_unix_ms);
-        }
         let demo = Demo {
-            dir,
-            mission_path: format!("built-in {mission_file}"),
-            text,
-            world,
-            world_text,
+            new: NewRun {
+                def,
+                text,
+                mission_path: format!("built-in {mission_file}"),
+                run_dir: Some(dir),
+                world_toml: Some(world_text),
+                extra: serde_json::Value::Null,
+            },
             tui,
             auto_start: !args.manual,
             json: args.json,
@@ -140,17 +135,17 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
                 "DEMO: {} simulated ArduPilot copter(s), {}x real time",
                 cfg.drones, cfg.speedup
             ),
-            extra: serde_json::Value::Null,
         };
-        let opts = RunOptions {
+        // A moving region is where the world file draws it at the simulator's start.
+        let settings = RunSettings {
             auto_resume: !args.manual,
-            patience: Patience { factor: 1.0 },
-            ..RunOptions::default()
+            roi_epoch_unix_ms: Some(d.started_unix_ms),
+            ..RunSettings::default()
         };
         let succeeded = |outcome: &Outcome, r: &MappingReport| {
             matches!(outcome, Outcome::Finished) && r.finished
         };
-        demo.fly::<Runway>(d.fleet, d.sim, state, opts, summary, succeeded)
+        demo.fly::<Runway>(d.fleet, d.sim, &settings, summary, succeeded)
             .await
     })?
 }
@@ -159,68 +154,82 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
 /// directory (with the world beside the state, so `fleetmap report DIR` scores it later),
 /// then the run in the terminal UI or headless with the report.
 struct Demo {
-    dir: PathBuf,
-    mission_path: String,
-    text: String,
-    world: World,
-    world_text: String,
+    /// The run to start (with the world, so `fleetmap report DIR` scores it later).
+    new: NewRun,
     tui: bool,
     auto_start: bool,
     json: bool,
     label: String,
-    /// More of the run's settings for `run.json`'s `extra` (an object; anything else is
-    /// ignored): the simulated sensor of a degraded-sensor demo.
-    extra: serde_json::Value,
 }
 
 impl Demo {
-    /// Fly `state` on the simulated fleet to its end. Headless, the report's `summary` lines
-    /// (or its JSON) are printed, and `succeeded` says whether the exit status is 0.
+    /// Start the run on the simulated fleet ([`crate::app::launch`], as `fleetmap run` does)
+    /// and fly it to its end. Headless, the report's `summary` lines (or its JSON) are
+    /// printed, and `succeeded` says whether the exit status is 0.
     async fn fly<K: RunKind>(
         self,
         fleet: crate::fleet::FleetHandle,
         sim: crate::sim::server::SimHandle,
-        state: K::State,
-        options: K::Options,
+        settings: &RunSettings,
         summary: impl FnOnce(&K::Report) -> Vec<String>,
         succeeded: impl FnOnce(&Outcome, &K::Report) -> bool,
     ) -> anyhow::Result<ExitCode> {
-        let mut meta = RunMeta::new(K::KIND, unix_ms());
-        meta.mission_path = Some(self.mission_path);
-        meta.connections = sim
+        let connections: Vec<String> = sim
             .bound
             .iter()
             .map(|b| format!("udpout:{}", b.local))
             .collect();
-        meta.extra = serde_json::json!({"world": "world.toml"});
-        if let (Some(extra), serde_json::Value::Object(more)) =
-            (meta.extra.as_object_mut(), self.extra)
-        {
-            extra.extend(more);
-        }
-        let (dir, text, world_text) = (self.dir.clone(), self.text, self.world_text);
-        let run_dir = cpu(move || -> anyhow::Result<RunDir> {
-            let run_dir = RunDir::create(&dir, meta, Some(&text))
-                .with_context(|| format!("cannot create the run directory {}", dir.display()))?;
-            crate::store::atomic_write(&run_dir.path().join("world.toml"), world_text.as_bytes())?;
-            Ok(run_dir)
-        })
-        .await??;
+        let wait = Duration::from_secs(60);
+        let ready = prepare::<K>(
+            &fleet,
+            &connections,
+            Start::New(Box::new(self.new)),
+            settings,
+            wait,
+        )
+        .await;
+        let ready = match ready {
+            Ok(r) => r,
+            Err(e) => {
+                fleet.shutdown().await;
+                let _ = sim.stop().await;
+                return Err(e);
+            }
+        };
+        let path = ready.run_dir.path().to_path_buf();
         if self.tui {
-            let mission = K::session_run(
-                run_dir,
-                state,
-                options,
-                self.auto_start,
-                Some(exports_on_finish::<K>(Some(self.world.clone()))),
+            let face = Face::Ui {
+                config: crate::cli::run::ui_session(crate::tui::Source::new(
+                    crate::tui::SourceKind::Demo,
+                    self.label,
+                )),
+                auto_start: self.auto_start,
+            };
+            let end = ready.fly(&fleet, face).await;
+            fleet.shutdown().await;
+            let _ = sim.stop().await;
+            let finished = matches!(end?, Flown::Ui { finished: true });
+            println!(
+                "demo {}: run directory {} (`fleetmap report {}`)",
+                if finished {
+                    "finished"
+                } else {
+                    "stopped before the end"
+                },
+                path.display(),
+                path.display()
             );
-            return demo_in_ui(fleet, sim, mission, self.label, &self.dir).await;
+            return Ok(ExitCode::SUCCESS);
         }
-        println!("demo: run directory {}", self.dir.display());
-        let result = drive::<K>(&fleet, run_dir, state, options, true).await;
+        println!("demo: run directory {}", path.display());
+        let (tx, printer) = crate::cli::run::print_progress();
+        let result = ready.fly(&fleet, Face::Headless(Some(tx))).await;
+        let _ = tokio::time::timeout(Duration::from_secs(1), printer).await;
         fleet.shutdown().await;
         let _ = sim.stop().await;
-        let (outcome, state, path) = result?;
+        let Flown::Headless { outcome, state } = result? else {
+            bail!("a headless demo ended in the UI");
+        };
         let (exports, r) = finish_exports::<K>(&path, &state).await?;
         if self.json {
             println!("{}", serde_json::to_string_pretty(&r)?);
@@ -247,38 +256,6 @@ impl Demo {
             ExitCode::FAILURE
         })
     }
-}
-
-/// A demo in the terminal UI: `mission` on the in-process simulator until the operator
-/// quits; then the fleet and the simulator stop (also when the session failed) and the run
-/// directory `dir` is named.
-async fn demo_in_ui(
-    fleet: crate::fleet::FleetHandle,
-    sim: crate::sim::server::SimHandle,
-    mission: crate::app::session::SessionRun,
-    label: String,
-    dir: &std::path::Path,
-) -> anyhow::Result<ExitCode> {
-    let end = crate::app::session::run(
-        fleet.clone(),
-        Some(mission),
-        crate::cli::run::ui_session(label),
-    )
-    .await;
-    fleet.shutdown().await;
-    let _ = sim.stop().await;
-    let crate::app::session::SessionEnd::Quit { finished } = end?;
-    println!(
-        "demo {}: run directory {} (`fleetmap report {}`)",
-        if finished {
-            "finished"
-        } else {
-            "stopped before the end"
-        },
-        dir.display(),
-        dir.display()
-    );
-    Ok(ExitCode::SUCCESS)
 }
 
 /// The runway demo's report, as lines.
@@ -378,13 +355,15 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
                 setup.speedup
             );
         }
-        let state = bandit::new_state(&d.fleet, &def, Duration::from_secs(60), None).await?;
         let demo = Demo {
-            dir,
-            mission_path: "built-in hardware-6x6.toml".into(),
-            text,
-            world,
-            world_text: bandit_sim::HARDWARE_WORLD.to_string(),
+            new: NewRun {
+                def,
+                text,
+                mission_path: "built-in hardware-6x6.toml".into(),
+                run_dir: Some(dir),
+                world_toml: Some(bandit_sim::HARDWARE_WORLD.to_string()),
+                extra: serde_json::json!({ "sensor_flip": sensor_flip }),
+            },
             tui,
             auto_start: true,
             json,
@@ -392,7 +371,6 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
                 "DEMO: 4 simulated ArduPilot copters, 2 rovers, {}x real time{sensor}",
                 setup.speedup
             ),
-            extra: serde_json::json!({ "sensor_flip": sensor_flip }),
         };
         let summary = |r: &ClassificationReport| {
             let mut lines = vec!["demo finished".to_string()];
@@ -402,8 +380,8 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         let succeeded = |_: &Outcome, r: &ClassificationReport| {
             r.finished && r.interesting_truth.as_ref() == Some(&r.keep)
         };
-        let opts = bandit::RunOptions::default();
-        demo.fly::<Classification>(d.fleet, d.sim, state, opts, summary, succeeded)
+        let settings = RunSettings::default();
+        demo.fly::<Classification>(d.fleet, d.sim, &settings, summary, succeeded)
             .await
     })?
 }

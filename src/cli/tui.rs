@@ -8,17 +8,19 @@
 //! as *not sent* because no vehicle is connected. `--snapshot COLSxROWS` prints one frame as text without
 //! a terminal; `fleetmap bench tui` measures the redraw rate.
 
-use crate::app::bandit::Classification;
-use crate::app::kind::RunKind;
-use crate::app::runway::Runway;
+use crate::app::kind::{RunKind, RunSettings};
+use crate::app::launch::{Face, NewRun, Start, prepare};
 use crate::clock::MonotonicClock;
+use crate::link::ConnSpec;
+use crate::store::RunDir;
 use crate::time::Time;
-use crate::tui::app::{App, CommandRequest, Event, JobResult, update};
+use crate::tui::app::{App, CommandRequest, Event, JobResult};
 use crate::tui::config::UiConfig;
 use crate::tui::model::Model;
 use crate::tui::replay::{ReplayFrame, read_replay, write_replay};
 use crate::tui::sample::{self, SampleRun};
 use crate::tui::shell::{ShellIo, ShellOptions};
+use crate::tui::update::update;
 use crate::tui::view;
 use anyhow::{Context, anyhow, bail};
 use clap::{Args, ValueEnum};
@@ -169,16 +171,26 @@ enum Source {
 }
 
 impl Source {
-    fn label(&self) -> String {
+    fn label(&self) -> crate::tui::Source {
+        use crate::tui::{Source as S, SourceKind};
         match self {
-            Source::Replay(p, _) => format!(
-                "REPLAY {} (recorded, no vehicles connected)",
-                p.file_name()
-                    .map(|n| n.to_string_lossy().into_owned())
-                    .unwrap_or_default()
+            Source::Replay(p, _) => S::new(
+                SourceKind::Replay,
+                format!(
+                    "REPLAY {} (recorded, no vehicles connected)",
+                    p.file_name()
+                        .map(|n| n.to_string_lossy().into_owned())
+                        .unwrap_or_default()
+                ),
             ),
-            Source::Animated(_) => "SAMPLE: synthetic data, no vehicles connected".into(),
-            Source::Static(_) => "SAMPLE: static fixture, no vehicles connected".into(),
+            Source::Animated(_) => S::new(
+                SourceKind::Sample,
+                "SAMPLE: synthetic data, no vehicles connected",
+            ),
+            Source::Static(_) => S::new(
+                SourceKind::Sample,
+                "SAMPLE: static fixture, no vehicles connected",
+            ),
         }
     }
 
@@ -289,148 +301,121 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
     Ok(ExitCode::SUCCESS)
 }
 
-/// `fleetmap tui --connect CONN [--mission FILE | --resume RUN_DIR]`: the UI on live
-/// vehicles, with a run (runway mapping or spatial classification) the operator starts.
-fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
-    use crate::app::kind::Kind;
-    use crate::mission::definition::MissionDef;
-    use crate::store::{RunDir, RunMeta};
-    if !interactive() {
-        bail!("the terminal UI needs an interactive terminal on stdin and stdout");
-    }
-    let settings = crate::app::kind::RunSettings {
-        auto_resume: args.auto_resume,
-        ..Default::default()
-    };
+/// What `tui --mission` or `tui --resume` flies and the connections, before the links are
+/// open.
+fn live_start(args: &TuiArgs) -> anyhow::Result<(Option<Start>, Vec<ConnSpec>)> {
     let mut connect = args.connect.clone();
-    let mut resumed = None;
-    if let Some(dir) = &args.resume {
+    let start = if let Some(dir) = &args.resume {
         let rd =
             RunDir::open(dir).with_context(|| format!("cannot open the run {}", dir.display()))?;
-        let kind = Kind::of_run(rd.meta())
-            .with_context(|| format!("{}: cannot be flown from the UI", dir.display()))?;
         if connect.is_empty() {
             for c in &rd.meta().connections {
                 connect.push(c.parse().map_err(|e| anyhow!("{c}: {e}"))?);
             }
         }
-        resumed = Some(match kind {
-            Kind::RunwayMapping => resumed_run::<Runway>(rd, &settings)?,
-            Kind::SpatialClassification => resumed_run::<Classification>(rd, &settings)?,
-        });
-    }
+        Some(Start::Resume(Box::new(rd)))
+    } else if let Some(p) = &args.mission {
+        let mut new = NewRun::from_file(p)?;
+        new.run_dir = args.run_dir.clone();
+        Some(Start::New(Box::new(new)))
+    } else {
+        None
+    };
     if connect.is_empty() {
         bail!("give --connect (the run remembers no connection)");
     }
-    let mission = match &args.mission {
-        Some(p) => {
-            let text = std::fs::read_to_string(p)
-                .with_context(|| format!("cannot read {}", p.display()))?;
-            let def =
-                MissionDef::parse(&text, &p.display().to_string()).map_err(|e| anyhow!("{e}"))?;
-            let dir = args.run_dir.clone().unwrap_or_else(|| {
-                PathBuf::from("runs").join(format!(
-                    "{}-{}",
-                    def.name,
-                    crate::cli::run::unix_ms() / 1000
-                ))
-            });
-            let kind = Kind::of_mission(&def);
-            let mut meta = RunMeta::new(
-                match kind {
-                    Kind::RunwayMapping => Runway::KIND,
-                    Kind::SpatialClassification => Classification::KIND,
-                },
-                0,
-            );
-            meta.mission_path = Some(p.display().to_string());
-            meta.connections = connect.iter().map(|c| c.to_string()).collect();
-            Some((kind, text, def, dir, meta))
-        }
-        None => None,
-    };
-    let conn = crate::cli::vehicles::ConnectArgs::defaults(connect.clone());
-    let label = format!(
-        "LIVE {}",
-        connect
-            .iter()
-            .map(|c| c.to_string())
-            .collect::<Vec<_>>()
-            .join(", ")
-    );
-    let log = log_file.map(|p| p.display().to_string());
-    crate::cli::vehicles::block_on(async move {
-        let session = crate::cli::vehicles::Session::open(&conn).await?;
-        let mut run = resumed;
-        if let Some((kind, text, def, dir, meta)) = mission {
-            let fleet = &session.fleet;
-            run = Some(match kind {
-                Kind::RunwayMapping => {
-                    new_run::<Runway>(fleet, &def, text, dir, meta, &settings).await?
-                }
-                Kind::SpatialClassification => {
-                    new_run::<Classification>(fleet, &def, text, dir, meta, &settings).await?
-                }
-            });
-        }
-        let cfg = crate::app::session::SessionConfig {
-            label,
-            ui: config,
-            log_file: log,
-        };
-        let end = crate::app::session::run(session.fleet.clone(), run, cfg).await;
-        session.close().await?;
-        end?;
-        Ok(ExitCode::SUCCESS)
-    })?
+    Ok((start, connect))
 }
 
-/// A saved run for the UI session to resume (the operator STARTs it); its exports are
-/// written when it finishes.
-fn resumed_run<K: RunKind>(
-    rd: crate::store::RunDir,
-    settings: &crate::app::kind::RunSettings,
-) -> anyhow::Result<crate::app::session::SessionRun> {
-    let st: K::State = rd
-        .load_state()?
-        .with_context(|| format!("{} has no saved state yet", rd.path().display()))?;
-    if K::is_finished(&st) {
-        bail!("{}: the run is already finished", rd.path().display());
+/// `fleetmap tui --connect CONN [--mission FILE | --resume RUN_DIR]`: the UI on live
+/// vehicles, with a run (runway mapping or spatial classification) the operator starts. The
+/// run starts as `fleetmap run` starts one ([`crate::app::launch`]).
+fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
+    if !interactive() {
+        bail!("the terminal UI needs an interactive terminal on stdin and stdout");
     }
-    let world = crate::cli::run::run_world(&rd, None).ok().flatten();
-    Ok(K::session_run(
-        rd,
-        st,
-        K::options(settings)?,
-        false,
-        Some(crate::cli::run::exports_on_finish::<K>(world)),
-    ))
+    let (start, connect) = live_start(&args)?;
+    let connections: Vec<String> = connect.iter().map(|c| c.to_string()).collect();
+    let live = Live {
+        settings: RunSettings {
+            auto_resume: args.auto_resume,
+            ..Default::default()
+        },
+        config: crate::app::session::SessionConfig {
+            source: crate::tui::Source::new(
+                crate::tui::SourceKind::Live,
+                format!("LIVE {}", connections.join(", ")),
+            ),
+            ui: config,
+            log_file: log_file.map(|p| p.display().to_string()),
+        },
+        connections,
+        conn: crate::cli::vehicles::ConnectArgs::defaults(connect),
+        start: None,
+    };
+    let Some(start) = start else {
+        return crate::cli::vehicles::block_on(async move {
+            let session = crate::cli::vehicles::Session::open(&live.conn).await?;
+            let end = crate::app::session::run(session.fleet.clone(), None, live.config).await;
+            session.close().await?;
+            end?;
+            Ok(ExitCode::SUCCESS)
+        })?;
+    };
+    let kind = match &start {
+        Start::Resume(rd) => rd.meta().kind.clone(),
+        Start::New(new) => new.def.kind.as_str().to_string(),
+    };
+    let live = Live {
+        start: Some(start),
+        ..live
+    };
+    crate::app::kinds::by_name(&kind, live)
+        .map_err(|e| anyhow!("{e}: cannot be flown from the UI"))?
 }
 
-/// A new run of `def` for the UI session (the operator STARTs it), once its vehicles are
-/// heard; its directory is created off the runtime's workers.
-async fn new_run<K: RunKind>(
-    fleet: &crate::fleet::FleetHandle,
-    def: &crate::mission::definition::MissionDef,
-    text: String,
-    dir: PathBuf,
-    meta: crate::store::RunMeta,
-    settings: &crate::app::kind::RunSettings,
-) -> anyhow::Result<crate::app::session::SessionRun> {
-    let state = K::new_state(fleet, def, settings, Duration::from_secs(60)).await?;
-    let options = K::options(settings)?;
-    let rd = crate::app::runway::cpu(move || {
-        crate::store::RunDir::create(&dir, meta, Some(&text))
-            .with_context(|| format!("cannot create the run directory {}", dir.display()))
-    })
-    .await??;
-    Ok(K::session_run(
-        rd,
-        state,
-        options,
-        false,
-        Some(crate::cli::run::exports_on_finish::<K>(None)),
-    ))
+/// A LIVE session with a run, for [`crate::app::kinds::by_name`].
+struct Live {
+    settings: RunSettings,
+    connections: Vec<String>,
+    conn: crate::cli::vehicles::ConnectArgs,
+    config: crate::app::session::SessionConfig,
+    start: Option<Start>,
+}
+
+impl crate::app::kinds::KindVisitor for Live {
+    type Output = anyhow::Result<ExitCode>;
+
+    /// Open the links, make the run ready (its vehicles heard within a minute, as
+    /// [`crate::app::launch::prepare`] does for `fleetmap run`) and fly it in the UI; the
+    /// operator STARTs it.
+    fn visit<K: RunKind>(self) -> anyhow::Result<ExitCode> {
+        let Live {
+            settings,
+            connections,
+            conn,
+            config,
+            start,
+        } = self;
+        let start = start.context("no run to fly")?;
+        crate::cli::vehicles::block_on(async move {
+            let session = crate::cli::vehicles::Session::open(&conn).await?;
+            let fleet = &session.fleet;
+            let wait = Duration::from_secs(60);
+            let flown = async {
+                let ready = prepare::<K>(fleet, &connections, start, &settings, wait).await?;
+                let face = Face::Ui {
+                    config,
+                    auto_start: false,
+                };
+                ready.fly(fleet, face).await
+            }
+            .await;
+            session.close().await?;
+            flown?;
+            Ok(ExitCode::SUCCESS)
+        })?
+    }
 }
 
 async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
@@ -449,7 +434,7 @@ async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
         while let Some(req) = cmd_rx.recv().await {
             let r = JobResult {
                 id: req.id,
-                outcome: Err(not_sent.to_string()),
+                outcome: Err(crate::tui::CommandError::NotSent(not_sent)),
             };
             if result_tx.send(r).await.is_err() {
                 break;
@@ -529,7 +514,10 @@ pub fn bench(args: TuiBenchArgs) -> anyhow::Result<ExitCode> {
     let apps: Vec<App> = [1u64, 2]
         .iter()
         .map(|&seed| {
-            let mut app = App::new(UiConfig::default(), "BENCH generated");
+            let mut app = App::new(
+                UiConfig::default(),
+                crate::tui::Source::new(crate::tui::SourceKind::Bench, "BENCH generated"),
+            );
             update(&mut app, Event::Resize(w, h));
             update(
                 &mut app,
@@ -575,6 +563,44 @@ pub fn bench(args: TuiBenchArgs) -> anyhow::Result<ExitCode> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// `tui --mission` once wrote `created_unix_ms` 0 and named its run directory
+    /// `runs/NAME-SECONDS`; it now plans its run as `fleetmap run` does: the same
+    /// `run.json` and the default directory `runs/NAME-YYYYMMDD-HHMMSS`.
+    #[test]
+    fn tui_mission_plans_its_run_as_fleetmap_run_does() {
+        use crate::cli::{Cli, Command};
+        use clap::Parser as _;
+        let mission = "missions/runway-field-test.toml";
+        let conn = "udpin:127.0.0.1:14550";
+        let cli = Cli::parse_from(["fleetmap", "tui", "--connect", conn, "--mission", mission]);
+        let Command::Tui(args) = cli.command else {
+            panic!("not the tui command");
+        };
+        let (start, connect) = live_start(&args).expect("the mission file reads");
+        let Some(Start::New(tui)) = start else {
+            panic!("--mission starts a new run");
+        };
+        let connections: Vec<String> = connect.iter().map(|c| c.to_string()).collect();
+        let run = NewRun::from_file(Path::new(mission)).expect("the mission file reads");
+        // 2024-02-29 13:04:05 UTC
+        let t = 1_709_211_845_000;
+        let (dir, meta) = tui.plan(tui.def.kind.as_str(), &connections, t);
+        let (run_dir, run_meta) = run.plan(run.def.kind.as_str(), &connections, t);
+        assert_eq!(meta.created_unix_ms, t);
+        assert_eq!(
+            dir,
+            crate::app::launch::default_run_dir(&tui.def.name, t),
+            "the default run directory"
+        );
+        assert_eq!(dir, run_dir);
+        assert_eq!(
+            serde_json::to_value(&meta).ok(),
+            serde_json::to_value(&run_meta).ok()
+        );
+        assert_eq!(meta.connections, vec![conn.to_string()]);
+        assert_eq!(meta.mission_path.as_deref(), Some(mission));
+    }
 
     #[test]
     fn sizes_parse_or_explain() {

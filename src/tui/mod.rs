@@ -18,7 +18,7 @@
 //!
 //! ```no_run
 //! # async fn demo() -> Result<(), Box<dyn std::error::Error>> {
-//! use fleetmap::tui::{App, Model, ShellIo, ShellOptions, UiConfig};
+//! use fleetmap::tui::{App, Model, ShellIo, ShellOptions, Source, SourceKind, UiConfig};
 //! use tokio::sync::{mpsc, watch};
 //! let (snap_tx, snap_rx) = watch::channel(Model::default());
 //! let (cmd_tx, mut cmd_rx) = mpsc::channel(32);
@@ -26,7 +26,7 @@
 //! // elsewhere: snap_tx.send_replace(model) on every fleet change; for every request from
 //! // cmd_rx, run it and result_tx.send(JobResult { id: req.id, outcome }).
 //! let io = ShellIo { snapshots: snap_rx, job_results: result_rx, commands: cmd_tx };
-//! let app = App::new(UiConfig::default(), "LIVE udpin:0.0.0.0:14550");
+//! let app = App::new(UiConfig::default(), Source::new(SourceKind::Live, "LIVE udpin:0.0.0.0:14550"));
 //! fleetmap::tui::run(app, io, ShellOptions::default()).await?;
 //! # drop((snap_tx, result_tx)); Ok(()) }
 //! ```
@@ -39,11 +39,12 @@ pub mod model;
 pub mod replay;
 pub mod sample;
 pub mod shell;
+pub mod update;
 pub mod view;
 
 pub use app::{
-    App, Command, CommandRequest, Effect, Event, JobResult, MapMode, Overlay, Pane, Pending,
-    Target, update,
+    App, Command, CommandError, CommandRequest, Effect, Event, JobResult, MapMode, Overlay, Pane,
+    Pending, Source, SourceKind, Target,
 };
 pub use config::{Thresholds, UiConfig};
 pub use keymap::{Action, Context, Key, KeyMap};
@@ -53,3 +54,4 @@ pub use model::{
     Stat, Track, VehicleClass, VehicleRow,
 };
 pub use shell::{REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, run, run_loop};
+pub use update::update;

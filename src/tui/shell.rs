@@ -15,8 +15,9 @@
 //! entered), as ratatui's own `init`/`restore` do (`ratatui` 0.30, `src/init.rs`:
 //! `set_panic_hook`).
 
-use super::app::{App, CommandRequest, Effect, Event, JobResult, update};
+use super::app::{App, CommandError, CommandRequest, Effect, Event, JobResult};
 use super::model::Model;
+use super::update::update;
 use super::view;
 use crate::clock::MonotonicClock;
 use crossterm::event::{Event as TermEvent, KeyEventKind};
@@ -244,7 +245,7 @@ pub async fn run_loop<B: Backend>(
                         };
                         let failed = JobResult {
                             id: req.id,
-                            outcome: Err(reason.to_string()),
+                            outcome: Err(CommandError::NotSent(reason)),
                         };
                         effects.extend(update(&mut app, Event::JobResult(failed)));
                     }

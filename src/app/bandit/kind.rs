@@ -4,18 +4,21 @@
 use super::report::{self, ClassificationReport};
 use super::{BanditEvent, KIND, RunOptions};
 use crate::app::flight::Patience;
-use crate::app::kind::{ExportFormat, Outcome, RunKind, RunSettings, heard};
+use crate::app::kind::{
+    Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, heard,
+};
 use crate::app::run::Progress;
-use crate::app::session::{ClassificationRun, OnFinish, SessionRun};
 use crate::fleet::FleetHandle;
 use crate::mission::definition::MissionDef;
 use crate::planner::sortie::ClassificationState;
 use crate::sim::world::World;
 use crate::store::RunDir;
+use crate::tui::live::RunView;
+use crate::tui::{Command, CommandError, Target};
 use anyhow::bail;
 use std::path::Path;
 use std::time::Duration;
-use tokio::sync::mpsc;
+use tokio::sync::{mpsc, watch};
 
 /// Spatial classification (the bandit paper): UCB epochs, integer-program sorties with
 /// charging rovers.
@@ -23,6 +26,11 @@ pub struct Classification;
 
 /// The size of the progress PNG (the bandit paper's Fig. 4), pixels.
 const PROGRESS_PNG: (u32, u32) = (900, 560);
+
+/// The operator's pause of a spatial-classification run (the TUI): while it is `true`, no
+/// new sortie starts — the drones in the air finish theirs and land on their stations.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Pause(pub bool);
 
 impl RunKind for Classification {
     const KIND: &'static str = KIND;
@@ -32,6 +40,7 @@ impl RunKind for Classification {
     type Options = RunOptions;
     type Event = BanditEvent;
     type Report = ClassificationReport;
+    type Operator = Pause;
 
     fn mission(state: &ClassificationState) -> &str {
         &state.mission
@@ -119,21 +128,63 @@ impl RunKind for Classification {
         Ok((Outcome::Finished, state))
     }
 
-    fn session_run(
+    async fn fly_attached(
+        fleet: &FleetHandle,
         run_dir: RunDir,
         state: ClassificationState,
         options: RunOptions,
-        auto_start: bool,
-        on_finish: Option<OnFinish<ClassificationState>>,
-    ) -> SessionRun {
-        ClassificationRun {
-            run_dir,
-            state,
-            auto_start,
-            options,
-            on_finish,
+        attached: Attached<Self>,
+    ) -> anyhow::Result<(Outcome, ClassificationState)> {
+        // The runner reads the operator's pause as a `watch`.
+        let (pause_tx, pause_rx) = watch::channel(false);
+        let mut operator = attached.operator;
+        let relay = tokio::spawn(async move {
+            while let Some(Pause(p)) = operator.recv().await {
+                let _ = pause_tx.send(p);
+            }
+        });
+        let options = RunOptions {
+            view: Some(attached.view),
+            pause: Some(pause_rx),
+            ..options
+        };
+        let r = Self::fly(fleet, run_dir, state, options, Some(attached.progress)).await;
+        relay.abort();
+        r
+    }
+
+    fn command(
+        command: Command,
+        target: Target,
+        _targets: &[u8],
+        op: &mpsc::UnboundedSender<Pause>,
+    ) -> Option<Result<CommandReply, CommandError>> {
+        match command {
+            Command::Hold if target == Target::All => {
+                let _ = op.send(Pause(true));
+                Some(Ok(CommandReply::paused(
+                    true,
+                    "paused: no new sortie starts (drones in the air finish theirs and land on \
+                     their stations)",
+                )))
+            }
+            Command::Resume => {
+                let _ = op.send(Pause(false));
+                Some(Ok(CommandReply::paused(false, "mission resumed")))
+            }
+            Command::BatterySwapped => Some(Err(CommandError::NotForThisMission(
+                "the drones of a spatial-classification run charge on their stations: there is \
+                 no battery swap to confirm",
+            ))),
+            // RTL, LAND, ARM, DISARM and a vehicle's HOLD go straight to the vehicle (the run
+            // then stops at the next rendezvous it misses; `fleetmap resume` re-plans from
+            // where the team is).
+            _ => None,
         }
-        .into()
+    }
+
+    fn view(state: &ClassificationState) -> RunView<'_> {
+        RunView::Classification(state)
     }
 
     fn report(

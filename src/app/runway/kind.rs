@@ -1,16 +1,19 @@
 //! Runway mapping as a [`RunKind`]: what the commands, the TUI session and the demo need.
 
 use super::report::{self, truth_coverage, truth_outlines};
-use super::{KIND, MappingEvent, RunOptions, intake::cpu};
+use super::{KIND, MappingEvent, Operator, RunOptions, intake::cpu};
 use crate::app::flight::Patience;
-use crate::app::kind::{ExportFormat, Outcome, RunKind, RunSettings, heard, png_bytes};
+use crate::app::kind::{
+    Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, heard, png_bytes,
+};
 use crate::app::run::Progress;
-use crate::app::session::{MappingRun, OnFinish, SessionRun};
 use crate::explore::mapping::{MappingState, RobotStatus};
 use crate::fleet::FleetHandle;
 use crate::mission::definition::MissionDef;
 use crate::sim::world::World;
 use crate::store::RunDir;
+use crate::tui::live::RunView;
+use crate::tui::{Command, CommandError, Target};
 use anyhow::Context as _;
 use std::path::Path;
 use std::time::Duration;
@@ -27,6 +30,7 @@ impl RunKind for Runway {
     type Options = RunOptions;
     type Event = MappingEvent;
     type Report = report::MappingReport;
+    type Operator = Operator;
 
     fn mission(state: &MappingState) -> &str {
         &state.mission
@@ -56,7 +60,11 @@ impl RunKind for Runway {
         settings: &RunSettings,
         wait: Duration,
     ) -> anyhow::Result<MappingState> {
-        crate::app::new_mapping(fleet, def, settings.sharing, wait).await
+        let mut state = crate::app::new_mapping(fleet, def, settings.sharing, wait).await?;
+        if state.params.motion().speed() > 0.0 {
+            state.roi_epoch_unix_ms = settings.roi_epoch_unix_ms;
+        }
+        Ok(state)
     }
 
     fn started_line(dir: &Path, state: &MappingState) -> String {
@@ -115,21 +123,61 @@ impl RunKind for Runway {
         Ok((outcome, state))
     }
 
-    fn session_run(
+    async fn fly_attached(
+        fleet: &FleetHandle,
         run_dir: RunDir,
         state: MappingState,
         options: RunOptions,
-        auto_start: bool,
-        on_finish: Option<OnFinish<MappingState>>,
-    ) -> SessionRun {
-        MappingRun {
-            run_dir,
-            state,
-            auto_start,
-            options,
-            on_finish,
-        }
-        .into()
+        attached: Attached<Self>,
+    ) -> anyhow::Result<(Outcome, MappingState)> {
+        let options = RunOptions {
+            operator: Some(attached.operator),
+            view: Some(attached.view),
+            ..options
+        };
+        Self::fly(fleet, run_dir, state, options, Some(attached.progress)).await
+    }
+
+    fn command(
+        command: Command,
+        _target: Target,
+        targets: &[u8],
+        op: &mpsc::UnboundedSender<Operator>,
+    ) -> Option<Result<CommandReply, CommandError>> {
+        let send_each = |f: fn(u8) -> Operator| {
+            for v in targets {
+                let _ = op.send(f(*v));
+            }
+        };
+        Some(Ok(match command {
+            Command::Hold => {
+                let _ = op.send(Operator::Pause);
+                CommandReply::paused(true, "every vehicle holds (the mission is paused)")
+            }
+            Command::Resume => {
+                let _ = op.send(Operator::Resume);
+                CommandReply::paused(false, "mission resumed")
+            }
+            Command::Rtl => {
+                send_each(Operator::Recall);
+                CommandReply::text(format!(
+                    "returning home: {targets:?} (their vertices are kept)"
+                ))
+            }
+            Command::Land => {
+                send_each(Operator::Land);
+                CommandReply::text(format!("landing: {targets:?} (their vertices are kept)"))
+            }
+            Command::BatterySwapped => {
+                send_each(Operator::BatterySwapped);
+                CommandReply::text("the vehicle resumes from its vertex")
+            }
+            Command::Start | Command::Arm | Command::Disarm => return None,
+        }))
+    }
+
+    fn view(state: &MappingState) -> RunView<'_> {
+        RunView::Mapping(state)
     }
 
     fn report(state: &MappingState, world: Option<&World>) -> anyhow::Result<Self::Report> {

@@ -1,26 +1,24 @@
 //! `run`, `resume`, `report` and `export` written once, for any [`RunKind`].
 //!
-//! File work (creating the run directory, writing the exports, reading the world back) runs
-//! before the async runtime starts or on its blocking pool (`cpu`), never on a runtime worker.
+//! A run starts and flies through [`crate::app::launch`] (as `tui --mission` and the demo
+//! do); this module adds what the command line shows: progress lines, the report, exit codes.
 
-use super::dir::{connections_label, default_run_dir, remembered_connections, run_world, unix_ms};
+use super::dir::{connections_label, remembered_connections};
 use super::{ExportArgs, ReportArgs, ResumeArgs, RunArgs};
-use crate::app::kind::{Outcome, RunKind, report_json, write_exports};
+use crate::app::kind::{Outcome, RunKind, RunSettings, report_json};
+use crate::app::launch::{Face, Flown, NewRun, Ready, Start, finish_exports, prepare, run_world};
 use crate::app::run::Progress;
-use crate::app::runway::cpu;
 use crate::cli::vehicles::{ConnectArgs, Session, block_on};
 use crate::fleet::FleetHandle;
-use crate::mission::definition::MissionDef;
-use crate::sim::world::World;
-use crate::store::{RunDir, RunMeta};
+use crate::store::RunDir;
 use anyhow::{Context as _, bail};
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::ExitCode;
 use std::time::Duration;
 
 /// Print progress events as they come (headless runs): one line each, with the seconds
 /// since the run started.
-fn print_progress() -> (
+pub(crate) fn print_progress() -> (
     tokio::sync::mpsc::UnboundedSender<Progress>,
     tokio::task::JoinHandle<()>,
 ) {
@@ -34,70 +32,23 @@ fn print_progress() -> (
     (tx, task)
 }
 
-/// Fly `state` to its end (or the operator) on an open fleet; with `headless`, progress
-/// lines on stdout. Shared by `run`, `resume` and the demo. Returns how it ended, the final
-/// state and the run directory's path.
-pub async fn drive<K: RunKind>(
-    fleet: &FleetHandle,
-    run_dir: RunDir,
-    state: K::State,
-    options: K::Options,
-    headless: bool,
-) -> anyhow::Result<(Outcome, K::State, PathBuf)> {
-    let path = run_dir.path().to_path_buf();
-    let (progress, printer) = if headless {
-        let (tx, task) = print_progress();
-        (Some(tx), Some(task))
-    } else {
-        (None, None)
-    };
-    let out = K::fly(fleet, run_dir, state, options, progress).await;
-    if let Some(p) = printer {
-        let _ = tokio::time::timeout(Duration::from_secs(1), p).await;
-    }
-    let (outcome, state) = out?;
-    Ok((outcome, state, path))
-}
-
-/// Write the exports of the run at `path` (its world from `run.json`) off the runtime's
-/// workers; returns the files written.
-pub async fn finish_exports<K: RunKind>(
-    path: &Path,
-    state: &K::State,
-) -> anyhow::Result<(Vec<PathBuf>, K::Report)> {
-    let (path, state) = (path.to_path_buf(), state.clone());
-    cpu(move || -> anyhow::Result<(Vec<PathBuf>, K::Report)> {
-        let run_dir = RunDir::open(&path)?;
-        let world = run_world(&run_dir, None)?;
-        let files = write_exports::<K>(&run_dir, &state, world.as_ref())?;
-        Ok((files, K::report(&state, world.as_ref())?))
-    })
-    .await?
-}
-
-/// The exports for the TUI session to write when the run finishes, scored against `world`.
-pub fn exports_on_finish<K: RunKind>(
-    world: Option<World>,
-) -> crate::app::session::OnFinish<K::State> {
-    Box::new(move |rd, st| {
-        if let Err(e) = write_exports::<K>(rd, st, world.as_ref()) {
-            tracing::warn!("exports: {e:#}");
-        }
-    })
-}
-
-/// Fly a run headless (progress lines, then the report), or in the terminal UI when there is
-/// a terminal and `headless` is not asked for; prints how it ended.
+/// Fly a ready run ([`crate::app::launch::prepare`]) headless (progress lines, then the
+/// report), or in the terminal UI when there is a terminal and `headless` is not asked for;
+/// prints how it ended. `run` and `resume` fly through here.
 pub async fn fly<K: RunKind>(
     fleet: &FleetHandle,
-    run_dir: RunDir,
-    state: K::State,
-    options: K::Options,
+    ready: Ready<K>,
     headless: bool,
-    label: String,
+    source: crate::tui::Source,
 ) -> anyhow::Result<ExitCode> {
+    let path = ready.run_dir.path().to_path_buf();
     if headless || !crate::cli::tui::interactive() {
-        let (outcome, state, path) = drive::<K>(fleet, run_dir, state, options, true).await?;
+        let (tx, printer) = print_progress();
+        let flown = ready.fly(fleet, Face::Headless(Some(tx))).await;
+        let _ = tokio::time::timeout(Duration::from_secs(1), printer).await;
+        let Flown::Headless { outcome, state } = flown? else {
+            bail!("a headless flight ended in the UI");
+        };
         return match outcome {
             Outcome::Finished => {
                 let (files, report) = finish_exports::<K>(&path, &state).await?;
@@ -122,44 +73,11 @@ pub async fn fly<K: RunKind>(
             }
         };
     }
-    let path = run_dir.path().to_path_buf();
-    let at = path.clone();
-    let world = cpu(move || {
-        RunDir::open(&at)
-            .ok()
-            .and_then(|rd| run_world(&rd, None).ok())
-    })
-    .await?
-    .flatten();
-    let mission = K::session_run(
-        run_dir,
-        state,
-        options,
-        true,
-        Some(exports_on_finish::<K>(world)),
-    );
-    fly_in_ui(fleet, mission, &path, label).await
-}
-
-/// The UI settings of a terminal session: default keys and thresholds, the UI log file.
-pub fn ui_session(label: String) -> crate::app::session::SessionConfig {
-    crate::app::session::SessionConfig {
-        label,
-        ui: crate::tui::UiConfig::default(),
-        log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
-    }
-}
-
-/// Fly `mission` (its run directory at `path`) in the terminal UI until the operator quits;
-/// prints how it ended.
-async fn fly_in_ui(
-    fleet: &FleetHandle,
-    mission: crate::app::session::SessionRun,
-    path: &Path,
-    label: String,
-) -> anyhow::Result<ExitCode> {
-    let crate::app::session::SessionEnd::Quit { finished } =
-        crate::app::session::run(fleet.clone(), Some(mission), ui_session(label)).await?;
+    let face = Face::Ui {
+        config: ui_session(source),
+        auto_start: true,
+    };
+    let finished = matches!(ready.fly(fleet, face).await?, Flown::Ui { finished: true });
     if finished {
         println!(
             "run finished: `fleetmap report {}` for the results",
@@ -174,6 +92,15 @@ async fn fly_in_ui(
     Ok(ExitCode::SUCCESS)
 }
 
+/// The UI settings of a terminal session: default keys and thresholds, the UI log file.
+pub fn ui_session(source: crate::tui::Source) -> crate::app::session::SessionConfig {
+    crate::app::session::SessionConfig {
+        source,
+        ui: crate::tui::UiConfig::default(),
+        log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),
+    }
+}
+
 fn wait_of(secs: f64) -> anyhow::Result<Duration> {
     if !(secs.is_finite() && secs >= 0.0) {
         bail!("--wait must be a non-negative number of seconds");
@@ -181,58 +108,57 @@ fn wait_of(secs: f64) -> anyhow::Result<Duration> {
     Ok(Duration::from_secs_f64(secs))
 }
 
-/// [`fly`] on an open session (connected with `conn`), then close the session whatever the
-/// run's result.
-async fn fly_then_close<K: RunKind>(
-    session: Session,
+/// Open a session on `conn`, make `start` ready on it (printing its line), [`fly`] it, then
+/// close the session whatever the run's result.
+async fn connect_and_fly<K: RunKind>(
     conn: &ConnectArgs,
-    run_dir: RunDir,
-    state: K::State,
-    options: K::Options,
+    start: Start,
+    settings: &RunSettings,
+    wait: Duration,
     headless: bool,
+    resumed: Option<&Path>,
 ) -> anyhow::Result<ExitCode> {
-    let label = format!("LIVE {}", connections_label(&conn.connect));
-    let result = fly::<K>(&session.fleet, run_dir, state, options, headless, label).await;
+    let session = Session::open(conn).await?;
+    let connections: Vec<String> = conn.connect.iter().map(|c| c.to_string()).collect();
+    let source = crate::tui::Source::new(
+        crate::tui::SourceKind::Live,
+        format!("LIVE {}", connections_label(&conn.connect)),
+    );
+    let result = async {
+        let ready = prepare::<K>(&session.fleet, &connections, start, settings, wait).await?;
+        match resumed {
+            Some(dir) => println!("resuming {} ({})", dir.display(), ready.line),
+            None => println!("{}", ready.line),
+        }
+        fly::<K>(&session.fleet, ready, headless, source).await
+    }
+    .await;
     session.close().await?;
     result
 }
 
-/// `fleetmap run` for a mission of kind `K` (`text` is the mission file, already parsed as
-/// `def`).
-pub fn start<K: RunKind>(args: RunArgs, def: MissionDef, text: String) -> anyhow::Result<ExitCode> {
+/// `fleetmap run` for a mission of kind `K`.
+pub fn start<K: RunKind>(args: RunArgs, new: NewRun) -> anyhow::Result<ExitCode> {
     let settings = args.runner.settings();
     let wait = wait_of(args.runner.wait)?;
-    let options = K::options(&settings)?;
-    let mut meta = RunMeta::new(K::KIND, unix_ms());
-    meta.mission_path = Some(args.mission.display().to_string());
-    meta.connections = args.conn.connect.iter().map(|c| c.to_string()).collect();
-    if let Some(w) = &args.world {
-        crate::files::load_world(w).with_context(|| format!("world {}", w.display()))?;
-        let abs = std::fs::canonicalize(w).unwrap_or_else(|_| w.clone());
-        meta.extra = serde_json::json!({"world": abs.display().to_string()});
-    }
-    let dir = args
-        .run_dir
-        .clone()
-        .unwrap_or_else(|| default_run_dir(&def.name));
+    K::options(&settings)?;
     block_on(async move {
-        let session = Session::open(&args.conn).await?;
-        let state = K::new_state(&session.fleet, &def, &settings, wait).await?;
-        let at = dir.clone();
-        let run_dir = cpu(move || {
-            RunDir::create(&at, meta, Some(&text))
-                .with_context(|| format!("cannot create the run directory {}", at.display()))
-        })
-        .await??;
-        println!("{}", K::started_line(&dir, &state));
         let headless = args.runner.headless;
-        fly_then_close::<K>(session, &args.conn, run_dir, state, options, headless).await
+        connect_and_fly::<K>(
+            &args.conn,
+            Start::New(Box::new(new)),
+            &settings,
+            wait,
+            headless,
+            None,
+        )
+        .await
     })?
 }
 
 /// `fleetmap resume` of a run of kind `K`.
 pub fn resume<K: RunKind>(args: ResumeArgs, run_dir: RunDir) -> anyhow::Result<ExitCode> {
-    let mut state: K::State = run_dir
+    let state: K::State = run_dir
         .load_state()?
         .with_context(|| format!("{} has no saved state yet", args.run_dir.display()))?;
     if K::is_finished(&state) {
@@ -254,13 +180,11 @@ pub fn resume<K: RunKind>(args: ResumeArgs, run_dir: RunDir) -> anyhow::Result<E
     };
     let settings = args.runner.settings();
     let wait = wait_of(args.runner.wait)?;
-    let options = K::options(&settings)?;
+    K::options(&settings)?;
     block_on(async move {
-        let session = Session::open(&conn).await?;
-        let how = K::prepare_resume(&session.fleet, &mut state, &settings, wait).await?;
-        println!("resuming {} ({how})", args.run_dir.display());
         let headless = args.runner.headless;
-        fly_then_close::<K>(session, &conn, run_dir, state, options, headless).await
+        let start = Start::Resume(Box::new(run_dir));
+        connect_and_fly::<K>(&conn, start, &settings, wait, headless, Some(&args.run_dir)).await
     })?
 }
 

@@ -14,17 +14,16 @@
 mod dir;
 mod flow;
 
-pub use dir::run_world;
-pub(crate) use dir::unix_ms;
-pub use flow::{drive, exports_on_finish, finish_exports, ui_session};
+pub use crate::app::launch::{exports_on_finish, finish_exports, run_world};
+pub(crate) use flow::print_progress;
+pub use flow::ui_session;
 
-use crate::app::bandit::Classification;
-use crate::app::kind::{self, Kind, RunSettings};
-use crate::app::runway::Runway;
+use crate::app::kind::{self, RunKind, RunSettings};
+use crate::app::kinds::{self, KindVisitor};
+use crate::app::launch::NewRun;
 use crate::cli::vehicles::ConnectArgs;
 use crate::explore::Sharing;
 use crate::link::ConnSpec;
-use crate::mission::definition::MissionDef;
 use crate::store::RunDir;
 use anyhow::Context as _;
 use clap::{Args, ValueEnum};
@@ -69,6 +68,7 @@ impl RunnerArgs {
             sharing: self.sharing.into(),
             lock_step: self.lock_step.then_some(true),
             plan_time_limit_s: self.plan_time_limit,
+            roi_epoch_unix_ms: None,
         }
     }
 }
@@ -182,53 +182,75 @@ pub struct ExportArgs {
 
 /// `fleetmap run`.
 pub fn run(args: RunArgs) -> anyhow::Result<ExitCode> {
-    let text = std::fs::read_to_string(&args.mission)
-        .with_context(|| format!("cannot read {}", args.mission.display()))?;
-    let def = MissionDef::parse(&text, &args.mission.display().to_string())
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
-    match Kind::of_mission(&def) {
-        Kind::RunwayMapping => flow::start::<Runway>(args, def, text),
-        Kind::SpatialClassification => flow::start::<Classification>(args, def, text),
+    let mut new = NewRun::from_file(&args.mission)?;
+    new.run_dir = args.run_dir.clone();
+    if let Some(w) = &args.world {
+        new = new.with_world_file(w)?;
     }
+    struct Run(RunArgs, NewRun);
+    impl KindVisitor for Run {
+        type Output = anyhow::Result<ExitCode>;
+        fn visit<K: RunKind>(self) -> Self::Output {
+            flow::start::<K>(self.0, self.1)
+        }
+    }
+    let def = new.def.clone();
+    kinds::of_mission(&def, Run(args, new))?
 }
 
-/// Open the run directory at `dir` and name its kind.
-fn open_run(dir: &Path) -> anyhow::Result<(RunDir, Kind)> {
+/// Open the run directory at `dir` and call `v` with its kind.
+fn with_run<V: KindVisitor<Output = anyhow::Result<ExitCode>>>(
+    dir: &Path,
+    v: impl FnOnce(RunDir) -> V,
+) -> anyhow::Result<ExitCode> {
     let run_dir =
         RunDir::open(dir).with_context(|| format!("cannot open the run {}", dir.display()))?;
-    let kind = Kind::of_run(run_dir.meta()).with_context(|| format!("{}", dir.display()))?;
-    Ok((run_dir, kind))
+    let kind = run_dir.meta().kind.clone();
+    kinds::by_name(&kind, v(run_dir)).with_context(|| format!("{}", dir.display()))?
 }
 
 /// `fleetmap resume`.
 pub fn resume(args: ResumeArgs) -> anyhow::Result<ExitCode> {
-    let (run_dir, kind) = open_run(&args.run_dir)?;
-    if let Some(t) = run_dir.torn_tail_at_open() {
-        println!(
-            "note: the journal's last record was cut short by the crash ({} bytes at line {}); it was never acknowledged and is dropped",
-            t.len, t.line
-        );
+    struct Resume(ResumeArgs, RunDir);
+    impl KindVisitor for Resume {
+        type Output = anyhow::Result<ExitCode>;
+        fn visit<K: RunKind>(self) -> Self::Output {
+            let Resume(args, run_dir) = self;
+            if let Some(t) = run_dir.torn_tail_at_open() {
+                println!(
+                    "note: the journal's last record was cut short by the crash ({} bytes at line {}); it was never acknowledged and is dropped",
+                    t.len, t.line
+                );
+            }
+            flow::resume::<K>(args, run_dir)
+        }
     }
-    match kind {
-        Kind::RunwayMapping => flow::resume::<Runway>(args, run_dir),
-        Kind::SpatialClassification => flow::resume::<Classification>(args, run_dir),
-    }
+    let dir = args.run_dir.clone();
+    with_run(&dir, |rd| Resume(args, rd))
 }
 
 /// `fleetmap report`.
 pub fn report_cmd(args: ReportArgs) -> anyhow::Result<ExitCode> {
-    let (run_dir, kind) = open_run(&args.run_dir)?;
-    match kind {
-        Kind::RunwayMapping => flow::report::<Runway>(args, run_dir),
-        Kind::SpatialClassification => flow::report::<Classification>(args, run_dir),
+    struct Report(ReportArgs, RunDir);
+    impl KindVisitor for Report {
+        type Output = anyhow::Result<ExitCode>;
+        fn visit<K: RunKind>(self) -> Self::Output {
+            flow::report::<K>(self.0, self.1)
+        }
     }
+    let dir = args.run_dir.clone();
+    with_run(&dir, |rd| Report(args, rd))
 }
 
 /// `fleetmap export`.
 pub fn export(args: ExportArgs) -> anyhow::Result<ExitCode> {
-    let (run_dir, kind) = open_run(&args.run_dir)?;
-    match kind {
-        Kind::RunwayMapping => flow::export::<Runway>(args, run_dir),
-        Kind::SpatialClassification => flow::export::<Classification>(args, run_dir),
+    struct Export(ExportArgs, RunDir);
+    impl KindVisitor for Export {
+        type Output = anyhow::Result<ExitCode>;
+        fn visit<K: RunKind>(self) -> Self::Output {
+            flow::export::<K>(self.0, self.1)
+        }
     }
+    let dir = args.run_dir.clone();
+    with_run(&dir, |rd| Export(args, rd))
 }

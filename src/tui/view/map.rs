@@ -23,10 +23,7 @@ use ratatui::style::Style;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Paragraph;
 
-/// Zoom levels as (num, den): a cell is 2·num/den characters wide and num/den high.
-pub const ZOOMS: [(i64, i64); 7] = [(1, 8), (1, 4), (1, 2), (1, 1), (2, 1), (3, 1), (4, 1)];
-/// The 1:1 level (one cell = 2×1 characters).
-pub const BASE_ZOOM: usize = 3;
+pub use crate::tui::app::{BASE_ZOOM, ZOOMS};
 
 /// Width of the legend column in the wide layout.
 const LEGEND_W: u16 = 26;

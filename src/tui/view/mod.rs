@@ -208,7 +208,7 @@ pub fn lower_tabs(app: &App, shown: Pane) -> Line<'static> {
 fn title_bar(app: &App, frame: &mut Frame, area: Rect) {
     use super::model::RunStatus;
     let m = &app.model.mission;
-    let source_style = if app.source.starts_with("LIVE") {
+    let source_style = if app.source.kind == crate::tui::app::SourceKind::Live {
         theme::ok()
     } else {
         theme::warn()
@@ -222,6 +222,7 @@ fn title_bar(app: &App, frame: &mut Frame, area: Rect) {
     // only when the line has room for them.
     let short_source = app
         .source
+        .label
         .split([' ', ':'])
         .next()
         .unwrap_or_default()
@@ -259,7 +260,7 @@ fn title_bar(app: &App, frame: &mut Frame, area: Rect) {
     let width = |spans: &[Span]| spans.iter().map(|s| s.width()).sum::<usize>();
     let head = Span::styled(" fleetmap ", theme::title_bar());
     let fixed = head.width() + 1 + width(&essentials);
-    let long_source = format!(" {} ", app.source);
+    let long_source = format!(" {} ", app.source.label);
     let room = (area.width as usize).saturating_sub(fixed);
     let mut spans = vec![head, Span::raw(" ")];
     let source = if long_source.chars().count() < room {

@@ -1,0 +1,88 @@
+//! The mission kinds this build flies: the one list a new kind is registered in
+//! ([`registry!`] below; CONTRIBUTING.md, "Adding a mission kind").
+//!
+//! Code that works on "a run of whatever kind" is written once, generic over
+//! [`RunKind`], as a [`KindVisitor`]; [`by_name`] and [`of_mission`] call it with the kind
+//! a run directory or a mission file names.
+
+use crate::app::kind::RunKind;
+use crate::mission::definition::MissionDef;
+
+/// Work written once for every kind: [`KindVisitor::visit`] is called with the kind found.
+pub trait KindVisitor {
+    /// What the work returns.
+    type Output;
+    /// Do the work for kind `K`.
+    fn visit<K: RunKind>(self) -> Self::Output;
+}
+
+/// A kind name (`run.json`'s or a mission file's) this build does not fly.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("a {name} run; this build knows {known}")]
+pub struct UnknownKind {
+    /// The name asked for.
+    pub name: String,
+    /// The kinds this build flies, listed for the message.
+    pub known: String,
+}
+
+/// The registration: every kind, once. `by_name` tries them in this order.
+macro_rules! registry {
+    ($($kind:ty),+ $(,)?) => {
+        /// The names ([`RunKind::KIND`]) of every kind this build flies.
+        pub const NAMES: &[&str] = &[$(<$kind as RunKind>::KIND),+];
+
+        /// Call `v` with the kind named `name` (`run.json`'s `kind`, or a mission file's).
+        pub fn by_name<V: KindVisitor>(name: &str, v: V) -> Result<V::Output, UnknownKind> {
+            $(
+                if name == <$kind as RunKind>::KIND {
+                    return Ok(v.visit::<$kind>());
+                }
+            )+
+            Err(UnknownKind {
+                name: name.to_string(),
+                known: NAMES.join(" and "),
+            })
+        }
+    };
+}
+
+registry!(
+    crate::app::runway::Runway,
+    crate::app::bandit::Classification
+);
+
+/// Call `v` with the kind of the mission `def`.
+pub fn of_mission<V: KindVisitor>(def: &MissionDef, v: V) -> Result<V::Output, UnknownKind> {
+    by_name(def.kind.as_str(), v)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Name;
+    impl KindVisitor for Name {
+        type Output = &'static str;
+        fn visit<K: RunKind>(self) -> &'static str {
+            K::KIND
+        }
+    }
+
+    #[test]
+    fn every_mission_file_kind_has_a_runner_and_unknown_names_are_refused() {
+        use crate::mission::definition::MissionKind;
+        for k in [
+            MissionKind::RunwayMapping,
+            MissionKind::SpatialClassification,
+        ] {
+            assert_eq!(by_name(k.as_str(), Name), Ok(k.as_str()));
+        }
+        let e = by_name("crop-dusting", Name).unwrap_err();
+        assert_eq!(e.name, "crop-dusting");
+        assert!(
+            e.to_string()
+                .contains("runway-mapping and spatial-classification")
+        );
+    }
+}
