@@ -1,7 +1,7 @@
 //! The sensing models of both papers: the runway classifier and green-pixel measurements,
 //! the per-cell vote book, camera footprint geometry, and image loading with limits.
 //!
-//! Public entry points (all pure: no clock, no sockets; files are opened at the edge, `crate::files`):
+//! Public entry points (all pure: no clock, no sockets; files are opened at the edge, `files`):
 //!
 //! | item | what |
 //! |---|---|

@@ -135,55 +135,7 @@ impl fmt::Display for Sharing {
     }
 }
 
-/// How the robots at a vertex are allocated to the work left (see the module documentation,
-/// "Allocation").
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Allocation {
-    /// Algorithm 1 as written: unexplored children before those under exploration, then
-    /// more grid branches first; split ⌈k/2⌉/⌊k/2⌋ over two (line 19), all to one (line 22),
-    /// back to the parent when no child is left (line 24).
-    ///
-    /// The default. Nearest frontier has the lower mean cost on the 2 800 Fig. 7 trials
-    /// (0.977 of this split's per trial, no trial above Lemma 1) but a worse worst ratio to
-    /// the lawnmower bound (14.0 against 13.1), and Lemma 1 is proved for this split only
-    /// (docs/results/dfs.md, "Allocation").
-    #[default]
-    Paper,
-    /// With [`Sharing::Gcs`] only: the robots at v go where the nearest unexplored vertex
-    /// (a known ROI cell nobody has reached or been sent to) is, in tree distance. Children
-    /// whose subtree holds one come first, nearest first, and are split as in line 19; when
-    /// no child's subtree holds one but some other part of the tree does, the robots walk
-    /// back up (line 24) instead of following a group into a subtree with nothing left to
-    /// open; when nothing anywhere is unexplored, Algorithm 1's rule applies. With
-    /// [`Sharing::Meet`] this is the same as [`Allocation::Paper`] (a robot does not know
-    /// where the frontier is).
-    NearestFrontier,
-}
-
-impl Allocation {
-    /// Algorithm 1's split (the serde default of saved explorers that predate the choice).
-    pub fn paper() -> Allocation {
-        Allocation::Paper
-    }
-
-    /// Both allocations, the paper's first.
-    pub const ALL: [Allocation; 2] = [Allocation::Paper, Allocation::NearestFrontier];
-
-    /// A stable name (the serde name): `paper` or `nearest_frontier`, for reports.
-    pub fn name(self) -> &'static str {
-        match self {
-            Allocation::Paper => "paper",
-            Allocation::NearestFrontier => "nearest_frontier",
-        }
-    }
-}
-
-impl fmt::Display for Allocation {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.name())
-    }
-}
+pub use crate::mission::strategy::Allocation;
 
 /// Options of the explorer. Fields missing from a saved state take their defaults.
 #[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
