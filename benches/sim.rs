@@ -7,7 +7,6 @@
 use criterion::{Criterion, criterion_group, criterion_main};
 use fleetmap::sim::harness::{Sim, SimConfig};
 use fleetmap::sim::render::{CameraPose, Disturbances, render};
-use fleetmap::sim::world::World;
 use fleetmap::time::Time;
 use fleetmap::vision::camera::CameraModel;
 use mavlink::MavHeader;
@@ -99,7 +98,7 @@ fn bench(c: &mut Criterion) {
     g.bench_function("three_copters_20_min", |b| {
         b.iter(|| black_box(twenty_minutes()))
     });
-    let world = World::load(std::path::Path::new(concat!(
+    let world = fleetmap::files::load_world(std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/assets/worlds/runway.toml"
     )))

@@ -11,6 +11,7 @@ use crate::imagery::transfer::{FileUrlError, file_url_path};
 use crate::mission::definition::{DefErrors, MissionDef};
 use crate::vision::VisionError;
 use crate::vision::load::{LoadLimits, load_image_bytes};
+use crate::world::{World, WorldError};
 use image::RgbImage;
 use std::io::Read;
 use std::path::Path;
@@ -87,6 +88,22 @@ pub fn read_file_url(url: &str, limit: u64) -> Result<Vec<u8>, FileUrlError> {
         });
     }
     std::fs::read(&path).map_err(|source| FileUrlError::Io { path: p, source })
+}
+
+/// Read and check a world file (`assets/worlds/*.toml`, [`World::from_toml`]); a parse
+/// error names the file.
+pub fn load_world(path: &Path) -> Result<World, WorldError> {
+    let text = std::fs::read_to_string(path).map_err(|source| WorldError::Io {
+        path: path.display().to_string(),
+        source,
+    })?;
+    World::from_toml(&text).map_err(|e| match e {
+        WorldError::Parse { message, .. } => WorldError::Parse {
+            path: path.display().to_string(),
+            message,
+        },
+        other => other,
+    })
 }
 
 #[cfg(test)]

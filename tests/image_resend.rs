@@ -43,7 +43,7 @@ const LATENCY: Duration = Duration::from_millis(20);
 
 fn world() -> Arc<World> {
     Arc::new(
-        World::load(std::path::Path::new(concat!(
+        fleetmap::files::load_world(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/assets/worlds/hardware-6x6.toml"
         )))

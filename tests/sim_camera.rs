@@ -24,7 +24,7 @@ use num_traits::FromPrimitive;
 use std::time::Duration;
 
 fn runway() -> World {
-    World::load(std::path::Path::new(concat!(
+    fleetmap::files::load_world(std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/assets/worlds/runway.toml"
     )))

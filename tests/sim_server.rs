@@ -180,7 +180,7 @@ async fn tcp_endpoint_and_image_files() {
 async fn camera_for_a_real_autopilot() {
     let dir = tempfile::tempdir().unwrap();
     let world = std::sync::Arc::new(
-        fleetmap::sim::world::World::load(std::path::Path::new(concat!(
+        fleetmap::files::load_world(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/assets/worlds/runway.toml"
         )))

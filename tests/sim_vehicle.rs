@@ -713,9 +713,10 @@ fn a_copter_landed_on_a_rover_rides_with_it_and_charges() {
 
 #[test]
 fn worlds_match_the_fixture_sheet() {
-    use fleetmap::sim::world::{Surface, World};
+    use fleetmap::sim::world::Surface;
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/worlds/");
-    let w = World::load(std::path::Path::new(&format!("{dir}runway.toml"))).unwrap();
+    let w =
+        fleetmap::files::load_world(std::path::Path::new(&format!("{dir}runway.toml"))).unwrap();
     let c = (37.196800, -80.578100);
     // homes: offset(C, −32 m, −18 m + 3 m·(k−1)), about 7 m from the runway's long side
     for k in 1..=4 {
@@ -753,13 +754,14 @@ fn worlds_match_the_fixture_sheet() {
     assert!((area - 92.0 * 21.0).abs() < 0.5, "runway area {area}");
 
     // the moving plume world loads and moves
-    let p = World::load(std::path::Path::new(&format!("{dir}plume.toml"))).unwrap();
+    let p = fleetmap::files::load_world(std::path::Path::new(&format!("{dir}plume.toml"))).unwrap();
     let a = &p.polygons_of(Surface::Plume, 0.0)[0][0];
     let b = &p.polygons_of(Surface::Plume, 100.0)[0][0];
     let (dn, de) = fleetmap::geo::local::delta(a.0, a.1, b.0, b.1);
     assert!(dn.abs() < 1e-6 && (de - 30.0).abs() < 1e-3, "{dn} {de}");
 
-    let w = World::load(std::path::Path::new(&format!("{dir}hardware-6x6.toml"))).unwrap();
+    let w = fleetmap::files::load_world(std::path::Path::new(&format!("{dir}hardware-6x6.toml")))
+        .unwrap();
     assert_eq!(w.cells_of(Surface::Obstacle).len(), 11);
     assert_eq!(
         w.cells_of(Surface::GreenTile),

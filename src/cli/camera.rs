@@ -18,7 +18,6 @@
 use crate::sim::camera::CameraConfig;
 use crate::sim::paired::PairedCameras;
 use crate::sim::server::Endpoint;
-use crate::sim::world::World;
 use anyhow::{Context, bail};
 use clap::Args;
 use std::path::{Path, PathBuf};
@@ -173,7 +172,7 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
             let Some(world) = &args.world else {
                 bail!("--source render needs --world");
             };
-            let world = Arc::new(World::load(world)?);
+            let world = Arc::new(crate::files::load_world(world)?);
             (PairedCameras::new(world, cfg, args.seed), None)
         }
         Source::Folder(dir) => {

@@ -4,8 +4,8 @@ use crate::clock::SimTime;
 use crate::sim::harness::{Sim, SimConfig};
 use crate::sim::pace::Speed;
 use crate::sim::server::{Endpoint, GcsClock, ServeOptions, serve};
-use crate::sim::world::{Wind, World};
 use crate::time::Time;
+use crate::world::Wind;
 use anyhow::{Context, bail};
 use clap::Args;
 use std::path::PathBuf;
@@ -132,7 +132,7 @@ fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
 /// Build the simulation `fleetmap sim` would serve (also used by tests).
 pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     let world = match &args.world {
-        Some(p) => Some(World::load(p)?),
+        Some(p) => Some(crate::files::load_world(p)?),
         None => None,
     };
     let home = match &args.home {

@@ -7,7 +7,7 @@
 //! use fleetmap::sim::harness::{Sim, SimConfig};
 //! use fleetmap::time::Time;
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let world = fleetmap::sim::world::World::load("assets/worlds/runway.toml".as_ref())?;
+//! let world = fleetmap::files::load_world("assets/worlds/runway.toml".as_ref())?;
 //! let cfg = SimConfig::from_spec("2xcopter:ardupilot,1xrover:px4", Some(world), None, 42)?;
 //! let mut sim = Sim::new(cfg, Time::ZERO)?;
 //! sim.advance_to(Time::from_secs(20));             // boot, GPS, position estimate
@@ -27,8 +27,8 @@ use crate::sim::camera::CapturedImage;
 use crate::sim::faults::{FaultError, FaultyChannel, LinkFaults};
 use crate::sim::flavour::{Flavour, VehicleKind};
 use crate::sim::vehicle::{DT, SimVehicle, VehicleConfig, VehicleEvent};
-use crate::sim::world::{Wind, World};
 use crate::time::Time;
+use crate::world::{Wind, World};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkVersion};
 use std::collections::VecDeque;

@@ -2,8 +2,8 @@
 //! connections it remembers.
 
 use crate::link::ConnSpec;
-use crate::sim::world::World;
 use crate::store::RunDir;
+use crate::world::World;
 use anyhow::Context as _;
 use std::path::{Path, PathBuf};
 
@@ -64,7 +64,7 @@ pub fn run_world(run: &RunDir, override_: Option<&Path>) -> anyhow::Result<Optio
     });
     match path {
         Some(p) => Ok(Some(
-            World::load(&p).with_context(|| format!("world {}", p.display()))?,
+            crate::files::load_world(&p).with_context(|| format!("world {}", p.display()))?,
         )),
         None => Ok(None),
     }

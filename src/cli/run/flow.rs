@@ -11,8 +11,8 @@ use crate::app::runway::cpu;
 use crate::cli::vehicles::{ConnectArgs, Session, block_on};
 use crate::fleet::FleetHandle;
 use crate::mission::definition::MissionDef;
-use crate::sim::world::World;
 use crate::store::{RunDir, RunMeta};
+use crate::world::World;
 use anyhow::{Context as _, bail};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -207,7 +207,7 @@ pub fn start<K: RunKind>(args: RunArgs, def: MissionDef, text: String) -> anyhow
     meta.mission_path = Some(args.mission.display().to_string());
     meta.connections = args.conn.connect.iter().map(|c| c.to_string()).collect();
     if let Some(w) = &args.world {
-        World::load(w).with_context(|| format!("world {}", w.display()))?;
+        crate::files::load_world(w).with_context(|| format!("world {}", w.display()))?;
         let abs = std::fs::canonicalize(w).unwrap_or_else(|_| w.clone());
         meta.extra = serde_json::json!({"world": abs.display().to_string()});
     }

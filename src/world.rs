@@ -1,5 +1,9 @@
 //! Ground-truth worlds: what the simulated camera sees and what a run is scored against.
 //!
+//! Pure (core): a world is parsed from TOML text ([`World::from_toml`]); the shell's loader
+//! (`files::load_world`) reads the file. The simulator renders it, the GCS's reports and
+//! exports score a run against it.
+//!
 //! A world file (`assets/worlds/*.toml`) lists regions — WGS84 polygons with a [`Surface`]
 //! (runway asphalt, grass, green and grey tiles, obstacles, roads) — drawn over a background
 //! surface, optionally translating at a constant velocity (the runway paper's moving plume,
@@ -20,13 +24,12 @@
 
 use crate::geo::local;
 use serde::{Deserialize, Serialize};
-use std::path::Path;
 use thiserror::Error;
 
 /// Errors reading or using a world.
 #[derive(Debug, Error)]
 pub enum WorldError {
-    /// The file could not be read.
+    /// The file could not be read (by the shell's loader).
     #[error("cannot read world file {path}")]
     Io {
         /// The file.
@@ -335,21 +338,6 @@ fn valid_latlon(lat: f64, lon: f64) -> bool {
 }
 
 impl World {
-    /// Read and check a world file.
-    pub fn load(path: &Path) -> Result<World, WorldError> {
-        let text = std::fs::read_to_string(path).map_err(|source| WorldError::Io {
-            path: path.display().to_string(),
-            source,
-        })?;
-        World::from_toml(&text).map_err(|e| match e {
-            WorldError::Parse { message, .. } => WorldError::Parse {
-                path: path.display().to_string(),
-                message,
-            },
-            other => other,
-        })
-    }
-
     /// Parse a world from TOML text.
     pub fn from_toml(text: &str) -> Result<World, WorldError> {
         let f: WorldFile = toml::from_str(text).map_err(|e| WorldError::Parse {
@@ -627,6 +615,20 @@ impl World {
                 Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
             })
             .collect()
+    }
+
+    /// The interesting cells of a bandit field: its green tiles as mission cells, sorted
+    /// (row, then column) and without repeats — the truth a classification run is scored
+    /// against.
+    pub fn green_cells(&self) -> Vec<crate::geo::Cell> {
+        let mut v: Vec<crate::geo::Cell> = self
+            .cells_of(Surface::GreenTile)
+            .into_iter()
+            .map(|(r, c)| crate::geo::Cell::new(r, c))
+            .collect();
+        v.sort();
+        v.dedup();
+        v
     }
 }
 
