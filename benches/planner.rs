@@ -7,7 +7,7 @@
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
 use fleetmap::clock::stopwatch;
-use fleetmap::experiment::bandit::{StudyConfig, World, run_trial};
+use fleetmap::experiment::bandit::{Field, StudyConfig, run_trial};
 use fleetmap::planner::ip::{Model, PlanOptions, solve_instance};
 use fleetmap::planner::scenario::{Instance, Scenario};
 use rand::SeedableRng;
@@ -30,7 +30,7 @@ fn default_epochs() -> Vec<(usize, Instance)> {
         ..StudyConfig::default()
     };
     let mut rng = ChaCha8Rng::seed_from_u64(2024);
-    let world = World::default_10x10(cfg.mu_worst, cfg.theta, &mut rng);
+    let world = Field::default_10x10(cfg.mu_worst, cfg.theta, &mut rng);
     let mut all = Vec::new();
     run_trial(&cfg, &world, "bench", 0, 2024, 7, |inst, _| {
         all.push(inst.clone())

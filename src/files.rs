@@ -14,9 +14,9 @@ pub mod pictures;
 
 use crate::imagery::transfer::{FileUrlError, file_url_path};
 use crate::mission::definition::{DefErrors, MissionDef};
-use crate::sim::world::{World, WorldError};
 use crate::vision::VisionError;
 use crate::vision::load::{LoadLimits, load_image_bytes};
+use crate::world::{World, WorldError};
 use image::RgbImage;
 use std::io::Read;
 use std::path::Path;

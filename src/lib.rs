@@ -13,8 +13,9 @@
 //! | [`vision`] | core | the runway classifier, votes, green-pixel measurements, camera geometry |
 //! | [`explore`] | core | lawnmower sweep and the multi-robot recursive DFS |
 //! | [`planner`] | core | UCB bandit, the integer program, linear assignment, baselines |
+//! | [`world`] | core | ground-truth worlds (regions and surfaces) parsed from TOML text: what the simulator renders and runs are scored against |
 //! | [`store`] | core + files | the crash-safe run directory |
-//! | [`sim`] | core + thin server | the simulated autopilot, camera and worlds |
+//! | [`sim`] | core + thin server | the simulated autopilot and camera (worlds: [`world`]) |
 //! | [`link`] | shell | transports, framing, signing, tlogs |
 //! | [`clock`] | shell | the only clock reader: the monotonic clock (tokio's, virtual when paused) and the planner's stopwatch |
 //! | [`fleet`] | shell | the fleet actor and per-vehicle async operations |
@@ -47,3 +48,4 @@ pub mod store;
 pub mod time;
 pub mod tui;
 pub mod vision;
+pub mod world;

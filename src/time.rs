@@ -3,7 +3,7 @@
 //! The pure core (protocols, planners, DFS, vision, the simulator's logic) never reads a
 //! clock: every time-dependent call takes `now: Time`. [`Time`] is a point on a monotonic
 //! timeline in **microseconds** since an arbitrary epoch chosen by whoever owns the clock
-//! (the shell's `crate::clock::MonotonicClock`, or the simulator's virtual clock). It is plain data, so
+//! (the shell's `clock::MonotonicClock`, or the simulator's virtual clock). It is plain data, so
 //! it can be serialised, compared and constructed freely in tests, which `std::time::Instant`
 //! cannot.
 

@@ -41,7 +41,7 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
     let t0 = Instant::now();
     let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
     let def = MissionDef::parse(bandit_sim::HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
-    let green = bandit_sim::green_tiles(&world);
+    let green = world.green_cells();
     let setup = SimSetup {
         speedup: SPEEDUP,
         seed: 3,

@@ -146,7 +146,7 @@ async fn fly_hardware_paper(name: &str, sensor_flip: f64) -> Flown {
     if let Some(c) = def.classification.as_mut() {
         c.bound = fleetmap::planner::bandit::ConfidenceBound::Paper;
     }
-    let green = bandit_sim::green_tiles(&world);
+    let green = world.green_cells();
     assert_eq!(green.len(), 4);
     let s = SimSetup {
         sensor_flip,
@@ -440,7 +440,7 @@ async fn lock_step_flight_holds_drones_in_step_and_classifies() {
     let _ = d.sim.stop().await;
     printer.abort();
     assert!(done.is_finished());
-    assert_eq!(done.bandit.keep(), bandit_sim::green_tiles(&world));
+    assert_eq!(done.bandit.keep(), world.green_cells());
     let log = RunDir::open(&dir)
         .unwrap()
         .read_events::<BanditEvent>()
@@ -647,7 +647,7 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
     assert_eq!(history_of(&after), history_of_state(&done));
     // Labels: the green tiles, nothing else.
     let w = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
-    assert_eq!(done.bandit.keep(), bandit_sim::green_tiles(&w));
+    assert_eq!(done.bandit.keep(), w.green_cells());
     // The epoch that was cut short was re-planned (a re-plan in the journal after the kill).
     let run = RunDir::open(&run_dir).unwrap();
     let log_ev = run.read_events::<BanditEvent>().unwrap();
@@ -721,7 +721,7 @@ async fn sim_10x10_default_labels_within_delta() {
     let t0 = Instant::now();
     let world = World::from_toml(bandit_sim::SIM10_WORLD).unwrap();
     let def = MissionDef::parse(bandit_sim::SIM10_MISSION, "sim-10x10.toml").unwrap();
-    let green = bandit_sim::green_tiles(&world);
+    let green = world.green_cells();
     assert_eq!(green.len(), 10);
     let d = bandit_sim::start_team(bandit_sim::SIM10_TEAM, &world, &setup(10.0))
         .await
@@ -839,7 +839,7 @@ fn bandit_demo_in_a_pty_pause_resume_done() {
     assert!(status.success(), "{}", term.dump());
     let s = saved(&run).unwrap();
     let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
-    assert_eq!(s.bandit.keep(), bandit_sim::green_tiles(&world));
+    assert_eq!(s.bandit.keep(), world.green_cells());
     assert!(s.measurements > before.measurements);
     // the exports were written when the run finished
     assert!(run.join("exports/progress.png").exists());

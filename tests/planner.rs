@@ -296,3 +296,41 @@ fn cli_answers_infeasible_for_scenarios_no_plan_can_satisfy() {
         );
     }
 }
+
+/// The sortie planner's fence items ([`fleetmap::planner::sortie::missions::fence_items`])
+/// as the simulated autopilot's fence reads them: obstacle cells are breached, a free cell's
+/// centre is not, the margin (1 m) keeps an obstacle's corner free, and outside the area is
+/// breached. (Was in the planner's unit tests; the simulator is not part of the core.)
+#[test]
+fn sortie_fence_items_keep_their_margin_in_the_simulator() {
+    use fleetmap::geo::{Grid as GeoGrid, LatLon};
+    let g = GeoGrid::new(LatLon::new(37.195, -80.58), 5.0).expect("a 5 m grid");
+    let obstacles = [
+        Cell::new(9, 1),
+        Cell::new(9, 2),
+        Cell::new(9, 3),
+        Cell::new(8, 1),
+        Cell::new(5, 5),
+    ];
+    let items = fleetmap::planner::sortie::missions::fence_items(&g, 10, 10, &obstacles, 1.0)
+        .expect("fence items");
+    let f = fleetmap::sim::fence::Fence::from_items(&items, (37.195, -80.58));
+    let xy = |r: f64, c: f64| {
+        let p = g.from_xy(c * 5.0, r * 5.0).expect("a point of the grid");
+        let (n, e) = fleetmap::geo::local::delta(37.195, -80.58, p.lat, p.lon);
+        (e, n)
+    };
+    let breached = |r, c| {
+        let (e, n) = xy(r, c);
+        f.breached(e, n)
+    };
+    assert!(breached(5.0, 5.0), "inside an obstacle");
+    assert!(breached(9.0, 2.0));
+    assert!(!breached(5.0, 4.0), "a free cell centre");
+    assert!(
+        !breached(5.5, 5.5),
+        "the obstacle's corner is within the margin"
+    );
+    assert!(breached(-1.0, 0.0), "outside the area");
+    assert!(!breached(0.0, 0.0));
+}

@@ -9,8 +9,10 @@
 use fleetmap::files::load_image_file;
 use fleetmap::geo::{Cell, Dir4};
 use fleetmap::time::Time;
+use fleetmap::vision::camera::CameraModel;
 use fleetmap::vision::green::{self, GreenParams};
 use fleetmap::vision::load::{LoadLimits, load_image_bytes};
+use fleetmap::vision::onboard::{GreenShare, GreenSpec, OnboardMeasurement};
 use fleetmap::vision::runway::{self, RunwayParams};
 use fleetmap::vision::synth::{self, RunwayScene, RunwayStrip, TileScene};
 use fleetmap::vision::votes::{CellState, Detection, VoteBook, VoteParams};
@@ -576,4 +578,39 @@ fn jpeg_images_classify_like_png() {
             "{name}"
         );
     }
+}
+
+/// An on-board green-share measurement ([`fleetmap::vision::onboard`]) through the GCS's
+/// MAVLink codec: 52 bytes on the wire (trailing zeros truncated), decoded back to the same
+/// measurement, tied to its capture by boot time and image index.
+#[test]
+fn onboard_measurement_round_trips_through_a_mavlink_frame() {
+    let spec = GreenSpec {
+        green: GreenParams::default(),
+        camera: CameraModel::paper(),
+        cell_m: 5.0,
+        crop_fraction: 0.6,
+    };
+    let m = OnboardMeasurement {
+        time_boot_ms: 1_234_567,
+        image_index_lo: 70_000u32 as u16,
+        spec: spec.fingerprint(),
+        picture_bytes: 53_872,
+        value: GreenShare {
+            share: 0.375,
+            pixels: 14_400,
+        },
+    };
+    let mut codec = fleetmap::link::codec::Codec::new();
+    let buf = codec.encode(1, 100, &m.to_message(), 0);
+    // small on the wire: trailing zeros of the 58 floats are truncated
+    assert_eq!(buf.len(), 52, "12 bytes of framing and 40 of payload");
+    let frames = codec.decode(&buf, 0);
+    let Ok(mavlink::dialects::ardupilotmega::MavMessage::DEBUG_FLOAT_ARRAY(d)) = &frames[0].message
+    else {
+        panic!("{frames:?}")
+    };
+    assert_eq!(OnboardMeasurement::from_message(d), Some(m));
+    assert!(m.is_of(1_234_567, 70_000));
+    assert!(!m.is_of(1_234_567, 70_001));
 }

@@ -10,8 +10,8 @@ use crate::link::transport::{LinkOptions, open_link};
 use crate::sim::harness::{Sim, SimConfig};
 use crate::sim::pace::Speed;
 use crate::sim::server::{self, Endpoint, GcsClock, ServeOptions, SimHandle};
-use crate::sim::world::{Surface, World};
 use crate::time::Time;
+use crate::world::World;
 use anyhow::Context as _;
 use tokio::sync::mpsc;
 
@@ -50,7 +50,7 @@ pub struct SimSetup {
     /// Cameras that measure on board with this definition (the mission's:
     /// [`crate::app::bandit::green_spec_of`]) and send the green share instead of the
     /// picture; `None`: every picture is sent whole.
-    pub onboard: Option<crate::imagery::onboard::GreenSpec>,
+    pub onboard: Option<crate::vision::onboard::GreenSpec>,
 }
 
 impl Default for SimSetup {
@@ -145,16 +145,4 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
 pub async fn start_team(spec: &str, world: &World, setup: &SimSetup) -> anyhow::Result<SimFleet> {
     let sim = Sim::new(sim_config(spec, world, setup)?, Time::ZERO)?;
     start(sim, setup.speedup).await
-}
-
-/// The interesting cells of a simulated world: its green tiles (mission cells).
-pub fn green_tiles(world: &World) -> Vec<crate::geo::Cell> {
-    let mut v: Vec<crate::geo::Cell> = world
-        .cells_of(Surface::GreenTile)
-        .into_iter()
-        .map(|(r, c)| crate::geo::Cell::new(r, c))
-        .collect();
-    v.sort();
-    v.dedup();
-    v
 }

@@ -16,8 +16,8 @@ use crate::mission::definition::MissionDef;
 use crate::sim::harness::{Sim, SimConfig};
 use crate::sim::pace::Speed;
 use crate::sim::server::{self, Endpoint, GcsClock, MemorySimHandle, ServeOptions, SimHandle};
-use crate::sim::world::World;
 use crate::time::Time;
+use crate::world::World;
 use anyhow::Context as _;
 use tokio::sync::mpsc;
 

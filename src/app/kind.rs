@@ -9,10 +9,10 @@
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
 use crate::mission::definition::MissionDef;
-use crate::sim::world::World;
 use crate::store::RunDir;
 use crate::tui::live::RunView;
 use crate::tui::{Command, CommandError, Target};
+use crate::world::World;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::future::Future;

@@ -14,7 +14,6 @@
 
 pub mod bandit;
 pub mod bandit_sim;
-pub mod crop;
 pub mod demo;
 pub mod flight;
 pub mod images;

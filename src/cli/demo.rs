@@ -9,7 +9,7 @@ use crate::app::runway::Runway;
 use crate::app::runway::report::MappingReport;
 use crate::cli::vehicles::block_on;
 use crate::clock::unix_ms;
-use crate::sim::world::World;
+use crate::world::World;
 use anyhow::{Context as _, bail};
 use clap::Args;
 use std::path::PathBuf;

@@ -11,7 +11,7 @@
 //! plan of both through the independent checker ([`crate::planner::check`]).
 //!
 //! **Instances** ([`generate`]): the problems Algorithm 1 actually hands to the IP, not fresh
-//! starts only. Instance n draws a world of the §VI study ([`World::random`]: obstacles, μ,
+//! starts only. Instance n draws a world of the §VI study ([`Field::random`]: obstacles, μ,
 //! stations, drone i on station i mod N_c), runs Algorithm 1 on it with capacity C for a random
 //! number of epochs p (the fast model plans those epochs, so the team stands wherever p epochs
 //! of sorties left it, drones stacked on stations up to C) and takes epoch p's instance. Two
@@ -40,7 +40,7 @@
 //! epochs before an instance are planned by the study's [`run_trial`], which times them with
 //! its own stopwatch; those times are discarded and never change a plan.)
 
-use super::bandit::{Spread, StudyConfig, World, mix, run_trial};
+use super::bandit::{Field, Spread, StudyConfig, mix, run_trial};
 use crate::planner::check::{CheckOptions, check_plan_with};
 use crate::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
 use crate::planner::scenario::Instance;
@@ -256,7 +256,7 @@ pub fn generate(
     let world_seed = mix(cfg.seed ^ mix(((capacity as u64) << 32) ^ index as u64));
     let mut rng = ChaCha8Rng::seed_from_u64(world_seed);
     let mut study = study_config(cfg, capacity);
-    let world = World::random(&study, &mut rng).map_err(|e| err(e.to_string()))?;
+    let world = Field::random(&study, &mut rng).map_err(|e| err(e.to_string()))?;
     let epoch = rng.random_range(0..=cfg.max_epoch);
     study.max_epochs = epoch + 1;
     // The first attempt of every epoch is the one with K = k_max (run_trial doubles K only
@@ -795,7 +795,7 @@ mod tests {
         };
         let study = study_config(&cfg, 2);
         let mut rng = ChaCha8Rng::seed_from_u64(5);
-        let w = World::random(&study, &mut rng).unwrap();
+        let w = Field::random(&study, &mut rng).unwrap();
         let inst = Instance::new(
             w.grid.clone(),
             w.drones.clone(),

@@ -89,51 +89,7 @@ pub struct BanditState {
     pub bound: ConfidenceBound,
 }
 
-/// The confidence interval [lo, hi] around μ̂_l that the goal score (3) and the labels (4) use:
-/// J = hi, (4a) is lo ≥ θ − ε, (4b) is hi ≤ θ + ε (the tie rule of [`BanditState::classify`]
-/// unchanged).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "lowercase")]
-pub enum ConfidenceBound {
-    /// The paper's (3b): [μ̂ − U, μ̂ + U], for reproducing its figures and tables.
-    Paper,
-    /// The Bernoulli KL form of the beta-binomial mixture confidence sequence
-    /// ([`kl_interval`]): the same guarantee (Prop. 1 at the same δ), about 4× fewer samples
-    /// (40 instead of 210 for a cell at μ̂ = 0.1 with |C| = 100, δ = 10⁻⁴, ε = 0.05). The
-    /// field default (docs/results/bandit-bound.md).
-    Kl,
-}
-
-impl ConfidenceBound {
-    /// Both bounds, the paper's first.
-    pub const ALL: [ConfidenceBound; 2] = [ConfidenceBound::Paper, ConfidenceBound::Kl];
-
-    /// The paper's (3b): the serde default of saved states that predate the choice.
-    pub fn paper() -> ConfidenceBound {
-        ConfidenceBound::Paper
-    }
-
-    /// What a new field run uses unless its mission file says otherwise: the KL bound, which
-    /// classified Table I's μ_worst = 0.8 row in fewer epochs with no mislabelled cell
-    /// (docs/results/bandit-bound.md).
-    pub fn field_default() -> ConfidenceBound {
-        ConfidenceBound::Kl
-    }
-
-    /// A stable name (the serde name): `paper` or `kl`.
-    pub fn name(self) -> &'static str {
-        match self {
-            ConfidenceBound::Paper => "paper",
-            ConfidenceBound::Kl => "kl",
-        }
-    }
-}
-
-impl std::fmt::Display for ConfidenceBound {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(self.name())
-    }
-}
+pub use crate::mission::strategy::ConfidenceBound;
 
 /// kl(p, q) = p ln(p/q) + (1 − p) ln((1 − p)/(1 − q)), the Kullback–Leibler divergence between
 /// Bernoulli(p) and Bernoulli(q), in nats, with 0 · ln 0 = 0; +∞ when q ∈ {0, 1} and p ≠ q.
@@ -457,7 +413,7 @@ impl BanditState {
     /// cells classified now.
     ///
     /// A deviation from Algorithm 1, which applies (4) once per epoch (step 5): the field
-    /// runner ([`crate::app::bandit`]) applies it after every measurement, so that a cell
+    /// runner (`app::bandit`) applies it after every measurement, so that a cell
     /// settled in the middle of an epoch is not imaged again in the epoch's later sensing
     /// cycles. Prop. 1 still holds: (15) — [19, Lem. 1], a law-of-the-iterated-logarithm
     /// bound — holds for every sample count n simultaneously, so (4) may be checked after

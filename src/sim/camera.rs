@@ -5,7 +5,7 @@
 //! MAV_CMD_IMAGE_STOP_CAPTURE) and is triggered by the autopilot's mission items
 //! (IMAGE_START_CAPTURE, DO_DIGICAM_CONTROL, DO_SET_CAM_TRIGG_DIST). Each capture renders the
 //! view at the vehicle's true pose ([`crate::sim::render`]), encodes it as JPEG with the
-//! capture's metadata in a COM segment ([`crate::imagery::meta`]) and delivers it
+//! capture's metadata in a COM segment ([`crate::vision::meta`]) and delivers it
 //! - as CAMERA_IMAGE_CAPTURED (lat, lon, alt, image index, and a `file://` URL when a
 //!   directory is configured: the shell writes the file before the message is sent), and
 //! - by MAVLink image transmission: DATA_TRANSMISSION_HANDSHAKE (type JPEG, size, width,
@@ -51,12 +51,12 @@
 //! noise to its measurements. The GCS is not told; [`CapturedImage::misclassified`] says it
 //! for scoring.
 
-use crate::imagery::meta::{ImageMeta, insert_meta};
-use crate::imagery::onboard::{GreenSpec, OnboardMeasurement};
 use crate::sim::render::{CameraPose, Disturbances, render};
-use crate::sim::world::World;
 use crate::time::Time;
 use crate::vision::camera::CameraModel;
+use crate::vision::meta::{ImageMeta, insert_meta};
+use crate::vision::onboard::{GreenSpec, OnboardMeasurement};
+use crate::world::World;
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -115,7 +115,7 @@ pub struct CameraConfig {
     /// are.
     pub misclassify_probability: f64,
     /// Measure every picture on board with this definition and send the measurement
-    /// (DEBUG_FLOAT_ARRAY, [`crate::imagery::onboard`]) after CAMERA_IMAGE_CAPTURED instead
+    /// (DEBUG_FLOAT_ARRAY, [`crate::vision::onboard`]) after CAMERA_IMAGE_CAPTURED instead
     /// of pushing the picture: the picture is kept ([`RECENT_IMAGES`]) and sent when a GCS
     /// asks for it. `None` (the default): no measurement, pictures pushed as
     /// `mavlink_transfer` says.
@@ -1194,7 +1194,7 @@ mod tests {
     /// Take `n` 16-pixel pictures over a flat green field with a sensor that misclassifies
     /// with probability `p`; returns which of them were flipped.
     fn flips(p: f64, n: usize, seed: u64) -> Vec<bool> {
-        let world = World::flat(crate::sim::world::Surface::GreenTile, (37.0, -80.0), 100.0);
+        let world = World::flat(crate::world::Surface::GreenTile, (37.0, -80.0), 100.0);
         let mut cfg = CameraConfig {
             misclassify_probability: p,
             min_interval_s: 0.0,

@@ -7,7 +7,7 @@
 
 use crate::geo::local;
 use crate::mission::MissionItem;
-use crate::sim::world::point_in_polygon;
+use crate::world::point_in_polygon;
 
 #[derive(Clone, Debug, PartialEq)]
 enum Zone {

@@ -23,4 +23,6 @@ pub mod server;
 pub mod transfer_bench;
 pub mod tx_queue;
 pub mod vehicle;
-pub mod world;
+/// The ground truth the simulator renders lives in the core ([`crate::world`]); the old path
+/// still names it.
+pub use crate::world;

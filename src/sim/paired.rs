@@ -77,8 +77,8 @@ use crate::sim::camera::{
     CAMERA_COMPID, CameraConfig, CaptureContext, CapturedImage, Shot, SimCamera,
 };
 use crate::sim::render::CameraPose;
-use crate::sim::world::World;
 use crate::time::Time;
+use crate::world::World;
 use image::RgbImage;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
@@ -725,7 +725,7 @@ mod tests {
     #[test]
     fn renders_at_the_feedback_pose() {
         let world = Arc::new(World::flat(
-            crate::sim::world::Surface::Grass,
+            crate::world::Surface::Grass,
             (37.0, -80.0),
             100.0,
         ));
@@ -788,7 +788,7 @@ mod tests {
 
     fn flat() -> Arc<World> {
         Arc::new(World::flat(
-            crate::sim::world::Surface::Grass,
+            crate::world::Surface::Grass,
             (37.0, -80.0),
             100.0,
         ))

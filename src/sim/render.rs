@@ -21,8 +21,8 @@
 //! tiles with the grey tiles' texture and the grey tiles with the green ones', so the GCS's
 //! green-share measurement of that image says the other class.
 
-use crate::sim::world::{Surface, World};
 use crate::vision::camera::CameraModel;
+use crate::world::{Surface, World};
 use image::{Rgb, RgbImage};
 use rand::RngExt;
 use rand::SeedableRng;

@@ -6,7 +6,7 @@
 //! camera. The paper does not give its GoPro HERO4's field of view or aspect ratio (a
 //! HERO4's is wider and 4:3 or 16:9); a square footprint is its §3 model of the sensor, and
 //! the classifier crops every picture to the 3 × 3 cells around its centre
-//! ([`crate::app::crop`]), so a wider real camera measures the same cells.
+//! ([`crate::vision::crop`]), so a wider real camera measures the same cells.
 
 use super::VisionError;
 use serde::{Deserialize, Serialize};

@@ -2,8 +2,8 @@
 //! ground: a pinhole camera rotated by the vehicle's attitude and intersected with flat
 //! ground.
 //!
-//! Frames (the simulator renders with the same ones, [`crate::sim::render`] and
-//! [`crate::sim::camera::attitude_quaternion`]):
+//! Frames (the simulator renders with the same ones, `sim::render` and
+//! `sim::camera::attitude_quaternion`):
 //!
 //! * **NED**: x north, y east, z down, origin at the camera.
 //! * **Body**: x forward (the nose), y right, z down. The attitude `R` rotates body vectors
@@ -196,7 +196,7 @@ impl CameraView {
 pub struct OrthoRequest {
     /// Side of one grid cell, grid metres; the orthophoto covers 3 × 3 cells (the level
     /// camera's whole footprint when that is smaller either way, as
-    /// [`crate::app::runway::crop_to_cells`]).
+    /// [`crate::vision::crop::crop_to_cells`]).
     pub cell_m: f64,
     /// The orthophoto's centre (a cell centre), grid metres (east, north) from the point
     /// under the camera.
@@ -224,7 +224,7 @@ pub struct Orthophoto {
 /// pixel's ground point goes through the camera (ground → ray → source pixel) and is sampled
 /// bilinearly; ground the camera did not see repeats the nearest image edge. The output has
 /// the level camera's ground resolution (so a level, north-facing camera right over the
-/// centre gives exactly [`crate::app::runway::crop_to_cells`]'s centre crop), and covers
+/// centre gives exactly [`crate::vision::crop::crop_to_cells`]'s centre crop), and covers
 /// 3 × 3 cells, or the level camera's footprint at `altitude_m` when that is smaller either
 /// way.
 pub fn orthophoto(

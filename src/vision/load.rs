@@ -4,7 +4,7 @@
 //! another format, or a small file whose header claims 30000×30000 pixels (2.7 GB of RGB).
 //! [`load_image_bytes`] never panics and never allocates more than the limits allow. This
 //! module opens no file: reading one (with its size checked and the read capped before the
-//! bytes come here) is the edge's `crate::files::load_image_file`.
+//! bytes come here) is the edge's `files::load_image_file`.
 //!
 //! 1. the size is checked against [`LoadLimits::max_file_bytes`];
 //! 2. the format is recognised from the content (magic bytes), not the file name;

@@ -1,7 +1,7 @@
 //! The sensing models of both papers: the runway classifier and green-pixel measurements,
 //! the per-cell vote book, camera footprint geometry, and image loading with limits.
 //!
-//! Public entry points (all pure: no clock, no sockets; files are opened at the edge, `crate::files`):
+//! Public entry points (all pure: no clock, no sockets; files are opened at the edge, `files`):
 //!
 //! | item | what |
 //! |---|---|
@@ -9,6 +9,9 @@
 //! | [`runway::classify_many`] | the same for several images in parallel (rayon) |
 //! | [`votes::VoteBook`] | 3-of-5 votes per cell and visit, sticky positives, every detection kept |
 //! | [`green::green_fraction`], [`green::measure`] | share of green pixels, one Bernoulli measurement per image (bandit paper §V) |
+//! | [`crop::crop_to_cells`], [`crop::crop_to_cell`] | the centre crops both missions measure (3 × 3 cells; a share of one cell) |
+//! | [`meta::ImageMeta`] | what a capture says about itself, in a JPEG COM segment |
+//! | [`onboard::OnboardMeasurement`] | a green share measured on board, as a DEBUG_FLOAT_ARRAY |
 //! | [`camera::CameraModel`] | footprint and the altitude at which the centre ninth covers one cell |
 //! | [`geometry::orthophoto`], [`geometry::CameraView`] | pinhole camera at the capture attitude (nalgebra): ground ↔ pixel, the 3 × 3 cells resampled north-up |
 //! | [`sanity::check_capture`] | whether a picture was taken where it is credited (position, altitude, tilt, heading) |
@@ -20,10 +23,13 @@
 
 pub mod camera;
 pub mod color;
+pub mod crop;
 pub mod fast;
 pub mod geometry;
 pub mod green;
 pub mod load;
+pub mod meta;
+pub mod onboard;
 pub mod reference;
 pub mod regions;
 pub mod runway;

@@ -11,10 +11,10 @@ use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
 use crate::mission::definition::MissionDef;
 use crate::planner::sortie::ClassificationState;
-use crate::sim::world::World;
 use crate::store::RunDir;
 use crate::tui::live::RunView;
 use crate::tui::{Command, CommandError, Target};
+use crate::world::World;
 use anyhow::bail;
 use std::path::Path;
 use std::time::Duration;
@@ -191,7 +191,7 @@ impl RunKind for Classification {
         state: &ClassificationState,
         world: Option<&World>,
     ) -> anyhow::Result<ClassificationReport> {
-        let truth = world.map(crate::app::bandit_sim::green_tiles);
+        let truth = world.map(World::green_cells);
         Ok(report::report(state, truth.as_deref()))
     }
 
@@ -276,7 +276,7 @@ impl RunKind for Classification {
     ) -> anyhow::Result<(&'static str, Vec<u8>)> {
         Ok(match format {
             ExportFormat::Png => {
-                let truth = world.map(crate::app::bandit_sim::green_tiles);
+                let truth = world.map(World::green_cells);
                 let (w, h) = PROGRESS_PNG;
                 (
                     "progress.png",

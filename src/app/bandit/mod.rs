@@ -33,7 +33,6 @@
 //! dead GCS had acknowledged is in the state; images taken while no GCS listened are lost, as
 //! they would be with any ground station.
 
-pub use crate::app::crop::crop_to_cell;
 use crate::app::flight::{self, Patience};
 pub use crate::app::images::image_hub;
 use crate::app::images::{ImageHub, ReceivedImage};
@@ -53,6 +52,7 @@ use crate::proto::Endpoint;
 use crate::proto::command::Command;
 use crate::store::RunDir;
 use crate::vision::camera::CameraModel;
+pub use crate::vision::crop::crop_to_cell;
 use crate::vision::geometry;
 use crate::vision::green::GreenParams;
 use crate::vision::load::{LoadLimits, load_image_bytes};

@@ -47,7 +47,6 @@
 //! * **End**: every robot back at the start (Algorithm 1), then home and landed; the run's
 //!   outputs are written by [`report`].
 
-pub use crate::app::crop::crop_to_cells;
 use crate::app::flight::{self, FlightError, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
@@ -62,6 +61,7 @@ use crate::mission::MissionType;
 use crate::store::RunDir;
 use crate::time::Time;
 use crate::vision::camera::CameraModel;
+pub use crate::vision::crop::crop_to_cells;
 use crate::vision::geometry::{self, OrthoRequest};
 use crate::vision::load::{LoadLimits, load_image_bytes};
 use crate::vision::runway::{Classification, RunwayParams, classify};

@@ -2,7 +2,7 @@
 //! with the IP planner of Algorithm 2, Bernoulli sensing and no vehicles.
 //!
 //! One trial:
-//! 1. **World** ([`World::random`]): a `rows × cols` grid with `n_obstacles` obstacles drawn
+//! 1. **Field** ([`Field::random`]): a `rows × cols` grid with `n_obstacles` obstacles drawn
 //!    uniformly; layouts whose free cells are not all connected by drone moves are rejected and
 //!    redrawn (the paper rejects layouts with an inaccessible interesting cell; we reject any
 //!    inaccessible cell, since an unreachable uninteresting cell would never be classified and
@@ -30,19 +30,22 @@
 //! A study can be split into parts that run anywhere and join again ([`shard`]); what it writes
 //! and prints, with the paper's row under each of ours, is in [`table`] and [`paper`].
 
+mod field;
 pub mod paper;
 pub mod plot;
 pub mod shard;
+mod summary;
 pub mod table;
+
+pub use field::{Field, StudyError};
+pub use summary::{Spread, VariantSummary, quantile, summarise};
 
 use crate::geo::Cell;
 use crate::planner::bandit::{BanditState, ConfidenceBound, Label, LogBase, p_max};
 use crate::planner::baselines::{GoalRule, choose_goals};
-use crate::planner::grid::Grid;
 use crate::planner::ip::{PlanOptions, PlanStatus, solve_instance};
 use crate::planner::plan::Timelines;
 use crate::planner::scenario::Instance;
-use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -262,143 +265,6 @@ impl Preset {
     }
 }
 
-/// One random world of the study (or a fixed one, [`World::default_10x10`]).
-#[derive(Debug, Clone, PartialEq)]
-pub struct World {
-    /// G, O, R.
-    pub grid: Grid,
-    /// μ_l per dense cell index (0 for obstacles).
-    pub mu: Vec<f64>,
-    /// Whether each cell is interesting (μ_l ≥ θ).
-    pub interesting: Vec<bool>,
-    /// Station start cells.
-    pub stations: Vec<usize>,
-    /// Drone start cells (each on a station).
-    pub drones: Vec<usize>,
-}
-
-/// Why a world cannot be built.
-#[derive(Debug, Clone, PartialEq, Eq, thiserror::Error)]
-pub enum StudyError {
-    /// The configuration cannot produce a world.
-    #[error("impossible study configuration: {0}")]
-    Config(String),
-}
-
-impl World {
-    /// Draw a world for `cfg` (see the module documentation).
-    pub fn random(cfg: &StudyConfig, rng: &mut ChaCha8Rng) -> Result<World, StudyError> {
-        let n = cfg.rows * cfg.cols;
-        if cfg.n_obstacles + cfg.nc.max(cfg.n_interesting) > n || cfg.nc == 0 || cfg.nd == 0 {
-            return Err(StudyError::Config(format!(
-                "{} obstacles, {} interesting cells and {} stations do not fit a {}×{} grid",
-                cfg.n_obstacles, cfg.n_interesting, cfg.nc, cfg.rows, cfg.cols
-            )));
-        }
-        for _ in 0..10_000 {
-            let mut order: Vec<usize> = (0..n).collect();
-            order.shuffle(rng);
-            let cell = |i: usize| Cell::new((i / cfg.cols) as i32, (i % cfg.cols) as i32);
-            let obstacles: Vec<Cell> = order[..cfg.n_obstacles].iter().map(|&i| cell(i)).collect();
-            let grid = Grid::new(cfg.rows as i64, cfg.cols as i64, &obstacles, None)
-                .map_err(|e| StudyError::Config(e.to_string()))?;
-            if !grid.free_cells_connected() {
-                continue;
-            }
-            let mut free = grid.free_cells();
-            free.shuffle(rng);
-            let mut interesting = vec![false; n];
-            for &i in &free[..cfg.n_interesting] {
-                interesting[i] = true;
-            }
-            let mut mu = vec![0.0; n];
-            for i in grid.free_cells() {
-                mu[i] = if interesting[i] {
-                    rng.random_range(cfg.mu_worst..=1.0)
-                } else {
-                    rng.random_range(0.0..=1.0 - cfg.mu_worst)
-                };
-            }
-            let mut st = grid.free_cells();
-            st.shuffle(rng);
-            let stations: Vec<usize> = st[..cfg.nc].to_vec();
-            let drones = (0..cfg.nd).map(|i| stations[i % cfg.nc]).collect();
-            let interesting = mu.iter().map(|&m| m >= cfg.theta).collect();
-            return Ok(World {
-                grid,
-                mu,
-                interesting,
-                stations,
-                drones,
-            });
-        }
-        Err(StudyError::Config(
-            "no connected obstacle layout found in 10000 draws".into(),
-        ))
-    }
-
-    /// The fixed 10×10 default of docs/fixtures.md (seed-2024 layout, in the IP scenario's top-left
-    /// indexing: row r there is row 9 − r here), with μ drawn from `rng` as in §VI for
-    /// μ_worst = `mu_worst`. Ten drones, two on each of the five stations.
-    pub fn default_10x10(mu_worst: f64, theta: f64, rng: &mut ChaCha8Rng) -> World {
-        let flip = |v: &[(i32, i32)]| -> Vec<Cell> {
-            v.iter().map(|&(r, c)| Cell::new(9 - r, c)).collect()
-        };
-        let obstacles = flip(&[
-            (2, 3),
-            (2, 5),
-            (3, 1),
-            (3, 3),
-            (3, 8),
-            (5, 2),
-            (6, 0),
-            (6, 8),
-            (7, 4),
-            (8, 1),
-            (9, 1),
-            (9, 2),
-            (9, 3),
-            (9, 4),
-            (9, 6),
-            (9, 7),
-        ]);
-        let interesting_cells = flip(&[
-            (2, 9),
-            (4, 4),
-            (4, 7),
-            (5, 0),
-            (5, 9),
-            (7, 1),
-            (7, 5),
-            (7, 6),
-            (7, 8),
-            (8, 8),
-        ]);
-        let station_cells = flip(&[(0, 9), (1, 8), (2, 8), (7, 3), (8, 7)]);
-        // The fixture is valid by construction (checked by a unit test).
-        let grid = Grid::new(10, 10, &obstacles, None).unwrap_or_else(|_| unreachable!());
-        let idx = |c: Cell| grid.index(c).unwrap_or(0);
-        let mut mu = vec![0.0; grid.len()];
-        for i in grid.free_cells() {
-            let interesting = interesting_cells.iter().any(|&c| idx(c) == i);
-            mu[i] = if interesting {
-                rng.random_range(mu_worst..=1.0)
-            } else {
-                rng.random_range(0.0..=1.0 - mu_worst)
-            };
-        }
-        let stations: Vec<usize> = station_cells.iter().map(|&c| idx(c)).collect();
-        let drones = (0..10).map(|i| stations[i / 2]).collect();
-        World {
-            interesting: mu.iter().map(|&m| m >= theta).collect(),
-            grid,
-            mu,
-            stations,
-            drones,
-        }
-    }
-}
-
 /// One epoch of a trial.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct EpochRecord {
@@ -427,7 +293,7 @@ pub struct TrialResult {
     pub label: String,
     /// Trial number.
     pub trial: usize,
-    /// World seed.
+    /// Field seed.
     pub world_seed: u64,
     /// Epochs until every interesting cell was classified (`None`: censored).
     pub epochs_interesting: Option<usize>,
@@ -488,7 +354,7 @@ pub fn sensed_cells(path: &[usize], sensing: Sensing, continues: bool) -> Vec<us
 /// `on_epoch` sees every epoch's instance and outcome (for benchmarks and scenario dumps).
 pub fn run_trial(
     cfg: &StudyConfig,
-    world: &World,
+    world: &Field,
     label: &str,
     trial: usize,
     world_seed: u64,
@@ -668,129 +534,6 @@ pub fn run_trial(
     result
 }
 
-/// The q-quantile of `v` with linear interpolation between order statistics (Hyndman & Fan
-/// type 7, numpy's default); `None` for an empty slice.
-pub fn quantile(v: &[f64], q: f64) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    let mut s = v.to_vec();
-    s.sort_by(f64::total_cmp);
-    let h = (s.len() - 1) as f64 * q.clamp(0.0, 1.0);
-    let (lo, hi) = (h.floor() as usize, h.ceil() as usize);
-    Some(s[lo] + (h - lo as f64) * (s[hi] - s[lo]))
-}
-
-/// Median and 0.1 / 0.9 quantiles.
-#[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-pub struct Spread {
-    /// 0.5-quantile.
-    pub median: f64,
-    /// 0.1-quantile.
-    pub q10: f64,
-    /// 0.9-quantile.
-    pub q90: f64,
-    /// Number of values.
-    pub n: usize,
-}
-
-impl Spread {
-    /// The spread of `v` (`None` if empty).
-    pub fn of(v: &[f64]) -> Option<Spread> {
-        Some(Spread {
-            median: quantile(v, 0.5)?,
-            q10: quantile(v, 0.1)?,
-            q90: quantile(v, 0.9)?,
-            n: v.len(),
-        })
-    }
-}
-
-/// The summary of one variant (a row of a table).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct VariantSummary {
-    /// The variant's configuration.
-    pub config: StudyConfig,
-    /// Trials run.
-    pub trials: usize,
-    /// Solve time per epoch, seconds, over every epoch of every trial.
-    pub solve_seconds: Option<Spread>,
-    /// Epochs to classify every interesting cell (finished trials only).
-    pub epochs_interesting: Option<Spread>,
-    /// Epochs to classify every cell (finished trials only).
-    pub epochs_all: Option<Spread>,
-    /// Trials that hit `max_epochs` or failed.
-    pub censored: usize,
-    /// Total labelling errors over all trials (Prop. 1 bounds P(any error) by δ per trial).
-    pub label_errors: usize,
-    /// Epochs whose plan needed more than one sensing cycle.
-    pub multi_cycle_epochs: usize,
-    /// P_max of Proposition 2 over the trials' worlds (`None` for a bound it is not proved
-    /// for, see [`TrialResult::p_max`]).
-    #[serde(default)]
-    pub p_max: Option<Spread>,
-    /// The paper's row this variant reproduces ([`paper::row_for`]), set by
-    /// [`Study::summarise`].
-    #[serde(default)]
-    pub paper: Option<paper::PaperRow>,
-    /// Mean fraction of interesting / uninteresting cells classified after each epoch
-    /// (finished trials count as fully classified after they end) — the curves of Fig. 5/6.
-    pub progress: Vec<(f64, f64)>,
-}
-
-/// Summarise the trials of one variant.
-pub fn summarise(config: &StudyConfig, trials: &[TrialResult]) -> VariantSummary {
-    let solve: Vec<f64> = trials
-        .iter()
-        .flat_map(|t| t.epochs.iter().map(|e| e.solve_seconds))
-        .collect();
-    let ei: Vec<f64> = trials
-        .iter()
-        .filter_map(|t| t.epochs_interesting.map(|e| e as f64))
-        .collect();
-    let ea: Vec<f64> = trials
-        .iter()
-        .filter_map(|t| t.epochs_all.map(|e| e as f64))
-        .collect();
-    let longest = trials.iter().map(|t| t.epochs.len()).max().unwrap_or(0);
-    let progress = (0..longest)
-        .map(|p| {
-            let (mut si, mut su) = (0.0, 0.0);
-            for t in trials {
-                let ni = t.n_interesting.max(1) as f64;
-                let nu = (t.n_cells - t.n_interesting).max(1) as f64;
-                let e = t.epochs.get(p).or(t.epochs.last());
-                if let Some(e) = e {
-                    si += e.interesting_classified as f64 / ni;
-                    su += e.uninteresting_classified as f64 / nu;
-                }
-            }
-            let n = trials.len().max(1) as f64;
-            (si / n, su / n)
-        })
-        .collect();
-    VariantSummary {
-        config: config.clone(),
-        trials: trials.len(),
-        solve_seconds: Spread::of(&solve),
-        epochs_interesting: Spread::of(&ei),
-        epochs_all: Spread::of(&ea),
-        censored: trials
-            .iter()
-            .filter(|t| t.epochs_all.is_none() || t.failure.is_some())
-            .count(),
-        label_errors: trials.iter().map(|t| t.label_errors).sum(),
-        multi_cycle_epochs: trials
-            .iter()
-            .flat_map(|t| &t.epochs)
-            .filter(|e| e.cycles > 1)
-            .count(),
-        p_max: Spread::of(&trials.iter().filter_map(|t| t.p_max).collect::<Vec<f64>>()),
-        paper: None,
-        progress,
-    }
-}
-
 /// A study: the variants of a preset, the trials per variant and the seed. Trial t of every
 /// variant runs on the same world ([`run_seeded`]), so any subset of the trials can run
 /// anywhere (a [`shard::Shard`]) and the parts join into the same study.
@@ -861,7 +604,7 @@ pub fn run_seeded(cfg: &StudyConfig, seed: u64, trial: usize, variant: usize) ->
     let world_seed = mix(seed ^ mix(trial as u64));
     let sensing_seed = mix(world_seed ^ mix(0x5EED ^ variant as u64));
     let mut rng = ChaCha8Rng::seed_from_u64(world_seed);
-    match World::random(cfg, &mut rng) {
+    match Field::random(cfg, &mut rng) {
         Ok(world) => run_trial(
             cfg,
             &world,
@@ -904,7 +647,7 @@ mod tests {
     fn worlds_follow_section_vi() {
         let cfg = StudyConfig::default();
         let mut rng = ChaCha8Rng::seed_from_u64(3);
-        let w = World::random(&cfg, &mut rng).unwrap();
+        let w = Field::random(&cfg, &mut rng).unwrap();
         assert_eq!((0..100).filter(|&i| w.grid.is_blocked(i)).count(), 16);
         assert!(w.grid.free_cells_connected());
         assert_eq!(w.interesting.iter().filter(|&&b| b).count(), 10);
@@ -918,7 +661,7 @@ mod tests {
         }
         assert_eq!(w.drones.len(), 10);
         assert!(w.drones.iter().all(|d| w.stations.contains(d)));
-        let d = World::default_10x10(0.8, 0.5, &mut rng);
+        let d = Field::default_10x10(0.8, 0.5, &mut rng);
         assert_eq!(d.interesting.iter().filter(|&&b| b).count(), 10);
         assert!(d.grid.free_cells_connected());
     }

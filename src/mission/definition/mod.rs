@@ -56,7 +56,7 @@ mod reader;
 mod validate;
 
 use crate::geo::Cell;
-use crate::planner::bandit::ConfidenceBound;
+use crate::mission::strategy::{Allocation, ConfidenceBound};
 use crate::vision::camera::CameraModel;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::HashSet;
@@ -376,7 +376,7 @@ pub struct RunwayDef {
     /// the paper's, proved within Lemma 1; nearest frontier is 2 % cheaper on average on the
     /// Fig. 7 trials but unproved, with a worse worst case (`docs/results/dfs.md`).
     #[serde(default)]
-    pub allocation: crate::explore::dfs::Allocation,
+    pub allocation: Allocation,
     /// The region's velocity over the ground, `[north, east]` metres per second, when it
     /// translates (a plume in a current or a steady wind, from a forecast or a plume model;
     /// runway paper §3–4). The region is where the mission's geometry says at the run's
@@ -623,7 +623,7 @@ impl MissionDef {
     /// Parse and validate the raw bytes of a mission file named `file_name` (used in error
     /// messages): bytes that are not UTF-8 are an error at the line and column of the first
     /// bad byte, not a panic. Reading the file is the edge's job
-    /// (`crate::files::load_mission`).
+    /// (`files::load_mission`).
     pub fn from_bytes(bytes: &[u8], file_name: &str) -> Result<MissionDef, DefErrors> {
         match std::str::from_utf8(bytes) {
             Ok(text) => MissionDef::parse(text, file_name),

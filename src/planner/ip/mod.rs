@@ -17,7 +17,7 @@
 //! After the solve, the plan is re-paired by linear assignment (§III-C, [`super::assign`]).
 //!
 //! Clock reads: none. The caller passes `elapsed`, a clock closure giving the seconds since
-//! the solve began (`crate::clock::stopwatch` at the edge, a fixed value in tests); it feeds
+//! the solve began (`clock::stopwatch` at the edge, a fixed value in tests); it feeds
 //! the solve statistics (`solve_seconds`, each attempt's `seconds`) and the time left of
 //! [`PlanOptions::time_limit`] between attempts. The plan never depends on it except through
 //! that budget and HiGHS's own time limit, which is a clock by nature. It is a CPU-bound batch computation, to be run on

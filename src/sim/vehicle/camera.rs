@@ -30,7 +30,7 @@ impl SimVehicle {
         if self.world.is_none() {
             // no world file: the camera sees plain grass
             self.world = Some(Arc::new(World::flat(
-                crate::sim::world::Surface::Grass,
+                crate::world::Surface::Grass,
                 self.cfg.reference,
                 self.cfg.ground_alt_amsl_m,
             )));

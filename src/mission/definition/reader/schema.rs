@@ -3,7 +3,7 @@
 //! `[area]`, `[runway]`, `[classification]`), through the typed readers of [`Ctx`].
 
 use super::*;
-use crate::explore::dfs::Allocation;
+use crate::mission::strategy::Allocation;
 
 const ROOT_KEYS: &[&str] = &[
     "name",

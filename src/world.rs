@@ -1,5 +1,9 @@
 //! Ground-truth worlds: what the simulated camera sees and what a run is scored against.
 //!
+//! Pure (core): a world is parsed from TOML text ([`World::from_toml`]); the shell's loader
+//! (`files::load_world`) reads the file. The simulator renders it, the GCS's reports and
+//! exports score a run against it.
+//!
 //! A world file (`assets/worlds/*.toml`) lists regions — WGS84 polygons with a [`Surface`]
 //! (runway asphalt, grass, green and grey tiles, obstacles, roads) — drawn over a background
 //! surface, optionally translating at a constant velocity (the runway paper's moving plume,
@@ -25,7 +29,7 @@ use thiserror::Error;
 /// Errors reading or using a world.
 #[derive(Debug, Error)]
 pub enum WorldError {
-    /// The file could not be read.
+    /// The file could not be read (by the shell's loader).
     #[error("cannot read world file {path}")]
     Io {
         /// The file.
@@ -623,6 +627,20 @@ impl World {
                 Some((a.trim().parse().ok()?, b.trim().parse().ok()?))
             })
             .collect()
+    }
+
+    /// The interesting cells of a bandit field: its green tiles as mission cells, sorted
+    /// (row, then column) and without repeats — the truth a classification run is scored
+    /// against.
+    pub fn green_cells(&self) -> Vec<crate::geo::Cell> {
+        let mut v: Vec<crate::geo::Cell> = self
+            .cells_of(Surface::GreenTile)
+            .into_iter()
+            .map(|(r, c)| crate::geo::Cell::new(r, c))
+            .collect();
+        v.sort();
+        v.dedup();
+        v
     }
 }
 

@@ -35,8 +35,8 @@
 //! GCS whose mission gives a different fingerprint does not use the number; it asks for the
 //! picture and measures it itself.
 
-use crate::app::crop::crop_to_cell;
 use crate::vision::camera::CameraModel;
+use crate::vision::crop::crop_to_cell;
 use crate::vision::green::{GreenParams, green_fraction};
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
@@ -204,30 +204,7 @@ mod tests {
         }
     }
 
-    #[test]
-    fn round_trip_through_a_mavlink_frame() {
-        let m = OnboardMeasurement {
-            time_boot_ms: 1_234_567,
-            image_index_lo: 70_000u32 as u16,
-            spec: spec().fingerprint(),
-            picture_bytes: 53_872,
-            value: GreenShare {
-                share: 0.375,
-                pixels: 14_400,
-            },
-        };
-        let mut codec = crate::link::codec::Codec::new();
-        let buf = codec.encode(1, 100, &m.to_message(), 0);
-        // small on the wire: trailing zeros of the 58 floats are truncated
-        assert_eq!(buf.len(), 52, "12 bytes of framing and 40 of payload");
-        let frames = codec.decode(&buf, 0);
-        let Ok(MavMessage::DEBUG_FLOAT_ARRAY(d)) = &frames[0].message else {
-            panic!("{frames:?}")
-        };
-        assert_eq!(OnboardMeasurement::from_message(d), Some(m));
-        assert!(m.is_of(1_234_567, 70_000));
-        assert!(!m.is_of(1_234_567, 70_001));
-    }
+    // The round trip through the GCS's MAVLink codec: tests/vision.rs.
 
     #[test]
     fn other_arrays_and_bad_numbers_are_not_measurements() {
