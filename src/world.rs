@@ -339,7 +339,7 @@ fn valid_latlon(lat: f64, lon: f64) -> bool {
 
 impl World {
     /// Parse and check the text of the world file `file` (named in a parse error); the shell
-    /// reads the file ([`crate::files::load_world`]).
+    /// reads the file (the GCS's `files::load_world`).
     pub fn from_toml_file(text: &str, file: &str) -> Result<World, WorldError> {
         World::from_toml(text).map_err(|e| match e {
             WorldError::Parse { message, .. } => WorldError::Parse {

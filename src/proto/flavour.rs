@@ -68,11 +68,11 @@ pub fn takeoff_reached(alt_rel: f32, target: f32) -> bool {
 }
 
 /// Which autopilot firmware, from HEARTBEAT.autopilot (MAV_AUTOPILOT): the one vocabulary of
-/// the fleet, the simulator ([`crate::sim::flavour::SimAutopilot`] is the part of it the
+/// the fleet, the simulator (`sim::flavour::SimAutopilot` is the part of it the
 /// simulator imitates) and the TUI.
 ///
 /// Serialized (fleet snapshots in JSON) as `"ArduPilot"`, `"Px4"`, `{"Other": n}`; the TUI's
-/// replay files use their own spelling (`crate::tui::model::VehicleRow::autopilot`).
+/// replay files use their own spelling (the TUI model's `VehicleRow::autopilot`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
 pub enum Autopilot {
     /// ArduPilot (MAV_AUTOPILOT_ARDUPILOTMEGA = 3).
@@ -139,7 +139,7 @@ impl Default for Autopilot {
 /// one vocabulary of the fleet and the TUI.
 ///
 /// Serialized (fleet snapshots in JSON) as `"Copter"`, `"Rover"`, …; the TUI's replay files
-/// use their own spelling (`crate::tui::model::VehicleRow::vehicle_type`).
+/// use their own spelling (the TUI model's `VehicleRow::vehicle_type`).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, serde::Serialize)]
 pub enum VehicleClass {
     /// Multirotor or helicopter.

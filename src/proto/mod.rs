@@ -4,7 +4,7 @@
 //! (docs/architecture.md, "Layers"): feed received messages with `handle_message(header, msg, now)`, call
 //! `handle_timeout(now)` when `poll_timeout()` says so, send whatever `poll_transmit()`
 //! yields (messages carry their own target ids), and read results with `poll_event()`.
-//! The fleet actor (`crate::fleet`) runs one set of machines per vehicle.
+//! The GCS's fleet actor runs one set of machines per vehicle.
 //!
 //! * [`heartbeat`] — the GCS heartbeat (1 Hz) and vehicle liveness (lost after 3 s of
 //!   silence, back on the next heartbeat, reboots detected).

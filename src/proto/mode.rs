@@ -1,6 +1,6 @@
 //! The one table of flight modes, per autopilot: each mode's name and the HEARTBEAT
 //! `custom_mode` number the autopilot puts on the wire. The GCS ([`super::flavour::Flavour`])
-//! and the simulator (`crate::sim::flavour`) both read their numbers and names from here.
+//! and the simulator (its `sim::flavour`) both read their numbers and names from here.
 //!
 //! Sources:
 //! * ArduCopter `enum class Number` (ArduPilot `ArduCopter/mode.h`).
