@@ -52,8 +52,21 @@
 //! in a run directory); a test checks that the serde path and the reader agree on every
 //! example file. [`MissionDef::validate`] runs step 3 on a definition built in code.
 
+mod classification;
+mod errors;
 mod reader;
+mod runway;
 mod validate;
+
+pub use classification::{ClassificationDef, GreenDef};
+pub use errors::{DefError, DefErrors};
+pub use runway::{RunwayDef, SweepBox};
+// The runway defaults are also the reader's (`reader::schema`).
+pub(crate) use runway::default_sweep_position_tolerance_m;
+use runway::{
+    default_black_fraction, default_dilations, default_images_per_cell,
+    default_intensity_threshold, default_votes_required,
+};
 
 use crate::geo::Cell;
 use crate::mission::strategy::{Allocation, ConfidenceBound};
@@ -311,228 +324,6 @@ impl Default for AreaDef {
     }
 }
 
-/// `[runway.sweep]`: the bounding box the lawnmower phase sweeps (runway paper §7), known to
-/// contain part of the region.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(untagged, deny_unknown_fields)]
-pub enum SweepBox {
-    /// Metres relative to the grid origin — the form to use with `origin = "vehicle"`,
-    /// whose position is only known at run time.
-    Local {
-        /// Northward extent `[min, max]`, metres from the origin.
-        north_m: [f64; 2],
-        /// Eastward extent `[min, max]`, metres from the origin.
-        east_m: [f64; 2],
-    },
-    /// WGS84 corners.
-    Corners {
-        /// South-west corner.
-        south_west: LatLon,
-        /// North-east corner.
-        north_east: LatLon,
-    },
-}
-
-/// `[runway]`: the runway classifier and sweep (runway paper §7).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct RunwayDef {
-    /// Images taken over every visited cell. Paper: 5.
-    #[serde(default = "default_images_per_cell")]
-    pub images_per_cell: u32,
-    /// Positive votes (of `images_per_cell`) that make a cell positive. Paper: 3.
-    #[serde(default = "default_votes_required")]
-    pub votes_required: u32,
-    /// Grayscale threshold (0–255): darker pixels are "black" (runway). Paper: 150.
-    #[serde(default = "default_intensity_threshold")]
-    pub intensity_threshold: u8,
-    /// Dilations of the thresholded image (fill the gaps in the grass). Paper: 7.
-    #[serde(default = "default_dilations")]
-    pub dilations: u32,
-    /// An image region (one of the 3×3) votes "runway" when at least this fraction of its
-    /// pixels is black. The paper uses "a threshold" without giving it; 0.5 is our choice.
-    #[serde(default = "default_black_fraction")]
-    pub black_fraction: f64,
-    /// Distance between the sweep's lawnmower lanes, metres. Absent: the widest spacing
-    /// that leaves no gap between the pictures of neighbouring lanes, for the camera at each
-    /// drone's altitude, the heading rule `sweep_heading_error_deg` and the position error
-    /// `sweep_position_tolerance_m` (7.07 m for the paper's camera at 12 m with the
-    /// defaults). A wider spacing would leave gaps and is refused.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub lane_spacing_m: Option<f64>,
-    /// How far the nose may be from the lane direction at a sweep picture, degrees (< 45).
-    /// Absent: any heading (the spacing then assumes the footprint may be rotated
-    /// arbitrarily: the disc inscribed in it). ArduPilot's default `WP_YAW_BEHAVIOR` turns
-    /// the nose towards the next waypoint, so an along-track rule usually holds, but a
-    /// gust or a PX4 vehicle need not keep it.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub sweep_heading_error_deg: Option<f64>,
-    /// Worst distance between a sweep waypoint and where its picture is taken, metres.
-    /// Our choice (1 m): the position limit of the image sanity check.
-    #[serde(default = "default_sweep_position_tolerance_m")]
-    pub sweep_position_tolerance_m: f64,
-    /// How the DFS sends the robots at a vertex on (`"paper"`: Algorithm 1's split;
-    /// `"nearest_frontier"`: towards the nearest unexplored vertex, with GCS sharing). Default:
-    /// the paper's, proved within Lemma 1; nearest frontier is 2 % cheaper on average on the
-    /// Fig. 7 trials but unproved, with a worse worst case (`docs/results/dfs.md`).
-    #[serde(default)]
-    pub allocation: Allocation,
-    /// The region's velocity over the ground, `[north, east]` metres per second, when it
-    /// translates (a plume in a current or a steady wind, from a forecast or a plume model;
-    /// runway paper §3–4). The region is where the mission's geometry says at the run's
-    /// start (`run-directory.md`: `roi_epoch_unix_ms`); the DFS maps it in its own frame and
-    /// each visit aims at where the cell will be when the vehicle gets there. Absent: a
-    /// static region. Must be slower than `flight.speed_m_s`.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub roi_velocity_ne_mps: Option<[f64; 2]>,
-    /// The box to sweep.
-    pub sweep: SweepBox,
-}
-
-pub(crate) fn default_sweep_position_tolerance_m() -> f64 {
-    1.0
-}
-fn default_images_per_cell() -> u32 {
-    5
-}
-fn default_votes_required() -> u32 {
-    3
-}
-fn default_intensity_threshold() -> u8 {
-    150
-}
-fn default_dilations() -> u32 {
-    7
-}
-fn default_black_fraction() -> f64 {
-    0.5
-}
-
-/// `[classification.green]`: the green-pixel measurement of the bandit paper's hardware
-/// test (§V: OpenCV counts green pixels in each image). The paper gives no numbers; these
-/// are ours.
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct GreenDef {
-    /// Lower HSV bound, OpenCV scale: H 0–179, S 0–255, V 0–255.
-    #[serde(default = "default_hsv_min")]
-    pub hsv_min: [u8; 3],
-    /// Upper HSV bound (inclusive), same scale; each channel ≥ the lower bound.
-    #[serde(default = "default_hsv_max")]
-    pub hsv_max: [u8; 3],
-    /// An image is a positive measurement (ν_l = 1) when at least this fraction of its
-    /// pixels is green, 0 < x ≤ 1.
-    #[serde(default = "default_fraction_threshold")]
-    pub fraction_threshold: f64,
-}
-
-fn default_hsv_min() -> [u8; 3] {
-    [35, 60, 40]
-}
-fn default_hsv_max() -> [u8; 3] {
-    [85, 255, 255]
-}
-fn default_fraction_threshold() -> f64 {
-    0.2
-}
-
-impl Default for GreenDef {
-    fn default() -> Self {
-        GreenDef {
-            hsv_min: default_hsv_min(),
-            hsv_max: default_hsv_max(),
-            fraction_threshold: default_fraction_threshold(),
-        }
-    }
-}
-
-/// `[classification]`: the bandit high-level planner (eq. 3–4) and the IP low-level planner
-/// (eq. 7–11). Defaults are the paper's simulation defaults (§VI and Fig. 2).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ClassificationDef {
-    /// θ ∈ (0, 1): a cell is interesting when μ_l ≥ θ (eq. 1). Default 0.5.
-    #[serde(default = "default_theta")]
-    pub theta: f64,
-    /// ε: labelling error tolerance (Assumption 1), 0 < ε < min(θ, 1 − θ). Default 0.05.
-    #[serde(default = "default_epsilon")]
-    pub epsilon: f64,
-    /// δ ∈ (0, 1): labelling error probability (eq. 2, 3b). Default 0.0001.
-    #[serde(default = "default_delta")]
-    pub delta: f64,
-    /// The confidence interval behind the goal score (3) and the labels (4): `"kl"` (the
-    /// default: the KL form of the beta-binomial mixture confidence sequence, same guarantee
-    /// as Prop. 1 at the same δ, about 4× fewer samples; docs/results/bandit-bound.md) or
-    /// `"paper"` ((3b) as printed). A saved run resumes with the bound it started with.
-    #[serde(default = "ConfidenceBound::field_default")]
-    pub bound: ConfidenceBound,
-    /// D ≥ 1: epoch goals chosen per epoch (Algorithm 1 step 3). Default 8.
-    #[serde(default = "default_epoch_goals")]
-    pub epoch_goals: u32,
-    /// B ≥ 1: measurements (images) per visit of an unclassified cell. Default 10.
-    #[serde(default = "default_batch_size")]
-    pub batch_size: u32,
-    /// Td ≥ 2: drone moves per sensing cycle (battery limit). Default 8.
-    #[serde(default = "default_drone_cycle_steps")]
-    pub drone_cycle_steps: u32,
-    /// Tc ≥ 2: station moves per sensing cycle; Td must be a multiple (γ = Td/Tc). Default 4.
-    #[serde(default = "default_station_cycle_steps")]
-    pub station_cycle_steps: u32,
-    /// K ≥ 1: most sensing cycles per epoch the IP may use (eq. 6). Default 4.
-    #[serde(default = "default_max_cycles")]
-    pub max_cycles: u32,
-    /// C ≥ 1: most drones on one station at a cycle's start and end (eq. 10); absent = no
-    /// limit.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub charger_capacity: Option<u32>,
-    /// The green-pixel measurement.
-    #[serde(default)]
-    pub green: GreenDef,
-}
-
-fn default_theta() -> f64 {
-    0.5
-}
-fn default_epsilon() -> f64 {
-    0.05
-}
-fn default_delta() -> f64 {
-    0.0001
-}
-fn default_epoch_goals() -> u32 {
-    8
-}
-fn default_batch_size() -> u32 {
-    10
-}
-fn default_drone_cycle_steps() -> u32 {
-    8
-}
-fn default_station_cycle_steps() -> u32 {
-    4
-}
-fn default_max_cycles() -> u32 {
-    4
-}
-
-impl Default for ClassificationDef {
-    fn default() -> Self {
-        ClassificationDef {
-            theta: default_theta(),
-            epsilon: default_epsilon(),
-            delta: default_delta(),
-            bound: ConfidenceBound::field_default(),
-            epoch_goals: default_epoch_goals(),
-            batch_size: default_batch_size(),
-            drone_cycle_steps: default_drone_cycle_steps(),
-            station_cycle_steps: default_station_cycle_steps(),
-            max_cycles: default_max_cycles(),
-            charger_capacity: None,
-            green: GreenDef::default(),
-        }
-    }
-}
-
 /// A mission definition file, parsed and validated (see the module documentation).
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
@@ -567,57 +358,6 @@ pub struct MissionDef {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub classification: Option<ClassificationDef>,
 }
-
-/// One problem in a mission file.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct DefError {
-    /// The file name as given to [`MissionDef::parse`] / [`MissionDef::from_bytes`].
-    pub file: String,
-    /// 1-based line of the offending value (0 when unknown, e.g. a definition built in code).
-    pub line: usize,
-    /// 1-based column, in characters (0 when unknown).
-    pub column: usize,
-    /// Key path of the offending value (`grid.cell_size_m`, `vehicles[2].sysid`); empty for
-    /// syntax errors and whole-file problems.
-    pub path: String,
-    /// What was expected and what was found.
-    pub message: String,
-}
-
-impl fmt::Display for DefError {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        write!(f, "{}", self.file)?;
-        if self.line > 0 {
-            write!(f, ":{}:{}", self.line, self.column)?;
-        }
-        if self.path.is_empty() {
-            write!(f, ": {}", self.message)
-        } else {
-            write!(f, ": {}: {}", self.path, self.message)
-        }
-    }
-}
-
-/// Every problem found in a mission file, in file order. Displays one per line.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub struct DefErrors {
-    /// The problems (never empty when returned as an error).
-    pub errors: Vec<DefError>,
-}
-
-impl fmt::Display for DefErrors {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        for (i, e) in self.errors.iter().enumerate() {
-            if i > 0 {
-                writeln!(f)?;
-            }
-            write!(f, "{e}")?;
-        }
-        Ok(())
-    }
-}
-
-impl std::error::Error for DefErrors {}
 
 impl MissionDef {
     /// Parse and validate the raw bytes of a mission file named `file_name` (used in error
