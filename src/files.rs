@@ -25,21 +25,34 @@ use std::path::Path;
 /// (an unreadable file: "cannot read the file: `<reason>`"; bytes that are not UTF-8: the line
 /// and column of the first bad byte).
 pub fn load_mission(path: impl AsRef<Path>) -> Result<MissionDef, DefErrors> {
+    read_mission(path).map(|(_, def)| def)
+}
+
+/// [`load_mission`], with the file's text as read (a run directory keeps its copy).
+pub fn read_mission(path: impl AsRef<Path>) -> Result<(String, MissionDef), DefErrors> {
     let path = path.as_ref();
     let file = path.display().to_string();
     let bytes = std::fs::read(path).map_err(|e| MissionDef::unreadable(&file, &e))?;
-    MissionDef::from_bytes(&bytes, &file)
+    let def = MissionDef::from_bytes(&bytes, &file)?;
+    // `from_bytes` accepted the bytes as UTF-8, so nothing is replaced here.
+    Ok((String::from_utf8_lossy(&bytes).into_owned(), def))
 }
 
 /// Read and check the world file at `path` (a simulated world, [`World`]). Errors name the
 /// file as given.
 pub fn load_world(path: &Path) -> Result<World, WorldError> {
+    read_world(path).map(|(_, w)| w)
+}
+
+/// [`load_world`], with the file's text as read (a run directory keeps its copy).
+pub fn read_world(path: &Path) -> Result<(String, World), WorldError> {
     let file = path.display().to_string();
     let text = std::fs::read_to_string(path).map_err(|source| WorldError::Io {
         path: file.clone(),
         source,
     })?;
-    World::from_toml_file(&text, &file)
+    let world = World::from_toml_file(&text, &file)?;
+    Ok((text, world))
 }
 
 /// Where an image comes from.

@@ -43,12 +43,9 @@ pub struct NewRun {
 }
 
 impl NewRun {
-    /// A new run of the mission file `path` (read and parsed here).
+    /// A new run of the mission file `path` (read by [`crate::files::read_mission`]).
     pub fn from_file(path: &Path) -> anyhow::Result<NewRun> {
-        let text = std::fs::read_to_string(path)
-            .with_context(|| format!("cannot read {}", path.display()))?;
-        let def = MissionDef::parse(&text, &path.display().to_string())
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let (text, def) = crate::files::read_mission(path).map_err(|e| anyhow::anyhow!("{e}"))?;
         Ok(NewRun {
             def,
             text,
@@ -59,11 +56,10 @@ impl NewRun {
         })
     }
 
-    /// Fly over the world in the file `path` (checked here; copied into the run directory).
+    /// Fly over the world in the file `path` (read and checked by
+    /// [`crate::files::read_world`]; copied into the run directory).
     pub fn with_world_file(mut self, path: &Path) -> anyhow::Result<NewRun> {
-        let text =
-            std::fs::read_to_string(path).with_context(|| format!("world {}", path.display()))?;
-        World::from_toml(&text).with_context(|| format!("world {}", path.display()))?;
+        let (text, _) = crate::files::read_world(path)?;
         self.world_toml = Some(text);
         Ok(self)
     }

@@ -96,12 +96,14 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         altitude_separation_m: args.separation,
         ..DemoConfig::default()
     };
-    let world_text = match &args.world {
-        Some(p) => std::fs::read_to_string(p)
-            .with_context(|| format!("cannot read the world {}", p.display()))?,
-        None => demo::RUNWAY_WORLD.to_string(),
+    let (world_text, world) = match &args.world {
+        Some(p) => crate::files::read_world(p)?,
+        None => {
+            let text = demo::RUNWAY_WORLD.to_string();
+            let world = World::from_toml(&text).context("the demo world")?;
+            (text, world)
+        }
     };
-    let world = World::from_toml(&world_text).context("the demo world")?;
     let (text, def, mission_file) = demo::mission_for(&world, &cfg)?;
     let tui = !args.headless
         && std::io::IsTerminal::is_terminal(&std::io::stdin())
