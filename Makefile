@@ -65,12 +65,12 @@ OTHER_TESTS := $(filter-out $(SLOW_TESTS) $(WAITING_TESTS),$(basename $(notdir $
 test: sysdeps
 	@mkdir -p target
 	@$(MAKE) --no-print-directory venv > target/venv.log 2>&1 & venv=$$!; \
-	  $(CARGO) test --lib --bins --tests --no-fail-fast --no-run; built=$$?; \
+	  $(CARGO) test --workspace --lib --bins --tests --no-fail-fast --no-run; built=$$?; \
 	  wait $$venv; v=$$?; cat target/venv.log; \
 	  [ $$built = 0 ] && [ $$v = 0 ]
 	@$(CARGO) test --no-fail-fast $(addprefix --test ,$(WAITING_TESTS)) > target/waiting-tests.log 2>&1 & waiting=$$!; \
 	  $(CARGO) test --no-fail-fast $(addprefix --test ,$(SLOW_TESTS)) > target/slow-tests.log 2>&1 & slow=$$!; \
-	  $(CARGO) test --no-fail-fast --lib --bins $(addprefix --test ,$(OTHER_TESTS)); rest=$$?; \
+	  $(CARGO) test --no-fail-fast --workspace --lib --bins $(addprefix --test ,$(OTHER_TESTS)); rest=$$?; \
 	  wait $$slow; s=$$?; echo "--- $(SLOW_TESTS):"; cat target/slow-tests.log; \
 	  wait $$waiting; w=$$?; echo "--- $(WAITING_TESTS):"; cat target/waiting-tests.log; \
 	  [ $$rest = 0 ] && [ $$s = 0 ] && [ $$w = 0 ]
@@ -84,9 +84,8 @@ bench: sysdeps
 	$(CARGO) bench
 
 ## What CI runs (.ci/run).
-ci: test
-	$(CARGO) fmt --check
-	$(CARGO) clippy --all-targets -- -D warnings
+ci:
+	.ci/run
 
 clean-venv:
 	rm -rf $(VENV)

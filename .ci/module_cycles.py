@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Fail when modules of a Rust crate import each other in a cycle.
 
-    .ci/module_cycles.py [SRC_DIR ...]        # default: src
+    .ci/module_cycles.py [SRC_DIR ...]        # default: src and crates/*/src
 
 A crate's modules form a tree (src/a/b.rs is `a::b`). Every path a file names —
 `use crate::x::y`, `crate::x::y::f()`, `super::z`, `self::w` — is an edge from the file's
@@ -253,8 +253,14 @@ def check(root):
     return found
 
 
+def default_roots():
+    """The workspace's crates: the package at the root (src) and every crates/*/src."""
+    crates = sorted(os.path.join("crates", c, "src") for c in os.listdir("crates")) if os.path.isdir("crates") else []
+    return ["src"] + [c for c in crates if os.path.isdir(c)]
+
+
 def main():
-    roots = sys.argv[1:] or ["src"]
+    roots = sys.argv[1:] or default_roots()
     found = sum(check(r) for r in roots)
     if found:
         print(f"module_cycles: {found} cycle(s)")

@@ -2,10 +2,10 @@
 //! `fleetmap experiment dfs`), the explorer's per-call cost, and lawnmower planning.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fleetmap::explore::Sharing;
-use fleetmap::explore::lawnmower::{HeadingPolicy, LawnmowerConfig, LocalBox, plan};
-use fleetmap::explore::simulate::{SimConfig, random_roi, simulate};
-use fleetmap::vision::camera::CameraModel;
+use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::lawnmower::{HeadingPolicy, LawnmowerConfig, LocalBox, plan};
+use fleetmap_core::explore::simulate::{SimConfig, random_roi, simulate};
+use fleetmap_core::vision::camera::CameraModel;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;
@@ -57,7 +57,9 @@ fn lawnmower(c: &mut Criterion) {
     c.bench_function("lawnmower_400m_box_3_robots", |b| {
         b.iter(|| {
             plan(black_box(&cfg), |e, n| {
-                Ok::<_, std::convert::Infallible>(fleetmap::geo::local::offset(37.0, -80.0, n, e))
+                Ok::<_, std::convert::Infallible>(fleetmap_core::geo::local::offset(
+                    37.0, -80.0, n, e,
+                ))
             })
             .unwrap()
             .len()

@@ -1,7 +1,7 @@
 //! Speed of the mission-grid conversions (`cargo bench --bench geo`).
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fleetmap::geo::{Cell, Grid, LatLon, utm};
+use fleetmap_core::geo::{Cell, Grid, LatLon, utm};
 use std::hint::black_box;
 
 fn conversions(c: &mut Criterion) {

@@ -7,13 +7,13 @@
 //! `cargo bench --bench mavlink` (`-- loopback` for the UDP one only)
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use fleetmap::link::codec::Codec;
-use fleetmap::mission::{MissionItem, MissionType};
-use fleetmap::proto::Endpoint;
-use fleetmap::proto::mission::{MissionClient, MissionConfig, MissionEvent, MissionOp};
-use fleetmap::sim::flavour::SimAutopilot;
-use fleetmap::sim::mission_server::MissionServer;
-use fleetmap::time::Time;
+use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::proto::Endpoint;
+use fleetmap_core::proto::mission::{MissionClient, MissionConfig, MissionEvent, MissionOp};
+use fleetmap_core::time::Time;
+use fleetmap_io::link::codec::Codec;
+use fleetmap_sim::flavour::SimAutopilot;
+use fleetmap_sim::mission_server::MissionServer;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega::*;
 use std::hint::black_box;
@@ -179,9 +179,9 @@ fn upload(c: &mut Criterion) {
 /// as they would.
 fn upload_loopback(c: &mut Criterion) {
     use fleetmap::fleet::{self, FleetConfig};
-    use fleetmap::link::transport::LinkOptions;
-    use fleetmap::sim::harness::{Sim, SimConfig};
-    use fleetmap::sim::server::{self, Endpoint as SimEndpoint, ServeOptions};
+    use fleetmap_io::link::transport::LinkOptions;
+    use fleetmap_sim::harness::{Sim, SimConfig};
+    use fleetmap_sim::server::{self, Endpoint as SimEndpoint, ServeOptions};
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -199,15 +199,15 @@ fn upload_loopback(c: &mut Criterion) {
             Sim::new(cfg, Time::ZERO).expect("sim"),
             ServeOptions {
                 endpoints: vec![SimEndpoint::parse("udpin:127.0.0.1:0").expect("endpoint")],
-                speed: fleetmap::sim::pace::Speed::Times(1.0),
-                gcs: fleetmap::sim::server::GcsClock::Wall,
+                speed: fleetmap_sim::pace::Speed::Times(1.0),
+                gcs: fleetmap_sim::server::GcsClock::Wall,
                 image_dir: None,
                 duration_s: None,
             },
         )
         .await
         .expect("serve the simulator");
-        let specs: Vec<fleetmap::link::ConnSpec> = served
+        let specs: Vec<fleetmap_io::link::ConnSpec> = served
             .bound
             .iter()
             .map(|b| format!("udpout:{}", b.local).parse().expect("conn"))

@@ -6,10 +6,10 @@
 //! Run: `cargo bench --bench planner`. Quantiles over many epochs: `fleetmap bench plan`.
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use fleetmap::clock::stopwatch;
 use fleetmap::experiment::bandit::{Field, StudyConfig, run_trial};
-use fleetmap::planner::ip::{Model, PlanOptions, solve_instance};
-use fleetmap::planner::scenario::{Instance, Scenario};
+use fleetmap_core::planner::ip::{Model, PlanOptions, solve_instance};
+use fleetmap_core::planner::scenario::{Instance, Scenario};
+use fleetmap_io::clock::stopwatch;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use std::hint::black_box;

@@ -5,10 +5,10 @@
 #![allow(deprecated)]
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::render::{CameraPose, Disturbances, render};
-use fleetmap::time::Time;
-use fleetmap::vision::camera::CameraModel;
+use fleetmap_core::time::Time;
+use fleetmap_core::vision::camera::CameraModel;
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::render::{CameraPose, Disturbances, render};
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -98,7 +98,7 @@ fn bench(c: &mut Criterion) {
     g.bench_function("three_copters_20_min", |b| {
         b.iter(|| black_box(twenty_minutes()))
     });
-    let world = fleetmap::files::load_world(std::path::Path::new(concat!(
+    let world = fleetmap_io::files::load_world(std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/assets/worlds/runway.toml"
     )))

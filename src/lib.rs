@@ -31,21 +31,9 @@
 
 pub mod app;
 pub mod cli;
-pub mod clock;
+#[cfg(feature = "sim")]
 pub mod experiment;
-pub mod explore;
-pub mod files;
 pub mod fleet;
-pub mod geo;
-pub mod imagery;
-pub mod link;
-pub mod mission;
-pub mod planner;
 mod plot;
-pub mod proto;
-pub mod sim;
 pub mod store;
-pub mod time;
 pub mod tui;
-pub mod vision;
-pub mod world;

@@ -7,10 +7,10 @@
 
 use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::app::bandit_sim::{self, SimSetup};
-use fleetmap::mission::definition::MissionDef;
-use fleetmap::planner::sortie::{ClassificationState, MAX_EPOCHS_WITHOUT_MEASUREMENT};
-use fleetmap::sim::world::World;
 use fleetmap::store::{RunDir, RunMeta};
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::planner::sortie::{ClassificationState, MAX_EPOCHS_WITHOUT_MEASUREMENT};
+use fleetmap_core::world::World;
 use std::time::Duration;
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -9,16 +9,16 @@ use fleetmap::app::bandit::report as bandit_report;
 use fleetmap::app::bandit::{self, RunOptions};
 use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet;
-use fleetmap::link::ConnSpec;
-use fleetmap::link::relay::{Relay, RelayOptions, RelayStats};
-use fleetmap::link::transport::{LinkOptions, open_link};
-use fleetmap::mission::definition::MissionDef;
-use fleetmap::sim::harness::Sim;
-use fleetmap::sim::pace::Speed;
-use fleetmap::sim::server::{self, Endpoint, GcsClock, ServeOptions};
-use fleetmap::sim::world::World;
 use fleetmap::store::{RunDir, RunMeta};
-use fleetmap::time::Time;
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::time::Time;
+use fleetmap_core::world::World;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::relay::{Relay, RelayOptions, RelayStats};
+use fleetmap_io::link::transport::{LinkOptions, open_link};
+use fleetmap_sim::harness::Sim;
+use fleetmap_sim::pace::Speed;
+use fleetmap_sim::server::{self, Endpoint, GcsClock, ServeOptions};
 use std::time::{Duration, Instant};
 
 /// Simulated seconds per wall second (the relays follow the simulator's clock).

@@ -23,15 +23,15 @@
 use fleetmap::app::bandit::report as bandit_report;
 use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::app::bandit_sim::{self, SimSetup};
-use fleetmap::geo::Cell;
-use fleetmap::mission::MissionType;
-use fleetmap::mission::definition::MissionDef;
-use fleetmap::planner::sortie::{ClassificationState, Next};
-use fleetmap::sim::harness::Sim;
-use fleetmap::sim::mission_server::Capacity;
-use fleetmap::sim::world::World;
 use fleetmap::store::{RunDir, RunMeta};
-use fleetmap::time::Time;
+use fleetmap_core::geo::Cell;
+use fleetmap_core::mission::MissionType;
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::planner::sortie::{ClassificationState, Next};
+use fleetmap_core::time::Time;
+use fleetmap_core::world::World;
+use fleetmap_sim::harness::Sim;
+use fleetmap_sim::mission_server::Capacity;
 use std::collections::BTreeMap;
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -144,7 +144,7 @@ async fn fly_hardware_paper(name: &str, sensor_flip: f64) -> Flown {
     // here use the field default, the KL bound, which labels every cell within one visit
     // (`planner::sortie` tests pin its 19 samples a cell).
     if let Some(c) = def.classification.as_mut() {
-        c.bound = fleetmap::planner::bandit::ConfidenceBound::Paper;
+        c.bound = fleetmap_core::planner::bandit::ConfidenceBound::Paper;
     }
     let green = world.green_cells();
     assert_eq!(green.len(), 4);
@@ -308,7 +308,7 @@ async fn hardware_mission_with_a_degraded_sensor_keeps_the_green_tiles() {
     let b = &f.done.bandit;
     let n0 = (1..10_000u64)
         .find(|&n| {
-            fleetmap::planner::bandit::ucb_width(n, b.len(), b.delta)
+            fleetmap_core::planner::bandit::ucb_width(n, b.len(), b.delta)
                 <= (1.0 - b.theta + b.epsilon).max(b.theta + b.epsilon)
         })
         .expect("a perfect sensor labels a cell");
@@ -412,7 +412,7 @@ async fn lock_step_flight_holds_drones_in_step_and_classifies() {
         .unwrap();
     assert_eq!(
         state.params.separation,
-        fleetmap::planner::sortie::Separation::LockStep
+        fleetmap_core::planner::sortie::Separation::LockStep
     );
     assert!(state.drones.iter().all(|m| m.altitude_m == 10.0));
     let tmp = tempfile::tempdir().unwrap();
@@ -773,7 +773,7 @@ fn saved(dir: &Path) -> Option<ClassificationState> {
 
 fn sortie_flying(s: &ClassificationState) -> bool {
     s.cycle()
-        .is_some_and(|c| c.phase == fleetmap::planner::sortie::CyclePhase::Started)
+        .is_some_and(|c| c.phase == fleetmap_core::planner::sortie::CyclePhase::Started)
 }
 
 /// `fleetmap demo --bandit` in a pseudo-terminal (issue 9): the terminal UI shows the

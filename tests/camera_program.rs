@@ -7,12 +7,12 @@
 
 use fleetmap::app::images;
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap::link::ConnSpec;
-use fleetmap::link::transport::{LinkOptions, open_link};
-use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::pace::Speed;
-use fleetmap::sim::server::{self, Endpoint, GcsClock, ServeOptions};
-use fleetmap::time::Time;
+use fleetmap_core::time::Time;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::transport::{LinkOptions, open_link};
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::pace::Speed;
+use fleetmap_sim::server::{self, Endpoint, GcsClock, ServeOptions};
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;

@@ -498,7 +498,7 @@ fn runway_demo_headless_report_and_exports() {
 #[test]
 fn plume_demo_headless_maps_the_moving_plume() {
     use fleetmap::app::runway::report::{iou, truth_coverage};
-    use fleetmap::explore::mapping::MappingState;
+    use fleetmap_core::explore::mapping::MappingState;
     let tmp = tempfile::tempdir().unwrap();
     let run = tmp.path().join("run");
     let run_s = run.to_str().expect("utf-8 path").to_string();
@@ -551,7 +551,7 @@ fn plume_demo_headless_maps_the_moving_plume() {
         .load_state()
         .expect("the state loads")
         .expect("a saved state");
-    let world = fleetmap::files::load_world(&world_path).expect("the plume world");
+    let world = fleetmap_io::files::load_world(&world_path).expect("the plume world");
     let map: std::collections::BTreeSet<_> = state.book.positive_cells().into_iter().collect();
     let at_epoch = iou(&map, &truth_coverage(&state.grid, &world, 0.0).unwrap());
     let end_s = state.updated.expect("an updated state").as_secs_f64();

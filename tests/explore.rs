@@ -2,11 +2,13 @@
 //! (coverage, termination, Lemma 1), the effect of adding robots, persistence after every
 //! call, and the `fleetmap experiment dfs` command.
 
-use fleetmap::explore::bounds::lemma1_upper_bound;
-use fleetmap::explore::dfs::NodeKind;
-use fleetmap::explore::simulate::{SimConfig, SimOutcome, random_roi, simulate, simulate_sensed};
-use fleetmap::explore::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing};
-use fleetmap::geo::{Cell, Dir4};
+use fleetmap_core::explore::bounds::lemma1_upper_bound;
+use fleetmap_core::explore::dfs::NodeKind;
+use fleetmap_core::explore::simulate::{
+    SimConfig, SimOutcome, random_roi, simulate, simulate_sensed,
+};
+use fleetmap_core::explore::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing};
+use fleetmap_core::geo::{Cell, Dir4};
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

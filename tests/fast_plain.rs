@@ -5,14 +5,14 @@
 //! experiment fast-plain`, recorded in docs/results/fast-plain.md; it takes half an hour, too
 //! long for CI.
 
-use fleetmap::clock::stopwatch;
 use fleetmap::experiment::fastplain::{
     self, FastPlainConfig, Generated, GoalSet, Row, Verdict, compare,
 };
-use fleetmap::geo::Cell;
-use fleetmap::planner::grid::Grid;
-use fleetmap::planner::ip::PlanStatus;
-use fleetmap::planner::scenario::Instance;
+use fleetmap_core::geo::Cell;
+use fleetmap_core::planner::grid::Grid;
+use fleetmap_core::planner::ip::PlanStatus;
+use fleetmap_core::planner::scenario::Instance;
+use fleetmap_io::clock::stopwatch;
 
 fn assert_same(r: &Row) {
     eprintln!("{}", fastplain::row_line(r));

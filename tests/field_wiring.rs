@@ -13,14 +13,14 @@
 //!   first 2 s, the PX4 copter answers at once; both uploads succeed once they are ready.
 
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
-use fleetmap::link::ConnSpec;
-use fleetmap::link::transport::LinkOptions;
-use fleetmap::mission::{MissionItem, MissionType};
-use fleetmap::proto::Endpoint;
-use fleetmap::proto::command::Command;
-use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::server::{self, ServeOptions};
-use fleetmap::time::Time;
+use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::proto::Endpoint;
+use fleetmap_core::proto::command::Command;
+use fleetmap_core::time::Time;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::transport::LinkOptions;
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::server::{self, ServeOptions};
 use mavlink::dialects::ardupilotmega::MavCmd;
 use std::collections::HashSet;
 use std::time::{Duration, Instant};
@@ -69,7 +69,7 @@ async fn one_port(spec: &str, speedup: f64, wiring: Wiring) -> (FleetHandle, ser
         sim,
         ServeOptions {
             endpoints,
-            speed: fleetmap::sim::pace::Speed::Times(speedup),
+            speed: fleetmap_sim::pace::Speed::Times(speedup),
             gcs: server::GcsClock::Wall,
             image_dir: None,
             duration_s: None,
@@ -135,7 +135,7 @@ async fn every_vehicle_works(spec: &str, n: u8, wiring: Wiring) {
                 .download_mission(k, MissionType::Mission)
                 .await
                 .unwrap_or_else(|e| panic!("vehicle {k} download: {e}"));
-            fleetmap::proto::mission::compare_items(&items, &back, true)
+            fleetmap_core::proto::mission::compare_items(&items, &back, true)
                 .unwrap_or_else(|d| panic!("vehicle {k}: {d}"));
         }));
     }

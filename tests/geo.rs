@@ -1,4 +1,4 @@
-//! End-to-end tests of the mission grid (`fleetmap::geo`) and the `fleetmap grid` command.
+//! End-to-end tests of the mission grid (`fleetmap_core::geo`) and the `fleetmap grid` command.
 //!
 //! - Every row of `assets/golden/utm_pyproj.csv` (PROJ via pyproj, generated once by
 //!   `scripts/gen_utm_golden.py`) is converted in both directions and must agree to 1 mm.
@@ -7,7 +7,7 @@
 //! - cell → GPS → cell is exact (proptest), polygon coverage matches analytic areas and an
 //!   independent polygon clipper, and the CLI rejects bad arguments with one line.
 
-use fleetmap::geo::{Cell, GeoError, Grid, Hemisphere, LatLon, Utm, local, utm};
+use fleetmap_core::geo::{Cell, GeoError, Grid, Hemisphere, LatLon, Utm, local, utm};
 use proptest::prelude::*;
 use std::collections::BTreeMap;
 use std::process::Command;

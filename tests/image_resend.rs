@@ -16,10 +16,10 @@
 //! camera behind the port at once): the picture was lost.
 
 use fleetmap::app::images::{ImageFailure, Intake};
-use fleetmap::sim::camera::{CameraConfig, RECENT_IMAGES};
-use fleetmap::sim::paired::PairedCameras;
-use fleetmap::sim::world::World;
-use fleetmap::time::Time;
+use fleetmap_core::time::Time;
+use fleetmap_core::world::World;
+use fleetmap_sim::camera::{CameraConfig, RECENT_IMAGES};
+use fleetmap_sim::paired::PairedCameras;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -43,7 +43,7 @@ const LATENCY: Duration = Duration::from_millis(20);
 
 fn world() -> Arc<World> {
     Arc::new(
-        fleetmap::files::load_world(std::path::Path::new(concat!(
+        fleetmap_io::files::load_world(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/assets/worlds/hardware-6x6.toml"
         )))
@@ -426,7 +426,7 @@ fn a_re_send_that_loses_the_packet_again_is_asked_for_again() {
 /// autopilot's telemetry reached another one.
 #[test]
 fn each_camera_answers_through_its_own_autopilot() {
-    use fleetmap::link::codec::Codec;
+    use fleetmap_io::link::codec::Codec;
     use std::net::UdpSocket;
     let port = {
         let s = UdpSocket::bind("127.0.0.1:0").unwrap();

@@ -22,25 +22,25 @@
 use fleetmap::app::images;
 use fleetmap::app::runway::report::truth_coverage;
 use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions, crop_to_cells};
-use fleetmap::clock::MonotonicClock;
-use fleetmap::explore::Sharing;
-use fleetmap::explore::mapping::{MappingState, RobotStatus};
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap::geo::{LatLon, local};
-use fleetmap::link::codec::{Codec, encode_frame};
-use fleetmap::link::transport::{LinkOptions, MemoryPort, open_memory_link};
-use fleetmap::mission::definition::MissionDef;
-use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::render::{CameraPose, Disturbances, render};
-use fleetmap::sim::server;
-use fleetmap::sim::world::World;
 use fleetmap::store::{RunDir, RunMeta};
-use fleetmap::time::Time;
-use fleetmap::vision::camera::CameraModel;
-use fleetmap::vision::geometry::{
+use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::mapping::{MappingState, RobotStatus};
+use fleetmap_core::geo::{LatLon, local};
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::time::Time;
+use fleetmap_core::vision::camera::CameraModel;
+use fleetmap_core::vision::geometry::{
     CameraView, OrthoRequest, attitude_from_euler_deg, orthophoto, view_centre_offset,
 };
-use fleetmap::vision::runway::{RunwayParams, classify};
+use fleetmap_core::vision::runway::{RunwayParams, classify};
+use fleetmap_core::world::World;
+use fleetmap_io::clock::MonotonicClock;
+use fleetmap_io::link::codec::{Codec, encode_frame};
+use fleetmap_io::link::transport::{LinkOptions, MemoryPort, open_memory_link};
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::render::{CameraPose, Disturbances, render};
+use fleetmap_sim::server;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use proptest::prelude::*;
 use std::sync::atomic::{AtomicU32, Ordering};
@@ -296,7 +296,7 @@ fn assert_credited_where_taken(s: &MappingState, limit_m: f64) {
 }
 
 /// The map is exactly the strip's whole cells; returns the mapped cells.
-fn assert_maps_the_strip(s: &MappingState, world: &World) -> Vec<fleetmap::geo::Cell> {
+fn assert_maps_the_strip(s: &MappingState, world: &World) -> Vec<fleetmap_core::geo::Cell> {
     let truth = truth_coverage(&s.grid, world, 0.0).unwrap();
     let mut want: Vec<_> = truth
         .iter()
@@ -310,7 +310,7 @@ fn assert_maps_the_strip(s: &MappingState, world: &World) -> Vec<fleetmap::geo::
     got
 }
 
-fn rejected(events: &[MappingEvent]) -> Vec<(Option<fleetmap::geo::Cell>, String)> {
+fn rejected(events: &[MappingEvent]) -> Vec<(Option<fleetmap_core::geo::Cell>, String)> {
     events
         .iter()
         .filter_map(|e| match e {
@@ -589,7 +589,7 @@ fn the_view_centre_is_the_simulators() {
             roll_deg: roll,
             pitch_deg: pitch,
         };
-        let (ce, cn) = fleetmap::sim::render::footprint_center(&world, &pose);
+        let (ce, cn) = fleetmap_sim::render::footprint_center(&world, &pose);
         let (e0, n0) = world.to_local(pose.lat, pose.lon);
         let (n, e) = view_centre_offset(&attitude_from_euler_deg(roll, pitch, yaw), 12.0).unwrap();
         // The simulator shifts by a·tan(pitch) forward and a·tan(roll) to the left, each
@@ -624,7 +624,7 @@ fn tilted_renders_resampled_read_like_level_ones() {
     };
     let img0 = render(&world, &level, &cam, 0.0, &Disturbances::none());
     let f0 = classify(&img0, 0.0, &params).unwrap().fractions;
-    let regions = |f: fleetmap::vision::regions::RegionFractions| {
+    let regions = |f: fleetmap_core::vision::regions::RegionFractions| {
         [f.center, f.top, f.left, f.bottom, f.right]
     };
     let mut worst_crop = 0.0f64;

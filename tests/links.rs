@@ -5,9 +5,9 @@
 //! vehicles at once, each on its own connection (issue 13).
 
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap::link::ConnSpec;
-use fleetmap::link::codec::Codec;
-use fleetmap::link::transport::LinkOptions;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::codec::Codec;
+use fleetmap_io::link::transport::LinkOptions;
 use mavlink::dialects::ardupilotmega::*;
 use std::time::Duration;
 use tokio::io::{AsyncRead, AsyncReadExt, AsyncWriteExt};
@@ -60,7 +60,10 @@ async fn tcpin_takes_a_vehicle_and_the_next_one_after_it_goes() {
         .await
         .unwrap();
     let v = f.wait_vehicle(3, Duration::from_secs(3)).await.unwrap();
-    assert_eq!(v.flavour, fleetmap::proto::flavour::Flavour::ARDU_COPTER);
+    assert_eq!(
+        v.flavour,
+        fleetmap_core::proto::flavour::Flavour::ARDU_COPTER
+    );
     gcs_frame_on(&mut s1).await;
     // It goes away; the next one is taken on the same link.
     drop(s1);
@@ -77,7 +80,10 @@ async fn tcpin_takes_a_vehicle_and_the_next_one_after_it_goes() {
         .await
         .unwrap();
     let v = f.wait_vehicle(4, Duration::from_secs(3)).await.unwrap();
-    assert_eq!(v.flavour, fleetmap::proto::flavour::Flavour::ARDU_ROVER);
+    assert_eq!(
+        v.flavour,
+        fleetmap_core::proto::flavour::Flavour::ARDU_ROVER
+    );
     gcs_frame_on(&mut s2).await;
     assert!(f.links()[0].status().connects >= 2);
     f.shutdown().await;
@@ -189,7 +195,10 @@ async fn serial_link_over_a_pseudo_terminal() {
         .await
         .unwrap();
     let v = f.wait_vehicle(5, Duration::from_secs(3)).await.unwrap();
-    assert_eq!(v.flavour, fleetmap::proto::flavour::Flavour::ARDU_COPTER);
+    assert_eq!(
+        v.flavour,
+        fleetmap_core::proto::flavour::Flavour::ARDU_COPTER
+    );
     gcs_frame_on(&mut master).await;
     // Per-link statistics (published once a second).
     let mut st = f.links()[0].status();

@@ -7,18 +7,18 @@
 
 #![allow(deprecated)]
 
-use fleetmap::clock::MonotonicClock;
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap::link::ConnSpec;
-use fleetmap::link::codec::Codec;
-use fleetmap::link::signing::{Signing, SigningKey};
-use fleetmap::link::tlog::{read_tlog, spawn_tlog};
-use fleetmap::link::transport::{LinkOptions, unix_now_us};
-use fleetmap::mission::{MissionItem, MissionType};
-use fleetmap::proto::Endpoint;
-use fleetmap::sim::flavour::SimAutopilot;
-use fleetmap::sim::mission_server::{HomeItem, MissionServer};
-use fleetmap::time::Time;
+use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::proto::Endpoint;
+use fleetmap_core::time::Time;
+use fleetmap_io::clock::MonotonicClock;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::codec::Codec;
+use fleetmap_io::link::signing::{Signing, SigningKey};
+use fleetmap_io::link::tlog::{read_tlog, spawn_tlog};
+use fleetmap_io::link::transport::{LinkOptions, unix_now_us};
+use fleetmap_sim::flavour::SimAutopilot;
+use fleetmap_sim::mission_server::{HomeItem, MissionServer};
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega::*;
 use std::net::SocketAddr;
@@ -231,7 +231,10 @@ async fn fleet_over_udp_sees_two_vehicles_routes_commands_and_transfers_missions
         (0, 1),
         "each vehicle routed to its own link"
     );
-    assert_eq!(a.flavour, fleetmap::proto::flavour::Flavour::ARDU_COPTER);
+    assert_eq!(
+        a.flavour,
+        fleetmap_core::proto::flavour::Flavour::ARDU_COPTER
+    );
     // Telemetry reaches the snapshot.
     let a = f
         .wait_until(1, Duration::from_secs(5), |v| {
@@ -258,7 +261,7 @@ async fn fleet_over_udp_sees_two_vehicles_routes_commands_and_transfers_missions
         .await
         .unwrap();
     let (back, home) = f.download_mission(1, MissionType::Mission).await.unwrap();
-    fleetmap::proto::mission::compare_items(&items, &back, true).unwrap();
+    fleetmap_core::proto::mission::compare_items(&items, &back, true).unwrap();
     assert!(home.is_some());
     // Unknown vehicle: a typed error.
     assert!(matches!(
@@ -387,7 +390,7 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
         .await
         .unwrap();
     let v = f.wait_vehicle(7, Duration::from_secs(3)).await.unwrap();
-    assert_eq!(v.flavour, fleetmap::proto::flavour::Flavour::PX4_ROVER);
+    assert_eq!(v.flavour, fleetmap_core::proto::flavour::Flavour::PX4_ROVER);
     // The GCS heartbeat (1 Hz) comes back to the vehicle's address.
     let mut buf = [0u8; 512];
     let (n, _) = tokio::time::timeout(Duration::from_secs(3), veh.recv_from(&mut buf))
@@ -439,9 +442,9 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
 /// than one).
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_way() {
-    use fleetmap::sim::faults::LinkFaults;
-    use fleetmap::sim::harness::{Sim, SimConfig};
-    use fleetmap::sim::server::{self, ServeOptions};
+    use fleetmap_io::link::faults::LinkFaults;
+    use fleetmap_sim::harness::{Sim, SimConfig};
+    use fleetmap_sim::server::{self, ServeOptions};
     const VEHICLES: u8 = 25;
     const ROUNDS: usize = 2;
     let sim_cfg = SimConfig::from_spec(
@@ -460,8 +463,8 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
         sim,
         ServeOptions {
             endpoints: vec![server::Endpoint::parse("udpin:127.0.0.1:0").unwrap()],
-            speed: fleetmap::sim::pace::Speed::Times(1.0),
-            gcs: fleetmap::sim::server::GcsClock::Wall,
+            speed: fleetmap_sim::pace::Speed::Times(1.0),
+            gcs: fleetmap_sim::server::GcsClock::Wall,
             image_dir: None,
             duration_s: None,
         },
@@ -470,11 +473,11 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
     .unwrap();
     let specs: Vec<ConnSpec> = served.bound.iter().map(|b| udpout(b.local)).collect();
     let cfg = FleetConfig {
-        mission: fleetmap::proto::mission::MissionConfig {
+        mission: fleetmap_core::proto::mission::MissionConfig {
             timeout: Duration::from_millis(40),
             item_timeout: Duration::from_millis(20),
             settle: Duration::from_millis(20),
-            ..fleetmap::proto::mission::MissionConfig::default()
+            ..fleetmap_core::proto::mission::MissionConfig::default()
         },
         ..FleetConfig::default()
     };
@@ -513,7 +516,7 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
                     .download_mission(k, MissionType::Mission)
                     .await
                     .unwrap_or_else(|e| panic!("vehicle {k} download {round}: {e}"));
-                fleetmap::proto::mission::compare_items(&items, &back, false)
+                fleetmap_core::proto::mission::compare_items(&items, &back, false)
                     .unwrap_or_else(|d| panic!("vehicle {k} round {round}: {d}"));
             }
             ROUNDS
@@ -658,9 +661,10 @@ async fn cli_vehicles_mission_files_and_commands() {
         up.1
     );
     assert_eq!(down.0, 0, "{}", down.2);
-    let p = fleetmap::mission::plan::parse_plan(&std::fs::read_to_string(&plan).unwrap()).unwrap();
-    let w = fleetmap::mission::wpl::parse_wpl(&std::fs::read_to_string(&wp).unwrap()).unwrap();
-    fleetmap::proto::mission::compare_items(&w.items, &p.mission, true).unwrap();
+    let p =
+        fleetmap_core::mission::plan::parse_plan(&std::fs::read_to_string(&plan).unwrap()).unwrap();
+    let w = fleetmap_core::mission::wpl::parse_wpl(&std::fs::read_to_string(&wp).unwrap()).unwrap();
+    fleetmap_core::proto::mission::compare_items(&w.items, &p.mission, true).unwrap();
     assert!(
         p.home.is_some(),
         "ArduPilot home kept as plannedHomePosition"
@@ -820,11 +824,11 @@ fn unknown_frames_and_garbage_do_not_break_the_fleet_state() {
     );
     hb[14] = 77; // MAV_TYPE 77: unknown
     let n = hb.len();
-    let crc = fleetmap::link::codec::frame_crc(&hb[1..n - 2], 50);
+    let crc = fleetmap_io::link::codec::frame_crc(&hb[1..n - 2], 50);
     hb[n - 2..].copy_from_slice(&crc.to_le_bytes());
     let frames = Codec::new().decode(&hb, 0);
     assert!(frames[0].message.is_err());
-    let beat = fleetmap::proto::heartbeat::Beat::from_payload(frames[0].payload());
+    let beat = fleetmap_core::proto::heartbeat::Beat::from_payload(frames[0].payload());
     assert_eq!((beat.mav_type, beat.custom_mode), (77, 4));
     let _ = (Time::ZERO, Endpoint::gcs(), MavHeader::default());
 }

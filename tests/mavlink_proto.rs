@@ -10,19 +10,19 @@
 
 #![allow(deprecated)]
 
-use fleetmap::mission::{MissionItem, MissionType};
-use fleetmap::proto::Endpoint;
-use fleetmap::proto::mission::{
+use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::proto::Endpoint;
+use fleetmap_core::proto::mission::{
     MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,
     compare_items, normalize_frame,
 };
-use fleetmap::sim::flavour::SimAutopilot;
-use fleetmap::sim::mission_server::{
+use fleetmap_core::time::Time;
+use fleetmap_sim::flavour::SimAutopilot;
+use fleetmap_sim::mission_server::{
     ardupilot_store_fence_item, ardupilot_store_mission_item, ardupilot_store_rally_item,
     px4_parse_item,
 };
-use fleetmap::sim::transfer_bench::{NetFaults as Faults, TransferBench, VEHICLE, items_for};
-use fleetmap::time::Time;
+use fleetmap_sim::transfer_bench::{NetFaults as Faults, TransferBench, VEHICLE, items_for};
 use mavlink::dialects::ardupilotmega::MavMissionResult;
 use proptest::prelude::*;
 use std::ops::{Deref, DerefMut};

@@ -3,9 +3,11 @@
 //! gives its exact errors (line, column, message), random input never panics, and
 //! `fleetmap check` reports them end to end.
 
-use fleetmap::files::load_mission;
-use fleetmap::geo::Cell;
-use fleetmap::mission::definition::{DefError, MissionDef, MissionKind, Origin, Role, SweepBox};
+use fleetmap_core::geo::Cell;
+use fleetmap_core::mission::definition::{
+    DefError, MissionDef, MissionKind, Origin, Role, SweepBox,
+};
+use fleetmap_io::files::load_mission;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
 use std::process::Command;
@@ -243,7 +245,7 @@ cols = 3
     let c = d.classification.unwrap();
     assert_eq!((c.theta, c.epsilon, c.delta), (0.5, 0.05, 0.0001));
     // Not the paper's (3b) but the KL bound with the same guarantee (issue 17, item 4).
-    assert_eq!(c.bound, fleetmap::planner::bandit::ConfidenceBound::Kl);
+    assert_eq!(c.bound, fleetmap_core::planner::bandit::ConfidenceBound::Kl);
     assert_eq!(
         (
             c.epoch_goals,
@@ -257,7 +259,10 @@ cols = 3
     assert_eq!(c.charger_capacity, None);
     assert_eq!(d.battery.flight_time_min, 12.0);
     assert_eq!(d.flight.altitude_separation_m, 0.0);
-    assert_eq!(d.camera, fleetmap::vision::camera::CameraModel::paper());
+    assert_eq!(
+        d.camera,
+        fleetmap_core::vision::camera::CameraModel::paper()
+    );
     assert!(d.area.roads_are_candidates);
     assert_eq!(
         (
@@ -274,8 +279,8 @@ cols = 3
 /// runway state (lanes and the battery estimate).
 #[test]
 fn sweep_and_battery_keys_are_read_checked_and_used() {
-    use fleetmap::explore::Sharing;
-    use fleetmap::explore::mapping::MappingState;
+    use fleetmap_core::explore::Sharing;
+    use fleetmap_core::explore::mapping::MappingState;
     let base = std::fs::read_to_string(root().join("missions/runway-field-test.toml")).unwrap();
     let with = |runway: &str, battery: &str| {
         // Each table's header line ends in a comment: the keys go on the lines after it.
@@ -284,15 +289,18 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
     };
     // The field test's origin is the first vehicle's home: put it at the paper's runway.
     let grid = |d: &MissionDef| {
-        let origin = fleetmap::geo::LatLon {
+        let origin = fleetmap_core::geo::LatLon {
             lat: 37.1966,
             lon: -80.5785,
         };
-        fleetmap::geo::Grid::new(origin, d.grid.cell_size_m).unwrap()
+        fleetmap_core::geo::Grid::new(origin, d.grid.cell_size_m).unwrap()
     };
     let plain = MissionDef::parse(&base, "plain.toml").unwrap();
     let s0 = MappingState::new(&plain, grid(&plain), Sharing::Gcs).unwrap();
-    assert_eq!(s0.params.allocation, fleetmap::explore::Allocation::Paper);
+    assert_eq!(
+        s0.params.allocation,
+        fleetmap_core::explore::Allocation::Paper
+    );
     let text = with(
         "lane_spacing_m = 4.0\nsweep_position_tolerance_m = 0.5\nallocation = \"nearest_frontier\"",
         "descent_rate_m_s = 0.5\nlanding_margin_s = 60\nfresh_pct = 98",
@@ -307,7 +315,7 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
     assert!(s.sweeps[0].spacing.across_m <= 4.0 + 1e-9);
     assert_eq!(
         s.params.allocation,
-        fleetmap::explore::Allocation::NearestFrontier
+        fleetmap_core::explore::Allocation::NearestFrontier
     );
     // 12 m at 0.5 m/s instead of 1 m/s, and 30 s more margin: 42 s more of a 720 s battery.
     let more = s.battery_needed_pct(0.0, 12.0) - s0.battery_needed_pct(0.0, 12.0);
@@ -334,11 +342,11 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
 
 #[test]
 fn a_moving_region_is_read_checked_and_kept_by_the_state() {
-    use fleetmap::explore::Sharing;
-    use fleetmap::explore::mapping::MappingState;
+    use fleetmap_core::explore::Sharing;
+    use fleetmap_core::explore::mapping::MappingState;
     let base = std::fs::read_to_string(root().join("missions/runway-field-test.toml")).unwrap();
     let with = |key: &str| base.replace("[runway]", &format!("[runway]\n{key}\n#"));
-    let origin = fleetmap::geo::LatLon {
+    let origin = fleetmap_core::geo::LatLon {
         lat: 37.1966,
         lon: -80.5785,
     };
@@ -349,7 +357,7 @@ fn a_moving_region_is_read_checked_and_kept_by_the_state() {
     );
     let s = MappingState::new(
         &d,
-        fleetmap::geo::Grid::new(origin, 4.0).unwrap(),
+        fleetmap_core::geo::Grid::new(origin, 4.0).unwrap(),
         Sharing::Gcs,
     )
     .unwrap();
@@ -382,7 +390,7 @@ fn a_moving_region_is_read_checked_and_kept_by_the_state() {
 
 #[test]
 fn classification_bound_is_read_and_checked() {
-    use fleetmap::planner::bandit::ConfidenceBound;
+    use fleetmap_core::planner::bandit::ConfidenceBound;
     let text = std::fs::read_to_string(root().join("missions/hardware-6x6.toml")).unwrap();
     let with = |line: &str| {
         assert!(text.contains("[classification]"));
@@ -799,7 +807,10 @@ fn wgs84_sweep_corners_are_accepted_and_checked() {
 
 // ---- never a panic ---------------------------------------------------------------------
 
-fn assert_sane(text: &str, result: Result<MissionDef, fleetmap::mission::definition::DefErrors>) {
+fn assert_sane(
+    text: &str,
+    result: Result<MissionDef, fleetmap_core::mission::definition::DefErrors>,
+) {
     if let Err(e) = result {
         assert!(!e.errors.is_empty());
         let lines = text.split('\n').count();

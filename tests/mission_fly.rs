@@ -14,8 +14,8 @@ mod common;
 
 use common::free_udp_port;
 use common::pty::bin;
-use fleetmap::mission::MissionItem;
-use fleetmap::mission::plan::{Plan, write_plan};
+use fleetmap_core::mission::MissionItem;
+use fleetmap_core::mission::plan::{Plan, write_plan};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
 use std::process::{Child, Command, Stdio};
@@ -123,7 +123,7 @@ fn fly(port: u16, file: &Path) -> (i32, String, String) {
 
 /// (lat, lon) `north` and `east` metres from home.
 fn at(north: f64, east: f64) -> (f64, f64) {
-    fleetmap::geo::local::offset(HOME.0, HOME.1, north, east)
+    fleetmap_core::geo::local::offset(HOME.0, HOME.1, north, east)
 }
 
 /// Fly `items` (written to `file_name` in the temporary directory: `.plan` or `.waypoints`)
@@ -144,7 +144,7 @@ fn fly_and_check(spec: &str, file_name: &str, items: &[MissionItem], end: &str) 
             frame: 0,
             ..MissionItem::waypoint(HOME.0, HOME.1, 0.0)
         };
-        fleetmap::mission::wpl::write_wpl(Some(&home), items)
+        fleetmap_core::mission::wpl::write_wpl(Some(&home), items)
     };
     std::fs::write(&file, text).unwrap();
     let port = free_udp_port();
@@ -188,9 +188,12 @@ fn fly_and_check(spec: &str, file_name: &str, items: &[MissionItem], end: &str) 
 /// Take off to 5 m, a 17 m × 18 m triangle at 5 m.
 fn copter_mission(takeoff_at: Option<(f64, f64)>) -> Vec<MissionItem> {
     let takeoff = match takeoff_at {
-        Some((lat, lon)) => {
-            MissionItem::at(fleetmap::mission::item::cmd::NAV_TAKEOFF, lat, lon, 5.0)
-        }
+        Some((lat, lon)) => MissionItem::at(
+            fleetmap_core::mission::item::cmd::NAV_TAKEOFF,
+            lat,
+            lon,
+            5.0,
+        ),
         None => MissionItem::takeoff(5.0),
     };
     let (a, b, c) = (at(17.0, 0.0), at(17.0, 18.0), at(0.0, 18.0));

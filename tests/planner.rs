@@ -2,12 +2,12 @@
 //! plain model on random scenarios, every plan through the independent checker, the shipped
 //! scenario files through `fleetmap plan`, and a small bandit study.
 
-use fleetmap::clock::stopwatch;
-use fleetmap::geo::Cell;
-use fleetmap::planner::check::{CheckOptions, check_plan_with};
-use fleetmap::planner::grid::Grid;
-use fleetmap::planner::ip::{Model, PlanOptions, PlanStatus, solve_instance};
-use fleetmap::planner::scenario::{Instance, Scenario};
+use fleetmap_core::geo::Cell;
+use fleetmap_core::planner::check::{CheckOptions, check_plan_with};
+use fleetmap_core::planner::grid::Grid;
+use fleetmap_core::planner::ip::{Model, PlanOptions, PlanStatus, solve_instance};
+use fleetmap_core::planner::scenario::{Instance, Scenario};
+use fleetmap_io::clock::stopwatch;
 use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -62,7 +62,7 @@ fn random_instance(rng: &mut ChaCha8Rng) -> Instance {
     }
 }
 
-fn check_strict(inst: &Instance, outcome: &fleetmap::planner::ip::PlanOutcome, what: &str) {
+fn check_strict(inst: &Instance, outcome: &fleetmap_core::planner::ip::PlanOutcome, what: &str) {
     if let Some(plan) = &outcome.plan
         && let Err(e) = check_plan_with(
             inst,
@@ -100,7 +100,8 @@ fn fast_model_has_the_plain_models_optimum_on_100_random_scenarios() {
             a.message
         );
         assert_eq!(a.status, b.status, "scenario {n}:\n{scen}");
-        let cycles = |o: &fleetmap::planner::ip::PlanOutcome| o.plan.as_ref().map(|p| p.cycles);
+        let cycles =
+            |o: &fleetmap_core::planner::ip::PlanOutcome| o.plan.as_ref().map(|p| p.cycles);
         assert_eq!(cycles(&a), cycles(&b), "scenario {n}:\n{scen}");
         check_strict(&inst, &a, "plain");
         check_strict(&inst, &b, "fast");
@@ -182,7 +183,7 @@ fn cli_solves_the_shipped_scenarios_in_the_spec_format() {
                     })
                     .collect()
             };
-            let plan = fleetmap::planner::plan::Plan {
+            let plan = fleetmap_core::planner::plan::Plan {
                 cycles: cycles as usize,
                 drones: parse(&v["drones"]),
                 stations: parse(&v["stations"]),
@@ -297,13 +298,13 @@ fn cli_answers_infeasible_for_scenarios_no_plan_can_satisfy() {
     }
 }
 
-/// The sortie planner's fence items ([`fleetmap::planner::sortie::missions::fence_items`])
+/// The sortie planner's fence items ([`fleetmap_core::planner::sortie::missions::fence_items`])
 /// as the simulated autopilot's fence reads them: obstacle cells are breached, a free cell's
 /// centre is not, the margin (1 m) keeps an obstacle's corner free, and outside the area is
 /// breached. (Was in the planner's unit tests; the simulator is not part of the core.)
 #[test]
 fn sortie_fence_items_keep_their_margin_in_the_simulator() {
-    use fleetmap::geo::{Grid as GeoGrid, LatLon};
+    use fleetmap_core::geo::{Grid as GeoGrid, LatLon};
     let g = GeoGrid::new(LatLon::new(37.195, -80.58), 5.0).expect("a 5 m grid");
     let obstacles = [
         Cell::new(9, 1),
@@ -312,12 +313,12 @@ fn sortie_fence_items_keep_their_margin_in_the_simulator() {
         Cell::new(8, 1),
         Cell::new(5, 5),
     ];
-    let items = fleetmap::planner::sortie::missions::fence_items(&g, 10, 10, &obstacles, 1.0)
+    let items = fleetmap_core::planner::sortie::missions::fence_items(&g, 10, 10, &obstacles, 1.0)
         .expect("fence items");
-    let f = fleetmap::sim::fence::Fence::from_items(&items, (37.195, -80.58));
+    let f = fleetmap_sim::fence::Fence::from_items(&items, (37.195, -80.58));
     let xy = |r: f64, c: f64| {
         let p = g.from_xy(c * 5.0, r * 5.0).expect("a point of the grid");
-        let (n, e) = fleetmap::geo::local::delta(37.195, -80.58, p.lat, p.lon);
+        let (n, e) = fleetmap_core::geo::local::delta(37.195, -80.58, p.lat, p.lon);
         (e, n)
     };
     let breached = |r, c| {

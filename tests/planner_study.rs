@@ -205,7 +205,7 @@ const PINNED_KL_TABLE1: [(usize, usize); 2] = [(8, 14), (7, 12)];
 #[test]
 fn both_bounds_on_a_small_world_are_pinned() {
     use fleetmap::experiment::bandit::{StudyConfig, run_seeded};
-    use fleetmap::planner::bandit::ConfidenceBound;
+    use fleetmap_core::planner::bandit::ConfidenceBound;
     let mut got = Vec::new();
     for bound in ConfidenceBound::ALL {
         let cfg = StudyConfig {

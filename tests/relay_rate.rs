@@ -4,9 +4,9 @@
 //! in-process links (exact: the figure does not depend on the machine), and once through the
 //! real binary over UDP on the wall clock (margins for a busy machine).
 
-use fleetmap::link::codec::Codec;
-use fleetmap::link::relay::{RateLimiter, Relay, RelayOptions};
-use fleetmap::link::transport::MemoryPort;
+use fleetmap_io::link::codec::Codec;
+use fleetmap_io::link::relay::{RateLimiter, Relay, RelayOptions};
+use fleetmap_io::link::transport::MemoryPort;
 use mavlink::dialects::ardupilotmega::{ENCAPSULATED_DATA_DATA, MavMessage, SYSTEM_TIME_DATA};
 use std::time::Duration;
 

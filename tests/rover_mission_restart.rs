@@ -14,18 +14,18 @@
 //! second mission (HOLD first), as the bandit runner's stations need from the second sortie on.
 
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap::link::ConnSpec;
-use fleetmap::link::transport::LinkOptions;
-use fleetmap::mission::{MissionItem, MissionType};
-use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::server::{self, ServeOptions};
-use fleetmap::time::Time;
+use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::time::Time;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::transport::LinkOptions;
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::server::{self, ServeOptions};
 use std::time::Duration;
 
 const HOME: (f64, f64) = (37.195135, -80.579943);
 
 fn at(north: f64, east: f64) -> (f64, f64) {
-    fleetmap::geo::local::offset(HOME.0, HOME.1, north, east)
+    fleetmap_core::geo::local::offset(HOME.0, HOME.1, north, east)
 }
 
 /// A station mission as fleetmap builds it: DO_CHANGE_SPEED, then one waypoint.
@@ -53,7 +53,7 @@ async fn the_fleet_starts_a_rovers_second_mission() {
         sim,
         ServeOptions {
             endpoints: vec![server::Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
-            speed: fleetmap::sim::pace::Speed::Times(5.0),
+            speed: fleetmap_sim::pace::Speed::Times(5.0),
             gcs: server::GcsClock::Wall,
             image_dir: None,
             duration_s: None,

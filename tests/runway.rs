@@ -11,11 +11,11 @@ use fleetmap::app::demo::{self, DemoConfig};
 use fleetmap::app::images;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions};
-use fleetmap::explore::Sharing;
-use fleetmap::explore::mapping::{MappingState, MilestoneKind, RobotStatus};
-use fleetmap::geo::local;
-use fleetmap::sim::world::World;
 use fleetmap::store::{RunDir, RunMeta};
+use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::mapping::{MappingState, MilestoneKind, RobotStatus};
+use fleetmap_core::geo::local;
+use fleetmap_core::world::World;
 use std::time::Duration;
 
 mod common;
@@ -264,8 +264,10 @@ async fn three_robots_explore_every_runway_cell_and_come_back() {
         );
         assert!(!v.armed);
         assert_eq!(
-            ex.robot(fleetmap::explore::RobotId(r.sysid)).unwrap().phase,
-            fleetmap::explore::dfs::Phase::Done
+            ex.robot(fleetmap_core::explore::RobotId(r.sysid))
+                .unwrap()
+                .phase,
+            fleetmap_core::explore::dfs::Phase::Done
         );
     }
     assert!(f.report.robots.iter().all(|r| r.images > 0));
@@ -289,7 +291,7 @@ async fn the_mission_time_survives_a_resume() {
     };
     let text =
         common::strip_mission().replacen("flight_time_min = 12.0", "flight_time_min = 4.0", 1);
-    let def = fleetmap::mission::definition::MissionDef::parse(&text, "strip").unwrap();
+    let def = fleetmap_core::mission::definition::MissionDef::parse(&text, "strip").unwrap();
     let (fleet, sim) = demo::start_virtual("1xcopter:ardupilot", world.clone(), &cfg)
         .await
         .unwrap();
@@ -301,7 +303,7 @@ async fn the_mission_time_survives_a_resume() {
     let mut run_dir = RunDir::create(&path, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
     let hub = images::spawn(&fleet);
     let mut starts = 0;
-    let mut before: Option<fleetmap::explore::mapping::MissionClock> = None;
+    let mut before: Option<fleetmap_core::explore::mapping::MissionClock> = None;
     loop {
         starts += 1;
         // Not auto-resuming and headless: the runner stops when the drone lands for a swap.

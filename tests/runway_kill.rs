@@ -12,9 +12,9 @@
 
 use fleetmap::app::runway::MappingEvent;
 use fleetmap::app::runway::report::truth_coverage;
-use fleetmap::explore::mapping::MappingState;
-use fleetmap::sim::world::World;
 use fleetmap::store::RunDir;
+use fleetmap_core::explore::mapping::MappingState;
+use fleetmap_core::world::World;
 use rand::{RngExt, SeedableRng};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};

@@ -15,12 +15,12 @@ use fleetmap::app::images;
 use fleetmap::app::kind::RunKind;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions};
-use fleetmap::explore::Sharing;
-use fleetmap::explore::mapping::{FinishReason, GaveUp, MappingState, Phase, RobotStatus};
-use fleetmap::explore::reach::Unreachable;
-use fleetmap::mission::definition::MissionDef;
-use fleetmap::sim::world::World;
 use fleetmap::store::{RunDir, RunMeta};
+use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState, Phase, RobotStatus};
+use fleetmap_core::explore::reach::Unreachable;
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::world::World;
 use std::time::Duration;
 
 mod common;
@@ -112,7 +112,7 @@ async fn fly(world_text: &str, text: &str, drones: u8, minutes: f64, seed: u64) 
     // The simulator and the fleet clock started together: the region's epoch (its world time
     // 0) is the fleet clock's zero, that many wall milliseconds ago on the runner's reading.
     let fleet_ms = fleet.clock().now().as_millis();
-    state.roi_epoch_unix_ms = Some(fleetmap::clock::unix_ms().saturating_sub(fleet_ms));
+    state.roi_epoch_unix_ms = Some(fleetmap_io::clock::unix_ms().saturating_sub(fleet_ms));
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("run");
     let run_dir = RunDir::create(&path, RunMeta::new(runway::KIND, 0), Some(text)).unwrap();

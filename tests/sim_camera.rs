@@ -5,17 +5,17 @@
 
 #![allow(deprecated)]
 
-use fleetmap::files::read_file_url;
-use fleetmap::imagery::meta::read_meta;
-use fleetmap::imagery::transfer::{ImageEvent, ImageReceiver, ReceiverConfig};
-use fleetmap::link::codec::Codec;
-use fleetmap::sim::faults::LinkFaults;
-use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::render::{CameraPose, Disturbances, render};
-use fleetmap::sim::world::{Surface, World, grid_cell_center};
-use fleetmap::time::Time;
-use fleetmap::vision::camera::CameraModel;
-use fleetmap::vision::runway::{Classification, NeighbourLabels, RunwayParams, classify};
+use fleetmap_core::proto::image_transfer::{ImageEvent, ImageReceiver, ReceiverConfig};
+use fleetmap_core::time::Time;
+use fleetmap_core::vision::camera::CameraModel;
+use fleetmap_core::vision::meta::read_meta;
+use fleetmap_core::vision::runway::{Classification, NeighbourLabels, RunwayParams, classify};
+use fleetmap_core::world::{Surface, World, grid_cell_center};
+use fleetmap_io::files::read_file_url;
+use fleetmap_io::link::codec::Codec;
+use fleetmap_io::link::faults::LinkFaults;
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::render::{CameraPose, Disturbances, render};
 use image::RgbImage;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
@@ -24,7 +24,7 @@ use num_traits::FromPrimitive;
 use std::time::Duration;
 
 fn runway() -> World {
-    fleetmap::files::load_world(std::path::Path::new(concat!(
+    fleetmap_io::files::load_world(std::path::Path::new(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/assets/worlds/runway.toml"
     )))
@@ -350,8 +350,8 @@ fn images_arrive_over_a_lossy_link_and_as_files() {
 // autopilot for the telemetry it needs, never renders from a stale pose, and paces its image
 // transmission so that a routing autopilot can forward it.
 
-use fleetmap::sim::camera::{CameraConfig, attitude_quaternion};
-use fleetmap::sim::paired::PairedCameras;
+use fleetmap_sim::camera::{CameraConfig, attitude_quaternion};
+use fleetmap_sim::paired::PairedCameras;
 
 const AP1: MavHeader = MavHeader {
     system_id: 1,
@@ -836,10 +836,10 @@ fn paired_camera_wakes_a_silent_arducopter() {
 fn a_flipped_image_is_measured_as_the_other_class_by_the_gcs() {
     use fleetmap::app::bandit::measure_image;
     use fleetmap::app::bandit_sim::{HARDWARE_MISSION, HARDWARE_WORLD};
-    use fleetmap::geo::{Grid, LatLon};
-    use fleetmap::mission::definition::{MissionDef, Origin};
-    use fleetmap::planner::sortie::ClassificationState;
-    use fleetmap::sim::camera::{CaptureContext, SimCamera};
+    use fleetmap_core::geo::{Grid, LatLon};
+    use fleetmap_core::mission::definition::{MissionDef, Origin};
+    use fleetmap_core::planner::sortie::ClassificationState;
+    use fleetmap_sim::camera::{CaptureContext, SimCamera};
 
     let world = World::from_toml(HARDWARE_WORLD).unwrap();
     let def = MissionDef::parse(HARDWARE_MISSION, "hardware-6x6.toml").unwrap();

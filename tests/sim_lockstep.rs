@@ -21,12 +21,12 @@
 mod common;
 
 use fleetmap::app::bandit_sim::fleet_config;
-use fleetmap::clock::MonotonicClock;
 use fleetmap::fleet::Incoming;
-use fleetmap::link::ConnSpec;
-use fleetmap::link::transport::{LinkOptions, open_link};
-use fleetmap::mission::{MissionItem, MissionType};
-use fleetmap::sim::harness::SimConfig;
+use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_io::clock::MonotonicClock;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::transport::{LinkOptions, open_link};
+use fleetmap_sim::harness::SimConfig;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::BTreeMap;
 use std::sync::Arc;

@@ -4,10 +4,10 @@
 
 mod common;
 
-use fleetmap::link::codec::Codec;
-use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::server::{Endpoint, ServeOptions, spawn};
-use fleetmap::time::Time;
+use fleetmap_core::time::Time;
+use fleetmap_io::link::codec::Codec;
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::server::{Endpoint, ServeOptions, spawn};
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -43,8 +43,8 @@ async fn udp_endpoints_per_vehicle() {
         sim,
         ServeOptions {
             endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0").unwrap()],
-            speed: fleetmap::sim::pace::Speed::Times(20.0),
-            gcs: fleetmap::sim::server::GcsClock::Wall,
+            speed: fleetmap_sim::pace::Speed::Times(20.0),
+            gcs: fleetmap_sim::server::GcsClock::Wall,
             image_dir: None,
             duration_s: None,
         },
@@ -58,7 +58,7 @@ async fn udp_endpoints_per_vehicle() {
     let to = h.bound[1].local;
     let mut codec = Codec::new();
     let mut buf = vec![0u8; 65536];
-    let hb = fleetmap::link::codec::encode_frame(
+    let hb = fleetmap_io::link::codec::encode_frame(
         &gcs(),
         &MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
             mavtype: mav::MavType::MAV_TYPE_GCS,
@@ -69,7 +69,7 @@ async fn udp_endpoints_per_vehicle() {
         0,
     );
     sock.send_to(&hb, to).await.unwrap();
-    let arm = fleetmap::link::codec::encode_frame(
+    let arm = fleetmap_io::link::codec::encode_frame(
         &gcs(),
         &arm_cmd(),
         mavlink::MavlinkVersion::V2,
@@ -120,8 +120,8 @@ async fn tcp_endpoint_and_image_files() {
         sim,
         ServeOptions {
             endpoints: vec![Endpoint::parse("tcpin:127.0.0.1:0").unwrap()],
-            speed: fleetmap::sim::pace::Speed::Times(10.0),
-            gcs: fleetmap::sim::server::GcsClock::Wall,
+            speed: fleetmap_sim::pace::Speed::Times(10.0),
+            gcs: fleetmap_sim::server::GcsClock::Wall,
             image_dir: Some(dir.path().to_path_buf()),
             duration_s: None,
         },
@@ -140,7 +140,7 @@ async fn tcp_endpoint_and_image_files() {
         ..mav::COMMAND_LONG_DATA::default()
     });
     let frame =
-        fleetmap::link::codec::encode_frame(&gcs(), &cmd, mavlink::MavlinkVersion::V2, None, 0);
+        fleetmap_io::link::codec::encode_frame(&gcs(), &cmd, mavlink::MavlinkVersion::V2, None, 0);
     stream.write_all(&frame).await.unwrap();
     let mut codec = Codec::new();
     let mut buf = vec![0u8; 65536];
@@ -166,8 +166,8 @@ async fn tcp_endpoint_and_image_files() {
     }
     let url = url.expect("CAMERA_IMAGE_CAPTURED over TCP");
     // the file exists by the time it is announced
-    let bytes = fleetmap::files::read_file_url(&url, 10 << 20).unwrap();
-    let meta = fleetmap::imagery::meta::read_meta(&bytes).unwrap();
+    let bytes = fleetmap_io::files::read_file_url(&url, 10 << 20).unwrap();
+    let meta = fleetmap_core::vision::meta::read_meta(&bytes).unwrap();
     assert_eq!(meta.sysid, 1);
     assert!(image::load_from_memory(&bytes).is_ok());
     h.stop().await.unwrap();
@@ -180,22 +180,22 @@ async fn tcp_endpoint_and_image_files() {
 async fn camera_for_a_real_autopilot() {
     let dir = tempfile::tempdir().unwrap();
     let world = std::sync::Arc::new(
-        fleetmap::files::load_world(std::path::Path::new(concat!(
+        fleetmap_io::files::load_world(std::path::Path::new(concat!(
             env!("CARGO_MANIFEST_DIR"),
             "/assets/worlds/runway.toml"
         )))
         .unwrap(),
     );
-    let cfg = fleetmap::sim::camera::CameraConfig {
+    let cfg = fleetmap_sim::camera::CameraConfig {
         file_dir: Some(dir.path().display().to_string()),
         mavlink_transfer: false,
         ..Default::default()
     };
-    let cams = fleetmap::sim::paired::PairedCameras::new(world.clone(), cfg, 3);
+    let cams = fleetmap_sim::paired::PairedCameras::new(world.clone(), cfg, 3);
     let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let image_dir = dir.path().to_path_buf();
-    let task = tokio::spawn(fleetmap::sim::server::serve_paired(
+    let task = tokio::spawn(fleetmap_sim::server::serve_paired(
         cams,
         None,
         Endpoint::parse("udpin:127.0.0.1:0").unwrap(),
@@ -217,7 +217,7 @@ async fn camera_for_a_real_autopilot() {
     };
     let (lat, lon) = world.default_home(1).unwrap();
     let send = |m: MavMessage| {
-        fleetmap::link::codec::encode_frame(&ap, &m, mavlink::MavlinkVersion::V2, None, 0)
+        fleetmap_io::link::codec::encode_frame(&ap, &m, mavlink::MavlinkVersion::V2, None, 0)
     };
     sock.send_to(
         &send(MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
@@ -267,8 +267,8 @@ async fn camera_for_a_real_autopilot() {
         }
     }
     let url = url.expect("CAMERA_IMAGE_CAPTURED from the camera component");
-    let bytes = fleetmap::files::read_file_url(&url, 10 << 20).unwrap();
-    let meta = fleetmap::imagery::meta::read_meta(&bytes).unwrap();
+    let bytes = fleetmap_io::files::read_file_url(&url, 10 << 20).unwrap();
+    let meta = fleetmap_core::vision::meta::read_meta(&bytes).unwrap();
     assert_eq!(meta.sysid, 1);
     assert!((meta.alt_rel_m - 12.0).abs() < 0.01, "{meta:?}");
     let _ = stop_tx.send(());
@@ -286,9 +286,9 @@ async fn camera_for_a_real_autopilot() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_starved_simulator_still_answers_commands_in_time() {
     use fleetmap::app::bandit_sim::{HARDWARE_TEAM, fleet_config};
-    use fleetmap::clock::MonotonicClock;
-    use fleetmap::link::ConnSpec;
-    use fleetmap::link::transport::{LinkOptions, open_link};
+    use fleetmap_io::clock::MonotonicClock;
+    use fleetmap_io::link::ConnSpec;
+    use fleetmap_io::link::transport::{LinkOptions, open_link};
     use std::time::Instant;
 
     const SPEEDUP: f64 = 20.0;

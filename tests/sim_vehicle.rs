@@ -5,11 +5,11 @@
 
 #![allow(deprecated)]
 
-use fleetmap::mission::MissionItem;
-use fleetmap::sim::harness::{Sim, SimConfig};
-use fleetmap::sim::vehicle::CMD_BATTERY_SWAP;
-use fleetmap::sim::{Flavour, Mode};
-use fleetmap::time::Time;
+use fleetmap_core::mission::MissionItem;
+use fleetmap_core::time::Time;
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::vehicle::CMD_BATTERY_SWAP;
+use fleetmap_sim::{Flavour, Mode};
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -282,7 +282,7 @@ impl Gcs {
 }
 
 fn at(north: f64, east: f64) -> (f64, f64) {
-    fleetmap::geo::local::offset(HOME.0, HOME.1, north, east)
+    fleetmap_core::geo::local::offset(HOME.0, HOME.1, north, east)
 }
 
 fn mission(copter: bool) -> Vec<MissionItem> {
@@ -451,12 +451,12 @@ fn fly(flavour: Flavour) {
         let v = g.sim.vehicle(1).unwrap();
         assert!(v.landed());
         let (lat, lon, _) = v.true_position();
-        let d = fleetmap::geo::local::distance(lat, lon, HOME.0, HOME.1);
+        let d = fleetmap_core::geo::local::distance(lat, lon, HOME.0, HOME.1);
         assert!(d < 2.0, "{flavour}: landed {d} m from home");
         // a camera image was taken at the second waypoint
         let (_, img) = g.sim.poll_image().expect("an image");
         let (a, b) = at(20.0, 0.0);
-        let d = fleetmap::geo::local::distance(img.true_pose.lat, img.true_pose.lon, a, b);
+        let d = fleetmap_core::geo::local::distance(img.true_pose.lat, img.true_pose.lon, a, b);
         // PX4 reaches a waypoint — and takes the picture that follows — as soon as its estimate
         // is within NAV_ACC_RAD (2 m), still flying; the GPS error (0.4 m per axis) comes on top.
         let tol = if flavour.is_ardupilot() {
@@ -495,7 +495,7 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
         // the configured levels: RTL at 25 %, land at 8 % (ArduPilot BATT_LOW_MAH /
         // BATT_CRT_MAH, PX4 BAT_CRIT_THR / BAT_EMERGEN_THR)
         let mut g = Gcs::with(&format!("1x{flavour}"), 3, |c| {
-            c.vehicles[0].failsafe = fleetmap::sim::vehicle::BatteryFailsafe {
+            c.vehicles[0].failsafe = fleetmap_sim::vehicle::BatteryFailsafe {
                 rtl_pct: 25.0,
                 land_pct: 8.0,
             };
@@ -559,7 +559,7 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
         let v = g.sim.vehicle(1).unwrap();
         let (lat, lon, u) = v.true_position();
         assert!(u < 0.01);
-        let d = fleetmap::geo::local::distance(lat, lon, HOME.0, HOME.1);
+        let d = fleetmap_core::geo::local::distance(lat, lon, HOME.0, HOME.1);
         assert!(
             d < 2.0,
             "{flavour}: landed {d} m from home: {:?}",
@@ -602,7 +602,7 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
         // the mission survived the power cycle, the current item went back to the start
         assert_eq!(
             v.mission()
-                .items(fleetmap::mission::MissionType::Mission)
+                .items(fleetmap_core::mission::MissionType::Mission)
                 .len(),
             items.len()
         );
@@ -684,7 +684,7 @@ fn a_copter_landed_on_a_rover_rides_with_it_and_charges() {
     let (lat0, lon0, _) = g.sim.vehicle(1).unwrap().true_position();
     // the rover drives 20 m north (GUIDED via DO_REPOSITION)
     g.sysid = 2;
-    let (tlat, tlon) = fleetmap::geo::local::offset(rlat, rlon, 20.0, 0.0);
+    let (tlat, tlon) = fleetmap_core::geo::local::offset(rlat, rlon, 20.0, 0.0);
     assert_eq!(
         g.set_mode(Flavour::ARDU_ROVER, Mode::Guided),
         mav::MavResult::MAV_RESULT_ACCEPTED
@@ -703,9 +703,9 @@ fn a_copter_landed_on_a_rover_rides_with_it_and_charges() {
     g.wait(60.0, |_| false);
     let (lat1, lon1, u) = g.sim.vehicle(1).unwrap().true_position();
     let (rlat1, rlon1, _) = g.sim.vehicle(2).unwrap().true_position();
-    let moved = fleetmap::geo::local::distance(lat0, lon0, lat1, lon1);
+    let moved = fleetmap_core::geo::local::distance(lat0, lon0, lat1, lon1);
     assert!((moved - 20.0).abs() < 2.0, "the copter rode {moved} m");
-    assert!(fleetmap::geo::local::distance(lat1, lon1, rlat1, rlon1) < 1.5);
+    assert!(fleetmap_core::geo::local::distance(lat1, lon1, rlat1, rlon1) < 1.5);
     assert_eq!(u, 0.0);
     let after = g.sim.vehicle(1).unwrap().battery().fraction();
     assert!(after > before, "charging: {before} → {after}");
@@ -713,16 +713,16 @@ fn a_copter_landed_on_a_rover_rides_with_it_and_charges() {
 
 #[test]
 fn worlds_match_the_fixture_sheet() {
-    use fleetmap::sim::world::Surface;
+    use fleetmap_core::world::Surface;
     let dir = concat!(env!("CARGO_MANIFEST_DIR"), "/assets/worlds/");
     let w =
-        fleetmap::files::load_world(std::path::Path::new(&format!("{dir}runway.toml"))).unwrap();
+        fleetmap_io::files::load_world(std::path::Path::new(&format!("{dir}runway.toml"))).unwrap();
     let c = (37.196800, -80.578100);
     // homes: offset(C, −32 m, −18 m + 3 m·(k−1)), about 7 m from the runway's long side
     for k in 1..=4 {
         let h = w.default_home(k).unwrap();
-        let want = fleetmap::geo::local::offset(c.0, c.1, -32.0, -18.0 + 3.0 * (k - 1) as f64);
-        assert!(fleetmap::geo::local::distance(h.0, h.1, want.0, want.1) < 1e-6);
+        let want = fleetmap_core::geo::local::offset(c.0, c.1, -32.0, -18.0 + 3.0 * (k - 1) as f64);
+        assert!(fleetmap_core::geo::local::distance(h.0, h.1, want.0, want.1) < 1e-6);
         assert_eq!(w.surface_at(h.0, h.1, 0.0), Surface::Grass);
     }
     let h = w.default_home(1).unwrap();
@@ -754,14 +754,16 @@ fn worlds_match_the_fixture_sheet() {
     assert!((area - 92.0 * 21.0).abs() < 0.5, "runway area {area}");
 
     // the moving plume world loads and moves
-    let p = fleetmap::files::load_world(std::path::Path::new(&format!("{dir}plume.toml"))).unwrap();
+    let p =
+        fleetmap_io::files::load_world(std::path::Path::new(&format!("{dir}plume.toml"))).unwrap();
     let a = &p.polygons_of(Surface::Plume, 0.0)[0][0];
     let b = &p.polygons_of(Surface::Plume, 100.0)[0][0];
-    let (dn, de) = fleetmap::geo::local::delta(a.0, a.1, b.0, b.1);
+    let (dn, de) = fleetmap_core::geo::local::delta(a.0, a.1, b.0, b.1);
     assert!(dn.abs() < 1e-6 && (de - 30.0).abs() < 1e-3, "{dn} {de}");
 
-    let w = fleetmap::files::load_world(std::path::Path::new(&format!("{dir}hardware-6x6.toml")))
-        .unwrap();
+    let w =
+        fleetmap_io::files::load_world(std::path::Path::new(&format!("{dir}hardware-6x6.toml")))
+            .unwrap();
     assert_eq!(w.cells_of(Surface::Obstacle).len(), 11);
     assert_eq!(
         w.cells_of(Surface::GreenTile),
@@ -774,7 +776,7 @@ fn worlds_match_the_fixture_sheet() {
         let r = 5 - i as i32;
         for (c, ch) in row.chars().enumerate() {
             let (lat, lon) =
-                fleetmap::sim::world::grid_cell_center((37.195, -80.58), 5.0, r, c as i32);
+                fleetmap_core::world::grid_cell_center((37.195, -80.58), 5.0, r, c as i32);
             let want = match ch {
                 'G' => Surface::GreenTile,
                 'R' => Surface::Road,
@@ -794,8 +796,8 @@ fn worlds_match_the_fixture_sheet() {
         (6, (3, 4)),
     ] {
         let h = w.default_home(k).unwrap();
-        let want = fleetmap::sim::world::grid_cell_center((37.195, -80.58), 5.0, cell.0, cell.1);
-        assert!(fleetmap::geo::local::distance(h.0, h.1, want.0, want.1) < 1e-6);
+        let want = fleetmap_core::world::grid_cell_center((37.195, -80.58), 5.0, cell.0, cell.1);
+        assert!(fleetmap_core::geo::local::distance(h.0, h.1, want.0, want.1) < 1e-6);
     }
 }
 
@@ -1008,8 +1010,8 @@ fn px4_judges_the_gcs_link_over_com_dl_loss_t_of_the_gcs_clock() {
 
 #[test]
 fn signed_vehicles_ignore_unsigned_commands_and_setup_signing_installs_a_key() {
-    use fleetmap::link::codec::{Codec, encode_frame};
-    use fleetmap::link::signing::{Signing, SigningKey};
+    use fleetmap_io::link::codec::{Codec, encode_frame};
+    use fleetmap_io::link::signing::{Signing, SigningKey};
     let key = SigningKey::from_passphrase("field-team");
     let mut cfg =
         SimConfig::from_spec("1xcopter:ardupilot,1xcopter:ardupilot", None, Some(HOME), 1).unwrap();
@@ -1185,7 +1187,7 @@ fn geofences_are_enforced() {
     .expect("fence breach → RTL");
     assert!(g.texts().iter().any(|t| t == "Fence Breached"));
     let (lat, lon, _) = g.sim.vehicle(1).unwrap().reported_position();
-    let (n, _) = fleetmap::geo::local::delta(HOME.0, HOME.1, lat, lon);
+    let (n, _) = fleetmap_core::geo::local::delta(HOME.0, HOME.1, lat, lon);
     assert!(n < 18.0, "stopped near the fence, {n} m north");
 }
 
@@ -1236,7 +1238,7 @@ fn guided_yaw_by_condition_yaw_or_reposition() {
         assert!(hdg(&mut g, 45.0), "{flavour}: not facing its travel");
         g.wait(30.0, |m| {
             matches!(m, MavMessage::GLOBAL_POSITION_INT(p)
-                if fleetmap::geo::local::distance(
+                if fleetmap_core::geo::local::distance(
                     f64::from(p.lat) / 1e7, f64::from(p.lon) / 1e7, lat, lon) < 0.5)
         })
         .unwrap_or_else(|| panic!("{flavour}: did not arrive"));
@@ -1285,7 +1287,7 @@ fn guided_yaw_by_condition_yaw_or_reposition() {
         }
         // it stays where it was sent
         let (la, lo, _) = g.sim.vehicle(1).unwrap().true_position();
-        let d = fleetmap::geo::local::distance(la, lo, lat, lon);
+        let d = fleetmap_core::geo::local::distance(la, lo, lat, lon);
         assert!(d < 1.5, "{flavour}: {d} m from its target");
     }
 }

@@ -5,12 +5,12 @@
 //! binary in a pseudo-terminal.
 
 use crossterm::event::{Event as TermEvent, KeyCode, KeyEvent, KeyModifiers};
-use fleetmap::clock::MonotonicClock;
-use fleetmap::time::Time;
 use fleetmap::tui::app::Overlay;
 use fleetmap::tui::keymap::ALL_ACTIONS;
 use fleetmap::tui::view::help::{self, HelpLine};
 use fleetmap::tui::*;
+use fleetmap_core::time::Time;
+use fleetmap_io::clock::MonotonicClock;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 use ratatui::style::{Color, Modifier};

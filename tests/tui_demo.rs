@@ -6,8 +6,8 @@
 //! The test reads the run directory's saved state to know when to press the keys (the screen
 //! is a stream of escape sequences), and checks the screen for the status words.
 
-use fleetmap::explore::mapping::{MappingState, RobotStatus};
 use fleetmap::store::RunDir;
+use fleetmap_core::explore::mapping::{MappingState, RobotStatus};
 use std::path::Path;
 use std::time::{Duration, Instant};
 

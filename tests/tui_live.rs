@@ -2,18 +2,18 @@
 //! as the operator sees them — snapshots of the map, mission, fleet and log panes at 80×24 and
 //! 250×70 from a state built by the run's own state machine.
 
-use fleetmap::explore::Sharing;
-use fleetmap::explore::mapping::MappingState;
 use fleetmap::fleet::{FleetSnapshot, GeoPoint, StatusText, VehicleSnapshot};
-use fleetmap::geo::{Cell, Dir4, Grid, LatLon};
-use fleetmap::mission::definition::MissionDef;
-use fleetmap::proto::heartbeat::Beat;
-use fleetmap::time::Time;
 use fleetmap::tui::live::{LiveLog, RunInfo, build_model};
 use fleetmap::tui::*;
-use fleetmap::vision::regions::RegionFractions;
-use fleetmap::vision::runway::NeighbourLabels;
-use fleetmap::vision::votes::Detection;
+use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::mapping::MappingState;
+use fleetmap_core::geo::{Cell, Dir4, Grid, LatLon};
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::proto::heartbeat::Beat;
+use fleetmap_core::time::Time;
+use fleetmap_core::vision::regions::RegionFractions;
+use fleetmap_core::vision::runway::NeighbourLabels;
+use fleetmap_core::vision::votes::Detection;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 
@@ -93,9 +93,9 @@ fn run_state() -> MappingState {
     let d1 = s.directive(1).unwrap();
     let d2 = s.directive(2).unwrap();
     for (id, d) in [(1, d1), (2, d2)] {
-        if let fleetmap::explore::mapping::Directive::Dfs(fleetmap::explore::dfs::Action::MoveTo(
-            c,
-        )) = d
+        if let fleetmap_core::explore::mapping::Directive::Dfs(
+            fleetmap_core::explore::dfs::Action::MoveTo(c),
+        ) = d
         {
             s.on_arrived(id, c, Time::from_secs(120)).unwrap();
         }
@@ -284,18 +284,18 @@ fn model_follows_the_run() {
 // ---- spatial classification ------------------------------------------------------------
 
 /// The hardware 6×6 mission after some sensing: (0, 0) kept, (5, 5) rejected.
-fn classification_state() -> fleetmap::planner::sortie::ClassificationState {
+fn classification_state() -> fleetmap_core::planner::sortie::ClassificationState {
     let text = std::fs::read_to_string(concat!(
         env!("CARGO_MANIFEST_DIR"),
         "/missions/hardware-6x6.toml"
     ))
     .unwrap();
     let def = MissionDef::parse(&text, "hardware-6x6.toml").unwrap();
-    let fleetmap::mission::definition::Origin::Coordinates(origin) = def.grid.origin else {
+    let fleetmap_core::mission::definition::Origin::Coordinates(origin) = def.grid.origin else {
         panic!("the hardware mission has a fixed origin");
     };
     let grid = Grid::new(LatLon::new(origin.lat, origin.lon), def.grid.cell_size_m).unwrap();
-    let mut s = fleetmap::planner::sortie::ClassificationState::new(&def, grid, None).unwrap();
+    let mut s = fleetmap_core::planner::sortie::ClassificationState::new(&def, grid, None).unwrap();
     for (cell, ones) in [(Cell::new(0, 0), 200), (Cell::new(5, 5), 0)] {
         let l = s.bandit.index_of(cell).unwrap();
         assert!(s.bandit.record(l, ones, 200));
@@ -305,7 +305,7 @@ fn classification_state() -> fleetmap::planner::sortie::ClassificationState {
     s
 }
 
-fn classification_fleet(s: &fleetmap::planner::sortie::ClassificationState) -> FleetSnapshot {
+fn classification_fleet(s: &fleetmap_core::planner::sortie::ClassificationState) -> FleetSnapshot {
     let mut f = FleetSnapshot {
         time: Time::from_secs(600),
         ..FleetSnapshot::default()

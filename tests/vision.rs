@@ -6,17 +6,17 @@
 //! specifications below and rewrites `assets/images/golden.json`
 //! (`scripts/gen-vision-images.sh` does exactly that).
 
-use fleetmap::files::load_image_file;
-use fleetmap::geo::{Cell, Dir4};
-use fleetmap::time::Time;
-use fleetmap::vision::camera::CameraModel;
-use fleetmap::vision::green::{self, GreenParams};
-use fleetmap::vision::load::{LoadLimits, load_image_bytes};
-use fleetmap::vision::onboard::{GreenShare, GreenSpec, OnboardMeasurement};
-use fleetmap::vision::runway::{self, RunwayParams};
-use fleetmap::vision::synth::{self, RunwayScene, RunwayStrip, TileScene};
-use fleetmap::vision::votes::{CellState, Detection, VoteBook, VoteParams};
-use fleetmap::vision::{VisionError, fast};
+use fleetmap_core::geo::{Cell, Dir4};
+use fleetmap_core::time::Time;
+use fleetmap_core::vision::camera::CameraModel;
+use fleetmap_core::vision::green::{self, GreenParams};
+use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
+use fleetmap_core::vision::onboard::{GreenShare, GreenSpec, OnboardMeasurement};
+use fleetmap_core::vision::runway::{self, RunwayParams};
+use fleetmap_core::vision::synth::{self, RunwayScene, RunwayStrip, TileScene};
+use fleetmap_core::vision::votes::{CellState, Detection, VoteBook, VoteParams};
+use fleetmap_core::vision::{VisionError, fast};
+use fleetmap_io::files::load_image_file;
 use image::RgbImage;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -128,8 +128,8 @@ fn samples() -> Vec<(&'static str, RgbImage)> {
 struct Golden {
     width: u32,
     height: u32,
-    counts: fleetmap::vision::regions::RegionCounts,
-    fractions: fleetmap::vision::regions::RegionFractions,
+    counts: fleetmap_core::vision::regions::RegionCounts,
+    fractions: fleetmap_core::vision::regions::RegionFractions,
     labels_heading_0: runway::NeighbourLabels,
     labels_heading_90: runway::NeighbourLabels,
     green_fraction: f64,
@@ -166,7 +166,7 @@ fn save_png_best(img: &RgbImage, path: &Path) {
             image::ExtendedColorType::Rgb8,
         )
         .expect("encode sample image");
-    fleetmap::store::atomic_write(path, &bytes).expect("write sample image");
+    fleetmap_io::files::atomic_write(path, &bytes).expect("write sample image");
 }
 
 #[test]
@@ -198,7 +198,7 @@ fn golden_sample_images() {
     }
     if regenerate {
         let json = serde_json::to_string_pretty(&goldens).unwrap() + "\n";
-        fleetmap::store::atomic_write(&golden_path, json.as_bytes()).unwrap();
+        fleetmap_io::files::atomic_write(&golden_path, json.as_bytes()).unwrap();
     }
     let text = std::fs::read_to_string(&golden_path)
         .unwrap_or_else(|e| panic!("{}: {e} (REGENERATE=1 makes it)", golden_path.display()));
@@ -580,7 +580,7 @@ fn jpeg_images_classify_like_png() {
     }
 }
 
-/// An on-board green-share measurement ([`fleetmap::vision::onboard`]) through the GCS's
+/// An on-board green-share measurement ([`fleetmap_core::vision::onboard`]) through the GCS's
 /// MAVLink codec: 52 bytes on the wire (trailing zeros truncated), decoded back to the same
 /// measurement, tied to its capture by boot time and image index.
 #[test]
@@ -601,7 +601,7 @@ fn onboard_measurement_round_trips_through_a_mavlink_frame() {
             pixels: 14_400,
         },
     };
-    let mut codec = fleetmap::link::codec::Codec::new();
+    let mut codec = fleetmap_io::link::codec::Codec::new();
     let buf = codec.encode(1, 100, &m.to_message(), 0);
     // small on the wire: trailing zeros of the 58 floats are truncated
     assert_eq!(buf.len(), 52, "12 bytes of framing and 40 of payload");

@@ -1,18 +1,18 @@
 //! The spatial-classification run on the embedded simulator (async shell): the bandit
 //! paper's hardware field (§V, Fig. 3) with ArduPilot copters as drones and ArduPilot rovers
-//! as charging stations, served on loopback UDP by [`crate::sim::server::spawn`] with the
+//! as charging stations, served on loopback UDP by [`fleetmap_sim::server::spawn`] with the
 //! GCS clock running at the simulator's speed-up — what `fleetmap demo --bandit` and the
 //! end-to-end tests fly.
 
 use crate::fleet::{self, FleetConfig, FleetHandle};
-use crate::link::ConnSpec;
-use crate::link::transport::{LinkOptions, open_link};
-use crate::sim::harness::{Sim, SimConfig};
-use crate::sim::pace::Speed;
-use crate::sim::server::{self, Endpoint, GcsClock, ServeOptions, SimHandle};
-use crate::time::Time;
-use crate::world::World;
 use anyhow::Context as _;
+use fleetmap_core::time::Time;
+use fleetmap_core::world::World;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::transport::{LinkOptions, open_link};
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::pace::Speed;
+use fleetmap_sim::server::{self, Endpoint, GcsClock, ServeOptions, SimHandle};
 use tokio::sync::mpsc;
 
 /// The hardware field world (`assets/worlds/hardware-6x6.toml`).
@@ -45,12 +45,12 @@ pub struct SimSetup {
     pub charge_minutes: f64,
     /// A degraded sensor: the probability that a camera image shows the other class of tile
     /// (0: none; the bandit paper's §V degraded-sensor run: 0.05). See
-    /// [`crate::sim::camera::CameraConfig::misclassify_probability`].
+    /// [`fleetmap_sim::camera::CameraConfig::misclassify_probability`].
     pub sensor_flip: f64,
     /// Cameras that measure on board with this definition (the mission's:
     /// [`crate::app::bandit::green_spec_of`]) and send the green share instead of the
     /// picture; `None`: every picture is sent whole.
-    pub onboard: Option<crate::vision::onboard::GreenSpec>,
+    pub onboard: Option<fleetmap_core::vision::onboard::GreenSpec>,
 }
 
 impl Default for SimSetup {
@@ -111,7 +111,7 @@ pub struct SimFleet {
 }
 
 /// Serve `sim` at up to `speedup` and connect a fleet to it on the simulator's own time
-/// (slower when the machine is busy: [`crate::sim::pace`]), wired
+/// (slower when the machine is busy: [`fleetmap_sim::pace`]), wired
 /// as field teams wire several vehicles: the fleet listens on one loopback UDP port
 /// (`udpin:127.0.0.1:0`) and every vehicle sends to it from its own socket (the simulator's
 /// `udpout`), as several SITL instances or Wi-Fi drones do.

@@ -1,24 +1,24 @@
 //! `fleetmap demo`: the embedded simulator and the GCS in one process (async shell).
 //!
-//! The simulator ([`crate::sim::harness::Sim`], served on loopback UDP by
-//! [`crate::sim::server::spawn`]) flies three ArduPilot copters over the runway world; the
+//! The simulator ([`fleetmap_sim::harness::Sim`], served on loopback UDP by
+//! [`fleetmap_sim::server::spawn`]) flies three ArduPilot copters over the runway world; the
 //! GCS talks to them over real sockets exactly as it would to SITL or hardware, with its
 //! clock running at the simulator's speed-up so every protocol timer, the liveness window
 //! and the flight times keep their real-time meaning in simulated seconds. The world and
 //! the mission are compiled into the binary, so the demo runs from any directory.
 
 use crate::app::runway::report::ROI_SURFACES;
-use crate::clock::MonotonicClock;
 use crate::fleet::{self, FleetConfig, FleetHandle};
-use crate::link::ConnSpec;
-use crate::link::transport::{LinkOptions, open_link, open_memory_link};
-use crate::mission::definition::MissionDef;
-use crate::sim::harness::{Sim, SimConfig};
-use crate::sim::pace::Speed;
-use crate::sim::server::{self, Endpoint, GcsClock, MemorySimHandle, ServeOptions, SimHandle};
-use crate::time::Time;
-use crate::world::World;
 use anyhow::Context as _;
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::time::Time;
+use fleetmap_core::world::World;
+use fleetmap_io::clock::MonotonicClock;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::transport::{LinkOptions, open_link, open_memory_link};
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::pace::Speed;
+use fleetmap_sim::server::{self, Endpoint, GcsClock, MemorySimHandle, ServeOptions, SimHandle};
 use tokio::sync::mpsc;
 
 /// The runway world (`assets/worlds/runway.toml`).

@@ -9,10 +9,10 @@
 
 use crate::app::images::ReceivedImage;
 use crate::fleet::{FleetError, FleetHandle, VehicleSnapshot};
-use crate::geo::local;
-use crate::proto::Endpoint;
-use crate::proto::command::Command;
-use crate::proto::flavour::takeoff_reached;
+use fleetmap_core::geo::local;
+use fleetmap_core::proto::Endpoint;
+use fleetmap_core::proto::command::Command;
+use fleetmap_core::proto::flavour::takeoff_reached;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use std::sync::Arc;
 use std::time::Duration;
@@ -280,7 +280,7 @@ pub async fn face_grid(
 }
 
 /// Stop and hold where the vehicle is now, in its autopilot's hold mode
-/// ([`crate::proto::flavour::Flavour::pause`]: ArduCopter BRAKE, HOLD otherwise). Nothing to
+/// ([`fleetmap_core::proto::flavour::Flavour::pause`]: ArduCopter BRAKE, HOLD otherwise). Nothing to
 /// do for a copter on the ground (ArduCopter disarms a landed copter in BRAKE).
 pub async fn hold_here(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
     let v = fleet

@@ -11,9 +11,9 @@
 //!
 //! A capture that arrives both ways is delivered once: captures are named by (system,
 //! time_boot_ms, image_index) — from CAMERA_IMAGE_CAPTURED, or from the metadata the JPEG
-//! carries ([`crate::imagery::meta`]).
+//! carries ([`fleetmap_core::vision::meta`]).
 //!
-//! **On-board measurements** ([`crate::imagery::onboard`]): a camera that measures its pictures
+//! **On-board measurements** ([`fleetmap_core::vision::onboard`]): a camera that measures its pictures
 //! itself sends, after a capture's CAMERA_IMAGE_CAPTURED, a DEBUG_FLOAT_ARRAY with the green
 //! share, and keeps the picture. When the measurement was made with the definition the run
 //! accepts ([`ImageHub::accept_onboard`], by fingerprint) it is delivered as a
@@ -26,16 +26,16 @@
 //! the same name in its JPEG metadata gets that record's position, altitude and attitude; the
 //! JPEG's own metadata fills in what the message lacks (its heading is the camera's) and is the
 //! whole pose when no message was heard. The runners check this pose before a picture counts
-//! ([`crate::vision::sanity`]).
+//! ([`fleetmap_core::vision::sanity`]).
 
-use crate::files::read_file_url;
 use crate::fleet::{FleetHandle, Incoming};
-use crate::imagery::meta::{ImageMeta, read_meta};
-use crate::imagery::onboard::OnboardMeasurement;
-use crate::imagery::transfer::{
+use fleetmap_core::proto::image_transfer::{
     FileUrlError, ImageEvent, ImageReceiver, ReceiverConfig, request_image,
 };
-use crate::time::Time;
+use fleetmap_core::time::Time;
+use fleetmap_core::vision::meta::{ImageMeta, read_meta};
+use fleetmap_core::vision::onboard::OnboardMeasurement;
+use fleetmap_io::files::read_file_url;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
@@ -108,7 +108,7 @@ pub struct CapturePose {
     pub heading_deg: Option<f64>,
     /// Attitude at the shutter from CAMERA_IMAGE_CAPTURED.q (`[w, x, y, z]`, body → NED:
     /// roll, pitch and yaw of the airframe for a camera without a gimbal), when the message
-    /// was heard and `q` is a rotation ([`crate::vision::geometry::attitude_of_quaternion`]).
+    /// was heard and `q` is a rotation ([`fleetmap_core::vision::geometry::attitude_of_quaternion`]).
     pub q: Option<[f32; 4]>,
     /// Milliseconds since the vehicle booted.
     pub time_boot_ms: u32,
@@ -159,7 +159,7 @@ fn pose_of_meta(m: &ImageMeta) -> CapturePose {
 
 /// The pose in a CAMERA_IMAGE_CAPTURED message (position in degE7, altitude in mm).
 fn pose_of_captured(c: &CAMERA_IMAGE_CAPTURED_DATA) -> CapturePose {
-    let q = crate::vision::geometry::attitude_of_quaternion(c.q).map(|_| c.q);
+    let q = fleetmap_core::vision::geometry::attitude_of_quaternion(c.q).map(|_| c.q);
     CapturePose {
         lat: f64::from(c.lat) * 1e-7,
         lon: f64::from(c.lon) * 1e-7,
@@ -233,7 +233,7 @@ impl Intake {
     }
 
     /// Use on-board measurements made with the definition of fingerprint `spec`
-    /// ([`crate::imagery::onboard::GreenSpec::fingerprint`]); `None`: ask for every picture.
+    /// ([`fleetmap_core::vision::onboard::GreenSpec::fingerprint`]); `None`: ask for every picture.
     pub fn accept_onboard(&mut self, spec: Option<u32>) {
         self.accept = spec;
     }
@@ -357,7 +357,7 @@ impl Intake {
     }
 
     /// The next file to read ([`FileRead`]): read it (at most [`MAX_IMAGE_FILE`] bytes,
-    /// [`crate::files::read_file_url`]) and hand the result to [`Intake::file_read`].
+    /// [`fleetmap_io::files::read_file_url`]) and hand the result to [`Intake::file_read`].
     pub fn poll_file_read(&mut self) -> Option<FileRead> {
         self.reads.pop_front()
     }
@@ -494,7 +494,7 @@ impl ImageHub {
     }
 
     /// Use the cameras' on-board measurements made with the definition of fingerprint `spec`
-    /// ([`crate::imagery::onboard::GreenSpec::fingerprint`]); `None` (the start): ask for the
+    /// ([`fleetmap_core::vision::onboard::GreenSpec::fingerprint`]); `None` (the start): ask for the
     /// picture of every on-board measurement.
     pub fn accept_onboard(&self, spec: Option<u32>) {
         self.accept.send_replace(spec);
@@ -576,10 +576,10 @@ pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
 /// whatever the fleet clock's speed-up (B images per visit arrive in bursts).
 pub fn image_hub(fleet: &FleetHandle) -> ImageHub {
     let k = fleet.clock().speedup().clamp(1.0, 100.0);
-    let d = crate::imagery::transfer::ReceiverConfig::default();
+    let d = fleetmap_core::proto::image_transfer::ReceiverConfig::default();
     spawn_with(
         fleet,
-        crate::imagery::transfer::ReceiverConfig {
+        fleetmap_core::proto::image_transfer::ReceiverConfig {
             idle: d.idle.mul_f64(k),
             ..d
         },
@@ -627,7 +627,7 @@ mod tests {
     /// CAMERA_IMAGE_CAPTURED that names the same capture; the JPEG's heading stays.
     #[test]
     fn transmitted_images_take_the_capture_message_pose() {
-        use crate::imagery::meta::insert_meta;
+        use fleetmap_core::vision::meta::insert_meta;
         use mavlink::dialects::ardupilotmega as mav;
         let meta = ImageMeta {
             sysid: 1,
@@ -644,7 +644,7 @@ mod tests {
         let mut raw = vec![0xFF, 0xD8];
         raw.extend((0..600u32).map(|i| (i % 200) as u8));
         let jpeg = insert_meta(&raw, &meta).unwrap();
-        let c = crate::vision::geometry::attitude_from_euler_deg(2.0, -3.0, 90.0).coords;
+        let c = fleetmap_core::vision::geometry::attitude_from_euler_deg(2.0, -3.0, 90.0).coords;
         let q = [c.w as f32, c.x as f32, c.y as f32, c.z as f32];
         let cic = |index: i32| {
             MavMessage::CAMERA_IMAGE_CAPTURED(mav::CAMERA_IMAGE_CAPTURED_DATA {

@@ -8,11 +8,11 @@
 
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
-use crate::mission::definition::MissionDef;
 use crate::store::RunDir;
 use crate::tui::live::RunView;
 use crate::tui::{Command, CommandError, Target};
-use crate::world::World;
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::world::World;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::future::Future;
@@ -91,7 +91,7 @@ pub struct RunSettings {
     /// Scale of every flight timeout (2 = twice as patient).
     pub patience: f64,
     /// Runway mapping: how the robots share the DFS vertex states.
-    pub sharing: crate::explore::Sharing,
+    pub sharing: fleetmap_core::explore::Sharing,
     /// Spatial classification: keep the drones in step (the bandit paper's 7e) even when the
     /// mission separates them by altitude (`None`: as the mission implies).
     pub lock_step: Option<bool>,
@@ -108,7 +108,7 @@ impl Default for RunSettings {
         RunSettings {
             auto_resume: false,
             patience: 1.0,
-            sharing: crate::explore::Sharing::Gcs,
+            sharing: fleetmap_core::explore::Sharing::Gcs,
             lock_step: None,
             plan_time_limit_s: None,
             roi_epoch_unix_ms: None,

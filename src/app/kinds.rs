@@ -6,7 +6,7 @@
 //! a run directory or a mission file names.
 
 use crate::app::kind::RunKind;
-use crate::mission::definition::MissionDef;
+use fleetmap_core::mission::definition::MissionDef;
 
 /// Work written once for every kind: [`KindVisitor::visit`] is called with the kind found.
 pub trait KindVisitor {
@@ -71,7 +71,7 @@ mod tests {
 
     #[test]
     fn every_mission_file_kind_has_a_runner_and_unknown_names_are_refused() {
-        use crate::mission::definition::MissionKind;
+        use fleetmap_core::mission::definition::MissionKind;
         for k in [
             MissionKind::RunwayMapping,
             MissionKind::SpatialClassification,

@@ -14,10 +14,10 @@ use crate::app::run::Progress;
 use crate::app::runway::cpu;
 use crate::app::session::{OnFinish, SessionConfig, SessionEnd, SessionRun};
 use crate::fleet::FleetHandle;
-use crate::mission::definition::MissionDef;
 use crate::store::{RunDir, RunMeta};
-use crate::world::World;
 use anyhow::Context as _;
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::world::World;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
@@ -43,9 +43,10 @@ pub struct NewRun {
 }
 
 impl NewRun {
-    /// A new run of the mission file `path` (read by [`crate::files::read_mission`]).
+    /// A new run of the mission file `path` (read by [`fleetmap_io::files::read_mission`]).
     pub fn from_file(path: &Path) -> anyhow::Result<NewRun> {
-        let (text, def) = crate::files::read_mission(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+        let (text, def) =
+            fleetmap_io::files::read_mission(path).map_err(|e| anyhow::anyhow!("{e}"))?;
         Ok(NewRun {
             def,
             text,
@@ -57,9 +58,9 @@ impl NewRun {
     }
 
     /// Fly over the world in the file `path` (read and checked by
-    /// [`crate::files::read_world`]; copied into the run directory).
+    /// [`fleetmap_io::files::read_world`]; copied into the run directory).
     pub fn with_world_file(mut self, path: &Path) -> anyhow::Result<NewRun> {
-        let (text, _) = crate::files::read_world(path)?;
+        let (text, _) = fleetmap_io::files::read_world(path)?;
         self.world_toml = Some(text);
         Ok(self)
     }
@@ -129,7 +130,7 @@ pub async fn prepare<K: RunKind>(
         Start::New(new) => {
             let new = *new;
             let state = K::new_state(fleet, &new.def, settings, wait).await?;
-            let (dir, meta) = new.plan(K::KIND, connections, crate::clock::unix_ms());
+            let (dir, meta) = new.plan(K::KIND, connections, fleetmap_io::clock::unix_ms());
             let line = K::started_line(&dir, &state);
             let (text, world) = (new.text, new.world_toml);
             let run_dir = cpu(move || -> anyhow::Result<RunDir> {
@@ -137,7 +138,10 @@ pub async fn prepare<K: RunKind>(
                     format!("cannot create the run directory {}", dir.display())
                 })?;
                 if let Some(w) = world {
-                    crate::store::atomic_write(&run_dir.path().join(WORLD_FILE), w.as_bytes())?;
+                    fleetmap_io::files::atomic_write(
+                        &run_dir.path().join(WORLD_FILE),
+                        w.as_bytes(),
+                    )?;
                 }
                 Ok(run_dir)
             })
@@ -279,7 +283,7 @@ pub fn run_world(run: &RunDir, override_: Option<&Path>) -> anyhow::Result<Optio
     });
     match path {
         Some(p) => Ok(Some(
-            crate::files::load_world(&p).with_context(|| format!("world {}", p.display()))?,
+            fleetmap_io::files::load_world(&p).with_context(|| format!("world {}", p.display()))?,
         )),
         None => Ok(None),
     }

@@ -13,7 +13,9 @@
 //! | [`bandit_sim`] | the embedded simulator with drones and charging rovers (`fleetmap demo --bandit`, tests) |
 
 pub mod bandit;
+#[cfg(feature = "sim")]
 pub mod bandit_sim;
+#[cfg(feature = "sim")]
 pub mod demo;
 pub mod flight;
 pub mod images;
@@ -24,12 +26,12 @@ pub mod run;
 pub mod runway;
 pub mod session;
 
-use crate::explore::Sharing;
-use crate::explore::mapping::MappingState;
 use crate::fleet::FleetHandle;
-use crate::geo::{Grid, LatLon};
-use crate::mission::definition::{MissionDef, Origin};
 use anyhow::Context as _;
+use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::mapping::MappingState;
+use fleetmap_core::geo::{Grid, LatLon};
+use fleetmap_core::mission::definition::{MissionDef, Origin};
 use std::time::Duration;
 
 /// Wait until every drone and station of `def` has been heard (and, for the drone that

@@ -390,7 +390,7 @@ pub async fn run(
     // when the fleet's clock runs faster (the demo).
     let options = ShellOptions {
         tick: REFRESH,
-        clock: crate::clock::MonotonicClock::new(),
+        clock: fleetmap_io::clock::MonotonicClock::new(),
     };
     let result = crate::tui::run(app, io, options).await;
     producer.abort();
@@ -433,7 +433,7 @@ impl Controls {
 /// Tell the operator how the run ended (the log; the title bar for a failure).
 fn log_end(
     shared: &Shared,
-    now: crate::time::Time,
+    now: fleetmap_core::time::Time,
     result: anyhow::Result<Option<String>>,
     path: &std::path::Path,
 ) {
@@ -537,8 +537,8 @@ async fn execute(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::clock::MonotonicClock;
     use crate::fleet::FleetConfig;
+    use fleetmap_io::clock::MonotonicClock;
 
     fn shared() -> (Arc<Shared>, watch::Sender<Option<RunState>>) {
         let (view_tx, view_rx) = watch::channel(None);
@@ -565,7 +565,10 @@ mod tests {
     /// A fleet without links on `clock` (and the sender that keeps its event channel open).
     fn linkless_fleet(
         clock: MonotonicClock,
-    ) -> (mpsc::Sender<crate::link::transport::LinkEvent>, FleetHandle) {
+    ) -> (
+        mpsc::Sender<fleetmap_io::link::transport::LinkEvent>,
+        FleetHandle,
+    ) {
         let (tx, rx) = mpsc::channel(1);
         let fleet = crate::fleet::spawn(Vec::new(), rx, FleetConfig::default(), clock);
         (tx, fleet)

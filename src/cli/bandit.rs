@@ -6,12 +6,12 @@ use crate::experiment::bandit::{
     self as study, Field, Preset, Sensing, Study, StudyConfig, TrialResult, VariantSummary, paper,
     plot, table,
 };
-use crate::planner::bandit::{ConfidenceBound, LogBase};
-use crate::planner::baselines::GoalRule;
-use crate::planner::ip::{Model, PlanOptions, solve_instance};
-use crate::store::atomic_write;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
+use fleetmap_core::planner::bandit::{ConfidenceBound, LogBase};
+use fleetmap_core::planner::baselines::GoalRule;
+use fleetmap_core::planner::ip::{Model, PlanOptions, solve_instance};
+use fleetmap_io::files::atomic_write;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -558,7 +558,7 @@ pub fn run_bench(args: BenchPlanArgs) -> anyhow::Result<ExitCode> {
                     if opts.model == Model::Plain {
                         inst.k_max = out.plan.as_ref().map_or(1, |p| p.cycles) + 1;
                     }
-                    solve_instance(&inst, &opts, &crate::clock::stopwatch())
+                    solve_instance(&inst, &opts, &fleetmap_io::clock::stopwatch())
                 };
                 times.push(o.solve_seconds);
                 max_vars = max_vars.max(o.variables);

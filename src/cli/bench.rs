@@ -20,12 +20,15 @@ pub enum BenchCommand {
     /// Terminal UI: full-frame redraws of a generated fleet, frames per second.
     Tui(super::tui::TuiBenchArgs),
     /// Per-epoch solve time of the bandit planner's IP on the 10×10 default.
+    #[cfg(feature = "sim")]
     Plan(super::bandit::BenchPlanArgs),
     /// Mission round trips (upload + download) against the simulator's ArduPilot and PX4
     /// mission protocol at several losses each way, in virtual seconds.
+    #[cfg(feature = "sim")]
     Transfer(super::bench_transfer::BenchTransferArgs),
     /// GCS CPU time per vehicle, and the terminal UI's frame rate, with N simulated copters
     /// (a child process) streaming telemetry to one UDP port.
+    #[cfg(feature = "sim")]
     Fleet(super::bench_fleet::BenchFleetArgs),
 }
 
@@ -34,8 +37,11 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     match args.what {
         BenchCommand::Classify(a) => crate::cli::classify::bench(a),
         BenchCommand::Tui(a) => super::tui::bench(a),
+        #[cfg(feature = "sim")]
         BenchCommand::Plan(a) => super::bandit::run_bench(a),
+        #[cfg(feature = "sim")]
         BenchCommand::Transfer(a) => super::bench_transfer::run(a),
+        #[cfg(feature = "sim")]
         BenchCommand::Fleet(a) => super::bench_fleet::run(a),
     }
 }

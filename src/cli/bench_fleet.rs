@@ -8,8 +8,6 @@
 //! user + system time from `/proc/self/stat` (Linux), in clock ticks of 1/100 s.
 
 use crate::fleet::{self, FleetConfig, FleetHandle, VehicleSnapshot};
-use crate::link::ConnSpec;
-use crate::link::transport::LinkOptions;
 use crate::tui::app::{App, Event};
 use crate::tui::config::UiConfig;
 use crate::tui::live::{LiveLog, build_model};
@@ -17,6 +15,8 @@ use crate::tui::update::update;
 use crate::tui::{REFRESH, view};
 use anyhow::{Context, bail};
 use clap::Args;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::transport::LinkOptions;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 use std::path::Path;

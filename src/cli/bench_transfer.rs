@@ -1,14 +1,14 @@
 //! `fleetmap bench transfer`: round-trip times (upload then download) of an N-item mission
 //! between the GCS's mission client and the embedded simulator's ArduPilot and PX4 mission
 //! protocol, over a network that loses and duplicates messages each way, in virtual time
-//! ([`crate::sim::transfer_bench`]). Virtual seconds are what an operator waits on a radio
+//! ([`fleetmap_sim::transfer_bench`]). Virtual seconds are what an operator waits on a radio
 //! with those faults; computing them takes a fraction of that.
 
-use crate::proto::flavour::Autopilot;
-use crate::sim::flavour::SimAutopilot;
-use crate::sim::transfer_bench::{NetFaults, TrialSummary, run_trials};
 use anyhow::bail;
 use clap::Args;
+use fleetmap_core::proto::flavour::Autopilot;
+use fleetmap_sim::flavour::SimAutopilot;
+use fleetmap_sim::transfer_bench::{NetFaults, TrialSummary, run_trials};
 use serde::Serialize;
 use std::process::ExitCode;
 

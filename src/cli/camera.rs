@@ -6,20 +6,20 @@
 //! and ATTITUDE, asked for as a GCS asks), and sends CAMERA_IMAGE_CAPTURED.
 //!
 //! With `--mission`, it measures every picture on board with the same vision code as the GCS
-//! (the bandit mission's green share: [`crate::imagery::onboard`]) and sends the measurement
+//! (the bandit mission's green share: [`fleetmap_core::vision::onboard`]) and sends the measurement
 //! in a DEBUG_FLOAT_ARRAY instead of the picture, which it keeps and sends when a GCS asks
 //! for it (image transmission's request form). Without, it pushes every picture by MAVLink
 //! image transmission, paced to `--image-rate`.
 //!
 //! Sources: `render` draws the picture from a world file at the reported pose (what
 //! `fleetmap sim --camera-only` has always done, for SITL); `folder:DIR` takes each shot's
-//! picture from a folder a real camera writes into ([`crate::files::pictures`]).
+//! picture from a folder a real camera writes into ([`fleetmap_io::files::pictures`]).
 
-use crate::sim::camera::CameraConfig;
-use crate::sim::paired::PairedCameras;
-use crate::sim::server::Endpoint;
 use anyhow::{Context, bail};
 use clap::Args;
+use fleetmap_sim::camera::CameraConfig;
+use fleetmap_sim::paired::PairedCameras;
+use fleetmap_sim::server::Endpoint;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::str::FromStr;
@@ -132,11 +132,12 @@ impl SensorArgs {
 
 /// The on-board measurement definition of the mission file at `path`: an error unless it is a
 /// valid spatial-classification mission.
-pub fn onboard_spec(path: &Path) -> anyhow::Result<crate::imagery::onboard::GreenSpec> {
+pub fn onboard_spec(path: &Path) -> anyhow::Result<fleetmap_core::vision::onboard::GreenSpec> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
-    let def = crate::mission::definition::MissionDef::parse(&text, &path.display().to_string())
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let def =
+        fleetmap_core::mission::definition::MissionDef::parse(&text, &path.display().to_string())
+            .map_err(|e| anyhow::anyhow!("{e}"))?;
     crate::app::bandit::green_spec_of(&def).with_context(|| {
         format!(
             "{} is a {} mission: only spatial-classification pictures are measured on board",
@@ -172,11 +173,11 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
             let Some(world) = &args.world else {
                 bail!("--source render needs --world");
             };
-            let world = Arc::new(crate::files::load_world(world)?);
+            let world = Arc::new(fleetmap_io::files::load_world(world)?);
             (PairedCameras::new(world, cfg, args.seed), None)
         }
         Source::Folder(dir) => {
-            let f = crate::files::pictures::FolderSource::new(
+            let f = fleetmap_io::files::pictures::FolderSource::new(
                 dir,
                 Duration::from_millis(args.wait_ms),
             )?;
@@ -188,7 +189,7 @@ pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
         .enable_all()
         .build()
         .context("cannot start the async runtime")?;
-    rt.block_on(crate::sim::server::serve_paired(
+    rt.block_on(fleetmap_sim::server::serve_paired(
         cams,
         folder,
         endpoint,

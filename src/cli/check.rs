@@ -2,8 +2,8 @@
 //! summary (exit 0), or every error as `file:line:column: key: message` (exit 1).
 //! `--json` prints the parsed definition as JSON instead (or `{"errors": [...]}`).
 
-use crate::mission::definition::{DefErrors, MissionDef, MissionKind, Origin, SweepBox};
 use clap::Args;
+use fleetmap_core::mission::definition::{DefErrors, MissionDef, MissionKind, Origin, SweepBox};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -21,7 +21,7 @@ pub struct CheckArgs {
 
 /// Validate the file and report.
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
-    match crate::files::load_mission(&args.mission) {
+    match fleetmap_io::files::load_mission(&args.mission) {
         Ok(def) => {
             if args.json {
                 println!("{}", serde_json::to_string_pretty(&def)?);
@@ -65,7 +65,9 @@ fn errors_json(errors: &DefErrors) -> serde_json::Value {
     serde_json::json!({ "errors": list })
 }
 
-fn sysids<'a>(it: impl Iterator<Item = &'a crate::mission::definition::VehicleDef>) -> String {
+fn sysids<'a>(
+    it: impl Iterator<Item = &'a fleetmap_core::mission::definition::VehicleDef>,
+) -> String {
     it.map(|v| v.sysid.to_string())
         .collect::<Vec<_>>()
         .join(", ")

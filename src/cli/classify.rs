@@ -13,13 +13,13 @@
 //! Exit status: 0 when every image was classified, 1 when at least one failed (all images
 //! are still processed and printed), 2 for bad arguments (clap).
 
-use crate::files::load_image_file;
-use crate::vision::green::{self, GreenParams};
-use crate::vision::load::LoadLimits;
-use crate::vision::runway::{self, Classification, RunwayParams};
-use crate::vision::{VisionError, fast, reference};
 use anyhow::Context;
 use clap::Args;
+use fleetmap_core::vision::green::{self, GreenParams};
+use fleetmap_core::vision::load::LoadLimits;
+use fleetmap_core::vision::runway::{self, Classification, RunwayParams};
+use fleetmap_core::vision::{VisionError, fast, reference};
+use fleetmap_io::files::load_image_file;
 use rayon::prelude::*;
 use serde_json::json;
 use std::io::Write;
@@ -244,7 +244,7 @@ fn write_debug(
             image::ImageFormat::Png,
         )?;
         let file = dir.join(format!("{index}-{stem}.{step}.png"));
-        crate::store::atomic_write(&file, &bytes)
+        fleetmap_io::files::atomic_write(&file, &bytes)
             .with_context(|| format!("cannot write {}", file.display()))?;
     }
     Ok(())
@@ -335,8 +335,8 @@ pub fn bench_scene(
     height: u32,
     seed: u64,
     i: usize,
-) -> crate::vision::synth::RunwayScene {
-    use crate::vision::synth::{RunwayScene, RunwayStrip};
+) -> fleetmap_core::vision::synth::RunwayScene {
+    use fleetmap_core::vision::synth::{RunwayScene, RunwayStrip};
     let side = f64::from(width.min(height));
     let k = i as f64;
     let mut scene = RunwayScene::grass(
@@ -382,7 +382,7 @@ pub fn bench(args: BenchClassifyArgs) -> anyhow::Result<ExitCode> {
         (0..args.images)
             .into_par_iter()
             .map(|i| {
-                crate::vision::synth::render_runway(&bench_scene(
+                fleetmap_core::vision::synth::render_runway(&bench_scene(
                     args.width,
                     args.height,
                     args.seed,
@@ -411,7 +411,7 @@ pub fn bench(args: BenchClassifyArgs) -> anyhow::Result<ExitCode> {
                     image::ImageFormat::Png,
                 )?;
                 let file = dir.join(format!("bench-{i:03}.png"));
-                crate::store::atomic_write(&file, &bytes)
+                fleetmap_io::files::atomic_write(&file, &bytes)
                     .with_context(|| format!("cannot write {}", file.display()))
             })?;
     }

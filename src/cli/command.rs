@@ -116,7 +116,7 @@ pub fn run(args: CommandArgs) -> anyhow::Result<ExitCode> {
                     let alt = *alt;
                     f.wait_until(sysid, Duration::from_secs(120), |v| {
                         v.alt_rel
-                            .is_some_and(|a| crate::proto::flavour::takeoff_reached(a, alt))
+                            .is_some_and(|a| fleetmap_core::proto::flavour::takeoff_reached(a, alt))
                     })
                     .await
                     .map_err(|v| {

@@ -8,10 +8,10 @@ use crate::app::launch::{Face, Flown, NewRun, Start, finish_exports, prepare};
 use crate::app::runway::Runway;
 use crate::app::runway::report::MappingReport;
 use crate::cli::vehicles::block_on;
-use crate::clock::unix_ms;
-use crate::world::World;
 use anyhow::{Context as _, bail};
 use clap::Args;
+use fleetmap_core::world::World;
+use fleetmap_io::clock::unix_ms;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -97,7 +97,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         ..DemoConfig::default()
     };
     let (world_text, world) = match &args.world {
-        Some(p) => crate::files::read_world(p)?,
+        Some(p) => fleetmap_io::files::read_world(p)?,
         None => {
             let text = demo::RUNWAY_WORLD.to_string();
             let world = World::from_toml(&text).context("the demo world")?;
@@ -171,7 +171,7 @@ impl Demo {
     async fn fly<K: RunKind>(
         self,
         fleet: crate::fleet::FleetHandle,
-        sim: crate::sim::server::SimHandle,
+        sim: fleetmap_sim::server::SimHandle,
         settings: &RunSettings,
         summary: impl FnOnce(&K::Report) -> Vec<String>,
         succeeded: impl FnOnce(&Outcome, &K::Report) -> bool,
@@ -330,8 +330,11 @@ pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
             1,
         ),
     };
-    let def = crate::mission::definition::MissionDef::parse(&text, "hardware-6x6.toml (built in)")
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let def = fleetmap_core::mission::definition::MissionDef::parse(
+        &text,
+        "hardware-6x6.toml (built in)",
+    )
+    .map_err(|e| anyhow::anyhow!("{e}"))?;
     let dir = args
         .run_dir
         .clone()

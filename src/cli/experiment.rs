@@ -162,11 +162,11 @@ fn run_fast_plain(args: FastPlainArgs) -> anyhow::Result<ExitCode> {
         }
     };
     line(fastplain::header());
-    let clock = crate::clock::stopwatch();
+    let clock = fleetmap_io::clock::stopwatch();
     let study = fastplain::run(&cfg, &clock, &mut |r| line(fastplain::row_line(r)))?;
     let write = |name: &str, bytes: &[u8]| -> anyhow::Result<std::path::PathBuf> {
         let path = args.out.join(name);
-        crate::store::atomic_write(&path, bytes)
+        fleetmap_io::files::atomic_write(&path, bytes)
             .with_context(|| format!("cannot write {}", path.display()))?;
         Ok(path)
     };

@@ -16,9 +16,9 @@
 //! gives one line (`fleetmap: …`) and exit status 1. Negative numbers work as plain
 //! arguments (`to-gps -3 -7`, `--origin -33.9,151.2`).
 
-use crate::geo::{Cell, Grid, Hemisphere, LatLon, export};
 use anyhow::{Context, anyhow, bail};
 use clap::{Args, Subcommand, ValueEnum};
+use fleetmap_core::geo::{Cell, Grid, Hemisphere, LatLon, export};
 use serde::Serialize;
 use std::process::ExitCode;
 

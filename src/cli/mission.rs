@@ -14,15 +14,15 @@
 
 use super::vehicles::{ConnectArgs, Session, block_on};
 use crate::fleet::{FleetError, FleetHandle, VehicleSnapshot};
-use crate::mission::item::cmd::is_nav;
-use crate::mission::item::{cmd, frame};
-use crate::mission::plan::{Plan, parse_plan, write_plan};
-use crate::mission::wpl::{parse_wpl, write_wpl};
-use crate::mission::{MissionItem, MissionType};
-use crate::proto::flavour::takeoff_reached;
-use crate::proto::mission::{MissionOutcome, compare_items};
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand, ValueEnum};
+use fleetmap_core::mission::item::cmd::is_nav;
+use fleetmap_core::mission::item::{cmd, frame};
+use fleetmap_core::mission::plan::{Plan, parse_plan, write_plan};
+use fleetmap_core::mission::wpl::{parse_wpl, write_wpl};
+use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::proto::flavour::takeoff_reached;
+use fleetmap_core::proto::mission::{MissionOutcome, compare_items};
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
@@ -180,7 +180,7 @@ pub fn write_list(
     } else {
         write_wpl(home, items)
     };
-    crate::store::atomic_write(path, text.as_bytes())
+    fleetmap_io::files::atomic_write(path, text.as_bytes())
         .with_context(|| format!("cannot write {}", path.display()))
 }
 
@@ -371,11 +371,11 @@ fn say(json: bool, event: &str, text: String, extra: serde_json::Value) {
 /// ArduCopter takes as "here") is never reached and the mission stops there (seen on PX4 1.16
 /// SITL). Says which item, for a PX4 vehicle.
 fn px4_takeoff_without_position(v: &VehicleSnapshot, items: &[MissionItem]) -> Option<String> {
-    if v.flavour.autopilot != crate::proto::flavour::Autopilot::Px4 {
+    if v.flavour.autopilot != fleetmap_core::proto::flavour::Autopilot::Px4 {
         return None;
     }
     let i = items.iter().position(|it| {
-        it.command == crate::mission::item::cmd::NAV_TAKEOFF && it.x == 0 && it.y == 0
+        it.command == fleetmap_core::mission::item::cmd::NAV_TAKEOFF && it.x == 0 && it.y == 0
     })?;
     Some(format!(
         "item {i}: NAV_TAKEOFF without a position (latitude/longitude 0, 0): PX4 flies a \
@@ -631,7 +631,7 @@ async fn fly(
             fleet
                 .wait_until(sysid, t, |v| match (home, v.position) {
                     (Some(h), Some(p)) => {
-                        crate::geo::local::distance(h.lat, h.lon, p.lat, p.lon) < 3.0
+                        fleetmap_core::geo::local::distance(h.lat, h.lon, p.lat, p.lon) < 3.0
                             && v.groundspeed.is_some_and(|g| g < 0.3)
                     }
                     _ => false,

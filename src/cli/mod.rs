@@ -5,15 +5,21 @@
 //! Commands return an [`ExitCode`]; an `Err` is printed by `main` as one line on stderr
 //! and exits with status 1.
 
+#[cfg(feature = "sim")]
 pub mod bandit;
 pub mod bench;
+#[cfg(feature = "sim")]
 pub mod bench_fleet;
+#[cfg(feature = "sim")]
 pub mod bench_transfer;
+#[cfg(feature = "sim")]
 pub mod camera;
 pub mod check;
 pub mod classify;
 pub mod command;
+#[cfg(feature = "sim")]
 pub mod demo;
+#[cfg(feature = "sim")]
 pub mod experiment;
 pub mod grid;
 pub mod mission;
@@ -21,6 +27,7 @@ pub mod plan;
 pub mod relay;
 pub mod run;
 pub mod signing;
+#[cfg(feature = "sim")]
 pub mod sim;
 pub mod tui;
 pub mod vehicles;
@@ -52,11 +59,14 @@ pub enum Command {
     /// Validate a mission definition file and print a summary (or every error).
     Check(check::CheckArgs),
     /// Run one of the papers' Monte Carlo studies.
+    #[cfg(feature = "sim")]
     Experiment(experiment::ExperimentArgs),
     /// Serve simulated ArduPilot / PX4 copters and rovers over MAVLink.
+    #[cfg(feature = "sim")]
     Sim(Box<sim::SimArgs>),
     /// A MAVLink camera on a companion computer next to an autopilot: pictures from a folder
     /// (or rendered, for SITL), measured on board, sent as small measurements.
+    #[cfg(feature = "sim")]
     Camera(Box<camera::CameraArgs>),
     /// Convert between mission-grid cells and GPS/UTM coordinates; export cells as GeoJSON/KML.
     Grid(grid::GridArgs),
@@ -80,6 +90,7 @@ pub enum Command {
     /// MAVLink 2 signing keys: make one, install one on a vehicle.
     Signing(signing::SigningArgs),
     /// The embedded default: the simulator and the runway mission in one process.
+    #[cfg(feature = "sim")]
     Demo(demo::DemoArgs),
     /// Fly a mission file with the vehicles: runway mapping (sweep, then the recursive DFS) or
     /// spatial classification (bandit epochs, sorties with charging rovers).
@@ -149,6 +160,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     // The terminal UI owns the screen: its default log goes to a file, not stderr.
     let log_file = match &cli.command {
         Command::Tui(args) if cli.log_file.is_none() => tui::default_log_file(args),
+        #[cfg(feature = "sim")]
         Command::Demo(args) if cli.log_file.is_none() && !args.headless && tui::interactive() => {
             tui::ui_log_file()
         }
@@ -168,8 +180,11 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     match cli.command {
         Command::Bench(args) => bench::run(args),
         Command::Check(args) => check::run(args),
+        #[cfg(feature = "sim")]
         Command::Experiment(args) => experiment::run(args),
+        #[cfg(feature = "sim")]
         Command::Sim(args) => sim::run(*args),
+        #[cfg(feature = "sim")]
         Command::Camera(args) => camera::run(*args),
         Command::Grid(args) => grid::run(args),
         Command::Classify(args) => classify::run(args),
@@ -180,6 +195,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Command(args) => command::run(args),
         Command::Relay(args) => relay::run(args),
         Command::Signing(args) => signing::run(args),
+        #[cfg(feature = "sim")]
         Command::Demo(args) => demo::run(args),
         Command::Run(args) => run::run(*args),
         Command::Resume(args) => run::resume(*args),
@@ -213,7 +229,7 @@ mod tests {
         // does not deduplicate) says it once too.
         let fe = crate::fleet::FleetError::Command {
             sysid: 1,
-            error: crate::proto::command::CommandError::Timeout {
+            error: fleetmap_core::proto::command::CommandError::Timeout {
                 command: mavlink::dialects::ardupilotmega::MavCmd::MAV_CMD_DO_SET_MODE,
                 attempts: 5,
                 timeout_ms: 1500,

@@ -1,11 +1,11 @@
 //! `fleetmap plan --scenario FILE.json [--json]`: solve one epoch of the bandit paper's
 //! low-level planner (the IP (11), Algorithm 2) for a scenario file (docs/ip-scenario.md).
 
-use crate::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
-use crate::planner::scenario::Scenario;
-use crate::planner::scenario::ScenarioError;
 use anyhow::Context;
 use clap::{Args, ValueEnum};
+use fleetmap_core::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
+use fleetmap_core::planner::scenario::Scenario;
+use fleetmap_core::planner::scenario::ScenarioError;
 use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::PathBuf;
@@ -77,7 +77,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         ..PlanOptions::default()
     };
     let outcome = match &inst {
-        Ok(inst) => solve_instance(inst, &opts, &crate::clock::stopwatch()),
+        Ok(inst) => solve_instance(inst, &opts, &fleetmap_io::clock::stopwatch()),
         Err(reason) => PlanOutcome::never(reason.clone()),
     };
     let mut out = String::new();
@@ -128,7 +128,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
             writeln!(out, "{who}: {}", outcome.message)?;
         }
         if let Some(plan) = &outcome.plan {
-            let fmt = |cells: &[crate::geo::Cell]| {
+            let fmt = |cells: &[fleetmap_core::geo::Cell]| {
                 cells
                     .iter()
                     .map(|c| format!("[{},{}]", c.row, c.col))

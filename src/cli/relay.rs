@@ -1,13 +1,13 @@
 //! `fleetmap relay --gcs CONN --vehicle CONN [--rate B/S] [--loss P] [--dup P] …`: relay
 //! MAVLink between a GCS and a vehicle at a radio's byte rate, losing, duplicating, delaying
-//! or corrupting frames on the way ([`crate::link::relay`]); e.g. between `fleetmap` and a
+//! or corrupting frames on the way ([`fleetmap_io::link::relay`]); e.g. between `fleetmap` and a
 //! real SITL to judge mission transfers over a poor radio. Also home of the fault options
 //! that `fleetmap sim` shares.
 
-use crate::link::ConnSpec;
-use crate::link::faults::{LinkFaults, parse_blackouts};
-use crate::link::relay::{self, RateLimiter, RelayOptions, RelayStats};
 use clap::Args;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::faults::{LinkFaults, parse_blackouts};
+use fleetmap_io::link::relay::{self, RateLimiter, RelayOptions, RelayStats};
 use std::process::ExitCode;
 use std::time::Duration;
 

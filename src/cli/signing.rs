@@ -15,10 +15,10 @@
 //!   key, signed with the current one; confirmed by an unsigned heartbeat.
 
 use super::vehicles::{ConnectArgs, Session, block_on};
-use crate::link::signing::{SigningKey, signing_timestamp};
-use crate::link::transport::unix_now_us;
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
+use fleetmap_io::link::signing::{SigningKey, signing_timestamp};
+use fleetmap_io::link::transport::unix_now_us;
 use mavlink::dialects::ardupilotmega::{MavMessage, SETUP_SIGNING_DATA};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -86,7 +86,7 @@ async fn send_setup_signing(
     wait: Duration,
     secret_key: [u8; 32],
     timestamp: u64,
-    confirms: impl Fn(&crate::link::codec::Frame) -> bool,
+    confirms: impl Fn(&fleetmap_io::link::codec::Frame) -> bool,
 ) -> anyhow::Result<bool> {
     let v = s.vehicle(sysid, wait).await?;
     if v.armed {
@@ -129,8 +129,11 @@ pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
             let key = SigningKey::from_passphrase(&passphrase);
             match out {
                 Some(path) => {
-                    crate::store::atomic_write(&path, format!("{}\n", key.to_hex()).as_bytes())
-                        .with_context(|| format!("cannot write {}", path.display()))?;
+                    fleetmap_io::files::atomic_write(
+                        &path,
+                        format!("{}\n", key.to_hex()).as_bytes(),
+                    )
+                    .with_context(|| format!("cannot write {}", path.display()))?;
                     #[cfg(unix)]
                     {
                         use std::os::unix::fs::PermissionsExt;
@@ -175,7 +178,7 @@ pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
                                 return false;
                             };
                             let n = f.raw.len();
-                            let expected = crate::link::signing::Signing::signature(
+                            let expected = fleetmap_io::link::signing::Signing::signature(
                                 &key,
                                 &f.raw[..n - 13],
                                 f.raw[n - 13],

@@ -1,13 +1,13 @@
 //! `fleetmap sim …`: serve simulated ArduPilot / PX4 copters and rovers over MAVLink.
 
-use crate::clock::SimTime;
-use crate::sim::harness::{Sim, SimConfig};
-use crate::sim::pace::Speed;
-use crate::sim::server::{Endpoint, GcsClock, ServeOptions, serve};
-use crate::time::Time;
-use crate::world::Wind;
 use anyhow::{Context, bail};
 use clap::Args;
+use fleetmap_core::time::Time;
+use fleetmap_core::world::Wind;
+use fleetmap_io::clock::SimTime;
+use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_sim::pace::Speed;
+use fleetmap_sim::server::{Endpoint, GcsClock, ServeOptions, serve};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -132,7 +132,7 @@ fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
 /// Build the simulation `fleetmap sim` would serve (also used by tests).
 pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     let world = match &args.world {
-        Some(p) => Some(crate::files::load_world(p)?),
+        Some(p) => Some(fleetmap_io::files::load_world(p)?),
         None => None,
     };
     let home = match &args.home {
@@ -159,13 +159,13 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     let faults = args.faults.faults()?;
     cfg = cfg.with_faults(faults);
     if let Some(k) = &args.signing_key {
-        cfg.signing_key = Some(crate::link::signing::SigningKey::read(k)?);
+        cfg.signing_key = Some(fleetmap_io::link::signing::SigningKey::read(k)?);
     }
     // signature timestamps follow the wall clock when serving sockets
     cfg.unix_epoch_us = std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)
         .map(|d| d.as_micros() as u64)
-        .unwrap_or(crate::sim::harness::DEFAULT_EPOCH_US);
+        .unwrap_or(fleetmap_sim::harness::DEFAULT_EPOCH_US);
     if let Some(w) = &args.wind {
         let (speed, from) = parse_pair(w, "--wind")?;
         if speed < 0.0 {
@@ -402,7 +402,7 @@ mod tests {
     /// runway demo has no use for it.
     #[test]
     fn sensor_flip_reaches_every_camera_and_is_checked() {
-        let sim = |flip: &str| -> anyhow::Result<crate::sim::harness::SimConfig> {
+        let sim = |flip: &str| -> anyhow::Result<fleetmap_sim::harness::SimConfig> {
             let Command::Sim(args) = parse(&[
                 "sim",
                 "--connect",

@@ -10,10 +10,7 @@
 
 use crate::app::kind::{RunKind, RunSettings};
 use crate::app::launch::{Face, NewRun, Start, prepare};
-use crate::clock::MonotonicClock;
-use crate::link::ConnSpec;
 use crate::store::RunDir;
-use crate::time::Time;
 use crate::tui::app::{App, CommandRequest, Event, JobResult};
 use crate::tui::config::UiConfig;
 use crate::tui::model::Model;
@@ -24,6 +21,9 @@ use crate::tui::update::update;
 use crate::tui::view;
 use anyhow::{Context, anyhow, bail};
 use clap::{Args, ValueEnum};
+use fleetmap_core::time::Time;
+use fleetmap_io::clock::MonotonicClock;
+use fleetmap_io::link::ConnSpec;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 use std::io::IsTerminal;
@@ -73,7 +73,7 @@ pub struct TuiArgs {
     pub export_sample: Option<PathBuf>,
     /// LIVE: connect to vehicles (MAVProxy connection strings; may be given several times).
     #[arg(long = "connect", value_name = "CONN")]
-    pub connect: Vec<crate::link::ConnSpec>,
+    pub connect: Vec<fleetmap_io::link::ConnSpec>,
     /// LIVE: load this mission definition; it starts when the operator presses START (`s`).
     #[arg(
         long,

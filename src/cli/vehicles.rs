@@ -6,13 +6,13 @@
 //! tlog is flushed before the command exits).
 
 use crate::fleet::{self, FleetConfig, FleetHandle, FleetSnapshot, VehicleSnapshot};
-use crate::link::ConnSpec;
-use crate::link::signing::{Signing, SigningKey};
-use crate::link::tlog::{TlogError, spawn_tlog};
-use crate::link::transport::LinkOptions;
-use crate::proto::mission::MissionConfig;
 use anyhow::Context;
 use clap::Args;
+use fleetmap_core::proto::mission::MissionConfig;
+use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::signing::{Signing, SigningKey};
+use fleetmap_io::link::tlog::{TlogError, spawn_tlog};
+use fleetmap_io::link::transport::LinkOptions;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -69,7 +69,7 @@ impl ConnectArgs {
             mission_timeout_ms: mission.timeout.as_millis() as u64,
             item_timeout_ms: mission.item_timeout.as_millis() as u64,
             mission_silence_s: mission.silence.as_secs(),
-            gcs_sysid: crate::proto::Endpoint::gcs().sysid,
+            gcs_sysid: fleetmap_core::proto::Endpoint::gcs().sysid,
         }
     }
 }
@@ -98,7 +98,10 @@ impl Session {
             tlog = Some(task);
         }
         let cfg = FleetConfig {
-            gcs: crate::proto::Endpoint::new(args.gcs_sysid, crate::proto::Endpoint::gcs().compid),
+            gcs: fleetmap_core::proto::Endpoint::new(
+                args.gcs_sysid,
+                fleetmap_core::proto::Endpoint::gcs().compid,
+            ),
             mission: MissionConfig {
                 timeout: Duration::from_millis(args.mission_timeout_ms.max(1)),
                 item_timeout: Duration::from_millis(args.item_timeout_ms.max(1)),

@@ -1,6 +1,6 @@
 //! Fast = plain at the bandit paper's scale (issue 17, item 2): the reformulated integer
-//! program of [`crate::planner::ip::fast`] against the paper's model as printed
-//! ([`crate::planner::ip::plain`]) on random epochs of Algorithm 1.
+//! program of [`fleetmap_core::planner::ip::fast`] against the paper's model as printed
+//! ([`fleetmap_core::planner::ip::plain`]) on random epochs of Algorithm 1.
 //!
 //! The small random scenarios of `tests/planner.rs` cannot show an over-pruned fast model at
 //! the scale the paper flies: 10 × 10 cells, N_d = 10 drones, N_c = 5 stations,
@@ -8,7 +8,7 @@
 //! model that removed a feasible plan would not produce an invalid plan — it would need more
 //! cycles than the optimum, or call a feasible epoch infeasible. So both models solve the same
 //! instances and the comparison is on the status and the optimal number of cycles, with every
-//! plan of both through the independent checker ([`crate::planner::check`]).
+//! plan of both through the independent checker ([`fleetmap_core::planner::check`]).
 //!
 //! **Instances** ([`generate`]): the problems Algorithm 1 actually hands to the IP, not fresh
 //! starts only. Instance n draws a world of the §VI study ([`Field::random`]: obstacles, μ,
@@ -41,9 +41,9 @@
 //! its own stopwatch; those times are discarded and never change a plan.)
 
 use super::bandit::{Field, Spread, StudyConfig, mix, run_trial};
-use crate::planner::check::{CheckOptions, check_plan_with};
-use crate::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
-use crate::planner::scenario::Instance;
+use fleetmap_core::planner::check::{CheckOptions, check_plan_with};
+use fleetmap_core::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
+use fleetmap_core::planner::scenario::Instance;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};

@@ -1,8 +1,8 @@
 //! Why a fleet operation failed, and which failures are worth trying again.
 
-use crate::proto::command::CommandError;
-use crate::proto::flavour::FlavourError;
-use crate::proto::mission::MissionError;
+use fleetmap_core::proto::command::CommandError;
+use fleetmap_core::proto::flavour::FlavourError;
+use fleetmap_core::proto::mission::MissionError;
 
 /// Why a fleet operation failed.
 ///

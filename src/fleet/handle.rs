@@ -10,19 +10,19 @@ use super::actor::Request;
 use super::error::FleetError;
 use super::state::FleetSnapshot;
 use super::state::VehicleSnapshot;
-use crate::clock::MonotonicClock;
-use crate::link::transport::LinkHandle;
-use crate::link::transport::LinkId;
-use crate::mission::MissionItem;
-use crate::mission::MissionType;
-use crate::proto::command::Command;
-use crate::proto::command::CommandAck;
-use crate::proto::command::CommandError;
-use crate::proto::flavour::VehicleClass;
-use crate::proto::mission::MissionError;
-use crate::proto::mission::MissionOp;
-use crate::proto::mission::MissionOutcome;
-use crate::proto::{CAMERA_COMPID, Endpoint};
+use fleetmap_core::mission::MissionItem;
+use fleetmap_core::mission::MissionType;
+use fleetmap_core::proto::command::Command;
+use fleetmap_core::proto::command::CommandAck;
+use fleetmap_core::proto::command::CommandError;
+use fleetmap_core::proto::flavour::VehicleClass;
+use fleetmap_core::proto::mission::MissionError;
+use fleetmap_core::proto::mission::MissionOp;
+use fleetmap_core::proto::mission::MissionOutcome;
+use fleetmap_core::proto::{CAMERA_COMPID, Endpoint};
+use fleetmap_io::clock::MonotonicClock;
+use fleetmap_io::link::transport::LinkHandle;
+use fleetmap_io::link::transport::LinkId;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -265,11 +265,11 @@ impl FleetHandle {
     ) -> Result<MissionOutcome, FleetError> {
         let v = self.require(sysid)?;
         let home = v.home.map(|h| MissionItem {
-            frame: crate::mission::item::frame::GLOBAL,
-            x: crate::mission::item::deg_to_e7(h.lat),
-            y: crate::mission::item::deg_to_e7(h.lon),
+            frame: fleetmap_core::mission::item::frame::GLOBAL,
+            x: fleetmap_core::mission::item::deg_to_e7(h.lat),
+            y: fleetmap_core::mission::item::deg_to_e7(h.lon),
             z: h.alt_amsl,
-            ..MissionItem::command(crate::mission::item::cmd::NAV_WAYPOINT)
+            ..MissionItem::command(fleetmap_core::mission::item::cmd::NAV_WAYPOINT)
         });
         self.mission_op(sysid, MissionOp::Upload { kind, items, home }, None)
             .await

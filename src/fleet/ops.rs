@@ -5,13 +5,13 @@
 use super::error::FleetError;
 use super::handle::FleetHandle;
 use super::state::VehicleSnapshot;
-use crate::proto::Endpoint;
-use crate::proto::command::Command;
-use crate::proto::command::CommandError;
-use crate::proto::flavour::Autopilot;
-use crate::proto::flavour::FlavourError;
-use crate::proto::flavour::Step;
-use crate::proto::mode::Mode;
+use fleetmap_core::proto::Endpoint;
+use fleetmap_core::proto::command::Command;
+use fleetmap_core::proto::command::CommandError;
+use fleetmap_core::proto::flavour::Autopilot;
+use fleetmap_core::proto::flavour::FlavourError;
+use fleetmap_core::proto::flavour::Step;
+use fleetmap_core::proto::mode::Mode;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use std::time::Duration;
 
@@ -28,7 +28,7 @@ impl FleetHandle {
 
     /// [`FleetHandle::set_mode`] to the mode a user typed: `name` as the vehicle's autopilot
     /// names it (case-insensitive, QGroundControl / MAVProxy aliases:
-    /// [`crate::proto::flavour::Flavour::mode`]).
+    /// [`fleetmap_core::proto::flavour::Flavour::mode`]).
     pub async fn set_mode_named(&self, sysid: u8, name: &str) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         let mode = v.flavour.mode(name).map_err(Self::flavour_err(sysid))?;
@@ -61,7 +61,7 @@ impl FleetHandle {
     }
 
     /// Wait until vehicle `sysid` is really ready to arm (GPS fix, position estimate, home,
-    /// pre-arm checks: see [`crate::proto::flavour::Flavour::arm_blockers`]), at most [`super::OpsConfig::arm_ready`];
+    /// pre-arm checks: see [`fleetmap_core::proto::flavour::Flavour::arm_blockers`]), at most [`super::OpsConfig::arm_ready`];
     /// returns its snapshot at that moment, or [`FleetError::NotReady`] with what still
     /// blocks it.
     pub async fn wait_ready(&self, sysid: u8) -> Result<VehicleSnapshot, FleetError> {
@@ -191,8 +191,8 @@ impl FleetHandle {
         let v = self.require(sysid)?;
         let ep = Endpoint::new(sysid, v.compid);
         let (lat_e7, lon_e7) = (
-            crate::mission::item::deg_to_e7(lat),
-            crate::mission::item::deg_to_e7(lon),
+            fleetmap_core::mission::item::deg_to_e7(lat),
+            fleetmap_core::mission::item::deg_to_e7(lon),
         );
         let steps = v
             .flavour
@@ -231,8 +231,8 @@ impl FleetHandle {
         } else {
             v.flavour.goto_facing(
                 ep,
-                crate::mission::item::deg_to_e7(lat),
-                crate::mission::item::deg_to_e7(lon),
+                fleetmap_core::mission::item::deg_to_e7(lat),
+                fleetmap_core::mission::item::deg_to_e7(lon),
                 alt,
                 v.home.map(|h| h.alt_amsl),
                 Some(yaw_deg),
@@ -243,7 +243,7 @@ impl FleetHandle {
     }
 
     /// Stop and hold where the vehicle is now (its autopilot's hold mode,
-    /// [`crate::proto::flavour::Flavour::pause`]).
+    /// [`fleetmap_core::proto::flavour::Flavour::pause`]).
     pub async fn pause(&self, sysid: u8) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         let steps = v.flavour.pause().map_err(Self::flavour_err(sysid))?;
@@ -317,7 +317,7 @@ impl FleetHandle {
     /// Start the uploaded mission (MAV_CMD_MISSION_START; the vehicle must be armed, and
     /// airborne if it flies — see [`FleetHandle::takeoff`]). An ArduRover still in AUTO (its
     /// last mission finished there) is switched to HOLD first: MISSION_START in AUTO is
-    /// accepted and starts nothing ([`crate::proto::flavour::Flavour::
+    /// accepted and starts nothing ([`fleetmap_core::proto::flavour::Flavour::
     /// mission_start_needs_leaving_auto`]); from HOLD, MISSION_START enters AUTO and runs the
     /// mission from its current item (seen on ArduRover SITL V4.7.0-dev).
     pub async fn start_mission(&self, sysid: u8) -> Result<(), FleetError> {

@@ -1,12 +1,12 @@
 //! Per-vehicle telemetry state, updated from received messages (pure: time is a parameter),
 //! and the snapshot types the TUI and the runners read.
 
-use crate::link::codec::SourceStats;
-use crate::proto::arming::ArmInputs;
-use crate::proto::flavour::Flavour;
-use crate::proto::heartbeat::Beat;
-use crate::proto::severity::Severity;
-use crate::time::Time;
+use fleetmap_core::proto::arming::ArmInputs;
+use fleetmap_core::proto::flavour::Flavour;
+use fleetmap_core::proto::heartbeat::Beat;
+use fleetmap_core::proto::severity::Severity;
+use fleetmap_core::time::Time;
+use fleetmap_io::link::codec::SourceStats;
 use mavlink::dialects::ardupilotmega::{
     GLOBAL_POSITION_INT_DATA, MavLandedState, MavMessage, MissionState,
 };
@@ -183,12 +183,12 @@ impl VehicleSnapshot {
 
     /// The mode of the last heartbeat, when its flavour's table has it
     /// ([`Flavour::mode_of`]); [`VehicleSnapshot::mode`] is its name.
-    pub fn flight_mode(&self) -> Option<crate::proto::mode::Mode> {
+    pub fn flight_mode(&self) -> Option<fleetmap_core::proto::mode::Mode> {
         self.flavour.mode_of(self.custom_mode)
     }
 
     /// Whether the heartbeat shows `mode`.
-    pub fn in_mode(&self, mode: crate::proto::mode::Mode) -> bool {
+    pub fn in_mode(&self, mode: fleetmap_core::proto::mode::Mode) -> bool {
         self.flavour.is_mode(self.custom_mode, mode)
     }
 
@@ -232,7 +232,7 @@ impl VehicleSnapshot {
 }
 
 /// A link's published state, as in the snapshot.
-pub type LinkSnapshot = crate::link::transport::LinkStatus;
+pub type LinkSnapshot = fleetmap_io::link::transport::LinkStatus;
 
 /// The whole fleet at one instant.
 #[derive(Clone, Debug, Default, Serialize)]

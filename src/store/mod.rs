@@ -17,14 +17,12 @@
 //! # let _ = (seq, log); Ok(()) }
 //! ```
 
-pub mod atomic;
 mod error;
 pub mod journal;
 pub mod migrate;
 pub mod run;
 pub mod task;
 
-pub use atomic::atomic_write;
 pub use error::StoreError;
 pub use journal::{EventLog, Logged, TornTail};
 pub use migrate::SCHEMA_VERSION;

@@ -21,9 +21,9 @@
 //! written.
 
 use super::StoreError;
-use super::atomic::{atomic_write, sync_dir};
 use super::journal::{self, EventLog, TornTail};
 use super::migrate::{self, Doc, SCHEMA_VERSION};
+use fleetmap_io::files::{atomic_write, sync_dir};
 use serde::de::{DeserializeOwned, IgnoredAny};
 use serde::{Deserialize, Serialize};
 use std::fs::{self, File, OpenOptions};

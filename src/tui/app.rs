@@ -10,9 +10,9 @@
 use super::config::UiConfig;
 use super::keymap::Context;
 use super::model::{LogEntry, Model, Severity};
-use crate::geo::Cell;
-use crate::time::Time;
 use crossterm::event::KeyEvent;
+use fleetmap_core::geo::Cell;
+use fleetmap_core::time::Time;
 use std::fmt;
 
 /// Something that happened, for [`update`].

@@ -11,15 +11,15 @@ use super::model::{
     MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity, Stat,
     Track, VehicleRow,
 };
-use crate::explore::VertexState;
-use crate::explore::mapping::{self, MappingState, RobotStatus};
 use crate::fleet::{FleetSnapshot, VehicleSnapshot};
-use crate::geo::{Cell, Grid, LatLon};
-use crate::planner::bandit::Label;
-use crate::planner::sortie::{ClassificationState, CyclePhase};
-use crate::proto::flavour::VehicleClass;
-use crate::time::Time;
-use crate::vision::votes::CellState as VoteState;
+use fleetmap_core::explore::VertexState;
+use fleetmap_core::explore::mapping::{self, MappingState, RobotStatus};
+use fleetmap_core::geo::{Cell, Grid, LatLon};
+use fleetmap_core::planner::bandit::Label;
+use fleetmap_core::planner::sortie::{ClassificationState, CyclePhase};
+use fleetmap_core::proto::flavour::VehicleClass;
+use fleetmap_core::time::Time;
+use fleetmap_core::vision::votes::CellState as VoteState;
 use std::collections::{BTreeMap, HashMap};
 
 /// Most messages kept.
@@ -223,7 +223,7 @@ fn activity(state: &MappingState, sysid: u8) -> Option<String> {
     let mut a = r.status.name().to_string();
     if r.status == RobotStatus::Exploring
         && let Some(ex) = &state.explorer
-        && let Ok(rs) = ex.robot(crate::explore::RobotId(sysid))
+        && let Ok(rs) = ex.robot(fleetmap_core::explore::RobotId(sysid))
     {
         let cell = ex.tree().node(rs.node).cell;
         a = format!("DFS {cell}");
@@ -593,8 +593,8 @@ pub fn build_model(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::explore::Sharing;
-    use crate::mission::definition::MissionDef;
+    use fleetmap_core::explore::Sharing;
+    use fleetmap_core::mission::definition::MissionDef;
 
     fn state() -> MappingState {
         let text = std::fs::read_to_string(concat!(
@@ -646,7 +646,7 @@ mod tests {
             started: true,
             ..RunInfo::default()
         };
-        let why = crate::explore::reach::Unreachable::Outpaced {
+        let why = fleetmap_core::explore::reach::Unreachable::Outpaced {
             drift_m_s: 1.5,
             speed_m_s: 1.0,
         };
@@ -674,7 +674,7 @@ mod tests {
     fn log_takes_each_statustext_once() {
         let mut log = LiveLog::default();
         let mut f = FleetSnapshot::default();
-        let beat = crate::proto::heartbeat::Beat {
+        let beat = fleetmap_core::proto::heartbeat::Beat {
             custom_mode: 0,
             mav_type: 2,
             autopilot: 3,
@@ -683,7 +683,7 @@ mod tests {
         };
         let mut v = VehicleSnapshot::new(3, 1, &beat, 0, Time::ZERO);
         v.last_text = Some(crate::fleet::StatusText {
-            severity: crate::proto::severity::Severity::Warning,
+            severity: fleetmap_core::proto::severity::Severity::Warning,
             text: "PreArm: Need Position Estimate".into(),
             at: Time::from_secs(2),
         });

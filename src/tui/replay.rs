@@ -111,7 +111,7 @@ pub fn write_replay(path: &Path, frames: &[ReplayFrame]) -> Result<(), ReplayErr
         text.push_str(&line);
         text.push('\n');
     }
-    crate::store::atomic_write(path, text.as_bytes()).map_err(|source| ReplayError::Io {
+    fleetmap_io::files::atomic_write(path, text.as_bytes()).map_err(|source| ReplayError::Io {
         path: shown,
         source,
     })

@@ -7,8 +7,8 @@
 //! changing content. The UI labels it SAMPLE wherever it is shown.
 
 use super::model::*;
-use crate::geo::Cell;
-use crate::time::Time;
+use fleetmap_core::geo::Cell;
+use fleetmap_core::time::Time;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::time::Duration;

@@ -6,8 +6,8 @@ use super::app::*;
 use super::keymap::{Action, Context, Key};
 use super::model::Severity;
 use super::view;
-use crate::geo::Cell;
 use crossterm::event::KeyCode;
+use fleetmap_core::geo::Cell;
 
 impl App {
     fn select_index(&mut self, i: usize) {

@@ -79,21 +79,21 @@ pub fn strip_mission() -> String {
 #[allow(dead_code)] // only the starved-simulator tests
 pub struct StarvedSim {
     /// The simulator's published time.
-    pub time: fleetmap::clock::SimTime,
+    pub time: fleetmap_io::clock::SimTime,
     stop: std::sync::Arc<std::sync::atomic::AtomicBool>,
-    thread: std::thread::JoinHandle<fleetmap::sim::harness::Sim>,
+    thread: std::thread::JoinHandle<fleetmap_sim::harness::Sim>,
 }
 
 #[allow(dead_code)] // only the starved-simulator tests
 impl StarvedSim {
     /// Serve `cfg` as described on [`StarvedSim`].
     pub async fn start(
-        cfg: fleetmap::sim::harness::SimConfig,
+        cfg: fleetmap_sim::harness::SimConfig,
         ceiling: f64,
         gcs: std::net::SocketAddr,
         hold: fn(),
     ) -> StarvedSim {
-        use fleetmap::sim::server::{Endpoint, GcsClock, ServeOptions, spawn};
+        use fleetmap_sim::server::{Endpoint, GcsClock, ServeOptions, spawn};
         use std::sync::atomic::Ordering;
         let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let stop_sim = stop.clone();
@@ -104,12 +104,12 @@ impl StarvedSim {
                 .build()
                 .unwrap();
             rt.block_on(async move {
-                let sim = fleetmap::sim::harness::Sim::new(cfg, fleetmap::time::Time::ZERO);
+                let sim = fleetmap_sim::harness::Sim::new(cfg, fleetmap_core::time::Time::ZERO);
                 let h = spawn(
                     sim.unwrap(),
                     ServeOptions {
                         endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
-                        speed: fleetmap::sim::pace::Speed::Times(ceiling),
+                        speed: fleetmap_sim::pace::Speed::Times(ceiling),
                         gcs: GcsClock::Simulator,
                         image_dir: None,
                         duration_s: None,
@@ -130,7 +130,7 @@ impl StarvedSim {
     }
 
     /// Stop serving; the simulation as it ended.
-    pub fn stop(self) -> fleetmap::sim::harness::Sim {
+    pub fn stop(self) -> fleetmap_sim::harness::Sim {
         self.stop.store(true, std::sync::atomic::Ordering::Relaxed);
         self.thread.join().expect("the simulator's thread")
     }

@@ -2,7 +2,7 @@
 //! measurement (on a blocking thread), committed in groups.
 
 use super::*;
-use crate::vision::VisionError;
+use fleetmap_core::vision::VisionError;
 
 /// Why a received picture does not count: journalled (its `Display`) as the reason of
 /// [`BanditEvent::ImageIgnored`] or, for a picture that could not be measured,
@@ -20,10 +20,10 @@ pub(super) enum NotCounted {
     OutsideGrid,
     /// Taken at the wrong altitude or not level enough ([`check_capture`]).
     #[error("picture {0}")]
-    Picture(crate::vision::sanity::Rejection),
+    Picture(fleetmap_core::vision::sanity::Rejection),
     /// The state refused to record it.
     #[error("{0}")]
-    NotRecorded(crate::planner::sortie::SortieError),
+    NotRecorded(fleetmap_core::planner::sortie::SortieError),
     /// It could not be decoded.
     #[error(transparent)]
     Unreadable(#[from] VisionError),
@@ -56,15 +56,15 @@ pub fn measure_image(
 
 /// The measurement definition of the spatial-classification mission `def` — what
 /// [`green_spec`] gives for its runs — or `None` for another kind of mission.
-pub fn green_spec_of(def: &crate::mission::definition::MissionDef) -> Option<GreenSpec> {
-    (def.kind == crate::mission::definition::MissionKind::SpatialClassification).then(|| {
-        GreenSpec {
-            green: crate::planner::sortie::green_params(def),
+pub fn green_spec_of(def: &fleetmap_core::mission::definition::MissionDef) -> Option<GreenSpec> {
+    (def.kind == fleetmap_core::mission::definition::MissionKind::SpatialClassification).then(
+        || GreenSpec {
+            green: fleetmap_core::planner::sortie::green_params(def),
             camera: def.camera,
             cell_m: def.grid.cell_size_m,
-            crop_fraction: crate::planner::sortie::CROP_FRACTION,
-        }
-    })
+            crop_fraction: fleetmap_core::planner::sortie::CROP_FRACTION,
+        },
+    )
 }
 
 /// The run's measurement definition, as a camera that measures on board must be given it

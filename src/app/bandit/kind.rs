@@ -9,13 +9,13 @@ use crate::app::kind::{
 };
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
-use crate::mission::definition::MissionDef;
-use crate::planner::sortie::ClassificationState;
 use crate::store::RunDir;
 use crate::tui::live::RunView;
 use crate::tui::{Command, CommandError, Target};
-use crate::world::World;
 use anyhow::bail;
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::planner::sortie::ClassificationState;
+use fleetmap_core::world::World;
 use std::path::Path;
 use std::time::Duration;
 use tokio::sync::{mpsc, watch};

@@ -5,8 +5,8 @@
 //!
 //! * **Epoch** (Algorithm 1, steps 3–6): the goals (3) are chosen between sorties, while the
 //!   drones charge on their stations; the IP (11) runs on a blocking thread
-//!   ([`crate::planner::ip::solve_instance`], K doubled when infeasible).
-//! * **Sortie** (one sensing cycle): the cycle's missions ([`crate::planner::sortie::missions`])
+//!   ([`fleetmap_core::planner::ip::solve_instance`], K doubled when infeasible).
+//! * **Sortie** (one sensing cycle): the cycle's missions ([`fleetmap_core::planner::sortie::missions`])
 //!   are checked against the no-fly cells, uploaded to every vehicle that moves, read back and
 //!   compared item by item, and checked again as read back — only then, and once every drone
 //!   has the charge the sortie needs, are all vehicles started: drones take off from their
@@ -20,7 +20,7 @@
 //!   reported position (its charger slot). With lock-step separation (7e) a coordinator holds
 //!   every drone that is a step ahead (GUIDED hold) until the others have reached its step.
 //! * **Images** → green-pixel measurement of the part of the image over the cell
-//!   ([`crate::vision::green`]) → H → (4); the state is saved (atomically) and the measurement
+//!   ([`fleetmap_core::vision::green`]) → H → (4); the state is saved (atomically) and the measurement
 //!   journalled after every image.
 //! * **Geofence**: at the start of a run every vehicle gets the no-fly cells as a fence
 //!   (MAV_MISSION_TYPE_FENCE, inclusion + exclusion polygons), read back and enabled
@@ -38,26 +38,26 @@ pub use crate::app::images::image_hub;
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, VehicleSnapshot};
-use crate::geo::{Cell, LatLon, local};
-use crate::imagery::onboard::GreenSpec;
-use crate::mission::{MissionItem, MissionType};
-use crate::planner::bandit::Label;
-use crate::planner::ip::{PlanOptions, PlanStatus, solve_instance};
-use crate::planner::sortie::missions::{self, AreaRules};
-use crate::planner::sortie::{
+use crate::store::RunDir;
+use anyhow::Context as _;
+use fleetmap_core::geo::{Cell, LatLon, local};
+use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::planner::bandit::Label;
+use fleetmap_core::planner::ip::{PlanOptions, PlanStatus, solve_instance};
+use fleetmap_core::planner::sortie::missions::{self, AreaRules};
+use fleetmap_core::planner::sortie::{
     CaptureKey, ClassificationState, CycleEnd, CyclePhase, EpochStats, MAX_K, Measurement, Next,
     Separation, TeamConfig,
 };
-use crate::proto::Endpoint;
-use crate::proto::command::Command;
-use crate::store::RunDir;
-use crate::vision::camera::CameraModel;
-pub use crate::vision::crop::crop_to_cell;
-use crate::vision::geometry;
-use crate::vision::green::GreenParams;
-use crate::vision::load::{LoadLimits, load_image_bytes};
-use crate::vision::sanity::{self, CaptureClaim, CaptureLimits, check_capture};
-use anyhow::Context as _;
+use fleetmap_core::proto::Endpoint;
+use fleetmap_core::proto::command::Command;
+use fleetmap_core::vision::camera::CameraModel;
+pub use fleetmap_core::vision::crop::crop_to_cell;
+use fleetmap_core::vision::geometry;
+use fleetmap_core::vision::green::GreenParams;
+use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
+use fleetmap_core::vision::onboard::GreenSpec;
+use fleetmap_core::vision::sanity::{self, CaptureClaim, CaptureLimits, check_capture};
 use mavlink::dialects::ardupilotmega::MavCmd;
 use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
@@ -66,7 +66,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::{broadcast, mpsc, watch};
 
-pub use crate::planner::sortie::KIND;
+pub use fleetmap_core::planner::sortie::KIND;
 
 mod events;
 mod kind;

@@ -25,7 +25,7 @@ impl DronePilot {
                 seen_active = true;
             }
             if let Some(t) = &v.last_text
-                && t.severity <= crate::proto::severity::Severity::Warning
+                && t.severity <= fleetmap_core::proto::severity::Severity::Warning
             {
                 warning = Some(t.text.clone());
             }

@@ -9,9 +9,9 @@
 //! interesting cells"); an error is a kept cell that is not green or a rejected green one
 //! (the labelling error criterion (2); Prop. 1 bounds the probability of any error by δ).
 
-use crate::geo::Cell;
-use crate::planner::bandit::Label;
-use crate::planner::sortie::{ClassificationState, EpochStats};
+use fleetmap_core::geo::Cell;
+use fleetmap_core::planner::bandit::Label;
+use fleetmap_core::planner::sortie::{ClassificationState, EpochStats};
 use plotters::prelude::*;
 use serde::Serialize;
 use std::collections::BTreeSet;
@@ -356,13 +356,13 @@ pub fn geojson(state: &ClassificationState) -> serde_json::Value {
         .into_iter()
         .map(|(c, l)| (c, serde_json::json!({ "label": l })))
         .collect();
-    crate::geo::export::cells_geojson(&state.grid, &cells, &[])
+    fleetmap_core::geo::export::cells_geojson(&state.grid, &cells, &[])
 }
 
 /// The labelled cells as KML (green keep, grey reject, white unclassified, red no-fly,
 /// dark road).
 pub fn kml(state: &ClassificationState) -> String {
-    use crate::geo::export::kml_colour;
+    use fleetmap_core::geo::export::kml_colour;
     let cells: Vec<(Cell, String, String)> = cell_labels(state)
         .into_iter()
         .map(|(c, l)| {
@@ -376,5 +376,5 @@ pub fn kml(state: &ClassificationState) -> String {
             (c, format!("{l} {c}"), colour)
         })
         .collect();
-    crate::geo::export::cells_kml(&state.grid, &cells, &[])
+    fleetmap_core::geo::export::cells_kml(&state.grid, &cells, &[])
 }

@@ -147,7 +147,7 @@ impl Runner {
                 ..PlanOptions::default()
             };
             let out = tokio::task::spawn_blocking(move || {
-                solve_instance(&inst, &opts, &crate::clock::stopwatch())
+                solve_instance(&inst, &opts, &fleetmap_io::clock::stopwatch())
             })
             .await
             .context("planner task")?;
@@ -355,9 +355,9 @@ impl Runner {
 /// since epoch index `since`) had capture visits and no measurement: the pictures do not
 /// reach the GCS, and the next epoch would fly the same goals again.
 ///
-/// [`MAX_EPOCHS_WITHOUT_MEASUREMENT`]: crate::planner::sortie::MAX_EPOCHS_WITHOUT_MEASUREMENT
+/// [`MAX_EPOCHS_WITHOUT_MEASUREMENT`]: fleetmap_core::planner::sortie::MAX_EPOCHS_WITHOUT_MEASUREMENT
 pub(super) async fn no_measurement_stop(runner: &Runner, since: usize) -> anyhow::Result<()> {
-    use crate::planner::sortie::MAX_EPOCHS_WITHOUT_MEASUREMENT as MAX;
+    use fleetmap_core::planner::sortie::MAX_EPOCHS_WITHOUT_MEASUREMENT as MAX;
     let (dry, visits) = runner
         .shared
         .read(|s| {
@@ -413,7 +413,7 @@ pub(super) fn known_position(v: &VehicleSnapshot) -> Option<crate::fleet::GeoPoi
 /// position ([`known_position`]; `lock_step` overrides the separation the mission implies).
 pub async fn new_state(
     fleet: &FleetHandle,
-    def: &crate::mission::definition::MissionDef,
+    def: &fleetmap_core::mission::definition::MissionDef,
     wait: Duration,
     lock_step: Option<bool>,
 ) -> anyhow::Result<ClassificationState> {
@@ -620,14 +620,14 @@ mod position_tests {
     /// its start cell"). A position counts once the vehicle has a home, and never at 0°, 0°.
     #[test]
     fn a_position_before_the_autopilot_has_an_origin_is_not_where_it_stands() {
-        let beat = crate::proto::heartbeat::Beat {
+        let beat = fleetmap_core::proto::heartbeat::Beat {
             custom_mode: 0,
             mav_type: 2,
             autopilot: 3,
             base_mode: 0,
             system_status: 3,
         };
-        let mut v = VehicleSnapshot::new(1, 1, &beat, 0, crate::time::Time::ZERO);
+        let mut v = VehicleSnapshot::new(1, 1, &beat, 0, fleetmap_core::time::Time::ZERO);
         let null = crate::fleet::GeoPoint {
             lat: 0.0,
             lon: 0.0,

@@ -7,12 +7,13 @@ use image::RgbImage;
 /// to the neighbouring station but within 2.5 m of both, is on its own station.
 #[test]
 fn a_drone_is_on_the_nearest_station() {
-    use crate::mission::definition::{MissionDef, Origin};
+    use fleetmap_core::mission::definition::{MissionDef, Origin};
     let def = MissionDef::parse(super::super::bandit_sim::HARDWARE_MISSION, "h.toml").unwrap();
     let Origin::Coordinates(o) = def.grid.origin else {
         panic!("fixed origin");
     };
-    let grid = crate::geo::Grid::new(LatLon::new(o.lat, o.lon), def.grid.cell_size_m).unwrap();
+    let grid =
+        fleetmap_core::geo::Grid::new(LatLon::new(o.lat, o.lon), def.grid.cell_size_m).unwrap();
     let state = ClassificationState::new(&def, grid, None).unwrap();
     // Stations 5 and 6 on the road cells (3, 1) and (3, 2), 5 m apart in the plan, but
     // station 5 stopped 2.2 m east of its cell's centre: 2.8 m from station 6.
@@ -25,7 +26,7 @@ fn a_drone_is_on_the_nearest_station() {
         ],
         stations: vec![Cell::new(3, 1), Cell::new(3, 2)],
     };
-    let beat = crate::proto::heartbeat::Beat {
+    let beat = fleetmap_core::proto::heartbeat::Beat {
         custom_mode: 0,
         mav_type: 2,
         autopilot: 3,
@@ -34,7 +35,7 @@ fn a_drone_is_on_the_nearest_station() {
     };
     let s = state.grid.cell_size();
     let at = |sysid: u8, east: f64, north: f64| {
-        let mut v = VehicleSnapshot::new(sysid, 1, &beat, 0, crate::time::Time::ZERO);
+        let mut v = VehicleSnapshot::new(sysid, 1, &beat, 0, fleetmap_core::time::Time::ZERO);
         let p = state.grid.from_xy(east, north).unwrap();
         v.position = Some(crate::fleet::GeoPoint {
             lat: p.lat,
@@ -111,13 +112,13 @@ fn a_green_tile_under_the_camera_is_a_positive_measurement() {
 /// waypoint on the cell the rover stood on (DO_CHANGE_SPEED, NAV_WAYPOINT: wire seq 1, 2).
 mod ardurover_arrival {
     use super::*;
-    use crate::time::Time;
+    use fleetmap_core::time::Time;
     use mavlink::dialects::ardupilotmega::{
         MISSION_CURRENT_DATA, MISSION_ITEM_REACHED_DATA, MavMessage, MissionState,
     };
 
     fn rover() -> VehicleSnapshot {
-        let beat = crate::proto::heartbeat::Beat {
+        let beat = fleetmap_core::proto::heartbeat::Beat {
             custom_mode: 0,
             mav_type: 10,
             autopilot: 3,

@@ -110,7 +110,7 @@ pub(super) fn sortie_estimate_s(state: &ClassificationState, items: &[MissionIte
     let mut last: Option<(f64, f64)> = None;
     for it in items {
         match it.command {
-            crate::mission::item::cmd::NAV_WAYPOINT => {
+            fleetmap_core::mission::item::cmd::NAV_WAYPOINT => {
                 let p = (it.lat(), it.lon());
                 if let Some(q) = last {
                     t += local::distance(q.0, q.1, p.0, p.1) / state.params.speed_m_s.max(0.1);
@@ -118,7 +118,7 @@ pub(super) fn sortie_estimate_s(state: &ClassificationState, items: &[MissionIte
                 t += 2.0;
                 last = Some(p);
             }
-            crate::mission::item::cmd::NAV_LOITER_TIME => t += f64::from(it.param1),
+            fleetmap_core::mission::item::cmd::NAV_LOITER_TIME => t += f64::from(it.param1),
             _ => {}
         }
         if last.is_none() && it.has_position() && (it.x != 0 || it.y != 0) {
@@ -236,7 +236,7 @@ pub(super) async fn upload_once(
         .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
     fleet.upload_mission(sysid, kind, items.to_vec()).await?;
     let (back, _) = fleet.download_mission(sysid, kind).await?;
-    crate::proto::mission::compare_items(items, &back, v.flavour.home_item())
+    fleetmap_core::proto::mission::compare_items(items, &back, v.flavour.home_item())
         .map_err(|d| anyhow::anyhow!("the list read back differs from the one sent: {d}"))?;
     if let Some((state, start, station)) = check {
         let rules = AreaRules {

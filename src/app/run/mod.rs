@@ -13,9 +13,9 @@ mod progress;
 
 pub use progress::Progress;
 
-use crate::clock::MonotonicClock;
 use crate::store::{RunDir, RunStore};
 use anyhow::Context as _;
+use fleetmap_io::clock::MonotonicClock;
 use serde::Serialize;
 use std::sync::Arc;
 use std::time::Duration;
@@ -66,14 +66,14 @@ where
     }
 
     /// The fleet clock's time now.
-    pub fn now(&self) -> crate::time::Time {
+    pub fn now(&self) -> fleetmap_core::time::Time {
         self.clock.now()
     }
 
     /// Log `event` and pass it to the progress channel (headless stdout, the TUI's log).
     pub fn say(&self, event: Progress) {
         match event.severity {
-            s if s <= crate::proto::severity::Severity::Warning => {
+            s if s <= fleetmap_core::proto::severity::Severity::Warning => {
                 tracing::warn!("{}", event.text)
             }
             _ => tracing::info!("{}", event.text),

@@ -3,7 +3,7 @@
 //! Each event carries the vehicle it is about and its severity, set where the event is made,
 //! so the TUI colours and filters the log without reading the text.
 
-use crate::proto::severity::Severity;
+use fleetmap_core::proto::severity::Severity;
 use std::fmt;
 
 /// One progress event of a run.

@@ -2,8 +2,8 @@
 //! by the report and by `fleetmap resume`.
 
 use super::*;
-use crate::explore::mapping::{FinishReason, MilestoneKind};
-use crate::explore::reach::Unreachable;
+use fleetmap_core::explore::mapping::{FinishReason, MilestoneKind};
+use fleetmap_core::explore::reach::Unreachable;
 
 /// A journal record of the run (`events.jsonl`), one per acknowledged step.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -111,7 +111,7 @@ pub enum MappingEvent {
         sysid: u8,
     },
     /// A picture was dropped because it was not taken where it would be credited
-    /// ([`crate::vision::sanity::check_capture`]: position, altitude, tilt or heading out of
+    /// ([`fleetmap_core::vision::sanity::check_capture`]: position, altitude, tilt or heading out of
     /// limits); a cell-centre picture is taken again.
     ImageRejected {
         /// Vehicle.
@@ -156,8 +156,8 @@ pub enum MappingEvent {
         /// Seconds of the fleet clock since the first take-off.
         mission_s: f64,
     },
-    /// A drone's flight to a cell was judged beyond reach ([`crate::explore::reach`]): the
-    /// run finishes ([`crate::explore::mapping::GaveUp::BeyondReach`]), every drone goes
+    /// A drone's flight to a cell was judged beyond reach ([`fleetmap_core::explore::reach`]): the
+    /// run finishes ([`fleetmap_core::explore::mapping::GaveUp::BeyondReach`]), every drone goes
     /// home, and nothing is labelled for it.
     BeyondReach {
         /// Vehicle.

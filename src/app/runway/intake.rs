@@ -2,7 +2,7 @@
 //! (on a blocking thread), and a visit's pictures with their retakes and camera faults.
 
 use super::*;
-use crate::vision::VisionError;
+use fleetmap_core::vision::VisionError;
 
 pub(super) fn labels5(c: &Classification) -> [bool; 5] {
     let l = c.labels;

@@ -7,14 +7,14 @@ use crate::app::kind::{
     Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, heard, png_bytes,
 };
 use crate::app::run::Progress;
-use crate::explore::mapping::{MappingState, RobotStatus};
 use crate::fleet::FleetHandle;
-use crate::mission::definition::MissionDef;
 use crate::store::RunDir;
 use crate::tui::live::RunView;
 use crate::tui::{Command, CommandError, Target};
-use crate::world::World;
 use anyhow::Context as _;
+use fleetmap_core::explore::mapping::{MappingState, RobotStatus};
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::world::World;
 use std::path::Path;
 use std::time::Duration;
 use tokio::sync::mpsc;

@@ -9,15 +9,15 @@
 //! from us to stay safe meanwhile: they hold position in GUIDED / Hold, or carry on with the
 //! sweep mission, and their own failsafes bring them home.
 //!
-//! * **Sweep**: the robot's strip ([`crate::explore::lawnmower`]) is uploaded, verified by
+//! * **Sweep**: the robot's strip ([`fleetmap_core::explore::lawnmower`]) is uploaded, verified by
 //!   download, and flown in AUTO with a capture at every waypoint. Each image is classified
 //!   (cell = the one under the camera); the first positive region stops every sweep (the
 //!   robots hold) and the robot that saw it **confirms** the cell with five images at its
 //!   centre. Positive: the DFS starts there; negative: the sweeps go on.
-//! * **DFS**: Algorithm 1 ([`crate::explore::Explorer`]): go to the next cell centre
+//! * **DFS**: Algorithm 1 ([`fleetmap_core::explore::Explorer`]): go to the next cell centre
 //!   (DO_REPOSITION at the robot's altitude and the mission speed), wait until there and
 //!   steady, take five images, count their votes, give the explorer the neighbours' labels.
-//! * **Image sanity** ([`crate::vision::sanity`]): a picture counts for a cell only when it
+//! * **Image sanity** ([`fleetmap_core::vision::sanity`]): a picture counts for a cell only when it
 //!   was taken there — its position (the camera's CAMERA_IMAGE_CAPTURED / JPEG metadata, else
 //!   the telemetry at the shutter) within [`RunOptions::capture_limits`] of the cell centre
 //!   (default: the arrival tolerance + 0.5 m), its altitude within 1.5 m of the planned one,
@@ -25,7 +25,7 @@
 //!   (journalled as [`MappingEvent::ImageRejected`]) and taken again; a picture that never
 //!   arrives or cannot be read is retried the same way. A sweep picture must have been taken
 //!   where the vehicle is (within one cell more than the cell limit), at the planned altitude
-//!   and within [`crate::vision::sanity::SWEEP_MAX_TILT_DEG`] (20°: sweep pictures are taken
+//!   and within [`fleetmap_core::vision::sanity::SWEEP_MAX_TILT_DEG`] (20°: sweep pictures are taken
 //!   while the copter brakes at a waypoint). After [`RunOptions::max_retakes`] retakes in
 //!   one visit (or that many rejected sweep pictures in a row) the camera is declared faulty
 //!   ([`MappingEvent::CameraFault`], a warning): nothing more of it is credited, the vehicle
@@ -34,7 +34,7 @@
 //!   repair a camera — who fixes the camera and resumes (`fleetmap resume`, or `b` in the UI).
 //! * **Where the camera looked**: when the picture's attitude is known (CAMERA_IMAGE_CAPTURED
 //!   `q`), the 3 × 3 cells are cut from it as a north-up orthophoto around the cell centre
-//!   ([`crate::vision::geometry::orthophoto`]: pinhole camera rotated by the attitude,
+//!   ([`fleetmap_core::vision::geometry::orthophoto`]: pinhole camera rotated by the attitude,
 //!   intersected with flat ground at the capture altitude), so tilt, heading and the offset
 //!   from the centre no longer move the regions; without it the centre crop
 //!   ([`crop_to_cells`]) turned by the heading is used, as before.
@@ -50,24 +50,26 @@
 use crate::app::flight::{self, FlightError, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
-use crate::explore::dfs::Action;
-use crate::explore::mapping::{
+use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
+use crate::store::RunDir;
+use anyhow::Context as _;
+use fleetmap_core::explore::dfs::Action;
+use fleetmap_core::explore::mapping::{
     Activity, Directive, MappingError, MappingState, Phase, RobotStatus, Wait,
 };
-use crate::explore::motion::RoiMotion;
-use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
-use crate::geo::{Cell, Grid, LatLon, local};
-use crate::mission::MissionType;
-use crate::store::RunDir;
-use crate::time::Time;
-use crate::vision::camera::CameraModel;
-pub use crate::vision::crop::crop_to_cells;
-use crate::vision::geometry::{self, OrthoRequest};
-use crate::vision::load::{LoadLimits, load_image_bytes};
-use crate::vision::runway::{Classification, RunwayParams, classify};
-use crate::vision::sanity::{CaptureClaim, CaptureLimits, SWEEP_MAX_TILT_DEG, check_capture};
-use crate::vision::votes::{Detection, GeoPosition};
-use anyhow::Context as _;
+use fleetmap_core::explore::motion::RoiMotion;
+use fleetmap_core::geo::{Cell, Grid, LatLon, local};
+use fleetmap_core::mission::MissionType;
+use fleetmap_core::time::Time;
+use fleetmap_core::vision::camera::CameraModel;
+pub use fleetmap_core::vision::crop::crop_to_cells;
+use fleetmap_core::vision::geometry::{self, OrthoRequest};
+use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
+use fleetmap_core::vision::runway::{Classification, RunwayParams, classify};
+use fleetmap_core::vision::sanity::{
+    CaptureClaim, CaptureLimits, SWEEP_MAX_TILT_DEG, check_capture,
+};
+use fleetmap_core::vision::votes::{Detection, GeoPosition};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
@@ -80,6 +82,7 @@ mod events;
 mod kind;
 pub mod report;
 pub use self::kind::Runway;
+#[cfg(feature = "sim")]
 pub(crate) use self::kind::mission_time_line;
 mod intake;
 mod pilot;
@@ -192,7 +195,7 @@ struct Shared {
 }
 
 /// The region's frame against the fleet clock: a moving region
-/// ([`MappingParams::motion`](crate::explore::mapping::MappingParams::motion)) has moved
+/// ([`MappingParams::motion`](fleetmap_core::explore::mapping::MappingParams::motion)) has moved
 /// `v · s` since its epoch, where `s` is the region's time. The shell reads the fleet clock
 /// once, when the run starts: `s = since_epoch_s + (t − at)` for fleet-clock time `t`
 /// (`MonotonicClock::secs_since_unix_ms`: on a fleet following the demo's simulator the
@@ -258,7 +261,7 @@ impl RoiClock {
         cell_m: f64,
         speed: f64,
         lead_s: f64,
-    ) -> Result<(f64, f64), crate::explore::ExploreError> {
+    ) -> Result<(f64, f64), fleetmap_core::explore::ExploreError> {
         let (_, (e, n)) =
             self.motion
                 .intercept(east, north, self.roi_time(t), cell, cell_m, speed)?;
@@ -282,7 +285,7 @@ impl Shared {
     /// the wall time since (scaled like the fleet clock). A task that runs late on a busy
     /// machine still dates what it reads by its arrival.
     fn received_at(&self, unix_us: u64) -> Time {
-        let late_us = crate::clock::unix_us().saturating_sub(unix_us);
+        let late_us = fleetmap_io::clock::unix_us().saturating_sub(unix_us);
         let speedup = self.fleet.clock().speedup();
         self.now() - Duration::from_secs_f64(late_us as f64 / 1e6 * speedup)
     }

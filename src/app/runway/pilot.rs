@@ -3,7 +3,7 @@
 //! The pictures of a visit are in [`super::intake`], the sweep in [`super::sweep`].
 
 use super::*;
-use crate::explore::reach::Reach;
+use fleetmap_core::explore::reach::Reach;
 
 /// Seconds a drone is counted over a cell per picture still to take, when the reach rule
 /// charges a visit (the cell drifts on meanwhile). Measured on the embedded simulator's
@@ -164,7 +164,7 @@ impl Pilot {
                     .read(|s| {
                         s.explorer
                             .as_ref()
-                            .map(|e| e.robot_cell(crate::explore::RobotId(sysid)))
+                            .map(|e| e.robot_cell(fleetmap_core::explore::RobotId(sysid)))
                     })
                     .await
                     .context("observing without an explorer")??;
@@ -191,7 +191,7 @@ impl Pilot {
                                     e.vertex_states()
                                         .iter()
                                         .filter(|(_, v)| {
-                                            *v == crate::explore::VertexState::Explored
+                                            *v == fleetmap_core::explore::VertexState::Explored
                                         })
                                         .count()
                                 })
@@ -339,7 +339,7 @@ impl Pilot {
     }
 
     /// The reach rule before flying out to `cell` of a moving region
-    /// ([`MappingState::reach_of`], [`crate::explore::reach`]): the charge now, less the leg
+    /// ([`MappingState::reach_of`], [`fleetmap_core::explore::reach`]): the charge now, less the leg
     /// out to where the cell will be and the time over it, must cover the return from there.
     /// Returns whether to fly now. Otherwise it has done what the rule said: sent the drone
     /// home for a swap first (as a low battery does), held it while the cell drifts closer, or

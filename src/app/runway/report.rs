@@ -14,12 +14,12 @@
 //!   positives, 53 false negatives" in §7) and of the final cells, a cell counting as region
 //!   when more than half of it is.
 
-use crate::explore::VertexState;
-use crate::explore::dfs::ExplorerConfig;
-use crate::explore::mapping::{FinishReason, GaveUp, MappingState};
-use crate::geo::{Cell, GeoError, Grid, LatLon};
-use crate::vision::votes::CellState;
-use crate::world::{Surface, World};
+use fleetmap_core::explore::VertexState;
+use fleetmap_core::explore::dfs::ExplorerConfig;
+use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState};
+use fleetmap_core::geo::{Cell, GeoError, Grid, LatLon};
+use fleetmap_core::vision::votes::CellState;
+use fleetmap_core::world::{Surface, World};
 use image::{Rgb, RgbImage};
 use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
@@ -88,8 +88,8 @@ pub struct Counts {
     pub false_negatives: u64,
 }
 
-impl From<crate::vision::votes::Confusion> for Counts {
-    fn from(c: crate::vision::votes::Confusion) -> Counts {
+impl From<fleetmap_core::vision::votes::Confusion> for Counts {
+    fn from(c: fleetmap_core::vision::votes::Confusion) -> Counts {
         Counts {
             true_positives: c.true_positives,
             false_positives: c.false_positives,
@@ -101,7 +101,7 @@ impl From<crate::vision::votes::Confusion> for Counts {
 
 /// The run's mission time (issue 26), seconds of the fleet clock — the vehicles' clock: the
 /// wall clock with real vehicles, the simulator's time when it runs in the GCS's process —
-/// from the first take-off ([`crate::explore::mapping::MissionClock`]). What a team plans its
+/// from the first take-off ([`fleetmap_core::explore::mapping::MissionClock`]). What a team plans its
 /// day by, and the runway paper's figure (§7: one UAV, 73 minutes, six battery swaps).
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct MissionTime {
@@ -128,7 +128,7 @@ pub struct MissionTime {
 }
 
 /// One drone's time since the team's first take-off, seconds of the fleet clock, sampled
-/// every [`crate::explore::mapping::CLOCK_SAMPLE_S`] s: its flying, waiting and ground
+/// every [`fleetmap_core::explore::mapping::CLOCK_SAMPLE_S`] s: its flying, waiting and ground
 /// seconds add up to `elapsed_s`.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct RobotTimeReport {
@@ -150,7 +150,7 @@ pub struct RobotTimeReport {
     /// `sweep_s` (its sweep flown, the others' not), `pictures_s` (sweep pictures in
     /// transfer), `dfs_start_s` (at the root before the team's first split), `vertex_s` (at a
     /// later vertex: companions on their way, another drone imaging the cell), `operator_s`.
-    pub waiting: crate::explore::mapping::WaitTimes,
+    pub waiting: fleetmap_core::explore::mapping::WaitTimes,
     /// On the ground.
     pub ground_s: f64,
     /// Of `ground_s`: before its first take-off.
@@ -168,7 +168,7 @@ pub struct RobotTimeReport {
 }
 
 impl RobotTimeReport {
-    fn of(t: &crate::explore::mapping::RobotTimes) -> RobotTimeReport {
+    fn of(t: &fleetmap_core::explore::mapping::RobotTimes) -> RobotTimeReport {
         let elapsed = t.accounted_s();
         let share = |x: f64| if elapsed > 0.0 { x / elapsed } else { 0.0 };
         RobotTimeReport {
@@ -244,7 +244,7 @@ pub struct BeyondReachReport {
     /// The figures: `outpaced` (`drift_m_s`, `speed_m_s`) or `out_of_range` (`distance_m`,
     /// `needed_pct`, `full_pct`).
     #[serde(flatten)]
-    pub why: crate::explore::reach::Unreachable,
+    pub why: fleetmap_core::explore::reach::Unreachable,
     /// The same in words.
     pub reason: String,
 }
@@ -415,7 +415,7 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
         found: state.explorer.is_some(),
         finish_reason: state.phase.finish_reason(),
         beyond_reach: match &state.phase {
-            crate::explore::mapping::Phase::Finished {
+            fleetmap_core::explore::mapping::Phase::Finished {
                 gave_up: Some(g @ GaveUp::BeyondReach { sysid, cell, why }),
                 ..
             } => Some(BeyondReachReport {
@@ -518,13 +518,13 @@ pub fn geojson(state: &MappingState, outlines: &[Vec<LatLon>]) -> serde_json::Va
         .iter()
         .map(|p| (p.clone(), serde_json::json!({"name": "ground truth"})))
         .collect();
-    crate::geo::export::cells_geojson(&state.grid, &cells, &extra)
+    fleetmap_core::geo::export::cells_geojson(&state.grid, &cells, &extra)
 }
 
 /// The map as KML (Google Earth): mapped cells green/black, non-region white, the region's
 /// outline in blue (Fig. 11).
 pub fn kml(state: &MappingState, outlines: &[Vec<LatLon>]) -> String {
-    use crate::geo::export::kml_colour;
+    use fleetmap_core::geo::export::kml_colour;
     let cells: Vec<(Cell, String, String)> = classes(state)
         .into_iter()
         .map(|(c, k)| {
@@ -536,7 +536,7 @@ pub fn kml(state: &MappingState, outlines: &[Vec<LatLon>]) -> String {
         .iter()
         .map(|p| (p.clone(), kml_colour(0, 0, 255, 0xff)))
         .collect();
-    crate::geo::export::cells_kml(&state.grid, &cells, &extra)
+    fleetmap_core::geo::export::cells_kml(&state.grid, &cells, &extra)
 }
 
 /// Pixels per cell in the PNG.

@@ -2,7 +2,7 @@
 //! tracker, the operator's commands, and the final save.
 
 use super::*;
-use crate::explore::mapping::CLOCK_SAMPLE_S;
+use fleetmap_core::explore::mapping::CLOCK_SAMPLE_S;
 use tokio::task::JoinSet;
 
 /// Follow every robot's position for its track, distance and airborne time (in memory; saved
@@ -84,7 +84,7 @@ pub async fn run(
     let roi = if motion.speed() > 0.0 {
         let epoch = *state
             .roi_epoch_unix_ms
-            .get_or_insert_with(crate::clock::unix_ms);
+            .get_or_insert_with(fleetmap_io::clock::unix_ms);
         let clock = fleet.clock();
         RoiClock::new(motion, clock.now(), clock.secs_since_unix_ms(epoch))
     } else {

@@ -36,9 +36,10 @@ impl Pilot {
                 .upload_mission(sysid, MissionType::Mission, items.clone())
                 .await?;
             let (back, _) = fleet.download_mission(sysid, MissionType::Mission).await?;
-            crate::proto::mission::compare_items(&items, &back, v.flavour.home_item()).map_err(
-                |d| anyhow::anyhow!("vehicle {sysid}: the sweep read back differs: {d}"),
-            )?;
+            fleetmap_core::proto::mission::compare_items(&items, &back, v.flavour.home_item())
+                .map_err(|d| {
+                    anyhow::anyhow!("vehicle {sysid}: the sweep read back differs: {d}")
+                })?;
             self.shared.say(
                 Progress::info(format!(
                     "vehicle {sysid}: sweep mission uploaded and verified ({} items)",
@@ -69,7 +70,7 @@ impl Pilot {
                     .enumerate()
                     .take(usize::from(item))
                     .rev()
-                    .find(|(_, it)| it.command == crate::mission::item::cmd::NAV_WAYPOINT)
+                    .find(|(_, it)| it.command == fleetmap_core::mission::item::cmd::NAV_WAYPOINT)
                     .map(|(j, _)| j as u16);
                 if let Some(j) = back {
                     fleet.set_mission_current(sysid, j).await?;
@@ -82,7 +83,7 @@ impl Pilot {
         self.first_sweep = false;
         let last_nav = items
             .iter()
-            .rposition(|it| it.command == crate::mission::item::cmd::NAV_WAYPOINT)
+            .rposition(|it| it.command == fleetmap_core::mission::item::cmd::NAV_WAYPOINT)
             .unwrap_or(0) as u16;
         let mut snaps = fleet.watch();
         let mut changed = self.shared.run.subscribe();
@@ -95,7 +96,7 @@ impl Pilot {
             items
                 .iter()
                 .take(usize::from(c))
-                .filter(|it| it.command == crate::mission::item::cmd::IMAGE_START_CAPTURE)
+                .filter(|it| it.command == fleetmap_core::mission::item::cmd::IMAGE_START_CAPTURE)
                 .count()
         };
         let mut captures_at_start = None;
@@ -223,7 +224,7 @@ impl Pilot {
     /// of `announced_at`, the vehicle's position when the camera announced the picture (else
     /// when it arrives: the vehicle flies on while it is transferred),
     /// its altitude within the limit and its tilt within
-    /// [`crate::vision::sanity::SWEEP_MAX_TILT_DEG`]; otherwise it is dropped, and
+    /// [`fleetmap_core::vision::sanity::SWEEP_MAX_TILT_DEG`]; otherwise it is dropped, and
     /// [`RunOptions::max_retakes`] + 1 dropped in a row are a camera fault. With the attitude
     /// known, the picture stands for the cell its optical axis met, cut as an orthophoto
     /// around that point; without, for the cell under the vehicle, centre-cropped.

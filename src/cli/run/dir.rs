@@ -1,7 +1,7 @@
 //! What a run directory remembers of its connections.
 
-use crate::link::ConnSpec;
 use crate::store::RunDir;
+use fleetmap_io::link::ConnSpec;
 
 /// The connections `run.json` remembers, parsed.
 pub(crate) fn remembered_connections(run: &RunDir) -> anyhow::Result<Vec<ConnSpec>> {

@@ -225,7 +225,7 @@ pub fn export<K: RunKind>(args: ExportArgs, run_dir: RunDir) -> anyhow::Result<E
     let (name, bytes) = K::export(&state, world.as_ref(), args.format.into())?;
     let path = match &args.out {
         Some(p) => {
-            crate::store::atomic_write(p, &bytes)
+            fleetmap_io::files::atomic_write(p, &bytes)
                 .with_context(|| format!("cannot write {}", p.display()))?;
             p.clone()
         }

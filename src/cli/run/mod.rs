@@ -15,6 +15,7 @@ mod dir;
 mod flow;
 
 pub use crate::app::launch::{exports_on_finish, finish_exports, run_world};
+#[cfg(feature = "sim")]
 pub(crate) use flow::print_progress;
 pub use flow::ui_session;
 
@@ -22,11 +23,11 @@ use crate::app::kind::{self, RunKind, RunSettings};
 use crate::app::kinds::{self, KindVisitor};
 use crate::app::launch::NewRun;
 use crate::cli::vehicles::ConnectArgs;
-use crate::explore::Sharing;
-use crate::link::ConnSpec;
 use crate::store::RunDir;
 use anyhow::Context as _;
 use clap::{Args, ValueEnum};
+use fleetmap_core::explore::Sharing;
+use fleetmap_io::link::ConnSpec;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 

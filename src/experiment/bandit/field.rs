@@ -2,14 +2,14 @@
 //! the true mean μ_l of every cell, the interesting cells and the stations and drones.
 
 use super::StudyConfig;
-use crate::geo::Cell;
-use crate::planner::grid::Grid;
+use fleetmap_core::geo::Cell;
+use fleetmap_core::planner::grid::Grid;
 use rand::RngExt;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
 
 /// One random field of the study — the planning grid with its true μ per cell, not a
-/// rendered ground truth (that is [`crate::world::World`]) — (or a fixed one, [`Field::default_10x10`]).
+/// rendered ground truth (that is [`fleetmap_core::world::World`]) — (or a fixed one, [`Field::default_10x10`]).
 #[derive(Debug, Clone, PartialEq)]
 pub struct Field {
     /// G, O, R.

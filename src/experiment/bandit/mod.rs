@@ -40,12 +40,12 @@ pub mod table;
 pub use field::{Field, StudyError};
 pub use summary::{Spread, VariantSummary, quantile, summarise};
 
-use crate::geo::Cell;
-use crate::planner::bandit::{BanditState, ConfidenceBound, Label, LogBase, p_max};
-use crate::planner::baselines::{GoalRule, choose_goals};
-use crate::planner::ip::{PlanOptions, PlanStatus, solve_instance};
-use crate::planner::plan::Timelines;
-use crate::planner::scenario::Instance;
+use fleetmap_core::geo::Cell;
+use fleetmap_core::planner::bandit::{BanditState, ConfidenceBound, Label, LogBase, p_max};
+use fleetmap_core::planner::baselines::{GoalRule, choose_goals};
+use fleetmap_core::planner::ip::{PlanOptions, PlanStatus, solve_instance};
+use fleetmap_core::planner::plan::Timelines;
+use fleetmap_core::planner::scenario::Instance;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -359,7 +359,7 @@ pub fn run_trial(
     trial: usize,
     world_seed: u64,
     sensing_seed: u64,
-    mut on_epoch: impl FnMut(&Instance, &crate::planner::ip::PlanOutcome),
+    mut on_epoch: impl FnMut(&Instance, &fleetmap_core::planner::ip::PlanOutcome),
 ) -> TrialResult {
     let g = &world.grid;
     let mut rng = ChaCha8Rng::seed_from_u64(sensing_seed);
@@ -452,7 +452,7 @@ pub fn run_trial(
                     return result;
                 }
             };
-            let out = solve_instance(&inst, &opts, &crate::clock::stopwatch());
+            let out = solve_instance(&inst, &opts, &fleetmap_io::clock::stopwatch());
             secs += out.solve_seconds;
             on_epoch(&inst, &out);
             match (&out.status, &out.plan) {

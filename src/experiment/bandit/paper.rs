@@ -9,7 +9,7 @@
 //! ([`FIG6_CLAIM`]).
 
 use super::{Preset, StudyConfig};
-use crate::planner::baselines::GoalRule;
+use fleetmap_core::planner::baselines::GoalRule;
 use serde::{Deserialize, Serialize};
 
 /// A published median with its 0.1 and 0.9 quantiles.

@@ -59,7 +59,7 @@ pub fn violation_lines(study: &Study) -> Vec<String> {
 }
 
 fn write(path: &Path, bytes: &[u8]) -> Result<(), DfsStudyError> {
-    crate::store::atomic_write(path, bytes).map_err(|e| DfsStudyError::Output {
+    fleetmap_io::files::atomic_write(path, bytes).map_err(|e| DfsStudyError::Output {
         path: path.to_path_buf(),
         reason: e.to_string(),
     })

@@ -8,9 +8,9 @@
 //! fontconfig is needed on the machine.
 
 use super::{DfsStudyError, SpeedRatio, Study, Sweep, trial_roi};
-use crate::explore::dfs::NodeKind;
-use crate::explore::simulate::{SimConfig, simulate};
-use crate::explore::{Allocation, Sharing};
+use fleetmap_core::explore::dfs::NodeKind;
+use fleetmap_core::explore::simulate::{SimConfig, simulate};
+use fleetmap_core::explore::{Allocation, Sharing};
 use image::ImageEncoder;
 use plotters::prelude::*;
 

@@ -37,13 +37,13 @@ use crate::app::flight::Patience;
 use crate::app::runway::report::{MappingReport, truth_coverage};
 use crate::app::runway::{self, Outcome, RunOptions};
 use crate::app::{demo, images};
-use crate::clock::unix_ms;
-use crate::explore::Sharing;
-use crate::explore::mapping::{MappingState, WaitTimes};
-use crate::sim::pace::Speed;
 use crate::store::{RunDir, RunMeta};
-use crate::world::World;
 use anyhow::Context as _;
+use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::mapping::{MappingState, WaitTimes};
+use fleetmap_core::world::World;
+use fleetmap_io::clock::unix_ms;
+use fleetmap_sim::pace::Speed;
 use serde::Serialize;
 use std::path::{Path, PathBuf};
 use std::time::Duration;
@@ -343,7 +343,7 @@ pub fn run(args: &RunwayArgs, progress: &mut dyn FnMut(&TrialRow)) -> anyhow::Re
                 std::fs::remove_dir_all(&dir)
                     .with_context(|| format!("cannot remove the old {}", dir.display()))?;
             }
-            let watch = crate::clock::stopwatch();
+            let watch = fleetmap_io::clock::stopwatch();
             let rt = match args.speedup {
                 // Paused: tokio advances the clock only when every task waits, and the
                 // classifier runs inline on the one thread (app::runway::intake::cpu).
@@ -447,7 +447,7 @@ async fn fly(
         meta.extra = serde_json::json!({"world": "world.toml"});
         let run_dir = RunDir::create(dir, meta, Some(&text))
             .with_context(|| format!("cannot create {}", dir.display()))?;
-        crate::store::atomic_write(&dir.join("world.toml"), demo::RUNWAY_WORLD.as_bytes())?;
+        fleetmap_io::files::atomic_write(&dir.join("world.toml"), demo::RUNWAY_WORLD.as_bytes())?;
         let hub = images::spawn(&fleet);
         let opts = RunOptions {
             auto_resume: true,
@@ -471,8 +471,8 @@ async fn fly(
 
 /// The simulator a trial's team flies on.
 enum TeamSim {
-    Memory(crate::sim::server::MemorySimHandle),
-    Udp(crate::sim::server::SimHandle),
+    Memory(fleetmap_sim::server::MemorySimHandle),
+    Udp(fleetmap_sim::server::SimHandle),
 }
 
 fn trial_row(

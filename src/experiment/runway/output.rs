@@ -208,7 +208,7 @@ pub fn write_outputs(study: &Study, dir: &Path) -> anyhow::Result<Vec<PathBuf>> 
     let mut files = Vec::new();
     let mut write = |name: &str, bytes: &[u8]| -> anyhow::Result<()> {
         let path = dir.join(name);
-        crate::store::atomic_write(&path, bytes)
+        fleetmap_io::files::atomic_write(&path, bytes)
             .with_context(|| format!("cannot write {}", path.display()))?;
         files.push(path);
         Ok(())

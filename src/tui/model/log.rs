@@ -1,9 +1,9 @@
 //! The log pane's data: STATUSTEXT messages and GCS messages with their severity.
 
-use crate::time::Time;
+use fleetmap_core::time::Time;
 use serde::{Deserialize, Serialize};
 
-pub use crate::proto::severity::Severity;
+pub use fleetmap_core::proto::severity::Severity;
 
 /// One log line: a STATUSTEXT from a vehicle, or a message from the GCS itself.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

@@ -1,7 +1,7 @@
 //! The map pane's data: the mission grid rectangle, the state of each cell and recent tracks,
 //! with the glyph-per-cell JSON form replay files use.
 
-use crate::geo::Cell;
+use fleetmap_core::geo::Cell;
 use serde::{Deserialize, Serialize};
 
 /// Which kind of mission map the cells describe (selects the legend).

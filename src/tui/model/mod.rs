@@ -25,7 +25,7 @@ pub use vehicle::{
     Autopilot, Battery, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleClass, VehicleRow,
 };
 
-use crate::time::Time;
+use fleetmap_core::time::Time;
 use serde::{Deserialize, Serialize};
 
 /// Everything the screen shows that comes from outside the UI.

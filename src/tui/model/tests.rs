@@ -1,5 +1,5 @@
 use super::*;
-use crate::geo::Cell;
+use fleetmap_core::geo::Cell;
 
 #[test]
 fn map_rows_are_north_up() {

@@ -1,7 +1,7 @@
 //! One fleet-pane row per vehicle: identity (role, firmware, airframe), battery, GPS, link
 //! and mission progress, as the adapter reads them from the vehicle's telemetry.
 
-use crate::geo::Cell;
+use fleetmap_core::geo::Cell;
 use serde::{Deserialize, Serialize};
 
 /// A vehicle's role in the mission.
@@ -26,7 +26,7 @@ impl Role {
 }
 
 /// The autopilot firmware, from HEARTBEAT.autopilot: the protocol layer's vocabulary.
-pub use crate::proto::flavour::Autopilot;
+pub use fleetmap_core::proto::flavour::Autopilot;
 
 /// How replay files spell [`VehicleRow::autopilot`]: `"ardu_pilot"`, `"px4"`, `"other"` (the
 /// MAV_AUTOPILOT number of `Other` is not recorded; it reads back as [`Autopilot::default`]).
@@ -62,7 +62,7 @@ mod autopilot_replay {
 }
 
 /// The airframe class, from HEARTBEAT.type: the protocol layer's vocabulary.
-pub use crate::proto::flavour::VehicleClass;
+pub use fleetmap_core::proto::flavour::VehicleClass;
 
 /// How replay files spell [`VehicleRow::vehicle_type`]: `"copter"`, `"plane"`, `"rover"`,
 /// `"other"`.

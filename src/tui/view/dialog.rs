@@ -1,10 +1,10 @@
 //! The confirmation dialog and the vehicle-id prompt.
 
 use super::theme;
-use crate::time::Time;
 use crate::tui::app::{App, Pending, Target};
 use crate::tui::keymap::Action;
 use crate::tui::model::{Role, VehicleRow};
+use fleetmap_core::time::Time;
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Rect};
 use ratatui::text::{Line, Span};

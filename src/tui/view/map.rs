@@ -13,9 +13,9 @@
 
 use super::theme;
 use super::{Areas, lower_tabs, pane_block, pane_title};
-use crate::geo::Cell;
 use crate::tui::app::{App, MapMode, Pane};
 use crate::tui::model::{CellState, MapKind, MapModel, Role};
+use fleetmap_core::geo::Cell;
 use ratatui::Frame;
 use ratatui::buffer::Buffer;
 use ratatui::layout::Rect;

@@ -1,0 +1,55 @@
+#!/usr/bin/env python3
+"""Fail when a crate of the workspace depends on what its layer forbids.
+
+    .ci/crates.py
+
+The crates are the architecture (docs/architecture.md, "Crates"):
+
+* `fleetmap-core` is pure: nothing async, no sockets. Its normal dependency tree
+  (`cargo tree -e normal`) must not contain tokio, mio, socket2 or tokio-serial.
+* `fleetmap-io` and `fleetmap-core` are shared by the ground station and the simulator, so
+  neither may depend on `fleetmap-sim` or on the ground station `fleetmap`.
+* The ground station built without its default features (`--no-default-features`, no `sim`)
+  must not contain `fleetmap-sim`: a GCS for real vehicles carries no simulator code.
+
+Exit status 1 with one line per broken rule.
+"""
+import subprocess
+import sys
+
+
+def tree(*args):
+    """The package names (without versions) in `cargo tree` for these arguments."""
+    out = subprocess.run(
+        ["cargo", "tree", "--edges", "normal", "--prefix", "none", "--format", "{p}", *args],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
+    return {line.split()[0] for line in out.splitlines() if line.strip()}
+
+
+RULES = [
+    (["-p", "fleetmap-core"], {"tokio", "mio", "socket2", "tokio-serial", "fleetmap-io", "fleetmap-sim", "fleetmap"},
+     "the pure core"),
+    (["-p", "fleetmap-io"], {"fleetmap-sim", "fleetmap"}, "the I/O edge"),
+    (["-p", "fleetmap", "--no-default-features"], {"fleetmap-sim", "indicatif"},
+     "the ground station without the `sim` feature"),
+]
+
+
+def main():
+    broken = 0
+    for args, forbidden, what in RULES:
+        found = sorted(tree(*args) & forbidden)
+        for name in found:
+            broken += 1
+            print(f"crates: {what} (cargo tree {' '.join(args)}) depends on {name}")
+    if broken:
+        sys.exit(1)
+    print("crates: core without tokio or sockets; io and core without the simulator; "
+          "the GCS without `sim` has no simulator code")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,15 @@
+//! fleetmap's I/O edge: what both the ground station and the simulator need to talk to the
+//! outside world, and nothing that decides.
+//!
+//! | module | responsibility |
+//! |---|---|
+//! | [`link`] | MAVLink transports (UDP, TCP, serial, in-memory), framing, signing, tlogs, fault injection |
+//! | [`clock`] | the only clock reader: the monotonic clock (tokio's, virtual when paused) and the planner's stopwatch |
+//! | [`files`] | the only place mission files, world files, image files and `file://` URLs are read; atomic writes |
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod clock;
+pub mod files;
+pub mod link;

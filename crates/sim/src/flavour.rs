@@ -1,0 +1,438 @@
+//! Which autopilot and which airframe a simulated vehicle imitates, and the flight modes with
+//! the numbers each autopilot puts on the wire.
+//!
+//! The simulator's [`Mode`] is what a simulated vehicle does; which of its autopilot's modes
+//! that is, and so the numbers and names on the wire, comes from the GCS's own table,
+//! [`fleetmap_core::proto::mode`] ([`Flavour::autopilot_mode`]).
+
+use fleetmap_core::proto::flavour::Autopilot;
+use fleetmap_core::proto::mode::{CopterMode, Mode as ProtoMode, Px4Mode, RoverMode};
+use serde::{Deserialize, Serialize};
+use std::fmt;
+use std::str::FromStr;
+
+/// The autopilot firmware a simulated vehicle behaves like: the [`Autopilot`]s the simulator
+/// imitates, ArduPilot or PX4 (`Autopilot::Other` has no behaviour to imitate, so
+/// `TryFrom<Autopilot>` refuses it). Serialized in lower case, `"ardupilot"` / `"px4"`, as
+/// `--vehicles` spells them.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum SimAutopilot {
+    /// [`Autopilot::ArduPilot`] (ArduCopter / ArduRover).
+    ArduPilot,
+    /// [`Autopilot::Px4`].
+    Px4,
+}
+
+impl From<SimAutopilot> for Autopilot {
+    fn from(a: SimAutopilot) -> Autopilot {
+        match a {
+            SimAutopilot::ArduPilot => Autopilot::ArduPilot,
+            SimAutopilot::Px4 => Autopilot::Px4,
+        }
+    }
+}
+
+impl TryFrom<Autopilot> for SimAutopilot {
+    /// The autopilot the simulator cannot imitate.
+    type Error = Autopilot;
+    fn try_from(a: Autopilot) -> Result<SimAutopilot, Autopilot> {
+        match a {
+            Autopilot::ArduPilot => Ok(SimAutopilot::ArduPilot),
+            Autopilot::Px4 => Ok(SimAutopilot::Px4),
+            other @ Autopilot::Other(_) => Err(other),
+        }
+    }
+}
+
+impl SimAutopilot {
+    /// The lower-case name of `--vehicles` and of the serialized form.
+    pub(crate) fn spec_name(self) -> &'static str {
+        match self {
+            SimAutopilot::ArduPilot => "ardupilot",
+            SimAutopilot::Px4 => "px4",
+        }
+    }
+}
+
+/// The airframe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum VehicleKind {
+    /// A multicopter (MAV_TYPE_QUADROTOR).
+    Copter,
+    /// A ground rover (MAV_TYPE_GROUND_ROVER); it never leaves the ground.
+    Rover,
+}
+
+/// Autopilot + airframe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub struct Flavour {
+    /// The firmware.
+    pub autopilot: SimAutopilot,
+    /// The airframe.
+    pub kind: VehicleKind,
+}
+
+impl Flavour {
+    /// ArduCopter.
+    pub const ARDU_COPTER: Flavour = Flavour {
+        autopilot: SimAutopilot::ArduPilot,
+        kind: VehicleKind::Copter,
+    };
+    /// ArduRover.
+    pub const ARDU_ROVER: Flavour = Flavour {
+        autopilot: SimAutopilot::ArduPilot,
+        kind: VehicleKind::Rover,
+    };
+    /// PX4 multicopter.
+    pub const PX4_COPTER: Flavour = Flavour {
+        autopilot: SimAutopilot::Px4,
+        kind: VehicleKind::Copter,
+    };
+    /// PX4 rover.
+    pub const PX4_ROVER: Flavour = Flavour {
+        autopilot: SimAutopilot::Px4,
+        kind: VehicleKind::Rover,
+    };
+
+    /// Whether this is an ArduPilot vehicle.
+    pub fn is_ardupilot(self) -> bool {
+        self.autopilot == SimAutopilot::ArduPilot
+    }
+
+    /// Whether this vehicle flies.
+    pub fn is_copter(self) -> bool {
+        self.kind == VehicleKind::Copter
+    }
+
+    /// The flight mode a vehicle boots into: STABILIZE (ArduCopter), HOLD (ArduRover; real
+    /// rovers boot in MANUAL, but without an RC transmitter HOLD is what field setups
+    /// configure with INITIAL_MODE), AUTO_LOITER ("Hold") for PX4.
+    pub fn boot_mode(self) -> Mode {
+        match (self.autopilot, self.kind) {
+            (SimAutopilot::ArduPilot, VehicleKind::Copter) => Mode::Stabilize,
+            (SimAutopilot::ArduPilot, VehicleKind::Rover) => Mode::Hold,
+            (SimAutopilot::Px4, _) => Mode::Hold,
+        }
+    }
+
+    /// The autopilot's mode ([`fleetmap_core::proto::mode`], the one table of numbers and names)
+    /// that behaves as `mode` for this flavour, or `None` when this flavour has no such mode.
+    /// ArduCopter holds in LOITER; PX4 holds in AUTO_LOITER ("HOLD"), loiters under pilot
+    /// control in POSCTL and is guided in OFFBOARD.
+    pub fn autopilot_mode(self, mode: Mode) -> Option<ProtoMode> {
+        use ProtoMode::{Copter, Px4, Rover};
+        Some(match (self.autopilot, self.kind) {
+            (SimAutopilot::ArduPilot, VehicleKind::Copter) => Copter(match mode {
+                Mode::Stabilize => CopterMode::Stabilize,
+                Mode::AltHold => CopterMode::AltHold,
+                Mode::Auto => CopterMode::Auto,
+                Mode::Guided => CopterMode::Guided,
+                Mode::Hold => CopterMode::Loiter,
+                Mode::Rtl => CopterMode::Rtl,
+                Mode::Land => CopterMode::Land,
+                Mode::Brake => CopterMode::Brake,
+                _ => return None,
+            }),
+            (SimAutopilot::ArduPilot, VehicleKind::Rover) => Rover(match mode {
+                Mode::Manual => RoverMode::Manual,
+                Mode::Hold => RoverMode::Hold,
+                Mode::Loiter => RoverMode::Loiter,
+                Mode::Auto => RoverMode::Auto,
+                Mode::Rtl => RoverMode::Rtl,
+                Mode::Guided => RoverMode::Guided,
+                Mode::Initialising => RoverMode::Initialising,
+                _ => return None,
+            }),
+            (SimAutopilot::Px4, kind) => Px4(match mode {
+                Mode::Manual => Px4Mode::Manual,
+                Mode::AltHold if kind == VehicleKind::Copter => Px4Mode::AltCtl,
+                Mode::Stabilize => Px4Mode::Stabilized,
+                Mode::Loiter => Px4Mode::PosCtl,
+                Mode::Takeoff => Px4Mode::Takeoff,
+                Mode::Hold => Px4Mode::Hold,
+                Mode::Auto => Px4Mode::Mission,
+                Mode::Rtl => Px4Mode::Rtl,
+                Mode::Land if kind == VehicleKind::Copter => Px4Mode::Land,
+                Mode::Guided => Px4Mode::Offboard,
+                _ => return None,
+            }),
+        })
+    }
+
+    /// The HEARTBEAT `custom_mode` of `mode` for this flavour, or `None` when this flavour
+    /// has no such mode.
+    pub fn custom_mode(self, mode: Mode) -> Option<u32> {
+        self.autopilot_mode(mode).map(ProtoMode::custom_mode)
+    }
+
+    /// The mode a HEARTBEAT/SET_MODE `custom_mode` names for this flavour.
+    pub fn mode_from_custom(self, custom_mode: u32) -> Option<Mode> {
+        Mode::ALL
+            .iter()
+            .copied()
+            .find(|m| self.custom_mode(*m) == Some(custom_mode))
+    }
+
+    /// MAV_TYPE of the HEARTBEAT.
+    pub fn mav_type(self) -> u8 {
+        match self.kind {
+            VehicleKind::Copter => 2, // MAV_TYPE_QUADROTOR
+            VehicleKind::Rover => 10, // MAV_TYPE_GROUND_ROVER
+        }
+    }
+
+    /// MAV_AUTOPILOT of the HEARTBEAT.
+    pub fn mav_autopilot(self) -> u8 {
+        Autopilot::from(self.autopilot).mav_autopilot()
+    }
+
+    /// The name this flavour gives `mode` (as the autopilot's GCS shows it): the table's
+    /// name of [`Flavour::autopilot_mode`], or a generic upper-case name for a mode this
+    /// flavour does not have.
+    pub fn mode_name(self, mode: Mode) -> &'static str {
+        self.autopilot_mode(mode)
+            .map_or_else(|| mode.generic_name(), ProtoMode::name)
+    }
+}
+
+impl fmt::Display for Flavour {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let k = match self.kind {
+            VehicleKind::Copter => "copter",
+            VehicleKind::Rover => "rover",
+        };
+        write!(f, "{k}:{}", self.autopilot.spec_name())
+    }
+}
+
+impl FromStr for Flavour {
+    type Err = String;
+    /// `copter:ardupilot`, `rover:px4`, … (the `--vehicles` syntax without the count).
+    fn from_str(s: &str) -> Result<Flavour, String> {
+        let (k, a) = s
+            .split_once(':')
+            .ok_or_else(|| format!("expected TYPE:AUTOPILOT (e.g. copter:ardupilot), got {s:?}"))?;
+        let kind = match k.trim().to_ascii_lowercase().as_str() {
+            "copter" | "quad" | "multicopter" => VehicleKind::Copter,
+            "rover" => VehicleKind::Rover,
+            other => return Err(format!("unknown vehicle type {other:?} (copter or rover)")),
+        };
+        let autopilot = match a.trim().to_ascii_lowercase().as_str() {
+            "ardupilot" | "apm" => SimAutopilot::ArduPilot,
+            "px4" => SimAutopilot::Px4,
+            other => return Err(format!("unknown autopilot {other:?} (ardupilot or px4)")),
+        };
+        Ok(Flavour { autopilot, kind })
+    }
+}
+
+/// A flight mode, independent of the numbers an autopilot gives it.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
+pub enum Mode {
+    /// ArduCopter STABILIZE / PX4 STABILIZED: pilot-controlled; the simulator holds still.
+    Stabilize,
+    /// ArduCopter ALT_HOLD / PX4 ALTCTL.
+    AltHold,
+    /// ArduRover MANUAL / PX4 MANUAL.
+    Manual,
+    /// Hold position: ArduCopter LOITER, ArduRover HOLD, PX4 AUTO_LOITER ("Hold").
+    Hold,
+    /// ArduRover LOITER / PX4 POSCTL.
+    Loiter,
+    /// Fly the uploaded mission (ArduPilot AUTO, PX4 AUTO_MISSION).
+    Auto,
+    /// Go to positions given by the GCS (ArduPilot GUIDED, PX4 OFFBOARD).
+    Guided,
+    /// Return to launch.
+    Rtl,
+    /// Land here.
+    Land,
+    /// PX4 AUTO_TAKEOFF.
+    Takeoff,
+    /// ArduCopter BRAKE.
+    Brake,
+    /// ArduRover INITIALISING (boot).
+    Initialising,
+}
+
+impl Mode {
+    /// Every mode.
+    pub const ALL: [Mode; 12] = [
+        Mode::Stabilize,
+        Mode::AltHold,
+        Mode::Manual,
+        Mode::Hold,
+        Mode::Loiter,
+        Mode::Auto,
+        Mode::Guided,
+        Mode::Rtl,
+        Mode::Land,
+        Mode::Takeoff,
+        Mode::Brake,
+        Mode::Initialising,
+    ];
+
+    fn generic_name(self) -> &'static str {
+        match self {
+            Mode::Stabilize => "STABILIZE",
+            Mode::AltHold => "ALT_HOLD",
+            Mode::Manual => "MANUAL",
+            Mode::Hold => "HOLD",
+            Mode::Loiter => "LOITER",
+            Mode::Auto => "AUTO",
+            Mode::Guided => "GUIDED",
+            Mode::Rtl => "RTL",
+            Mode::Land => "LAND",
+            Mode::Takeoff => "TAKEOFF",
+            Mode::Brake => "BRAKE",
+            Mode::Initialising => "INITIALISING",
+        }
+    }
+
+    /// Whether the autopilot needs a position estimate to enter this mode.
+    pub fn requires_position(self) -> bool {
+        matches!(
+            self,
+            Mode::Hold
+                | Mode::Loiter
+                | Mode::Auto
+                | Mode::Guided
+                | Mode::Rtl
+                | Mode::Takeoff
+                | Mode::Brake
+        )
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mode_numbers_round_trip() {
+        for f in [
+            Flavour::ARDU_COPTER,
+            Flavour::ARDU_ROVER,
+            Flavour::PX4_COPTER,
+            Flavour::PX4_ROVER,
+        ] {
+            for m in Mode::ALL {
+                if let Some(c) = f.custom_mode(m) {
+                    assert_eq!(f.mode_from_custom(c), Some(m), "{f} {m:?}");
+                }
+            }
+        }
+        assert_eq!(Flavour::ARDU_COPTER.custom_mode(Mode::Guided), Some(4));
+        assert_eq!(Flavour::ARDU_ROVER.custom_mode(Mode::Auto), Some(10));
+        assert_eq!(
+            Flavour::PX4_COPTER.custom_mode(Mode::Auto),
+            Some((4 << 16) | (4 << 24))
+        );
+        assert_eq!(Flavour::PX4_ROVER.custom_mode(Mode::Land), None);
+    }
+
+    /// The numbers and names the simulator put on the wire before it read them from
+    /// `proto::mode`, for every flavour and mode.
+    #[test]
+    fn wire_numbers_and_names_unchanged() {
+        let px4 = |main: u32, sub: u32| Some((main << 16) | (sub << 24));
+        use Mode::*;
+        let expected: [(Flavour, Mode, Option<u32>, &str); 48] = [
+            (Flavour::ARDU_COPTER, Stabilize, Some(0), "STABILIZE"),
+            (Flavour::ARDU_COPTER, AltHold, Some(2), "ALT_HOLD"),
+            (Flavour::ARDU_COPTER, Manual, None, "MANUAL"),
+            (Flavour::ARDU_COPTER, Hold, Some(5), "LOITER"),
+            (Flavour::ARDU_COPTER, Loiter, None, "LOITER"),
+            (Flavour::ARDU_COPTER, Auto, Some(3), "AUTO"),
+            (Flavour::ARDU_COPTER, Guided, Some(4), "GUIDED"),
+            (Flavour::ARDU_COPTER, Rtl, Some(6), "RTL"),
+            (Flavour::ARDU_COPTER, Land, Some(9), "LAND"),
+            (Flavour::ARDU_COPTER, Takeoff, None, "TAKEOFF"),
+            (Flavour::ARDU_COPTER, Brake, Some(17), "BRAKE"),
+            (Flavour::ARDU_COPTER, Initialising, None, "INITIALISING"),
+            (Flavour::ARDU_ROVER, Stabilize, None, "STABILIZE"),
+            (Flavour::ARDU_ROVER, AltHold, None, "ALT_HOLD"),
+            (Flavour::ARDU_ROVER, Manual, Some(0), "MANUAL"),
+            (Flavour::ARDU_ROVER, Hold, Some(4), "HOLD"),
+            (Flavour::ARDU_ROVER, Loiter, Some(5), "LOITER"),
+            (Flavour::ARDU_ROVER, Auto, Some(10), "AUTO"),
+            (Flavour::ARDU_ROVER, Guided, Some(15), "GUIDED"),
+            (Flavour::ARDU_ROVER, Rtl, Some(11), "RTL"),
+            (Flavour::ARDU_ROVER, Land, None, "LAND"),
+            (Flavour::ARDU_ROVER, Takeoff, None, "TAKEOFF"),
+            (Flavour::ARDU_ROVER, Brake, None, "BRAKE"),
+            (Flavour::ARDU_ROVER, Initialising, Some(16), "INITIALISING"),
+            (Flavour::PX4_COPTER, Stabilize, px4(7, 0), "STABILIZED"),
+            (Flavour::PX4_COPTER, AltHold, px4(2, 0), "ALTCTL"),
+            (Flavour::PX4_COPTER, Manual, px4(1, 0), "MANUAL"),
+            (Flavour::PX4_COPTER, Hold, px4(4, 3), "HOLD"),
+            (Flavour::PX4_COPTER, Loiter, px4(3, 0), "POSCTL"),
+            (Flavour::PX4_COPTER, Auto, px4(4, 4), "MISSION"),
+            (Flavour::PX4_COPTER, Guided, px4(6, 0), "OFFBOARD"),
+            (Flavour::PX4_COPTER, Rtl, px4(4, 5), "RTL"),
+            (Flavour::PX4_COPTER, Land, px4(4, 6), "LAND"),
+            (Flavour::PX4_COPTER, Takeoff, px4(4, 2), "TAKEOFF"),
+            (Flavour::PX4_COPTER, Brake, None, "BRAKE"),
+            (Flavour::PX4_COPTER, Initialising, None, "INITIALISING"),
+            (Flavour::PX4_ROVER, Stabilize, px4(7, 0), "STABILIZED"),
+            (Flavour::PX4_ROVER, AltHold, None, "ALT_HOLD"),
+            (Flavour::PX4_ROVER, Manual, px4(1, 0), "MANUAL"),
+            (Flavour::PX4_ROVER, Hold, px4(4, 3), "HOLD"),
+            (Flavour::PX4_ROVER, Loiter, px4(3, 0), "POSCTL"),
+            (Flavour::PX4_ROVER, Auto, px4(4, 4), "MISSION"),
+            (Flavour::PX4_ROVER, Guided, px4(6, 0), "OFFBOARD"),
+            (Flavour::PX4_ROVER, Rtl, px4(4, 5), "RTL"),
+            (Flavour::PX4_ROVER, Land, None, "LAND"),
+            (Flavour::PX4_ROVER, Takeoff, px4(4, 2), "TAKEOFF"),
+            (Flavour::PX4_ROVER, Brake, None, "BRAKE"),
+            (Flavour::PX4_ROVER, Initialising, None, "INITIALISING"),
+        ];
+        for (f, m, number, name) in expected {
+            assert_eq!(f.custom_mode(m), number, "{f} {m:?}");
+            assert_eq!(f.mode_name(m), name, "{f} {m:?}");
+        }
+    }
+
+    /// The serialized form stays the lower-case one of `--vehicles`.
+    #[test]
+    fn serializes_in_lower_case() {
+        assert_eq!(
+            serde_json::to_string(&Flavour::ARDU_COPTER).expect("serializes"),
+            r#"{"autopilot":"ardupilot","kind":"copter"}"#
+        );
+        assert_eq!(
+            serde_json::from_str::<Flavour>(r#"{"autopilot":"px4","kind":"rover"}"#)
+                .expect("reads"),
+            Flavour::PX4_ROVER
+        );
+        assert!(
+            serde_json::from_str::<Flavour>(r#"{"autopilot":"other","kind":"rover"}"#).is_err()
+        );
+    }
+
+    #[test]
+    fn sim_autopilot_is_the_imitable_part_of_autopilot() {
+        for a in [SimAutopilot::ArduPilot, SimAutopilot::Px4] {
+            assert_eq!(SimAutopilot::try_from(Autopilot::from(a)), Ok(a));
+        }
+        assert_eq!(
+            SimAutopilot::try_from(Autopilot::Other(8)),
+            Err(Autopilot::Other(8))
+        );
+        assert_eq!(Flavour::ARDU_ROVER.mav_autopilot(), 3);
+        assert_eq!(Flavour::PX4_COPTER.mav_autopilot(), 12);
+    }
+
+    #[test]
+    fn parses_vehicle_specs() {
+        assert_eq!(
+            "copter:ardupilot".parse::<Flavour>(),
+            Ok(Flavour::ARDU_COPTER)
+        );
+        assert_eq!("Rover:PX4".parse::<Flavour>(), Ok(Flavour::PX4_ROVER));
+        assert!("plane:px4".parse::<Flavour>().is_err());
+        assert!("copter".parse::<Flavour>().is_err());
+    }
+}

@@ -1,0 +1,545 @@
+//! The in-process simulator: several vehicles over one world on a virtual clock, each behind
+//! its own faulty link, exchanging MAVLink 2 frames (bytes) with whoever drives it.
+//!
+//! This is what tests, `fleetmap demo` and the socket server ([`crate::server`]) run:
+//!
+//! ```no_run
+//! use fleetmap_sim::harness::{Sim, SimConfig};
+//! use fleetmap::time::Time;
+//! # fn main() -> Result<(), Box<dyn std::error::Error>> {
+//! let world = fleetmap::files::load_world("assets/worlds/runway.toml".as_ref())?;
+//! let cfg = SimConfig::from_spec("2xcopter:ardupilot,1xrover:px4", Some(world), None, 42)?;
+//! let mut sim = Sim::new(cfg, Time::ZERO)?;
+//! sim.advance_to(Time::from_secs(20));             // boot, GPS, position estimate
+//! while let Some(frame) = sim.recv_bytes(1) { /* feed your GCS codec */ }
+//! sim.send_bytes(1, &[/* a MAVLink frame from the GCS */]);
+//! # Ok(()) }
+//! ```
+//!
+//! Vehicle k (1-based, in the order of the spec) gets system id k and the world's default
+//! home k (or `--home` plus 3 m east per vehicle). A copter landed within
+//! [`SimConfig::dock_radius_m`] of a rover rides with it and charges (the bandit paper's
+//! mobile charging stations).
+
+use crate::camera::CapturedImage;
+use crate::flavour::{Flavour, VehicleKind};
+use crate::vehicle::{DT, SimVehicle, VehicleConfig, VehicleEvent};
+use fleetmap_core::time::Time;
+use fleetmap_core::world::{Wind, World};
+use fleetmap_io::link::codec::Codec;
+use fleetmap_io::link::faults::{FaultError, FaultyChannel, LinkFaults};
+use fleetmap_io::link::signing::{Signing, SigningKey};
+use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::{MavHeader, MavlinkVersion};
+use std::collections::VecDeque;
+use std::sync::Arc;
+use std::time::Duration;
+use thiserror::Error;
+
+/// Errors building a simulation.
+#[derive(Debug, Error)]
+pub enum SimError {
+    /// The `--vehicles` spec is malformed.
+    #[error("invalid vehicle spec {spec:?}: {reason}")]
+    Spec {
+        /// The spec.
+        spec: String,
+        /// Why.
+        reason: String,
+    },
+    /// A vehicle has no start position.
+    #[error("vehicle {0} has no home: the world defines none for it; give --home LAT,LON")]
+    NoHome(usize),
+    /// A link fault setting is invalid.
+    #[error(transparent)]
+    Faults(#[from] FaultError),
+    /// Two vehicles share a system id.
+    #[error("system id {0} is used twice")]
+    DuplicateSysid(u8),
+}
+
+/// Parse `3xcopter:ardupilot,1xrover:px4` into (count, flavour) pairs (a missing `N x`
+/// means one).
+pub fn parse_vehicle_spec(spec: &str) -> Result<Vec<(usize, Flavour)>, SimError> {
+    let err = |reason: String| SimError::Spec {
+        spec: spec.to_string(),
+        reason,
+    };
+    let mut out = Vec::new();
+    for part in spec.split(',').map(str::trim).filter(|p| !p.is_empty()) {
+        let (n, rest) = match part.split_once(['x', 'X']) {
+            Some((n, rest)) if !n.is_empty() && n.chars().all(|c| c.is_ascii_digit()) => {
+                (n.parse::<usize>().map_err(|e| err(e.to_string()))?, rest)
+            }
+            _ => (1, part),
+        };
+        if n == 0 || n > 250 {
+            return Err(err(format!("{part:?}: count must be 1–250")));
+        }
+        let f: Flavour = rest.parse().map_err(|e: String| err(e))?;
+        out.push((n, f));
+    }
+    if out.is_empty() {
+        return Err(err("no vehicles".into()));
+    }
+    if out.iter().map(|(n, _)| n).sum::<usize>() > 250 {
+        return Err(err("at most 250 vehicles".into()));
+    }
+    Ok(out)
+}
+
+/// Everything a simulation needs.
+#[derive(Clone, Debug)]
+pub struct SimConfig {
+    /// The vehicles, in system-id order.
+    pub vehicles: Vec<VehicleConfig>,
+    /// The world (ground truth for images), if any.
+    pub world: Option<Arc<World>>,
+    /// Faults GCS → vehicle, one per vehicle (missing entries: perfect).
+    pub uplink: Vec<LinkFaults>,
+    /// Faults vehicle → GCS, one per vehicle (missing entries: perfect).
+    pub downlink: Vec<LinkFaults>,
+    /// A copter landed within this distance of a rover rides with it and charges, metres.
+    pub dock_radius_m: f64,
+    /// Seed of the links.
+    pub seed: u64,
+    /// MAVLink 2 signing key of every ArduPilot vehicle (None: unsigned, until a GCS sends
+    /// SETUP_SIGNING). With a key, vehicles sign what they send and ignore unsigned frames,
+    /// as ArduPilot does once signing is set up. PX4 vehicles never sign (PX4 v1.16 has no
+    /// MAVLink signing).
+    pub signing_key: Option<SigningKey>,
+    /// Wall-clock microseconds since the Unix epoch at simulation time 0 (signature
+    /// timestamps); fixed by default so runs stay reproducible.
+    pub unix_epoch_us: u64,
+}
+
+/// The default `SimConfig::unix_epoch_us`: 2025-01-01T00:00:00Z.
+pub const DEFAULT_EPOCH_US: u64 = 1_735_689_600_000_000;
+
+impl SimConfig {
+    /// Vehicles from a `--vehicles` spec at the world's default homes (or at `home` plus
+    /// 3 m east per vehicle), seeded from `seed`, with the world's wind and ground elevation.
+    pub fn from_spec(
+        spec: &str,
+        world: Option<World>,
+        home: Option<(f64, f64)>,
+        seed: u64,
+    ) -> Result<SimConfig, SimError> {
+        let kinds = parse_vehicle_spec(spec)?;
+        let world = world.map(Arc::new);
+        let mut vehicles = Vec::new();
+        let mut k = 0usize;
+        for (n, flavour) in kinds {
+            for _ in 0..n {
+                k += 1;
+                let start = match home {
+                    Some((lat, lon)) => {
+                        fleetmap_core::geo::local::offset(lat, lon, 0.0, 3.0 * (k - 1) as f64)
+                    }
+                    None => world
+                        .as_ref()
+                        .and_then(|w| w.default_home(k))
+                        .ok_or(SimError::NoHome(k))?,
+                };
+                let mut v = VehicleConfig::new(k as u8, flavour, start);
+                v.seed = seed
+                    .wrapping_mul(0x9E37_79B9_7F4A_7C15)
+                    .wrapping_add(k as u64);
+                v.gps_common_seed = seed ^ 0x6A09_E667_F3BC_C908;
+                if let Some(w) = &world {
+                    v.reference = w.reference;
+                    v.ground_alt_amsl_m = w.ground_alt_amsl_m;
+                    v.wind = w.wind;
+                }
+                vehicles.push(v);
+            }
+        }
+        if world.is_none()
+            && let Some(first) = vehicles.first().map(|v| v.start)
+        {
+            for v in &mut vehicles {
+                v.reference = first;
+            }
+        }
+        Ok(SimConfig {
+            vehicles,
+            world,
+            uplink: Vec::new(),
+            downlink: Vec::new(),
+            dock_radius_m: 1.5,
+            seed,
+            signing_key: None,
+            unix_epoch_us: DEFAULT_EPOCH_US,
+        })
+    }
+
+    /// Apply the same faults to every link, both directions.
+    pub fn with_faults(mut self, faults: LinkFaults) -> SimConfig {
+        let n = self.vehicles.len();
+        self.uplink = vec![faults.clone(); n];
+        self.downlink = vec![faults; n];
+        self
+    }
+
+    /// Set the wind for every vehicle.
+    pub fn with_wind(mut self, wind: Option<Wind>) -> SimConfig {
+        for v in &mut self.vehicles {
+            v.wind = wind;
+        }
+        self
+    }
+}
+
+#[derive(Debug)]
+struct Slot {
+    v: SimVehicle,
+    key: Option<SigningKey>,
+    codec: Codec,
+    gcs_codec: Codec,
+    up: FaultyChannel,
+    down: FaultyChannel,
+    delivered: VecDeque<Vec<u8>>,
+}
+
+/// The in-process simulation. See the module documentation.
+#[derive(Debug)]
+pub struct Sim {
+    now: Time,
+    slots: Vec<Slot>,
+    world: Option<Arc<World>>,
+    dock_radius_m: f64,
+    images: VecDeque<(u8, CapturedImage)>,
+    events: VecDeque<(u8, VehicleEvent)>,
+    epoch_us: u64,
+}
+
+fn vehicle_codec(key: &Option<SigningKey>) -> Codec {
+    match key {
+        Some(k) => Codec::with_signing(Signing::new(k.clone(), 0)),
+        None => Codec::new(),
+    }
+}
+
+/// Decode a datagram for a vehicle: frames that fail signing are dropped by the codec;
+/// SETUP_SIGNING addressed to a disarmed ArduPilot vehicle installs (or, all zeros, removes)
+/// its key; armed, it is refused with ArduPilot's warning.
+/// PX4 v1.16 has no MAVLink signing (its mavlink module has no SETUP_SIGNING handler and
+/// never signs), so a simulated PX4 ignores it.
+fn receive(s: &mut Slot, bytes: &[u8], t: Time, unix_us: u64) {
+    let signs = s.v.config().flavour.is_ardupilot();
+    for f in s.codec.decode(bytes, unix_us) {
+        let Ok(m) = f.message else { continue };
+        if let MavMessage::SETUP_SIGNING(ss) = &m
+            && signs
+        {
+            if ss.target_system == s.v.sysid() && s.v.armed() {
+                // ArduPilot will not change its key while armed (GCS_Signing.cpp).
+                s.v.refuse_signing_setup();
+            } else if ss.target_system == s.v.sysid() {
+                let key = if ss.secret_key.iter().all(|b| *b == 0) {
+                    None
+                } else {
+                    Some(SigningKey(ss.secret_key))
+                };
+                s.codec
+                    .set_signing(key.as_ref().map(|k| Signing::new(k.clone(), 0)));
+                s.key = key;
+            }
+            continue;
+        }
+        s.v.handle_message(&f.header, &m, t);
+    }
+}
+
+impl Sim {
+    /// Power up every vehicle at `start`.
+    pub fn new(cfg: SimConfig, start: Time) -> Result<Sim, SimError> {
+        let mut seen = std::collections::HashSet::new();
+        let mut slots = Vec::new();
+        for (i, vc) in cfg.vehicles.into_iter().enumerate() {
+            if !seen.insert(vc.sysid) {
+                return Err(SimError::DuplicateSysid(vc.sysid));
+            }
+            let up_f = cfg.uplink.get(i).cloned().unwrap_or_default();
+            let down_f = cfg.downlink.get(i).cloned().unwrap_or_default();
+            up_f.validate()?;
+            down_f.validate()?;
+            let seed = cfg.seed ^ (u64::from(vc.sysid) << 32);
+            // PX4 v1.16 does not sign (see `receive`).
+            let signing_key = cfg
+                .signing_key
+                .clone()
+                .filter(|_| vc.flavour.is_ardupilot());
+            slots.push(Slot {
+                v: SimVehicle::new(vc, cfg.world.clone(), start),
+                key: signing_key.clone(),
+                codec: vehicle_codec(&signing_key),
+                gcs_codec: Codec::new(),
+                up: FaultyChannel::new(up_f, seed ^ 0x0055),
+                down: FaultyChannel::new(down_f, seed ^ 0x00AA),
+                delivered: VecDeque::new(),
+            });
+        }
+        let mut sim = Sim {
+            now: start,
+            slots,
+            world: cfg.world,
+            dock_radius_m: cfg.dock_radius_m,
+            images: VecDeque::new(),
+            events: VecDeque::new(),
+            epoch_us: cfg.unix_epoch_us,
+        };
+        sim.collect_outputs(start);
+        Ok(sim)
+    }
+
+    /// The simulation time.
+    pub fn now(&self) -> Time {
+        self.now
+    }
+
+    /// The world.
+    pub fn world(&self) -> Option<&World> {
+        self.world.as_deref()
+    }
+
+    /// System ids in order.
+    pub fn sysids(&self) -> Vec<u8> {
+        self.slots.iter().map(|s| s.v.sysid()).collect()
+    }
+
+    fn slot(&self, sysid: u8) -> Option<&Slot> {
+        self.slots.iter().find(|s| s.v.sysid() == sysid)
+    }
+
+    fn slot_mut(&mut self, sysid: u8) -> Option<&mut Slot> {
+        self.slots.iter_mut().find(|s| s.v.sysid() == sysid)
+    }
+
+    /// A vehicle, by system id.
+    pub fn vehicle(&self, sysid: u8) -> Option<&SimVehicle> {
+        self.slot(sysid).map(|s| &s.v)
+    }
+
+    /// A vehicle, mutable.
+    pub fn vehicle_mut(&mut self, sysid: u8) -> Option<&mut SimVehicle> {
+        self.slot_mut(sysid).map(|s| &mut s.v)
+    }
+
+    /// Bytes (one datagram: whole frames) sent by the GCS to vehicle `sysid`'s endpoint now.
+    pub fn send_bytes(&mut self, sysid: u8, bytes: &[u8]) {
+        let now = self.now;
+        if let Some(s) = self.slot_mut(sysid) {
+            s.up.push(bytes.to_vec(), now);
+        }
+    }
+
+    /// Encode and send one message from the GCS (`header` is the GCS's) to vehicle `sysid`.
+    pub fn send(&mut self, sysid: u8, header: &MavHeader, msg: &MavMessage) {
+        let frame =
+            fleetmap_io::link::codec::encode_frame(header, msg, MavlinkVersion::V2, None, 0);
+        self.send_bytes(sysid, &frame);
+    }
+
+    /// The next datagram vehicle `sysid` delivered to the GCS by now.
+    pub fn recv_bytes(&mut self, sysid: u8) -> Option<Vec<u8>> {
+        self.slot_mut(sysid).and_then(|s| s.delivered.pop_front())
+    }
+
+    /// The next message vehicle `sysid` delivered to the GCS by now (decoded; frames with a
+    /// bad CRC are dropped as a GCS would).
+    pub fn recv(&mut self, sysid: u8) -> Option<(MavHeader, MavMessage)> {
+        let s = self.slot_mut(sysid)?;
+        loop {
+            if let Some(f) = s.gcs_codec.poll_frame(0) {
+                if let Ok(m) = f.message {
+                    return Some((f.header, m));
+                }
+                continue;
+            }
+            let d = s.delivered.pop_front()?;
+            s.gcs_codec.push(&d);
+        }
+    }
+
+    /// The next captured image (vehicle sysid, image).
+    pub fn poll_image(&mut self) -> Option<(u8, CapturedImage)> {
+        self.images.pop_front()
+    }
+
+    /// The next vehicle event (vehicle sysid, event).
+    pub fn poll_event(&mut self) -> Option<(u8, VehicleEvent)> {
+        self.events.pop_front()
+    }
+
+    /// Set every vehicle's [`VehicleConfig::gcs_time_scale`]: simulated seconds per second
+    /// of the GCS's clock (the socket server sets it to its speed-up over a GCS's).
+    pub fn set_gcs_time_scale(&mut self, scale: f64) {
+        for s in &mut self.slots {
+            s.v.set_gcs_time_scale(scale);
+        }
+    }
+
+    /// The operator swaps vehicle `sysid`'s battery (see [`SimVehicle::swap_battery`]).
+    pub fn swap_battery(&mut self, sysid: u8) -> bool {
+        let now = self.now;
+        let ok = self.slot_mut(sysid).is_some_and(|s| s.v.swap_battery(now));
+        self.collect_outputs(now);
+        ok
+    }
+
+    /// When something next happens: the next 20 Hz tick.
+    pub fn poll_timeout(&self) -> Time {
+        self.now + Duration::from_secs_f64(DT)
+    }
+
+    /// Run the simulation up to `t` in 20 Hz steps, then deliver (both ways) what is due by
+    /// `t` — also when `t` is the current time: frames sent at `now` over a link without
+    /// latency are due at `now`, and a vehicle answers a message as soon as it gets it (a
+    /// mission request, a command ACK), not at its next tick. The socket server calls this
+    /// right after passing on what it received, often within the same microsecond of its
+    /// clock; before, such frames waited for the next tick (25 ms on average), which made
+    /// a 200-item upload over loopback take 4.5 s.
+    pub fn advance_to(&mut self, t: Time) {
+        let dt = Duration::from_secs_f64(DT);
+        while self.now + dt <= t {
+            let next = self.now + dt;
+            self.tick(next);
+        }
+        if t >= self.now {
+            // deliver what arrived between the last tick and t
+            self.now = t;
+            self.deliver(t);
+        }
+    }
+
+    /// Run for `d`.
+    pub fn advance(&mut self, d: Duration) {
+        let t = self.now + d;
+        self.advance_to(t);
+    }
+
+    fn unix_us(&self, t: Time) -> u64 {
+        self.epoch_us + t.as_micros()
+    }
+
+    fn deliver(&mut self, t: Time) {
+        let unix = self.unix_us(t);
+        for s in &mut self.slots {
+            while let Some(bytes) = s.up.poll(t) {
+                receive(s, &bytes, t, unix);
+            }
+            while let Some(d) = s.down.poll(t) {
+                s.delivered.push_back(d);
+            }
+        }
+        self.collect_outputs(t);
+        for s in &mut self.slots {
+            while let Some(d) = s.down.poll(t) {
+                s.delivered.push_back(d);
+            }
+        }
+    }
+
+    fn tick(&mut self, t: Time) {
+        self.now = t;
+        // uplink deliveries first: commands act at this tick
+        let unix = self.unix_us(t);
+        for s in &mut self.slots {
+            while let Some(bytes) = s.up.poll(t) {
+                receive(s, &bytes, t, unix);
+            }
+        }
+        // step: rovers first, so copters standing on them ride along
+        let before: Vec<(f64, f64, f64)> = self.slots.iter().map(|s| s.v.true_local()).collect();
+        let order: Vec<usize> = (0..self.slots.len())
+            .filter(|&i| self.slots[i].v.config().flavour.kind == VehicleKind::Rover)
+            .chain(
+                (0..self.slots.len())
+                    .filter(|&i| self.slots[i].v.config().flavour.kind != VehicleKind::Rover),
+            )
+            .collect();
+        for &i in &order {
+            self.slots[i].v.step(t);
+        }
+        self.dock(&before);
+        self.collect_outputs(t);
+        for s in &mut self.slots {
+            while let Some(d) = s.down.poll(t) {
+                s.delivered.push_back(d);
+            }
+        }
+    }
+
+    fn dock(&mut self, before: &[(f64, f64, f64)]) {
+        // (rover position before this step, after it)
+        type Move = ((f64, f64), (f64, f64));
+        let rovers: Vec<Move> = self
+            .slots
+            .iter()
+            .enumerate()
+            .filter(|(_, s)| s.v.config().flavour.kind == VehicleKind::Rover)
+            .map(|(i, s)| {
+                let (e, n, _) = s.v.true_local();
+                ((before[i].0, before[i].1), (e, n))
+            })
+            .collect();
+        if rovers.is_empty() {
+            return;
+        }
+        for (slot, b) in self.slots.iter_mut().zip(before) {
+            let v = &mut slot.v;
+            if v.config().flavour.kind != VehicleKind::Copter || !v.landed() || !v.powered() {
+                continue;
+            }
+            // carried by the rover it stood on before this step
+            let on = rovers
+                .iter()
+                .find(|(rb, _)| (rb.0 - b.0).hypot(rb.1 - b.1) <= self.dock_radius_m);
+            if let Some((rb, ra)) = on {
+                let (de, dn) = (ra.0 - rb.0, ra.1 - rb.1);
+                if de != 0.0 || dn != 0.0 {
+                    v.carry(de, dn);
+                }
+                v.charge(DT);
+            }
+        }
+    }
+
+    fn collect_outputs(&mut self, t: Time) {
+        let unix = self.unix_us(t);
+        for s in &mut self.slots {
+            while let Some(img) = s.v.poll_image() {
+                self.images.push_back((s.v.sysid(), img));
+            }
+            while let Some(ev) = s.v.poll_event() {
+                if matches!(ev, VehicleEvent::Booted { boot } if boot > 1) {
+                    // a power cycle: the link restarts with the vehicle (the signing key
+                    // is kept in persistent storage, as ArduPilot keeps it)
+                    s.codec = vehicle_codec(&s.key);
+                }
+                self.events.push_back((s.v.sysid(), ev));
+            }
+            while let Some((h, m)) = s.v.poll_transmit() {
+                let frame = s.codec.encode_with_header(&h, &m, MavlinkVersion::V2, unix);
+                s.down.push(frame, t);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn spec_parsing() {
+        let v = parse_vehicle_spec("3xcopter:ardupilot, 1xrover:ardupilot,copter:px4").unwrap();
+        assert_eq!(v.len(), 3);
+        assert_eq!(v[0], (3, Flavour::ARDU_COPTER));
+        assert_eq!(v[2], (1, Flavour::PX4_COPTER));
+        assert!(parse_vehicle_spec("0xcopter:px4").is_err());
+        assert!(parse_vehicle_spec("2xplane:px4").is_err());
+        assert!(parse_vehicle_spec("").is_err());
+    }
+}

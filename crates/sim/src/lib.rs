@@ -1,0 +1,28 @@
+//! The embedded simulated autopilot: ArduPilot and PX4 copters and rovers stepped by virtual
+//! time, their camera, the ground-truth worlds they fly over and the faults of their links.
+//!
+//! Everything here except [`server`] is pure: no sockets, no files, no clock reads. Time is
+//! a [`fleetmap_core::time::Time`] parameter. The worlds it renders are the core's
+//! ([`fleetmap_core::world`]), the faults its links inject the I/O edge's
+//! ([`fleetmap_io::link::faults`]).
+
+#![forbid(unsafe_code)]
+#![warn(missing_docs)]
+
+pub mod flavour;
+pub mod mission_server;
+
+pub use flavour::{Flavour, Mode, SimAutopilot, VehicleKind};
+pub use mission_server::{MissionEvent, MissionServer};
+pub mod battery;
+pub mod camera;
+pub mod fence;
+pub mod harness;
+pub mod motion;
+pub mod pace;
+pub mod paired;
+pub mod render;
+pub mod server;
+pub mod transfer_bench;
+pub mod tx_queue;
+pub mod vehicle;
