@@ -57,7 +57,7 @@ impl Default for DemoConfig {
 }
 
 /// The plume mission (`missions/plume.toml`), flown over a world whose region moves.
-pub const PLUME_MISSION: &str = include_str!("../../missions/plume.toml");
+pub(crate) const PLUME_MISSION: &str = include_str!("../../missions/plume.toml");
 
 /// The runway mission with `cfg.drones` drones and the demo's separation.
 pub fn runway_mission(cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
@@ -138,7 +138,7 @@ fn mission_with(base: &str, file: &str, cfg: &DemoConfig) -> anyhow::Result<(Str
 /// that they do not shrink to a few tens of wall milliseconds, which a loaded laptop cannot
 /// keep; the GCS heartbeat keeps its 1 Hz in simulated time, which is what the autopilots
 /// check.
-pub fn demo_fleet_config(speedup: f64) -> FleetConfig {
+pub(crate) fn demo_fleet_config(speedup: f64) -> FleetConfig {
     let k = speedup.clamp(1.0, 4.0);
     let mut c = FleetConfig::default();
     c.command.timeout = c.command.timeout.mul_f64(k);
@@ -159,7 +159,7 @@ pub struct DemoFleet {
     pub world: World,
     /// When the simulator started, ms since the Unix epoch: its world's time 0 (where a
     /// moving region's polygon is as written), the demo run's region epoch.
-    pub started_unix_ms: u64,
+    pub(crate) started_unix_ms: u64,
 }
 
 /// The simulator with `spec` vehicles over `world` behind in-process links and a fleet on
@@ -211,7 +211,7 @@ pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result
 
 /// [`start`] at `speed` (`Speed::Max`: as fast as the machine can; the fleet's timeouts are
 /// then stretched as for 4×), `cfg.speedup` aside.
-pub async fn start_at(
+pub(crate) async fn start_at(
     spec: &str,
     world: World,
     cfg: &DemoConfig,

@@ -63,7 +63,7 @@ pub enum FlightError {
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Patience {
     /// 1 = real time; 2 = twice as long.
-    pub factor: f64,
+    pub(crate) factor: f64,
 }
 
 impl Default for Patience {
@@ -86,7 +86,7 @@ impl Patience {
 
 /// Horizontal distance from the vehicle to (`lat`, `lon`), metres (infinite when its
 /// position is unknown).
-pub fn distance_to(v: &VehicleSnapshot, lat: f64, lon: f64) -> f64 {
+pub(crate) fn distance_to(v: &VehicleSnapshot, lat: f64, lon: f64) -> f64 {
     v.position
         .map(|p| local::distance(p.lat, p.lon, lat, lon))
         .unwrap_or(f64::INFINITY)
@@ -100,7 +100,11 @@ pub fn airborne(v: &VehicleSnapshot) -> bool {
 /// Set the cruise speed (MAV_CMD_DO_CHANGE_SPEED, ground speed) — for GUIDED / Hold gotos
 /// and missions alike. ArduPilot applies it to the current mode (it resets on a mode
 /// change: send it after the mode is set); PX4 to the current navigation.
-pub async fn set_speed(fleet: &FleetHandle, sysid: u8, speed_m_s: f32) -> Result<(), FleetError> {
+pub(crate) async fn set_speed(
+    fleet: &FleetHandle,
+    sysid: u8,
+    speed_m_s: f32,
+) -> Result<(), FleetError> {
     let v = fleet
         .vehicle(sysid)
         .ok_or(FleetError::NoVehicle { sysid })?;
@@ -115,7 +119,7 @@ pub async fn set_speed(fleet: &FleetHandle, sysid: u8, speed_m_s: f32) -> Result
 /// Arm and take off to `alt` m above home unless the vehicle is already flying; returns
 /// when the take-off is done: no lower than the autopilots' altitude acceptance below it
 /// ([`takeoff_reached`], 0.8 m as PX4's NAV_MC_ALT_RAD), or above it.
-pub async fn ensure_airborne(
+pub(crate) async fn ensure_airborne(
     fleet: &FleetHandle,
     sysid: u8,
     alt: f32,
@@ -150,7 +154,7 @@ pub async fn ensure_airborne(
 /// within `tolerance_m` horizontally and 1 m vertically, moving slower than 0.3 m/s (there
 /// and steady, so the pictures are taken over the cell). Sends the go-to again when the
 /// vehicle drops it (a mode change by the pilot or the autopilot shows as no progress).
-pub async fn fly_to(
+pub(crate) async fn fly_to(
     fleet: &FleetHandle,
     sysid: u8,
     target: (f64, f64, f32),
@@ -212,12 +216,12 @@ pub async fn fly_to(
 }
 
 /// The grid heading nearest to `heading_deg`: a multiple of 90° in [0, 360).
-pub fn nearest_quarter(heading_deg: f64) -> f64 {
+pub(crate) fn nearest_quarter(heading_deg: f64) -> f64 {
     ((heading_deg / 90.0).round() * 90.0).rem_euclid(360.0)
 }
 
 /// The smallest angle between two headings, degrees (0..=180).
-pub fn heading_error(a_deg: f64, b_deg: f64) -> f64 {
+pub(crate) fn heading_error(a_deg: f64, b_deg: f64) -> f64 {
     let d = (a_deg - b_deg).rem_euclid(360.0);
     d.min(360.0 - d)
 }
@@ -228,7 +232,7 @@ pub fn heading_error(a_deg: f64, b_deg: f64) -> f64 {
 /// right regions as the four neighbouring cells, which holds only when the camera is
 /// aligned with the grid; a copter arriving on a diagonal faces its direction of travel.
 /// Vehicles that cannot be turned by command (rovers) are left as they are.
-pub async fn face_grid(
+pub(crate) async fn face_grid(
     fleet: &FleetHandle,
     sysid: u8,
     target: (f64, f64, f32),
@@ -282,7 +286,7 @@ pub async fn face_grid(
 /// Stop and hold where the vehicle is now, in its autopilot's hold mode
 /// ([`fleetmap_core::proto::flavour::Flavour::pause`]: ArduCopter BRAKE, HOLD otherwise). Nothing to
 /// do for a copter on the ground (ArduCopter disarms a landed copter in BRAKE).
-pub async fn hold_here(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
+pub(crate) async fn hold_here(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
     let v = fleet
         .vehicle(sysid)
         .ok_or(FleetError::NoVehicle { sysid })?;
@@ -293,7 +297,7 @@ pub async fn hold_here(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError>
 }
 
 /// Throw away the images already waiting in `rx`.
-pub fn drain_images(rx: &mut broadcast::Receiver<Arc<ReceivedImage>>) {
+pub(crate) fn drain_images(rx: &mut broadcast::Receiver<Arc<ReceivedImage>>) {
     loop {
         match rx.try_recv() {
             Ok(_) | Err(broadcast::error::TryRecvError::Lagged(_)) => {}
@@ -309,14 +313,14 @@ pub struct Captured {
     pub image: Arc<ReceivedImage>,
     /// The vehicle's telemetry right after the camera accepted the command (the shutter):
     /// where the picture was taken when the camera does not say.
-    pub at_trigger: Option<VehicleSnapshot>,
+    pub(crate) at_trigger: Option<VehicleSnapshot>,
 }
 
 /// Longest wait for one picture while its camera keeps sending image data, nominal seconds:
 /// on a slow payload link (a telemetry radio, PX4 SITL's 4 kB/s) a picture can be queued
 /// behind earlier ones; a hovering vehicle should not wait on a longer backlog (the caller
 /// takes the picture again, by then the queue has moved on).
-pub const CAPTURE_MAX_WAIT_S: f64 = 120.0;
+pub(crate) const CAPTURE_MAX_WAIT_S: f64 = 120.0;
 
 /// Take picture `seq` and wait for its image from `sysid`, at most 10 s (scaled by
 /// `patience`) after the command or after the last image data heard from the vehicle, and
@@ -404,7 +408,7 @@ pub async fn capture(
 
 /// Return to launch and wait until the vehicle has landed and disarmed (already down: at
 /// once).
-pub async fn return_and_land(
+pub(crate) async fn return_and_land(
     fleet: &FleetHandle,
     sysid: u8,
     distance_hint_m: f64,
@@ -429,7 +433,7 @@ pub async fn return_and_land(
 }
 
 /// Land where the vehicle is and wait until it has landed and disarmed.
-pub async fn land_here(
+pub(crate) async fn land_here(
     fleet: &FleetHandle,
     sysid: u8,
     patience: Patience,
@@ -452,7 +456,7 @@ pub async fn land_here(
 }
 
 /// Distance from the vehicle to its home, metres (0 when unknown).
-pub fn distance_home(v: &VehicleSnapshot) -> f64 {
+pub(crate) fn distance_home(v: &VehicleSnapshot) -> f64 {
     match (v.position, v.home) {
         (Some(p), Some(h)) => local::distance(p.lat, p.lon, h.lat, h.lon),
         _ => 0.0,
@@ -461,7 +465,7 @@ pub fn distance_home(v: &VehicleSnapshot) -> f64 {
 
 /// Send MAV_CMD_USER_1 to the vehicle: the simulator's "operator swapped the battery"
 /// request (a real autopilot refuses it as unsupported, which is reported as an error).
-pub async fn request_sim_swap(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
+pub(crate) async fn request_sim_swap(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
     let v = fleet
         .vehicle(sysid)
         .ok_or(FleetError::NoVehicle { sysid })?;

@@ -80,7 +80,7 @@ pub enum ImageFailure {
 /// intake wants read: the driving task reads it off the runtime's workers
 /// ([`tokio::task::spawn_blocking`]) and hands the bytes back ([`Intake::file_read`]).
 #[derive(Clone, Debug)]
-pub struct FileRead {
+pub(crate) struct FileRead {
     /// The `file://` URL.
     pub url: String,
     /// The capture: (system, time_boot_ms, image_index).
@@ -92,7 +92,7 @@ pub struct FileRead {
 }
 
 /// Largest image file read from a URL, bytes.
-pub const MAX_IMAGE_FILE: u64 = 64 << 20;
+pub(crate) const MAX_IMAGE_FILE: u64 = 64 << 20;
 
 /// Where and when the camera says a capture was taken (CAMERA_IMAGE_CAPTURED or the JPEG's
 /// metadata).
@@ -224,7 +224,7 @@ impl Intake {
 
     /// An intake whose image receivers use `config` (their timers run on the fleet's
     /// clock: a clock sped up for a simulator needs a longer `idle`).
-    pub fn with_config(gcs: (u8, u8), config: ReceiverConfig) -> Intake {
+    pub(crate) fn with_config(gcs: (u8, u8), config: ReceiverConfig) -> Intake {
         Intake {
             gcs,
             config,
@@ -358,12 +358,12 @@ impl Intake {
 
     /// The next file to read ([`FileRead`]): read it (at most [`MAX_IMAGE_FILE`] bytes,
     /// [`fleetmap_io::files::read_file_url`]) and hand the result to [`Intake::file_read`].
-    pub fn poll_file_read(&mut self) -> Option<FileRead> {
+    pub(crate) fn poll_file_read(&mut self) -> Option<FileRead> {
         self.reads.pop_front()
     }
 
     /// The outcome of reading `read`'s file: the image, or a failure.
-    pub fn file_read(&mut self, read: FileRead, bytes: Result<Vec<u8>, FileUrlError>) {
+    pub(crate) fn file_read(&mut self, read: FileRead, bytes: Result<Vec<u8>, FileUrlError>) {
         let FileRead {
             url,
             key,
@@ -510,7 +510,7 @@ pub fn spawn(fleet: &FleetHandle) -> ImageHub {
 }
 
 /// [`spawn`] with the image receivers' configuration.
-pub fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
+pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
     let (tx, _) = broadcast::channel(256);
     let (accept, mut accepted) = watch::channel(None);
     let hub = ImageHub {

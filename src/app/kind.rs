@@ -94,7 +94,7 @@ pub struct RunSettings {
     pub sharing: fleetmap_core::explore::Sharing,
     /// Spatial classification: keep the drones in step (the bandit paper's 7e) even when the
     /// mission separates them by altitude (`None`: as the mission implies).
-    pub lock_step: Option<bool>,
+    pub(crate) lock_step: Option<bool>,
     /// Spatial classification: HiGHS time limit per integer-program solve, seconds.
     pub plan_time_limit_s: Option<f64>,
     /// Runway mapping with a moving region: when the region was where the mission's world
@@ -222,7 +222,7 @@ pub async fn heard(fleet: &FleetHandle, sysid: u8, wait: Duration) -> anyhow::Re
 
 /// Write every export of a finished run into its `exports/` (file I/O: call it off the
 /// runtime's workers). Returns the files written.
-pub fn write_exports<K: RunKind>(
+pub(crate) fn write_exports<K: RunKind>(
     run_dir: &RunDir,
     state: &K::State,
     world: Option<&World>,
@@ -249,7 +249,7 @@ pub fn report_json<K: RunKind>(
 }
 
 /// Encode `img` as PNG bytes.
-pub fn png_bytes(img: &image::RgbImage) -> anyhow::Result<Vec<u8>> {
+pub(crate) fn png_bytes(img: &image::RgbImage) -> anyhow::Result<Vec<u8>> {
     let mut buf = std::io::Cursor::new(Vec::new());
     img.write_to(&mut buf, image::ImageFormat::Png)?;
     Ok(buf.into_inner())

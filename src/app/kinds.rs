@@ -9,7 +9,7 @@ use crate::app::kind::RunKind;
 use fleetmap_core::mission::definition::MissionDef;
 
 /// Work written once for every kind: [`KindVisitor::visit`] is called with the kind found.
-pub trait KindVisitor {
+pub(crate) trait KindVisitor {
     /// What the work returns.
     type Output;
     /// Do the work for kind `K`.
@@ -19,7 +19,7 @@ pub trait KindVisitor {
 /// A kind name (`run.json`'s or a mission file's) this build does not fly.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 #[error("a {name} run; this build knows {known}")]
-pub struct UnknownKind {
+pub(crate) struct UnknownKind {
     /// The name asked for.
     pub name: String,
     /// The kinds this build flies, listed for the message.
@@ -30,10 +30,10 @@ pub struct UnknownKind {
 macro_rules! registry {
     ($($kind:ty),+ $(,)?) => {
         /// The names ([`RunKind::KIND`]) of every kind this build flies.
-        pub const NAMES: &[&str] = &[$(<$kind as RunKind>::KIND),+];
+        pub(crate) const NAMES: &[&str] = &[$(<$kind as RunKind>::KIND),+];
 
         /// Call `v` with the kind named `name` (`run.json`'s `kind`, or a mission file's).
-        pub fn by_name<V: KindVisitor>(name: &str, v: V) -> Result<V::Output, UnknownKind> {
+        pub(crate) fn by_name<V: KindVisitor>(name: &str, v: V) -> Result<V::Output, UnknownKind> {
             $(
                 if name == <$kind as RunKind>::KIND {
                     return Ok(v.visit::<$kind>());
@@ -53,7 +53,7 @@ registry!(
 );
 
 /// Call `v` with the kind of the mission `def`.
-pub fn of_mission<V: KindVisitor>(def: &MissionDef, v: V) -> Result<V::Output, UnknownKind> {
+pub(crate) fn of_mission<V: KindVisitor>(def: &MissionDef, v: V) -> Result<V::Output, UnknownKind> {
     by_name(def.kind.as_str(), v)
 }
 

@@ -22,11 +22,11 @@ use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 /// The name of the world's copy in a run directory (`run.json` extra `world`).
-pub const WORLD_FILE: &str = "world.toml";
+pub(crate) const WORLD_FILE: &str = "world.toml";
 
 /// A new run: the mission and where its directory goes.
 #[derive(Clone, Debug)]
-pub struct NewRun {
+pub(crate) struct NewRun {
     /// The mission definition, parsed from `text`.
     pub def: MissionDef,
     /// The mission file as read (its copy is the run's `mission.toml`).
@@ -36,7 +36,7 @@ pub struct NewRun {
     /// The run directory (must not exist or be empty); `None`: [`default_run_dir`].
     pub run_dir: Option<PathBuf>,
     /// The simulated world the vehicles fly over, as TOML (ground truth for the report).
-    pub world_toml: Option<String>,
+    pub(crate) world_toml: Option<String>,
     /// More of the run's settings for `run.json`'s `extra` (an object; anything else is
     /// ignored), e.g. a demo's simulated sensor.
     pub extra: serde_json::Value,
@@ -44,7 +44,7 @@ pub struct NewRun {
 
 impl NewRun {
     /// A new run of the mission file `path` (read by [`fleetmap_io::files::read_mission`]).
-    pub fn from_file(path: &Path) -> anyhow::Result<NewRun> {
+    pub(crate) fn from_file(path: &Path) -> anyhow::Result<NewRun> {
         let (text, def) =
             fleetmap_io::files::read_mission(path).map_err(|e| anyhow::anyhow!("{e}"))?;
         Ok(NewRun {
@@ -59,7 +59,7 @@ impl NewRun {
 
     /// Fly over the world in the file `path` (read and checked by
     /// [`fleetmap_io::files::read_world`]; copied into the run directory).
-    pub fn with_world_file(mut self, path: &Path) -> anyhow::Result<NewRun> {
+    pub(crate) fn with_world_file(mut self, path: &Path) -> anyhow::Result<NewRun> {
         let (text, _) = fleetmap_io::files::read_world(path)?;
         self.world_toml = Some(text);
         Ok(self)
@@ -67,7 +67,7 @@ impl NewRun {
 
     /// The run directory and its `run.json` for a run of kind `kind` created at
     /// `created_unix_ms`, connected through `connections`.
-    pub fn plan(
+    pub(crate) fn plan(
         &self,
         kind: &str,
         connections: &[String],
@@ -95,7 +95,7 @@ impl NewRun {
 }
 
 /// What to fly.
-pub enum Start {
+pub(crate) enum Start {
     /// A new run (its vehicles must be heard on the fleet).
     New(Box<NewRun>),
     /// A saved run to continue.
@@ -103,7 +103,7 @@ pub enum Start {
 }
 
 /// A run ready to fly: its directory and state, and what to tell the operator about it.
-pub struct Ready<K: RunKind> {
+pub(crate) struct Ready<K: RunKind> {
     /// The run directory.
     pub run_dir: RunDir,
     /// The state to fly from.
@@ -118,7 +118,7 @@ pub struct Ready<K: RunKind> {
 /// Make `start` ready to fly on `fleet`: for a new run, wait up to `wait` for its vehicles,
 /// make its state and create its directory (with the world beside it); for a saved run,
 /// load its state and [`RunKind::prepare_resume`] it.
-pub async fn prepare<K: RunKind>(
+pub(crate) async fn prepare<K: RunKind>(
     fleet: &FleetHandle,
     connections: &[String],
     start: Start,
@@ -174,7 +174,7 @@ pub async fn prepare<K: RunKind>(
 }
 
 /// How to fly a ready run.
-pub enum Face {
+pub(crate) enum Face {
     /// Without the terminal UI; progress events go to the sender.
     Headless(Option<tokio::sync::mpsc::UnboundedSender<Progress>>),
     /// In the terminal UI session until the operator quits.
@@ -187,7 +187,7 @@ pub enum Face {
 }
 
 /// How a flight ended.
-pub enum Flown<K: RunKind> {
+pub(crate) enum Flown<K: RunKind> {
     /// Headless: the run's outcome and final state.
     Headless {
         /// How it ended.
@@ -205,7 +205,7 @@ pub enum Flown<K: RunKind> {
 impl<K: RunKind> Ready<K> {
     /// Fly the run on `fleet` as `face` says. In the UI, the exports are written when the
     /// run finishes; headless, the caller writes them ([`finish_exports`]).
-    pub async fn fly(self, fleet: &FleetHandle, face: Face) -> anyhow::Result<Flown<K>> {
+    pub(crate) async fn fly(self, fleet: &FleetHandle, face: Face) -> anyhow::Result<Flown<K>> {
         match face {
             Face::Headless(progress) => {
                 let (outcome, state) =
@@ -238,7 +238,7 @@ impl<K: RunKind> Ready<K> {
 
 /// Write the exports of the run at `path` (its world from `run.json`) off the runtime's
 /// workers; returns the files written and the report.
-pub async fn finish_exports<K: RunKind>(
+pub(crate) async fn finish_exports<K: RunKind>(
     path: &Path,
     state: &K::State,
 ) -> anyhow::Result<(Vec<PathBuf>, K::Report)> {
@@ -253,7 +253,7 @@ pub async fn finish_exports<K: RunKind>(
 }
 
 /// The exports for the TUI session to write when the run finishes, scored against `world`.
-pub fn exports_on_finish<K: RunKind>(world: Option<World>) -> OnFinish<K::State> {
+pub(crate) fn exports_on_finish<K: RunKind>(world: Option<World>) -> OnFinish<K::State> {
     Box::new(move |rd, st| {
         if let Err(e) = write_exports::<K>(rd, st, world.as_ref()) {
             tracing::warn!("exports: {e:#}");
@@ -262,7 +262,7 @@ pub fn exports_on_finish<K: RunKind>(world: Option<World>) -> OnFinish<K::State>
 }
 
 /// The world a run was started with (`run.json` extra `world`), or `override_`.
-pub fn run_world(run: &RunDir, override_: Option<&Path>) -> anyhow::Result<Option<World>> {
+pub(crate) fn run_world(run: &RunDir, override_: Option<&Path>) -> anyhow::Result<Option<World>> {
     let path = match override_ {
         Some(p) => Some(p.to_path_buf()),
         None => run
@@ -290,7 +290,7 @@ pub fn run_world(run: &RunDir, override_: Option<&Path>) -> anyhow::Result<Optio
 }
 
 /// `runs/NAME-YYYYMMDD-HHMMSS` (UTC at `unix_ms`), with the mission name made safe for a path.
-pub fn default_run_dir(name: &str, unix_ms: u64) -> PathBuf {
+pub(crate) fn default_run_dir(name: &str, unix_ms: u64) -> PathBuf {
     let secs = unix_ms / 1000;
     // civil date from days since the epoch (Howard Hinnant's algorithm)
     let days = (secs / 86_400) as i64;

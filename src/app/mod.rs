@@ -21,10 +21,10 @@ pub mod flight;
 pub mod images;
 pub mod kind;
 pub mod kinds;
-pub mod launch;
+pub(crate) mod launch;
 pub mod run;
 pub mod runway;
-pub mod session;
+pub(crate) mod session;
 
 use crate::fleet::FleetHandle;
 use anyhow::Context as _;
@@ -36,7 +36,7 @@ use std::time::Duration;
 
 /// Wait until every drone and station of `def` has been heard (and, for the drone that
 /// anchors an `origin = "vehicle"` grid, has a home position).
-pub async fn wait_for_team(
+pub(crate) async fn wait_for_team(
     fleet: &FleetHandle,
     def: &MissionDef,
     wait: Duration,
@@ -52,7 +52,7 @@ pub async fn wait_for_team(
 
 /// The mission grid: the file's origin, or the first vehicle's home (waits for its
 /// HOME_POSITION up to `wait`).
-pub async fn mission_grid(
+pub(crate) async fn mission_grid(
     fleet: &FleetHandle,
     def: &MissionDef,
     wait: Duration,

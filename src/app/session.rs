@@ -37,17 +37,17 @@ use std::time::Duration;
 use tokio::sync::{mpsc, watch};
 
 /// What to do with a finished run's final state `S` (write its exports).
-pub type OnFinish<S> = Box<dyn FnOnce(&RunDir, &S) + Send>;
+pub(crate) type OnFinish<S> = Box<dyn FnOnce(&RunDir, &S) + Send>;
 
 /// A run the session drives, of any kind (the session is written once, for every
 /// [`RunKind`]).
-pub struct SessionRun(Box<dyn Attach>);
+pub(crate) struct SessionRun(Box<dyn Attach>);
 
 impl SessionRun {
     /// The run in `run_dir` of kind `K` from `state`, flown with `options`; it starts at
     /// once with `auto_start`, otherwise on the operator's START; `on_finish` is called
     /// with the final state when it finishes (exports, reports).
-    pub fn new<K: RunKind>(
+    pub(crate) fn new<K: RunKind>(
         run_dir: RunDir,
         state: K::State,
         options: K::Options,
@@ -202,18 +202,18 @@ impl<K: RunKind> Attach for KindRun<K> {
 }
 
 /// Settings of the UI.
-pub struct SessionConfig {
+pub(crate) struct SessionConfig {
     /// The title bar's source ("LIVE udpin:…", "DEMO (simulated)").
     pub source: crate::tui::Source,
     /// Keys and thresholds.
     pub ui: UiConfig,
     /// Where the log file is (shown in the help).
-    pub log_file: Option<String>,
+    pub(crate) log_file: Option<String>,
 }
 
 /// How the session ended.
 #[derive(Clone, Debug, PartialEq, Eq)]
-pub enum SessionEnd {
+pub(crate) enum SessionEnd {
     /// The operator quit; the run (if any) had not finished (its state is saved).
     Quit {
         /// Whether a run had finished.
@@ -283,7 +283,7 @@ fn ui_snapshot_period(fleet: &FleetHandle) -> Duration {
 }
 
 /// Run the UI on `fleet` until the operator quits.
-pub async fn run(
+pub(crate) async fn run(
     fleet: FleetHandle,
     mission: Option<SessionRun>,
     cfg: SessionConfig,

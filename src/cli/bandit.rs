@@ -184,7 +184,7 @@ pub struct ExperimentBanditArgs {
     pub max_epochs: usize,
     /// Trials run in parallel (default: the number of CPU cores). HiGHS uses one thread each.
     #[arg(long)]
-    pub jobs: Option<usize>,
+    pub(crate) jobs: Option<usize>,
     /// δ, the labelling error probability (the paper's Fig. 2 value by default).
     #[arg(long, default_value_t = 1e-4)]
     pub delta: f64,
@@ -315,7 +315,7 @@ fn command_line() -> String {
 
 /// Run `fleetmap experiment bandit`: the whole study (outputs in --out, the table on stdout),
 /// or one part of it (`--shard`: a shard file in --out).
-pub fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitCode> {
     let study = study_of(&args)?;
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     let out_dir = args
@@ -404,7 +404,7 @@ fn shard_files(p: &Path) -> anyhow::Result<Vec<PathBuf>> {
 
 /// Run `fleetmap experiment merge`: join the parts of a study and write what the undivided
 /// run would have written.
-pub fn run_merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run_merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
     let mut parts = Vec::new();
     for p in &args.parts {
         for f in shard_files(p)? {
@@ -507,7 +507,7 @@ struct BenchPlanOutput {
 /// (Nd = 10, Nc = 5, Td = 8, Tc = 4, D = 8, 16 obstacles; μ drawn as in §VI with
 /// μ_worst = 0.8; the team carried over between epochs), solved one after the other, the
 /// solve time of each epoch recorded. Trials restart with new μ until `--epochs` are timed.
-pub fn run_bench(args: BenchPlanArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run_bench(args: BenchPlanArgs) -> anyhow::Result<ExitCode> {
     if args.epochs == 0 {
         anyhow::bail!("--epochs must be at least 1");
     }

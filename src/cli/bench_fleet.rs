@@ -35,7 +35,7 @@ pub struct BenchFleetArgs {
     /// Give up when the vehicles do not all report battery, GPS fix and position within
     /// this many seconds of the simulator's start.
     #[arg(long, default_value_t = 60.0)]
-    pub ready_timeout: f64,
+    pub(crate) ready_timeout: f64,
     /// Print one JSON object instead of text.
     #[arg(long)]
     pub json: bool,
@@ -250,7 +250,7 @@ async fn measure(args: &BenchFleetArgs, exe: &Path) -> anyhow::Result<Figures> {
 }
 
 /// Run `fleetmap bench fleet` and print the figures.
-pub fn run(args: BenchFleetArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: BenchFleetArgs) -> anyhow::Result<ExitCode> {
     if args.vehicles == 0 || args.vehicles > 250 {
         bail!("--vehicles must be between 1 and 250");
     }

@@ -61,7 +61,7 @@ fn secs(v: Option<f64>) -> String {
 }
 
 /// Run `fleetmap bench transfer` and print the figures.
-pub fn run(args: BenchTransferArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run(args: BenchTransferArgs) -> anyhow::Result<ExitCode> {
     if args.items == 0 || args.items > usize::from(u16::MAX) - 1 {
         bail!("--items must be between 1 and 65534");
     }

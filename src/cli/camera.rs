@@ -76,20 +76,20 @@ pub struct CameraArgs {
     pub mission: Option<PathBuf>,
     /// Also push every picture by image transmission when measuring on board.
     #[arg(long)]
-    pub push_pictures: bool,
+    pub(crate) push_pictures: bool,
     /// Never push pictures by image transmission (only --image-dir files, or on request).
     #[arg(long)]
-    pub no_image_transfer: bool,
+    pub(crate) no_image_transfer: bool,
     /// Write the pictures here (and announce their file:// URLs).
     #[arg(long)]
     pub image_dir: Option<PathBuf>,
     /// Bytes per second of MAVLink 2 frames the image transmission may use (0: no pacing).
     /// The pictures go through the autopilot, which drops what its ports cannot take.
     #[arg(long, value_name = "BYTES_PER_S", default_value_t = 20_000)]
-    pub image_rate: u32,
+    pub(crate) image_rate: u32,
     /// With `--source folder`: how long a shot waits for a new picture, milliseconds.
     #[arg(long, value_name = "MS", default_value_t = 1000)]
-    pub wait_ms: u64,
+    pub(crate) wait_ms: u64,
     /// Stop after this many seconds.
     #[arg(long)]
     pub duration: Option<f64>,
@@ -121,7 +121,7 @@ pub struct SensorArgs {
 impl SensorArgs {
     /// The flip probability, checked: at least 0 and below 0.5 (at 0.5 an image says nothing
     /// about its cell; above, the sensor would be a better one with its classes swapped).
-    pub fn probability(&self) -> anyhow::Result<f64> {
+    pub(crate) fn probability(&self) -> anyhow::Result<f64> {
         let p = self.flip;
         if !(p.is_finite() && (0.0..0.5).contains(&p)) {
             bail!("--sensor-flip must be a probability at least 0 and below 0.5 (got {p})");

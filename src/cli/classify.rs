@@ -49,13 +49,13 @@ pub struct ClassifyArgs {
     pub threshold: f64,
     /// Grey level threshold: pixels strictly above it are white (paper: 150).
     #[arg(long, default_value_t = 150, value_name = "LEVEL")]
-    pub intensity: u8,
+    pub(crate) intensity: u8,
     /// Number of 3×3 dilations (paper: 7).
     #[arg(long, default_value_t = 7, value_name = "N")]
     pub dilations: u32,
     /// Largest accepted image, width × height in pixels (checked from the header).
     #[arg(long, default_value_t = LoadLimits::default().max_pixels, value_name = "PIXELS")]
-    pub max_pixels: u64,
+    pub(crate) max_pixels: u64,
     /// Largest accepted file, bytes.
     #[arg(long, default_value_t = LoadLimits::default().max_file_bytes, value_name = "BYTES")]
     pub max_file_bytes: u64,
@@ -64,17 +64,17 @@ pub struct ClassifyArgs {
     pub green: bool,
     /// Lower HSV bound of "green", `H,S,V` (OpenCV 8-bit: H 0..180).
     #[arg(long, value_parser = parse_hsv, default_value = "35,60,40", value_name = "H,S,V")]
-    pub green_lower: [u8; 3],
+    pub(crate) green_lower: [u8; 3],
     /// Upper HSV bound of "green", `H,S,V`, inclusive.
     #[arg(long, value_parser = parse_hsv, default_value = "85,255,255", value_name = "H,S,V")]
-    pub green_upper: [u8; 3],
+    pub(crate) green_upper: [u8; 3],
     /// An image is a positive green measurement when its green share is at least this.
     #[arg(long, default_value_t = 0.25, value_name = "F")]
-    pub green_threshold: f64,
+    pub(crate) green_threshold: f64,
     /// Write the intermediate images (grey, binary, dilated, green mask) of each input as
     /// PNG into this directory, named `<index>-<file stem>.<step>.png`.
     #[arg(long, value_name = "DIR")]
-    pub debug_dir: Option<PathBuf>,
+    pub(crate) debug_dir: Option<PathBuf>,
 }
 
 fn parse_hsv(s: &str) -> Result<[u8; 3], String> {
@@ -304,11 +304,11 @@ pub struct BenchClassifyArgs {
     /// Code path: `best` (AVX2, then SSSE3/SSE4, chosen at run time), `x86-v2` (at most
     /// SSSE3/SSE4) or `portable` (baseline instruction set).
     #[arg(long, value_enum, default_value_t = PathArg::Best)]
-    pub code_path: PathArg,
+    pub(crate) code_path: PathArg,
     /// Write the synthetic images as PNG into this directory (`bench-000.png` …), e.g. to
     /// time OpenCV on the same pixels (`scripts/bench-vs-opencv.py`).
     #[arg(long, value_name = "DIR")]
-    pub write_images: Option<PathBuf>,
+    pub(crate) write_images: Option<PathBuf>,
     /// Time these image files instead of synthetic images.
     #[arg(value_name = "IMAGE")]
     pub files: Vec<PathBuf>,
@@ -319,7 +319,7 @@ pub struct BenchClassifyArgs {
 
 /// `--code-path` of `fleetmap bench classify`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
-pub enum PathArg {
+pub(crate) enum PathArg {
     /// The best the CPU offers.
     Best,
     /// At most the x86-64-v2 kernel.

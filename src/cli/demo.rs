@@ -201,7 +201,7 @@ impl Demo {
         let path = ready.run_dir.path().to_path_buf();
         if self.tui {
             let face = Face::Ui {
-                config: crate::cli::run::ui_session(crate::tui::Source::new(
+                config: crate::cli::run::flow::ui_session(crate::tui::Source::new(
                     crate::tui::SourceKind::Demo,
                     self.label,
                 )),
@@ -224,7 +224,7 @@ impl Demo {
             return Ok(ExitCode::SUCCESS);
         }
         println!("demo: run directory {}", path.display());
-        let (tx, printer) = crate::cli::run::print_progress();
+        let (tx, printer) = crate::cli::run::flow::print_progress();
         let result = ready.fly(&fleet, Face::Headless(Some(tx))).await;
         let _ = tokio::time::timeout(Duration::from_secs(1), printer).await;
         fleet.shutdown().await;
@@ -272,7 +272,7 @@ fn summary(r: &MappingReport) -> Vec<String> {
             "  flight: {:.0} s airborne in all, {:.0} m, {} battery swap(s)",
             r.flight_time_s, r.distance_m, r.battery_swaps
         ),
-        crate::app::runway::mission_time_line(&r.mission_time),
+        crate::app::runway::kind::mission_time_line(&r.mission_time),
     ];
     if let Some([n, e]) = r.roi_velocity_ne_mps {
         lines.push(format!(
@@ -301,7 +301,7 @@ fn summary(r: &MappingReport) -> Vec<String> {
 /// there is a terminal, otherwise (or with `--headless`) progress lines, then the report with
 /// the keep set (scored against the world's green tiles). Headless, the exit status is 0
 /// when every cell is classified and the keep set is the green tiles.
-pub fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
     use crate::app::bandit::{self, Classification, report::ClassificationReport};
     use crate::app::bandit_sim::{self, SimSetup};
     if !(args.speedup.is_finite() && args.speedup > 0.0 && args.speedup <= 50.0) {

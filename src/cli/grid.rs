@@ -87,7 +87,7 @@ pub enum ExportFormat {
 
 /// The JSON object printed by `to-gps` and `from-gps`.
 #[derive(Debug, Serialize)]
-pub struct CellReport {
+pub(crate) struct CellReport {
     /// Row index.
     pub row: i32,
     /// Column index.
@@ -161,7 +161,7 @@ fn parse_zone(s: &str, origin: LatLon) -> anyhow::Result<(u8, Hemisphere)> {
 }
 
 /// Build the grid from `--origin`, `--cell-size` and `--zone`.
-pub fn grid_from_args(args: &GridArgs) -> anyhow::Result<Grid> {
+pub(crate) fn grid_from_args(args: &GridArgs) -> anyhow::Result<Grid> {
     let origin: LatLon = required(&args.origin, "--origin LAT,LON")?
         .parse()
         .context("bad --origin")?;
@@ -177,7 +177,7 @@ pub fn grid_from_args(args: &GridArgs) -> anyhow::Result<Grid> {
 }
 
 /// The report for cell `c` of `grid` (its centre), or an error if the centre is outside UTM.
-pub fn cell_report(grid: &Grid, c: Cell) -> anyhow::Result<CellReport> {
+pub(crate) fn cell_report(grid: &Grid, c: Cell) -> anyhow::Result<CellReport> {
     let p = grid
         .checked_cell_center(c)
         .with_context(|| format!("cell {c} has no GPS position"))?;

@@ -121,7 +121,7 @@ pub enum MissionCommand {
 }
 
 /// Items of list `kind` from a file, with the file's home if it has one.
-pub fn read_list(
+pub(crate) fn read_list(
     path: &Path,
     kind: MissionType,
 ) -> anyhow::Result<(Vec<MissionItem>, Option<MissionItem>)> {
@@ -152,7 +152,7 @@ pub fn read_list(
 }
 
 /// Write list `kind` to a file (format by extension).
-pub fn write_list(
+pub(crate) fn write_list(
     path: &Path,
     kind: MissionType,
     items: &[MissionItem],

@@ -9,9 +9,9 @@
 pub mod bandit;
 pub mod bench;
 #[cfg(feature = "sim")]
-pub mod bench_fleet;
+pub(crate) mod bench_fleet;
 #[cfg(feature = "sim")]
-pub mod bench_transfer;
+pub(crate) mod bench_transfer;
 #[cfg(feature = "sim")]
 pub mod camera;
 pub mod check;
@@ -42,10 +42,10 @@ use std::process::ExitCode;
 pub struct Cli {
     /// More log output on stderr (-v info, -vv debug, -vvv trace). `RUST_LOG` overrides.
     #[arg(short, long, action = clap::ArgAction::Count, global = true)]
-    pub verbose: u8,
+    pub(crate) verbose: u8,
     /// Write logs to this file instead of stderr.
     #[arg(long, global = true, value_name = "FILE")]
-    pub log_file: Option<PathBuf>,
+    pub(crate) log_file: Option<PathBuf>,
     /// What to do.
     #[command(subcommand)]
     pub command: Command,
@@ -105,7 +105,7 @@ pub enum Command {
 }
 
 /// Set up `tracing` as the command line asks: stderr by default, a file with `--log-file`.
-pub fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::Result<()> {
+pub(crate) fn init_logging(verbose: u8, log_file: Option<&std::path::Path>) -> anyhow::Result<()> {
     use tracing_subscriber::EnvFilter;
     let default = match verbose {
         // HiGHS logs every time-limited solve as a warning; the planner reports those itself.

@@ -40,7 +40,7 @@ pub struct PlanArgs {
     pub time_limit: Option<f64>,
     /// Skip the linear-assignment re-pairing of §III-C.
     #[arg(long)]
-    pub no_repair: bool,
+    pub(crate) no_repair: bool,
 }
 
 /// Run `fleetmap plan`. Exit status 0 for "optimal", "infeasible" and "time_limit" (the answer

@@ -22,7 +22,7 @@ pub struct FaultArgs {
     pub dup: f64,
     /// Probability of delaying a frame behind later ones.
     #[arg(long, default_value_t = 0.0)]
-    pub reorder: f64,
+    pub(crate) reorder: f64,
     /// One-way latency, milliseconds.
     #[arg(long, default_value_t = 0.0)]
     pub latency_ms: f64,
@@ -35,7 +35,7 @@ pub struct FaultArgs {
     /// Link blackouts as START+DURATION seconds (of simulated time for `sim`, since the
     /// start for `relay`), comma separated.
     #[arg(long, value_name = "S+D,…")]
-    pub blackout: Option<String>,
+    pub(crate) blackout: Option<String>,
 }
 
 impl FaultArgs {
@@ -81,7 +81,7 @@ pub struct RelayArgs {
     pub seed: u64,
     /// Print the counts every this many seconds (0: only at the end).
     #[arg(long, value_name = "SECONDS", default_value_t = 10.0)]
-    pub report_every: f64,
+    pub(crate) report_every: f64,
     /// Stop after this many seconds (default: until interrupted).
     #[arg(long, value_name = "SECONDS")]
     pub duration: Option<f64>,

@@ -40,7 +40,7 @@ pub struct SimArgs {
     /// Swap the battery this many seconds after a vehicle is landed and disarmed with a
     /// used battery (it then reboots). Without it the GCS asks with MAV_CMD_USER_1 (31010).
     #[arg(long, value_name = "SECONDS")]
-    pub swap_after: Option<f64>,
+    pub(crate) swap_after: Option<f64>,
     /// Minutes of hover on a full copter battery.
     #[arg(long, default_value_t = 12.0)]
     pub battery_minutes: f64,
@@ -57,7 +57,7 @@ pub struct SimArgs {
     pub sensor: crate::cli::camera::SensorArgs,
     /// Battery level (percent) that triggers the failsafe RTL (default: the autopilot's).
     #[arg(long, value_name = "PCT")]
-    pub low_battery: Option<f64>,
+    pub(crate) low_battery: Option<f64>,
     /// Wind as SPEED@FROM (m/s, degrees the wind blows from), e.g. 3.6@270.
     #[arg(long, value_name = "SPEED@FROM", allow_hyphen_values = true)]
     pub wind: Option<String>,
@@ -66,12 +66,12 @@ pub struct SimArgs {
     pub image_dir: Option<PathBuf>,
     /// Do not push images over MAVLink image transmission.
     #[arg(long)]
-    pub no_image_transfer: bool,
+    pub(crate) no_image_transfer: bool,
     /// The cameras measure every picture on board with this mission file's definition (a
     /// spatial-classification mission) and send the green share instead of the picture, as
     /// `fleetmap camera --mission` does; the picture is sent when the GCS asks.
     #[arg(long, value_name = "FILE")]
-    pub camera_mission: Option<PathBuf>,
+    pub(crate) camera_mission: Option<PathBuf>,
     /// Stop after this many simulated seconds.
     #[arg(long)]
     pub duration: Option<f64>,
@@ -96,7 +96,7 @@ pub struct SimArgs {
     /// and, unless --no-image-transfer, over MAVLink paced by --image-rate. --vehicles is
     /// ignored.
     #[arg(long)]
-    pub camera_only: bool,
+    pub(crate) camera_only: bool,
     /// With --camera-only: bytes per second of MAVLink 2 frames (267 per ENCAPSULATED_DATA)
     /// the image transmission may use; 0 sends each image in one burst. The images go
     /// through the autopilot, which drops a forwarded frame when the outgoing port's buffer
@@ -108,7 +108,7 @@ pub struct SimArgs {
     /// stays far below what they take, and it leaves room for the telemetry on the port the
     /// GCS uses. A 57600-baud radio carries ~5 KB/s in all: use 3000 there.
     #[arg(long, value_name = "BYTES_PER_S", default_value_t = 20_000)]
-    pub image_rate: u32,
+    pub(crate) image_rate: u32,
 }
 
 fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {

@@ -61,7 +61,7 @@ pub struct TuiArgs {
     pub config: Option<PathBuf>,
     /// Print the configuration (every action with its keys, every threshold) and exit.
     #[arg(long)]
-    pub print_config: bool,
+    pub(crate) print_config: bool,
     /// Print one frame as text at COLSxROWS (e.g. 80x24) and exit; needs no terminal.
     #[arg(long, value_name = "COLSxROWS")]
     pub snapshot: Option<String>,
@@ -70,7 +70,7 @@ pub struct TuiArgs {
     pub at: Option<f64>,
     /// Write the runway sample as a replay file (one frame per simulated second) and exit.
     #[arg(long, value_name = "FILE")]
-    pub export_sample: Option<PathBuf>,
+    pub(crate) export_sample: Option<PathBuf>,
     /// LIVE: connect to vehicles (MAVProxy connection strings; may be given several times).
     #[arg(long = "connect", value_name = "CONN")]
     pub connect: Vec<fleetmap_io::link::ConnSpec>,
@@ -99,7 +99,7 @@ pub fn interactive() -> bool {
 }
 
 /// The UI's default log file (see [`default_log_file`]).
-pub fn ui_log_file() -> Option<PathBuf> {
+pub(crate) fn ui_log_file() -> Option<PathBuf> {
     let base = std::env::var_os("XDG_STATE_HOME")
         .map(PathBuf::from)
         .or_else(|| std::env::var_os("HOME").map(|h| PathBuf::from(h).join(".local/state")));
@@ -114,7 +114,7 @@ pub fn ui_log_file() -> Option<PathBuf> {
 /// Where the TUI logs when `--log-file` is not given: `$XDG_STATE_HOME/fleetmap/tui.log`
 /// (or `~/.local/state/fleetmap/tui.log`, or the temp directory), because stderr is the
 /// screen while the UI runs. `None` for the modes that do not open the UI.
-pub fn default_log_file(args: &TuiArgs) -> Option<PathBuf> {
+pub(crate) fn default_log_file(args: &TuiArgs) -> Option<PathBuf> {
     if args.print_config || args.snapshot.is_some() || args.export_sample.is_some() {
         return None;
     }
@@ -122,7 +122,7 @@ pub fn default_log_file(args: &TuiArgs) -> Option<PathBuf> {
 }
 
 /// Parse `COLSxROWS`.
-pub fn parse_size(s: &str) -> anyhow::Result<(u16, u16)> {
+pub(crate) fn parse_size(s: &str) -> anyhow::Result<(u16, u16)> {
     let (w, h) = s
         .split_once(['x', 'X'])
         .ok_or_else(|| anyhow!("--snapshot {s:?}: expected COLSxROWS, e.g. 80x24"))?;
@@ -141,7 +141,7 @@ pub fn parse_size(s: &str) -> anyhow::Result<(u16, u16)> {
 }
 
 /// Render `app` into a `w × h` text screen (one string per row, trailing spaces trimmed).
-pub fn render_text(app: &App, w: u16, h: u16) -> anyhow::Result<Vec<String>> {
+pub(crate) fn render_text(app: &App, w: u16, h: u16) -> anyhow::Result<Vec<String>> {
     let mut terminal = Terminal::new(TestBackend::new(w, h))?;
     terminal.draw(|f| view::render(app, f))?;
     let buf = terminal.backend().buffer();

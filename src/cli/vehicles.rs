@@ -31,7 +31,7 @@ pub struct ConnectArgs {
     /// With --signing-key, still accept unsigned incoming frames (MAVProxy's
     /// `allow_unsigned`).
     #[arg(long)]
-    pub allow_unsigned: bool,
+    pub(crate) allow_unsigned: bool,
     /// Record every frame in and out to this .tlog file.
     #[arg(long, value_name = "FILE")]
     pub tlog: Option<PathBuf>,
@@ -40,25 +40,25 @@ pub struct ConnectArgs {
     pub json: bool,
     /// Mission protocol: wait for MISSION_COUNT / REQUEST / ACK answers, milliseconds.
     #[arg(long, value_name = "MS", default_value_t = 1500)]
-    pub mission_timeout_ms: u64,
+    pub(crate) mission_timeout_ms: u64,
     /// Mission protocol: wait for each item during a download, milliseconds.
     #[arg(long, value_name = "MS", default_value_t = 250)]
-    pub item_timeout_ms: u64,
+    pub(crate) item_timeout_ms: u64,
     /// Our MAVLink system id (MAVProxy's `--source-system`): 255 by default, the id
     /// ArduPilot's MAV_GCS_SYSID expects; give another to run a second GCS beside the first
     /// on the same link (replies are routed to each by system id).
     #[arg(long, value_name = "ID", default_value_t = 255, value_parser = clap::value_parser!(u8).range(1..))]
-    pub gcs_sysid: u8,
+    pub(crate) gcs_sysid: u8,
     /// Mission protocol: give up after the vehicle has not answered for this long,
     /// seconds (a transfer goes on as long as it answers, however lossy the link).
     #[arg(long, value_name = "SECONDS", default_value_t = 30)]
-    pub mission_silence_s: u64,
+    pub(crate) mission_silence_s: u64,
 }
 
 impl ConnectArgs {
     /// The options with their defaults, on `connect` (for commands that take only some of
     /// them from their own command line).
-    pub fn defaults(connect: Vec<ConnSpec>) -> ConnectArgs {
+    pub(crate) fn defaults(connect: Vec<ConnSpec>) -> ConnectArgs {
         let mission = MissionConfig::default();
         ConnectArgs {
             connect,
@@ -75,7 +75,7 @@ impl ConnectArgs {
 }
 
 /// An open fleet over the requested links, and the tlog writer if any.
-pub struct Session {
+pub(crate) struct Session {
     /// The fleet.
     pub fleet: FleetHandle,
     tlog: Option<tokio::task::JoinHandle<Result<u64, TlogError>>>,
@@ -83,7 +83,7 @@ pub struct Session {
 
 impl Session {
     /// Open the links and start the fleet.
-    pub async fn open(args: &ConnectArgs) -> anyhow::Result<Session> {
+    pub(crate) async fn open(args: &ConnectArgs) -> anyhow::Result<Session> {
         let mut opts = LinkOptions::default();
         if let Some(path) = &args.signing_key {
             let key = SigningKey::read(path)?;
@@ -117,7 +117,11 @@ impl Session {
     }
 
     /// Wait for vehicle `sysid` (its first heartbeat).
-    pub async fn vehicle(&self, sysid: u8, wait: Duration) -> anyhow::Result<VehicleSnapshot> {
+    pub(crate) async fn vehicle(
+        &self,
+        sysid: u8,
+        wait: Duration,
+    ) -> anyhow::Result<VehicleSnapshot> {
         self.fleet.wait_vehicle(sysid, wait).await.with_context(|| {
             format!(
                 "no heartbeat from system {sysid} within {:.0} s",
@@ -127,7 +131,7 @@ impl Session {
     }
 
     /// Stop the fleet and the links; flush the tlog.
-    pub async fn close(self) -> anyhow::Result<()> {
+    pub(crate) async fn close(self) -> anyhow::Result<()> {
         self.fleet.shutdown().await;
         let Session { fleet, tlog } = self;
         drop(fleet);
@@ -167,7 +171,7 @@ pub struct VehiclesArgs {
 }
 
 /// One line per vehicle.
-pub fn format_vehicle(v: &VehicleSnapshot) -> String {
+pub(crate) fn format_vehicle(v: &VehicleSnapshot) -> String {
     let pos = v
         .position
         .map(|p| format!("{:.7},{:.7}", p.lat, p.lon))
@@ -204,7 +208,7 @@ pub fn format_vehicle(v: &VehicleSnapshot) -> String {
 }
 
 /// Print a snapshot (table or JSON).
-pub fn print_snapshot(s: &FleetSnapshot, json: bool) -> anyhow::Result<()> {
+pub(crate) fn print_snapshot(s: &FleetSnapshot, json: bool) -> anyhow::Result<()> {
     if json {
         println!("{}", serde_json::to_string_pretty(s)?);
         return Ok(());

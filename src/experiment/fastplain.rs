@@ -156,7 +156,7 @@ pub struct Generated {
 
 /// The drones that fit: N_d, or C · N_c when fewer drones than N_d can stand on the chargers
 /// at a cycle boundary (eq. (9d) with (10)).
-pub fn effective_drones(drones: usize, stations: usize, capacity: usize) -> usize {
+pub(crate) fn effective_drones(drones: usize, stations: usize, capacity: usize) -> usize {
     drones.min(capacity.saturating_mul(stations))
 }
 
@@ -215,7 +215,7 @@ pub fn validate(cfg: &FastPlainConfig) -> Result<(), FastPlainError> {
 /// Up to `d` free cells in farthest-point order: each next goal is the free cell farthest
 /// (king's moves through free cells) from the team and the goals chosen so far; ties go to
 /// the lowest cell index. Cells the team cannot reach are never chosen.
-pub fn far_goals(inst: &Instance, d: usize) -> Vec<usize> {
+pub(crate) fn far_goals(inst: &Instance, d: usize) -> Vec<usize> {
     let g = &inst.grid;
     let mut sources: Vec<usize> = inst.drones.iter().chain(&inst.stations).copied().collect();
     let reachable = g.distances(&sources, false);
@@ -243,7 +243,7 @@ pub fn far_goals(inst: &Instance, d: usize) -> Vec<usize> {
 /// (`cfg.seed`, `capacity`, `index`): the plans of the epochs before it are the fast model's
 /// optimal plans, which depend on no clock (only a time limit could make them, and
 /// Algorithm 1 runs without one here).
-pub fn generate(
+pub(crate) fn generate(
     cfg: &FastPlainConfig,
     capacity: usize,
     index: usize,
@@ -499,23 +499,23 @@ pub struct Summary {
     /// Instances both models proved infeasible within K.
     pub infeasible: usize,
     /// Of `optimal`, those needing ≥ 2 cycles.
-    pub multi_cycle: usize,
+    pub(crate) multi_cycle: usize,
     /// Plans that went through the checker (both models), and how many failed.
     pub plans_checked: usize,
     /// Plans the checker rejected.
     pub plans_rejected: usize,
     /// Fast-model solve time per instance, seconds.
-    pub fast_seconds: Option<Spread>,
+    pub(crate) fast_seconds: Option<Spread>,
     /// Plain-model solve time per instance, seconds.
-    pub plain_seconds: Option<Spread>,
+    pub(crate) plain_seconds: Option<Spread>,
     /// Longest fast and plain solve, seconds.
-    pub max_seconds: (f64, f64),
+    pub(crate) max_seconds: (f64, f64),
     /// plain ÷ fast solve time per instance (decided instances only).
     pub speedup: Option<Spread>,
 }
 
 /// Summarise rows.
-pub fn summarise(rows: &[Row]) -> Summary {
+pub(crate) fn summarise(rows: &[Row]) -> Summary {
     let count = |f: &dyn Fn(&Row) -> bool| rows.iter().filter(|r| f(r)).count();
     let same = |r: &Row| r.verdict == Verdict::Same;
     let fast: Vec<f64> = rows.iter().map(|r| r.fast.seconds).collect();
@@ -563,7 +563,7 @@ pub struct Study {
     /// Totals over every row.
     pub summary: Summary,
     /// Totals per capacity, in `config.capacities` order.
-    pub per_capacity: Vec<(usize, Summary)>,
+    pub(crate) per_capacity: Vec<(usize, Summary)>,
 }
 
 /// Run the comparison: for each capacity, `cfg.instances` instances generated and compared in
@@ -706,7 +706,7 @@ pub fn summary_lines(study: &Study) -> String {
 }
 
 /// The rows as CSV (one line per instance, a header first).
-pub fn rows_csv(study: &Study) -> String {
+pub(crate) fn rows_csv(study: &Study) -> String {
     let mut s = String::from(
         "capacity,instance,goal_set,epoch,world_seed,drones,goals,K,fast_status,fast_cycles,fast_seconds,fast_variables,fast_checker,plain_status,plain_cycles,plain_seconds,plain_variables,plain_checker,verdict\n",
     );

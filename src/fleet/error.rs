@@ -104,7 +104,7 @@ impl FleetError {
     /// rejection, a read-back that differs), `Flavour`, `NotReady`, `Booting`, `NoVehicle`
     /// and `Stopped`. This is the rule the bandit runner applies (`app::bandit`, its
     /// `transient` function) when it decides whether to retry an upload.
-    pub fn is_transient(&self) -> bool {
+    pub(crate) fn is_transient(&self) -> bool {
         match self {
             FleetError::Mission { error, .. } => error.is_transient(),
             FleetError::Command { error, .. } => error.is_transient(),

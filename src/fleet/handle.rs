@@ -12,6 +12,7 @@ use super::state::FleetSnapshot;
 use super::state::VehicleSnapshot;
 use fleetmap_core::mission::MissionItem;
 use fleetmap_core::mission::MissionType;
+use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::Command;
 use fleetmap_core::proto::command::CommandAck;
 use fleetmap_core::proto::command::CommandError;
@@ -19,11 +20,8 @@ use fleetmap_core::proto::flavour::VehicleClass;
 use fleetmap_core::proto::mission::MissionError;
 use fleetmap_core::proto::mission::MissionOp;
 use fleetmap_core::proto::mission::MissionOutcome;
-use fleetmap_core::proto::{CAMERA_COMPID, Endpoint};
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::transport::LinkHandle;
-use fleetmap_io::link::transport::LinkId;
-use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::time::Duration;
@@ -223,7 +221,7 @@ impl FleetHandle {
     /// ArduPilot that has not loaded its mission yet), and an operation it refuses with
     /// MAV_MISSION_NO_SPACE, MAV_MISSION_DENIED or MAV_MISSION_ERROR while it boots or just
     /// after is run again once it is up.
-    pub async fn mission_op(
+    pub(crate) async fn mission_op(
         &self,
         sysid: u8,
         op: MissionOp,
@@ -329,7 +327,7 @@ impl FleetHandle {
     /// [`FleetConfig::snapshot_period`]; [`FleetHandle::config`] still shows the period the
     /// fleet started with). The terminal UI asks for 100 ms of wall time so that its 10 frames
     /// a second each show fresh telemetry. A zero period is taken as 1 ms.
-    pub async fn set_snapshot_period(&self, period: Duration) -> Result<(), FleetError> {
+    pub(crate) async fn set_snapshot_period(&self, period: Duration) -> Result<(), FleetError> {
         let period = period.max(Duration::from_millis(1));
         self.tx
             .send(Request::SnapshotPeriod { period })
@@ -338,15 +336,12 @@ impl FleetHandle {
     }
 
     /// Forget the mission progress recorded for `sysid` (reached items).
-    pub async fn reset_progress(&self, sysid: u8) -> Result<(), FleetError> {
+    pub(crate) async fn reset_progress(&self, sysid: u8) -> Result<(), FleetError> {
         self.tx
             .send(Request::ResetProgress { sysid })
             .await
             .map_err(|_| FleetError::Stopped)
     }
-
-    /// The default camera component id, for callers building their own camera commands.
-    pub const CAMERA_COMPID: u8 = CAMERA_COMPID;
 
     /// Whether vehicle `sysid` flies (copter) rather than drives.
     pub fn flies(&self, sysid: u8) -> bool {
@@ -359,20 +354,6 @@ impl FleetHandle {
         let (tx, rx) = oneshot::channel();
         if self.tx.send(Request::Shutdown { reply: tx }).await.is_ok() {
             let _ = rx.await;
-        }
-    }
-
-    /// Send raw bytes on link `link` (tests: a third party's frame).
-    pub fn send_raw(&self, link: LinkId, bytes: Vec<u8>) -> bool {
-        self.links.get(link).is_some_and(|l| l.send_raw(bytes))
-    }
-
-    /// The header a frame from this GCS carries (sequence 0).
-    pub fn gcs_header(&self) -> MavHeader {
-        MavHeader {
-            system_id: u32::from(self.cfg.gcs.sysid),
-            component_id: self.cfg.gcs.compid,
-            sequence: 0,
         }
     }
 }

@@ -98,15 +98,15 @@ impl Default for FleetConfig {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OpsConfig {
     /// Wait for the heartbeat to show a new mode.
-    pub mode_confirm: Duration,
+    pub(crate) mode_confirm: Duration,
     /// Wait for the vehicle to become ready to arm (GPS, EKF, home, pre-arm checks) before
     /// arming or taking off.
-    pub arm_ready: Duration,
+    pub(crate) arm_ready: Duration,
     /// Wait for the heartbeat to show armed / disarmed.
-    pub arm_confirm: Duration,
+    pub(crate) arm_confirm: Duration,
     /// Wait for a vehicle that is still booting ([`VehicleSnapshot::booting`]) before an
     /// operation, and retry an operation it refused while booting, for at most this long.
-    pub boot_wait: Duration,
+    pub(crate) boot_wait: Duration,
 }
 
 impl Default for OpsConfig {
@@ -122,7 +122,7 @@ impl Default for OpsConfig {
 
 /// A refusal this soon after a vehicle left boot still counts as a boot-time refusal (the
 /// heartbeat that says it is up may be older than a reboot the fleet has not seen yet).
-pub const BOOT_GRACE: Duration = Duration::from_secs(5);
+pub(crate) const BOOT_GRACE: Duration = Duration::from_secs(5);
 
 /// Pause before an operation refused while booting is tried again.
 const BOOT_RETRY: Duration = Duration::from_millis(500);
@@ -133,7 +133,7 @@ pub struct Incoming {
     /// The link it came on.
     pub link: LinkId,
     /// Reception time, µs since the Unix epoch.
-    pub unix_us: u64,
+    pub(crate) unix_us: u64,
     /// The frame (header, raw bytes, parsed message or why not).
     pub frame: Arc<Frame>,
 }

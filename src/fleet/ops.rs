@@ -64,7 +64,7 @@ impl FleetHandle {
     /// pre-arm checks: see [`fleetmap_core::proto::flavour::Flavour::arm_blockers`]), at most [`super::OpsConfig::arm_ready`];
     /// returns its snapshot at that moment, or [`FleetError::NotReady`] with what still
     /// blocks it.
-    pub async fn wait_ready(&self, sysid: u8) -> Result<VehicleSnapshot, FleetError> {
+    pub(crate) async fn wait_ready(&self, sysid: u8) -> Result<VehicleSnapshot, FleetError> {
         self.require(sysid)?;
         let wait = self.cfg.ops.arm_ready;
         let clock = self.clock.clone();
@@ -120,7 +120,7 @@ impl FleetHandle {
     }
 
     /// Disarm and wait for the heartbeat to show it.
-    pub async fn disarm(&self, sysid: u8) -> Result<(), FleetError> {
+    pub(crate) async fn disarm(&self, sysid: u8) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         if !v.armed {
             return Ok(());
@@ -140,7 +140,7 @@ impl FleetHandle {
     }
 
     /// Carry out flavour steps in order.
-    pub async fn run_steps(&self, sysid: u8, steps: Vec<Step>) -> Result<(), FleetError> {
+    pub(crate) async fn run_steps(&self, sysid: u8, steps: Vec<Step>) -> Result<(), FleetError> {
         for step in steps {
             match step {
                 Step::SetMode(mode) => {
@@ -187,7 +187,13 @@ impl FleetHandle {
 
     /// Go to (`lat`, `lon`) degrees at `alt` metres above home now (DO_REPOSITION; for
     /// ArduPilot builds without it, GUIDED + SET_POSITION_TARGET_GLOBAL_INT).
-    pub async fn goto(&self, sysid: u8, lat: f64, lon: f64, alt: f32) -> Result<(), FleetError> {
+    pub(crate) async fn goto(
+        &self,
+        sysid: u8,
+        lat: f64,
+        lon: f64,
+        alt: f32,
+    ) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         let ep = Endpoint::new(sysid, v.compid);
         let (lat_e7, lon_e7) = (
@@ -216,7 +222,7 @@ impl FleetHandle {
     /// Turn vehicle `sysid` to the absolute heading `yaw_deg` (degrees clockwise from north)
     /// while it holds (`lat`, `lon`) at `alt` m above home: PX4 with a DO_REPOSITION that
     /// carries the yaw, ArduPilot with CONDITION_YAW (after the go-to that put it there).
-    pub async fn face(
+    pub(crate) async fn face(
         &self,
         sysid: u8,
         lat: f64,
@@ -244,7 +250,7 @@ impl FleetHandle {
 
     /// Stop and hold where the vehicle is now (its autopilot's hold mode,
     /// [`fleetmap_core::proto::flavour::Flavour::pause`]).
-    pub async fn pause(&self, sysid: u8) -> Result<(), FleetError> {
+    pub(crate) async fn pause(&self, sysid: u8) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         let steps = v.flavour.pause().map_err(Self::flavour_err(sysid))?;
         self.run_steps(sysid, steps).await
@@ -277,7 +283,7 @@ impl FleetHandle {
     /// vehicles may answer the command or go silent before the ACK gets out (ArduPilot
     /// SITL re-executes itself at once): a missing ACK is not an error when the reboot is
     /// then seen.
-    pub async fn reboot(&self, sysid: u8) -> Result<Duration, FleetError> {
+    pub(crate) async fn reboot(&self, sysid: u8) -> Result<Duration, FleetError> {
         let t0 = self.clock.now();
         let before = self.require(sysid)?.reboots;
         self.send_reboot(sysid).await?;
@@ -297,7 +303,7 @@ impl FleetHandle {
     /// Send MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN (reboot the autopilot) and return once it is
     /// acknowledged — or not answered, as when the autopilot goes down before its ACK gets
     /// out ([`FleetHandle::reboot`] also waits for it to come back).
-    pub async fn send_reboot(&self, sysid: u8) -> Result<(), FleetError> {
+    pub(crate) async fn send_reboot(&self, sysid: u8) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         let cmd = Command::long(
             Endpoint::new(sysid, v.compid),

@@ -27,7 +27,7 @@ pub struct GeoPoint {
 
 impl GeoPoint {
     /// The position a GLOBAL_POSITION_INT reports (1e-7 degrees, millimetres AMSL).
-    pub fn of_global_position(p: &GLOBAL_POSITION_INT_DATA) -> GeoPoint {
+    pub(crate) fn of_global_position(p: &GLOBAL_POSITION_INT_DATA) -> GeoPoint {
         GeoPoint {
             lat: f64::from(p.lat) / 1e7,
             lon: f64::from(p.lon) / 1e7,
@@ -56,9 +56,9 @@ pub struct LinkQuality {
     /// Frames missing from sequence-number gaps.
     pub lost: u64,
     /// Loss, percent (0–100).
-    pub loss_pct: f64,
+    pub(crate) loss_pct: f64,
     /// Frames per second over the last few seconds.
-    pub rate_hz: f64,
+    pub(crate) rate_hz: f64,
 }
 
 impl LinkQuality {
@@ -98,16 +98,16 @@ pub struct VehicleSnapshot {
     /// wait for it to end ([`crate::fleet::FleetHandle::wait_booted`]). PX4 has no boot
     /// state on MAVLink: its MAV_STATE_UNINIT means "pre-flight checks not passed", not
     /// booting (`streams/HEARTBEAT.hpp`).
-    pub booting: bool,
+    pub(crate) booting: bool,
     /// When the vehicle was first heard out of boot in its current power cycle (fleet
     /// clock); `None` while it boots.
-    pub ready_since: Option<Time>,
+    pub(crate) ready_since: Option<Time>,
     /// Heard within the liveness window.
     pub alive: bool,
     /// Seconds since the last heartbeat.
-    pub heartbeat_age_s: f64,
+    pub(crate) heartbeat_age_s: f64,
     /// Times a reboot was detected.
-    pub reboots: u32,
+    pub(crate) reboots: u32,
     /// Position (GLOBAL_POSITION_INT), if received.
     pub position: Option<GeoPoint>,
     /// Altitude above home, metres.
@@ -146,25 +146,25 @@ pub struct VehicleSnapshot {
     /// EXTENDED_SYS_STATE landed state (0 unknown, 1 on ground, 2 in air, 3 taking off,
     /// 4 landing).
     #[serde(serialize_with = "number_or_null")]
-    pub landed_state: Option<MavLandedState>,
+    pub(crate) landed_state: Option<MavLandedState>,
     /// Last STATUSTEXT.
     pub last_text: Option<StatusText>,
     /// Last pre-arm failure text (ArduPilot "PreArm: …", PX4 "Preflight Fail: …").
-    pub prearm_text: Option<StatusText>,
+    pub(crate) prearm_text: Option<StatusText>,
     /// SYS_STATUS pre-arm health bit (None if not reported).
-    pub prearm_ok: Option<bool>,
+    pub(crate) prearm_ok: Option<bool>,
     /// ArduPilot EKF_STATUS_REPORT flags.
-    pub ekf_flags: Option<u16>,
+    pub(crate) ekf_flags: Option<u16>,
     /// A camera component (MAV_COMP_ID_CAMERA…) was heard on this system.
     pub camera_compid: Option<u8>,
     /// Link carrying this vehicle (index of `--connect`).
     pub link: usize,
     /// Link quality from the autopilot's sequence numbers.
-    pub link_quality: LinkQuality,
+    pub(crate) link_quality: LinkQuality,
     /// When any message from the autopilot last arrived (fleet clock).
-    pub last_message: Time,
+    pub(crate) last_message: Time,
     /// When the last GLOBAL_POSITION_INT arrived (fleet clock).
-    pub position_at: Option<Time>,
+    pub(crate) position_at: Option<Time>,
 }
 
 impl VehicleSnapshot {
@@ -183,28 +183,23 @@ impl VehicleSnapshot {
 
     /// The mode of the last heartbeat, when its flavour's table has it
     /// ([`Flavour::mode_of`]); [`VehicleSnapshot::mode`] is its name.
-    pub fn flight_mode(&self) -> Option<fleetmap_core::proto::mode::Mode> {
+    pub(crate) fn flight_mode(&self) -> Option<fleetmap_core::proto::mode::Mode> {
         self.flavour.mode_of(self.custom_mode)
     }
 
-    /// Whether the heartbeat shows `mode`.
-    pub fn in_mode(&self, mode: fleetmap_core::proto::mode::Mode) -> bool {
-        self.flavour.is_mode(self.custom_mode, mode)
-    }
-
     /// Whether the autopilot reports its mission as being flown (MISSION_STATE_ACTIVE).
-    pub fn mission_active(&self) -> bool {
+    pub(crate) fn mission_active(&self) -> bool {
         self.mission_state == Some(MissionState::MISSION_STATE_ACTIVE)
     }
 
     /// Whether the autopilot reports its mission as flown to the end
     /// (MISSION_STATE_COMPLETE).
-    pub fn mission_complete(&self) -> bool {
+    pub(crate) fn mission_complete(&self) -> bool {
         self.mission_state == Some(MissionState::MISSION_STATE_COMPLETE)
     }
 
     /// The inputs of the arming check at time `now` (see [`Flavour::arm_blockers`]).
-    pub fn arm_inputs(&self, now: Time) -> ArmInputs {
+    pub(crate) fn arm_inputs(&self, now: Time) -> ArmInputs {
         let fresh = |t: Option<Time>, secs: u64| {
             t.is_some_and(|t| now.saturating_since(t) <= Duration::from_secs(secs))
         };
@@ -226,13 +221,13 @@ impl VehicleSnapshot {
     }
 
     /// Why arming is not possible now (empty when it is).
-    pub fn arm_blockers(&self, now: Time) -> Vec<String> {
+    pub(crate) fn arm_blockers(&self, now: Time) -> Vec<String> {
         self.flavour.arm_blockers(&self.arm_inputs(now))
     }
 }
 
 /// A link's published state, as in the snapshot.
-pub type LinkSnapshot = fleetmap_io::link::transport::LinkStatus;
+pub(crate) type LinkSnapshot = fleetmap_io::link::transport::LinkStatus;
 
 /// The whole fleet at one instant.
 #[derive(Clone, Debug, Default, Serialize)]
@@ -299,7 +294,7 @@ impl VehicleSnapshot {
     }
 
     /// A heartbeat from the autopilot, received at `now`.
-    pub fn apply_heartbeat(&mut self, beat: &Beat, now: Time) {
+    pub(crate) fn apply_heartbeat(&mut self, beat: &Beat, now: Time) {
         if beat.system_status == MAV_STATE_BOOT {
             self.booting = true;
             self.ready_since = None;
@@ -316,7 +311,7 @@ impl VehicleSnapshot {
     }
 
     /// Update from a message of the autopilot.
-    pub fn apply(&mut self, msg: &MavMessage, now: Time) {
+    pub(crate) fn apply(&mut self, msg: &MavMessage, now: Time) {
         self.last_message = now;
         match msg {
             MavMessage::GLOBAL_POSITION_INT(p) => {
@@ -431,20 +426,20 @@ impl VehicleSnapshot {
     }
 
     /// The vehicle rebooted: it counts as booting until its next heartbeat.
-    pub fn rebooted(&mut self) {
+    pub(crate) fn rebooted(&mut self) {
         self.booting = true;
         self.ready_since = None;
     }
 
     /// Forget mission progress (a new mission was uploaded or started).
-    pub fn reset_progress(&mut self) {
+    pub(crate) fn reset_progress(&mut self) {
         self.reached.clear();
         self.last_reached = None;
         self.mission_state = None;
     }
 
     /// Refresh liveness and link-quality fields.
-    pub fn refresh(
+    pub(crate) fn refresh(
         &mut self,
         alive: bool,
         last_beat: Option<Time>,

@@ -34,7 +34,7 @@ pub struct TornTail {
     /// How many torn bytes follow.
     pub len: u64,
     /// The first bytes of the torn segment (lossy UTF-8, at most 80 characters), for logs.
-    pub preview: String,
+    pub(crate) preview: String,
 }
 
 impl std::fmt::Display for TornTail {
@@ -59,7 +59,7 @@ pub struct EventLog<E> {
 /// A journal line borrowed from the file contents.
 pub(crate) struct RawLine<'a> {
     /// 1-based line number.
-    pub line_no: usize,
+    pub(crate) line_no: usize,
     /// The line without its newline.
     pub bytes: &'a [u8],
 }
@@ -69,7 +69,7 @@ pub(crate) struct Split<'a> {
     pub lines: Vec<RawLine<'a>>,
     pub torn: Option<TornTail>,
     /// Length of the valid prefix (all complete lines), in bytes.
-    pub valid_len: u64,
+    pub(crate) valid_len: u64,
 }
 
 /// Split journal contents into newline-terminated lines and the unterminated remainder.

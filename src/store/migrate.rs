@@ -27,7 +27,7 @@ use serde_json::Value;
 use std::path::Path;
 
 /// The run-directory format version this build writes and the newest it reads.
-pub const SCHEMA_VERSION: u32 = 1;
+pub(crate) const SCHEMA_VERSION: u32 = 1;
 
 /// One upgrade step: a version-v document in, a version-(v+1) document out.
 type Step = fn(Value) -> Result<Value, StepError>;
@@ -35,7 +35,11 @@ type Step = fn(Value) -> Result<Value, StepError>;
 /// Why an upgrade step cannot convert a document (the store reports it as
 /// [`StoreError::Corrupt`], naming the file, the line and the version).
 #[derive(Debug, thiserror::Error)]
-pub enum StepError {
+#[expect(
+    dead_code,
+    reason = "constructed by the first upgrade step; version 1, the only one yet, has none"
+)]
+pub(crate) enum StepError {
     /// A field the step needs is missing.
     #[error("missing {0:?}")]
     Missing(&'static str),

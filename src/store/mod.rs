@@ -19,12 +19,10 @@
 
 mod error;
 pub mod journal;
-pub mod migrate;
+pub(crate) mod migrate;
 pub mod run;
 pub mod task;
 
-pub use error::StoreError;
-pub use journal::{EventLog, Logged, TornTail};
-pub use migrate::SCHEMA_VERSION;
+pub(crate) use error::StoreError;
 pub use run::{RunDir, RunMeta, StateEnvelope};
-pub use task::{RunStore, StoreGone};
+pub(crate) use task::RunStore;

@@ -31,17 +31,17 @@ use std::io::{Read, Seek, SeekFrom, Write};
 use std::path::{Path, PathBuf};
 
 /// File name of the run metadata.
-pub const META_FILE: &str = "run.json";
+pub(crate) const META_FILE: &str = "run.json";
 /// File name of the state snapshot.
-pub const STATE_FILE: &str = "state.json";
+pub(crate) const STATE_FILE: &str = "state.json";
 /// File name of the event journal.
-pub const EVENTS_FILE: &str = "events.jsonl";
+pub(crate) const EVENTS_FILE: &str = "events.jsonl";
 /// File name of the copy of the mission definition.
-pub const MISSION_FILE: &str = "mission.toml";
+pub(crate) const MISSION_FILE: &str = "mission.toml";
 /// Subdirectory for captured images.
-pub const IMAGES_DIR: &str = "images";
+pub(crate) const IMAGES_DIR: &str = "images";
 /// Subdirectory for exported maps and tables.
-pub const EXPORTS_DIR: &str = "exports";
+pub(crate) const EXPORTS_DIR: &str = "exports";
 
 /// What a run is: written once to `run.json` when the run is created.
 ///
@@ -50,12 +50,12 @@ pub const EXPORTS_DIR: &str = "exports";
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct RunMeta {
     /// Run-directory format version; [`RunDir::create`] sets it to [`SCHEMA_VERSION`].
-    pub schema_version: u32,
+    pub(crate) schema_version: u32,
     /// Which runner owns the run, e.g. `"runway-mapping"` or `"spatial-classification"`.
     /// `state.json` must carry the same kind.
     pub kind: String,
     /// Creation time, milliseconds since the Unix epoch (the caller reads the clock).
-    pub created_unix_ms: u64,
+    pub(crate) created_unix_ms: u64,
     /// Where the mission definition was read from (the copy is `mission.toml`), if any.
     #[serde(default)]
     pub mission_path: Option<String>,
@@ -64,7 +64,7 @@ pub struct RunMeta {
     pub connections: Vec<String>,
     /// Version of the fleetmap that created the run (`CARGO_PKG_VERSION`).
     #[serde(default)]
-    pub fleetmap_version: String,
+    pub(crate) fleetmap_version: String,
     /// Anything else the runner wants to keep with the run (JSON `null` when unused).
     #[serde(default)]
     pub extra: serde_json::Value,
@@ -90,11 +90,11 @@ impl RunMeta {
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct StateEnvelope<T> {
     /// Run-directory format version ([`SCHEMA_VERSION`] when written by this build).
-    pub schema_version: u32,
+    pub(crate) schema_version: u32,
     /// The run kind (same as `run.json`).
     pub kind: String,
     /// How many snapshots have been saved in this run, this one included (1, 2, 3 …).
-    pub generation: u64,
+    pub(crate) generation: u64,
     /// Sequence number of the last journal record acknowledged before this snapshot
     /// (0 = none): on resume, records after it happened after the snapshot.
     pub journal_seq: u64,
@@ -264,8 +264,9 @@ impl RunDir {
         &self.meta
     }
 
+    #[cfg(test)]
     /// The copy of the mission definition (`mission.toml`), if the run was created with one.
-    pub fn mission_text(&self) -> Result<Option<String>, StoreError> {
+    pub(crate) fn mission_text(&self) -> Result<Option<String>, StoreError> {
         let p = self.path.join(MISSION_FILE);
         match fs::read_to_string(&p) {
             Ok(s) => Ok(Some(s)),
@@ -275,7 +276,7 @@ impl RunDir {
     }
 
     /// The torn journal tail found when the run was opened (cut off by the next append).
-    pub fn torn_tail_at_open(&self) -> Option<&TornTail> {
+    pub(crate) fn torn_tail_at_open(&self) -> Option<&TornTail> {
         self.torn_at_open.as_ref()
     }
 
@@ -284,8 +285,9 @@ impl RunDir {
         self.next_seq - 1
     }
 
+    #[cfg(test)]
     /// Generation of the newest snapshot (0 = no `state.json` yet).
-    pub fn generation(&self) -> u64 {
+    pub(crate) fn generation(&self) -> u64 {
         self.generation
     }
 
@@ -331,7 +333,7 @@ impl RunDir {
 
     /// The latest snapshot as raw JSON (envelope included, upgraded to the current store
     /// schema), for runners that migrate their own state format.
-    pub fn load_state_value(&self) -> Result<Option<serde_json::Value>, StoreError> {
+    pub(crate) fn load_state_value(&self) -> Result<Option<serde_json::Value>, StoreError> {
         let p = self.path.join(STATE_FILE);
         let Some(doc) = read_json(&p)? else {
             return Ok(None);
@@ -428,12 +430,12 @@ impl RunDir {
     }
 
     /// The `images/` subdirectory, created (durably) on first use.
-    pub fn images_dir(&self) -> Result<PathBuf, StoreError> {
+    pub(crate) fn images_dir(&self) -> Result<PathBuf, StoreError> {
         self.subdir(IMAGES_DIR)
     }
 
     /// The `exports/` subdirectory, created (durably) on first use.
-    pub fn exports_dir(&self) -> Result<PathBuf, StoreError> {
+    pub(crate) fn exports_dir(&self) -> Result<PathBuf, StoreError> {
         self.subdir(EXPORTS_DIR)
     }
 
@@ -446,7 +448,7 @@ impl RunDir {
     }
 
     /// Write `bytes` to `exports/NAME` atomically; returns the file's path.
-    pub fn write_export(&self, name: &str, bytes: &[u8]) -> Result<PathBuf, StoreError> {
+    pub(crate) fn write_export(&self, name: &str, bytes: &[u8]) -> Result<PathBuf, StoreError> {
         check_plain_name(name)?;
         let p = self.exports_dir()?.join(name);
         atomic_write(&p, bytes).map_err(StoreError::io(&p))?;

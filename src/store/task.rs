@@ -22,7 +22,7 @@ use tokio::sync::oneshot;
 type Job = Box<dyn FnOnce(&mut RunDir) + Send + 'static>;
 
 /// Handle to the store task owning a run directory (see the module docs).
-pub struct RunStore {
+pub(crate) struct RunStore {
     inner: Inner,
 }
 
@@ -36,13 +36,13 @@ enum Inner {
 /// The store task is gone (its thread panicked in a job): nothing more can be saved.
 #[derive(Debug, thiserror::Error)]
 #[error("the run store task stopped (a save panicked): nothing more can be saved")]
-pub struct StoreGone;
+pub(crate) struct StoreGone;
 
 impl RunStore {
     /// Take ownership of `run`: a dedicated thread in a multi-threaded tokio runtime, inline
     /// execution in a current-thread runtime or outside a runtime. Fails only when the
     /// operating system refuses a thread.
-    pub fn spawn(run: RunDir) -> std::io::Result<RunStore> {
+    pub(crate) fn spawn(run: RunDir) -> std::io::Result<RunStore> {
         let threaded = tokio::runtime::Handle::try_current()
             .is_ok_and(|h| h.runtime_flavor() != tokio::runtime::RuntimeFlavor::CurrentThread);
         if !threaded {
@@ -64,7 +64,7 @@ impl RunStore {
     }
 
     /// Jobs run inline on the caller (tests, current-thread runtimes).
-    pub fn inline(run: RunDir) -> RunStore {
+    pub(crate) fn inline(run: RunDir) -> RunStore {
         RunStore {
             inner: Inner::Inline(Box::new(std::sync::Mutex::new(run))),
         }
@@ -72,7 +72,7 @@ impl RunStore {
 
     /// Run `job` on the run directory and return its result once it has finished (after
     /// its fsyncs: a save it reports done is durable). Jobs run in the order they are sent.
-    pub async fn run<T: Send + 'static>(
+    pub(crate) async fn run<T: Send + 'static>(
         &self,
         job: impl FnOnce(&mut RunDir) -> T + Send + 'static,
     ) -> Result<T, StoreGone> {

@@ -120,7 +120,7 @@ impl Command {
     }
 
     /// What it will do, for the confirmation dialog.
-    pub fn consequence(self) -> &'static str {
+    pub(crate) fn consequence(self) -> &'static str {
         match self {
             Command::Start => "Uploads the missions and the vehicles take off.",
             Command::Hold => "The vehicles stop and hold position.",
@@ -197,9 +197,9 @@ pub enum CommandError {
 }
 
 /// Zoom levels as (num, den): a cell is 2·num/den characters wide and num/den high.
-pub const ZOOMS: [(i64, i64); 7] = [(1, 8), (1, 4), (1, 2), (1, 1), (2, 1), (3, 1), (4, 1)];
+pub(crate) const ZOOMS: [(i64, i64); 7] = [(1, 8), (1, 4), (1, 2), (1, 1), (2, 1), (3, 1), (4, 1)];
 /// The 1:1 level (one cell = 2×1 characters).
-pub const BASE_ZOOM: usize = 3;
+pub(crate) const BASE_ZOOM: usize = 3;
 
 /// The panes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
@@ -216,7 +216,7 @@ pub enum Pane {
 
 impl Pane {
     /// Focus order.
-    pub const ORDER: [Pane; 4] = [Pane::Fleet, Pane::Map, Pane::Mission, Pane::Log];
+    pub(crate) const ORDER: [Pane; 4] = [Pane::Fleet, Pane::Map, Pane::Mission, Pane::Log];
 
     /// The key context of the pane, if it has its own keys.
     pub fn context(self) -> Option<Context> {
@@ -304,7 +304,7 @@ pub struct MapView {
 }
 
 /// Most lines of the UI's own log kept.
-pub const UI_LOG_CAPACITY: usize = 1000;
+pub(crate) const UI_LOG_CAPACITY: usize = 1000;
 
 /// The whole UI state.
 #[derive(Clone, Debug)]
@@ -334,13 +334,13 @@ pub struct App {
     /// Latest tick.
     pub now: Time,
     /// When the latest snapshot arrived (tick time).
-    pub last_snapshot: Option<Time>,
+    pub(crate) last_snapshot: Option<Time>,
     /// Terminal size (columns, rows).
     pub size: (u16, u16),
     /// Set once the UI decided to quit.
     pub quit: bool,
     /// Where the shell writes its log (shown in the help).
-    pub log_file: Option<String>,
+    pub(crate) log_file: Option<String>,
     next_id: u64,
 }
 
@@ -386,7 +386,7 @@ impl App {
     }
 
     /// The model's log and the UI's log merged by time (stable: model lines first on ties).
-    pub fn merged_log(&self) -> Vec<&LogEntry> {
+    pub(crate) fn merged_log(&self) -> Vec<&LogEntry> {
         let mut all: Vec<&LogEntry> = self.model.log.iter().chain(&self.ui_log).collect();
         all.sort_by_key(|e| e.time);
         all

@@ -23,21 +23,21 @@ use std::time::Duration;
 #[serde(default, deny_unknown_fields)]
 pub struct Thresholds {
     /// Battery remaining at or below this is a warning, percent.
-    pub battery_warn_pct: u8,
+    pub(crate) battery_warn_pct: u8,
     /// Battery remaining at or below this is critical, percent.
-    pub battery_crit_pct: u8,
+    pub(crate) battery_crit_pct: u8,
     /// Per-cell voltage at or below this is a warning, volts (LiPo: 3.6).
-    pub cell_warn_v: f32,
+    pub(crate) cell_warn_v: f32,
     /// Per-cell voltage at or below this is critical, volts (LiPo: 3.5).
-    pub cell_crit_v: f32,
+    pub(crate) cell_crit_v: f32,
     /// Link quality at or below this is a warning, percent.
-    pub link_warn_pct: u8,
+    pub(crate) link_warn_pct: u8,
     /// Fewer satellites than this is a warning.
-    pub min_satellites: u8,
+    pub(crate) min_satellites: u8,
     /// No snapshot for this long marks the data as stale, seconds (0 = never).
-    pub stale_after_s: f64,
+    pub(crate) stale_after_s: f64,
     /// An unanswered confirmation dialog closes itself after this long, seconds.
-    pub confirm_timeout_s: f64,
+    pub(crate) confirm_timeout_s: f64,
 }
 
 impl Default for Thresholds {
@@ -57,13 +57,13 @@ impl Default for Thresholds {
 
 impl Thresholds {
     /// [`Thresholds::stale_after_s`] as a duration, `None` when disabled.
-    pub fn stale_after(&self) -> Option<Duration> {
+    pub(crate) fn stale_after(&self) -> Option<Duration> {
         (self.stale_after_s > 0.0 && self.stale_after_s.is_finite())
             .then(|| Duration::from_secs_f64(self.stale_after_s))
     }
 
     /// [`Thresholds::confirm_timeout_s`] as a duration (at least one second).
-    pub fn confirm_timeout(&self) -> Duration {
+    pub(crate) fn confirm_timeout(&self) -> Duration {
         if self.confirm_timeout_s.is_finite() && self.confirm_timeout_s >= 1.0 {
             Duration::from_secs_f64(self.confirm_timeout_s)
         } else {
@@ -146,7 +146,7 @@ impl UiConfig {
     }
 
     /// The whole file with every value spelled out (defaults, or this config's values).
-    pub fn to_toml(&self) -> String {
+    pub(crate) fn to_toml(&self) -> String {
         let mut out = String::from(
             "# fleetmap terminal UI configuration (fleetmap tui --config FILE).\n\
              # Keys: one key or a list; a character (\"q\", \"T\", \"?\") or a name (space tab backtab\n\

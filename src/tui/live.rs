@@ -23,13 +23,13 @@ use fleetmap_core::vision::votes::CellState as VoteState;
 use std::collections::{BTreeMap, HashMap};
 
 /// Most messages kept.
-pub const LOG_CAPACITY: usize = 500;
+pub(crate) const LOG_CAPACITY: usize = 500;
 
 /// The messages shown in the log pane.
 #[derive(Clone, Debug, Default)]
 pub struct LiveLog {
     /// Oldest first.
-    pub entries: Vec<LogEntry>,
+    pub(crate) entries: Vec<LogEntry>,
     /// The last STATUSTEXT taken from each vehicle (its arrival time).
     seen: HashMap<u8, Time>,
 }
@@ -81,7 +81,7 @@ fn gps_fix(fix: Option<u8>) -> GpsFix {
 }
 
 /// One fleet-table row.
-pub fn vehicle_row(
+pub(crate) fn vehicle_row(
     v: &VehicleSnapshot,
     role: Role,
     grid: Option<&Grid>,
@@ -145,7 +145,7 @@ pub struct RunInfo {
 }
 
 /// The map of a runway-mapping run: every decided cell, DFS vertex states, tracks.
-pub fn runway_map(state: &MappingState) -> MapModel {
+pub(crate) fn runway_map(state: &MappingState) -> MapModel {
     let mut cells: BTreeMap<Cell, CellState> = BTreeMap::new();
     let ex = state.explorer.as_ref();
     for (c, s, _) in state.cell_map() {
@@ -341,7 +341,7 @@ pub fn runway_mission(state: &MappingState, info: &RunInfo) -> MissionModel {
 /// The map of a spatial-classification run: G with O (obstacles), R (roads, while
 /// unclassified) and the labels of (4); the drones' paths of the sortie in flight as tracks;
 /// the first station's start cell as home.
-pub fn classification_map(state: &ClassificationState) -> MapModel {
+pub(crate) fn classification_map(state: &ClassificationState) -> MapModel {
     let l = &state.layout;
     let mut m = MapModel::new(
         MapKind::Classification,
@@ -415,7 +415,7 @@ fn classification_activity(state: &ClassificationState, sysid: u8) -> Option<Str
 }
 
 /// The mission pane of a spatial-classification run.
-pub fn classification_mission(state: &ClassificationState, info: &RunInfo) -> MissionModel {
+pub(crate) fn classification_mission(state: &ClassificationState, info: &RunInfo) -> MissionModel {
     let finished = state.is_finished();
     let phase = if finished {
         Phase::Done

@@ -49,9 +49,9 @@ pub use app::{
 pub use config::{Thresholds, UiConfig};
 pub use keymap::{Action, Context, Key, KeyMap};
 pub use model::{
-    Autopilot, Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind,
-    MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity,
-    Stat, Track, VehicleClass, VehicleRow,
+    Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind, MapModel,
+    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity, Stat,
+    Track, VehicleRow,
 };
 pub use shell::{REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, run, run_loop};
 pub use update::update;

@@ -58,7 +58,7 @@ pub enum ReplayError {
 }
 
 /// Parse replay text (`path` is only used in error messages).
-pub fn parse_replay(text: &str, path: &str) -> Result<Vec<ReplayFrame>, ReplayError> {
+pub(crate) fn parse_replay(text: &str, path: &str) -> Result<Vec<ReplayFrame>, ReplayError> {
     let mut frames: Vec<ReplayFrame> = Vec::new();
     for (i, line) in text.lines().enumerate() {
         let trimmed = line.trim();
@@ -99,7 +99,7 @@ pub fn read_replay(path: &Path) -> Result<Vec<ReplayFrame>, ReplayError> {
 }
 
 /// Write frames as a replay file (atomically).
-pub fn write_replay(path: &Path, frames: &[ReplayFrame]) -> Result<(), ReplayError> {
+pub(crate) fn write_replay(path: &Path, frames: &[ReplayFrame]) -> Result<(), ReplayError> {
     let shown = path.display().to_string();
     let mut text = String::new();
     for f in frames {

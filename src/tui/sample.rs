@@ -8,6 +8,7 @@
 
 use super::model::*;
 use fleetmap_core::geo::Cell;
+use fleetmap_core::proto::flavour::{Autopilot, VehicleClass};
 use fleetmap_core::time::Time;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -379,7 +380,7 @@ struct SampleDrone {
 /// 16 × 24 grid in lanes, mark cells negative or positive against a hidden diagonal strip,
 /// then visit the positives (DFS phase stand-in), then return; batteries drain and get
 /// swapped. Deterministic for a given `n`.
-pub struct SampleRun {
+pub(crate) struct SampleRun {
     t: Time,
     map: MapModel,
     truth: Vec<bool>,
@@ -397,7 +398,7 @@ impl SampleRun {
     const COLS: u32 = 24;
 
     /// A run with `n` drones (1–20).
-    pub fn new(n: usize) -> SampleRun {
+    pub(crate) fn new(n: usize) -> SampleRun {
         let n = n.clamp(1, 20);
         let map = MapModel::new(
             MapKind::Runway,
@@ -474,7 +475,7 @@ impl SampleRun {
     }
 
     /// Advance by `dt` of simulated time (in whole seconds; one cell per second).
-    pub fn step(&mut self, dt: Duration) {
+    pub(crate) fn step(&mut self, dt: Duration) {
         for _ in 0..dt.as_secs().max(1) {
             self.step_one();
         }
@@ -610,7 +611,7 @@ impl SampleRun {
     }
 
     /// The current state as a [`Model`].
-    pub fn model(&self) -> Model {
+    pub(crate) fn model(&self) -> Model {
         let counts = self.map.counts();
         let classified: u32 = counts[1..5].iter().sum();
         let vehicles = self
@@ -683,7 +684,7 @@ impl SampleRun {
     }
 
     /// Whether the run finished.
-    pub fn done(&self) -> bool {
+    pub(crate) fn done(&self) -> bool {
         self.phase == Phase::Done
     }
 }

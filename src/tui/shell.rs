@@ -83,7 +83,7 @@ pub fn write_restore_sequence<W: Write>(w: &mut W) -> io::Result<()> {
 
 /// Put the terminal back: raw mode off, main screen, cursor visible. Safe to call when the
 /// terminal was never set up.
-pub fn restore_terminal() -> io::Result<()> {
+pub(crate) fn restore_terminal() -> io::Result<()> {
     // Raw mode first: it has more side effects than the alternate screen (as ratatui does).
     let raw = crossterm::terminal::disable_raw_mode();
     let screen = write_restore_sequence(&mut io::stdout());

@@ -111,7 +111,7 @@ impl Region {
     }
 
     /// The polygon (lat, lon) degrees at time `t_s` seconds (translated by its velocity).
-    pub fn polygon_at(&self, t_s: f64) -> Vec<(f64, f64)> {
+    pub(crate) fn polygon_at(&self, t_s: f64) -> Vec<(f64, f64)> {
         let (vn, ve) = self.velocity_ne;
         if vn == 0.0 && ve == 0.0 {
             return self.polygon.clone();
@@ -274,7 +274,12 @@ struct RegionFile {
 /// ([`crate::geo::Grid`], docs/grid.md: cell (0, 0) centred on `origin`, `size` metre cells
 /// aligned with the UTM grid of the origin's zone), counter-clockwise from the south-west
 /// corner. An origin or size the grid rejects falls back to the tangent plane.
-pub fn grid_cell_corners(origin: (f64, f64), size: f64, row: i32, col: i32) -> Vec<(f64, f64)> {
+pub(crate) fn grid_cell_corners(
+    origin: (f64, f64),
+    size: f64,
+    row: i32,
+    col: i32,
+) -> Vec<(f64, f64)> {
     match crate::geo::Grid::new(crate::geo::LatLon::new(origin.0, origin.1), size) {
         Ok(g) => g
             .cell_corners(crate::geo::Cell::new(row, col))
@@ -310,7 +315,7 @@ pub fn grid_cell_center(origin: (f64, f64), size: f64, row: i32, col: i32) -> (f
 
 /// The corners (lat, lon) of a rectangle centred on `center` with its long axis along
 /// `heading_deg`.
-pub fn rectangle_corners(
+pub(crate) fn rectangle_corners(
     center: (f64, f64),
     length_m: f64,
     width_m: f64,
@@ -581,11 +586,6 @@ impl World {
     pub fn to_local(&self, lat: f64, lon: f64) -> (f64, f64) {
         let (n, e) = local::delta(self.reference.0, self.reference.1, lat, lon);
         (e, n)
-    }
-
-    /// (lat, lon) of local metres (east, north).
-    pub fn from_local(&self, east: f64, north: f64) -> (f64, f64) {
-        local::offset(self.reference.0, self.reference.1, north, east)
     }
 
     /// The surface and the topmost region (if any) at local (east, north), time `t_s`.

@@ -173,7 +173,7 @@ struct SimTimeInner {
 
 impl SimTime {
     /// Longest sleep of a clock following a simulator without a ceiling.
-    pub const MAX_WAIT: Duration = Duration::from_millis(20);
+    pub(crate) const MAX_WAIT: Duration = Duration::from_millis(20);
 
     /// A simulator's time, at 0 now, that will run at most `ceiling` times faster than wall
     /// time (`None`: as fast as it can).

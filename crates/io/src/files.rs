@@ -58,23 +58,6 @@ pub fn read_world(path: &Path) -> Result<(String, World), WorldError> {
     Ok((text, world))
 }
 
-/// Where an image comes from.
-#[derive(Clone, Copy, Debug)]
-pub enum ImageInput<'a> {
-    /// A file on disk.
-    Path(&'a Path),
-    /// Encoded bytes in memory (e.g. received over MAVLink).
-    Bytes(&'a [u8]),
-}
-
-/// Load an image from a file or from bytes (the checks of [`fleetmap_core::vision::load`]).
-pub fn load_image(input: ImageInput<'_>, limits: &LoadLimits) -> Result<RgbImage, VisionError> {
-    match input {
-        ImageInput::Path(p) => load_image_file(p, limits),
-        ImageInput::Bytes(b) => load_image_bytes(b, limits),
-    }
-}
-
 /// Load an image file (PNG or JPEG): its size is checked against
 /// [`LoadLimits::max_file_bytes`] before it is read and the read is capped, then the bytes are
 /// decoded by [`load_image_bytes`].

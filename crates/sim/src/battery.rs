@@ -14,11 +14,11 @@ pub struct BatteryConfig {
     /// Minutes of hover (copter) or driving (rover) on a full battery.
     pub minutes: f64,
     /// Capacity, mAh (BATT_CAPACITY).
-    pub capacity_mah: f64,
+    pub(crate) capacity_mah: f64,
     /// Cells in series.
     pub cells: u32,
     /// Internal resistance of the pack, ohms.
-    pub resistance_ohm: f64,
+    pub(crate) resistance_ohm: f64,
     /// Minutes to recharge from empty on a charging station.
     pub charge_minutes: f64,
 }
@@ -53,9 +53,9 @@ pub struct Battery {
     /// Parameters.
     pub config: BatteryConfig,
     /// Charge consumed since the last full charge, mAh.
-    pub consumed_mah: f64,
+    pub(crate) consumed_mah: f64,
     /// Current drawn now, A.
-    pub current_a: f64,
+    pub(crate) current_a: f64,
 }
 
 impl Battery {
@@ -69,7 +69,7 @@ impl Battery {
     }
 
     /// Hover current, A.
-    pub fn hover_current(&self) -> f64 {
+    pub(crate) fn hover_current(&self) -> f64 {
         self.config.capacity_mah / 1000.0 / (self.config.minutes.max(0.1) / 60.0)
     }
 
@@ -119,7 +119,7 @@ impl Battery {
     }
 
     /// Terminal voltage under the present load, volts.
-    pub fn voltage(&self) -> f64 {
+    pub(crate) fn voltage(&self) -> f64 {
         f64::from(self.config.cells) * self.cell_ocv() - self.current_a * self.config.resistance_ohm
     }
 

@@ -109,7 +109,7 @@ impl Flavour {
     /// The flight mode a vehicle boots into: STABILIZE (ArduCopter), HOLD (ArduRover; real
     /// rovers boot in MANUAL, but without an RC transmitter HOLD is what field setups
     /// configure with INITIAL_MODE), AUTO_LOITER ("Hold") for PX4.
-    pub fn boot_mode(self) -> Mode {
+    pub(crate) fn boot_mode(self) -> Mode {
         match (self.autopilot, self.kind) {
             (SimAutopilot::ArduPilot, VehicleKind::Copter) => Mode::Stabilize,
             (SimAutopilot::ArduPilot, VehicleKind::Rover) => Mode::Hold,
@@ -121,7 +121,7 @@ impl Flavour {
     /// that behaves as `mode` for this flavour, or `None` when this flavour has no such mode.
     /// ArduCopter holds in LOITER; PX4 holds in AUTO_LOITER ("HOLD"), loiters under pilot
     /// control in POSCTL and is guided in OFFBOARD.
-    pub fn autopilot_mode(self, mode: Mode) -> Option<ProtoMode> {
+    pub(crate) fn autopilot_mode(self, mode: Mode) -> Option<ProtoMode> {
         use ProtoMode::{Copter, Px4, Rover};
         Some(match (self.autopilot, self.kind) {
             (SimAutopilot::ArduPilot, VehicleKind::Copter) => Copter(match mode {
@@ -168,7 +168,7 @@ impl Flavour {
     }
 
     /// The mode a HEARTBEAT/SET_MODE `custom_mode` names for this flavour.
-    pub fn mode_from_custom(self, custom_mode: u32) -> Option<Mode> {
+    pub(crate) fn mode_from_custom(self, custom_mode: u32) -> Option<Mode> {
         Mode::ALL
             .iter()
             .copied()
@@ -292,7 +292,7 @@ impl Mode {
     }
 
     /// Whether the autopilot needs a position estimate to enter this mode.
-    pub fn requires_position(self) -> bool {
+    pub(crate) fn requires_position(self) -> bool {
         matches!(
             self,
             Mode::Hold

@@ -60,7 +60,7 @@ pub enum SimError {
 
 /// Parse `3xcopter:ardupilot,1xrover:px4` into (count, flavour) pairs (a missing `N x`
 /// means one).
-pub fn parse_vehicle_spec(spec: &str) -> Result<Vec<(usize, Flavour)>, SimError> {
+pub(crate) fn parse_vehicle_spec(spec: &str) -> Result<Vec<(usize, Flavour)>, SimError> {
     let err = |reason: String| SimError::Spec {
         spec: spec.to_string(),
         reason,
@@ -96,11 +96,11 @@ pub struct SimConfig {
     /// The world (ground truth for images), if any.
     pub world: Option<Arc<World>>,
     /// Faults GCS → vehicle, one per vehicle (missing entries: perfect).
-    pub uplink: Vec<LinkFaults>,
+    pub(crate) uplink: Vec<LinkFaults>,
     /// Faults vehicle → GCS, one per vehicle (missing entries: perfect).
     pub downlink: Vec<LinkFaults>,
     /// A copter landed within this distance of a rover rides with it and charges, metres.
-    pub dock_radius_m: f64,
+    pub(crate) dock_radius_m: f64,
     /// Seed of the links.
     pub seed: u64,
     /// MAVLink 2 signing key of every ArduPilot vehicle (None: unsigned, until a GCS sends
@@ -374,14 +374,14 @@ impl Sim {
 
     /// Set every vehicle's [`VehicleConfig::gcs_time_scale`]: simulated seconds per second
     /// of the GCS's clock (the socket server sets it to its speed-up over a GCS's).
-    pub fn set_gcs_time_scale(&mut self, scale: f64) {
+    pub(crate) fn set_gcs_time_scale(&mut self, scale: f64) {
         for s in &mut self.slots {
             s.v.set_gcs_time_scale(scale);
         }
     }
 
     /// The operator swaps vehicle `sysid`'s battery (see [`SimVehicle::swap_battery`]).
-    pub fn swap_battery(&mut self, sysid: u8) -> bool {
+    pub(crate) fn swap_battery(&mut self, sysid: u8) -> bool {
         let now = self.now;
         let ok = self.slot_mut(sysid).is_some_and(|s| s.v.swap_battery(now));
         self.collect_outputs(now);

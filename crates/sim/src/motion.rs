@@ -17,7 +17,7 @@ use serde::{Deserialize, Serialize};
 /// Gravity, m/s².
 pub const G: f64 = 9.80665;
 /// Drag coefficient of the tilt model: tan(tilt) = DRAG · airspeed² (s²/m²).
-pub const DRAG: f64 = 0.0035;
+pub(crate) const DRAG: f64 = 0.0035;
 
 /// Motion limits of a vehicle.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
@@ -26,17 +26,17 @@ pub struct Limits {
     /// WP_SPEED).
     pub speed_mps: f64,
     /// Horizontal acceleration, m/s² (WPNAV_ACCEL / MPC_ACC_HOR / ATC_ACCEL_MAX).
-    pub accel_mps2: f64,
+    pub(crate) accel_mps2: f64,
     /// Climb rate, m/s (WPNAV_SPEED_UP / MPC_Z_VEL_MAX_UP).
-    pub climb_mps: f64,
+    pub(crate) climb_mps: f64,
     /// Descent rate, m/s (WPNAV_SPEED_DN / MPC_Z_VEL_MAX_DN).
-    pub descent_mps: f64,
+    pub(crate) descent_mps: f64,
     /// Final landing descent rate, m/s (LAND_SPEED / MPC_LAND_SPEED).
-    pub land_mps: f64,
+    pub(crate) land_mps: f64,
     /// Vertical acceleration, m/s².
-    pub accel_z_mps2: f64,
+    pub(crate) accel_z_mps2: f64,
     /// Yaw rate, degrees/s.
-    pub yaw_rate_dps: f64,
+    pub(crate) yaw_rate_dps: f64,
     /// Maximum tilt, degrees (ANGLE_MAX / MPC_TILTMAX_AIR); limits the air speed.
     pub max_tilt_deg: f64,
 }
@@ -44,7 +44,7 @@ pub struct Limits {
 impl Limits {
     /// ArduCopter defaults: WPNAV_SPEED 10 m/s, WPNAV_ACCEL 2.5 m/s², WPNAV_SPEED_UP 2.5,
     /// WPNAV_SPEED_DN 1.5, LAND_SPEED 0.5, ANGLE_MAX 30°.
-    pub const ARDUCOPTER: Limits = Limits {
+    pub(crate) const ARDUCOPTER: Limits = Limits {
         speed_mps: 10.0,
         accel_mps2: 2.5,
         climb_mps: 2.5,
@@ -67,7 +67,7 @@ impl Limits {
         max_tilt_deg: 45.0,
     };
     /// Rover defaults (ArduRover WP_SPEED 2 m/s, ATC_ACCEL_MAX 1 m/s²; PX4 rover similar).
-    pub const ROVER: Limits = Limits {
+    pub(crate) const ROVER: Limits = Limits {
         speed_mps: 2.0,
         accel_mps2: 1.0,
         climb_mps: 0.0,
@@ -93,7 +93,7 @@ pub struct State {
     /// Velocity north, m/s.
     pub vn: f64,
     /// Velocity up, m/s.
-    pub vu: f64,
+    pub(crate) vu: f64,
     /// Heading, degrees clockwise from north (0–360).
     pub heading_deg: f64,
     /// Roll, degrees (right side down positive).
@@ -104,7 +104,7 @@ pub struct State {
 
 impl State {
     /// Horizontal ground speed, m/s.
-    pub fn ground_speed(&self) -> f64 {
+    pub(crate) fn ground_speed(&self) -> f64 {
         self.ve.hypot(self.vn)
     }
 }

@@ -46,7 +46,7 @@ pub struct SpeedError(String);
 
 impl Speed {
     /// Real time.
-    pub const REAL_TIME: Speed = Speed::Times(1.0);
+    pub(crate) const REAL_TIME: Speed = Speed::Times(1.0);
 
     /// A ceiling of `x` simulated seconds per wall second (`None` unless finite and positive).
     pub fn times(x: f64) -> Option<Speed> {
@@ -87,7 +87,7 @@ impl fmt::Display for Speed {
 
 /// The lock-step schedule (see the module documentation).
 #[derive(Clone, Debug)]
-pub struct Pacer {
+pub(crate) struct Pacer {
     speed: Speed,
     /// (wall, simulated) time the schedule is anchored at: simulated time may reach
     /// `sim + (wall_now − wall) · ceiling`.
@@ -99,16 +99,16 @@ pub struct Pacer {
 impl Pacer {
     /// Most simulated time stepped in one turn of the shell without serving its I/O in
     /// between, with [`Speed::Max`]: two 20 Hz physics steps.
-    pub const MAX_BATCH: Duration = Duration::from_millis(100);
+    pub(crate) const MAX_BATCH: Duration = Duration::from_millis(100);
     /// Most simulated time the shell may make up at once after a late turn (see
     /// [`Pacer::max_lag`]).
-    pub const MAX_LAG_SIM: Duration = Duration::from_millis(100);
+    pub(crate) const MAX_LAG_SIM: Duration = Duration::from_millis(100);
     /// Most wall time the shell may make up at once after a late turn: a timer that fires a
     /// few milliseconds late (the scheduler's granularity) costs no speed.
-    pub const MAX_LAG_WALL: Duration = Duration::from_millis(10);
+    pub(crate) const MAX_LAG_WALL: Duration = Duration::from_millis(10);
 
     /// A schedule for `speed`, anchored at its first [`Pacer::allowed`].
-    pub fn new(speed: Speed) -> Pacer {
+    pub(crate) fn new(speed: Speed) -> Pacer {
         Pacer {
             speed,
             anchor: None,
@@ -117,23 +117,24 @@ impl Pacer {
     }
 
     /// The speed asked for.
-    pub fn speed(&self) -> Speed {
+    pub(crate) fn speed(&self) -> Speed {
         self.speed
     }
 
     /// How far simulated time may lag the schedule before the schedule is moved instead:
     /// [`Pacer::MAX_LAG_SIM`], or [`Pacer::MAX_LAG_WALL`] of wall time at the ceiling if
     /// that is more (at 20× it is 200 ms, four physics steps).
-    pub fn max_lag(&self) -> Duration {
+    pub(crate) fn max_lag(&self) -> Duration {
         match self.speed {
             Speed::Times(x) => Self::MAX_LAG_SIM.max(Self::MAX_LAG_WALL.mul_f64(x)),
             Speed::Max => Self::MAX_BATCH,
         }
     }
 
+    #[cfg(test)]
     /// How many times the schedule was moved because the shell fell behind (the simulator
     /// ran slower than its ceiling).
-    pub fn slowed(&self) -> u64 {
+    pub(crate) fn slowed(&self) -> u64 {
         self.slowed
     }
 
@@ -141,7 +142,7 @@ impl Pacer {
     /// `wall`: never ahead of the ceiling's schedule, and at most [`Pacer::max_lag`] past
     /// `sim` (when it is further behind, the schedule moves: it runs slower instead of
     /// catching up). With [`Speed::Max`], `sim` + [`Pacer::MAX_BATCH`].
-    pub fn allowed(&mut self, wall: Time, sim: Time) -> Time {
+    pub(crate) fn allowed(&mut self, wall: Time, sim: Time) -> Time {
         let Speed::Times(x) = self.speed else {
             return sim + Self::MAX_BATCH;
         };
@@ -159,7 +160,7 @@ impl Pacer {
     }
 
     /// The wall time at which simulated time `t` is on the schedule (`None`: at once).
-    pub fn wall_at(&self, t: Time) -> Option<Time> {
+    pub(crate) fn wall_at(&self, t: Time) -> Option<Time> {
         let (Speed::Times(x), Some((w0, s0))) = (self.speed, self.anchor) else {
             return None;
         };
@@ -170,7 +171,7 @@ impl Pacer {
 /// Simulated seconds per wall second over the last [`SpeedMeter::WINDOW`] of wall time, and
 /// over the whole run.
 #[derive(Clone, Debug, Default)]
-pub struct SpeedMeter {
+pub(crate) struct SpeedMeter {
     /// (wall, simulated) samples, at least [`SpeedMeter::SPACING`] apart, the oldest within
     /// the window (plus one before it, the window's start).
     samples: VecDeque<(Time, Time)>,
@@ -180,19 +181,19 @@ pub struct SpeedMeter {
 
 impl SpeedMeter {
     /// Wall time the current speed is measured over.
-    pub const WINDOW: Duration = Duration::from_secs(2);
+    pub(crate) const WINDOW: Duration = Duration::from_secs(2);
     /// Least wall time between two kept samples.
-    pub const SPACING: Duration = Duration::from_millis(100);
+    pub(crate) const SPACING: Duration = Duration::from_millis(100);
     /// Least wall time a speed is measured over.
-    pub const LEAST: Duration = Duration::from_millis(500);
+    pub(crate) const LEAST: Duration = Duration::from_millis(500);
 
     /// An empty meter.
-    pub fn new() -> SpeedMeter {
+    pub(crate) fn new() -> SpeedMeter {
         SpeedMeter::default()
     }
 
     /// The simulator stood at simulated time `sim` at wall time `wall`.
-    pub fn record(&mut self, wall: Time, sim: Time) {
+    pub(crate) fn record(&mut self, wall: Time, sim: Time) {
         self.first.get_or_insert((wall, sim));
         self.last = Some((wall, sim));
         if self
@@ -220,17 +221,17 @@ impl SpeedMeter {
 
     /// Simulated seconds per wall second over about the last [`SpeedMeter::WINDOW`] (`None`
     /// until [`SpeedMeter::LEAST`] of wall time has been measured).
-    pub fn current(&self) -> Option<f64> {
+    pub(crate) fn current(&self) -> Option<f64> {
         Self::rate(*self.samples.front()?, self.last?)
     }
 
     /// Simulated seconds per wall second since the first sample.
-    pub fn overall(&self) -> Option<f64> {
+    pub(crate) fn overall(&self) -> Option<f64> {
         Self::rate(self.first?, self.last?)
     }
 
     /// Simulated and wall time since the first sample.
-    pub fn totals(&self) -> (Duration, Duration) {
+    pub(crate) fn totals(&self) -> (Duration, Duration) {
         match (self.first, self.last) {
             (Some(f), Some(l)) => (l.1.saturating_since(f.1), l.0.saturating_since(f.0)),
             _ => (Duration::ZERO, Duration::ZERO),

@@ -88,16 +88,16 @@ use std::time::Duration;
 /// Oldest pose a picture may be rendered from by default (age of the last
 /// GLOBAL_POSITION_INT's arrival): five periods of the [`TELEMETRY_HZ`] stream, so a few lost
 /// datagrams do not refuse a picture, while a copter at 5 m/s has moved at most 2.5 m.
-pub const DEFAULT_MAX_POSE_AGE: Duration = Duration::from_millis(500);
+pub(crate) const DEFAULT_MAX_POSE_AGE: Duration = Duration::from_millis(500);
 /// Rate asked of GLOBAL_POSITION_INT and ATTITUDE, Hz (10 Hz is QGroundControl's default for
 /// ArduPilot's EXTRA1 stream; the pose is then at most 0.1 s old between messages).
-pub const TELEMETRY_HZ: u16 = 10;
+pub(crate) const TELEMETRY_HZ: u16 = 10;
 /// Shortest time between two requests for telemetry to one autopilot while its pose is
 /// stale.
-pub const REQUEST_RETRY: Duration = Duration::from_secs(2);
+pub(crate) const REQUEST_RETRY: Duration = Duration::from_secs(2);
 /// How far GLOBAL_POSITION_INT.time_boot_ms must go backwards, milliseconds, to count as a
 /// reboot rather than a reordered datagram.
-pub const REBOOT_BACKSTEP_MS: u32 = 1000;
+pub(crate) const REBOOT_BACKSTEP_MS: u32 = 1000;
 
 /// MAV_COMP_ID_AUTOPILOT1.
 const AUTOPILOT_COMPID: u8 = 1;
@@ -206,18 +206,6 @@ impl PairedCameras {
             events: VecDeque::new(),
             refused: 0,
         }
-    }
-
-    /// The same cameras, refusing to render from a pose whose last GLOBAL_POSITION_INT
-    /// arrived more than `age` ago.
-    pub fn with_max_pose_age(mut self, age: Duration) -> PairedCameras {
-        self.max_pose_age = age;
-        self
-    }
-
-    /// Oldest pose a picture may be rendered from (age of the last GLOBAL_POSITION_INT).
-    pub fn max_pose_age(&self) -> Duration {
-        self.max_pose_age
     }
 
     /// System ids of the autopilots with a camera.
@@ -680,7 +668,7 @@ impl PairedCameras {
 
     /// The next picture to get from outside (cameras made by [`PairedCameras::external`]),
     /// with the vehicle it is for.
-    pub fn poll_shot(&mut self) -> Option<(u8, Shot)> {
+    pub(crate) fn poll_shot(&mut self) -> Option<(u8, Shot)> {
         self.tracked
             .iter_mut()
             .find_map(|(&sysid, t)| t.camera.poll_shot().map(|s| (sysid, s)))
@@ -688,7 +676,7 @@ impl PairedCameras {
 
     /// The picture of `shot` on vehicle `sysid`'s camera (None: the source had none), at
     /// `now`: announced, measured and sent as [`SimCamera::deliver`] does.
-    pub fn deliver(&mut self, sysid: u8, shot: Shot, img: Option<&RgbImage>, now: Time) {
+    pub(crate) fn deliver(&mut self, sysid: u8, shot: Shot, img: Option<&RgbImage>, now: Time) {
         let Some(t) = self.tracked.get_mut(&sysid) else {
             return;
         };

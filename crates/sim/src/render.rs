@@ -23,7 +23,7 @@
 
 use fleetmap_core::vision::camera::CameraModel;
 use fleetmap_core::world::{Surface, World};
-use image::{Rgb, RgbImage};
+use image::RgbImage;
 use rand::RngExt;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
@@ -52,13 +52,13 @@ pub struct Disturbances {
     /// Global exposure gain (1 = nominal).
     pub exposure: f64,
     /// Strength of the cloud-shadow field (0 = none, 0.15 = shadows 15 % darker).
-    pub cloud_shadow: f64,
+    pub(crate) cloud_shadow: f64,
     /// Vignetting: brightness falls by this fraction at the image corners.
-    pub vignetting: f64,
+    pub(crate) vignetting: f64,
     /// Gaussian blur sigma in pixels (defocus and motion).
-    pub blur_px: f32,
+    pub(crate) blur_px: f32,
     /// Sensor noise standard deviation, grey levels.
-    pub noise_sigma: f64,
+    pub(crate) noise_sigma: f64,
     /// Seed of the noise and cloud field of this image.
     pub seed: u64,
     /// Render every green tile as a grey tile and every grey tile as a green one: the image
@@ -66,7 +66,7 @@ pub struct Disturbances {
     /// [`crate::camera::CameraConfig::misclassify_probability`]). Never drawn by
     /// [`Disturbances::draw`]; the camera sets it.
     #[serde(default)]
-    pub swap_tiles: bool,
+    pub(crate) swap_tiles: bool,
 }
 
 impl Disturbances {
@@ -116,9 +116,10 @@ pub fn footprint_center(world: &World, pose: &CameraPose) -> (f64, f64) {
     )
 }
 
+#[cfg(test)]
 /// The ground point (local east, north metres) seen by pixel (`u`, `v`) (centre of the
 /// pixel; `u` right, `v` down).
-pub fn pixel_ground(
+pub(crate) fn pixel_ground(
     world: &World,
     pose: &CameraPose,
     camera: &CameraModel,
@@ -433,9 +434,10 @@ pub fn render(
     img
 }
 
+#[cfg(test)]
 /// OpenCV's fixed-point BT.601 grey level of an RGB pixel (`cv2.cvtColor(RGB2GRAY)`), used
 /// by the pixel-statistics tests.
-pub fn gray_bt601(p: &Rgb<u8>) -> u8 {
+pub(crate) fn gray_bt601(p: &image::Rgb<u8>) -> u8 {
     // OpenCV: (R*4899 + G*9617 + B*1868 + (1 << 13)) >> 14
     let [r, g, b] = p.0;
     ((u32::from(r) * 4899 + u32::from(g) * 9617 + u32::from(b) * 1868 + (1 << 13)) >> 14) as u8

@@ -96,7 +96,7 @@ impl Endpoint {
     }
 
     /// The endpoint of vehicle number `k` (0-based) when this one is shared among vehicles.
-    pub fn for_vehicle(&self, k: usize) -> Result<Endpoint, ServerError> {
+    pub(crate) fn for_vehicle(&self, k: usize) -> Result<Endpoint, ServerError> {
         let shift = |a: &str| -> Result<String, ServerError> {
             let (h, p) = a
                 .rsplit_once(':')
@@ -173,11 +173,11 @@ pub struct Bound {
 
 /// Shortest wait between two turns of sending while a vehicle's link has a backlog (its
 /// bandwidth and age limit: [`TxQueue`]).
-pub const UDP_PACE: Duration = Duration::from_millis(5);
+pub(crate) const UDP_PACE: Duration = Duration::from_millis(5);
 
 /// How often the shell checks the speed it achieves (reports a shortfall, rescales the
 /// vehicles' judgement of a wall-clock GCS), wall time.
-pub const SPEED_CHECK: Duration = Duration::from_secs(5);
+pub(crate) const SPEED_CHECK: Duration = Duration::from_secs(5);
 
 /// A speed below this share of the ceiling is reported as a shortfall.
 const SHORTFALL: f64 = 0.9;

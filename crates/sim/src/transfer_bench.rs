@@ -37,14 +37,14 @@ use std::time::Duration;
 pub const VEHICLE: Endpoint = Endpoint::new(1, 1);
 
 /// The header of what the GCS sends (system 255, component 190, as [`Endpoint::gcs`]).
-pub const GCS_HEADER: MavHeader = MavHeader {
+pub(crate) const GCS_HEADER: MavHeader = MavHeader {
     system_id: 255,
     component_id: 190,
     sequence: 0,
 };
 
 /// The header of what the vehicle sends ([`VEHICLE`]).
-pub const VEHICLE_HEADER: MavHeader = MavHeader {
+pub(crate) const VEHICLE_HEADER: MavHeader = MavHeader {
     system_id: 1,
     component_id: 1,
     sequence: 0,
@@ -73,8 +73,9 @@ pub struct NetFaults {
 }
 
 impl NetFaults {
+    #[cfg(test)]
     /// A network that delivers everything, at once and in order.
-    pub const PERFECT: NetFaults = NetFaults {
+    pub(crate) const PERFECT: NetFaults = NetFaults {
         loss: 0.0,
         dup: 0.0,
         latency_ms: 0,
@@ -183,24 +184,19 @@ impl Net {
     }
 
     /// When the next copy arrives, if any is on its way.
-    pub fn next_arrival(&self) -> Option<Time> {
+    pub(crate) fn next_arrival(&self) -> Option<Time> {
         self.heap.peek().map(|f| f.at)
     }
 
     /// The next copy that has arrived by `now`: the message and whether it goes to the
     /// vehicle.
-    pub fn poll(&mut self, now: Time) -> Option<(MavMessage, bool)> {
+    pub(crate) fn poll(&mut self, now: Time) -> Option<(MavMessage, bool)> {
         if self.heap.peek().is_none_or(|f| f.at > now) {
             return None;
         }
         let f = self.heap.pop()?;
         let msg = self.msgs.get(f.idx)?.clone();
         Some((msg, f.to_vehicle))
-    }
-
-    /// Copies still on their way.
-    pub fn in_flight(&self) -> usize {
-        self.heap.len()
     }
 }
 

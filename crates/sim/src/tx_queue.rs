@@ -24,7 +24,7 @@ use std::time::Duration;
 
 /// One vehicle's outgoing datagrams (see the module documentation).
 #[derive(Debug)]
-pub struct TxQueue {
+pub(crate) struct TxQueue {
     queue: VecDeque<(Time, Vec<u8>)>,
     /// Datagrams that may leave now (token bucket, at most [`TxQueue::BURST`]).
     tokens: f64,
@@ -44,7 +44,7 @@ impl Default for TxQueue {
 
 /// What [`TxQueue::expire`] found.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Expired {
+pub(crate) enum Expired {
     /// Nothing was too old.
     None,
     /// The first drops since the queue was last empty: this many.
@@ -56,21 +56,21 @@ pub enum Expired {
 impl TxQueue {
     /// Nominal bandwidth, datagrams per wall second (32 per 5 ms: about 1.8 MB/s of full
     /// MAVLink 2 frames, a Wi-Fi link; telemetry radios carry far less).
-    pub const RATE: f64 = 6400.0;
+    pub(crate) const RATE: f64 = 6400.0;
     /// Most datagrams sent at once after a pause.
-    pub const BURST: f64 = 256.0;
+    pub(crate) const BURST: f64 = 256.0;
     /// Oldest datagram still worth sending, wall time: half the GCS's command timeout (1 s,
     /// as QGroundControl's), so a resend's acknowledgement is never the one thrown away.
-    pub const MAX_AGE: Duration = Duration::from_millis(500);
+    pub(crate) const MAX_AGE: Duration = Duration::from_millis(500);
 
     /// Backlog, datagrams, beyond which the simulator stops stepping until the link has
     /// carried it (about 100 ms of [`TxQueue::RATE`]): in lock-step (`crate::pace`) a
     /// link that cannot keep up slows the simulation down, as a starved SITL slows down,
     /// instead of ageing out what it produced.
-    pub const HOLD: usize = 640;
+    pub(crate) const HOLD: usize = 640;
 
     /// An empty queue with a full bucket.
-    pub fn new() -> Self {
+    pub(crate) fn new() -> Self {
         TxQueue {
             queue: VecDeque::new(),
             tokens: Self::BURST,
@@ -81,12 +81,12 @@ impl TxQueue {
     }
 
     /// Queue `datagram`, produced at wall time `now`.
-    pub fn push(&mut self, now: Time, datagram: Vec<u8>) {
+    pub(crate) fn push(&mut self, now: Time, datagram: Vec<u8>) {
         self.queue.push_back((now, datagram));
     }
 
     /// Drop what is older than [`TxQueue::MAX_AGE`] at `now`.
-    pub fn expire(&mut self, now: Time) -> Expired {
+    pub(crate) fn expire(&mut self, now: Time) -> Expired {
         let mut n = 0;
         while self
             .queue
@@ -110,7 +110,7 @@ impl TxQueue {
     }
 
     /// Refill the bucket for the wall time passed since the last call.
-    pub fn refill(&mut self, now: Time) {
+    pub(crate) fn refill(&mut self, now: Time) {
         let dt = self
             .refilled_at
             .map_or(Duration::ZERO, |t| now.saturating_since(t));
@@ -120,7 +120,7 @@ impl TxQueue {
 
     /// The next datagram the bucket lets out now, if any ([`TxQueue::refill`] first). It
     /// stays queued until [`TxQueue::sent`] (a socket that cannot take it yet keeps it).
-    pub fn ready(&self) -> Option<&[u8]> {
+    pub(crate) fn ready(&self) -> Option<&[u8]> {
         if self.tokens >= 1.0 {
             self.queue.front().map(|(_, d)| d.as_slice())
         } else {
@@ -129,7 +129,7 @@ impl TxQueue {
     }
 
     /// The datagram [`TxQueue::ready`] gave left (or can never leave): take it off.
-    pub fn sent(&mut self) {
+    pub(crate) fn sent(&mut self) {
         if self.queue.pop_front().is_some() {
             self.tokens -= 1.0;
         }
@@ -139,39 +139,40 @@ impl TxQueue {
     }
 
     /// Everything waiting, unpaced (a TCP client: the stream paces itself).
-    pub fn take_all(&mut self) -> impl Iterator<Item = Vec<u8>> + '_ {
+    pub(crate) fn take_all(&mut self) -> impl Iterator<Item = Vec<u8>> + '_ {
         self.dropped_in_episode = 0;
         self.queue.drain(..).map(|(_, d)| d)
     }
 
     /// Throw everything away (nobody to send to).
-    pub fn clear(&mut self) {
+    pub(crate) fn clear(&mut self) {
         self.queue.clear();
         self.dropped_in_episode = 0;
     }
 
+    #[cfg(test)]
     /// Datagrams waiting.
-    pub fn len(&self) -> usize {
+    pub(crate) fn len(&self) -> usize {
         self.queue.len()
     }
 
     /// More waiting than [`TxQueue::HOLD`].
-    pub fn backlogged(&self) -> bool {
+    pub(crate) fn backlogged(&self) -> bool {
         self.queue.len() > Self::HOLD
     }
 
     /// Nothing waiting.
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.queue.is_empty()
     }
 
     /// Datagrams dropped for age, in all.
-    pub fn dropped(&self) -> u64 {
+    pub(crate) fn dropped(&self) -> u64 {
         self.dropped
     }
 
     /// When the next datagram may leave (now if one may), given the queue is not empty.
-    pub fn next_send(&self, now: Time) -> Option<Time> {
+    pub(crate) fn next_send(&self, now: Time) -> Option<Time> {
         if self.queue.is_empty() {
             None
         } else if self.tokens >= 1.0 {

@@ -69,7 +69,7 @@ pub fn green_spec_of(def: &fleetmap_core::mission::definition::MissionDef) -> Op
 
 /// The run's measurement definition, as a camera that measures on board must be given it
 /// (`fleetmap camera --mission`): the mission's green box, camera, cell size and crop.
-pub fn green_spec(s: &ClassificationState) -> GreenSpec {
+pub(crate) fn green_spec(s: &ClassificationState) -> GreenSpec {
     GreenSpec {
         green: s.params.green,
         camera: s.params.camera,

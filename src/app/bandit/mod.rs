@@ -52,7 +52,6 @@ use fleetmap_core::planner::sortie::{
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::Command;
 use fleetmap_core::vision::camera::CameraModel;
-pub use fleetmap_core::vision::crop::crop_to_cell;
 use fleetmap_core::vision::geometry;
 use fleetmap_core::vision::green::GreenParams;
 use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
@@ -82,7 +81,7 @@ mod upload;
 
 pub use self::events::*;
 pub use self::intake::*;
-pub use self::pilot::*;
+
 pub use self::runner::*;
 use self::upload::*;
 

@@ -242,12 +242,12 @@ pub(super) async fn charging(shared: &Shared, sysid: u8) -> bool {
 }
 
 /// Spacing of the charging pads on a station, metres.
-pub const PAD_SPACING_M: f64 = 0.6;
+pub(crate) const PAD_SPACING_M: f64 = 0.6;
 
 /// Where pad `slot.0` of `slot.1` lies from the station's centre, (north, east) metres: the
 /// pads form the most compact square-ish grid ([`PAD_SPACING_M`] apart, centred), so five
 /// drones on one station land within 0.85 m of its centre instead of 1.2 m in a row.
-pub fn pad_offset(slot: (usize, usize)) -> (f64, f64) {
+pub(crate) fn pad_offset(slot: (usize, usize)) -> (f64, f64) {
     let (i, n) = (slot.0, slot.1.max(1));
     let side = (1..=n).find(|s| s * s >= n).unwrap_or(n);
     let rows = n.div_ceil(side);

@@ -17,7 +17,7 @@ use serde::Serialize;
 use std::collections::BTreeSet;
 
 /// A cell as `[row, col]` (the mission-file form).
-pub type CellPair = [i32; 2];
+pub(crate) type CellPair = [i32; 2];
 
 fn pair(c: Cell) -> CellPair {
     [c.row, c.col]
@@ -25,7 +25,7 @@ fn pair(c: Cell) -> CellPair {
 
 /// One epoch in the report.
 #[derive(Clone, Debug, PartialEq, Serialize)]
-pub struct EpochLine {
+pub(crate) struct EpochLine {
     /// Epoch p.
     pub epoch: u64,
     /// E_p.
@@ -35,9 +35,9 @@ pub struct EpochLine {
     /// IP solves (1 + re-plans).
     pub solves: u32,
     /// Planner wall time, seconds.
-    pub planner_s: f64,
+    pub(crate) planner_s: f64,
     /// Sortie time, seconds.
-    pub flight_s: f64,
+    pub(crate) flight_s: f64,
     /// Measurements counted.
     pub measurements: u64,
     /// Capture visits.
@@ -98,15 +98,15 @@ pub struct ClassificationReport {
     /// Planner wall time per finished epoch, seconds.
     pub planner_seconds_per_epoch: Vec<f64>,
     /// Sortie time per finished epoch, seconds.
-    pub flight_seconds_per_epoch: Vec<f64>,
+    pub(crate) flight_seconds_per_epoch: Vec<f64>,
     /// The epochs in detail.
-    pub per_epoch: Vec<EpochLine>,
+    pub(crate) per_epoch: Vec<EpochLine>,
     /// Drone flight time, all drones together, seconds airborne.
     pub flight_time_s: f64,
     /// Airborne seconds per drone.
-    pub airborne_s: Vec<(u8, f64)>,
+    pub(crate) airborne_s: Vec<(u8, f64)>,
     /// Time the sorties took (the team's clock), seconds.
-    pub sortie_time_s: f64,
+    pub(crate) sortie_time_s: f64,
     /// Measurements counted into H.
     pub measurements: u64,
     /// Images received but not counted.
@@ -118,7 +118,7 @@ pub struct ClassificationReport {
     /// Times the run was resumed.
     pub resumes: u32,
     /// θ, ε, δ, the confidence bound (`paper` or `kl`), D, B, Td, Tc, K, C, separation.
-    pub parameters: serde_json::Value,
+    pub(crate) parameters: serde_json::Value,
 }
 
 /// The report of `state`; `truth` is the set of interesting cells of a simulated world.

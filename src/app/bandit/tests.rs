@@ -1,5 +1,6 @@
 //! Unit tests of the bandit run: station proximity, charger pads, green measurement.
 
+use super::pilot::{PAD_SPACING_M, pad_offset};
 use super::*;
 use image::RgbImage;
 

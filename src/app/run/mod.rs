@@ -22,10 +22,10 @@ use std::time::Duration;
 use tokio::sync::{Mutex, mpsc, watch};
 
 /// How often [`RunCore::spawn_tracker`] samples the fleet, in runtime time.
-pub const TRACK_PERIOD: Duration = Duration::from_millis(500);
+pub(crate) const TRACK_PERIOD: Duration = Duration::from_millis(500);
 
 /// The shared core of a run over state `S` (see the module docs).
-pub struct RunCore<S> {
+pub(crate) struct RunCore<S> {
     state: Mutex<S>,
     store: RunStore,
     changed: watch::Sender<u64>,
@@ -40,7 +40,7 @@ where
 {
     /// A core over `state`, saving to `run` (through a store task, see [`RunStore::spawn`]),
     /// reading time from `clock`, sending progress events to `progress` and states to `view`.
-    pub fn new(
+    pub(crate) fn new(
         state: S,
         run: RunDir,
         clock: MonotonicClock,
@@ -61,17 +61,17 @@ where
 
     /// The store task (for the few jobs that are not a commit: reading the journal back on
     /// resume).
-    pub fn store(&self) -> &RunStore {
+    pub(crate) fn store(&self) -> &RunStore {
         &self.store
     }
 
     /// The fleet clock's time now.
-    pub fn now(&self) -> fleetmap_core::time::Time {
+    pub(crate) fn now(&self) -> fleetmap_core::time::Time {
         self.clock.now()
     }
 
     /// Log `event` and pass it to the progress channel (headless stdout, the TUI's log).
-    pub fn say(&self, event: Progress) {
+    pub(crate) fn say(&self, event: Progress) {
         match event.severity {
             s if s <= fleetmap_core::proto::severity::Severity::Warning => {
                 tracing::warn!("{}", event.text)
@@ -85,7 +85,7 @@ where
 
     /// Mutate the state with `f`, save it, then journal the events `f` returned; publish
     /// the view and wake everyone waiting for a change. Returns once both are durable.
-    pub async fn commit<T, E, Er>(
+    pub(crate) async fn commit<T, E, Er>(
         &self,
         f: impl FnOnce(&mut S) -> Result<(T, Vec<E>), Er>,
     ) -> anyhow::Result<T>
@@ -99,7 +99,7 @@ where
 
     /// Like [`RunCore::commit`], but `f` also says whether the state changed at all: when it
     /// did not (and has no events), nothing is saved and nobody is woken.
-    pub async fn update<T, E, Er>(
+    pub(crate) async fn update<T, E, Er>(
         &self,
         f: impl FnOnce(&mut S) -> Result<(T, Vec<E>, bool), Er>,
     ) -> anyhow::Result<T>
@@ -132,31 +132,22 @@ where
     }
 
     /// Read the state.
-    pub async fn read<T>(&self, f: impl FnOnce(&S) -> T) -> T {
+    pub(crate) async fn read<T>(&self, f: impl FnOnce(&S) -> T) -> T {
         f(&*self.state.lock().await)
     }
 
-    /// Send the current state to the view (after changes that are saved with the next
-    /// commit, or at the start).
-    pub async fn publish(&self) {
-        if let Some(v) = &self.view {
-            let s = Arc::new(self.state.lock().await.clone());
-            let _ = v.send(s);
-        }
-    }
-
     /// Wake everyone waiting for a change (an operator command arrived).
-    pub fn notify(&self) {
+    pub(crate) fn notify(&self) {
         self.changed.send_modify(|n| *n += 1);
     }
 
     /// A receiver of the change counter (bumped after every commit and [`RunCore::notify`]).
-    pub fn subscribe(&self) -> watch::Receiver<u64> {
+    pub(crate) fn subscribe(&self) -> watch::Receiver<u64> {
         self.changed.subscribe()
     }
 
     /// Wait for the next change, at most `timeout`.
-    pub async fn wait_change(&self, timeout: Duration) {
+    pub(crate) async fn wait_change(&self, timeout: Duration) {
         let mut rx = self.changed.subscribe();
         rx.borrow_and_update();
         let _ = tokio::time::timeout(timeout, rx.changed()).await;
@@ -166,7 +157,7 @@ where
     /// last call (positions, airborne time: kept in memory, saved with the next commit) and
     /// publish the view. The task runs in `tasks` until the runner shuts that set down (or
     /// drops it).
-    pub fn spawn_tracker(
+    pub(crate) fn spawn_tracker(
         self: &Arc<Self>,
         tasks: &mut tokio::task::JoinSet<()>,
         mut tick: impl FnMut(&mut S, f64) + Send + 'static,

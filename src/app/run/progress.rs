@@ -34,7 +34,7 @@ impl Progress {
 
     /// Something the operator should notice: battery swaps, operator commands
     /// ([`Severity::Notice`]).
-    pub fn notice(text: impl Into<String>) -> Progress {
+    pub(crate) fn notice(text: impl Into<String>) -> Progress {
         Progress::new(Severity::Notice, text)
     }
 
@@ -50,7 +50,7 @@ impl Progress {
     }
 
     /// The same event, about vehicle `sysid`.
-    pub fn about(mut self, sysid: u8) -> Progress {
+    pub(crate) fn about(mut self, sysid: u8) -> Progress {
         self.sysid = Some(sysid);
         self
     }

@@ -14,31 +14,9 @@ pub(super) fn fractions5(c: &Classification) -> [f64; 5] {
     [f.center, f.top, f.left, f.bottom, f.right]
 }
 
-/// Decode and classify one received image (blocking work: call it on a blocking thread).
-/// Errors: the picture cannot be decoded or classified.
-pub fn classify_received(
-    bytes: &[u8],
-    heading_deg: f64,
-    params: &RunwayParams,
-    camera: &CameraModel,
-    altitude_m: f64,
-    cell_m: f64,
-) -> Result<Classification, VisionError> {
-    classify_cut(
-        bytes,
-        &Cut::Centre {
-            heading_deg,
-            altitude_m,
-        },
-        params,
-        camera,
-        cell_m,
-    )
-}
-
 /// How the 3 × 3 cells are cut out of a picture before it is classified.
 #[derive(Clone, Debug, PartialEq)]
-pub enum Cut {
+pub(crate) enum Cut {
     /// The attitude is unknown: the centre crop of [`crop_to_cells`] at `altitude_m`, its
     /// regions turned by `heading_deg` (the image's top, degrees clockwise from north).
     Centre {
@@ -61,7 +39,7 @@ pub enum Cut {
 
 /// Decode a received image, cut it as `cut` says and classify it (blocking work). Errors:
 /// the picture cannot be decoded, cut (no orthophoto from this pose) or classified.
-pub fn classify_cut(
+pub(crate) fn classify_cut(
     bytes: &[u8],
     cut: &Cut,
     params: &RunwayParams,
@@ -92,7 +70,9 @@ pub fn classify_cut(
 /// reactor: on a blocking thread in a multi-threaded runtime; inline in a current-thread one
 /// (the virtual-clock tests, where a blocking thread would let virtual time run on while it
 /// works).
-pub async fn cpu<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> anyhow::Result<T> {
+pub(crate) async fn cpu<T: Send + 'static>(
+    f: impl FnOnce() -> T + Send + 'static,
+) -> anyhow::Result<T> {
     match tokio::runtime::Handle::current().runtime_flavor() {
         tokio::runtime::RuntimeFlavor::CurrentThread => Ok(f()),
         _ => tokio::task::spawn_blocking(f)

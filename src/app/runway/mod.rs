@@ -79,18 +79,16 @@ use std::time::Duration;
 use tokio::sync::{broadcast, mpsc, watch};
 
 mod events;
-mod kind;
+pub(crate) mod kind;
 pub mod report;
 pub use self::kind::Runway;
-#[cfg(feature = "sim")]
-pub(crate) use self::kind::mission_time_line;
 mod intake;
 mod pilot;
 mod runner;
 mod sweep;
 
 pub use self::events::*;
-pub use self::intake::*;
+pub(crate) use self::intake::*;
 pub use self::runner::*;
 
 /// The run kind in `run.json`.

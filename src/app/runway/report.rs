@@ -25,10 +25,10 @@ use serde::Serialize;
 use std::collections::{BTreeMap, BTreeSet};
 
 /// The surfaces that make up the region of interest in a world (runway asphalt, a plume).
-pub const ROI_SURFACES: [Surface; 2] = [Surface::Asphalt, Surface::Plume];
+pub(crate) const ROI_SURFACES: [Surface; 2] = [Surface::Asphalt, Surface::Plume];
 
 /// The paper's field-test IoU (§7).
-pub const PAPER_IOU: f64 = 0.757;
+pub(crate) const PAPER_IOU: f64 = 0.757;
 
 /// The region of interest of `world` on `grid`: every cell it touches with the covered
 /// fraction (regions of the ROI surfaces at time `t_s`; overlaps are not double-counted
@@ -52,7 +52,7 @@ pub fn truth_coverage(
 }
 
 /// The region's outline polygons (lat, lon) for the exports.
-pub fn truth_outlines(world: &World, t_s: f64) -> Vec<Vec<LatLon>> {
+pub(crate) fn truth_outlines(world: &World, t_s: f64) -> Vec<Vec<LatLon>> {
     ROI_SURFACES
         .iter()
         .flat_map(|&s| world.polygons_of(s, t_s))
@@ -79,11 +79,11 @@ pub fn iou(map: &BTreeSet<Cell>, coverage: &BTreeMap<Cell, f64>) -> f64 {
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize)]
 pub struct Counts {
     /// Said region, is region.
-    pub true_positives: u64,
+    pub(crate) true_positives: u64,
     /// Said region, is not.
     pub false_positives: u64,
     /// Said not region, is not.
-    pub true_negatives: u64,
+    pub(crate) true_negatives: u64,
     /// Said not region, is region.
     pub false_negatives: u64,
 }
@@ -143,7 +143,7 @@ pub struct RobotTimeReport {
     pub homing_s: f64,
     /// Of `flying_s`: after the map was complete, back to the DFS's start (Algorithm 1 ends
     /// with every robot there) before homing.
-    pub returning_s: f64,
+    pub(crate) returning_s: f64,
     /// Airborne and holding.
     pub waiting_s: f64,
     /// `waiting_s` by what it waited for: `confirmation_s` (another drone confirming),
@@ -295,7 +295,7 @@ pub struct MappingReport {
     /// Visit decisions (the paper's "detections").
     pub detections: usize,
     /// Sweep images.
-    pub sweep_images: usize,
+    pub(crate) sweep_images: usize,
     /// Images lost or unreadable.
     pub image_failures: u64,
     /// Airborne time of all robots, seconds.
@@ -449,7 +449,7 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
 
 /// How a cell is drawn (Fig. 10's legend).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum CellClass {
+pub(crate) enum CellClass {
     /// Nothing known.
     Unknown,
     /// Decided not region.
@@ -462,7 +462,7 @@ pub enum CellClass {
 
 impl CellClass {
     /// Name in the exports.
-    pub fn name(self) -> &'static str {
+    pub(crate) fn name(self) -> &'static str {
         match self {
             CellClass::Unknown => "unknown",
             CellClass::NonRegion => "non-runway",
@@ -472,7 +472,7 @@ impl CellClass {
     }
 
     /// Fig. 10's colours: grey, white, black, green.
-    pub fn rgb(self) -> [u8; 3] {
+    pub(crate) fn rgb(self) -> [u8; 3] {
         match self {
             CellClass::Unknown => [150, 150, 150],
             CellClass::NonRegion => [255, 255, 255],
@@ -483,7 +483,7 @@ impl CellClass {
 }
 
 /// Every cell the run decided, classified for drawing.
-pub fn classes(state: &MappingState) -> Vec<(Cell, CellClass)> {
+pub(crate) fn classes(state: &MappingState) -> Vec<(Cell, CellClass)> {
     state
         .cell_map()
         .into_iter()
@@ -540,7 +540,7 @@ pub fn kml(state: &MappingState, outlines: &[Vec<LatLon>]) -> String {
 }
 
 /// Pixels per cell in the PNG.
-pub const PNG_CELL_PX: u32 = 24;
+pub(crate) const PNG_CELL_PX: u32 = 24;
 
 /// The grid like the paper's Fig. 10: unknown grey, non-runway white, unexplored runway
 /// black, explored green; the tracks in red; the region's outline in blue. North up.

@@ -35,7 +35,7 @@ pub(crate) fn print_progress() -> (
 /// Fly a ready run ([`crate::app::launch::prepare`]) headless (progress lines, then the
 /// report), or in the terminal UI when there is a terminal and `headless` is not asked for;
 /// prints how it ended. `run` and `resume` fly through here.
-pub async fn fly<K: RunKind>(
+pub(super) async fn fly<K: RunKind>(
     fleet: &FleetHandle,
     ready: Ready<K>,
     headless: bool,
@@ -93,7 +93,7 @@ pub async fn fly<K: RunKind>(
 }
 
 /// The UI settings of a terminal session: default keys and thresholds, the UI log file.
-pub fn ui_session(source: crate::tui::Source) -> crate::app::session::SessionConfig {
+pub(crate) fn ui_session(source: crate::tui::Source) -> crate::app::session::SessionConfig {
     crate::app::session::SessionConfig {
         source,
         ui: crate::tui::UiConfig::default(),
@@ -138,7 +138,7 @@ async fn connect_and_fly<K: RunKind>(
 }
 
 /// `fleetmap run` for a mission of kind `K`.
-pub fn start<K: RunKind>(args: RunArgs, new: NewRun) -> anyhow::Result<ExitCode> {
+pub(super) fn start<K: RunKind>(args: RunArgs, new: NewRun) -> anyhow::Result<ExitCode> {
     let settings = args.runner.settings();
     let wait = wait_of(args.runner.wait)?;
     K::options(&settings)?;
@@ -157,7 +157,7 @@ pub fn start<K: RunKind>(args: RunArgs, new: NewRun) -> anyhow::Result<ExitCode>
 }
 
 /// `fleetmap resume` of a run of kind `K`.
-pub fn resume<K: RunKind>(args: ResumeArgs, run_dir: RunDir) -> anyhow::Result<ExitCode> {
+pub(super) fn resume<K: RunKind>(args: ResumeArgs, run_dir: RunDir) -> anyhow::Result<ExitCode> {
     let state: K::State = run_dir
         .load_state()?
         .with_context(|| format!("{} has no saved state yet", args.run_dir.display()))?;
@@ -196,7 +196,7 @@ fn load<K: RunKind>(run_dir: &RunDir) -> anyhow::Result<K::State> {
 }
 
 /// `fleetmap report` of a run of kind `K`.
-pub fn report<K: RunKind>(args: ReportArgs, run_dir: RunDir) -> anyhow::Result<ExitCode> {
+pub(super) fn report<K: RunKind>(args: ReportArgs, run_dir: RunDir) -> anyhow::Result<ExitCode> {
     let state = load::<K>(&run_dir)?;
     let world = run_world(&run_dir, args.world.as_deref())?;
     let r = K::report(&state, world.as_ref())?;
@@ -219,7 +219,7 @@ pub fn report<K: RunKind>(args: ReportArgs, run_dir: RunDir) -> anyhow::Result<E
 }
 
 /// `fleetmap export` of a run of kind `K`.
-pub fn export<K: RunKind>(args: ExportArgs, run_dir: RunDir) -> anyhow::Result<ExitCode> {
+pub(super) fn export<K: RunKind>(args: ExportArgs, run_dir: RunDir) -> anyhow::Result<ExitCode> {
     let state = load::<K>(&run_dir)?;
     let world = run_world(&run_dir, args.world.as_deref())?;
     let (name, bytes) = K::export(&state, world.as_ref(), args.format.into())?;

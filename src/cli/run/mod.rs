@@ -12,12 +12,7 @@
 //! the report then scores the map against its ground truth.
 
 mod dir;
-mod flow;
-
-pub use crate::app::launch::{exports_on_finish, finish_exports, run_world};
-#[cfg(feature = "sim")]
-pub(crate) use flow::print_progress;
-pub use flow::ui_session;
+pub(crate) mod flow;
 
 use crate::app::kind::{self, RunKind, RunSettings};
 use crate::app::kinds::{self, KindVisitor};
@@ -54,10 +49,10 @@ pub struct RunnerArgs {
     /// Spatial classification: keep the drones in step (the paper's mid-cycle separation,
     /// 7e) even when the mission separates them by altitude.
     #[arg(long)]
-    pub lock_step: bool,
+    pub(crate) lock_step: bool,
     /// Spatial classification: HiGHS time limit per integer-program solve, seconds.
     #[arg(long, value_name = "SECONDS")]
-    pub plan_time_limit: Option<f64>,
+    pub(crate) plan_time_limit: Option<f64>,
 }
 
 impl RunnerArgs {
@@ -231,7 +226,7 @@ pub fn resume(args: ResumeArgs) -> anyhow::Result<ExitCode> {
 }
 
 /// `fleetmap report`.
-pub fn report_cmd(args: ReportArgs) -> anyhow::Result<ExitCode> {
+pub(crate) fn report_cmd(args: ReportArgs) -> anyhow::Result<ExitCode> {
     struct Report(ReportArgs, RunDir);
     impl KindVisitor for Report {
         type Output = anyhow::Result<ExitCode>;

@@ -15,7 +15,7 @@ pub struct Field {
     /// G, O, R.
     pub grid: Grid,
     /// μ_l per dense cell index (0 for obstacles).
-    pub mu: Vec<f64>,
+    pub(crate) mu: Vec<f64>,
     /// Whether each cell is interesting (μ_l ≥ θ).
     pub interesting: Vec<bool>,
     /// Station start cells.

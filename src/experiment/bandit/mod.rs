@@ -32,13 +32,13 @@
 
 mod field;
 pub mod paper;
-pub mod plot;
+pub(crate) mod plot;
 pub mod shard;
 mod summary;
 pub mod table;
 
 pub use field::{Field, StudyError};
-pub use summary::{Spread, VariantSummary, quantile, summarise};
+pub(crate) use summary::{Spread, VariantSummary, quantile, summarise};
 
 use fleetmap_core::geo::Cell;
 use fleetmap_core::planner::bandit::{BanditState, ConfidenceBound, Label, LogBase, p_max};
@@ -279,9 +279,9 @@ pub struct EpochRecord {
     /// Integer variables of the deciding model.
     pub variables: usize,
     /// Truly interesting cells classified after this epoch (in K or R).
-    pub interesting_classified: usize,
+    pub(crate) interesting_classified: usize,
     /// Truly uninteresting cells classified after this epoch.
-    pub uninteresting_classified: usize,
+    pub(crate) uninteresting_classified: usize,
     /// Batches of B measurements taken this epoch (at unclassified cells).
     pub batches: usize,
 }
@@ -304,7 +304,7 @@ pub struct TrialResult {
     /// Number of interesting cells (μ ≥ θ) in the world.
     pub n_interesting: usize,
     /// Number of candidate cells |C|.
-    pub n_cells: usize,
+    pub(crate) n_cells: usize,
     /// Per-epoch records.
     pub epochs: Vec<EpochRecord>,
     /// Set when the trial stopped on a planner failure (message).
@@ -339,7 +339,7 @@ pub fn visits(path: &[usize]) -> Vec<usize> {
 /// (`Sensing::Visits`) or every step (`Sensing::Steps`). With `continues`, the path's first
 /// cell is where the drone ended the previous epoch, at the same instant: that visit was
 /// measured then, so it is not measured again.
-pub fn sensed_cells(path: &[usize], sensing: Sensing, continues: bool) -> Vec<usize> {
+pub(crate) fn sensed_cells(path: &[usize], sensing: Sensing, continues: bool) -> Vec<usize> {
     let mut cells = match sensing {
         Sensing::Visits => visits(path),
         Sensing::Steps => path.to_vec(),
@@ -568,7 +568,7 @@ impl Study {
 
     /// The same study with [`Study::streams`] spelled out (empty: the positions), so parts
     /// written either way compare equal.
-    pub fn normalized(mut self) -> Study {
+    pub(crate) fn normalized(mut self) -> Study {
         if self.streams.is_empty() {
             self.streams = (0..self.variants.len()).collect();
         }
@@ -582,7 +582,7 @@ impl Study {
     }
 
     /// One summary per variant, with the paper's row beside it.
-    pub fn summarise(&self, results: &[TrialResult]) -> Vec<VariantSummary> {
+    pub(crate) fn summarise(&self, results: &[TrialResult]) -> Vec<VariantSummary> {
         self.variants
             .iter()
             .map(|cfg| {

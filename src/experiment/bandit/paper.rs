@@ -38,7 +38,7 @@ pub struct PaperRow {
 
 /// What the paper says of Fig. 6 (§VI-5): a qualitative result, checked by
 /// [`fig6_agrees`].
-pub const FIG6_CLAIM: &str = "Algorithm 1 classifies all interesting cells and all cells before \
+pub(crate) const FIG6_CLAIM: &str = "Algorithm 1 classifies all interesting cells and all cells before \
      Random, GreedyCov and GreedyTrav (figure only, no numbers)";
 
 /// The paper's number of Monte Carlo runs M for a preset (§VI: M = 100 for Table I, M = 50
@@ -68,7 +68,7 @@ fn row(trials: usize, t: [f64; 9]) -> PaperRow {
 /// table varies (μ_worst, D, (T_d, T_c), (N_d, N_c)); `None` for Fig. 6, the `compare`
 /// preset, and a variant whose other parameters differ from §VI's defaults (another rule,
 /// informative paths, a charger capacity, another grid).
-pub fn row_for(preset: Preset, cfg: &StudyConfig) -> Option<PaperRow> {
+pub(crate) fn row_for(preset: Preset, cfg: &StudyConfig) -> Option<PaperRow> {
     let base = StudyConfig::default();
     // Every §VI parameter but the one the table varies must be the paper's default.
     let mut probe = cfg.clone();
@@ -148,7 +148,7 @@ pub fn row_for(preset: Preset, cfg: &StudyConfig) -> Option<PaperRow> {
 /// (interesting cells, all cells) below every baseline's. `rows` holds (rule, median epochs
 /// to classify the interesting cells, median epochs to classify all cells); `None` when the
 /// UCB row or every baseline is missing or unfinished.
-pub fn fig6_agrees(rows: &[(GoalRule, Option<f64>, Option<f64>)]) -> Option<bool> {
+pub(crate) fn fig6_agrees(rows: &[(GoalRule, Option<f64>, Option<f64>)]) -> Option<bool> {
     let baselines = [GoalRule::Random, GoalRule::GreedyCov, GoalRule::GreedyTrav];
     let (_, ui, ua) = rows.iter().find(|r| r.0 == GoalRule::Ucb)?;
     let (ui, ua) = ((*ui)?, (*ua)?);

@@ -11,7 +11,7 @@ use plotters::prelude::*;
 
 /// Why a plot could not be drawn.
 #[derive(Debug, thiserror::Error)]
-pub enum PlotError {
+pub(crate) enum PlotError {
     /// plotters failed.
     #[error("plot drawing failed: {0}")]
     Draw(String),
@@ -31,7 +31,7 @@ const COLOURS: [RGBColor; 6] = [
 
 /// Draw the progress curves of `variants` as a PNG (width × height pixels); the x axis
 /// (epochs) is logarithmic with `log_x`, as in Fig. 5.
-pub fn progress_png(
+pub(crate) fn progress_png(
     title: &str,
     variants: &[VariantSummary],
     log_x: bool,

@@ -20,7 +20,7 @@ pub struct Shard {
 
 impl Shard {
     /// The whole study (1/1).
-    pub const WHOLE: Shard = Shard { index: 1, count: 1 };
+    pub(crate) const WHOLE: Shard = Shard { index: 1, count: 1 };
 
     /// Whether trial `trial` belongs to this part.
     pub fn holds(self, trial: usize) -> bool {
@@ -55,7 +55,7 @@ impl FromStr for Shard {
 }
 
 /// The version of [`ShardFile`]'s layout.
-pub const SHARD_FORMAT: u32 = 1;
+pub(crate) const SHARD_FORMAT: u32 = 1;
 
 /// One part of a study as written to disk: the study it belongs to, which part, and every
 /// trial of the part, whole (epochs included), so that the joined study can write the same

@@ -6,7 +6,7 @@ use serde::{Deserialize, Serialize};
 
 /// The q-quantile of `v` with linear interpolation between order statistics (Hyndman & Fan
 /// type 7, numpy's default); `None` for an empty slice.
-pub fn quantile(v: &[f64], q: f64) -> Option<f64> {
+pub(crate) fn quantile(v: &[f64], q: f64) -> Option<f64> {
     if v.is_empty() {
         return None;
     }
@@ -60,7 +60,7 @@ pub struct VariantSummary {
     /// Total labelling errors over all trials (Prop. 1 bounds P(any error) by δ per trial).
     pub label_errors: usize,
     /// Epochs whose plan needed more than one sensing cycle.
-    pub multi_cycle_epochs: usize,
+    pub(crate) multi_cycle_epochs: usize,
     /// P_max of Proposition 2 over the trials' worlds (`None` for a bound it is not proved
     /// for, see [`TrialResult::p_max`]).
     #[serde(default)]
@@ -75,7 +75,7 @@ pub struct VariantSummary {
 }
 
 /// Summarise the trials of one variant.
-pub fn summarise(config: &StudyConfig, trials: &[TrialResult]) -> VariantSummary {
+pub(crate) fn summarise(config: &StudyConfig, trials: &[TrialResult]) -> VariantSummary {
     let solve: Vec<f64> = trials
         .iter()
         .flat_map(|t| t.epochs.iter().map(|e| e.solve_seconds))

@@ -21,7 +21,7 @@ pub fn title(preset: Preset) -> &'static str {
 
 /// `summary.json`: the study, the command that made it, and one summary per variant.
 #[derive(Debug, Serialize)]
-pub struct StudySummary<'a> {
+pub(crate) struct StudySummary<'a> {
     /// Preset name (`table1`, …).
     pub preset: &'static str,
     /// [`title`].
@@ -33,7 +33,7 @@ pub struct StudySummary<'a> {
     /// Trials per variant.
     pub trials: usize,
     /// How the quantiles are computed.
-    pub quantiles: &'static str,
+    pub(crate) quantiles: &'static str,
     /// Fig. 6: the paper's claim and whether these results agree with it.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub fig6: Option<Fig6Check>,
@@ -43,16 +43,16 @@ pub struct StudySummary<'a> {
 
 /// The paper's Fig. 6 claim and our check of it.
 #[derive(Debug, Clone, Serialize)]
-pub struct Fig6Check {
+pub(crate) struct Fig6Check {
     /// [`FIG6_CLAIM`].
-    pub claim: &'static str,
+    pub(crate) claim: &'static str,
     /// [`paper::fig6_agrees`] on the medians (`None`: UCB or every baseline unfinished).
-    pub agrees: Option<bool>,
+    pub(crate) agrees: Option<bool>,
 }
 
 impl<'a> StudySummary<'a> {
     /// The summary of `study` with its `variants`' summaries, made by `command`.
-    pub fn new(study: &Study, command: &'a str, variants: &'a [VariantSummary]) -> Self {
+    pub(crate) fn new(study: &Study, command: &'a str, variants: &'a [VariantSummary]) -> Self {
         StudySummary {
             preset: study.preset.name(),
             title: title(study.preset),
@@ -67,7 +67,7 @@ impl<'a> StudySummary<'a> {
 }
 
 /// Fig. 6's claim checked on the variants' medians.
-pub fn fig6_check(variants: &[VariantSummary]) -> Fig6Check {
+pub(crate) fn fig6_check(variants: &[VariantSummary]) -> Fig6Check {
     let rows: Vec<_> = variants
         .iter()
         .map(|s| {
@@ -114,7 +114,7 @@ pub fn trials_csv(results: &[TrialResult]) -> String {
 }
 
 /// `epochs.csv`: one line per epoch of every trial.
-pub fn epochs_csv(results: &[TrialResult]) -> String {
+pub(crate) fn epochs_csv(results: &[TrialResult]) -> String {
     let mut s = String::from(
         "variant,trial,epoch,solve_seconds,cycles,goals,variables,interesting_classified,uninteresting_classified,batches\n",
     );
@@ -155,7 +155,7 @@ fn theirs(p: Published) -> Option<(f64, f64, f64)> {
 }
 
 /// `table.csv`: one line per variant, our medians and (0.1, 0.9) quantiles beside the paper's.
-pub fn table_csv(variants: &[VariantSummary]) -> String {
+pub(crate) fn table_csv(variants: &[VariantSummary]) -> String {
     let mut s = String::from(
         "variant,trials,censored,label_errors,multi_cycle_epochs,\
 solve_s_median,solve_s_q10,solve_s_q90,\

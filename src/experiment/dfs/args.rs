@@ -14,7 +14,7 @@ pub enum SpeedRatio {
 
 impl SpeedRatio {
     /// S_p for S_r = 1.
-    pub fn roi_speed(self) -> f64 {
+    pub(crate) fn roi_speed(self) -> f64 {
         match self {
             SpeedRatio::Static => 0.0,
             SpeedRatio::Ratio(r) => 1.0 / r,
@@ -147,13 +147,13 @@ pub struct DfsArgs {
     pub ratios: Vec<SpeedRatio>,
     /// ROI cells when another variable is swept.
     #[arg(long, default_value_t = 120)]
-    pub base_cells: usize,
+    pub(crate) base_cells: usize,
     /// Robots when another variable is swept.
     #[arg(long, default_value_t = 20)]
-    pub base_robots: usize,
+    pub(crate) base_robots: usize,
     /// Speed ratio when another variable is swept.
     #[arg(long, default_value = "2.5")]
-    pub base_ratio: SpeedRatio,
+    pub(crate) base_ratio: SpeedRatio,
     /// Print the JSON summary on stdout instead of the table.
     #[arg(long)]
     pub json: bool,

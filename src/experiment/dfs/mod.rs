@@ -15,9 +15,11 @@
 
 mod args;
 mod output;
-pub mod plot;
+pub(crate) mod plot;
 
-pub use args::{AllocationChoice, DfsArgs, SharingChoice, SpeedRatio};
+#[cfg(test)]
+use args::{AllocationChoice, SharingChoice};
+pub(crate) use args::{DfsArgs, SpeedRatio};
 pub use output::{table, trials_csv, violation_lines, write_outputs};
 
 use fleetmap_core::explore::bounds::{
@@ -98,7 +100,7 @@ pub struct Configuration {
     /// R.
     pub robots: usize,
     /// S_r / S_p.
-    pub speed_ratio: SpeedRatio,
+    pub(crate) speed_ratio: SpeedRatio,
 }
 
 impl fmt::Display for Configuration {
@@ -119,39 +121,39 @@ pub struct TrialRecord {
     /// Trial number.
     pub trial: usize,
     /// Direction the ROI moves ("static" when it does not).
-    pub direction: &'static str,
+    pub(crate) direction: &'static str,
     /// ALG: when the last robot was back at the start.
     pub cost: f64,
     /// Lemma 1 (eq. 2).
-    pub lemma1_upper: f64,
+    pub(crate) lemma1_upper: f64,
     /// Lemma 2 (eq. 10).
-    pub lemma2_lower: f64,
+    pub(crate) lemma2_lower: f64,
     /// §6's lawnmower baseline.
-    pub lawnmower_lower: f64,
+    pub(crate) lawnmower_lower: f64,
     /// d_max of the built tree.
     pub d_max: u32,
     /// Cells in the built tree (= C with the perfect sensor).
     pub tree_cells: usize,
     /// Whether cost ≤ Lemma 1.
-    pub within_lemma1: bool,
+    pub(crate) within_lemma1: bool,
     /// Eq. (8), the single-robot bound (`None` when R > 1, where it does not apply).
-    pub eq8_upper: Option<f64>,
+    pub(crate) eq8_upper: Option<f64>,
     /// The lower bound on OPT of the theorems' proofs: max(Lemma 2, d_max/(S_r + S_p)).
-    pub opt_lower: f64,
+    pub(crate) opt_lower: f64,
     /// Theorem 1 (eq. 13) at OPT = `opt_lower`: an upper bound on ALG, ≥ Lemma 1.
-    pub theorem1_upper: f64,
+    pub(crate) theorem1_upper: f64,
     /// Theorem 2 (eq. 18) at OPT = `opt_lower`.
-    pub theorem2_upper: f64,
+    pub(crate) theorem2_upper: f64,
     /// The longest straight round trip from the start to a ROI cell (time units): a lower
     /// bound on any strategy, which the lawnmower baseline leaves out.
-    pub reach_lower: f64,
+    pub(crate) reach_lower: f64,
     /// Unit tree edges flown, all robots together.
-    pub moves: u64,
+    pub(crate) moves: u64,
     /// Moves onto a cell no robot had reached before (C − 1): the rest is transit.
-    pub opening_moves: u64,
+    pub(crate) opening_moves: u64,
     /// Σ flight time / (R · ALG): the share of the team's time spent flying (the rest is
     /// robots done early, waiting at home).
-    pub flight_share: f64,
+    pub(crate) flight_share: f64,
     /// Decisions made differently from a fully informed team (meeting sharing; 0 with GCS).
     pub uninformed_decisions: u64,
 }
@@ -202,50 +204,50 @@ pub struct ConfigSummary {
     /// ALG.
     pub cost: Stats,
     /// Lemma 1 upper bound.
-    pub lemma1_upper: Stats,
+    pub(crate) lemma1_upper: Stats,
     /// Lemma 2 lower bound.
-    pub lemma2_lower: Stats,
+    pub(crate) lemma2_lower: Stats,
     /// Lawnmower baseline.
-    pub lawnmower_lower: Stats,
+    pub(crate) lawnmower_lower: Stats,
     /// d_max.
     pub d_max: Stats,
     /// Mean over trials of cost / lawnmower baseline.
     pub mean_ratio_to_lawnmower: f64,
     /// Mean over trials of cost / Lemma 2.
-    pub mean_ratio_to_lemma2: f64,
+    pub(crate) mean_ratio_to_lemma2: f64,
     /// Largest cost / Lemma 1 over the trials (≤ 1 when the bound holds).
-    pub max_ratio_to_lemma1: f64,
+    pub(crate) max_ratio_to_lemma1: f64,
     /// Trials where the cost exceeded Lemma 1.
     pub violations: usize,
     /// Of those, the trials without any uninformed decision (0 in every run so far).
-    pub informed_violations: usize,
+    pub(crate) informed_violations: usize,
     /// Trials with at least one uninformed decision.
-    pub uninformed_trials: usize,
+    pub(crate) uninformed_trials: usize,
     /// Eq. (8) (only with R = 1; `null` otherwise).
-    pub eq8_upper: Option<Stats>,
+    pub(crate) eq8_upper: Option<Stats>,
     /// Trials above eq. (8) (R = 1 only).
-    pub eq8_violations: usize,
+    pub(crate) eq8_violations: usize,
     /// Theorem 1 at OPT's lower bound.
-    pub theorem1_upper: Stats,
+    pub(crate) theorem1_upper: Stats,
     /// Theorem 2 at OPT's lower bound.
-    pub theorem2_upper: Stats,
+    pub(crate) theorem2_upper: Stats,
     /// The competitive ratio of Theorem 1 (the factor of OPT in eq. 13).
-    pub theorem1_ratio: f64,
+    pub(crate) theorem1_ratio: f64,
     /// The competitive ratio of Theorem 2 (the factor of OPT in eq. 18).
-    pub theorem2_ratio: f64,
+    pub(crate) theorem2_ratio: f64,
     /// Largest ALG / OPT's lower bound (≥ the true ALG/OPT), to set beside the ratios.
-    pub max_ratio_to_opt_lower: f64,
+    pub(crate) max_ratio_to_opt_lower: f64,
     /// The longest round trip from the start (see [`TrialRecord::reach_lower`]).
-    pub reach_lower: Stats,
+    pub(crate) reach_lower: Stats,
     /// Mean over trials of cost / max(lawnmower, round trip).
-    pub mean_ratio_to_lawnmower_or_reach: f64,
+    pub(crate) mean_ratio_to_lawnmower_or_reach: f64,
     /// Mean over trials of 2 d_max/(S_r − S_p) / cost: the share of the cost the Lemma 1
     /// proof charges to the depth (out to d_max and back at the slowest speed).
-    pub mean_depth_share: f64,
+    pub(crate) mean_depth_share: f64,
     /// Mean share of all moves that are transit (onto already reached cells).
-    pub mean_transit_share: f64,
+    pub(crate) mean_transit_share: f64,
     /// Mean share of the team's time spent flying (the rest: done early, at home).
-    pub mean_flight_share: f64,
+    pub(crate) mean_flight_share: f64,
 }
 
 /// A finished study.
@@ -258,7 +260,7 @@ pub struct Study {
     /// S_r (cells per time unit).
     pub robot_speed: f64,
     /// Every configuration.
-    pub configurations: Vec<Configuration>,
+    pub(crate) configurations: Vec<Configuration>,
     /// Every trial.
     #[serde(skip)]
     pub records: Vec<TrialRecord>,
@@ -267,13 +269,13 @@ pub struct Study {
     /// Total trials above Lemma 1.
     pub violations: usize,
     /// Over all trials, per (sharing, allocation): the allocation comparison.
-    pub modes: Vec<ModeSummary>,
+    pub(crate) modes: Vec<ModeSummary>,
 }
 
 /// All trials of one (sharing, allocation) pair, pooled over every sweep point, and how they
 /// compare with Algorithm 1's split on the same ROIs and directions (common random numbers).
 #[derive(Clone, Debug, Serialize)]
-pub struct ModeSummary {
+pub(crate) struct ModeSummary {
     /// Sharing.
     pub sharing: Sharing,
     /// Allocation.
@@ -285,18 +287,18 @@ pub struct ModeSummary {
     /// Mean over trials of ALG / lawnmower lower bound.
     pub mean_ratio_to_lawnmower: f64,
     /// Largest ALG / lawnmower lower bound.
-    pub max_ratio_to_lawnmower: f64,
+    pub(crate) max_ratio_to_lawnmower: f64,
     /// Largest ALG / Lemma 1 (eq. 2).
-    pub max_ratio_to_lemma1: f64,
+    pub(crate) max_ratio_to_lemma1: f64,
     /// Trials above Lemma 1.
     pub violations: usize,
     /// Mean over trials of ALG / ALG of the paper's split on the same trial (1 for the
     /// paper's split itself; `None` when the study did not run the paper's split).
-    pub mean_ratio_to_paper: Option<f64>,
+    pub(crate) mean_ratio_to_paper: Option<f64>,
     /// Trials cheaper than the paper's split on the same trial.
-    pub cheaper_than_paper: usize,
+    pub(crate) cheaper_than_paper: usize,
     /// Trials dearer than the paper's split on the same trial.
-    pub dearer_than_paper: usize,
+    pub(crate) dearer_than_paper: usize,
 }
 
 fn mode_summaries(configs: &[Configuration], records: &[TrialRecord]) -> Vec<ModeSummary> {
@@ -367,7 +369,7 @@ fn mode_summaries(configs: &[Configuration], records: &[TrialRecord]) -> Vec<Mod
 /// The allocation comparison (one line per sharing and allocation, over all trials): mean,
 /// worst and best ALG, mean and worst ALG/lawnmower, worst ALG/Lemma 1, trials above
 /// Lemma 1, and against the paper's split on the same trials.
-pub fn modes_table(study: &Study) -> String {
+pub(crate) fn modes_table(study: &Study) -> String {
     let mut s = format!(
         "{:<4} {:<16} {:>6} | {:>8} {:>8} {:>8} | {:>7} {:>7} | {:>6} {:>4} | {:>8} {:>7} {:>6}\n",
         "shr",
@@ -408,7 +410,7 @@ pub fn modes_table(study: &Study) -> String {
 }
 
 /// The configurations of the three sweeps, for every sharing mode.
-pub fn configurations(args: &DfsArgs) -> Vec<Configuration> {
+pub(crate) fn configurations(args: &DfsArgs) -> Vec<Configuration> {
     let mut out = Vec::new();
     for (sharing, allocation) in args.sharing.modes().into_iter().flat_map(|sh| {
         args.allocation
@@ -460,7 +462,7 @@ fn mix(parts: &[u64]) -> u64 {
 }
 
 /// The ROI, start and direction of trial `trial` with `cells` cells.
-pub fn trial_roi(seed: u64, cells: usize, trial: usize) -> (HashSet<Cell>, Cell, usize) {
+pub(crate) fn trial_roi(seed: u64, cells: usize, trial: usize) -> (HashSet<Cell>, Cell, usize) {
     let mut rng = ChaCha8Rng::seed_from_u64(mix(&[seed, cells as u64, trial as u64]));
     let (roi, start) = random_roi(&mut rng, cells);
     let dir = rng.random_range(0..4usize);

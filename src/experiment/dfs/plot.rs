@@ -362,7 +362,7 @@ fn roi_figure(study: &Study) -> Result<Vec<u8>, DfsStudyError> {
 }
 
 /// All figures of the study: (file name, PNG bytes).
-pub fn figures(study: &Study) -> Result<Vec<(String, Vec<u8>)>, DfsStudyError> {
+pub(crate) fn figures(study: &Study) -> Result<Vec<(String, Vec<u8>)>, DfsStudyError> {
     let mut out = vec![("fig7a_roi.png".to_string(), roi_figure(study)?)];
     let specs = [
         (

@@ -31,7 +31,7 @@
 //! the issue's goals).
 
 pub mod output;
-pub mod plot;
+pub(crate) mod plot;
 
 use crate::app::flight::Patience;
 use crate::app::runway::report::{MappingReport, truth_coverage};
@@ -50,7 +50,7 @@ use std::time::Duration;
 
 /// The issue's goals: a team of this many drones maps in at most this share of one drone's
 /// time (issue 26: 3 drones 0.45×, 6 drones 0.3×).
-pub const GOALS: [(usize, f64); 2] = [(3, 0.45), (6, 0.3)];
+pub(crate) const GOALS: [(usize, f64); 2] = [(3, 0.45), (6, 0.3)];
 
 /// Parameters of `fleetmap experiment runway`.
 #[derive(Clone, Debug, clap::Args)]
@@ -76,15 +76,15 @@ pub struct RunwayArgs {
     pub battery_minutes: f64,
     /// Seconds after a landing until the simulated crew has swapped the battery.
     #[arg(long, default_value_t = 30.0)]
-    pub swap_after: f64,
+    pub(crate) swap_after: f64,
     /// Give a trial up after this many minutes (it is reported as unfinished): of simulated
     /// time with the virtual clock, of wall time otherwise.
     #[arg(long, default_value_t = 120.0)]
-    pub trial_timeout_min: f64,
+    pub(crate) trial_timeout_min: f64,
     /// Keep every trial's run directory under OUT/runs (`fleetmap report` and `export` work
     /// on them); otherwise they are removed once the trial is read.
     #[arg(long)]
-    pub keep_runs: bool,
+    pub(crate) keep_runs: bool,
     /// Print the study as JSON on stdout instead of the tables.
     #[arg(long)]
     pub json: bool,
@@ -153,7 +153,7 @@ pub struct TrialRow {
     /// Battery swaps of the team.
     pub battery_swaps: u32,
     /// Airborne time of the team (the position tracker's), simulated seconds.
-    pub airborne_s: f64,
+    pub(crate) airborne_s: f64,
     /// Share of the team's time flying and working.
     pub flying_share: f64,
     /// Share airborne and holding.
@@ -161,13 +161,13 @@ pub struct TrialRow {
     /// Share on the ground.
     pub ground_share: f64,
     /// Wall time of the trial, seconds.
-    pub wall_s: f64,
+    pub(crate) wall_s: f64,
 }
 
 /// One drone of one trial: where its mission time went, simulated seconds
 /// ([`crate::app::runway::report::RobotTimeReport`]).
 #[derive(Clone, Debug, Serialize)]
-pub struct DroneRow {
+pub(crate) struct DroneRow {
     /// Team size.
     pub drones: usize,
     /// Trial number.
@@ -183,7 +183,7 @@ pub struct DroneRow {
     /// Of flying: home (for a swap, or at the end).
     pub homing_s: f64,
     /// Of flying: after the map was complete, back to the DFS's start.
-    pub returning_s: f64,
+    pub(crate) returning_s: f64,
     /// Airborne, holding.
     pub waiting_s: f64,
     /// Holding, by reason.
@@ -231,7 +231,7 @@ impl Stat {
 
 /// Where a drone's time went, mean seconds per drone over a team size's finished trials.
 #[derive(Clone, Debug, Default, Serialize)]
-pub struct PerDrone {
+pub(crate) struct PerDrone {
     /// Flying and working.
     pub flying_s: f64,
     /// Of flying: pictures.
@@ -239,7 +239,7 @@ pub struct PerDrone {
     /// Of flying: home (for a swap, or at the end).
     pub homing_s: f64,
     /// Of flying: after the map was complete, back to the DFS's start.
-    pub returning_s: f64,
+    pub(crate) returning_s: f64,
     /// Holding, by reason.
     pub waiting: WaitTimes,
     /// On the ground before its first take-off.
@@ -268,11 +268,11 @@ pub struct TeamSummary {
     /// Time to the last landing.
     pub to_last_landing_s: Option<Stat>,
     /// Mean time to the complete map over one drone's (when one drone was flown).
-    pub map_ratio: Option<f64>,
+    pub(crate) map_ratio: Option<f64>,
     /// Mean time to the last landing over one drone's.
-    pub landing_ratio: Option<f64>,
+    pub(crate) landing_ratio: Option<f64>,
     /// The issue's goal for this team size (a share of one drone's time), if it has one.
-    pub goal: Option<f64>,
+    pub(crate) goal: Option<f64>,
     /// IoU.
     pub iou: Option<Stat>,
     /// Best possible IoU.
@@ -286,7 +286,7 @@ pub struct TeamSummary {
     /// On the ground.
     pub ground_share: f64,
     /// Where a drone's time went (means over drones and trials).
-    pub per_drone: PerDrone,
+    pub(crate) per_drone: PerDrone,
 }
 
 /// The whole study.
@@ -301,7 +301,7 @@ pub struct Study {
     /// Per trial.
     pub trials: Vec<TrialRow>,
     /// Per drone of every trial.
-    pub drone_rows: Vec<DroneRow>,
+    pub(crate) drone_rows: Vec<DroneRow>,
     /// Per team size.
     pub summaries: Vec<TeamSummary>,
 }
@@ -535,7 +535,11 @@ fn drone_rows_of(drones: usize, trial: usize, r: &MappingReport) -> Vec<DroneRow
 }
 
 /// One summary per team size (in the order asked), over the finished trials.
-pub fn summarise(sizes: &[usize], trials: &[TrialRow], drones: &[DroneRow]) -> Vec<TeamSummary> {
+pub(crate) fn summarise(
+    sizes: &[usize],
+    trials: &[TrialRow],
+    drones: &[DroneRow],
+) -> Vec<TeamSummary> {
     let mut out: Vec<TeamSummary> = Vec::new();
     for &n in sizes {
         if out.iter().any(|s| s.drones == n) {

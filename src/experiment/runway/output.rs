@@ -46,7 +46,7 @@ pub fn trials_csv(study: &Study) -> String {
 }
 
 /// `runway_drones.csv`: one row per drone of every trial (seconds of simulated time).
-pub fn drones_csv(study: &Study) -> String {
+pub(crate) fn drones_csv(study: &Study) -> String {
     let mut s = String::from(
         "drones,trial,sysid,elapsed_s,flying_s,imaging_s,homing_s,returning_s,waiting_s,\
          wait_confirmation_s,wait_sweep_s,wait_pictures_s,wait_dfs_start_s,wait_vertex_s,\
@@ -173,7 +173,7 @@ pub fn table(study: &Study) -> String {
 }
 
 /// One progress line per trial.
-pub fn trial_line(t: &TrialRow) -> String {
+pub(crate) fn trial_line(t: &TrialRow) -> String {
     let secs = |x: Option<f64>| x.map_or("—".into(), |v| format!("{v:.0} s"));
     format!(
         "{} drone(s), trial {} (seed {}): {} — map complete {}, last landing {}, IoU {}, {} swap(s), \

@@ -19,7 +19,7 @@ const IDEAL: RGBColor = RGBColor(127, 127, 127);
 const GOAL: RGBColor = RGBColor(214, 39, 40);
 
 /// `runway_team.png`: simulated seconds from the first take-off against the team size.
-pub fn team_png(study: &Study) -> anyhow::Result<Vec<u8>> {
+pub(crate) fn team_png(study: &Study) -> anyhow::Result<Vec<u8>> {
     crate::plot::register_font();
     let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("plotting runway_team.png: {e}");
     let points = |f: fn(&super::TeamSummary) -> Option<Stat>| -> Vec<(f64, Stat)> {

@@ -220,7 +220,7 @@ impl Action {
     }
 
     /// The action a key map file name stands for.
-    pub fn from_name(name: &str) -> Option<Action> {
+    pub(crate) fn from_name(name: &str) -> Option<Action> {
         ALL_ACTIONS.iter().copied().find(|a| a.name() == name)
     }
 
@@ -288,7 +288,7 @@ impl Action {
     }
 
     /// The built-in keys.
-    pub fn default_keys(self) -> Vec<Key> {
+    pub(crate) fn default_keys(self) -> Vec<Key> {
         use KeyCode as K;
         match self {
             Action::Help => vec![Key::char('?'), Key::plain(K::F(1))],

@@ -12,7 +12,7 @@ pub struct Key {
     /// The key.
     pub code: KeyCode,
     /// Control / Alt / Shift (Shift only for non-character keys).
-    pub mods: KeyModifiers,
+    pub(crate) mods: KeyModifiers,
 }
 
 impl Key {
@@ -130,7 +130,7 @@ impl Key {
     }
 
     /// Normalised key of a terminal key event.
-    pub fn from_event(ev: &KeyEvent) -> Key {
+    pub(crate) fn from_event(ev: &KeyEvent) -> Key {
         Key::new(ev.code, ev.modifiers)
     }
 

@@ -159,7 +159,7 @@ impl KeyMap {
 
     /// The action bound to `key` in `context` (only that context; see [`Context`] for the
     /// order in which the app consults them).
-    pub fn lookup(&self, context: Context, key: Key) -> Option<Action> {
+    pub(crate) fn lookup(&self, context: Context, key: Key) -> Option<Action> {
         self.bindings
             .iter()
             .find(|(a, keys)| a.context() == context && keys.contains(&key))
@@ -167,7 +167,7 @@ impl KeyMap {
     }
 
     /// The keys of `action` as the help shows them (`"j n"`), or `"(unbound)"`.
-    pub fn keys_label(&self, action: Action) -> String {
+    pub(crate) fn keys_label(&self, action: Action) -> String {
         let keys = self.keys(action);
         if keys.is_empty() {
             "(unbound)".to_string()
@@ -181,7 +181,7 @@ impl KeyMap {
 
     /// The `[keys]` section of a config file listing every binding, with its description as
     /// a comment (what `fleetmap tui --print-config` prints).
-    pub fn to_toml(&self) -> String {
+    pub(crate) fn to_toml(&self) -> String {
         let mut out = String::from("[keys]\n");
         let mut context = None;
         for (a, keys) in &self.bindings {

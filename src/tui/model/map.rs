@@ -59,7 +59,7 @@ impl CellState {
     ];
 
     /// The character that stands for this state on screen and in replay files.
-    pub fn glyph(self) -> char {
+    pub(crate) fn glyph(self) -> char {
         match self {
             CellState::Unknown => '.',
             CellState::Negative => '-',
@@ -75,7 +75,7 @@ impl CellState {
     }
 
     /// The state a glyph stands for.
-    pub fn from_glyph(c: char) -> Option<CellState> {
+    pub(crate) fn from_glyph(c: char) -> Option<CellState> {
         CellState::ALL.into_iter().find(|s| s.glyph() == c)
     }
 
@@ -96,7 +96,7 @@ impl CellState {
     }
 
     /// One-word legend text for narrow screens.
-    pub fn short_name(self) -> &'static str {
+    pub(crate) fn short_name(self) -> &'static str {
         match self {
             CellState::Unknown => "unknown",
             CellState::Negative => "negative",
@@ -112,7 +112,7 @@ impl CellState {
     }
 
     /// The states a map of `kind` uses, in legend order.
-    pub fn for_kind(kind: MapKind) -> &'static [CellState] {
+    pub(crate) fn for_kind(kind: MapKind) -> &'static [CellState] {
         match kind {
             MapKind::Runway => &CellState::ALL[0..5],
             MapKind::Classification => &CellState::ALL[5..10],
@@ -121,7 +121,7 @@ impl CellState {
 
     /// When one screen character covers several cells, the one with the highest priority
     /// is shown (a positive is never hidden behind negatives).
-    pub fn priority(self) -> u8 {
+    pub(crate) fn priority(self) -> u8 {
         match self {
             CellState::Unknown | CellState::Unclassified => 0,
             CellState::Negative => 1,
@@ -157,7 +157,7 @@ pub struct MapModel {
     /// `(row - south_west.row) * cols + (col - south_west.col)`.
     cells: Vec<CellState>,
     /// Optional recent tracks (cells visited, oldest first), per vehicle.
-    pub tracks: Vec<Track>,
+    pub(crate) tracks: Vec<Track>,
     /// The cell where the vehicles started (grid origin), when known.
     pub home: Option<Cell>,
 }
@@ -221,7 +221,7 @@ impl MapModel {
     }
 
     /// Build a map from glyph rows, northernmost first (the layout of the JSON form).
-    pub fn from_rows<S: AsRef<str>>(
+    pub(crate) fn from_rows<S: AsRef<str>>(
         kind: MapKind,
         cell_size_m: f64,
         south_west: Cell,
@@ -263,7 +263,7 @@ impl MapModel {
     }
 
     /// The glyph rows, northernmost first.
-    pub fn to_rows(&self) -> Vec<String> {
+    pub(crate) fn to_rows(&self) -> Vec<String> {
         (0..self.rows as usize)
             .rev()
             .map(|r| {

@@ -94,7 +94,7 @@ pub struct DfsProgress {
     /// Vertices fully explored.
     pub explored: u32,
     /// Vertices a robot is exploring now.
-    pub under_exploration: u32,
+    pub(crate) under_exploration: u32,
     /// Known vertices not yet visited.
     pub unexplored: u32,
 }
@@ -127,13 +127,13 @@ pub struct MissionModel {
     /// DFS vertex counts, in phase 2 of runway mapping.
     pub dfs: Option<DfsProgress>,
     /// Epochs completed (spatial classification).
-    pub epochs_done: u32,
+    pub(crate) epochs_done: u32,
     /// Flight time so far (summed over the fleet's airborne time), seconds.
     pub flight_time_s: f64,
     /// Battery swaps so far.
     pub battery_swaps: u32,
     /// Time spent in the planner (IP solves, DFS updates), seconds.
-    pub planner_time_s: f64,
+    pub(crate) planner_time_s: f64,
     /// Extra figures.
     pub stats: Vec<Stat>,
 }

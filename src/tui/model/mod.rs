@@ -21,9 +21,7 @@ mod vehicle;
 pub use log::{LogEntry, Severity};
 pub use map::{CellState, MapError, MapKind, MapModel, Track};
 pub use mission::{DfsProgress, MissionKind, MissionModel, Phase, RunStatus, Stat};
-pub use vehicle::{
-    Autopilot, Battery, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleClass, VehicleRow,
-};
+pub use vehicle::{Battery, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleRow};
 
 use fleetmap_core::time::Time;
 use serde::{Deserialize, Serialize};
@@ -45,7 +43,7 @@ pub struct Model {
     /// Simulated seconds per wall second the simulator achieves, when the fleet runs on a
     /// simulator's time (the demo): below its ceiling on a busy machine (lock-step).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub sim_speed: Option<f64>,
+    pub(crate) sim_speed: Option<f64>,
 }
 
 impl Model {
@@ -55,7 +53,7 @@ impl Model {
     }
 }
 /// `h:mm:ss` (or `mm:ss` under an hour) of a duration in seconds; negative and NaN show as 0.
-pub fn format_hms(secs: f64) -> String {
+pub(crate) fn format_hms(secs: f64) -> String {
     let s = if secs.is_finite() && secs > 0.0 {
         secs as u64
     } else {

@@ -1,5 +1,6 @@
 use super::*;
 use fleetmap_core::geo::Cell;
+use fleetmap_core::proto::flavour::Autopilot;
 
 #[test]
 fn map_rows_are_north_up() {

@@ -26,7 +26,7 @@ impl Role {
 }
 
 /// The autopilot firmware, from HEARTBEAT.autopilot: the protocol layer's vocabulary.
-pub use fleetmap_core::proto::flavour::Autopilot;
+pub(crate) use fleetmap_core::proto::flavour::Autopilot;
 
 /// How replay files spell [`VehicleRow::autopilot`]: `"ardu_pilot"`, `"px4"`, `"other"` (the
 /// MAV_AUTOPILOT number of `Other` is not recorded; it reads back as [`Autopilot::default`]).
@@ -62,7 +62,7 @@ mod autopilot_replay {
 }
 
 /// The airframe class, from HEARTBEAT.type: the protocol layer's vocabulary.
-pub use fleetmap_core::proto::flavour::VehicleClass;
+pub(crate) use fleetmap_core::proto::flavour::VehicleClass;
 
 /// How replay files spell [`VehicleRow::vehicle_type`]: `"copter"`, `"plane"`, `"rover"`,
 /// `"other"`.
@@ -107,7 +107,7 @@ pub struct Battery {
     /// Remaining charge, percent (0–100), when the autopilot estimates it.
     pub remaining_pct: Option<u8>,
     /// Pack voltage, volts.
-    pub voltage_v: Option<f32>,
+    pub(crate) voltage_v: Option<f32>,
     /// Number of cells in series, when known: the voltage thresholds are per cell.
     pub cells: Option<u8>,
 }
@@ -150,7 +150,7 @@ impl GpsFix {
     }
 
     /// Whether the fix is good enough to fly a mission (3D or better).
-    pub fn is_3d(self) -> bool {
+    pub(crate) fn is_3d(self) -> bool {
         self >= GpsFix::Fix3d
     }
 }
@@ -170,11 +170,11 @@ pub struct Gps {
 #[serde(default)]
 pub struct LinkState {
     /// Share of expected messages received recently, percent (0–100), when measured.
-    pub quality_pct: Option<u8>,
+    pub(crate) quality_pct: Option<u8>,
     /// True when no heartbeat arrived within the liveness timeout.
     pub lost: bool,
     /// Seconds since the last message from this vehicle, when known.
-    pub last_heard_s: Option<f32>,
+    pub(crate) last_heard_s: Option<f32>,
 }
 
 /// Position in the uploaded mission.
@@ -199,7 +199,7 @@ pub struct VehicleRow {
     pub autopilot: Autopilot,
     /// Airframe class.
     #[serde(with = "class_replay")]
-    pub vehicle_type: VehicleClass,
+    pub(crate) vehicle_type: VehicleClass,
     /// Flight mode name as the autopilot flavour names it ("AUTO", "GUIDED", "Mission", …).
     pub mode: String,
     /// Motors armed.

@@ -39,7 +39,13 @@ fn centred(area: Rect, w: u16, h: u16) -> Rect {
 }
 
 /// Draw the confirmation dialog for `pending`.
-pub fn render_confirm(app: &App, frame: &mut Frame, area: Rect, pending: &Pending, opened: Time) {
+pub(crate) fn render_confirm(
+    app: &App,
+    frame: &mut Frame,
+    area: Rect,
+    pending: &Pending,
+    opened: Time,
+) {
     let keys = &app.config.keys;
     let (headline, detail, consequence) = match pending {
         Pending::Command { target, command } => {
@@ -95,7 +101,7 @@ pub fn render_confirm(app: &App, frame: &mut Frame, area: Rect, pending: &Pendin
 }
 
 /// Draw the "select vehicle by system id" prompt with `typed` so far.
-pub fn render_prompt(app: &App, frame: &mut Frame, area: Rect, typed: &str) {
+pub(crate) fn render_prompt(app: &App, frame: &mut Frame, area: Rect, typed: &str) {
     let ids: Vec<String> = app
         .model
         .vehicles

@@ -16,7 +16,7 @@ use ratatui::widgets::{Cell, HighlightSpacing, Paragraph, Row, Table, TableState
 
 /// Inner width from which the full column set is used (sum of its fixed columns, spacing
 /// and the selection marker).
-pub const FULL_WIDTH: u16 = 119;
+pub(crate) const FULL_WIDTH: u16 = 119;
 
 struct Column {
     header: &'static str,

@@ -86,7 +86,7 @@ pub fn lines(keys: &KeyMap) -> Vec<HelpLine> {
 }
 
 /// How many lines the help has.
-pub fn line_count(keys: &KeyMap) -> usize {
+pub(crate) fn line_count(keys: &KeyMap) -> usize {
     lines(keys).len()
 }
 

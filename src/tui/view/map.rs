@@ -23,7 +23,7 @@ use ratatui::style::Style;
 use ratatui::text::{Line, Span};
 use ratatui::widgets::Paragraph;
 
-pub use crate::tui::app::{BASE_ZOOM, ZOOMS};
+pub(crate) use crate::tui::app::{BASE_ZOOM, ZOOMS};
 
 /// Width of the legend column in the wide layout.
 const LEGEND_W: u16 = 26;
@@ -34,7 +34,7 @@ pub struct Viewport {
     /// Index into [`ZOOMS`].
     pub zoom: usize,
     /// The cell whose top-left character is at (`x`, `y`) on the canvas.
-    pub anchor: Cell,
+    pub(crate) anchor: Cell,
     /// Canvas column of the anchor's first character (may be negative or beyond the canvas).
     pub x: i64,
     /// Canvas row of the anchor's first character.
@@ -42,13 +42,13 @@ pub struct Viewport {
     /// The cell at the centre of the canvas (where zoom and pan start from).
     pub centre: Cell,
     /// Rows one pan step moves (a quarter of the visible rows, at least 1).
-    pub page_rows: i32,
+    pub(crate) page_rows: i32,
     /// Columns one pan step moves.
-    pub page_cols: i32,
+    pub(crate) page_cols: i32,
 }
 
 /// Zoom as text: "x2", "x1", "1/4".
-pub fn zoom_label(zoom: usize) -> String {
+pub(crate) fn zoom_label(zoom: usize) -> String {
     let (num, den) = ZOOMS[zoom.min(ZOOMS.len() - 1)];
     if den == 1 {
         format!("x{num}")
@@ -162,7 +162,7 @@ fn whole(map: &MapModel, zoom: usize, w: u16, h: u16) -> Viewport {
 }
 
 /// The viewport for a `w × h` canvas in the app's map mode.
-pub fn resolve(app: &App, w: u16, h: u16) -> Viewport {
+pub(crate) fn resolve(app: &App, w: u16, h: u16) -> Viewport {
     let map = &app.model.map;
     let follow = |zoom| match follow_target(app) {
         Some(c) => centred_on(map, c, zoom, w, h, true),
@@ -381,7 +381,7 @@ fn draw_overlays(app: &App, vp: &Viewport, canvas: Rect, buf: &mut Buffer) {
 }
 
 /// How a vehicle is labelled on the map: its system id, prefixed by `S` for a station.
-pub fn vehicle_label(sysid: u8, role: Role) -> String {
+pub(crate) fn vehicle_label(sysid: u8, role: Role) -> String {
     match role {
         Role::Drone => sysid.to_string(),
         Role::Station => format!("S{sysid}"),

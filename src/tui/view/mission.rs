@@ -135,7 +135,7 @@ fn lines(m: &MissionModel, width: u16) -> Vec<Line<'static>> {
 }
 
 /// Lines the pane wants at inner width `width` (the wide layout sizes it to fit).
-pub fn height_wanted(app: &App, width: u16) -> u16 {
+pub(crate) fn height_wanted(app: &App, width: u16) -> u16 {
     lines(&app.model.mission, width).len() as u16
 }
 

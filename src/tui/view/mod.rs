@@ -17,7 +17,7 @@ pub mod help;
 pub mod log;
 pub mod map;
 pub mod mission;
-pub mod theme;
+pub(crate) mod theme;
 
 use super::app::{App, Overlay, Pane};
 use super::keymap::Action;
@@ -29,9 +29,9 @@ use ratatui::text::{Line, Span};
 use ratatui::widgets::{Block, BorderType, Paragraph};
 
 /// Smallest terminal the UI draws in (columns, rows); below it a message asks for more.
-pub const MIN_SIZE: (u16, u16) = (60, 16);
+pub(crate) const MIN_SIZE: (u16, u16) = (60, 16);
 /// Smallest terminal that gets the wide layout (columns, rows).
-pub const WIDE_MIN: (u16, u16) = (160, 40);
+pub(crate) const WIDE_MIN: (u16, u16) = (160, 40);
 
 /// Where each pane goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -47,9 +47,9 @@ pub struct Areas {
     /// Log, when shown.
     pub log: Option<Rect>,
     /// Key hints (one row).
-    pub hints: Rect,
+    pub(crate) hints: Rect,
     /// Whether this is the compact layout.
-    pub compact: bool,
+    pub(crate) compact: bool,
 }
 
 /// The layout for `area`, or `None` when the terminal is too small.
@@ -58,7 +58,7 @@ pub fn layout(app: &App, area: Rect) -> Option<Areas> {
 }
 
 /// [`layout`] as if `lower` were the pane shown below the fleet in the compact layout.
-pub fn layout_with_lower(app: &App, area: Rect, lower_pane: Pane) -> Option<Areas> {
+pub(crate) fn layout_with_lower(app: &App, area: Rect, lower_pane: Pane) -> Option<Areas> {
     if area.width < MIN_SIZE.0 || area.height < MIN_SIZE.1 {
         return None;
     }
@@ -153,7 +153,7 @@ pub fn render(app: &App, frame: &mut Frame) {
 }
 
 /// A pane's frame: bold double border in the focus colour when focused.
-pub fn pane_block<'a>(app: &App, pane: Pane, title: Line<'a>) -> Block<'a> {
+pub(crate) fn pane_block<'a>(app: &App, pane: Pane, title: Line<'a>) -> Block<'a> {
     let focused = app.focus == pane;
     Block::bordered()
         .border_type(if focused {
@@ -170,7 +170,7 @@ pub fn pane_block<'a>(app: &App, pane: Pane, title: Line<'a>) -> Block<'a> {
 }
 
 /// Title text of a pane: its name, reversed when focused.
-pub fn pane_title(app: &App, pane: Pane, name: &str) -> Span<'static> {
+pub(crate) fn pane_title(app: &App, pane: Pane, name: &str) -> Span<'static> {
     if app.focus == pane {
         Span::styled(format!(" {name} "), theme::selected())
     } else {
@@ -179,7 +179,7 @@ pub fn pane_title(app: &App, pane: Pane, name: &str) -> Span<'static> {
 }
 
 /// In the compact layout, the lower pane's title: all three names, the shown one marked.
-pub fn lower_tabs(app: &App, shown: Pane) -> Line<'static> {
+pub(crate) fn lower_tabs(app: &App, shown: Pane) -> Line<'static> {
     let mut spans = Vec::new();
     for (pane, name) in [
         (Pane::Map, "Map"),
@@ -334,7 +334,7 @@ fn hints_bar(app: &App, frame: &mut Frame, area: Rect) {
 }
 
 /// Rows the log pane shows at the app's terminal size (for page scrolling).
-pub fn log_page_rows(app: &App) -> usize {
+pub(crate) fn log_page_rows(app: &App) -> usize {
     let area = Rect::new(0, 0, app.size.0, app.size.1);
     layout_with_lower(app, area, Pane::Log)
         .and_then(|l| l.log)

@@ -8,39 +8,39 @@ use crate::tui::model::{Battery, CellState, Gps, LinkState, Severity};
 use ratatui::style::{Color, Modifier, Style};
 
 /// Plain text.
-pub fn text() -> Style {
+pub(crate) fn text() -> Style {
     Style::new().fg(Color::White)
 }
 
 /// Labels and headers.
-pub fn header() -> Style {
+pub(crate) fn header() -> Style {
     Style::new()
         .fg(Color::White)
         .add_modifier(Modifier::BOLD | Modifier::UNDERLINED)
 }
 
 /// Emphasised values.
-pub fn strong() -> Style {
+pub(crate) fn strong() -> Style {
     Style::new().fg(Color::White).add_modifier(Modifier::BOLD)
 }
 
 /// Borders of panes without focus.
-pub fn border() -> Style {
+pub(crate) fn border() -> Style {
     Style::new().fg(Color::White)
 }
 
 /// Border and title of the focused pane.
-pub fn border_focused() -> Style {
+pub(crate) fn border_focused() -> Style {
     Style::new().fg(Color::Yellow).add_modifier(Modifier::BOLD)
 }
 
 /// The selected row.
-pub fn selected() -> Style {
+pub(crate) fn selected() -> Style {
     Style::new().add_modifier(Modifier::REVERSED | Modifier::BOLD)
 }
 
 /// The title bar.
-pub fn title_bar() -> Style {
+pub(crate) fn title_bar() -> Style {
     Style::new()
         .fg(Color::Black)
         .bg(Color::White)
@@ -48,7 +48,7 @@ pub fn title_bar() -> Style {
 }
 
 /// Something the operator must know (not live data, stale data, pending commands).
-pub fn warn() -> Style {
+pub(crate) fn warn() -> Style {
     Style::new()
         .fg(Color::Black)
         .bg(Color::Yellow)
@@ -56,7 +56,7 @@ pub fn warn() -> Style {
 }
 
 /// Something wrong right now.
-pub fn alarm() -> Style {
+pub(crate) fn alarm() -> Style {
     Style::new()
         .fg(Color::White)
         .bg(Color::Red)
@@ -64,13 +64,13 @@ pub fn alarm() -> Style {
 }
 
 /// Good state.
-pub fn ok() -> Style {
+pub(crate) fn ok() -> Style {
     Style::new().fg(Color::Green).add_modifier(Modifier::BOLD)
 }
 
 /// Warning level of a value.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord)]
-pub enum Level {
+pub(crate) enum Level {
     /// Fine.
     Ok,
     /// Needs attention.
@@ -82,7 +82,7 @@ pub enum Level {
 }
 
 /// The style of a value at `level`.
-pub fn level(level: Level) -> Style {
+pub(crate) fn level(level: Level) -> Style {
     match level {
         Level::Ok => text(),
         Level::Warn => warn(),
@@ -92,7 +92,7 @@ pub fn level(level: Level) -> Style {
 }
 
 /// Battery level from percent and per-cell voltage, whichever is worse.
-pub fn battery_level(b: &Battery, t: &Thresholds) -> Level {
+pub(crate) fn battery_level(b: &Battery, t: &Thresholds) -> Level {
     let by_pct = b.remaining_pct.map(|p| {
         if p <= t.battery_crit_pct {
             Level::Critical
@@ -123,7 +123,7 @@ pub fn battery_level(b: &Battery, t: &Thresholds) -> Level {
 }
 
 /// GPS level: no 3D fix is critical, too few satellites a warning.
-pub fn gps_level(g: &Gps, t: &Thresholds) -> Level {
+pub(crate) fn gps_level(g: &Gps, t: &Thresholds) -> Level {
     if !g.fix.is_3d() {
         Level::Critical
     } else if g.satellites.is_some_and(|n| n < t.min_satellites) {
@@ -134,7 +134,7 @@ pub fn gps_level(g: &Gps, t: &Thresholds) -> Level {
 }
 
 /// Link level: lost is critical, low quality a warning.
-pub fn link_level(l: &LinkState, t: &Thresholds) -> Level {
+pub(crate) fn link_level(l: &LinkState, t: &Thresholds) -> Level {
     if l.lost {
         Level::Critical
     } else {
@@ -147,7 +147,7 @@ pub fn link_level(l: &LinkState, t: &Thresholds) -> Level {
 }
 
 /// Log line style by severity.
-pub fn severity(s: Severity) -> Style {
+pub(crate) fn severity(s: Severity) -> Style {
     match s {
         Severity::Emergency | Severity::Alert | Severity::Critical => alarm(),
         Severity::Error => Style::new().fg(Color::Red).add_modifier(Modifier::BOLD),
@@ -158,7 +158,7 @@ pub fn severity(s: Severity) -> Style {
 }
 
 /// Map cell style.
-pub fn cell(s: CellState) -> Style {
+pub(crate) fn cell(s: CellState) -> Style {
     let bold = Modifier::BOLD;
     match s {
         CellState::Unknown | CellState::Unclassified => Style::new().fg(Color::White),
@@ -195,7 +195,7 @@ pub fn cell(s: CellState) -> Style {
 }
 
 /// A drone on the map.
-pub fn drone() -> Style {
+pub(crate) fn drone() -> Style {
     Style::new()
         .fg(Color::White)
         .bg(Color::Blue)
@@ -203,7 +203,7 @@ pub fn drone() -> Style {
 }
 
 /// A station on the map.
-pub fn station() -> Style {
+pub(crate) fn station() -> Style {
     Style::new()
         .fg(Color::Black)
         .bg(Color::Cyan)
@@ -211,7 +211,7 @@ pub fn station() -> Style {
 }
 
 /// The selected vehicle on the map.
-pub fn selected_vehicle() -> Style {
+pub(crate) fn selected_vehicle() -> Style {
     Style::new()
         .fg(Color::Black)
         .bg(Color::White)
@@ -219,12 +219,12 @@ pub fn selected_vehicle() -> Style {
 }
 
 /// A vehicle's track.
-pub fn track() -> Style {
+pub(crate) fn track() -> Style {
     Style::new().fg(Color::Cyan).add_modifier(Modifier::BOLD)
 }
 
 /// The home cell.
-pub fn home() -> Style {
+pub(crate) fn home() -> Style {
     Style::new()
         .fg(Color::Black)
         .bg(Color::White)

@@ -23,7 +23,7 @@
 use crate::geo::Cell;
 
 /// ⌊log₂ r⌋ (0 for r ≤ 1).
-pub fn floor_log2(r: usize) -> u32 {
+pub(crate) fn floor_log2(r: usize) -> u32 {
     if r <= 1 {
         0
     } else {
@@ -125,7 +125,7 @@ fn lambda(sr: f64, v: (f64, f64), u: (f64, f64)) -> f64 {
 /// Time for one robot to cover a `w` × `h` (cells, east × north) rectangle with a
 /// boustrophedon of unit-footprint lanes, starting inside it: the best over lane
 /// orientation, first-lane direction and the direction lanes step in.
-pub fn lawnmower_rectangle_time(w: usize, h: usize, robot_speed: f64, v: (f64, f64)) -> f64 {
+pub(crate) fn lawnmower_rectangle_time(w: usize, h: usize, robot_speed: f64, v: (f64, f64)) -> f64 {
     if w == 0 || h == 0 {
         return 0.0;
     }

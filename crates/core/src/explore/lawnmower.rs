@@ -100,12 +100,12 @@ pub struct Spacing {
     /// Between lanes.
     pub across_m: f64,
     /// Between captures on a lane.
-    pub along_m: f64,
+    pub(crate) along_m: f64,
 }
 
 /// The largest capture spacing that leaves no gap for `camera` at `altitude_m` with the
 /// heading policy and a position error of up to `tolerance_m`.
-pub fn capture_spacing(
+pub(crate) fn capture_spacing(
     camera: &CameraModel,
     altitude_m: f64,
     heading: HeadingPolicy,
@@ -195,7 +195,7 @@ pub struct Sweep {
     /// Its strip of the box.
     pub strip: LocalBox,
     /// Whether lanes run north–south (else east–west).
-    pub lanes_north_south: bool,
+    pub(crate) lanes_north_south: bool,
     /// The spacing actually used (≤ the allowed one).
     pub spacing: Spacing,
     /// Number of lanes.
@@ -203,7 +203,7 @@ pub struct Sweep {
     /// Capture points in flight order, (east, north) metres from the grid origin.
     pub captures: Vec<(f64, f64)>,
     /// Index in `items` of each capture's waypoint.
-    pub waypoint_seq: Vec<usize>,
+    pub(crate) waypoint_seq: Vec<usize>,
     /// Length of the path from the first to the last capture, metres.
     pub length_m: f64,
     /// The mission (user numbering: no home item).

@@ -63,7 +63,7 @@ impl RoiMotion {
     }
 
     /// How far the ROI has moved between the epoch and `t`: (east, north) metres.
-    pub fn displacement(&self, t: Time) -> (f64, f64) {
+    pub(crate) fn displacement(&self, t: Time) -> (f64, f64) {
         let s = self.elapsed(t);
         (self.velocity_east * s, self.velocity_north * s)
     }
@@ -75,14 +75,15 @@ impl RoiMotion {
     }
 
     /// ROI-frame point → where it is on the ground at time `t`.
-    pub fn roi_to_ground(&self, east: f64, north: f64, t: Time) -> (f64, f64) {
+    pub(crate) fn roi_to_ground(&self, east: f64, north: f64, t: Time) -> (f64, f64) {
         let (de, dn) = self.displacement(t);
         (east + de, north + dn)
     }
 
+    #[cfg(test)]
     /// The ROI-frame cell under ground point (east, north) at time `t`, for square cells of
     /// `cell_size` metres.
-    pub fn cell_at(&self, east: f64, north: f64, t: Time, cell_size: f64) -> Cell {
+    pub(crate) fn cell_at(&self, east: f64, north: f64, t: Time, cell_size: f64) -> Cell {
         let (e, n) = self.ground_to_roi(east, north, t);
         Cell::new(
             (n / cell_size).round() as i32,
@@ -113,7 +114,7 @@ impl RoiMotion {
 
     /// λ(u): how fast a robot flying at ground speed `robot_speed` progresses along the unit
     /// direction (`dir_east`, `dir_north`) of the ROI frame.
-    pub fn relative_speed(
+    pub(crate) fn relative_speed(
         &self,
         robot_speed: f64,
         dir_east: f64,
@@ -133,7 +134,7 @@ impl RoiMotion {
 
     /// Time to fly from the centre of ROI-frame cell `from` to that of `to` (straight, in
     /// the ROI frame) at ground speed `robot_speed`, cells of `cell_size`.
-    pub fn travel_time(
+    pub(crate) fn travel_time(
         &self,
         from: Cell,
         to: Cell,

@@ -39,18 +39,18 @@ use serde::{Deserialize, Serialize};
 /// Points of charge by which the from-home test (step 3) is stricter than the test from where
 /// the drone is (step 2): 1 % of a 12-minute battery is 7 s of flight, several metres — more
 /// than a landed drone is off its home.
-pub const MARGIN_PCT: f64 = 1.0;
+pub(crate) const MARGIN_PCT: f64 = 1.0;
 
 /// How the run charges a flight against the battery: the runner's return rule
 /// (`MappingState::battery_needed_pct`) and the flight time it is measured in.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct BatteryModel {
     /// Flight time on a full battery, seconds.
-    pub endurance_s: f64,
+    pub(crate) endurance_s: f64,
     /// Cruise speed over the ground, m/s.
     pub speed_m_s: f64,
     /// Charge kept in reserve on landing, percent.
-    pub reserve_pct: f64,
+    pub(crate) reserve_pct: f64,
     /// Descent rate on the way home, m/s.
     pub descent_rate_m_s: f64,
     /// Seconds added for the approach, the landing and wind.
@@ -59,14 +59,14 @@ pub struct BatteryModel {
 
 impl BatteryModel {
     /// Charge `secs` seconds of flight use, percent.
-    pub fn flight_pct(&self, secs: f64) -> f64 {
+    pub(crate) fn flight_pct(&self, secs: f64) -> f64 {
         100.0 * secs.max(0.0) / self.endurance_s.max(1.0)
     }
 
     /// Charge needed to get home from `distance_home_m` away at `altitude_m` and land, plus
     /// the reserve, percent: the flight home at the cruise speed, the descent and the landing
     /// margin as a share of the endurance.
-    pub fn return_pct(&self, distance_home_m: f64, altitude_m: f64) -> f64 {
+    pub(crate) fn return_pct(&self, distance_home_m: f64, altitude_m: f64) -> f64 {
         let home_s = distance_home_m.max(0.0) / self.speed_m_s.max(0.1)
             + altitude_m.max(0.0) / self.descent_rate_m_s.max(0.01)
             + self.landing_margin_s.max(0.0);
@@ -85,7 +85,7 @@ pub struct Leg {
     /// Its flight altitude above home, metres (the descent on the way home).
     pub altitude_m: f64,
     /// Its charge now, percent.
-    pub charge_pct: f64,
+    pub(crate) charge_pct: f64,
     /// Seconds it stays over the cell once there (its pictures), following the cell as it
     /// drifts: flight time charged, and the return starts that much farther along.
     pub dwell_s: f64,

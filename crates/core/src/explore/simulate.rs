@@ -53,8 +53,6 @@ impl Default for SimConfig {
 pub struct SimOutcome {
     /// ALG: when the last robot was back at the start.
     pub cost: f64,
-    /// When each robot was back at the start for good.
-    pub done_times: Vec<f64>,
     /// Cells in the tree (C, with a perfect sensor).
     pub tree_cells: usize,
     /// d_max of the built tree.
@@ -286,10 +284,9 @@ pub fn simulate_sensed(
             ex.is_finished()
         )));
     }
-    let done_times: Vec<f64> = done.into_iter().map(|d| d.unwrap_or(0.0)).collect();
+    let done_times = done.into_iter().map(|d| d.unwrap_or(0.0));
     Ok(SimOutcome {
-        cost: done_times.iter().copied().fold(0.0, f64::max),
-        done_times,
+        cost: done_times.fold(0.0, f64::max),
         tree_cells: ex.tree().real_count(),
         d_max: ex.d_max(),
         moves: ex.robots().iter().map(|r| r.moves).collect(),

@@ -16,7 +16,7 @@ use std::collections::BTreeSet;
 use std::fmt::Write as _;
 
 /// Colour for invalid KML colour strings: opaque white.
-pub const KML_FALLBACK_COLOUR: &str = "ffffffff";
+pub(crate) const KML_FALLBACK_COLOUR: &str = "ffffffff";
 
 /// A KML colour string `aabbggrr` from red, green, blue and alpha (0–255).
 pub fn kml_colour(r: u8, g: u8, b: u8, a: u8) -> String {

@@ -17,14 +17,14 @@ use ::geo::{Area, BooleanOps, BoundingRect, Coord, LineString, MultiPolygon, Pol
 use serde::{Deserialize, Serialize};
 
 /// Smallest supported cell size, metres.
-pub const MIN_CELL_SIZE_M: f64 = 0.001;
+pub(crate) const MIN_CELL_SIZE_M: f64 = 0.001;
 /// Largest supported cell size, metres.
-pub const MAX_CELL_SIZE_M: f64 = 100_000.0;
+pub(crate) const MAX_CELL_SIZE_M: f64 = 100_000.0;
 /// The most candidate cells [`Grid::polygon_coverage`] examines.
-pub const MAX_COVERAGE_CELLS: u64 = 4_000_000;
+pub(crate) const MAX_COVERAGE_CELLS: u64 = 4_000_000;
 /// Covered fractions at or below this are treated as "touching along an edge" (round-off of
 /// the polygon clipping) and left out of [`Grid::polygon_coverage`].
-pub const COVERAGE_EPS: f64 = 1e-9;
+pub(crate) const COVERAGE_EPS: f64 = 1e-9;
 
 /// A square-cell grid anchored at a WGS84 origin (the centre of cell (0, 0)), in the UTM
 /// zone and hemisphere chosen when it was made.
@@ -158,8 +158,9 @@ impl Grid {
         self.hemisphere
     }
 
+    #[cfg(test)]
     /// The origin in the grid's UTM frame.
-    pub fn origin_utm(&self) -> Utm {
+    pub(crate) fn origin_utm(&self) -> Utm {
         self.utm_at(self.origin_en.0, self.origin_en.1)
     }
 
@@ -236,9 +237,10 @@ impl Grid {
         self.cell_of_xy(e - self.origin_en.0, n - self.origin_en.1)
     }
 
+    #[cfg(test)]
     /// The cell that contains `u`, strictly: `u` must be finite and in the grid's zone and
     /// hemisphere ([`GeoError::ZoneMismatch`] otherwise).
-    pub fn try_cell_of_utm(&self, u: &Utm) -> Result<Cell, GeoError> {
+    pub(crate) fn try_cell_of_utm(&self, u: &Utm) -> Result<Cell, GeoError> {
         for (what, value) in [("easting", u.easting), ("northing", u.northing)] {
             if !value.is_finite() {
                 return Err(GeoError::NotFinite { what, value });
@@ -274,7 +276,7 @@ impl Grid {
 
     /// The corners of cell `c` in the order south-west, south-east, north-east, north-west
     /// (counter-clockwise), degrees. Infallible like [`Grid::cell_center`].
-    pub fn cell_corners(&self, c: Cell) -> [LatLon; 4] {
+    pub(crate) fn cell_corners(&self, c: Cell) -> [LatLon; 4] {
         let h = self.cell_size / 2.0;
         let ctr = self.cell_center_utm(c);
         [(-h, -h), (h, -h), (h, h), (-h, h)]
@@ -287,10 +289,11 @@ impl Grid {
         utm::convergence_and_scale(p, self.zone)
     }
 
+    #[cfg(test)]
     /// The cells whose squares overlap the rectangle `[min_east, max_east] × [min_north,
     /// max_north]` (metres from the origin in the grid frame), sorted by cell. A rectangle
     /// that only touches a cell's edge does not overlap it.
-    pub fn cells_in_xy_rect(
+    pub(crate) fn cells_in_xy_rect(
         &self,
         min_east: f64,
         min_north: f64,

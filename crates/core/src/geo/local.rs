@@ -8,12 +8,12 @@
 //! (`geo::Grid`).
 
 /// WGS84 semi-major axis, metres.
-pub const WGS84_A: f64 = 6_378_137.0;
+pub(crate) const WGS84_A: f64 = 6_378_137.0;
 /// WGS84 flattening.
-pub const WGS84_F: f64 = 1.0 / 298.257_223_563;
+pub(crate) const WGS84_F: f64 = 1.0 / 298.257_223_563;
 
 /// Radii of curvature (meridional M, prime vertical N) in metres at latitude `lat_deg`.
-pub fn radii(lat_deg: f64) -> (f64, f64) {
+pub(crate) fn radii(lat_deg: f64) -> (f64, f64) {
     let e2 = WGS84_F * (2.0 - WGS84_F);
     let s = lat_deg.to_radians().sin();
     let w2 = 1.0 - e2 * s * s;

@@ -119,7 +119,7 @@ impl Hemisphere {
     }
 
     /// The false northing in metres: 0 north, 10 000 000 south.
-    pub const fn false_northing(self) -> f64 {
+    pub(crate) const fn false_northing(self) -> f64 {
         match self {
             Hemisphere::North => 0.0,
             Hemisphere::South => 10_000_000.0,
@@ -313,12 +313,13 @@ impl Cell {
     }
 
     /// The four edge neighbours in the order north, west, south, east.
-    pub fn neighbours4(self) -> [Cell; 4] {
+    pub(crate) fn neighbours4(self) -> [Cell; 4] {
         Dir4::ALL.map(|d| self.step(d))
     }
 
+    #[cfg(test)]
     /// The eight king's-move neighbours (edge and corner), clockwise from north.
-    pub fn neighbours8(self) -> [Cell; 8] {
+    pub(crate) fn neighbours8(self) -> [Cell; 8] {
         const D: [(i32, i32); 8] = [
             (1, 0),
             (1, 1),
@@ -337,8 +338,9 @@ impl Cell {
         self.row.abs_diff(other.row) + self.col.abs_diff(other.col)
     }
 
+    #[cfg(test)]
     /// Chebyshev (king's move) distance in cells.
-    pub fn chebyshev(self, other: Cell) -> u32 {
+    pub(crate) fn chebyshev(self, other: Cell) -> u32 {
         self.row
             .abs_diff(other.row)
             .max(self.col.abs_diff(other.col))
@@ -379,8 +381,9 @@ impl Dir4 {
         }
     }
 
+    #[cfg(test)]
     /// The opposite direction.
-    pub const fn opposite(self) -> Dir4 {
+    pub(crate) const fn opposite(self) -> Dir4 {
         match self {
             Dir4::North => Dir4::South,
             Dir4::West => Dir4::East,

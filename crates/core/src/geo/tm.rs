@@ -166,7 +166,7 @@ pub(crate) struct Forward {
     pub y: f64,
     /// Meridian convergence γ in degrees: the angle from true north to grid north,
     /// measured clockwise (positive east of the central meridian in the north).
-    pub gamma_deg: f64,
+    pub(crate) gamma_deg: f64,
     /// Point scale factor k (dimensionless; [`K0`] on the central meridian).
     pub k: f64,
 }

@@ -25,15 +25,15 @@ use super::tm;
 use super::{GeoError, Hemisphere, LatLon, Utm};
 
 /// Southern limit of UTM, degrees.
-pub const MIN_LAT: f64 = -80.0;
+pub(crate) const MIN_LAT: f64 = -80.0;
 /// Northern limit of UTM, degrees.
-pub const MAX_LAT: f64 = 84.0;
+pub(crate) const MAX_LAT: f64 = 84.0;
 /// False easting, metres.
-pub const FALSE_EASTING: f64 = 500_000.0;
+pub(crate) const FALSE_EASTING: f64 = 500_000.0;
 /// The farthest a point may be from the central meridian of a forced zone, degrees
 /// (12° beyond the zone's edge; the series stays nanometre-accurate far beyond this, but the
 /// scale error there is already 2–3 %, so a grid that far from its zone is a mistake).
-pub const MAX_ZONE_OFFSET_DEG: f64 = 15.0;
+pub(crate) const MAX_ZONE_OFFSET_DEG: f64 = 15.0;
 /// Slack for [`from_utm`] results on the domain limits, degrees (≈ 0.1 mm): a point computed
 /// exactly on 84°N or 80°S may come back 1e-14° outside; within this slack the latitude is
 /// clamped to the limit.
@@ -87,8 +87,9 @@ pub fn zone_for(lat: f64, lon: f64) -> Result<u8, GeoError> {
     Ok(zone as u8)
 }
 
+#[cfg(test)]
 /// The UTM latitude band letter (C..X, no I or O) of a latitude in the UTM domain.
-pub fn band_letter(lat: f64) -> Result<char, GeoError> {
+pub(crate) fn band_letter(lat: f64) -> Result<char, GeoError> {
     let p = check_utm_domain(LatLon::new(lat, 0.0))?;
     const BANDS: &[u8; 20] = b"CDEFGHJKLMNPQRSTUVWX";
     let i = (((p.lat + 80.0) / 8.0).floor() as usize).min(19);

@@ -13,7 +13,7 @@ pub mod cmd {
     /// Fly to a position (param1 hold time s, param2 acceptance radius m, param4 yaw deg).
     pub const NAV_WAYPOINT: u16 = 16;
     /// The highest navigation command id (MAV_CMD_NAV_LAST).
-    pub const NAV_LAST: u16 = 95;
+    pub(crate) const NAV_LAST: u16 = 95;
 
     /// Whether a MAV_CMD is a navigation command: one that is flown and "reached" (take-off,
     /// waypoint, loiter, land, return…), as opposed to DO_ and CONDITION_ commands, which run
@@ -47,33 +47,29 @@ pub mod cmd {
     /// Take off to the item's altitude.
     pub const NAV_TAKEOFF: u16 = 22;
     /// Climb or descend while loitering until the item's altitude is reached.
-    pub const NAV_LOITER_TO_ALT: u16 = 31;
+    pub(crate) const NAV_LOITER_TO_ALT: u16 = 31;
     /// VTOL take-off: rise vertically, then transition to forward flight.
-    pub const NAV_VTOL_TAKEOFF: u16 = 84;
+    pub(crate) const NAV_VTOL_TAKEOFF: u16 = 84;
     /// VTOL landing: transition to hover, then land vertically.
-    pub const NAV_VTOL_LAND: u16 = 85;
+    pub(crate) const NAV_VTOL_LAND: u16 = 85;
     /// Jump to item param1, param2 times (−1 = forever).
     pub const DO_JUMP: u16 = 177;
     /// Change speed: param1 speed type, param2 speed m/s.
     pub const DO_CHANGE_SPEED: u16 = 178;
     /// Set home: param1 = 1 uses the current position, 0 the item's position.
     pub const DO_SET_HOME: u16 = 179;
-    /// Go to a position now (guided), as a command.
-    pub const DO_REPOSITION: u16 = 192;
     /// Legacy camera trigger (param5 = 1 takes one picture).
     pub const DO_DIGICAM_CONTROL: u16 = 203;
     /// Trigger the camera every param1 metres travelled (0 stops).
     pub const DO_SET_CAM_TRIGG_DIST: u16 = 206;
-    /// Arm (param1 = 1) or disarm (param1 = 0).
-    pub const COMPONENT_ARM_DISARM: u16 = 400;
     /// Start capturing images: param2 interval s, param3 count, param4 sequence number.
     pub const IMAGE_START_CAPTURE: u16 = 2000;
     /// Stop capturing images.
     pub const IMAGE_STOP_CAPTURE: u16 = 2001;
     /// Fence polygon vertex, inclusion (param1 = vertex count).
-    pub const NAV_FENCE_POLYGON_VERTEX_INCLUSION: u16 = 5001;
+    pub(crate) const NAV_FENCE_POLYGON_VERTEX_INCLUSION: u16 = 5001;
     /// Fence polygon vertex, exclusion (param1 = vertex count).
-    pub const NAV_FENCE_POLYGON_VERTEX_EXCLUSION: u16 = 5002;
+    pub(crate) const NAV_FENCE_POLYGON_VERTEX_EXCLUSION: u16 = 5002;
     /// Rally point.
     pub const NAV_RALLY_POINT: u16 = 5100;
 }
@@ -87,7 +83,7 @@ pub mod frame {
     /// Global frame, altitude relative to home.
     pub const GLOBAL_RELATIVE_ALT: u8 = 3;
     /// Global frame, altitude above terrain.
-    pub const GLOBAL_TERRAIN_ALT: u8 = 10;
+    pub(crate) const GLOBAL_TERRAIN_ALT: u8 = 10;
 }
 
 /// MAV_MISSION_TYPE: which of the autopilot's lists an item belongs to.
@@ -157,7 +153,7 @@ pub fn deg_to_e7(deg: f64) -> i32 {
 }
 
 /// The wire's degrees × 10⁷ → degrees.
-pub fn e7_to_deg(e7: i32) -> f64 {
+pub(crate) fn e7_to_deg(e7: i32) -> f64 {
     f64::from(e7) / 1e7
 }
 
@@ -230,7 +226,7 @@ impl MissionItem {
     }
 
     /// NAV_LOITER_TIME for `seconds` at (`lat`, `lon`, `alt` relative to home).
-    pub fn loiter_time(seconds: f32, lat: f64, lon: f64, alt: f32) -> MissionItem {
+    pub(crate) fn loiter_time(seconds: f32, lat: f64, lon: f64, alt: f32) -> MissionItem {
         MissionItem {
             param1: seconds,
             ..MissionItem::at(cmd::NAV_LOITER_TIME, lat, lon, alt)

@@ -4,7 +4,7 @@
 pub mod definition;
 pub mod item;
 pub mod plan;
-pub mod strategy;
+pub(crate) mod strategy;
 pub mod wire;
 pub mod wpl;
 

@@ -83,7 +83,7 @@ impl ConfidenceBound {
     /// What a new field run uses unless its mission file says otherwise: the KL bound, which
     /// classified Table I's μ_worst = 0.8 row in fewer epochs with no mislabelled cell
     /// (docs/results/bandit-bound.md).
-    pub fn field_default() -> ConfidenceBound {
+    pub(crate) fn field_default() -> ConfidenceBound {
         ConfidenceBound::Kl
     }
 

@@ -124,7 +124,10 @@ pub fn item_int_from_float(d: &MISSION_ITEM_DATA) -> MISSION_ITEM_INT_DATA {
 }
 
 /// Our item → a MISSION_ITEM_INT payload (seq and addressing filled by the caller).
-pub fn item_to_wire(item: &MissionItem, index: usize) -> Result<MISSION_ITEM_INT_DATA, WireError> {
+pub(crate) fn item_to_wire(
+    item: &MissionItem,
+    index: usize,
+) -> Result<MISSION_ITEM_INT_DATA, WireError> {
     let command = MavCmd::from_u16(item.command).ok_or(WireError::UnknownCommand {
         index,
         command: item.command,
@@ -278,7 +281,7 @@ fn ardupilot_direction(command: u16, n: usize, p: f32) -> f32 {
 ///   and param3, a waypoint's param3, VTOL take-off and land param1–3;
 /// * any other parameter (hold time, acceptance radius, loiter radius, precision landing)
 ///   as sent. Commands not listed here are returned as sent.
-pub fn px4_position_param(command: u16, n: usize, p: f32) -> f32 {
+pub(crate) fn px4_position_param(command: u16, n: usize, p: f32) -> f32 {
     let yaw = |p: f32| if p.is_nan() { p } else { p.rem_euclid(360.0) };
     let flag = |p: f32| if p > 0.0 { 1.0 } else { 0.0 };
     match (command, n) {
@@ -310,7 +313,7 @@ pub fn home_placeholder() -> MissionItem {
 /// User items → wire items for a list of `kind` (home prepended and DO_JUMP shifted when
 /// `home_item`; seq, current, addressing to `target` (system id, component id) and mission
 /// type set).
-pub fn build_wire(
+pub(crate) fn build_wire(
     kind: MissionType,
     items: &[MissionItem],
     home: Option<&MissionItem>,
@@ -347,7 +350,7 @@ pub fn build_wire(
 }
 
 /// Wire items → (user items, home) for a list of `kind` (inverse of `build_wire`).
-pub fn from_wire_list(
+pub(crate) fn from_wire_list(
     kind: MissionType,
     wire: &[MISSION_ITEM_INT_DATA],
     home_item: bool,

@@ -45,11 +45,11 @@ use pathfinding::prelude::{Matrix, kuhn_munkres_min};
 const SCALE: i64 = 1 << 30;
 
 /// Most vehicles for which the scaled weights are provably exact.
-pub const MAX_VEHICLES: usize = 29_000;
+pub(crate) const MAX_VEHICLES: usize = 29_000;
 
 /// Re-pair drones and stations of `timelines` step by step (drones: legal drone moves;
 /// stations: legal station moves). Teams larger than [`MAX_VEHICLES`] are left unchanged.
-pub fn repair(inst: &Instance, timelines: &mut Timelines) {
+pub(crate) fn repair(inst: &Instance, timelines: &mut Timelines) {
     let g = &inst.grid;
     repair_paths(g, &mut timelines.drones, |a, b| g.is_move(a, b));
     repair_paths(g, &mut timelines.stations, |a, b| g.is_station_move(a, b));
@@ -57,7 +57,11 @@ pub fn repair(inst: &Instance, timelines: &mut Timelines) {
 
 /// Re-pair one team's paths (all the same length) in place; `legal(a, b)` says whether a → b
 /// is one move.
-pub fn repair_paths(g: &Grid, paths: &mut [Vec<usize>], legal: impl Fn(usize, usize) -> bool) {
+pub(crate) fn repair_paths(
+    g: &Grid,
+    paths: &mut [Vec<usize>],
+    legal: impl Fn(usize, usize) -> bool,
+) {
     let n = paths.len();
     if !(2..=MAX_VEHICLES).contains(&n) {
         return;
@@ -97,8 +101,9 @@ pub fn repair_paths(g: &Grid, paths: &mut [Vec<usize>], legal: impl Fn(usize, us
     }
 }
 
+#[cfg(test)]
 /// Pairs of vehicles that swap cells head-on between steps t and t + 1: `(t, u, v)`.
-pub fn head_on_swaps(paths: &[Vec<usize>]) -> Vec<(usize, usize, usize)> {
+pub(crate) fn head_on_swaps(paths: &[Vec<usize>]) -> Vec<(usize, usize, usize)> {
     let mut out = Vec::new();
     let len = paths.iter().map(Vec::len).min().unwrap_or(0);
     for t in 0..len.saturating_sub(1) {

@@ -94,7 +94,7 @@ pub use crate::mission::strategy::ConfidenceBound;
 /// kl(p, q) = p ln(p/q) + (1 − p) ln((1 − p)/(1 − q)), the Kullback–Leibler divergence between
 /// Bernoulli(p) and Bernoulli(q), in nats, with 0 · ln 0 = 0; +∞ when q ∈ {0, 1} and p ≠ q.
 /// Arguments are clamped to [0, 1].
-pub fn bernoulli_kl(p: f64, q: f64) -> f64 {
+pub(crate) fn bernoulli_kl(p: f64, q: f64) -> f64 {
     let (p, q) = (p.clamp(0.0, 1.0), q.clamp(0.0, 1.0));
     let term = |a: f64, b: f64| {
         if a <= 0.0 {
@@ -135,7 +135,7 @@ fn ln_binomial_at_mean(k: u64, n: u64) -> f64 {
 /// n·kl(μ̂, μ) ≥ β. β ≥ ln(|C|/δ) (the observed count is a mode of Bin(n, μ̂)) and
 /// β ≤ ln(|C|(n + 1)/δ): beyond ln(|C|/δ) it grows like ½ ln n (a plain union bound over n
 /// would add about 2 ln n).
-pub fn kl_threshold(ones: u64, n: u64, n_cells: usize, delta: f64) -> f64 {
+pub(crate) fn kl_threshold(ones: u64, n: u64, n_cells: usize, delta: f64) -> f64 {
     (n_cells.max(1) as f64 / delta).ln()
         + ((n + 1) as f64).ln()
         + ln_binomial_at_mean(ones.min(n), n)
@@ -161,7 +161,7 @@ pub fn kl_threshold(ones: u64, n: u64, n_cells: usize, delta: f64) -> f64 {
 /// A union over the |C| cells gives δ. The bound holds for every n at once, so it does not
 /// matter that samples come in batches of B per visit, nor how often (4) is checked; with
 /// (4a)/(4b) as in the paper, Prop. 1's argument then gives P(any cell mislabelled) ≤ δ.
-pub fn kl_interval(ones: u64, n: u64, n_cells: usize, delta: f64) -> (f64, f64) {
+pub(crate) fn kl_interval(ones: u64, n: u64, n_cells: usize, delta: f64) -> (f64, f64) {
     if n == 0 {
         return (f64::NEG_INFINITY, f64::INFINITY);
     }
@@ -211,7 +211,7 @@ pub fn ucb_width(n: u64, n_cells: usize, delta: f64) -> f64 {
 }
 
 /// U_l(p, δ) of (3b) with the given base for `log` (`log₂` is always base 2).
-pub fn ucb_width_base(n: u64, n_cells: usize, delta: f64, base: LogBase) -> f64 {
+pub(crate) fn ucb_width_base(n: u64, n_cells: usize, delta: f64, base: LogBase) -> f64 {
     if n == 0 {
         return f64::INFINITY;
     }
@@ -315,7 +315,7 @@ impl BanditState {
 
     /// J(l, p, δ) (3a): the upper end of the interval, μ̂_l + U_l with (3b) (the KL-UCB index
     /// of Garivier & Cappé, COLT 2011, with the KL bound); ∞ without samples.
-    pub fn score(&self, l: usize) -> f64 {
+    pub(crate) fn score(&self, l: usize) -> f64 {
         self.interval(l).1
     }
 
@@ -355,7 +355,7 @@ impl BanditState {
 
     /// Step 3 of Algorithm 1: the indices of the top-`d` unclassified cells by J (3),
     /// ties by candidate index.
-    pub fn ucb_goal_indices(&self, d: usize) -> Vec<usize> {
+    pub(crate) fn ucb_goal_indices(&self, d: usize) -> Vec<usize> {
         let mut cand: Vec<(f64, usize)> = self
             .unclassified()
             .into_iter()
@@ -371,7 +371,7 @@ impl BanditState {
     /// B = 0, first; ties by candidate index). It spends visits where (4) still needs data
     /// rather than on cells that merely look interesting, and keeps the labelling guarantee:
     /// Prop. 1 depends only on (3b) and (4), not on which cells are sampled.
-    pub fn apt_goal_indices(&self, d: usize) -> Vec<usize> {
+    pub(crate) fn apt_goal_indices(&self, d: usize) -> Vec<usize> {
         let mut cand: Vec<(f64, usize)> = self
             .unclassified()
             .into_iter()
@@ -466,7 +466,7 @@ pub fn gap(mu: f64, theta: f64, epsilon: f64) -> f64 {
 
 /// P_l of (13): visits of cell l after which (4) classifies it (w.p. 1 − δ), with batch B and
 /// |C| = `n_cells`; natural logarithms.
-pub fn visits_needed(delta_l: f64, batch: u32, n_cells: usize, delta: f64) -> f64 {
+pub(crate) fn visits_needed(delta_l: f64, batch: u32, n_cells: usize, delta: f64) -> f64 {
     let s = (3.0 * n_cells as f64 / delta).sqrt();
     16.0 / (batch as f64 * delta_l * delta_l)
         * (4.0 * s * (192.0 / (delta_l * delta_l) * s).ln()).ln()

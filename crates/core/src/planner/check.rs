@@ -29,8 +29,9 @@ fn show(c: Cell) -> String {
     format!("[{}, {}]", c.row, c.col)
 }
 
+#[cfg(test)]
 /// Check `plan` against `inst` with the default options (the paper's constraints only).
-pub fn check_plan(inst: &Instance, plan: &Plan) -> Result<(), CheckError> {
+pub(crate) fn check_plan(inst: &Instance, plan: &Plan) -> Result<(), CheckError> {
     check_plan_with(inst, plan, CheckOptions::default())
 }
 

@@ -202,7 +202,7 @@ impl Grid {
     }
 
     /// N_c(l) = R ∩ N(l): the cells a station at `i` may occupy one step later.
-    pub fn station_moves(&self, i: usize) -> &[usize] {
+    pub(crate) fn station_moves(&self, i: usize) -> &[usize] {
         &self.station_nbrs[i]
     }
 
@@ -212,12 +212,12 @@ impl Grid {
     }
 
     /// Whether `a → b` is one legal drone step (a king's move or a pass between free cells).
-    pub fn is_move(&self, a: usize, b: usize) -> bool {
+    pub(crate) fn is_move(&self, a: usize, b: usize) -> bool {
         self.nbrs[a].contains(&b)
     }
 
     /// Whether `a → b` is one legal station step (within R).
-    pub fn is_station_move(&self, a: usize, b: usize) -> bool {
+    pub(crate) fn is_station_move(&self, a: usize, b: usize) -> bool {
         self.station_nbrs[a].contains(&b)
     }
 
@@ -264,14 +264,6 @@ impl Grid {
                 free.iter().all(|&i| d[i] != u32::MAX)
             }
         }
-    }
-
-    /// Euclidean distance between the centres of cells `a` and `b`, in cell widths.
-    pub fn euclid(&self, a: usize, b: usize) -> f64 {
-        let (ca, cb) = (self.cell(a), self.cell(b));
-        let dr = (ca.row - cb.row) as f64;
-        let dc = (ca.col - cb.col) as f64;
-        (dr * dr + dc * dc).sqrt()
     }
 }
 

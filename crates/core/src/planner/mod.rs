@@ -13,7 +13,7 @@
 //! | [`check`] | an independent checker of plans |
 //! | [`sortie`] | the run on a real fleet: epochs, sorties, measurements (pure state), missions and geofence |
 
-pub mod assign;
+pub(crate) mod assign;
 pub mod bandit;
 pub mod baselines;
 pub mod check;

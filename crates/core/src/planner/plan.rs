@@ -34,7 +34,7 @@ pub struct Timelines {
 
 impl Timelines {
     /// Cut the timelines into sensing cycles of T_d (T_c) cells each.
-    pub fn to_plan(&self, inst: &Instance) -> Plan {
+    pub(crate) fn to_plan(&self, inst: &Instance) -> Plan {
         let g = &inst.grid;
         let cut = |paths: &[Vec<usize>], len: usize| -> Vec<Vec<Vec<Cell>>> {
             paths

@@ -72,12 +72,12 @@ mod cell_list {
     use crate::geo::Cell;
     use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-    pub fn serialize<S: Serializer>(cells: &[Cell], s: S) -> Result<S::Ok, S::Error> {
+    pub(super) fn serialize<S: Serializer>(cells: &[Cell], s: S) -> Result<S::Ok, S::Error> {
         let v: Vec<[i32; 2]> = cells.iter().map(|c| [c.row, c.col]).collect();
         v.serialize(s)
     }
 
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Cell>, D::Error> {
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Cell>, D::Error> {
         let v: Vec<[i32; 2]> = Vec::deserialize(d)?;
         Ok(v.into_iter().map(|[r, c]| Cell::new(r, c)).collect())
     }
@@ -87,14 +87,19 @@ mod opt_cell_list {
     use crate::geo::Cell;
     use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
-    pub fn serialize<S: Serializer>(cells: &Option<Vec<Cell>>, s: S) -> Result<S::Ok, S::Error> {
+    pub(super) fn serialize<S: Serializer>(
+        cells: &Option<Vec<Cell>>,
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
         let v: Option<Vec<[i32; 2]>> = cells
             .as_ref()
             .map(|c| c.iter().map(|c| [c.row, c.col]).collect());
         v.serialize(s)
     }
 
-    pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec<Cell>>, D::Error> {
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<Option<Vec<Cell>>, D::Error> {
         let v: Option<Vec<[i32; 2]>> = Option::deserialize(d)?;
         Ok(v.map(|v| v.into_iter().map(|[r, c]| Cell::new(r, c)).collect()))
     }

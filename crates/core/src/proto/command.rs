@@ -247,7 +247,7 @@ pub enum CommandError {
 
 impl CommandError {
     /// The error for a non-accepted, non-in-progress MAV_RESULT.
-    pub fn from_result(command: MavCmd, result: MavResult) -> Option<CommandError> {
+    pub(crate) fn from_result(command: MavCmd, result: MavResult) -> Option<CommandError> {
         use MavResult::*;
         Some(match result {
             MAV_RESULT_ACCEPTED | MAV_RESULT_IN_PROGRESS => return None,
@@ -356,29 +356,6 @@ impl CommandSender {
         self.waiting.push_back((id, cmd));
         self.launch(now);
         id
-    }
-
-    /// Stop waiting for command `id` (its ACK, if any comes, is ignored).
-    pub fn abandon(&mut self, id: CmdId, now: Time) {
-        if let Some(pos) = self.in_flight.iter().position(|p| p.id == id) {
-            let p = self.in_flight.remove(pos);
-            self.events.push_back(CommandEvent::Done {
-                id,
-                result: Err(CommandError::Abandoned {
-                    command: p.cmd.command,
-                }),
-            });
-        } else if let Some(pos) = self.waiting.iter().position(|(i, _)| *i == id)
-            && let Some((_, cmd)) = self.waiting.remove(pos)
-        {
-            self.events.push_back(CommandEvent::Done {
-                id,
-                result: Err(CommandError::Abandoned {
-                    command: cmd.command,
-                }),
-            });
-        }
-        self.launch(now);
     }
 
     fn launch(&mut self, now: Time) {

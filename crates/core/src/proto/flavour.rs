@@ -57,7 +57,7 @@ use mavlink::dialects::ardupilotmega::{
 /// a GCS that waits for 90 % of the altitude waits for ever. ArduCopter's GUIDED take-off
 /// raises the position target to the altitude and keeps holding it
 /// (`ArduCopter/takeoff.cpp`), so it ends closer and passes this tolerance as well.
-pub const TAKEOFF_ALT_ACCEPTANCE_M: f32 = 0.8;
+pub(crate) const TAKEOFF_ALT_ACCEPTANCE_M: f32 = 0.8;
 
 /// Whether a vehicle `alt_rel` metres above home has finished a take-off to `target`
 /// metres above home: no lower than [`TAKEOFF_ALT_ACCEPTANCE_M`] below it, less 5 cm for
@@ -401,7 +401,7 @@ impl Flavour {
     }
 
     /// The return-to-launch mode.
-    pub fn rtl_mode(&self) -> Result<Mode, FlavourError> {
+    pub(crate) fn rtl_mode(&self) -> Result<Mode, FlavourError> {
         self.pick(CopterMode::Rtl, RoverMode::Rtl, Px4Mode::Rtl)
     }
 

@@ -99,7 +99,7 @@ pub fn gcs_heartbeat() -> MavMessage {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct LivenessConfig {
     /// GCS heartbeat period (1 s).
-    pub gcs_period: Duration,
+    pub(crate) gcs_period: Duration,
     /// Silence after which a component is lost (3 s): no heartbeat and no other message.
     pub lost_after: Duration,
 }

@@ -85,7 +85,7 @@ pub struct ReceiverConfig {
 
 impl ReceiverConfig {
     /// How long to wait for an image that has been asked for `retries` times.
-    pub fn wait_after(&self, retries: u32) -> Duration {
+    pub(crate) fn wait_after(&self, retries: u32) -> Duration {
         self.idle.saturating_mul(1u32 << retries.min(4))
     }
 }
@@ -137,11 +137,11 @@ pub fn request_image(size: u32, packets: u16, payload: u8) -> MavMessage {
 }
 
 /// How many interrupted images a receiver keeps, waiting for them to be sent again.
-pub const MAX_WAITING: usize = 8;
+pub(crate) const MAX_WAITING: usize = 8;
 
 /// How many completed images a receiver remembers (size, packets, payload), to tell a re-send
 /// it did not need from a new picture.
-pub const DONE_KEPT: usize = 16;
+pub(crate) const DONE_KEPT: usize = 16;
 
 /// Reassembles the images of one camera (one system/component). See the module docs.
 #[derive(Clone, Debug)]
@@ -167,7 +167,7 @@ pub struct ImageReceiver {
     /// Re-send requests sent.
     pub requests: u64,
     /// Incomplete re-sends of images already complete, dropped without asking.
-    pub unneeded: u64,
+    pub(crate) unneeded: u64,
 }
 
 impl Transfer {

@@ -30,9 +30,9 @@ pub mod severity;
 use mavlink::MavHeader;
 
 /// The GCS's MAVLink system id (docs/grid.md: 255, as QGroundControl and MAVProxy use).
-pub const GCS_SYSID: u8 = 255;
+pub(crate) const GCS_SYSID: u8 = 255;
 /// The GCS's component id (MAV_COMP_ID_MISSIONPLANNER = 190, as QGroundControl uses).
-pub const GCS_COMPID: u8 = 190;
+pub(crate) const GCS_COMPID: u8 = 190;
 /// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1).
 pub const AUTOPILOT_COMPID: u8 = 1;
 /// The first camera's component id (MAV_COMP_ID_CAMERA).
@@ -65,7 +65,7 @@ impl Endpoint {
 
     /// Whether a message addressed to (`target_system`, `target_component`) is for us
     /// (0 is broadcast).
-    pub fn is_addressed_by(&self, target_system: u8, target_component: u8) -> bool {
+    pub(crate) fn is_addressed_by(&self, target_system: u8, target_component: u8) -> bool {
         (target_system == 0 || target_system == self.sysid)
             && (target_component == 0 || target_component == self.compid)
     }

@@ -29,7 +29,7 @@ macro_rules! mode_table {
             pub const ALL: &'static [$name] = &[$($name::$variant),*];
 
             /// The table of [`Mode`]s (the same order as [`Self::ALL`]).
-            pub const MODES: &'static [Mode] = &[$($wrap($name::$variant)),*];
+            pub(crate) const MODES: &'static [Mode] = &[$($wrap($name::$variant)),*];
 
             /// The upper-case name the autopilot's ground station shows.
             pub const fn name(self) -> &'static str {

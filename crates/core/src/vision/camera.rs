@@ -34,7 +34,7 @@ impl CameraModel {
     }
 
     /// Vertical field of view in degrees, from the horizontal one and the aspect ratio.
-    pub fn vfov_deg(&self) -> f64 {
+    pub(crate) fn vfov_deg(&self) -> f64 {
         let half = (self.hfov_deg.to_radians() / 2.0).tan();
         let aspect = f64::from(self.height_px) / f64::from(self.width_px.max(1));
         2.0 * (half * aspect).atan().to_degrees()
@@ -42,7 +42,7 @@ impl CameraModel {
 
     /// Ground footprint (width along the image x axis, height along y), metres, at
     /// `altitude` metres above flat ground.
-    pub fn footprint(&self, altitude: f64) -> (f64, f64) {
+    pub(crate) fn footprint(&self, altitude: f64) -> (f64, f64) {
         let w = 2.0 * altitude * (self.hfov_deg.to_radians() / 2.0).tan();
         let h = 2.0 * altitude * (self.vfov_deg().to_radians() / 2.0).tan();
         (w, h)
@@ -82,18 +82,26 @@ impl CameraModel {
         Ok(())
     }
 
+    #[cfg(test)]
     /// Ground footprint (metres, along x and y) of the centre region of the 3×3 split — the
     /// part of the image that decides the label of the cell under the vehicle.
-    pub fn centre_region_footprint(&self, altitude: f64) -> (f64, f64) {
+    pub(crate) fn centre_region_footprint(&self, altitude: f64) -> (f64, f64) {
         let (w, h) = self.footprint(altitude);
         (w / 3.0, h / 3.0)
     }
 
+    #[cfg(test)]
     /// Ground offset (north, east) in metres from the point under the camera to the centre
     /// of pixel (`x`, `y`) (pixel units, 0 = left / top edge; pixel centres at +0.5), for
     /// a nadir camera at `altitude` metres whose image top points to `heading_deg`
     /// (degrees clockwise from north) and whose image right is the vehicle's right.
-    pub fn ground_offset(&self, x: f64, y: f64, altitude: f64, heading_deg: f64) -> (f64, f64) {
+    pub(crate) fn ground_offset(
+        &self,
+        x: f64,
+        y: f64,
+        altitude: f64,
+        heading_deg: f64,
+    ) -> (f64, f64) {
         let gsd = self.ground_sample_distance(altitude);
         // Forward (towards the top of the image) and right, metres.
         let right = (x - f64::from(self.width_px) / 2.0) * gsd;
@@ -102,9 +110,16 @@ impl CameraModel {
         (forward * c - right * s, forward * s + right * c)
     }
 
+    #[cfg(test)]
     /// Inverse of [`CameraModel::ground_offset`]: the image position (pixel units) that
     /// sees the ground point `north`, `east` metres from the point under the camera.
-    pub fn pixel_of(&self, north: f64, east: f64, altitude: f64, heading_deg: f64) -> (f64, f64) {
+    pub(crate) fn pixel_of(
+        &self,
+        north: f64,
+        east: f64,
+        altitude: f64,
+        heading_deg: f64,
+    ) -> (f64, f64) {
         let gsd = self.ground_sample_distance(altitude);
         let (s, c) = heading_deg.to_radians().sin_cos();
         let forward = north * c + east * s;

@@ -21,17 +21,17 @@ use image::{GrayImage, RgbImage};
 use std::sync::LazyLock;
 
 /// OpenCV's `RY15`: weight of red in the 15-bit fixed-point grey conversion.
-pub const GRAY_R: u32 = 9798;
+pub(crate) const GRAY_R: u32 = 9798;
 /// OpenCV's `GY15`: weight of green in the 15-bit fixed-point grey conversion.
-pub const GRAY_G: u32 = 19235;
+pub(crate) const GRAY_G: u32 = 19235;
 /// OpenCV's `BY15`: weight of blue in the 15-bit fixed-point grey conversion.
-pub const GRAY_B: u32 = 3735;
+pub(crate) const GRAY_B: u32 = 3735;
 /// OpenCV's `gray_shift`: the fixed-point scale is 2^15.
-pub const GRAY_SHIFT: u32 = 15;
+pub(crate) const GRAY_SHIFT: u32 = 15;
 
 /// The weighted sum `r·RY15 + g·GY15 + b·BY15` before rounding (0..=255·2¹⁵).
 #[inline(always)]
-pub fn gray_sum(r: u8, g: u8, b: u8) -> u32 {
+pub(crate) fn gray_sum(r: u8, g: u8, b: u8) -> u32 {
     u32::from(r) * GRAY_R + u32::from(g) * GRAY_G + u32::from(b) * GRAY_B
 }
 
@@ -45,13 +45,13 @@ pub fn gray(r: u8, g: u8, b: u8) -> u8 {
 /// The smallest weighted sum ([`gray_sum`]) whose grey level is strictly above `threshold`,
 /// i.e. `gray(r, g, b) > threshold ⇔ gray_sum(r, g, b) >= gray_sum_above(threshold)`.
 /// For `threshold = 255` the bound is above every possible sum (nothing is above 255).
-pub fn gray_sum_above(threshold: u8) -> u32 {
+pub(crate) fn gray_sum_above(threshold: u8) -> u32 {
     // (s + 2¹⁴) >> 15 > t  ⇔  s + 2¹⁴ >= (t + 1)·2¹⁵.
     ((u32::from(threshold) + 1) << GRAY_SHIFT) - (1 << (GRAY_SHIFT - 1))
 }
 
 /// The whole image converted to grey exactly as OpenCV does (see the module docs).
-pub fn to_gray(img: &RgbImage) -> GrayImage {
+pub(crate) fn to_gray(img: &RgbImage) -> GrayImage {
     let (w, h) = img.dimensions();
     let data: Vec<u8> = img
         .as_raw()
@@ -81,10 +81,11 @@ static HSV_TABLES: LazyLock<HsvTables> = LazyLock::new(|| {
     HsvTables { sdiv, hdiv180 }
 });
 
+#[cfg(test)]
 /// The (H, S, V) triple OpenCV's `cvtColor(…, COLOR_RGB2HSV)` gives one 8-bit pixel:
 /// H in 0..180, S and V in 0..=255.
 #[inline]
-pub fn hsv(r: u8, g: u8, b: u8) -> [u8; 3] {
+pub(crate) fn hsv(r: u8, g: u8, b: u8) -> [u8; 3] {
     hsv_with(&HSV_TABLES, r, g, b)
 }
 
@@ -114,13 +115,13 @@ fn hsv_with(t: &HsvTables, r: u8, g: u8, b: u8) -> [u8; 3] {
 /// Membership of one pixel in an HSV box, as `cv2.inRange(hsv, lower, upper)`:
 /// `lower[c] <= hsv[c] <= upper[c]` for all three channels (inclusive, no hue wrap-around).
 #[inline]
-pub fn hsv_in_range(r: u8, g: u8, b: u8, lower: [u8; 3], upper: [u8; 3]) -> bool {
+pub(crate) fn hsv_in_range(r: u8, g: u8, b: u8, lower: [u8; 3], upper: [u8; 3]) -> bool {
     let p = hsv_with(&HSV_TABLES, r, g, b);
     (0..3).all(|c| lower[c] <= p[c] && p[c] <= upper[c])
 }
 
 /// Count of pixels of `img` inside the HSV box (see [`hsv_in_range`]).
-pub fn count_hsv_in_range(img: &RgbImage, lower: [u8; 3], upper: [u8; 3]) -> u64 {
+pub(crate) fn count_hsv_in_range(img: &RgbImage, lower: [u8; 3], upper: [u8; 3]) -> u64 {
     let t: &HsvTables = &HSV_TABLES;
     img.as_raw()
         .chunks_exact(3)

@@ -7,7 +7,7 @@ use crate::vision::camera::CameraModel;
 use image::RgbImage;
 
 /// The centred `cw` × `ch` pixels of `img` (each at most the image's size).
-pub fn centre_crop(img: &RgbImage, cw: u32, ch: u32) -> RgbImage {
+pub(crate) fn centre_crop(img: &RgbImage, cw: u32, ch: u32) -> RgbImage {
     let (w, h) = img.dimensions();
     let (cw, ch) = (cw.min(w), ch.min(h));
     image::imageops::crop_imm(img, (w - cw) / 2, (h - ch) / 2, cw, ch).to_image()

@@ -63,11 +63,6 @@ impl BitImage {
         self.height
     }
 
-    /// Number of `u64` words per row (`⌈width / 64⌉`).
-    pub fn words_per_row(&self) -> usize {
-        self.words_per_row
-    }
-
     /// The words of row `y` (bit `j` of word `i` is pixel `64·i + j`).
     #[inline(always)]
     pub fn row(&self, y: u32) -> &[u64] {
@@ -88,8 +83,9 @@ impl BitImage {
         (self.row(y)[(x / 64) as usize] >> (x % 64)) & 1 == 1
     }
 
+    #[cfg(test)]
     /// Number of white (1) pixels.
-    pub fn count_ones(&self) -> u64 {
+    pub(crate) fn count_ones(&self) -> u64 {
         self.words.iter().map(|w| u64::from(w.count_ones())).sum()
     }
 
@@ -99,17 +95,6 @@ impl BitImage {
         GrayImage::from_fn(self.width, self.height, |x, y| {
             image::Luma([if self.get(x, y) { 255 } else { 0 }])
         })
-    }
-
-    /// The binary image of an 8-bit grey image: bit = (value ≠ 0).
-    pub fn from_gray_image(img: &GrayImage) -> BitImage {
-        let mut out = BitImage::new(img.width(), img.height());
-        for (x, y, p) in img.enumerate_pixels() {
-            if p.0[0] != 0 {
-                out.row_mut(y)[(x / 64) as usize] |= 1 << (x % 64);
-            }
-        }
-        out
     }
 
     /// Mask that keeps the valid bits of a row's last word.
@@ -125,7 +110,7 @@ impl BitImage {
 /// `k = color::gray_sum_above(threshold)`. `out` has `⌈pixels / 64⌉` words; the bits past
 /// the last pixel are left 0.
 #[inline(always)]
-pub fn threshold_row(rgb: &[u8], k: u32, out: &mut [u64]) {
+pub(crate) fn threshold_row(rgb: &[u8], k: u32, out: &mut [u64]) {
     let mut chunks = rgb.chunks_exact(192);
     let mut i = 0;
     for chunk in &mut chunks {
@@ -477,7 +462,7 @@ fn count_range(row: &[u64], (w0, w1, m0, m1): (usize, usize, u64, u64)) -> u64 {
 }
 
 /// Black (0) pixels of a binary image in each of the five regions.
-pub fn count_regions(bits: &BitImage) -> RegionCounts {
+pub(crate) fn count_regions(bits: &BitImage) -> RegionCounts {
     count_regions_with(bits.width, bits.height, |y| bits.row(y))
 }
 
@@ -536,13 +521,13 @@ pub struct Workspace {
 /// The whole pipeline, fused: each RGB row is read once, thresholded into bits and dilated
 /// horizontally while it is in cache; the vertical pass and the counts follow on the
 /// bit-packed image. Returns the black pixels per region after the dilation.
-pub fn region_counts(img: &RgbImage, threshold: u8, radius: u32) -> RegionCounts {
+pub(crate) fn region_counts(img: &RgbImage, threshold: u8, radius: u32) -> RegionCounts {
     region_counts_in(&mut Workspace::default(), img, threshold, radius)
 }
 
 /// [`region_counts`] with caller-provided buffers, on the best kernel for this CPU
 /// (see `dispatch`).
-pub fn region_counts_in(
+pub(crate) fn region_counts_in(
     ws: &mut Workspace,
     img: &RgbImage,
     threshold: u8,
@@ -623,7 +608,7 @@ pub mod x86 {
     /// [`threshold_row_v3`] with 128-bit SSSE3 registers: 4 pixels per step (one 16-byte
     /// load, `pshufb`, `pmaddwd`, `movmskps`), sixteen steps per 64-pixel word.
     #[inline(always)]
-    pub fn threshold_row_v2(simd: V2, rgb: &[u8], k: u32, out: &mut [u64]) {
+    pub(crate) fn threshold_row_v2(simd: V2, rgb: &[u8], k: u32, out: &mut [u64]) {
         let sse = simd.sse;
         let sse2 = simd.sse2;
         let ssse3 = simd.ssse3;
@@ -677,7 +662,7 @@ pub mod x86 {
     /// eight groups make one 64-pixel word. A word whose last group would read past the
     /// row (the loads take 4 bytes beyond each 4-pixel half) is done pixel by pixel.
     #[inline(always)]
-    pub fn threshold_row_v3(simd: V3, rgb: &[u8], k: u32, out: &mut [u64]) {
+    pub(crate) fn threshold_row_v3(simd: V3, rgb: &[u8], k: u32, out: &mut [u64]) {
         let avx = simd.avx;
         let avx2 = simd.avx2;
         let rg_mask = lanes(RG);

@@ -33,7 +33,7 @@ use nalgebra::{Matrix3, Quaternion, UnitQuaternion, Vector3};
 /// A reported quaternion counts as an attitude when its norm is within this of 1: a real
 /// autopilot sends unit quaternions to float precision, while all zeros is the old MAVLink
 /// definition of "no orientation" and anything far from 1 is not a rotation.
-pub const QUATERNION_NORM_TOLERANCE: f64 = 0.1;
+pub(crate) const QUATERNION_NORM_TOLERANCE: f64 = 0.1;
 
 /// The attitude in CAMERA_IMAGE_CAPTURED.q (`[w, x, y, z]`, body → NED), or `None` when
 /// it is not a rotation (not finite, all zeros, norm off 1 by more than
@@ -58,7 +58,7 @@ pub fn attitude_from_euler_deg(roll_deg: f64, pitch_deg: f64, yaw_deg: f64) -> U
 }
 
 /// ZYX Euler angles of `attitude`, degrees: (roll, pitch, yaw), yaw in [0, 360).
-pub fn euler_deg(attitude: &UnitQuaternion<f64>) -> (f64, f64, f64) {
+pub(crate) fn euler_deg(attitude: &UnitQuaternion<f64>) -> (f64, f64, f64) {
     let (r, p, y) = attitude.euler_angles();
     (
         r.to_degrees(),
@@ -69,7 +69,7 @@ pub fn euler_deg(attitude: &UnitQuaternion<f64>) -> (f64, f64, f64) {
 
 /// Angle between the optical axis (body z) and the vertical, degrees: how far off nadir the
 /// camera looks, whatever the direction (`acos(cos roll · cos pitch)` for ZYX angles).
-pub fn tilt_deg(attitude: &UnitQuaternion<f64>) -> f64 {
+pub(crate) fn tilt_deg(attitude: &UnitQuaternion<f64>) -> f64 {
     let down = attitude.transform_vector(&Vector3::z());
     down.z.clamp(-1.0, 1.0).acos().to_degrees()
 }
@@ -147,13 +147,14 @@ impl CameraView {
         })
     }
 
+    #[cfg(test)]
     /// Focal length, pixels.
-    pub fn focal_px(&self) -> f64 {
+    pub(crate) fn focal_px(&self) -> f64 {
         self.focal_px
     }
 
     /// The NED direction (not normalised) pixel (`u`, `v`) looks along.
-    pub fn ray(&self, u: f64, v: f64) -> Vector3<f64> {
+    pub(crate) fn ray(&self, u: f64, v: f64) -> Vector3<f64> {
         let x = (u - self.width / 2.0) / self.focal_px;
         let y = (v - self.height / 2.0) / self.focal_px;
         self.r * Vector3::new(-y, x, 1.0)
@@ -184,9 +185,10 @@ impl CameraView {
         ))
     }
 
+    #[cfg(test)]
     /// The ground point at the centre of the image: (north, east) metres from the point under
     /// the camera (`altitude · tan(tilt)` towards where the optical axis leans).
-    pub fn view_centre(&self) -> Option<(f64, f64)> {
+    pub(crate) fn view_centre(&self) -> Option<(f64, f64)> {
         self.ground_of_pixel(self.width / 2.0, self.height / 2.0)
     }
 }

@@ -59,7 +59,7 @@ impl GreenParams {
 }
 
 /// Number of green pixels of `img`.
-pub fn green_count(img: &RgbImage, params: &GreenParams) -> u64 {
+pub(crate) fn green_count(img: &RgbImage, params: &GreenParams) -> u64 {
     color::count_hsv_in_range(img, params.lower, params.upper)
 }
 
@@ -77,8 +77,9 @@ pub fn measure(img: &RgbImage, params: &GreenParams) -> bool {
     img.width() > 0 && img.height() > 0 && green_fraction(img, params) >= params.min_fraction
 }
 
+#[cfg(test)]
 /// The B measurements of one visit (one per image), computed in parallel.
-pub fn measure_visit(images: &[RgbImage], params: &GreenParams) -> Vec<bool> {
+pub(crate) fn measure_visit(images: &[RgbImage], params: &GreenParams) -> Vec<bool> {
     use rayon::prelude::*;
     images.par_iter().map(|img| measure(img, params)).collect()
 }

@@ -108,7 +108,7 @@ fn map_image_error(e: image::ImageError) -> VisionError {
 }
 
 /// RGB the way `cv2.imread(…, IMREAD_COLOR)` produces it (then reordered from BGR).
-pub fn to_rgb_like_opencv(img: DynamicImage) -> RgbImage {
+pub(crate) fn to_rgb_like_opencv(img: DynamicImage) -> RgbImage {
     let (w, h) = (img.width(), img.height());
     let from = |data: Vec<u8>| RgbImage::from_raw(w, h, data);
     let converted = match img {

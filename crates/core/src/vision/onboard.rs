@@ -44,7 +44,7 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use serde::{Deserialize, Serialize};
 
 /// DEBUG_FLOAT_ARRAY.name of a green-share measurement.
-pub const GREEN_NAME: &str = "fm.green";
+pub(crate) const GREEN_NAME: &str = "fm.green";
 
 /// Version of the layout of `data` (see the module documentation).
 const FORMAT_VERSION: f32 = 1.0;

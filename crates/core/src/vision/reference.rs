@@ -28,7 +28,7 @@ pub fn threshold(gray: &GrayImage, t: u8) -> GrayImage {
 /// One `cv2.dilate(img, np.ones((3, 3), np.uint8))`: the maximum over the 3×3
 /// neighbourhood, pixels outside the image ignored (OpenCV's default border for
 /// dilation, `BORDER_CONSTANT` with `morphologyDefaultBorderValue()`, never wins).
-pub fn dilate3x3(img: &GrayImage) -> GrayImage {
+pub(crate) fn dilate3x3(img: &GrayImage) -> GrayImage {
     let (w, h) = img.dimensions();
     GrayImage::from_fn(w, h, |x, y| {
         let mut m = 0u8;
@@ -42,7 +42,7 @@ pub fn dilate3x3(img: &GrayImage) -> GrayImage {
 }
 
 /// `cv2.dilate(img, np.ones((3, 3), np.uint8), iterations=n)`.
-pub fn dilate(img: &GrayImage, iterations: u32) -> GrayImage {
+pub(crate) fn dilate(img: &GrayImage, iterations: u32) -> GrayImage {
     let mut out = img.clone();
     for _ in 0..iterations {
         out = dilate3x3(&out);
@@ -51,7 +51,7 @@ pub fn dilate(img: &GrayImage, iterations: u32) -> GrayImage {
 }
 
 /// Pixels equal to 0 ("black") per region, counted one by one.
-pub fn count_regions(img: &GrayImage) -> RegionCounts {
+pub(crate) fn count_regions(img: &GrayImage) -> RegionCounts {
     let grid = RegionGrid::new(img.width(), img.height());
     let mut counts = RegionCounts::default();
     for region in Region::ALL {
@@ -69,7 +69,7 @@ pub fn count_regions(img: &GrayImage) -> RegionCounts {
 }
 
 /// The whole pipeline: grey → threshold → `iterations` 3×3 dilations → black counts.
-pub fn region_counts(img: &RgbImage, t: u8, iterations: u32) -> RegionCounts {
+pub(crate) fn region_counts(img: &RgbImage, t: u8, iterations: u32) -> RegionCounts {
     count_regions(&dilate(&threshold(&gray(img), t), iterations))
 }
 

@@ -35,7 +35,7 @@ impl Region {
     ];
 
     /// (row band, column band) of the region, each 0, 1 or 2.
-    pub const fn bands(self) -> (usize, usize) {
+    pub(crate) const fn bands(self) -> (usize, usize) {
         match self {
             Region::Center => (1, 1),
             Region::Top => (0, 1),
@@ -49,7 +49,7 @@ impl Region {
 /// The 3×3 split of a `width × height` image: row boundaries ⌊k·height/3⌋ and column
 /// boundaries ⌊k·width/3⌋ for k = 0, 1, 2, 3.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub struct RegionGrid {
+pub(crate) struct RegionGrid {
     /// Row boundaries (pixels).
     pub rows: [u32; 4],
     /// Column boundaries (pixels).
@@ -58,7 +58,7 @@ pub struct RegionGrid {
 
 impl RegionGrid {
     /// The split of a `width × height` image.
-    pub fn new(width: u32, height: u32) -> RegionGrid {
+    pub(crate) fn new(width: u32, height: u32) -> RegionGrid {
         let cut = |n: u32, k: u64| (u64::from(n) * k / 3) as u32;
         RegionGrid {
             rows: [0, cut(height, 1), cut(height, 2), height],
@@ -67,7 +67,7 @@ impl RegionGrid {
     }
 
     /// (rows, columns) of `region`, half-open pixel ranges.
-    pub fn bounds(&self, region: Region) -> (Range<u32>, Range<u32>) {
+    pub(crate) fn bounds(&self, region: Region) -> (Range<u32>, Range<u32>) {
         let (rb, cb) = region.bands();
         (
             self.rows[rb]..self.rows[rb + 1],

@@ -68,7 +68,7 @@ impl Default for RunwayParams {
 }
 
 /// Largest accepted number of dilations (a bigger square than any image changes nothing).
-pub const MAX_DILATION_ITERATIONS: u32 = 1 << 20;
+pub(crate) const MAX_DILATION_ITERATIONS: u32 = 1 << 20;
 
 impl RunwayParams {
     /// Check the parameters: the fraction threshold must be a number in [0, 1].
@@ -128,7 +128,7 @@ impl NeighbourLabels {
 
 /// Quarter turns clockwise (0..4) of the heading `heading_deg` (degrees clockwise from
 /// north), rounded to the nearest quarter, ties clockwise; `None` when not finite.
-pub fn quarter_turns(heading_deg: f64) -> Option<u8> {
+pub(crate) fn quarter_turns(heading_deg: f64) -> Option<u8> {
     if !heading_deg.is_finite() {
         return None;
     }
@@ -138,7 +138,7 @@ pub fn quarter_turns(heading_deg: f64) -> Option<u8> {
 
 /// The compass direction seen by image `region` (not the centre) when the vehicle's heading
 /// is `turns` quarter turns clockwise from north.
-pub fn region_direction(region: Region, turns: u8) -> Option<Dir4> {
+pub(crate) fn region_direction(region: Region, turns: u8) -> Option<Dir4> {
     // Clockwise order from the top of the image / from north.
     let image_index = match region {
         Region::Center => return None,
@@ -183,11 +183,11 @@ pub struct Classification {
     /// The heading used, degrees clockwise from north.
     pub heading_deg: f64,
     /// The heading rounded to quarter turns clockwise from north (0..4).
-    pub quarter_turns: u8,
+    pub(crate) quarter_turns: u8,
 }
 
 /// Images must be at least this many pixels wide and high, so that every region has pixels.
-pub const MIN_SIDE: u32 = 3;
+pub(crate) const MIN_SIDE: u32 = 3;
 
 fn check_size(img: &RgbImage) -> Result<(), VisionError> {
     let (w, h) = img.dimensions();
@@ -273,8 +273,9 @@ pub fn classification_from_counts(
     })
 }
 
+#[cfg(test)]
 /// Classify several images in parallel (rayon), one result per image in the same order.
-pub fn classify_many(
+pub(crate) fn classify_many(
     images: &[(&RgbImage, f64)],
     params: &RunwayParams,
 ) -> Vec<Result<Classification, VisionError>> {

@@ -40,7 +40,7 @@ pub struct CaptureLimits {
 /// Default horizontal margin on top of the arrival tolerance, metres: the hover's drift
 /// between arrival and the shutter (the simulated copter holds within ≈0.1 m; ArduCopter's
 /// position controller in light wind within ≈0.3 m).
-pub const HOVER_MARGIN_M: f64 = 0.5;
+pub(crate) const HOVER_MARGIN_M: f64 = 0.5;
 /// Default vertical tolerance, metres: the runner's arrival condition is 1 m on the
 /// telemetry altitude; 0.5 m more for altitude-hold bob at the shutter. At 12 m it is a
 /// footprint scale error of 12 %, which the orthophoto corrects (it uses the capture
@@ -61,7 +61,7 @@ pub const SWEEP_MAX_TILT_DEG: f64 = 20.0;
 /// Default heading tolerance, degrees: the runner turns the vehicle to the grid within 3°
 /// before the pictures; a camera heading 10° off that is not this vehicle's attitude now
 /// (a stale or placeholder quaternion).
-pub const MAX_HEADING_ERROR_DEG: f64 = 10.0;
+pub(crate) const MAX_HEADING_ERROR_DEG: f64 = 10.0;
 
 impl CaptureLimits {
     /// The runway runner's limits for a vehicle "there" within `arrival_tolerance_m` of a
@@ -181,7 +181,7 @@ impl std::fmt::Display for Rejection {
 }
 
 /// The smallest angle between two headings, degrees (0..=180).
-pub fn heading_difference_deg(a: f64, b: f64) -> f64 {
+pub(crate) fn heading_difference_deg(a: f64, b: f64) -> f64 {
     let d = (a - b).rem_euclid(360.0);
     d.min(360.0 - d)
 }

@@ -148,7 +148,7 @@ pub struct Decision {
     /// The vehicle of the visit.
     pub vehicle: u8,
     /// The cell the images were taken over.
-    pub taken_at: Cell,
+    pub(crate) taken_at: Cell,
     /// The cell decided about (`taken_at` or one of its neighbours).
     pub cell: Cell,
     /// The decision.
@@ -167,11 +167,11 @@ pub struct CellRecord {
     /// Current state.
     pub state: CellState,
     /// Number of positive decisions about it.
-    pub positive_decisions: u32,
+    pub(crate) positive_decisions: u32,
     /// Number of negative decisions about it.
-    pub negative_decisions: u32,
+    pub(crate) negative_decisions: u32,
     /// When it became positive.
-    pub positive_since: Option<Time>,
+    pub(crate) positive_since: Option<Time>,
 }
 
 /// A change of a cell's state, returned by [`VoteBook::record`] and [`VoteBook::close_visit`].
@@ -276,14 +276,14 @@ mod cell_map {
     use serde::{Deserialize, Deserializer, Serialize, Serializer};
     use std::collections::BTreeMap;
 
-    pub fn serialize<S: Serializer>(
+    pub(super) fn serialize<S: Serializer>(
         m: &BTreeMap<Cell, CellRecord>,
         s: S,
     ) -> Result<S::Ok, S::Error> {
         m.iter().collect::<Vec<_>>().serialize(s)
     }
 
-    pub fn deserialize<'de, D: Deserializer<'de>>(
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(
         d: D,
     ) -> Result<BTreeMap<Cell, CellRecord>, D::Error> {
         Ok(Vec::<(Cell, CellRecord)>::deserialize(d)?
@@ -382,7 +382,7 @@ impl VoteBook {
 
     /// End `vehicle`'s open visit (it left the cell): its undecided targets are decided
     /// negative. Returns the cells whose state changed.
-    pub fn close_visit(&mut self, vehicle: u8, now: Time) -> Vec<CellUpdate> {
+    pub(crate) fn close_visit(&mut self, vehicle: u8, now: Time) -> Vec<CellUpdate> {
         let Some(visit) = self.open.remove(&vehicle) else {
             return Vec::new();
         };
@@ -413,7 +413,7 @@ impl VoteBook {
     /// not settled stay as they were (a run that gives up labels nothing for it). The
     /// detections counted so far stay in the record. Returns the vehicles whose visit was
     /// dropped.
-    pub fn drop_open_visits(&mut self) -> Vec<u8> {
+    pub(crate) fn drop_open_visits(&mut self) -> Vec<u8> {
         std::mem::take(&mut self.open).into_keys().collect()
     }
 

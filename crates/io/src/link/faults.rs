@@ -70,7 +70,7 @@ impl LinkFaults {
     }
 
     /// Whether this link has no fault at all.
-    pub fn is_perfect(&self) -> bool {
+    pub(crate) fn is_perfect(&self) -> bool {
         self == &LinkFaults::default()
     }
 }

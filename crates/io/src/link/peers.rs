@@ -26,11 +26,11 @@ use std::time::Duration;
 /// A peer that stays silent this long is forgotten (and no longer sent to). Long enough
 /// for a vehicle's battery swap or reboot to come back from the same address without a
 /// gap, short enough that a dead port does not collect traffic for the whole run.
-pub const FORGET_AFTER: Duration = Duration::from_secs(60);
+pub(crate) const FORGET_AFTER: Duration = Duration::from_secs(60);
 
 /// Who a serving link talks to: a UDP sender's address or a TCP client's number.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum PeerKey {
+pub(crate) enum PeerKey {
     /// A UDP sender.
     Addr(SocketAddr),
     /// A TCP client, numbered in the order of acceptance.
@@ -48,7 +48,7 @@ struct Peer {
 
 /// The peers heard and the route of each system id (see the module docs).
 #[derive(Debug)]
-pub struct PeerTable {
+pub(crate) struct PeerTable {
     peers: HashMap<PeerKey, Peer>,
     routes: HashMap<u8, PeerKey>,
     forget_after: Duration,
@@ -62,7 +62,7 @@ impl Default for PeerTable {
 
 impl PeerTable {
     /// A table that forgets peers silent for `forget_after`.
-    pub fn new(forget_after: Duration) -> PeerTable {
+    pub(crate) fn new(forget_after: Duration) -> PeerTable {
         PeerTable {
             peers: HashMap::new(),
             routes: HashMap::new(),
@@ -72,7 +72,12 @@ impl PeerTable {
 
     /// Bytes arrived from `key` (named `name` for display); returns its reassembly buffer
     /// and whether the peer is new.
-    pub fn heard(&mut self, key: PeerKey, name: &str, now: Time) -> (&mut StreamBuffer, bool) {
+    pub(crate) fn heard(
+        &mut self,
+        key: PeerKey,
+        name: &str,
+        now: Time,
+    ) -> (&mut StreamBuffer, bool) {
         let mut new = false;
         let p = self.peers.entry(key).or_insert_with(|| {
             new = true;
@@ -87,12 +92,12 @@ impl PeerTable {
     }
 
     /// System `sysid` spoke from `key`: messages to it go there from now on.
-    pub fn route(&mut self, sysid: u8, key: PeerKey) {
+    pub(crate) fn route(&mut self, sysid: u8, key: PeerKey) {
         self.routes.insert(sysid, key);
     }
 
     /// Where a message to `target` (its target system; `None` or 0 for a broadcast) goes.
-    pub fn destinations(&self, target: Option<u8>) -> Vec<PeerKey> {
+    pub(crate) fn destinations(&self, target: Option<u8>) -> Vec<PeerKey> {
         match target.filter(|s| *s != 0).and_then(|s| self.routes.get(&s)) {
             Some(k) => vec![*k],
             None => self.peers.keys().copied().collect(),
@@ -102,7 +107,7 @@ impl PeerTable {
     /// Forget UDP peers silent for longer than the table's limit; returns their names. A
     /// TCP client stays while its connection is open, however quiet ([`PeerTable::remove`]
     /// forgets it when it disconnects).
-    pub fn expire(&mut self, now: Time) -> Vec<String> {
+    pub(crate) fn expire(&mut self, now: Time) -> Vec<String> {
         let limit = self.forget_after;
         let gone: Vec<PeerKey> = self
             .peers
@@ -115,18 +120,18 @@ impl PeerTable {
     }
 
     /// Forget `key` (a TCP client that disconnected); returns its name if it was known.
-    pub fn remove(&mut self, key: PeerKey) -> Option<String> {
+    pub(crate) fn remove(&mut self, key: PeerKey) -> Option<String> {
         self.routes.retain(|_, k| *k != key);
         self.peers.remove(&key).map(|p| p.name)
     }
 
     /// Whether any peer is known.
-    pub fn is_empty(&self) -> bool {
+    pub(crate) fn is_empty(&self) -> bool {
         self.peers.is_empty()
     }
 
     /// The peers' names, most recently heard first.
-    pub fn names(&self) -> Vec<String> {
+    pub(crate) fn names(&self) -> Vec<String> {
         let mut v: Vec<&Peer> = self.peers.values().collect();
         v.sort_by(|a, b| b.last_heard.cmp(&a.last_heard).then(a.name.cmp(&b.name)));
         v.into_iter().map(|p| p.name.clone()).collect()

@@ -96,11 +96,6 @@ impl RateLimiter {
         RateLimiter::new(0, Self::SIK_QUEUE_BYTES)
     }
 
-    /// The rate, bytes per second (0: unlimited).
-    pub fn bytes_per_s(&self) -> u32 {
-        self.bytes_per_s
-    }
-
     /// When the last of `bytes` bytes accepted since `start` has left.
     fn sent_at(&self, bytes: u64) -> Time {
         let rate = u128::from(self.bytes_per_s.max(1));
@@ -109,7 +104,7 @@ impl RateLimiter {
     }
 
     /// Bytes waiting at `now`: accepted but not yet sent (0 when unlimited).
-    pub fn queued_bytes(&self, now: Time) -> u64 {
+    pub(crate) fn queued_bytes(&self, now: Time) -> u64 {
         if self.bytes_per_s == 0 {
             return 0;
         }
@@ -295,6 +290,13 @@ pub struct Relay {
 }
 
 impl Relay {
+    /// The local address of the GCS's side when it is a UDP socket or a TCP listener (what a
+    /// port 0 became).
+    #[cfg(test)]
+    pub(crate) fn gcs_local(&self) -> Option<SocketAddr> {
+        self.gcs.local
+    }
+
     /// The same relay on `clock`: a radio beside a simulator that runs faster or slower than
     /// real time (a `MonotonicClock::following` its time) carries its bytes per second of
     /// simulated time, as a radio in the simulated world would.
@@ -347,12 +349,6 @@ impl Relay {
             clock: None,
         };
         (relay, gcs_end, vehicle_end)
-    }
-
-    /// The local address of the GCS's side when it is a UDP socket or a TCP listener (what a
-    /// port 0 became).
-    pub fn gcs_local(&self) -> Option<SocketAddr> {
-        self.gcs.local
     }
 
     /// The local address of the vehicle's side when it is a UDP socket or a TCP listener.

@@ -33,17 +33,17 @@ use std::collections::HashMap;
 use std::path::Path;
 
 /// Seconds from the Unix epoch to the MAVLink signing epoch (2015-01-01 00:00:00 UTC).
-pub const SIGNING_EPOCH_UNIX_S: u64 = 1_420_070_400;
+pub(crate) const SIGNING_EPOCH_UNIX_S: u64 = 1_420_070_400;
 
 /// One minute in signing timestamp units (10 µs): how much older than our own timestamp
 /// a new stream may start (the C library's `6000*1000UL`).
-pub const NEW_STREAM_MAX_AGE: u64 = 6_000_000;
+pub(crate) const NEW_STREAM_MAX_AGE: u64 = 6_000_000;
 
 /// Length of the signature block appended to a signed MAVLink 2 frame, in bytes.
-pub const SIGNATURE_LEN: usize = 13;
+pub(crate) const SIGNATURE_LEN: usize = 13;
 
 /// MAVLink 2 incompatibility flag: the frame carries a signature block.
-pub const IFLAG_SIGNED: u8 = 0x01;
+pub(crate) const IFLAG_SIGNED: u8 = 0x01;
 
 /// RADIO_STATUS message id (accepted unsigned, as ArduPilot and MAVProxy do).
 const MSG_ID_RADIO_STATUS: u32 = 109;
@@ -200,9 +200,9 @@ pub enum Rejection {
 pub struct Signing {
     key: SigningKey,
     /// Link id written into outgoing signatures.
-    pub link_id: u8,
+    pub(crate) link_id: u8,
     /// Sign outgoing frames.
-    pub sign_outgoing: bool,
+    pub(crate) sign_outgoing: bool,
     /// Accept unsigned incoming frames (otherwise only RADIO_STATUS / RADIO are).
     pub accept_unsigned: bool,
     /// Our timestamp (10 µs units since 2015): the last one used or seen.
@@ -250,7 +250,7 @@ impl Signing {
     }
 
     /// The 13-byte signature block for `frame` (STX … CRC) sent at wall time `unix_us`.
-    pub fn sign(&mut self, frame: &[u8], unix_us: u64) -> [u8; SIGNATURE_LEN] {
+    pub(crate) fn sign(&mut self, frame: &[u8], unix_us: u64) -> [u8; SIGNATURE_LEN] {
         let ts = self.timestamp.max(signing_timestamp(unix_us)) & 0xFFFF_FFFF_FFFF;
         self.timestamp = ts + 1;
         let sig = Signing::signature(&self.key, frame, self.link_id, ts);

@@ -34,7 +34,7 @@ pub enum TlogError {
 }
 
 /// Writes tlog records to a file (buffered; [`TlogWriter::flush`] or drop to persist).
-pub struct TlogWriter {
+pub(crate) struct TlogWriter {
     path: PathBuf,
     out: BufWriter<File>,
     /// Records written.
@@ -43,7 +43,7 @@ pub struct TlogWriter {
 
 impl TlogWriter {
     /// Create (truncate) `path`.
-    pub fn create(path: &Path) -> Result<TlogWriter, TlogError> {
+    pub(crate) fn create(path: &Path) -> Result<TlogWriter, TlogError> {
         let f = File::create(path).map_err(|source| TlogError::Io {
             path: path.display().to_string(),
             source,
@@ -56,7 +56,7 @@ impl TlogWriter {
     }
 
     /// Append one frame seen at `unix_us` (µs since 1970-01-01 UTC).
-    pub fn write(&mut self, unix_us: u64, frame: &[u8]) -> Result<(), TlogError> {
+    pub(crate) fn write(&mut self, unix_us: u64, frame: &[u8]) -> Result<(), TlogError> {
         let io = |source| TlogError::Io {
             path: self.path.display().to_string(),
             source,
@@ -71,7 +71,7 @@ impl TlogWriter {
     }
 
     /// Flush buffered records to the OS and the disk.
-    pub fn flush(&mut self) -> Result<(), TlogError> {
+    pub(crate) fn flush(&mut self) -> Result<(), TlogError> {
         self.out.flush().map_err(|source| TlogError::Io {
             path: self.path.display().to_string(),
             source,

@@ -143,7 +143,7 @@ impl SimCamera {
 
     /// The next picture to take from outside ([`CameraConfig::external`]): get it and give
     /// it to [`SimCamera::deliver`]. Shots come out in the order they were fired.
-    pub fn poll_shot(&mut self) -> Option<Shot> {
+    pub(crate) fn poll_shot(&mut self) -> Option<Shot> {
         self.shots.pop_front()
     }
 
@@ -151,7 +151,7 @@ impl SimCamera {
     /// capture is announced (CAMERA_IMAGE_CAPTURED), measured when the camera measures on
     /// board, and sent or kept as a rendered one would be. A shot of an earlier boot is
     /// dropped.
-    pub fn deliver(&mut self, shot: Shot, img: Option<&RgbImage>, now: Time) {
+    pub(crate) fn deliver(&mut self, shot: Shot, img: Option<&RgbImage>, now: Time) {
         if shot.index >= self.image_count {
             return; // fired before a reboot
         }

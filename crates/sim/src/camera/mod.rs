@@ -69,7 +69,9 @@ pub use self::capture::{
     CaptureContext, CapturedImage, Shot, attitude_quaternion, shows_other_class,
 };
 pub use self::config::CameraConfig;
-pub use self::pacer::{FRAME_OVERHEAD, PACE_BURST_S};
+pub(crate) use self::pacer::FRAME_OVERHEAD;
+#[cfg(test)]
+pub(crate) use self::pacer::PACE_BURST_S;
 pub use self::transfer::{PAYLOAD, RECENT_IMAGES};
 pub use fleetmap_core::proto::CAMERA_COMPID;
 
@@ -170,13 +172,14 @@ impl SimCamera {
         self.shots.clear();
     }
 
+    #[cfg(test)]
     /// Images taken since boot.
-    pub fn image_count(&self) -> i32 {
+    pub(crate) fn image_count(&self) -> i32 {
         self.image_count
     }
 
     /// CAMERA_INFORMATION for this camera.
-    pub fn information(&self, time_boot_ms: u32) -> MavMessage {
+    pub(crate) fn information(&self, time_boot_ms: u32) -> MavMessage {
         let m = self.config.model;
         // a 1/2.3" sensor (6.17 mm wide) behind the lens that gives the model's field of view
         let sensor_h = 6.17f32;
@@ -206,7 +209,7 @@ impl SimCamera {
     }
 
     /// CAMERA_CAPTURE_STATUS.
-    pub fn capture_status(&self, time_boot_ms: u32) -> MavMessage {
+    pub(crate) fn capture_status(&self, time_boot_ms: u32) -> MavMessage {
         MavMessage::CAMERA_CAPTURE_STATUS(mav::CAMERA_CAPTURE_STATUS_DATA {
             time_boot_ms,
             image_interval: self

@@ -7,14 +7,14 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 
 /// MAVLink 2 framing around a payload, bytes: 10 of header (magic, lengths, flags, sequence,
 /// system, component, 3-byte message id) and a 2-byte CRC; unsigned.
-pub const FRAME_OVERHEAD: usize = 12;
+pub(crate) const FRAME_OVERHEAD: usize = 12;
 /// Capacity of the pacing token bucket, in seconds of the configured rate (never less than
 /// one frame): the longest burst a paced camera sends after being idle. Zero: one frame at a
 /// time. PX4 1.16 keeps only two messages waiting to be forwarded to another of its links
 /// (`Mavlink::pass_message`: a ring of two, one passed on per loop of its GCS link, at least
 /// 1.5 ms), so the three-frame bursts a 50 ms bucket allowed at 20 kB/s lost a frame now and
 /// then: 9 of 199 packets through PX4 SITL's payload link.
-pub const PACE_BURST_S: f64 = 0.0;
+pub(crate) const PACE_BURST_S: f64 = 0.0;
 
 /// Most frames a paced camera sends back to back when its shell polls late: two, what PX4's
 /// forwarding ring holds.

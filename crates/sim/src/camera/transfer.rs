@@ -79,7 +79,7 @@ impl SimCamera {
 
     /// Messages of image transmission still waiting for the pacing bucket (first
     /// transmissions and re-sends).
-    pub fn transfer_backlog(&self) -> usize {
+    pub(crate) fn transfer_backlog(&self) -> usize {
         self.paced.len() + self.resends.len()
     }
 
@@ -188,7 +188,7 @@ impl SimCamera {
     /// leaves before the images still queued; a request for an image whose transmission
     /// waits or is leaving is ignored (every autopilot on a shared port forwards the same
     /// request).
-    pub fn handle_handshake_request(&mut self, size: u32) {
+    pub(crate) fn handle_handshake_request(&mut self, size: u32) {
         let wanted = if size == 0 {
             self.last_jpeg.clone()
         } else {

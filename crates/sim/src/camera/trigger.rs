@@ -11,7 +11,7 @@ impl SimCamera {
     /// pictures and interval shots that came due (distance triggering needs a position and
     /// does not run). Returns how many were dropped. The clock advances as in
     /// [`SimCamera::advance`].
-    pub fn drop_due(&mut self, now: Time) -> u32 {
+    pub(crate) fn drop_due(&mut self, now: Time) -> u32 {
         self.advance(now);
         let mut dropped = std::mem::take(&mut self.pending);
         if let Some((next, period, remaining)) = self.interval
@@ -30,7 +30,7 @@ impl SimCamera {
     }
 
     /// Take one picture as soon as possible.
-    pub fn trigger(&mut self) {
+    pub(crate) fn trigger(&mut self) {
         self.pending += 1;
     }
 
@@ -56,13 +56,13 @@ impl SimCamera {
     }
 
     /// Stop interval and distance triggering.
-    pub fn stop_capture(&mut self) {
+    pub(crate) fn stop_capture(&mut self) {
         self.interval = None;
         self.trigger_dist = None;
     }
 
     /// Trigger every `meters` of horizontal travel (0 stops), from position (e, n).
-    pub fn set_trigger_distance(&mut self, meters: f64, pos: (f64, f64)) {
+    pub(crate) fn set_trigger_distance(&mut self, meters: f64, pos: (f64, f64)) {
         self.trigger_dist = if meters > 0.0 && meters.is_finite() {
             Some((meters, pos))
         } else {

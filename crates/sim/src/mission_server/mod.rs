@@ -68,14 +68,14 @@ const COMP_MISSIONPLANNER: u8 = 190;
 
 /// ArduPilot: re-request an item after this much silence (`wp_recv_timeout_ms`, without the
 /// link's stream slowdown).
-pub const ARDUPILOT_RESEND: Duration = Duration::from_millis(1000);
+pub(crate) const ARDUPILOT_RESEND: Duration = Duration::from_millis(1000);
 /// ArduPilot: cancel an upload after this long without an item (`upload_timeout_ms`).
-pub const ARDUPILOT_UPLOAD_TIMEOUT: Duration = Duration::from_millis(8000);
+pub(crate) const ARDUPILOT_UPLOAD_TIMEOUT: Duration = Duration::from_millis(8000);
 /// PX4: re-request an item after this long (`MAVLINK_MISSION_RETRY_TIMEOUT_DEFAULT`).
-pub const PX4_RETRY: Duration = Duration::from_millis(250);
+pub(crate) const PX4_RETRY: Duration = Duration::from_millis(250);
 /// PX4: abandon a transfer after this long without a message
 /// (`MAVLINK_MISSION_PROTOCOL_TIMEOUT_DEFAULT`).
-pub const PX4_PROTOCOL_TIMEOUT: Duration = Duration::from_millis(5000);
+pub(crate) const PX4_PROTOCOL_TIMEOUT: Duration = Duration::from_millis(5000);
 
 /// Storage limits per list (mission, fence, rally).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -319,7 +319,7 @@ impl MissionServer {
     /// with MAV_MISSION_NO_SPACE and a download finds an empty list (`loaded` false) —
     /// what a real ArduCopter does for about 2 s after power-up. PX4 answers as soon as its
     /// MAVLink instance runs (dataman is up before it), so this applies to ArduPilot only.
-    pub fn set_loaded(&mut self, loaded: bool) {
+    pub(crate) fn set_loaded(&mut self, loaded: bool) {
         if let Transfer::ArduPilot(ap) = &mut self.transfer {
             ap.loaded = loaded;
         }
@@ -356,7 +356,7 @@ impl MissionServer {
 
     /// Tell the server whether the mission is being executed (ArduPilot refuses
     /// MISSION_CLEAR_ALL while it runs; PX4 does not look).
-    pub fn set_mission_running(&mut self, running: bool) {
+    pub(crate) fn set_mission_running(&mut self, running: bool) {
         if let Transfer::ArduPilot(ap) = &mut self.transfer {
             ap.mission_running = running;
         }
@@ -364,7 +364,7 @@ impl MissionServer {
 
     /// Set the current mission item (autopilot numbering), as the vehicle's mission logic
     /// advances; used for the `current` field of downloaded items.
-    pub fn set_current(&mut self, seq: u16) {
+    pub(crate) fn set_current(&mut self, seq: u16) {
         self.core.current = seq;
     }
 
@@ -396,8 +396,9 @@ impl MissionServer {
         }
     }
 
+    #[cfg(test)]
     /// Whether an upload is in progress for any list.
-    pub fn receiving(&self) -> bool {
+    pub(crate) fn receiving(&self) -> bool {
         match &self.transfer {
             Transfer::ArduPilot(ap) => ap.uploads.iter().any(|r| r.is_some()),
             Transfer::Px4(p) => p.phase == Px4Phase::GetList,

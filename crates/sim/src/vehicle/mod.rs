@@ -141,20 +141,20 @@ use power::Power;
 use telemetry::Telemetry;
 
 /// Physics and logic step, seconds (20 Hz).
-pub const DT: f64 = 0.05;
+pub(crate) const DT: f64 = 0.05;
 
 /// PX4's COM_DL_LOSS_T default: seconds without a GCS heartbeat after which the data link
 /// counts as lost (`src/modules/commander/commander_params.c`).
-pub const PX4_DL_LOSS_S: f64 = 10.0;
+pub(crate) const PX4_DL_LOSS_S: f64 = 10.0;
 /// Time constant of each of the two first-order lags through which the position estimate
 /// follows the GPS, seconds. An autopilot's estimator (ArduPilot's EKF3, PX4's EKF2) fuses
 /// the 5–10 Hz GPS fixes with the IMU, so its position drifts with the GPS error but is
 /// smooth; steering by the raw error process instead (white increments every tick) made a
 /// hovering copter in calm air tilt by 3–8° from one image to the next, 0.6–1.7 m of
 /// footprint at 12 m.
-pub const ESTIMATE_LAG_S: f64 = 1.0;
+pub(crate) const ESTIMATE_LAG_S: f64 = 1.0;
 /// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1).
-pub const AUTOPILOT_COMPID: u8 = 1;
+pub(crate) const AUTOPILOT_COMPID: u8 = 1;
 /// The command that stands for "the operator swapped the battery" (MAV_CMD_USER_1): accepted
 /// when the vehicle is landed and disarmed, it power-cycles the vehicle with a full battery.
 pub const CMD_BATTERY_SWAP: u16 = 31010;
@@ -172,7 +172,7 @@ pub struct BatteryFailsafe {
 
 /// Seconds an ArduPilot vehicle spends in MAV_STATE_BOOT after power-up (ArduCopter SITL
 /// 4.7: about 2 s, until `Copter::init_ardupilot` sets `ap.initialised`).
-pub const ARDUPILOT_BOOT_S: f64 = 2.0;
+pub(crate) const ARDUPILOT_BOOT_S: f64 = 2.0;
 
 /// Everything that defines one simulated vehicle.
 #[derive(Clone, Debug)]
@@ -194,20 +194,20 @@ pub struct VehicleConfig {
     /// Motion limits.
     pub limits: Limits,
     /// Seconds after boot until a 3D GPS fix.
-    pub gps_fix_after_s: f64,
+    pub(crate) gps_fix_after_s: f64,
     /// Seconds after boot until the position estimate is ready (EKF origin / global position).
-    pub position_ready_after_s: f64,
+    pub(crate) position_ready_after_s: f64,
     /// Standard deviation of the slowly varying GPS position error that every receiver of
     /// the simulation shares (satellite clock and orbit, ionosphere, troposphere: the part
     /// that differential GPS removes), metres per axis.
-    pub gps_error_sigma_m: f64,
+    pub(crate) gps_error_sigma_m: f64,
     /// Standard deviation of this receiver's own error (noise, multipath), metres per axis.
     /// Two vehicles side by side disagree only by this much, which is what lets a drone land
     /// on a rover's charging pad by GPS.
-    pub gps_own_sigma_m: f64,
+    pub(crate) gps_own_sigma_m: f64,
     /// Seed of the shared GPS error: equal for every vehicle of one simulation (the harness
     /// sets it), so that their common-mode errors are the same process.
-    pub gps_common_seed: u64,
+    pub(crate) gps_common_seed: u64,
     /// Wind (None = calm).
     pub wind: Option<Wind>,
     /// Seed of every random process of this vehicle.
@@ -219,7 +219,7 @@ pub struct VehicleConfig {
     pub swap_after_s: Option<f64>,
     /// PX4: arming needs a GCS heartbeat and losing it for 10 s while armed triggers RTL
     /// (NAV_DLL_ACT > 0, COM_DL_LOSS_T 10 s, as in PX4's SITL airframes).
-    pub px4_datalink_required: bool,
+    pub(crate) px4_datalink_required: bool,
     /// Simulated seconds per second of the GCS's clock (1 by default: the GCS runs on the
     /// simulation's clock, as in-process). The GCS-link timeouts (PX4's COM_DL_LOSS_T, for
     /// arming and for the data-link-loss failsafe) are this many times longer in simulated
@@ -229,7 +229,7 @@ pub struct VehicleConfig {
     /// socket server sets it from whose clock the GCS keeps ([`crate::server::GcsClock`]).
     pub gcs_time_scale: f64,
     /// Power-off time of a battery swap, seconds (the vehicle is silent meanwhile).
-    pub power_off_s: f64,
+    pub(crate) power_off_s: f64,
 }
 
 impl VehicleConfig {
@@ -432,7 +432,7 @@ impl SimVehicle {
     /// Set [`VehicleConfig::gcs_time_scale`] (simulated seconds per second of the GCS's
     /// clock), e.g. when the simulation is served faster than wall time to a GCS that runs
     /// on the wall clock.
-    pub fn set_gcs_time_scale(&mut self, scale: f64) {
+    pub(crate) fn set_gcs_time_scale(&mut self, scale: f64) {
         self.cfg.gcs_time_scale = scale;
     }
 
@@ -447,7 +447,7 @@ impl SimVehicle {
     }
 
     /// Whether the vehicle is powered (false during a battery swap).
-    pub fn powered(&self) -> bool {
+    pub(crate) fn powered(&self) -> bool {
         self.power.powered
     }
 
@@ -521,7 +521,7 @@ impl SimVehicle {
     }
 
     /// Move the vehicle by (de, dn) metres without flying (riding on a rover).
-    pub fn carry(&mut self, de: f64, dn: f64) {
+    pub(crate) fn carry(&mut self, de: f64, dn: f64) {
         self.flight.m.e += de;
         self.flight.m.n += dn;
     }
@@ -538,7 +538,7 @@ impl SimVehicle {
     /// The operator swaps the battery (in-process equivalent of [`CMD_BATTERY_SWAP`]):
     /// accepted when landed and disarmed; the vehicle powers off for
     /// `VehicleConfig::power_off_s` and boots again with a full battery.
-    pub fn swap_battery(&mut self, now: Time) -> bool {
+    pub(crate) fn swap_battery(&mut self, now: Time) -> bool {
         self.advance(now);
         if !self.arming.landed || self.arming.armed {
             return false;

@@ -76,7 +76,7 @@ impl SimVehicle {
 
     /// ArduPilot's answer to SETUP_SIGNING while armed (`GCS_MAVLINK::handle_setup_signing`
     /// ignores it): the warning it sends. The signing itself lives in the harness.
-    pub fn refuse_signing_setup(&mut self) {
+    pub(crate) fn refuse_signing_setup(&mut self) {
         self.text(
             mav::MavSeverity::MAV_SEVERITY_WARNING,
             "ERROR: Won't setup signing when armed",

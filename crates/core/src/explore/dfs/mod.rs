@@ -240,7 +240,7 @@ pub struct RobotState {
     pub phase: Phase,
     /// The group it travels with (itself included, sorted): it decides with them at the
     /// next vertex (Algorithm 1, line 19 splits the robots *at* a vertex).
-    pub companions: Vec<RobotId>,
+    pub(crate) companions: Vec<RobotId>,
     /// Tree edges of length 1 it has flown.
     pub moves: u64,
 }
@@ -342,14 +342,10 @@ impl Explorer {
         Ok(self.tree.node(r.node).cell)
     }
 
+    #[cfg(test)]
     /// Cells labelled negative and never positive (known non-ROI cells).
-    pub fn negatives(&self) -> &BTreeSet<Cell> {
+    pub(crate) fn negatives(&self) -> &BTreeSet<Cell> {
         &self.negatives
-    }
-
-    /// Number of observations received.
-    pub fn observations(&self) -> u64 {
-        self.observations
     }
 
     /// With [`Sharing::Meet`], how many decisions (Algorithm 1 at a vertex, for the robots
@@ -384,6 +380,7 @@ impl Explorer {
         self.tree.node(n).cell
     }
 
+    #[cfg(test)]
     fn state_in(&self, k: usize, n: NodeId) -> VertexState {
         let kn = &self.knowledge[k];
         if kn.explored(n) {
@@ -433,9 +430,10 @@ impl Explorer {
             .map(|(_, s)| s)
     }
 
+    #[cfg(test)]
     /// The state of `cell` as `robot` knows it (differs from the global one with
     /// [`Sharing::Meet`]).
-    pub fn vertex_state_known_by(
+    pub(crate) fn vertex_state_known_by(
         &self,
         robot: RobotId,
         cell: Cell,
@@ -610,7 +608,7 @@ impl Explorer {
     /// A paused robot that knows every vertex is explored has nothing to come back for: it
     /// is done where it is (at home, which ends its tour as the start does for the others).
     /// Returns whether it was retired.
-    pub fn retire(&mut self, robot: RobotId) -> Result<bool, ExploreError> {
+    pub(crate) fn retire(&mut self, robot: RobotId) -> Result<bool, ExploreError> {
         let i = self.idx(robot)?;
         if self.robots[i].phase != Phase::Paused
             || !self.knowledge[self.kidx(i)].explored(Tree::ROOT)

@@ -51,7 +51,7 @@ pub struct Node {
     /// Whether the cell has been imaged (real vertices; dummies are always `true`).
     pub observed: bool,
     /// Distance from the root counting real edges as 1 and dummy edges as 0 (§4.2, l(e)).
-    pub depth: u32,
+    pub(crate) depth: u32,
 }
 
 /// The exploration tree.
@@ -92,7 +92,7 @@ impl From<Tree> for TreeRepr {
 
 impl Tree {
     /// The root vertex id.
-    pub const ROOT: NodeId = NodeId(0);
+    pub(crate) const ROOT: NodeId = NodeId(0);
 
     /// A tree with only the root, at `start`, not yet observed.
     pub fn new(start: Cell) -> Tree {
@@ -160,7 +160,7 @@ impl Tree {
     }
 
     /// The real vertex a vertex stands at (itself, or for a dummy its nearest real ancestor).
-    pub fn real_of(&self, mut id: NodeId) -> NodeId {
+    pub(crate) fn real_of(&self, mut id: NodeId) -> NodeId {
         while self.node(id).kind == NodeKind::Dummy {
             match self.node(id).parent {
                 Some(p) => id = p,
@@ -234,7 +234,7 @@ impl Tree {
 
     /// Number of real vertices reached from `n` through dummy edges only (1 for a real
     /// vertex): how many grid branches the slot `n` stands for.
-    pub fn branches(&self, n: NodeId) -> usize {
+    pub(crate) fn branches(&self, n: NodeId) -> usize {
         let node = self.node(n);
         match node.kind {
             NodeKind::Real => 1,
@@ -243,7 +243,7 @@ impl Tree {
     }
 
     /// The vertices in post-order (children before parents), from the root.
-    pub fn post_order(&self) -> Vec<NodeId> {
+    pub(crate) fn post_order(&self) -> Vec<NodeId> {
         let mut out = Vec::with_capacity(self.nodes.len());
         let mut stack = vec![(Tree::ROOT, false)];
         while let Some((id, expanded)) = stack.pop() {
@@ -257,11 +257,6 @@ impl Tree {
             }
         }
         out
-    }
-
-    /// Number of real (non-dummy) edges: L = C − 1 for a tree of C cells.
-    pub fn total_length(&self) -> usize {
-        self.real_count().saturating_sub(1)
     }
 }
 

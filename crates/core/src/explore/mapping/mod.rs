@@ -50,7 +50,7 @@ use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 
 /// Version of the serialised [`MappingState`] (the run store's `state.json` payload).
-pub const MAPPING_SCHEMA: u32 = 1;
+pub(crate) const MAPPING_SCHEMA: u32 = 1;
 
 /// Errors of the mapping state machine.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -287,7 +287,7 @@ pub struct RobotRecord {
     /// What it is doing.
     pub status: RobotStatus,
     /// Status before a battery swap, restored after it.
-    pub status_before_swap: Option<RobotStatus>,
+    pub(crate) status_before_swap: Option<RobotStatus>,
     /// Battery swaps so far.
     pub battery_swaps: u32,
     /// Reboot counter of the vehicle when it landed for a swap (a power cycle raises it).
@@ -687,7 +687,7 @@ impl MappingState {
 
     /// How the run charges flights against a battery (the endurance, cruise speed, reserve
     /// and return rules of the mission).
-    pub fn battery_model(&self) -> BatteryModel {
+    pub(crate) fn battery_model(&self) -> BatteryModel {
         let p = &self.params;
         BatteryModel {
             endurance_s: p.flight_time_min * 60.0,
@@ -701,7 +701,7 @@ impl MappingState {
     /// The charge a swapped battery is guaranteed to report, percent: the lower of the
     /// `[battery]` fresh thresholds (a drone takes off again with no less) — what the reach
     /// rule counts a full battery as.
-    pub fn full_charge_pct(&self) -> f64 {
+    pub(crate) fn full_charge_pct(&self) -> f64 {
         let b = &self.params.battery;
         b.fresh_pct.min(b.fresh_after_reboot_pct)
     }

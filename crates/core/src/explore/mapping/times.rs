@@ -233,15 +233,15 @@ pub struct MissionClock {
     /// The fleet-clock time of the last sample by this runner (`None` until its first
     /// sample: a resumed run's fleet clock may have another epoch).
     #[serde(skip_serializing_if = "Option::is_none")]
-    pub sampled_at: Option<Time>,
+    pub(crate) sampled_at: Option<Time>,
     /// Milestones reached and not yet journalled ([`MappingState::take_milestones`]).
     #[serde(skip_serializing_if = "Vec::is_empty")]
-    pub unjournalled: Vec<Milestone>,
+    pub(crate) unjournalled: Vec<Milestone>,
 }
 
 impl MissionClock {
     /// Seconds since the first take-off at fleet-clock time `now` (0 before it).
-    pub fn mission_s_at(&self, now: Time) -> f64 {
+    pub(crate) fn mission_s_at(&self, now: Time) -> f64 {
         if !self.took_off {
             return 0.0;
         }
@@ -347,7 +347,7 @@ impl MappingState {
 
     /// Whether every cell the run will decide is decided: every vertex of the DFS tree imaged
     /// (nothing can add one then: only a vertex's pictures add children), or the run over.
-    pub fn map_complete(&self) -> bool {
+    pub(crate) fn map_complete(&self) -> bool {
         match self.phase {
             // Given up: complete only if every vertex had been imaged by then.
             Phase::Finished {

@@ -77,7 +77,7 @@ use std::fmt;
 
 /// The most cells a mission's search area or sweep box may hold (validation limits the
 /// area to 1000 × 1000).
-pub const MAX_CELLS: u64 = 10_000_000;
+pub(crate) const MAX_CELLS: u64 = 10_000_000;
 
 /// Which field mission a definition describes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
@@ -445,7 +445,7 @@ impl MissionDef {
     /// The search area G (spatial classification): every cell of rows × cols, row-major
     /// from (0, 0); empty when the mission has no bounded area, or one larger than
     /// [`MAX_CELLS`] (which validation rejects).
-    pub fn area_cells(&self) -> Vec<Cell> {
+    pub(crate) fn area_cells(&self) -> Vec<Cell> {
         let (Some(rows), Some(cols)) = (self.area.rows, self.area.cols) else {
             return Vec::new();
         };
@@ -459,7 +459,7 @@ impl MissionDef {
     }
 
     /// Whether `cell` is inside the bounded search area (always true without one).
-    pub fn in_area(&self, cell: Cell) -> bool {
+    pub(crate) fn in_area(&self, cell: Cell) -> bool {
         match (self.area.rows, self.area.cols) {
             (Some(rows), Some(cols)) => {
                 cell.row >= 0
@@ -546,12 +546,12 @@ mod cell_serde {
         Cell::new(p[0], p[1])
     }
 
-    pub mod list {
+    pub(super) mod list {
         use super::*;
-        pub fn serialize<S: Serializer>(v: &[Cell], s: S) -> Result<S::Ok, S::Error> {
+        pub(crate) fn serialize<S: Serializer>(v: &[Cell], s: S) -> Result<S::Ok, S::Error> {
             v.iter().map(pair).collect::<Vec<_>>().serialize(s)
         }
-        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Cell>, D::Error> {
+        pub(crate) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Cell>, D::Error> {
             Ok(Vec::<[i32; 2]>::deserialize(d)?
                 .into_iter()
                 .map(cell)
@@ -559,24 +559,31 @@ mod cell_serde {
         }
     }
 
-    pub mod option {
+    pub(crate) mod option {
         use super::*;
-        pub fn serialize<S: Serializer>(v: &Option<Cell>, s: S) -> Result<S::Ok, S::Error> {
+        pub(crate) fn serialize<S: Serializer>(v: &Option<Cell>, s: S) -> Result<S::Ok, S::Error> {
             v.as_ref().map(pair).serialize(s)
         }
-        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Cell>, D::Error> {
+        pub(crate) fn deserialize<'de, D: Deserializer<'de>>(
+            d: D,
+        ) -> Result<Option<Cell>, D::Error> {
             Ok(Option::<[i32; 2]>::deserialize(d)?.map(cell))
         }
     }
 
-    pub mod option_list {
+    pub(crate) mod option_list {
         use super::*;
-        pub fn serialize<S: Serializer>(v: &Option<Vec<Cell>>, s: S) -> Result<S::Ok, S::Error> {
+        pub(crate) fn serialize<S: Serializer>(
+            v: &Option<Vec<Cell>>,
+            s: S,
+        ) -> Result<S::Ok, S::Error> {
             v.as_ref()
                 .map(|v| v.iter().map(pair).collect::<Vec<_>>())
                 .serialize(s)
         }
-        pub fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Option<Vec<Cell>>, D::Error> {
+        pub(crate) fn deserialize<'de, D: Deserializer<'de>>(
+            d: D,
+        ) -> Result<Option<Vec<Cell>>, D::Error> {
             Ok(Option::<Vec<[i32; 2]>>::deserialize(d)?.map(|v| v.into_iter().map(cell).collect()))
         }
     }

@@ -62,7 +62,7 @@ pub struct RunwayDef {
     /// Worst distance between a sweep waypoint and where its picture is taken, metres.
     /// Our choice (1 m): the position limit of the image sanity check.
     #[serde(default = "default_sweep_position_tolerance_m")]
-    pub sweep_position_tolerance_m: f64,
+    pub(crate) sweep_position_tolerance_m: f64,
     /// How the DFS sends the robots at a vertex on (`"paper"`: Algorithm 1's split;
     /// `"nearest_frontier"`: towards the nearest unexplored vertex, with GCS sharing). Default:
     /// the paper's, proved within Lemma 1; nearest frontier is 2 % cheaper on average on the

@@ -11,11 +11,11 @@ pub(super) struct Issue {
     pub path: String,
     /// Other values the rule depends on: if any of them failed to read, the rule's verdict
     /// is meaningless and the issue is dropped.
-    pub involves: Vec<String>,
+    pub(crate) involves: Vec<String>,
     /// What was expected and what was found.
     pub message: String,
     /// The value may come from a default (the key absent from the file): say so.
-    pub defaulted_if_absent: bool,
+    pub(crate) defaulted_if_absent: bool,
 }
 
 /// A number as written in messages (`-4`, `0.0001`, `nan`).

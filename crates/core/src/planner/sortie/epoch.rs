@@ -33,7 +33,7 @@ impl ClassificationState {
     }
 
     /// The epoch's goals still to visit: not measured in this epoch and still unclassified.
-    pub fn remaining_goals(&self) -> Vec<Cell> {
+    pub(crate) fn remaining_goals(&self) -> Vec<Cell> {
         let Some(e) = &self.epoch else {
             return Vec::new();
         };
@@ -103,7 +103,7 @@ impl ClassificationState {
                 .map(|cycles| {
                     cycles
                         .iter()
-                        .map(|steps| steps.iter().map(|&c| layout.from_planner(c)).collect())
+                        .map(|steps| steps.iter().map(|&c| layout.planner_to_mission(c)).collect())
                         .collect()
                 })
                 .collect()

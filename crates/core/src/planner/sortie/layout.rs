@@ -19,17 +19,17 @@ pub struct Layout {
 
 impl Layout {
     /// Mission cell → the planner's top-left cell.
-    pub fn to_planner(&self, c: Cell) -> Cell {
+    pub(crate) fn to_planner(&self, c: Cell) -> Cell {
         Cell::new(self.rows as i32 - 1 - c.row, c.col)
     }
 
     /// The planner's top-left cell → mission cell (the same flip).
-    pub fn from_planner(&self, c: Cell) -> Cell {
+    pub(crate) fn planner_to_mission(&self, c: Cell) -> Cell {
         self.to_planner(c)
     }
 
     /// The planner's grid (G, O, R in top-left indexing).
-    pub fn planner_grid(&self) -> Result<PlannerGrid, SortieError> {
+    pub(crate) fn planner_grid(&self) -> Result<PlannerGrid, SortieError> {
         let flip = |v: &[Cell]| v.iter().map(|&c| self.to_planner(c)).collect::<Vec<_>>();
         PlannerGrid::new(
             i64::from(self.rows),
@@ -78,13 +78,4 @@ pub struct SortiePlan {
     pub stations: Vec<Vec<Vec<Cell>>>,
 }
 
-impl SortiePlan {
-    /// The team configuration at the end of cycle `k`.
-    pub fn end_of(&self, k: usize) -> Option<TeamConfig> {
-        let last = |p: &Vec<Vec<Cell>>| p.get(k).and_then(|c| c.last()).copied();
-        Some(TeamConfig {
-            drones: self.drones.iter().map(last).collect::<Option<Vec<_>>>()?,
-            stations: self.stations.iter().map(last).collect::<Option<Vec<_>>>()?,
-        })
-    }
-}
+impl SortiePlan {}

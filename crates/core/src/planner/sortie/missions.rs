@@ -59,12 +59,12 @@ pub struct CycleMission {
     /// lock-step pass's loiter).
     pub step_arrive: Vec<Option<u16>>,
     /// The steps with an image capture.
-    pub capture_steps: Vec<usize>,
+    pub(crate) capture_steps: Vec<usize>,
 }
 
 /// What a drone's cycle mission needs.
 #[derive(Clone, Debug, PartialEq)]
-pub struct DroneMissionSpec<'a> {
+pub(crate) struct DroneMissionSpec<'a> {
     /// The drone's cells at steps 0 … T_d − 1 (mission cells).
     pub path: &'a [Cell],
     /// For each step, whether to capture B images there.
@@ -76,19 +76,19 @@ pub struct DroneMissionSpec<'a> {
     /// B, images per visit.
     pub batch: u32,
     /// Seconds between two images.
-    pub capture_interval_s: f64,
+    pub(crate) capture_interval_s: f64,
     /// Lock-step flight (7e): a loiter at every step where the runner's barrier holds the
     /// drone.
     pub lock_step: bool,
     /// Lock-step: hover time of a pass (the drone stays), seconds — one step's flight time.
-    pub step_s: f64,
+    pub(crate) step_s: f64,
     /// Lock-step: hover after arriving at a cell without captures, seconds.
-    pub settle_s: f64,
+    pub(crate) settle_s: f64,
 }
 
 /// Seconds a drone hovers over a capture cell: ⌈B·interval⌉ + 1 (whole seconds: ArduPilot
 /// stores waypoint delays in whole seconds).
-pub fn capture_hold_s(batch: u32, interval_s: f64) -> f64 {
+pub(crate) fn capture_hold_s(batch: u32, interval_s: f64) -> f64 {
     (f64::from(batch) * interval_s.max(0.0)).ceil() + 1.0
 }
 
@@ -111,7 +111,7 @@ fn seq(items: &[MissionItem]) -> u16 {
 }
 
 /// The drone mission of one sensing cycle (see the module documentation).
-pub fn drone_mission(grid: &Grid, spec: &DroneMissionSpec<'_>) -> CycleMission {
+pub(crate) fn drone_mission(grid: &Grid, spec: &DroneMissionSpec<'_>) -> CycleMission {
     let alt = spec.altitude_m as f32;
     // Taking off from the start cell: the take-off item carries its centre (PX4 flies an
     // airborne take-off item as a waypoint to its position, see `MissionItem::takeoff_at`).
@@ -218,7 +218,7 @@ pub fn steps_done(step_items: &[Option<u16>], reached: &[u16]) -> usize {
 
 /// Rectangles `(row0, col0, row1, col1)` (inclusive) covering exactly the cells `cells`:
 /// horizontal runs, then runs with the same columns in consecutive rows merged.
-pub fn merge_cells(cells: &[Cell]) -> Vec<(i32, i32, i32, i32)> {
+pub(crate) fn merge_cells(cells: &[Cell]) -> Vec<(i32, i32, i32, i32)> {
     let set: BTreeSet<Cell> = cells.iter().copied().collect();
     let mut runs: Vec<(i32, i32, i32)> = Vec::new(); // (row, col0, col1)
     let mut it = set.iter().peekable();
@@ -320,7 +320,7 @@ pub fn fence_items(
 
 /// Whether the segment a → b (cell units) crosses the box `[x0, x1] × [y0, y1]`
 /// (Liang–Barsky clipping).
-pub fn segment_hits_box(a: (f64, f64), b: (f64, f64), bx: (f64, f64, f64, f64)) -> bool {
+pub(crate) fn segment_hits_box(a: (f64, f64), b: (f64, f64), bx: (f64, f64, f64, f64)) -> bool {
     let (x0, y0, x1, y1) = bx;
     let (dx, dy) = (b.0 - a.0, b.1 - a.1);
     let mut t0 = 0.0f64;

@@ -66,7 +66,7 @@ pub const MAX_K: usize = 64;
 
 /// Plans per epoch (the first and the re-plans) after which the epoch ends once its plan is
 /// flown, even if a goal is still unmeasured.
-pub const MAX_SOLVES: u32 = 4;
+pub(crate) const MAX_SOLVES: u32 = 4;
 
 /// Epochs in a row whose capture visits brought no measurement after which a run stops: the
 /// drones' pictures (or their cameras' on-board measurements) do not reach the GCS, and
@@ -142,7 +142,7 @@ pub struct SortieParams {
     /// The drones' camera.
     pub camera: CameraModel,
     /// Seconds between two images of a visit.
-    pub capture_interval_s: f64,
+    pub(crate) capture_interval_s: f64,
     /// The measured part of an image: a centred square of this fraction of the cell side
     /// (on the ground), so that the measurement sees its cell and not the neighbours
     /// whatever the drone's altitude and heading (0.6: a rotated square of 0.6 cells stays
@@ -150,7 +150,7 @@ pub struct SortieParams {
     pub crop_fraction: f64,
     /// An image counts for a cell when it was taken within this fraction of a cell of the
     /// cell's centre.
-    pub capture_tolerance: f64,
+    pub(crate) capture_tolerance: f64,
     /// Drone battery endurance, minutes of hover.
     pub flight_time_min: f64,
     /// Charge kept in reserve, percent.

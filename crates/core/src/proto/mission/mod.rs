@@ -111,16 +111,3 @@ pub use types::{
     MAX_OFFERED, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,
     MissionResultCode, OpId,
 };
-
-use crate::mission::MissionItem;
-use mavlink::dialects::ardupilotmega::MISSION_ITEM_INT_DATA;
-
-/// Our item → a MISSION_ITEM_INT payload (seq and addressing filled by the caller); an item
-/// whose command or frame the dialect lacks is a [`MissionError::Wire`] (see
-/// [`crate::mission::wire::item_to_wire`]).
-pub fn item_to_wire(
-    item: &MissionItem,
-    index: usize,
-) -> Result<MISSION_ITEM_INT_DATA, MissionError> {
-    crate::mission::wire::item_to_wire(item, index).map_err(MissionError::from)
-}

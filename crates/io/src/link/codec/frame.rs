@@ -52,7 +52,7 @@ pub enum Unparsed {
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SignatureInfo {
     /// The sender's link id.
-    pub link_id: u8,
+    pub(crate) link_id: u8,
     /// Its timestamp (10 µs units since 2015-01-01).
     pub timestamp: u64,
 }

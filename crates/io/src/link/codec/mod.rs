@@ -57,14 +57,15 @@ use std::collections::HashMap;
 /// spliced onto another peer's bytes, while statistics and signing (replay protection)
 /// stay those of the link.
 #[derive(Debug, Default)]
-pub struct StreamBuffer {
+pub(crate) struct StreamBuffer {
     buf: Vec<u8>,
     pos: usize,
 }
 
 impl StreamBuffer {
     /// Bytes buffered but not yet consumed (an incomplete frame).
-    pub fn pending(&self) -> usize {
+    #[cfg(test)]
+    pub(crate) fn pending(&self) -> usize {
         self.buf.len() - self.pos
     }
 }
@@ -135,7 +136,7 @@ impl Codec {
 
     /// As [`Codec::decode`], for the bytes of one of several streams this codec hears:
     /// `stream` holds that stream's incomplete frame between calls (see [`StreamBuffer`]).
-    pub fn decode_stream(
+    pub(crate) fn decode_stream(
         &mut self,
         stream: &mut StreamBuffer,
         data: &[u8],
@@ -313,17 +314,18 @@ impl Codec {
         s.frames += 1;
     }
 
+    /// Restart the sequence numbers of a source at 0 (a simulated reboot).
+    #[cfg(test)]
+    pub(crate) fn reset_sequence(&mut self, sysid: u8, compid: u8) {
+        self.tx_seq.remove(&(sysid, compid));
+    }
+
     /// The next sequence number for source (`sysid`, `compid`) (and advance it).
-    pub fn next_sequence(&mut self, sysid: u8, compid: u8) -> u8 {
+    pub(crate) fn next_sequence(&mut self, sysid: u8, compid: u8) -> u8 {
         let s = self.tx_seq.entry((sysid, compid)).or_insert(0);
         let v = *s;
         *s = s.wrapping_add(1);
         v
-    }
-
-    /// Restart the sequence numbers of a source at 0 (a simulated reboot).
-    pub fn reset_sequence(&mut self, sysid: u8, compid: u8) {
-        self.tx_seq.remove(&(sysid, compid));
     }
 
     /// Encode `msg` from (`sysid`, `compid`) as a MAVLink 2 frame with the source's next

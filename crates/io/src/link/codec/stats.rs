@@ -12,7 +12,7 @@ pub struct SourceStats {
     pub lost: u64,
     /// Frames that arrived with a sequence number behind the last one (duplicates,
     /// reordering, reboots).
-    pub out_of_order: u64,
+    pub(crate) out_of_order: u64,
     /// Last sequence number seen.
     pub last_seq: u8,
 }
@@ -43,15 +43,15 @@ pub struct LinkStats {
     /// Frames dropped because their CRC did not match.
     pub bad_crc: u64,
     /// Bytes skipped while looking for a frame start.
-    pub garbage_bytes: u64,
+    pub(crate) garbage_bytes: u64,
     /// Frames whose payload did not parse (unknown id, or unknown enum value).
-    pub unparsed: u64,
+    pub(crate) unparsed: u64,
     /// MAVLink 2 frames dropped for unknown incompatibility flags.
-    pub bad_incompat_flags: u64,
+    pub(crate) bad_incompat_flags: u64,
     /// Signed frames dropped because the signature did not match.
     pub bad_signature: u64,
     /// Correctly signed frames dropped as replays (old timestamp).
-    pub replayed: u64,
+    pub(crate) replayed: u64,
     /// Unsigned frames dropped while signing is required.
     pub unsigned_dropped: u64,
     /// Per source (sysid, compid).
@@ -74,24 +74,6 @@ fn ser_sources<S: serde::Serializer>(
 }
 
 impl LinkStats {
-    /// Frames lost (sequence gaps) summed over sources of system `sysid`.
-    pub fn lost_from(&self, sysid: u8) -> u64 {
-        self.sources
-            .iter()
-            .filter(|(k, _)| k.0 == sysid)
-            .map(|(_, s)| s.lost)
-            .sum()
-    }
-
-    /// Frames received from system `sysid` (all components).
-    pub fn frames_from(&self, sysid: u8) -> u64 {
-        self.sources
-            .iter()
-            .filter(|(k, _)| k.0 == sysid)
-            .map(|(_, s)| s.frames)
-            .sum()
-    }
-
     /// Signature-related drops (bad signature + replays + unsigned).
     pub fn signing_drops(&self) -> u64 {
         self.bad_signature + self.replayed + self.unsigned_dropped

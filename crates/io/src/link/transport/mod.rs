@@ -40,7 +40,7 @@ use tokio::sync::{mpsc, watch};
 /// 253 bytes) and the telemetry beside them overflowed it in our runs (672 datagrams dropped
 /// by the kernel during one `demo --bandit`, 22 images lost). The kernel caps the request at
 /// `net.core.rmem_max`.
-pub const UDP_RECV_BUFFER: usize = 4 << 20;
+pub(crate) const UDP_RECV_BUFFER: usize = 4 << 20;
 
 /// Ask for [`UDP_RECV_BUFFER`] on `sock`; returns the size the kernel granted, bytes (it
 /// may be less, and Linux reports twice the usable size), or `None` when it refused.
@@ -105,7 +105,7 @@ pub struct LinkStatus {
     /// Codec statistics (frames, bytes, CRC errors, loss per source, signing drops).
     pub stats: LinkStats,
     /// Messages that could not be sent (no peer yet, disconnected, write error).
-    pub tx_dropped: u64,
+    pub(crate) tx_dropped: u64,
     /// TCP (re)connections made.
     pub connects: u64,
 }
@@ -177,11 +177,6 @@ impl LinkHandle {
     /// The latest published status.
     pub fn status(&self) -> LinkStatus {
         self.status.borrow().clone()
-    }
-
-    /// Whether the link task is still running.
-    pub fn is_running(&self) -> bool {
-        !self.tx.is_closed()
     }
 }
 
