@@ -207,22 +207,36 @@ impl fmt::Display for Flavour {
     }
 }
 
+/// Why a `TYPE:AUTOPILOT` vehicle spec does not read ([`Flavour`]'s `FromStr`).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FlavourSpecError {
+    /// No `:` between the type and the autopilot.
+    #[error("expected TYPE:AUTOPILOT (e.g. copter:ardupilot), got {0:?}")]
+    Syntax(String),
+    /// A vehicle type the simulator has no model of.
+    #[error("unknown vehicle type {0:?} (copter or rover)")]
+    VehicleType(String),
+    /// An autopilot the simulator does not imitate.
+    #[error("unknown autopilot {0:?} (ardupilot or px4)")]
+    Autopilot(String),
+}
+
 impl FromStr for Flavour {
-    type Err = String;
+    type Err = FlavourSpecError;
     /// `copter:ardupilot`, `rover:px4`, … (the `--vehicles` syntax without the count).
-    fn from_str(s: &str) -> Result<Flavour, String> {
+    fn from_str(s: &str) -> Result<Flavour, FlavourSpecError> {
         let (k, a) = s
             .split_once(':')
-            .ok_or_else(|| format!("expected TYPE:AUTOPILOT (e.g. copter:ardupilot), got {s:?}"))?;
+            .ok_or_else(|| FlavourSpecError::Syntax(s.to_string()))?;
         let kind = match k.trim().to_ascii_lowercase().as_str() {
             "copter" | "quad" | "multicopter" => VehicleKind::Copter,
             "rover" => VehicleKind::Rover,
-            other => return Err(format!("unknown vehicle type {other:?} (copter or rover)")),
+            other => return Err(FlavourSpecError::VehicleType(other.to_string())),
         };
         let autopilot = match a.trim().to_ascii_lowercase().as_str() {
             "ardupilot" | "apm" => SimAutopilot::ArduPilot,
             "px4" => SimAutopilot::Px4,
-            other => return Err(format!("unknown autopilot {other:?} (ardupilot or px4)")),
+            other => return Err(FlavourSpecError::Autopilot(other.to_string())),
         };
         Ok(Flavour { autopilot, kind })
     }

@@ -22,7 +22,7 @@ use fleetmap_core::mission::{MissionItem, MissionType};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::mission::{
     MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,
-    compare_items,
+    ItemsDiffer, compare_items,
 };
 use fleetmap_core::time::Time;
 use mavlink::MavHeader;
@@ -254,7 +254,7 @@ pub enum RoundTripFailure {
     /// Both transfers succeeded but the items read back differ from those sent
     /// ([`compare_items`]'s description of the first difference).
     #[error("read back differs: {0}")]
-    Differs(String),
+    Differs(ItemsDiffer),
     /// The download succeeded without producing items.
     #[error("download produced {0:?}")]
     NotDownloaded(MissionOutcome),

@@ -180,22 +180,26 @@ fn same_f32(a: f32, b: f32, tol: f32) -> bool {
 ///   ([`px4_position_param`]);
 /// * `current` and `autocontinue` are not compared (the vehicle sets them).
 ///
-/// Returns a description of the first difference: the item, the field, both values.
+/// Returns the first difference: the item, the field, both values.
 pub fn compare_items(
     sent: &[MissionItem],
     got: &[MissionItem],
     ardupilot: bool,
-) -> Result<(), String> {
+) -> Result<(), ItemsDiffer> {
     if sent.len() != got.len() {
-        return Err(format!(
-            "{} items sent, {} read back",
-            sent.len(),
-            got.len()
-        ));
+        return Err(ItemsDiffer::Count {
+            sent: sent.len(),
+            got: got.len(),
+        });
     }
     for (i, (a, b)) in sent.iter().zip(got).enumerate() {
         let diff = |what: &str, x: String, y: String| {
-            Err(format!("item {i}: {what} sent {x}, read back {y}"))
+            Err(ItemsDiffer::Field {
+                item: i,
+                field: what.to_string(),
+                sent: x,
+                got: y,
+            })
         };
         if a.command != b.command {
             return diff("command", a.command.to_string(), b.command.to_string());
@@ -244,6 +248,31 @@ pub fn compare_items(
         }
     }
     Ok(())
+}
+
+/// The first difference [`compare_items`] finds between a list sent and the list read back.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ItemsDiffer {
+    /// The lists have different lengths.
+    #[error("{sent} items sent, {got} read back")]
+    Count {
+        /// Items sent.
+        sent: usize,
+        /// Items read back.
+        got: usize,
+    },
+    /// An item differs in one field.
+    #[error("item {item}: {field} sent {sent}, read back {got}")]
+    Field {
+        /// The item's index.
+        item: usize,
+        /// The field: "command", "frame", "x/y", "z", "param1" … "param4".
+        field: String,
+        /// The value sent.
+        sent: String,
+        /// The value read back.
+        got: String,
+    },
 }
 
 /// What ArduPilot reads back for parameter `n` (1–4) sent as `p` where it keeps only a
@@ -402,7 +431,7 @@ mod tests {
         let wp = MissionItem::waypoint(37.1968, -80.5781, 6.0);
         assert_eq!(compare_items(&[wp, rtl], &[wp, stored], true), Ok(()));
         assert_eq!(
-            compare_items(&[rtl], &[stored], false),
+            compare_items(&[rtl], &[stored], false).map_err(|e| e.to_string()),
             Err("item 0: frame sent 3, read back 0".to_string())
         );
         // NAV_LAND param4 and NAV_LOITER_TIME param3 come back as a direction, ±1
@@ -434,7 +463,7 @@ mod tests {
         let mut moved = wp;
         moved.x += 10;
         assert_eq!(
-            compare_items(&[wp], &[moved], true),
+            compare_items(&[wp], &[moved], true).map_err(|e| e.to_string()),
             Err("item 0: x/y sent 371968000/-805781000, read back 371968010/-805781000".into())
         );
     }
@@ -466,7 +495,7 @@ mod tests {
         let mut held = wp_back;
         held.param1 = 3.0;
         assert_eq!(
-            compare_items(&[wp], &[held], false),
+            compare_items(&[wp], &[held], false).map_err(|e| e.to_string()),
             Err("item 0: param1 sent 0, read back 3".to_string())
         );
         let mut turned = takeoff_back;

@@ -87,6 +87,7 @@ fn fly(s: &mut ClassificationState, key: &mut i32) {
                 assert!(
                     s.match_image(d.sysid, e, n)
                         .unwrap_err()
+                        .to_string()
                         .contains("already has")
                 );
             }
