@@ -8,6 +8,7 @@
 #![allow(deprecated)]
 
 use crate::mission::{MissionItem, MissionType, item::cmd, item::frame};
+use crate::proto::Endpoint;
 use mavlink::dialects::ardupilotmega::{
     MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MavCmd, MavFrame, MavMissionType,
 };
@@ -344,7 +345,7 @@ pub fn build_wire(
     items: &[MissionItem],
     home: Option<&MissionItem>,
     home_item: bool,
-    target: (u8, u8),
+    target: Endpoint,
 ) -> Result<Vec<MISSION_ITEM_INT_DATA>, WireError> {
     let offset = home_item && kind == MissionType::Mission;
     let mut user: Vec<MissionItem> = Vec::with_capacity(items.len() + 1);
@@ -367,8 +368,8 @@ pub fn build_wire(
         let mut w = item_to_wire(it, index)?;
         w.seq = i as u16;
         w.current = u8::from(i == 0);
-        w.target_system = target.0;
-        w.target_component = target.1;
+        w.target_system = target.sysid;
+        w.target_component = target.compid;
         w.mission_type = mav_type(kind);
         wire.push(w);
     }
@@ -515,7 +516,7 @@ mod tests {
             MissionItem::waypoint(-35.362993, 149.165237, 20.0),
             unknown,
         ];
-        let e = build_wire(MissionType::Mission, &items, None, true, (1, 1))
+        let e = build_wire(MissionType::Mission, &items, None, true, Endpoint::new(1, 1))
             .expect_err("command 116 cannot be encoded");
         assert_eq!(
             e,

@@ -235,7 +235,7 @@ impl MissionClient {
                     &items,
                     home.as_ref(),
                     self.peer.home_item,
-                    (self.peer.target.sysid, self.peer.target.compid),
+                    self.peer.target,
                 ) {
                     Ok(wire) => {
                         let n = wire.len();

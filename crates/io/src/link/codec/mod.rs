@@ -47,6 +47,7 @@ use super::signing::{IFLAG_SIGNED, Rejection, SIGNATURE_LEN, Signing};
 use frame::{HDR_V1, HDR_V2};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkVersion, Message};
+use fleetmap_core::proto::Endpoint;
 use std::collections::HashMap;
 
 /// The bytes of one incoming byte stream that do not yet form a whole frame.
@@ -74,7 +75,7 @@ impl StreamBuffer {
 pub struct Codec {
     buf: Vec<u8>,
     pos: usize,
-    tx_seq: HashMap<(u8, u8), u8>,
+    tx_seq: HashMap<Endpoint, u8>,
     signing: Option<Signing>,
     stats: LinkStats,
 }
@@ -298,7 +299,7 @@ impl Codec {
     }
 
     fn note_source(&mut self, sysid: u8, compid: u8, seq: u8) {
-        let s = self.stats.sources.entry((sysid, compid)).or_default();
+        let s = self.stats.sources.entry(Endpoint::new(sysid, compid)).or_default();
         if s.frames > 0 {
             let gap = seq.wrapping_sub(s.last_seq.wrapping_add(1));
             if gap < 128 {
@@ -315,7 +316,7 @@ impl Codec {
 
     /// The next sequence number for source (`sysid`, `compid`) (and advance it).
     pub fn next_sequence(&mut self, sysid: u8, compid: u8) -> u8 {
-        let s = self.tx_seq.entry((sysid, compid)).or_insert(0);
+        let s = self.tx_seq.entry(Endpoint::new(sysid, compid)).or_insert(0);
         let v = *s;
         *s = s.wrapping_add(1);
         v
@@ -323,7 +324,7 @@ impl Codec {
 
     /// Restart the sequence numbers of a source at 0 (a simulated reboot).
     pub fn reset_sequence(&mut self, sysid: u8, compid: u8) {
-        self.tx_seq.remove(&(sysid, compid));
+        self.tx_seq.remove(&Endpoint::new(sysid, compid));
     }
 
     /// Encode `msg` from (`sysid`, `compid`) as a MAVLink 2 frame with the source's next
