@@ -301,7 +301,11 @@ fn images_arrive_over_a_lossy_link_and_as_files() {
         sim,
         codec: Codec::new(),
         seq: 0,
-        rx: ImageReceiver::new(Endpoint::new(1, 100), Endpoint::gcs(), ReceiverConfig::default()),
+        rx: ImageReceiver::new(
+            Endpoint::new(1, 100),
+            Endpoint::gcs(),
+            ReceiverConfig::default(),
+        ),
         images: Vec::new(),
         captured: Vec::new(),
     };
@@ -738,7 +742,11 @@ fn paced_image_transmission_takes_size_over_rate_and_every_packet_goes_out() {
         );
     }
     // the GCS's receiver puts the image together from what went out
-    let mut rx = ImageReceiver::new(Endpoint::new(1, 100), Endpoint::gcs(), ReceiverConfig::default());
+    let mut rx = ImageReceiver::new(
+        Endpoint::new(1, 100),
+        Endpoint::gcs(),
+        ReceiverConfig::default(),
+    );
     for (t, m) in &out {
         rx.handle_message(Endpoint::new(1, 100), m, *t);
     }

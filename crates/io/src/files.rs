@@ -20,10 +20,10 @@ use fleetmap_core::proto::image_transfer::{FileUrlError, file_url_path};
 use fleetmap_core::vision::VisionError;
 use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
 use fleetmap_core::world::{World, WorldError};
-use std::path::PathBuf;
 use image::RgbImage;
 use std::io::Read;
 use std::path::Path;
+use std::path::PathBuf;
 
 /// Read, parse and validate the mission file at `path`. Errors name the file as given
 /// (an unreadable file: "cannot read the file: `<reason>`"; bytes that are not UTF-8: the line

@@ -21,8 +21,8 @@ use crate::mission_server::{self, HomeItem, MissionServer};
 use fleetmap_core::mission::{MissionItem, MissionType};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::mission::{
-    MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,
-    ItemsDiffer, compare_items,
+    ItemsDiffer, MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp,
+    MissionOutcome, compare_items,
 };
 use fleetmap_core::time::Time;
 use mavlink::MavHeader;

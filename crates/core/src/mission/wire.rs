@@ -516,8 +516,14 @@ mod tests {
             MissionItem::waypoint(-35.362993, 149.165237, 20.0),
             unknown,
         ];
-        let e = build_wire(MissionType::Mission, &items, None, true, Endpoint::new(1, 1))
-            .expect_err("command 116 cannot be encoded");
+        let e = build_wire(
+            MissionType::Mission,
+            &items,
+            None,
+            true,
+            Endpoint::new(1, 1),
+        )
+        .expect_err("command 116 cannot be encoded");
         assert_eq!(
             e,
             WireError::UnknownCommand {

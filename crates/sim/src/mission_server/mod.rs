@@ -581,7 +581,10 @@ impl MissionServer {
 
     fn handle_item(&mut self, from: Endpoint, rx: RxItem, current: u8, now: Time) {
         let core = &mut self.core;
-        if !self.transfer.is_for_me(core, rx.target.sysid, rx.target.compid) {
+        if !self
+            .transfer
+            .is_for_me(core, rx.target.sysid, rx.target.compid)
+        {
             return;
         }
         match &mut self.transfer {

@@ -583,21 +583,29 @@ mod tests {
             MissionItem::waypoint(p.lat, p.lon, 10.0)
         };
         // (0,0) → (0,2) goes straight through (0,1)
-        let e = check_mission(&g, &rules, Cell::new(0, 0), &[wp(0, 2)]).unwrap_err().to_string();
+        let e = check_mission(&g, &rules, Cell::new(0, 0), &[wp(0, 2)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("crosses no-fly cell (0, 1)"), "{e}");
         // (2,0) → (2,1) → (2,2) is clear; (1,0) → (2,1) passes the corner of (1,1)
         assert!(check_mission(&g, &rules, Cell::new(2, 0), &[wp(2, 1), wp(2, 2)]).is_ok());
         assert!(check_mission(&g, &rules, Cell::new(1, 0), &[wp(2, 1)]).is_ok());
-        let e = check_mission(&g, &rules, Cell::new(2, 0), &[wp(1, 1)]).unwrap_err().to_string();
+        let e = check_mission(&g, &rules, Cell::new(2, 0), &[wp(1, 1)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("no-fly cell (1, 1)"), "{e}");
-        let e = check_mission(&g, &rules, Cell::new(2, 0), &[wp(3, 0)]).unwrap_err().to_string();
+        let e = check_mission(&g, &rules, Cell::new(2, 0), &[wp(3, 0)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("outside the search area"), "{e}");
         let roads = [Cell::new(2, 0), Cell::new(2, 1)];
         let station = AreaRules {
             roads: Some(&roads),
             ..rules.clone()
         };
-        let e = check_mission(&g, &station, Cell::new(2, 0), &[wp(2, 1), wp(2, 2)]).unwrap_err().to_string();
+        let e = check_mission(&g, &station, Cell::new(2, 0), &[wp(2, 1), wp(2, 2)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("off the roads"), "{e}");
     }
 

@@ -44,10 +44,10 @@ pub use frame::{
 pub use stats::{LinkStats, SourceStats};
 
 use super::signing::{IFLAG_SIGNED, Rejection, SIGNATURE_LEN, Signing};
+use fleetmap_core::proto::Endpoint;
 use frame::{HDR_V1, HDR_V2};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkVersion, Message};
-use fleetmap_core::proto::Endpoint;
 use std::collections::HashMap;
 
 /// The bytes of one incoming byte stream that do not yet form a whole frame.
@@ -299,7 +299,11 @@ impl Codec {
     }
 
     fn note_source(&mut self, sysid: u8, compid: u8, seq: u8) {
-        let s = self.stats.sources.entry(Endpoint::new(sysid, compid)).or_default();
+        let s = self
+            .stats
+            .sources
+            .entry(Endpoint::new(sysid, compid))
+            .or_default();
         if s.frames > 0 {
             let gap = seq.wrapping_sub(s.last_seq.wrapping_add(1));
             if gap < 128 {
