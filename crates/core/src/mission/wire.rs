@@ -8,7 +8,6 @@
 #![allow(deprecated)]
 
 use crate::mission::{MissionItem, MissionType, item::cmd, item::frame};
-use crate::proto::Endpoint;
 use mavlink::dialects::ardupilotmega::{
     MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MavCmd, MavFrame, MavMissionType,
 };
@@ -338,14 +337,14 @@ pub fn home_placeholder() -> MissionItem {
 }
 
 /// User items → wire items for a list of `kind` (home prepended and DO_JUMP shifted when
-/// `home_item`; seq, current, addressing to `target` (system id, component id) and mission
-/// type set).
+/// `home_item`; seq, current and mission type set). The items are not addressed yet
+/// (`target_system` and `target_component` 0): the mission client addresses them to its
+/// vehicle's endpoint.
 pub fn build_wire(
     kind: MissionType,
     items: &[MissionItem],
     home: Option<&MissionItem>,
     home_item: bool,
-    target: Endpoint,
 ) -> Result<Vec<MISSION_ITEM_INT_DATA>, WireError> {
     let offset = home_item && kind == MissionType::Mission;
     let mut user: Vec<MissionItem> = Vec::with_capacity(items.len() + 1);
@@ -368,8 +367,6 @@ pub fn build_wire(
         let mut w = item_to_wire(it, index)?;
         w.seq = i as u16;
         w.current = u8::from(i == 0);
-        w.target_system = target.sysid;
-        w.target_component = target.compid;
         w.mission_type = mav_type(kind);
         wire.push(w);
     }
@@ -516,14 +513,8 @@ mod tests {
             MissionItem::waypoint(-35.362993, 149.165237, 20.0),
             unknown,
         ];
-        let e = build_wire(
-            MissionType::Mission,
-            &items,
-            None,
-            true,
-            Endpoint::new(1, 1),
-        )
-        .expect_err("command 116 cannot be encoded");
+        let e = build_wire(MissionType::Mission, &items, None, true)
+            .expect_err("command 116 cannot be encoded");
         assert_eq!(
             e,
             WireError::UnknownCommand {
