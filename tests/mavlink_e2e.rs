@@ -536,7 +536,7 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
         let sysid = i as u8 + 1;
         let st = l.status();
         assert!(
-            st.stats.sources[&(sysid, 1)].lost > 0,
+            st.stats.sources[&fleetmap_core::proto::Endpoint::new(sysid, 1)].lost > 0,
             "vehicle {sysid}: no frame lost"
         );
     }

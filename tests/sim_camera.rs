@@ -5,6 +5,7 @@
 
 #![allow(deprecated)]
 
+use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::image_transfer::{ImageEvent, ImageReceiver, ReceiverConfig};
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::camera::CameraModel;
@@ -262,7 +263,7 @@ impl Gcs {
             }
             while let Some(d) = self.sim.recv_bytes(1) {
                 for f in self.codec.decode(&d, 0) {
-                    let from = (f.sysid(), f.compid());
+                    let from = Endpoint::new(f.sysid(), f.compid());
                     let Ok(m) = f.message else { continue };
                     if let MavMessage::CAMERA_IMAGE_CAPTURED(c) = &m {
                         self.captured.push(c.clone());
@@ -300,7 +301,11 @@ fn images_arrive_over_a_lossy_link_and_as_files() {
         sim,
         codec: Codec::new(),
         seq: 0,
-        rx: ImageReceiver::new((1, 100), (255, 190), ReceiverConfig::default()),
+        rx: ImageReceiver::new(
+            Endpoint::new(1, 100),
+            Endpoint::gcs(),
+            ReceiverConfig::default(),
+        ),
         images: Vec::new(),
         captured: Vec::new(),
     };
@@ -737,9 +742,13 @@ fn paced_image_transmission_takes_size_over_rate_and_every_packet_goes_out() {
         );
     }
     // the GCS's receiver puts the image together from what went out
-    let mut rx = ImageReceiver::new((1, 100), (255, 190), ReceiverConfig::default());
+    let mut rx = ImageReceiver::new(
+        Endpoint::new(1, 100),
+        Endpoint::gcs(),
+        ReceiverConfig::default(),
+    );
     for (t, m) in &out {
-        rx.handle_message((1, 100), m, *t);
+        rx.handle_message(Endpoint::new(1, 100), m, *t);
     }
     let got: Vec<_> = std::iter::from_fn(|| rx.poll_event()).collect();
     assert!(

@@ -291,8 +291,8 @@ impl Intake {
                 let rx = self
                     .receivers
                     .entry(from)
-                    .or_insert_with(|| ImageReceiver::new(from, gcs, config));
-                rx.handle_message(from, msg, now);
+                    .or_insert_with(|| ImageReceiver::new(from.into(), gcs.into(), config));
+                rx.handle_message(from.into(), msg, now);
                 self.drain(from, now);
             }
             MavMessage::DEBUG_FLOAT_ARRAY(d) => {

@@ -36,16 +36,19 @@ pub enum Source {
     Folder(PathBuf),
 }
 
-impl FromStr for Source {
-    type Err = String;
+/// A `--source` that is neither `render` nor `folder:DIR` (the text given).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("unknown picture source {0:?}: expected `render` or `folder:DIR`")]
+pub struct UnknownSource(pub String);
 
-    fn from_str(s: &str) -> Result<Source, String> {
+impl FromStr for Source {
+    type Err = UnknownSource;
+
+    fn from_str(s: &str) -> Result<Source, UnknownSource> {
         match s.split_once(':') {
             _ if s == "render" => Ok(Source::Render),
             Some(("folder", dir)) if !dir.is_empty() => Ok(Source::Folder(PathBuf::from(dir))),
-            _ => Err(format!(
-                "unknown picture source {s:?}: expected `render` or `folder:DIR`"
-            )),
+            _ => Err(UnknownSource(s.to_string())),
         }
     }
 }

@@ -77,16 +77,25 @@ pub struct ClassifyArgs {
     pub(crate) debug_dir: Option<PathBuf>,
 }
 
-fn parse_hsv(s: &str) -> Result<[u8; 3], String> {
+/// An `H,S,V` argument that does not read (the text given).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum BadHsv {
+    /// Not three comma-separated parts.
+    #[error("expected three numbers H,S,V, got {0:?}")]
+    Parts(String),
+    /// A part that is not a number 0..=255.
+    #[error("expected numbers 0..=255 in H,S,V, got {0:?}")]
+    Number(String),
+}
+
+fn parse_hsv(s: &str) -> Result<[u8; 3], BadHsv> {
     let parts: Vec<&str> = s.split(',').map(str::trim).collect();
     if parts.len() != 3 {
-        return Err(format!("expected three numbers H,S,V, got {s:?}"));
+        return Err(BadHsv::Parts(s.to_string()));
     }
     let mut out = [0u8; 3];
     for (o, p) in out.iter_mut().zip(&parts) {
-        *o = p
-            .parse()
-            .map_err(|_| format!("expected numbers 0..=255 in H,S,V, got {p:?}"))?;
+        *o = p.parse().map_err(|_| BadHsv::Number(p.to_string()))?;
     }
     Ok(out)
 }
@@ -127,7 +136,7 @@ pub fn run(args: ClassifyArgs) -> anyhow::Result<ExitCode> {
         std::fs::create_dir_all(dir)
             .with_context(|| format!("cannot create debug directory {}", dir.display()))?;
     }
-    let results: Vec<Result<Outcome, String>> = args
+    let results: Vec<Result<Outcome, ClassifyError>> = args
         .images
         .par_iter()
         .enumerate()
@@ -163,7 +172,7 @@ pub fn run(args: ClassifyArgs) -> anyhow::Result<ExitCode> {
             Err(e) => {
                 failed += 1;
                 if args.json {
-                    writeln!(out, "{}", json!({"image": shown, "error": e}))?;
+                    writeln!(out, "{}", json!({"image": shown, "error": e.to_string()}))?;
                 } else {
                     out.flush()?;
                     eprintln!("fleetmap: {shown}: {e}");
@@ -179,6 +188,17 @@ pub fn run(args: ClassifyArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
+/// Why one image of `fleetmap classify` has no classification.
+#[derive(Debug, thiserror::Error)]
+enum ClassifyError {
+    /// The image does not load, or the classifier refuses it or the parameters.
+    #[error(transparent)]
+    Vision(#[from] VisionError),
+    /// The debug images could not be written (`--debug-dir`).
+    #[error("cannot write debug images: {0:#}")]
+    Debug(anyhow::Error),
+}
+
 fn classify_one(
     ws: &mut fast::Workspace,
     index: usize,
@@ -187,11 +207,10 @@ fn classify_one(
     params: &RunwayParams,
     green_params: &GreenParams,
     limits: &LoadLimits,
-) -> Result<Outcome, String> {
-    let img = load_image_file(path, limits).map_err(|e| e.to_string())?;
-    let counts = runway::analyse_in(ws, &img, params).map_err(|e: VisionError| e.to_string())?;
-    let classification = runway::classification_from_counts(counts, args.heading, params)
-        .map_err(|e| e.to_string())?;
+) -> Result<Outcome, ClassifyError> {
+    let img = load_image_file(path, limits)?;
+    let counts = runway::analyse_in(ws, &img, params)?;
+    let classification = runway::classification_from_counts(counts, args.heading, params)?;
     let green = args.green.then(|| {
         let f = green::green_fraction(&img, green_params);
         (f, f >= green_params.min_fraction)
@@ -205,7 +224,7 @@ fn classify_one(
             params,
             args.green.then_some(green_params),
         )
-        .map_err(|e| format!("cannot write debug images: {e:#}"))?;
+        .map_err(ClassifyError::Debug)?;
     }
     Ok(Outcome {
         classification,

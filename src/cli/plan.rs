@@ -52,10 +52,10 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         .with_context(|| format!("scenario {}", args.scenario.display()))?;
     // A well-formed scenario that no plan can satisfy whatever K is the answer "infeasible"
     // (docs/ip-scenario.md lists what is malformed); only malformed input is an error.
-    // `Err(reason)`: no plan can exist whatever K.
-    let inst: Result<_, String> = match scenario.instance() {
+    // `Err(ScenarioError::Infeasible(reason))`: no plan can exist whatever K.
+    let inst = match scenario.instance() {
         Ok(inst) => Ok(inst),
-        Err(ScenarioError::Infeasible(reason)) => Err(reason),
+        Err(e @ ScenarioError::Infeasible(_)) => Err(e),
         Err(e) => {
             return Err(anyhow::Error::new(e))
                 .with_context(|| format!("scenario {}", args.scenario.display()));
@@ -78,7 +78,8 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     };
     let outcome = match &inst {
         Ok(inst) => solve_instance(inst, &opts, &fleetmap_io::clock::stopwatch()),
-        Err(reason) => PlanOutcome::never(reason.clone()),
+        Err(ScenarioError::Infeasible(reason)) => PlanOutcome::never(reason.clone()),
+        Err(other) => PlanOutcome::never(other.to_string()),
     };
     let mut out = String::new();
     if args.json {

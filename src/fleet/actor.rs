@@ -563,7 +563,7 @@ impl Actor {
             let src = snap
                 .links
                 .get(v.snap.link)
-                .and_then(|l| l.stats.sources.get(&(ep.sysid, ep.compid)))
+                .and_then(|l| l.stats.sources.get(&ep))
                 .copied();
             v.snap.refresh(
                 self.liveness.is_alive(ep),

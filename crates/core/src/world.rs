@@ -29,14 +29,6 @@ use thiserror::Error;
 /// Errors reading or using a world.
 #[derive(Debug, Error)]
 pub enum WorldError {
-    /// The file could not be read (by the shell's loader).
-    #[error("cannot read world file {path}")]
-    Io {
-        /// The file.
-        path: String,
-        /// The cause.
-        source: std::io::Error,
-    },
     /// The file is not valid TOML or does not have the expected fields.
     #[error("invalid world file {path}: {message}")]
     Parse {

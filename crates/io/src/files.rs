@@ -23,6 +23,7 @@ use fleetmap_core::world::{World, WorldError};
 use image::RgbImage;
 use std::io::Read;
 use std::path::Path;
+use std::path::PathBuf;
 
 /// Read, parse and validate the mission file at `path`. Errors name the file as given
 /// (an unreadable file: "cannot read the file: `<reason>`"; bytes that are not UTF-8: the line
@@ -41,17 +42,34 @@ pub fn read_mission(path: impl AsRef<Path>) -> Result<(String, MissionDef), DefE
     Ok((String::from_utf8_lossy(&bytes).into_owned(), def))
 }
 
+/// Why a world file cannot be loaded: it cannot be read, or what it says is not a world
+/// ([`WorldError`], the core's parse and check). Both name the file as given.
+#[derive(Debug, thiserror::Error)]
+pub enum WorldFileError {
+    /// The file could not be read.
+    #[error("cannot read world file {}", path.display())]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The text is not a valid world.
+    #[error(transparent)]
+    World(#[from] WorldError),
+}
+
 /// Read and check the world file at `path` (a simulated world, [`World`]). Errors name the
 /// file as given.
-pub fn load_world(path: &Path) -> Result<World, WorldError> {
+pub fn load_world(path: &Path) -> Result<World, WorldFileError> {
     read_world(path).map(|(_, w)| w)
 }
 
 /// [`load_world`], with the file's text as read (a run directory keeps its copy).
-pub fn read_world(path: &Path) -> Result<(String, World), WorldError> {
+pub fn read_world(path: &Path) -> Result<(String, World), WorldFileError> {
     let file = path.display().to_string();
-    let text = std::fs::read_to_string(path).map_err(|source| WorldError::Io {
-        path: file.clone(),
+    let text = std::fs::read_to_string(path).map_err(|source| WorldFileError::Io {
+        path: path.to_path_buf(),
         source,
     })?;
     let world = World::from_toml_file(&text, &file)?;

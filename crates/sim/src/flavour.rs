@@ -4,8 +4,16 @@
 //! The simulator's [`Mode`] is what a simulated vehicle does; which of its autopilot's modes
 //! that is, and so the numbers and names on the wire, comes from the GCS's own table,
 //! [`fleetmap_core::proto::mode`] ([`Flavour::autopilot_mode`]).
+//!
+//! What stays the simulator's own, and why: [`SimAutopilot`] and [`VehicleKind`] are the parts
+//! of the core's [`Autopilot`] and [`VehicleClass`] that the simulator has a model of (no
+//! `Other`, no plane), so the vehicle model matches on them without an impossible arm; both
+//! convert into the core's types, and [`Flavour`] into the core's
+//! [`fleetmap_core::proto::flavour::Flavour`], the flavour the GCS reads from the simulated
+//! HEARTBEAT. [`Mode`] is a behaviour (hold, go to, fly the mission), one value across
+//! flavours whose autopilot modes differ (ArduCopter LOITER, ArduRover HOLD, PX4 AUTO_LOITER).
 
-use fleetmap_core::proto::flavour::Autopilot;
+use fleetmap_core::proto::flavour::{self as proto_flavour, Autopilot, VehicleClass};
 use fleetmap_core::proto::mode::{CopterMode, Mode as ProtoMode, Px4Mode, RoverMode};
 use serde::{Deserialize, Serialize};
 use std::fmt;
@@ -63,6 +71,15 @@ pub enum VehicleKind {
     Copter,
     /// A ground rover (MAV_TYPE_GROUND_ROVER); it never leaves the ground.
     Rover,
+}
+
+impl From<VehicleKind> for VehicleClass {
+    fn from(k: VehicleKind) -> VehicleClass {
+        match k {
+            VehicleKind::Copter => VehicleClass::Copter,
+            VehicleKind::Rover => VehicleClass::Rover,
+        }
+    }
 }
 
 /// Autopilot + airframe.
@@ -197,6 +214,16 @@ impl Flavour {
     }
 }
 
+impl From<Flavour> for proto_flavour::Flavour {
+    /// The core's flavour of this simulated vehicle: what the GCS reads from its HEARTBEAT.
+    fn from(f: Flavour) -> proto_flavour::Flavour {
+        proto_flavour::Flavour {
+            autopilot: f.autopilot.into(),
+            class: f.kind.into(),
+        }
+    }
+}
+
 impl fmt::Display for Flavour {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let k = match self.kind {
@@ -207,22 +234,36 @@ impl fmt::Display for Flavour {
     }
 }
 
+/// Why a `TYPE:AUTOPILOT` vehicle spec does not read ([`Flavour`]'s `FromStr`).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum FlavourSpecError {
+    /// No `:` between the type and the autopilot.
+    #[error("expected TYPE:AUTOPILOT (e.g. copter:ardupilot), got {0:?}")]
+    Syntax(String),
+    /// A vehicle type the simulator has no model of.
+    #[error("unknown vehicle type {0:?} (copter or rover)")]
+    VehicleType(String),
+    /// An autopilot the simulator does not imitate.
+    #[error("unknown autopilot {0:?} (ardupilot or px4)")]
+    Autopilot(String),
+}
+
 impl FromStr for Flavour {
-    type Err = String;
+    type Err = FlavourSpecError;
     /// `copter:ardupilot`, `rover:px4`, … (the `--vehicles` syntax without the count).
-    fn from_str(s: &str) -> Result<Flavour, String> {
+    fn from_str(s: &str) -> Result<Flavour, FlavourSpecError> {
         let (k, a) = s
             .split_once(':')
-            .ok_or_else(|| format!("expected TYPE:AUTOPILOT (e.g. copter:ardupilot), got {s:?}"))?;
+            .ok_or_else(|| FlavourSpecError::Syntax(s.to_string()))?;
         let kind = match k.trim().to_ascii_lowercase().as_str() {
             "copter" | "quad" | "multicopter" => VehicleKind::Copter,
             "rover" => VehicleKind::Rover,
-            other => return Err(format!("unknown vehicle type {other:?} (copter or rover)")),
+            other => return Err(FlavourSpecError::VehicleType(other.to_string())),
         };
         let autopilot = match a.trim().to_ascii_lowercase().as_str() {
             "ardupilot" | "apm" => SimAutopilot::ArduPilot,
             "px4" => SimAutopilot::Px4,
-            other => return Err(format!("unknown autopilot {other:?} (ardupilot or px4)")),
+            other => return Err(FlavourSpecError::Autopilot(other.to_string())),
         };
         Ok(Flavour { autopilot, kind })
     }
@@ -425,6 +466,25 @@ mod tests {
         assert_eq!(Flavour::PX4_COPTER.mav_autopilot(), 12);
     }
 
+    /// The GCS reads each simulated flavour's HEARTBEAT (MAV_AUTOPILOT, MAV_TYPE) as the core
+    /// flavour the simulated one converts into.
+    #[test]
+    fn heartbeat_reads_back_as_the_core_flavour() {
+        for (f, core) in [
+            (Flavour::ARDU_COPTER, proto_flavour::Flavour::ARDU_COPTER),
+            (Flavour::ARDU_ROVER, proto_flavour::Flavour::ARDU_ROVER),
+            (Flavour::PX4_COPTER, proto_flavour::Flavour::PX4_COPTER),
+            (Flavour::PX4_ROVER, proto_flavour::Flavour::PX4_ROVER),
+        ] {
+            assert_eq!(proto_flavour::Flavour::from(f), core, "{f}");
+            assert_eq!(
+                proto_flavour::Flavour::from_heartbeat(f.mav_autopilot(), f.mav_type()),
+                core,
+                "{f}"
+            );
+        }
+    }
+
     #[test]
     fn parses_vehicle_specs() {
         assert_eq!(
@@ -433,6 +493,13 @@ mod tests {
         );
         assert_eq!("Rover:PX4".parse::<Flavour>(), Ok(Flavour::PX4_ROVER));
         assert!("plane:px4".parse::<Flavour>().is_err());
-        assert!("copter".parse::<Flavour>().is_err());
+        assert_eq!(
+            "copter".parse::<Flavour>(),
+            Err(FlavourSpecError::Syntax("copter".into()))
+        );
+        assert_eq!(
+            "plane:px4".parse::<Flavour>().map_err(|e| e.to_string()),
+            Err("unknown vehicle type \"plane\" (copter or rover)".into())
+        );
     }
 }

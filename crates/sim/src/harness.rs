@@ -76,7 +76,7 @@ pub(crate) fn parse_vehicle_spec(spec: &str) -> Result<Vec<(usize, Flavour)>, Si
         if n == 0 || n > 250 {
             return Err(err(format!("{part:?}: count must be 1–250")));
         }
-        let f: Flavour = rest.parse().map_err(|e: String| err(e))?;
+        let f = rest.parse::<Flavour>().map_err(|e| err(e.to_string()))?;
         out.push((n, f));
     }
     if out.is_empty() {

@@ -21,8 +21,8 @@ use crate::mission_server::{self, HomeItem, MissionServer};
 use fleetmap_core::mission::{MissionItem, MissionType};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::mission::{
-    MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,
-    compare_items,
+    ItemsDiffer, MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp,
+    MissionOutcome, compare_items,
 };
 use fleetmap_core::time::Time;
 use mavlink::MavHeader;
@@ -250,7 +250,7 @@ pub enum RoundTripFailure {
     /// Both transfers succeeded but the items read back differ from those sent
     /// ([`compare_items`]'s description of the first difference).
     #[error("read back differs: {0}")]
-    Differs(String),
+    Differs(ItemsDiffer),
     /// The download succeeded without producing items.
     #[error("download produced {0:?}")]
     NotDownloaded(MissionOutcome),

@@ -11,7 +11,7 @@ use fleetmap_core::vision::VisionError;
 pub(super) enum NotCounted {
     /// It matches no capture visit of the sortie (the state's reason).
     #[error("{0}")]
-    NoVisit(String),
+    NoVisit(fleetmap_core::planner::sortie::ImageMismatch),
     /// Its capture was counted already.
     #[error("already counted")]
     AlreadyCounted,

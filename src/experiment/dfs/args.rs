@@ -31,17 +31,20 @@ impl fmt::Display for SpeedRatio {
     }
 }
 
+/// A speed ratio that is neither a number greater than 1 nor `static` (the text given).
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+#[error("speed ratio {0:?}: expected a number greater than 1 (S_r > S_p) or \"static\"")]
+pub struct BadSpeedRatio(pub String);
+
 impl FromStr for SpeedRatio {
-    type Err = String;
-    fn from_str(s: &str) -> Result<Self, String> {
+    type Err = BadSpeedRatio;
+    fn from_str(s: &str) -> Result<Self, BadSpeedRatio> {
         if s.eq_ignore_ascii_case("static") || s.eq_ignore_ascii_case("inf") {
             return Ok(SpeedRatio::Static);
         }
         match s.parse::<f64>() {
             Ok(r) if r.is_finite() && r > 1.0 => Ok(SpeedRatio::Ratio(r)),
-            _ => Err(format!(
-                "speed ratio {s:?}: expected a number greater than 1 (S_r > S_p) or \"static\""
-            )),
+            _ => Err(BadSpeedRatio(s.to_string())),
         }
     }
 }

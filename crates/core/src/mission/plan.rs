@@ -228,18 +228,33 @@ fn line_of_key(text: &str, needle: &str) -> usize {
         .map_or(0, |i| text[..i].matches('\n').count() + 1)
 }
 
-fn check_latlon(lat: f64, lon: f64) -> Result<(), String> {
+/// What is wrong with one position or item of a plan file; [`parse_plan`] adds where it is
+/// ([`PlanError::Invalid`]).
+#[derive(Debug, thiserror::Error)]
+enum ItemError {
+    /// A latitude outside ±90° (or not a number).
+    #[error("latitude {0} is out of range (±90°)")]
+    Latitude(f64),
+    /// A longitude outside ±180° (or not a number).
+    #[error("longitude {0} is out of range (±180°)")]
+    Longitude(f64),
+    /// A `SimpleItem` whose fields do not read.
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+}
+
+fn check_latlon(lat: f64, lon: f64) -> Result<(), ItemError> {
     if !(lat.is_finite() && lat.abs() <= 90.0) {
-        return Err(format!("latitude {lat} is out of range (±90°)"));
+        return Err(ItemError::Latitude(lat));
     }
     if !(lon.is_finite() && lon.abs() <= 180.0) {
-        return Err(format!("longitude {lon} is out of range (±180°)"));
+        return Err(ItemError::Longitude(lon));
     }
     Ok(())
 }
 
-fn simple_item(v: &Value) -> Result<(MissionItem, Option<i64>), String> {
-    let s: SimpleJ = serde_json::from_value(v.clone()).map_err(|e| e.to_string())?;
+fn simple_item(v: &Value) -> Result<(MissionItem, Option<i64>), ItemError> {
+    let s: SimpleJ = serde_json::from_value(v.clone())?;
     let p = |i: usize| s.params[i].unwrap_or(f64::NAN);
     let global = is_global_frame(s.frame);
     let (x, y) = if global {
@@ -496,7 +511,7 @@ pub fn parse_plan(text: &str) -> Result<Plan, PlanError> {
             && let (Some(lat), Some(lon)) = (b[0], b[1])
         {
             check_latlon(lat, lon)
-                .map_err(|m| invalid(line_of_key(text, "\"breachReturn\""), m))?;
+                .map_err(|m| invalid(line_of_key(text, "\"breachReturn\""), m.to_string()))?;
             let mut it = MissionItem::at(
                 FENCE_RETURN_POINT,
                 lat,

@@ -183,22 +183,26 @@ fn same_f32(a: f32, b: f32, tol: f32) -> bool {
 ///   ([`px4_position_param`]);
 /// * `current` and `autocontinue` are not compared (the vehicle sets them).
 ///
-/// Returns a description of the first difference: the item, the field, both values.
+/// Returns the first difference: the item, the field, both values.
 pub fn compare_items(
     sent: &[MissionItem],
     got: &[MissionItem],
     ardupilot: bool,
-) -> Result<(), String> {
+) -> Result<(), ItemsDiffer> {
     if sent.len() != got.len() {
-        return Err(format!(
-            "{} items sent, {} read back",
-            sent.len(),
-            got.len()
-        ));
+        return Err(ItemsDiffer::Count {
+            sent: sent.len(),
+            got: got.len(),
+        });
     }
     for (i, (a, b)) in sent.iter().zip(got).enumerate() {
         let diff = |what: &str, x: String, y: String| {
-            Err(format!("item {i}: {what} sent {x}, read back {y}"))
+            Err(ItemsDiffer::Field {
+                item: i,
+                field: what.to_string(),
+                sent: x,
+                got: y,
+            })
         };
         if a.command != b.command {
             return diff("command", a.command.to_string(), b.command.to_string());
@@ -247,6 +251,31 @@ pub fn compare_items(
         }
     }
     Ok(())
+}
+
+/// The first difference [`compare_items`] finds between a list sent and the list read back.
+#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
+pub enum ItemsDiffer {
+    /// The lists have different lengths.
+    #[error("{sent} items sent, {got} read back")]
+    Count {
+        /// Items sent.
+        sent: usize,
+        /// Items read back.
+        got: usize,
+    },
+    /// An item differs in one field.
+    #[error("item {item}: {field} sent {sent}, read back {got}")]
+    Field {
+        /// The item's index.
+        item: usize,
+        /// The field: "command", "frame", "x/y", "z", "param1" … "param4".
+        field: String,
+        /// The value sent.
+        sent: String,
+        /// The value read back.
+        got: String,
+    },
 }
 
 /// What ArduPilot reads back for parameter `n` (1–4) sent as `p` where it keeps only a
@@ -311,14 +340,14 @@ pub fn home_placeholder() -> MissionItem {
 }
 
 /// User items → wire items for a list of `kind` (home prepended and DO_JUMP shifted when
-/// `home_item`; seq, current, addressing to `target` (system id, component id) and mission
-/// type set).
-pub(crate) fn build_wire(
+/// `home_item`; seq, current and mission type set). The items are not addressed yet
+/// (`target_system` and `target_component` 0): the mission client addresses them to its
+/// vehicle's endpoint.
+pub fn build_wire(
     kind: MissionType,
     items: &[MissionItem],
     home: Option<&MissionItem>,
     home_item: bool,
-    target: (u8, u8),
 ) -> Result<Vec<MISSION_ITEM_INT_DATA>, WireError> {
     let offset = home_item && kind == MissionType::Mission;
     let mut user: Vec<MissionItem> = Vec::with_capacity(items.len() + 1);
@@ -341,8 +370,6 @@ pub(crate) fn build_wire(
         let mut w = item_to_wire(it, index)?;
         w.seq = i as u16;
         w.current = u8::from(i == 0);
-        w.target_system = target.0;
-        w.target_component = target.1;
         w.mission_type = mav_type(kind);
         wire.push(w);
     }
@@ -405,7 +432,7 @@ mod tests {
         let wp = MissionItem::waypoint(37.1968, -80.5781, 6.0);
         assert_eq!(compare_items(&[wp, rtl], &[wp, stored], true), Ok(()));
         assert_eq!(
-            compare_items(&[rtl], &[stored], false),
+            compare_items(&[rtl], &[stored], false).map_err(|e| e.to_string()),
             Err("item 0: frame sent 3, read back 0".to_string())
         );
         // NAV_LAND param4 and NAV_LOITER_TIME param3 come back as a direction, ±1
@@ -437,7 +464,7 @@ mod tests {
         let mut moved = wp;
         moved.x += 10;
         assert_eq!(
-            compare_items(&[wp], &[moved], true),
+            compare_items(&[wp], &[moved], true).map_err(|e| e.to_string()),
             Err("item 0: x/y sent 371968000/-805781000, read back 371968010/-805781000".into())
         );
     }
@@ -469,7 +496,7 @@ mod tests {
         let mut held = wp_back;
         held.param1 = 3.0;
         assert_eq!(
-            compare_items(&[wp], &[held], false),
+            compare_items(&[wp], &[held], false).map_err(|e| e.to_string()),
             Err("item 0: param1 sent 0, read back 3".to_string())
         );
         let mut turned = takeoff_back;
@@ -489,7 +516,7 @@ mod tests {
             MissionItem::waypoint(-35.362993, 149.165237, 20.0),
             unknown,
         ];
-        let e = build_wire(MissionType::Mission, &items, None, true, (1, 1))
+        let e = build_wire(MissionType::Mission, &items, None, true)
             .expect_err("command 116 cannot be encoded");
         assert_eq!(
             e,

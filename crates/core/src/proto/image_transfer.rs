@@ -38,6 +38,7 @@
 //! [`ImageReceiver::poll_transmit`] returns to the camera, and take complete images from
 //! [`ImageReceiver::poll_event`].
 
+use crate::proto::Endpoint;
 use crate::time::Time;
 use crate::vision::meta::{ImageMeta, read_meta};
 use mavlink::dialects::ardupilotmega as mav;
@@ -146,8 +147,8 @@ pub(crate) const DONE_KEPT: usize = 16;
 /// Reassembles the images of one camera (one system/component). See the module docs.
 #[derive(Clone, Debug)]
 pub struct ImageReceiver {
-    camera: (u8, u8),
-    me: (u8, u8),
+    camera: Endpoint,
+    me: Endpoint,
     config: ReceiverConfig,
     /// The image whose packets arrive now (the last one announced).
     current: Option<Transfer>,
@@ -181,8 +182,8 @@ impl Transfer {
 }
 
 impl ImageReceiver {
-    /// A receiver for the camera `camera` = (sysid, compid), answering as `me` (the GCS).
-    pub fn new(camera: (u8, u8), me: (u8, u8), config: ReceiverConfig) -> ImageReceiver {
+    /// A receiver for the camera `camera`, answering as `me` (the GCS).
+    pub fn new(camera: Endpoint, me: Endpoint, config: ReceiverConfig) -> ImageReceiver {
         ImageReceiver {
             camera,
             me,
@@ -202,7 +203,7 @@ impl ImageReceiver {
 
     /// Feed a message received from `from` = (sysid, compid) at `now`; returns whether it
     /// was part of an image transfer from this camera.
-    pub fn handle_message(&mut self, from: (u8, u8), msg: &MavMessage, now: Time) -> bool {
+    pub fn handle_message(&mut self, from: Endpoint, msg: &MavMessage, now: Time) -> bool {
         if from != self.camera {
             return false;
         }
@@ -421,8 +422,8 @@ impl ImageReceiver {
         self.events.pop_front()
     }
 
-    /// The GCS identity this receiver answers as (sysid, compid).
-    pub fn me(&self) -> (u8, u8) {
+    /// The GCS identity this receiver answers as.
+    pub fn me(&self) -> Endpoint {
         self.me
     }
 }
@@ -497,8 +498,8 @@ mod tests {
     #[test]
     fn reassembles_and_recovers_lost_packets() {
         let data: Vec<u8> = (0..1000u32).map(|i| (i * 7 % 251) as u8).collect();
-        let cam = (1, 100);
-        let mut r = ImageReceiver::new(cam, (255, 190), ReceiverConfig::default());
+        let cam = Endpoint::new(1, 100);
+        let mut r = ImageReceiver::new(cam, Endpoint::gcs(), ReceiverConfig::default());
         let msgs = packets(&data);
         // first pass loses packets 1 and 3
         for (i, m) in msgs.iter().enumerate() {
@@ -530,7 +531,7 @@ mod tests {
             other => panic!("{other:?}"),
         }
         // other senders are ignored
-        assert!(!r.handle_message((2, 100), &msgs[0], t));
+        assert!(!r.handle_message(Endpoint::new(2, 100), &msgs[0], t));
     }
 
     fn request_size(m: Option<MavMessage>) -> Option<u32> {
@@ -547,8 +548,8 @@ mod tests {
     /// the re-send.
     #[test]
     fn an_interrupted_image_is_asked_for_while_the_camera_goes_on() {
-        let cam = (1, 100);
-        let mut r = ImageReceiver::new(cam, (255, 190), ReceiverConfig::default());
+        let cam = Endpoint::new(1, 100);
+        let mut r = ImageReceiver::new(cam, Endpoint::gcs(), ReceiverConfig::default());
         let a: Vec<u8> = (0..1000u32).map(|i| (i % 13) as u8).collect();
         let b: Vec<u8> = (0..3000u32).map(|i| (i % 7) as u8).collect();
         let c: Vec<u8> = (0..900u32).map(|i| (i % 5) as u8).collect();
@@ -608,9 +609,9 @@ mod tests {
     /// new picture (or goes quiet), and the picture is lost after the retries, not before.
     #[test]
     fn a_camera_that_never_re_sends_loses_the_picture_after_the_retries() {
-        let cam = (1, 100);
+        let cam = Endpoint::new(1, 100);
         let cfg = ReceiverConfig::default();
-        let mut r = ImageReceiver::new(cam, (255, 190), cfg);
+        let mut r = ImageReceiver::new(cam, Endpoint::gcs(), cfg);
         let a = packets(&[3u8; 800]);
         r.handle_message(cam, &a[0], Time::ZERO);
         let mut t = Time::ZERO;
@@ -643,8 +644,8 @@ mod tests {
     /// no request feeds a loop of re-sends.
     #[test]
     fn a_re_send_nobody_needed_is_not_asked_for() {
-        let cam = (1, 100);
-        let mut r = ImageReceiver::new(cam, (255, 190), ReceiverConfig::default());
+        let cam = Endpoint::new(1, 100);
+        let mut r = ImageReceiver::new(cam, Endpoint::gcs(), ReceiverConfig::default());
         let a: Vec<u8> = (0..700u32).map(|i| (i % 11) as u8).collect();
         let pa = packets(&a);
         for m in &pa {
@@ -670,8 +671,8 @@ mod tests {
 
     #[test]
     fn gives_up_after_the_retries() {
-        let cam = (1, 100);
-        let mut r = ImageReceiver::new(cam, (255, 190), ReceiverConfig::default());
+        let cam = Endpoint::new(1, 100);
+        let mut r = ImageReceiver::new(cam, Endpoint::gcs(), ReceiverConfig::default());
         r.handle_message(cam, &packets(&[1u8; 600])[0], Time::ZERO);
         let mut t = Time::ZERO;
         for _ in 0..6 {

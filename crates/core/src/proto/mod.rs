@@ -71,6 +71,13 @@ impl Endpoint {
     }
 }
 
+impl From<(u8, u8)> for Endpoint {
+    /// The endpoint of a (system id, component id) pair.
+    fn from((sysid, compid): (u8, u8)) -> Endpoint {
+        Endpoint::new(sysid, compid)
+    }
+}
+
 impl std::fmt::Display for Endpoint {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         write!(f, "{}:{}", self.sysid, self.compid)

@@ -37,13 +37,36 @@ pub struct FolderPicture {
     pub image: RgbImage,
 }
 
+/// Why the picture folder cannot be used. Both name the folder.
+#[derive(Debug, thiserror::Error)]
+pub enum PictureFolderError {
+    /// The folder cannot be read (missing, no permission, …).
+    #[error("picture folder {}: {source}", dir.display())]
+    Unreadable {
+        /// The folder.
+        dir: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The path is not a directory.
+    #[error("picture folder {}: not a directory", dir.display())]
+    NotADirectory {
+        /// The path.
+        dir: PathBuf,
+    },
+}
+
 impl FolderSource {
     /// Pictures from `dir`, which must be a readable directory.
-    pub fn new(dir: &Path, wait: Duration) -> anyhow::Result<FolderSource> {
-        let meta = std::fs::metadata(dir)
-            .map_err(|e| anyhow::anyhow!("picture folder {}: {e}", dir.display()))?;
+    pub fn new(dir: &Path, wait: Duration) -> Result<FolderSource, PictureFolderError> {
+        let meta = std::fs::metadata(dir).map_err(|source| PictureFolderError::Unreadable {
+            dir: dir.to_path_buf(),
+            source,
+        })?;
         if !meta.is_dir() {
-            anyhow::bail!("picture folder {}: not a directory", dir.display());
+            return Err(PictureFolderError::NotADirectory {
+                dir: dir.to_path_buf(),
+            });
         }
         Ok(FolderSource {
             dir: dir.to_path_buf(),
@@ -79,10 +102,16 @@ impl FolderSource {
 
     /// The next picture (blocking: lists the folder, reads and decodes a file, and waits up
     /// to [`FolderSource::wait`] for a new one). `Ok(None)`: none appeared in time.
-    pub fn next_picture(&mut self) -> anyhow::Result<Option<FolderPicture>> {
+    pub fn next_picture(&mut self) -> Result<Option<FolderPicture>, PictureFolderError> {
         let start = Instant::now();
         loop {
-            for path in self.unused()? {
+            let unused = self
+                .unused()
+                .map_err(|source| PictureFolderError::Unreadable {
+                    dir: self.dir.clone(),
+                    source,
+                })?;
+            for path in unused {
                 self.used.insert(path.clone());
                 let read = std::fs::read(&path)
                     .map_err(|e| e.to_string())

@@ -69,7 +69,7 @@ impl ArduPilotState {
     pub(super) fn count(
         &mut self,
         core: &mut Core,
-        from: (u8, u8),
+        from: Endpoint,
         t: MissionType,
         count: u16,
         now: Time,
@@ -132,7 +132,7 @@ impl ArduPilotState {
         core.outbox.push_back(request_msg(from, 0, t, false));
     }
 
-    fn complete(core: &mut Core, to: (u8, u8), t: MissionType) {
+    fn complete(core: &mut Core, to: Endpoint, t: MissionType) {
         if t == MissionType::Mission {
             core.outbox.push_back(text(
                 mav::MavSeverity::MAV_SEVERITY_INFO,
@@ -154,7 +154,7 @@ impl ArduPilotState {
     pub(super) fn item(
         &mut self,
         core: &mut Core,
-        from: (u8, u8),
+        from: Endpoint,
         rx: RxItem,
         current: u8,
         now: Time,
@@ -269,7 +269,7 @@ impl ArduPilotState {
         }
     }
 
-    pub(super) fn request_list(&mut self, core: &mut Core, from: (u8, u8), t: MissionType) {
+    pub(super) fn request_list(&mut self, core: &mut Core, from: Endpoint, t: MissionType) {
         if self.uploads[idx(t)].is_some() {
             core.outbox.push_back(ack_to(
                 from,
@@ -291,7 +291,7 @@ impl ArduPilotState {
     pub(super) fn request(
         &mut self,
         core: &mut Core,
-        from: (u8, u8),
+        from: Endpoint,
         t: MissionType,
         seq: u16,
         int: bool,
@@ -358,7 +358,7 @@ impl ArduPilotState {
 
     /// MISSION_CLEAR_ALL: one list, refused (MAV_MISSION_ERROR) during its upload or, for
     /// the mission, while it runs; MAV_MISSION_TYPE_ALL is not supported.
-    pub(super) fn clear_all(&mut self, core: &mut Core, from: (u8, u8), t: mav::MavMissionType) {
+    pub(super) fn clear_all(&mut self, core: &mut Core, from: Endpoint, t: mav::MavMissionType) {
         let Some(mt) = mtype(t) else {
             core.outbox.push_back(ack_raw(
                 from,

@@ -29,14 +29,14 @@ impl Transfer {
     pub(super) fn on_request(
         &mut self,
         core: &mut Core,
-        from: (u8, u8),
-        target: (u8, u8),
+        from: Endpoint,
+        target: Endpoint,
         mission_type: mav::MavMissionType,
         seq: u16,
         int: bool,
         now: Time,
     ) {
-        let Some(t) = self.accept_target(core, target.0, target.1, mission_type) else {
+        let Some(t) = self.accept_target(core, target.sysid, target.compid, mission_type) else {
             return;
         };
         match self {
@@ -87,14 +87,14 @@ pub(super) fn is_for_me(core: &Core, mission_planner: bool, sys: u8, comp: u8) -
 /// MISSION_ACK with `result` to `to` for the wire mission type `t` (also the ones
 /// [`MissionType`] does not name, such as MAV_MISSION_TYPE_ALL).
 pub(super) fn ack_raw(
-    to: (u8, u8),
+    to: Endpoint,
     t: mav::MavMissionType,
     result: mav::MavMissionResult,
     opaque_id: u32,
 ) -> MavMessage {
     MavMessage::MISSION_ACK(mav::MISSION_ACK_DATA {
-        target_system: to.0,
-        target_component: to.1,
+        target_system: to.sysid,
+        target_component: to.compid,
         mavtype: result,
         mission_type: t,
         opaque_id,
@@ -103,7 +103,7 @@ pub(super) fn ack_raw(
 
 /// MISSION_ACK with `result` to `to` for list `t`; `opaque_id` is PX4's CRC-32 (0 otherwise).
 pub(super) fn ack_to(
-    to: (u8, u8),
+    to: Endpoint,
     t: MissionType,
     result: mav::MavMissionResult,
     opaque_id: u32,
@@ -112,30 +112,30 @@ pub(super) fn ack_to(
 }
 
 /// MISSION_REQUEST_INT (`int`) or MISSION_REQUEST for item `seq` of list `t`.
-pub(super) fn request_msg(to: (u8, u8), seq: u16, t: MissionType, int: bool) -> MavMessage {
+pub(super) fn request_msg(to: Endpoint, seq: u16, t: MissionType, int: bool) -> MavMessage {
     if int {
         MavMessage::MISSION_REQUEST_INT(mav::MISSION_REQUEST_INT_DATA {
             seq,
-            target_system: to.0,
-            target_component: to.1,
+            target_system: to.sysid,
+            target_component: to.compid,
             mission_type: wire_type(t),
         })
     } else {
         MavMessage::MISSION_REQUEST(mav::MISSION_REQUEST_DATA {
             seq,
-            target_system: to.0,
-            target_component: to.1,
+            target_system: to.sysid,
+            target_component: to.compid,
             mission_type: wire_type(t),
         })
     }
 }
 
 /// MISSION_COUNT of list `t` (the answer to MISSION_REQUEST_LIST).
-pub(super) fn count_msg(to: (u8, u8), t: MissionType, count: u16, opaque_id: u32) -> MavMessage {
+pub(super) fn count_msg(to: Endpoint, t: MissionType, count: u16, opaque_id: u32) -> MavMessage {
     MavMessage::MISSION_COUNT(mav::MISSION_COUNT_DATA {
         count,
-        target_system: to.0,
-        target_component: to.1,
+        target_system: to.sysid,
+        target_component: to.compid,
         mission_type: wire_type(t),
         opaque_id,
     })
@@ -144,7 +144,7 @@ pub(super) fn count_msg(to: (u8, u8), t: MissionType, count: u16, opaque_id: u32
 /// MISSION_ITEM_INT (`int`) or MISSION_ITEM for item `seq` of list `t`; in MISSION_ITEM,
 /// x/y are degrees when `xy_degrees` (the autopilot's `float_xy_is_degrees`), else as stored.
 pub(super) fn item_msg(
-    to: (u8, u8),
+    to: Endpoint,
     t: MissionType,
     seq: u16,
     item: &MissionItem,
@@ -164,8 +164,8 @@ pub(super) fn item_msg(
             z: item.z,
             seq,
             command,
-            target_system: to.0,
-            target_component: to.1,
+            target_system: to.sysid,
+            target_component: to.compid,
             frame,
             current: u8::from(item.current),
             autocontinue: u8::from(item.autocontinue),
@@ -190,8 +190,8 @@ pub(super) fn item_msg(
             z: item.z,
             seq,
             command,
-            target_system: to.0,
-            target_component: to.1,
+            target_system: to.sysid,
+            target_component: to.compid,
             frame,
             current: u8::from(item.current),
             autocontinue: u8::from(item.autocontinue),

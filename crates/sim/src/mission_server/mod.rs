@@ -55,6 +55,7 @@
 
 use crate::flavour::SimAutopilot;
 use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::proto::Endpoint;
 use fleetmap_core::time::Time;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
@@ -202,7 +203,7 @@ struct ArduPilotState {
 
 #[derive(Clone, Debug)]
 struct ApUpload {
-    partner: (u8, u8),
+    partner: Endpoint,
     request_i: u16,
     request_last: u16,
     last_receive: Time,
@@ -225,7 +226,7 @@ enum Px4Phase {
 struct Px4State {
     phase: Px4Phase,
     mission_type: MissionType,
-    partner: (u8, u8),
+    partner: Endpoint,
     transfer_seq: u16,
     transfer_count: u16,
     transfer_items: Vec<MissionItem>,
@@ -270,7 +271,7 @@ fn text(severity: mav::MavSeverity, s: &str) -> MavMessage {
 #[derive(Clone, Copy, Debug)]
 struct RxItem {
     seq: u16,
-    target: (u8, u8),
+    target: Endpoint,
     mission_type: MissionType,
     item: MissionItem,
     /// Lat/lon were floats (MISSION_ITEM).
@@ -434,10 +435,7 @@ impl MissionServer {
     /// Handle one received message. Returns `true` when it belonged to the mission protocol
     /// (whether or not it was addressed to this vehicle).
     pub fn handle_message(&mut self, header: &MavHeader, msg: &MavMessage, now: Time) -> bool {
-        let from = (
-            u8::try_from(header.system_id).unwrap_or(u8::MAX),
-            header.component_id,
-        );
+        let from = Endpoint::of(header);
         let core = &mut self.core;
         match msg {
             MavMessage::MISSION_COUNT(m) => {
@@ -456,7 +454,7 @@ impl MissionServer {
             MavMessage::MISSION_ITEM_INT(m) => {
                 let rx = RxItem {
                     seq: m.seq,
-                    target: (m.target_system, m.target_component),
+                    target: Endpoint::new(m.target_system, m.target_component),
                     mission_type: mtype(m.mission_type).unwrap_or(MissionType::Mission),
                     item: MissionItem {
                         frame: m.frame as u8,
@@ -503,7 +501,7 @@ impl MissionServer {
                 };
                 let rx = RxItem {
                     seq: m.seq,
-                    target: (m.target_system, m.target_component),
+                    target: Endpoint::new(m.target_system, m.target_component),
                     mission_type: mtype(m.mission_type).unwrap_or(MissionType::Mission),
                     item: MissionItem {
                         frame: m.frame as u8,
@@ -538,12 +536,12 @@ impl MissionServer {
                 }
             }
             MavMessage::MISSION_REQUEST_INT(m) => {
-                let target = (m.target_system, m.target_component);
+                let target = Endpoint::new(m.target_system, m.target_component);
                 self.transfer
                     .on_request(core, from, target, m.mission_type, m.seq, true, now);
             }
             MavMessage::MISSION_REQUEST(m) => {
-                let target = (m.target_system, m.target_component);
+                let target = Endpoint::new(m.target_system, m.target_component);
                 self.transfer
                     .on_request(core, from, target, m.mission_type, m.seq, false, now);
             }
@@ -582,9 +580,12 @@ impl MissionServer {
         true
     }
 
-    fn handle_item(&mut self, from: (u8, u8), rx: RxItem, current: u8, now: Time) {
+    fn handle_item(&mut self, from: Endpoint, rx: RxItem, current: u8, now: Time) {
         let core = &mut self.core;
-        if !self.transfer.is_for_me(core, rx.target.0, rx.target.1) {
+        if !self
+            .transfer
+            .is_for_me(core, rx.target.sysid, rx.target.compid)
+        {
             return;
         }
         match &mut self.transfer {

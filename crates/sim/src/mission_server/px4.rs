@@ -8,7 +8,7 @@ use super::*;
 /// `send_mission_ack` in `mavlink_mission.cpp`).
 fn refuse(
     core: &mut Core,
-    to: (u8, u8),
+    to: Endpoint,
     t: MissionType,
     statustext: &str,
     result: mav::MavMissionResult,
@@ -21,7 +21,7 @@ fn refuse(
 /// PX4's answer to a MISSION_REQUEST(_INT) it did not expect during a download: the
 /// download ends, MISSION_ACK ERROR, then "WPM: REJ. CMD: Req. WP was unexpected" (this
 /// branch acknowledges before the text).
-fn unexpected_request(core: &mut Core, to: (u8, u8), t: MissionType) {
+fn unexpected_request(core: &mut Core, to: Endpoint, t: MissionType) {
     core.outbox
         .push_back(ack_to(to, t, mav::MavMissionResult::MAV_MISSION_ERROR, 0));
     core.outbox.push_back(text(
@@ -35,7 +35,7 @@ impl Px4State {
         Px4State {
             phase: Px4Phase::Idle,
             mission_type: MissionType::Mission,
-            partner: (0, 0),
+            partner: Endpoint::new(0, 0),
             transfer_seq: 0,
             transfer_count: 0,
             transfer_items: Vec::new(),
@@ -104,7 +104,7 @@ impl Px4State {
     }
 
     /// Request item `seq` of list `t` from `to`, in the GCS's int mode.
-    fn send_request(&mut self, core: &mut Core, to: (u8, u8), seq: u16, t: MissionType, now: Time) {
+    fn send_request(&mut self, core: &mut Core, to: Endpoint, seq: u16, t: MissionType, now: Time) {
         self.last_sent = Some(now);
         core.outbox
             .push_back(request_msg(to, seq, t, self.int_mode));
@@ -113,7 +113,7 @@ impl Px4State {
     pub(super) fn count(
         &mut self,
         core: &mut Core,
-        from: (u8, u8),
+        from: Endpoint,
         t: MissionType,
         count: u16,
         now: Time,
@@ -197,7 +197,7 @@ impl Px4State {
         self.send_request(core, partner, seq, mt, now);
     }
 
-    pub(super) fn item(&mut self, core: &mut Core, from: (u8, u8), rx: RxItem, now: Time) {
+    pub(super) fn item(&mut self, core: &mut Core, from: Endpoint, rx: RxItem, now: Time) {
         if from != self.partner {
             core.outbox.push_back(text(
                 mav::MavSeverity::MAV_SEVERITY_CRITICAL,
@@ -292,7 +292,7 @@ impl Px4State {
     pub(super) fn request_list(
         &mut self,
         core: &mut Core,
-        from: (u8, u8),
+        from: Endpoint,
         t: MissionType,
         now: Time,
     ) {
@@ -327,7 +327,7 @@ impl Px4State {
     pub(super) fn request(
         &mut self,
         core: &mut Core,
-        from: (u8, u8),
+        from: Endpoint,
         t: MissionType,
         seq: u16,
         now: Time,
@@ -377,7 +377,7 @@ impl Px4State {
     pub(super) fn ack(
         &mut self,
         core: &mut Core,
-        from: (u8, u8),
+        from: Endpoint,
         m: &mav::MISSION_ACK_DATA,
         now: Time,
     ) {
@@ -412,7 +412,7 @@ impl Px4State {
     pub(super) fn clear_all(
         &mut self,
         core: &mut Core,
-        from: (u8, u8),
+        from: Endpoint,
         t: mav::MavMissionType,
         now: Time,
     ) {

@@ -103,7 +103,12 @@ impl ClassificationState {
                 .map(|cycles| {
                     cycles
                         .iter()
-                        .map(|steps| steps.iter().map(|&c| layout.planner_to_mission(c)).collect())
+                        .map(|steps| {
+                            steps
+                                .iter()
+                                .map(|&c| layout.planner_to_mission(c))
+                                .collect()
+                        })
                         .collect()
                 })
                 .collect()

@@ -3,6 +3,38 @@
 
 use super::*;
 
+/// Why an image counts for no capture visit ([`ClassificationState::match_image`]).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum ImageMismatch {
+    /// No sortie is flying.
+    #[error("no sortie is flying")]
+    NoSortie,
+    /// The vehicle (sysid) is not a drone of the sortie flying.
+    #[error("vehicle {0} is not a drone of this sortie")]
+    NotADrone(u8),
+    /// The image was taken too far from the centre of its cell.
+    #[error("taken {off_m:.1} m from the centre of cell {cell} (more than {tolerance_m:.1} m)")]
+    OffCentre {
+        /// The cell the image was taken over.
+        cell: Cell,
+        /// Its distance from the cell's centre (m).
+        off_m: f64,
+        /// The largest distance that counts (m).
+        tolerance_m: f64,
+    },
+    /// The cell's capture visits have all their images.
+    #[error("cell {cell} already has its {batch} images for this visit")]
+    VisitFull {
+        /// The cell.
+        cell: Cell,
+        /// Images per visit (B).
+        batch: u32,
+    },
+    /// The cell is not visited to capture in this sortie.
+    #[error("cell {0} is not a capture cell of this sortie")]
+    NotACaptureCell(Cell),
+}
+
 impl ClassificationState {
     /// The capture visit an image taken by `sysid` at (`east_m`, `north_m`) (grid metres)
     /// belongs to: `(visit index, cell)`, or why it does not count.
@@ -11,13 +43,13 @@ impl ClassificationState {
         sysid: u8,
         east_m: f64,
         north_m: f64,
-    ) -> Result<(usize, Cell), String> {
-        let c = self.cycle().ok_or("no sortie is flying")?;
+    ) -> Result<(usize, Cell), ImageMismatch> {
+        let c = self.cycle().ok_or(ImageMismatch::NoSortie)?;
         let leg = c
             .drones
             .iter()
             .find(|d| d.sysid == sysid)
-            .ok_or_else(|| format!("vehicle {sysid} is not a drone of this sortie"))?;
+            .ok_or(ImageMismatch::NotADrone(sysid))?;
         let cell = self.grid.cell_of_xy(east_m, north_m);
         let s = self.grid.cell_size();
         let (dx, dy) = (
@@ -26,11 +58,11 @@ impl ClassificationState {
         );
         let off = dx.hypot(dy) / s;
         if off > self.params.capture_tolerance {
-            return Err(format!(
-                "taken {:.1} m from the centre of cell {cell} (more than {:.1} m)",
-                off * s,
-                self.params.capture_tolerance * s
-            ));
+            return Err(ImageMismatch::OffCentre {
+                cell,
+                off_m: off * s,
+                tolerance_m: self.params.capture_tolerance * s,
+            });
         }
         let batch = self.params.batch;
         leg.captures
@@ -39,9 +71,9 @@ impl ClassificationState {
             .map(|i| (i, cell))
             .ok_or_else(|| {
                 if leg.captures.iter().any(|v| v.cell == cell) {
-                    format!("cell {cell} already has its {batch} images for this visit")
+                    ImageMismatch::VisitFull { cell, batch }
                 } else {
-                    format!("cell {cell} is not a capture cell of this sortie")
+                    ImageMismatch::NotACaptureCell(cell)
                 }
             })
     }

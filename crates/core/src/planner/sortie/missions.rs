@@ -360,14 +360,62 @@ pub struct AreaRules<'a> {
     pub roads: Option<&'a [Cell]>,
 }
 
+/// The first violation [`check_mission`] finds in a mission, naming the item (its index in
+/// the list).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum UnsafeMission {
+    /// The item's position has no place on the grid.
+    #[error("item {item}: {source}")]
+    Position {
+        /// The item's index.
+        item: usize,
+        /// Why the grid cannot place it.
+        source: GeoError,
+    },
+    /// The item is outside the search area.
+    #[error("item {item} at cell {cell} is outside the search area")]
+    Outside {
+        /// The item's index.
+        item: usize,
+        /// Its cell.
+        cell: Cell,
+    },
+    /// The item is in a no-fly cell.
+    #[error("item {item} is in no-fly cell {cell}")]
+    NoFly {
+        /// The item's index.
+        item: usize,
+        /// Its cell.
+        cell: Cell,
+    },
+    /// A station's item is off the roads.
+    #[error("item {item} at cell {cell} is off the roads")]
+    OffRoad {
+        /// The item's index.
+        item: usize,
+        /// Its cell.
+        cell: Cell,
+    },
+    /// The straight leg to the item crosses a no-fly cell.
+    #[error("the leg to item {item} (cell {cell}) crosses no-fly cell {crossed}")]
+    LegCrosses {
+        /// The item's index.
+        item: usize,
+        /// Its cell.
+        cell: Cell,
+        /// The no-fly cell the leg crosses.
+        crossed: Cell,
+    },
+}
+
 /// Check an uploaded (or read-back) mission of a vehicle starting at cell `start` (see the
-/// module documentation): a description of the first violation, naming the item.
+/// module documentation): the first violation, naming the item.
 pub fn check_mission(
     grid: &Grid,
     rules: &AreaRules<'_>,
     start: Cell,
     items: &[MissionItem],
-) -> Result<(), String> {
+) -> Result<(), UnsafeMission> {
     let s = grid.cell_size();
     let obstacles: BTreeSet<Cell> = rules.obstacles.iter().copied().collect();
     let roads: Option<BTreeSet<Cell>> = rules.roads.map(|r| r.iter().copied().collect());
@@ -394,7 +442,7 @@ pub fn check_mission(
         }
         let (e, n) = grid
             .to_xy(LatLon::new(it.lat(), it.lon()))
-            .map_err(|e| format!("item {i}: {e}"))?;
+            .map_err(|source| UnsafeMission::Position { item: i, source })?;
         let p = (e / s, n / s);
         let cell = grid.cell_of_xy(e, n);
         let inside = cell.row >= 0
@@ -402,22 +450,22 @@ pub fn check_mission(
             && (cell.row as u32) < rules.rows
             && (cell.col as u32) < rules.cols;
         if !inside {
-            return Err(format!(
-                "item {i} at cell {cell} is outside the search area"
-            ));
+            return Err(UnsafeMission::Outside { item: i, cell });
         }
         if obstacles.contains(&cell) {
-            return Err(format!("item {i} is in no-fly cell {cell}"));
+            return Err(UnsafeMission::NoFly { item: i, cell });
         }
         if let Some(r) = &roads
             && !r.contains(&cell)
         {
-            return Err(format!("item {i} at cell {cell} is off the roads"));
+            return Err(UnsafeMission::OffRoad { item: i, cell });
         }
         if let Some((c, _)) = boxes.iter().find(|(_, b)| segment_hits_box(here, p, *b)) {
-            return Err(format!(
-                "the leg to item {i} (cell {cell}) crosses no-fly cell {c}"
-            ));
+            return Err(UnsafeMission::LegCrosses {
+                item: i,
+                cell,
+                crossed: *c,
+            });
         }
         here = p;
     }
@@ -535,21 +583,29 @@ mod tests {
             MissionItem::waypoint(p.lat, p.lon, 10.0)
         };
         // (0,0) → (0,2) goes straight through (0,1)
-        let e = check_mission(&g, &rules, Cell::new(0, 0), &[wp(0, 2)]).unwrap_err();
+        let e = check_mission(&g, &rules, Cell::new(0, 0), &[wp(0, 2)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("crosses no-fly cell (0, 1)"), "{e}");
         // (2,0) → (2,1) → (2,2) is clear; (1,0) → (2,1) passes the corner of (1,1)
         assert!(check_mission(&g, &rules, Cell::new(2, 0), &[wp(2, 1), wp(2, 2)]).is_ok());
         assert!(check_mission(&g, &rules, Cell::new(1, 0), &[wp(2, 1)]).is_ok());
-        let e = check_mission(&g, &rules, Cell::new(2, 0), &[wp(1, 1)]).unwrap_err();
+        let e = check_mission(&g, &rules, Cell::new(2, 0), &[wp(1, 1)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("no-fly cell (1, 1)"), "{e}");
-        let e = check_mission(&g, &rules, Cell::new(2, 0), &[wp(3, 0)]).unwrap_err();
+        let e = check_mission(&g, &rules, Cell::new(2, 0), &[wp(3, 0)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("outside the search area"), "{e}");
         let roads = [Cell::new(2, 0), Cell::new(2, 1)];
         let station = AreaRules {
             roads: Some(&roads),
             ..rules.clone()
         };
-        let e = check_mission(&g, &station, Cell::new(2, 0), &[wp(2, 1), wp(2, 2)]).unwrap_err();
+        let e = check_mission(&g, &station, Cell::new(2, 0), &[wp(2, 1), wp(2, 2)])
+            .unwrap_err()
+            .to_string();
         assert!(e.contains("off the roads"), "{e}");
     }
 

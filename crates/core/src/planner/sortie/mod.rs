@@ -43,6 +43,7 @@ pub mod missions;
 mod records;
 
 pub use layout::{Layout, Member, SortiePlan, TeamConfig};
+pub use measure::ImageMismatch;
 pub use records::*;
 
 use crate::geo::{Cell, Grid as GeoGrid};

@@ -87,6 +87,7 @@ fn fly(s: &mut ClassificationState, key: &mut i32) {
                 assert!(
                     s.match_image(d.sysid, e, n)
                         .unwrap_err()
+                        .to_string()
                         .contains("already has")
                 );
             }
@@ -275,7 +276,10 @@ fn lock_step_holds_the_drones_that_are_ahead() {
 fn cells_flip_between_mission_and_planner_indexing() {
     let s = state(HARDWARE, None);
     assert_eq!(s.layout.to_planner(Cell::new(5, 0)), Cell::new(0, 0));
-    assert_eq!(s.layout.planner_to_mission(Cell::new(0, 0)), Cell::new(5, 0));
+    assert_eq!(
+        s.layout.planner_to_mission(Cell::new(0, 0)),
+        Cell::new(5, 0)
+    );
     let g = s.layout.planner_grid().unwrap();
     // the road column 1 and mission row 3 (planner row 2), as in tests/scenarios/hardware-6x6.json
     assert!(g.is_station_ok(g.index(Cell::new(2, 4)).unwrap()));

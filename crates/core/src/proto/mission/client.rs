@@ -230,14 +230,12 @@ impl MissionClient {
         let name = op.name();
         let kind = match op {
             MissionOp::Upload { kind, items, home } => {
-                match build_wire(
-                    kind,
-                    &items,
-                    home.as_ref(),
-                    self.peer.home_item,
-                    (self.peer.target.sysid, self.peer.target.compid),
-                ) {
-                    Ok(wire) => {
+                match build_wire(kind, &items, home.as_ref(), self.peer.home_item) {
+                    Ok(mut wire) => {
+                        for w in &mut wire {
+                            w.target_system = self.peer.target.sysid;
+                            w.target_component = self.peer.target.compid;
+                        }
                         let n = wire.len();
                         ActiveKind::Upload(Upload {
                             kind,

@@ -103,8 +103,8 @@ mod types;
 mod upload;
 
 pub use crate::mission::wire::{
-    compare_items, home_placeholder, is_global_frame, item_from_wire, item_int_from_float,
-    normalize_frame,
+    ItemsDiffer, compare_items, home_placeholder, is_global_frame, item_from_wire,
+    item_int_from_float, normalize_frame,
 };
 pub use client::MissionClient;
 pub use types::{

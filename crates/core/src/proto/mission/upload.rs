@@ -269,7 +269,9 @@ impl Upload {
                     result: MissionResultCode(r),
                     seq: u.last_sent,
                 }),
-                None => Err(MissionError::Unconfirmed { detail }),
+                None => Err(MissionError::Unconfirmed {
+                    detail: detail.to_string(),
+                }),
             },
         }
     }

@@ -44,6 +44,7 @@ pub use frame::{
 pub use stats::{LinkStats, SourceStats};
 
 use super::signing::{IFLAG_SIGNED, Rejection, SIGNATURE_LEN, Signing};
+use fleetmap_core::proto::Endpoint;
 use frame::{HDR_V1, HDR_V2};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkVersion, Message};
@@ -75,7 +76,7 @@ impl StreamBuffer {
 pub struct Codec {
     buf: Vec<u8>,
     pos: usize,
-    tx_seq: HashMap<(u8, u8), u8>,
+    tx_seq: HashMap<Endpoint, u8>,
     signing: Option<Signing>,
     stats: LinkStats,
 }
@@ -299,7 +300,11 @@ impl Codec {
     }
 
     fn note_source(&mut self, sysid: u8, compid: u8, seq: u8) {
-        let s = self.stats.sources.entry((sysid, compid)).or_default();
+        let s = self
+            .stats
+            .sources
+            .entry(Endpoint::new(sysid, compid))
+            .or_default();
         if s.frames > 0 {
             let gap = seq.wrapping_sub(s.last_seq.wrapping_add(1));
             if gap < 128 {
@@ -317,12 +322,12 @@ impl Codec {
     /// Restart the sequence numbers of a source at 0 (a simulated reboot).
     #[cfg(test)]
     pub(crate) fn reset_sequence(&mut self, sysid: u8, compid: u8) {
-        self.tx_seq.remove(&(sysid, compid));
+        self.tx_seq.remove(&Endpoint::new(sysid, compid));
     }
 
     /// The next sequence number for source (`sysid`, `compid`) (and advance it).
     pub(crate) fn next_sequence(&mut self, sysid: u8, compid: u8) -> u8 {
-        let s = self.tx_seq.entry((sysid, compid)).or_insert(0);
+        let s = self.tx_seq.entry(Endpoint::new(sysid, compid)).or_insert(0);
         let v = *s;
         *s = s.wrapping_add(1);
         v

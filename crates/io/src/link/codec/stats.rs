@@ -1,6 +1,7 @@
 //! Receive and transmit statistics of one codec (one link), with the per-source
 //! sequence-gap loss.
 
+use fleetmap_core::proto::Endpoint;
 use std::collections::HashMap;
 
 /// Per (sysid, compid) receive statistics.
@@ -54,13 +55,13 @@ pub struct LinkStats {
     pub(crate) replayed: u64,
     /// Unsigned frames dropped while signing is required.
     pub unsigned_dropped: u64,
-    /// Per source (sysid, compid).
+    /// Per source endpoint; serialized with keys `"sysid:compid"`.
     #[serde(serialize_with = "ser_sources")]
-    pub sources: HashMap<(u8, u8), SourceStats>,
+    pub sources: HashMap<Endpoint, SourceStats>,
 }
 
 fn ser_sources<S: serde::Serializer>(
-    m: &HashMap<(u8, u8), SourceStats>,
+    m: &HashMap<Endpoint, SourceStats>,
     s: S,
 ) -> Result<S::Ok, S::Error> {
     use serde::ser::SerializeMap;
@@ -68,7 +69,7 @@ fn ser_sources<S: serde::Serializer>(
     keys.sort_unstable();
     let mut map = s.serialize_map(Some(keys.len()))?;
     for k in keys {
-        map.serialize_entry(&format!("{}:{}", k.0, k.1), &m[&k])?;
+        map.serialize_entry(&format!("{}:{}", k.sysid, k.compid), &m[&k])?;
     }
     map.end()
 }

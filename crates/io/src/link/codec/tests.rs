@@ -78,7 +78,10 @@ fn round_trip_v1_v2_with_garbage_and_bad_crc() {
     assert_eq!(s.bad_crc, 1);
     assert!(s.garbage_bytes >= 4);
     // seq 0, then (bad seq 1 lost), then seq 2 from source (1,1).
-    assert_eq!(s.sources[&(1, 1)].lost, 1);
+    assert_eq!(
+        s.sources[&fleetmap_core::proto::Endpoint::new(1, 1)].lost,
+        1
+    );
     assert_eq!(s.frames_in, 3);
 }
 
