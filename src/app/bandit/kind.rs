@@ -138,7 +138,10 @@ impl RunKind for Classification {
         // The runner reads the operator's pause as a `watch`.
         let (pause_tx, pause_rx) = watch::channel(false);
         let mut operator = attached.operator;
-        let relay = tokio::spawn(async move {
+        // Ends with the flight (the operator's sender outlives it): dropping the set stops it,
+        // also when the flight itself is dropped.
+        let mut relay = tokio::task::JoinSet::new();
+        relay.spawn(async move {
             while let Some(Pause(p)) = operator.recv().await {
                 let _ = pause_tx.send(p);
             }
@@ -149,7 +152,7 @@ impl RunKind for Classification {
             ..options
         };
         let r = Self::fly(fleet, run_dir, state, options, Some(attached.progress)).await;
-        relay.abort();
+        relay.shutdown().await;
         r
     }
 
