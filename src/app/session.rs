@@ -19,6 +19,7 @@
 //!
 //! The UI never waits on any of them: it only reads the latest model and queues commands.
 
+use crate::app::error::RunError;
 use crate::app::flight;
 use crate::app::kind::{Attached, CommandReply, Outcome, RunKind};
 use crate::app::run::Progress;
@@ -125,7 +126,7 @@ impl<K: RunKind> MissionCommands for Operators<K> {
 /// waits for the operator; its run directory; the task relaying its states to the view
 /// (it ends once the run has dropped its view sender; dropping the set stops it).
 type Driven = (
-    anyhow::Result<Option<String>>,
+    Result<Option<String>, RunError>,
     std::path::PathBuf,
     JoinSet<()>,
 );
@@ -297,7 +298,7 @@ pub async fn run(
     fleet: FleetHandle,
     mission: Option<SessionRun>,
     cfg: SessionConfig,
-) -> anyhow::Result<SessionEnd> {
+) -> Result<SessionEnd, RunError> {
     if let Err(e) = fleet.set_snapshot_period(ui_snapshot_period(&fleet)).await {
         tracing::warn!("the fleet did not take the UI's snapshot period: {e}");
     }
@@ -454,7 +455,7 @@ impl Controls {
 fn log_end(
     shared: &Shared,
     now: fleetmap_core::time::Time,
-    result: anyhow::Result<Option<String>>,
+    result: Result<Option<String>, RunError>,
     path: &std::path::Path,
 ) {
     let (severity, line) = match result {
@@ -472,7 +473,7 @@ fn log_end(
         }
         Ok(Some(waiting)) => (Severity::Warning, waiting),
         Err(e) => {
-            let msg = format!("{e:#}");
+            let msg = crate::app::error::chain(&e);
             tracing::error!("the run stopped: {msg}");
             if let Ok(mut i) = shared.info.lock() {
                 i.failed = Some(msg.clone());

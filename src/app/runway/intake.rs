@@ -2,6 +2,7 @@
 //! (on a blocking thread), and a visit's pictures with their retakes and camera faults.
 
 use super::*;
+use crate::app::error::CpuError;
 use fleetmap_core::vision::VisionError;
 
 pub(super) fn labels5(c: &Classification) -> [bool; 5] {
@@ -92,12 +93,10 @@ pub fn classify_cut(
 /// reactor: on a blocking thread in a multi-threaded runtime; inline in a current-thread one
 /// (the virtual-clock tests, where a blocking thread would let virtual time run on while it
 /// works).
-pub async fn cpu<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> anyhow::Result<T> {
+pub async fn cpu<T: Send + 'static>(f: impl FnOnce() -> T + Send + 'static) -> Result<T, CpuError> {
     match tokio::runtime::Handle::current().runtime_flavor() {
         tokio::runtime::RuntimeFlavor::CurrentThread => Ok(f()),
-        _ => tokio::task::spawn_blocking(f)
-            .await
-            .context("classifier task"),
+        _ => tokio::task::spawn_blocking(f).await.map_err(CpuError),
     }
 }
 
