@@ -175,13 +175,47 @@ pub fn chain(e: &(dyn std::error::Error + 'static)) -> String {
     let mut line = e.to_string();
     let mut cause = e.source();
     while let Some(c) = cause {
-        let text = c.to_string();
-        // A transparent wrapper prints its cause already.
-        if !line.ends_with(&text) {
-            line.push_str(": ");
-            line.push_str(&text);
-        }
+        line.push_str(": ");
+        line.push_str(&c.to_string());
         cause = c.source();
     }
     line
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use anyhow::Context as _;
+
+    /// A runner's error keeps its whole context chain through [`RunError`]: the command
+    /// line (anyhow's `{:#}`) and the session's log ([`chain`]) print the line they printed
+    /// when the runner's error reached them directly.
+    #[test]
+    fn a_runners_error_reads_the_same_through_run_error() {
+        let inner: Result<(), std::io::Error> = Err(std::io::Error::other("disk full"));
+        let runner = inner
+            .context("writing the run journal")
+            .context("vehicle 3: pilot task failed")
+            .unwrap_err();
+        let expected = format!("{runner:#}");
+        let typed = RunError::from(runner);
+        assert_eq!(chain(&typed), expected);
+        assert_eq!(format!("{:#}", anyhow::Error::from(typed)), expected);
+    }
+
+    /// A typed error names its vehicle and keeps the fleet's answer as its cause.
+    #[test]
+    fn a_silent_vehicle_is_named_with_the_fleets_answer() {
+        let e = RunError::NotHeard {
+            sysid: 9,
+            wait_s: 5.0,
+            source: FleetError::NoVehicle { sysid: 9 },
+        };
+        let line = chain(&e);
+        assert!(
+            line.starts_with("no heartbeat from system 9 within 5 s: "),
+            "{line}"
+        );
+        assert_eq!(format!("{:#}", anyhow::Error::from(e)), line);
+    }
 }
