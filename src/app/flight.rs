@@ -13,6 +13,7 @@ use fleetmap_core::geo::local;
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::Command;
 use fleetmap_core::proto::flavour::takeoff_reached;
+use fleetmap_core::time::Time;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use std::sync::Arc;
 use std::time::Duration;
@@ -339,8 +340,10 @@ pub async fn capture(
     patience: Patience,
 ) -> Result<Captured, FlightError> {
     use mavlink::dialects::ardupilotmega::MavMessage;
+    // Every instant on the fleet's clock, the one the links and the vehicles' timeouts use.
+    let clock = fleet.clock();
     let wait = patience.secs(10.0);
-    let started = tokio::time::Instant::now();
+    let started = clock.now();
     let longest = started + patience.secs(CAPTURE_MAX_WAIT_S);
     let mut frames = fleet.subscribe();
     drain_images(rx);
@@ -351,7 +354,7 @@ pub async fn capture(
     // The pictures announced since the command (the camera's, and any other component's),
     // and the last image whose announcement has not been seen.
     let mut announced: Vec<(u32, i32)> = Vec::new();
-    let mut early: Option<(Arc<ReceivedImage>, tokio::time::Instant)> = None;
+    let mut early: Option<(Arc<ReceivedImage>, Time)> = None;
     let mut deadline = started + wait;
     loop {
         // An image came and nothing was announced since the command: its announcement, sent
@@ -360,6 +363,7 @@ pub async fn capture(
             Some((_, at)) if announced.is_empty() => deadline.min(*at + patience.secs(1.0)),
             _ => deadline,
         };
+        let left = clock.wall_until(until);
         tokio::select! {
             biased;
             f = frames.recv() => match f {
@@ -372,7 +376,7 @@ pub async fn capture(
                         }
                     }
                     Ok(MavMessage::ENCAPSULATED_DATA(_) | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)) => {
-                        deadline = (tokio::time::Instant::now() + wait).min(longest);
+                        deadline = (clock.now() + wait).min(longest);
                     }
                     _ => {}
                 },
@@ -384,13 +388,15 @@ pub async fn capture(
                     Some(k) if announced.contains(&k) => return Ok(Captured { image, at_trigger }),
                     // Announced before the command (an earlier picture still in transfer), or
                     // its announcement is still on the way.
-                    Some(_) => early = Some((image, tokio::time::Instant::now())),
+                    Some(_) => early = Some((image, clock.now())),
                     None => return Ok(Captured { image, at_trigger }),
                 },
                 Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
                 Err(broadcast::error::RecvError::Closed) => return Err(FlightError::ImagesClosed),
             },
-            _ = tokio::time::sleep_until(until) => break,
+            // The wall time until `until` on the fleet's clock (a lower bound when it
+            // follows a simulator: waking early only goes round the loop again).
+            _ = tokio::time::sleep(left) => if left.is_zero() || clock.now() >= until { break },
         }
     }
     // Nothing was announced: a camera that does not announce its pictures.
@@ -402,7 +408,7 @@ pub async fn capture(
     Err(FlightError::NoImage {
         sysid,
         seq,
-        waited_s: started.elapsed().as_secs_f64(),
+        waited_s: clock.now().saturating_since(started).as_secs_f64(),
     })
 }
 

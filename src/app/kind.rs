@@ -6,6 +6,7 @@
 //! `spatial-classification`). A run directory remembers its kind; the commands dispatch on
 //! it once, through the registry [`crate::app::kinds`].
 
+use crate::app::error::RunError;
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
@@ -142,7 +143,7 @@ pub trait RunKind: Send + Sync + 'static {
     fn sysids(state: &Self::State) -> Vec<u8>;
 
     /// The runner's options for `settings` (checked: a clear error for a bad value).
-    fn options(settings: &RunSettings) -> anyhow::Result<Self::Options>;
+    fn options(settings: &RunSettings) -> Result<Self::Options, RunError>;
     /// A new run's state for `def`, once its vehicles are heard on `fleet` (waits up to `wait`
     /// for each).
     fn new_state(
@@ -150,7 +151,7 @@ pub trait RunKind: Send + Sync + 'static {
         def: &MissionDef,
         settings: &RunSettings,
         wait: Duration,
-    ) -> impl Future<Output = anyhow::Result<Self::State>> + Send;
+    ) -> impl Future<Output = Result<Self::State, RunError>> + Send;
     /// What to tell the operator about a new run in `dir`.
     fn started_line(dir: &std::path::Path, state: &Self::State) -> String;
     /// Make a saved state ready to fly again: wait up to `wait` for its vehicles, and (unless
@@ -161,7 +162,7 @@ pub trait RunKind: Send + Sync + 'static {
         state: &mut Self::State,
         settings: &RunSettings,
         wait: Duration,
-    ) -> impl Future<Output = anyhow::Result<String>> + Send;
+    ) -> impl Future<Output = Result<String, RunError>> + Send;
 
     /// Fly the run to its end (or until the operator is needed), sending progress to
     /// `progress`. Returns how it ended and the state it ended in.
@@ -171,7 +172,7 @@ pub trait RunKind: Send + Sync + 'static {
         state: Self::State,
         options: Self::Options,
         progress: Option<mpsc::UnboundedSender<Progress>>,
-    ) -> impl Future<Output = anyhow::Result<(Outcome, Self::State)>> + Send;
+    ) -> impl Future<Output = Result<(Outcome, Self::State), RunError>> + Send;
     /// Fly the run in the TUI session ([`crate::app::session`]): like [`RunKind::fly`], with
     /// the state published after every change and the operator's mission-level commands
     /// (those [`RunKind::command`] sent) taken as they come.
@@ -181,7 +182,7 @@ pub trait RunKind: Send + Sync + 'static {
         state: Self::State,
         options: Self::Options,
         attached: Attached<Self>,
-    ) -> impl Future<Output = anyhow::Result<(Outcome, Self::State)>> + Send;
+    ) -> impl Future<Output = Result<(Outcome, Self::State), RunError>> + Send;
     /// What the operator's `command` to `target` (the vehicles `targets`) means for a
     /// running run of this kind: a mission-level command sent on `operator` and the reply,
     /// a refusal, or `None` when the command goes to the vehicles themselves.
@@ -195,7 +196,7 @@ pub trait RunKind: Send + Sync + 'static {
     fn view(state: &Self::State) -> RunView<'_>;
 
     /// The report, scored against `world`'s ground truth when there is one.
-    fn report(state: &Self::State, world: Option<&World>) -> anyhow::Result<Self::Report>;
+    fn report(state: &Self::State, world: Option<&World>) -> Result<Self::Report, RunError>;
     /// Figures of the journal for the JSON report (`journal_records`, …).
     fn journal_figures(events: &[Self::Event]) -> serde_json::Map<String, serde_json::Value>;
     /// The report as text lines (`fleetmap report`, the end of a headless run).
@@ -205,18 +206,19 @@ pub trait RunKind: Send + Sync + 'static {
         state: &Self::State,
         world: Option<&World>,
         format: ExportFormat,
-    ) -> anyhow::Result<(&'static str, Vec<u8>)>;
+    ) -> Result<(&'static str, Vec<u8>), RunError>;
 }
 
 /// Wait up to `wait` for vehicle `sysid`'s heartbeat (a clear error when it stays silent).
-pub async fn heard(fleet: &FleetHandle, sysid: u8, wait: Duration) -> anyhow::Result<()> {
-    use anyhow::Context as _;
-    fleet.wait_vehicle(sysid, wait).await.with_context(|| {
-        format!(
-            "no heartbeat from system {sysid} within {:.0} s",
-            wait.as_secs_f64()
-        )
-    })?;
+pub async fn heard(fleet: &FleetHandle, sysid: u8, wait: Duration) -> Result<(), RunError> {
+    fleet
+        .wait_vehicle(sysid, wait)
+        .await
+        .map_err(|source| RunError::NotHeard {
+            sysid,
+            wait_s: wait.as_secs_f64(),
+            source,
+        })?;
     Ok(())
 }
 
@@ -226,7 +228,7 @@ pub(crate) fn write_exports<K: RunKind>(
     run_dir: &RunDir,
     state: &K::State,
     world: Option<&World>,
-) -> anyhow::Result<Vec<PathBuf>> {
+) -> Result<Vec<PathBuf>, RunError> {
     K::EXPORTS
         .iter()
         .map(|f| {
@@ -240,7 +242,7 @@ pub(crate) fn write_exports<K: RunKind>(
 pub fn report_json<K: RunKind>(
     report: &K::Report,
     events: &[K::Event],
-) -> anyhow::Result<serde_json::Value> {
+) -> Result<serde_json::Value, RunError> {
     let mut v = serde_json::to_value(report)?;
     if let Some(o) = v.as_object_mut() {
         o.extend(K::journal_figures(events));
@@ -249,7 +251,7 @@ pub fn report_json<K: RunKind>(
 }
 
 /// Encode `img` as PNG bytes.
-pub(crate) fn png_bytes(img: &image::RgbImage) -> anyhow::Result<Vec<u8>> {
+pub(crate) fn png_bytes(img: &image::RgbImage) -> Result<Vec<u8>, RunError> {
     let mut buf = std::io::Cursor::new(Vec::new());
     img.write_to(&mut buf, image::ImageFormat::Png)?;
     Ok(buf.into_inner())

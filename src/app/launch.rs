@@ -9,13 +9,13 @@
 //! simulated world, which is kept in the run directory as `world.toml` so that `fleetmap
 //! report` scores it later wherever the run directory goes.
 
+use crate::app::error::RunError;
 use crate::app::kind::{Outcome, RunKind, RunSettings, write_exports};
 use crate::app::run::Progress;
 use crate::app::runway::cpu;
 use crate::app::session::{OnFinish, SessionConfig, SessionEnd, SessionRun};
 use crate::fleet::FleetHandle;
 use crate::store::{RunDir, RunMeta};
-use anyhow::Context as _;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;
 use std::path::{Path, PathBuf};
@@ -44,9 +44,8 @@ pub(crate) struct NewRun {
 
 impl NewRun {
     /// A new run of the mission file `path` (read by [`fleetmap_io::files::read_mission`]).
-    pub(crate) fn from_file(path: &Path) -> anyhow::Result<NewRun> {
-        let (text, def) =
-            fleetmap_io::files::read_mission(path).map_err(|e| anyhow::anyhow!("{e}"))?;
+    pub(crate) fn from_file(path: &Path) -> Result<NewRun, RunError> {
+        let (text, def) = fleetmap_io::files::read_mission(path)?;
         Ok(NewRun {
             def,
             text,
@@ -59,7 +58,7 @@ impl NewRun {
 
     /// Fly over the world in the file `path` (read and checked by
     /// [`fleetmap_io::files::read_world`]; copied into the run directory).
-    pub(crate) fn with_world_file(mut self, path: &Path) -> anyhow::Result<NewRun> {
+    pub(crate) fn with_world_file(mut self, path: &Path) -> Result<NewRun, RunError> {
         let (text, _) = fleetmap_io::files::read_world(path)?;
         self.world_toml = Some(text);
         Ok(self)
@@ -124,7 +123,7 @@ pub(crate) async fn prepare<K: RunKind>(
     start: Start,
     settings: &RunSettings,
     wait: Duration,
-) -> anyhow::Result<Ready<K>> {
+) -> Result<Ready<K>, RunError> {
     let options = K::options(settings)?;
     match start {
         Start::New(new) => {
@@ -133,15 +132,13 @@ pub(crate) async fn prepare<K: RunKind>(
             let (dir, meta) = new.plan(K::KIND, connections, fleetmap_io::clock::unix_ms());
             let line = K::started_line(&dir, &state);
             let (text, world) = (new.text, new.world_toml);
-            let run_dir = cpu(move || -> anyhow::Result<RunDir> {
-                let run_dir = RunDir::create(&dir, meta, Some(&text)).with_context(|| {
-                    format!("cannot create the run directory {}", dir.display())
-                })?;
+            let run_dir = cpu(move || -> Result<RunDir, RunError> {
+                let run_dir = RunDir::create(&dir, meta, Some(&text))
+                    .map_err(|source| RunError::CreateRunDir { path: dir, source })?;
                 if let Some(w) = world {
-                    fleetmap_io::files::atomic_write(
-                        &run_dir.path().join(WORLD_FILE),
-                        w.as_bytes(),
-                    )?;
+                    let path = run_dir.path().join(WORLD_FILE);
+                    fleetmap_io::files::atomic_write(&path, w.as_bytes())
+                        .map_err(|source| RunError::Write { path, source })?;
                 }
                 Ok(run_dir)
             })
@@ -155,12 +152,12 @@ pub(crate) async fn prepare<K: RunKind>(
         }
         Start::Resume(run_dir) => {
             let run_dir = *run_dir;
-            let (at, path) = (run_dir.path().to_path_buf(), run_dir.path().display());
+            let (at, path) = (run_dir.path().to_path_buf(), run_dir.path().to_path_buf());
             let loaded =
                 cpu(move || RunDir::open(&at).and_then(|rd| rd.load_state::<K::State>())).await??;
-            let mut state = loaded.with_context(|| format!("{path} has no saved state yet"))?;
+            let mut state = loaded.ok_or_else(|| RunError::NoState { path: path.clone() })?;
             if K::is_finished(&state) {
-                anyhow::bail!("{path}: the run is already finished");
+                return Err(RunError::Finished { path });
             }
             let line = K::prepare_resume(fleet, &mut state, settings, wait).await?;
             Ok(Ready {
@@ -205,7 +202,7 @@ pub(crate) enum Flown<K: RunKind> {
 impl<K: RunKind> Ready<K> {
     /// Fly the run on `fleet` as `face` says. In the UI, the exports are written when the
     /// run finishes; headless, the caller writes them ([`finish_exports`]).
-    pub(crate) async fn fly(self, fleet: &FleetHandle, face: Face) -> anyhow::Result<Flown<K>> {
+    pub(crate) async fn fly(self, fleet: &FleetHandle, face: Face) -> Result<Flown<K>, RunError> {
         match face {
             Face::Headless(progress) => {
                 let (outcome, state) =
@@ -241,9 +238,9 @@ impl<K: RunKind> Ready<K> {
 pub(crate) async fn finish_exports<K: RunKind>(
     path: &Path,
     state: &K::State,
-) -> anyhow::Result<(Vec<PathBuf>, K::Report)> {
+) -> Result<(Vec<PathBuf>, K::Report), RunError> {
     let (path, state) = (path.to_path_buf(), state.clone());
-    cpu(move || -> anyhow::Result<(Vec<PathBuf>, K::Report)> {
+    cpu(move || -> Result<(Vec<PathBuf>, K::Report), RunError> {
         let run_dir = RunDir::open(&path)?;
         let world = run_world(&run_dir, None)?;
         let files = write_exports::<K>(&run_dir, &state, world.as_ref())?;
@@ -256,13 +253,13 @@ pub(crate) async fn finish_exports<K: RunKind>(
 pub(crate) fn exports_on_finish<K: RunKind>(world: Option<World>) -> OnFinish<K::State> {
     Box::new(move |rd, st| {
         if let Err(e) = write_exports::<K>(rd, st, world.as_ref()) {
-            tracing::warn!("exports: {e:#}");
+            tracing::warn!("exports: {}", crate::app::error::chain(&e));
         }
     })
 }
 
 /// The world a run was started with (`run.json` extra `world`), or `override_`.
-pub(crate) fn run_world(run: &RunDir, override_: Option<&Path>) -> anyhow::Result<Option<World>> {
+pub(crate) fn run_world(run: &RunDir, override_: Option<&Path>) -> Result<Option<World>, RunError> {
     let path = match override_ {
         Some(p) => Some(p.to_path_buf()),
         None => run
@@ -282,9 +279,10 @@ pub(crate) fn run_world(run: &RunDir, override_: Option<&Path>) -> anyhow::Resul
         }
     });
     match path {
-        Some(p) => Ok(Some(
-            fleetmap_io::files::load_world(&p).with_context(|| format!("world {}", p.display()))?,
-        )),
+        Some(p) => match fleetmap_io::files::load_world(&p) {
+            Ok(w) => Ok(Some(w)),
+            Err(source) => Err(RunError::World { path: p, source }),
+        },
         None => Ok(None),
     }
 }

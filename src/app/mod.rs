@@ -7,6 +7,7 @@
 //! | [`images`] | every image the fleet takes as one stream (MAVLink image transmission, file URLs), and the run's image hub |
 //! | [`crop`] | the centre crops of a picture both missions measure (3 × 3 cells, a share of one cell) |
 //! | [`flight`] | flight steps with timeouts: take off, fly to a point and settle, capture, land |
+//! | [`error`] | the layer's typed errors ([`error::RunError`]): what failed, on which file or vehicle, with its cause |
 //! | [`kind`] | one mission kind ([`kind::RunKind`]): what run, resume, report, export, the TUI session and the demo need of a runner |
 //! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume): events, pilot, intake, sweep, runner; its report and GeoJSON / KML / PNG exports, IoU against a simulated world |
 //! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume): events, runner, sortie, pilot, intake, upload; its report (keep / reject / errors, per-epoch figures) and the progress PNG (Fig. 4) |
@@ -17,6 +18,7 @@ pub mod bandit;
 pub mod bandit_sim;
 #[cfg(feature = "sim")]
 pub mod demo;
+pub mod error;
 pub mod flight;
 pub mod images;
 pub mod kind;
@@ -26,8 +28,8 @@ pub mod run;
 pub mod runway;
 pub(crate) mod session;
 
+use crate::app::error::RunError;
 use crate::fleet::FleetHandle;
-use anyhow::Context as _;
 use fleetmap_core::explore::Sharing;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::geo::{Grid, LatLon};
@@ -40,12 +42,16 @@ pub(crate) async fn wait_for_team(
     fleet: &FleetHandle,
     def: &MissionDef,
     wait: Duration,
-) -> anyhow::Result<()> {
+) -> Result<(), RunError> {
     for v in &def.vehicles {
         fleet
             .wait_vehicle(v.sysid, wait)
             .await
-            .with_context(|| format!("mission vehicle {} ({:?})", v.sysid, v.role))?;
+            .map_err(|source| RunError::TeamVehicle {
+                sysid: v.sysid,
+                role: format!("{:?}", v.role),
+                source,
+            })?;
     }
     Ok(())
 }
@@ -56,29 +62,25 @@ pub(crate) async fn mission_grid(
     fleet: &FleetHandle,
     def: &MissionDef,
     wait: Duration,
-) -> anyhow::Result<Grid> {
+) -> Result<Grid, RunError> {
     let origin = match def.grid.origin {
         Origin::Coordinates(p) => LatLon {
             lat: p.lat,
             lon: p.lon,
         },
         Origin::Vehicle => {
-            let first = def
-                .vehicles
-                .first()
-                .context("the mission lists no vehicles")?
-                .sysid;
+            let first = def.vehicles.first().ok_or(RunError::NoVehicles)?.sysid;
             let v = fleet
                 .wait_until(first, wait, |v| v.home.is_some())
                 .await
-                .map_err(|_| {
-                    anyhow::anyhow!(
-                        "vehicle {first} reported no home position within {:.0} s (the grid \
-                         origin is \"vehicle\"): is its GPS ready?",
-                        wait.as_secs_f64()
-                    )
+                .map_err(|_| RunError::NoHome {
+                    sysid: first,
+                    wait_s: wait.as_secs_f64(),
                 })?;
-            let h = v.home.context("no home")?;
+            let h = v.home.ok_or(RunError::NoHome {
+                sysid: first,
+                wait_s: wait.as_secs_f64(),
+            })?;
             LatLon {
                 lat: h.lat,
                 lon: h.lon,
@@ -94,7 +96,7 @@ pub async fn new_mapping(
     def: &MissionDef,
     sharing: Sharing,
     wait: Duration,
-) -> anyhow::Result<MappingState> {
+) -> Result<MappingState, RunError> {
     wait_for_team(fleet, def, wait).await?;
     let grid = mission_grid(fleet, def, wait).await?;
     Ok(MappingState::new(def, grid, sharing)?)

@@ -19,6 +19,7 @@
 //!
 //! The UI never waits on any of them: it only reads the latest model and queues commands.
 
+use crate::app::error::RunError;
 use crate::app::flight;
 use crate::app::kind::{Attached, CommandReply, Outcome, RunKind};
 use crate::app::run::Progress;
@@ -35,6 +36,12 @@ use std::pin::Pin;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::{mpsc, watch};
+use tokio::task::JoinSet;
+
+/// How long a finished run's helpers (its log relay, its view relay) may take to pass on
+/// what the run left in their channels, wall time: they end by themselves once the run has
+/// dropped its senders, so this only bounds a sender kept alive elsewhere.
+const DRAIN: Duration = Duration::from_secs(1);
 
 /// What to do with a finished run's final state `S` (write its exports).
 pub(crate) type OnFinish<S> = Box<dyn FnOnce(&RunDir, &S) + Send>;
@@ -116,11 +123,12 @@ impl<K: RunKind> MissionCommands for Operators<K> {
 }
 
 /// How a run the session flew ended: `Ok(None)` when it finished, `Ok(Some(why))` when it
-/// waits for the operator; its run directory; the task relaying its states to the view.
+/// waits for the operator; its run directory; the task relaying its states to the view
+/// (it ends once the run has dropped its view sender; dropping the set stops it).
 type Driven = (
-    anyhow::Result<Option<String>>,
+    Result<Option<String>, RunError>,
     std::path::PathBuf,
-    tokio::task::JoinHandle<()>,
+    JoinSet<()>,
 );
 
 /// The flight of an attached run, once started.
@@ -164,7 +172,8 @@ impl<K: RunKind> Attach for KindRun<K> {
         let m = *self;
         let flight = async move {
             let (vtx, mut vrx) = watch::channel(Arc::new(m.state.clone()));
-            let relay = tokio::spawn(async move {
+            let mut relay = JoinSet::new();
+            relay.spawn(async move {
                 while vrx.changed().await.is_ok() {
                     let s = vrx.borrow_and_update().clone();
                     let _ = view_tx.send(Some(Arc::new(Shown::<K>(s))));
@@ -230,14 +239,16 @@ struct Shared {
 
 /// Every `period` (wall time), a [`Model`] from the fleet's latest snapshot, the run's state
 /// and the log, published on the returned channel when it differs from the previous one
-/// (an unchanged model wakes nobody). Ends when the receiver is dropped.
+/// (an unchanged model wakes nobody). The task is spawned on `tasks`; it ends when the
+/// receiver is dropped, or with the set.
 fn spawn_model_producer(
+    tasks: &mut JoinSet<()>,
     fleet: FleetHandle,
     shared: Arc<Shared>,
     period: Duration,
-) -> (tokio::task::JoinHandle<()>, watch::Receiver<Model>) {
+) -> watch::Receiver<Model> {
     let (snap_tx, snap_rx) = watch::channel(Model::default());
-    let task = tokio::spawn(async move {
+    tasks.spawn(async move {
         let mut tick = tokio::time::interval(period);
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
         loop {
@@ -267,7 +278,7 @@ fn spawn_model_producer(
             });
         }
     });
-    (task, snap_rx)
+    snap_rx
 }
 
 /// The fleet snapshot period (on the fleet's clock) that gives the UI a fresh snapshot for
@@ -287,7 +298,7 @@ pub(crate) async fn run(
     fleet: FleetHandle,
     mission: Option<SessionRun>,
     cfg: SessionConfig,
-) -> anyhow::Result<SessionEnd> {
+) -> Result<SessionEnd, RunError> {
     if let Err(e) = fleet.set_snapshot_period(ui_snapshot_period(&fleet)).await {
         tracing::warn!("the fleet did not take the UI's snapshot period: {e}");
     }
@@ -307,9 +318,11 @@ pub(crate) async fn run(
     let mut start = Some(start_tx);
 
     // The runner: it flies once the operator STARTs it; its mission-level commands reach
-    // the executor when it does.
+    // the executor when it does. Its own set, apart from the others: a finished run is let
+    // end by itself, an unfinished one is stopped.
     let (commands_tx, commands_rx) = tokio::sync::oneshot::channel::<Box<dyn MissionCommands>>();
-    let runner = mission.map(|SessionRun(m)| {
+    let mut runner = JoinSet::new();
+    if let Some(SessionRun(m)) = mission {
         let _ = view_tx.send(Some(m.view()));
         if m.auto_start()
             && let Some(tx) = start.take()
@@ -318,7 +331,7 @@ pub(crate) async fn run(
         }
         let fleet = fleet.clone();
         let shared = shared.clone();
-        tokio::spawn(async move {
+        runner.spawn(async move {
             if start_rx.await.is_err() {
                 return;
             }
@@ -326,26 +339,34 @@ pub(crate) async fn run(
                 i.started = true;
             }
             let (ptx, mut prx) = mpsc::unbounded_channel::<Progress>();
-            let logger = {
+            // The run's helpers: stopped with this task when the session stops it.
+            let mut helpers = JoinSet::new();
+            {
                 let shared = shared.clone();
                 let fleet = fleet.clone();
-                tokio::spawn(async move {
+                helpers.spawn(async move {
                     while let Some(p) = prx.recv().await {
                         if let Ok(mut l) = shared.log.lock() {
                             l.push(fleet.clock().now(), p.severity, p.sysid, p.text);
                         }
                     }
-                })
-            };
+                });
+            }
             let (commands, flight) = m.fly(fleet.clone(), ptx, view_tx);
             let _ = commands_tx.send(commands);
-            let (result, path, relay) = flight.await;
+            let (result, path, mut relay) = flight.await;
+            // The run's last progress lines and state reach the log and the panes before
+            // the line that says how it ended.
+            let _ = tokio::time::timeout(DRAIN, async {
+                while helpers.join_next().await.is_some() {}
+                while relay.join_next().await.is_some() {}
+            })
+            .await;
+            helpers.shutdown().await;
+            relay.shutdown().await;
             log_end(&shared, fleet.clock().now(), result, &path);
-            tokio::time::sleep(Duration::from_millis(300)).await;
-            logger.abort();
-            relay.abort();
-        })
-    });
+        });
+    }
     let mut controls = Controls {
         has_run,
         start,
@@ -353,16 +374,16 @@ pub(crate) async fn run(
         commands_rx: Some(commands_rx),
     };
 
-    // The model producer.
-    let (producer, snap_rx) = spawn_model_producer(fleet.clone(), shared.clone(), REFRESH);
+    // The model producer and the command executor: stopped when the UI ends.
+    let mut tasks = JoinSet::new();
+    let snap_rx = spawn_model_producer(&mut tasks, fleet.clone(), shared.clone(), REFRESH);
 
-    // The command executor.
     let (cmd_tx, mut cmd_rx) = mpsc::channel::<CommandRequest>(32);
     let (result_tx, result_rx) = mpsc::channel::<JobResult>(32);
-    let executor = {
+    {
         let fleet = fleet.clone();
         let shared = shared.clone();
-        tokio::spawn(async move {
+        tasks.spawn(async move {
             while let Some(req) = cmd_rx.recv().await {
                 let outcome = execute(&req, &mut controls, &fleet, &shared).await;
                 if result_tx
@@ -376,8 +397,8 @@ pub(crate) async fn run(
                     return;
                 }
             }
-        })
-    };
+        });
+    }
 
     let mut app = App::new(cfg.ui, cfg.source);
     app.log_file = cfg.log_file;
@@ -393,13 +414,13 @@ pub(crate) async fn run(
         clock: fleetmap_io::clock::MonotonicClock::new(),
     };
     let result = crate::tui::run(app, io, options).await;
-    producer.abort();
-    executor.abort();
+    tasks.shutdown().await;
     let finished = shared.finished.lock().map(|f| *f).unwrap_or(false);
-    if let Some(r) = runner
-        && !finished
-    {
-        r.abort();
+    if finished {
+        // It has said how the run ended: nothing is left for it to do.
+        while runner.join_next().await.is_some() {}
+    } else {
+        runner.shutdown().await;
     }
     result?;
     Ok(SessionEnd::Quit { finished })
@@ -434,7 +455,7 @@ impl Controls {
 fn log_end(
     shared: &Shared,
     now: fleetmap_core::time::Time,
-    result: anyhow::Result<Option<String>>,
+    result: Result<Option<String>, RunError>,
     path: &std::path::Path,
 ) {
     let (severity, line) = match result {
@@ -452,7 +473,7 @@ fn log_end(
         }
         Ok(Some(waiting)) => (Severity::Warning, waiting),
         Err(e) => {
-            let msg = format!("{e:#}");
+            let msg = crate::app::error::chain(&e);
             tracing::error!("the run stopped: {msg}");
             if let Ok(mut i) = shared.info.lock() {
                 i.failed = Some(msg.clone());
@@ -601,7 +622,8 @@ mod tests {
             .await
             .expect("the fleet runs");
         let (shared, _view_tx) = shared();
-        let (producer, mut models) = spawn_model_producer(fleet.clone(), shared, REFRESH);
+        let mut tasks = JoinSet::new();
+        let mut models = spawn_model_producer(&mut tasks, fleet.clone(), shared, REFRESH);
         let n = count_models(&mut models, 10).await;
         assert!(
             (99..=101).contains(&n),
@@ -611,6 +633,6 @@ mod tests {
         fleet.shutdown().await;
         count_models(&mut models, 1).await;
         assert_eq!(count_models(&mut models, 5).await, 0);
-        producer.abort();
+        tasks.shutdown().await;
     }
 }

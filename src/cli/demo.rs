@@ -195,7 +195,7 @@ impl Demo {
             Err(e) => {
                 fleet.shutdown().await;
                 let _ = sim.stop().await;
-                return Err(e);
+                return Err(e.into());
             }
         };
         let path = ready.run_dir.path().to_path_buf();

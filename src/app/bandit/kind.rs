@@ -3,6 +3,7 @@
 
 use super::report::{self, ClassificationReport};
 use super::{BanditEvent, KIND, RunOptions};
+use crate::app::error::RunError;
 use crate::app::flight::Patience;
 use crate::app::kind::{
     Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, heard,
@@ -12,7 +13,6 @@ use crate::fleet::FleetHandle;
 use crate::store::RunDir;
 use crate::tui::live::RunView;
 use crate::tui::{Command, CommandError, Target};
-use anyhow::bail;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::planner::sortie::ClassificationState;
 use fleetmap_core::world::World;
@@ -54,11 +54,13 @@ impl RunKind for Classification {
         state.sysids()
     }
 
-    fn options(settings: &RunSettings) -> anyhow::Result<RunOptions> {
+    fn options(settings: &RunSettings) -> Result<RunOptions, RunError> {
         if let Some(t) = settings.plan_time_limit_s
             && !(t.is_finite() && t > 0.0)
         {
-            bail!("--plan-time-limit must be a positive number of seconds");
+            return Err(RunError::Option(
+                "--plan-time-limit must be a positive number of seconds".into(),
+            ));
         }
         Ok(RunOptions {
             patience: Patience {
@@ -74,8 +76,8 @@ impl RunKind for Classification {
         def: &MissionDef,
         settings: &RunSettings,
         wait: Duration,
-    ) -> anyhow::Result<ClassificationState> {
-        super::new_state(fleet, def, wait, settings.lock_step).await
+    ) -> Result<ClassificationState, RunError> {
+        Ok(super::new_state(fleet, def, wait, settings.lock_step).await?)
     }
 
     fn started_line(dir: &Path, state: &ClassificationState) -> String {
@@ -95,13 +97,13 @@ impl RunKind for Classification {
         state: &mut ClassificationState,
         _settings: &RunSettings,
         wait: Duration,
-    ) -> anyhow::Result<String> {
+    ) -> Result<String, RunError> {
         for sysid in state.sysids() {
             heard(fleet, sysid, wait).await?;
             fleet
                 .wait_until(sysid, wait, |v| v.position.is_some())
                 .await
-                .map_err(|_| anyhow::anyhow!("vehicle {sysid} reports no position"))?;
+                .map_err(|_| RunError::NoPosition { sysid })?;
         }
         Ok(format!(
             "epoch {}, {} measurements so far, keep {}, reject {}, unclassified {}",
@@ -119,7 +121,7 @@ impl RunKind for Classification {
         state: ClassificationState,
         mut options: RunOptions,
         progress: Option<mpsc::UnboundedSender<Progress>>,
-    ) -> anyhow::Result<(Outcome, ClassificationState)> {
+    ) -> Result<(Outcome, ClassificationState), RunError> {
         if progress.is_some() {
             options.progress = progress;
         }
@@ -134,11 +136,14 @@ impl RunKind for Classification {
         state: ClassificationState,
         options: RunOptions,
         attached: Attached<Self>,
-    ) -> anyhow::Result<(Outcome, ClassificationState)> {
+    ) -> Result<(Outcome, ClassificationState), RunError> {
         // The runner reads the operator's pause as a `watch`.
         let (pause_tx, pause_rx) = watch::channel(false);
         let mut operator = attached.operator;
-        let relay = tokio::spawn(async move {
+        // Ends with the flight (the operator's sender outlives it): dropping the set stops it,
+        // also when the flight itself is dropped.
+        let mut relay = tokio::task::JoinSet::new();
+        relay.spawn(async move {
             while let Some(Pause(p)) = operator.recv().await {
                 let _ = pause_tx.send(p);
             }
@@ -149,7 +154,7 @@ impl RunKind for Classification {
             ..options
         };
         let r = Self::fly(fleet, run_dir, state, options, Some(attached.progress)).await;
-        relay.abort();
+        relay.shutdown().await;
         r
     }
 
@@ -190,7 +195,7 @@ impl RunKind for Classification {
     fn report(
         state: &ClassificationState,
         world: Option<&World>,
-    ) -> anyhow::Result<ClassificationReport> {
+    ) -> Result<ClassificationReport, RunError> {
         let truth = world.map(World::green_cells);
         Ok(report::report(state, truth.as_deref()))
     }
@@ -273,7 +278,7 @@ impl RunKind for Classification {
         state: &ClassificationState,
         world: Option<&World>,
         format: ExportFormat,
-    ) -> anyhow::Result<(&'static str, Vec<u8>)> {
+    ) -> Result<(&'static str, Vec<u8>), RunError> {
         Ok(match format {
             ExportFormat::Png => {
                 let truth = world.map(World::green_cells);

@@ -169,5 +169,6 @@ struct DronePilot {
     sysid: u8,
     items: Vec<MissionItem>,
     resumed: bool,
-    deadline: tokio::time::Instant,
+    /// When the sortie must have ended, on the fleet's clock.
+    deadline: fleetmap_core::time::Time,
 }

@@ -66,7 +66,7 @@ impl DronePilot {
                     );
                 }
             }
-            if tokio::time::Instant::now() > self.deadline {
+            if self.shared.fleet.clock().now() > self.deadline {
                 anyhow::bail!("drone {sysid}: its mission did not end in time (at step {step})");
             }
             let _ = tokio::time::timeout(Duration::from_millis(500), snaps.changed()).await;
@@ -95,7 +95,7 @@ impl DronePilot {
                 );
                 told = true;
             }
-            if tokio::time::Instant::now() > self.deadline {
+            if self.shared.fleet.clock().now() > self.deadline {
                 anyhow::bail!("drone {sysid}: station {station} never reached the rendezvous");
             }
             self.shared.wait_change(Duration::from_millis(500)).await;

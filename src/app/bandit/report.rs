@@ -9,6 +9,7 @@
 //! interesting cells"); an error is a kept cell that is not green or a rejected green one
 //! (the labelling error criterion (2); Prop. 1 bounds the probability of any error by δ).
 
+use crate::app::error::PlotError;
 use fleetmap_core::geo::Cell;
 use fleetmap_core::planner::bandit::Label;
 use fleetmap_core::planner::sortie::{ClassificationState, EpochStats};
@@ -221,7 +222,7 @@ pub fn progress_png(
     truth: Option<&[Cell]>,
     width: u32,
     height: u32,
-) -> anyhow::Result<Vec<u8>> {
+) -> Result<Vec<u8>, PlotError> {
     crate::plot::register_font();
     let pts = progress(state, truth);
     let mut series: Vec<(f64, f64, f64, f64)> = vec![(0.0, 0.0, 0.0, 0.0)];
@@ -237,7 +238,7 @@ pub fn progress_png(
         ("kept cells", "rejected cells")
     };
     let mut buf = vec![0u8; (width * height * 3) as usize];
-    let err = |e: &dyn std::fmt::Display| anyhow::anyhow!("plot drawing failed: {e}");
+    let err = |e: &dyn std::fmt::Display| PlotError::Drawing(e.to_string());
     {
         let root = BitMapBackend::with_buffer(&mut buf, (width, height)).into_drawing_area();
         root.fill(&WHITE).map_err(|e| err(&e))?;
@@ -312,8 +313,7 @@ pub fn progress_png(
             .map_err(|e| err(&e))?;
         root.present().map_err(|e| err(&e))?;
     }
-    let img = image::RgbImage::from_raw(width, height, buf)
-        .ok_or_else(|| anyhow::anyhow!("plot buffer size mismatch"))?;
+    let img = image::RgbImage::from_raw(width, height, buf).ok_or(PlotError::BufferSize)?;
     let mut png = Vec::new();
     img.write_to(&mut std::io::Cursor::new(&mut png), image::ImageFormat::Png)?;
     Ok(png)

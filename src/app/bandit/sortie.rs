@@ -41,11 +41,11 @@ impl Runner {
             self.say(Progress::info(format!(
                 "drone {sysid}: charging on its station ({have} %, the sortie needs {need:.0} %)"
             )).about(sysid));
-            // Charging, or stuck: a drone whose charge does not rise for two minutes (wall
-            // clock × patience) is not on a charger.
+            // Charging, or stuck: a drone whose charge does not rise for two minutes (the
+            // fleet's clock × patience) is not on a charger.
             let stall = self.shared.patience.secs(120.0);
             let mut best = have;
-            let mut since = tokio::time::Instant::now();
+            let mut since = self.fleet().clock().now();
             loop {
                 match self
                     .fleet()
@@ -57,8 +57,8 @@ impl Runner {
                         let now_pct = v.and_then(|v| v.battery_pct).unwrap_or(-1);
                         if now_pct > best {
                             best = now_pct;
-                            since = tokio::time::Instant::now();
-                        } else if since.elapsed() > stall {
+                            since = self.fleet().clock().now();
+                        } else if self.fleet().clock().now().saturating_since(since) > stall {
                             let wh = self.nearest_station(sysid).await;
                             anyhow::bail!(
                                 "drone {sysid} is not charging (stuck at {now_pct} %, the sortie \
@@ -230,7 +230,7 @@ impl Runner {
                 .fold(60.0, f64::max)
         };
         let budget = self.shared.patience.secs(estimate * 4.0 + 300.0);
-        let deadline = tokio::time::Instant::now() + budget;
+        let deadline = self.fleet().clock().now() + budget;
         let mut pilots = tokio::task::JoinSet::new();
         for d in cycle.drones.iter().filter(|d| d.flies && !d.landed) {
             let pilot = DronePilot {
@@ -260,7 +260,7 @@ impl Runner {
                 }
                 _ = tick.tick() => {}
             }
-            if tokio::time::Instant::now() > deadline {
+            if self.fleet().clock().now() > deadline {
                 anyhow::bail!(
                     "epoch {p} cycle {}: the sortie did not end within {:.0} s",
                     cycle.k,

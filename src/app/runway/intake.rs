@@ -2,6 +2,7 @@
 //! (on a blocking thread), and a visit's pictures with their retakes and camera faults.
 
 use super::*;
+use crate::app::error::CpuError;
 use fleetmap_core::vision::VisionError;
 
 pub(super) fn labels5(c: &Classification) -> [bool; 5] {
@@ -72,12 +73,10 @@ pub(crate) fn classify_cut(
 /// works).
 pub(crate) async fn cpu<T: Send + 'static>(
     f: impl FnOnce() -> T + Send + 'static,
-) -> anyhow::Result<T> {
+) -> Result<T, CpuError> {
     match tokio::runtime::Handle::current().runtime_flavor() {
         tokio::runtime::RuntimeFlavor::CurrentThread => Ok(f()),
-        _ => tokio::task::spawn_blocking(f)
-            .await
-            .context("classifier task"),
+        _ => tokio::task::spawn_blocking(f).await.map_err(CpuError),
     }
 }
 

@@ -2,6 +2,7 @@
 
 use super::report::{self, truth_coverage, truth_outlines};
 use super::{KIND, MappingEvent, Operator, RunOptions, intake::cpu};
+use crate::app::error::RunError;
 use crate::app::flight::Patience;
 use crate::app::kind::{
     Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, heard, png_bytes,
@@ -11,7 +12,6 @@ use crate::fleet::FleetHandle;
 use crate::store::RunDir;
 use crate::tui::live::RunView;
 use crate::tui::{Command, CommandError, Target};
-use anyhow::Context as _;
 use fleetmap_core::explore::mapping::{MappingState, RobotStatus};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;
@@ -44,7 +44,7 @@ impl RunKind for Runway {
         state.robots.iter().map(|r| r.sysid).collect()
     }
 
-    fn options(settings: &RunSettings) -> anyhow::Result<RunOptions> {
+    fn options(settings: &RunSettings) -> Result<RunOptions, RunError> {
         Ok(RunOptions {
             auto_resume: settings.auto_resume,
             patience: Patience {
@@ -59,7 +59,7 @@ impl RunKind for Runway {
         def: &MissionDef,
         settings: &RunSettings,
         wait: Duration,
-    ) -> anyhow::Result<MappingState> {
+    ) -> Result<MappingState, RunError> {
         let mut state = crate::app::new_mapping(fleet, def, settings.sharing, wait).await?;
         if state.params.motion().speed() > 0.0 {
             state.roi_epoch_unix_ms = settings.roi_epoch_unix_ms;
@@ -83,7 +83,7 @@ impl RunKind for Runway {
         state: &mut MappingState,
         settings: &RunSettings,
         wait: Duration,
-    ) -> anyhow::Result<String> {
+    ) -> Result<String, RunError> {
         for r in &state.robots {
             heard(fleet, r.sysid, wait).await?;
         }
@@ -106,7 +106,7 @@ impl RunKind for Runway {
         state: MappingState,
         mut options: RunOptions,
         progress: Option<mpsc::UnboundedSender<Progress>>,
-    ) -> anyhow::Result<(Outcome, MappingState)> {
+    ) -> Result<(Outcome, MappingState), RunError> {
         if progress.is_some() {
             options.progress = progress;
         }
@@ -114,10 +114,10 @@ impl RunKind for Runway {
         let hub = crate::app::images::spawn(fleet);
         let outcome = super::run(fleet.clone(), &hub, run_dir, state, options).await?;
         // The runner saved every step; read the last one back (file I/O: off the workers).
-        let state = cpu(move || -> anyhow::Result<MappingState> {
+        let state = cpu(move || -> Result<MappingState, RunError> {
             RunDir::open(&path)?
                 .load_state()?
-                .context("the run saved no state")
+                .ok_or(RunError::NothingSaved { path })
         })
         .await??;
         Ok((outcome, state))
@@ -129,7 +129,7 @@ impl RunKind for Runway {
         state: MappingState,
         options: RunOptions,
         attached: Attached<Self>,
-    ) -> anyhow::Result<(Outcome, MappingState)> {
+    ) -> Result<(Outcome, MappingState), RunError> {
         let options = RunOptions {
             operator: Some(attached.operator),
             view: Some(attached.view),
@@ -180,7 +180,7 @@ impl RunKind for Runway {
         RunView::Mapping(state)
     }
 
-    fn report(state: &MappingState, world: Option<&World>) -> anyhow::Result<Self::Report> {
+    fn report(state: &MappingState, world: Option<&World>) -> Result<Self::Report, RunError> {
         let cov = world
             .map(|w| truth_coverage(&state.grid, w, 0.0))
             .transpose()?;
@@ -282,7 +282,7 @@ impl RunKind for Runway {
         state: &MappingState,
         world: Option<&World>,
         format: ExportFormat,
-    ) -> anyhow::Result<(&'static str, Vec<u8>)> {
+    ) -> Result<(&'static str, Vec<u8>), RunError> {
         let outlines = world.map(|w| truth_outlines(w, 0.0)).unwrap_or_default();
         Ok(match format {
             ExportFormat::Geojson => (
