@@ -380,7 +380,7 @@ impl Sim {
         }
     }
 
-    /// The operator swaps vehicle `sysid`'s battery (see [`SimVehicle::swap_battery`]).
+    /// The crew swaps vehicle `sysid`'s battery now (see [`SimVehicle::swap_battery`]).
     pub fn swap_battery(&mut self, sysid: u8) -> bool {
         let now = self.now;
         let ok = self.slot_mut(sysid).is_some_and(|s| s.v.swap_battery(now));

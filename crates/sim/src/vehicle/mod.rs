@@ -3,7 +3,7 @@
 //! ```text
 //!   handle_message(header, msg, now)   ──►  ┌────────────┐ ──► poll_transmit() → (header, msg)
 //!   step(now)                          ──►  │ SimVehicle │ ──► poll_event()    → VehicleEvent
-//!   swap_battery(now) (the operator)   ──►  └────────────┘ ──► poll_image()    → CapturedImage
+//!   swap_battery(now) (the crew)       ──►  └────────────┘ ──► poll_image()    → CapturedImage
 //! ```
 //!
 //! The vehicle integrates its motion at a fixed 20 Hz on the given timeline; it never reads a
@@ -155,9 +155,6 @@ pub const PX4_DL_LOSS_S: f64 = 10.0;
 pub const ESTIMATE_LAG_S: f64 = 1.0;
 /// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1).
 pub const AUTOPILOT_COMPID: u8 = 1;
-/// The command that stands for "the operator swapped the battery" (MAV_CMD_USER_1): accepted
-/// when the vehicle is landed and disarmed, it power-cycles the vehicle with a full battery.
-pub const CMD_BATTERY_SWAP: u16 = 31010;
 
 /// Battery failsafe levels (percent of charge left).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -214,8 +211,11 @@ pub struct VehicleConfig {
     pub seed: u64,
     /// The camera (None = no camera component).
     pub camera: Option<CameraConfig>,
-    /// Swap the battery automatically this long after the vehicle is landed and disarmed
-    /// with a used battery (the field crew's turnaround), seconds.
+    /// The field crew: swap the battery this long after the vehicle is landed and disarmed
+    /// with a used battery (below 95 %), seconds — a power cycle of
+    /// [`VehicleConfig::power_off_s`], then a boot with a full battery, as a real autopilot
+    /// sees its battery changed. `None`: nobody swaps it. No GCS command swaps a battery
+    /// (a real autopilot has none).
     pub swap_after_s: Option<f64>,
     /// PX4: arming needs a GCS heartbeat and losing it for 10 s while armed triggers RTL
     /// (NAV_DLL_ACT > 0, COM_DL_LOSS_T 10 s, as in PX4's SITL airframes).
@@ -535,9 +535,9 @@ impl SimVehicle {
         }
     }
 
-    /// The operator swaps the battery (in-process equivalent of [`CMD_BATTERY_SWAP`]):
-    /// accepted when landed and disarmed; the vehicle powers off for
-    /// `VehicleConfig::power_off_s` and boots again with a full battery.
+    /// The crew swaps the battery now, whatever [`VehicleConfig::swap_after_s`] says: done
+    /// when landed and disarmed (returns whether it was); the vehicle powers off for
+    /// [`VehicleConfig::power_off_s`] and boots again with a full battery.
     pub fn swap_battery(&mut self, now: Time) -> bool {
         self.advance(now);
         if !self.arming.landed || self.arming.armed {
