@@ -116,7 +116,7 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
     let fleet = fleet::spawn(
         vec![link],
         ev_rx,
-        bandit_sim::fleet_config(SPEEDUP),
+        fleet::FleetConfig::at_speedup(SPEEDUP),
         handle.clock(),
     );
     let state = bandit::new_state(&fleet, &def, Duration::from_secs(60), None)

@@ -20,7 +20,6 @@
 
 mod common;
 
-use fleetmap::app::bandit_sim::fleet_config;
 use fleetmap::fleet::Incoming;
 use fleetmap_core::mission::{MissionItem, MissionType};
 use fleetmap_io::clock::MonotonicClock;
@@ -104,7 +103,7 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
     let fleet = fleetmap::fleet::spawn(
         vec![link],
         ev_rx,
-        fleet_config(CEILING),
+        fleetmap::fleet::FleetConfig::at_speedup(CEILING),
         MonotonicClock::following(&sim_time),
     );
 

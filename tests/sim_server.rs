@@ -285,7 +285,8 @@ async fn camera_for_a_real_autopilot() {
 /// runs at about 2×; the fleet follows its time.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_starved_simulator_still_answers_commands_in_time() {
-    use fleetmap::app::bandit_sim::{HARDWARE_TEAM, fleet_config};
+    use fleetmap::app::bandit_sim::HARDWARE_TEAM;
+    use fleetmap::fleet::FleetConfig;
     use fleetmap_io::clock::MonotonicClock;
     use fleetmap_io::link::ConnSpec;
     use fleetmap_io::link::transport::{LinkOptions, open_link};
@@ -307,7 +308,7 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
     let fleet = fleetmap::fleet::spawn(
         vec![link],
         ev_rx,
-        fleet_config(SPEEDUP),
+        FleetConfig::at_speedup(SPEEDUP),
         MonotonicClock::following(&starved.time),
     );
     for sysid in 1..=6u8 {

@@ -8,7 +8,6 @@
 use fleetmap_core::mission::MissionItem;
 use fleetmap_core::time::Time;
 use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::vehicle::CMD_BATTERY_SWAP;
 use fleetmap_sim::{Flavour, Mode};
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
@@ -17,6 +16,8 @@ use num_traits::FromPrimitive;
 use std::time::Duration;
 
 const HOME: (f64, f64) = (37.1965, -80.5785);
+/// The simulated crew's battery turnaround in these tests, seconds after the disarm.
+const CREW_SWAP_S: f64 = 5.0;
 
 struct Gcs {
     sim: Sim,
@@ -499,6 +500,7 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
                 rtl_pct: 25.0,
                 land_pct: 8.0,
             };
+            c.vehicles[0].swap_after_s = Some(CREW_SWAP_S);
         });
         g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
             .unwrap();
@@ -556,6 +558,8 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
         // ... lands at home and disarms
         g.wait(120.0, |m| matches!(m, MavMessage::HEARTBEAT(h) if !h.base_mode.contains(mav::MavModeFlag::MAV_MODE_FLAG_SAFETY_ARMED)))
             .unwrap_or_else(|| panic!("{flavour}: not disarmed after landing: {:?} {:?}", g.texts(), g.sim.vehicle(1).unwrap().true_position()));
+        // (disarmed within the last second: the heartbeat is 1 Hz)
+        let disarmed_at = g.sim.now();
         let v = g.sim.vehicle(1).unwrap();
         let (lat, lon, u) = v.true_position();
         assert!(u < 0.01);
@@ -578,16 +582,43 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
             _ => 0,
         };
         let _ = boot_ms;
-        // the operator swaps the battery: the vehicle reboots
+        // No GCS command swaps a battery: MAV_CMD_USER_1 (which the simulator once took for
+        // "swapped") is unsupported, as ArduPilot answers it, and changes nothing.
         assert_eq!(
-            g.command(CMD_BATTERY_SWAP, [0.0; 7]),
-            mav::MavResult::MAV_RESULT_ACCEPTED
+            g.command(31010, [0.0; 7]),
+            mav::MavResult::MAV_RESULT_UNSUPPORTED
         );
-        let silent_from = g.sim.now();
+        assert_eq!(g.sim.vehicle(1).unwrap().boots(), 1, "{flavour}");
+        // The crew swaps the battery CREW_SWAP_S after the disarm (which the 1 Hz heartbeat
+        // reported up to a second late): until then the vehicle stays on with its used
+        // battery, then it powers off, then boots again.
+        let before = disarmed_at + Duration::from_secs_f64(CREW_SWAP_S - 1.5);
+        g.wait(before.saturating_since(g.sim.now()).as_secs_f64(), |_| {
+            false
+        });
+        let v = g.sim.vehicle(1).unwrap();
+        assert!(
+            v.powered() && v.boots() == 1,
+            "{flavour}: swapped before the crew came"
+        );
+        assert!(v.battery().percent() < 95, "{flavour}");
+        while g.sim.vehicle(1).unwrap().powered() {
+            assert!(
+                g.sim.now().saturating_since(disarmed_at)
+                    < Duration::from_secs_f64(CREW_SWAP_S + 1.0),
+                "{flavour}: the crew never swapped the battery"
+            );
+            g.wait(0.05, |_| false);
+        }
+        let off_at = g.sim.now();
+        assert!(
+            off_at.saturating_since(disarmed_at) >= Duration::from_secs_f64(CREW_SWAP_S - 1.5),
+            "{flavour}: swapped before the crew's turnaround"
+        );
         let hb = g.wait(10.0, |m| matches!(m, MavMessage::HEARTBEAT(_)));
         assert!(hb.is_some());
         assert!(
-            g.sim.now().saturating_since(silent_from) >= Duration::from_secs(2),
+            g.sim.now().saturating_since(off_at) >= Duration::from_secs(2),
             "power off"
         );
         let last = g.log.last().unwrap();

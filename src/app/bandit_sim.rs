@@ -87,21 +87,6 @@ pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> anyhow::Result
     Ok(sc)
 }
 
-/// The fleet configuration for a clock running `speedup` times faster than real time: every
-/// protocol timeout and the liveness window stretched by the whole speed-up (up to 25×), so
-/// they keep their real-time length in wall time — a loaded test machine delays frames by
-/// tens of milliseconds, which at 20× would be most of a simulated second.
-pub fn fleet_config(speedup: f64) -> FleetConfig {
-    let k = speedup.clamp(1.0, 25.0);
-    let mut c = FleetConfig::default();
-    c.command.timeout = c.command.timeout.mul_f64(k);
-    c.command.in_progress_timeout = c.command.in_progress_timeout.mul_f64(k);
-    c.mission.timeout = c.mission.timeout.mul_f64(k);
-    c.mission.item_timeout = c.mission.item_timeout.mul_f64(k);
-    c.liveness.lost_after = c.liveness.lost_after.mul_f64(k);
-    c
-}
-
 /// A running simulator and the fleet connected to it.
 pub struct SimFleet {
     /// The fleet (GCS side).
@@ -137,7 +122,12 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
     )
     .await
     .context("starting the simulator")?;
-    let fleet = fleet::spawn(vec![link], ev_rx, fleet_config(speedup), handle.clock());
+    let fleet = fleet::spawn(
+        vec![link],
+        ev_rx,
+        FleetConfig::at_speedup(speedup),
+        handle.clock(),
+    );
     Ok(SimFleet { fleet, sim: handle })
 }
 

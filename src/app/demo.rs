@@ -18,7 +18,7 @@ use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::transport::{LinkOptions, open_link, open_memory_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, Endpoint, GcsClock, MemorySimHandle, ServeOptions, SimHandle};
+use fleetmap_sim::server::{self, Endpoint, GcsClock, ServeOptions, SimHandle, SimTask};
 use tokio::sync::mpsc;
 
 /// The runway world (`assets/worlds/runway.toml`).
@@ -133,22 +133,6 @@ fn mission_with(base: &str, file: &str, cfg: &DemoConfig) -> anyhow::Result<(Str
     Ok((text, def))
 }
 
-/// The fleet configuration for a clock running `speedup` times faster than real time: the
-/// protocol timeouts and the liveness window are stretched (by the speed-up, at most 4×) so
-/// that they do not shrink to a few tens of wall milliseconds, which a loaded laptop cannot
-/// keep; the GCS heartbeat keeps its 1 Hz in simulated time, which is what the autopilots
-/// check.
-pub(crate) fn demo_fleet_config(speedup: f64) -> FleetConfig {
-    let k = speedup.clamp(1.0, 4.0);
-    let mut c = FleetConfig::default();
-    c.command.timeout = c.command.timeout.mul_f64(k);
-    c.command.in_progress_timeout = c.command.in_progress_timeout.mul_f64(k);
-    c.mission.timeout = c.mission.timeout.mul_f64(k);
-    c.mission.item_timeout = c.mission.item_timeout.mul_f64(k);
-    c.liveness.lost_after = c.liveness.lost_after.mul_f64(k);
-    c
-}
-
 /// A running demo simulator and the fleet connected to it.
 pub struct DemoFleet {
     /// The fleet (GCS side).
@@ -169,7 +153,7 @@ pub async fn start_virtual(
     spec: &str,
     world: World,
     cfg: &DemoConfig,
-) -> anyhow::Result<(FleetHandle, MemorySimHandle)> {
+) -> anyhow::Result<(FleetHandle, SimTask)> {
     let sim = Sim::new(sim_config(spec, world, cfg)?, Time::ZERO)?;
     let (ev_tx, ev_rx) = mpsc::channel(4096);
     let mut links = Vec::new();
@@ -210,7 +194,7 @@ pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result
 }
 
 /// [`start`] at `speed` (`Speed::Max`: as fast as the machine can; the fleet's timeouts are
-/// then stretched as for 4×), `cfg.speedup` aside.
+/// then stretched as for 4×, [`FleetConfig::at_speedup`]), `cfg.speedup` aside.
 pub(crate) async fn start_at(
     spec: &str,
     world: World,
@@ -241,7 +225,12 @@ pub(crate) async fn start_at(
     }
     drop(ev_tx);
     let ceiling = speed.ceiling().unwrap_or(4.0);
-    let fleet = fleet::spawn(links, ev_rx, demo_fleet_config(ceiling), handle.clock());
+    let fleet = fleet::spawn(
+        links,
+        ev_rx,
+        FleetConfig::at_speedup(ceiling),
+        handle.clock(),
+    );
     Ok(DemoFleet {
         fleet,
         started_unix_ms: handle.time.started_unix_ms(),

@@ -469,20 +469,6 @@ pub(crate) fn distance_home(v: &VehicleSnapshot) -> f64 {
     }
 }
 
-/// Send MAV_CMD_USER_1 to the vehicle: the simulator's "operator swapped the battery"
-/// request (a real autopilot refuses it as unsupported, which is reported as an error).
-pub(crate) async fn request_sim_swap(fleet: &FleetHandle, sysid: u8) -> Result<(), FleetError> {
-    let v = fleet
-        .vehicle(sysid)
-        .ok_or(FleetError::NoVehicle { sysid })?;
-    let cmd = Command::long(
-        Endpoint::new(sysid, v.compid),
-        MavCmd::MAV_CMD_USER_1,
-        [0.0; 7],
-    );
-    fleet.command(cmd).await.map(|_| ())
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -37,8 +37,9 @@ pub struct SimArgs {
     /// Faults of every vehicle's link, each way.
     #[command(flatten)]
     pub faults: crate::cli::relay::FaultArgs,
-    /// Swap the battery this many seconds after a vehicle is landed and disarmed with a
-    /// used battery (it then reboots). Without it the GCS asks with MAV_CMD_USER_1 (31010).
+    /// The simulated crew: swap the battery this many seconds after a vehicle is landed and
+    /// disarmed with a used battery (it then reboots, as a power-cycled autopilot does).
+    /// Without it nobody swaps: the vehicle keeps its battery (no GCS command swaps one).
     #[arg(long, value_name = "SECONDS")]
     pub(crate) swap_after: Option<f64>,
     /// Minutes of hover on a full copter battery.

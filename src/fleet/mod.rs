@@ -80,6 +80,28 @@ pub struct FleetConfig {
     pub ops: OpsConfig,
 }
 
+impl FleetConfig {
+    /// The configuration for a GCS clock running `speedup` times faster than real time (a
+    /// simulator at `--speedup`, whose time the fleet follows): every protocol timeout and
+    /// the liveness window stretched by the whole speed-up, at most 25×, so that they keep
+    /// their real-time length in wall time. Stretched less, they shrink to a few tens of wall
+    /// milliseconds, which a loaded machine cannot keep: the runway demo at 20× with
+    /// timeouts stretched only 4× saw 184 image captures time out and swapped batteries five
+    /// times as often (docs/results/runway.md, "The demo's wall time"). The GCS heartbeat
+    /// keeps its 1 Hz in the fleet's (simulated) time, which is what the autopilots check.
+    /// A speed-up of 1 or less is [`FleetConfig::default`].
+    pub fn at_speedup(speedup: f64) -> FleetConfig {
+        let k = speedup.clamp(1.0, 25.0);
+        let mut c = FleetConfig::default();
+        c.command.timeout = c.command.timeout.mul_f64(k);
+        c.command.in_progress_timeout = c.command.in_progress_timeout.mul_f64(k);
+        c.mission.timeout = c.mission.timeout.mul_f64(k);
+        c.mission.item_timeout = c.mission.item_timeout.mul_f64(k);
+        c.liveness.lost_after = c.liveness.lost_after.mul_f64(k);
+        c
+    }
+}
+
 impl Default for FleetConfig {
     fn default() -> Self {
         FleetConfig {

@@ -380,14 +380,6 @@ impl Sim {
         }
     }
 
-    /// The operator swaps vehicle `sysid`'s battery (see [`SimVehicle::swap_battery`]).
-    pub(crate) fn swap_battery(&mut self, sysid: u8) -> bool {
-        let now = self.now;
-        let ok = self.slot_mut(sysid).is_some_and(|s| s.v.swap_battery(now));
-        self.collect_outputs(now);
-        ok
-    }
-
     /// When something next happens: the next 20 Hz tick.
     pub fn poll_timeout(&self) -> Time {
         self.now + Duration::from_secs_f64(DT)

@@ -22,7 +22,7 @@ mod memory;
 mod paired;
 mod sockets;
 
-pub use memory::{MemorySimHandle, spawn_memory};
+pub use memory::spawn_memory;
 pub use paired::serve_paired;
 
 use crate::camera::CapturedImage;
@@ -461,25 +461,28 @@ where
     }
 }
 
-/// A simulation served in the background (see [`spawn`]).
+/// A simulation served on a background task, by either server: on sockets ([`spawn`], inside
+/// a [`SimHandle`]) or over in-process links ([`spawn_memory`]). Whoever started it stops it
+/// the same way whichever server it is.
 #[derive(Debug)]
-pub struct SimHandle {
-    /// Where each vehicle can be reached.
-    pub bound: Vec<Bound>,
-    /// The simulator's time and speed as it publishes them.
-    pub time: SimTime,
+pub struct SimTask {
     stop: Option<tokio::sync::oneshot::Sender<()>>,
     task: tokio::task::JoinHandle<Result<Sim, ServerError>>,
 }
 
-impl SimHandle {
-    /// A clock on the simulator's time, for a fleet in this process
-    /// ([`GcsClock::Simulator`]).
-    pub fn clock(&self) -> MonotonicClock {
-        MonotonicClock::following(&self.time)
+impl SimTask {
+    fn new(
+        stop: tokio::sync::oneshot::Sender<()>,
+        task: tokio::task::JoinHandle<Result<Sim, ServerError>>,
+    ) -> SimTask {
+        SimTask {
+            stop: Some(stop),
+            task,
+        }
     }
 
-    /// Stop serving and get the simulation back (for inspection).
+    /// Stop serving, wait for the task to end and get the simulation back (for
+    /// inspection); an error if the serve loop failed or its task panicked.
     pub async fn stop(mut self) -> Result<Sim, ServerError> {
         if let Some(s) = self.stop.take() {
             let _ = s.send(());
@@ -491,6 +494,31 @@ impl SimHandle {
                 source: std::io::Error::other(e.to_string()),
             }),
         }
+    }
+}
+
+/// A simulation served on sockets in the background (see [`spawn`]).
+#[derive(Debug)]
+pub struct SimHandle {
+    /// Where each vehicle can be reached.
+    pub bound: Vec<Bound>,
+    /// The simulator's time and speed as it publishes them.
+    pub time: SimTime,
+    /// The serving task (stopped by [`SimHandle::stop`], or on its own once the rest of the
+    /// handle is not needed).
+    pub task: SimTask,
+}
+
+impl SimHandle {
+    /// A clock on the simulator's time, for a fleet in this process
+    /// ([`GcsClock::Simulator`]).
+    pub fn clock(&self) -> MonotonicClock {
+        MonotonicClock::following(&self.time)
+    }
+
+    /// Stop serving and get the simulation back (for inspection): [`SimTask::stop`].
+    pub async fn stop(self) -> Result<Sim, ServerError> {
+        self.task.stop().await
     }
 }
 
@@ -518,8 +546,7 @@ pub async fn spawn(sim: Sim, opts: ServeOptions) -> Result<SimHandle, ServerErro
         Ok((bound, time)) => Ok(SimHandle {
             bound,
             time,
-            stop: Some(stop_tx),
-            task,
+            task: SimTask::new(stop_tx, task),
         }),
         Err(_) => match task.await {
             Ok(Err(e)) => Err(e),

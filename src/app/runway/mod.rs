@@ -138,9 +138,6 @@ pub struct RunOptions {
     pub tolerance_m: f64,
     /// Consecutive failed steps after which a pilot gives up (the run stops; resume later).
     pub max_failures: u32,
-    /// Send MAV_CMD_USER_1 (the simulator's swap request) when a robot lands for a battery
-    /// swap — the in-process demo's stand-in for the operator.
-    pub sim_swap: bool,
     /// Failed pictures (dropped by the sanity check, lost, unreadable) retaken per cell
     /// visit, and rejected sweep pictures in a row, before the camera is declared faulty.
     /// 5 = as many as a visit's own images: a healthy camera fails a picture rarely (a late
@@ -161,7 +158,6 @@ impl Default for RunOptions {
             patience: Patience::default(),
             tolerance_m: 0.5,
             max_failures: 20,
-            sim_swap: false,
             max_retakes: 5,
             capture_limits: None,
         }
@@ -182,7 +178,6 @@ struct Shared {
     interactive: bool,
     patience: Patience,
     tolerance_m: f64,
-    sim_swap: bool,
     max_failures: u32,
     max_retakes: u32,
     limits: CaptureLimits,

@@ -596,10 +596,6 @@ impl Pilot {
                     .about(sysid),
                 );
             }
-            if self.shared.sim_swap && fault.is_none() && !retired {
-                // The demo's operator: ask the simulated vehicle to swap its battery.
-                let _ = flight::request_sim_swap(&fleet, sysid).await;
-            }
         }
         if self
             .shared

@@ -114,7 +114,6 @@ pub async fn run(
         interactive,
         patience: opts.patience,
         tolerance_m: opts.tolerance_m,
-        sim_swap: opts.sim_swap,
         max_failures: opts.max_failures,
         max_retakes: opts.max_retakes,
         limits: opts

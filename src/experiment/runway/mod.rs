@@ -430,13 +430,10 @@ async fn fly(
     let spec = format!("{drones}xcopter:ardupilot");
     // the demo's team: the same simulator, in virtual time or at the experiment's speed
     let (fleet, sim) = match args.speedup {
-        StudyClock::Virtual => {
-            let (fleet, sim) = demo::start_virtual(&spec, world, &cfg).await?;
-            (fleet, TeamSim::Memory(sim))
-        }
+        StudyClock::Virtual => demo::start_virtual(&spec, world, &cfg).await?,
         StudyClock::Paced(speed) => {
             let team = demo::start_at(&spec, world, &cfg, speed).await?;
-            (team.fleet, TeamSim::Udp(team.sim))
+            (team.fleet, team.sim.task)
         }
     };
     let result = async {
@@ -462,17 +459,8 @@ async fn fly(
     }
     .await;
     fleet.shutdown().await;
-    let _ = match sim {
-        TeamSim::Memory(h) => h.stop().await,
-        TeamSim::Udp(h) => h.stop().await,
-    };
+    let _ = sim.stop().await;
     result
-}
-
-/// The simulator a trial's team flies on.
-enum TeamSim {
-    Memory(fleetmap_sim::server::MemorySimHandle),
-    Udp(fleetmap_sim::server::SimHandle),
 }
 
 fn trial_row(

@@ -1,41 +1,18 @@
 //! The simulator served over in-process links ([`fleetmap_io::link::transport::MemoryPort`]) on the
 //! runtime's clock: the tests' fully virtual runs.
 
-use super::{ServerError, Stepper, log_event, pause};
+use super::{SimTask, Stepper, log_event, pause};
 use crate::harness::Sim;
 use crate::pace::Speed;
 use fleetmap_io::clock::MonotonicClock;
 use tokio::sync::mpsc;
-
-/// A simulation served over in-process links (see [`spawn_memory`]).
-#[derive(Debug)]
-pub struct MemorySimHandle {
-    stop: Option<tokio::sync::oneshot::Sender<()>>,
-    task: tokio::task::JoinHandle<Sim>,
-}
-
-impl MemorySimHandle {
-    /// Stop serving and get the simulation back (for inspection).
-    pub async fn stop(mut self) -> Result<Sim, ServerError> {
-        if let Some(s) = self.stop.take() {
-            let _ = s.send(());
-        }
-        self.task.await.map_err(|e| ServerError::Io {
-            what: "simulator task".into(),
-            source: std::io::Error::other(e.to_string()),
-        })
-    }
-}
 
 /// Serve `sim` over in-process links, one [`fleetmap_io::link::transport::MemoryPort`] per vehicle
 /// in system-id order, on the runtime's clock at real speed. With tokio's clock paused
 /// (tests with `start_paused`) this is a fully virtual run: the simulator, the links and the
 /// fleet share tokio's virtual time, which jumps to the next timer whenever every task
 /// waits, so simulated minutes cost only the CPU time of the work done.
-pub fn spawn_memory(
-    sim: Sim,
-    ports: Vec<fleetmap_io::link::transport::MemoryPort>,
-) -> MemorySimHandle {
+pub fn spawn_memory(sim: Sim, ports: Vec<fleetmap_io::link::transport::MemoryPort>) -> SimTask {
     let (stop_tx, mut stop_rx) = tokio::sync::oneshot::channel::<()>();
     let sysids = sim.sysids();
     let (tx, mut rx) = mpsc::unbounded_channel::<(usize, Vec<u8>)>();
@@ -91,12 +68,9 @@ pub fn spawn_memory(
                     stepper.deliver();
                 }
                 _ = pause(wait) => {}
-                _ = &mut stop_rx => return stepper.sim,
+                _ = &mut stop_rx => return Ok(stepper.sim),
             }
         }
     });
-    MemorySimHandle {
-        stop: Some(stop_tx),
-        task,
-    }
+    SimTask::new(stop_tx, task)
 }

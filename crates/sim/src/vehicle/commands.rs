@@ -2,13 +2,10 @@
 //! dialect's `MavCmd` and the COMMAND_ACK. The handlers live with the part whose fields they
 //! change: `arming` (arm/disarm), `modes` (set mode, land, RTL, loiter), `flight` (take-off,
 //! reposition, yaw, speed, home, position targets), `mission` (start, set current,
-//! pause/continue), `geofence` (fence enable), `power` (reboot, battery swap) and `camera`.
+//! pause/continue), `geofence` (fence enable), `power` (reboot) and `camera`. A command no handler knows
+//! (MAV_CMD_USER_1 among them) gets MAV_RESULT_UNSUPPORTED, as ArduPilot answers it.
 
 use super::*;
-use mav::MavCmd;
-
-/// [`CMD_BATTERY_SWAP`] as the dialect's command (MAV_CMD_USER_1).
-const BATTERY_SWAP: MavCmd = MavCmd::MAV_CMD_USER_1;
 
 impl SimVehicle {
     // ------------------------------------------------------------------ commands
@@ -145,7 +142,6 @@ impl SimVehicle {
             | C::MAV_CMD_IMAGE_START_CAPTURE
             | C::MAV_CMD_IMAGE_STOP_CAPTURE => self.cmd_camera(from, c, long, now),
             C::MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN => self.cmd_reboot(from, c, now),
-            BATTERY_SWAP => self.cmd_battery_swap(from, c, now),
             C::MAV_CMD_DO_PAUSE_CONTINUE if ap && copter => Some(self.cmd_pause_continue(c)),
             _ => Some(R::MAV_RESULT_UNSUPPORTED),
         };

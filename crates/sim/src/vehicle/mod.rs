@@ -3,7 +3,7 @@
 //! ```text
 //!   handle_message(header, msg, now)   ──►  ┌────────────┐ ──► poll_transmit() → (header, msg)
 //!   step(now)                          ──►  │ SimVehicle │ ──► poll_event()    → VehicleEvent
-//!   swap_battery(now) (the operator)   ──►  └────────────┘ ──► poll_image()    → CapturedImage
+//!   (the crew: swap_after_s)           ──►  └────────────┘ ──► poll_image()    → CapturedImage
 //! ```
 //!
 //! The vehicle integrates its motion at a fixed 20 Hz on the given timeline; it never reads a
@@ -155,9 +155,6 @@ pub(crate) const PX4_DL_LOSS_S: f64 = 10.0;
 pub(crate) const ESTIMATE_LAG_S: f64 = 1.0;
 /// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1).
 pub(crate) const AUTOPILOT_COMPID: u8 = 1;
-/// The command that stands for "the operator swapped the battery" (MAV_CMD_USER_1): accepted
-/// when the vehicle is landed and disarmed, it power-cycles the vehicle with a full battery.
-pub const CMD_BATTERY_SWAP: u16 = 31010;
 
 /// Battery failsafe levels (percent of charge left).
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -214,8 +211,11 @@ pub struct VehicleConfig {
     pub seed: u64,
     /// The camera (None = no camera component).
     pub camera: Option<CameraConfig>,
-    /// Swap the battery automatically this long after the vehicle is landed and disarmed
-    /// with a used battery (the field crew's turnaround), seconds.
+    /// The field crew: swap the battery this long after the vehicle is landed and disarmed
+    /// with a used battery (below 95 %), seconds — a power cycle of
+    /// [`VehicleConfig::power_off_s`], then a boot with a full battery, as a real autopilot
+    /// sees its battery changed. `None`: nobody swaps it. No GCS command swaps a battery
+    /// (a real autopilot has none).
     pub swap_after_s: Option<f64>,
     /// PX4: arming needs a GCS heartbeat and losing it for 10 s while armed triggers RTL
     /// (NAV_DLL_ACT > 0, COM_DL_LOSS_T 10 s, as in PX4's SITL airframes).
@@ -447,7 +447,7 @@ impl SimVehicle {
     }
 
     /// Whether the vehicle is powered (false during a battery swap).
-    pub(crate) fn powered(&self) -> bool {
+    pub fn powered(&self) -> bool {
         self.power.powered
     }
 
@@ -533,18 +533,6 @@ impl SimVehicle {
             self.power.battery.charge(dt);
             self.power.charging = true;
         }
-    }
-
-    /// The operator swaps the battery (in-process equivalent of [`CMD_BATTERY_SWAP`]):
-    /// accepted when landed and disarmed; the vehicle powers off for
-    /// `VehicleConfig::power_off_s` and boots again with a full battery.
-    pub(crate) fn swap_battery(&mut self, now: Time) -> bool {
-        self.advance(now);
-        if !self.arming.landed || self.arming.armed {
-            return false;
-        }
-        self.power_cycle(now, true);
-        true
     }
 
     /// The next message to send and its header.

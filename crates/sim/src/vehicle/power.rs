@@ -141,20 +141,4 @@ impl SimVehicle {
             Some(mav::MavResult::MAV_RESULT_DENIED)
         }
     }
-
-    /// [`CMD_BATTERY_SWAP`]: landed and disarmed, power-cycle with a full battery (the ACK
-    /// leaves first).
-    pub(super) fn cmd_battery_swap(
-        &mut self,
-        from: (u8, u8),
-        c: &mav::COMMAND_INT_DATA,
-        now: Time,
-    ) -> Option<mav::MavResult> {
-        if self.arming.landed && !self.arming.armed {
-            self.ack(from, c.command, mav::MavResult::MAV_RESULT_ACCEPTED);
-            self.power_cycle(now, true);
-            return None;
-        }
-        Some(mav::MavResult::MAV_RESULT_DENIED)
-    }
 }
