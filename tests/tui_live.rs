@@ -5,7 +5,7 @@
 use fleetmap::fleet::{FleetSnapshot, GeoPoint, StatusText, VehicleSnapshot};
 use fleetmap::tui::live::{LiveLog, RunInfo, build_model};
 use fleetmap::tui::*;
-use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::geo::{Cell, Dir4, Grid, LatLon};
 use fleetmap_core::mission::definition::MissionDef;

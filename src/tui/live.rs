@@ -12,7 +12,7 @@ use super::model::{
     Track, VehicleRow,
 };
 use crate::fleet::{FleetSnapshot, VehicleSnapshot};
-use fleetmap_core::explore::VertexState;
+use fleetmap_core::explore::dfs::VertexState;
 use fleetmap_core::explore::mapping::{self, MappingState, RobotStatus};
 use fleetmap_core::geo::{Cell, Grid, LatLon};
 use fleetmap_core::planner::bandit::Label;
@@ -223,7 +223,7 @@ fn activity(state: &MappingState, sysid: u8) -> Option<String> {
     let mut a = r.status.name().to_string();
     if r.status == RobotStatus::Exploring
         && let Some(ex) = &state.explorer
-        && let Ok(rs) = ex.robot(fleetmap_core::explore::RobotId(sysid))
+        && let Ok(rs) = ex.robot(fleetmap_core::explore::dfs::RobotId(sysid))
     {
         let cell = ex.tree().node(rs.node).cell;
         a = format!("DFS {cell}");
@@ -593,7 +593,7 @@ pub fn build_model(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fleetmap_core::explore::Sharing;
+    use fleetmap_core::explore::dfs::Sharing;
     use fleetmap_core::mission::definition::MissionDef;
 
     fn state() -> MappingState {

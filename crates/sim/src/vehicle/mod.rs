@@ -50,14 +50,15 @@
 #![allow(deprecated)]
 
 use crate::battery::{Battery, BatteryConfig};
-use crate::camera::{CAMERA_COMPID, CameraConfig, CaptureContext, CapturedImage, SimCamera};
+use crate::camera::{CameraConfig, CaptureContext, CapturedImage, SimCamera};
 use crate::fence::Fence;
 use crate::flavour::{Flavour, Mode, SimAutopilot, VehicleKind};
 use crate::mission_server::{HomeItem, MissionEvent, MissionServer};
 use crate::motion::{self, Command, Limits};
 use crate::render::CameraPose;
 use fleetmap_core::geo::local;
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
+use fleetmap_core::proto::CAMERA_COMPID;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::{Wind, World};
 use mavlink::MavHeader;
