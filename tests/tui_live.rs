@@ -10,6 +10,7 @@ use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::geo::{Cell, Dir4, Grid, LatLon};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::proto::heartbeat::Beat;
+use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::regions::RegionFractions;
 use fleetmap_core::vision::runway::NeighbourLabels;

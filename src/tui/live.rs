@@ -8,8 +8,8 @@
 
 use super::model::{
     Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind, MapModel,
-    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity, Stat,
-    Track, VehicleRow,
+    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Stat, Track,
+    VehicleRow,
 };
 use crate::fleet::{FleetSnapshot, VehicleSnapshot};
 use fleetmap_core::explore::dfs::VertexState;
@@ -18,6 +18,7 @@ use fleetmap_core::geo::{Cell, Grid, LatLon};
 use fleetmap_core::planner::bandit::Label;
 use fleetmap_core::planner::sortie::{ClassificationState, CyclePhase};
 use fleetmap_core::proto::flavour::VehicleClass;
+use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::votes::CellState as VoteState;
 use std::collections::{BTreeMap, HashMap};
