@@ -6,7 +6,7 @@
 //!
 //! - `model` — the view-model ([`Model`]): plain `serde` data an adapter fills from fleet
 //!   snapshots and runner progress (or a replay file, or a test);
-//! - `app` — [`App`] state and the pure [`update`]`(&mut App, Event) -> Vec<Effect>`;
+//! - `app` — [`App`] state and the pure [`update`](fn@update)`(&mut App, Event) -> Vec<Effect>`;
 //! - [`view`] — one render function per pane (fleet, map, mission, log, help, dialogs);
 //! - `keymap` / `config` — the key table ([`KeyMap`], shared by key handling and help) and
 //!   the TOML config file ([`UiConfig`]: keys and warning thresholds);
