@@ -37,8 +37,9 @@ def module_path(root, path):
 
 
 def before_tests(text):
-    i = text.find("#[cfg(test)]")
-    return text if i < 0 else text[:i]
+    """The file without its test module (a `#[cfg(test)]` on a single item keeps the rest)."""
+    m = re.search(r"^#\[cfg\(test\)\]\s*mod ", text, re.M)
+    return text if m is None else text[: m.start()]
 
 
 def used_names(stmt):
@@ -95,7 +96,7 @@ def listing():
                         kind = {"struct": "types", "enum": "types", "trait": "traits", "type": "types",
                                 "fn": "fns", "const": "consts", "static": "consts", "mod": "mods"}[m.group(1)]
                         kinds.setdefault(kind, []).append(m.group(2))
-                for m in USE.finditer("\n".join(l for l in text.splitlines() if not l.startswith(" "))):
+                for m in USE.finditer(text):  # top-level statements, which may span lines
                     kinds.setdefault("re-exports", []).extend(used_names(m.group(1)))
                 if kinds and module_path(root, path) in public:
                     rows[module_path(root, path)] = kinds

@@ -2,7 +2,7 @@
 //! `fleetmap experiment dfs`), the explorer's per-call cost, and lawnmower planning.
 
 use criterion::{Criterion, criterion_group, criterion_main};
-use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::lawnmower::{HeadingPolicy, LawnmowerConfig, LocalBox, plan};
 use fleetmap_core::explore::simulate::{SimConfig, random_roi, simulate};
 use fleetmap_core::vision::camera::CameraModel;

@@ -7,7 +7,7 @@
 //! `cargo bench --bench mavlink` (`-- loopback` for the UDP one only)
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::mission::{MissionClient, MissionConfig, MissionEvent, MissionOp};
 use fleetmap_core::time::Time;

@@ -4,10 +4,10 @@
 
 use fleetmap_core::explore::bounds::lemma1_upper_bound;
 use fleetmap_core::explore::dfs::NodeKind;
+use fleetmap_core::explore::dfs::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing};
 use fleetmap_core::explore::simulate::{
     SimConfig, SimOutcome, random_roi, simulate, simulate_sensed,
 };
-use fleetmap_core::explore::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing};
 use fleetmap_core::geo::{Cell, Dir4};
 use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};

@@ -13,7 +13,7 @@
 //!   first 2 s, the PX4 copter answers at once; both uploads succeed once they are ready.
 
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::Command;
 use fleetmap_core::time::Time;
@@ -135,7 +135,7 @@ async fn every_vehicle_works(spec: &str, n: u8, wiring: Wiring) {
                 .download_mission(k, MissionType::Mission)
                 .await
                 .unwrap_or_else(|e| panic!("vehicle {k} download: {e}"));
-            fleetmap_core::proto::mission::compare_items(&items, &back, true)
+            fleetmap_core::mission::wire::compare_items(&items, &back, true)
                 .unwrap_or_else(|d| panic!("vehicle {k}: {d}"));
         }));
     }

@@ -24,7 +24,7 @@ use fleetmap::app::runway::report::truth_coverage;
 use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions, crop_to_cells};
 use fleetmap::fleet::{self, FleetConfig};
 use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{MappingState, RobotStatus};
 use fleetmap_core::geo::{LatLon, local};
 use fleetmap_core::mission::definition::MissionDef;

@@ -8,7 +8,7 @@
 #![allow(deprecated)]
 
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::MonotonicClock;
@@ -261,7 +261,7 @@ async fn fleet_over_udp_sees_two_vehicles_routes_commands_and_transfers_missions
         .await
         .unwrap();
     let (back, home) = f.download_mission(1, MissionType::Mission).await.unwrap();
-    fleetmap_core::proto::mission::compare_items(&items, &back, true).unwrap();
+    fleetmap_core::mission::wire::compare_items(&items, &back, true).unwrap();
     assert!(home.is_some());
     // Unknown vehicle: a typed error.
     assert!(matches!(
@@ -516,7 +516,7 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
                     .download_mission(k, MissionType::Mission)
                     .await
                     .unwrap_or_else(|e| panic!("vehicle {k} download {round}: {e}"));
-                fleetmap_core::proto::mission::compare_items(&items, &back, false)
+                fleetmap_core::mission::wire::compare_items(&items, &back, false)
                     .unwrap_or_else(|d| panic!("vehicle {k} round {round}: {d}"));
             }
             ROUNDS
@@ -664,7 +664,7 @@ async fn cli_vehicles_mission_files_and_commands() {
     let p =
         fleetmap_core::mission::plan::parse_plan(&std::fs::read_to_string(&plan).unwrap()).unwrap();
     let w = fleetmap_core::mission::wpl::parse_wpl(&std::fs::read_to_string(&wp).unwrap()).unwrap();
-    fleetmap_core::proto::mission::compare_items(&w.items, &p.mission, true).unwrap();
+    fleetmap_core::mission::wire::compare_items(&w.items, &p.mission, true).unwrap();
     assert!(
         p.home.is_some(),
         "ArduPilot home kept as plannedHomePosition"

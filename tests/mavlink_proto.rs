@@ -10,11 +10,11 @@
 
 #![allow(deprecated)]
 
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
+use fleetmap_core::mission::wire::{compare_items, normalize_frame};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::mission::{
     MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,
-    compare_items, normalize_frame,
 };
 use fleetmap_core::time::Time;
 use fleetmap_sim::flavour::SimAutopilot;

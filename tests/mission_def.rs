@@ -279,7 +279,7 @@ cols = 3
 /// runway state (lanes and the battery estimate).
 #[test]
 fn sweep_and_battery_keys_are_read_checked_and_used() {
-    use fleetmap_core::explore::Sharing;
+    use fleetmap_core::explore::dfs::Sharing;
     use fleetmap_core::explore::mapping::MappingState;
     let base = std::fs::read_to_string(root().join("missions/runway-field-test.toml")).unwrap();
     let with = |runway: &str, battery: &str| {
@@ -299,7 +299,7 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
     let s0 = MappingState::new(&plain, grid(&plain), Sharing::Gcs).unwrap();
     assert_eq!(
         s0.params.allocation,
-        fleetmap_core::explore::Allocation::Paper
+        fleetmap_core::explore::dfs::Allocation::Paper
     );
     let text = with(
         "lane_spacing_m = 4.0\nsweep_position_tolerance_m = 0.5\nallocation = \"nearest_frontier\"",
@@ -315,7 +315,7 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
     assert!(s.sweeps[0].spacing.across_m <= 4.0 + 1e-9);
     assert_eq!(
         s.params.allocation,
-        fleetmap_core::explore::Allocation::NearestFrontier
+        fleetmap_core::explore::dfs::Allocation::NearestFrontier
     );
     // 12 m at 0.5 m/s instead of 1 m/s, and 30 s more margin: 42 s more of a 720 s battery.
     let more = s.battery_needed_pct(0.0, 12.0) - s0.battery_needed_pct(0.0, 12.0);
@@ -342,7 +342,7 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
 
 #[test]
 fn a_moving_region_is_read_checked_and_kept_by_the_state() {
-    use fleetmap_core::explore::Sharing;
+    use fleetmap_core::explore::dfs::Sharing;
     use fleetmap_core::explore::mapping::MappingState;
     let base = std::fs::read_to_string(root().join("missions/runway-field-test.toml")).unwrap();
     let with = |key: &str| base.replace("[runway]", &format!("[runway]\n{key}\n#"));

@@ -14,7 +14,7 @@ mod common;
 
 use common::free_udp_port;
 use common::pty::bin;
-use fleetmap_core::mission::MissionItem;
+use fleetmap_core::mission::item::MissionItem;
 use fleetmap_core::mission::plan::{Plan, write_plan};
 use std::io::{BufRead, BufReader};
 use std::path::Path;

@@ -14,7 +14,7 @@
 //! second mission (HOLD first), as the bandit runner's stations need from the second sortie on.
 
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::time::Time;
 use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::transport::LinkOptions;

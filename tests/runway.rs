@@ -12,7 +12,7 @@ use fleetmap::app::images;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions};
 use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{MappingState, MilestoneKind, RobotStatus};
 use fleetmap_core::geo::local;
 use fleetmap_core::world::World;
@@ -264,7 +264,7 @@ async fn three_robots_explore_every_runway_cell_and_come_back() {
         );
         assert!(!v.armed);
         assert_eq!(
-            ex.robot(fleetmap_core::explore::RobotId(r.sysid))
+            ex.robot(fleetmap_core::explore::dfs::RobotId(r.sysid))
                 .unwrap()
                 .phase,
             fleetmap_core::explore::dfs::Phase::Done

@@ -16,7 +16,7 @@ use fleetmap::app::kind::RunKind;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions};
 use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState, Phase, RobotStatus};
 use fleetmap_core::explore::reach::Unreachable;
 use fleetmap_core::mission::definition::MissionDef;

@@ -21,7 +21,7 @@
 mod common;
 
 use fleetmap::fleet::Incoming;
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::transport::{LinkOptions, open_link};

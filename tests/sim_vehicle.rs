@@ -5,10 +5,10 @@
 
 #![allow(deprecated)]
 
-use fleetmap_core::mission::MissionItem;
+use fleetmap_core::mission::item::MissionItem;
 use fleetmap_core::time::Time;
+use fleetmap_sim::flavour::{Flavour, Mode};
 use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::{Flavour, Mode};
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -633,7 +633,7 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
         // the mission survived the power cycle, the current item went back to the start
         assert_eq!(
             v.mission()
-                .items(fleetmap_core::mission::MissionType::Mission)
+                .items(fleetmap_core::mission::item::MissionType::Mission)
                 .len(),
             items.len()
         );

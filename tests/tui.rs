@@ -5,10 +5,9 @@
 //! binary in a pseudo-terminal.
 
 use crossterm::event::{Event as TermEvent, KeyCode, KeyEvent, KeyModifiers};
-use fleetmap::tui::app::Overlay;
-use fleetmap::tui::keymap::ALL_ACTIONS;
 use fleetmap::tui::view::help::{self, HelpLine};
 use fleetmap::tui::*;
+use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::MonotonicClock;
 use ratatui::Terminal;
@@ -896,7 +895,7 @@ fn the_panic_hook_restores_first_and_the_restore_sequence_is_right() {
     use std::sync::atomic::{AtomicUsize, Ordering};
     let calls = Arc::new(AtomicUsize::new(0));
     let c = calls.clone();
-    shell::install_panic_hook(move || {
+    install_panic_hook(move || {
         c.fetch_add(1, Ordering::SeqCst);
     });
     let result = std::panic::catch_unwind(|| panic!("test panic inside the UI"));
@@ -906,7 +905,7 @@ fn the_panic_hook_restores_first_and_the_restore_sequence_is_right() {
         "the hook ran the restore function"
     );
     let mut out = Vec::new();
-    shell::write_restore_sequence(&mut out).expect("write");
+    write_restore_sequence(&mut out).expect("write");
     let s = String::from_utf8_lossy(&out);
     assert!(
         s.contains("\x1b[?1049l"),

@@ -5,11 +5,12 @@
 use fleetmap::fleet::{FleetSnapshot, GeoPoint, StatusText, VehicleSnapshot};
 use fleetmap::tui::live::{LiveLog, RunInfo, build_model};
 use fleetmap::tui::*;
-use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::geo::{Cell, Dir4, Grid, LatLon};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::proto::heartbeat::Beat;
+use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::regions::RegionFractions;
 use fleetmap_core::vision::runway::NeighbourLabels;

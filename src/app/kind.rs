@@ -92,7 +92,7 @@ pub struct RunSettings {
     /// Scale of every flight timeout (2 = twice as patient).
     pub patience: f64,
     /// Runway mapping: how the robots share the DFS vertex states.
-    pub sharing: fleetmap_core::explore::Sharing,
+    pub sharing: fleetmap_core::explore::dfs::Sharing,
     /// Spatial classification: keep the drones in step (the bandit paper's 7e) even when the
     /// mission separates them by altitude (`None`: as the mission implies).
     pub(crate) lock_step: Option<bool>,
@@ -109,7 +109,7 @@ impl Default for RunSettings {
         RunSettings {
             auto_resume: false,
             patience: 1.0,
-            sharing: fleetmap_core::explore::Sharing::Gcs,
+            sharing: fleetmap_core::explore::dfs::Sharing::Gcs,
             lock_step: None,
             plan_time_limit_s: None,
             roi_epoch_unix_ms: None,

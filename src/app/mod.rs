@@ -30,7 +30,7 @@ pub(crate) mod session;
 
 use crate::app::error::RunError;
 use crate::fleet::FleetHandle;
-use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::geo::{Grid, LatLon};
 use fleetmap_core::mission::definition::{MissionDef, Origin};

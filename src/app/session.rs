@@ -28,9 +28,10 @@ use crate::fleet::FleetHandle;
 use crate::store::RunDir;
 use crate::tui::live::{LiveLog, RunInfo, RunView, build_model};
 use crate::tui::{
-    App, Command, CommandError, CommandRequest, JobResult, Model, REFRESH, Severity, ShellIo,
-    ShellOptions, Target, UiConfig,
+    App, Command, CommandError, CommandRequest, JobResult, Model, REFRESH, ShellIo, ShellOptions,
+    Target, UiConfig,
 };
+use fleetmap_core::proto::severity::Severity;
 use std::future::Future;
 use std::pin::Pin;
 use std::sync::{Arc, Mutex};

@@ -8,10 +8,10 @@
 //! user + system time from `/proc/self/stat` (Linux), in clock ticks of 1/100 s.
 
 use crate::fleet::{self, FleetConfig, FleetHandle, VehicleSnapshot};
-use crate::tui::app::{App, Event};
-use crate::tui::config::UiConfig;
+use crate::tui::UiConfig;
 use crate::tui::live::{LiveLog, build_model};
-use crate::tui::update::update;
+use crate::tui::update;
+use crate::tui::{App, Event};
 use crate::tui::{REFRESH, view};
 use anyhow::{Context, bail};
 use clap::Args;

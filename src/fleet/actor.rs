@@ -6,7 +6,7 @@ use super::Incoming;
 use super::error::FleetError;
 use super::state::FleetSnapshot;
 use super::state::VehicleSnapshot;
-use fleetmap_core::mission::MissionType;
+use fleetmap_core::mission::item::MissionType;
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::CmdId;
 use fleetmap_core::proto::command::Command;

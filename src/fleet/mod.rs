@@ -31,7 +31,7 @@ mod actor;
 mod error;
 mod handle;
 mod ops;
-pub mod state;
+mod state;
 
 pub use error::FleetError;
 pub use handle::FleetHandle;
@@ -45,7 +45,7 @@ use fleetmap_core::proto::heartbeat::Liveness;
 use fleetmap_core::proto::heartbeat::LivenessConfig;
 use fleetmap_core::proto::mission::MissionConfig;
 use fleetmap_io::clock::MonotonicClock;
-use fleetmap_io::link::addr::ConnSpec;
+use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::codec::Frame;
 use fleetmap_io::link::transport::LinkError;
 use fleetmap_io::link::transport::LinkEvent;

@@ -20,7 +20,7 @@
 mod error;
 pub mod journal;
 pub(crate) mod migrate;
-pub mod run;
+mod run;
 pub mod task;
 
 pub(crate) use error::StoreError;

@@ -9,9 +9,10 @@
 
 use super::config::UiConfig;
 use super::keymap::Context;
-use super::model::{LogEntry, Model, Severity};
+use super::model::{LogEntry, Model};
 use crossterm::event::KeyEvent;
 use fleetmap_core::geo::Cell;
+use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use std::fmt;
 

@@ -8,16 +8,17 @@
 
 use super::model::{
     Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind, MapModel,
-    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity, Stat,
-    Track, VehicleRow,
+    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Stat, Track,
+    VehicleRow,
 };
 use crate::fleet::{FleetSnapshot, VehicleSnapshot};
-use fleetmap_core::explore::VertexState;
+use fleetmap_core::explore::dfs::VertexState;
 use fleetmap_core::explore::mapping::{self, MappingState, RobotStatus};
 use fleetmap_core::geo::{Cell, Grid, LatLon};
 use fleetmap_core::planner::bandit::Label;
 use fleetmap_core::planner::sortie::{ClassificationState, CyclePhase};
 use fleetmap_core::proto::flavour::VehicleClass;
+use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::votes::CellState as VoteState;
 use std::collections::{BTreeMap, HashMap};
@@ -223,7 +224,7 @@ fn activity(state: &MappingState, sysid: u8) -> Option<String> {
     let mut a = r.status.name().to_string();
     if r.status == RobotStatus::Exploring
         && let Some(ex) = &state.explorer
-        && let Ok(rs) = ex.robot(fleetmap_core::explore::RobotId(sysid))
+        && let Ok(rs) = ex.robot(fleetmap_core::explore::dfs::RobotId(sysid))
     {
         let cell = ex.tree().node(rs.node).cell;
         a = format!("DFS {cell}");
@@ -593,7 +594,7 @@ pub fn build_model(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use fleetmap_core::explore::Sharing;
+    use fleetmap_core::explore::dfs::Sharing;
     use fleetmap_core::mission::definition::MissionDef;
 
     fn state() -> MappingState {

@@ -4,15 +4,19 @@
 //! Layers (docs/architecture.md, "Layers"): the UI reads [`Model`] snapshots from a `watch` channel and sends
 //! [`CommandRequest`]s; it never touches the fleet actor or the network itself.
 //!
-//! - [`model`] — the view-model: plain `serde` data an adapter fills from fleet snapshots and
-//!   runner progress (or a replay file, or a test);
-//! - [`app`] — [`App`] state and the pure [`update`]`(&mut App, Event) -> Vec<Effect>`;
+//! - `model` — the view-model ([`Model`]): plain `serde` data an adapter fills from fleet
+//!   snapshots and runner progress (or a replay file, or a test);
+//! - `app` — [`App`] state and the pure [`update`](fn@update)`(&mut App, Event) -> Vec<Effect>`;
 //! - [`view`] — one render function per pane (fleet, map, mission, log, help, dialogs);
-//! - [`keymap`] / [`config`] — the key table (shared by key handling and help) and the
-//!   TOML config file (keys and warning thresholds);
-//! - [`shell`] — crossterm terminal setup, the tokio event loop, the panic hook;
+//! - `keymap` / `config` — the key table ([`KeyMap`], shared by key handling and help) and
+//!   the TOML config file ([`UiConfig`]: keys and warning thresholds);
+//! - `shell` — crossterm terminal setup, the tokio event loop ([`run`]), the panic hook;
 //! - [`replay`] — JSON Lines recordings of models; [`sample`] — fixtures, generated fleets
 //!   and a synthetic animation.
+//!
+//! `model`, `app`, `keymap`, `config`, `shell` and `update` are private: their items have one
+//! public path, `fleetmap::tui::Item`. The view-model's `Severity` is the core's
+//! (`fleetmap_core::proto::severity::Severity`), imported from there.
 //!
 //! An adapter drives it like this:
 //!
@@ -31,27 +35,30 @@
 //! # drop((snap_tx, result_tx)); Ok(()) }
 //! ```
 
-pub mod app;
-pub mod config;
-pub mod keymap;
+mod app;
+mod config;
+mod keymap;
 pub mod live;
-pub mod model;
+mod model;
 pub mod replay;
 pub mod sample;
-pub mod shell;
-pub mod update;
+mod shell;
+mod update;
 pub mod view;
 
 pub use app::{
-    App, Command, CommandError, CommandRequest, Effect, Event, JobResult, MapMode, Overlay, Pane,
-    Pending, Source, SourceKind, Target,
+    App, Command, CommandError, CommandRequest, Effect, Event, JobResult, MapMode, MapView,
+    Overlay, Pane, Pending, Source, SourceKind, Target,
 };
-pub use config::{Thresholds, UiConfig};
-pub use keymap::{Action, Context, Key, KeyMap};
+pub use config::{ConfigError, Thresholds, UiConfig};
+pub use keymap::{ALL_ACTIONS, Action, Context, Key, KeyMap, KeyMapError};
 pub use model::{
-    Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind, MapModel,
-    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Severity, Stat,
-    Track, VehicleRow,
+    Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapError, MapKind, MapModel,
+    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Stat, Track,
+    VehicleRow,
 };
-pub use shell::{REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, run, run_loop};
+pub use shell::{
+    REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, install_panic_hook, run, run_loop,
+    write_restore_sequence,
+};
 pub use update::update;

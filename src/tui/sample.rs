@@ -9,6 +9,7 @@
 use super::model::*;
 use fleetmap_core::geo::Cell;
 use fleetmap_core::proto::flavour::{Autopilot, VehicleClass};
+use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -4,10 +4,10 @@
 
 use super::app::*;
 use super::keymap::{Action, Context, Key};
-use super::model::Severity;
 use super::view;
 use crossterm::event::KeyCode;
 use fleetmap_core::geo::Cell;
+use fleetmap_core::proto::severity::Severity;
 
 impl App {
     fn select_index(&mut self, i: usize) {

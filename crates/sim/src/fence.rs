@@ -6,7 +6,7 @@
 //! zones exist and it is inside none of them.
 
 use fleetmap_core::geo::local;
-use fleetmap_core::mission::MissionItem;
+use fleetmap_core::mission::item::MissionItem;
 use fleetmap_core::world::point_in_polygon;
 
 #[derive(Clone, Debug, PartialEq)]

@@ -13,8 +13,6 @@
 pub mod flavour;
 pub mod mission_server;
 
-pub use flavour::{Flavour, Mode, SimAutopilot, VehicleKind};
-pub use mission_server::{MissionEvent, MissionServer};
 pub mod battery;
 pub mod camera;
 pub mod fence;

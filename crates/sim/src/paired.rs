@@ -73,8 +73,9 @@
 // CAMERA_FEEDBACK and CAMERA_TRIGGER are ArduPilot / legacy messages.
 #![allow(deprecated)]
 
-use crate::camera::{CAMERA_COMPID, CameraConfig, CaptureContext, CapturedImage, Shot, SimCamera};
+use crate::camera::{CameraConfig, CaptureContext, CapturedImage, Shot, SimCamera};
 use crate::render::CameraPose;
+use fleetmap_core::proto::CAMERA_COMPID;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
 use image::RgbImage;

@@ -18,11 +18,11 @@
 
 use crate::flavour::SimAutopilot;
 use crate::mission_server::{self, HomeItem, MissionServer};
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
+use fleetmap_core::mission::wire::{ItemsDiffer, compare_items};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::mission::{
-    ItemsDiffer, MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp,
-    MissionOutcome, compare_items,
+    MissionClient, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,
 };
 use fleetmap_core::time::Time;
 use mavlink::MavHeader;

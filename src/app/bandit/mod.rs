@@ -41,7 +41,7 @@ use crate::fleet::{FleetHandle, VehicleSnapshot};
 use crate::store::RunDir;
 use anyhow::Context as _;
 use fleetmap_core::geo::{Cell, LatLon, local};
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::planner::bandit::Label;
 use fleetmap_core::planner::ip::{PlanOptions, PlanStatus, solve_instance};
 use fleetmap_core::planner::sortie::missions::{self, AreaRules};

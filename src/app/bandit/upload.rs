@@ -236,7 +236,7 @@ pub(super) async fn upload_once(
         .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
     fleet.upload_mission(sysid, kind, items.to_vec()).await?;
     let (back, _) = fleet.download_mission(sysid, kind).await?;
-    fleetmap_core::proto::mission::compare_items(items, &back, v.flavour.home_item())
+    fleetmap_core::mission::wire::compare_items(items, &back, v.flavour.home_item())
         .map_err(|d| anyhow::anyhow!("the list read back differs from the one sent: {d}"))?;
     if let Some((state, start, station)) = check {
         let rules = AreaRules {

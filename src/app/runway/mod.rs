@@ -14,7 +14,7 @@
 //!   (cell = the one under the camera); the first positive region stops every sweep (the
 //!   robots hold) and the robot that saw it **confirms** the cell with five images at its
 //!   centre. Positive: the DFS starts there; negative: the sweeps go on.
-//! * **DFS**: Algorithm 1 ([`fleetmap_core::explore::Explorer`]): go to the next cell centre
+//! * **DFS**: Algorithm 1 ([`fleetmap_core::explore::dfs::Explorer`]): go to the next cell centre
 //!   (DO_REPOSITION at the robot's altitude and the mission speed), wait until there and
 //!   steady, take five images, count their votes, give the explorer the neighbours' labels.
 //! * **Image sanity** ([`fleetmap_core::vision::sanity`]): a picture counts for a cell only when it
@@ -59,7 +59,7 @@ use fleetmap_core::explore::mapping::{
 };
 use fleetmap_core::explore::motion::RoiMotion;
 use fleetmap_core::geo::{Cell, Grid, LatLon, local};
-use fleetmap_core::mission::MissionType;
+use fleetmap_core::mission::item::MissionType;
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::camera::CameraModel;
 pub use fleetmap_core::vision::crop::crop_to_cells;

@@ -164,7 +164,7 @@ impl Pilot {
                     .read(|s| {
                         s.explorer
                             .as_ref()
-                            .map(|e| e.robot_cell(fleetmap_core::explore::RobotId(sysid)))
+                            .map(|e| e.robot_cell(fleetmap_core::explore::dfs::RobotId(sysid)))
                     })
                     .await
                     .context("observing without an explorer")??;
@@ -191,7 +191,7 @@ impl Pilot {
                                     e.vertex_states()
                                         .iter()
                                         .filter(|(_, v)| {
-                                            *v == fleetmap_core::explore::VertexState::Explored
+                                            *v == fleetmap_core::explore::dfs::VertexState::Explored
                                         })
                                         .count()
                                 })

@@ -14,8 +14,8 @@
 //!   positives, 53 false negatives" in §7) and of the final cells, a cell counting as region
 //!   when more than half of it is.
 
-use fleetmap_core::explore::VertexState;
 use fleetmap_core::explore::dfs::ExplorerConfig;
+use fleetmap_core::explore::dfs::VertexState;
 use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState};
 use fleetmap_core::geo::{Cell, GeoError, Grid, LatLon};
 use fleetmap_core::vision::votes::CellState;

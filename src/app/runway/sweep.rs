@@ -36,7 +36,7 @@ impl Pilot {
                 .upload_mission(sysid, MissionType::Mission, items.clone())
                 .await?;
             let (back, _) = fleet.download_mission(sysid, MissionType::Mission).await?;
-            fleetmap_core::proto::mission::compare_items(&items, &back, v.flavour.home_item())
+            fleetmap_core::mission::wire::compare_items(&items, &back, v.flavour.home_item())
                 .map_err(|d| {
                     anyhow::anyhow!("vehicle {sysid}: the sweep read back differs: {d}")
                 })?;

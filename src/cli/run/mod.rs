@@ -21,7 +21,7 @@ use crate::cli::vehicles::ConnectArgs;
 use crate::store::RunDir;
 use anyhow::Context as _;
 use clap::{Args, ValueEnum};
-use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_io::link::ConnSpec;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;

@@ -22,12 +22,13 @@ use args::{AllocationChoice, SharingChoice};
 pub(crate) use args::{DfsArgs, SpeedRatio};
 pub use output::{table, trials_csv, violation_lines, write_outputs};
 
+use fleetmap_core::explore::ExploreError;
 use fleetmap_core::explore::bounds::{
     eq8_single_robot_bound, lawnmower_baseline, lemma1_upper_bound, lemma2_lower_bound,
     opt_lower_bound, round_trip_time, theorem_bound_at, theorem1_ratio, theorem2_ratio,
 };
+use fleetmap_core::explore::dfs::{Allocation, Sharing};
 use fleetmap_core::explore::simulate::{SimConfig, random_roi, simulate};
-use fleetmap_core::explore::{Allocation, ExploreError, Sharing};
 use fleetmap_core::geo::Cell;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;

@@ -9,8 +9,8 @@
 
 use super::{DfsStudyError, SpeedRatio, Study, Sweep, trial_roi};
 use fleetmap_core::explore::dfs::NodeKind;
+use fleetmap_core::explore::dfs::{Allocation, Sharing};
 use fleetmap_core::explore::simulate::{SimConfig, simulate};
-use fleetmap_core::explore::{Allocation, Sharing};
 use image::ImageEncoder;
 use plotters::prelude::*;
 

@@ -39,7 +39,7 @@ use crate::app::runway::{self, Outcome, RunOptions};
 use crate::app::{demo, images};
 use crate::store::{RunDir, RunMeta};
 use anyhow::Context as _;
-use fleetmap_core::explore::Sharing;
+use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{MappingState, WaitTimes};
 use fleetmap_core::world::World;
 use fleetmap_io::clock::unix_ms;

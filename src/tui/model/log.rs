@@ -3,7 +3,7 @@
 use fleetmap_core::time::Time;
 use serde::{Deserialize, Serialize};
 
-pub use fleetmap_core::proto::severity::Severity;
+use fleetmap_core::proto::severity::Severity;
 
 /// One log line: a STATUSTEXT from a vehicle, or a message from the GCS itself.
 #[derive(Clone, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]

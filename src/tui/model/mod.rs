@@ -18,7 +18,7 @@ mod map;
 mod mission;
 mod vehicle;
 
-pub use log::{LogEntry, Severity};
+pub use log::LogEntry;
 pub use map::{CellState, MapError, MapKind, MapModel, Track};
 pub use mission::{DfsProgress, MissionKind, MissionModel, Phase, RunStatus, Stat};
 pub use vehicle::{Battery, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleRow};

@@ -1,6 +1,7 @@
 use super::*;
 use fleetmap_core::geo::Cell;
 use fleetmap_core::proto::flavour::Autopilot;
+use fleetmap_core::proto::severity::Severity;
 
 #[test]
 fn map_rows_are_north_up() {

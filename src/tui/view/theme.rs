@@ -4,7 +4,8 @@
 //! word so that nothing depends on colour alone.
 
 use crate::tui::config::Thresholds;
-use crate::tui::model::{Battery, CellState, Gps, LinkState, Severity};
+use crate::tui::model::{Battery, CellState, Gps, LinkState};
+use fleetmap_core::proto::severity::Severity;
 use ratatui::style::{Color, Modifier, Style};
 
 /// Plain text.

@@ -43,7 +43,7 @@
 //! position tolerance; param1 is the hold time.
 
 use super::ExploreError;
-use crate::mission::MissionItem;
+use crate::mission::item::MissionItem;
 use crate::vision::camera::CameraModel;
 use serde::{Deserialize, Serialize};
 use std::fmt::Display;

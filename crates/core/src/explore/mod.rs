@@ -24,9 +24,8 @@ pub mod motion;
 pub mod reach;
 pub mod simulate;
 
-pub use dfs::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing, VertexState};
-
 use crate::geo::Cell;
+use dfs::RobotId;
 
 /// Errors of the exploration module.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]

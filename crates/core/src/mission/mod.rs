@@ -7,5 +7,3 @@ pub mod plan;
 pub(crate) mod strategy;
 pub mod wire;
 pub mod wpl;
-
-pub use item::{MissionItem, MissionType};

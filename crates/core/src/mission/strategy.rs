@@ -21,13 +21,13 @@ pub enum Allocation {
     /// (docs/results/dfs.md, "Allocation").
     #[default]
     Paper,
-    /// With [`Sharing::Gcs`](crate::explore::Sharing::Gcs) only: the robots at v go where the nearest unexplored vertex
+    /// With [`Sharing::Gcs`](crate::explore::dfs::Sharing::Gcs) only: the robots at v go where the nearest unexplored vertex
     /// (a known ROI cell nobody has reached or been sent to) is, in tree distance. Children
     /// whose subtree holds one come first, nearest first, and are split as in line 19; when
     /// no child's subtree holds one but some other part of the tree does, the robots walk
     /// back up (line 24) instead of following a group into a subtree with nothing left to
     /// open; when nothing anywhere is unexplored, Algorithm 1's rule applies. With
-    /// [`Sharing::Meet`](crate::explore::Sharing::Meet) this is the same as [`Allocation::Paper`] (a robot does not know
+    /// [`Sharing::Meet`](crate::explore::dfs::Sharing::Meet) this is the same as [`Allocation::Paper`] (a robot does not know
     /// where the frontier is).
     NearestFrontier,
 }

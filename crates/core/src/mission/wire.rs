@@ -7,7 +7,8 @@
 // autopilots still send them.
 #![allow(deprecated)]
 
-use crate::mission::{MissionItem, MissionType, item::cmd, item::frame};
+use crate::mission::item::{MissionItem, MissionType};
+use crate::mission::{item::cmd, item::frame};
 use mavlink::dialects::ardupilotmega::{
     MISSION_ITEM_DATA, MISSION_ITEM_INT_DATA, MavCmd, MavFrame, MavMissionType,
 };

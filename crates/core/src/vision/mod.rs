@@ -37,8 +37,6 @@ pub mod sanity;
 pub mod synth;
 pub mod votes;
 
-pub use load::{LoadLimits, load_image_bytes};
-
 /// Errors of the vision module.
 #[derive(Debug, thiserror::Error)]
 pub enum VisionError {

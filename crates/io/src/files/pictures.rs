@@ -10,7 +10,7 @@
 //! camera that did not fire would. Files that are not PNG or JPEG are skipped; a picture that
 //! cannot be decoded is skipped with its reason and the next one is taken.
 
-use fleetmap_core::vision::{LoadLimits, load_image_bytes};
+use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
 use image::RgbImage;
 use std::collections::HashSet;
 use std::path::{Path, PathBuf};

@@ -16,7 +16,7 @@
 //! link each component was last heard on, and a link that serves several peers picks the
 //! peer that system speaks from.
 
-pub mod addr;
+mod addr;
 pub mod codec;
 pub mod faults;
 pub mod peers;
@@ -25,4 +25,4 @@ pub mod signing;
 pub mod tlog;
 pub mod transport;
 
-pub use addr::ConnSpec;
+pub use addr::{ConnSpec, ConnSpecError};

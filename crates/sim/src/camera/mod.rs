@@ -73,7 +73,6 @@ pub(crate) use self::pacer::FRAME_OVERHEAD;
 #[cfg(test)]
 pub(crate) use self::pacer::PACE_BURST_S;
 pub use self::transfer::{PAYLOAD, RECENT_IMAGES};
-pub use fleetmap_core::proto::CAMERA_COMPID;
 
 /// The camera component of one vehicle.
 #[derive(Debug)]

@@ -54,7 +54,7 @@
 #![allow(deprecated)]
 
 use crate::flavour::SimAutopilot;
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::time::Time;
 use mavlink::MavHeader;

@@ -51,7 +51,7 @@ impl SimVehicle {
     /// capture to the camera component, which answers (`None`).
     pub(super) fn cmd_camera(
         &mut self,
-        from: (u8, u8),
+        from: Endpoint,
         c: &mav::COMMAND_INT_DATA,
         long: bool,
         now: Time,
@@ -84,7 +84,7 @@ impl SimVehicle {
         Some(mav::MavResult::MAV_RESULT_ACCEPTED)
     }
 
-    pub(super) fn camera_command(&mut self, from: (u8, u8), c: &mav::COMMAND_INT_DATA, now: Time) {
+    pub(super) fn camera_command(&mut self, from: Endpoint, c: &mav::COMMAND_INT_DATA, now: Time) {
         use mav::MavResult as R;
         let tb = self.time_boot_ms(now);
         let Some(cam) = self.camera.as_mut() else {
@@ -137,8 +137,8 @@ impl SimVehicle {
                 result,
                 progress: 0,
                 result_param2: 0,
-                target_system: from.0,
-                target_component: from.1,
+                target_system: from.sysid,
+                target_component: from.compid,
             }),
         );
         if let Some(m) = extra {

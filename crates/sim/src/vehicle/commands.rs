@@ -10,7 +10,7 @@ use super::*;
 impl SimVehicle {
     // ------------------------------------------------------------------ commands
 
-    pub(super) fn ack(&mut self, to: (u8, u8), command: mav::MavCmd, result: mav::MavResult) {
+    pub(super) fn ack(&mut self, to: Endpoint, command: mav::MavCmd, result: mav::MavResult) {
         self.queue(
             AUTOPILOT_COMPID,
             MavMessage::COMMAND_ACK(mav::COMMAND_ACK_DATA {
@@ -18,13 +18,13 @@ impl SimVehicle {
                 result,
                 progress: 0,
                 result_param2: 0,
-                target_system: to.0,
-                target_component: to.1,
+                target_system: to.sysid,
+                target_component: to.compid,
             }),
         );
     }
 
-    pub(super) fn command_long(&mut self, from: (u8, u8), c: &mav::COMMAND_LONG_DATA, now: Time) {
+    pub(super) fn command_long(&mut self, from: Endpoint, c: &mav::COMMAND_LONG_DATA, now: Time) {
         // COMMAND_LONG → COMMAND_INT the way ArduPilot converts it
         // (GCS_Common.cpp convert_COMMAND_LONG_to_COMMAND_INT / command_long_stores_location)
         use mav::MavCmd as C;
@@ -87,7 +87,7 @@ impl SimVehicle {
         self.command(from, &ci, true, nan_pos, now);
     }
 
-    pub(super) fn command_int(&mut self, from: (u8, u8), c: &mav::COMMAND_INT_DATA, now: Time) {
+    pub(super) fn command_int(&mut self, from: Endpoint, c: &mav::COMMAND_INT_DATA, now: Time) {
         self.command(from, c, false, false, now);
     }
 
@@ -96,7 +96,7 @@ impl SimVehicle {
     /// ("the current position").
     pub(super) fn command(
         &mut self,
-        from: (u8, u8),
+        from: Endpoint,
         c: &mav::COMMAND_INT_DATA,
         long: bool,
         nan_pos: bool,

@@ -50,14 +50,15 @@
 #![allow(deprecated)]
 
 use crate::battery::{Battery, BatteryConfig};
-use crate::camera::{CAMERA_COMPID, CameraConfig, CaptureContext, CapturedImage, SimCamera};
+use crate::camera::{CameraConfig, CaptureContext, CapturedImage, SimCamera};
 use crate::fence::Fence;
 use crate::flavour::{Flavour, Mode, SimAutopilot, VehicleKind};
 use crate::mission_server::{HomeItem, MissionEvent, MissionServer};
 use crate::motion::{self, Command, Limits};
 use crate::render::CameraPose;
 use fleetmap_core::geo::local;
-use fleetmap_core::mission::{MissionItem, MissionType};
+use fleetmap_core::mission::item::{MissionItem, MissionType};
+use fleetmap_core::proto::{CAMERA_COMPID, Endpoint};
 use fleetmap_core::time::Time;
 use fleetmap_core::world::{Wind, World};
 use mavlink::MavHeader;
@@ -339,10 +340,11 @@ pub struct SimVehicle {
     camera: Option<SimCamera>,
 }
 
-fn header(sysid: u8, compid: u8, seq: u8) -> MavHeader {
+/// The header of a frame `from` sends with sequence number `seq`.
+fn header(from: Endpoint, seq: u8) -> MavHeader {
     MavHeader {
-        system_id: u32::from(sysid),
-        component_id: compid,
+        system_id: u32::from(from.sysid),
+        component_id: from.compid,
         sequence: seq,
     }
 }
@@ -548,7 +550,7 @@ impl SimVehicle {
         let i = usize::from(comp == CAMERA_COMPID);
         let s = self.telemetry.seq[i];
         self.telemetry.seq[i] = s.wrapping_add(1);
-        Some((header(self.cfg.sysid, comp, s), msg))
+        Some((header(Endpoint::new(self.cfg.sysid, comp), s), msg))
     }
 
     /// The next event.
@@ -577,7 +579,7 @@ impl SimVehicle {
         if !self.power.powered {
             return;
         }
-        let from = (u8::try_from(h.system_id).unwrap_or(u8::MAX), h.component_id);
+        let from = Endpoint::of(h);
         if let MavMessage::HEARTBEAT(hb) = msg
             && hb.mavtype == mav::MavType::MAV_TYPE_GCS
         {

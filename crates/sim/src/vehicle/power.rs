@@ -127,7 +127,7 @@ impl SimVehicle {
     /// leaves before the power goes.
     pub(super) fn cmd_reboot(
         &mut self,
-        from: (u8, u8),
+        from: Endpoint,
         c: &mav::COMMAND_INT_DATA,
         now: Time,
     ) -> Option<mav::MavResult> {

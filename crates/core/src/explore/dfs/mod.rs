@@ -90,7 +90,7 @@
 
 mod decide;
 mod knowledge;
-pub mod tree;
+mod tree;
 
 pub use tree::{Node, NodeId, NodeKind, Tree};
 

@@ -419,7 +419,7 @@ fn sweep_box(def: &MissionDef, grid: &Grid) -> Result<LocalBox, MappingError> {
             south_west,
             north_east,
         } => {
-            let xy = |p: crate::mission::definition::LatLon| {
+            let xy = |p: crate::geo::LatLon| {
                 grid.to_xy(LatLon {
                     lat: p.lat,
                     lon: p.lon,

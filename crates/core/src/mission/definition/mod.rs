@@ -106,9 +106,9 @@ impl fmt::Display for MissionKind {
     }
 }
 
-/// A WGS84 position, degrees: the grid's own type. A definition's positions must lie in
-/// the UTM range (latitude −80 … 84), checked by `validate`.
-pub use crate::geo::LatLon;
+// Positions are the grid's own `LatLon` (WGS84 degrees); a definition's must lie in the UTM
+// range (latitude −80 … 84), checked by `validate`.
+use crate::geo::LatLon;
 
 /// Where the grid's origin (the centre of cell (0, 0)) is.
 #[derive(Clone, Copy, Debug, PartialEq)]

@@ -42,7 +42,7 @@
 //! cells only at that point and is allowed).
 
 use crate::geo::{Cell, GeoError, Grid, LatLon};
-use crate::mission::MissionItem;
+use crate::mission::item::MissionItem;
 use crate::mission::item::{cmd, frame};
 use std::collections::BTreeSet;
 

@@ -47,8 +47,8 @@ pub use measure::ImageMismatch;
 pub use records::*;
 
 use crate::geo::{Cell, Grid as GeoGrid};
-use crate::mission::MissionItem;
 use crate::mission::definition::{MissionDef, MissionKind};
+use crate::mission::item::MissionItem;
 use crate::planner::bandit::{self, BanditState, Label};
 use crate::planner::grid::Grid as PlannerGrid;
 use crate::planner::plan::Plan;

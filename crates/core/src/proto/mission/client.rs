@@ -7,7 +7,7 @@ use super::types::{
     MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome, MissionResultCode, OpId,
 };
 use super::upload::{UpPhase, UpStep, Upload};
-use crate::mission::MissionType;
+use crate::mission::item::MissionType;
 use crate::mission::wire::{build_wire, from_wire_list, mav_type};
 use crate::proto::Endpoint;
 use crate::time::Time;

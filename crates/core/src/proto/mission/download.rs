@@ -4,7 +4,7 @@
 
 use super::peer::Peer;
 use super::types::{MissionConfig, MissionError, MissionEvent, MissionResultCode, OpId};
-use crate::mission::MissionType;
+use crate::mission::item::MissionType;
 use crate::mission::wire::{item_int_from_float, mav_type};
 use crate::time::Time;
 use mavlink::dialects::ardupilotmega::{MISSION_ITEM_INT_DATA, MavMessage, MavMissionResult};

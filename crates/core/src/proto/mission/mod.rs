@@ -102,10 +102,6 @@ mod peer;
 mod types;
 mod upload;
 
-pub use crate::mission::wire::{
-    ItemsDiffer, compare_items, home_placeholder, is_global_frame, item_from_wire,
-    item_int_from_float, normalize_frame,
-};
 pub use client::MissionClient;
 pub use types::{
     MAX_OFFERED, MissionConfig, MissionError, MissionEvent, MissionOp, MissionOutcome,

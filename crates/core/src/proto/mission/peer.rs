@@ -4,7 +4,7 @@
 //! take it by `&mut`; the client ([`super::MissionClient`]) owns it and them.
 
 use super::types::{MissionConfig, MissionEvent};
-use crate::mission::MissionType;
+use crate::mission::item::MissionType;
 use crate::mission::wire::mav_type;
 use crate::proto::Endpoint;
 use mavlink::dialects::ardupilotmega::{

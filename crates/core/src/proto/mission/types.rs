@@ -1,8 +1,8 @@
 //! The mission protocol's vocabulary: its timeouts, the operations a caller starts, what
 //! they produce, why they fail, and the events the machine reports.
 
+use crate::mission::item::{MissionItem, MissionType};
 use crate::mission::wire::WireError;
-use crate::mission::{MissionItem, MissionType};
 use mavlink::dialects::ardupilotmega::MavMissionResult;
 use std::time::Duration;
 

@@ -7,8 +7,8 @@ use super::peer::Peer;
 use super::types::{
     MAX_OFFERED, MissionError, MissionEvent, MissionOutcome, MissionResultCode, OpId,
 };
+use crate::mission::item::{MissionItem, MissionType};
 use crate::mission::wire::{compare_items, from_wire_list, mav_type};
-use crate::mission::{MissionItem, MissionType};
 use crate::time::Time;
 use mavlink::dialects::ardupilotmega::{MISSION_ITEM_INT_DATA, MavMessage, MavMissionResult};
 
