@@ -33,13 +33,14 @@
 //! dead GCS had acknowledged is in the state; images taken while no GCS listened are lost, as
 //! they would be with any ground station.
 
+use crate::app::error::RunnerResult;
 use crate::app::flight::{self, Patience};
 pub use crate::app::images::image_hub;
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, VehicleSnapshot};
 use crate::store::RunDir;
-use anyhow::Context as _;
+use crate::app::error::Context as _;
 use fleetmap_core::geo::{Cell, LatLon, local};
 use fleetmap_core::mission::{MissionItem, MissionType};
 use fleetmap_core::planner::bandit::Label;
@@ -142,8 +143,8 @@ impl Shared {
     /// ([`RunCore::commit`] with the bandit's types).
     async fn commit<T>(
         &self,
-        f: impl FnOnce(&mut ClassificationState) -> anyhow::Result<(T, Vec<BanditEvent>)>,
-    ) -> anyhow::Result<T> {
+        f: impl FnOnce(&mut ClassificationState) -> RunnerResult<(T, Vec<BanditEvent>)>,
+    ) -> RunnerResult<T> {
         self.run.commit(f).await
     }
 

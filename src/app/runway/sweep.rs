@@ -1,12 +1,13 @@
 //! The sweep phase: the vehicle flies its lanes with the camera on a timer, and every picture
 //! that arrives is checked, classified and voted into the map as it comes.
 
+use crate::app::error::{RunnerError, RunnerResult};
 use super::*;
 
 impl Pilot {
     /// Fly (or keep flying) the sweep, classifying its images, until the phase changes, the
     /// sweep ends or the battery runs low.
-    pub(super) async fn sweep(&mut self) -> anyhow::Result<()> {
+    pub(super) async fn sweep(&mut self) -> RunnerResult<()> {
         let sysid = self.sysid;
         let fleet = self.fleet().clone();
         let (items, alt, speed, resume_item) = self
@@ -38,7 +39,7 @@ impl Pilot {
             let (back, _) = fleet.download_mission(sysid, MissionType::Mission).await?;
             fleetmap_core::proto::mission::compare_items(&items, &back, v.flavour.home_item())
                 .map_err(|d| {
-                    anyhow::anyhow!("vehicle {sysid}: the sweep read back differs: {d}")
+                    RunnerError::check(format!("vehicle {sysid}: the sweep read back differs: {d}"))
                 })?;
             self.shared.say(
                 Progress::info(format!(
@@ -112,7 +113,7 @@ impl Pilot {
                     match f {
                         Ok(inc) => heard.on_frame(sysid, &inc, &self.shared),
                         Err(broadcast::error::RecvError::Lagged(_)) => {}
-                        Err(broadcast::error::RecvError::Closed) => anyhow::bail!("the fleet stopped"),
+                        Err(broadcast::error::RecvError::Closed) => return Err(RunnerError::FleetStopped),
                     }
                 }
                 r = self.images.recv() => {
@@ -144,7 +145,7 @@ impl Pilot {
                 }
                 r = snaps.changed() => {
                     if r.is_err() {
-                        anyhow::bail!("the fleet stopped");
+                        return Err(RunnerError::FleetStopped);
                     }
                     let s = snaps.borrow_and_update().vehicles.get(&sysid).cloned();
                     let Some(s) = s else { continue };
@@ -232,7 +233,7 @@ impl Pilot {
         &mut self,
         img: &ReceivedImage,
         announced: Option<(GeoPoint, Time)>,
-    ) -> anyhow::Result<bool> {
+    ) -> RunnerResult<bool> {
         let announced_at = announced.map(|(p, _)| p);
         // When the picture was taken, as near as the GCS knows: by the camera's clock when it
         // announced the picture, else now.
