@@ -204,13 +204,36 @@ pub enum RunnerError {
     #[error(transparent)]
     Cpu(#[from] CpuError),
     /// A task of the runner (a pilot, the planner, an upload) panicked or was cancelled.
-    #[error("{task}")]
+    #[error("{task} failed")]
     Task {
         /// Which task ("drone task", "planner task").
         task: &'static str,
         /// The runtime's answer.
         #[source]
         source: tokio::task::JoinError,
+    },
+    /// A list a vehicle holds is not the one sent to it.
+    #[error("the {what} read back differs from the one sent")]
+    ReadBack {
+        /// The list ("sweep", "list").
+        what: &'static str,
+        /// The first difference.
+        #[source]
+        source: fleetmap_core::mission::wire::ItemsDiffer,
+    },
+    /// A bandit mission would cross a no-fly cell (or leave the area, or a station its
+    /// roads), before upload or as the vehicle read it back.
+    #[error("{role} {sysid}: the mission{} is unsafe", if *.read_back { " as read back" } else { "" })]
+    UnsafeMission {
+        /// The vehicle's role ("drone", "station", "vehicle").
+        role: &'static str,
+        /// The vehicle.
+        sysid: u8,
+        /// Whether the list checked is the one the vehicle returned.
+        read_back: bool,
+        /// The first violation.
+        #[source]
+        source: fleetmap_core::planner::sortie::missions::UnsafeMission,
     },
     /// A check the runner makes on its way did not hold; the message says what, and on which
     /// vehicle.

@@ -65,8 +65,8 @@ impl Runner {
                         .await?;
                 }
                 Err(e) => {
-                    first_err.get_or_insert(RunnerError::check(format!(
-                        "vehicle {sysid} refused the geofence of the no-fly cells: {}", crate::app::error::chain(&e)
+                    first_err.get_or_insert(e.context(format!(
+                        "vehicle {sysid} refused the geofence of the no-fly cells"
                     )));
                 }
             }
@@ -225,11 +225,21 @@ impl Runner {
                 };
                 for d in c.drones.iter().filter(|d| d.flies) {
                     missions::check_mission(&s.grid, &rules(false), d.path[0], &d.items)
-                        .map_err(|e| RunnerError::check(format!("drone {}: {e}", d.sysid)))?;
+                        .map_err(|source| RunnerError::UnsafeMission {
+                            role: "drone",
+                            sysid: d.sysid,
+                            read_back: false,
+                            source,
+                        })?;
                 }
                 for st in c.stations.iter().filter(|st| st.drives) {
                     missions::check_mission(&s.grid, &rules(true), st.path[0], &st.items)
-                        .map_err(|e| RunnerError::check(format!("station {}: {e}", st.sysid)))?;
+                        .map_err(|source| RunnerError::UnsafeMission {
+                            role: "station",
+                            sysid: st.sysid,
+                            read_back: false,
+                            source,
+                        })?;
                 }
                 let list: Vec<(u8, usize)> = c
                     .drones

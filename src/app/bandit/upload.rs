@@ -235,7 +235,10 @@ pub(super) async fn upload_once(
     fleet.upload_mission(sysid, kind, items.to_vec()).await?;
     let (back, _) = fleet.download_mission(sysid, kind).await?;
     fleetmap_core::proto::mission::compare_items(items, &back, v.flavour.home_item())
-        .map_err(|d| RunnerError::check(format!("the list read back differs from the one sent: {d}")))?;
+        .map_err(|source| RunnerError::ReadBack {
+            what: "list",
+            source,
+        })?;
     if let Some((state, start, station)) = check {
         let rules = AreaRules {
             rows: state.layout.rows,
@@ -244,7 +247,12 @@ pub(super) async fn upload_once(
             roads: station.then_some(state.layout.roads.as_slice()),
         };
         missions::check_mission(&state.grid, &rules, start, &back)
-            .map_err(|e| RunnerError::check(format!("the mission as read back is unsafe: {e}")))?;
+            .map_err(|source| RunnerError::UnsafeMission {
+                role: "vehicle",
+                sysid,
+                read_back: true,
+                source,
+            })?;
     }
     Ok(())
 }

@@ -211,7 +211,8 @@ pub async fn run(
             }
             Err(e) => {
                 if first_err.is_none() {
-                    first_err = Some(RunnerError::check(format!("vehicle {sysid}: pilot task failed: {e}")));
+                    first_err =
+                        Some(RunnerError::task("pilot task")(e).context(format!("vehicle {sysid}")));
                 }
             }
         }

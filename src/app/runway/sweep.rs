@@ -38,8 +38,12 @@ impl Pilot {
                 .await?;
             let (back, _) = fleet.download_mission(sysid, MissionType::Mission).await?;
             fleetmap_core::proto::mission::compare_items(&items, &back, v.flavour.home_item())
-                .map_err(|d| {
-                    RunnerError::check(format!("vehicle {sysid}: the sweep read back differs: {d}"))
+                .map_err(|source| {
+                    RunnerError::ReadBack {
+                        what: "sweep",
+                        source,
+                    }
+                    .context(format!("vehicle {sysid}"))
                 })?;
             self.shared.say(
                 Progress::info(format!(
