@@ -102,16 +102,15 @@ pub struct SimFleet {
 /// `udpout`), as several SITL instances or Wi-Fi drones do.
 pub async fn start(sim: Sim, speedup: f64) -> Result<SimFleet, SimStartError> {
     let (ev_tx, ev_rx) = mpsc::channel(4096);
-    let spec: ConnSpec = "udpin:127.0.0.1:0"
-        .parse()?;
+    let spec: ConnSpec = "udpin:127.0.0.1:0".parse()?;
     let link = open_link(0, spec, &LinkOptions::default(), ev_tx).await?;
-    let gcs = link
-        .local
-        .ok_or(SimStartError::NoLocalAddress)?;
+    let gcs = link.local.ok_or(SimStartError::NoLocalAddress)?;
     let handle = server::spawn(
         sim,
         ServeOptions {
-            endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}")).map_err(SimStartError::Endpoint)?],
+            endpoints: vec![
+                Endpoint::parse(&format!("udpout:{gcs}")).map_err(SimStartError::Endpoint)?,
+            ],
             speed: Speed::times(speedup).ok_or(SimStartError::Speed)?,
             // the fleet below follows the simulator's time
             gcs: GcsClock::Simulator,
@@ -131,7 +130,11 @@ pub async fn start(sim: Sim, speedup: f64) -> Result<SimFleet, SimStartError> {
 }
 
 /// Build and serve a simulator for `spec` over `world` (see [`sim_config`], [`start`]).
-pub async fn start_team(spec: &str, world: &World, setup: &SimSetup) -> Result<SimFleet, SimStartError> {
+pub async fn start_team(
+    spec: &str,
+    world: &World,
+    setup: &SimSetup,
+) -> Result<SimFleet, SimStartError> {
     let sim = Sim::new(sim_config(spec, world, setup)?, Time::ZERO)?;
     start(sim, setup.speedup).await
 }

@@ -102,7 +102,11 @@ pub fn mission_for(
 /// mission's `flight_time_min` (the endurance the GCS judges returns and reach by) is the
 /// simulated batteries' `battery_minutes`, so that a shorter battery is not flown as a
 /// 12-minute one.
-fn mission_with(base: &str, file: &str, cfg: &DemoConfig) -> Result<(String, MissionDef), SimStartError> {
+fn mission_with(
+    base: &str,
+    file: &str,
+    cfg: &DemoConfig,
+) -> Result<(String, MissionDef), SimStartError> {
     const BATTERY_LINE: &str = "flight_time_min = 12.0";
     if !base.contains(BATTERY_LINE) {
         return Err(SimStartError::NoBatteryLine {
@@ -127,8 +131,8 @@ fn mission_with(base: &str, file: &str, cfg: &DemoConfig) -> Result<(String, Mis
             "\n[[vehicles]]\nsysid = {k}\nrole = \"drone\"\nname = \"uav{k}\"\n"
         ));
     }
-    let def = MissionDef::parse(&text, &format!("{file} (built in)"))
-        .map_err(SimStartError::Mission)?;
+    let def =
+        MissionDef::parse(&text, &format!("{file} (built in)")).map_err(SimStartError::Mission)?;
     Ok((text, def))
 }
 
@@ -217,8 +221,7 @@ pub(crate) async fn start_at(
     let (ev_tx, ev_rx) = mpsc::channel(4096);
     let mut links = Vec::new();
     for (i, b) in handle.bound.iter().enumerate() {
-        let spec: ConnSpec = format!("udpout:{}", b.local)
-            .parse()?;
+        let spec: ConnSpec = format!("udpout:{}", b.local).parse()?;
         links.push(open_link(i, spec, &LinkOptions::default(), ev_tx.clone()).await?);
     }
     drop(ev_tx);

@@ -440,7 +440,11 @@ mod tests {
         })
         .context("vehicle 2: arming");
         assert!(e.is_transient());
-        assert!(!RunnerError::check("no sortie").context("starting").is_transient());
+        assert!(
+            !RunnerError::check("no sortie")
+                .context("starting")
+                .is_transient()
+        );
     }
 
     /// A typed error names its vehicle and keeps the fleet's answer as its cause.

@@ -1,8 +1,8 @@
 //! The image intake of the bandit run: every received picture's pose, its crop and green
 //! measurement (on a blocking thread), committed in groups.
 
-use crate::app::error::{RunnerError, RunnerResult};
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 use fleetmap_core::vision::VisionError;
 
 /// Why a received picture does not count: journalled (its `Display`) as the reason of
@@ -119,7 +119,10 @@ pub(super) async fn intake(shared: Arc<Shared>, mut rx: broadcast::Receiver<Arc<
             }
         }
         if let Err(e) = take_images(&shared, batch).await {
-            shared.say(Progress::warning(format!("images not recorded: {}", crate::app::error::chain(&e))));
+            shared.say(Progress::warning(format!(
+                "images not recorded: {}",
+                crate::app::error::chain(&e)
+            )));
         }
     }
 }
@@ -203,8 +206,12 @@ pub(super) async fn take_images(
             Ok(p) => poses.push(Some(p)),
             Err(e) => {
                 shared.say(
-                    Progress::warning(format!("vehicle {}: image not recorded: {}", img.sysid, crate::app::error::chain(&e)))
-                        .about(img.sysid),
+                    Progress::warning(format!(
+                        "vehicle {}: image not recorded: {}",
+                        img.sysid,
+                        crate::app::error::chain(&e)
+                    ))
+                    .about(img.sysid),
                 );
                 poses.push(None);
             }

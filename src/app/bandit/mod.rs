@@ -33,6 +33,7 @@
 //! dead GCS had acknowledged is in the state; images taken while no GCS listened are lost, as
 //! they would be with any ground station.
 
+use crate::app::error::Context as _;
 use crate::app::error::RunnerResult;
 use crate::app::flight::{self, Patience};
 pub use crate::app::images::image_hub;
@@ -40,7 +41,6 @@ use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, VehicleSnapshot};
 use crate::store::RunDir;
-use crate::app::error::Context as _;
 use fleetmap_core::geo::{Cell, LatLon, local};
 use fleetmap_core::mission::{MissionItem, MissionType};
 use fleetmap_core::planner::bandit::Label;

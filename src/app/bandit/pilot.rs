@@ -1,8 +1,8 @@
 //! One drone's pilot during a sortie (follow its mission, land at the end) and the docking
 //! on a charging rover's pad.
 
-use crate::app::error::{RunnerError, RunnerResult};
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 impl DronePilot {
     pub(super) fn fleet(&self) -> &FleetHandle {
@@ -68,7 +68,9 @@ impl DronePilot {
                 }
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                return Err(RunnerError::check(format!("drone {sysid}: its mission did not end in time (at step {step})")));
+                return Err(RunnerError::check(format!(
+                    "drone {sysid}: its mission did not end in time (at step {step})"
+                )));
             }
             let _ = tokio::time::timeout(Duration::from_millis(500), snaps.changed()).await;
         }
@@ -97,7 +99,9 @@ impl DronePilot {
                 told = true;
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                return Err(RunnerError::check(format!("drone {sysid}: station {station} never reached the rendezvous")));
+                return Err(RunnerError::check(format!(
+                    "drone {sysid}: station {station} never reached the rendezvous"
+                )));
             }
             self.shared.wait_change(Duration::from_millis(500)).await;
         }
@@ -188,7 +192,8 @@ pub(super) async fn dock(
                 Err(e) if attempt < 5 => {
                     shared.say(
                         Progress::warning(format!(
-                            "drone {sysid}: landing on station {station}: {} (trying again)", crate::app::error::chain(&e)
+                            "drone {sysid}: landing on station {station}: {} (trying again)",
+                            crate::app::error::chain(&e)
                         ))
                         .about(sysid),
                     );

@@ -2,8 +2,8 @@
 //! the run through [`ClassificationState::next`] until every cell is classified; also the
 //! airborne-time tracker and the run's start and final save.
 
-use crate::app::error::{RunnerError, RunnerResult};
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 impl Runner {
     pub(super) fn fleet(&self) -> &FleetHandle {
@@ -197,71 +197,73 @@ impl Runner {
                         .await?;
                     k *= 2;
                 }
-                (status, _) => return Err(RunnerError::check(format!(
-                    "epoch {p}: the planner found no plan ({}{}): the goals cannot be reached \
+                (status, _) => {
+                    return Err(RunnerError::check(format!(
+                        "epoch {p}: the planner found no plan ({}{}): the goals cannot be reached \
                      from where the team is within {k} sensing cycles",
-                    status.as_str(),
-                    if out.message.is_empty() {
-                        String::new()
-                    } else {
-                        format!(": {}", out.message)
-                    }
-                ))),
+                        status.as_str(),
+                        if out.message.is_empty() {
+                            String::new()
+                        } else {
+                            format!(": {}", out.message)
+                        }
+                    )));
+                }
             }
         }
     }
 
     pub(super) async fn prepare(&self) -> RunnerResult<()> {
-        let (p, k, list) = self
-            .shared
-            .commit(|s| {
-                let c = s.prepare_cycle()?.clone();
-                // Check every mission before it goes anywhere.
-                let rules = |station: bool| AreaRules {
-                    rows: s.layout.rows,
-                    cols: s.layout.cols,
-                    obstacles: &s.layout.obstacles,
-                    roads: station.then_some(s.layout.roads.as_slice()),
-                };
-                for d in c.drones.iter().filter(|d| d.flies) {
-                    missions::check_mission(&s.grid, &rules(false), d.path[0], &d.items)
-                        .map_err(|source| RunnerError::UnsafeMission {
-                            role: "drone",
-                            sysid: d.sysid,
-                            read_back: false,
-                            source,
-                        })?;
-                }
-                for st in c.stations.iter().filter(|st| st.drives) {
-                    missions::check_mission(&s.grid, &rules(true), st.path[0], &st.items)
-                        .map_err(|source| RunnerError::UnsafeMission {
-                            role: "station",
-                            sysid: st.sysid,
-                            read_back: false,
-                            source,
-                        })?;
-                }
-                let list: Vec<(u8, usize)> = c
-                    .drones
-                    .iter()
-                    .filter(|d| d.flies)
-                    .map(|d| (d.sysid, d.items.len()))
-                    .chain(
-                        c.stations
-                            .iter()
-                            .filter(|x| x.drives)
-                            .map(|x| (x.sysid, x.items.len())),
-                    )
-                    .collect();
-                let p = s.bandit.epoch;
-                let ev = BanditEvent::SortiePrepared {
-                    epoch: p,
-                    cycle: c.k,
-                    missions: list.clone(),
-                };
-                Ok(((p, c.k, list), vec![ev]))
-            })
-            .await?;
+        let (p, k, list) =
+            self.shared
+                .commit(|s| {
+                    let c = s.prepare_cycle()?.clone();
+                    // Check every mission before it goes anywhere.
+                    let rules = |station: bool| AreaRules {
+                        rows: s.layout.rows,
+                        cols: s.layout.cols,
+                        obstacles: &s.layout.obstacles,
+                        roads: station.then_some(s.layout.roads.as_slice()),
+                    };
+                    for d in c.drones.iter().filter(|d| d.flies) {
+                        missions::check_mission(&s.grid, &rules(false), d.path[0], &d.items)
+                            .map_err(|source| RunnerError::UnsafeMission {
+                                role: "drone",
+                                sysid: d.sysid,
+                                read_back: false,
+                                source,
+                            })?;
+                    }
+                    for st in c.stations.iter().filter(|st| st.drives) {
+                        missions::check_mission(&s.grid, &rules(true), st.path[0], &st.items)
+                            .map_err(|source| RunnerError::UnsafeMission {
+                                role: "station",
+                                sysid: st.sysid,
+                                read_back: false,
+                                source,
+                            })?;
+                    }
+                    let list: Vec<(u8, usize)> = c
+                        .drones
+                        .iter()
+                        .filter(|d| d.flies)
+                        .map(|d| (d.sysid, d.items.len()))
+                        .chain(
+                            c.stations
+                                .iter()
+                                .filter(|x| x.drives)
+                                .map(|x| (x.sysid, x.items.len())),
+                        )
+                        .collect();
+                    let p = s.bandit.epoch;
+                    let ev = BanditEvent::SortiePrepared {
+                        epoch: p,
+                        cycle: c.k,
+                        missions: list.clone(),
+                    };
+                    Ok(((p, c.k, list), vec![ev]))
+                })
+                .await?;
         let _ = (p, k, list);
         Ok(())
     }

@@ -1,8 +1,8 @@
 //! Flying one sortie: wait for the charge, start every drone, follow them to the end with
 //! their pilots and the lock-step barriers.
 
-use crate::app::error::{RunnerError, RunnerResult};
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 impl Runner {
     /// Wait until every drone that flies the sortie has the charge it needs.
@@ -138,7 +138,10 @@ impl Runner {
                     .await;
                     match r {
                         Err(e) if attempt < 3 && transient(&e) => {
-                            tracing::warn!("drone {sysid}: {} (trying again)", crate::app::error::chain(&e));
+                            tracing::warn!(
+                                "drone {sysid}: {} (trying again)",
+                                crate::app::error::chain(&e)
+                            );
                         }
                         r => break r,
                     }
@@ -171,7 +174,10 @@ impl Runner {
                     .await;
                     match r {
                         Err(e) if attempt < 3 && transient(&e) => {
-                            tracing::warn!("station {sysid}: {} (trying again)", crate::app::error::chain(&e));
+                            tracing::warn!(
+                                "station {sysid}: {} (trying again)",
+                                crate::app::error::chain(&e)
+                            );
                         }
                         r => break r,
                     }

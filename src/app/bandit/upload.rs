@@ -2,8 +2,8 @@
 //! configuration it ended in), time and charge estimates, and the verified upload of
 //! missions and fences with retries of transient failures.
 
-use crate::app::error::{RunnerError, RunnerResult};
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 /// Whether the vehicle has done its whole mission `items`: MISSION_ITEM_REACHED of the last
 /// item, or MISSION_CURRENT COMPLETE on the last item once this mission is known to have
@@ -213,7 +213,10 @@ pub(super) async fn upload_verified(
         attempt += 1;
         match upload_once(fleet, sysid, kind, items, check).await {
             Err(e) if attempt < 3 && transient(&e) => {
-                tracing::warn!("vehicle {sysid}: {} (trying again)", crate::app::error::chain(&e));
+                tracing::warn!(
+                    "vehicle {sysid}: {} (trying again)",
+                    crate::app::error::chain(&e)
+                );
             }
             r => return r,
         }
@@ -234,11 +237,12 @@ pub(super) async fn upload_once(
         .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
     fleet.upload_mission(sysid, kind, items.to_vec()).await?;
     let (back, _) = fleet.download_mission(sysid, kind).await?;
-    fleetmap_core::proto::mission::compare_items(items, &back, v.flavour.home_item())
-        .map_err(|source| RunnerError::ReadBack {
+    fleetmap_core::proto::mission::compare_items(items, &back, v.flavour.home_item()).map_err(
+        |source| RunnerError::ReadBack {
             what: "list",
             source,
-        })?;
+        },
+    )?;
     if let Some((state, start, station)) = check {
         let rules = AreaRules {
             rows: state.layout.rows,
@@ -246,13 +250,14 @@ pub(super) async fn upload_once(
             obstacles: &state.layout.obstacles,
             roads: station.then_some(state.layout.roads.as_slice()),
         };
-        missions::check_mission(&state.grid, &rules, start, &back)
-            .map_err(|source| RunnerError::UnsafeMission {
+        missions::check_mission(&state.grid, &rules, start, &back).map_err(|source| {
+            RunnerError::UnsafeMission {
                 role: "vehicle",
                 sysid,
                 read_back: true,
                 source,
-            })?;
+            }
+        })?;
     }
     Ok(())
 }

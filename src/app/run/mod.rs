@@ -13,9 +13,9 @@ mod progress;
 
 pub use progress::Progress;
 
+use crate::app::error::Context as _;
 use crate::app::error::{RunnerError, RunnerResult};
 use crate::store::{RunDir, RunStore};
-use crate::app::error::Context as _;
 use fleetmap_io::clock::MonotonicClock;
 use serde::Serialize;
 use std::sync::Arc;

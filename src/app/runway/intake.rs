@@ -1,9 +1,9 @@
 //! Image intake of the runway run: a received picture's pose, its crop and classification
 //! (on a blocking thread), and a visit's pictures with their retakes and camera faults.
 
-use crate::app::error::RunnerResult;
 use super::*;
 use crate::app::error::CpuError;
+use crate::app::error::RunnerResult;
 use fleetmap_core::vision::VisionError;
 
 pub(super) fn labels5(c: &Classification) -> [bool; 5] {

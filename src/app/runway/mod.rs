@@ -47,13 +47,13 @@
 //! * **End**: every robot back at the start (Algorithm 1), then home and landed; the run's
 //!   outputs are written by [`report`].
 
+use crate::app::error::Context as _;
 use crate::app::error::RunnerResult;
 use crate::app::flight::{self, FlightError, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
 use crate::store::RunDir;
-use crate::app::error::Context as _;
 use fleetmap_core::explore::dfs::Action;
 use fleetmap_core::explore::mapping::{
     Activity, Directive, MappingError, MappingState, Phase, RobotStatus, Wait,

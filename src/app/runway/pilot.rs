@@ -2,8 +2,8 @@
 //! drives the vehicle through it (fly to a cell, battery checks and swaps, home and land).
 //! The pictures of a visit are in [`super::intake`], the sweep in [`super::sweep`].
 
-use crate::app::error::RunnerResult;
 use super::*;
+use crate::app::error::RunnerResult;
 use fleetmap_core::explore::reach::Reach;
 
 /// Seconds a drone is counted over a cell per picture still to take, when the reach rule

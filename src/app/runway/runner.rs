@@ -1,8 +1,8 @@
 //! Running (or resuming) a runway-mapping run: one pilot task per vehicle, the position
 //! tracker, the operator's commands, and the final save.
 
-use crate::app::error::{RunnerError, RunnerResult};
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 use fleetmap_core::explore::mapping::CLOCK_SAMPLE_S;
 use tokio::task::JoinSet;
 
@@ -211,8 +211,9 @@ pub async fn run(
             }
             Err(e) => {
                 if first_err.is_none() {
-                    first_err =
-                        Some(RunnerError::task("pilot task")(e).context(format!("vehicle {sysid}")));
+                    first_err = Some(
+                        RunnerError::task("pilot task")(e).context(format!("vehicle {sysid}")),
+                    );
                 }
             }
         }

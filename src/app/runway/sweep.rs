@@ -1,8 +1,8 @@
 //! The sweep phase: the vehicle flies its lanes with the camera on a timer, and every picture
 //! that arrives is checked, classified and voted into the map as it comes.
 
-use crate::app::error::{RunnerError, RunnerResult};
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 impl Pilot {
     /// Fly (or keep flying) the sweep, classifying its images, until the phase changes, the
