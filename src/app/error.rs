@@ -172,7 +172,7 @@ pub enum RunnerError {
     Step(#[from] crate::app::flight::FlightError),
     /// The vehicles refused the sortie's missions.
     #[error(transparent)]
-    Rejected(#[from] crate::app::bandit::SortieRejected),
+    Rejected(#[from] SortieRejected),
     /// The fleet's event channel closed: the fleet stopped under the runner.
     #[error("the fleet stopped")]
     FleetStopped,
@@ -339,7 +339,25 @@ impl<T> Context<T> for Option<T> {
     }
 }
 
+/// Why a sortie stopped before take-off.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "the sortie of epoch {epoch}, cycle {cycle} stopped before take-off: vehicle {sysid} \
+     rejected its mission: {reason}"
+)]
+pub struct SortieRejected {
+    /// Epoch p.
+    pub epoch: u64,
+    /// Cycle.
+    pub cycle: usize,
+    /// The vehicle.
+    pub sysid: u8,
+    /// Why.
+    pub reason: String,
+}
+
 /// Why a simulated fleet (the demo's, the bandit's) could not be started.
+#[cfg(feature = "sim")]
 #[derive(Debug, thiserror::Error)]
 pub enum SimStartError {
     /// The speed-up is zero, negative or not a number.

@@ -35,6 +35,7 @@
 
 use crate::app::error::Context as _;
 use crate::app::error::RunnerResult;
+pub use crate::app::error::SortieRejected;
 use crate::app::flight::{self, Patience};
 pub use crate::app::images::image_hub;
 use crate::app::images::{ImageHub, ReceivedImage};
@@ -104,23 +105,6 @@ pub struct RunOptions {
     /// drones in the air finish theirs and land on their stations, which is where a
     /// spatial-classification team waits (charging) between sorties anyway.
     pub pause: Option<watch::Receiver<bool>>,
-}
-
-/// Why a sortie stopped before take-off.
-#[derive(Debug, thiserror::Error)]
-#[error(
-    "the sortie of epoch {epoch}, cycle {cycle} stopped before take-off: vehicle {sysid} \
-     rejected its mission: {reason}"
-)]
-pub struct SortieRejected {
-    /// Epoch p.
-    pub epoch: u64,
-    /// Cycle.
-    pub cycle: usize,
-    /// The vehicle.
-    pub sysid: u8,
-    /// Why.
-    pub reason: String,
 }
 
 /// The bandit run's shared part: the run core (state, store, progress, view) and what the
