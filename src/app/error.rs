@@ -272,8 +272,11 @@ impl RunnerError {
         }
     }
 
-    /// Whether a fleet error in this error's causes says that the vehicle did not answer
-    /// ([`FleetError::is_transient`]), so that trying again may succeed.
+    /// Whether this error is a fleet error (itself or under the steps that name it,
+    /// [`RunnerError::Context`]) that says the vehicle did not answer
+    /// ([`FleetError::is_transient`]), so that trying again may succeed. A flight step's
+    /// error ([`RunnerError::Step`]) is final, as it was when the runners looked for a fleet
+    /// error in the chain of causes (the step's fleet error is transparent, not a cause).
     pub(crate) fn is_transient(&self) -> bool {
         match self {
             RunnerError::Fleet(e) => e.is_transient(),
