@@ -195,7 +195,8 @@ pub enum RunnerError {
     #[error(transparent)]
     Explore(#[from] fleetmap_core::explore::ExploreError),
     /// The run store's thread is gone (a save panicked): nothing more can be saved.
-    #[error("the run store task stopped (a save panicked): nothing more can be saved")]
+    // The store's own message (`StoreGone` is crate-private, so not a source here).
+    #[error("{}", crate::store::task::StoreGone)]
     StoreGone,
     /// The run store's thread could not be started.
     #[error("starting the run store thread")]
