@@ -70,7 +70,7 @@ async fn a_run_whose_pictures_never_arrive_stops_with_a_reason() {
     .await
     .expect("the run did not stop within 600 s")
     .expect_err("a run without pictures cannot finish");
-    let msg = format!("{err:#}");
+    let msg = fleetmap::app::error::chain(&err);
     assert!(
         msg.contains(&format!(
             "no measurement reached the GCS in the last {MAX_EPOCHS_WITHOUT_MEASUREMENT} epochs"

@@ -152,7 +152,12 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
     )
     .await
     .unwrap_or_else(|_| panic!("{name}: the run did not finish within 400 s"))
-    .unwrap_or_else(|e| panic!("{name}: the run failed: {e:#}"));
+    .unwrap_or_else(|e| {
+        panic!(
+            "{name}: the run failed: {}",
+            fleetmap::app::error::chain(&e)
+        )
+    });
     fleet.shutdown().await;
     let _ = stop_tx.send(true);
     let mut stats = Vec::new();

@@ -351,13 +351,13 @@ async fn a_vehicle_that_rejects_its_mission_stops_the_sortie_before_take_off() {
     .await
     .expect("the run did not stop")
     .expect_err("the sortie must not fly");
-    let msg = format!("{err:#}");
+    let msg = fleetmap::app::error::chain(&err);
     assert!(
         msg.contains("stopped before take-off") && msg.contains("vehicle 3 rejected its mission"),
         "{msg}"
     );
     assert!(
-        err.downcast_ref::<bandit::SortieRejected>().is_some(),
+        matches!(err, fleetmap::app::error::RunnerError::Rejected(_)),
         "{msg}"
     );
     // Nothing took off, nothing drove.

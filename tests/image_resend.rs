@@ -16,6 +16,7 @@
 //! camera behind the port at once): the picture was lost.
 
 use fleetmap::app::images::{ImageFailure, Intake};
+use fleetmap_core::proto::Endpoint;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
 use fleetmap_sim::camera::{CameraConfig, RECENT_IMAGES};
@@ -107,7 +108,7 @@ impl Bench {
                 .map(|k| w.default_home(usize::from(k)).unwrap())
                 .collect(),
             cams: PairedCameras::new(w, config, 7),
-            intake: Intake::new((255, 190)),
+            intake: Intake::new(Endpoint::gcs()),
             now: Time::ZERO,
             fault,
             dropped: 0,
@@ -224,7 +225,7 @@ impl Bench {
         // cameras → GCS
         while self.up.front().is_some_and(|(t, _, _)| *t <= now) {
             if let Some((_, h, m)) = self.up.pop_front() {
-                let from = (h.system_id as u8, h.component_id);
+                let from = Endpoint::new(h.system_id as u8, h.component_id);
                 self.intake.handle_message(from, &m, now);
             }
         }
@@ -233,7 +234,7 @@ impl Bench {
         }
         while let Some((cam, m)) = self.intake.poll_transmit() {
             if let MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) = &m {
-                self.requests.push((cam.0, now, h.size));
+                self.requests.push((cam.sysid, now, h.size));
             }
             // no target: every autopilot on the port forwards it to the cameras
             for _ in 1..=VEHICLES {

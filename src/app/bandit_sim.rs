@@ -4,8 +4,8 @@
 //! GCS clock running at the simulator's speed-up — what `fleetmap demo --bandit` and the
 //! end-to-end tests fly.
 
+use crate::app::error::SimStartError;
 use crate::fleet::{self, FleetConfig, FleetHandle};
-use anyhow::Context as _;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
 use fleetmap_io::link::ConnSpec;
@@ -69,7 +69,7 @@ impl Default for SimSetup {
 
 /// The simulator configuration for `spec` over `world` (the world's default homes: the
 /// mission's start cells), without battery swaps (the rovers charge the drones).
-pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> anyhow::Result<SimConfig> {
+pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> Result<SimConfig, SimStartError> {
     let mut sc = SimConfig::from_spec(spec, Some(world.clone()), None, setup.seed)?;
     for v in &mut sc.vehicles {
         if v.flavour.is_copter() {
@@ -100,20 +100,18 @@ pub struct SimFleet {
 /// as field teams wire several vehicles: the fleet listens on one loopback UDP port
 /// (`udpin:127.0.0.1:0`) and every vehicle sends to it from its own socket (the simulator's
 /// `udpout`), as several SITL instances or Wi-Fi drones do.
-pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
+pub async fn start(sim: Sim, speedup: f64) -> Result<SimFleet, SimStartError> {
     let (ev_tx, ev_rx) = mpsc::channel(4096);
-    let spec: ConnSpec = "udpin:127.0.0.1:0"
-        .parse()
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let spec: ConnSpec = "udpin:127.0.0.1:0".parse()?;
     let link = open_link(0, spec, &LinkOptions::default(), ev_tx).await?;
-    let gcs = link
-        .local
-        .context("the GCS's UDP port has no local address")?;
+    let gcs = link.local.ok_or(SimStartError::NoLocalAddress)?;
     let handle = server::spawn(
         sim,
         ServeOptions {
-            endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}"))?],
-            speed: Speed::times(speedup).context("the speed-up must be positive")?,
+            endpoints: vec![
+                Endpoint::parse(&format!("udpout:{gcs}")).map_err(SimStartError::Endpoint)?,
+            ],
+            speed: Speed::times(speedup).ok_or(SimStartError::Speed)?,
             // the fleet below follows the simulator's time
             gcs: GcsClock::Simulator,
             image_dir: None,
@@ -121,7 +119,7 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
         },
     )
     .await
-    .context("starting the simulator")?;
+    .map_err(SimStartError::Server)?;
     let fleet = fleet::spawn(
         vec![link],
         ev_rx,
@@ -132,7 +130,11 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
 }
 
 /// Build and serve a simulator for `spec` over `world` (see [`sim_config`], [`start`]).
-pub async fn start_team(spec: &str, world: &World, setup: &SimSetup) -> anyhow::Result<SimFleet> {
+pub async fn start_team(
+    spec: &str,
+    world: &World,
+    setup: &SimSetup,
+) -> Result<SimFleet, SimStartError> {
     let sim = Sim::new(sim_config(spec, world, setup)?, Time::ZERO)?;
     start(sim, setup.speedup).await
 }

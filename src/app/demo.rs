@@ -7,9 +7,9 @@
 //! and the flight times keep their real-time meaning in simulated seconds. The world and
 //! the mission are compiled into the binary, so the demo runs from any directory.
 
+use crate::app::error::SimStartError;
 use crate::app::runway::report::ROI_SURFACES;
 use crate::fleet::{self, FleetConfig, FleetHandle};
-use anyhow::Context as _;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
@@ -60,7 +60,7 @@ impl Default for DemoConfig {
 pub(crate) const PLUME_MISSION: &str = include_str!("../../missions/plume.toml");
 
 /// The runway mission with `cfg.drones` drones and the demo's separation.
-pub fn runway_mission(cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
+pub fn runway_mission(cfg: &DemoConfig) -> Result<(String, MissionDef), SimStartError> {
     mission_with(RUNWAY_MISSION, RUNWAY_MISSION_FILE, cfg)
 }
 
@@ -75,7 +75,7 @@ const PLUME_MISSION_FILE: &str = "plume.toml";
 pub fn mission_for(
     world: &World,
     cfg: &DemoConfig,
-) -> anyhow::Result<(String, MissionDef, &'static str)> {
+) -> Result<(String, MissionDef, &'static str), SimStartError> {
     let mut moving = world
         .regions
         .iter()
@@ -86,11 +86,9 @@ pub fn mission_for(
         return Ok((text, def, RUNWAY_MISSION_FILE));
     };
     if moving.any(|v| v != (vn, ve)) {
-        anyhow::bail!(
-            "the world {} has regions of interest moving at different velocities; the runner \
-             maps one moving frame",
-            world.name
-        );
+        return Err(SimStartError::MovingRegions {
+            world: world.name.clone(),
+        });
     }
     let text = PLUME_MISSION.replace(
         "roi_velocity_ne_mps = [0.0, 0.3]",
@@ -104,12 +102,17 @@ pub fn mission_for(
 /// mission's `flight_time_min` (the endurance the GCS judges returns and reach by) is the
 /// simulated batteries' `battery_minutes`, so that a shorter battery is not flown as a
 /// 12-minute one.
-fn mission_with(base: &str, file: &str, cfg: &DemoConfig) -> anyhow::Result<(String, MissionDef)> {
+fn mission_with(
+    base: &str,
+    file: &str,
+    cfg: &DemoConfig,
+) -> Result<(String, MissionDef), SimStartError> {
     const BATTERY_LINE: &str = "flight_time_min = 12.0";
     if !base.contains(BATTERY_LINE) {
-        anyhow::bail!(
-            "the built-in mission {file} has no line `{BATTERY_LINE}` to set the battery in"
-        );
+        return Err(SimStartError::NoBatteryLine {
+            file: file.to_string(),
+            line: BATTERY_LINE,
+        });
     }
     let mut text = base
         .replace(
@@ -128,8 +131,8 @@ fn mission_with(base: &str, file: &str, cfg: &DemoConfig) -> anyhow::Result<(Str
             "\n[[vehicles]]\nsysid = {k}\nrole = \"drone\"\nname = \"uav{k}\"\n"
         ));
     }
-    let def = MissionDef::parse(&text, &format!("{file} (built in)"))
-        .map_err(|e| anyhow::anyhow!("{e}"))?;
+    let def =
+        MissionDef::parse(&text, &format!("{file} (built in)")).map_err(SimStartError::Mission)?;
     Ok((text, def))
 }
 
@@ -153,7 +156,7 @@ pub async fn start_virtual(
     spec: &str,
     world: World,
     cfg: &DemoConfig,
-) -> anyhow::Result<(FleetHandle, SimTask)> {
+) -> Result<(FleetHandle, SimTask), SimStartError> {
     let sim = Sim::new(sim_config(spec, world, cfg)?, Time::ZERO)?;
     let (ev_tx, ev_rx) = mpsc::channel(4096);
     let mut links = Vec::new();
@@ -174,7 +177,7 @@ pub async fn start_virtual(
     Ok((fleet, handle))
 }
 
-fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<SimConfig> {
+fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> Result<SimConfig, SimStartError> {
     let mut sc = SimConfig::from_spec(spec, Some(world), None, cfg.seed)?;
     for v in &mut sc.vehicles {
         if v.flavour.is_copter() {
@@ -188,8 +191,8 @@ fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<SimC
 /// Start the simulator with `spec` vehicles over `world` and a fleet connected to each
 /// vehicle over loopback UDP, on the simulator's own time (at most `cfg.speedup` times the
 /// wall clock's, slower when the machine is busy).
-pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> anyhow::Result<DemoFleet> {
-    let speed = Speed::times(cfg.speedup).context("the speed-up must be positive")?;
+pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> Result<DemoFleet, SimStartError> {
+    let speed = Speed::times(cfg.speedup).ok_or(SimStartError::Speed)?;
     start_at(spec, world, cfg, speed).await
 }
 
@@ -200,12 +203,12 @@ pub(crate) async fn start_at(
     world: World,
     cfg: &DemoConfig,
     speed: Speed,
-) -> anyhow::Result<DemoFleet> {
+) -> Result<DemoFleet, SimStartError> {
     let sim = Sim::new(sim_config(spec, world.clone(), cfg)?, Time::ZERO)?;
     let handle = server::spawn(
         sim,
         ServeOptions {
-            endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0")?],
+            endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0").map_err(SimStartError::Endpoint)?],
             speed,
             // the fleet below follows the simulator's time
             gcs: GcsClock::Simulator,
@@ -214,13 +217,11 @@ pub(crate) async fn start_at(
         },
     )
     .await
-    .context("starting the simulator")?;
+    .map_err(SimStartError::Server)?;
     let (ev_tx, ev_rx) = mpsc::channel(4096);
     let mut links = Vec::new();
     for (i, b) in handle.bound.iter().enumerate() {
-        let spec: ConnSpec = format!("udpout:{}", b.local)
-            .parse()
-            .map_err(|e| anyhow::anyhow!("{e}"))?;
+        let spec: ConnSpec = format!("udpout:{}", b.local).parse()?;
         links.push(open_link(i, spec, &LinkOptions::default(), ev_tx.clone()).await?);
     }
     drop(ev_tx);

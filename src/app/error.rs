@@ -139,10 +139,9 @@ pub enum RunError {
     /// A run option is out of range (the message names the option).
     #[error("{0}")]
     Option(String),
-    /// The flight failed: what a runner reported, with its causes (the runners' own errors
-    /// are still untyped; see CHANGELOG, issue 27).
+    /// The flight failed: what a runner reported, with its causes.
     #[error(transparent)]
-    Flight(Box<dyn std::error::Error + Send + Sync + 'static>),
+    Flight(RunnerError),
 }
 
 /// A figure (the bandit report's plot) could not be drawn.
@@ -159,17 +158,257 @@ pub enum PlotError {
     Encode(#[from] image::ImageError),
 }
 
-impl From<anyhow::Error> for RunError {
-    fn from(e: anyhow::Error) -> Self {
-        // A runner's error that already is a typed one stays that one.
-        match e.downcast::<RunError>() {
-            Ok(r) => r,
-            Err(e) => RunError::Flight(e.into()),
+/// Why a runner (runway or bandit), its pilots or the simulated demo fleet stopped: a
+/// vehicle that refused or did not answer, a task that failed, a check on the way that did not
+/// hold. A step's error is wrapped, outermost first, in what the runner was doing and on which
+/// vehicle ([`RunnerError::Context`]), so the one-line report reads "what: why: deeper why".
+#[derive(Debug, thiserror::Error)]
+pub enum RunnerError {
+    /// A vehicle refused a command or did not answer, or the fleet's task is gone.
+    #[error(transparent)]
+    Fleet(#[from] FleetError),
+    /// A flight step (take-off, a move, a capture) failed.
+    #[error(transparent)]
+    Step(#[from] crate::app::flight::FlightError),
+    /// The vehicles refused the sortie's missions.
+    #[error(transparent)]
+    Rejected(#[from] SortieRejected),
+    /// The fleet's event channel closed: the fleet stopped under the runner.
+    #[error("the fleet stopped")]
+    FleetStopped,
+    /// The run directory could not be written (the error names the file).
+    #[error(transparent)]
+    Store(#[from] StoreError),
+    /// The mission grid or a position on it could not be computed.
+    #[error(transparent)]
+    Geo(#[from] fleetmap_core::geo::GeoError),
+    /// The runway-mapping state refused a change.
+    #[error(transparent)]
+    Mapping(#[from] fleetmap_core::explore::mapping::MappingError),
+    /// The bandit planner could not make or check a sortie.
+    #[error(transparent)]
+    Sortie(#[from] fleetmap_core::planner::sortie::SortieError),
+    /// A vehicle's autopilot has no mode for what the runner needs.
+    #[error(transparent)]
+    Flavour(#[from] fleetmap_core::proto::flavour::FlavourError),
+    /// The explorer (the runway's next cells) refused a step.
+    #[error(transparent)]
+    Explore(#[from] fleetmap_core::explore::ExploreError),
+    /// The run store's thread is gone (a save panicked): nothing more can be saved.
+    // The store's own message (`StoreGone` is crate-private, so not a source here).
+    #[error("{}", crate::store::task::StoreGone)]
+    StoreGone,
+    /// The run store's thread could not be started.
+    #[error("starting the run store thread")]
+    StoreThread(#[source] std::io::Error),
+    /// A blocking task (the classifier, file I/O) failed.
+    #[error(transparent)]
+    Cpu(#[from] CpuError),
+    /// A task of the runner (a pilot, the planner, an upload) panicked or was cancelled.
+    #[error("{task} failed")]
+    Task {
+        /// Which task ("drone task", "planner task").
+        task: &'static str,
+        /// The runtime's answer.
+        #[source]
+        source: tokio::task::JoinError,
+    },
+    /// A list a vehicle holds is not the one sent to it.
+    #[error("the {what} read back differs from the one sent")]
+    ReadBack {
+        /// The list ("sweep", "list").
+        what: &'static str,
+        /// The first difference.
+        #[source]
+        source: fleetmap_core::mission::wire::ItemsDiffer,
+    },
+    /// A bandit mission would cross a no-fly cell (or leave the area, or a station its
+    /// roads), before upload or as the vehicle read it back.
+    #[error("{role} {sysid}: the mission{} is unsafe", if *.read_back { " as read back" } else { "" })]
+    UnsafeMission {
+        /// The vehicle's role ("drone", "station", "vehicle").
+        role: &'static str,
+        /// The vehicle.
+        sysid: u8,
+        /// Whether the list checked is the one the vehicle returned.
+        read_back: bool,
+        /// The first violation.
+        #[source]
+        source: fleetmap_core::planner::sortie::missions::UnsafeMission,
+    },
+    /// A check the runner makes on its way did not hold; the message says what, and on which
+    /// vehicle.
+    #[error("{0}")]
+    Check(String),
+    /// What the runner was doing (and on which vehicle) when `source` failed.
+    #[error("{what}")]
+    Context {
+        /// The step, naming its vehicle where it has one.
+        what: String,
+        /// Why it failed.
+        #[source]
+        source: Box<RunnerError>,
+    },
+    /// An error of the layer itself, met while flying.
+    #[error(transparent)]
+    Run(Box<RunError>),
+}
+
+impl RunnerError {
+    /// A failed check: `what` says what did not hold, and on which vehicle.
+    pub(crate) fn check(what: impl Into<String>) -> Self {
+        RunnerError::Check(what.into())
+    }
+
+    /// A task's failure as an error: `task` names it ("drone task").
+    pub(crate) fn task(task: &'static str) -> impl FnOnce(tokio::task::JoinError) -> Self {
+        move |source| RunnerError::Task { task, source }
+    }
+
+    /// This error as the cause of the step `what`.
+    pub(crate) fn context(self, what: impl Into<String>) -> Self {
+        RunnerError::Context {
+            what: what.into(),
+            source: Box::new(self),
+        }
+    }
+
+    /// Whether this error is a fleet error (itself or under the steps that name it,
+    /// [`RunnerError::Context`]) that says the vehicle did not answer
+    /// ([`FleetError::is_transient`]), so that trying again may succeed. A flight step's
+    /// error ([`RunnerError::Step`]) is final, as it was when the runners looked for a fleet
+    /// error in the chain of causes (the step's fleet error is transparent, not a cause).
+    pub(crate) fn is_transient(&self) -> bool {
+        match self {
+            RunnerError::Fleet(e) => e.is_transient(),
+            RunnerError::Context { source, .. } => source.is_transient(),
+            _ => false,
         }
     }
 }
 
-/// `e` and its causes on one line, "what: why: deeper why" (as `anyhow` prints `{:#}`), for
+impl From<RunnerError> for RunError {
+    fn from(e: RunnerError) -> Self {
+        // An error of the layer that a runner met stays that error.
+        match e {
+            RunnerError::Run(r) => *r,
+            other => RunError::Flight(other),
+        }
+    }
+}
+
+impl From<crate::store::task::StoreGone> for RunnerError {
+    fn from(_: crate::store::task::StoreGone) -> Self {
+        RunnerError::StoreGone
+    }
+}
+
+impl From<RunError> for RunnerError {
+    fn from(e: RunError) -> Self {
+        match e {
+            RunError::Flight(f) => f,
+            other => RunnerError::Run(Box::new(other)),
+        }
+    }
+}
+
+/// A runner's result.
+pub(crate) type RunnerResult<T> = Result<T, RunnerError>;
+
+/// Name the step a [`RunnerResult`] (or an absent value) failed in.
+pub(crate) trait Context<T> {
+    /// The error (or the absence) as the cause of the step `what`.
+    fn context(self, what: impl Into<String>) -> RunnerResult<T>;
+    /// Like [`Context::context`], the step's name made only on failure.
+    fn with_context<W: Into<String>>(self, what: impl FnOnce() -> W) -> RunnerResult<T>;
+}
+
+impl<T, E: Into<RunnerError>> Context<T> for Result<T, E> {
+    fn context(self, what: impl Into<String>) -> RunnerResult<T> {
+        self.map_err(|e| e.into().context(what))
+    }
+
+    fn with_context<W: Into<String>>(self, what: impl FnOnce() -> W) -> RunnerResult<T> {
+        self.map_err(|e| e.into().context(what()))
+    }
+}
+
+impl<T> Context<T> for Option<T> {
+    fn context(self, what: impl Into<String>) -> RunnerResult<T> {
+        self.ok_or_else(|| RunnerError::check(what))
+    }
+
+    fn with_context<W: Into<String>>(self, what: impl FnOnce() -> W) -> RunnerResult<T> {
+        self.ok_or_else(|| RunnerError::check(what()))
+    }
+}
+
+/// Why a sortie stopped before take-off.
+#[derive(Debug, thiserror::Error)]
+#[error(
+    "the sortie of epoch {epoch}, cycle {cycle} stopped before take-off: vehicle {sysid} \
+     rejected its mission: {reason}"
+)]
+pub struct SortieRejected {
+    /// Epoch p.
+    pub epoch: u64,
+    /// Cycle.
+    pub cycle: usize,
+    /// The vehicle.
+    pub sysid: u8,
+    /// Why.
+    pub reason: String,
+}
+
+/// Why a simulated fleet (the demo's, the bandit's) could not be started.
+#[cfg(feature = "sim")]
+#[derive(Debug, thiserror::Error)]
+pub enum SimStartError {
+    /// The speed-up is zero, negative or not a number.
+    #[error("the speed-up must be positive")]
+    Speed,
+    /// The simulator's vehicles or world are wrong.
+    #[error(transparent)]
+    Sim(#[from] fleetmap_sim::harness::SimError),
+    /// The simulator's endpoint is wrong.
+    #[error(transparent)]
+    Endpoint(fleetmap_sim::server::ServerError),
+    /// The simulator's links could not be opened.
+    #[error("starting the simulator")]
+    Server(#[source] fleetmap_sim::server::ServerError),
+    /// A link between the fleet and the simulator could not be opened.
+    #[error(transparent)]
+    Link(#[from] fleetmap_io::link::transport::LinkError),
+    /// A link's address is wrong (the message names it).
+    #[error("{0}")]
+    Address(#[from] fleetmap_io::link::ConnSpecError),
+    /// The fleet's UDP socket reports no local address to point the simulator at.
+    #[error("the GCS's UDP port has no local address")]
+    NoLocalAddress,
+    /// A built-in mission has errors (each named with its line).
+    #[error("{0}")]
+    Mission(DefErrors),
+    /// A built-in mission lacks the line the demo rewrites to set the battery.
+    #[error("the built-in mission {file} has no line `{line}` to set the battery in")]
+    NoBatteryLine {
+        /// The mission's file name.
+        file: String,
+        /// The line looked for.
+        line: &'static str,
+    },
+    /// The world's regions of interest move at different velocities; the runner maps one
+    /// moving frame.
+    #[error(
+        "the world {world} has regions of interest moving at different velocities; the \
+         runner maps one moving frame"
+    )]
+    MovingRegions {
+        /// The world's name.
+        world: String,
+    },
+}
+
+/// `e` and its causes on one line, "what: why: deeper why" (as the command line prints them), for
 /// the log and the title bar.
 pub fn chain(e: &(dyn std::error::Error + 'static)) -> String {
     let mut line = e.to_string();
@@ -185,22 +424,49 @@ pub fn chain(e: &(dyn std::error::Error + 'static)) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use anyhow::Context as _;
 
-    /// A runner's error keeps its whole context chain through [`RunError`]: the command
-    /// line (anyhow's `{:#}`) and the session's log ([`chain`]) print the line they printed
-    /// when the runner's error reached them directly.
+    /// A runner's error keeps its whole context chain through [`RunError`]: the session's
+    /// log ([`chain`]) prints "what: why: deeper why", outermost step first, down to the
+    /// store's error.
     #[test]
     fn a_runners_error_reads_the_same_through_run_error() {
-        let inner: Result<(), std::io::Error> = Err(std::io::Error::other("disk full"));
+        let inner: Result<(), crate::store::task::StoreGone> = Err(crate::store::task::StoreGone);
         let runner = inner
             .context("writing the run journal")
             .context("vehicle 3: pilot task failed")
             .unwrap_err();
-        let expected = format!("{runner:#}");
+        let expected = "vehicle 3: pilot task failed: writing the run journal: the run store \
+                        task stopped (a save panicked): nothing more can be saved";
+        assert_eq!(chain(&runner), expected);
         let typed = RunError::from(runner);
+        assert!(matches!(typed, RunError::Flight(_)));
         assert_eq!(chain(&typed), expected);
-        assert_eq!(format!("{:#}", anyhow::Error::from(typed)), expected);
+    }
+
+    /// An error of the layer a runner met comes out of it as itself, not wrapped.
+    #[test]
+    fn a_run_error_passes_through_a_runner_unwrapped() {
+        let runner = RunnerError::from(RunError::NoVehicles);
+        assert!(matches!(RunError::from(runner), RunError::NoVehicles));
+    }
+
+    /// A fleet error that says the vehicle did not answer is transient under the runner's
+    /// steps; a check that failed is not.
+    #[test]
+    fn transient_looks_through_the_steps() {
+        let e = RunnerError::from(FleetError::NotConfirmed {
+            sysid: 2,
+            what: "armed".into(),
+            waited_s: 5.0,
+            now: "disarmed".into(),
+        })
+        .context("vehicle 2: arming");
+        assert!(e.is_transient());
+        assert!(
+            !RunnerError::check("no sortie")
+                .context("starting")
+                .is_transient()
+        );
     }
 
     /// A typed error names its vehicle and keeps the fleet's answer as its cause.
@@ -216,6 +482,5 @@ mod tests {
             line.starts_with("no heartbeat from system 9 within 5 s: "),
             "{line}"
         );
-        assert_eq!(format!("{:#}", anyhow::Error::from(e)), line);
     }
 }

@@ -29,6 +29,7 @@
 //! ([`fleetmap_core::vision::sanity`]).
 
 use crate::fleet::{FleetHandle, Incoming};
+use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::image_transfer::{
     FileUrlError, ImageEvent, ImageReceiver, ReceiverConfig, request_image,
 };
@@ -193,22 +194,22 @@ fn yaw_of_quaternion(q: [f32; 4]) -> Option<f64> {
 }
 
 /// The image intake's state (pure; the task in [`spawn`] drives it).
-#[derive(Debug, Default)]
+#[derive(Debug)]
 pub struct Intake {
-    gcs: (u8, u8),
+    gcs: Endpoint,
     config: ReceiverConfig,
-    receivers: HashMap<(u8, u8), ImageReceiver>,
+    receivers: HashMap<Endpoint, ImageReceiver>,
     delivered: VecDeque<CaptureKey>,
     /// CAMERA_IMAGE_CAPTURED poses of the latest captures (for images that arrive by image
     /// transmission, whose JPEG metadata names the capture), at most [`CAPTURED_KEPT`].
     captured: VecDeque<(CaptureKey, CapturePose)>,
     /// On-board measurements whose CAMERA_IMAGE_CAPTURED has not arrived: (camera, measurement).
-    measured: VecDeque<((u8, u8), OnboardMeasurement)>,
+    measured: VecDeque<(Endpoint, OnboardMeasurement)>,
     /// The fingerprint of the on-board measurement definition the run uses (`None`: none;
     /// every on-board measurement is then replaced by its picture).
     accept: Option<u32>,
     /// Requests for pictures to send to cameras.
-    requests: VecDeque<((u8, u8), MavMessage)>,
+    requests: VecDeque<(Endpoint, MavMessage)>,
     /// Files named by CAMERA_IMAGE_CAPTURED, to read ([`Intake::poll_file_read`]).
     reads: VecDeque<FileRead>,
     out: VecDeque<ReceivedImage>,
@@ -217,18 +218,26 @@ pub struct Intake {
 }
 
 impl Intake {
-    /// An intake answering as `gcs` = (sysid, compid).
-    pub fn new(gcs: (u8, u8)) -> Intake {
+    /// An intake answering as `gcs`.
+    pub fn new(gcs: Endpoint) -> Intake {
         Intake::with_config(gcs, ReceiverConfig::default())
     }
 
     /// An intake whose image receivers use `config` (their timers run on the fleet's
     /// clock: a clock sped up for a simulator needs a longer `idle`).
-    pub(crate) fn with_config(gcs: (u8, u8), config: ReceiverConfig) -> Intake {
+    pub(crate) fn with_config(gcs: Endpoint, config: ReceiverConfig) -> Intake {
         Intake {
             gcs,
             config,
-            ..Intake::default()
+            receivers: HashMap::new(),
+            delivered: VecDeque::new(),
+            captured: VecDeque::new(),
+            measured: VecDeque::new(),
+            accept: None,
+            requests: VecDeque::new(),
+            reads: VecDeque::new(),
+            out: VecDeque::new(),
+            failures: VecDeque::new(),
         }
     }
 
@@ -240,15 +249,15 @@ impl Intake {
 
     /// An on-board measurement `m` from camera `cam` whose capture's pose is `pose`: delivered
     /// when its definition is the accepted one, else the picture is asked for.
-    fn measured(&mut self, cam: (u8, u8), m: OnboardMeasurement, pose: CapturePose, now: Time) {
-        let key = (cam.0, pose.time_boot_ms, pose.image_index);
+    fn measured(&mut self, cam: Endpoint, m: OnboardMeasurement, pose: CapturePose, now: Time) {
+        let key = (cam.sysid, pose.time_boot_ms, pose.image_index);
         if self.delivered.contains(&key) {
             return;
         }
         if self.accept == Some(m.spec) {
             self.seen(key);
             self.out.push_back(ReceivedImage {
-                sysid: cam.0,
+                sysid: cam.sysid,
                 bytes: Arc::new(Vec::new()),
                 onboard: Some(m),
                 pose: Some(pose),
@@ -283,16 +292,16 @@ impl Intake {
         false
     }
 
-    /// Feed one received message from `from` = (sysid, compid) at `now`.
-    pub fn handle_message(&mut self, from: (u8, u8), msg: &MavMessage, now: Time) {
+    /// Feed one received message from `from` at `now`.
+    pub fn handle_message(&mut self, from: Endpoint, msg: &MavMessage, now: Time) {
         match msg {
             MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) | MavMessage::ENCAPSULATED_DATA(_) => {
                 let (gcs, config) = (self.gcs, self.config);
                 let rx = self
                     .receivers
                     .entry(from)
-                    .or_insert_with(|| ImageReceiver::new(from.into(), gcs.into(), config));
-                rx.handle_message(from.into(), msg, now);
+                    .or_insert_with(|| ImageReceiver::new(from, gcs, config));
+                rx.handle_message(from, msg, now);
                 self.drain(from, now);
             }
             MavMessage::DEBUG_FLOAT_ARRAY(d) => {
@@ -302,7 +311,7 @@ impl Intake {
                 let pose = self
                     .captured
                     .iter()
-                    .find(|(k, _)| k.0 == from.0 && m.is_of(k.1, k.2))
+                    .find(|(k, _)| k.0 == from.sysid && m.is_of(k.1, k.2))
                     .map(|(_, p)| p.clone());
                 match pose {
                     Some(p) => self.measured(from, m, p, now),
@@ -317,7 +326,7 @@ impl Intake {
             MavMessage::CAMERA_IMAGE_CAPTURED(c) => {
                 if c.capture_result != mavlink::dialects::ardupilotmega::MavBool::MAV_BOOL_TRUE {
                     self.failures.push_back(ImageFailure::CaptureFailed {
-                        sysid: from.0,
+                        sysid: from.sysid,
                         image_index: c.image_index,
                     });
                     return;
@@ -328,7 +337,7 @@ impl Intake {
                     .map(|&b| b as char)
                     .take_while(|&ch| ch != '\0')
                     .collect();
-                let key = (from.0, c.time_boot_ms, c.image_index);
+                let key = (from.sysid, c.time_boot_ms, c.image_index);
                 if self.delivered.contains(&key) {
                     return;
                 }
@@ -396,7 +405,7 @@ impl Intake {
         }
     }
 
-    fn drain(&mut self, cam: (u8, u8), now: Time) {
+    fn drain(&mut self, cam: Endpoint, now: Time) {
         let mut done = Vec::new();
         if let Some(rx) = self.receivers.get_mut(&cam) {
             while let Some(ev) = rx.poll_event() {
@@ -407,12 +416,12 @@ impl Intake {
             match ev {
                 ImageEvent::Image { jpeg, meta, .. } => {
                     if let Some(m) = &meta
-                        && self.seen((cam.0, m.time_boot_ms, m.image_index))
+                        && self.seen((cam.sysid, m.time_boot_ms, m.image_index))
                     {
                         continue;
                     }
                     let pose = meta.as_ref().map(|m| {
-                        let key = (cam.0, m.time_boot_ms, m.image_index);
+                        let key = (cam.sysid, m.time_boot_ms, m.image_index);
                         let i = self.captured.iter().position(|(k, _)| *k == key);
                         match i.and_then(|i| self.captured.remove(i)) {
                             Some((_, p)) => merge_poses(&p, m),
@@ -420,7 +429,7 @@ impl Intake {
                         }
                     });
                     self.out.push_back(ReceivedImage {
-                        sysid: cam.0,
+                        sysid: cam.sysid,
                         bytes: Arc::new(jpeg),
                         onboard: None,
                         pose,
@@ -433,7 +442,7 @@ impl Intake {
                     received,
                     packets,
                 } => self.failures.push_back(ImageFailure::Lost {
-                    sysid: cam.0,
+                    sysid: cam.sysid,
                     size,
                     received,
                     packets,
@@ -452,7 +461,7 @@ impl Intake {
 
     /// Run the receivers' timers.
     pub fn handle_timeout(&mut self, now: Time) {
-        let cams: Vec<(u8, u8)> = self.receivers.keys().copied().collect();
+        let cams: Vec<Endpoint> = self.receivers.keys().copied().collect();
         for cam in cams {
             if let Some(rx) = self.receivers.get_mut(&cam) {
                 rx.handle_timeout(now);
@@ -461,8 +470,8 @@ impl Intake {
         }
     }
 
-    /// Messages to send: (camera (sysid, compid), message).
-    pub fn poll_transmit(&mut self) -> Option<((u8, u8), MavMessage)> {
+    /// Messages to send: (camera, message).
+    pub fn poll_transmit(&mut self) -> Option<(Endpoint, MavMessage)> {
         if let Some(r) = self.requests.pop_front() {
             return Some(r);
         }
@@ -521,7 +530,7 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
     let fleet = fleet.clone();
     tokio::spawn(async move {
         let gcs = fleet.config().gcs;
-        let mut intake = Intake::with_config((gcs.sysid, gcs.compid), config);
+        let mut intake = Intake::with_config(gcs, config);
         loop {
             let wait = intake
                 .poll_timeout()
@@ -531,7 +540,11 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
                 r = frames.recv() => match r {
                     Ok(Incoming { frame, .. }) => {
                         if let Ok(msg) = &frame.message {
-                            intake.handle_message((frame.sysid(), frame.compid()), msg, fleet.clock().now());
+                            intake.handle_message(
+                                Endpoint::new(frame.sysid(), frame.compid()),
+                                msg,
+                                fleet.clock().now(),
+                            );
                         }
                     }
                     Err(broadcast::error::RecvError::Lagged(n)) => {
@@ -555,8 +568,12 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
                         });
                 intake.file_read(read, bytes);
             }
-            while let Some(((sysid, compid), msg)) = intake.poll_transmit() {
-                tracing::debug!("asking camera {sysid}/{compid} to send its image again");
+            while let Some((cam, msg)) = intake.poll_transmit() {
+                tracing::debug!(
+                    "asking camera {}/{} to send its image again",
+                    cam.sysid,
+                    cam.compid
+                );
                 if fleet.send(msg).await.is_err() {
                     return;
                 }
@@ -661,8 +678,8 @@ mod tests {
                 file_url: "".into(),
             })
         };
-        let cam = (1, 100);
-        let mut intake = Intake::new((255, 190));
+        let cam = Endpoint::new(1, 100);
+        let mut intake = Intake::new(Endpoint::gcs());
         // another capture's record first, then this one's
         intake.handle_message(cam, &cic(6), Time::ZERO);
         intake.handle_message(cam, &cic(7), Time::ZERO);

@@ -2,6 +2,7 @@
 //! measurement (on a blocking thread), committed in groups.
 
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 use fleetmap_core::vision::VisionError;
 
 /// Why a received picture does not count: journalled (its `Display`) as the reason of
@@ -118,7 +119,10 @@ pub(super) async fn intake(shared: Arc<Shared>, mut rx: broadcast::Receiver<Arc<
             }
         }
         if let Err(e) = take_images(&shared, batch).await {
-            shared.say(Progress::warning(format!("images not recorded: {e:#}")));
+            shared.say(Progress::warning(format!(
+                "images not recorded: {}",
+                crate::app::error::chain(&e)
+            )));
         }
     }
 }
@@ -140,7 +144,7 @@ pub(super) struct ImagePose {
 
 /// Where, when and how an image was taken: what the camera said, else the vehicle's
 /// latest telemetry.
-pub(super) fn image_pose(shared: &Shared, img: &ReceivedImage) -> anyhow::Result<ImagePose> {
+pub(super) fn image_pose(shared: &Shared, img: &ReceivedImage) -> RunnerResult<ImagePose> {
     let sysid = img.sysid;
     Ok(match &img.pose {
         Some(p) => ImagePose {
@@ -195,15 +199,19 @@ pub(super) enum Taken {
 pub(super) async fn take_images(
     shared: &Arc<Shared>,
     batch: Vec<Arc<ReceivedImage>>,
-) -> anyhow::Result<()> {
+) -> RunnerResult<()> {
     let mut poses = Vec::with_capacity(batch.len());
     for img in &batch {
         match image_pose(shared, img) {
             Ok(p) => poses.push(Some(p)),
             Err(e) => {
                 shared.say(
-                    Progress::warning(format!("vehicle {}: image not recorded: {e:#}", img.sysid))
-                        .about(img.sysid),
+                    Progress::warning(format!(
+                        "vehicle {}: image not recorded: {}",
+                        img.sysid,
+                        crate::app::error::chain(&e)
+                    ))
+                    .about(img.sysid),
                 );
                 poses.push(None);
             }
@@ -286,7 +294,7 @@ pub(super) async fn take_images(
             .collect::<BTreeMap<usize, Result<(f64, bool), NotCounted>>>()
     })
     .await
-    .context("measurement task")?;
+    .map_err(RunnerError::task("measurement task"))?;
     let mut measured = measured;
     measured.extend(onboard);
     let taken: Vec<Taken> = pre

@@ -33,13 +33,15 @@
 //! dead GCS had acknowledged is in the state; images taken while no GCS listened are lost, as
 //! they would be with any ground station.
 
+use crate::app::error::Context as _;
+use crate::app::error::RunnerResult;
+pub use crate::app::error::SortieRejected;
 use crate::app::flight::{self, Patience};
 pub use crate::app::images::image_hub;
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, VehicleSnapshot};
 use crate::store::RunDir;
-use anyhow::Context as _;
 use fleetmap_core::geo::{Cell, LatLon, local};
 use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::planner::bandit::Label;
@@ -105,23 +107,6 @@ pub struct RunOptions {
     pub pause: Option<watch::Receiver<bool>>,
 }
 
-/// Why a sortie stopped before take-off.
-#[derive(Debug, thiserror::Error)]
-#[error(
-    "the sortie of epoch {epoch}, cycle {cycle} stopped before take-off: vehicle {sysid} \
-     rejected its mission: {reason}"
-)]
-pub struct SortieRejected {
-    /// Epoch p.
-    pub epoch: u64,
-    /// Cycle.
-    pub cycle: usize,
-    /// The vehicle.
-    pub sysid: u8,
-    /// Why.
-    pub reason: String,
-}
-
 /// The bandit run's shared part: the run core (state, store, progress, view) and what the
 /// runner, the pilots and the image intake read besides.
 struct Shared {
@@ -142,8 +127,8 @@ impl Shared {
     /// ([`RunCore::commit`] with the bandit's types).
     async fn commit<T>(
         &self,
-        f: impl FnOnce(&mut ClassificationState) -> anyhow::Result<(T, Vec<BanditEvent>)>,
-    ) -> anyhow::Result<T> {
+        f: impl FnOnce(&mut ClassificationState) -> RunnerResult<(T, Vec<BanditEvent>)>,
+    ) -> RunnerResult<T> {
         self.run.commit(f).await
     }
 

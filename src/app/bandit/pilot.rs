@@ -2,13 +2,14 @@
 //! on a charging rover's pad.
 
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 impl DronePilot {
     pub(super) fn fleet(&self) -> &FleetHandle {
         &self.shared.fleet
     }
 
-    pub(super) async fn run(self) -> anyhow::Result<()> {
+    pub(super) async fn run(self) -> RunnerResult<()> {
         let sysid = self.sysid;
         let mut snaps = self.fleet().watch();
         let mut seen_active = self.resumed;
@@ -55,7 +56,7 @@ impl DronePilot {
                     return self.landed().await;
                 }
                 if seen_active {
-                    anyhow::bail!(
+                    return Err(RunnerError::check(format!(
                         "drone {sysid} is on the ground before the end of its mission (mode {}, \
                          step {step}, battery {}, the autopilot's last warning: {})",
                         v.mode,
@@ -63,11 +64,13 @@ impl DronePilot {
                             .map(|p| format!("{p} %"))
                             .unwrap_or_else(|| "?".into()),
                         warning.as_deref().unwrap_or("none")
-                    );
+                    )));
                 }
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                anyhow::bail!("drone {sysid}: its mission did not end in time (at step {step})");
+                return Err(RunnerError::check(format!(
+                    "drone {sysid}: its mission did not end in time (at step {step})"
+                )));
             }
             let _ = tokio::time::timeout(Duration::from_millis(500), snaps.changed()).await;
         }
@@ -96,7 +99,9 @@ impl DronePilot {
                 told = true;
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                anyhow::bail!("drone {sysid}: station {station} never reached the rendezvous");
+                return Err(RunnerError::check(format!(
+                    "drone {sysid}: station {station} never reached the rendezvous"
+                )));
             }
             self.shared.wait_change(Duration::from_millis(500)).await;
         }
@@ -120,7 +125,7 @@ impl DronePilot {
         self.landed().await
     }
 
-    pub(super) async fn landed(&self) -> anyhow::Result<()> {
+    pub(super) async fn landed(&self) -> RunnerResult<()> {
         let sysid = self.sysid;
         let v = self.fleet().vehicle(sysid);
         let station = self
@@ -176,7 +181,7 @@ pub(super) async fn dock(
     station: u8,
     alt: f64,
     slot: (usize, usize),
-) -> anyhow::Result<bool> {
+) -> RunnerResult<bool> {
     let fleet = &shared.fleet;
     for landing in 1..=3 {
         let mut attempt = 0;
@@ -187,7 +192,8 @@ pub(super) async fn dock(
                 Err(e) if attempt < 5 => {
                     shared.say(
                         Progress::warning(format!(
-                            "drone {sysid}: landing on station {station}: {e:#} (trying again)"
+                            "drone {sysid}: landing on station {station}: {} (trying again)",
+                            crate::app::error::chain(&e)
                         ))
                         .about(sysid),
                     );
@@ -263,7 +269,7 @@ pub(super) async fn land_on(
     station: u8,
     alt: f64,
     slot: (usize, usize),
-) -> anyhow::Result<()> {
+) -> RunnerResult<()> {
     let fleet = &shared.fleet;
     let patience = shared.patience;
     let speed = shared.read(|s| s.params.speed_m_s).await;
@@ -275,7 +281,7 @@ pub(super) async fn land_on(
         })
         .await;
     let (north, east) = pad_offset(slot);
-    let target = || -> anyhow::Result<(f64, f64)> {
+    let target = || -> RunnerResult<(f64, f64)> {
         let pos = fleet
             .vehicle(station)
             .and_then(|v| v.position)
@@ -304,6 +310,6 @@ pub(super) async fn land_on(
     fleet
         .wait_until(sysid, wait, |v| v.on_ground() && !v.armed)
         .await
-        .map_err(|_| anyhow::anyhow!("drone {sysid}: did not land within {wait:?}"))?;
+        .map_err(|_| RunnerError::check(format!("drone {sysid}: did not land within {wait:?}")))?;
     Ok(())
 }

@@ -3,6 +3,7 @@
 //! airborne-time tracker and the run's start and final save.
 
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 impl Runner {
     pub(super) fn fleet(&self) -> &FleetHandle {
@@ -13,7 +14,7 @@ impl Runner {
         self.shared.say(event);
     }
 
-    pub(super) async fn upload_fences(&self) -> anyhow::Result<()> {
+    pub(super) async fn upload_fences(&self) -> RunnerResult<()> {
         let (items, sysids) = self
             .shared
             .read(|s| {
@@ -48,7 +49,7 @@ impl Runner {
         }
         let mut first_err = None;
         while let Some(r) = tasks.join_next().await {
-            let (sysid, r) = r.context("fence task")?;
+            let (sysid, r) = r.map_err(RunnerError::task("fence task"))?;
             match r {
                 Ok(()) => {
                     self.shared
@@ -64,9 +65,9 @@ impl Runner {
                         .await?;
                 }
                 Err(e) => {
-                    first_err.get_or_insert(anyhow::anyhow!(
-                        "vehicle {sysid} refused the geofence of the no-fly cells: {e:#}"
-                    ));
+                    first_err.get_or_insert(e.context(format!(
+                        "vehicle {sysid} refused the geofence of the no-fly cells"
+                    )));
                 }
             }
         }
@@ -81,7 +82,7 @@ impl Runner {
     }
 
     /// Check that every vehicle stands on its start cell (fresh runs).
-    pub(super) async fn check_start_positions(&self) -> anyhow::Result<()> {
+    pub(super) async fn check_start_positions(&self) -> RunnerResult<()> {
         let snap = self.fleet().snapshot().vehicles;
         let (config, members, grid) = self
             .shared
@@ -106,16 +107,16 @@ impl Runner {
             let c = grid.cell_center(cell);
             let d = local::distance(p.lat, p.lon, c.lat, c.lon);
             if d > 0.75 * grid.cell_size() {
-                anyhow::bail!(
+                return Err(RunnerError::check(format!(
                     "vehicle {sysid} is {d:.1} m from the centre of its start cell {cell}: place \
                      it there (or fix `start` in the mission file)"
-                );
+                )));
             }
         }
         Ok(())
     }
 
-    pub(super) async fn begin_epoch(&self) -> anyhow::Result<()> {
+    pub(super) async fn begin_epoch(&self) -> RunnerResult<()> {
         let (p, goals) = self
             .shared
             .commit(|s| {
@@ -136,7 +137,7 @@ impl Runner {
         Ok(())
     }
 
-    pub(super) async fn plan(&self, replan: bool) -> anyhow::Result<()> {
+    pub(super) async fn plan(&self, replan: bool) -> RunnerResult<()> {
         let (k0, p) = self.shared.read(|s| (s.params.k_max, s.bandit.epoch)).await;
         let mut k = k0.max(1);
         loop {
@@ -150,7 +151,7 @@ impl Runner {
                 solve_instance(&inst, &opts, &fleetmap_io::clock::stopwatch())
             })
             .await
-            .context("planner task")?;
+            .map_err(RunnerError::task("planner task"))?;
             match (out.status, out.plan) {
                 (PlanStatus::Optimal | PlanStatus::TimeLimit, Some(plan)) => {
                     let secs = out.solve_seconds;
@@ -196,66 +197,78 @@ impl Runner {
                         .await?;
                     k *= 2;
                 }
-                (status, _) => anyhow::bail!(
-                    "epoch {p}: the planner found no plan ({}{}): the goals cannot be reached \
+                (status, _) => {
+                    return Err(RunnerError::check(format!(
+                        "epoch {p}: the planner found no plan ({}{}): the goals cannot be reached \
                      from where the team is within {k} sensing cycles",
-                    status.as_str(),
-                    if out.message.is_empty() {
-                        String::new()
-                    } else {
-                        format!(": {}", out.message)
-                    }
-                ),
+                        status.as_str(),
+                        if out.message.is_empty() {
+                            String::new()
+                        } else {
+                            format!(": {}", out.message)
+                        }
+                    )));
+                }
             }
         }
     }
 
-    pub(super) async fn prepare(&self) -> anyhow::Result<()> {
-        let (p, k, list) = self
-            .shared
-            .commit(|s| {
-                let c = s.prepare_cycle()?.clone();
-                // Check every mission before it goes anywhere.
-                let rules = |station: bool| AreaRules {
-                    rows: s.layout.rows,
-                    cols: s.layout.cols,
-                    obstacles: &s.layout.obstacles,
-                    roads: station.then_some(s.layout.roads.as_slice()),
-                };
-                for d in c.drones.iter().filter(|d| d.flies) {
-                    missions::check_mission(&s.grid, &rules(false), d.path[0], &d.items)
-                        .map_err(|e| anyhow::anyhow!("drone {}: {e}", d.sysid))?;
-                }
-                for st in c.stations.iter().filter(|st| st.drives) {
-                    missions::check_mission(&s.grid, &rules(true), st.path[0], &st.items)
-                        .map_err(|e| anyhow::anyhow!("station {}: {e}", st.sysid))?;
-                }
-                let list: Vec<(u8, usize)> = c
-                    .drones
-                    .iter()
-                    .filter(|d| d.flies)
-                    .map(|d| (d.sysid, d.items.len()))
-                    .chain(
-                        c.stations
-                            .iter()
-                            .filter(|x| x.drives)
-                            .map(|x| (x.sysid, x.items.len())),
-                    )
-                    .collect();
-                let p = s.bandit.epoch;
-                let ev = BanditEvent::SortiePrepared {
-                    epoch: p,
-                    cycle: c.k,
-                    missions: list.clone(),
-                };
-                Ok(((p, c.k, list), vec![ev]))
-            })
-            .await?;
+    pub(super) async fn prepare(&self) -> RunnerResult<()> {
+        let (p, k, list) =
+            self.shared
+                .commit(|s| {
+                    let c = s.prepare_cycle()?.clone();
+                    // Check every mission before it goes anywhere.
+                    let rules = |station: bool| AreaRules {
+                        rows: s.layout.rows,
+                        cols: s.layout.cols,
+                        obstacles: &s.layout.obstacles,
+                        roads: station.then_some(s.layout.roads.as_slice()),
+                    };
+                    for d in c.drones.iter().filter(|d| d.flies) {
+                        missions::check_mission(&s.grid, &rules(false), d.path[0], &d.items)
+                            .map_err(|source| RunnerError::UnsafeMission {
+                                role: "drone",
+                                sysid: d.sysid,
+                                read_back: false,
+                                source,
+                            })?;
+                    }
+                    for st in c.stations.iter().filter(|st| st.drives) {
+                        missions::check_mission(&s.grid, &rules(true), st.path[0], &st.items)
+                            .map_err(|source| RunnerError::UnsafeMission {
+                                role: "station",
+                                sysid: st.sysid,
+                                read_back: false,
+                                source,
+                            })?;
+                    }
+                    let list: Vec<(u8, usize)> = c
+                        .drones
+                        .iter()
+                        .filter(|d| d.flies)
+                        .map(|d| (d.sysid, d.items.len()))
+                        .chain(
+                            c.stations
+                                .iter()
+                                .filter(|x| x.drives)
+                                .map(|x| (x.sysid, x.items.len())),
+                        )
+                        .collect();
+                    let p = s.bandit.epoch;
+                    let ev = BanditEvent::SortiePrepared {
+                        epoch: p,
+                        cycle: c.k,
+                        missions: list.clone(),
+                    };
+                    Ok(((p, c.k, list), vec![ev]))
+                })
+                .await?;
         let _ = (p, k, list);
         Ok(())
     }
 
-    pub(super) async fn upload(&self) -> anyhow::Result<()> {
+    pub(super) async fn upload(&self) -> RunnerResult<()> {
         let (p, cycle) = self
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
@@ -356,7 +369,7 @@ impl Runner {
 /// reach the GCS, and the next epoch would fly the same goals again.
 ///
 /// [`MAX_EPOCHS_WITHOUT_MEASUREMENT`]: fleetmap_core::planner::sortie::MAX_EPOCHS_WITHOUT_MEASUREMENT
-pub(super) async fn no_measurement_stop(runner: &Runner, since: usize) -> anyhow::Result<()> {
+pub(super) async fn no_measurement_stop(runner: &Runner, since: usize) -> RunnerResult<()> {
     use fleetmap_core::planner::sortie::MAX_EPOCHS_WITHOUT_MEASUREMENT as MAX;
     let (dry, visits) = runner
         .shared
@@ -367,13 +380,13 @@ pub(super) async fn no_measurement_stop(runner: &Runner, since: usize) -> anyhow
         })
         .await;
     if dry >= MAX {
-        anyhow::bail!(
+        return Err(RunnerError::check(format!(
             "no measurement reached the GCS in the last {dry} epochs ({visits} capture visits): \
              the drones' pictures (or their cameras' on-board measurements) do not arrive — \
              check that each drone's camera takes its pictures and that its messages \
              (CAMERA_IMAGE_CAPTURED with DEBUG_FLOAT_ARRAY, or image transmission) reach the \
              GCS, then `fleetmap resume` the run"
-        );
+        )));
     }
     Ok(())
 }
@@ -416,18 +429,18 @@ pub async fn new_state(
     def: &fleetmap_core::mission::definition::MissionDef,
     wait: Duration,
     lock_step: Option<bool>,
-) -> anyhow::Result<ClassificationState> {
+) -> RunnerResult<ClassificationState> {
     crate::app::wait_for_team(fleet, def, wait).await?;
     for v in &def.vehicles {
         fleet
             .wait_until(v.sysid, wait, |s| known_position(s).is_some())
             .await
             .map_err(|_| {
-                anyhow::anyhow!(
+                RunnerError::check(format!(
                     "vehicle {} reported no position (a GPS fix and a home) within {:.0} s",
                     v.sysid,
                     wait.as_secs_f64()
-                )
+                ))
             })?;
     }
     let grid = crate::app::mission_grid(fleet, def, wait).await?;
@@ -442,7 +455,7 @@ pub async fn run(
     run_dir: RunDir,
     mut state: ClassificationState,
     mut opts: RunOptions,
-) -> anyhow::Result<ClassificationState> {
+) -> RunnerResult<ClassificationState> {
     let resumed = state.measurements > 0 || state.epoch.is_some() || !state.epochs.is_empty();
     if resumed {
         state.on_resume();
@@ -463,7 +476,7 @@ pub async fn run(
         // The journal may lack the last measurement the state holds (killed between the
         // two writes): append it now, so journal and state agree.
         core.store()
-            .run(move |run_dir| -> anyhow::Result<()> {
+            .run(move |run_dir| -> RunnerResult<()> {
                 let last_logged = run_dir
                     .read_events::<BanditEvent>()?
                     .events
@@ -527,7 +540,7 @@ pub async fn run(
     Ok(shared.read(|s| s.clone()).await)
 }
 
-pub(super) async fn drive(runner: &Runner, resumed: bool) -> anyhow::Result<()> {
+pub(super) async fn drive(runner: &Runner, resumed: bool) -> RunnerResult<()> {
     let mut resume_follow = false;
     // Epochs that end from here on (a resume gives a repaired camera a fresh count).
     let since = runner.shared.read(|s| s.epochs.len()).await;

@@ -2,10 +2,11 @@
 //! their pilots and the lock-step barriers.
 
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 impl Runner {
     /// Wait until every drone that flies the sortie has the charge it needs.
-    pub(super) async fn wait_for_charge(&self) -> anyhow::Result<()> {
+    pub(super) async fn wait_for_charge(&self) -> RunnerResult<()> {
         let (cycle, needs) = self
             .shared
             .read(|s| {
@@ -60,10 +61,10 @@ impl Runner {
                             since = self.fleet().clock().now();
                         } else if self.fleet().clock().now().saturating_since(since) > stall {
                             let wh = self.nearest_station(sysid).await;
-                            anyhow::bail!(
+                            return Err(RunnerError::check(format!(
                                 "drone {sysid} is not charging (stuck at {now_pct} %, the sortie \
                                  needs {need:.0} %): is it on its station's charger?{wh}"
-                            );
+                            )));
                         }
                     }
                 }
@@ -96,7 +97,7 @@ impl Runner {
         self.pause.as_ref().is_some_and(|p| *p.borrow())
     }
 
-    pub(super) async fn start(&self) -> anyhow::Result<()> {
+    pub(super) async fn start(&self) -> RunnerResult<()> {
         // A pause that came while the drones charged holds the sortie too.
         loop {
             self.wait_unpaused().await;
@@ -132,12 +133,15 @@ impl Runner {
                         flight::ensure_airborne(&fleet, sysid, alt, patience).await?;
                         fleet.start_mission(sysid).await?;
                         let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
-                        anyhow::Ok(())
+                        Ok::<_, RunnerError>(())
                     }
                     .await;
                     match r {
                         Err(e) if attempt < 3 && transient(&e) => {
-                            tracing::warn!("drone {sysid}: {e:#} (trying again)");
+                            tracing::warn!(
+                                "drone {sysid}: {} (trying again)",
+                                crate::app::error::chain(&e)
+                            );
                         }
                         r => break r,
                     }
@@ -165,12 +169,15 @@ impl Runner {
                             fleet.arm(sysid).await?;
                         }
                         fleet.start_mission(sysid).await?;
-                        anyhow::Ok(())
+                        Ok::<_, RunnerError>(())
                     }
                     .await;
                     match r {
                         Err(e) if attempt < 3 && transient(&e) => {
-                            tracing::warn!("station {sysid}: {e:#} (trying again)");
+                            tracing::warn!(
+                                "station {sysid}: {} (trying again)",
+                                crate::app::error::chain(&e)
+                            );
                         }
                         r => break r,
                     }
@@ -197,11 +204,11 @@ impl Runner {
             })
             .await?;
         if !failed.is_empty() {
-            anyhow::bail!(
+            return Err(RunnerError::check(format!(
                 "the sortie of epoch {p}, cycle {} could not start every vehicle: {}",
                 cycle.k,
                 failed.join("; ")
-            );
+            )));
         }
         self.say(Progress::info(format!(
             "epoch {p} cycle {}: flying",
@@ -211,7 +218,7 @@ impl Runner {
     }
 
     /// Follow the sortie in flight until every drone landed and every station arrived.
-    pub(super) async fn follow(&self, resumed: bool) -> anyhow::Result<()> {
+    pub(super) async fn follow(&self, resumed: bool) -> RunnerResult<()> {
         let (p, cycle) = self
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
@@ -250,22 +257,22 @@ impl Runner {
             tokio::select! {
                 r = pilots.join_next(), if !pilots.is_empty() => {
                     if let Some(r) = r {
-                        r.context("drone task")??;
+                        r.map_err(RunnerError::task("drone task"))??;
                     }
                 }
                 r = snaps.changed() => {
                     if r.is_err() {
-                        anyhow::bail!("the fleet stopped");
+                        return Err(RunnerError::FleetStopped);
                     }
                 }
                 _ = tick.tick() => {}
             }
             if self.fleet().clock().now() > deadline {
-                anyhow::bail!(
+                return Err(RunnerError::check(format!(
                     "epoch {p} cycle {}: the sortie did not end within {:.0} s",
                     cycle.k,
                     budget.as_secs_f64()
-                );
+                )));
             }
             let snap = self.fleet().snapshot().vehicles;
             // Stations.
@@ -332,7 +339,7 @@ impl Runner {
             }
         }
         while let Some(r) = pilots.join_next().await {
-            r.context("drone task")??;
+            r.map_err(RunnerError::task("drone task"))??;
         }
         // Images still on their way (the last captures): wait until every visit has its B
         // images, or nothing new arrived for a second (lost images stay lost).
@@ -432,7 +439,7 @@ impl Runner {
         snap: &BTreeMap<u8, VehicleSnapshot>,
         held: &mut BTreeSet<u8>,
         resumed: bool,
-    ) -> anyhow::Result<()> {
+    ) -> RunnerResult<()> {
         let legs = self
             .shared
             .read(|s| s.cycle().map(|c| c.drones.clone()).unwrap_or_default())

@@ -3,6 +3,7 @@
 //! missions and fences with retries of transient failures.
 
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 /// Whether the vehicle has done its whole mission `items`: MISSION_ITEM_REACHED of the last
 /// item, or MISSION_CURRENT COMPLETE on the last item once this mission is known to have
@@ -57,9 +58,9 @@ pub(super) fn observed_config(
     state: &ClassificationState,
     snap: &BTreeMap<u8, VehicleSnapshot>,
     expected: &TeamConfig,
-) -> anyhow::Result<TeamConfig> {
+) -> RunnerResult<TeamConfig> {
     let s = state.grid.cell_size();
-    let pos = |sysid: u8| -> anyhow::Result<(f64, f64)> {
+    let pos = |sysid: u8| -> RunnerResult<(f64, f64)> {
         let v = snap
             .get(&sysid)
             .with_context(|| format!("vehicle {sysid} is not heard"))?;
@@ -161,7 +162,7 @@ pub(super) fn charge_needed_pct(state: &ClassificationState, estimate_s: f64) ->
 /// (issue 25). A station's list is checked by the GCS instead (road cells only, no leg
 /// through a no-fly cell: [`missions::check_mission`], in [`upload_once`]); the fence stays
 /// uploaded (disabled) for the operator to see.
-pub(super) async fn enable_fence(fleet: &FleetHandle, v: &VehicleSnapshot) -> anyhow::Result<()> {
+pub(super) async fn enable_fence(fleet: &FleetHandle, v: &VehicleSnapshot) -> RunnerResult<()> {
     if v.flavour.home_item() && v.flavour.flies() {
         // ArduPilot: FENCE_ENABLE follows DO_FENCE_ENABLE; PX4 enforces an uploaded fence.
         let cmd = Command::long(
@@ -178,14 +179,14 @@ pub(super) async fn enable_fence(fleet: &FleetHandle, v: &VehicleSnapshot) -> an
 /// failed, with the error on one line; a task that panicked or was cancelled is an error
 /// (`what` names the task).
 pub(super) async fn join_failures(
-    tasks: &mut tokio::task::JoinSet<(u8, anyhow::Result<()>)>,
+    tasks: &mut tokio::task::JoinSet<(u8, RunnerResult<()>)>,
     what: &'static str,
-) -> anyhow::Result<Vec<(u8, String)>> {
+) -> RunnerResult<Vec<(u8, String)>> {
     let mut failed = Vec::new();
     while let Some(r) = tasks.join_next().await {
-        let (sysid, r) = r.context(what)?;
+        let (sysid, r) = r.map_err(RunnerError::task(what))?;
         if let Err(e) = r {
-            failed.push((sysid, format!("{e:#}")));
+            failed.push((sysid, crate::app::error::chain(&e)));
         }
     }
     Ok(failed)
@@ -193,12 +194,9 @@ pub(super) async fn join_failures(
 
 /// Whether a failed operation may succeed when tried again: no answer (a lost frame, a busy
 /// link), as opposed to the vehicle saying no.
-pub(super) fn transient(e: &anyhow::Error) -> bool {
+pub(super) fn transient(e: &RunnerError) -> bool {
     // The rule itself is the fleet's ([`crate::fleet::FleetError::is_transient`]).
-    e.chain().any(|c| {
-        c.downcast_ref::<crate::fleet::FleetError>()
-            .is_some_and(crate::fleet::FleetError::is_transient)
-    })
+    e.is_transient()
 }
 
 /// [`upload_once`], tried up to three times while the vehicle does not answer; a refusal
@@ -209,13 +207,16 @@ pub(super) async fn upload_verified(
     kind: MissionType,
     items: &[MissionItem],
     check: Option<(&ClassificationState, Cell, bool)>,
-) -> anyhow::Result<()> {
+) -> RunnerResult<()> {
     let mut attempt = 0;
     loop {
         attempt += 1;
         match upload_once(fleet, sysid, kind, items, check).await {
             Err(e) if attempt < 3 && transient(&e) => {
-                tracing::warn!("vehicle {sysid}: {e:#} (trying again)");
+                tracing::warn!(
+                    "vehicle {sysid}: {} (trying again)",
+                    crate::app::error::chain(&e)
+                );
             }
             r => return r,
         }
@@ -230,14 +231,18 @@ pub(super) async fn upload_once(
     kind: MissionType,
     items: &[MissionItem],
     check: Option<(&ClassificationState, Cell, bool)>,
-) -> anyhow::Result<()> {
+) -> RunnerResult<()> {
     let v = fleet
         .vehicle(sysid)
         .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
     fleet.upload_mission(sysid, kind, items.to_vec()).await?;
     let (back, _) = fleet.download_mission(sysid, kind).await?;
-    fleetmap_core::mission::wire::compare_items(items, &back, v.flavour.home_item())
-        .map_err(|d| anyhow::anyhow!("the list read back differs from the one sent: {d}"))?;
+    fleetmap_core::mission::wire::compare_items(items, &back, v.flavour.home_item()).map_err(
+        |source| RunnerError::ReadBack {
+            what: "list",
+            source,
+        },
+    )?;
     if let Some((state, start, station)) = check {
         let rules = AreaRules {
             rows: state.layout.rows,
@@ -245,8 +250,14 @@ pub(super) async fn upload_once(
             obstacles: &state.layout.obstacles,
             roads: station.then_some(state.layout.roads.as_slice()),
         };
-        missions::check_mission(&state.grid, &rules, start, &back)
-            .map_err(|e| anyhow::anyhow!("the mission as read back is unsafe: {e}"))?;
+        missions::check_mission(&state.grid, &rules, start, &back).map_err(|source| {
+            RunnerError::UnsafeMission {
+                role: "vehicle",
+                sysid,
+                read_back: true,
+                source,
+            }
+        })?;
     }
     Ok(())
 }

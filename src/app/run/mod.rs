@@ -13,8 +13,9 @@ mod progress;
 
 pub use progress::Progress;
 
+use crate::app::error::Context as _;
+use crate::app::error::{RunnerError, RunnerResult};
 use crate::store::{RunDir, RunStore};
-use anyhow::Context as _;
 use fleetmap_io::clock::MonotonicClock;
 use serde::Serialize;
 use std::sync::Arc;
@@ -46,8 +47,8 @@ where
         clock: MonotonicClock,
         progress: Option<mpsc::UnboundedSender<Progress>>,
         view: Option<watch::Sender<Arc<S>>>,
-    ) -> anyhow::Result<RunCore<S>> {
-        let store = RunStore::spawn(run).context("starting the run store thread")?;
+    ) -> RunnerResult<RunCore<S>> {
+        let store = RunStore::spawn(run).map_err(RunnerError::StoreThread)?;
         let (changed, _) = watch::channel(0u64);
         Ok(RunCore {
             state: Mutex::new(state),
@@ -88,10 +89,10 @@ where
     pub(crate) async fn commit<T, E, Er>(
         &self,
         f: impl FnOnce(&mut S) -> Result<(T, Vec<E>), Er>,
-    ) -> anyhow::Result<T>
+    ) -> RunnerResult<T>
     where
         E: Serialize + Send + 'static,
-        anyhow::Error: From<Er>,
+        RunnerError: From<Er>,
     {
         self.update(|s| f(s).map(|(t, events)| (t, events, true)))
             .await
@@ -102,10 +103,10 @@ where
     pub(crate) async fn update<T, E, Er>(
         &self,
         f: impl FnOnce(&mut S) -> Result<(T, Vec<E>, bool), Er>,
-    ) -> anyhow::Result<T>
+    ) -> RunnerResult<T>
     where
         E: Serialize + Send + 'static,
-        anyhow::Error: From<Er>,
+        RunnerError: From<Er>,
     {
         let mut state = self.state.lock().await;
         let (out, events, changed) = f(&mut *state)?;
@@ -115,7 +116,7 @@ where
         let snapshot = Arc::new(state.clone());
         let saved = snapshot.clone();
         self.store
-            .run(move |run| -> anyhow::Result<()> {
+            .run(move |run| -> RunnerResult<()> {
                 run.save_state(&*saved).context("saving the run state")?;
                 for ev in &events {
                     run.append_event(ev).context("writing the run journal")?;

@@ -3,6 +3,7 @@
 
 use super::*;
 use crate::app::error::CpuError;
+use crate::app::error::RunnerResult;
 use fleetmap_core::vision::VisionError;
 
 pub(super) fn labels5(c: &Classification) -> [bool; 5] {
@@ -125,7 +126,7 @@ impl Pilot {
 
     /// Whether region cell `cell` of a moving region has drifted more than the arrival
     /// tolerance from under the vehicle (always false for a static region).
-    async fn drifted_from(&self, cell: Cell) -> anyhow::Result<bool> {
+    async fn drifted_from(&self, cell: Cell) -> RunnerResult<bool> {
         let roi = self.shared.roi;
         if roi.is_static() {
             return Ok(false);
@@ -144,7 +145,7 @@ impl Pilot {
     /// [`RunOptions::max_retakes`] times in this visit, after which the camera is declared
     /// faulty ([`Pilot::camera_fault`]). Returns false when the visit was cut short (battery,
     /// camera fault).
-    pub(super) async fn take_images(&mut self, cell: Cell) -> anyhow::Result<bool> {
+    pub(super) async fn take_images(&mut self, cell: Cell) -> RunnerResult<bool> {
         let sysid = self.sysid;
         self.doing(Activity::Imaging);
         let mut retakes = 0u32;
@@ -362,7 +363,7 @@ impl Pilot {
         cell: Cell,
         retakes: u32,
         failure: PictureFailure,
-    ) -> anyhow::Result<bool> {
+    ) -> RunnerResult<bool> {
         let sysid = self.sysid;
         let max = self.shared.max_retakes;
         let (reason, ev) = match failure {
@@ -427,7 +428,7 @@ impl Pilot {
         &mut self,
         cell: Option<Cell>,
         reason: String,
-    ) -> anyhow::Result<()> {
+    ) -> RunnerResult<()> {
         let sysid = self.sysid;
         let now = self.shared.now();
         let line = format!(

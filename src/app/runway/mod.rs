@@ -47,12 +47,13 @@
 //! * **End**: every robot back at the start (Algorithm 1), then home and landed; the run's
 //!   outputs are written by [`report`].
 
+use crate::app::error::Context as _;
+use crate::app::error::RunnerResult;
 use crate::app::flight::{self, FlightError, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, GeoPoint, VehicleSnapshot};
 use crate::store::RunDir;
-use anyhow::Context as _;
 use fleetmap_core::explore::dfs::Action;
 use fleetmap_core::explore::mapping::{
     Activity, Directive, MappingError, MappingState, Phase, RobotStatus, Wait,
@@ -289,7 +290,7 @@ impl Shared {
     async fn commit<T>(
         &self,
         f: impl FnOnce(&mut MappingState) -> Result<(T, Option<MappingEvent>), MappingError>,
-    ) -> anyhow::Result<T> {
+    ) -> RunnerResult<T> {
         self.run
             .commit(|s| {
                 f(s).map(|(out, ev)| {
@@ -303,7 +304,7 @@ impl Shared {
 
     /// The next directive of `sysid`; saved (and the others woken) only when deciding it
     /// changed the state or a milestone waits for the journal.
-    async fn decide(&self, sysid: u8) -> anyhow::Result<Directive> {
+    async fn decide(&self, sysid: u8) -> RunnerResult<Directive> {
         self.run
             .update(|s| {
                 s.directive_changed(sysid)

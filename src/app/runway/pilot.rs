@@ -3,6 +3,7 @@
 //! The pictures of a visit are in [`super::intake`], the sweep in [`super::sweep`].
 
 use super::*;
+use crate::app::error::RunnerResult;
 use fleetmap_core::explore::reach::Reach;
 
 /// Seconds a drone is counted over a cell per picture still to take, when the reach rule
@@ -51,7 +52,7 @@ impl Pilot {
         }
     }
 
-    pub(super) async fn run(mut self) -> anyhow::Result<PilotEnd> {
+    pub(super) async fn run(mut self) -> RunnerResult<PilotEnd> {
         let mut failures = 0u32;
         loop {
             self.wait_unpaused().await;
@@ -60,7 +61,7 @@ impl Pilot {
                 Ok(None) => failures = 0,
                 Err(e) => {
                     failures += 1;
-                    let reason = format!("{e:#}");
+                    let reason = crate::app::error::chain(&e);
                     self.shared.say(
                         Progress::warning(format!("vehicle {}: {reason} (retrying)", self.sysid))
                             .about(self.sysid),
@@ -83,7 +84,7 @@ impl Pilot {
     }
 
     /// One directive. `Some` ends the pilot.
-    pub(super) async fn step(&mut self) -> anyhow::Result<Option<PilotEnd>> {
+    pub(super) async fn step(&mut self) -> RunnerResult<Option<PilotEnd>> {
         let sysid = self.sysid;
         // A recall from the operator, or a low battery, comes first.
         if self.check_battery().await? {
@@ -251,7 +252,7 @@ impl Pilot {
 
     /// Low battery or an operator recall: leave the tree and fly home. Returns whether it
     /// did.
-    pub(super) async fn check_battery(&mut self) -> anyhow::Result<bool> {
+    pub(super) async fn check_battery(&mut self) -> RunnerResult<bool> {
         let sysid = self.sysid;
         let recalled = self
             .shared
@@ -320,7 +321,7 @@ impl Pilot {
     /// failsafe, or a flight the reach rule says the charge does not cover): its confirmation
     /// is given up and the state and journal say so, `pct` the charge it reported (−1 when it
     /// reports none) and `needed_pct` what the flight home (or out and back) needs, percent.
-    async fn send_for_swap(&self, now: Time, pct: f64, needed_pct: f64) -> anyhow::Result<()> {
+    async fn send_for_swap(&self, now: Time, pct: f64, needed_pct: f64) -> RunnerResult<()> {
         let sysid = self.sysid;
         self.shared
             .commit(|s| {
@@ -346,7 +347,7 @@ impl Pilot {
     /// finished the run beyond reach (every drone then goes home). A static region, or a
     /// vehicle that reports no position or charge (or no home, airborne, and never did), is
     /// not judged here (the battery check between steps still is).
-    pub(super) async fn in_reach(&mut self, cell: Cell) -> anyhow::Result<bool> {
+    pub(super) async fn in_reach(&mut self, cell: Cell) -> RunnerResult<bool> {
         let sysid = self.sysid;
         let roi = self.shared.roi;
         if roi.is_static() {
@@ -465,7 +466,7 @@ impl Pilot {
         }
     }
 
-    pub(super) async fn fly_to_cell(&mut self, cell: Cell) -> anyhow::Result<()> {
+    pub(super) async fn fly_to_cell(&mut self, cell: Cell) -> RunnerResult<()> {
         let sysid = self.sysid;
         let (centre, alt, speed) = self
             .shared
@@ -499,7 +500,7 @@ impl Pilot {
     }
 
     /// Where the vehicle is on `grid` (east, north metres), if it reports a position.
-    pub(super) fn vehicle_xy(&self, grid: &Grid) -> anyhow::Result<Option<(f64, f64)>> {
+    pub(super) fn vehicle_xy(&self, grid: &Grid) -> RunnerResult<Option<(f64, f64)>> {
         let Some(p) = self.vehicle().and_then(|v| v.position) else {
             return Ok(None);
         };
@@ -517,7 +518,7 @@ impl Pilot {
         cell: Cell,
         speed: f64,
         lead_s: f64,
-    ) -> anyhow::Result<Option<LatLon>> {
+    ) -> RunnerResult<Option<LatLon>> {
         let roi = self.shared.roi;
         if roi.is_static() {
             return Ok(None);
@@ -532,7 +533,7 @@ impl Pilot {
     }
 
     /// Battery swap: home, land, wait for the fresh battery, then carry on.
-    pub(super) async fn swap(&mut self) -> anyhow::Result<Option<PilotEnd>> {
+    pub(super) async fn swap(&mut self) -> RunnerResult<Option<PilotEnd>> {
         let sysid = self.sysid;
         let fleet = self.fleet().clone();
         let status = self
@@ -658,7 +659,7 @@ impl Pilot {
         }
     }
 
-    pub(super) async fn go_home(&mut self) -> anyhow::Result<()> {
+    pub(super) async fn go_home(&mut self) -> RunnerResult<()> {
         let sysid = self.sysid;
         let now = self.shared.now();
         self.shared

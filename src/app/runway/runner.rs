@@ -2,6 +2,7 @@
 //! tracker, the operator's commands, and the final save.
 
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 use fleetmap_core::explore::mapping::CLOCK_SAMPLE_S;
 use tokio::task::JoinSet;
 
@@ -75,7 +76,7 @@ pub async fn run(
     run_dir: RunDir,
     state: MappingState,
     mut opts: RunOptions,
-) -> anyhow::Result<Outcome> {
+) -> RunnerResult<Outcome> {
     let mut state = state;
     let sysids: Vec<u8> = state.robots.iter().map(|r| r.sysid).collect();
     // A moving region: its epoch is this start unless the state has one (a resumed run, or
@@ -210,7 +211,9 @@ pub async fn run(
             }
             Err(e) => {
                 if first_err.is_none() {
-                    first_err = Some(anyhow::anyhow!("vehicle {sysid}: pilot task failed: {e}"));
+                    first_err = Some(
+                        RunnerError::task("pilot task")(e).context(format!("vehicle {sysid}")),
+                    );
                 }
             }
         }

@@ -2,11 +2,12 @@
 //! that arrives is checked, classified and voted into the map as it comes.
 
 use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
 
 impl Pilot {
     /// Fly (or keep flying) the sweep, classifying its images, until the phase changes, the
     /// sweep ends or the battery runs low.
-    pub(super) async fn sweep(&mut self) -> anyhow::Result<()> {
+    pub(super) async fn sweep(&mut self) -> RunnerResult<()> {
         let sysid = self.sysid;
         let fleet = self.fleet().clone();
         let (items, alt, speed, resume_item) = self
@@ -37,8 +38,12 @@ impl Pilot {
                 .await?;
             let (back, _) = fleet.download_mission(sysid, MissionType::Mission).await?;
             fleetmap_core::mission::wire::compare_items(&items, &back, v.flavour.home_item())
-                .map_err(|d| {
-                    anyhow::anyhow!("vehicle {sysid}: the sweep read back differs: {d}")
+                .map_err(|source| {
+                    RunnerError::ReadBack {
+                        what: "sweep",
+                        source,
+                    }
+                    .context(format!("vehicle {sysid}"))
                 })?;
             self.shared.say(
                 Progress::info(format!(
@@ -112,7 +117,7 @@ impl Pilot {
                     match f {
                         Ok(inc) => heard.on_frame(sysid, &inc, &self.shared),
                         Err(broadcast::error::RecvError::Lagged(_)) => {}
-                        Err(broadcast::error::RecvError::Closed) => anyhow::bail!("the fleet stopped"),
+                        Err(broadcast::error::RecvError::Closed) => return Err(RunnerError::FleetStopped),
                     }
                 }
                 r = self.images.recv() => {
@@ -144,7 +149,7 @@ impl Pilot {
                 }
                 r = snaps.changed() => {
                     if r.is_err() {
-                        anyhow::bail!("the fleet stopped");
+                        return Err(RunnerError::FleetStopped);
                     }
                     let s = snaps.borrow_and_update().vehicles.get(&sysid).cloned();
                     let Some(s) = s else { continue };
@@ -232,7 +237,7 @@ impl Pilot {
         &mut self,
         img: &ReceivedImage,
         announced: Option<(GeoPoint, Time)>,
-    ) -> anyhow::Result<bool> {
+    ) -> RunnerResult<bool> {
         let announced_at = announced.map(|(p, _)| p);
         // When the picture was taken, as near as the GCS knows: by the camera's clock when it
         // announced the picture, else now.
