@@ -12,7 +12,7 @@ use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::transport::{LinkOptions, open_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, Endpoint, GcsClock, ServeOptions, SimHandle};
+use fleetmap_sim::server::{self, GcsClock, ServeOptions, SimHandle};
 use tokio::sync::mpsc;
 
 /// The hardware field world (`assets/worlds/hardware-6x6.toml`).
@@ -112,7 +112,7 @@ pub async fn start(sim: Sim, speedup: f64) -> anyhow::Result<SimFleet> {
     let handle = server::spawn(
         sim,
         ServeOptions {
-            endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}"))?],
+            endpoints: vec![server::parse_connection(&format!("udpout:{gcs}"))?],
             speed: Speed::times(speedup).context("the speed-up must be positive")?,
             // the fleet below follows the simulator's time
             gcs: GcsClock::Simulator,
