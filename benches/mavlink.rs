@@ -181,7 +181,7 @@ fn upload_loopback(c: &mut Criterion) {
     use fleetmap::fleet::{self, FleetConfig};
     use fleetmap_io::link::transport::LinkOptions;
     use fleetmap_sim::harness::{Sim, SimConfig};
-    use fleetmap_sim::server::{self, Endpoint as SimEndpoint, ServeOptions};
+    use fleetmap_sim::server::{self, ServeOptions};
     let rt = tokio::runtime::Builder::new_multi_thread()
         .worker_threads(2)
         .enable_all()
@@ -198,7 +198,7 @@ fn upload_loopback(c: &mut Criterion) {
         let served = server::spawn(
             Sim::new(cfg, Time::ZERO).expect("sim"),
             ServeOptions {
-                endpoints: vec![SimEndpoint::parse("udpin:127.0.0.1:0").expect("endpoint")],
+                endpoints: vec![server::parse_connection("udpin:127.0.0.1:0").expect("endpoint")],
                 speed: fleetmap_sim::pace::Speed::Times(1.0),
                 gcs: fleetmap_sim::server::GcsClock::Wall,
                 image_dir: None,

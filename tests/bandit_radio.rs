@@ -18,7 +18,7 @@ use fleetmap_io::link::relay::{Relay, RelayOptions, RelayStats};
 use fleetmap_io::link::transport::{LinkOptions, open_link};
 use fleetmap_sim::harness::Sim;
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, Endpoint, GcsClock, ServeOptions};
+use fleetmap_sim::server::{self, GcsClock, ServeOptions, parse_connection};
 use std::time::{Duration, Instant};
 
 /// Simulated seconds per wall second (the relays follow the simulator's clock).
@@ -81,10 +81,10 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
                 .await
                 .unwrap();
                 let v = r.vehicle_local().unwrap();
-                endpoints.push(Endpoint::parse(&format!("udpout:{v}")).unwrap());
+                endpoints.push(parse_connection(&format!("udpout:{v}")).unwrap());
                 relays.push(r);
             }
-            None => endpoints.push(Endpoint::parse(&format!("udpout:{gcs}")).unwrap()),
+            None => endpoints.push(parse_connection(&format!("udpout:{gcs}")).unwrap()),
         }
     }
     let handle = server::spawn(

@@ -12,7 +12,7 @@ use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::transport::{LinkOptions, open_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, Endpoint, GcsClock, ServeOptions};
+use fleetmap_sim::server::{self, GcsClock, ServeOptions, parse_connection};
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -113,7 +113,7 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
     let sim = server::spawn(
         Sim::new(cfg, Time::ZERO).unwrap(),
         ServeOptions {
-            endpoints: vec![Endpoint::parse(&format!("udpout:{router_vehicle}")).unwrap()],
+            endpoints: vec![parse_connection(&format!("udpout:{router_vehicle}")).unwrap()],
             speed: Speed::times(1.0).unwrap(),
             gcs: GcsClock::Simulator,
             image_dir: None,

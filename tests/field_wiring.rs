@@ -50,14 +50,14 @@ async fn one_port(spec: &str, speedup: f64, wiring: Wiring) -> (FleetHandle, ser
     let gcs = f.links()[0].local.expect("the port the GCS listens on");
     let cfg = SimConfig::from_spec(spec, None, Some(HOME), 11).unwrap();
     let endpoints = match wiring {
-        Wiring::Direct => vec![server::Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
+        Wiring::Direct => vec![server::parse_connection(&format!("udpout:{gcs}")).unwrap()],
         Wiring::Router => {
             let mut ends = vec![End::Fixed(gcs)];
             let mut endpoints = Vec::new();
             for _ in &cfg.vehicles {
                 let s = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
                 let a = s.local_addr().unwrap();
-                endpoints.push(server::Endpoint::parse(&format!("udpout:{a}")).unwrap());
+                endpoints.push(server::parse_connection(&format!("udpout:{a}")).unwrap());
                 ends.push(End::Learn(s));
             }
             router::spawn(ends).await;

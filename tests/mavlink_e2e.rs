@@ -462,7 +462,7 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
     let served = server::spawn(
         sim,
         ServeOptions {
-            endpoints: vec![server::Endpoint::parse("udpin:127.0.0.1:0").unwrap()],
+            endpoints: vec![server::parse_connection("udpin:127.0.0.1:0").unwrap()],
             speed: fleetmap_sim::pace::Speed::Times(1.0),
             gcs: fleetmap_sim::server::GcsClock::Wall,
             image_dir: None,

@@ -52,7 +52,7 @@ async fn the_fleet_starts_a_rovers_second_mission() {
     let _served = server::spawn(
         sim,
         ServeOptions {
-            endpoints: vec![server::Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
+            endpoints: vec![server::parse_connection(&format!("udpout:{gcs}")).unwrap()],
             speed: fleetmap_sim::pace::Speed::Times(5.0),
             gcs: server::GcsClock::Wall,
             image_dir: None,

@@ -7,7 +7,7 @@ mod common;
 use fleetmap_core::time::Time;
 use fleetmap_io::link::codec::Codec;
 use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::server::{Endpoint, ServeOptions, spawn};
+use fleetmap_sim::server::{ServeOptions, parse_connection, spawn};
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -42,7 +42,7 @@ async fn udp_endpoints_per_vehicle() {
     let h = spawn(
         sim,
         ServeOptions {
-            endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0").unwrap()],
+            endpoints: vec![parse_connection("udpin:127.0.0.1:0").unwrap()],
             speed: fleetmap_sim::pace::Speed::Times(20.0),
             gcs: fleetmap_sim::server::GcsClock::Wall,
             image_dir: None,
@@ -119,7 +119,7 @@ async fn tcp_endpoint_and_image_files() {
     let h = spawn(
         sim,
         ServeOptions {
-            endpoints: vec![Endpoint::parse("tcpin:127.0.0.1:0").unwrap()],
+            endpoints: vec![parse_connection("tcpin:127.0.0.1:0").unwrap()],
             speed: fleetmap_sim::pace::Speed::Times(10.0),
             gcs: fleetmap_sim::server::GcsClock::Wall,
             image_dir: Some(dir.path().to_path_buf()),
@@ -198,7 +198,7 @@ async fn camera_for_a_real_autopilot() {
     let task = tokio::spawn(fleetmap_sim::server::serve_paired(
         cams,
         None,
-        Endpoint::parse("udpin:127.0.0.1:0").unwrap(),
+        parse_connection("udpin:127.0.0.1:0").unwrap(),
         Some(image_dir),
         None,
         move |b| {

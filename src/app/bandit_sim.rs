@@ -12,7 +12,7 @@ use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::transport::{LinkOptions, open_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, Endpoint, GcsClock, ServeOptions, SimHandle};
+use fleetmap_sim::server::{self, GcsClock, ServeOptions, SimHandle};
 use tokio::sync::mpsc;
 
 /// The hardware field world (`assets/worlds/hardware-6x6.toml`).
@@ -109,7 +109,8 @@ pub async fn start(sim: Sim, speedup: f64) -> Result<SimFleet, SimStartError> {
         sim,
         ServeOptions {
             endpoints: vec![
-                Endpoint::parse(&format!("udpout:{gcs}")).map_err(SimStartError::Endpoint)?,
+                server::parse_connection(&format!("udpout:{gcs}"))
+                    .map_err(SimStartError::Connection)?,
             ],
             speed: Speed::times(speedup).ok_or(SimStartError::Speed)?,
             // the fleet below follows the simulator's time

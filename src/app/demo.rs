@@ -18,7 +18,7 @@ use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::transport::{LinkOptions, open_link, open_memory_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, Endpoint, GcsClock, ServeOptions, SimHandle, SimTask};
+use fleetmap_sim::server::{self, GcsClock, ServeOptions, SimHandle, SimTask};
 use tokio::sync::mpsc;
 
 /// The runway world (`assets/worlds/runway.toml`).
@@ -208,7 +208,9 @@ pub(crate) async fn start_at(
     let handle = server::spawn(
         sim,
         ServeOptions {
-            endpoints: vec![Endpoint::parse("udpin:127.0.0.1:0").map_err(SimStartError::Endpoint)?],
+            endpoints: vec![
+                server::parse_connection("udpin:127.0.0.1:0").map_err(SimStartError::Connection)?,
+            ],
             speed,
             // the fleet below follows the simulator's time
             gcs: GcsClock::Simulator,

@@ -370,9 +370,9 @@ pub enum SimStartError {
     /// The simulator's vehicles or world are wrong.
     #[error(transparent)]
     Sim(#[from] fleetmap_sim::harness::SimError),
-    /// The simulator's endpoint is wrong.
+    /// A connection string the simulator cannot serve (the message names it).
     #[error(transparent)]
-    Endpoint(fleetmap_sim::server::ServerError),
+    Connection(fleetmap_sim::server::ServerError),
     /// The simulator's links could not be opened.
     #[error("starting the simulator")]
     Server(#[source] fleetmap_sim::server::ServerError),

@@ -19,7 +19,6 @@ use anyhow::{Context, bail};
 use clap::Args;
 use fleetmap_sim::camera::CameraConfig;
 use fleetmap_sim::paired::PairedCameras;
-use fleetmap_sim::server::Endpoint;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::str::FromStr;
@@ -152,7 +151,7 @@ pub fn onboard_spec(path: &Path) -> anyhow::Result<fleetmap_core::vision::onboar
 
 /// Run `fleetmap camera`.
 pub fn run(args: CameraArgs) -> anyhow::Result<ExitCode> {
-    let endpoint = Endpoint::parse(&args.connect)?;
+    let endpoint = fleetmap_sim::server::parse_connection(&args.connect)?;
     let onboard = args.mission.as_deref().map(onboard_spec).transpose()?;
     let mut cfg = CameraConfig {
         mavlink_transfer: (onboard.is_none() || args.push_pictures) && !args.no_image_transfer,

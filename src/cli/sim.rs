@@ -7,7 +7,7 @@ use fleetmap_core::world::Wind;
 use fleetmap_io::clock::SimTime;
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{Endpoint, GcsClock, ServeOptions, serve};
+use fleetmap_sim::server::{GcsClock, ServeOptions, parse_connection, serve};
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -17,9 +17,9 @@ pub struct SimArgs {
     /// Vehicles, e.g. `3xcopter:ardupilot,1xrover:ardupilot`; vehicle k gets system id k.
     #[arg(long, default_value = "1xcopter:ardupilot")]
     pub vehicles: String,
-    /// Where to serve them: `udpout:HOST:PORT` (each vehicle from its own socket),
-    /// `udpin:HOST:PORT` / `tcpin:HOST:PORT` (vehicle k on PORT+k−1); repeat once per
-    /// vehicle for explicit endpoints.
+    /// Where to serve them: `udpout:HOST:PORT` or `udp:HOST:PORT` (each vehicle from its own
+    /// socket), `udpin:HOST:PORT` / `tcpin:HOST:PORT` (vehicle k on PORT+k−1); repeat once
+    /// per vehicle for explicit endpoints.
     #[arg(long, required = true)]
     pub connect: Vec<String>,
     /// World file (ground truth and default homes), e.g. assets/worlds/runway.toml.
@@ -245,7 +245,7 @@ pub fn run(args: SimArgs) -> anyhow::Result<ExitCode> {
     let endpoints = args
         .connect
         .iter()
-        .map(|c| Endpoint::parse(c))
+        .map(|c| parse_connection(c))
         .collect::<Result<Vec<_>, _>>()?;
     if args.camera_only {
         return run_camera_only(args);

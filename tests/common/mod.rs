@@ -93,7 +93,7 @@ impl StarvedSim {
         gcs: std::net::SocketAddr,
         hold: fn(),
     ) -> StarvedSim {
-        use fleetmap_sim::server::{Endpoint, GcsClock, ServeOptions, spawn};
+        use fleetmap_sim::server::{GcsClock, ServeOptions, parse_connection, spawn};
         use std::sync::atomic::Ordering;
         let stop = std::sync::Arc::new(std::sync::atomic::AtomicBool::new(false));
         let stop_sim = stop.clone();
@@ -108,7 +108,7 @@ impl StarvedSim {
                 let h = spawn(
                     sim.unwrap(),
                     ServeOptions {
-                        endpoints: vec![Endpoint::parse(&format!("udpout:{gcs}")).unwrap()],
+                        endpoints: vec![parse_connection(&format!("udpout:{gcs}")).unwrap()],
                         speed: fleetmap_sim::pace::Speed::Times(ceiling),
                         gcs: GcsClock::Simulator,
                         image_dir: None,

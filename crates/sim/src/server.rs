@@ -1,10 +1,11 @@
 //! The simulator's thin async shell: serves each simulated vehicle on its own MAVLink
 //! endpoint over UDP or TCP, on a clock that may run faster than wall time.
 //!
-//! Endpoints, as MAVProxy writes them:
-//! - `udpout:HOST:PORT` — every vehicle sends to HOST:PORT from its own socket (an ephemeral
-//!   port, on loopback when HOST is this machine), as several SITL instances would, and
-//!   listens for replies on it;
+//! Endpoints, connection strings as MAVProxy writes them ([`fleetmap_io::link::ConnSpec`],
+//! read by [`parse_connection`]):
+//! - `udpout:HOST:PORT` (or `udp:HOST:PORT`, as a vehicle's `--out`) — every vehicle sends
+//!   to HOST:PORT from its own socket (an ephemeral port, on loopback when HOST is this
+//!   machine), as several SITL instances would, and listens for replies on it;
 //! - `udpin:HOST:PORT` — vehicle k listens on HOST:(PORT + k − 1) and answers whoever spoke
 //!   to it last;
 //! - `tcpin:HOST:PORT` — vehicle k accepts TCP clients on HOST:(PORT + k − 1) and sends to
@@ -31,6 +32,7 @@ use crate::pace::{Pacer, Speed, SpeedMeter};
 use crate::tx_queue::{Expired, TxQueue};
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::{MonotonicClock, SimTime};
+use fleetmap_io::link::{ConnSpec, ConnSpecError};
 use sockets::{Io, Received, io_err, open};
 use std::net::SocketAddr;
 use std::path::{Path, PathBuf};
@@ -42,10 +44,19 @@ use tokio::sync::mpsc;
 #[derive(Debug, Error)]
 pub enum ServerError {
     /// A connection string is malformed.
-    #[error(
-        "invalid endpoint {0:?}: expected udpout:HOST:PORT, udpin:HOST:PORT or tcpin:HOST:PORT"
-    )]
-    Endpoint(String),
+    #[error(transparent)]
+    Connection(#[from] ConnSpecError),
+    /// A connection the simulator cannot serve (a TCP client, a serial port).
+    #[error("the simulator serves udpin, udpout and tcpin connections, not {0:?}")]
+    NotServed(String),
+    /// A connection shared among vehicles runs out of ports.
+    #[error("{connection}: vehicle {vehicle} would need a port above 65535")]
+    PortRange {
+        /// The shared connection string.
+        connection: String,
+        /// The vehicle (1-based) that has no port.
+        vehicle: usize,
+    },
     /// The number of endpoints does not match the vehicles.
     #[error("{endpoints} endpoints for {vehicles} vehicles: give one, or one per vehicle")]
     Count {
@@ -64,70 +75,71 @@ pub enum ServerError {
     },
 }
 
-/// How one vehicle is reached.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum Endpoint {
-    /// Send to this address from an own socket.
-    UdpOut(String),
-    /// Listen on this address.
-    UdpIn(String),
-    /// Accept TCP clients on this address.
-    TcpIn(String),
-}
-
-impl Endpoint {
-    /// Parse `udpout:HOST:PORT`, `udpin:HOST:PORT` or `tcpin:HOST:PORT`.
-    pub fn parse(s: &str) -> Result<Endpoint, ServerError> {
-        let (kind, addr) = s
-            .split_once(':')
-            .ok_or_else(|| ServerError::Endpoint(s.to_string()))?;
-        let (host, port) = addr
-            .rsplit_once(':')
-            .ok_or_else(|| ServerError::Endpoint(s.to_string()))?;
-        if host.is_empty() || port.parse::<u16>().is_err() {
-            return Err(ServerError::Endpoint(s.to_string()));
-        }
-        match kind {
-            "udpout" | "udp" => Ok(Endpoint::UdpOut(addr.to_string())),
-            "udpin" => Ok(Endpoint::UdpIn(addr.to_string())),
-            "tcpin" => Ok(Endpoint::TcpIn(addr.to_string())),
-            _ => Err(ServerError::Endpoint(s.to_string())),
-        }
-    }
-
-    /// The endpoint of vehicle number `k` (0-based) when this one is shared among vehicles.
-    pub(crate) fn for_vehicle(&self, k: usize) -> Result<Endpoint, ServerError> {
-        let shift = |a: &str| -> Result<String, ServerError> {
-            let (h, p) = a
-                .rsplit_once(':')
-                .ok_or_else(|| ServerError::Endpoint(a.to_string()))?;
-            let p: u16 = p
-                .parse()
-                .map_err(|_| ServerError::Endpoint(a.to_string()))?;
-            if p == 0 {
-                return Ok(a.to_string()); // ephemeral ports for everyone
+/// Parse a connection string to serve vehicles on: `udpout:HOST:PORT`, `udpin:HOST:PORT` or
+/// `tcpin:HOST:PORT` ([`ConnSpec`]). As a vehicle's `--out` (SITL, MAVProxy), `udp:HOST:PORT`
+/// sends out: it is `udpout:`, where a GCS's `udp:` listens ([`ConnSpec`]'s `udpin:`).
+/// A TCP client or a serial port is refused ([`ServerError::NotServed`]).
+pub fn parse_connection(s: &str) -> Result<ConnSpec, ServerError> {
+    let spec: ConnSpec = s.parse()?;
+    let vehicle_out = s
+        .split_once(':')
+        .is_some_and(|(scheme, _)| scheme.eq_ignore_ascii_case("udp"));
+    let spec = match spec {
+        ConnSpec::UdpIn { host, port } if vehicle_out => {
+            if port == 0 {
+                return Err(ConnSpecError {
+                    input: s.to_string(),
+                    why: "udp (udpout) needs a non-zero port".into(),
+                }
+                .into());
             }
-            let p = p
-                .checked_add(k as u16)
-                .ok_or_else(|| ServerError::Endpoint(a.to_string()))?;
-            Ok(format!("{h}:{p}"))
-        };
-        Ok(match self {
-            Endpoint::UdpOut(a) => Endpoint::UdpOut(a.clone()),
-            Endpoint::UdpIn(a) => Endpoint::UdpIn(shift(a)?),
-            Endpoint::TcpIn(a) => Endpoint::TcpIn(shift(a)?),
-        })
+            ConnSpec::UdpOut { host, port }
+        }
+        other => other,
+    };
+    servable(&spec)?;
+    Ok(spec)
+}
+
+/// Refuse the connections the simulator cannot serve: a TCP client, a serial port, an
+/// in-process channel.
+fn servable(spec: &ConnSpec) -> Result<(), ServerError> {
+    match spec {
+        ConnSpec::UdpIn { .. } | ConnSpec::UdpOut { .. } | ConnSpec::TcpIn { .. } => Ok(()),
+        ConnSpec::Tcp { .. } | ConnSpec::Serial { .. } | ConnSpec::Memory { .. } => {
+            Err(ServerError::NotServed(spec.to_string()))
+        }
     }
 }
 
-impl std::fmt::Display for Endpoint {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        match self {
-            Endpoint::UdpOut(a) => write!(f, "udpout:{a}"),
-            Endpoint::UdpIn(a) => write!(f, "udpin:{a}"),
-            Endpoint::TcpIn(a) => write!(f, "tcpin:{a}"),
+/// The connection of vehicle number `k` (0-based) when `spec` is shared among vehicles:
+/// `udpin:` and `tcpin:` on PORT + k (port 0: an ephemeral port for every vehicle), `udpout:`
+/// the same peer for all. Refuses what the simulator cannot serve.
+pub(crate) fn for_vehicle(spec: &ConnSpec, k: usize) -> Result<ConnSpec, ServerError> {
+    servable(spec)?;
+    let shift = |port: u16| -> Result<u16, ServerError> {
+        if port == 0 {
+            return Ok(0); // ephemeral ports for everyone
         }
-    }
+        u16::try_from(k)
+            .ok()
+            .and_then(|k| port.checked_add(k))
+            .ok_or_else(|| ServerError::PortRange {
+                connection: spec.to_string(),
+                vehicle: k + 1,
+            })
+    };
+    Ok(match spec {
+        ConnSpec::UdpIn { host, port } => ConnSpec::UdpIn {
+            host: host.clone(),
+            port: shift(*port)?,
+        },
+        ConnSpec::TcpIn { host, port } => ConnSpec::TcpIn {
+            host: host.clone(),
+            port: shift(*port)?,
+        },
+        other => other.clone(),
+    })
 }
 
 /// Whose clock the GCS keeps, which decides how the simulated vehicles judge its link.
@@ -148,7 +160,7 @@ pub enum GcsClock {
 #[derive(Clone, Debug)]
 pub struct ServeOptions {
     /// One endpoint shared by all vehicles, or one per vehicle.
-    pub endpoints: Vec<Endpoint>,
+    pub endpoints: Vec<ConnSpec>,
     /// The most simulated seconds per wall second (lock-step: slower when the machine cannot
     /// keep up, [`crate::pace`]), or as fast as it can.
     pub speed: Speed,
@@ -165,8 +177,8 @@ pub struct ServeOptions {
 pub struct Bound {
     /// Vehicle system id.
     pub sysid: u8,
-    /// Its endpoint.
-    pub endpoint: Endpoint,
+    /// Its connection.
+    pub endpoint: ConnSpec,
     /// The local address of its socket / listener.
     pub local: SocketAddr,
 }
@@ -606,27 +618,77 @@ mod tests {
     use super::*;
 
     #[test]
-    fn endpoints() {
+    fn connections() {
+        let p = |s: &str| parse_connection(s).unwrap();
+        let hp = |h: &str, port| (h.to_string(), port);
         assert_eq!(
-            Endpoint::parse("udpout:127.0.0.1:14550").unwrap(),
-            Endpoint::UdpOut("127.0.0.1:14550".into())
+            p("udpout:127.0.0.1:14550"),
+            ConnSpec::UdpOut {
+                host: "127.0.0.1".into(),
+                port: 14550
+            }
+        );
+        // a vehicle's `udp:` sends out, as SITL's and MAVProxy's `--out udp:`
+        assert_eq!(p("udp:127.0.0.1:14550"), p("udpout:127.0.0.1:14550"));
+        assert_eq!(
+            p("UDP:127.0.0.1:14550").to_string(),
+            "udpout:127.0.0.1:14550"
         );
         assert_eq!(
-            Endpoint::parse("tcpin:0.0.0.0:5760")
-                .unwrap()
-                .for_vehicle(2)
-                .unwrap(),
-            Endpoint::TcpIn("0.0.0.0:5762".into())
+            for_vehicle(&p("tcpin:0.0.0.0:5760"), 2).unwrap(),
+            ConnSpec::TcpIn {
+                host: "0.0.0.0".into(),
+                port: 5762
+            }
+        );
+        let ConnSpec::UdpIn { host, port } = for_vehicle(&p("udpin:[::1]:14550"), 1).unwrap()
+        else {
+            panic!("not udpin")
+        };
+        assert_eq!((host, port), hp("::1", 14551));
+        assert_eq!(
+            for_vehicle(&p("udpin:127.0.0.1:0"), 5).unwrap(),
+            p("udpin:127.0.0.1:0")
         );
         assert_eq!(
-            Endpoint::parse("udpout:localhost:14550")
-                .unwrap()
-                .for_vehicle(3)
-                .unwrap(),
-            Endpoint::UdpOut("localhost:14550".into())
+            for_vehicle(&p("udpout:localhost:14550"), 3).unwrap(),
+            ConnSpec::UdpOut {
+                host: "localhost".into(),
+                port: 14550
+            }
         );
-        assert!(Endpoint::parse("serial:/dev/ttyUSB0:57600").is_err());
-        assert!(Endpoint::parse("udpin:14550").is_err());
-        assert!(Endpoint::parse("udpin::x").is_err());
+        assert!(matches!(
+            for_vehicle(&p("udpin:127.0.0.1:65535"), 1),
+            Err(ServerError::PortRange { vehicle: 2, .. })
+        ));
+        // malformed
+        for bad in [
+            "udpin:14550",
+            "udpin::x",
+            "udp:host:0",
+            "udpout:host:0",
+            "carrier:pigeon:1",
+        ] {
+            let e = parse_connection(bad).unwrap_err();
+            assert!(matches!(e, ServerError::Connection(_)), "{bad}: {e}");
+        }
+        // well-formed, but not served by the simulator
+        for refused in ["serial:/dev/ttyUSB0:57600", "tcp:localhost:5760"] {
+            let e = parse_connection(refused).unwrap_err();
+            assert!(matches!(e, ServerError::NotServed(_)), "{refused}: {e}");
+            let msg = e.to_string();
+            assert!(
+                msg.contains("serves udpin, udpout and tcpin") && msg.contains(refused),
+                "{msg}"
+            );
+        }
+        let tcp = ConnSpec::Tcp {
+            host: "localhost".into(),
+            port: 5760,
+        };
+        assert!(matches!(
+            for_vehicle(&tcp, 0),
+            Err(ServerError::NotServed(_))
+        ));
     }
 }

@@ -2,7 +2,7 @@
 //! autopilots over one endpoint, on the wall clock.
 
 use super::sockets::{Io, Received, open};
-use super::{Bound, Endpoint, ServerError, UDP_PACE, write_images};
+use super::{Bound, ServerError, UDP_PACE, write_images};
 use crate::tx_queue::{Expired, TxQueue};
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::MonotonicClock;
@@ -23,7 +23,7 @@ use tokio::sync::mpsc;
 pub async fn serve_paired<F>(
     mut cams: crate::paired::PairedCameras,
     mut source: Option<fleetmap_io::files::pictures::FolderSource>,
-    endpoint: Endpoint,
+    endpoint: fleetmap_io::link::ConnSpec,
     image_dir: Option<PathBuf>,
     duration_s: Option<f64>,
     on_bound: impl FnOnce(&[Bound]),

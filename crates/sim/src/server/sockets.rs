@@ -1,7 +1,8 @@
 //! Opening the simulator's sockets: every vehicle's UDP socket or TCP listener, the tasks
 //! that read them into one channel and the one that writes to every TCP client.
 
-use super::{Bound, Endpoint, ServerError};
+use super::{Bound, ServerError, for_vehicle};
+use fleetmap_io::link::ConnSpec;
 use std::net::SocketAddr;
 use std::sync::{Arc, Mutex};
 use tokio::io::{AsyncReadExt, AsyncWriteExt};
@@ -25,12 +26,16 @@ pub(super) fn io_err(what: String) -> impl FnOnce(std::io::Error) -> ServerError
     move |source| ServerError::Io { what, source }
 }
 
-async fn resolve(a: &str) -> Result<SocketAddr, ServerError> {
-    tokio::net::lookup_host(a)
+/// The first address of `host`:`port`; `what` names the connection in errors.
+async fn resolve(host: &str, port: u16, what: &ConnSpec) -> Result<SocketAddr, ServerError> {
+    tokio::net::lookup_host((host, port))
         .await
-        .map_err(io_err(a.to_string()))?
+        .map_err(io_err(what.to_string()))?
         .next()
-        .ok_or_else(|| ServerError::Endpoint(a.to_string()))
+        .ok_or_else(|| ServerError::Io {
+            what: what.to_string(),
+            source: std::io::Error::new(std::io::ErrorKind::NotFound, "no address for the host"),
+        })
 }
 
 /// What an endpoint received: (vehicle index, bytes, the UDP sender's address; None for TCP).
@@ -40,7 +45,7 @@ pub(super) type Received = (usize, Vec<u8>, Option<SocketAddr>);
 /// plumbing; received datagrams / TCP bytes arrive on `rx` as [`Received`].
 pub(super) async fn open(
     sysids: &[u8],
-    endpoints: &[Endpoint],
+    endpoints: &[ConnSpec],
     tx: mpsc::Sender<Received>,
 ) -> Result<(Vec<Bound>, Vec<Io>), ServerError> {
     let n = sysids.len();
@@ -54,19 +59,21 @@ pub(super) async fn open(
     let mut ios = Vec::new();
     for (k, &sysid) in sysids.iter().enumerate() {
         let ep = if endpoints.len() == 1 {
-            endpoints[0].for_vehicle(k)?
+            for_vehicle(&endpoints[0], k)?
         } else {
-            endpoints[k].clone()
+            for_vehicle(&endpoints[k], 0)?
         };
         match &ep {
-            Endpoint::UdpOut(a) | Endpoint::UdpIn(a) => {
-                let target = resolve(a).await?;
-                let (bind, peer) = match &ep {
-                    Endpoint::UdpOut(_) => (
+            ConnSpec::UdpOut { host, port } | ConnSpec::UdpIn { host, port } => {
+                let target = resolve(host, *port, &ep).await?;
+                let fixed = matches!(ep, ConnSpec::UdpOut { .. });
+                let (bind, peer) = if fixed {
+                    (
                         fleetmap_io::link::transport::local_for(target),
                         Some(target),
-                    ),
-                    _ => (target, None),
+                    )
+                } else {
+                    (target, None)
                 };
                 let sock = Arc::new(
                     UdpSocket::bind(bind)
@@ -76,7 +83,6 @@ pub(super) async fn open(
                 fleetmap_io::link::transport::enlarge_recv_buffer(&sock);
                 let local = sock.local_addr().map_err(io_err(ep.to_string()))?;
                 let peer = Arc::new(Mutex::new(peer));
-                let fixed = matches!(ep, Endpoint::UdpOut(_));
                 let (s2, p2, tx2) = (sock.clone(), peer.clone(), tx.clone());
                 tokio::spawn(async move {
                     let mut buf = vec![0u8; 65536];
@@ -106,8 +112,8 @@ pub(super) async fn open(
                 });
                 ios.push(Io::Udp { sock, peer });
             }
-            Endpoint::TcpIn(a) => {
-                let addr = resolve(a).await?;
+            ConnSpec::TcpIn { host, port } => {
+                let addr = resolve(host, *port, &ep).await?;
                 let listener = TcpListener::bind(addr)
                     .await
                     .map_err(io_err(ep.to_string()))?;
@@ -168,6 +174,10 @@ pub(super) async fn open(
                     local,
                 });
                 ios.push(Io::Tcp { out: out_tx });
+            }
+            // refused by `for_vehicle`
+            ConnSpec::Tcp { .. } | ConnSpec::Serial { .. } | ConnSpec::Memory { .. } => {
+                return Err(ServerError::NotServed(ep.to_string()));
             }
         }
     }
