@@ -154,7 +154,9 @@ def main():
             shown = ", ".join("::".join((c,) + p + (n,)) for c, p, n in where)
             print(f"{'::'.join((o[0],) + o[1] + (o[2],))}: {shown}{' (cross-crate)' if cross else ''}")
     if found:
+        print(f"two_paths: {found} item(s) public by more than one path")
         sys.exit(1)
+    print("two_paths: every public item has one path")
 
 
 if __name__ == "__main__":

@@ -36,7 +36,7 @@ async fn a_run_whose_pictures_never_arrive_stops_with_a_reason() {
     let dir = tmp.path().join("run");
     let run = RunDir::create(
         &dir,
-        RunMeta::new(bandit::KIND, 0),
+        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
         Some(bandit_sim::HARDWARE_MISSION),
     )
     .unwrap();
@@ -49,7 +49,7 @@ async fn a_run_whose_pictures_never_arrive_stops_with_a_reason() {
         fleetmap::fleet::FleetConfig::default(),
         d.fleet.clock().clone(),
     );
-    let hub = bandit::image_hub(&deaf);
+    let hub = fleetmap::app::images::image_hub(&deaf);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel::<fleetmap::app::run::Progress>();
     let lines = tokio::spawn(async move {
         let mut all = Vec::new();

@@ -125,11 +125,11 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
     let tmp = tempfile::tempdir().unwrap();
     let run = RunDir::create(
         tmp.path().join("run"),
-        RunMeta::new(bandit::KIND, 0),
+        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
         Some(bandit_sim::HARDWARE_MISSION),
     )
     .unwrap();
-    let hub = bandit::image_hub(&fleet);
+    let hub = fleetmap::app::images::image_hub(&fleet);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let label = name.to_string();
     let printer = tokio::spawn(async move {

@@ -66,7 +66,12 @@ fn hardware() -> (World, MissionDef) {
 }
 
 fn new_run(dir: &Path, text: &str) -> RunDir {
-    RunDir::create(dir, RunMeta::new(bandit::KIND, 0), Some(text)).unwrap()
+    RunDir::create(
+        dir,
+        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
+        Some(text),
+    )
+    .unwrap()
 }
 
 /// Counted measurements in the journal, by running number.
@@ -161,7 +166,7 @@ async fn fly_hardware_paper(name: &str, sensor_flip: f64) -> Flown {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
     let run = new_run(&dir, bandit_sim::HARDWARE_MISSION);
-    let hub = bandit::image_hub(&d.fleet);
+    let hub = fleetmap::app::images::image_hub(&d.fleet);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let label = name.to_string();
     let printer = tokio::spawn(async move {
@@ -343,7 +348,7 @@ async fn a_vehicle_that_rejects_its_mission_stops_the_sortie_before_take_off() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
     let run = new_run(&dir, bandit_sim::HARDWARE_MISSION);
-    let hub = bandit::image_hub(&d.fleet);
+    let hub = fleetmap::app::images::image_hub(&d.fleet);
     let err = tokio::time::timeout(
         Duration::from_secs(120),
         bandit::run(d.fleet.clone(), &hub, run, state, RunOptions::default()),
@@ -418,7 +423,7 @@ async fn lock_step_flight_holds_drones_in_step_and_classifies() {
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
     let run = new_run(&dir, &text);
-    let hub = bandit::image_hub(&d.fleet);
+    let hub = fleetmap::app::images::image_hub(&d.fleet);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let printer = tokio::spawn(async move {
         while let Some(l) = rx.recv().await {
@@ -736,7 +741,7 @@ async fn sim_10x10_default_labels_within_delta() {
         .map(std::path::PathBuf::from)
         .unwrap_or_else(|| tmp.path().join("run"));
     let run = new_run(&dir, bandit_sim::SIM10_MISSION);
-    let hub = bandit::image_hub(&d.fleet);
+    let hub = fleetmap::app::images::image_hub(&d.fleet);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let printer = tokio::spawn(async move {
         while let Some(l) = rx.recv().await {

@@ -20,8 +20,9 @@
 //! level ones.
 
 use fleetmap::app::images;
+use fleetmap::app::kind::Outcome;
 use fleetmap::app::runway::report::truth_coverage;
-use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions, crop_to_cells};
+use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::fleet::{self, FleetConfig};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::explore::dfs::Sharing;
@@ -30,6 +31,7 @@ use fleetmap_core::geo::{LatLon, local};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::camera::CameraModel;
+use fleetmap_core::vision::crop::crop_to_cells;
 use fleetmap_core::vision::geometry::{
     CameraView, OrthoRequest, attitude_from_euler_deg, orthophoto, view_centre_offset,
 };

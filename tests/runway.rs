@@ -9,8 +9,9 @@
 
 use fleetmap::app::demo::{self, DemoConfig};
 use fleetmap::app::images;
+use fleetmap::app::kind::Outcome;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent, Outcome, RunOptions};
+use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{MappingState, MilestoneKind, RobotStatus};

@@ -35,9 +35,8 @@
 
 use crate::app::error::Context as _;
 use crate::app::error::RunnerResult;
-pub use crate::app::error::SortieRejected;
+use crate::app::error::SortieRejected;
 use crate::app::flight::{self, Patience};
-pub use crate::app::images::image_hub;
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, VehicleSnapshot};
@@ -67,7 +66,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::{broadcast, mpsc, watch};
 
-pub use fleetmap_core::planner::sortie::KIND;
+use fleetmap_core::planner::sortie::KIND;
 
 mod events;
 mod kind;

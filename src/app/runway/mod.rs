@@ -63,7 +63,7 @@ use fleetmap_core::geo::{Cell, Grid, LatLon, local};
 use fleetmap_core::mission::item::MissionType;
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::camera::CameraModel;
-pub use fleetmap_core::vision::crop::crop_to_cells;
+use fleetmap_core::vision::crop::crop_to_cells;
 use fleetmap_core::vision::geometry::{self, OrthoRequest};
 use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
 use fleetmap_core::vision::runway::{Classification, RunwayParams, classify};
@@ -120,7 +120,7 @@ pub enum Operator {
     Land(u8),
 }
 
-pub use crate::app::kind::Outcome;
+use crate::app::kind::Outcome;
 
 /// Options of a run.
 pub struct RunOptions {

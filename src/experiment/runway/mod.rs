@@ -34,8 +34,9 @@ pub mod output;
 pub(crate) mod plot;
 
 use crate::app::flight::Patience;
+use crate::app::kind::Outcome;
 use crate::app::runway::report::{MappingReport, truth_coverage};
-use crate::app::runway::{self, Outcome, RunOptions};
+use crate::app::runway::{self, RunOptions};
 use crate::app::{demo, images};
 use crate::store::{RunDir, RunMeta};
 use anyhow::Context as _;
