@@ -58,7 +58,8 @@ build: sysdeps
 ## parallel, 3 to 5½ minutes.) The conformance checks ($(WAITING_TESTS): hitl/conformance.py
 ## against the simulator, an ArduPilot and a PX4 copter in parallel, about 5 minutes) judge
 ## mission transfers at real time and so mostly wait on the autopilots' timeouts: they run as a
-## third job beside both. The benchmarks are not run here (`make bench`; clippy compiles them).
+## third job beside both. Then the documentation's examples (`--doc`: they must compile).
+## The benchmarks are not run here (`make bench`; clippy compiles them).
 SLOW_TESTS := bandit_run demo_headless runway_kill
 WAITING_TESTS := conformance
 OTHER_TESTS := $(filter-out $(SLOW_TESTS) $(WAITING_TESTS),$(basename $(notdir $(wildcard tests/*.rs))))
@@ -74,6 +75,7 @@ test: sysdeps
 	  wait $$slow; s=$$?; echo "--- $(SLOW_TESTS):"; cat target/slow-tests.log; \
 	  wait $$waiting; w=$$?; echo "--- $(WAITING_TESTS):"; cat target/waiting-tests.log; \
 	  [ $$rest = 0 ] && [ $$s = 0 ] && [ $$w = 0 ]
+	$(CARGO) test --workspace --doc
 	FLEETMAP_BIN=$(abspath $(BIN)) $(PY) -m pytest -q tests/py
 
 ## The main job on the embedded simulator (the TUI on a terminal, headless otherwise).

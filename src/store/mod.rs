@@ -23,6 +23,6 @@ pub(crate) mod migrate;
 mod run;
 pub mod task;
 
-pub(crate) use error::StoreError;
+pub use error::StoreError;
 pub use run::{RunDir, RunMeta, StateEnvelope};
 pub(crate) use task::RunStore;

@@ -5,9 +5,9 @@
 //!
 //! ```no_run
 //! use fleetmap_sim::harness::{Sim, SimConfig};
-//! use fleetmap::time::Time;
+//! use fleetmap_core::time::Time;
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let world = fleetmap::files::load_world("assets/worlds/runway.toml".as_ref())?;
+//! let world = fleetmap_io::files::load_world("assets/worlds/runway.toml".as_ref())?;
 //! let cfg = SimConfig::from_spec("2xcopter:ardupilot,1xrover:px4", Some(world), None, 42)?;
 //! let mut sim = Sim::new(cfg, Time::ZERO)?;
 //! sim.advance_to(Time::from_secs(20));             // boot, GPS, position estimate
