@@ -1,0 +1,98 @@
+"""The lexical reader of the workspace's Rust modules that .ci/public_api.py and
+.ci/two_paths.py share: which files are which modules, the top-level `pub` items each declares,
+what its `pub use` statements (which may span lines) bring in, and which modules are public.
+
+Not a Rust front end: comments are not removed, and a file is read up to its
+`#[cfg(test)] mod` (the tests may reach anywhere). The GCS's `main.rs` is no module.
+"""
+import os
+import re
+
+CRATES = {
+    "fleetmap_core": "crates/core/src",
+    "fleetmap_io": "crates/io/src",
+    "fleetmap_sim": "crates/sim/src",
+    "fleetmap": "src",
+}
+ITEM = re.compile(r"^pub (?:async |const |unsafe )*(fn|struct|enum|trait|type|const|static|mod) (\w+)", re.M)
+MOD = re.compile(r"^(pub )?mod (\w+);", re.M)
+USE = re.compile(r"^pub use ([^;]*);", re.S | re.M)
+
+
+def module_path(root, path):
+    """The module a file is, as a tuple of names (`src/a/b.rs` and `src/a/b/mod.rs`: ("a", "b"))."""
+    parts = os.path.relpath(path, root)[:-3].split(os.sep)
+    if parts[-1] in ("lib", "main", "mod"):
+        parts = parts[:-1]
+    return tuple(parts)
+
+
+def before_tests(text):
+    """The file without its test module (a `#[cfg(test)]` on a single item keeps the rest)."""
+    m = re.search(r"^#\[cfg\(test\)\]\s*mod ", text, re.M)
+    return text if m is None else text[: m.start()]
+
+
+def expand(stmt):
+    """`a::{b, c::{d, e as f}}` -> [(["a", "b"], "b"), (["a", "c", "d"], "d"), (["a", "c", "e"], "f")]."""
+    stmt = re.sub(r"\s*([{},]|::)\s*", r"\1", re.sub(r"\s+", " ", stmt.strip()))
+    out = []
+
+    def walk(prefix, s):
+        depth, start, pieces = 0, 0, []
+        for i, ch in enumerate(s):
+            if ch == "{":
+                depth += 1
+            elif ch == "}":
+                depth -= 1
+            elif ch == "," and depth == 0:
+                pieces.append(s[start:i])
+                start = i + 1
+        pieces.append(s[start:])
+        for p in filter(None, pieces):
+            if "{" in p:
+                head, inner = p.split("{", 1)
+                walk(prefix + [x for x in head.split("::") if x], inner[:-1])
+                continue
+            alias = None
+            if " as " in p:
+                p, alias = p.split(" as ")
+            segs = prefix + p.split("::")
+            if segs[-1] == "self":
+                segs = segs[:-1]
+            out.append((segs, alias or segs[-1]))
+
+    walk([], stmt)
+    return out
+
+
+def load():
+    """Every module of every crate: (crate, module path) -> its top-level public items as
+    (kind, name), its `pub use` paths as (segments, name), and its child modules with whether
+    each is declared `pub`."""
+    mods = {}
+    for crate, root in CRATES.items():
+        for dirpath, _, files in os.walk(root):
+            for f in files:
+                if not f.endswith(".rs"):
+                    continue
+                path = os.path.join(dirpath, f)
+                if crate == "fleetmap" and path == os.path.join(root, "main.rs"):
+                    continue
+                here = module_path(root, path)
+                text = before_tests(open(path, encoding="utf-8").read())
+                m = mods.setdefault((crate, here), {"items": [], "uses": [], "children": {}})
+                m["items"].extend(ITEM.findall(text))
+                m["uses"] = [u for s in USE.findall(text) for u in expand(s)]
+                for d in MOD.finditer(text):
+                    m["children"][d.group(2)] = bool(d.group(1))
+    return mods
+
+
+def is_public(mods, crate, path):
+    """Whether the module is reachable from its crate's root: every ancestor declares it `pub`."""
+    for i in range(len(path)):
+        parent = mods.get((crate, path[:i]))
+        if not parent or not parent["children"].get(path[i]):
+            return False
+    return True
