@@ -617,27 +617,7 @@ mod tests {
     }
 
     fn transfer(jpeg: &[u8]) -> Vec<MavMessage> {
-        use mavlink::dialects::ardupilotmega as mav;
-        let mut v = vec![MavMessage::DATA_TRANSMISSION_HANDSHAKE(
-            mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
-                size: jpeg.len() as u32,
-                width: 4,
-                height: 4,
-                packets: jpeg.len().div_ceil(253) as u16,
-                mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
-                payload: 253,
-                jpg_quality: 80,
-            },
-        )];
-        for (i, c) in jpeg.chunks(253).enumerate() {
-            let mut d = [0u8; 253];
-            d[..c.len()].copy_from_slice(c);
-            v.push(MavMessage::ENCAPSULATED_DATA(mav::ENCAPSULATED_DATA_DATA {
-                seqnr: i as u16,
-                data: d,
-            }));
-        }
-        v
+        fleetmap_core::proto::image_transfer::transmission(jpeg, 4, 4, 80)
     }
 
     /// An image sent by image transmission gets the position, altitude and attitude of the

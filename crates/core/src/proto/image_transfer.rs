@@ -46,6 +46,36 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::VecDeque;
 use std::time::Duration;
 
+/// Bytes of image per ENCAPSULATED_DATA packet (the message's whole `data` field).
+pub const PAYLOAD: usize = 253;
+
+/// The image transmission of `jpeg` as a camera sends it: one DATA_TRANSMISSION_HANDSHAKE
+/// (size, `width` × `height` pixels, packet count, [`PAYLOAD`] bytes a packet, `jpg_quality`),
+/// then the ENCAPSULATED_DATA packets numbered from 0, the last one padded with zeros.
+pub fn transmission(jpeg: &[u8], width: u16, height: u16, jpg_quality: u8) -> Vec<MavMessage> {
+    let mut out = Vec::with_capacity(1 + jpeg.len().div_ceil(PAYLOAD));
+    out.push(MavMessage::DATA_TRANSMISSION_HANDSHAKE(
+        mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
+            size: jpeg.len() as u32,
+            width,
+            height,
+            packets: jpeg.len().div_ceil(PAYLOAD) as u16,
+            mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
+            payload: PAYLOAD as u8,
+            jpg_quality,
+        },
+    ));
+    for (i, chunk) in jpeg.chunks(PAYLOAD).enumerate() {
+        let mut data = [0u8; PAYLOAD];
+        data[..chunk.len()].copy_from_slice(chunk);
+        out.push(MavMessage::ENCAPSULATED_DATA(mav::ENCAPSULATED_DATA_DATA {
+            seqnr: i as u16,
+            data,
+        }));
+    }
+    out
+}
+
 /// What the receiver produced.
 #[derive(Clone, Debug, PartialEq)]
 pub enum ImageEvent {
@@ -473,26 +503,7 @@ mod tests {
     use super::*;
 
     fn packets(data: &[u8]) -> Vec<MavMessage> {
-        let mut v = vec![MavMessage::DATA_TRANSMISSION_HANDSHAKE(
-            mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
-                size: data.len() as u32,
-                width: 4,
-                height: 2,
-                packets: data.len().div_ceil(253) as u16,
-                mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
-                payload: 253,
-                jpg_quality: 80,
-            },
-        )];
-        for (i, c) in data.chunks(253).enumerate() {
-            let mut d = [0u8; 253];
-            d[..c.len()].copy_from_slice(c);
-            v.push(MavMessage::ENCAPSULATED_DATA(mav::ENCAPSULATED_DATA_DATA {
-                seqnr: i as u16,
-                data: d,
-            }));
-        }
-        v
+        transmission(data, 4, 2, 80)
     }
 
     #[test]

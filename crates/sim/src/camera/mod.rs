@@ -72,7 +72,7 @@ pub use self::config::CameraConfig;
 pub(crate) use self::pacer::FRAME_OVERHEAD;
 #[cfg(test)]
 pub(crate) use self::pacer::PACE_BURST_S;
-pub use self::transfer::{PAYLOAD, RECENT_IMAGES};
+pub use self::transfer::RECENT_IMAGES;
 
 /// The camera component of one vehicle.
 #[derive(Debug)]

@@ -4,15 +4,12 @@
 
 use super::SimCamera;
 use super::pacer::frame_len;
+use fleetmap_core::proto::image_transfer;
 use fleetmap_core::time::Time;
-use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::VecDeque;
 use std::sync::Arc;
 use std::time::Duration;
-
-/// Bytes of image per ENCAPSULATED_DATA packet.
-pub const PAYLOAD: usize = 253;
 
 /// How many recent images a camera keeps to send again on request.
 pub const RECENT_IMAGES: usize = 16;
@@ -156,28 +153,13 @@ impl SimCamera {
     /// The image transmission of `jpeg`: its DATA_TRANSMISSION_HANDSHAKE, then its
     /// ENCAPSULATED_DATA packets, appended to `queue`.
     fn transfer_messages(&self, jpeg: &[u8], queue: &mut VecDeque<MavMessage>) {
-        let packets = jpeg.len().div_ceil(PAYLOAD);
         let model = self.config.model;
-        let quality = self.config.jpeg_quality;
-        queue.push_back(MavMessage::DATA_TRANSMISSION_HANDSHAKE(
-            mav::DATA_TRANSMISSION_HANDSHAKE_DATA {
-                size: jpeg.len() as u32,
-                width: model.width_px as u16,
-                height: model.height_px as u16,
-                packets: packets as u16,
-                mavtype: mav::MavlinkDataStreamType::MAVLINK_DATA_STREAM_IMG_JPEG,
-                payload: PAYLOAD as u8,
-                jpg_quality: quality,
-            },
+        queue.extend(image_transfer::transmission(
+            jpeg,
+            model.width_px as u16,
+            model.height_px as u16,
+            self.config.jpeg_quality,
         ));
-        for (i, chunk) in jpeg.chunks(PAYLOAD).enumerate() {
-            let mut data = [0u8; PAYLOAD];
-            data[..chunk.len()].copy_from_slice(chunk);
-            queue.push_back(MavMessage::ENCAPSULATED_DATA(mav::ENCAPSULATED_DATA_DATA {
-                seqnr: i as u16,
-                data,
-            }));
-        }
     }
 
     /// A GCS's DATA_TRANSMISSION_HANDSHAKE asking for an image again (see the module
@@ -229,6 +211,7 @@ impl SimCamera {
 mod tests {
     use super::*;
     use crate::camera::{CameraConfig, PACE_BURST_S};
+    use fleetmap_core::proto::image_transfer::PAYLOAD;
 
     fn paced(rate: f64) -> SimCamera {
         SimCamera::new(
