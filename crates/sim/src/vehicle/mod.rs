@@ -154,8 +154,8 @@ pub(crate) const PX4_DL_LOSS_S: f64 = 10.0;
 /// hovering copter in calm air tilt by 3–8° from one image to the next, 0.6–1.7 m of
 /// footprint at 12 m.
 pub(crate) const ESTIMATE_LAG_S: f64 = 1.0;
-/// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1).
-pub(crate) const AUTOPILOT_COMPID: u8 = 1;
+/// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1), the core's.
+pub(crate) use fleetmap_core::proto::AUTOPILOT_COMPID;
 
 /// Battery failsafe levels (percent of charge left).
 #[derive(Clone, Copy, Debug, PartialEq)]
