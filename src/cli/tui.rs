@@ -91,6 +91,10 @@ pub struct TuiArgs {
     /// LIVE: take off again by itself after a battery swap (otherwise: `b`).
     #[arg(long)]
     pub auto_resume: bool,
+    /// LIVE: what every vehicle's link carries (`radio:BYTES`, `radio`, `unlimited`; as for
+    /// `fleetmap run`). Default: the mission file's `link`.
+    #[arg(long, value_name = "LINK")]
+    pub link: Option<fleetmap_core::budget::LinkBudget>,
 }
 
 /// Whether stdin and stdout are both terminals (the UI can run).
@@ -350,7 +354,10 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
             log_file: log_file.map(|p| p.display().to_string()),
         },
         connections,
-        conn: crate::cli::vehicles::ConnectArgs::defaults(connect),
+        conn: crate::cli::vehicles::ConnectArgs {
+            link: args.link,
+            ..crate::cli::vehicles::ConnectArgs::defaults(connect)
+        },
         start: None,
     };
     let Some(start) = start else {
@@ -366,8 +373,13 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
         Start::Resume(rd) => rd.meta().kind.clone(),
         Start::New(new) => new.def.kind.as_str().to_string(),
     };
+    let conn = match &start {
+        Start::New(new) => live.conn.clone().with_mission_links(&new.def),
+        Start::Resume(rd) => live.conn.clone().with_run_links(rd)?,
+    };
     let live = Live {
         start: Some(start),
+        conn,
         ..live
     };
     crate::app::kinds::by_name(&kind, live)

@@ -8,11 +8,13 @@
 use crate::fleet::{self, FleetConfig, FleetHandle, FleetSnapshot, VehicleSnapshot};
 use anyhow::Context;
 use clap::Args;
+use fleetmap_core::budget::LinkBudget;
 use fleetmap_core::proto::mission::MissionConfig;
 use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::signing::{Signing, SigningKey};
 use fleetmap_io::link::tlog::{TlogError, spawn_tlog};
 use fleetmap_io::link::transport::LinkOptions;
+use std::collections::BTreeMap;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -53,6 +55,15 @@ pub struct ConnectArgs {
     /// seconds (a transfer goes on as long as it answers, however lossy the link).
     #[arg(long, value_name = "SECONDS", default_value_t = 30)]
     pub(crate) mission_silence_s: u64,
+    /// What every vehicle's link carries: `radio:BYTES` (a telemetry radio: bytes per second
+    /// of the vehicles' time, both directions together), `radio` (2000, a 57,600-baud SiK
+    /// pair) or `unlimited`. The GCS then asks only for the telemetry that fits. Default: the
+    /// mission file's `link`, else unlimited until a radio reports itself (RADIO_STATUS).
+    #[arg(long, value_name = "LINK")]
+    pub link: Option<LinkBudget>,
+    /// Per-vehicle links from a mission file (`[[vehicles]] link`); `--link` overrides them.
+    #[arg(skip)]
+    pub(crate) vehicle_links: BTreeMap<u8, LinkBudget>,
 }
 
 impl ConnectArgs {
@@ -70,7 +81,43 @@ impl ConnectArgs {
             item_timeout_ms: mission.item_timeout.as_millis() as u64,
             mission_silence_s: mission.silence.as_secs(),
             gcs_sysid: fleetmap_core::proto::Endpoint::gcs().sysid,
+            link: None,
+            vehicle_links: BTreeMap::new(),
         }
+    }
+
+    /// Take the links a mission file gives (`link`, `[[vehicles]] link`) where the command
+    /// line gave none: `--link` applies to every vehicle.
+    pub(crate) fn with_mission_links(
+        mut self,
+        def: &fleetmap_core::mission::definition::MissionDef,
+    ) -> ConnectArgs {
+        if self.link.is_none() {
+            self.link = def.link;
+            self.vehicle_links = def
+                .vehicles
+                .iter()
+                .filter_map(|v| v.link.map(|l| (v.sysid, l)))
+                .collect();
+        }
+        self
+    }
+
+    /// Take the links the mission file of the run in `run_dir` gives (its copy,
+    /// `mission.toml`) where the command line gave none.
+    pub(crate) fn with_run_links(
+        self,
+        run_dir: &crate::store::RunDir,
+    ) -> anyhow::Result<ConnectArgs> {
+        Ok(match run_dir.mission_text()? {
+            Some(text) => {
+                match fleetmap_core::mission::definition::MissionDef::parse(&text, "mission.toml") {
+                    Ok(def) => self.with_mission_links(&def),
+                    Err(_) => self,
+                }
+            }
+            None => self,
+        })
     }
 }
 
@@ -108,6 +155,8 @@ impl Session {
                 silence: Duration::from_secs(args.mission_silence_s.max(1)),
                 ..MissionConfig::default()
             },
+            budget: args.link,
+            vehicle_budgets: args.vehicle_links.clone(),
             ..FleetConfig::default()
         };
         let fleet = fleet::start(&args.connect, &opts, cfg)
@@ -192,7 +241,7 @@ pub(crate) fn format_vehicle(v: &VehicleSnapshot) -> String {
         _ => "-".into(),
     };
     format!(
-        "{:<4} {:<18} {:<10} {:<6} {:<24} {:<9} {:<12} {:<11} {}{:.1}% loss {:.0} msg/s",
+        "{:<4} {:<18} {:<10} {:<6} {:<24} {:<9} {:<12} {:<11} {}{}",
         v.sysid,
         v.flavour.to_string(),
         v.mode,
@@ -202,9 +251,30 @@ pub(crate) fn format_vehicle(v: &VehicleSnapshot) -> String {
         gps,
         batt,
         if v.alive { "" } else { "LOST " },
-        v.link_quality.loss_pct,
-        v.link_quality.rate_hz,
+        format_link(&v.link_quality),
     )
+}
+
+/// What a vehicle's link carries and how it fares: loss, messages and bytes per second each
+/// way (on the fleet's clock), the budget it is planned for, and the radio's own report
+/// (signal at each end, free transmit buffer) when a radio reports itself.
+pub(crate) fn format_link(q: &crate::fleet::LinkQuality) -> String {
+    let mut s = format!(
+        "{:.1}% loss {:.0} msg/s {:.0}↓ {:.0}↑ B/s {}{}",
+        q.loss_pct,
+        q.rate_hz,
+        q.down_bytes_per_s,
+        q.up_bytes_per_s,
+        q.budget,
+        if q.budget_assumed { " (assumed)" } else { "" },
+    );
+    if let Some(r) = &q.radio {
+        s.push_str(&format!(
+            " rssi {}/{} txbuf {}% rxerr {}",
+            r.rssi, r.remrssi, r.txbuf, r.rxerrors
+        ));
+    }
+    s
 }
 
 /// Print a snapshot (table or JSON).

@@ -6,6 +6,7 @@ use super::Incoming;
 use super::error::FleetError;
 use super::state::FleetSnapshot;
 use super::state::VehicleSnapshot;
+use super::vehicle_link::{VehicleLink, wire_len};
 use fleetmap_core::mission::item::MissionType;
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::CmdId;
@@ -23,19 +24,16 @@ use fleetmap_core::proto::mission::MissionEvent;
 use fleetmap_core::proto::mission::MissionOp;
 use fleetmap_core::proto::mission::MissionOutcome;
 use fleetmap_core::proto::mission::OpId;
+use fleetmap_core::proto::telemetry::STREAMS_STALE;
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::codec::Frame;
+use fleetmap_io::link::peers::PeerKey;
 use fleetmap_io::link::transport::LinkEvent;
 use fleetmap_io::link::transport::LinkHandle;
 use fleetmap_io::link::transport::LinkId;
 use mavlink::Message;
-use mavlink::dialects::ardupilotmega::MavCmd;
-#[allow(deprecated)]
-use mavlink::dialects::ardupilotmega::MavDataStream;
 use mavlink::dialects::ardupilotmega::MavMessage;
-#[allow(deprecated)]
-use mavlink::dialects::ardupilotmega::REQUEST_DATA_STREAM_DATA;
 use std::collections::BTreeMap;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -59,6 +57,11 @@ pub(super) enum Request {
         progress: Option<mpsc::UnboundedSender<(usize, usize)>>,
     },
     Send {
+        msg: Box<MavMessage>,
+        reply: Reply<usize>,
+    },
+    SendTo {
+        to: u8,
         msg: Box<MavMessage>,
         reply: Reply<usize>,
     },
@@ -88,16 +91,9 @@ pub(super) struct VehicleEntry {
     pub(super) rate_hz: f64,
     /// The last SYS_STATUS (battery, health) from the autopilot.
     pub(super) status_at: Option<Time>,
-    /// When telemetry rates were last requested, and the wait before asking again if the
-    /// telemetry does not come (doubling up to [`STREAM_RETRY_MAX`]).
-    pub(super) streams_at: Time,
-    pub(super) streams_backoff: Duration,
+    /// Its link: budget, telemetry requests, radio, bytes ([`super::telemetry`]).
+    pub(super) link: VehicleLink,
 }
-
-/// Telemetry older than this counts as missing: its rates are requested again.
-pub(super) const STREAM_STALE: Duration = Duration::from_secs(5);
-/// The longest wait between two requests for telemetry that does not come.
-pub(super) const STREAM_RETRY_MAX: Duration = Duration::from_secs(60);
 
 pub(super) struct Actor {
     pub(super) cfg: FleetConfig,
@@ -176,35 +172,10 @@ impl Actor {
                 t = t.min(c);
             }
         }
+        if let Some(c) = self.uplinks_timeout() {
+            t = t.min(c);
+        }
         t.max(now)
-    }
-
-    /// Ask again for the telemetry of vehicles whose position or status does not arrive:
-    /// REQUEST_DATA_STREAM is not acknowledged, so one lost frame (a lossy radio, a vehicle
-    /// still booting) would otherwise leave it silent for the whole session.
-    fn rerequest_streams(&mut self, now: Time) {
-        if !self.cfg.request_streams {
-            return;
-        }
-        let stale = |t: Option<Time>| t.is_none_or(|t| now.saturating_since(t) > STREAM_STALE);
-        let due: Vec<Endpoint> = self
-            .vehicles
-            .values_mut()
-            .filter(|v| v.snap.alive && !v.snap.booting)
-            .filter(|v| stale(v.snap.position_at) || stale(v.status_at))
-            .filter(|v| now.saturating_since(v.streams_at) >= v.streams_backoff)
-            .map(|v| {
-                v.streams_backoff = (v.streams_backoff * 2).min(STREAM_RETRY_MAX);
-                Endpoint::new(v.snap.sysid, v.snap.compid)
-            })
-            .collect();
-        for ep in due {
-            tracing::debug!(
-                "vehicle {}: telemetry missing, asking for it again",
-                ep.sysid
-            );
-            self.request_streams(ep, now);
-        }
     }
 
     fn handle_timeouts(&mut self, now: Time) {
@@ -255,6 +226,21 @@ impl Actor {
                 let n = self.route(&msg);
                 let _ = reply.send(n);
             }
+            Request::SendTo { to, msg, reply } => {
+                let limited = self
+                    .vehicles
+                    .get(&to)
+                    .is_some_and(|v| v.link.budget.is_limited());
+                let n = if limited {
+                    usize::from(self.queue_uplink(to, *msg, Some(to)))
+                } else {
+                    if let Some(v) = self.vehicles.get_mut(&to) {
+                        v.link.sent(wire_len(&msg));
+                    }
+                    self.send_now(to, &msg, Some(to))
+                };
+                let _ = reply.send(n);
+            }
             Request::ResetProgress { sysid } => {
                 if let Some(v) = self.vehicles.get_mut(&sysid) {
                     v.snap.reset_progress();
@@ -268,27 +254,46 @@ impl Actor {
         }
     }
 
-    /// Send `msg` over the right link(s); returns how many links it went to.
-    fn route(&self, msg: &MavMessage) -> usize {
+    /// Send `msg` over the right link(s); returns how many links it went to (or, for a
+    /// vehicle whose uplink holds it back, 1: it is queued there). A message to a vehicle
+    /// counts for its link's uplink bytes; on a radio it waits its turn in the vehicle's
+    /// uplink ([`super::telemetry`]).
+    pub(super) fn route(&mut self, msg: &MavMessage) -> usize {
         let target = msg.target_system_id().filter(|s| *s != 0);
+        if let Some(sysid) = target
+            && self
+                .vehicles
+                .get(&sysid)
+                .is_some_and(|v| v.link.budget.is_limited())
+        {
+            return usize::from(self.queue_uplink(sysid, msg.clone(), None));
+        }
+        if let Some(v) = target.and_then(|s| self.vehicles.get_mut(&s)) {
+            v.link.sent(wire_len(msg));
+        }
+        self.send_now(target.unwrap_or(0), msg, None)
+    }
+
+    /// Send `msg` to system `sysid` (0: to everyone) now: over the link the system was last
+    /// heard on, else over every link. `to` names the system a message without a target
+    /// field is for. Returns how many links it went to.
+    pub(super) fn send_now(&self, sysid: u8, msg: &MavMessage, to: Option<u8>) -> usize {
         let comp = msg.target_component_id().unwrap_or(0);
-        let link = target.and_then(|s| {
-            self.routes
-                .get(&Endpoint::new(s, comp))
-                .or_else(|| self.sys_routes.get(&s))
-                .copied()
-        });
+        let link = (sysid != 0)
+            .then(|| {
+                self.routes
+                    .get(&Endpoint::new(sysid, comp))
+                    .or_else(|| self.sys_routes.get(&sysid))
+                    .copied()
+            })
+            .flatten();
+        let send = |h: &LinkHandle| match to {
+            Some(to) => h.send_to_system(self.cfg.gcs, to, msg.clone()),
+            None => h.send(self.cfg.gcs, msg.clone()),
+        };
         match link {
-            Some(l) => usize::from(
-                self.links
-                    .get(l)
-                    .is_some_and(|h| h.send(self.cfg.gcs, msg.clone())),
-            ),
-            None => self
-                .links
-                .iter()
-                .filter(|h| h.send(self.cfg.gcs, msg.clone()))
-                .count(),
+            Some(l) => usize::from(self.links.get(l).is_some_and(send)),
+            None => self.links.iter().filter(|h| send(h)).count(),
         }
     }
 
@@ -297,6 +302,7 @@ impl Actor {
             link,
             frame,
             unix_us,
+            peer,
         } = ev
         else {
             return;
@@ -308,6 +314,16 @@ impl Actor {
         }
         self.routes.insert(from, link);
         self.sys_routes.insert(from.sysid, link);
+        if let Some(v) = self.vehicles.get_mut(&from.sysid) {
+            v.link.received(frame.raw.len());
+            if v.snap.compid == from.compid {
+                v.link.via = (link, peer);
+                v.link.autopilot_message(frame.msg_id, now);
+            }
+        }
+        if let Ok(MavMessage::RADIO_STATUS(r)) = &frame.message {
+            self.on_radio_status((link, peer), r, now);
+        }
         let frame: Arc<Frame> = Arc::from(frame);
         let _ = self.incoming.send(Incoming {
             link,
@@ -320,7 +336,7 @@ impl Actor {
                 _ => Beat::from_payload(frame.payload()),
             };
             self.liveness.handle_heartbeat(from, &beat, now);
-            self.on_heartbeat(from, &beat, link, now);
+            self.on_heartbeat(from, &beat, (link, peer), now);
         }
         match &frame.message {
             Ok(msg) => {
@@ -348,7 +364,13 @@ impl Actor {
         }
     }
 
-    fn on_heartbeat(&mut self, from: Endpoint, beat: &Beat, link: LinkId, now: Time) {
+    fn on_heartbeat(
+        &mut self,
+        from: Endpoint,
+        beat: &Beat,
+        (link, peer): (LinkId, Option<PeerKey>),
+        now: Time,
+    ) {
         // MAV_TYPE_CAMERA = 30; camera components 100..=105.
         if beat.mav_type == 30 || (100..=105).contains(&from.compid) && !beat.is_autopilot() {
             self.cameras.insert(from.sysid, from.compid);
@@ -372,6 +394,7 @@ impl Actor {
             Some(_) => {} // a second autopilot component on the same system: ignored
             None => {
                 let mut snap = VehicleSnapshot::new(from.sysid, from.compid, beat, link, now);
+                let budget = self.configured_budget(from.sysid);
                 snap.camera_compid = self.cameras.get(&from.sysid).copied();
                 let mission = MissionClient::new(
                     self.cfg.gcs,
@@ -389,8 +412,7 @@ impl Actor {
                         rate_at: now,
                         rate_hz: 0.0,
                         status_at: None,
-                        streams_at: now,
-                        streams_backoff: STREAM_STALE,
+                        link: VehicleLink::new(budget, (link, peer), now),
                     },
                 );
                 tracing::info!(
@@ -400,55 +422,6 @@ impl Actor {
                 );
                 self.request_streams(from, now);
             }
-        }
-    }
-
-    /// Ask for the telemetry we display (see the module docs).
-    #[allow(deprecated)] // REQUEST_DATA_STREAM: still what ArduPilot's SRn_* streams obey
-    fn request_streams(&mut self, ep: Endpoint, now: Time) {
-        if !self.cfg.request_streams {
-            return;
-        }
-        let Some(v) = self.vehicles.get_mut(&ep.sysid) else {
-            return;
-        };
-        v.streams_at = now;
-        let ardupilot = v.snap.flavour.home_item();
-        if ardupilot {
-            for (stream, hz) in [
-                (MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS, 2),
-                (MavDataStream::MAV_DATA_STREAM_POSITION, 5),
-                (MavDataStream::MAV_DATA_STREAM_EXTRA1, 4),
-                (MavDataStream::MAV_DATA_STREAM_EXTRA2, 4),
-                (MavDataStream::MAV_DATA_STREAM_EXTRA3, 2),
-            ] {
-                self.route(&MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
-                    req_message_rate: hz,
-                    target_system: ep.sysid,
-                    target_component: ep.compid,
-                    req_stream_id: stream,
-                    start_stop: 1,
-                }));
-            }
-        }
-        // (message id, interval µs)
-        for (id, us) in [
-            (33u32, 200_000f32), // GLOBAL_POSITION_INT
-            (24, 500_000.0),     // GPS_RAW_INT
-            (1, 1_000_000.0),    // SYS_STATUS
-            (42, 1_000_000.0),   // MISSION_CURRENT
-            (245, 1_000_000.0),  // EXTENDED_SYS_STATE
-            (242, 2_000_000.0),  // HOME_POSITION
-            (147, 1_000_000.0),  // BATTERY_STATUS
-            (74, 500_000.0),     // VFR_HUD
-        ] {
-            let cmd = Command::long(
-                ep,
-                MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
-                [id as f32, us, 0.0, 0.0, 0.0, 0.0, 0.0],
-            );
-            // Results are not awaited: a vehicle that refuses keeps its default rates.
-            self.commands.start(cmd, now);
         }
     }
 
@@ -488,7 +461,7 @@ impl Actor {
                         v.snap.reboots += 1;
                         v.snap.rebooted();
                         v.snap.reset_progress();
-                        v.streams_backoff = STREAM_STALE;
+                        v.link.streams_backoff = STREAMS_STALE;
                         rerequest = true;
                     }
                     if rerequest {
@@ -498,6 +471,7 @@ impl Actor {
                 LivenessEvent::Discovered { .. } => {}
             }
         }
+        self.stop_unwanted(now);
         while let Some(m) = self.commands.poll_transmit() {
             self.route(&m);
         }
@@ -538,6 +512,7 @@ impl Actor {
         for m in out {
             self.route(&m);
         }
+        self.flush_uplinks(now);
     }
 
     fn publish(&mut self, now: Time) {
@@ -572,6 +547,8 @@ impl Actor {
                 v.rate_hz,
                 now,
             );
+            v.link.sample_rates(now);
+            v.link.describe(&mut v.snap.link_quality, now);
             snap.vehicles.insert(*sysid, v.snap.clone());
         }
         let _ = self.snapshot_tx.send(snap);

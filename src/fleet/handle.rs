@@ -216,6 +216,19 @@ impl FleetHandle {
         .await
     }
 
+    /// Send `msg`, which has no target field (a DATA_TRANSMISSION_HANDSHAKE asking a camera
+    /// for a picture), to system `to` only: over the link and peer it was last heard from,
+    /// and on a radio as bulk traffic behind the vehicle's commands and mission transfers.
+    /// Returns how many links it went to (1 when queued).
+    pub async fn send_to(&self, to: u8, msg: MavMessage) -> Result<usize, FleetError> {
+        self.request(|reply| Request::SendTo {
+            to,
+            msg: Box::new(msg),
+            reply,
+        })
+        .await
+    }
+
     /// Run a mission operation; `progress` receives (done, total) as items move. A vehicle
     /// that is booting is waited for first (a download would read an empty list from an
     /// ArduPilot that has not loaded its mission yet), and an operation it refuses with

@@ -13,17 +13,22 @@
 //! * Routing: each (sysid, compid) is sent to over the link it was last heard on; a
 //!   message without a target, or to an unknown system, goes out on every link
 //!   (MAVProxy and ArduPilot's `MAVLink_routing.cpp` do the same).
-//! * Telemetry rates are requested when a vehicle appears and after a reboot:
+//! * Telemetry rates are requested when a vehicle appears and after a reboot, chosen to fit
+//!   the vehicle's link (`telemetry.rs`, [`fleetmap_core::proto::telemetry`]):
 //!   MAV_CMD_SET_MESSAGE_INTERVAL for the messages we display (as QGroundControl's
 //!   `Vehicle::_setMessageInterval` and MAVSDK do), plus REQUEST_DATA_STREAM for ArduPilot,
 //!   whose serial links stream only what SRn_* parameters or this request ask for
-//!   (QGroundControl `APMFirmwarePlugin::initializeStreamRates`, MAVProxy `--streamrate`).
+//!   (QGroundControl `APMFirmwarePlugin::initializeStreamRates`, MAVProxy `--streamrate`);
+//!   on a telemetry radio only the messages shown, within the radio's budget, and what the
+//!   vehicle streams unasked is stopped.
 //! * Operations that take several steps (arm after the readiness checks, take off in the
 //!   right mode, go to, return, land, fly a mission) are composed on the handle from the
 //!   actor's primitives (command with ACK, mission operation, snapshot waits), each step
 //!   with its own timeout and typed error.
 //!
-//! Files: `actor.rs` (the task, its state and event loop), `handle.rs` ([`FleetHandle`]: the
+//! Files: `actor.rs` (the task, its state and event loop), `vehicle_link.rs` (each vehicle's
+//! link: budget, telemetry plan, radio report, bytes, the uplink queue), `telemetry.rs` (the
+//! actor's telemetry requests, radio reports and uplinks), `handle.rs` ([`FleetHandle`]: the
 //! async API and the actor's primitives), `ops.rs` (the composed operations), `error.rs`
 //! ([`FleetError`] and [`FleetError::is_transient`]), `state.rs` (snapshots).
 
@@ -32,12 +37,15 @@ mod error;
 mod handle;
 mod ops;
 mod state;
+mod telemetry;
+mod vehicle_link;
 
 pub use error::FleetError;
 pub use handle::FleetHandle;
-pub use state::{FleetSnapshot, GeoPoint, LinkQuality, StatusText, VehicleSnapshot};
+pub use state::{FleetSnapshot, GeoPoint, LinkQuality, RadioReport, StatusText, VehicleSnapshot};
 
 use self::actor::Actor;
+use fleetmap_core::budget::LinkBudget;
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::CommandConfig;
 use fleetmap_core::proto::command::CommandSender;
@@ -74,6 +82,13 @@ pub struct FleetConfig {
     pub liveness: LivenessConfig,
     /// Ask vehicles for telemetry rates when they appear.
     pub request_streams: bool,
+    /// What every vehicle's link carries, when the operator said (`--link`, a mission
+    /// file's `link`); `None`: unlimited until a radio reports itself on a vehicle's link
+    /// (`fleet::telemetry`).
+    pub budget: Option<LinkBudget>,
+    /// What one vehicle's link carries, when said for that vehicle (a mission file's
+    /// `[[vehicles]] link`); over `budget`.
+    pub vehicle_budgets: BTreeMap<u8, LinkBudget>,
     /// Snapshot publication period.
     pub snapshot_period: Duration,
     /// Timeouts of the composed operations.
@@ -110,6 +125,8 @@ impl Default for FleetConfig {
             command: CommandConfig::default(),
             liveness: LivenessConfig::default(),
             request_streams: true,
+            budget: None,
+            vehicle_budgets: BTreeMap::new(),
             snapshot_period: Duration::from_millis(200),
             ops: OpsConfig::default(),
         }

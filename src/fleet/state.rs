@@ -1,6 +1,7 @@
 //! Per-vehicle telemetry state, updated from received messages (pure: time is a parameter),
 //! and the snapshot types the TUI and the runners read.
 
+use fleetmap_core::budget::LinkBudget;
 use fleetmap_core::proto::arming::ArmInputs;
 use fleetmap_core::proto::flavour::Flavour;
 use fleetmap_core::proto::heartbeat::Beat;
@@ -48,7 +49,7 @@ pub struct StatusText {
     pub at: Time,
 }
 
-/// Link quality seen from one vehicle's autopilot.
+/// Link quality seen from one vehicle's autopilot, and what its link carries.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct LinkQuality {
     /// Frames received from the autopilot.
@@ -59,16 +60,49 @@ pub struct LinkQuality {
     pub(crate) loss_pct: f64,
     /// Frames per second over the last few seconds.
     pub(crate) rate_hz: f64,
+    /// Bytes per second of the fleet's clock received from this system (every component:
+    /// autopilot, camera), over the last few seconds.
+    pub down_bytes_per_s: f64,
+    /// Bytes per second of the fleet's clock sent to this system, over the last few seconds.
+    pub up_bytes_per_s: f64,
+    /// What the GCS plans this vehicle's link for.
+    pub budget: LinkBudget,
+    /// Whether `budget` was assumed because a radio reported itself (RADIO_STATUS) on a
+    /// link the GCS was told nothing about.
+    pub budget_assumed: bool,
+    /// The telemetry radio's last report, when one is heard on this vehicle's link.
+    pub radio: Option<RadioReport>,
+}
+
+/// What a telemetry radio reports about itself (RADIO_STATUS, sent by a SiK radio with
+/// MAVLink framing into the serial side it is plugged into: the GCS's radio into the GCS).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
+pub struct RadioReport {
+    /// Signal strength at the GCS's radio (SiK: 0–255, about 1.9 per dB).
+    pub rssi: u8,
+    /// Signal strength at the vehicle's radio, as the GCS's radio last heard it.
+    pub remrssi: u8,
+    /// Free space in the GCS radio's transmit buffer, percent.
+    pub txbuf: u8,
+    /// Background noise at the GCS's radio.
+    pub noise: u8,
+    /// Background noise at the vehicle's radio.
+    pub remnoise: u8,
+    /// Packets the GCS's radio received damaged (a counter that wraps at 65,536).
+    pub rxerrors: u16,
+    /// Packets repaired by error correction (a counter that wraps at 65,536).
+    pub fixed: u16,
+    /// Seconds since the report arrived (fleet clock).
+    pub age_s: f64,
 }
 
 impl LinkQuality {
-    fn from_source(s: &SourceStats, rate_hz: f64) -> LinkQuality {
-        LinkQuality {
-            frames: s.frames,
-            lost: s.lost,
-            loss_pct: s.loss_ratio() * 100.0,
-            rate_hz,
-        }
+    /// The loss from the autopilot's sequence numbers: `s`, at `rate_hz` frames per second.
+    pub(crate) fn set_source(&mut self, s: &SourceStats, rate_hz: f64) {
+        self.frames = s.frames;
+        self.lost = s.lost;
+        self.loss_pct = s.loss_ratio() * 100.0;
+        self.rate_hz = rate_hz;
     }
 }
 
@@ -160,7 +194,7 @@ pub struct VehicleSnapshot {
     /// Link carrying this vehicle (index of `--connect`).
     pub link: usize,
     /// Link quality from the autopilot's sequence numbers.
-    pub(crate) link_quality: LinkQuality,
+    pub link_quality: LinkQuality,
     /// When any message from the autopilot last arrived (fleet clock).
     pub(crate) last_message: Time,
     /// When the last GLOBAL_POSITION_INT arrived (fleet clock).
@@ -451,7 +485,7 @@ impl VehicleSnapshot {
         self.heartbeat_age_s =
             last_beat.map_or(f64::INFINITY, |t| now.saturating_since(t).as_secs_f64());
         if let Some(s) = src {
-            self.link_quality = LinkQuality::from_source(s, rate_hz);
+            self.link_quality.set_source(s, rate_hz);
         }
     }
 }

@@ -264,7 +264,6 @@ impl RunDir {
         &self.meta
     }
 
-    #[cfg(test)]
     /// The copy of the mission definition (`mission.toml`), if the run was created with one.
     pub(crate) fn mission_text(&self) -> Result<Option<String>, StoreError> {
         let p = self.path.join(MISSION_FILE);

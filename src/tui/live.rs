@@ -126,6 +126,11 @@ pub(crate) fn vehicle_row(
             quality_pct: Some((100.0 - v.link_quality.loss_pct).clamp(0.0, 100.0).round() as u8),
             lost: !v.alive,
             last_heard_s: Some(v.heartbeat_age_s as f32),
+            bytes_per_s: Some(
+                (v.link_quality.down_bytes_per_s + v.link_quality.up_bytes_per_s) as f32,
+            ),
+            budget_bytes_per_s: v.link_quality.budget.bytes_per_s(),
+            rssi: v.link_quality.radio.map(|r| (r.rssi, r.remrssi)),
         },
         cell,
         activity,

@@ -42,6 +42,9 @@ fn copter(sysid: u8) -> VehicleRow {
             quality_pct: Some(98),
             lost: false,
             last_heard_s: Some(0.2),
+            bytes_per_s: Some(612.0),
+            budget_bytes_per_s: Some(2000),
+            rssi: Some((182, 176)),
         },
         cell: None,
         activity: None,
@@ -114,6 +117,7 @@ pub fn runway_fixture() -> Model {
         quality_pct: Some(0),
         lost: true,
         last_heard_s: Some(12.4),
+        ..LinkState::default()
     };
     v3.mission = None;
     v3.activity = Some("battery swap".into());
@@ -325,6 +329,7 @@ pub fn generated(n: usize, seed: u64) -> Model {
                     quality_pct: Some(rng.random_range(40..=100)),
                     lost: rng.random_range(0..20) == 0,
                     last_heard_s: Some(rng.random_range(0.0..3.0)),
+                    ..LinkState::default()
                 },
                 cell: Some(cell),
                 activity: Some(format!("lane {}", i % 17)),

@@ -7,6 +7,7 @@
 //!
 //! | module | responsibility |
 //! |---|---|
+//! | [`budget`] | what a vehicle's link carries (a telemetry radio's bytes per second) |
 //! | [`geo`] | mission grid, cell ↔ UTM ↔ WGS84, polygons → cells |
 //! | [`mission`] | mission items, mission definition files, QGC file formats |
 //! | [`proto`] | sans-IO MAVLink micro-services, autopilot flavours and modes, image transmission |
@@ -20,6 +21,7 @@
 #![warn(missing_docs)]
 #![warn(unreachable_pub)]
 
+pub mod budget;
 pub mod explore;
 pub mod geo;
 pub mod mission;

@@ -144,8 +144,9 @@ pub(super) fn start<K: RunKind>(args: RunArgs, new: NewRun) -> anyhow::Result<Ex
     K::options(&settings)?;
     block_on(async move {
         let headless = args.runner.headless;
+        let conn = args.conn.clone().with_mission_links(&new.def);
         connect_and_fly::<K>(
-            &args.conn,
+            &conn,
             Start::New(Box::new(new)),
             &settings,
             wait,
@@ -176,8 +177,10 @@ pub(super) fn resume<K: RunKind>(args: ResumeArgs, run_dir: RunDir) -> anyhow::R
     let conn = ConnectArgs {
         signing_key: args.signing_key.clone(),
         tlog: args.tlog.clone(),
+        link: args.link,
         ..ConnectArgs::defaults(connect)
     };
+    let conn = conn.with_run_links(&run_dir)?;
     let settings = args.runner.settings();
     let wait = wait_of(args.runner.wait)?;
     K::options(&settings)?;

@@ -120,6 +120,10 @@ pub struct ResumeArgs {
     /// Record every frame to this .tlog file.
     #[arg(long, value_name = "FILE")]
     pub tlog: Option<PathBuf>,
+    /// What every vehicle's link carries (as for `fleetmap run`; default: the run's mission
+    /// file's `link`).
+    #[arg(long, value_name = "LINK")]
+    pub link: Option<fleetmap_core::budget::LinkBudget>,
     /// Runner options.
     #[command(flatten)]
     pub runner: RunnerArgs,

@@ -175,6 +175,18 @@ pub struct LinkState {
     pub lost: bool,
     /// Seconds since the last message from this vehicle, when known.
     pub(crate) last_heard_s: Option<f32>,
+    /// Bytes per second the link carries for this vehicle, both directions together, when
+    /// measured.
+    #[serde(default)]
+    pub(crate) bytes_per_s: Option<f32>,
+    /// What the link is planned for, bytes per second both directions together (`None`:
+    /// unlimited).
+    #[serde(default)]
+    pub(crate) budget_bytes_per_s: Option<u32>,
+    /// The telemetry radio's signal strength at the GCS's end and at the vehicle's
+    /// (RADIO_STATUS rssi, remrssi), when a radio reports itself.
+    #[serde(default)]
+    pub(crate) rssi: Option<(u8, u8)>,
 }
 
 /// Position in the uploaded mission.

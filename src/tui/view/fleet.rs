@@ -16,7 +16,7 @@ use ratatui::widgets::{Cell, HighlightSpacing, Paragraph, Row, Table, TableState
 
 /// Inner width from which the full column set is used (sum of its fixed columns, spacing
 /// and the selection marker).
-pub(crate) const FULL_WIDTH: u16 = 119;
+pub(crate) const FULL_WIDTH: u16 = 133;
 
 struct Column {
     header: &'static str,
@@ -141,6 +141,26 @@ fn link_short(v: &VehicleRow, app: &App) -> (String, Style) {
     (text, theme::level(lvl))
 }
 
+/// Bytes per second the link carries for the vehicle, both ways: `612` or `12.4k`.
+fn load(v: &VehicleRow, _: &App) -> (String, Style) {
+    let l = &v.link;
+    let text = match l.bytes_per_s {
+        Some(b) if b >= 9999.5 => format!("{:>4.0}k", b / 1000.0),
+        Some(b) if b >= 999.5 => format!("{:>4.1}k", b / 1000.0),
+        Some(b) => format!("{b:>5.0}"),
+        None => "    -".into(),
+    };
+    (text, theme::level(theme::load_level(l)))
+}
+
+/// The radio's signal at the GCS's end and at the vehicle's (SiK units, 0–255).
+fn rssi(v: &VehicleRow, _: &App) -> (String, Style) {
+    s(v.link
+        .rssi
+        .map(|(a, b)| format!("{a:>3}/{b:<3}"))
+        .unwrap_or_else(|| "   -   ".into()))
+}
+
 fn activity(v: &VehicleRow, _: &App) -> (String, Style) {
     s(v.activity.clone().unwrap_or_default())
 }
@@ -200,6 +220,16 @@ const FULL: &[Column] = &[
         header: "LINK",
         width: 9,
         cell: link_full,
+    },
+    Column {
+        header: "  B/s",
+        width: 5,
+        cell: load,
+    },
+    Column {
+        header: " RSSI",
+        width: 7,
+        cell: rssi,
     },
     Column {
         header: "ACTIVITY",

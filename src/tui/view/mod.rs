@@ -31,7 +31,7 @@ use ratatui::widgets::{Block, BorderType, Paragraph};
 /// Smallest terminal the UI draws in (columns, rows); below it a message asks for more.
 pub(crate) const MIN_SIZE: (u16, u16) = (60, 16);
 /// Smallest terminal that gets the wide layout (columns, rows).
-pub(crate) const WIDE_MIN: (u16, u16) = (160, 40);
+pub(crate) const WIDE_MIN: (u16, u16) = (170, 40);
 
 /// Where each pane goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -69,7 +69,7 @@ pub(crate) fn layout_with_lower(app: &App, area: Rect, lower_pane: Pane) -> Opti
     ]));
     let n = app.model.vehicles.len() as u16;
     if area.width >= WIDE_MIN.0 && area.height >= WIDE_MIN.1 {
-        let right_w = (area.width * 45 / 100).clamp(fleet::FULL_WIDTH + 2, 124);
+        let right_w = (area.width * 45 / 100).clamp(fleet::FULL_WIDTH + 2, fleet::FULL_WIDTH + 5);
         let [map_area, right] = body.layout(&Layout::horizontal([
             Constraint::Fill(1),
             Constraint::Length(right_w),

@@ -147,6 +147,16 @@ pub(crate) fn link_level(l: &LinkState, t: &Thresholds) -> Level {
     }
 }
 
+/// Link load level: a link carrying nine tenths of its budget or more is a warning (its
+/// radio's buffer fills; what the GCS sends waits).
+pub(crate) fn load_level(l: &LinkState) -> Level {
+    match (l.bytes_per_s, l.budget_bytes_per_s) {
+        (Some(b), Some(max)) if f64::from(b) >= 0.9 * f64::from(max) => Level::Warn,
+        (Some(_), _) => Level::Ok,
+        (None, _) => Level::Unknown,
+    }
+}
+
 /// Log line style by severity.
 pub(crate) fn severity(s: Severity) -> Style {
     match s {
@@ -267,10 +277,19 @@ mod tests {
         let l = |q, lost| LinkState {
             quality_pct: q,
             lost,
-            last_heard_s: None,
+            ..LinkState::default()
         };
         assert_eq!(link_level(&l(Some(95), false), &t), Level::Ok);
         assert_eq!(link_level(&l(Some(60), false), &t), Level::Warn);
         assert_eq!(link_level(&l(Some(95), true), &t), Level::Critical);
+        let load = |b: Option<f32>, max: Option<u32>| LinkState {
+            bytes_per_s: b,
+            budget_bytes_per_s: max,
+            ..LinkState::default()
+        };
+        assert_eq!(load_level(&load(Some(700.0), Some(2000))), Level::Ok);
+        assert_eq!(load_level(&load(Some(1850.0), Some(2000))), Level::Warn);
+        assert_eq!(load_level(&load(Some(9e4), None)), Level::Ok);
+        assert_eq!(load_level(&load(None, Some(2000))), Level::Unknown);
     }
 }

@@ -15,6 +15,9 @@
 //!   PX4: which mode table, how to arm, take off, start a mission, go to a point, return, land.
 //! * [`mode`] — the one table of flight modes per autopilot (names and `custom_mode`
 //!   numbers), shared by the GCS and the simulator.
+//! * [`telemetry`] — which telemetry to ask a vehicle for so that it fits its link, and the
+//!   streams to stop on a radio.
+//! * [`uplink`] — what the GCS sends a vehicle over a radio, most urgent first and paced.
 //! * [`image_transfer`] — receiving pictures by MAVLink image transmission
 //!   (DATA_TRANSMISSION_HANDSHAKE + ENCAPSULATED_DATA), with re-requests on a lossy link.
 
@@ -26,6 +29,8 @@ pub mod image_transfer;
 pub mod mission;
 pub mod mode;
 pub mod severity;
+pub mod telemetry;
+pub mod uplink;
 
 use mavlink::MavHeader;
 

@@ -30,7 +30,7 @@ pub(crate) const FORGET_AFTER: Duration = Duration::from_secs(60);
 
 /// Who a serving link talks to: a UDP sender's address or a TCP client's number.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub(crate) enum PeerKey {
+pub enum PeerKey {
     /// A UDP sender.
     Addr(SocketAddr),
     /// A TCP client, numbered in the order of acceptance.

@@ -68,6 +68,7 @@ use runway::{
     default_intensity_threshold, default_votes_required,
 };
 
+use crate::budget::LinkBudget;
 use crate::geo::Cell;
 use crate::mission::strategy::{Allocation, ConfidenceBound};
 use crate::vision::camera::CameraModel;
@@ -278,6 +279,9 @@ pub struct VehicleDef {
         with = "cell_serde::option"
     )]
     pub start: Option<Cell>,
+    /// What this vehicle's link carries, over the mission's [`MissionDef::link`].
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub link: Option<LinkBudget>,
 }
 
 /// `[area]`: which cells exist, which are forbidden, where stations may drive.
@@ -357,6 +361,22 @@ pub struct MissionDef {
     /// defaults when the file has no `[classification]` table).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub classification: Option<ClassificationDef>,
+    /// What every vehicle's link carries (`link = "radio:2000"`), unless a vehicle says
+    /// otherwise; `None`: not said (unlimited until a radio reports itself).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub link: Option<LinkBudget>,
+}
+
+impl MissionDef {
+    /// What the link of vehicle `sysid` carries, as the mission says: its own `link`, else
+    /// the mission's.
+    pub fn link_of(&self, sysid: u8) -> Option<LinkBudget> {
+        self.vehicles
+            .iter()
+            .find(|v| v.sysid == sysid)
+            .and_then(|v| v.link)
+            .or(self.link)
+    }
 }
 
 impl MissionDef {

@@ -19,7 +19,7 @@ mod task;
 
 use super::addr::ConnSpec;
 use super::codec::{Codec, Frame, LinkStats};
-use super::peers::PeerTable;
+use super::peers::{PeerKey, PeerTable};
 use super::signing::Signing;
 use super::tlog::TlogHandle;
 use crate::clock::MonotonicClock;
@@ -78,6 +78,10 @@ pub enum LinkEvent {
         frame: Box<Frame>,
         /// Reception time, µs since the Unix epoch.
         unix_us: u64,
+        /// Which of a serving link's peers (`udpin`, `tcpin`) sent it; `None` on a link with
+        /// one peer. Several radios, each with its own vehicle, can send to one UDP port: what
+        /// a radio reports about itself (RADIO_STATUS) concerns the vehicles behind it only.
+        peer: Option<PeerKey>,
     },
     /// The link connected or disconnected (TCP), or got its first peer (UDP in).
     Status {
@@ -142,7 +146,9 @@ pub struct LinkOptions {
 }
 
 enum LinkCmd {
-    Send(Endpoint, Box<MavMessage>),
+    /// A message from the endpoint, to the peer of the system it is addressed to (or to
+    /// system `to`, for a message without a target field), else to every peer.
+    Send(Endpoint, Box<MavMessage>, Option<u8>),
     Raw(Vec<u8>),
 }
 
@@ -165,7 +171,18 @@ impl LinkHandle {
     /// On a link that serves several peers it goes to the peer its target system was last
     /// heard from, or to every peer when it has no target ([`super::peers`]).
     pub fn send(&self, src: Endpoint, msg: MavMessage) -> bool {
-        self.tx.try_send(LinkCmd::Send(src, Box::new(msg))).is_ok()
+        self.tx
+            .try_send(LinkCmd::Send(src, Box::new(msg), None))
+            .is_ok()
+    }
+
+    /// Queue `msg`, which has no target field (DATA_TRANSMISSION_HANDSHAKE to a vehicle's
+    /// camera, say), for system `to`: on a link that serves several peers it goes only to the
+    /// peer `to` was last heard from (to every peer while `to` has not been heard).
+    pub fn send_to_system(&self, src: Endpoint, to: u8, msg: MavMessage) -> bool {
+        self.tx
+            .try_send(LinkCmd::Send(src, Box::new(msg), Some(to)))
+            .is_ok()
     }
 
     /// Queue already-encoded bytes (a third party's frame in tests, a forwarded frame); on

@@ -40,9 +40,9 @@ impl LinkTask {
                     let Some(cmd) = cmd else { break };
                     let now = unix_now_us();
                     let (bytes, target) = match cmd {
-                        LinkCmd::Send(src, msg) => (
+                        LinkCmd::Send(src, msg, to) => (
                             self.codec.encode(src.sysid, src.compid, &msg, now),
-                            msg.target_system_id(),
+                            msg.target_system_id().filter(|t| *t != 0).or(to),
                         ),
                         LinkCmd::Raw(b) => (b, None),
                     };
@@ -143,6 +143,7 @@ impl LinkTask {
     /// fleet. Returns false when the fleet is gone.
     async fn deliver(&mut self, data: &[u8], peer: Option<(PeerKey, String)>) -> bool {
         let now = unix_now_us();
+        let key = peer.as_ref().map(|(k, _)| *k);
         let frames = match &peer {
             Some((key, name)) => {
                 let (stream, new) = self.peers.heard(*key, name, self.clock.now());
@@ -165,6 +166,7 @@ impl LinkTask {
                 link: self.id,
                 frame: Box::new(frame),
                 unix_us: now,
+                peer: key,
             };
             if self.events.send(ev).await.is_err() {
                 return false;

@@ -325,6 +325,23 @@ impl<'t> Ctx<'t> {
         }
     }
 
+    /// A link budget (`link`): `"unlimited"`, `"radio"` or `"radio:BYTES"`.
+    fn link_of(&mut self, path: &str, v: &Val<'_>) -> Option<LinkBudget> {
+        let s = self.str_of(
+            path,
+            v,
+            "\"unlimited\", \"radio\" or \"radio:BYTES_PER_SECOND\"",
+        )?;
+        match s.parse() {
+            Ok(b) => Some(b),
+            Err(e) => {
+                self.push(v.span().start, path, format!("{e}"));
+                self.poison(path);
+                None
+            }
+        }
+    }
+
     /// One of the given words (`kind`, `role`).
     fn word_of<T: Copy>(&mut self, path: &str, v: &Val<'_>, words: &[(&str, T)]) -> Option<T> {
         let list = words

@@ -17,6 +17,7 @@ const ROOT_KEYS: &[&str] = &[
     "area",
     "runway",
     "classification",
+    "link",
 ];
 
 /// Parse `text` (steps 1 and 2). Syntax errors end the reading; structural errors are kept
@@ -89,6 +90,7 @@ fn read_root(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> MissionDef {
     let area = read_area(ctx, root);
     let runway = read_runway(ctx, root);
     let classification = read_classification(ctx, root);
+    let link = ctx.opt(root, "", "link", Ctx::link_of).unwrap_or(None);
     MissionDef {
         name,
         kind,
@@ -101,6 +103,7 @@ fn read_root(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> MissionDef {
         area,
         runway,
         classification,
+        link,
     }
 }
 
@@ -254,7 +257,7 @@ fn read_vehicles(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Vec<VehicleDef> {
     let mut out = Vec::with_capacity(items.len());
     for (i, item) in items.iter().enumerate() {
         let path = format!("vehicles[{i}]");
-        let Some(t) = ctx.table(&path, item, &["sysid", "role", "name", "start"]) else {
+        let Some(t) = ctx.table(&path, item, &["sysid", "role", "name", "start", "link"]) else {
             ctx.poison("vehicles");
             continue;
         };
@@ -272,11 +275,13 @@ fn read_vehicles(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Vec<VehicleDef> {
             .opt(t, &path, "name", |c, p, v| c.str_of(p, v, "a string"))
             .unwrap_or(None);
         let start = ctx.opt(t, &path, "start", Ctx::cell_of).unwrap_or(None);
+        let link = ctx.opt(t, &path, "link", Ctx::link_of).unwrap_or(None);
         out.push(VehicleDef {
             sysid,
             role,
             name,
             start,
+            link,
         });
     }
     out
