@@ -410,6 +410,42 @@ fn classification_bound_is_read_and_checked() {
     assert_eq!(errs.trim().lines().count(), 1, "{errs}");
 }
 
+#[test]
+fn links_are_read_per_mission_and_per_vehicle_and_checked() {
+    use fleetmap_core::budget::LinkBudget;
+    let text = std::fs::read_to_string(root().join("missions/hardware-6x6.toml")).unwrap();
+    let d = MissionDef::parse(&text, "plain.toml").unwrap();
+    assert_eq!((d.link, d.link_of(1)), (None, None));
+    // Every vehicle on a 1,500 B/s radio but station 5 on a 5,000 B/s one.
+    let with = text
+        .replacen("[grid]", "link = \"radio:1500\"\n\n[grid]", 1)
+        .replacen(
+            "name = \"rover-west\"",
+            "name = \"rover-west\"\nlink = \"radio:5000\"",
+            1,
+        );
+    let d = MissionDef::parse(&with, "links.toml").unwrap();
+    assert_eq!(d.link, Some(LinkBudget::Radio { bytes_per_s: 1500 }));
+    assert_eq!(d.link_of(1), Some(LinkBudget::Radio { bytes_per_s: 1500 }));
+    assert_eq!(d.link_of(5), Some(LinkBudget::Radio { bytes_per_s: 5000 }));
+    // It survives the definition's JSON (run files, `fleetmap check --json`).
+    let json = serde_json::to_string(&d).unwrap();
+    let back: MissionDef = serde_json::from_str(&json).unwrap();
+    assert_eq!(back.link_of(5), d.link_of(5));
+    // A bad link is one located error naming the key and the words it takes.
+    let bad = text.replacen("[grid]", "link = \"radio:99\"\n\n[grid]", 1);
+    let errs = MissionDef::parse(&bad, "bad.toml").unwrap_err().to_string();
+    assert!(
+        errs.contains("bad.toml:") && errs.contains("link"),
+        "{errs}"
+    );
+    assert!(errs.contains("300 to 100000"), "{errs}");
+    assert_eq!(errs.trim().lines().count(), 1, "{errs}");
+    let bad = text.replacen("[grid]", "link = \"wifi\"\n\n[grid]", 1);
+    let errs = MissionDef::parse(&bad, "bad.toml").unwrap_err().to_string();
+    assert!(errs.contains("`wifi` is not a link"), "{errs}");
+}
+
 // ---- serde agrees with the reader ------------------------------------------------------
 
 #[test]
