@@ -15,8 +15,9 @@
 //!   clock follows whichever is ahead.
 //! * A timestamp at or below the newest one seen from that system (a reordered, repeated
 //!   or older message) is ignored; one more than [`VehicleClock::REBOOT_BACK`] below it is a
-//!   reboot (after a battery swap `time_boot_ms` starts again from 0): the system is mapped
-//!   anew where the clock stands, and the rate is kept.
+//!   reboot (after a battery swap `time_boot_ms` starts again from 0) once the next report
+//!   below it confirms the new count (one stray small timestamp cannot throw the clock):
+//!   the system is mapped anew where the clock stands, and the rate is kept.
 //! * The clock never goes back. A report ahead of it moves it forward at once; one behind
 //!   it by more than [`VehicleClock::MAX_LEAD`] of wall time at the current rate (the
 //!   vehicle slowed down or stalled; older and repeated timestamps count here) re-anchors
@@ -41,6 +42,8 @@ struct System {
     last_boot: u64,
     /// Recent (wall µs, boot µs) reports, oldest first, for the rate.
     samples: VecDeque<(u64, u64)>,
+    /// A report that looked like a reboot, not yet confirmed: (wall µs, boot µs).
+    reboot: Option<(u64, u64)>,
 }
 
 /// The vehicles' time as seen from the wall clock (see the module documentation).
@@ -126,6 +129,7 @@ impl VehicleClock {
             offset: here - boot as f64,
             last_boot: boot,
             samples: VecDeque::from([(w, boot)]),
+            reboot: None,
         };
         let lead = |clock: &VehicleClock| clock.rate * Self::MAX_LEAD.as_micros() as f64;
         let Some(s) = self.systems.get_mut(&system) else {
@@ -135,8 +139,18 @@ impl VehicleClock {
         };
         let back = u64::try_from(Self::REBOOT_BACK.as_micros()).unwrap_or(u64::MAX);
         if boot.saturating_add(back) < s.last_boot {
-            *s = fresh(boot);
-            self.last_fresh = Some(w);
+            // confirmed by a second report of the new count: not before the first, and not
+            // further on than the time since then allows (twice the rate, plus the margin)
+            let confirmed = s.reboot.is_some_and(|(rw, rb)| {
+                let allowed = 2.0 * self.rate * w.saturating_sub(rw) as f64 + back as f64;
+                boot >= rb && ((boot - rb) as f64) <= allowed
+            });
+            if confirmed {
+                *s = fresh(boot);
+                self.last_fresh = Some(w);
+            } else {
+                s.reboot = Some((w, boot));
+            }
             return;
         }
         let observed = s.offset + boot as f64;
@@ -149,6 +163,7 @@ impl VehicleClock {
             return;
         }
         s.last_boot = boot;
+        s.reboot = None;
         s.samples.push_back((w, boot));
         let window = Self::RATE_WINDOW.as_micros() as u64;
         while s.samples.len() > 2 && s.samples.front().is_some_and(|(sw, _)| w - sw > window) {
@@ -288,6 +303,19 @@ mod tests {
         for (read, truth) in got.iter().skip(20) {
             assert!(((read - first.0) - (truth - first.1)).abs() < 30.0);
         }
+    }
+
+    /// One stray report with a small timestamp (a message whose time was not filled in) is
+    /// not a reboot: the clock keeps following the vehicle.
+    #[test]
+    fn a_stray_small_timestamp_is_not_a_reboot() {
+        let mut c = VehicleClock::new();
+        follow(&mut c, 1, 2.0, 0, 10_000, 100, 500_000.0, |_| 1);
+        c.observe(1, Duration::from_millis(12), wall_ms(10_001));
+        let got = follow(&mut c, 1, 2.0, 10_050, 20_000, 100, 500_000.0, |_| 1);
+        let (read, truth) = got[got.len() - 1];
+        // the clock still reads the vehicle's time on the first mapping (offset 1 ms − 500 s)
+        assert!((read - (truth - 500_000.0 + 1.0)).abs() < 10.0, "{read} {truth}");
     }
 
     /// A vehicle that stalls (no time moves for 5 s of wall, e.g. a simulator paused by a

@@ -289,7 +289,7 @@ pub struct DirectionCounts {
     /// Their bytes.
     pub bytes_lost: u64,
     /// Most bytes ever waiting at once in the sending radio's buffer (the frame just
-    /// accepted included), bytes.
+    /// accepted included), bytes (0 when unlimited: nothing waits).
     pub peak_buffer_bytes: u64,
     /// Time this direction held the air (lost frames included), µs (0 when unlimited).
     pub air_us: u64,
@@ -439,7 +439,9 @@ impl RadioPair {
         }
         radio.queue.push_back(frame);
         radio.buffered += len;
-        radio.sent.peak_buffer_bytes = radio.sent.peak_buffer_bytes.max(radio.buffered);
+        if limited {
+            radio.sent.peak_buffer_bytes = radio.sent.peak_buffer_bytes.max(radio.buffered);
+        }
         let air = self.air_of(from);
         if self.airs[air].flight.is_none() {
             self.start_next(air, now, true);
