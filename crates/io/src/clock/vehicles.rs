@@ -315,7 +315,10 @@ mod tests {
         let got = follow(&mut c, 1, 2.0, 10_050, 20_000, 100, 500_000.0, |_| 1);
         let (read, truth) = got[got.len() - 1];
         // the clock still reads the vehicle's time on the first mapping (offset 1 ms − 500 s)
-        assert!((read - (truth - 500_000.0 + 1.0)).abs() < 10.0, "{read} {truth}");
+        assert!(
+            (read - (truth - 500_000.0 + 1.0)).abs() < 10.0,
+            "{read} {truth}"
+        );
     }
 
     /// A vehicle that stalls (no time moves for 5 s of wall, e.g. a simulator paused by a

@@ -50,10 +50,9 @@
 use super::addr::ConnSpec;
 use super::codec::Frame;
 use super::faults::{FaultyChannel, LinkFaults};
-use super::radio::{Carried, EndCounts, End, MessageCounts, RadioConfig, RadioPair, message_id};
+use super::radio::{Carried, End, EndCounts, MessageCounts, RadioConfig, RadioPair, message_id};
 use super::transport::{
-    LinkError, LinkEvent, LinkHandle, LinkId, LinkOptions, MemoryPort, open_link,
-    open_memory_link,
+    LinkError, LinkEvent, LinkHandle, LinkId, LinkOptions, MemoryPort, open_link, open_memory_link,
 };
 use crate::clock::MonotonicClock;
 use fleetmap_core::time::Time;
