@@ -197,21 +197,19 @@ mod tests {
         Time::from_millis(ms)
     }
 
-    /// A vehicle at `speed` × wall time booted `boot0` before wall 0, reporting every
-    /// `every_ms` of wall time with `delay(i)` ms of transit: returns the clock's reading at
-    /// each report's arrival and the vehicle's true time then.
+    /// A vehicle at `speed` × wall time whose boot time is `boot0_ms` at wall 0, reporting at
+    /// the wall times `walls` (ms) with `delay(i)` ms of transit: returns the clock's reading
+    /// at each report's arrival and the vehicle's true time then.
     fn follow(
         c: &mut VehicleClock,
         sys: u8,
         speed: f64,
-        from_ms: u64,
-        to_ms: u64,
-        every_ms: u64,
+        walls: impl Iterator<Item = u64>,
         boot0_ms: f64,
         delay: impl Fn(u64) -> u64,
     ) -> Vec<(f64, f64)> {
         let mut out = Vec::new();
-        for (i, w) in (from_ms..to_ms).step_by(every_ms as usize).enumerate() {
+        for (i, w) in walls.enumerate() {
             let boot = boot0_ms + (w as f64) * speed;
             let d = delay(i as u64);
             c.observe(
@@ -243,7 +241,7 @@ mod tests {
     #[test]
     fn follows_a_vehicle_at_five_times() {
         let mut c = VehicleClock::new();
-        let got = follow(&mut c, 1, 5.0, 0, 60_000, 100, 30_000.0, |i| {
+        let got = follow(&mut c, 1, 5.0, (0..60_000).step_by(100), 30_000.0, |i| {
             1 + (i * 7) % 9
         });
         assert!((c.rate() - 5.0).abs() < 0.05, "rate {}", c.rate());
@@ -290,10 +288,17 @@ mod tests {
     #[test]
     fn a_reboot_re_anchors_and_keeps_the_rate() {
         let mut c = VehicleClock::new();
-        follow(&mut c, 1, 4.0, 0, 20_000, 50, 600_000.0, |_| 2);
+        follow(&mut c, 1, 4.0, (0..20_000).step_by(50), 600_000.0, |_| 2);
         let before = c.now(wall_ms(20_000)).as_secs_f64();
         // the battery swap: 2 s of wall silence, then the autopilot boots at 0
-        let got = follow(&mut c, 1, 4.0, 22_000, 40_000, 50, -88_000.0, |_| 2);
+        let got = follow(
+            &mut c,
+            1,
+            4.0,
+            (22_000..40_000).step_by(50),
+            -88_000.0,
+            |_| 2,
+        );
         assert!((c.rate() - 4.0).abs() < 0.04, "{}", c.rate());
         let after = c.now(wall_ms(40_000)).as_secs_f64();
         // 20 s of wall at 4×: 80 s (the silence counted at the rate)
@@ -310,9 +315,16 @@ mod tests {
     #[test]
     fn a_stray_small_timestamp_is_not_a_reboot() {
         let mut c = VehicleClock::new();
-        follow(&mut c, 1, 2.0, 0, 10_000, 100, 500_000.0, |_| 1);
+        follow(&mut c, 1, 2.0, (0..10_000).step_by(100), 500_000.0, |_| 1);
         c.observe(1, Duration::from_millis(12), wall_ms(10_001));
-        let got = follow(&mut c, 1, 2.0, 10_050, 20_000, 100, 500_000.0, |_| 1);
+        let got = follow(
+            &mut c,
+            1,
+            2.0,
+            (10_050..20_000).step_by(100),
+            500_000.0,
+            |_| 1,
+        );
         let (read, truth) = got[got.len() - 1];
         // the clock still reads the vehicle's time on the first mapping (offset 1 ms − 500 s)
         assert!(
@@ -326,7 +338,7 @@ mod tests {
     #[test]
     fn a_stalled_vehicle_holds_the_clock() {
         let mut c = VehicleClock::new();
-        follow(&mut c, 1, 5.0, 0, 10_000, 100, 1000.0, |_| 1);
+        follow(&mut c, 1, 5.0, (0..10_000).step_by(100), 1000.0, |_| 1);
         let t0 = c.now(wall_ms(10_000)).as_secs_f64();
         // the vehicle's time stands at 51 s while 5 s of wall pass: reports repeat it
         for w in (10_000..15_000).step_by(100) {
@@ -354,12 +366,12 @@ mod tests {
     #[test]
     fn a_silent_vehicle_stops_the_clock_after_a_while() {
         let mut c = VehicleClock::new();
-        follow(&mut c, 1, 5.0, 0, 10_000, 100, 0.0, |_| 1);
+        follow(&mut c, 1, 5.0, (0..10_000).step_by(100), 0.0, |_| 1);
         let t0 = c.now(wall_ms(9_901)).as_secs_f64();
         let t1 = c.now(wall_ms(30_000)).as_secs_f64();
         assert!((t1 - t0 - 25.0).abs() < 0.1, "{t0} → {t1}");
         // it ran all along (the link was down): the first report moves the clock on
-        follow(&mut c, 1, 5.0, 30_000, 31_000, 100, 0.0, |_| 1);
+        follow(&mut c, 1, 5.0, (30_000..31_000).step_by(100), 0.0, |_| 1);
         let t2 = c.now(wall_ms(31_000)).as_secs_f64();
         assert!((t2 - t0 - 105.5).abs() < 0.1, "{t0} → {t2}");
     }

@@ -323,9 +323,9 @@ pub struct RadioStats {
 
 /// The MAVLink message id of a frame (MAVLink 1 or 2), if it has a whole header.
 pub fn message_id(frame: &[u8]) -> Option<u32> {
-    match frame.first()? {
-        &STX_V1 if frame.len() >= 6 => Some(u32::from(frame[5])),
-        &STX_V2 if frame.len() >= 10 => Some(u32::from_le_bytes([frame[7], frame[8], frame[9], 0])),
+    match *frame.first()? {
+        STX_V1 if frame.len() >= 6 => Some(u32::from(frame[5])),
+        STX_V2 if frame.len() >= 10 => Some(u32::from_le_bytes([frame[7], frame[8], frame[9], 0])),
         _ => None,
     }
 }
