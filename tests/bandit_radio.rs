@@ -1,9 +1,10 @@
 //! Issue 25: the bandit paper's 6×6 mission over telemetry radios. Every vehicle sends to one
-//! GCS port through its own `fleetmap relay --rate 5000` (a 57,600-baud SiK radio: about
-//! 5,000 bytes a second each way, a 1,850-byte queue, tail drop), on the simulator's clock;
-//! the drones' cameras measure on board and send the green share (52 bytes) instead of the
-//! picture. The mission ends with keep = the green tiles, no labelling error, and no more
-//! epochs than the same flight on unlimited links.
+//! GCS port through its own SiK radio pair (`fleetmap relay --radio 5000`: a 57,600-baud
+//! radio's 5,000 bytes a second shared by both directions, as its time-division duplex
+//! shares the air, a 4 kB buffer in each radio with tail drop, RADIO_STATUS written into
+//! both sides), on the simulator's clock; the drones' cameras measure on board and send the
+//! green share (52 bytes) instead of the picture. The mission ends with keep = the green
+//! tiles, no labelling error, and no more epochs than the same flight on unlimited links.
 
 use fleetmap::app::bandit::report as bandit_report;
 use fleetmap::app::bandit::{self, RunOptions};
@@ -14,6 +15,7 @@ use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
 use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::radio::RadioConfig;
 use fleetmap_io::link::relay::{Relay, RelayOptions, RelayStats};
 use fleetmap_io::link::transport::{LinkOptions, open_link};
 use fleetmap_sim::harness::Sim;
@@ -31,8 +33,8 @@ struct Flight {
     radios: Vec<RelayStats>,
 }
 
-/// Fly the hardware mission with on-board measurement, each vehicle behind a relay limited to
-/// `rate` bytes a second each way (`None`: straight to the GCS port).
+/// Fly the hardware mission with on-board measurement, each vehicle behind a radio pair
+/// carrying `rate` bytes a second in all (`None`: straight to the GCS port).
 async fn fly(name: &str, rate: Option<u32>) -> Flight {
     let _ = tracing_subscriber::fmt()
         .with_test_writer()
@@ -74,7 +76,7 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
                     format!("udpout:{gcs}").parse().unwrap(),
                     "udpin:127.0.0.1:0".parse().unwrap(),
                     RelayOptions {
-                        rate,
+                        radio: RadioConfig::radio(rate),
                         ..RelayOptions::default()
                     },
                 )
@@ -169,7 +171,7 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
     let report = bandit_report::report(&done, Some(&green));
     println!(
         "{name}: {} epochs, {} measurements, {} images ignored, {} failed, {:.0} s of drone \
-         flight, wall {:.1} s; radios (up, down): {:?}",
+         flight, wall {:.1} s; radios (up B, up dropped, down B, down dropped, s): {:?}",
         report.epochs,
         report.measurements,
         done.ignored_images,
@@ -182,7 +184,8 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
                 s.up.bytes_out,
                 s.up.rate_dropped,
                 s.down.bytes_out,
-                s.down.rate_dropped
+                s.down.rate_dropped,
+                s.clock_us / 1_000_000
             ))
             .collect::<Vec<_>>()
     );
@@ -197,7 +200,7 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
 async fn hardware_mission_through_5000_byte_radios_measured_on_board() {
     let open = fly("unlimited links", None).await;
     assert!(open.keep_is_truth, "unlimited: keep is not the green tiles");
-    let radio = fly("5000 B/s radios", Some(5000)).await;
+    let radio = fly("5000 B/s half-duplex radios", Some(5000)).await;
     assert!(radio.keep_is_truth, "radios: keep is not the green tiles");
     assert_eq!(radio.report.errors.as_deref(), Some(&[][..]));
     assert_eq!(radio.radios.len(), 6);
@@ -207,9 +210,17 @@ async fn hardware_mission_through_5000_byte_radios_measured_on_board() {
         radio.report.epochs,
         open.report.epochs
     );
-    // The radios carried the run: every vehicle's link was used, and none carried more than
-    // its 5,000 bytes a second of simulated time (the vehicles' flight time bounds the run).
+    // The radios carried the run: every vehicle's link was used both ways, none carried more
+    // than its 5,000 bytes a second of simulated time in all, and each side had its radio's
+    // reports.
     for s in &radio.radios {
         assert!(s.down.bytes_out > 0 && s.up.bytes_out > 0, "{s:?}");
+        let secs = s.clock_us as f64 / 1e6;
+        let carried = (s.up.bytes_out + s.down.bytes_out) as f64;
+        assert!(
+            carried <= 5000.0 * secs,
+            "{carried} B in {secs:.0} s of simulated time"
+        );
+        assert!(s.gcs_radio.radio_status > 0 && s.vehicle_radio.radio_status > 0);
     }
 }

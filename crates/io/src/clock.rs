@@ -5,10 +5,18 @@
 //! `Time` values for the pure core. Only the shell (link, fleet, UI, app, the simulator's
 //! socket server) uses it; nothing in the core (proto, mission, planner, explore, vision,
 //! sim logic, geo, time) may.
+//!
+//! A clock reads one of three sources: the wall clock (times a speed-up), a simulator served
+//! in this process ([`SimTime`]), or the vehicles' own time as their messages tell it
+//! ([`VehicleTime`], estimated by the pure [`VehicleClock`]).
+
+mod vehicles;
+
+pub use vehicles::VehicleClock;
 
 use fleetmap_core::time::Time;
-use std::sync::Arc;
 use std::sync::atomic::{AtomicU64, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::time::Instant;
 
@@ -56,6 +64,8 @@ enum Source {
     Wall { start: Instant, speedup: f64 },
     /// A simulator's published time.
     Simulator(SimTime),
+    /// The vehicles' time, from their own timestamps.
+    Vehicles(VehicleTime),
 }
 
 impl MonotonicClock {
@@ -88,11 +98,29 @@ impl MonotonicClock {
         }
     }
 
+    /// A clock that reads the vehicles' time as `vehicles` estimates it from what they
+    /// send (its epoch: when `vehicles` was made; wall time until a vehicle is heard). The
+    /// owner of the link the vehicles speak on feeds it ([`VehicleTime::observe`]); a relay
+    /// on this clock does so itself.
+    pub fn vehicles(vehicles: &VehicleTime) -> Self {
+        MonotonicClock {
+            source: Source::Vehicles(vehicles.clone()),
+        }
+    }
+
     /// The simulator this clock follows, if it follows one.
     pub fn simulator(&self) -> Option<&SimTime> {
         match &self.source {
             Source::Simulator(s) => Some(s),
-            Source::Wall { .. } => None,
+            _ => None,
+        }
+    }
+
+    /// The vehicles' time this clock reads, if it reads theirs.
+    pub fn vehicle_time(&self) -> Option<&VehicleTime> {
+        match &self.source {
+            Source::Vehicles(v) => Some(v),
+            _ => None,
         }
     }
 
@@ -103,6 +131,7 @@ impl MonotonicClock {
                 Time::from_secs_f64(start.elapsed().as_secs_f64() * speedup)
             }
             Source::Simulator(s) => s.now(),
+            Source::Vehicles(v) => v.now(),
         }
     }
 
@@ -113,12 +142,15 @@ impl MonotonicClock {
         match &self.source {
             Source::Wall { speedup, .. } => *speedup,
             Source::Simulator(s) => s.achieved().or(s.ceiling()).unwrap_or(1.0),
+            Source::Vehicles(v) => v.rate(),
         }
     }
 
     /// The wall-clock duration until this clock reaches `t` (zero if already past). Following
     /// a simulator, a lower bound (the simulator never runs faster than its ceiling; without
-    /// one, at most [`SimTime::MAX_WAIT`]): a caller that wakes before `t` sleeps again.
+    /// one, at most [`SimTime::MAX_WAIT`]); reading the vehicles' time, at their current
+    /// rate and at most [`VehicleTime::MAX_WAIT`]: a caller that wakes before `t` sleeps
+    /// again.
     pub fn wall_until(&self, t: Time) -> Duration {
         let left = t.saturating_since(self.now());
         match &self.source {
@@ -129,6 +161,7 @@ impl MonotonicClock {
                     .div_f64(s.achieved().unwrap_or(1.0).max(1.0))
                     .min(SimTime::MAX_WAIT),
             },
+            Source::Vehicles(v) => left.div_f64(v.rate()).min(VehicleTime::MAX_WAIT),
         }
     }
 
@@ -145,6 +178,10 @@ impl MonotonicClock {
             Source::Simulator(s) => {
                 let before = (s.started_unix_ms() as f64 - epoch_unix_ms as f64) / 1000.0;
                 s.now().as_secs_f64() + before * s.ceiling().unwrap_or(1.0)
+            }
+            Source::Vehicles(v) => {
+                let before = (v.started_unix_ms as f64 - epoch_unix_ms as f64) / 1000.0;
+                v.now().as_secs_f64() + before * v.rate()
             }
         }
     }
@@ -223,6 +260,70 @@ impl SimTime {
     }
 }
 
+/// The vehicles' time as the messages they send tell it, for a process that hears them but
+/// does not run them (`fleetmap relay --clock vehicle` beside SITL or `fleetmap sim`): the
+/// shell side of [`VehicleClock`], which it feeds with the wall time of each report. Cheap
+/// to clone (shared).
+#[derive(Clone, Debug)]
+pub struct VehicleTime {
+    inner: Arc<Mutex<VehicleClock>>,
+    start: Instant,
+    started_unix_ms: u64,
+}
+
+impl Default for VehicleTime {
+    fn default() -> Self {
+        VehicleTime::new()
+    }
+}
+
+impl VehicleTime {
+    /// Longest sleep of a clock reading the vehicles' time: the rate it sleeps at may
+    /// change with the next report.
+    pub const MAX_WAIT: Duration = Duration::from_millis(250);
+
+    /// The vehicles' time, at 0 now, counting wall time until a vehicle is heard.
+    pub fn new() -> VehicleTime {
+        VehicleTime {
+            inner: Arc::new(Mutex::new(VehicleClock::new())),
+            start: Instant::now(),
+            started_unix_ms: unix_ms(),
+        }
+    }
+
+    fn wall(&self) -> Time {
+        Time::from_micros(u64::try_from(self.start.elapsed().as_micros()).unwrap_or(u64::MAX))
+    }
+
+    fn lock(&self) -> std::sync::MutexGuard<'_, VehicleClock> {
+        // the estimator is left consistent by every call, so a panic elsewhere cannot
+        // poison what it holds
+        self.inner.lock().unwrap_or_else(|e| e.into_inner())
+    }
+
+    /// System `system` says `boot` has passed since it booted (a `time_boot_ms`), now.
+    pub fn observe(&self, system: u8, boot: Duration) {
+        let wall = self.wall();
+        self.lock().observe(system, boot, wall);
+    }
+
+    /// The vehicles' time now.
+    pub fn now(&self) -> Time {
+        let wall = self.wall();
+        self.lock().now(wall)
+    }
+
+    /// Vehicle seconds per wall second now (1 until measured).
+    pub fn rate(&self) -> f64 {
+        self.lock().rate()
+    }
+
+    /// Whether any vehicle has sent a time yet.
+    pub fn heard(&self) -> bool {
+        self.lock().heard()
+    }
+}
+
 impl Default for MonotonicClock {
     fn default() -> Self {
         Self::new()
@@ -236,4 +337,35 @@ impl Default for MonotonicClock {
 pub fn stopwatch() -> impl Fn() -> f64 {
     let start = std::time::Instant::now();
     move || start.elapsed().as_secs_f64()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// On tokio's paused clock: wall time until a vehicle is heard, then the vehicle's time
+    /// and rate, and `wall_until` turns a vehicle-time deadline into a wall sleep at that
+    /// rate (at most `VehicleTime::MAX_WAIT`).
+    #[tokio::test(start_paused = true)]
+    async fn a_clock_on_the_vehicles_time() {
+        let vt = VehicleTime::new();
+        let clock = MonotonicClock::vehicles(&vt);
+        assert!(clock.vehicle_time().is_some() && clock.simulator().is_none());
+        tokio::time::advance(Duration::from_secs(1)).await;
+        assert_eq!(clock.now(), Time::from_secs(1));
+        assert!(!vt.heard());
+        for k in 0..=20u64 {
+            vt.observe(1, Duration::from_millis(100_000 + k * 500));
+            tokio::time::advance(Duration::from_millis(100)).await;
+        }
+        assert!(vt.heard());
+        assert!((clock.speedup() - 5.0).abs() < 0.01, "{}", clock.speedup());
+        // 2 s of wall at 5× since the first report, and 100 ms past the last
+        let now = clock.now().as_secs_f64();
+        assert!((now - 11.5).abs() < 0.01, "{now}");
+        let t = clock.now() + Duration::from_millis(500);
+        assert_eq!(clock.wall_until(t), Duration::from_millis(100));
+        let far = clock.now() + Duration::from_secs(60);
+        assert_eq!(clock.wall_until(far), VehicleTime::MAX_WAIT);
+    }
 }

@@ -9,7 +9,10 @@
 //! * [`transport`] — one tokio task per link (UDP in/out, TCP client/server, serial).
 //! * [`faults`] — seeded loss, duplication, reordering, latency, corruption and blackouts
 //!   of whole frames (pure), used by the simulator's links and by [`relay`].
-//! * [`relay`] — a frame relay between two links with those faults (`fleetmap relay`).
+//! * [`radio`] — a SiK telemetry radio pair (pure): a byte budget on the air shared by both
+//!   directions or one each way, a buffer in each radio, loss on the air, RADIO_STATUS.
+//! * [`relay`] — a frame relay between two links through a radio pair and those faults
+//!   (`fleetmap relay`), on the wall clock, a simulator's or the vehicles' own time.
 //! * [`tlog`] — `.tlog` recording and reading.
 //!
 //! Routing by (sysid, compid) is done in two steps: the fleet (`crate::fleet`) picks the
@@ -20,6 +23,7 @@ mod addr;
 pub mod codec;
 pub mod faults;
 pub mod peers;
+pub mod radio;
 pub mod relay;
 pub mod signing;
 pub mod tlog;
