@@ -68,7 +68,10 @@
 //! learned route; PX4: target 0 reaches every forwarding instance that has seen a
 //! component), and the request reaches every camera here once per autopilot. Each camera is
 //! offered it; only the one holding a picture of the size it names answers, once
-//! ([`SimCamera::handle_handshake_request`]).
+//! ([`SimCamera::handle_handshake_request`]). The runway run's grid announcement
+//! (DEBUG_FLOAT_ARRAY `"fm.grid"`, [`fleetmap_core::vision::onboard_runway`]) is untargeted
+//! too: every camera classifying runway pictures takes it and answers with its status
+//! ([`SimCamera::handle_gcs_message`]).
 
 // CAMERA_FEEDBACK and CAMERA_TRIGGER are ArduPilot / legacy messages.
 #![allow(deprecated)]
@@ -363,9 +366,10 @@ impl PairedCameras {
             ),
             // A request to send a picture again (no target: see the module documentation):
             // the camera holding a picture of that size answers, the others ignore it.
-            MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => {
+            // The runway run's grid, untargeted too: every camera takes it.
+            MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) | MavMessage::DEBUG_FLOAT_ARRAY(_) => {
                 for t in self.tracked.values_mut() {
-                    t.camera.handle_handshake_request(h.size);
+                    t.camera.handle_gcs_message(msg);
                 }
                 return;
             }

@@ -218,7 +218,13 @@ impl RunwaySpec {
     /// or parameters, an image smaller than 3 × 3.
     pub fn measure(&self, img: &RgbImage, pose: &ShutterPose) -> Result<RunwayResult, VisionError> {
         let cut = self.cut(pose)?;
-        let o = orthophoto(img, &self.camera, &cut.attitude, cut.altitude_m, &cut.request)?;
+        let o = orthophoto(
+            img,
+            &self.camera,
+            &cut.attitude,
+            cut.altitude_m,
+            &cut.request,
+        )?;
         let counts = analyse(&o.image, &self.params)?;
         Ok(RunwayResult {
             cell: cut.cell,
@@ -561,16 +567,14 @@ mod tests {
     }
 
     fn scene(seed: u64, angle: f64) -> RgbImage {
-        render_runway(
-            &RunwayScene::grass(96, 96, seed).with_runway(RunwayStrip {
-                angle_deg: angle,
-                offset_px: 8.0,
-                width_px: 30.0,
-                length_px: None,
-                along_px: 0.0,
-                markings: false,
-            }),
-        )
+        render_runway(&RunwayScene::grass(96, 96, seed).with_runway(RunwayStrip {
+            angle_deg: angle,
+            offset_px: 8.0,
+            width_px: 30.0,
+            length_px: None,
+            along_px: 0.0,
+            markings: false,
+        }))
     }
 
     #[test]
@@ -640,9 +644,15 @@ mod tests {
         let cut = s.cut(&pose).unwrap();
         assert_eq!(cut.cell, Cell::new(2, -1));
         let (ce, cn) = cut.request.centre_east_north_m;
-        assert!((ce + 1.3).abs() < 1e-6 && (cn - 0.6).abs() < 1e-6, "{ce} {cn}");
+        assert!(
+            (ce + 1.3).abs() < 1e-6 && (cn - 0.6).abs() < 1e-6,
+            "{ce} {cn}"
+        );
         // no attitude: no cut
-        let none = ShutterPose { q: [0.0; 4], ..pose };
+        let none = ShutterPose {
+            q: [0.0; 4],
+            ..pose
+        };
         assert!(s.cut(&none).is_err());
         assert!(s.measure(&scene(1, 0.0), &none).is_err());
     }
@@ -678,7 +688,11 @@ mod tests {
         for (i, bad) in [(1, f32::NAN), (0, 2.0), (7, 1.5), (12, 32.0), (3, 1e9)] {
             let mut d = good.clone();
             d.data[i] = bad;
-            assert_eq!(RunwayMeasurement::from_message(&d), None, "data[{i}] = {bad}");
+            assert_eq!(
+                RunwayMeasurement::from_message(&d),
+                None,
+                "data[{i}] = {bad}"
+            );
         }
         // more black pixels than the region holds, or labels the counts do not give
         let mut too_many = m;
