@@ -98,3 +98,78 @@ impl SimCamera {
         })
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fleetmap_core::geo::{Grid, LatLon};
+    use fleetmap_core::vision::camera::CameraModel;
+    use fleetmap_core::vision::onboard_runway::RunwaySpec;
+    use fleetmap_core::vision::runway::RunwayParams;
+
+    pub(crate) fn runway_config() -> CameraConfig {
+        CameraConfig {
+            onboard: Some(OnboardSpec::Runway(RunwayDefinition {
+                params: RunwayParams::default(),
+                camera: CameraModel::paper(),
+                cell_m: 4.0,
+                grid: None,
+            })),
+            ..CameraConfig::default()
+        }
+    }
+
+    fn statuses(cam: &mut SimCamera) -> Vec<u32> {
+        std::iter::from_fn(|| cam.poll_transmit())
+            .filter_map(|m| match m {
+                MavMessage::DEBUG_FLOAT_ARRAY(d) => RunwayMeasurement::from_message(&d),
+                _ => None,
+            })
+            .map(|m| {
+                assert!(m.is_status());
+                m.spec
+            })
+            .collect()
+    }
+
+    /// Without a grid the camera says so every ten seconds of its clock; the GCS's grid
+    /// makes it answer with the definition's fingerprint and go quiet; a reboot forgets it.
+    #[test]
+    fn a_camera_without_the_grid_says_so_until_it_is_announced() {
+        let mut cam = SimCamera::new(1, runway_config(), 1);
+        assert_eq!(cam.runway_fingerprint(), None);
+        cam.advance(Time::from_secs(1));
+        assert_eq!(statuses(&mut cam), vec![0]);
+        cam.advance(Time::from_secs(10));
+        assert_eq!(statuses(&mut cam), Vec::<u32>::new());
+        cam.advance(Time::from_secs(11));
+        assert_eq!(statuses(&mut cam), vec![0]);
+        let spec = RunwaySpec {
+            params: RunwayParams::default(),
+            camera: CameraModel::paper(),
+            grid: Grid::new(LatLon::new(-35.36, 149.16), 4.0).unwrap(),
+        };
+        // another array, or a grid with a broken layout: nothing
+        let mut other = spec.announcement().to_message();
+        if let MavMessage::DEBUG_FLOAT_ARRAY(d) = &mut other {
+            d.data[14] = 61.0;
+        }
+        cam.handle_gcs_message(&other);
+        assert_eq!(cam.runway_fingerprint(), None);
+        cam.handle_gcs_message(&spec.announcement().to_message());
+        assert_eq!(cam.runway_fingerprint(), Some(spec.fingerprint()));
+        assert_eq!(statuses(&mut cam), vec![spec.fingerprint()]);
+        cam.advance(Time::from_secs(40));
+        assert_eq!(statuses(&mut cam), Vec::<u32>::new());
+        cam.reboot();
+        assert_eq!(cam.runway_fingerprint(), None);
+        cam.advance(Time::from_secs(41));
+        assert_eq!(statuses(&mut cam), vec![0]);
+        // a camera that does not classify runway pictures ignores the grid and says nothing
+        let mut plain = SimCamera::new(2, CameraConfig::default(), 1);
+        plain.handle_gcs_message(&spec.announcement().to_message());
+        plain.advance(Time::from_secs(1));
+        assert_eq!(plain.runway_fingerprint(), None);
+        assert!(plain.poll_transmit().is_none());
+    }
+}
