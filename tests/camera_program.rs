@@ -206,15 +206,24 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
     let root = env!("CARGO_MANIFEST_DIR");
     let mission = format!("{root}/missions/runway-field-test.toml");
     let world_file = format!("{root}/assets/worlds/runway.toml");
-    let OnboardSpec::Runway(def) = fleetmap::cli::camera::onboard_spec(Path::new(&mission)).unwrap()
+    let OnboardSpec::Runway(def) =
+        fleetmap::cli::camera::onboard_spec(Path::new(&mission)).unwrap()
     else {
         panic!("a runway mission classifies runway pictures")
     };
-    assert!(def.grid.is_none(), "the field test's grid starts at the vehicle");
+    assert!(
+        def.grid.is_none(),
+        "the field test's grid starts at the vehicle"
+    );
     let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
-    let link = open_link(0, "udpin:127.0.0.1:0".parse().unwrap(), &LinkOptions::default(), ev_tx)
-        .await
-        .unwrap();
+    let link = open_link(
+        0,
+        "udpin:127.0.0.1:0".parse().unwrap(),
+        &LinkOptions::default(),
+        ev_tx,
+    )
+    .await
+    .unwrap();
     let gcs_addr = link.local.unwrap();
     let cam_port = free_udp_port();
     let cam_addr: SocketAddr = format!("127.0.0.1:{cam_port}").parse().unwrap();
@@ -277,7 +286,9 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
     }));
     fleet.takeoff(1, 12.0).await.unwrap();
     fleet
-        .wait_until(1, Duration::from_secs(120), |v| v.alt_rel.is_some_and(|a| a > 11.5))
+        .wait_until(1, Duration::from_secs(120), |v| {
+            v.alt_rel.is_some_and(|a| a > 11.5)
+        })
         .await
         .expect("at 12 m");
     let mut got = Vec::new();
@@ -285,7 +296,11 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
     fleet.send(start_capture(3.0)).await.unwrap();
     let mut last_ask = tokio::time::Instant::now();
     while got.len() < 3 {
-        assert!(tokio::time::Instant::now() < deadline, "{} of 3 results in 60 s", got.len());
+        assert!(
+            tokio::time::Instant::now() < deadline,
+            "{} of 3 results in 60 s",
+            got.len()
+        );
         match tokio::time::timeout(Duration::from_millis(500), rx.recv()).await {
             Ok(Ok(img)) => got.push(img),
             Ok(Err(e)) => panic!("image hub: {e}"),

@@ -750,3 +750,43 @@ impl Pilot {
         Ok(())
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fleetmap_core::explore::dfs::Sharing;
+
+    /// The definition a camera reads from the mission file, completed by the grid the GCS
+    /// announces (or with the file's fixed origin), is the run's own: the same fingerprint.
+    /// A moving region's run accepts none; another kind of mission gives none.
+    #[test]
+    fn the_cameras_definition_is_the_runs() {
+        let def = MissionDef::parse(crate::app::demo::RUNWAY_MISSION, "field").unwrap();
+        let home = LatLon {
+            lat: 37.1965,
+            lon: -80.5785,
+        };
+        let state = MappingState::new(&def, Grid::new(home, 4.0).unwrap(), Sharing::Gcs).unwrap();
+        let spec = runway_spec(&state).unwrap();
+        let mut d = runway_definition_of(&def).unwrap();
+        assert!(d.grid.is_none());
+        assert_eq!(d.adopt(&spec.announcement()), spec.fingerprint());
+        assert_eq!(d.spec(), Some(spec));
+        // a fixed origin: the camera has the grid from the file
+        let fixed = crate::app::demo::RUNWAY_MISSION.replacen(
+            "\norigin = \"vehicle\"",
+            "\norigin = { lat = 37.1965, lon = -80.5785 }",
+            1,
+        );
+        let def = MissionDef::parse(&fixed, "fixed").unwrap();
+        let state = MappingState::new(&def, Grid::new(home, 4.0).unwrap(), Sharing::Gcs).unwrap();
+        let d = runway_definition_of(&def).unwrap();
+        assert_eq!(d.spec(), runway_spec(&state));
+        // a region that moves: its pictures stay on the picture path
+        let plume = MissionDef::parse(crate::app::demo::PLUME_MISSION, "plume").unwrap();
+        let state = MappingState::new(&plume, Grid::new(home, 4.0).unwrap(), Sharing::Gcs).unwrap();
+        assert_eq!(runway_spec(&state), None);
+        let bandit = MissionDef::parse(crate::app::bandit_sim::HARDWARE_MISSION, "6x6").unwrap();
+        assert_eq!(runway_definition_of(&bandit), None);
+    }
+}

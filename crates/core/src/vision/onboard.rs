@@ -38,6 +38,7 @@
 use crate::vision::camera::CameraModel;
 use crate::vision::crop::crop_to_cell;
 use crate::vision::green::{GreenParams, green_fraction};
+use crate::vision::onboard_runway::fingerprint24;
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -113,16 +114,6 @@ impl GreenSpec {
         bytes.extend_from_slice(&self.crop_fraction.to_bits().to_le_bytes());
         fingerprint24(&bytes)
     }
-}
-
-/// FNV-1a over `bytes`, folded to 24 bits so that a 32-bit float holds it exactly: the
-/// fingerprints of both on-board definitions ([`GreenSpec::fingerprint`],
-/// [`crate::vision::onboard_runway::RunwaySpec::fingerprint`]).
-pub(crate) fn fingerprint24(bytes: &[u8]) -> u32 {
-    let h = bytes.iter().fold(0x811c_9dc5_u32, |h, &b| {
-        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
-    });
-    (h >> 24) ^ (h & 0x00ff_ffff)
 }
 
 /// What a camera that measures on board is given: the definition of one mission's

@@ -76,7 +76,6 @@
 use super::VisionError;
 use super::camera::CameraModel;
 use super::geometry::{OrthoRequest, attitude_of_quaternion, orthophoto};
-use super::onboard::fingerprint24;
 use super::regions::{RegionCounts, RegionGrid};
 use super::runway::{
     Classification, NeighbourLabels, RunwayParams, analyse, classification_from_counts,
@@ -98,6 +97,16 @@ const FORMAT_VERSION: f32 = 1.0;
 pub const STATUS_PERIOD_S: f64 = 10.0;
 /// Largest whole number a 32-bit float holds exactly with all smaller ones: 2²⁴.
 const EXACT_MAX: f32 = 16_777_216.0;
+
+/// FNV-1a over `bytes`, folded to 24 bits so that a 32-bit float holds it exactly: the
+/// fingerprints of both on-board definitions ([`crate::vision::onboard::GreenSpec::fingerprint`],
+/// [`RunwaySpec::fingerprint`]).
+pub(crate) fn fingerprint24(bytes: &[u8]) -> u32 {
+    let h = bytes.iter().fold(0x811c_9dc5_u32, |h, &b| {
+        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+    });
+    (h >> 24) ^ (h & 0x00ff_ffff)
+}
 
 /// Where and how a picture was taken, as CAMERA_IMAGE_CAPTURED carries it: the numbers both
 /// the camera and the GCS compute the cut from.
