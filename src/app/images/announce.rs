@@ -11,7 +11,7 @@
 //! sends another fingerprint (a camera restarted with its vehicle, which says it has no grid)
 //! is announced to again at once (at most once per [`MIN_GAP`]), with a fresh budget of
 //! repeats. A camera that never answers (one that does not classify on board) costs the
-//! link [`REPEATS`] frames of 96 bytes per start, no more.
+//! link [`REPEATS`] frames of at most 96 bytes per start, no more.
 
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::onboard_runway::RunwaySpec;

@@ -61,7 +61,7 @@
 //! longitude and `data[10..14]` the cell size — each the 64 bits of an `f64`, 16 bits per
 //! float, most significant first, so the camera's grid is bit for bit the GCS's —,
 //! `data[14]` the UTM zone, `data[15]` the hemisphere (0 north, 1 south); 96 bytes on the
-//! wire. A camera answers each one with a status carrying the fingerprint it now measures
+//! wire, 92 north of the equator (the trailing 0 is truncated). A camera answers each one with a status carrying the fingerprint it now measures
 //! with, which tells the GCS it can stop repeating it.
 //!
 //! Why DEBUG_FLOAT_ARRAY, as for the green share ([`crate::vision::onboard`]): it is in
