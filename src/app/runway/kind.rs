@@ -227,7 +227,8 @@ impl RunKind for Runway {
         let o = &r.onboard;
         if o.cell_pictures + o.sweep_pictures + o.audits > 0 {
             lines.push(format!(
-                "  classified on board: {} cell pictures, {} sweep pictures; {} audited                  ({} agreed, {} disagreed, {} without a picture)",
+                "  classified on board: {} cell pictures, {} sweep pictures; {} audited ({} agreed, \
+                 {} disagreed, {} without a picture)",
                 o.cell_pictures,
                 o.sweep_pictures,
                 o.audits,
