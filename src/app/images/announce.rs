@@ -7,11 +7,15 @@
 //! `"fm.grid"`, without a target: the autopilots forward it to their companion ports) when
 //! the run starts, and again every [`REPEAT`] while a camera of the run has not confirmed it,
 //! at most [`REPEATS`] times in a row. A camera confirms by sending anything runway-related
-//! with that fingerprint — its answer to the announcement, or a picture's result; one that
-//! sends another fingerprint (a camera restarted with its vehicle, which says it has no grid)
-//! is announced to again at once (at most once per [`MIN_GAP`]), with a fresh budget of
-//! repeats. A camera that never answers (one that does not classify on board) costs the
-//! link [`REPEATS`] frames of at most 96 bytes per start, no more.
+//! with that fingerprint — its answer to the announcement, or a picture's result. A camera
+//! of the run that says it has no grid (fingerprint 0: restarted with its vehicle) is
+//! announced to again at once (at most once per [`MIN_GAP`]) with a fresh budget of repeats;
+//! one that sends another fingerprint (an older grid, or another definition: it answers an
+//! announcement with it when its classifier or camera differ from the run's) is announced to
+//! again within what is left of the budget, so that a camera that cannot agree is not
+//! answered forever. A camera that never answers (one that does not classify on board)
+//! costs the link [`REPEATS`] frames of at most 96 bytes per start, no more; cameras of
+//! vehicles not in the run are not listened to.
 
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::onboard_runway::RunwaySpec;
@@ -77,14 +81,23 @@ impl Announcer {
         self.confirmed.contains(&sysid)
     }
 
-    /// The camera of vehicle `sysid` said at `now` that it classifies with fingerprint `spec`.
+    /// The camera of vehicle `sysid` said at `now` that it classifies with fingerprint `spec`
+    /// (0: it has no grid).
     pub(crate) fn heard(&mut self, sysid: u8, spec: u32, now: Time) {
+        if !self.accept.cameras.contains(&sysid) {
+            return;
+        }
         if spec == self.fingerprint {
             self.confirmed.insert(sysid);
             return;
         }
         self.confirmed.remove(&sysid);
-        self.left = REPEATS;
+        if spec == 0 {
+            self.left = REPEATS;
+        }
+        if self.left == 0 {
+            return;
+        }
         let soonest = self.last.map_or(now, |t| (t + MIN_GAP).max(now));
         self.next = Some(self.next.map_or(soonest, |n| n.min(soonest)));
     }
@@ -169,5 +182,18 @@ mod tests {
         let mut b = Announcer::new(accept(), Time::ZERO);
         assert_eq!(run(&mut b, 0, 100_000).len() as u32, REPEATS);
         assert_eq!(b.sent, u64::from(REPEATS));
+        // one that answers every announcement with another definition: within the budget
+        let mut c = Announcer::new(accept(), Time::ZERO);
+        let mut sent = 0;
+        for ms in (0..100_000u64).step_by(100) {
+            if c.handle_timeout(Time::from_millis(ms)).is_some() {
+                sent += 1;
+                c.heard(1, 12_345, Time::from_millis(ms + 50));
+            }
+        }
+        assert_eq!(sent, REPEATS);
+        // a vehicle that is not in the run is not listened to
+        c.heard(9, 0, Time::from_secs(200));
+        assert_eq!(c.poll_timeout(), None);
     }
 }
