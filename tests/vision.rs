@@ -614,3 +614,76 @@ fn onboard_measurement_round_trips_through_a_mavlink_frame() {
     assert!(m.is_of(1_234_567, 70_000));
     assert!(!m.is_of(1_234_567, 70_001));
 }
+
+/// A runway result and the grid announcement ([`fleetmap_core::vision::onboard_runway`])
+/// through the GCS's MAVLink codec: at most 84 bytes for a result (fewer when its last
+/// numbers are zeros: a picture of grass), 92 for a grid north of the equator, both decoded
+/// back to what was sent.
+#[test]
+fn onboard_runway_messages_round_trip_through_mavlink_frames() {
+    use fleetmap_core::geo::{Cell, Grid, LatLon};
+    use fleetmap_core::vision::onboard_runway::{
+        GridAnnouncement, OnboardRegions, RunwayMeasurement, RunwaySpec,
+    };
+    use fleetmap_core::vision::runway::NeighbourLabels;
+    use mavlink::dialects::ardupilotmega::MavMessage;
+    let decode = |m: &MavMessage| {
+        let mut codec = fleetmap_io::link::codec::Codec::new();
+        let buf = codec.encode(1, 100, m, 0);
+        let frames = codec.decode(&buf, 0);
+        let Ok(MavMessage::DEBUG_FLOAT_ARRAY(d)) = &frames[0].message else {
+            panic!("{frames:?}")
+        };
+        (buf.len(), d.clone())
+    };
+    let m = RunwayMeasurement {
+        time_boot_ms: 2_345_678,
+        image_index_lo: 65_535,
+        spec: 0x00ab_cdef,
+        picture_bytes: 71_234,
+        regions: Some(OnboardRegions {
+            cell: Cell::new(-31, 12),
+            size: (480, 480),
+            black: [25_600, 0, 17, 12_000, 3],
+            labels: NeighbourLabels {
+                center: true,
+                south: true,
+                ..NeighbourLabels::default()
+            },
+        }),
+    };
+    let (len, d) = decode(&m.to_message());
+    assert_eq!(len, 84, "12 bytes of framing and 72 of payload");
+    assert_eq!(RunwayMeasurement::from_message(&d), Some(m));
+    // grass: no black pixel, no label — the zeros at the end are not sent
+    let grass = RunwayMeasurement {
+        regions: Some(OnboardRegions {
+            black: [0; 5],
+            labels: NeighbourLabels::default(),
+            ..m.regions.unwrap()
+        }),
+        ..m
+    };
+    let (len, d) = decode(&grass.to_message());
+    assert_eq!(len, 60);
+    assert_eq!(RunwayMeasurement::from_message(&d), Some(grass));
+    let spec = RunwaySpec {
+        params: RunwayParams::default(),
+        camera: CameraModel::paper(),
+        grid: Grid::new(LatLon::new(37.1965120, -80.5783029), 4.0).unwrap(),
+    };
+    let a = spec.announcement();
+    let (len, d) = decode(&a.to_message());
+    assert_eq!(len, 92);
+    assert_eq!(GridAnnouncement::from_message(&d), Some(a));
+    let south = RunwaySpec {
+        grid: Grid::new(LatLon::new(-35.363261, 149.165230), 4.0).unwrap(),
+        ..spec
+    };
+    let (len, d) = decode(&south.announcement().to_message());
+    assert_eq!(len, 96);
+    assert_eq!(
+        GridAnnouncement::from_message(&d).map(|g| g.grid),
+        Some(south.grid.clone())
+    );
+}

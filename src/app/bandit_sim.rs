@@ -81,7 +81,9 @@ pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> Result<SimConf
             c.model.width_px = setup.camera_px.max(8);
             c.model.height_px = setup.camera_px.max(8);
             c.misclassify_probability = setup.sensor_flip;
-            c.onboard = setup.onboard;
+            c.onboard = setup
+                .onboard
+                .map(fleetmap_core::vision::onboard::OnboardSpec::Green);
         }
     }
     Ok(sc)

@@ -41,6 +41,10 @@ pub struct DemoConfig {
     pub swap_after_s: f64,
     /// Altitude separation between drones, metres (0: all at 12 m).
     pub altitude_separation_m: f64,
+    /// Cameras that classify runway pictures on board with this definition (the mission's:
+    /// [`crate::app::runway::runway_definition_of`]) and send each picture's cell and region
+    /// counts instead of the picture; `None`: every picture is sent whole.
+    pub onboard: Option<fleetmap_core::vision::onboard_runway::RunwayDefinition>,
 }
 
 impl Default for DemoConfig {
@@ -52,6 +56,7 @@ impl Default for DemoConfig {
             battery_minutes: 12.0,
             swap_after_s: 30.0,
             altitude_separation_m: 0.0,
+            onboard: None,
         }
     }
 }
@@ -184,6 +189,12 @@ fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> Result<SimConfig, S
             v.battery.minutes = cfg.battery_minutes;
         }
         v.swap_after_s = Some(cfg.swap_after_s);
+        if let Some(c) = v.camera.as_mut() {
+            c.onboard = cfg
+                .onboard
+                .clone()
+                .map(fleetmap_core::vision::onboard::OnboardSpec::Runway);
+        }
     }
     Ok(sc)
 }

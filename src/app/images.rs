@@ -20,6 +20,16 @@
 //! [`ReceivedImage`] without bytes; otherwise the intake asks the camera for the picture (a
 //! DATA_TRANSMISSION_HANDSHAKE naming its size) and the picture is delivered when it arrives.
 //!
+//! **Runway pictures classified on board** ([`fleetmap_core::vision::onboard_runway`]): a
+//! camera given the runway mission sends each picture's cell and five region counts
+//! (DEBUG_FLOAT_ARRAY `"fm.rwy"`) and keeps the picture. A run that accepts them
+//! ([`ImageHub::accept_runway`]) announces its grid to the cameras until each confirms it
+//! ([`announce`]), delivers the results made with its definition as [`ReceivedImage`]s
+//! without bytes ([`ReceivedImage::runway`]), and asks for the picture of any other (a camera
+//! without the grid, or with another definition). A runner may ask for a picture it has the
+//! result of ([`ImageHub::ask_picture`], an audit): it comes back to the one who asked, never
+//! on the stream.
+//!
 //! **Pose** ([`CapturePose`]): where the camera says it took the picture. CAMERA_IMAGE_CAPTURED
 //! (the camera protocol's record of the shutter: lat, lon, relative_alt, attitude `q`) is
 //! remembered by its capture name, and an image that arrives by image transmission carrying
@@ -28,7 +38,6 @@
 //! whole pose when no message was heard. The runners check this pose before a picture counts
 //! ([`fleetmap_core::vision::sanity`]).
 
-use crate::fleet::{FleetHandle, Incoming};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::image_transfer::{
     FileUrlError, ImageEvent, ImageReceiver, ReceiverConfig, request_image,
@@ -36,12 +45,16 @@ use fleetmap_core::proto::image_transfer::{
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::meta::{ImageMeta, read_meta};
 use fleetmap_core::vision::onboard::OnboardMeasurement;
-use fleetmap_io::files::read_file_url;
+use fleetmap_core::vision::onboard_runway::RunwayMeasurement;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
-use std::time::Duration;
-use tokio::sync::{broadcast, watch};
+
+pub(crate) mod announce;
+mod hub;
+use self::announce::Announcer;
+pub use self::announce::RunwayAccept;
+pub use self::hub::{ImageHub, image_hub, spawn};
 
 /// An image that did not arrive, and why: what the intake logs (its `Display` is the log
 /// line) and what [`Intake::failures`] holds.
@@ -128,6 +141,9 @@ pub struct ReceivedImage {
     /// The camera's own measurement of the picture, with a definition the run accepts
     /// ([`ImageHub::accept_onboard`]).
     pub onboard: Option<OnboardMeasurement>,
+    /// The camera's runway classification of the picture, with the definition the run
+    /// accepts ([`ImageHub::accept_runway`]).
+    pub runway: Option<RunwayMeasurement>,
     /// The capture pose, when the camera told it.
     pub pose: Option<CapturePose>,
     /// When it was complete, on the fleet's clock.
@@ -138,6 +154,33 @@ pub struct ReceivedImage {
 
 /// A capture counted as delivered: (system, time_boot_ms, image_index).
 type CaptureKey = (u8, u32, i32);
+
+/// A camera's on-board message about one picture: the green share or the runway regions.
+#[derive(Clone, Copy, Debug, PartialEq)]
+enum Measured {
+    Green(OnboardMeasurement),
+    Runway(RunwayMeasurement),
+}
+
+impl Measured {
+    fn is_of(&self, time_boot_ms: u32, image_index: i32) -> bool {
+        match self {
+            Measured::Green(m) => m.is_of(time_boot_ms, image_index),
+            Measured::Runway(m) => m.is_of(time_boot_ms, image_index),
+        }
+    }
+
+    fn picture_bytes(&self) -> u32 {
+        match self {
+            Measured::Green(m) => m.picture_bytes,
+            Measured::Runway(m) => m.picture_bytes,
+        }
+    }
+}
+
+/// Pictures asked for by [`Intake::want_picture`] and not arrived, at most this many (the
+/// oldest is forgotten).
+const WANTED_KEPT: usize = 32;
 
 /// CAMERA_IMAGE_CAPTURED records kept for images still in transfer: a few hundred captures
 /// (ten drones' batches of ten images, several times over).
@@ -204,10 +247,17 @@ pub struct Intake {
     /// transmission, whose JPEG metadata names the capture), at most [`CAPTURED_KEPT`].
     captured: VecDeque<(CaptureKey, CapturePose)>,
     /// On-board measurements whose CAMERA_IMAGE_CAPTURED has not arrived: (camera, measurement).
-    measured: VecDeque<(Endpoint, OnboardMeasurement)>,
+    measured: VecDeque<(Endpoint, Measured)>,
     /// The fingerprint of the on-board measurement definition the run uses (`None`: none;
     /// every on-board measurement is then replaced by its picture).
     accept: Option<u32>,
+    /// The runway definition the run accepts, and the announcements of its grid (`None`:
+    /// every runway result is replaced by its picture).
+    runway: Option<Announcer>,
+    /// Pictures asked for whose results were delivered: (system, time_boot_ms, image_index).
+    wanted: VecDeque<CaptureKey>,
+    /// Pictures asked for that arrived.
+    asked: VecDeque<(CaptureKey, ReceivedImage)>,
     /// Requests for pictures to send to cameras.
     requests: VecDeque<(Endpoint, MavMessage)>,
     /// Files named by CAMERA_IMAGE_CAPTURED, to read ([`Intake::poll_file_read`]).
@@ -234,6 +284,9 @@ impl Intake {
             captured: VecDeque::new(),
             measured: VecDeque::new(),
             accept: None,
+            runway: None,
+            wanted: VecDeque::new(),
+            asked: VecDeque::new(),
             requests: VecDeque::new(),
             reads: VecDeque::new(),
             out: VecDeque::new(),
@@ -247,30 +300,75 @@ impl Intake {
         self.accept = spec;
     }
 
+    /// Use the cameras' runway results made with `accept`'s definition, announcing its grid
+    /// to them from `now` on ([`announce`]); `None`: ask for the picture of every runway
+    /// result.
+    pub fn accept_runway(&mut self, accept: Option<RunwayAccept>, now: Time) {
+        self.runway = accept.map(|a| Announcer::new(a, now));
+    }
+
+    /// Whether the camera of vehicle `sysid` confirmed the accepted runway definition.
+    pub fn runway_confirmed(&self, sysid: u8) -> bool {
+        self.runway.as_ref().is_some_and(|a| a.is_confirmed(sysid))
+    }
+
+    /// Ask the camera of vehicle `sysid` for the picture of `size` bytes it took at
+    /// `time_boot_ms` as `image_index` (one whose on-board result was delivered): it is
+    /// given back by [`Intake::poll_asked`], not as a received image.
+    pub fn want_picture(&mut self, sysid: u8, time_boot_ms: u32, image_index: i32, size: u32) {
+        let key = (sysid, time_boot_ms, image_index);
+        if !self.wanted.contains(&key) {
+            self.wanted.push_back(key);
+            if self.wanted.len() > WANTED_KEPT {
+                self.wanted.pop_front();
+            }
+        }
+        let cam = Endpoint::new(sysid, fleetmap_core::proto::CAMERA_COMPID);
+        self.requests.push_back((cam, request_image(size, 0, 0)));
+    }
+
+    /// The next picture asked for with [`Intake::want_picture`] that arrived.
+    pub fn poll_asked(&mut self) -> Option<((u8, u32, i32), ReceivedImage)> {
+        self.asked.pop_front()
+    }
+
     /// An on-board measurement `m` from camera `cam` whose capture's pose is `pose`: delivered
     /// when its definition is the accepted one, else the picture is asked for.
-    fn measured(&mut self, cam: Endpoint, m: OnboardMeasurement, pose: CapturePose, now: Time) {
+    fn measured(&mut self, cam: Endpoint, m: Measured, pose: CapturePose, now: Time) {
         let key = (cam.sysid, pose.time_boot_ms, pose.image_index);
         if self.delivered.contains(&key) {
             return;
         }
-        if self.accept == Some(m.spec) {
+        let (onboard, runway) = match m {
+            Measured::Green(g) => (Some(g).filter(|g| self.accept == Some(g.spec)), None),
+            Measured::Runway(r) => {
+                let ok = r.regions.is_some()
+                    && self
+                        .runway
+                        .as_ref()
+                        .is_some_and(|a| a.fingerprint == r.spec);
+                (None, Some(r).filter(|_| ok))
+            }
+        };
+        if onboard.is_some() || runway.is_some() {
             self.seen(key);
             self.out.push_back(ReceivedImage {
                 sysid: cam.sysid,
                 bytes: Arc::new(Vec::new()),
-                onboard: Some(m),
+                onboard,
+                runway,
                 pose: Some(pose),
                 received: now,
                 source: "on board".into(),
             });
             return;
         }
-        // Measured with another definition: measure the picture here. It arrives by image
-        // transmission with the capture's name in its metadata, and takes this pose.
+        // Measured with another definition (or not at all): measure the picture here. It
+        // arrives by image transmission with the capture's name in its metadata, and takes
+        // this pose.
         self.remember_pose(key, pose);
         self.requests
-            .push_back((cam, request_image(m.picture_bytes, 0, 0)));
+            .push_back((cam, request_image(m.picture_bytes(), 0, 0)));
     }
 
     fn remember_pose(&mut self, key: CaptureKey, pose: CapturePose) {
@@ -305,7 +403,17 @@ impl Intake {
                 self.drain(from, now);
             }
             MavMessage::DEBUG_FLOAT_ARRAY(d) => {
-                let Some(m) = OnboardMeasurement::from_message(d) else {
+                let m = if let Some(g) = OnboardMeasurement::from_message(d) {
+                    Measured::Green(g)
+                } else if let Some(r) = RunwayMeasurement::from_message(d) {
+                    if let Some(a) = self.runway.as_mut() {
+                        a.heard(from.sysid, r.spec, now);
+                    }
+                    if r.is_status() {
+                        return;
+                    }
+                    Measured::Runway(r)
+                } else {
                     return;
                 };
                 let pose = self
@@ -393,6 +501,7 @@ impl Intake {
                     sysid: key.0,
                     bytes: Arc::new(bytes),
                     onboard: None,
+                    runway: None,
                     pose: Some(pose),
                     received: heard,
                     source: url,
@@ -415,8 +524,29 @@ impl Intake {
         for ev in done {
             match ev {
                 ImageEvent::Image { jpeg, meta, .. } => {
-                    if let Some(m) = &meta
-                        && self.seen((cam.sysid, m.time_boot_ms, m.image_index))
+                    let key = meta
+                        .as_ref()
+                        .map(|m| (cam.sysid, m.time_boot_ms, m.image_index));
+                    if let Some(i) = key.and_then(|k| self.wanted.iter().position(|w| *w == k))
+                        && let (Some(key), Some(m)) = (self.wanted.remove(i), &meta)
+                    {
+                        // asked for by a runner that has its result: back to it alone
+                        self.asked.push_back((
+                            key,
+                            ReceivedImage {
+                                sysid: cam.sysid,
+                                bytes: Arc::new(jpeg),
+                                onboard: None,
+                                runway: None,
+                                pose: Some(pose_of_meta(m)),
+                                received: now,
+                                source: "mavlink (asked for)".into(),
+                            },
+                        ));
+                        continue;
+                    }
+                    if let Some(k) = key
+                        && self.seen(k)
                     {
                         continue;
                     }
@@ -432,6 +562,7 @@ impl Intake {
                         sysid: cam.sysid,
                         bytes: Arc::new(jpeg),
                         onboard: None,
+                        runway: None,
                         pose,
                         received: now,
                         source: "mavlink".into(),
@@ -456,11 +587,16 @@ impl Intake {
         self.receivers
             .values()
             .filter_map(ImageReceiver::poll_timeout)
+            .chain(self.runway.as_ref().and_then(Announcer::poll_timeout))
             .min()
     }
 
-    /// Run the receivers' timers.
+    /// Run the receivers' timers, and announce the runway grid when it is due.
     pub fn handle_timeout(&mut self, now: Time) {
+        if let Some(m) = self.runway.as_mut().and_then(|a| a.handle_timeout(now)) {
+            // untargeted: every camera behind every link hears it
+            self.requests.push_back((Endpoint::new(0, 0), m));
+        }
         let cams: Vec<Endpoint> = self.receivers.keys().copied().collect();
         for cam in cams {
             if let Some(rx) = self.receivers.get_mut(&cam) {
@@ -487,120 +623,6 @@ impl Intake {
     pub fn poll_image(&mut self) -> Option<ReceivedImage> {
         self.out.pop_front()
     }
-}
-
-/// A running image intake: subscribe to get every image from now on.
-#[derive(Clone, Debug)]
-pub struct ImageHub {
-    tx: broadcast::Sender<Arc<ReceivedImage>>,
-    accept: Arc<watch::Sender<Option<u32>>>,
-}
-
-impl ImageHub {
-    /// Images received from now on.
-    pub fn subscribe(&self) -> broadcast::Receiver<Arc<ReceivedImage>> {
-        self.tx.subscribe()
-    }
-
-    /// Use the cameras' on-board measurements made with the definition of fingerprint `spec`
-    /// ([`fleetmap_core::vision::onboard::GreenSpec::fingerprint`]); `None` (the start): ask for the
-    /// picture of every on-board measurement.
-    pub fn accept_onboard(&self, spec: Option<u32>) {
-        self.accept.send_replace(spec);
-    }
-}
-
-/// Start the intake on `fleet`'s received frames; it runs until the fleet stops. Images that
-/// do not arrive ([`ImageFailure`]) are logged (warnings); the runners count the pictures
-/// they miss themselves. Files are read on tokio's blocking pool, one at a time, in the order
-/// their messages came.
-pub fn spawn(fleet: &FleetHandle) -> ImageHub {
-    spawn_with(fleet, ReceiverConfig::default())
-}
-
-/// [`spawn`] with the image receivers' configuration.
-pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
-    let (tx, _) = broadcast::channel(256);
-    let (accept, mut accepted) = watch::channel(None);
-    let hub = ImageHub {
-        tx: tx.clone(),
-        accept: Arc::new(accept),
-    };
-    let mut frames = fleet.subscribe();
-    let fleet = fleet.clone();
-    tokio::spawn(async move {
-        let gcs = fleet.config().gcs;
-        let mut intake = Intake::with_config(gcs, config);
-        loop {
-            let wait = intake
-                .poll_timeout()
-                .map(|t| fleet.clock().wall_until(t))
-                .unwrap_or(Duration::from_secs(1));
-            tokio::select! {
-                r = frames.recv() => match r {
-                    Ok(Incoming { frame, .. }) => {
-                        if let Ok(msg) = &frame.message {
-                            intake.handle_message(
-                                Endpoint::new(frame.sysid(), frame.compid()),
-                                msg,
-                                fleet.clock().now(),
-                            );
-                        }
-                    }
-                    Err(broadcast::error::RecvError::Lagged(n)) => {
-                        tracing::warn!("image intake fell behind: {n} frames skipped");
-                    }
-                    Err(broadcast::error::RecvError::Closed) => return,
-                },
-                _ = tokio::time::sleep(wait) => intake.handle_timeout(fleet.clock().now()),
-                Ok(()) = accepted.changed() => intake.accept_onboard(*accepted.borrow_and_update()),
-            }
-            while let Some(read) = intake.poll_file_read() {
-                let url = read.url.clone();
-                let bytes =
-                    tokio::task::spawn_blocking(move || read_file_url(&url, MAX_IMAGE_FILE))
-                        .await
-                        .unwrap_or_else(|e| {
-                            Err(FileUrlError::Io {
-                                path: read.url.clone(),
-                                source: std::io::Error::other(e),
-                            })
-                        });
-                intake.file_read(read, bytes);
-            }
-            while let Some((cam, msg)) = intake.poll_transmit() {
-                tracing::debug!(
-                    "asking camera {}/{} to send its image again",
-                    cam.sysid,
-                    cam.compid
-                );
-                if fleet.send(msg).await.is_err() {
-                    return;
-                }
-            }
-            while let Some(img) = intake.poll_image() {
-                let _ = tx.send(Arc::new(img));
-            }
-            while let Some(f) = intake.failures.pop_front() {
-                tracing::warn!("{f}");
-            }
-        }
-    });
-    hub
-}
-
-/// The image intake for a run: its receivers wait 300 ms of *wall* time for missing packets
-/// whatever the fleet clock's speed-up (B images per visit arrive in bursts).
-pub fn image_hub(fleet: &FleetHandle) -> ImageHub {
-    let k = fleet.clock().speedup().clamp(1.0, 100.0);
-    let d = fleetmap_core::proto::image_transfer::ReceiverConfig::default();
-    spawn_with(
-        fleet,
-        fleetmap_core::proto::image_transfer::ReceiverConfig {
-            idle: d.idle.mul_f64(k),
-            ..d
-        },
-    )
 }
 
 #[cfg(test)]
@@ -691,5 +713,168 @@ mod tests {
             assert_eq!(pose_of_captured(c).q, None);
             assert_eq!(pose_of_captured(c).heading_deg, None);
         }
+    }
+
+    /// A camera given the runway field test (grid origin: the first vehicle's home) and the
+    /// GCS's intake, message by message: before it knows the grid the camera announces its
+    /// picture unclassified and keeps it, and the intake asks for it; the grid the intake
+    /// announces makes the camera confirm and classify; its result is delivered without a
+    /// picture; a picture asked for as an audit comes back to the asker only, and the GCS's
+    /// classification of it is the camera's bit for bit.
+    #[test]
+    fn runway_results_replace_pictures_once_the_camera_has_the_grid() {
+        use fleetmap_core::geo::{Grid, LatLon};
+        use fleetmap_core::vision::camera::CameraModel;
+        use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
+        use fleetmap_core::vision::onboard::OnboardSpec;
+        use fleetmap_core::vision::onboard_runway::{
+            OnboardRegions, RunwayDefinition, RunwaySpec, ShutterPose,
+        };
+        use fleetmap_core::vision::runway::RunwayParams;
+        use fleetmap_sim::camera::{CameraConfig, CaptureContext, SimCamera};
+        use fleetmap_sim::render::CameraPose;
+        let world = fleetmap_core::world::World::from_toml(crate::app::demo::RUNWAY_WORLD).unwrap();
+        let model = CameraModel {
+            width_px: 120,
+            height_px: 120,
+            ..CameraModel::paper()
+        };
+        let spec = RunwaySpec {
+            params: RunwayParams::default(),
+            camera: model,
+            grid: Grid::new(LatLon::new(37.1966, -80.5783), 4.0).unwrap(),
+        };
+        let mut cam = SimCamera::new(
+            1,
+            CameraConfig {
+                model,
+                min_interval_s: 0.0,
+                onboard: Some(OnboardSpec::Runway(RunwayDefinition {
+                    params: spec.params,
+                    camera: model,
+                    cell_m: 4.0,
+                    grid: None,
+                })),
+                ..CameraConfig::default()
+            },
+            7,
+        );
+        let from = Endpoint::new(1, 100);
+        let mut intake = Intake::new(Endpoint::gcs());
+        let t0 = Time::from_secs(10);
+        intake.accept_runway(
+            Some(RunwayAccept {
+                spec: spec.clone(),
+                cameras: vec![1],
+            }),
+            t0,
+        );
+        // over the runway's edge, a little tilted
+        let shot = |cam: &mut SimCamera, k: u32| {
+            let p = spec.grid.from_xy(20.3, 12.6).unwrap();
+            let now = t0 + std::time::Duration::from_secs(u64::from(k));
+            let ctx = CaptureContext {
+                true_pose: CameraPose {
+                    lat: p.lat,
+                    lon: p.lon,
+                    alt_agl_m: 12.0,
+                    heading_deg: 58.0,
+                    roll_deg: 2.0,
+                    pitch_deg: -1.5,
+                },
+                reported: (p.lat, p.lon, 12.0),
+                alt_amsl_m: 612.0,
+                time_boot_ms: 1_000 * k,
+                now,
+                world_t_s: now.as_secs_f64(),
+            };
+            cam.capture_now(&ctx, Some(&world));
+            cam.advance(now);
+            std::iter::from_fn(|| cam.poll_transmit()).collect::<Vec<_>>()
+        };
+        let feed = |intake: &mut Intake, msgs: &[MavMessage], k: u64| {
+            for m in msgs {
+                intake.handle_message(from, m, Time::from_secs(10 + k));
+            }
+        };
+        let requests =
+            |intake: &mut Intake| std::iter::from_fn(|| intake.poll_transmit()).collect::<Vec<_>>();
+        // the grid is announced at once (the camera does not hear this one)
+        intake.handle_timeout(t0);
+        let first = requests(&mut intake);
+        assert!(
+            matches!(&first[..], [(_, MavMessage::DEBUG_FLOAT_ARRAY(_))]),
+            "{first:?}"
+        );
+        // no grid: a status and the picture announced unclassified, kept (no transfer)
+        let out = shot(&mut cam, 1);
+        assert!(
+            !out.iter()
+                .any(|m| matches!(m, MavMessage::ENCAPSULATED_DATA(_)))
+        );
+        feed(&mut intake, &out, 1);
+        assert!(intake.poll_image().is_none());
+        assert!(!intake.runway_confirmed(1));
+        let asked = requests(&mut intake);
+        let ask = asked
+            .iter()
+            .find_map(|(_, m)| match m {
+                MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => {
+                    Some(m.clone()).filter(|_| h.size > 0)
+                }
+                _ => None,
+            })
+            .expect("the picture is asked for");
+        cam.handle_gcs_message(&ask);
+        let picture: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();
+        feed(&mut intake, &picture, 1);
+        let img = intake.poll_image().expect("the picture arrives");
+        assert!(img.runway.is_none() && !img.bytes.is_empty());
+        // the camera said it had no grid: announced again (after the minimum gap)
+        intake.handle_timeout(t0 + std::time::Duration::from_secs(2));
+        let again = requests(&mut intake);
+        let grid = again
+            .iter()
+            .find(|(_, m)| matches!(m, MavMessage::DEBUG_FLOAT_ARRAY(_)))
+            .expect("the grid again")
+            .1
+            .clone();
+        cam.handle_gcs_message(&grid);
+        assert_eq!(cam.runway_fingerprint(), Some(spec.fingerprint()));
+        let status: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();
+        feed(&mut intake, &status, 2);
+        assert!(intake.runway_confirmed(1));
+        // classified on board: delivered without the picture, nothing asked
+        let out = shot(&mut cam, 3);
+        feed(&mut intake, &out, 3);
+        let img = intake.poll_image().expect("the result");
+        let m = img.runway.expect("a runway result");
+        assert!(img.bytes.is_empty() && img.onboard.is_none());
+        assert_eq!(img.source, "on board");
+        assert!(requests(&mut intake).is_empty());
+        let pose = img.pose.clone().unwrap();
+        // an audit: the picture comes back to the asker, not on the stream
+        intake.want_picture(1, pose.time_boot_ms, pose.image_index, m.picture_bytes);
+        for (_, r) in requests(&mut intake) {
+            cam.handle_gcs_message(&r);
+        }
+        let picture: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();
+        feed(&mut intake, &picture, 4);
+        assert!(intake.poll_image().is_none());
+        let (key, audit) = intake.poll_asked().expect("the audited picture");
+        assert_eq!(key, (1, pose.time_boot_ms, pose.image_index));
+        let decoded = load_image_bytes(&audit.bytes, &LoadLimits::default()).unwrap();
+        let shutter = ShutterPose {
+            lat_deg: pose.lat,
+            lon_deg: pose.lon,
+            alt_rel_m: pose.alt_rel_m,
+            q: pose.q.unwrap(),
+        };
+        let ours = spec.measure(&decoded, &shutter).unwrap();
+        assert_eq!(OnboardRegions::of(&ours), m.regions);
+        let c = m.classification(&spec.params).unwrap();
+        assert_eq!(c, ours.classification);
+        // the picture straddles the runway's edge: both classes in it
+        assert!(c.counts.black.iter().any(|&b| b > 0), "{c:?}");
     }
 }

@@ -6,9 +6,12 @@
 //! and ATTITUDE, asked for as a GCS asks), and sends CAMERA_IMAGE_CAPTURED.
 //!
 //! With `--mission`, it measures every picture on board with the same vision code as the GCS
-//! (the bandit mission's green share: [`fleetmap_core::vision::onboard`]) and sends the measurement
-//! in a DEBUG_FLOAT_ARRAY instead of the picture, which it keeps and sends when a GCS asks
-//! for it (image transmission's request form). Without, it pushes every picture by MAVLink
+//! and sends the result in a DEBUG_FLOAT_ARRAY instead of the picture, which it keeps and
+//! sends when a GCS asks for it (image transmission's request form, paced to
+//! `--image-rate`): a spatial-classification mission's green share
+//! ([`fleetmap_core::vision::onboard`], 52 bytes) or a runway mission's cell and 3 × 3 regions
+//! ([`fleetmap_core::vision::onboard_runway`], 84 bytes; with `origin = "vehicle"` the grid
+//! comes from the GCS when the run starts). Without, it pushes every picture by MAVLink
 //! image transmission, paced to `--image-rate`.
 //!
 //! Sources: `render` draws the picture from a world file at the reported pose (what
@@ -17,6 +20,7 @@
 
 use anyhow::{Context, bail};
 use clap::Args;
+use fleetmap_core::vision::onboard::OnboardSpec;
 use fleetmap_sim::camera::CameraConfig;
 use fleetmap_sim::paired::PairedCameras;
 use std::path::{Path, PathBuf};
@@ -69,10 +73,12 @@ pub struct CameraArgs {
     /// World file to render (with `--source render`).
     #[arg(long)]
     pub world: Option<PathBuf>,
-    /// Measure every picture on board with this mission file's definition (a
-    /// spatial-classification mission: its green box, camera, cell size) and send the green
-    /// share (DEBUG_FLOAT_ARRAY, 52 bytes) instead of the picture; the picture is sent when
-    /// the GCS asks for it. The GCS uses the measurement when its mission measures the same
+    /// Measure every picture on board with this mission file's definition and send the
+    /// result instead of the picture: a spatial-classification mission's green share (its
+    /// green box, camera, cell size; 52 bytes) or a runway mission's cell and five region
+    /// counts (its threshold, dilations, black fraction, camera and grid; 84 bytes — with
+    /// `origin = "vehicle"` the GCS tells the grid when the run starts). The picture is sent
+    /// when the GCS asks for it. The GCS uses the result when its mission measures the same
     /// way, and asks for the picture otherwise.
     #[arg(long, value_name = "FILE")]
     pub mission: Option<PathBuf>,
@@ -132,21 +138,34 @@ impl SensorArgs {
     }
 }
 
-/// The on-board measurement definition of the mission file at `path`: an error unless it is a
-/// valid spatial-classification mission.
-pub fn onboard_spec(path: &Path) -> anyhow::Result<fleetmap_core::vision::onboard::GreenSpec> {
+/// The on-board measurement definition of the mission file at `path`: a spatial-classification
+/// mission's green share or a runway mission's regions. An error for a file that cannot be
+/// read or is not a valid mission, and for a runway mission whose region moves (its pictures
+/// are credited in the region's frame, which the camera cannot follow: they stay on the
+/// picture path).
+pub fn onboard_spec(path: &Path) -> anyhow::Result<OnboardSpec> {
     let text =
         std::fs::read_to_string(path).with_context(|| format!("cannot read {}", path.display()))?;
     let def =
         fleetmap_core::mission::definition::MissionDef::parse(&text, &path.display().to_string())
             .map_err(|e| anyhow::anyhow!("{e}"))?;
-    crate::app::bandit::green_spec_of(&def).with_context(|| {
-        format!(
-            "{} is a {} mission: only spatial-classification pictures are measured on board",
-            path.display(),
-            def.kind
-        )
-    })
+    if let Some(green) = crate::app::bandit::green_spec_of(&def) {
+        return Ok(OnboardSpec::Green(green));
+    }
+    if def
+        .runway
+        .as_ref()
+        .is_some_and(|r| r.roi_velocity_ne_mps.is_some_and(|v| v != [0.0, 0.0]))
+    {
+        bail!(
+            "{}: the region moves (runway.roi_velocity_ne_mps): its pictures are classified by \
+             the GCS in the region's frame; start the camera without --mission",
+            path.display()
+        );
+    }
+    crate::app::runway::runway_definition_of(&def)
+        .map(OnboardSpec::Runway)
+        .with_context(|| format!("{}: nothing to measure on board", path.display()))
 }
 
 /// Run `fleetmap camera`.

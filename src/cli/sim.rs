@@ -69,8 +69,9 @@ pub struct SimArgs {
     #[arg(long)]
     pub(crate) no_image_transfer: bool,
     /// The cameras measure every picture on board with this mission file's definition (a
-    /// spatial-classification mission) and send the green share instead of the picture, as
-    /// `fleetmap camera --mission` does; the picture is sent when the GCS asks.
+    /// spatial-classification mission's green share, or a runway mission's 3 × 3 regions)
+    /// and send the result instead of the picture, as `fleetmap camera --mission` does; the
+    /// picture is sent when the GCS asks.
     #[arg(long, value_name = "FILE")]
     pub(crate) camera_mission: Option<PathBuf>,
     /// Stop after this many simulated seconds.
@@ -209,7 +210,7 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
             c.model.width_px = args.camera_px;
             c.model.height_px = args.camera_px;
             c.mavlink_transfer = !args.no_image_transfer;
-            c.onboard = onboard;
+            c.onboard = onboard.clone();
             c.file_dir = image_dir.as_ref().map(|d| d.display().to_string());
             c.misclassify_probability = sensor_flip;
         }

@@ -68,7 +68,10 @@
 //! learned route; PX4: target 0 reaches every forwarding instance that has seen a
 //! component), and the request reaches every camera here once per autopilot. Each camera is
 //! offered it; only the one holding a picture of the size it names answers, once
-//! ([`SimCamera::handle_handshake_request`]).
+//! ([`SimCamera::handle_handshake_request`]). The runway run's grid announcement
+//! (DEBUG_FLOAT_ARRAY `"fm.grid"`, [`fleetmap_core::vision::onboard_runway`]) is untargeted
+//! too: every camera classifying runway pictures takes it and answers with its status
+//! ([`SimCamera::handle_gcs_message`]).
 
 // CAMERA_FEEDBACK and CAMERA_TRIGGER are ArduPilot / legacy messages.
 #![allow(deprecated)]
@@ -363,9 +366,10 @@ impl PairedCameras {
             ),
             // A request to send a picture again (no target: see the module documentation):
             // the camera holding a picture of that size answers, the others ignore it.
-            MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => {
+            // The runway run's grid, untargeted too: every camera takes it.
+            MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) | MavMessage::DEBUG_FLOAT_ARRAY(_) => {
                 for t in self.tracked.values_mut() {
-                    t.camera.handle_handshake_request(h.size);
+                    t.camera.handle_gcs_message(msg);
                 }
                 return;
             }
@@ -1033,5 +1037,68 @@ mod tests {
         cams.handle_message(&AP, &position(5_000), Time::from_secs(5));
         cams.step(Time::from_secs(5));
         assert_eq!(std::iter::from_fn(|| cams.poll_image()).count(), 1);
+    }
+
+    /// The GCS's grid announcement reaches every camera classifying runway pictures; each
+    /// answers with its status, from its own vehicle's camera component.
+    #[test]
+    fn every_paired_camera_takes_the_runway_grid() {
+        use fleetmap_core::geo::{Grid, LatLon};
+        use fleetmap_core::vision::onboard::OnboardSpec;
+        use fleetmap_core::vision::onboard_runway::{
+            RunwayDefinition, RunwayMeasurement, RunwaySpec,
+        };
+        use fleetmap_core::vision::runway::RunwayParams;
+        let def = RunwayDefinition {
+            params: RunwayParams::default(),
+            camera: fleetmap_core::vision::camera::CameraModel::paper(),
+            cell_m: 4.0,
+            grid: None,
+        };
+        let cfg = CameraConfig {
+            onboard: Some(OnboardSpec::Runway(def.clone())),
+            ..small()
+        };
+        let mut cams = PairedCameras::new(flat(), cfg, 1);
+        for sysid in [1, 2] {
+            let ap = MavHeader {
+                system_id: sysid,
+                component_id: 1,
+                sequence: 0,
+            };
+            cams.handle_message(
+                &ap,
+                &heartbeat(mav::MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA),
+                Time::from_secs(1),
+            );
+        }
+        cams.step(Time::from_secs(1));
+        let spec = RunwaySpec {
+            params: def.params,
+            camera: def.camera,
+            grid: Grid::new(LatLon::new(37.0, -80.0), 4.0).unwrap(),
+        };
+        let gcs = MavHeader {
+            system_id: 255,
+            component_id: 190,
+            sequence: 0,
+        };
+        let status = |cams: &mut PairedCameras| -> Vec<(u32, u32)> {
+            std::iter::from_fn(|| cams.poll_transmit())
+                .filter_map(|(h, m)| match m {
+                    MavMessage::DEBUG_FLOAT_ARRAY(d) => {
+                        assert_eq!(h.component_id, 100);
+                        RunwayMeasurement::from_message(&d).map(|r| (h.system_id, r.spec))
+                    }
+                    _ => None,
+                })
+                .collect()
+        };
+        // no grid yet: each camera says so
+        assert_eq!(status(&mut cams), vec![(1, 0), (2, 0)]);
+        cams.handle_message(&gcs, &spec.announcement().to_message(), Time::from_secs(2));
+        cams.step(Time::from_secs(2));
+        let fp = spec.fingerprint();
+        assert_eq!(status(&mut cams), vec![(1, fp), (2, fp)]);
     }
 }

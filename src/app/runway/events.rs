@@ -26,6 +26,9 @@ pub enum MappingEvent {
         cell: Cell,
         /// Labels (centre, north, west, south, east).
         labels: [bool; 5],
+        /// Classified by the camera on board (its result, not the picture, crossed the link).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        onboard: bool,
     },
     /// A sweep image showed the region: confirmation of `cell` starts.
     Candidate {
@@ -48,6 +51,30 @@ pub enum MappingEvent {
         fractions: [f64; 5],
         /// Cells whose state changed.
         changed: Vec<(Cell, String)>,
+        /// Classified by the camera on board (its result, not the picture, crossed the link).
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        onboard: bool,
+    },
+    /// A picture classified on board whose vote settled a decision won by one vote was asked
+    /// for and classified by the GCS (an audit of the camera): the comparison.
+    Audit {
+        /// Vehicle.
+        sysid: u8,
+        /// The cell it was taken over.
+        cell: Cell,
+        /// The image's name in the run ([`MappingEvent::Image`]).
+        image_id: String,
+        /// The camera's labels (centre, north, west, south, east).
+        camera: [bool; 5],
+        /// The GCS's labels (`None`: no picture to classify).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        gcs: Option<[bool; 5]>,
+        /// Whether the GCS's classification is the camera's exactly (cell, region counts,
+        /// labels); `None`: the picture did not arrive or could not be read (`reason`).
+        agreed: Option<bool>,
+        /// Why there is no comparison.
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        reason: Option<String>,
     },
     /// The confirmation ended; `root` is where the DFS starts (`None`: back to sweeping).
     Confirmed {

@@ -4,7 +4,12 @@
 use super::*;
 use crate::app::error::CpuError;
 use crate::app::error::RunnerResult;
+use crate::app::images::{CapturePose, RunwayAccept};
+use fleetmap_core::mission::definition::{MissionDef, MissionKind, Origin};
 use fleetmap_core::vision::VisionError;
+use fleetmap_core::vision::onboard_runway::{
+    OnboardRegions, RunwayDefinition, RunwayMeasurement, RunwaySpec, ShutterPose,
+};
 
 pub(super) fn labels5(c: &Classification) -> [bool; 5] {
     let l = c.labels;
@@ -66,6 +71,215 @@ pub(crate) fn classify_cut(
             classify(&o.image, 0.0, params)
         }
     }
+}
+
+/// The on-board definition of the runway mission `def` (what `fleetmap camera --mission`
+/// and the simulated cameras are given): its classifier, camera and cell size, and its grid
+/// when the origin is fixed — with `origin = "vehicle"` the GCS announces it when the run
+/// starts. `None` for another kind of mission.
+pub fn runway_definition_of(def: &MissionDef) -> Option<RunwayDefinition> {
+    let rw = def.runway.as_ref()?;
+    if def.kind != MissionKind::RunwayMapping {
+        return None;
+    }
+    let grid = match def.grid.origin {
+        Origin::Coordinates(p) => Grid::new(
+            LatLon {
+                lat: p.lat,
+                lon: p.lon,
+            },
+            def.grid.cell_size_m,
+        )
+        .ok(),
+        Origin::Vehicle => None,
+    };
+    Some(RunwayDefinition {
+        // as `MappingState::new` reads them
+        params: RunwayParams {
+            intensity_threshold: rw.intensity_threshold,
+            dilation_iterations: rw.dilations,
+            black_fraction_threshold: rw.black_fraction,
+        },
+        camera: def.camera,
+        cell_m: def.grid.cell_size_m,
+        grid,
+    })
+}
+
+/// The definition a run accepts the cameras' on-board results of: its classifier, camera and
+/// grid; `None` for a moving region, whose pictures are credited in the region's frame at
+/// the shutter, which a camera does not follow (they stay on the picture path).
+pub(super) fn runway_spec(s: &MappingState) -> Option<RunwaySpec> {
+    (s.params.motion().speed() == 0.0).then(|| RunwaySpec {
+        params: s.params.runway,
+        camera: s.params.camera,
+        grid: s.grid.clone(),
+    })
+}
+
+/// Longest wait for an audited picture, nominal seconds (a 50 kB picture over a radio that
+/// leaves a kilobyte a second for it, asked again when packets are lost).
+pub(super) const AUDIT_WAIT_S: f64 = 240.0;
+
+/// The run's side of on-board classification: the definition it accepts (announced to the
+/// cameras through the image hub), and the audits in flight.
+pub(super) struct Onboard {
+    hub: ImageHub,
+    spec: Option<RunwaySpec>,
+    /// The audits' tasks (they end with their picture or their wait).
+    pub(super) audits: tokio::sync::Mutex<tokio::task::JoinSet<()>>,
+    /// Vehicles with an audit in flight, and the cells audited.
+    busy: std::sync::Mutex<(HashSet<u8>, HashSet<Cell>)>,
+}
+
+impl Onboard {
+    /// Accept the cameras' results for the run in `state` (its drones' cameras are told the
+    /// grid), through `hub`.
+    pub(super) fn start(hub: &ImageHub, state: &MappingState) -> Onboard {
+        let spec = runway_spec(state);
+        hub.accept_runway(spec.clone().map(|spec| RunwayAccept {
+            spec,
+            cameras: state.robots.iter().map(|r| r.sysid).collect(),
+        }));
+        Onboard {
+            hub: hub.clone(),
+            spec,
+            audits: tokio::sync::Mutex::new(tokio::task::JoinSet::new()),
+            busy: std::sync::Mutex::new((HashSet::new(), HashSet::new())),
+        }
+    }
+
+    /// The end of the runner: audits still waiting for their picture are given up.
+    pub(super) async fn finish(&self) {
+        self.audits.lock().await.shutdown().await;
+    }
+
+    /// Whether a picture of vehicle `sysid` may be audited for a decision about `cell`: none
+    /// of its audits is in flight and `cell` was not audited; if so, it now is.
+    fn may_audit(&self, sysid: u8, cell: Cell) -> bool {
+        let Ok(mut b) = self.busy.lock() else {
+            return false;
+        };
+        if b.0.contains(&sysid) || b.1.contains(&cell) {
+            return false;
+        }
+        b.0.insert(sysid);
+        b.1.insert(cell);
+        true
+    }
+
+    fn audit_done(&self, sysid: u8) {
+        if let Ok(mut b) = self.busy.lock() {
+            b.0.remove(&sysid);
+        }
+    }
+
+    /// The camera's classification `m` of a picture taken at `pose` and the cell it is
+    /// about: the cell the run's grid puts under the pose the picture was announced with
+    /// (what the GCS credits), which must be the camera's. Errors say why it cannot be used.
+    pub(super) fn credited(
+        &self,
+        m: &RunwayMeasurement,
+        pose: Option<&CapturePose>,
+    ) -> Result<(Cell, Classification), String> {
+        let spec = self
+            .spec
+            .as_ref()
+            .ok_or("a result of a definition the run does not use")?;
+        let r = m.regions.ok_or("the camera did not classify the picture")?;
+        let shutter = pose
+            .and_then(shutter_pose)
+            .ok_or("the camera's result has no pose with an attitude")?;
+        let credited = spec.cut(&shutter).map_err(|e| e.to_string())?.cell;
+        if credited != r.cell {
+            return Err(format!(
+                "the camera put its picture in cell {}, the grid puts its position in {credited}",
+                r.cell
+            ));
+        }
+        let c = m.classification(&spec.params).map_err(|e| e.to_string())?;
+        Ok((r.cell, c))
+    }
+
+    /// [`Onboard::credited`] for a picture taken over `cell`: the camera's cell must be
+    /// `cell` (the cell under the camera is the one visited when the picture passed the
+    /// sanity check; otherwise it is taken again).
+    fn classification(
+        &self,
+        m: &RunwayMeasurement,
+        pose: Option<&CapturePose>,
+        cell: Cell,
+    ) -> Result<Classification, PictureFailure> {
+        let (under, c) = self
+            .credited(m, pose)
+            .map_err(|why| PictureFailure::Unreadable(format!("cell {cell}: {why}")))?;
+        if under != cell {
+            return Err(PictureFailure::Rejected(format!(
+                "cell {cell}: the camera classified its picture around cell {under} (the cell \
+                 under it)"
+            )));
+        }
+        Ok(c)
+    }
+}
+
+/// The pose a camera cut its picture by, from what the GCS heard of the capture.
+pub(super) fn shutter_pose(p: &CapturePose) -> Option<ShutterPose> {
+    Some(ShutterPose {
+        lat_deg: p.lat,
+        lon_deg: p.lon,
+        alt_rel_m: p.alt_rel_m,
+        q: p.q?,
+    })
+}
+
+/// An audit: ask for the picture of `img` (classified on board as `m`), wait for it and
+/// classify it with the run's definition. Returns the GCS's labels (centre, north, west,
+/// south, east) and whether its classification is the camera's exactly; an error says why
+/// there is none.
+async fn audit_picture(
+    shared: &Shared,
+    sysid: u8,
+    img: &ReceivedImage,
+    m: &RunwayMeasurement,
+) -> Result<([bool; 5], bool), String> {
+    let spec = shared
+        .onboard
+        .spec
+        .clone()
+        .ok_or("the run accepts no on-board result")?;
+    let pose = img.pose.as_ref().ok_or("the picture has no pose")?;
+    let shutter = shutter_pose(pose).ok_or("the picture has no attitude")?;
+    let mut rx =
+        shared
+            .onboard
+            .hub
+            .ask_picture(sysid, pose.time_boot_ms, pose.image_index, m.picture_bytes);
+    let clock = shared.fleet.clock().clone();
+    let deadline = clock.now() + shared.patience.secs(AUDIT_WAIT_S);
+    let picture = loop {
+        let left = clock.wall_until(deadline);
+        tokio::select! {
+            r = &mut rx => break r.map_err(|_| "the image intake stopped".to_string())?,
+            _ = tokio::time::sleep(left) => {
+                if left.is_zero() || clock.now() >= deadline {
+                    return Err(format!("the picture did not arrive within {AUDIT_WAIT_S:.0} s"));
+                }
+            }
+        }
+    };
+    let bytes = picture.bytes.clone();
+    let r = cpu(move || {
+        let img = load_image_bytes(&bytes, &LoadLimits::default())?;
+        spec.measure(&img, &shutter)
+    })
+    .await
+    .map_err(|e| e.to_string())?
+    .map_err(|e| format!("the picture: {e}"))?;
+    let c = &r.classification;
+    let l = c.labels;
+    let ours = [l.center, l.north, l.west, l.south, l.east];
+    Ok((ours, OnboardRegions::of(&r) == m.regions))
 }
 
 /// Run CPU-heavy work (decoding and classifying an image, a few milliseconds) off the
@@ -279,38 +493,47 @@ impl Pilot {
             let (Some(pose), Some((e, n))) = (pose, xy) else {
                 continue;
             };
-            let cut = match pose.attitude {
-                Some(attitude) => Cut::Ortho {
-                    attitude,
-                    altitude_m: pose.alt_m.unwrap_or(planned),
-                    request: OrthoRequest {
-                        cell_m,
-                        centre_east_north_m: (centre.0 - e, centre.1 - n),
-                        grid_north_deg: grid
-                            .convergence_and_scale(LatLon {
-                                lat: pose.lat,
-                                lon: pose.lon,
-                            })
-                            .map(|(g, _)| g)
-                            .unwrap_or(0.0),
-                    },
-                },
-                None => Cut::Centre {
-                    heading_deg: pose.heading_deg,
-                    altitude_m: planned,
-                },
+            // The camera's own classification when it made one with the run's definition,
+            // else the GCS's of the picture.
+            let onboard = shot.image.runway;
+            let result = match &onboard {
+                Some(m) => self
+                    .shared
+                    .onboard
+                    .classification(m, shot.image.pose.as_ref(), cell),
+                None => {
+                    let cut = match pose.attitude {
+                        Some(attitude) => Cut::Ortho {
+                            attitude,
+                            altitude_m: pose.alt_m.unwrap_or(planned),
+                            request: OrthoRequest {
+                                cell_m,
+                                centre_east_north_m: (centre.0 - e, centre.1 - n),
+                                grid_north_deg: grid
+                                    .convergence_and_scale(LatLon {
+                                        lat: pose.lat,
+                                        lon: pose.lon,
+                                    })
+                                    .map(|(g, _)| g)
+                                    .unwrap_or(0.0),
+                            },
+                        },
+                        None => Cut::Centre {
+                            heading_deg: pose.heading_deg,
+                            altitude_m: planned,
+                        },
+                    };
+                    let bytes = shot.image.bytes.clone();
+                    cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m))
+                        .await?
+                        .map_err(|r| PictureFailure::Unreadable(format!("cell {cell}: {r}")))
+                }
             };
-            let bytes = shot.image.bytes.clone();
-            let result = cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m)).await?;
             let c = match result {
                 Ok(c) => c,
-                Err(reason) => {
+                Err(failure) => {
                     retakes += 1;
-                    let reason = format!("cell {cell}: {reason}");
-                    if self
-                        .picture_failed(cell, retakes, PictureFailure::Unreadable(reason))
-                        .await?
-                    {
+                    if self.picture_failed(cell, retakes, failure).await? {
                         return Ok(false);
                     }
                     continue;
@@ -319,7 +542,9 @@ impl Pilot {
             let now = self.shared.now();
             let (lat, lon, heading) = (pose.lat, pose.lon, pose.heading_deg);
             let alt_m = pose.alt_m.unwrap_or(planned);
-            self.shared
+            let measured = onboard.is_some();
+            let audit = self
+                .shared
                 .commit(|s| {
                     let image_id = s.next_image_id();
                     let det = Detection {
@@ -336,23 +561,95 @@ impl Pilot {
                         fractions: c.fractions,
                         labels: c.labels,
                     };
+                    let decided = s.book.decisions().len();
                     let changed = s
                         .on_cell_image(det)?
                         .into_iter()
                         .map(|u| (u.cell, format!("{:?}", u.to).to_lowercase()))
                         .collect();
+                    // A decision of this visit won by one vote, settled by a picture the
+                    // camera classified: ask for the picture (an audit), if none is asked
+                    // for this vehicle or this cell yet.
+                    let disputed = s.book.decisions()[decided..]
+                        .iter()
+                        .find(|d| d.vehicle == sysid && d.votes_for.abs_diff(d.votes_against) <= 1)
+                        .map(|d| d.cell);
+                    let audit = measured
+                        && disputed.is_some_and(|d| self.shared.onboard.may_audit(sysid, d));
+                    if measured {
+                        s.onboard.cell_pictures += 1;
+                    }
+                    if audit {
+                        s.onboard.audits += 1;
+                    }
                     let ev = MappingEvent::Image {
                         sysid,
-                        image_id,
+                        image_id: image_id.clone(),
                         cell,
                         labels: labels5(&c),
                         fractions: fractions5(&c),
                         changed,
+                        onboard: measured,
+                    };
+                    Ok((audit.then_some(image_id), Some(ev)))
+                })
+                .await?;
+            if let (Some(image_id), Some(m)) = (audit, onboard) {
+                self.audit(cell, image_id, shot.image.clone(), m).await;
+            }
+        }
+    }
+
+    /// Ask for the picture `img` (whose on-board result `m` was counted as `image_id` over
+    /// `cell`), classify it here with the run's definition and journal the comparison
+    /// ([`MappingEvent::Audit`]): in the background, while the vehicle flies on. The picture
+    /// is waited for at most [`AUDIT_WAIT_S`] (scaled by the run's patience).
+    async fn audit(
+        &self,
+        cell: Cell,
+        image_id: String,
+        img: Arc<ReceivedImage>,
+        m: RunwayMeasurement,
+    ) {
+        let (shared, sysid) = (self.shared.clone(), self.sysid);
+        tracing::info!("vehicle {sysid}: asking for picture {image_id} of cell {cell} (audit)");
+        let task = async move {
+            let outcome = audit_picture(&shared, sysid, &img, &m).await;
+            let camera = m.regions.map_or([false; 5], |r| {
+                let l = r.labels;
+                [l.center, l.north, l.west, l.south, l.east]
+            });
+            let (gcs, agreed, reason) = match outcome {
+                Ok((labels, agreed)) => (Some(labels), Some(agreed), None),
+                Err(why) => (None, None, Some(why)),
+            };
+            if agreed == Some(false) {
+                shared.say(
+                    Progress::warning(format!(
+                        "vehicle {sysid}: the GCS classified picture {image_id} of cell {cell} \
+                         otherwise than its camera did on board"
+                    ))
+                    .about(sysid),
+                );
+            }
+            let _ = shared
+                .commit(|s| {
+                    s.on_audit(agreed);
+                    let ev = MappingEvent::Audit {
+                        sysid,
+                        cell,
+                        image_id,
+                        camera,
+                        gcs,
+                        agreed,
+                        reason,
                     };
                     Ok(((), Some(ev)))
                 })
-                .await?;
-        }
+                .await;
+            shared.onboard.audit_done(sysid);
+        };
+        self.shared.onboard.audits.lock().await.spawn(task);
     }
 
     /// A picture of this visit of `cell` did not count (the `retakes`-th): journal why, and
@@ -451,5 +748,45 @@ impl Pilot {
             })
             .await?;
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use fleetmap_core::explore::dfs::Sharing;
+
+    /// The definition a camera reads from the mission file, completed by the grid the GCS
+    /// announces (or with the file's fixed origin), is the run's own: the same fingerprint.
+    /// A moving region's run accepts none; another kind of mission gives none.
+    #[test]
+    fn the_cameras_definition_is_the_runs() {
+        let def = MissionDef::parse(crate::app::demo::RUNWAY_MISSION, "field").unwrap();
+        let home = LatLon {
+            lat: 37.1965,
+            lon: -80.5785,
+        };
+        let state = MappingState::new(&def, Grid::new(home, 4.0).unwrap(), Sharing::Gcs).unwrap();
+        let spec = runway_spec(&state).unwrap();
+        let mut d = runway_definition_of(&def).unwrap();
+        assert!(d.grid.is_none());
+        assert_eq!(d.adopt(&spec.announcement()), spec.fingerprint());
+        assert_eq!(d.spec(), Some(spec));
+        // a fixed origin: the camera has the grid from the file
+        let fixed = crate::app::demo::RUNWAY_MISSION.replacen(
+            "\norigin = \"vehicle\"",
+            "\norigin = { lat = 37.1965, lon = -80.5785 }",
+            1,
+        );
+        let def = MissionDef::parse(&fixed, "fixed").unwrap();
+        let state = MappingState::new(&def, Grid::new(home, 4.0).unwrap(), Sharing::Gcs).unwrap();
+        let d = runway_definition_of(&def).unwrap();
+        assert_eq!(d.spec(), runway_spec(&state));
+        // a region that moves: its pictures stay on the picture path
+        let plume = MissionDef::parse(crate::app::demo::PLUME_MISSION, "plume").unwrap();
+        let state = MappingState::new(&plume, Grid::new(home, 4.0).unwrap(), Sharing::Gcs).unwrap();
+        assert_eq!(runway_spec(&state), None);
+        let bandit = MissionDef::parse(crate::app::bandit_sim::HARDWARE_MISSION, "6x6").unwrap();
+        assert_eq!(runway_definition_of(&bandit), None);
     }
 }

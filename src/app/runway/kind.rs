@@ -224,6 +224,19 @@ impl RunKind for Runway {
             ),
             mission_time_line(&r.mission_time),
         ];
+        let o = &r.onboard;
+        if o.cell_pictures + o.sweep_pictures + o.audits > 0 {
+            lines.push(format!(
+                "  classified on board: {} cell pictures, {} sweep pictures; {} audited ({} agreed, \
+                 {} disagreed, {} without a picture)",
+                o.cell_pictures,
+                o.sweep_pictures,
+                o.audits,
+                o.audits_agreed,
+                o.audits_disagreed,
+                o.audits_lost
+            ));
+        }
         if let Some([n, e]) = r.roi_velocity_ne_mps {
             lines.push(format!(
                 "  region moving at {:.2} m/s (north {n:.2}, east {e:.2}): the map is in its frame \

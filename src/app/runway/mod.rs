@@ -89,6 +89,7 @@ mod runner;
 mod sweep;
 
 pub use self::events::*;
+pub use self::intake::runway_definition_of;
 pub(crate) use self::intake::*;
 pub use self::runner::*;
 
@@ -186,6 +187,8 @@ struct Shared {
     roi: RoiClock,
     /// What each pilot is doing now, for the mission clock's samples (absent: working).
     doing: std::sync::Mutex<HashMap<u8, Activity>>,
+    /// The cameras' on-board classification: the definition accepted, the audits.
+    onboard: Onboard,
 }
 
 /// The region's frame against the fleet clock: a moving region

@@ -16,7 +16,7 @@
 
 use fleetmap_core::explore::dfs::ExplorerConfig;
 use fleetmap_core::explore::dfs::VertexState;
-use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState};
+use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState, OnboardTally};
 use fleetmap_core::geo::{Cell, GeoError, Grid, LatLon};
 use fleetmap_core::vision::votes::CellState;
 use fleetmap_core::world::{Surface, World};
@@ -298,6 +298,10 @@ pub struct MappingReport {
     pub(crate) sweep_images: usize,
     /// Images lost or unreadable.
     pub image_failures: u64,
+    /// Pictures the cameras classified on board (their results crossed the link, not the
+    /// pictures) and the audits of them; absent when there were none.
+    #[serde(skip_serializing_if = "is_none_onboard")]
+    pub onboard: OnboardTally,
     /// Airborne time of all robots, seconds.
     pub flight_time_s: f64,
     /// Distance flown by all robots, metres.
@@ -317,6 +321,10 @@ pub struct MappingReport {
     /// Same as `truth.iou_best_possible`.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub iou_best_possible: Option<f64>,
+}
+
+fn is_none_onboard(t: &OnboardTally) -> bool {
+    *t == OnboardTally::default()
 }
 
 /// The report of `state`, scored against `coverage` (from [`truth_coverage`]) when given.
@@ -436,6 +444,7 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
         detections: state.book.decisions().len(),
         sweep_images: state.sweep_images.len(),
         image_failures: state.image_failures,
+        onboard: state.onboard,
         flight_time_s: robots.iter().map(|r| r.flight_time_s).sum(),
         distance_m: robots.iter().map(|r| r.distance_m).sum(),
         battery_swaps: robots.iter().map(|r| r.battery_swaps).sum(),

@@ -97,6 +97,8 @@ pub async fn run(
     state.restart_clock();
     let (paused, _) = watch::channel(false);
     let interactive = opts.operator.is_some();
+    // Cameras that classify on board with this run's definition send results, not pictures.
+    let onboard = Onboard::start(hub, &state);
     let core = RunCore::new(
         state,
         run_dir,
@@ -122,6 +124,7 @@ pub async fn run(
             .unwrap_or_else(|| CaptureLimits::runway(opts.tolerance_m)),
         roi,
         doing: std::sync::Mutex::new(HashMap::new()),
+        onboard,
     });
     // Saved and journalled before anything moves; also the view's first state.
     let started = MappingEvent::Started {
@@ -219,6 +222,7 @@ pub async fn run(
         }
     }
     background.shutdown().await;
+    shared.onboard.finish().await;
     // Save the final track and times (and the milestones not journalled yet).
     let now = fleet.clock().now();
     shared

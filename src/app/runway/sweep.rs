@@ -334,27 +334,38 @@ impl Pilot {
             return Ok(false);
         };
         let heading = pose.heading_deg;
-        let cut = match (pose.attitude, looked) {
-            (Some(attitude), Some(centre)) => Cut::Ortho {
-                attitude,
-                altitude_m: alt_m,
-                request: OrthoRequest {
-                    cell_m,
-                    centre_east_north_m: centre,
-                    grid_north_deg: gamma,
-                },
-            },
-            _ => Cut::Centre {
-                heading_deg: heading,
-                altitude_m: altitude,
-            },
+        // The camera's own classification when it made one with the run's definition: the
+        // cell under the camera, the orthophoto centred on it. Else the GCS's, of the cell
+        // its optical axis met.
+        let measured = img.runway.is_some();
+        let result = match &img.runway {
+            Some(m) => self.shared.onboard.credited(m, img.pose.as_ref()),
+            None => {
+                let cut = match (pose.attitude, looked) {
+                    (Some(attitude), Some(centre)) => Cut::Ortho {
+                        attitude,
+                        altitude_m: alt_m,
+                        request: OrthoRequest {
+                            cell_m,
+                            centre_east_north_m: centre,
+                            grid_north_deg: gamma,
+                        },
+                    },
+                    _ => Cut::Centre {
+                        heading_deg: heading,
+                        altitude_m: altitude,
+                    },
+                };
+                let bytes = img.bytes.clone();
+                cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m))
+                    .await?
+                    .map(|c| (cell, c))
+                    .map_err(|e| e.to_string())
+            }
         };
-        let bytes = img.bytes.clone();
-        let result = cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m)).await?;
-        let c = match result {
-            Ok(c) => c,
-            Err(e) => {
-                let reason = e.to_string();
+        let (cell, c) = match result {
+            Ok(x) => x,
+            Err(reason) => {
                 self.shared
                     .commit(|s| {
                         s.image_failures += 1;
@@ -370,6 +381,9 @@ impl Pilot {
             .commit(|s| {
                 let image_id = s.next_image_id();
                 let cand = s.on_sweep_image(sysid, cell, heading, c.fractions, c.labels, now)?;
+                if measured {
+                    s.onboard.sweep_pictures += 1;
+                }
                 let ev = match cand {
                     Some(cell) => MappingEvent::Candidate { sysid, cell },
                     None => MappingEvent::SweepImage {
@@ -377,6 +391,7 @@ impl Pilot {
                         image_id,
                         cell,
                         labels: labels5(&c),
+                        onboard: measured,
                     },
                 };
                 Ok((cand, Some(ev)))

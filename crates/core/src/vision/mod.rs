@@ -12,6 +12,7 @@
 //! | [`crop::crop_to_cells`], [`crop::crop_to_cell`] | the centre crops both missions measure (3 × 3 cells; a share of one cell) |
 //! | [`meta::ImageMeta`] | what a capture says about itself, in a JPEG COM segment |
 //! | [`onboard::OnboardMeasurement`] | a green share measured on board, as a DEBUG_FLOAT_ARRAY |
+//! | [`onboard_runway::RunwaySpec`], [`onboard_runway::RunwayMeasurement`] | a runway picture classified on board (cell, five region counts, labels) and the run's grid announced to the cameras, as DEBUG_FLOAT_ARRAYs |
 //! | [`camera::CameraModel`] | footprint and the altitude at which the centre ninth covers one cell |
 //! | [`geometry::orthophoto`], [`geometry::CameraView`] | pinhole camera at the capture attitude (nalgebra): ground ↔ pixel, the 3 × 3 cells resampled north-up |
 //! | [`sanity::check_capture`] | whether a picture was taken where it is credited (position, altitude, tilt, heading) |
@@ -30,6 +31,7 @@ pub mod green;
 pub mod load;
 pub mod meta;
 pub mod onboard;
+pub mod onboard_runway;
 pub mod reference;
 pub mod regions;
 pub mod runway;

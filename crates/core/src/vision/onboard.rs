@@ -38,6 +38,7 @@
 use crate::vision::camera::CameraModel;
 use crate::vision::crop::crop_to_cell;
 use crate::vision::green::{GreenParams, green_fraction};
+use crate::vision::onboard_runway::fingerprint24;
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -111,11 +112,19 @@ impl GreenSpec {
         bytes.extend_from_slice(&self.camera.height_px.to_le_bytes());
         bytes.extend_from_slice(&self.cell_m.to_bits().to_le_bytes());
         bytes.extend_from_slice(&self.crop_fraction.to_bits().to_le_bytes());
-        let h = bytes.iter().fold(0x811c_9dc5_u32, |h, &b| {
-            (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
-        });
-        (h >> 24) ^ (h & 0x00ff_ffff)
+        fingerprint24(&bytes)
     }
+}
+
+/// What a camera that measures on board is given: the definition of one mission's
+/// measurement.
+#[derive(Clone, Debug, PartialEq)]
+pub enum OnboardSpec {
+    /// The spatial-classification mission's green share ([`GreenSpec`], `"fm.green"`).
+    Green(GreenSpec),
+    /// The runway mission's 3 × 3 regions
+    /// ([`crate::vision::onboard_runway::RunwayDefinition`], `"fm.rwy"`).
+    Runway(crate::vision::onboard_runway::RunwayDefinition),
 }
 
 /// A measurement made on board, tied to its picture.

@@ -6,7 +6,7 @@ use super::{FRAME_OVERHEAD, RECENT_IMAGES, SimCamera};
 use crate::render::{CameraPose, Disturbances, render};
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::meta::{ImageMeta, insert_meta};
-use fleetmap_core::vision::onboard::OnboardMeasurement;
+use fleetmap_core::vision::onboard::{OnboardMeasurement, OnboardSpec};
 use fleetmap_core::world::World;
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
@@ -192,13 +192,12 @@ impl SimCamera {
             self.sysid, self.boot, index
         );
         let mut jpeg = None;
-        let mut measured = None;
+        let mut green = None;
         if let Some(img) = img {
             // measured at the altitude the capture message reports, as the GCS would
-            measured = self
-                .config
-                .onboard
-                .map(|spec| (spec.fingerprint(), spec.measure(img, ctx.reported.2)));
+            if let Some(OnboardSpec::Green(spec)) = &self.config.onboard {
+                green = Some((spec.fingerprint(), spec.measure(img, ctx.reported.2)));
+            }
             let mut raw = Vec::new();
             let ok = image::codecs::jpeg::JpegEncoder::new_with_quality(
                 &mut raw,
@@ -219,27 +218,26 @@ impl SimCamera {
             ctx.true_pose.pitch_deg,
             ctx.true_pose.heading_deg,
         );
-        self.outbox.push_back(MavMessage::CAMERA_IMAGE_CAPTURED(
-            mav::CAMERA_IMAGE_CAPTURED_DATA {
-                time_utc: 0,
-                time_boot_ms: ctx.time_boot_ms,
-                lat: (ctx.reported.0 * 1e7).round() as i32,
-                lon: (ctx.reported.1 * 1e7).round() as i32,
-                alt: (ctx.alt_amsl_m * 1000.0).round() as i32,
-                relative_alt: (ctx.reported.2 * 1000.0).round() as i32,
-                q,
-                image_index: index,
-                camera_id: 0,
-                capture_result: if jpeg.is_some() {
-                    mav::MavBool::MAV_BOOL_TRUE
-                } else {
-                    mav::MavBool::MAV_BOOL_FALSE
-                },
-                file_url: url.as_str().into(),
+        let captured = mav::CAMERA_IMAGE_CAPTURED_DATA {
+            time_utc: 0,
+            time_boot_ms: ctx.time_boot_ms,
+            lat: (ctx.reported.0 * 1e7).round() as i32,
+            lon: (ctx.reported.1 * 1e7).round() as i32,
+            alt: (ctx.alt_amsl_m * 1000.0).round() as i32,
+            relative_alt: (ctx.reported.2 * 1000.0).round() as i32,
+            q,
+            image_index: index,
+            camera_id: 0,
+            capture_result: if jpeg.is_some() {
+                mav::MavBool::MAV_BOOL_TRUE
+            } else {
+                mav::MavBool::MAV_BOOL_FALSE
             },
-        ));
-        if let (Some(j), Some((spec, value))) = (&jpeg, measured) {
-            self.outbox.push_back(
+            file_url: url.as_str().into(),
+        };
+        // the result goes right after the capture's announcement, which carries its pose
+        let result = match (&jpeg, green) {
+            (Some(j), Some((spec, value))) => Some(
                 OnboardMeasurement {
                     time_boot_ms: ctx.time_boot_ms,
                     image_index_lo: index as u16,
@@ -248,10 +246,16 @@ impl SimCamera {
                     value,
                 }
                 .to_message(),
-            );
-        }
+            ),
+            (Some(j), None) => self.runway_result(j, &captured).map(|m| m.to_message()),
+            (None, _) => None,
+        };
+        let measured = result.is_some();
+        self.outbox
+            .push_back(MavMessage::CAMERA_IMAGE_CAPTURED(captured));
+        self.outbox.extend(result);
         if let Some(j) = &jpeg {
-            if self.config.mavlink_transfer && measured.is_none() {
+            if self.config.mavlink_transfer && !measured {
                 // The announcement just sent counts against the image's pacing: the
                 // handshake does not follow it back to back.
                 if let Some(p) = self.pacer.as_mut() {

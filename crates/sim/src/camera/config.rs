@@ -2,7 +2,7 @@
 //! measurement), capture interval, transfer pacing, a degraded sensor, an outside source.
 
 use fleetmap_core::vision::camera::CameraModel;
-use fleetmap_core::vision::onboard::GreenSpec;
+use fleetmap_core::vision::onboard::OnboardSpec;
 // named in the documentation only
 #[cfg(doc)]
 use super::{RECENT_IMAGES, Shot, SimCamera};
@@ -39,12 +39,15 @@ pub struct CameraConfig {
     /// negative or a non-finite value: no image is flipped. Other surfaces are drawn as they
     /// are.
     pub misclassify_probability: f64,
-    /// Measure every picture on board with this definition and send the measurement
-    /// (DEBUG_FLOAT_ARRAY, [`fleetmap_core::vision::onboard`]) after CAMERA_IMAGE_CAPTURED instead
-    /// of pushing the picture: the picture is kept ([`RECENT_IMAGES`]) and sent when a GCS
-    /// asks for it. `None` (the default): no measurement, pictures pushed as
+    /// Measure every picture on board with this definition and send the result
+    /// (DEBUG_FLOAT_ARRAY after CAMERA_IMAGE_CAPTURED) instead of pushing the picture: the
+    /// bandit mission's green share ([`fleetmap_core::vision::onboard`], `"fm.green"`) or the
+    /// runway mission's 3 × 3 regions ([`fleetmap_core::vision::onboard_runway`], `"fm.rwy"`;
+    /// a definition without a grid waits for the GCS's announcement, and announces its
+    /// pictures unclassified meanwhile). The picture is kept ([`RECENT_IMAGES`]) and sent when
+    /// a GCS asks for it. `None` (the default): no measurement, pictures pushed as
     /// `mavlink_transfer` says.
-    pub onboard: Option<GreenSpec>,
+    pub onboard: Option<OnboardSpec>,
     /// The pictures come from outside (a real camera's folder, a video device) instead of
     /// the renderer: a capture becomes a [`Shot`] the shell takes with
     /// [`SimCamera::poll_shot`] and completes with [`SimCamera::deliver`].

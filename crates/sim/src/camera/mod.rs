@@ -45,6 +45,13 @@
 //!   GCS counts every packet after an announcement for the image announced). Queued behind
 //!   minutes of pictures, it came after the GCS had given up.
 //!
+//! Measured on board ([`CameraConfig::onboard`]): the picture is announced, its result sent
+//! right after (the bandit mission's green share, or the runway mission's cell and 3 × 3
+//! region counts, classified on the decoded JPEG the camera would send) and the picture kept
+//! for a GCS that asks. A runway camera without the grid (a mission whose origin is the first
+//! vehicle's home) takes it from the GCS's announcement and says it has none meanwhile
+//! ([`onboard`]); it forgets it when it reboots with its vehicle.
+//!
 //! A degraded sensor ([`CameraConfig::misclassify_probability`]): each image, independently
 //! and with that probability, shows the bandit field's green tiles as grey and its grey
 //! tiles as green, as the bandit paper's degraded-sensor run (§V) added 5 % classification
@@ -53,12 +60,15 @@
 
 mod capture;
 mod config;
+mod onboard;
 mod pacer;
 mod transfer;
 mod trigger;
 
+use self::onboard::runway_of;
 use self::pacer::Pacer;
 use fleetmap_core::time::Time;
+use fleetmap_core::vision::onboard_runway::RunwayDefinition;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::VecDeque;
@@ -113,6 +123,11 @@ pub struct SimCamera {
     images: VecDeque<CapturedImage>,
     /// Shots waiting for their picture from outside ([`CameraConfig::external`]).
     shots: VecDeque<Shot>,
+    /// The runway definition the camera classifies with, its grid once known
+    /// ([`CameraConfig::onboard`]; the grid the GCS announced replaces the mission file's).
+    runway: Option<RunwayDefinition>,
+    /// When the camera last said it has no grid (on its clock).
+    last_status: Option<Time>,
 }
 
 impl SimCamera {
@@ -142,6 +157,8 @@ impl SimCamera {
                 .map(Pacer::new),
             images: VecDeque::new(),
             shots: VecDeque::new(),
+            runway: runway_of(&config),
+            last_status: None,
             config,
         }
     }
@@ -169,6 +186,9 @@ impl SimCamera {
         self.resending = false;
         self.in_flight = None;
         self.shots.clear();
+        // a companion computer powered by the vehicle's battery forgets the announced grid
+        self.runway = runway_of(&self.config);
+        self.last_status = None;
     }
 
     #[cfg(test)]

@@ -56,6 +56,7 @@ impl SimCamera {
         if let Some(p) = self.pacer.as_mut() {
             p.refill(now, backlog);
         }
+        self.status_tick(now);
         self.release();
     }
 

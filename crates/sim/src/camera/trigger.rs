@@ -102,6 +102,7 @@ impl SimCamera {
                 self.capture(ctx, world);
             }
         }
+        self.status_tick(ctx.now);
         self.release();
     }
 }

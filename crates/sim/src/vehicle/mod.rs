@@ -635,9 +635,10 @@ impl SimVehicle {
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) if p.target_system == self.cfg.sysid => {
                 self.position_target(p, now);
             }
-            MavMessage::DATA_TRANSMISSION_HANDSHAKE(h) => {
+            // a request for a picture, or the runway run's grid: the camera's
+            MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) | MavMessage::DEBUG_FLOAT_ARRAY(_) => {
                 if let Some(c) = self.camera.as_mut() {
-                    c.handle_handshake_request(h.size);
+                    c.handle_gcs_message(msg);
                 }
             }
             _ => {}

@@ -24,11 +24,13 @@
 
 mod battery;
 mod cells;
+mod onboard;
 mod sweep;
 mod times;
 mod vehicle;
 
 pub use self::battery::BatteryRules;
+pub use self::onboard::OnboardTally;
 pub use self::times::{
     Activity, CLOCK_SAMPLE_S, Milestone, MilestoneKind, MissionClock, RobotTimes, Share, Wait,
     WaitTimes,
@@ -400,6 +402,9 @@ pub struct MappingState {
     /// runs saved before it was measured.
     #[serde(default)]
     pub clock: MissionClock,
+    /// Pictures the cameras classified on board and their audits (zeros before).
+    #[serde(default)]
+    pub onboard: OnboardTally,
 }
 
 /// Convert the mission's sweep box to the grid's local frame.
@@ -535,6 +540,7 @@ impl MappingState {
             updated: None,
             roi_epoch_unix_ms: None,
             clock: MissionClock::default(),
+            onboard: OnboardTally::default(),
         })
     }
 

@@ -1,0 +1,197 @@
+//! The image intake's task (async shell): the fleet's frames into an [`Intake`], its
+//! requests out through the fleet, its images onto a broadcast stream, and what the runners
+//! ask of it ([`ImageHub`]).
+
+use super::{Intake, MAX_IMAGE_FILE, ReceivedImage, RunwayAccept};
+use crate::fleet::{FleetHandle, Incoming};
+use fleetmap_core::proto::Endpoint;
+use fleetmap_core::proto::image_transfer::{FileUrlError, ReceiverConfig};
+use fleetmap_io::files::read_file_url;
+use mavlink::dialects::ardupilotmega::MavMessage;
+use std::sync::Arc;
+use std::time::Duration;
+use tokio::sync::{broadcast, mpsc, oneshot, watch};
+
+/// A runner's request for a picture whose on-board result it has ([`ImageHub::ask_picture`]).
+#[derive(Debug)]
+struct Ask {
+    /// (system, time_boot_ms, image_index) of the capture.
+    key: (u8, u32, i32),
+    /// Its size, bytes.
+    size: u32,
+    /// Where the picture goes.
+    reply: oneshot::Sender<Arc<ReceivedImage>>,
+}
+
+/// A running image intake: subscribe to get every image from now on.
+#[derive(Clone, Debug)]
+pub struct ImageHub {
+    tx: broadcast::Sender<Arc<ReceivedImage>>,
+    accept: Arc<watch::Sender<Option<u32>>>,
+    runway: Arc<watch::Sender<Option<RunwayAccept>>>,
+    asks: mpsc::UnboundedSender<Ask>,
+}
+
+impl ImageHub {
+    /// Images received from now on.
+    pub fn subscribe(&self) -> broadcast::Receiver<Arc<ReceivedImage>> {
+        self.tx.subscribe()
+    }
+
+    /// Use the cameras' on-board measurements made with the definition of fingerprint `spec`
+    /// ([`fleetmap_core::vision::onboard::GreenSpec::fingerprint`]); `None` (the start): ask for the
+    /// picture of every on-board measurement.
+    pub fn accept_onboard(&self, spec: Option<u32>) {
+        self.accept.send_replace(spec);
+    }
+
+    /// Use the cameras' runway results made with `accept`'s definition and announce its grid
+    /// to `accept.cameras` until they confirm it ([`super::announce`]); `None` (the start):
+    /// ask for the picture of every runway result.
+    pub fn accept_runway(&self, accept: Option<RunwayAccept>) {
+        self.runway.send_replace(accept);
+    }
+
+    /// Ask vehicle `sysid`'s camera for the picture of `size` bytes it took at
+    /// `time_boot_ms` as `image_index`, whose on-board result was delivered: the picture
+    /// comes back here (with the pose its metadata gives) and not on the stream of received
+    /// images. The receiver is closed when the intake stops; the caller decides how long to
+    /// wait (the camera may have dropped the picture).
+    pub fn ask_picture(
+        &self,
+        sysid: u8,
+        time_boot_ms: u32,
+        image_index: i32,
+        size: u32,
+    ) -> oneshot::Receiver<Arc<ReceivedImage>> {
+        let (reply, rx) = oneshot::channel();
+        let _ = self.asks.send(Ask {
+            key: (sysid, time_boot_ms, image_index),
+            size,
+            reply,
+        });
+        rx
+    }
+}
+
+/// Start the intake on `fleet`'s received frames; it runs until the fleet stops. Images that
+/// do not arrive ([`super::ImageFailure`]) are logged (warnings); the runners count the
+/// pictures they miss themselves. Files are read on tokio's blocking pool, one at a time, in
+/// the order their messages came.
+pub fn spawn(fleet: &FleetHandle) -> ImageHub {
+    spawn_with(fleet, ReceiverConfig::default())
+}
+
+/// [`spawn`] with the image receivers' configuration.
+pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
+    let (tx, _) = broadcast::channel(256);
+    let (accept, mut accepted) = watch::channel(None);
+    let (runway, mut runway_accepted) = watch::channel(None);
+    let (asks, mut asked) = mpsc::unbounded_channel::<Ask>();
+    let hub = ImageHub {
+        tx: tx.clone(),
+        accept: Arc::new(accept),
+        runway: Arc::new(runway),
+        asks,
+    };
+    let mut frames = fleet.subscribe();
+    let fleet = fleet.clone();
+    tokio::spawn(async move {
+        let gcs = fleet.config().gcs;
+        let mut intake = Intake::with_config(gcs, config);
+        // pictures asked for and not arrived
+        let mut waiting: Vec<Ask> = Vec::new();
+        loop {
+            let wait = intake
+                .poll_timeout()
+                .map(|t| fleet.clock().wall_until(t))
+                .unwrap_or(Duration::from_secs(1));
+            tokio::select! {
+                r = frames.recv() => match r {
+                    Ok(Incoming { frame, .. }) => {
+                        if let Ok(msg) = &frame.message {
+                            intake.handle_message(
+                                Endpoint::new(frame.sysid(), frame.compid()),
+                                msg,
+                                fleet.clock().now(),
+                            );
+                        }
+                    }
+                    Err(broadcast::error::RecvError::Lagged(n)) => {
+                        tracing::warn!("image intake fell behind: {n} frames skipped");
+                    }
+                    Err(broadcast::error::RecvError::Closed) => return,
+                },
+                _ = tokio::time::sleep(wait) => intake.handle_timeout(fleet.clock().now()),
+                Ok(()) = accepted.changed() => intake.accept_onboard(*accepted.borrow_and_update()),
+                Ok(()) = runway_accepted.changed() => {
+                    let a = runway_accepted.borrow_and_update().clone();
+                    let now = fleet.clock().now();
+                    intake.accept_runway(a, now);
+                    // the first announcement now, not at the next timer
+                    intake.handle_timeout(now);
+                }
+                Some(ask) = asked.recv() => {
+                    let (sysid, boot_ms, index) = ask.key;
+                    intake.want_picture(sysid, boot_ms, index, ask.size);
+                    waiting.retain(|a| !a.reply.is_closed());
+                    waiting.push(ask);
+                }
+            }
+            while let Some(read) = intake.poll_file_read() {
+                let url = read.url.clone();
+                let bytes =
+                    tokio::task::spawn_blocking(move || read_file_url(&url, MAX_IMAGE_FILE))
+                        .await
+                        .unwrap_or_else(|e| {
+                            Err(FileUrlError::Io {
+                                path: read.url.clone(),
+                                source: std::io::Error::other(e),
+                            })
+                        });
+                intake.file_read(read, bytes);
+            }
+            while let Some((cam, msg)) = intake.poll_transmit() {
+                match &msg {
+                    MavMessage::DEBUG_FLOAT_ARRAY(_) => {
+                        tracing::debug!("announcing the runway grid to the cameras")
+                    }
+                    _ => tracing::debug!(
+                        "asking camera {}/{} to send its image again",
+                        cam.sysid,
+                        cam.compid
+                    ),
+                }
+                if fleet.send(msg).await.is_err() {
+                    return;
+                }
+            }
+            while let Some(img) = intake.poll_image() {
+                let _ = tx.send(Arc::new(img));
+            }
+            while let Some((key, img)) = intake.poll_asked() {
+                if let Some(i) = waiting.iter().position(|a| a.key == key) {
+                    let _ = waiting.swap_remove(i).reply.send(Arc::new(img));
+                }
+            }
+            while let Some(f) = intake.failures.pop_front() {
+                tracing::warn!("{f}");
+            }
+        }
+    });
+    hub
+}
+
+/// The image intake for a run: its receivers wait 300 ms of *wall* time for missing packets
+/// whatever the fleet clock's speed-up (B images per visit arrive in bursts).
+pub fn image_hub(fleet: &FleetHandle) -> ImageHub {
+    let k = fleet.clock().speedup().clamp(1.0, 100.0);
+    let d = ReceiverConfig::default();
+    spawn_with(
+        fleet,
+        ReceiverConfig {
+            idle: d.idle.mul_f64(k),
+            ..d
+        },
+    )
+}
