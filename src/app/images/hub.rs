@@ -162,7 +162,15 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
                         cam.compid
                     ),
                 }
-                if fleet.send(msg).await.is_err() {
+                // The grid announcement is for every camera; a request for a picture only
+                // for the vehicle of the camera that holds it (on a radio: bulk traffic,
+                // behind that vehicle's commands and mission transfers).
+                let sent = if cam.sysid == 0 {
+                    fleet.send(msg).await
+                } else {
+                    fleet.send_to(cam.sysid, msg).await
+                };
+                if sent.is_err() {
                     return;
                 }
             }
