@@ -16,6 +16,9 @@
 //! # Ok(()) }
 //! ```
 //!
+//! Each vehicle's link may carry a telemetry radio pair ([`SimConfig::radio`]: a SiK pair's
+//! shared budget, buffers, loss and RADIO_STATUS, in simulated time), then its link faults.
+//!
 //! Vehicle k (1-based, in the order of the spec) gets system id k and the world's default
 //! home k (or `--home` plus 3 m east per vehicle). A copter landed within
 //! [`SimConfig::dock_radius_m`] of a rover rides with it and charges (the bandit paper's
@@ -28,6 +31,7 @@ use fleetmap_core::time::Time;
 use fleetmap_core::world::{Wind, World};
 use fleetmap_io::link::codec::Codec;
 use fleetmap_io::link::faults::{FaultError, FaultyChannel, LinkFaults};
+use fleetmap_io::link::radio::{End, RadioConfig, RadioPair, RadioStats};
 use fleetmap_io::link::signing::{Signing, SigningKey};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use mavlink::{MavHeader, MavlinkVersion};
@@ -111,6 +115,10 @@ pub struct SimConfig {
     /// Wall-clock microseconds since the Unix epoch at simulation time 0 (signature
     /// timestamps); fixed by default so runs stay reproducible.
     pub unix_epoch_us: u64,
+    /// A telemetry radio pair between every vehicle and the GCS (each vehicle its own), its
+    /// budget, buffers and loss counted in simulated time ([`RadioPair`]); the link faults
+    /// apply after the air. `None`: the vehicles' links carry whatever they send.
+    pub radio: Option<RadioConfig>,
 }
 
 /// The default `SimConfig::unix_epoch_us`: 2025-01-01T00:00:00Z.
@@ -170,7 +178,15 @@ impl SimConfig {
             seed,
             signing_key: None,
             unix_epoch_us: DEFAULT_EPOCH_US,
+            radio: None,
         })
+    }
+
+    /// Put every vehicle behind its own telemetry radio pair of `radio` (see
+    /// [`SimConfig::radio`]).
+    pub fn with_radio(mut self, radio: RadioConfig) -> SimConfig {
+        self.radio = Some(radio);
+        self
     }
 
     /// Apply the same faults to every link, both directions.
@@ -199,6 +215,45 @@ struct Slot {
     up: FaultyChannel,
     down: FaultyChannel,
     delivered: VecDeque<Vec<u8>>,
+    /// The vehicle's radio pair, when the links carry radios: what the GCS sends goes into
+    /// its GCS end, what the vehicle sends into its vehicle end, and what comes out of either
+    /// end goes on through the link's faults.
+    radio: Option<RadioPair>,
+}
+
+impl Slot {
+    /// Bytes from the GCS, sent at `t`.
+    fn from_gcs(&mut self, bytes: Vec<u8>, t: Time) {
+        match &mut self.radio {
+            Some(r) => {
+                r.push(End::Gcs, bytes, t);
+            }
+            None => self.up.push(bytes, t),
+        }
+    }
+
+    /// A frame from the vehicle, sent at `t`.
+    fn from_vehicle(&mut self, frame: Vec<u8>, t: Time) {
+        match &mut self.radio {
+            Some(r) => {
+                r.push(End::Vehicle, frame, t);
+            }
+            None => self.down.push(frame, t),
+        }
+    }
+
+    /// What came out of the radio's ends by `t`: on into the links' faults.
+    fn radio_out(&mut self, t: Time) {
+        let Some(r) = &mut self.radio else {
+            return;
+        };
+        while let Some(d) = r.poll(t) {
+            match d.to {
+                End::Vehicle => self.up.push(d.frame, d.at),
+                End::Gcs => self.down.push(d.frame, d.at),
+            }
+        }
+    }
 }
 
 /// The in-process simulation. See the module documentation.
@@ -278,6 +333,7 @@ impl Sim {
                 up: FaultyChannel::new(up_f, seed ^ 0x0055),
                 down: FaultyChannel::new(down_f, seed ^ 0x00AA),
                 delivered: VecDeque::new(),
+                radio: cfg.radio.clone().map(|r| RadioPair::new(r, seed ^ 0x0F0F)),
             });
         }
         let mut sim = Sim {
@@ -330,7 +386,7 @@ impl Sim {
     pub fn send_bytes(&mut self, sysid: u8, bytes: &[u8]) {
         let now = self.now;
         if let Some(s) = self.slot_mut(sysid) {
-            s.up.push(bytes.to_vec(), now);
+            s.from_gcs(bytes.to_vec(), now);
         }
     }
 
@@ -380,9 +436,20 @@ impl Sim {
         }
     }
 
-    /// When something next happens: the next 20 Hz tick.
+    /// What vehicle `sysid`'s radio pair carried so far, when the links carry radios.
+    pub fn radio_stats(&self, sysid: u8) -> Option<RadioStats> {
+        self.slot(sysid)?.radio.as_ref().map(RadioPair::stats)
+    }
+
+    /// When something next happens: the next 20 Hz tick, or sooner a frame a radio lets out
+    /// (a radio's frames arrive when their last byte has crossed, between ticks too).
     pub fn poll_timeout(&self) -> Time {
-        self.now + Duration::from_secs_f64(DT)
+        let tick = self.now + Duration::from_secs_f64(DT);
+        self.slots
+            .iter()
+            .filter_map(|s| s.radio.as_ref()?.poll_timeout())
+            .fold(tick, Time::min)
+            .max(self.now)
     }
 
     /// Run the simulation up to `t` in 20 Hz steps, then deliver (both ways) what is due by
@@ -418,6 +485,7 @@ impl Sim {
     fn deliver(&mut self, t: Time) {
         let unix = self.unix_us(t);
         for s in &mut self.slots {
+            s.radio_out(t);
             while let Some(bytes) = s.up.poll(t) {
                 receive(s, &bytes, t, unix);
             }
@@ -427,6 +495,7 @@ impl Sim {
         }
         self.collect_outputs(t);
         for s in &mut self.slots {
+            s.radio_out(t);
             while let Some(d) = s.down.poll(t) {
                 s.delivered.push_back(d);
             }
@@ -438,6 +507,7 @@ impl Sim {
         // uplink deliveries first: commands act at this tick
         let unix = self.unix_us(t);
         for s in &mut self.slots {
+            s.radio_out(t);
             while let Some(bytes) = s.up.poll(t) {
                 receive(s, &bytes, t, unix);
             }
@@ -457,6 +527,7 @@ impl Sim {
         self.dock(&before);
         self.collect_outputs(t);
         for s in &mut self.slots {
+            s.radio_out(t);
             while let Some(d) = s.down.poll(t) {
                 s.delivered.push_back(d);
             }
@@ -514,7 +585,7 @@ impl Sim {
             }
             while let Some((h, m)) = s.v.poll_transmit() {
                 let frame = s.codec.encode_with_header(&h, &m, MavlinkVersion::V2, unix);
-                s.down.push(frame, t);
+                s.from_vehicle(frame, t);
             }
         }
     }
