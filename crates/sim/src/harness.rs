@@ -223,7 +223,7 @@ struct Slot {
 
 impl Slot {
     /// Bytes from the GCS, sent at `t`.
-    fn from_gcs(&mut self, bytes: Vec<u8>, t: Time) {
+    fn carry_from_gcs(&mut self, bytes: Vec<u8>, t: Time) {
         match &mut self.radio {
             Some(r) => {
                 r.push(End::Gcs, bytes, t);
@@ -233,7 +233,7 @@ impl Slot {
     }
 
     /// A frame from the vehicle, sent at `t`.
-    fn from_vehicle(&mut self, frame: Vec<u8>, t: Time) {
+    fn carry_from_vehicle(&mut self, frame: Vec<u8>, t: Time) {
         match &mut self.radio {
             Some(r) => {
                 r.push(End::Vehicle, frame, t);
@@ -386,7 +386,7 @@ impl Sim {
     pub fn send_bytes(&mut self, sysid: u8, bytes: &[u8]) {
         let now = self.now;
         if let Some(s) = self.slot_mut(sysid) {
-            s.from_gcs(bytes.to_vec(), now);
+            s.carry_from_gcs(bytes.to_vec(), now);
         }
     }
 
@@ -585,7 +585,7 @@ impl Sim {
             }
             while let Some((h, m)) = s.v.poll_transmit() {
                 let frame = s.codec.encode_with_header(&h, &m, MavlinkVersion::V2, unix);
-                s.from_vehicle(frame, t);
+                s.carry_from_vehicle(frame, t);
             }
         }
     }
