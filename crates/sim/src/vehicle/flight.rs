@@ -116,6 +116,8 @@ impl SimVehicle {
         if !self.estimator.position_ok_announced && self.position_ok(now) {
             self.estimator.position_ok_announced = true;
             self.set_home_here(now);
+            let origin = self.origin_msg(now);
+            self.queue(AUTOPILOT_COMPID, origin);
             match self.cfg.flavour.autopilot {
                 SimAutopilot::ArduPilot => {
                     self.text(

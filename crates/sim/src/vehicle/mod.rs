@@ -67,7 +67,7 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use num_traits::FromPrimitive;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -77,10 +77,14 @@ mod commands;
 mod estimator;
 mod flight;
 mod geofence;
+mod messages;
 mod mission;
 mod modes;
 mod power;
+mod streams;
 mod telemetry;
+
+pub use streams::Px4Link;
 
 /// Mission item command and frame numbers, named from the dialect's MAV_CMD and MAV_FRAME
 /// ([`MissionItem`] keeps them as the plain integers the wire carries).
@@ -139,7 +143,7 @@ use geofence::Geofence;
 use mission::{Exec, Missions};
 use modes::Modes;
 use power::Power;
-use telemetry::Telemetry;
+use telemetry::{Schedule, Telemetry};
 
 /// Physics and logic step, seconds (20 Hz).
 pub(crate) const DT: f64 = 0.05;
@@ -231,6 +235,10 @@ pub struct VehicleConfig {
     pub gcs_time_scale: f64,
     /// Power-off time of a battery swap, seconds (the vehicle is silent meanwhile).
     pub(crate) power_off_s: f64,
+    /// PX4: the MAVLink instance the GCS talks to (its data rate, whether RADIO_STATUS
+    /// throttles it, the SITL's extra streams); [`Px4Link::TELEM1`] by default, a telemetry
+    /// radio on TELEM1 as in the field. ArduPilot ignores it.
+    pub px4_link: Px4Link,
 }
 
 impl VehicleConfig {
@@ -285,6 +293,7 @@ impl VehicleConfig {
             px4_datalink_required: true,
             gcs_time_scale: 1.0,
             power_off_s: 3.0,
+            px4_link: Px4Link::TELEM1,
         }
     }
 }
@@ -415,9 +424,12 @@ impl SimVehicle {
             },
             telemetry: Telemetry {
                 seq: [0; 2],
-                streams: BTreeMap::new(),
+                schedule: Schedule::at_boot(&cfg, now),
+                due: Vec::new(),
                 outbox: VecDeque::new(),
                 events: VecDeque::new(),
+                ping_seq: 0,
+                terrain_request_at: None,
             },
             cfg,
             world,
@@ -628,10 +640,13 @@ impl SimVehicle {
                 self.request_data_stream(
                     r.req_stream_id as u8,
                     r.req_message_rate,
-                    r.start_stop != 0,
+                    r.start_stop,
                     now,
                 );
             }
+            // from whichever system: a SiK radio speaks as 51/68, and ArduPilot and PX4 take
+            // any RADIO_STATUS on the link as their radio's
+            MavMessage::RADIO_STATUS(r) => self.radio_status(r.txbuf, now),
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) if p.target_system == self.cfg.sysid => {
                 self.position_target(p, now);
             }
