@@ -142,7 +142,7 @@ impl SimVehicle {
                 // ArduCopter always (once initialised); ArduRover and PX4 only while the
                 // autopilot navigates
                 let navigating = matches!(self.modes.mode, Mode::Auto | Mode::Guided | Mode::Rtl);
-                if !(ap && copter) && !navigating {
+                if !(navigating || ap && copter) {
                     return None;
                 }
                 let (bearing, dist) = self.nav_target_bearing_distance();

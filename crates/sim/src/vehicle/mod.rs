@@ -83,6 +83,8 @@ mod modes;
 mod power;
 mod streams;
 mod telemetry;
+#[cfg(test)]
+mod test_probe;
 
 pub use streams::Px4Link;
 

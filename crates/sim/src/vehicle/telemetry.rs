@@ -79,7 +79,7 @@ pub(super) struct Telemetry {
 #[derive(Debug)]
 pub(super) enum Schedule {
     /// ArduPilot's stream groups and buckets.
-    ArduPilot(ApSchedule),
+    ArduPilot(Box<ApSchedule>),
     /// PX4's streams and rate multiplier.
     Px4(Px4Schedule),
 }
@@ -88,7 +88,9 @@ impl Schedule {
     /// The schedule a vehicle boots with.
     pub(super) fn at_boot(cfg: &VehicleConfig, now: Time) -> Schedule {
         match cfg.flavour.autopilot {
-            SimAutopilot::ArduPilot => Schedule::ArduPilot(ApSchedule::new(cfg.flavour.kind, now)),
+            SimAutopilot::ArduPilot => {
+                Schedule::ArduPilot(Box::new(ApSchedule::new(cfg.flavour.kind, now)))
+            }
             SimAutopilot::Px4 => Schedule::Px4(Px4Schedule::new(cfg.px4_link, now)),
         }
     }
