@@ -59,8 +59,8 @@ pub enum SimError {
 }
 
 /// One entry of a `--vehicles` spec: how many, which flavour, and for PX4 which MAVLink
-/// instance the GCS talks to (`@telem1`, the default, or `@sitl`: the SITL's UDP GCS link,
-/// to compare with PX4 SITL).
+/// instance the GCS talks to ([`Px4Link`]: `@net`, the default, `@telem1`, or `@sitl`: the
+/// SITL's UDP GCS link, to compare with PX4 SITL).
 type SpecEntry = (usize, Flavour, Option<Px4Link>);
 
 /// Parse `3xcopter:ardupilot,1xrover:px4,copter:px4@sitl` into entries (a missing `N x`
@@ -91,11 +91,12 @@ pub(crate) fn parse_vehicle_spec(spec: &str) -> Result<Vec<SpecEntry>, SimError>
             Some(_) if f.is_ardupilot() => {
                 return Err(err(format!("{part:?}: @LINK is for PX4 vehicles only")));
             }
+            Some("net") => Some(Px4Link::NETWORK),
             Some("telem1") => Some(Px4Link::TELEM1),
             Some("sitl") => Some(Px4Link::SITL_UDP),
             Some(other) => {
                 return Err(err(format!(
-                    "{part:?}: unknown PX4 link {other:?} (telem1 or sitl)"
+                    "{part:?}: unknown PX4 link {other:?} (net, telem1 or sitl)"
                 )));
             }
         };

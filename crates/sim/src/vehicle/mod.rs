@@ -238,8 +238,9 @@ pub struct VehicleConfig {
     /// Power-off time of a battery swap, seconds (the vehicle is silent meanwhile).
     pub(crate) power_off_s: f64,
     /// PX4: the MAVLink instance the GCS talks to (its data rate, whether RADIO_STATUS
-    /// throttles it, the SITL's extra streams); [`Px4Link::TELEM1`] by default, a telemetry
-    /// radio on TELEM1 as in the field. ArduPilot ignores it.
+    /// throttles it, the SITL's extra streams): [`Px4Link::NETWORK`] by default,
+    /// [`Px4Link::TELEM1`] for a telemetry radio on TELEM1 as in the field,
+    /// [`Px4Link::SITL_UDP`] to compare with PX4 SITL. ArduPilot ignores it.
     pub px4_link: Px4Link,
 }
 
@@ -295,7 +296,7 @@ impl VehicleConfig {
             px4_datalink_required: true,
             gcs_time_scale: 1.0,
             power_off_s: 3.0,
-            px4_link: Px4Link::TELEM1,
+            px4_link: Px4Link::NETWORK,
         }
     }
 }

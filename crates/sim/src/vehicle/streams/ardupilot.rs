@@ -255,6 +255,8 @@ pub(crate) struct ApSchedule {
     buckets: [Bucket; 10],
     /// HEARTBEAT's own interval, ms (0: not sent) and last time.
     heartbeat: (u16, Time),
+    /// No HEARTBEAT sent yet since boot: the first leaves at once.
+    first_heartbeat: bool,
     /// Extra delay of every bucket, ms (RADIO_STATUS).
     slowdown_ms: u16,
     /// The last TIMESYNC request.
@@ -283,6 +285,7 @@ impl ApSchedule {
             rates: ap_default_rates(kind),
             buckets: [Bucket::default(); 10],
             heartbeat: (1000, now),
+            first_heartbeat: true,
             slowdown_ms: 0,
             timesync_at: now,
             min_interval_ms: match kind {
@@ -489,7 +492,11 @@ impl ApSchedule {
     /// are being received on this link (intervals ×4). Also whether a TIMESYNC request is due.
     pub(crate) fn due(&mut self, now: Time, receiving_mission: bool, out: &mut Vec<u32>) -> bool {
         let (hb_ms, hb_last) = self.heartbeat;
-        if hb_ms > 0 && now.saturating_since(hb_last) >= ms(hb_ms) {
+        if self.first_heartbeat && hb_ms > 0 {
+            self.first_heartbeat = false;
+            out.push(HEARTBEAT);
+            self.heartbeat.1 = now;
+        } else if hb_ms > 0 && now.saturating_since(hb_last) >= ms(hb_ms) {
             out.push(HEARTBEAT);
             self.heartbeat.1 = next_time(hb_last, ms(hb_ms), now);
         }

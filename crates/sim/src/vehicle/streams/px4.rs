@@ -24,6 +24,14 @@ impl Px4Link {
         radio_ctl: true,
         sitl_overrides: false,
     };
+    /// A Normal-mode instance on a network link (MAV_x_RATE 0 on Ethernet: 100 000 B/s, so its
+    /// streams keep their rates; MAV_x_RADIO_CTL on): the simulator's default, what its PX4
+    /// vehicles did before radios were modelled.
+    pub const NETWORK: Px4Link = Px4Link {
+        rate_bps: 100_000,
+        radio_ctl: true,
+        sitl_overrides: false,
+    };
     /// The SITL's GCS link on UDP: `-r 4000000`, no `-s`, the 50 Hz overrides
     /// (`ROMFS/px4fmu_common/init.d-posix/px4-rc.mavlink`).
     pub const SITL_UDP: Px4Link = Px4Link {
@@ -42,6 +50,8 @@ struct Px4Stream {
     interval_us: u32,
     /// When it was last (due to be) sent.
     last_sent: Time,
+    /// Not sent yet: a new stream sends its first message at once (`MavlinkStream::update`).
+    fresh: bool,
     /// Bytes counted for it: the full message length (0: it has no data yet).
     size: u32,
     /// HEARTBEAT and PING are not scaled by the rate multiplier (`const_rate`).
@@ -262,6 +272,7 @@ impl Px4Schedule {
             id,
             interval_us,
             last_sent: now,
+            fresh: true,
             size,
             const_rate: id == id!(HEARTBEAT_DATA) || id == id!(PING_DATA),
         });
@@ -387,6 +398,12 @@ impl Px4Schedule {
             };
             let iv = Duration::from_micros(us.max(1.0) as u64);
             let mut n = 0;
+            if s.fresh {
+                s.fresh = false;
+                s.last_sent = now;
+                out.push(s.id);
+                n = 1;
+            }
             while now.saturating_since(s.last_sent) >= iv && n < 3 {
                 n += 1;
                 out.push(s.id);

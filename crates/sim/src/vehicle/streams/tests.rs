@@ -142,6 +142,34 @@ const PX4_TELEM1_DEFAULTS: Table = &[
     (241, 1.1),
 ];
 
+/// PX4 1.16 SIH, a Normal-mode instance at 100 000 B/s without the SITL's overrides, no
+/// request (2298 B/s).
+const PX4_NORMAL_DEFAULTS: Table = &[
+    (30, 601.4),
+    (31, 440.0),
+    (24, 280.0),
+    (33, 200.0),
+    (74, 119.6),
+    (83, 95.7),
+    (85, 93.6),
+    (12901, 68.6),
+    (1, 50.9),
+    (36, 48.0),
+    (141, 43.1),
+    (32, 39.2),
+    (12904, 36.2),
+    (242, 34.0),
+    (230, 27.4),
+    (147, 26.9),
+    (29, 25.5),
+    (0, 20.6),
+    (42, 15.7),
+    (245, 13.7),
+    (132, 12.7),
+    (241, 3.2),
+    (4, 2.1),
+];
+
 /// PX4 1.16 SIH on its SITL UDP GCS link after fleetmap's requests (14990 B/s).
 const PX4_SITL_FLEETMAP: Table = &[
     (85, 3151.0),
@@ -450,6 +478,14 @@ fn px4_on_telem1_scales_its_normal_streams_to_1200_bytes_a_second() {
     let mut p = Probe::new(Flavour::PX4_COPTER, Some(Px4Link::TELEM1));
     p.run(40.0);
     assert_matches(&p, 30.0, PX4_TELEM1_DEFAULTS, 0.06, 0.15, "PX4 TELEM1");
+}
+
+#[test]
+fn px4_on_a_network_link_streams_its_normal_mode_at_full_rate() {
+    let mut p = Probe::new(Flavour::PX4_COPTER, None);
+    assert_eq!(p.v.config().px4_link, Px4Link::NETWORK);
+    p.run(40.0);
+    assert_matches(&p, 30.0, PX4_NORMAL_DEFAULTS, 0.05, 0.12, "PX4 Normal");
 }
 
 #[test]
