@@ -545,6 +545,35 @@ impl SimVehicle {
                     target_component: 0,
                 })
             }
+            x if x == id!(LINK_NODE_STATUS_DATA) => {
+                // PX4's own link statistics: rates from the counts since the last report
+                // (about 30 bytes a message)
+                let c = self.telemetry.link_counts;
+                let (tx_rate, rx_rate) = match c.last {
+                    Some((t, s, r)) if now > t => {
+                        let dt = now.saturating_since(t).as_secs_f64();
+                        (
+                            (f64::from(c.sent.wrapping_sub(s)) * 30.0 / dt) as u32,
+                            (f64::from(c.received.wrapping_sub(r)) * 30.0 / dt) as u32,
+                        )
+                    }
+                    _ => (0, 0),
+                };
+                self.telemetry.link_counts.last = Some((now, c.sent, c.received));
+                MavMessage::LINK_NODE_STATUS(mav::LINK_NODE_STATUS_DATA {
+                    timestamp: t_us,
+                    tx_rate,
+                    rx_rate,
+                    messages_sent: c.sent,
+                    messages_received: c.received,
+                    messages_lost: 0,
+                    rx_parse_err: 0,
+                    tx_overflows: 0,
+                    rx_overflows: 0,
+                    tx_buf: 0,
+                    rx_buf: 0,
+                })
+            }
             // GPS_GLOBAL_ORIGIN is sent once, when the origin is set ([`Self::origin_msg`])
             _ => return None,
         })

@@ -40,11 +40,16 @@
 //!   mission starts on the ground, MISSION_ITEM_REACHED repeated 10 times at 1 Hz as
 //!   `mavlink_mission.cpp` does);
 //! - auto-disarm: ArduCopter after 10 s armed on the ground (DISARM_DELAY) and at once after
-//!   landing in LAND/RTL/AUTO; PX4 after 10 s without takeoff (COM_DISARM_PRFLT) and 2 s after
-//!   landing (COM_DISARM_LAND); rovers never;
-//! - streams: ArduCopter sends only HEARTBEAT until the GCS asks (REQUEST_DATA_STREAM or
-//!   SET_MESSAGE_INTERVAL), ArduRover streams at 1 Hz by default, PX4 uses the rates of its
-//!   NORMAL MAVLink mode (`mavlink_main.cpp` configure_streams).
+//!   landing in LAND/RTL/AUTO; PX4 about 11 s after arming without takeoff (COM_DISARM_PRFLT
+//!   from the land detector's "landed") and 2 s after landing (COM_DISARM_LAND); rovers never;
+//! - take-off: ArduCopter answers NAV_TAKEOFF FAILED when disarmed, not landed or not in a
+//!   user-take-off mode (a repeated take-off once off the ground fails); PX4 accepts it
+//!   disarmed (AUTO_TAKEOFF, waiting for the arming) and in the air;
+//! - streams ([`streams`]): ArduPilot's stream groups with the messages SITL sends, its
+//!   buckets, SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM / GET_MESSAGE_INTERVAL, the slowdown
+//!   under RADIO_STATUS and ×4 while receiving waypoints (ArduCopter sends only HEARTBEAT until
+//!   asked, ArduRover every group at 1 Hz); PX4's Normal-mode streams with its rate
+//!   multiplier ([`Px4Link`]); the contents ([`messages`]) sized as the real ones on the wire.
 
 // MISSION_SET_CURRENT etc. are deprecated in the dialect but still what autopilots accept.
 #![allow(deprecated)]
@@ -432,6 +437,7 @@ impl SimVehicle {
                 outbox: VecDeque::new(),
                 events: VecDeque::new(),
                 ping_seq: 0,
+                link_counts: Default::default(),
                 terrain_request_at: None,
             },
             cfg,
@@ -562,6 +568,7 @@ impl SimVehicle {
             self.telemetry.outbox.push_back((CAMERA_COMPID, m));
         }
         let (comp, msg) = self.telemetry.outbox.pop_front()?;
+        self.telemetry.link_counts.sent = self.telemetry.link_counts.sent.wrapping_add(1);
         let i = usize::from(comp == CAMERA_COMPID);
         let s = self.telemetry.seq[i];
         self.telemetry.seq[i] = s.wrapping_add(1);
@@ -594,6 +601,7 @@ impl SimVehicle {
         if !self.power.powered {
             return;
         }
+        self.telemetry.link_counts.received = self.telemetry.link_counts.received.wrapping_add(1);
         let from = Endpoint::of(h);
         if let MavMessage::HEARTBEAT(hb) = msg
             && hb.mavtype == mav::MavType::MAV_TYPE_GCS

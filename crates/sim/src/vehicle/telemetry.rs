@@ -71,8 +71,22 @@ pub(super) struct Telemetry {
     pub(super) events: VecDeque<VehicleEvent>,
     /// PX4's PING stream's sequence number.
     pub(super) ping_seq: u32,
+    /// Messages sent and received on the GCS link since boot, and the counts at the last
+    /// LINK_NODE_STATUS (its rates).
+    pub(super) link_counts: LinkCounts,
     /// ArduCopter's last TERRAIN_REQUEST.
     pub(super) terrain_request_at: Option<Time>,
+}
+
+/// What PX4's LINK_NODE_STATUS reports of the GCS link.
+#[derive(Debug, Default, Clone, Copy)]
+pub(super) struct LinkCounts {
+    /// Messages sent since boot.
+    pub(super) sent: u32,
+    /// Messages received since boot.
+    pub(super) received: u32,
+    /// (when, sent, received) at the last LINK_NODE_STATUS.
+    pub(super) last: Option<(Time, u32, u32)>,
 }
 
 /// The flavour's message schedule.

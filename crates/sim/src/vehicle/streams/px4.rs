@@ -63,7 +63,7 @@ struct Px4Stream {
 /// (ADSB_VEHICLE, ESC_STATUS, GPS2_RAW, RC_CHANNELS without RC, …) sends nothing and counts
 /// nothing. GPS_GLOBAL_ORIGIN, NAV_CONTROLLER_OUTPUT and POSITION_TARGET_GLOBAL_INT count for
 /// the bandwidth multiplier but send only on a change, in AUTO modes, or in flight.
-fn px4_normal_streams() -> [(u32, f32, u32); 26] {
+fn px4_normal_streams() -> [(u32, f32, u32); 27] {
     [
         (id!(HEARTBEAT_DATA), 1.0, full_len!(HEARTBEAT_DATA)),
         (id!(ALTITUDE_DATA), 1.0, full_len!(ALTITUDE_DATA)),
@@ -110,6 +110,11 @@ fn px4_normal_streams() -> [(u32, f32, u32); 26] {
         ),
         (id!(GPS_RAW_INT_DATA), 5.0, full_len!(GPS_RAW_INT_DATA)),
         (id!(HOME_POSITION_DATA), 0.5, full_len!(HOME_POSITION_DATA)),
+        (
+            id!(LINK_NODE_STATUS_DATA),
+            1.0,
+            full_len!(LINK_NODE_STATUS_DATA),
+        ),
         (
             id!(LOCAL_POSITION_NED_DATA),
             1.0,
@@ -198,7 +203,6 @@ const PX4_SILENT: &[u32] = &[
     id!(UTM_GLOBAL_POSITION_DATA),
     id!(WIND_COV_DATA),
     id!(ODOMETRY_DATA),
-    id!(LINK_NODE_STATUS_DATA),
     id!(DEBUG_DATA),
     id!(NAMED_VALUE_FLOAT_DATA),
     id!(GIMBAL_DEVICE_ATTITUDE_STATUS_DATA),

@@ -115,8 +115,11 @@ const ARDUROVER_FLEETMAP: Table = &[
     (245, 13.0),
 ];
 
-/// PX4 1.16 SIH on a TELEM1-like link (`-r 1200 -s`, no SITL overrides), no request (1018 B/s).
+/// PX4 1.16 SIH on a TELEM1-like link (`-r 1200 -s`, no SITL overrides), no request (1018 B/s;
+/// and LINK_NODE_STATUS, which the measuring script's dialect did not decode: its 1 Hz of 37
+/// bytes, measured on the SITL link, times the rate multiplier).
 const PX4_TELEM1_DEFAULTS: Table = &[
+    (8, 16.3),
     (30, 259.6),
     (31, 190.4),
     (24, 121.1),
@@ -143,8 +146,9 @@ const PX4_TELEM1_DEFAULTS: Table = &[
 ];
 
 /// PX4 1.16 SIH, a Normal-mode instance at 100 000 B/s without the SITL's overrides, no
-/// request (2298 B/s).
+/// request (2298 B/s, and LINK_NODE_STATUS as above: 1 Hz of 37 bytes).
 const PX4_NORMAL_DEFAULTS: Table = &[
+    (8, 37.0),
     (30, 601.4),
     (31, 440.0),
     (24, 280.0),
@@ -170,8 +174,10 @@ const PX4_NORMAL_DEFAULTS: Table = &[
     (4, 2.1),
 ];
 
-/// PX4 1.16 SIH on its SITL UDP GCS link after fleetmap's requests (14990 B/s).
+/// PX4 1.16 SIH on its SITL UDP GCS link after fleetmap's requests (14990 B/s; LINK_NODE_STATUS
+/// measured apart, by `hitl/link_checks.py`).
 const PX4_SITL_FLEETMAP: Table = &[
+    (8, 37.0),
     (85, 3151.0),
     (36, 2451.0),
     (83, 2399.0),
