@@ -45,11 +45,11 @@
 //! - take-off: ArduCopter answers NAV_TAKEOFF FAILED when disarmed, not landed or not in a
 //!   user-take-off mode (a repeated take-off once off the ground fails); PX4 accepts it
 //!   disarmed (AUTO_TAKEOFF, waiting for the arming) and in the air;
-//! - streams ([`streams`]): ArduPilot's stream groups with the messages SITL sends, its
+//! - streams (`streams`): ArduPilot's stream groups with the messages SITL sends, its
 //!   buckets, SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM / GET_MESSAGE_INTERVAL, the slowdown
 //!   under RADIO_STATUS and ×4 while receiving waypoints (ArduCopter sends only HEARTBEAT until
 //!   asked, ArduRover every group at 1 Hz); PX4's Normal-mode streams with its rate
-//!   multiplier ([`Px4Link`]); the contents ([`messages`]) sized as the real ones on the wire.
+//!   multiplier ([`Px4Link`]); the contents (`messages`) sized as the real ones on the wire.
 
 // MISSION_SET_CURRENT etc. are deprecated in the dialect but still what autopilots accept.
 #![allow(deprecated)]
