@@ -88,8 +88,6 @@ mod modes;
 mod power;
 mod streams;
 mod telemetry;
-#[cfg(test)]
-mod test_probe;
 
 pub use streams::Px4Link;
 
@@ -670,3 +668,6 @@ impl SimVehicle {
         }
     }
 }
+
+#[cfg(test)]
+mod test_probe;
