@@ -631,3 +631,112 @@ fn print_tables() {
         print(&format!("px4 {link:?} b"), &p, 30.0);
     }
 }
+
+/// Three ArduCopters for 20 simulated minutes through the harness (encoding every frame), with
+/// each set of requests: CPU time per run, to compare the requests' cost.
+#[test]
+#[ignore = "prints timings"]
+fn cost_of_the_requests() {
+    use crate::harness::{Sim, SimConfig};
+    use mavlink::MavHeader;
+    let gcs = MavHeader {
+        system_id: 255,
+        component_id: 190,
+        sequence: 0,
+    };
+    type Requests = fn(&mut Sim, u8, &MavHeader);
+    let all4: Requests = |sim, s, h| {
+        sim.send(
+            s,
+            h,
+            &MavMessage::REQUEST_DATA_STREAM(mav::REQUEST_DATA_STREAM_DATA {
+                req_message_rate: 4,
+                target_system: s,
+                target_component: 1,
+                req_stream_id: mav::MavDataStream::MAV_DATA_STREAM_ALL,
+                start_stop: 1,
+            }),
+        )
+    };
+    fn interval(sim: &mut Sim, s: u8, h: &MavHeader, id: u32, us: f32) {
+        sim.send(
+            s,
+            h,
+            &MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
+                param1: id as f32,
+                param2: us,
+                command: mav::MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
+                target_system: s,
+                target_component: 1,
+                ..mav::COMMAND_LONG_DATA::default()
+            }),
+        )
+    }
+    let fleetmap: Requests = |sim, s, h| {
+        use mav::MavDataStream as S;
+        for (st, hz) in [
+            (S::MAV_DATA_STREAM_EXTENDED_STATUS, 2),
+            (S::MAV_DATA_STREAM_POSITION, 5),
+            (S::MAV_DATA_STREAM_EXTRA1, 4),
+            (S::MAV_DATA_STREAM_EXTRA2, 4),
+            (S::MAV_DATA_STREAM_EXTRA3, 2),
+        ] {
+            sim.send(
+                s,
+                h,
+                &MavMessage::REQUEST_DATA_STREAM(mav::REQUEST_DATA_STREAM_DATA {
+                    req_message_rate: hz,
+                    target_system: s,
+                    target_component: 1,
+                    req_stream_id: st,
+                    start_stop: 1,
+                }),
+            );
+        }
+        for (id, us) in crate::vehicle::test_probe::FLEETMAP_INTERVALS {
+            interval(sim, s, h, id, us);
+        }
+    };
+    let budget: Requests = |sim, s, h| {
+        for (id, us) in [
+            (33, 200_000.0),
+            (1, 1e6),
+            (24, 500_000.0),
+            (245, 1e6),
+            (42, 1e6),
+            (242, 2e6),
+            (147, 1e6),
+            (193, 1e6),
+        ] {
+            interval(sim, s, h, id, us);
+        }
+    };
+    for (name, req) in [
+        ("ALL at 4 Hz", all4),
+        ("fleetmap", fleetmap),
+        ("budget", budget),
+    ] {
+        let t0 = std::time::Instant::now();
+        let cfg =
+            SimConfig::from_spec("3xcopter:ardupilot", None, Some((37.1965, -80.5785)), 1).unwrap();
+        let mut sim = Sim::new(cfg, Time::ZERO).unwrap();
+        sim.advance_to(Time::from_secs(20));
+        for s in 1..=3 {
+            req(&mut sim, s, &gcs);
+        }
+        let mut frames = 0usize;
+        for m in 1..=20 {
+            sim.advance_to(Time::from_secs(20 + 60 * m));
+            for s in 1..=3 {
+                while sim.recv_bytes(s).is_some() {
+                    frames += 1;
+                }
+            }
+        }
+        println!(
+            "{name}: {:.0} ms, {:.0} frames per vehicle-second",
+            t0.elapsed().as_secs_f64() * 1e3,
+            frames as f64 / 3600.0
+        );
+    }
+}
