@@ -96,6 +96,7 @@ class Link:
         self.radio_txbuf = None
         self.radio_tb = None
         self.ekf_flags = None
+        self.system_status = None
 
     def close(self):
         self.sock.close()
@@ -181,9 +182,10 @@ class Link:
         if msgid == 33:
             self.rel_alt = struct.unpack_from("<i", p, 16)[0] / 1000.0
         elif msgid == 0 and compid == 1:
-            mode, typ, ap, base = struct.unpack_from("<IBBB", p, 0)
+            mode, typ, ap, base, status = struct.unpack_from("<IBBBB", p, 0)
             self.custom_mode, self.mav_type, self.autopilot = mode, typ, ap
             self.armed = bool(base & 128)
+            self.system_status = status
         elif msgid == 77:
             cmd, res = struct.unpack_from("<HB", p, 0)
             self.acks.append((cmd, res))
@@ -251,10 +253,13 @@ def wait_heartbeat(link, limit=30.0):
 def wait_estimate(link, limit=120.0):
     """ArduPilot: until its EKF has an absolute horizontal position and has left constant
     position mode (EKF_STATUS_REPORT flags 0x10 set, 0x80 clear): what arming needs, and what
-    the tables were measured with (LOCAL_POSITION_NED and WIND come only then). PX4: at once
-    (the `ready` check waited for its position)."""
+    the tables were measured with (LOCAL_POSITION_NED and WIND come only then). PX4: until its
+    heartbeat says STANDBY or ACTIVE (its preflight checks pass: a position estimate)."""
     if link.autopilot == 12:
-        return True
+        end = time.monotonic() + limit
+        while link.system_status not in (3, 4) and time.monotonic() < end:
+            link.pump(0.2)
+        return link.system_status in (3, 4)
     link.command(MAV_CMD_SET_MESSAGE_INTERVAL, [193, 1000000])
     end = time.monotonic() + limit
     ok = lambda f: f is not None and f & 0x10 and not f & 0x80  # noqa: E731

@@ -52,6 +52,11 @@ impl SimVehicle {
         Some(match id {
             // ---------------------------------------------------------------- both
             x if x == id!(LOCAL_POSITION_NED_DATA) => {
+                // ArduCopter sends no local position (nor WIND) before its EKF has one
+                // (SITL: neither came until "EKF3 IMU0 is using GPS")
+                if ap && copter && !self.position_ok(now) {
+                    return None;
+                }
                 let (e, n) = self.est();
                 let (he, hn) = home.map_or((e, n), |h| (h.e, h.n));
                 MavMessage::LOCAL_POSITION_NED(mav::LOCAL_POSITION_NED_DATA {
@@ -254,7 +259,7 @@ impl SimVehicle {
                 })
             }
             x if x == id!(WIND_DATA) => {
-                if !(ap && copter) {
+                if !(ap && copter) || !self.position_ok(now) {
                     return None;
                 }
                 let (wn, we) = self.wind_ne();
