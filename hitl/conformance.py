@@ -23,6 +23,15 @@ radio. Each check prints one line; `--json FILE` writes them all. The checks:
   fly       `fleetmap mission fly`: take off, a 20 m square, return and land
   signing   after `fleetmap signing setup`, an unsigned command is ignored and a signed one
             obeyed; the key is removed again at the end
+  streams   (not run by default) bytes per second per message after fleetmap's stream requests
+            and after a link budget's, within 12 % (each message within 30 %) of the tables
+            measured on ArduCopter/ArduRover 4.7 SITL and PX4 1.16 SIH, in the vehicle's time;
+            and the slowdown under RADIO_STATUS (txbuf 10 %) from a SiK radio: ArduPilot below
+            40 %, PX4's SITL GCS link unchanged (hitl/link_checks.py)
+  arming    (not run by default) arming and take-off answered as the autopilot answers them
+            when commands come late or twice: a take-off disarmed, ARM twice, the same mode
+            again, the auto-disarm 10 s after arming without a take-off, a take-off after it
+            and one repeated while climbing; then it lands (hitl/link_checks.py)
   runway    the runway field test (`fleetmap run missions/runway-field-test.toml`) over a
             simulated world: the GCS is killed (SIGKILL) once in the middle and resumed, every
             battery swap is a power cycle done by the "crew" (a second GCS id rebooting a real
@@ -102,6 +111,8 @@ import sys
 import tempfile
 import threading
 import time
+
+import link_checks
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 HOME = (37.1968, -80.5781)
@@ -187,8 +198,11 @@ class Bench:
             if self.autopilot is None or klass not in ("copter", "rover"):
                 sys.exit(f"unknown simulator {target!r}: sim:ardupilot-copter, sim:ardupilot-rover or sim:px4-copter")
             port = free_udp_port()
+            # PX4 as on the SITL's GCS link (its 50 Hz streams, no RADIO_STATUS throttling):
+            # what these checks compare with
+            link = "@sitl" if ap == "px4" else ""
             self.sim = Proc(
-                [BIN, "sim", "--vehicles", f"1x{klass}:{ap}", "--connect", f"udpin:127.0.0.1:{port}",
+                [BIN, "sim", "--vehicles", f"1x{klass}:{ap}{link}", "--connect", f"udpin:127.0.0.1:{port}",
                  f"--home={HOME[0]},{HOME[1]}", "--speedup", str(speedup), "--seed", "1",
                  # the simulator stops by itself if this runner dies without stopping it
                  "--duration", str(int(7200 * speedup))],
@@ -419,6 +433,12 @@ class Checks:
                                   loss=loss, succeeded=n_ok, trials=len(results), round_trip_s=times)
         self.b.set_loss(0.0)
         return all_ok
+
+    def streams(self):
+        return link_checks.streams_check(self, self.b.relay_port, self.b.sysid)
+
+    def arming(self):
+        return link_checks.arming_check(self, self.b.relay_port, self.b.sysid)
 
     def fly(self):
         path = os.path.join(self.b.work, "square.waypoints")

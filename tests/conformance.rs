@@ -1,8 +1,10 @@
 //! The conformance checks of `hitl/conformance.py` (issue 14) against the embedded simulator,
 //! an ArduPilot and a PX4 copter side by side: ready, upload right after a reboot, mission
 //! round trips through `fleetmap relay` at 0, 30 and 50 % loss (+ 5 % duplicates), a flight
-//! with `fleetmap mission fly`, signing, and the runway field test (over a small world, with
-//! the GCS killed and resumed in the middle). The same runner, pointed at a connection
+//! with `fleetmap mission fly`, signing, arming and take-off when commands come late or twice,
+//! telemetry per message against the tables measured on SITL (and the slowdown under
+//! RADIO_STATUS), and the runway field test (over a small world, with the GCS killed and
+//! resumed in the middle). The same runner, pointed at a connection
 //! string, checks a real autopilot (docs/results/conformance.md has the table).
 //!
 //! The simulators run at real time for the transfers (judged on the clock the autopilot's own
@@ -37,7 +39,7 @@ fn conformance_checks_pass_against_the_simulator() {
                     "--losses",
                     "0,30,50",
                     "--checks",
-                    "ready,boot,transfer,fly,signing,runway",
+                    "ready,boot,transfer,fly,signing,arming,streams,runway",
                     "--world",
                     world,
                     "--mission",
@@ -69,6 +71,8 @@ fn conformance_checks_pass_against_the_simulator() {
             "transfer 50%",
             "fly",
             "signing",
+            "arming",
+            "streams",
             "runway",
         ] {
             assert!(

@@ -26,7 +26,7 @@
 
 use crate::camera::CapturedImage;
 use crate::flavour::{Flavour, VehicleKind};
-use crate::vehicle::{DT, SimVehicle, VehicleConfig, VehicleEvent};
+use crate::vehicle::{DT, Px4Link, SimVehicle, VehicleConfig, VehicleEvent};
 use fleetmap_core::time::Time;
 use fleetmap_core::world::{Wind, World};
 use fleetmap_io::link::codec::Codec;
@@ -62,9 +62,14 @@ pub enum SimError {
     DuplicateSysid(u8),
 }
 
-/// Parse `3xcopter:ardupilot,1xrover:px4` into (count, flavour) pairs (a missing `N x`
+/// One entry of a `--vehicles` spec: how many, which flavour, and for PX4 which MAVLink
+/// instance the GCS talks to ([`Px4Link`]: `@net`, the default, `@telem1`, or `@sitl`: the
+/// SITL's UDP GCS link, to compare with PX4 SITL).
+type SpecEntry = (usize, Flavour, Option<Px4Link>);
+
+/// Parse `3xcopter:ardupilot,1xrover:px4,copter:px4@sitl` into entries (a missing `N x`
 /// means one).
-pub(crate) fn parse_vehicle_spec(spec: &str) -> Result<Vec<(usize, Flavour)>, SimError> {
+pub(crate) fn parse_vehicle_spec(spec: &str) -> Result<Vec<SpecEntry>, SimError> {
     let err = |reason: String| SimError::Spec {
         spec: spec.to_string(),
         reason,
@@ -80,13 +85,31 @@ pub(crate) fn parse_vehicle_spec(spec: &str) -> Result<Vec<(usize, Flavour)>, Si
         if n == 0 || n > 250 {
             return Err(err(format!("{part:?}: count must be 1–250")));
         }
+        let (rest, link) = match rest.split_once('@') {
+            Some((r, l)) => (r, Some(l.trim().to_ascii_lowercase())),
+            None => (rest, None),
+        };
         let f = rest.parse::<Flavour>().map_err(|e| err(e.to_string()))?;
-        out.push((n, f));
+        let link = match link.as_deref() {
+            None => None,
+            Some(_) if f.is_ardupilot() => {
+                return Err(err(format!("{part:?}: @LINK is for PX4 vehicles only")));
+            }
+            Some("net") => Some(Px4Link::NETWORK),
+            Some("telem1") => Some(Px4Link::TELEM1),
+            Some("sitl") => Some(Px4Link::SITL_UDP),
+            Some(other) => {
+                return Err(err(format!(
+                    "{part:?}: unknown PX4 link {other:?} (net, telem1 or sitl)"
+                )));
+            }
+        };
+        out.push((n, f, link));
     }
     if out.is_empty() {
         return Err(err("no vehicles".into()));
     }
-    if out.iter().map(|(n, _)| n).sum::<usize>() > 250 {
+    if out.iter().map(|(n, _, _)| n).sum::<usize>() > 250 {
         return Err(err("at most 250 vehicles".into()));
     }
     Ok(out)
@@ -137,7 +160,7 @@ impl SimConfig {
         let world = world.map(Arc::new);
         let mut vehicles = Vec::new();
         let mut k = 0usize;
-        for (n, flavour) in kinds {
+        for (n, flavour, link) in kinds {
             for _ in 0..n {
                 k += 1;
                 let start = match home {
@@ -150,6 +173,9 @@ impl SimConfig {
                         .ok_or(SimError::NoHome(k))?,
                 };
                 let mut v = VehicleConfig::new(k as u8, flavour, start);
+                if let Some(l) = link {
+                    v.px4_link = l;
+                }
                 v.seed = seed
                     .wrapping_mul(0x9E37_79B9_7F4A_7C15)
                     .wrapping_add(k as u64);
@@ -599,8 +625,13 @@ mod tests {
     fn spec_parsing() {
         let v = parse_vehicle_spec("3xcopter:ardupilot, 1xrover:ardupilot,copter:px4").unwrap();
         assert_eq!(v.len(), 3);
-        assert_eq!(v[0], (3, Flavour::ARDU_COPTER));
-        assert_eq!(v[2], (1, Flavour::PX4_COPTER));
+        assert_eq!(v[0], (3, Flavour::ARDU_COPTER, None));
+        assert_eq!(v[2], (1, Flavour::PX4_COPTER, None));
+        let v = parse_vehicle_spec("2xcopter:px4@sitl,rover:px4@TELEM1").unwrap();
+        assert_eq!(v[0], (2, Flavour::PX4_COPTER, Some(Px4Link::SITL_UDP)));
+        assert_eq!(v[1], (1, Flavour::PX4_ROVER, Some(Px4Link::TELEM1)));
+        assert!(parse_vehicle_spec("copter:ardupilot@sitl").is_err());
+        assert!(parse_vehicle_spec("copter:px4@wifi").is_err());
         assert!(parse_vehicle_spec("0xcopter:px4").is_err());
         assert!(parse_vehicle_spec("2xplane:px4").is_err());
         assert!(parse_vehicle_spec("").is_err());

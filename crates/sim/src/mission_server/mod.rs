@@ -397,8 +397,8 @@ impl MissionServer {
         }
     }
 
-    #[cfg(test)]
-    /// Whether an upload is in progress for any list.
+    /// Whether an upload is in progress for any list (ArduPilot slows its streams down
+    /// meanwhile).
     pub(crate) fn receiving(&self) -> bool {
         match &self.transfer {
             Transfer::ArduPilot(ap) => ap.uploads.iter().any(|r| r.is_some()),

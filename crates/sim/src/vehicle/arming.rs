@@ -230,3 +230,6 @@ impl SimVehicle {
         }
     }
 }
+
+#[cfg(test)]
+mod tests;

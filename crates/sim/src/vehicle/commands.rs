@@ -130,7 +130,10 @@ impl SimVehicle {
             C::MAV_CMD_SET_MESSAGE_INTERVAL => {
                 Some(self.cmd_message_interval(c.param1 as u32, c.param2, now))
             }
-            C::MAV_CMD_REQUEST_MESSAGE => Some(self.cmd_request_message(c.param1 as u32, now)),
+            C::MAV_CMD_REQUEST_MESSAGE => {
+                Some(self.cmd_request_message(c.param1 as u32, c.param2, now))
+            }
+            C::MAV_CMD_GET_MESSAGE_INTERVAL => Some(self.cmd_get_message_interval(c.param1 as u32)),
             C::MAV_CMD_GET_HOME_POSITION => Some(self.cmd_get_home_position(now)),
             C::MAV_CMD_REQUEST_AUTOPILOT_CAPABILITIES => {
                 self.queue(AUTOPILOT_COMPID, self.autopilot_version_msg());

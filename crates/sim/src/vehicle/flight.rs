@@ -116,6 +116,8 @@ impl SimVehicle {
         if !self.estimator.position_ok_announced && self.position_ok(now) {
             self.estimator.position_ok_announced = true;
             self.set_home_here(now);
+            let origin = self.origin_msg(now);
+            self.queue(AUTOPILOT_COMPID, origin);
             match self.cfg.flavour.autopilot {
                 SimAutopilot::ArduPilot => {
                     self.text(
@@ -391,7 +393,9 @@ impl SimVehicle {
             self.flight.nav = Nav::Takeoff(Point { u: alt, ..here });
             R::MAV_RESULT_ACCEPTED
         } else {
-            if self.check_mode_allowed(Mode::Takeoff, now).is_err() || !self.arming.landed {
+            // PX4 switches to AUTO_TAKEOFF on NAV_TAKEOFF in the air too (Commander's
+            // VEHICLE_CMD_NAV_TAKEOFF; PX4 1.16 SIH: ACCEPTED while climbing and at altitude)
+            if self.check_mode_allowed(Mode::Takeoff, now).is_err() {
                 let msg = format!(
                     "Switching to {} is currently not possible",
                     self.cfg.flavour.mode_name(Mode::Takeoff)
@@ -414,12 +418,18 @@ impl SimVehicle {
                     }
                 }
             } else {
+                // MIS_TAKEOFF_ALT, as the commander says
+                self.text(
+                    mav::MavSeverity::MAV_SEVERITY_INFO,
+                    "Using default takeoff altitude: 2.5 m",
+                );
                 2.5
             };
             self.enter_mode(Mode::Takeoff, now);
             let here = self.here();
+            // already higher: the navigator's take-off holds the altitude it is at
             self.flight.nav = Nav::Takeoff(Point {
-                u: alt.max(1.0),
+                u: alt.max(1.0).max(here.u),
                 ..here
             });
             R::MAV_RESULT_ACCEPTED

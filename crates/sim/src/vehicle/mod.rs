@@ -40,11 +40,16 @@
 //!   mission starts on the ground, MISSION_ITEM_REACHED repeated 10 times at 1 Hz as
 //!   `mavlink_mission.cpp` does);
 //! - auto-disarm: ArduCopter after 10 s armed on the ground (DISARM_DELAY) and at once after
-//!   landing in LAND/RTL/AUTO; PX4 after 10 s without takeoff (COM_DISARM_PRFLT) and 2 s after
-//!   landing (COM_DISARM_LAND); rovers never;
-//! - streams: ArduCopter sends only HEARTBEAT until the GCS asks (REQUEST_DATA_STREAM or
-//!   SET_MESSAGE_INTERVAL), ArduRover streams at 1 Hz by default, PX4 uses the rates of its
-//!   NORMAL MAVLink mode (`mavlink_main.cpp` configure_streams).
+//!   landing in LAND/RTL/AUTO; PX4 about 11 s after arming without takeoff (COM_DISARM_PRFLT
+//!   from the land detector's "landed") and 2 s after landing (COM_DISARM_LAND); rovers never;
+//! - take-off: ArduCopter answers NAV_TAKEOFF FAILED when disarmed, not landed or not in a
+//!   user-take-off mode (a repeated take-off once off the ground fails); PX4 accepts it
+//!   disarmed (AUTO_TAKEOFF, waiting for the arming) and in the air;
+//! - streams (`streams`): ArduPilot's stream groups with the messages SITL sends, its
+//!   buckets, SET_MESSAGE_INTERVAL / REQUEST_DATA_STREAM / GET_MESSAGE_INTERVAL, the slowdown
+//!   under RADIO_STATUS and ×4 while receiving waypoints (ArduCopter sends only HEARTBEAT until
+//!   asked, ArduRover every group at 1 Hz); PX4's Normal-mode streams with its rate
+//!   multiplier ([`Px4Link`]); the contents (`messages`) sized as the real ones on the wire.
 
 // MISSION_SET_CURRENT etc. are deprecated in the dialect but still what autopilots accept.
 #![allow(deprecated)]
@@ -67,7 +72,7 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use num_traits::FromPrimitive;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
-use std::collections::{BTreeMap, HashMap, VecDeque};
+use std::collections::{HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::Duration;
 
@@ -77,10 +82,14 @@ mod commands;
 mod estimator;
 mod flight;
 mod geofence;
+mod messages;
 mod mission;
 mod modes;
 mod power;
+mod streams;
 mod telemetry;
+
+pub use streams::Px4Link;
 
 /// Mission item command and frame numbers, named from the dialect's MAV_CMD and MAV_FRAME
 /// ([`MissionItem`] keeps them as the plain integers the wire carries).
@@ -139,7 +148,7 @@ use geofence::Geofence;
 use mission::{Exec, Missions};
 use modes::Modes;
 use power::Power;
-use telemetry::Telemetry;
+use telemetry::{Schedule, Telemetry};
 
 /// Physics and logic step, seconds (20 Hz).
 pub(crate) const DT: f64 = 0.05;
@@ -231,6 +240,11 @@ pub struct VehicleConfig {
     pub gcs_time_scale: f64,
     /// Power-off time of a battery swap, seconds (the vehicle is silent meanwhile).
     pub(crate) power_off_s: f64,
+    /// PX4: the MAVLink instance the GCS talks to (its data rate, whether RADIO_STATUS
+    /// throttles it, the SITL's extra streams): [`Px4Link::NETWORK`] by default,
+    /// [`Px4Link::TELEM1`] for a telemetry radio on TELEM1 as in the field,
+    /// [`Px4Link::SITL_UDP`] to compare with PX4 SITL. ArduPilot ignores it.
+    pub px4_link: Px4Link,
 }
 
 impl VehicleConfig {
@@ -285,6 +299,7 @@ impl VehicleConfig {
             px4_datalink_required: true,
             gcs_time_scale: 1.0,
             power_off_s: 3.0,
+            px4_link: Px4Link::NETWORK,
         }
     }
 }
@@ -415,9 +430,13 @@ impl SimVehicle {
             },
             telemetry: Telemetry {
                 seq: [0; 2],
-                streams: BTreeMap::new(),
+                schedule: Schedule::at_boot(&cfg, now),
+                due: Vec::new(),
                 outbox: VecDeque::new(),
                 events: VecDeque::new(),
+                ping_seq: 0,
+                link_counts: Default::default(),
+                terrain_request_at: None,
             },
             cfg,
             world,
@@ -547,6 +566,7 @@ impl SimVehicle {
             self.telemetry.outbox.push_back((CAMERA_COMPID, m));
         }
         let (comp, msg) = self.telemetry.outbox.pop_front()?;
+        self.telemetry.link_counts.sent = self.telemetry.link_counts.sent.wrapping_add(1);
         let i = usize::from(comp == CAMERA_COMPID);
         let s = self.telemetry.seq[i];
         self.telemetry.seq[i] = s.wrapping_add(1);
@@ -579,6 +599,7 @@ impl SimVehicle {
         if !self.power.powered {
             return;
         }
+        self.telemetry.link_counts.received = self.telemetry.link_counts.received.wrapping_add(1);
         let from = Endpoint::of(h);
         if let MavMessage::HEARTBEAT(hb) = msg
             && hb.mavtype == mav::MavType::MAV_TYPE_GCS
@@ -628,10 +649,13 @@ impl SimVehicle {
                 self.request_data_stream(
                     r.req_stream_id as u8,
                     r.req_message_rate,
-                    r.start_stop != 0,
+                    r.start_stop,
                     now,
                 );
             }
+            // from whichever system: a SiK radio speaks as 51/68, and ArduPilot and PX4 take
+            // any RADIO_STATUS on the link as their radio's
+            MavMessage::RADIO_STATUS(r) => self.radio_status(r.txbuf, now),
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) if p.target_system == self.cfg.sysid => {
                 self.position_target(p, now);
             }
@@ -645,3 +669,6 @@ impl SimVehicle {
         }
     }
 }
+
+#[cfg(test)]
+mod test_probe;

@@ -143,8 +143,12 @@ impl SimVehicle {
                 // after a landing: ArduCopter disarms at once in LAND/RTL/AUTO (done on
                 // touchdown), else after DISARM_DELAY; PX4 COM_DISARM_LAND 2 s
                 if ap { 10.0 } else { 2.0 }
+            } else if ap {
+                10.0 // DISARM_DELAY (measured 10.1 s after the ARM's ACK)
             } else {
-                10.0 // DISARM_DELAY / COM_DISARM_PRFLT
+                // COM_DISARM_PRFLT 10 s, counted from when the land detector says landed
+                // after arming: 10.9–11.6 s after the ACK on PX4 1.16 SIH
+                11.0
             };
             if !taking_off && now.saturating_since(since).as_secs_f64() >= limit {
                 let reason = if self.arming.took_off {

@@ -75,8 +75,9 @@ impl SimVehicle {
         {
             c.reboot();
         }
-        self.telemetry.streams.clear();
-        self.default_streams(now);
+        self.telemetry.terrain_request_at = None;
+        self.telemetry.link_counts = Default::default();
+        self.reset_schedule(now);
         // ArduPilot: FENCE_ENABLE 0 until the GCS enables it; PX4: any uploaded fence applies
         self.geofence.enabled = !self.cfg.flavour.is_ardupilot();
         self.geofence.breached = false;

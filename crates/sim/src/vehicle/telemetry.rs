@@ -1,7 +1,21 @@
 //! Telemetry: the outbox, status texts, message streams (REQUEST_DATA_STREAM,
 //! SET_MESSAGE_INTERVAL) and the messages they carry.
 
+use super::messages::wobble;
+use super::streams::{ApRefusal, ApSchedule, Px4Schedule};
 use super::*;
+
+/// The camera component's HEARTBEAT (MAV_TYPE_CAMERA), sent with the autopilot's.
+fn camera_heartbeat() -> MavMessage {
+    MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
+        custom_mode: 0,
+        mavtype: mav::MavType::MAV_TYPE_CAMERA,
+        autopilot: mav::MavAutopilot::MAV_AUTOPILOT_INVALID,
+        base_mode: mav::MavModeFlag::empty(),
+        system_status: mav::MavState::MAV_STATE_ACTIVE,
+        mavlink_version: 3,
+    })
+}
 
 /// The message ids the vehicle streams or answers, named from the dialect's message types,
 /// and ArduPilot's REQUEST_DATA_STREAM stream groups (MAV_DATA_STREAM).
@@ -37,32 +51,63 @@ pub(super) mod id {
     /// CAMERA_CAPTURE_STATUS (message id 262), answered by the camera component.
     pub(crate) const CAMERA_CAPTURE_STATUS: u32 =
         <mav::CAMERA_CAPTURE_STATUS_DATA as MessageData>::ID;
-    /// MAV_DATA_STREAM_ALL.
-    pub(crate) const STREAM_ALL: u8 = mav::MavDataStream::MAV_DATA_STREAM_ALL as u8;
-    /// MAV_DATA_STREAM_EXTENDED_STATUS.
-    pub(crate) const STREAM_EXTENDED_STATUS: u8 =
-        mav::MavDataStream::MAV_DATA_STREAM_EXTENDED_STATUS as u8;
-    /// MAV_DATA_STREAM_POSITION.
-    pub(crate) const STREAM_POSITION: u8 = mav::MavDataStream::MAV_DATA_STREAM_POSITION as u8;
-    /// MAV_DATA_STREAM_EXTRA1.
-    pub(crate) const STREAM_EXTRA1: u8 = mav::MavDataStream::MAV_DATA_STREAM_EXTRA1 as u8;
-    /// MAV_DATA_STREAM_EXTRA2.
-    pub(crate) const STREAM_EXTRA2: u8 = mav::MavDataStream::MAV_DATA_STREAM_EXTRA2 as u8;
-    /// MAV_DATA_STREAM_EXTRA3.
-    pub(crate) const STREAM_EXTRA3: u8 = mav::MavDataStream::MAV_DATA_STREAM_EXTRA3 as u8;
+    /// MESSAGE_INTERVAL (message id 244).
+    pub(crate) const MESSAGE_INTERVAL: u32 = <mav::MESSAGE_INTERVAL_DATA as MessageData>::ID;
 }
 
-/// What leaves the vehicle: message sequence numbers, streams, the outbox and events.
+/// What leaves the vehicle: message sequence numbers, the stream schedule, the outbox and
+/// events.
 #[derive(Debug)]
 pub(super) struct Telemetry {
     /// Next sequence number per component (autopilot, camera).
     pub(super) seq: [u8; 2],
-    /// Streamed message ids: (interval, next send time).
-    pub(super) streams: BTreeMap<u32, (Duration, Time)>,
+    /// When each streamed message is due ([`super::streams`]).
+    pub(super) schedule: Schedule,
+    /// The message ids due this step (kept to save an allocation per step).
+    pub(super) due: Vec<u32>,
     /// Messages waiting to be sent, with their component id.
     pub(super) outbox: VecDeque<(u8, MavMessage)>,
     /// Events for the harness.
     pub(super) events: VecDeque<VehicleEvent>,
+    /// PX4's PING stream's sequence number.
+    pub(super) ping_seq: u32,
+    /// Messages sent and received on the GCS link since boot, and the counts at the last
+    /// LINK_NODE_STATUS (its rates).
+    pub(super) link_counts: LinkCounts,
+    /// ArduCopter's last TERRAIN_REQUEST.
+    pub(super) terrain_request_at: Option<Time>,
+}
+
+/// What PX4's LINK_NODE_STATUS reports of the GCS link.
+#[derive(Debug, Default, Clone, Copy)]
+pub(super) struct LinkCounts {
+    /// Messages sent since boot.
+    pub(super) sent: u32,
+    /// Messages received since boot.
+    pub(super) received: u32,
+    /// (when, sent, received) at the last LINK_NODE_STATUS.
+    pub(super) last: Option<(Time, u32, u32)>,
+}
+
+/// The flavour's message schedule.
+#[derive(Debug)]
+pub(super) enum Schedule {
+    /// ArduPilot's stream groups and buckets.
+    ArduPilot(Box<ApSchedule>),
+    /// PX4's streams and rate multiplier.
+    Px4(Px4Schedule),
+}
+
+impl Schedule {
+    /// The schedule a vehicle boots with.
+    pub(super) fn at_boot(cfg: &VehicleConfig, now: Time) -> Schedule {
+        match cfg.flavour.autopilot {
+            SimAutopilot::ArduPilot => {
+                Schedule::ArduPilot(Box::new(ApSchedule::new(cfg.flavour.kind, now)))
+            }
+            SimAutopilot::Px4 => Schedule::Px4(Px4Schedule::new(cfg.px4_link, now)),
+        }
+    }
 }
 
 impl SimVehicle {
@@ -96,145 +141,100 @@ impl SimVehicle {
         );
     }
 
-    pub(super) fn default_streams(&mut self, now: Time) {
-        let f = self.cfg.flavour;
-        let mut set = |id: u32, hz: f64| {
-            if hz > 0.0 {
-                self.telemetry
-                    .streams
-                    .insert(id, (Duration::from_secs_f64(1.0 / hz), now));
-            }
-        };
-        set(id::HEARTBEAT, 1.0); // HEARTBEAT
-        match (f.autopilot, f.kind) {
-            (SimAutopilot::ArduPilot, VehicleKind::Copter) => {}
-            (SimAutopilot::ArduPilot, VehicleKind::Rover) => {
-                for id in [
-                    id::SYS_STATUS,
-                    id::GPS_RAW_INT,
-                    id::MISSION_CURRENT,
-                    id::GLOBAL_POSITION_INT,
-                    id::ATTITUDE,
-                    id::VFR_HUD,
-                    id::BATTERY_STATUS,
-                    id::EXTENDED_SYS_STATE,
-                ] {
-                    set(id, 1.0);
-                }
-            }
-            (SimAutopilot::Px4, _) => {
-                set(id::SYS_STATUS, 1.0); // SYS_STATUS
-                set(id::GPS_RAW_INT, 1.0); // GPS_RAW_INT
-                set(id::ATTITUDE, 15.0); // ATTITUDE
-                set(id::GLOBAL_POSITION_INT, 5.0); // GLOBAL_POSITION_INT
-                set(id::MISSION_CURRENT, 1.0); // MISSION_CURRENT (mission manager, 1 Hz)
-                set(id::VFR_HUD, 4.0); // VFR_HUD
-                set(id::BATTERY_STATUS, 0.5); // BATTERY_STATUS
-                set(id::HOME_POSITION, 0.5); // HOME_POSITION
-                set(id::EXTENDED_SYS_STATE, 1.0); // EXTENDED_SYS_STATE
-            }
-        }
-        if let Some(c) = self.camera.as_ref() {
-            let _ = c;
+    /// The streams a vehicle boots with: ArduCopter only HEARTBEAT, ArduRover every group at
+    /// 1 Hz, PX4 its Normal mode ([`super::streams`]).
+    pub(super) fn reset_schedule(&mut self, now: Time) {
+        self.telemetry.schedule = Schedule::at_boot(&self.cfg, now);
+    }
+
+    /// REQUEST_DATA_STREAM (ArduPilot; PX4 ignores it): a stream group's rate, Hz.
+    pub(super) fn request_data_stream(&mut self, stream: u8, rate: u16, start_stop: u8, now: Time) {
+        if let Schedule::ArduPilot(s) = &mut self.telemetry.schedule {
+            s.request_data_stream(stream, rate, start_stop, now);
         }
     }
 
-    /// REQUEST_DATA_STREAM (ArduPilot): set a stream group's rate (Hz; 0 stops).
-    pub(super) fn request_data_stream(&mut self, stream: u8, rate: u16, start: bool, now: Time) {
-        // GCS_MAVLink stream groups (ArduCopter GCS_Mavlink.cpp STREAM_* lists)
-        let ids: &[u32] = match stream {
-            id::STREAM_ALL => &[
-                id::SYS_STATUS,
-                id::GPS_RAW_INT,
-                id::MISSION_CURRENT,
-                id::EXTENDED_SYS_STATE,
-                id::GLOBAL_POSITION_INT,
-                id::ATTITUDE,
-                id::VFR_HUD,
-                id::SYSTEM_TIME,
-                id::BATTERY_STATUS,
-            ],
-            id::STREAM_EXTENDED_STATUS => &[
-                id::SYS_STATUS,
-                id::GPS_RAW_INT,
-                id::MISSION_CURRENT,
-                id::EXTENDED_SYS_STATE,
-            ], // EXTENDED_STATUS (+ EXTENDED_SYS_STATE)
-            id::STREAM_POSITION => &[id::GLOBAL_POSITION_INT], // POSITION
-            id::STREAM_EXTRA1 => &[id::ATTITUDE],              // EXTRA1
-            id::STREAM_EXTRA2 => &[id::VFR_HUD],               // EXTRA2
-            id::STREAM_EXTRA3 => &[id::SYSTEM_TIME, id::BATTERY_STATUS], // EXTRA3: SYSTEM_TIME, BATTERY_STATUS
-            _ => &[],
-        };
-        for &id in ids {
-            if start && rate > 0 {
-                self.telemetry
-                    .streams
-                    .insert(id, (Duration::from_secs_f64(1.0 / f64::from(rate)), now));
-            } else {
-                self.telemetry.streams.remove(&id);
-            }
+    /// RADIO_STATUS from the radio on the GCS link: ArduPilot's `stream_slowdown_ms`, PX4's
+    /// radio multiplier.
+    pub(super) fn radio_status(&mut self, txbuf: u8, now: Time) {
+        match &mut self.telemetry.schedule {
+            Schedule::ArduPilot(s) => s.radio_status(txbuf),
+            Schedule::Px4(s) => s.radio_status(txbuf, now),
         }
     }
 
+    /// SET_MESSAGE_INTERVAL: param1 the message id, param2 the interval in µs (0 default,
+    /// −1 off).
     pub(super) fn cmd_message_interval(
         &mut self,
         id: u32,
         interval_us: f32,
         now: Time,
     ) -> mav::MavResult {
-        if !self.message_supported(id) {
-            if self.cfg.flavour.is_ardupilot() {
-                let msg = format!("No ap_message for mavlink id ({id})");
-                self.text(mav::MavSeverity::MAV_SEVERITY_INFO, &msg);
+        use mav::MavResult as R;
+        match &mut self.telemetry.schedule {
+            Schedule::ArduPilot(s) => match s.set_message_interval(id, interval_us, now) {
+                Ok(()) => R::MAV_RESULT_ACCEPTED,
+                Err(why) => {
+                    let text = match why {
+                        ApRefusal::Unknown => Some(format!("No ap_message for mavlink id ({id})")),
+                        ApRefusal::TooFast => Some(format!(
+                            "Requested rate for message ID {id} too fast. Increase SCHED_LOOP_RATE"
+                        )),
+                        ApRefusal::Negative => None,
+                    };
+                    if let Some(t) = text {
+                        self.text(mav::MavSeverity::MAV_SEVERITY_INFO, &t);
+                    }
+                    R::MAV_RESULT_DENIED
+                }
+            },
+            Schedule::Px4(s) => {
+                if s.set_message_interval(id, interval_us, now) {
+                    R::MAV_RESULT_ACCEPTED
+                } else {
+                    R::MAV_RESULT_FAILED
+                }
             }
-            return mav::MavResult::MAV_RESULT_DENIED;
         }
-        if interval_us < 0.0 {
-            self.telemetry.streams.remove(&id);
-        } else if interval_us == 0.0 {
-            // default rate: restore the boot default (or stop when there is none)
-            self.telemetry.streams.remove(&id);
-            let mut probe = BTreeMap::new();
-            std::mem::swap(&mut probe, &mut self.telemetry.streams);
-            self.default_streams(now);
-            let default = self.telemetry.streams.get(&id).copied();
-            std::mem::swap(&mut probe, &mut self.telemetry.streams);
-            if let Some(d) = default {
-                self.telemetry.streams.insert(id, d);
-            }
-        } else {
-            let us = f64::from(interval_us).max(10_000.0); // at most 100 Hz
-            self.telemetry
-                .streams
-                .insert(id, (Duration::from_secs_f64(us / 1e6), now));
-        }
-        mav::MavResult::MAV_RESULT_ACCEPTED
     }
 
-    pub(super) fn message_supported(&self, id: u32) -> bool {
-        matches!(
-            id,
-            id::HEARTBEAT
-                | id::SYS_STATUS
-                | id::SYSTEM_TIME
-                | id::GPS_RAW_INT
-                | id::ATTITUDE
-                | id::GLOBAL_POSITION_INT
-                | id::MISSION_CURRENT
-                | id::VFR_HUD
-                | id::BATTERY_STATUS
-                | id::AUTOPILOT_VERSION
-                | id::HOME_POSITION
-                | id::EXTENDED_SYS_STATE
-        )
+    /// GET_MESSAGE_INTERVAL (and REQUEST_MESSAGE of MESSAGE_INTERVAL): a MESSAGE_INTERVAL
+    /// with the message's interval, µs. ArduPilot: −1 when not sent, 0 and FAILED for an id
+    /// it has no message for; PX4: 0 when not streamed, always ACCEPTED.
+    pub(super) fn cmd_get_message_interval(&mut self, id: u32) -> mav::MavResult {
+        let (interval_us, result) = match &self.telemetry.schedule {
+            Schedule::ArduPilot(s) => s.get_message_interval(id),
+            Schedule::Px4(s) => (
+                s.get_message_interval(id),
+                mav::MavResult::MAV_RESULT_ACCEPTED,
+            ),
+        };
+        self.queue(
+            AUTOPILOT_COMPID,
+            MavMessage::MESSAGE_INTERVAL(mav::MESSAGE_INTERVAL_DATA {
+                interval_us,
+                message_id: id.min(u32::from(u16::MAX)) as u16,
+            }),
+        );
+        result
     }
 
-    pub(super) fn cmd_request_message(&mut self, id: u32, now: Time) -> mav::MavResult {
-        if id == 242 && self.flight.home.is_none() {
+    /// REQUEST_MESSAGE: the message once (param1 its id; MESSAGE_INTERVAL with param2 the
+    /// message asked about).
+    pub(super) fn cmd_request_message(
+        &mut self,
+        id: u32,
+        param2: f32,
+        now: Time,
+    ) -> mav::MavResult {
+        if id == self::id::MESSAGE_INTERVAL {
+            return self.cmd_get_message_interval(param2 as u32);
+        }
+        if id == self::id::HOME_POSITION && self.flight.home.is_none() {
             return mav::MavResult::MAV_RESULT_FAILED;
         }
-        match self.telemetry(id, now) {
+        match self.message_now(id, now) {
             Some(m) => {
                 self.queue(AUTOPILOT_COMPID, m);
                 mav::MavResult::MAV_RESULT_ACCEPTED
@@ -243,44 +243,45 @@ impl SimVehicle {
         }
     }
 
+    /// Message `id` as the vehicle would send it now, if it has one.
+    pub(super) fn message_now(&mut self, id: u32, now: Time) -> Option<MavMessage> {
+        match self.telemetry(id, now) {
+            Some(m) => Some(m),
+            None => self.stream_message(id, now),
+        }
+    }
+
+    /// Send what the schedule says is due at `now` (one 20 Hz step).
     pub(super) fn emit_streams(&mut self, now: Time) {
-        let due: Vec<u32> = self
-            .telemetry
-            .streams
-            .iter()
-            .filter(|(_, (_, next))| *next <= now)
-            .map(|(id, _)| *id)
-            .collect();
-        for id in due {
-            if let Some((period, next)) = self.telemetry.streams.get_mut(&id) {
-                let mut n = *next + *period;
-                if n <= now {
-                    n = now + *period;
-                }
-                *next = n;
+        let mut due = std::mem::take(&mut self.telemetry.due);
+        due.clear();
+        let receiving = self.missions.server.receiving();
+        let timesync = match &mut self.telemetry.schedule {
+            Schedule::ArduPilot(s) => s.due(now, receiving, &mut due),
+            Schedule::Px4(s) => {
+                s.due(now, &mut due);
+                false
             }
-            if id == 242 && self.flight.home.is_none() {
+        };
+        for &id in &due {
+            if id == self::id::HEARTBEAT {
+                self.send_heartbeat(now);
+                if self.camera.is_some() {
+                    self.queue(CAMERA_COMPID, camera_heartbeat());
+                }
                 continue;
             }
-            if let Some(m) = self.telemetry(id, now) {
+            if id == self::id::HOME_POSITION && self.flight.home.is_none() {
+                continue;
+            }
+            if let Some(m) = self.message_now(id, now) {
                 self.queue(AUTOPILOT_COMPID, m);
             }
-            if id == 0
-                && let Some(c) = self.camera.as_ref()
-            {
-                let _ = c;
-                self.queue(
-                    CAMERA_COMPID,
-                    MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
-                        custom_mode: 0,
-                        mavtype: mav::MavType::MAV_TYPE_CAMERA,
-                        autopilot: mav::MavAutopilot::MAV_AUTOPILOT_INVALID,
-                        base_mode: mav::MavModeFlag::empty(),
-                        system_status: mav::MavState::MAV_STATE_ACTIVE,
-                        mavlink_version: 3,
-                    }),
-                );
-            }
+        }
+        self.telemetry.due = due;
+        if timesync {
+            let m = self.timesync_msg(now);
+            self.queue(AUTOPILOT_COMPID, m);
         }
         // ArduPilot prints the failing pre-arm check every 30 s while disarmed
         if self.cfg.flavour.is_ardupilot()
@@ -310,7 +311,7 @@ impl SimVehicle {
         }
     }
 
-    pub(super) fn home_position_msg(&self, _now: Time) -> MavMessage {
+    pub(super) fn home_position_msg(&self, now: Time) -> MavMessage {
         let h = self.flight.home.unwrap_or(Home {
             lat: 0.0,
             lon: 0.0,
@@ -326,11 +327,17 @@ impl SimVehicle {
             x: (h.n - en) as f32,
             y: (h.e - ee) as f32,
             z: 0.0,
-            q: [1.0, 0.0, 0.0, 0.0],
+            // ArduPilot leaves the orientation unset (NaN), PX4 gives its heading at home
+            q: if self.cfg.flavour.is_ardupilot() {
+                [f32::NAN; 4]
+            } else {
+                let (s, c) = (self.flight.m.heading_deg.to_radians() / 2.0).sin_cos();
+                [c as f32, 0.0, 0.0, s as f32]
+            },
             approach_x: 0.0,
             approach_y: 0.0,
             approach_z: 0.0,
-            time_usec: 0,
+            time_usec: now.saturating_since(self.power.boot_time).as_micros() as u64,
         })
     }
 
@@ -497,8 +504,12 @@ impl SimVehicle {
                         mav::MavSysStatusSensorExtended::empty(),
                     onboard_control_sensors_enabled_extended:
                         mav::MavSysStatusSensorExtended::empty(),
-                    onboard_control_sensors_health_extended: mav::MavSysStatusSensorExtended::empty(
-                    ),
+                    // PX4 reports its (absent) recovery system as healthy
+                    onboard_control_sensors_health_extended: if f.is_ardupilot() {
+                        mav::MavSysStatusSensorExtended::empty()
+                    } else {
+                        mav::MavSysStatusSensorExtended::MAV_SYS_STATUS_RECOVERY_SYSTEM
+                    },
                 })
             }
             id::SYSTEM_TIME => MavMessage::SYSTEM_TIME(mav::SYSTEM_TIME_DATA {
@@ -533,10 +544,24 @@ impl SimVehicle {
                         mav::GpsFixType::GPS_FIX_TYPE_NO_FIX
                     },
                     satellites_visible: if fix { 14 } else { 3 },
-                    alt_ellipsoid: 0,
-                    h_acc: if fix { 600 } else { 0 },
-                    v_acc: if fix { 900 } else { 0 },
-                    vel_acc: if fix { 200 } else { 0 },
+                    // accuracies as SITL / SIH report them: ArduPilot leaves the speed
+                    // accuracy 0, PX4 fills it (40 and 44 payload bytes)
+                    alt_ellipsoid: if fix {
+                        (amsl * 1000.0).round() as i32
+                    } else {
+                        0
+                    },
+                    h_acc: match (fix, f.is_ardupilot()) {
+                        (false, _) => 0,
+                        (true, true) => 300,
+                        (true, false) => 900,
+                    },
+                    v_acc: match (fix, f.is_ardupilot()) {
+                        (false, _) => 0,
+                        (true, true) => 300,
+                        (true, false) => 1780,
+                    },
+                    vel_acc: if fix && !f.is_ardupilot() { 400 } else { 0 },
                     hdg_acc: 0,
                     yaw: 0,
                 })
@@ -553,9 +578,10 @@ impl SimVehicle {
                         y
                     }) as f32
                 },
-                rollspeed: 0.0,
-                pitchspeed: 0.0,
-                yawspeed: 0.0,
+                // gyro noise: never exactly zero, so the message is its full 28 bytes
+                rollspeed: wobble(now, 40.0, 1e-3),
+                pitchspeed: wobble(now, 41.0, 1e-3),
+                yawspeed: wobble(now, 42.0, 1e-3),
             }),
             id::GLOBAL_POSITION_INT => {
                 if !self.position_ok(now) && f.is_ardupilot() {
@@ -571,7 +597,11 @@ impl SimVehicle {
                     vx: (self.flight.m.vn * 100.0).round() as i16,
                     vy: (self.flight.m.ve * 100.0).round() as i16,
                     vz: (-self.flight.m.vu * 100.0).round() as i16,
-                    hdg: (self.flight.m.heading_deg * 100.0).round() as u16 % 36000,
+                    // the estimator's heading: the true one within a few hundredths of a
+                    // degree (so never exactly 0, the last field; a real EKF's never is)
+                    hdg: ((self.flight.m.heading_deg + f64::from(wobble(now, 43.0, 0.01))) * 100.0)
+                        .round() as u16
+                        % 36000,
                 })
             }
             id::MISSION_CURRENT => {
@@ -608,16 +638,31 @@ impl SimVehicle {
                     total,
                     mission_state: state,
                     mission_mode: u8::from(self.modes.mode == Mode::Auto),
-                    mission_id: self.missions.server.opaque_id(MissionType::Mission),
-                    fence_id: self.missions.server.opaque_id(MissionType::Fence),
-                    rally_points_id: self.missions.server.opaque_id(MissionType::Rally),
+                    // PX4 sends the lists' ids; ArduPilot 4.7 leaves them out
+                    // (`GCS_MAVLINK::send_mission_current`)
+                    mission_id: if ap {
+                        0
+                    } else {
+                        self.missions.server.opaque_id(MissionType::Mission)
+                    },
+                    fence_id: if ap {
+                        0
+                    } else {
+                        self.missions.server.opaque_id(MissionType::Fence)
+                    },
+                    rally_points_id: if ap {
+                        0
+                    } else {
+                        self.missions.server.opaque_id(MissionType::Rally)
+                    },
                 })
             }
             id::VFR_HUD => MavMessage::VFR_HUD(mav::VFR_HUD_DATA {
-                airspeed: self.flight.m.ground_speed() as f32,
-                groundspeed: self.flight.m.ground_speed() as f32,
+                // estimates: never exactly zero
+                airspeed: self.flight.m.ground_speed() as f32 + wobble(now, 44.0, 1e-2),
+                groundspeed: self.flight.m.ground_speed() as f32 + wobble(now, 45.0, 1e-2),
                 alt: amsl as f32,
-                climb: self.flight.m.vu as f32,
+                climb: self.flight.m.vu as f32 + wobble(now, 46.0, 5e-4),
                 heading: self.flight.m.heading_deg.round() as i16 % 360,
                 throttle: if self.arming.armed && !self.arming.landed {
                     50
@@ -667,9 +712,24 @@ impl SimVehicle {
             id::AUTOPILOT_VERSION => self.autopilot_version_msg(),
             id::HOME_POSITION => self.home_position_msg(now),
             id::EXTENDED_SYS_STATE => {
+                // ArduCopter says MC, ArduRover has no landed state (`GCS_MAVLINK::landed_state`
+                // is UNDEFINED unless a vehicle overrides it; Rover does not)
+                let (vtol_state, landed_state) = match (f.autopilot, f.kind) {
+                    (SimAutopilot::ArduPilot, VehicleKind::Copter) => {
+                        (mav::MavVtolState::MAV_VTOL_STATE_MC, self.landed_state())
+                    }
+                    (SimAutopilot::ArduPilot, VehicleKind::Rover) => (
+                        mav::MavVtolState::MAV_VTOL_STATE_UNDEFINED,
+                        mav::MavLandedState::MAV_LANDED_STATE_UNDEFINED,
+                    ),
+                    (SimAutopilot::Px4, _) => (
+                        mav::MavVtolState::MAV_VTOL_STATE_UNDEFINED,
+                        self.landed_state(),
+                    ),
+                };
                 MavMessage::EXTENDED_SYS_STATE(mav::EXTENDED_SYS_STATE_DATA {
-                    vtol_state: mav::MavVtolState::MAV_VTOL_STATE_UNDEFINED,
-                    landed_state: self.landed_state(),
+                    vtol_state,
+                    landed_state,
                 })
             }
             _ => return None,
