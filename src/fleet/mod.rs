@@ -33,7 +33,7 @@ mod handle;
 mod ops;
 mod state;
 
-pub use error::FleetError;
+pub use error::{FleetError, StateSeen};
 pub use handle::FleetHandle;
 pub use state::{FleetSnapshot, GeoPoint, LinkQuality, StatusText, VehicleSnapshot};
 
