@@ -199,32 +199,34 @@ impl FleetError {
             FleetError::ArmRefused {
                 prearm: Some(t), ..
             } => Some(format!("clear the pre-arm failure it reports: {t}")),
-            FleetError::NotStarted { failure, state, .. } => match (&failure.cause, &state.prearm) {
-                (Cause::NotReady { reasons }, _) => Some(format!(
-                    "it never became ready to arm ({}): fix what the autopilot reports",
-                    reasons.join("; ")
-                )),
-                (
-                    Cause::Refused {
-                        step: Step::Arm, ..
-                    },
-                    Some(t),
-                ) => Some(format!("clear the pre-arm failure it reports: {t}")),
-                (
-                    Cause::Refused {
-                        error:
-                            CommandError::Unsupported { .. }
-                            | CommandError::Denied { .. }
-                            | CommandError::UnsupportedFrame { .. },
-                        ..
-                    },
-                    _,
-                ) => Some(format!(
-                    "{}: check the vehicle's setup (firmware, parameters)",
-                    failure.cause
-                )),
-                _ => None,
-            },
+            FleetError::NotStarted { failure, state, .. } => {
+                match (&failure.cause, &state.prearm) {
+                    (Cause::NotReady { reasons }, _) => Some(format!(
+                        "it never became ready to arm ({}): fix what the autopilot reports",
+                        reasons.join("; ")
+                    )),
+                    (
+                        Cause::Refused {
+                            step: Step::Arm, ..
+                        },
+                        Some(t),
+                    ) => Some(format!("clear the pre-arm failure it reports: {t}")),
+                    (
+                        Cause::Refused {
+                            error:
+                                CommandError::Unsupported { .. }
+                                | CommandError::Denied { .. }
+                                | CommandError::UnsupportedFrame { .. },
+                            ..
+                        },
+                        _,
+                    ) => Some(format!(
+                        "{}: check the vehicle's setup (firmware, parameters)",
+                        failure.cause
+                    )),
+                    _ => None,
+                }
+            }
             FleetError::Mission {
                 error: error @ MissionError::Rejected { .. },
                 ..
@@ -233,7 +235,8 @@ impl FleetError {
             )),
             FleetError::Flavour { error, .. } => Some(format!("{error}")),
             FleetError::Command {
-                error: error @ (CommandError::Unsupported { .. } | CommandError::UnsupportedFrame { .. }),
+                error:
+                    error @ (CommandError::Unsupported { .. } | CommandError::UnsupportedFrame { .. }),
                 ..
             } => Some(format!("{error}: check the vehicle's firmware")),
             _ => None,

@@ -260,11 +260,8 @@ impl FleetHandle {
             ..LaunchConfig::default()
         };
         let t0 = tokio::time::Instant::now();
-        let since = move || {
-            Time::from_micros(
-                u64::try_from(t0.elapsed().as_micros()).unwrap_or(u64::MAX),
-            )
-        };
+        let since =
+            move || Time::from_micros(u64::try_from(t0.elapsed().as_micros()).unwrap_or(u64::MAX));
         let mut machine = Launch::new(goal, cfg, Time::ZERO);
         let mut snaps = self.watch();
         // Commands out: mode commands apart (waited for at the end).
@@ -362,10 +359,8 @@ impl FleetHandle {
         }
         others.shutdown().await;
         let budget = CommandSender::budget(&self.cfg.command);
-        let _ = tokio::time::timeout(budget, async {
-            while modes.join_next().await.is_some() {}
-        })
-        .await;
+        let _ = tokio::time::timeout(budget, async { while modes.join_next().await.is_some() {} })
+            .await;
         result
     }
 

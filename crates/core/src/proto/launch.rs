@@ -533,15 +533,21 @@ impl Launch {
                         // Unanswered: the effect may still show (the ACKs were lost, not
                         // the command); refused: an earlier copy may have done it.
                         let (w, cause) = if error.is_transient() {
-                            (self.window(p.step), Cause::NoAnswer {
-                                step: p.step,
-                                error: Some(error),
-                            })
+                            (
+                                self.window(p.step),
+                                Cause::NoAnswer {
+                                    step: p.step,
+                                    error: Some(error),
+                                },
+                            )
                         } else {
-                            (REFUSAL_GRACE, Cause::Refused {
-                                step: p.step,
-                                error,
-                            })
+                            (
+                                REFUSAL_GRACE,
+                                Cause::Refused {
+                                    step: p.step,
+                                    error,
+                                },
+                            )
                         };
                         if now < at + w {
                             return Action::Wait((at + w).min(now + LOOK_AGAIN));

@@ -93,9 +93,18 @@ fn a_refusal_counts_after_its_grace_and_the_retry_starts_from_the_state() {
         a => panic!("{a:?}"),
     }
     assert_eq!(l.failures(), 1);
-    assert!(matches!(l.last_cause(), Some(Cause::Refused { step: Step::Takeoff, .. })));
+    assert!(matches!(
+        l.last_cause(),
+        Some(Cause::Refused {
+            step: Step::Takeoff,
+            ..
+        })
+    ));
     // From the current state: arm again, then take off.
-    assert_eq!(l.poll(at + cfg.backoff_first, &obs), Action::Send(Step::Arm));
+    assert_eq!(
+        l.poll(at + cfg.backoff_first, &obs),
+        Action::Send(Step::Arm)
+    );
     obs.armed = true;
     let next = at + cfg.backoff_first + Duration::from_millis(200);
     assert_eq!(l.poll(next, &obs), Action::Send(Step::Takeoff));
@@ -205,7 +214,9 @@ impl Copter {
     }
 
     fn step(&mut self, now: Time, dt: Duration) {
-        if self.armed && self.takeoff_at.is_none() && now.saturating_since(self.armed_at) >= DISARM_DELAY
+        if self.armed
+            && self.takeoff_at.is_none()
+            && now.saturating_since(self.armed_at) >= DISARM_DELAY
         {
             self.armed = false;
         }
@@ -214,7 +225,11 @@ impl Copter {
         }
     }
 
-    fn command(&mut self, c: &mavlink::dialects::ardupilotmega::COMMAND_LONG_DATA, now: Time) -> MavResult {
+    fn command(
+        &mut self,
+        c: &mavlink::dialects::ardupilotmega::COMMAND_LONG_DATA,
+        now: Time,
+    ) -> MavResult {
         use MavResult::*;
         match c.command {
             MavCmd::MAV_CMD_DO_SET_MODE => match Flavour::ARDU_COPTER.mode_of(c.param2 as u32) {
@@ -328,7 +343,14 @@ struct Flight {
 
 /// Fly one launch to its end: the GCS (launch + command sender) at 50 ms ticks, the copter
 /// at 50 ms, telemetry every `telemetry`.
-fn fly(seed: u64, loss_up: f64, loss_down: f64, delay: Duration, telemetry: Duration, ready_at: Option<Time>) -> Flight {
+fn fly(
+    seed: u64,
+    loss_up: f64,
+    loss_down: f64,
+    delay: Duration,
+    telemetry: Duration,
+    ready_at: Option<Time>,
+) -> Flight {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let gcs = Endpoint::gcs();
     let target = Endpoint::new(1, 1);
@@ -386,7 +408,11 @@ fn fly(seed: u64, loss_up: f64, loss_down: f64, delay: Duration, telemetry: Dura
             }
         }
         if now >= next_telemetry {
-            down.send(Frame::Telemetry(Box::new(copter.telemetry(now))), now, &mut rng);
+            down.send(
+                Frame::Telemetry(Box::new(copter.telemetry(now))),
+                now,
+                &mut rng,
+            );
             next_telemetry = now + telemetry;
         }
         // The GCS's side.
@@ -449,9 +475,8 @@ fn fly(seed: u64, loss_up: f64, loss_down: f64, delay: Duration, telemetry: Dura
 /// The longest a launch may take: the readiness wait, then every failed attempt with its
 /// command sender's resends, its window and its back-off.
 fn bound(cfg: &LaunchConfig) -> Duration {
-    let attempt = CommandSender::budget(&CommandConfig::default())
-        + cfg.takeoff_confirm
-        + cfg.backoff_max;
+    let attempt =
+        CommandSender::budget(&CommandConfig::default()) + cfg.takeoff_confirm + cfg.backoff_max;
     cfg.ready_wait + attempt * (cfg.max_failures + 1)
 }
 
@@ -461,23 +486,43 @@ fn a_lost_takeoff_ack_whose_resend_is_refused_still_takes_off() {
     // field saw as "NAV_TAKEOFF: failed". The launch must end in the air all the same.
     let mut found = 0;
     for seed in 0..200 {
-        let f = fly(seed, 0.1, 0.3, Duration::from_millis(300), Duration::from_millis(500), Some(Time::ZERO));
+        let f = fly(
+            seed,
+            0.1,
+            0.3,
+            Duration::from_millis(300),
+            Duration::from_millis(500),
+            Some(Time::ZERO),
+        );
         assert_eq!(f.outcome, Action::Done, "seed {seed}");
         assert!(f.copter.took_off(), "seed {seed}");
         found += usize::from(f.copter.takeoffs_in_air > 0 && f.takeoffs_refused > 0);
     }
     eprintln!("{found} of 200 take-offs had a refused resend and still flew");
-    assert!(found > 0, "no resend of a take-off was refused in 200 flights");
+    assert!(
+        found > 0,
+        "no resend of a take-off was refused in 200 flights"
+    );
 }
 
 #[test]
 fn a_persistent_prearm_failure_ends_the_launch_without_arming() {
-    let f = fly(7, 0.1, 0.1, Duration::from_millis(200), Duration::from_millis(500), None);
+    let f = fly(
+        7,
+        0.1,
+        0.1,
+        Duration::from_millis(200),
+        Duration::from_millis(500),
+        None,
+    );
     match &f.outcome {
         Action::Failed(fail) => {
             assert!(matches!(fail.cause, Cause::NotReady { .. }), "{fail}");
             assert!(!fail.cause.is_link());
-            assert_eq!(fail.commands, 0, "nothing sent to a vehicle not ready: {fail}");
+            assert_eq!(
+                fail.commands, 0,
+                "nothing sent to a vehicle not ready: {fail}"
+            );
         }
         a => panic!("{a:?}"),
     }
