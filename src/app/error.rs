@@ -237,9 +237,14 @@ pub enum RunnerError {
         source: fleetmap_core::planner::sortie::missions::UnsafeMission,
     },
     /// A check the runner makes on its way did not hold; the message says what, and on which
-    /// vehicle.
+    /// vehicle. A person must see to it ([`RunnerError::needs_person`]).
     #[error("{0}")]
     Check(String),
+    /// A vehicle did not get where it was going, or a sortie did not end, in time: a link
+    /// outage or a slow rendezvous, which trying again may get past. The message says which
+    /// vehicle and what it was doing.
+    #[error("{0}")]
+    Overdue(String),
     /// What the runner was doing (and on which vehicle) when `source` failed.
     #[error("{what}")]
     Context {
@@ -283,6 +288,26 @@ impl RunnerError {
             RunnerError::Fleet(e) => e.is_transient(),
             RunnerError::Context { source, .. } => source.is_transient(),
             _ => false,
+        }
+    }
+
+    /// What a person must fix before trying again can succeed, for the operator; `None`
+    /// when the failure may go away by itself — a lost ACK, a link outage that ends, a
+    /// vehicle late at a rendezvous ([`RunnerError::Overdue`]), a flight step that timed
+    /// out. The fleet's rule for a fleet error ([`FleetError::needs_person`]: a vehicle that
+    /// never became ready, a pre-arm failure that persists, a list the autopilot refuses),
+    /// also under a flight step or a step's context; a refused sortie, an unsafe or
+    /// different mission, a failed check of the runner (placement, charger, camera), the
+    /// run store and the layer's own errors need a person. `fleetmap run --auto-resume`
+    /// carries on through the first kind and stops for the second.
+    pub(crate) fn needs_person(&self) -> Option<String> {
+        use crate::app::flight::FlightError;
+        match self {
+            RunnerError::Fleet(e) | RunnerError::Step(FlightError::Fleet(e)) => e.needs_person(),
+            RunnerError::Step(FlightError::ImagesClosed) => Some(self.to_string()),
+            RunnerError::Step(_) | RunnerError::Overdue(_) => None,
+            RunnerError::Context { source, .. } => source.needs_person(),
+            other => Some(other.to_string()),
         }
     }
 }

@@ -13,7 +13,7 @@ use fleetmap_core::proto::flavour::Autopilot;
 use fleetmap_core::proto::flavour::FlavourError;
 use fleetmap_core::proto::flavour::Step;
 use fleetmap_core::proto::launch::{
-    Action, Cause, Goal, Landed, Launch, LaunchConfig, Observed, Step as LaunchStep,
+    Action, Cause, Goal, Landed, Launch, LaunchConfig, LaunchFailure, Observed, Step as LaunchStep,
 };
 use fleetmap_core::proto::mode::Mode;
 use fleetmap_core::time::Time;
@@ -79,6 +79,20 @@ impl FleetHandle {
             .await
         {
             Ok(v) => Ok(v),
+            // Not heard at the end: the link, not the vehicle's checks.
+            Err(Some(v)) if !v.alive => Err(FleetError::NotStarted {
+                sysid,
+                failure: LaunchFailure {
+                    goal: Goal::Armed { mode: None },
+                    commands: 0,
+                    failures: 0,
+                    waited: wait,
+                    cause: Cause::Silent {
+                        waited: Duration::from_secs_f64(v.heartbeat_age_s.max(0.0)),
+                    },
+                },
+                state: self.state_seen(sysid),
+            }),
             Err(last) => Err(FleetError::NotReady {
                 sysid,
                 waited_s: wait.as_secs_f64(),
@@ -349,7 +363,7 @@ impl FleetHandle {
             }
         };
         if let Err(e) = &result {
-            tracing::warn!("vehicle {sysid}: {e}");
+            tracing::warn!("{e}");
         } else if machine.failures() > 0 {
             tracing::info!(
                 "vehicle {sysid}: {goal} after {} command(s), {} failed attempt(s)",

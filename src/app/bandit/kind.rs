@@ -67,6 +67,7 @@ impl RunKind for Classification {
                 factor: settings.patience,
             },
             plan_time_limit_s: settings.plan_time_limit_s,
+            auto_resume: settings.auto_resume,
             ..RunOptions::default()
         })
     }

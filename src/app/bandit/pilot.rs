@@ -16,8 +16,8 @@ impl DronePilot {
         let mut step = 0;
         // The autopilot's last warning (severity ≤ WARNING), for the messages below.
         let mut warning: Option<String> = None;
-        // 1. Its cells.
-        loop {
+        // 1. Its cells (none when its mission did not start: it hovers over its station).
+        while !self.no_mission {
             let v = self
                 .fleet()
                 .vehicle(sysid)
@@ -68,7 +68,7 @@ impl DronePilot {
                 }
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                return Err(RunnerError::check(format!(
+                return Err(RunnerError::Overdue(format!(
                     "drone {sysid}: its mission did not end in time (at step {step})"
                 )));
             }
@@ -99,7 +99,7 @@ impl DronePilot {
                 told = true;
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                return Err(RunnerError::check(format!(
+                return Err(RunnerError::Overdue(format!(
                     "drone {sysid}: station {station} never reached the rendezvous"
                 )));
             }
@@ -310,6 +310,8 @@ pub(super) async fn land_on(
     fleet
         .wait_until(sysid, wait, |v| v.on_ground() && !v.armed)
         .await
-        .map_err(|_| RunnerError::check(format!("drone {sysid}: did not land within {wait:?}")))?;
+        .map_err(|_| {
+            RunnerError::Overdue(format!("drone {sysid}: did not land within {wait:?}"))
+        })?;
     Ok(())
 }

@@ -147,11 +147,12 @@ impl Runner {
                 time_limit: self.plan_time_limit_s,
                 ..PlanOptions::default()
             };
-            let out = tokio::task::spawn_blocking(move || {
+            // Off the reactor (inline on a current-thread runtime: a paused clock would run on
+            // while the solver worked on another thread).
+            let out = crate::app::runway::cpu(move || {
                 solve_instance(&inst, &opts, &fleetmap_io::clock::stopwatch())
             })
-            .await
-            .map_err(RunnerError::task("planner task"))?;
+            .await?;
             match (out.status, out.plan) {
                 (PlanStatus::Optimal | PlanStatus::TimeLimit, Some(plan)) => {
                     let secs = out.solve_seconds;
@@ -196,6 +197,16 @@ impl Runner {
                         })
                         .await?;
                     k *= 2;
+                }
+                (status, _) if self.shared.read(|s| !s.out.is_empty()).await => {
+                    // Without the members that are out the goals may be out of reach: wait
+                    // for them (those a retry may bring back), then plan again.
+                    let why = format!(
+                        "epoch {p}: no plan without the vehicles that are out ({})",
+                        status.as_str()
+                    );
+                    self.wait_for_members(&why).await?;
+                    k = k0.max(1);
                 }
                 (status, _) => {
                     return Err(RunnerError::check(format!(
@@ -303,7 +314,20 @@ impl Runner {
                 (sysid, r)
             });
         }
-        let mut rejected = join_failures(&mut tasks, "upload task").await?;
+        let failed = super::sortie::join_errors(&mut tasks, "upload task").await?;
+        // A vehicle that did not answer (after the upload's own retries) cannot start this
+        // sortie: it goes out, the others fly; one that refused its mission stops the run.
+        let (lost, refused): (Vec<_>, Vec<_>) = failed
+            .into_iter()
+            .partition(|(_, e)| e.needs_person().is_none());
+        if refused.is_empty() && !lost.is_empty() {
+            return self.drop_start(p, cycle.k, lost).await;
+        }
+        let mut rejected: Vec<(u8, String)> = refused
+            .iter()
+            .chain(&lost)
+            .map(|(s, e)| (*s, crate::app::error::chain(e)))
+            .collect();
         rejected.sort();
         if let Some((sysid, reason)) = rejected.first().cloned() {
             let events = rejected
@@ -341,6 +365,138 @@ impl Runner {
             cycle.k
         )));
         Ok(())
+    }
+
+    /// Whether member `sysid` is ready to take part again, by its telemetry: heard, booted,
+    /// ready to arm (or armed), and — a drone — standing on a station's cell.
+    pub(super) async fn ready_again(&self, sysid: u8) -> bool {
+        let Some(v) = self.fleet().vehicle(sysid) else {
+            return false;
+        };
+        let now = self.fleet().clock().now();
+        let on_station = self
+            .shared
+            .read(|s| {
+                let i = s.drones.iter().position(|m| m.sysid == sysid);
+                i.is_none_or(|i| {
+                    s.config
+                        .drones
+                        .get(i)
+                        .is_some_and(|c| s.config.stations.contains(c))
+                })
+            })
+            .await;
+        v.alive && !v.booting && (v.armed || v.arm_blockers(now).is_empty()) && on_station
+    }
+
+    /// Take back the members out whose wait is over and that are ready again (journalled,
+    /// told); returns how many.
+    pub(super) async fn members_back(&self) -> RunnerResult<usize> {
+        let eligible = self.shared.read(|s| s.eligible()).await;
+        let mut back = 0;
+        for sysid in eligible {
+            if !self.ready_again(sysid).await {
+                continue;
+            }
+            let was = self
+                .shared
+                .commit(|s| {
+                    let was = s
+                        .out
+                        .get(&sysid)
+                        .map(|o| o.reason.clone())
+                        .unwrap_or_default();
+                    s.reinstate(sysid);
+                    Ok((was.clone(), vec![BanditEvent::VehicleBack { sysid, was }]))
+                })
+                .await?;
+            back += 1;
+            self.say(
+                Progress::notice(format!(
+                    "vehicle {sysid} is ready again and rejoins the run (it was out: {was})"
+                ))
+                .about(sysid),
+            );
+        }
+        Ok(back)
+    }
+
+    /// Every drone is out: no sortie can fly. Wait for those a retry may bring back; stop
+    /// when a person must fix every one of them.
+    pub(super) async fn need_a_drone(&self) -> RunnerResult<()> {
+        if self.shared.read(|s| s.active_drones().is_empty()).await {
+            self.wait_for_members("no drone can fly").await?;
+        }
+        Ok(())
+    }
+
+    /// The run cannot go on without members that are out (`why`): wait for them — every
+    /// member out is tried again, with a back-off of 5 s doubling to 80 s, for at most 20
+    /// tries (about 20 minutes of the fleet's time, scaled by the patience) — until one
+    /// rejoins. Stops at once, saying what to fix, when a person must fix every one of them,
+    /// and after the last try.
+    pub(super) async fn wait_for_members(&self, why: &str) -> RunnerResult<()> {
+        const TRIES: u32 = 20;
+        for attempt in 0..TRIES {
+            let outs: Vec<(u8, Sidelined)> = self
+                .shared
+                .read(|s| s.out.iter().map(|(k, v)| (*k, v.clone())).collect())
+                .await;
+            let list = || {
+                outs.iter()
+                    .map(|(sysid, o)| {
+                        format!(
+                            "{} {sysid}: {}",
+                            o.role.name(),
+                            o.fix.as_deref().unwrap_or(&o.reason)
+                        )
+                    })
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            };
+            if outs.iter().all(|(_, o)| o.fix.is_some()) {
+                return Err(RunnerError::check(format!(
+                    "{why}: a person must fix {}",
+                    list()
+                )));
+            }
+            // Every member out may be tried now.
+            self.shared
+                .commit(|s| {
+                    for o in s.out.values_mut() {
+                        o.wait_sorties = 0;
+                    }
+                    Ok(((), Vec::new()))
+                })
+                .await?;
+            if self.members_back().await? > 0 {
+                return Ok(());
+            }
+            let wait = self
+                .shared
+                .patience
+                .secs(5.0 * f64::from(1u32 << attempt.min(4)));
+            if attempt == 0 {
+                self.say(Progress::warning(format!(
+                    "{why}: waiting for {} to be ready again",
+                    list()
+                )));
+            }
+            tokio::time::sleep(wait).await;
+        }
+        let outs: Vec<String> = self
+            .shared
+            .read(|s| {
+                s.out
+                    .iter()
+                    .map(|(k, o)| format!("{} {k}: {}", o.role.name(), o.reason))
+                    .collect()
+            })
+            .await;
+        Err(RunnerError::check(format!(
+            "{why}, and after {TRIES} tries none of them is ready: {}",
+            outs.join("; ")
+        )))
     }
 
     /// " It is N m from station S." from telemetry (empty when a position is missing).
@@ -510,6 +666,7 @@ pub async fn run(
         plan_time_limit_s: opts.plan_time_limit_s,
         min_takeoff_pct: opts.min_takeoff_pct,
         pause: opts.pause.take(),
+        no_mission: std::sync::Mutex::new(BTreeSet::new()),
     };
     if !resumed {
         runner.check_start_positions().await?;
@@ -520,7 +677,39 @@ pub async fn run(
     let mut background = tokio::task::JoinSet::new();
     track(&shared, drones, &mut background);
     background.spawn(intake(shared.clone(), hub.subscribe()));
-    let result = drive(&runner, resumed).await;
+    let mut result = drive(&runner, resumed).await;
+    // Auto-resume: carry on from the saved state, as `fleetmap resume` would, through what
+    // may go away by itself; stop for what a person must fix.
+    let mut again = 0u32;
+    while opts.auto_resume
+        && let Err(e) = &result
+        && e.needs_person().is_none()
+        && again < AUTO_RESUMES
+    {
+        again += 1;
+        let wait = runner.shared.patience.secs(10.0 * f64::from(again.min(6)));
+        runner.say(Progress::warning(format!(
+            "{}: carrying on by itself in {:.0} s (auto-resume {again} of {AUTO_RESUMES})",
+            crate::app::error::chain(e),
+            wait.as_secs_f64()
+        )));
+        tokio::time::sleep(wait).await;
+        runner
+            .shared
+            .commit(|s| {
+                s.on_resume();
+                Ok(((), vec![BanditEvent::Started { resumed: true }]))
+            })
+            .await?;
+        result = drive(&runner, true).await;
+    }
+    if let Err(e) = &result
+        && let Some(fix) = e.needs_person()
+    {
+        runner.say(Progress::error(format!(
+            "the run stops: {fix} — then `fleetmap resume` the run"
+        )));
+    }
     background.shutdown().await;
     let ok = result.is_ok();
     shared
@@ -539,6 +728,9 @@ pub async fn run(
     result?;
     Ok(shared.read(|s| s.clone()).await)
 }
+
+/// Auto-resumes in a row after which a run stops even for a failure that may go away.
+const AUTO_RESUMES: u32 = 10;
 
 pub(super) async fn drive(runner: &Runner, resumed: bool) -> RunnerResult<()> {
     let mut resume_follow = false;
@@ -609,10 +801,19 @@ pub(super) async fn drive(runner: &Runner, resumed: bool) -> RunnerResult<()> {
                 runner.begin_epoch().await?;
             }
             Next::Plan => {
-                runner.plan(replan).await?;
-                replan = true;
+                runner.members_back().await?;
+                runner.need_a_drone().await?;
+                if runner.shared.read(|s| s.next()).await == Next::Plan {
+                    runner.plan(replan).await?;
+                    replan = true;
+                }
             }
-            Next::Prepare => runner.prepare().await?,
+            Next::Prepare => {
+                // A member whose wait is over and who is ready: plan again with it.
+                if runner.members_back().await? == 0 {
+                    runner.prepare().await?;
+                }
+            }
             Next::Upload => runner.upload().await?,
             Next::Start => runner.start().await?,
             Next::Follow => {

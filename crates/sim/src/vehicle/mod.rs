@@ -231,6 +231,11 @@ pub struct VehicleConfig {
     pub gcs_time_scale: f64,
     /// Power-off time of a battery swap, seconds (the vehicle is silent meanwhile).
     pub(crate) power_off_s: f64,
+    /// A pre-arm check that fails until this simulated time, seconds (ArduPilot "PreArm:
+    /// Compass not calibrated", PX4 "Preflight Fail: Compass Sensor 0 missing"; infinite:
+    /// until a person fixes it; `None`: it passes): a vehicle that refuses to arm, for the
+    /// ground station's handling of one that cannot start.
+    pub compass_fault_until_s: Option<f64>,
 }
 
 impl VehicleConfig {
@@ -285,6 +290,7 @@ impl VehicleConfig {
             px4_datalink_required: true,
             gcs_time_scale: 1.0,
             power_off_s: 3.0,
+            compass_fault_until_s: None,
         }
     }
 }
