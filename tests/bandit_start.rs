@@ -8,6 +8,8 @@
 //!   the operator are told which and why and what a person must fix; the three others
 //!   classify every cell with its station held, and a run stopped in the middle and resumed
 //!   knows it is out and why.
+//! * When no drone can start, the run stops at once (even with auto-resume), saying which
+//!   vehicles a person must fix and what, then `fleetmap resume`.
 //! * A drone whose link goes dark at the moment it is told to arm — the others already
 //!   taking off — is out for now: the others hover over their stations while the sortie is
 //!   planned again without it, then fly; once its link is back it rejoins and flies, and the
@@ -51,9 +53,9 @@ fn is_command_long(frame: &[u8], command: u16) -> bool {
 }
 
 /// The hardware team on the simulator behind in-process links and a fleet on them, in
-/// virtual time. `compass` gets a pre-arm failure that never clears; the link of `dark`
+/// virtual time. `compass` get a pre-arm failure that never clears; the link of `dark`
 /// carries nothing, either way, for `dark_for` from the first ARM the fleet sends it.
-async fn team(compass: Option<u8>, dark: Option<u8>, dark_for: Duration) -> Team {
+async fn team(compass: &[u8], dark: Option<u8>, dark_for: Duration) -> Team {
     let _ = tracing_subscriber::fmt()
         .with_test_writer()
         .with_env_filter("warn,highs=error")
@@ -67,7 +69,7 @@ async fn team(compass: Option<u8>, dark: Option<u8>, dark_for: Duration) -> Team
     };
     let mut sc = bandit_sim::sim_config(bandit_sim::HARDWARE_TEAM, &world, &setup).unwrap();
     for v in &mut sc.vehicles {
-        if Some(v.sysid) == compass {
+        if compass.contains(&v.sysid) {
             v.compass_fault_until_s = Some(f64::INFINITY);
         }
     }
@@ -210,7 +212,7 @@ fn check_finished(s: &ClassificationState, world: &World) {
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resume() {
     let (world, def) = hardware();
-    let team = team(Some(4), None, Duration::ZERO).await;
+    let team = team(&[4], None, Duration::ZERO).await;
     let state = bandit::new_state(&team.fleet, &def, Duration::from_secs(60), None)
         .await
         .unwrap();
@@ -312,7 +314,7 @@ async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resu
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
     let (world, def) = hardware();
-    let team = team(None, Some(4), Duration::from_secs(120)).await;
+    let team = team(&[], Some(4), Duration::from_secs(120)).await;
     let state = bandit::new_state(&team.fleet, &def, Duration::from_secs(60), None)
         .await
         .unwrap();
@@ -360,5 +362,53 @@ async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
         "{:?}",
         done.airborne_s
     );
+    let _ = team.sim.stop().await;
+}
+
+#[tokio::test(flavor = "current_thread", start_paused = true)]
+async fn no_drone_that_can_start_stops_the_run_saying_what_to_fix() {
+    let (_, def) = hardware();
+    let team = team(&[1, 2, 3, 4], None, Duration::ZERO).await;
+    let state = bandit::new_state(&team.fleet, &def, Duration::from_secs(60), None)
+        .await
+        .unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("run");
+    let run = RunDir::create(
+        &dir,
+        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
+        Some(bandit_sim::HARDWARE_MISSION),
+    )
+    .unwrap();
+    let hub = fleetmap::app::images::image_hub(&team.fleet);
+    let (tx, mut rx) = mpsc::unbounded_channel();
+    let opts = RunOptions {
+        progress: Some(tx),
+        auto_resume: true,
+        ..RunOptions::default()
+    };
+    let e = bandit::run(team.fleet.clone(), &hub, run, state, opts)
+        .await
+        .expect_err("no drone can fly");
+    let msg = fleetmap::app::error::chain(&e);
+    assert!(msg.contains("no drone can fly"), "{msg}");
+    for d in 1..=4 {
+        assert!(msg.contains(&format!("drone {d}: ")), "{msg}");
+    }
+    assert!(msg.contains("Compass not calibrated"), "{msg}");
+    let mut lines = Vec::new();
+    while let Ok(l) = rx.try_recv() {
+        lines.push(l.to_string());
+    }
+    assert!(
+        lines
+            .iter()
+            .any(|l| l.starts_with("the run stops:") && l.contains("fleetmap resume")),
+        "{lines:#?}"
+    );
+    assert!(!lines.iter().any(|l| l.contains("carrying on by itself")));
+    let saved: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
+    assert_eq!(saved.out.len(), 4);
+    assert!(saved.airborne_s.values().all(|&t| t == 0.0));
     let _ = team.sim.stop().await;
 }

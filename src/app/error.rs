@@ -494,6 +494,99 @@ mod tests {
         );
     }
 
+    /// What `--auto-resume` carries on through and what it stops for: a lost link, a take-off
+    /// refused because the copter had disarmed meanwhile, a late rendezvous, a flight step
+    /// that timed out go away by themselves; a pre-arm failure that persists, a vehicle that
+    /// never became ready, a refused list, a failed check of the runner need a person, also
+    /// under the runner's steps.
+    #[test]
+    fn what_a_person_must_fix_and_what_goes_away() {
+        use crate::fleet::StateSeen;
+        use fleetmap_core::proto::command::CommandError;
+        use fleetmap_core::proto::launch::{Cause, Goal, Landed, LaunchFailure, Step};
+        use mavlink::dialects::ardupilotmega::MavCmd;
+        use std::time::Duration;
+        let state = |prearm: Option<&str>| StateSeen {
+            heard: true,
+            armed: false,
+            mode: "GUIDED".into(),
+            landed: Landed::OnGround,
+            alt_rel_m: Some(0.0),
+            prearm: prearm.map(Into::into),
+        };
+        let started = |cause: Cause, prearm: Option<&str>| {
+            RunnerError::from(FleetError::NotStarted {
+                sysid: 4,
+                failure: LaunchFailure {
+                    goal: Goal::Airborne { mode: None },
+                    commands: 6,
+                    failures: 5,
+                    waited: Duration::from_secs(40),
+                    cause,
+                },
+                state: state(prearm),
+            })
+            .context("drone 4: starting")
+        };
+        let takeoff = CommandError::Failed {
+            command: MavCmd::MAV_CMD_NAV_TAKEOFF,
+        };
+        let arm = CommandError::Failed {
+            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        };
+        let goes_away = [
+            started(
+                Cause::Silent {
+                    waited: Duration::from_secs(20),
+                },
+                None,
+            ),
+            started(
+                Cause::Refused {
+                    step: Step::Takeoff,
+                    error: takeoff,
+                },
+                None,
+            ),
+            RunnerError::Overdue("drone 2: station 5 never reached the rendezvous".into()),
+            RunnerError::from(FleetError::Command {
+                sysid: 1,
+                error: CommandError::Timeout {
+                    command: MavCmd::MAV_CMD_MISSION_START,
+                    attempts: 4,
+                    timeout_ms: 1000,
+                },
+            }),
+        ];
+        for e in &goes_away {
+            assert_eq!(e.needs_person(), None, "{e}");
+        }
+        let person = [
+            started(
+                Cause::Refused {
+                    step: Step::Arm,
+                    error: arm,
+                },
+                Some("PreArm: Compass not calibrated"),
+            ),
+            RunnerError::from(FleetError::NotReady {
+                sysid: 4,
+                waited_s: 60.0,
+                reasons: vec!["pre-arm failure reported: PreArm: Compass not calibrated".into()],
+            })
+            .context("drone 4: starting"),
+            RunnerError::check("drone 3 is not charging: is it on its station's charger?"),
+        ];
+        for e in &person {
+            assert!(e.needs_person().is_some(), "{e}");
+        }
+        assert!(
+            person[0]
+                .needs_person()
+                .is_some_and(|f| f.contains("Compass not calibrated"))
+        );
+    }
+
     /// A typed error names its vehicle and keeps the fleet's answer as its cause.
     #[test]
     fn a_silent_vehicle_is_named_with_the_fleets_answer() {

@@ -102,6 +102,14 @@ pub enum FleetError {
     Stopped,
 }
 
+/// What to fix on a vehicle that never became ready to arm, from what blocked it.
+fn not_ready_fix(reasons: &[String]) -> String {
+    match reasons.iter().find(|r| r.contains("pre-arm")) {
+        Some(r) => format!("clear its {r}"),
+        None => format!("make it ready to arm ({})", reasons.join("; ")),
+    }
+}
+
 /// A vehicle's state as its telemetry last said, for an error message.
 #[derive(Clone, Debug, PartialEq)]
 pub struct StateSeen {
@@ -189,10 +197,7 @@ impl FleetError {
     ///   have ([`FleetError::Flavour`]), a command it does not support.
     pub(crate) fn needs_person(&self) -> Option<String> {
         match self {
-            FleetError::NotReady { reasons, .. } => Some(format!(
-                "it never became ready to arm ({}): fix what the autopilot reports",
-                reasons.join("; ")
-            )),
+            FleetError::NotReady { reasons, .. } => Some(not_ready_fix(reasons)),
             FleetError::Booting { waited_s, .. } => Some(format!(
                 "it did not finish booting in {waited_s:.0} s: check it, power-cycle it"
             )),
@@ -201,10 +206,7 @@ impl FleetError {
             } => Some(format!("clear the pre-arm failure it reports: {t}")),
             FleetError::NotStarted { failure, state, .. } => {
                 match (&failure.cause, &state.prearm) {
-                    (Cause::NotReady { reasons }, _) => Some(format!(
-                        "it never became ready to arm ({}): fix what the autopilot reports",
-                        reasons.join("; ")
-                    )),
+                    (Cause::NotReady { reasons }, _) => Some(not_ready_fix(reasons)),
                     (
                         Cause::Refused {
                             step: Step::Arm, ..
