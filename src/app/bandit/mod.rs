@@ -73,6 +73,7 @@ mod kind;
 pub mod report;
 pub use self::kind::Classification;
 mod intake;
+mod members;
 mod pilot;
 mod runner;
 mod sortie;
