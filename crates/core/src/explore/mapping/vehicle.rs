@@ -78,10 +78,7 @@ impl MappingState {
         if self.robot(sysid)?.grounded.is_none() {
             return Ok(());
         }
-        let swaps = self.robot(sysid)?.battery_swaps;
-        self.on_swapped(sysid, now)?;
-        self.robot_mut(sysid)?.battery_swaps = swaps;
-        Ok(())
+        self.on_swapped(sysid, now)
     }
 
     /// `sysid` landed for its swap; `reboots` is the vehicle's reboot counter then. When it
@@ -110,7 +107,8 @@ impl MappingState {
     }
 
     /// `sysid` has a fresh battery: it goes back to what it was doing (the DFS from its saved
-    /// vertex).
+    /// vertex). The operator's word for a drone that was grounded too
+    /// ([`MappingState::on_grounded`]): then no battery swap is counted.
     pub fn on_swapped(&mut self, sysid: u8, now: Time) -> Result<(), MappingError> {
         self.touch(now);
         let exploring = matches!(self.phase, Phase::Explore { .. });
@@ -121,10 +119,12 @@ impl MappingState {
         ) {
             return Ok(());
         }
-        r.battery_swaps += 1;
+        // A drone grounded (it could not take off) had no battery swapped.
+        if r.grounded.take().is_none() {
+            r.battery_swaps += 1;
+        }
         r.reboots_at_landing = None;
         r.camera_fault = None;
-        r.grounded = None;
         let before = r.status_before_swap.take().unwrap_or(RobotStatus::Idle);
         r.status = match before {
             RobotStatus::Sweeping | RobotStatus::Holding | RobotStatus::Confirming => {
