@@ -517,14 +517,14 @@ mod tests {
         let started = |cause: Cause, prearm: Option<&str>| {
             RunnerError::from(FleetError::NotStarted {
                 sysid: 4,
-                failure: LaunchFailure {
+                failure: Box::new(LaunchFailure {
                     goal: Goal::Airborne { mode: None },
                     commands: 6,
                     failures: 5,
                     waited: Duration::from_secs(40),
                     cause,
-                },
-                state: state(prearm),
+                }),
+                state: Box::new(state(prearm)),
             })
             .context("drone 4: starting")
         };

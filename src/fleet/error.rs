@@ -83,9 +83,9 @@ pub enum FleetError {
         /// System id.
         sysid: u8,
         /// The launch that gave up.
-        failure: LaunchFailure,
+        failure: Box<LaunchFailure>,
         /// The vehicle's state when it gave up.
-        state: StateSeen,
+        state: Box<StateSeen>,
     },
     /// The vehicle did not finish booting in time.
     #[error("vehicle {sysid}: still booting after {waited_s:.0} s ({why})")]

@@ -82,7 +82,7 @@ impl FleetHandle {
             // Not heard at the end: the link, not the vehicle's checks.
             Err(Some(v)) if !v.alive => Err(FleetError::NotStarted {
                 sysid,
-                failure: LaunchFailure {
+                failure: Box::new(LaunchFailure {
                     goal: Goal::Armed { mode: None },
                     commands: 0,
                     failures: 0,
@@ -90,8 +90,8 @@ impl FleetHandle {
                     cause: Cause::Silent {
                         waited: Duration::from_secs_f64(v.heartbeat_age_s.max(0.0)),
                     },
-                },
-                state: self.state_seen(sysid),
+                }),
+                state: Box::new(self.state_seen(sysid)),
             }),
             Err(last) => Err(FleetError::NotReady {
                 sysid,
@@ -295,8 +295,8 @@ impl FleetHandle {
                         },
                         _ => FleetError::NotStarted {
                             sysid,
-                            failure,
-                            state: self.state_seen(sysid),
+                            failure: Box::new(failure),
+                            state: Box::new(self.state_seen(sysid)),
                         },
                     });
                 }
@@ -372,7 +372,9 @@ impl FleetHandle {
             );
         }
         others.shutdown().await;
+        // The command sender's budget is on the fleet's clock.
         let budget = CommandSender::budget(&self.cfg.command);
+        let budget = self.clock.wall_until(self.clock.now() + budget);
         let _ = tokio::time::timeout(budget, async { while modes.join_next().await.is_some() {} })
             .await;
         result

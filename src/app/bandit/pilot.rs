@@ -16,8 +16,12 @@ impl DronePilot {
         let mut step = 0;
         // The autopilot's last warning (severity ≤ WARNING), for the messages below.
         let mut warning: Option<String> = None;
-        // 1. Its cells (none when its mission did not start: it hovers over its station).
-        while !self.no_mission {
+        // 1. Its cells.
+        loop {
+            if self.no_mission {
+                // Its mission did not start: it hovers over its station until the rendezvous.
+                break;
+            }
             let v = self
                 .fleet()
                 .vehicle(sysid)

@@ -549,11 +549,17 @@ pub async fn run(
     // Auto-resume: carry on from the saved state, as `fleetmap resume` would, through what
     // may go away by itself; stop for what a person must fix.
     let mut again = 0u32;
+    let mut measured = runner.shared.read(|s| s.measurements).await;
     while opts.auto_resume
         && let Err(e) = &result
         && e.needs_person().is_none()
         && again < AUTO_RESUMES
     {
+        // Ten in a row without a measurement between them: something keeps failing.
+        let now = runner.shared.read(|s| s.measurements).await;
+        if now > measured {
+            (again, measured) = (0, now);
+        }
         again += 1;
         let wait = runner.shared.patience.secs(10.0 * f64::from(again.min(6)));
         runner.say(Progress::warning(format!(
@@ -597,7 +603,8 @@ pub async fn run(
     Ok(shared.read(|s| s.clone()).await)
 }
 
-/// Auto-resumes in a row after which a run stops even for a failure that may go away.
+/// Auto-resumes in a row (without a measurement between two of them) after which a run stops
+/// even for a failure that may go away.
 const AUTO_RESUMES: u32 = 10;
 
 pub(super) async fn drive(runner: &Runner, resumed: bool) -> RunnerResult<()> {

@@ -309,10 +309,12 @@ impl Runner {
         k: usize,
         failed: Vec<(u8, RunnerError)>,
     ) -> RunnerResult<()> {
-        tokio::time::sleep(fleetmap_core::proto::command::CommandSender::budget(
-            &self.fleet().config().command,
-        ))
-        .await;
+        // The command sender's budget is on the fleet's clock (a simulator's time when the
+        // fleet follows one).
+        let clock = self.fleet().clock();
+        let budget =
+            fleetmap_core::proto::command::CommandSender::budget(&self.fleet().config().command);
+        tokio::time::sleep(clock.wall_until(clock.now() + budget)).await;
         let alt: BTreeMap<u8, f64> = self
             .shared
             .read(|s| s.drones.iter().map(|d| (d.sysid, d.altitude_m)).collect())

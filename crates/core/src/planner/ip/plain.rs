@@ -128,9 +128,9 @@ pub(crate) fn solve(
     // Pinned stations stay on their start cell in every active cycle.
     for pin in &inst.pinned {
         let (a, l) = (pin.station, inst.stations[pin.station]);
-        for k in 0..kk {
+        for (k, &on) in lam.iter().enumerate() {
             for b in 0..tc {
-                add(&mut p, (Expression::from(y(a, b, k, l)) - lam[k]).eq(0.0));
+                add(&mut p, (Expression::from(y(a, b, k, l)) - on).eq(0.0));
             }
         }
     }
