@@ -5,7 +5,8 @@
 //! the operator told why and what to fix) while drone 1 goes on; the run is stopped in the
 //! middle and resumed, and the resumed run knows drone 2 is grounded and why; once its check
 //! passes (a person fixed it) drone 2 rejoins by itself (auto-resume) and flies; the run
-//! finishes with the strip mapped.
+//! finishes with the strip mapped. A lone drone whose check never passes waits for its fix
+//! (ten minutes with auto-resume), then the run ends saying what a person must fix.
 
 use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
@@ -31,12 +32,15 @@ mod common;
 /// Simulated seconds until drone 2's pre-arm check passes.
 const FIXED_AT_S: f64 = 150.0;
 
-fn team(world: &World) -> (FleetHandle, SimTask) {
-    let mut sc = SimConfig::from_spec("2xcopter:ardupilot", Some(world.clone()), None, 5).unwrap();
+/// `drones` ArduCopters over `world`, vehicle `sysid` of `compass` failing its pre-arm check
+/// until the given simulated time.
+fn team(world: &World, drones: usize, compass: (u8, f64)) -> (FleetHandle, SimTask) {
+    let spec = format!("{drones}xcopter:ardupilot");
+    let mut sc = SimConfig::from_spec(&spec, Some(world.clone()), None, 5).unwrap();
     for v in &mut sc.vehicles {
         v.swap_after_s = Some(30.0);
-        if v.sysid == 2 {
-            v.compass_fault_until_s = Some(FIXED_AT_S);
+        if v.sysid == compass.0 {
+            v.compass_fault_until_s = Some(compass.1);
         }
     }
     let sim = Sim::new(sc, Time::ZERO).unwrap();
@@ -121,7 +125,7 @@ async fn a_drone_that_cannot_take_off_leaves_the_tree_and_rejoins_when_fixed() {
         common::strip_mission()
     );
     let def = MissionDef::parse(&text, "strip, two drones").unwrap();
-    let (fleet, sim) = team(&world);
+    let (fleet, sim) = team(&world, 2, (2, FIXED_AT_S));
     let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
         .await
         .unwrap();
@@ -207,5 +211,38 @@ async fn a_drone_that_cannot_take_off_leaves_the_tree_and_rejoins_when_fixed() {
         t.iou,
         t.iou_best_possible
     );
+    let _ = sim.stop().await;
+}
+
+#[tokio::test(flavor = "current_thread", start_paused = true)]
+async fn a_lone_drone_that_is_never_fixed_ends_the_run_saying_what_to_fix() {
+    let world = World::from_toml(common::WORLD).unwrap();
+    let text = common::strip_mission();
+    let def = MissionDef::parse(&text, "strip").unwrap();
+    let (fleet, sim) = team(&world, 1, (1, f64::INFINITY));
+    let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+        .await
+        .unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let dir = tmp.path().join("run");
+    RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
+    let t0 = tokio::time::Instant::now();
+    let (lines, ended) = fly(&fleet, &dir, state, |_| false).await;
+    assert_eq!(ended, Some(Outcome::WaitingForOperator { sysids: vec![1] }));
+    let waited = t0.elapsed();
+    assert!(
+        waited >= Duration::from_secs(600) && waited < Duration::from_secs(900),
+        "{waited:?}"
+    );
+    let last = lines.last().expect("progress");
+    assert!(
+        last.contains("vehicle 1 waits for a person")
+            && last.contains("Compass not calibrated")
+            && last.contains("fleetmap resume"),
+        "{last}"
+    );
+    let saved: MappingState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
+    assert!(saved.robot(1).unwrap().grounded.is_some());
+    assert_eq!(saved.robot(1).unwrap().flight_s, 0.0);
     let _ = sim.stop().await;
 }

@@ -13,6 +13,11 @@ const GROUNDED_RETRY_S: f64 = 10.0;
 /// the operator (something a retry does not fix).
 pub(super) const GROUNDED_TRIES: u32 = 5;
 
+/// Longest wait for a grounded drone to be ready again by itself (with auto-resume), seconds
+/// since it was grounded (scaled by the patience); then it waits for the operator: a run
+/// whose drones all wait for a person ends, saying what to fix, instead of waiting for ever.
+pub(super) const GROUNDED_WAIT_S: f64 = 600.0;
+
 impl Pilot {
     /// Whether `e` says this drone could not get off the ground — its arming or take-off
     /// failed after the fleet's own retries, or it never became ready — while it is on the
@@ -66,7 +71,10 @@ impl Pilot {
             })
             .await?;
         let then = match (&fix, self.shared.auto_resume && tries <= GROUNDED_TRIES) {
-            (Some(f), true) => format!("a person must fix it: {f}; it rejoins once it is ready"),
+            (Some(f), true) => format!(
+                "a person must fix it: {f}; it rejoins once it is ready (within {:.0} min)",
+                GROUNDED_WAIT_S / 60.0
+            ),
             (Some(f), false) => {
                 format!("a person must fix it: {f}; then `b` (or `fleetmap resume`)")
             }
@@ -83,12 +91,22 @@ impl Pilot {
         Ok(())
     }
 
-    /// Whether this drone, grounded, may be tried again by itself now: auto-resume, fewer
-    /// than [`GROUNDED_TRIES`] groundings in a row, the back-off since the last one over,
-    /// and its telemetry ready (heard, booted, ready to arm).
+    /// Whether this drone, grounded, still waits to be ready again by itself: auto-resume,
+    /// at most [`GROUNDED_TRIES`] groundings in a row, and less than [`GROUNDED_WAIT_S`]
+    /// since the last one.
+    pub(super) fn waits_by_itself(&self) -> bool {
+        let (tries, at) = self.grounded;
+        self.shared.auto_resume
+            && tries <= GROUNDED_TRIES
+            && at.is_none_or(|t| t.elapsed() < self.shared.patience.secs(GROUNDED_WAIT_S))
+    }
+
+    /// Whether this drone, grounded, may be tried again by itself now
+    /// ([`Pilot::waits_by_itself`]), the back-off since its last grounding over, and its
+    /// telemetry ready (heard, booted, ready to arm).
     pub(super) fn ready_again(&self) -> bool {
         let (tries, at) = self.grounded;
-        if !self.shared.auto_resume || tries > GROUNDED_TRIES {
+        if !self.waits_by_itself() {
             return false;
         }
         let wait = self

@@ -2,7 +2,6 @@
 //! drives the vehicle through it (fly to a cell, battery checks and swaps, home and land).
 //! The pictures of a visit are in [`super::intake`], the sweep in [`super::sweep`].
 
-use super::grounded::GROUNDED_TRIES;
 use super::*;
 use crate::app::error::RunnerResult;
 use fleetmap_core::explore::reach::Reach;
@@ -677,8 +676,11 @@ impl Pilot {
                     );
                     return Ok(None);
                 }
-                let by_itself = self.shared.auto_resume && self.grounded.0 <= GROUNDED_TRIES;
-                if !by_itself && !self.shared.interactive {
+                // The wait counts from the grounding (or from this runner's start).
+                self.grounded
+                    .1
+                    .get_or_insert_with(tokio::time::Instant::now);
+                if !self.waits_by_itself() && !self.shared.interactive {
                     self.shared.say(
                         Progress::error(format!(
                             "vehicle {sysid} waits for a person: {} — then `fleetmap resume`",
