@@ -122,6 +122,102 @@ fn fast_model_has_the_plain_models_optimum_on_100_random_scenarios() {
     );
 }
 
+/// Stations held on their cells ([`Pin`]: a rover that cannot drive, or one carrying a drone
+/// that is out of the run, its charger taken): on random scenarios with a pinned station
+/// (and sometimes a charger taken on it, under a capacity of 1 or 2), the fast model has the
+/// plain model's optimum, and every plan keeps the pinned station on its cell and the drones
+/// on it within the chargers left (the independent checker).
+#[test]
+fn pinned_stations_stay_and_keep_their_chargers_in_both_models() {
+    use fleetmap_core::planner::scenario::Pin;
+    let mut rng = ChaCha8Rng::seed_from_u64(11);
+    let plain = PlanOptions {
+        model: Model::Plain,
+        ..PlanOptions::default()
+    };
+    let fast = PlanOptions::default();
+    let (mut feasible, mut infeasible, mut taken_plans) = (0, 0, 0);
+    let mut n = 0;
+    while n < 60 {
+        let mut inst = random_instance(&mut rng);
+        if rng.random_bool(0.5) {
+            let capacity = Some(rng.random_range(1..=2usize));
+            let i = inst.clone();
+            let goals = i.goals.clone();
+            let Ok(with) = Instance::new(
+                i.grid, i.drones, i.stations, goals, i.td, i.tc, i.k_max, capacity,
+            ) else {
+                continue;
+            };
+            inst = with;
+        }
+        let station = rng.random_range(0..inst.nc());
+        let taken = usize::from(rng.random_bool(0.7));
+        let Ok(inst) = inst.with_pins(vec![Pin { station, taken }]) else {
+            continue;
+        };
+        n += 1;
+        let a = solve_instance(&inst, &plain, &stopwatch());
+        let b = solve_instance(&inst, &fast, &stopwatch());
+        let scen = format!(
+            "{}\npinned station {station}, {taken} taken",
+            inst.to_scenario(&format!("pinned {n}")).to_json()
+        );
+        assert!(
+            matches!(a.status, PlanStatus::Optimal | PlanStatus::Infeasible),
+            "plain model: {:?} {}\n{scen}",
+            a.status,
+            a.message
+        );
+        assert_eq!(a.status, b.status, "{scen}");
+        let cycles =
+            |o: &fleetmap_core::planner::ip::PlanOutcome| o.plan.as_ref().map(|p| p.cycles);
+        assert_eq!(cycles(&a), cycles(&b), "{scen}");
+        check_strict(&inst, &a, "plain");
+        check_strict(&inst, &b, "fast");
+        for o in [&a, &b] {
+            if let Some(p) = &o.plan {
+                let home = inst.grid.cell(inst.stations[station]);
+                assert!(p.stations[station].iter().flatten().all(|&c| c == home));
+            }
+        }
+        match cycles(&a) {
+            Some(_) => {
+                feasible += 1;
+                taken_plans += usize::from(taken > 0 && inst.capacity.is_some());
+            }
+            None => infeasible += 1,
+        }
+    }
+    eprintln!("{feasible} feasible ({taken_plans} with a charger taken), {infeasible} infeasible");
+    assert!(feasible >= 15 && infeasible >= 3 && taken_plans >= 3);
+    // The checker catches a plan that overfills a pinned station's chargers, or moves it.
+    let c = |col| Cell::new(0, col);
+    let pinned = |cols, taken| {
+        let grid = Grid::new(1, cols, &[], None).unwrap();
+        let last = cols as usize - 1;
+        Instance::new(grid, vec![0, 0], vec![0, last], vec![1], 2, 2, 1, Some(2))
+            .unwrap()
+            .with_pins(vec![Pin { station: 1, taken }])
+            .unwrap()
+    };
+    let full = fleetmap_core::planner::plan::Plan {
+        cycles: 1,
+        drones: vec![vec![vec![c(0), c(1)]], vec![vec![c(0), c(1)]]],
+        stations: vec![vec![vec![c(0), c(0)]], vec![vec![c(1), c(1)]]],
+    };
+    let e = check_plan_with(&pinned(2, 1), &full, CheckOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("1 charger(s) taken"), "{e}");
+    assert!(check_plan_with(&pinned(2, 0), &full, CheckOptions::default()).is_ok());
+    let moved = fleetmap_core::planner::plan::Plan {
+        cycles: 1,
+        drones: vec![vec![vec![c(0), c(1)]], vec![vec![c(0), c(1)]]],
+        stations: vec![vec![vec![c(0), c(0)]], vec![vec![c(2), c(1)]]],
+    };
+    let e = check_plan_with(&pinned(3, 0), &moved, CheckOptions::default()).unwrap_err();
+    assert!(e.to_string().contains("is held at [0, 2] but moves"), "{e}");
+}
+
 fn bin() -> PathBuf {
     PathBuf::from(env!("CARGO_BIN_EXE_fleetmap"))
 }

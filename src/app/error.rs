@@ -237,9 +237,14 @@ pub enum RunnerError {
         source: fleetmap_core::planner::sortie::missions::UnsafeMission,
     },
     /// A check the runner makes on its way did not hold; the message says what, and on which
-    /// vehicle.
+    /// vehicle. A person must see to it ([`RunnerError::needs_person`]).
     #[error("{0}")]
     Check(String),
+    /// A vehicle did not get where it was going, or a sortie did not end, in time: a link
+    /// outage or a slow rendezvous, which trying again may get past. The message says which
+    /// vehicle and what it was doing.
+    #[error("{0}")]
+    Overdue(String),
     /// What the runner was doing (and on which vehicle) when `source` failed.
     #[error("{what}")]
     Context {
@@ -283,6 +288,26 @@ impl RunnerError {
             RunnerError::Fleet(e) => e.is_transient(),
             RunnerError::Context { source, .. } => source.is_transient(),
             _ => false,
+        }
+    }
+
+    /// What a person must fix before trying again can succeed, for the operator; `None`
+    /// when the failure may go away by itself — a lost ACK, a link outage that ends, a
+    /// vehicle late at a rendezvous ([`RunnerError::Overdue`]), a flight step that timed
+    /// out. The fleet's rule for a fleet error ([`FleetError::needs_person`]: a vehicle that
+    /// never became ready, a pre-arm failure that persists, a list the autopilot refuses),
+    /// also under a flight step or a step's context; a refused sortie, an unsafe or
+    /// different mission, a failed check of the runner (placement, charger, camera), the
+    /// run store and the layer's own errors need a person. `fleetmap run --auto-resume`
+    /// carries on through the first kind and stops for the second.
+    pub(crate) fn needs_person(&self) -> Option<String> {
+        use crate::app::flight::FlightError;
+        match self {
+            RunnerError::Fleet(e) | RunnerError::Step(FlightError::Fleet(e)) => e.needs_person(),
+            RunnerError::Step(FlightError::ImagesClosed) => Some(self.to_string()),
+            RunnerError::Step(_) | RunnerError::Overdue(_) => None,
+            RunnerError::Context { source, .. } => source.needs_person(),
+            other => Some(other.to_string()),
         }
     }
 }
@@ -466,6 +491,99 @@ mod tests {
             !RunnerError::check("no sortie")
                 .context("starting")
                 .is_transient()
+        );
+    }
+
+    /// What `--auto-resume` carries on through and what it stops for: a lost link, a take-off
+    /// refused because the copter had disarmed meanwhile, a late rendezvous, a flight step
+    /// that timed out go away by themselves; a pre-arm failure that persists, a vehicle that
+    /// never became ready, a refused list, a failed check of the runner need a person, also
+    /// under the runner's steps.
+    #[test]
+    fn what_a_person_must_fix_and_what_goes_away() {
+        use crate::fleet::StateSeen;
+        use fleetmap_core::proto::command::CommandError;
+        use fleetmap_core::proto::launch::{Cause, Goal, Landed, LaunchFailure, Step};
+        use mavlink::dialects::ardupilotmega::MavCmd;
+        use std::time::Duration;
+        let state = |prearm: Option<&str>| StateSeen {
+            heard: true,
+            armed: false,
+            mode: "GUIDED".into(),
+            landed: Landed::OnGround,
+            alt_rel_m: Some(0.0),
+            prearm: prearm.map(Into::into),
+        };
+        let started = |cause: Cause, prearm: Option<&str>| {
+            RunnerError::from(FleetError::NotStarted {
+                sysid: 4,
+                failure: Box::new(LaunchFailure {
+                    goal: Goal::Airborne { mode: None },
+                    commands: 6,
+                    failures: 5,
+                    waited: Duration::from_secs(40),
+                    cause,
+                }),
+                state: Box::new(state(prearm)),
+            })
+            .context("drone 4: starting")
+        };
+        let takeoff = CommandError::Failed {
+            command: MavCmd::MAV_CMD_NAV_TAKEOFF,
+        };
+        let arm = CommandError::Failed {
+            command: MavCmd::MAV_CMD_COMPONENT_ARM_DISARM,
+        };
+        let goes_away = [
+            started(
+                Cause::Silent {
+                    waited: Duration::from_secs(20),
+                },
+                None,
+            ),
+            started(
+                Cause::Refused {
+                    step: Step::Takeoff,
+                    error: takeoff,
+                },
+                None,
+            ),
+            RunnerError::Overdue("drone 2: station 5 never reached the rendezvous".into()),
+            RunnerError::from(FleetError::Command {
+                sysid: 1,
+                error: CommandError::Timeout {
+                    command: MavCmd::MAV_CMD_MISSION_START,
+                    attempts: 4,
+                    timeout_ms: 1000,
+                },
+            }),
+        ];
+        for e in &goes_away {
+            assert_eq!(e.needs_person(), None, "{e}");
+        }
+        let person = [
+            started(
+                Cause::Refused {
+                    step: Step::Arm,
+                    error: arm,
+                },
+                Some("PreArm: Compass not calibrated"),
+            ),
+            RunnerError::from(FleetError::NotReady {
+                sysid: 4,
+                waited_s: 60.0,
+                reasons: vec!["pre-arm failure reported: PreArm: Compass not calibrated".into()],
+            })
+            .context("drone 4: starting"),
+            RunnerError::check("drone 3 is not charging: is it on its station's charger?"),
+        ];
+        for e in &person {
+            assert!(e.needs_person().is_some(), "{e}");
+        }
+        assert!(
+            person[0]
+                .needs_person()
+                .is_some_and(|f| f.contains("Compass not calibrated"))
         );
     }
 

@@ -40,7 +40,7 @@ mod state;
 mod telemetry;
 mod vehicle_link;
 
-pub use error::FleetError;
+pub use error::{FleetError, StateSeen};
 pub use handle::FleetHandle;
 pub use state::{FleetSnapshot, GeoPoint, LinkQuality, RadioReport, StatusText, VehicleSnapshot};
 

@@ -123,10 +123,34 @@ pub enum BanditEvent {
         /// The step it has arrived at.
         step: usize,
     },
-    /// A prepared sortie was dropped on resume (nothing had started).
+    /// A prepared sortie was dropped before anything drove: on resume (nothing had
+    /// started), or because a vehicle could not start ([`BanditEvent::VehicleOut`]).
     SortieDropped {
         /// Epoch p.
         epoch: u64,
+    },
+    /// A vehicle could not start and is out of the run for now (the others fly, the rest of
+    /// the epoch is planned without it; `fix`: what a person must fix, else it is tried
+    /// again by itself).
+    VehicleOut {
+        /// Vehicle.
+        sysid: u8,
+        /// Drone or station.
+        role: Role,
+        /// What failed.
+        reason: String,
+        /// What a person must fix (absent: it is tried again at a later sortie).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        fix: Option<String>,
+        /// Epoch p.
+        epoch: u64,
+    },
+    /// A vehicle that was out takes part again.
+    VehicleBack {
+        /// Vehicle.
+        sysid: u8,
+        /// Why it was out.
+        was: String,
     },
     /// The epoch ended.
     EpochDone(EpochStats),

@@ -2,7 +2,7 @@
 //! measurement (on a blocking thread), committed in groups.
 
 use super::*;
-use crate::app::error::{RunnerError, RunnerResult};
+use crate::app::error::RunnerResult;
 use fleetmap_core::vision::VisionError;
 
 /// Why a received picture does not count: journalled (its `Display`) as the reason of
@@ -278,7 +278,7 @@ pub(super) async fn take_images(
             _ => None,
         })
         .collect();
-    let measured = tokio::task::spawn_blocking(move || {
+    let measured = crate::app::runway::cpu(move || {
         jobs.into_iter()
             .map(|(i, bytes, alt)| {
                 let m = measure_image(
@@ -293,8 +293,7 @@ pub(super) async fn take_images(
             })
             .collect::<BTreeMap<usize, Result<(f64, bool), NotCounted>>>()
     })
-    .await
-    .map_err(RunnerError::task("measurement task"))?;
+    .await?;
     let mut measured = measured;
     measured.extend(onboard);
     let taken: Vec<Taken> = pre

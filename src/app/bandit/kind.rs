@@ -67,6 +67,7 @@ impl RunKind for Classification {
                 factor: settings.patience,
             },
             plan_time_limit_s: settings.plan_time_limit_s,
+            auto_resume: settings.auto_resume,
             ..RunOptions::default()
         })
     }
@@ -238,6 +239,18 @@ impl RunKind for Classification {
             format!("  keep ({}): {}", r.keep.len(), cells(&r.keep)),
             format!("  reject ({}): {}", r.reject.len(), cells(&r.reject)),
         ];
+        for (sysid, o) in &r.out {
+            lines.push(format!(
+                "  {} {sysid} out of the run since epoch {}: {}{}",
+                o.role.name(),
+                o.epoch,
+                o.reason,
+                o.fix
+                    .as_ref()
+                    .map(|f| format!(" — to fix: {f}"))
+                    .unwrap_or_default()
+            ));
+        }
         if !r.unclassified.is_empty() {
             lines.push(format!(
                 "  unclassified ({}): {}",

@@ -48,7 +48,7 @@ use fleetmap_core::planner::ip::{PlanOptions, PlanStatus, solve_instance};
 use fleetmap_core::planner::sortie::missions::{self, AreaRules};
 use fleetmap_core::planner::sortie::{
     CaptureKey, ClassificationState, CycleEnd, CyclePhase, EpochStats, MAX_K, Measurement, Next,
-    Separation, TeamConfig,
+    Role, Separation, Sidelined, TeamConfig,
 };
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::Command;
@@ -73,6 +73,7 @@ mod kind;
 pub mod report;
 pub use self::kind::Classification;
 mod intake;
+mod members;
 mod pilot;
 mod runner;
 mod sortie;
@@ -104,6 +105,11 @@ pub struct RunOptions {
     /// drones in the air finish theirs and land on their stations, which is where a
     /// spatial-classification team waits (charging) between sorties anyway.
     pub pause: Option<watch::Receiver<bool>>,
+    /// Carry on by itself through failures that may go away (a lost link, a vehicle late
+    /// at a rendezvous, a sortie that could not start): the run picks up from its saved
+    /// state as `fleetmap resume` would, and stops only for what a person must fix
+    /// ([`crate::app::error::RunnerError::needs_person`]).
+    pub auto_resume: bool,
 }
 
 /// The bandit run's shared part: the run core (state, store, progress, view) and what the
@@ -145,6 +151,9 @@ struct Runner {
     plan_time_limit_s: Option<f64>,
     min_takeoff_pct: Option<f64>,
     pause: Option<watch::Receiver<bool>>,
+    /// Drones of the sortie in flight whose mission would not start: they hover over their
+    /// station and land at the rendezvous.
+    no_mission: std::sync::Mutex<BTreeSet<u8>>,
 }
 
 /// One drone of a sortie: follows its mission, waits at the rendezvous, lands.
@@ -153,6 +162,8 @@ struct DronePilot {
     sysid: u8,
     items: Vec<MissionItem>,
     resumed: bool,
+    /// Its mission did not start: it goes straight to the rendezvous.
+    no_mission: bool,
     /// When the sortie must have ended, on the fleet's clock.
     deadline: fleetmap_core::time::Time,
 }

@@ -18,6 +18,10 @@ impl DronePilot {
         let mut warning: Option<String> = None;
         // 1. Its cells.
         loop {
+            if self.no_mission {
+                // Its mission did not start: it hovers over its station until the rendezvous.
+                break;
+            }
             let v = self
                 .fleet()
                 .vehicle(sysid)
@@ -68,7 +72,7 @@ impl DronePilot {
                 }
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                return Err(RunnerError::check(format!(
+                return Err(RunnerError::Overdue(format!(
                     "drone {sysid}: its mission did not end in time (at step {step})"
                 )));
             }
@@ -99,7 +103,7 @@ impl DronePilot {
                 told = true;
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                return Err(RunnerError::check(format!(
+                return Err(RunnerError::Overdue(format!(
                     "drone {sysid}: station {station} never reached the rendezvous"
                 )));
             }
@@ -310,6 +314,8 @@ pub(super) async fn land_on(
     fleet
         .wait_until(sysid, wait, |v| v.on_ground() && !v.armed)
         .await
-        .map_err(|_| RunnerError::check(format!("drone {sysid}: did not land within {wait:?}")))?;
+        .map_err(|_| {
+            RunnerError::Overdue(format!("drone {sysid}: did not land within {wait:?}"))
+        })?;
     Ok(())
 }

@@ -118,6 +118,10 @@ pub struct ClassificationReport {
     pub samples: Vec<(CellPair, u64)>,
     /// Times the run was resumed.
     pub resumes: u32,
+    /// The vehicles out of the run when it was saved, by system id: why, and what a person
+    /// must fix (absent: tried again by itself).
+    #[serde(skip_serializing_if = "Vec::is_empty")]
+    pub(crate) out: Vec<(u8, fleetmap_core::planner::sortie::Sidelined)>,
     /// θ, ε, δ, the confidence bound (`paper` or `kl`), D, B, Td, Tc, K, C, separation.
     pub(crate) parameters: serde_json::Value,
 }
@@ -183,6 +187,7 @@ pub fn report(state: &ClassificationState, truth: Option<&[Cell]>) -> Classifica
             .map(|(&c, &n)| (pair(c), n))
             .collect(),
         resumes: state.resumes,
+        out: state.out.iter().map(|(&s, o)| (s, o.clone())).collect(),
         parameters: serde_json::json!({
             "theta": p.theta, "epsilon": p.epsilon, "delta": p.delta,
             "bound": b.bound.name(),

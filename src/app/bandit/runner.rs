@@ -147,11 +147,12 @@ impl Runner {
                 time_limit: self.plan_time_limit_s,
                 ..PlanOptions::default()
             };
-            let out = tokio::task::spawn_blocking(move || {
+            // Off the reactor (inline on a current-thread runtime: a paused clock would run on
+            // while the solver worked on another thread).
+            let out = crate::app::runway::cpu(move || {
                 solve_instance(&inst, &opts, &fleetmap_io::clock::stopwatch())
             })
-            .await
-            .map_err(RunnerError::task("planner task"))?;
+            .await?;
             match (out.status, out.plan) {
                 (PlanStatus::Optimal | PlanStatus::TimeLimit, Some(plan)) => {
                     let secs = out.solve_seconds;
@@ -196,6 +197,16 @@ impl Runner {
                         })
                         .await?;
                     k *= 2;
+                }
+                (status, _) if self.shared.read(|s| !s.out.is_empty()).await => {
+                    // Without the members that are out the goals may be out of reach: wait
+                    // for them (those a retry may bring back), then plan again.
+                    let why = format!(
+                        "epoch {p}: no plan without the vehicles that are out ({})",
+                        status.as_str()
+                    );
+                    self.wait_for_members(&why).await?;
+                    k = k0.max(1);
                 }
                 (status, _) => {
                     return Err(RunnerError::check(format!(
@@ -303,7 +314,20 @@ impl Runner {
                 (sysid, r)
             });
         }
-        let mut rejected = join_failures(&mut tasks, "upload task").await?;
+        let failed = super::sortie::join_errors(&mut tasks, "upload task").await?;
+        // A vehicle that did not answer (after the upload's own retries) cannot start this
+        // sortie: it goes out, the others fly; one that refused its mission stops the run.
+        let (lost, refused): (Vec<_>, Vec<_>) = failed
+            .into_iter()
+            .partition(|(_, e)| e.needs_person().is_none());
+        if refused.is_empty() && !lost.is_empty() {
+            return self.drop_start(p, cycle.k, lost).await;
+        }
+        let mut rejected: Vec<(u8, String)> = refused
+            .iter()
+            .chain(&lost)
+            .map(|(s, e)| (*s, crate::app::error::chain(e)))
+            .collect();
         rejected.sort();
         if let Some((sysid, reason)) = rejected.first().cloned() {
             let events = rejected
@@ -510,6 +534,7 @@ pub async fn run(
         plan_time_limit_s: opts.plan_time_limit_s,
         min_takeoff_pct: opts.min_takeoff_pct,
         pause: opts.pause.take(),
+        no_mission: std::sync::Mutex::new(BTreeSet::new()),
     };
     if !resumed {
         runner.check_start_positions().await?;
@@ -520,7 +545,45 @@ pub async fn run(
     let mut background = tokio::task::JoinSet::new();
     track(&shared, drones, &mut background);
     background.spawn(intake(shared.clone(), hub.subscribe()));
-    let result = drive(&runner, resumed).await;
+    let mut result = drive(&runner, resumed).await;
+    // Auto-resume: carry on from the saved state, as `fleetmap resume` would, through what
+    // may go away by itself; stop for what a person must fix.
+    let mut again = 0u32;
+    let mut measured = runner.shared.read(|s| s.measurements).await;
+    while opts.auto_resume
+        && let Err(e) = &result
+        && e.needs_person().is_none()
+        && again < AUTO_RESUMES
+    {
+        // Ten in a row without a measurement between them: something keeps failing.
+        let now = runner.shared.read(|s| s.measurements).await;
+        if now > measured {
+            (again, measured) = (0, now);
+        }
+        again += 1;
+        let wait = runner.shared.patience.secs(10.0 * f64::from(again.min(6)));
+        runner.say(Progress::warning(format!(
+            "{}: carrying on by itself in {:.0} s (auto-resume {again} of {AUTO_RESUMES})",
+            crate::app::error::chain(e),
+            wait.as_secs_f64()
+        )));
+        tokio::time::sleep(wait).await;
+        runner
+            .shared
+            .commit(|s| {
+                s.on_resume();
+                Ok(((), vec![BanditEvent::Started { resumed: true }]))
+            })
+            .await?;
+        result = drive(&runner, true).await;
+    }
+    if let Err(e) = &result
+        && let Some(fix) = e.needs_person()
+    {
+        runner.say(Progress::error(format!(
+            "the run stops: {fix} — then `fleetmap resume` the run"
+        )));
+    }
     background.shutdown().await;
     let ok = result.is_ok();
     shared
@@ -539,6 +602,10 @@ pub async fn run(
     result?;
     Ok(shared.read(|s| s.clone()).await)
 }
+
+/// Auto-resumes in a row (without a measurement between two of them) after which a run stops
+/// even for a failure that may go away.
+const AUTO_RESUMES: u32 = 10;
 
 pub(super) async fn drive(runner: &Runner, resumed: bool) -> RunnerResult<()> {
     let mut resume_follow = false;
@@ -609,10 +676,19 @@ pub(super) async fn drive(runner: &Runner, resumed: bool) -> RunnerResult<()> {
                 runner.begin_epoch().await?;
             }
             Next::Plan => {
-                runner.plan(replan).await?;
-                replan = true;
+                runner.members_back().await?;
+                runner.need_a_drone().await?;
+                if runner.shared.read(|s| s.next()).await == Next::Plan {
+                    runner.plan(replan).await?;
+                    replan = true;
+                }
             }
-            Next::Prepare => runner.prepare().await?,
+            Next::Prepare => {
+                // A member whose wait is over and who is ready: plan again with it.
+                if runner.members_back().await? == 0 {
+                    runner.prepare().await?;
+                }
+            }
             Next::Upload => runner.upload().await?,
             Next::Start => runner.start().await?,
             Next::Follow => {

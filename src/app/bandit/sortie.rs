@@ -1,6 +1,7 @@
 //! Flying one sortie: wait for the charge, start every drone, follow them to the end with
 //! their pilots and the lock-step barriers.
 
+use super::pilot::dock;
 use super::*;
 use crate::app::error::{RunnerError, RunnerResult};
 
@@ -30,6 +31,15 @@ impl Runner {
             return Ok(());
         }
         for (sysid, need) in needs {
+            // A drone already in the air (a sortie dropped for a vehicle that could not
+            // start left it hovering over its station) flies on what it has.
+            if self
+                .fleet()
+                .vehicle(sysid)
+                .is_some_and(|v| flight::airborne(&v))
+            {
+                continue;
+            }
             let ok = |v: &VehicleSnapshot| v.battery_pct.is_some_and(|p| f64::from(p) >= need);
             if self.fleet().vehicle(sysid).is_some_and(|v| ok(&v)) {
                 continue;
@@ -97,6 +107,22 @@ impl Runner {
         self.pause.as_ref().is_some_and(|p| *p.borrow())
     }
 
+    /// Start the verified sortie, in an order that keeps anything from driving until every
+    /// vehicle is known to start:
+    ///
+    /// 0. every vehicle that moves is ready to arm ([`FleetHandle::wait_ready`]);
+    /// 1. every drone that flies takes off over its station and hovers there
+    ///    ([`flight::ensure_airborne`]: arming and take-off confirmed from its state and
+    ///    retried from it, [`FleetHandle::launch`]); a drone in the air that does not fly
+    ///    this sortie (left hovering by a sortie dropped before) lands on its station;
+    /// 2. every station that drives is armed, its mission at the first item;
+    /// 3. a vehicle that could not do its part goes out of the run ([`drop_start`](Self::drop_start)):
+    ///    the sortie is dropped — nothing has driven, the drones in the air hover over their
+    ///    stations — and the rest of the epoch is planned again without it;
+    /// 4. otherwise the stations drive (MISSION_START, confirmed by their mode); a station
+    ///    that will not is out as in 3, after every station that drove is stopped (HOLD);
+    /// 5. then the drones fly their missions. A drone whose mission will not start hovers
+    ///    over its station and lands at the rendezvous (its visits are not flown).
     pub(super) async fn start(&self) -> RunnerResult<()> {
         // A pause that came while the drones charged holds the sortie too.
         loop {
@@ -112,85 +138,146 @@ impl Runner {
             .await;
         let cycle = cycle.context("no sortie is verified")?;
         let patience = self.shared.patience;
-        let mut tasks = tokio::task::JoinSet::new();
         let altitudes: BTreeMap<u8, f64> = self
             .shared
             .read(|s| s.drones.iter().map(|d| (d.sysid, d.altitude_m)).collect())
             .await;
         let speed = self.shared.read(|s| s.params.speed_m_s).await;
-        for d in cycle.drones.iter().filter(|d| d.flies) {
+        let mut tasks = tokio::task::JoinSet::new();
+        // 0. Every vehicle that moves ready to arm (a vehicle still booting, or with a
+        // pre-arm check failing, is waited for), before any drone leaves the ground.
+        let moving = cycle
+            .drones
+            .iter()
+            .filter(|d| d.flies)
+            .map(|d| d.sysid)
+            .chain(cycle.stations.iter().filter(|s| s.drives).map(|s| s.sysid));
+        for sysid in moving {
+            let fleet = self.fleet().clone();
+            if fleet.vehicle(sysid).is_some_and(|v| v.armed) {
+                continue;
+            }
+            tasks.spawn(async move {
+                (
+                    sysid,
+                    fleet
+                        .wait_ready(sysid)
+                        .await
+                        .map(|_| ())
+                        .map_err(Into::into),
+                )
+            });
+        }
+        let unready = join_errors(&mut tasks, "start task").await?;
+        if !unready.is_empty() {
+            return self.drop_start(p, cycle.k, unready).await;
+        }
+        // 1. The drones: off the ground, over their stations.
+        for d in &cycle.drones {
             let fleet = self.fleet().clone();
             let sysid = d.sysid;
             let alt = altitudes.get(&sysid).copied().unwrap_or(10.0) as f32;
-            tasks.spawn(async move {
-                let mut attempt = 0;
-                let r = loop {
-                    attempt += 1;
+            if d.flies {
+                tasks.spawn(async move {
                     let r = async {
                         // From the first item: ArduPilot resumes a mission at its current
                         // item (MIS_RESTART = 0), which may be left over from the last one.
-                        fleet.set_mission_current(sysid, 0).await?;
+                        again(|| fleet.set_mission_current(sysid, 0)).await?;
                         flight::ensure_airborne(&fleet, sysid, alt, patience).await?;
-                        fleet.start_mission(sysid).await?;
-                        let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
                         Ok::<_, RunnerError>(())
                     }
                     .await;
-                    match r {
-                        Err(e) if attempt < 3 && transient(&e) => {
-                            tracing::warn!(
-                                "drone {sysid}: {} (trying again)",
-                                crate::app::error::chain(&e)
-                            );
-                        }
-                        r => break r,
-                    }
-                };
-                (sysid, r)
-            });
+                    (sysid, r)
+                });
+            } else if fleet.vehicle(sysid).is_some_and(|v| flight::airborne(&v)) {
+                // In the air for a sortie that was dropped, and staying this time: down on
+                // its station (which stays too).
+                let shared = self.shared.clone();
+                let (station, slot) = self
+                    .shared
+                    .read(|s| (s.landing_station(sysid).map(|st| st.sysid), d.slot))
+                    .await;
+                if let Some(station) = station {
+                    tasks.spawn(async move {
+                        let r = dock(&shared, sysid, station, f64::from(alt), slot)
+                            .await
+                            .map(|_| ());
+                        (sysid, r)
+                    });
+                }
+            }
         }
-        // The stations drive off only once the drones are in the air: a drone that is still
-        // spinning up on a rover's charger would be carried away from the cell its mission
-        // starts on (and no field team lets a rover drive with a drone taking off from it).
-        let mut failed = join_failures(&mut tasks, "start task").await?;
+        let mut failed = join_errors(&mut tasks, "start task").await?;
+        // 2. The stations that drive: armed, at their first item, not moving yet.
         for st in cycle.stations.iter().filter(|s| s.drives) {
             let fleet = self.fleet().clone();
             let sysid = st.sysid;
             tasks.spawn(async move {
-                let mut attempt = 0;
-                let r = loop {
-                    attempt += 1;
-                    let r = async {
-                        let v = fleet
-                            .vehicle(sysid)
-                            .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
-                        fleet.set_mission_current(sysid, 0).await?;
-                        if !v.armed && v.flavour.home_item() {
-                            fleet.arm(sysid).await?;
-                        }
-                        fleet.start_mission(sysid).await?;
-                        Ok::<_, RunnerError>(())
+                let r = async {
+                    let v = fleet
+                        .vehicle(sysid)
+                        .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
+                    again(|| fleet.set_mission_current(sysid, 0)).await?;
+                    if !v.armed && v.flavour.home_item() {
+                        fleet.arm(sysid).await?;
                     }
-                    .await;
-                    match r {
-                        Err(e) if attempt < 3 && transient(&e) => {
-                            tracing::warn!(
-                                "station {sysid}: {} (trying again)",
-                                crate::app::error::chain(&e)
-                            );
-                        }
-                        r => break r,
-                    }
-                };
+                    Ok::<_, RunnerError>(())
+                }
+                .await;
                 (sysid, r)
             });
         }
-        failed.extend(join_failures(&mut tasks, "start task").await?);
-        let failed: Vec<String> = failed
-            .into_iter()
-            .map(|(sysid, e)| format!("vehicle {sysid}: {e}"))
-            .collect();
-        // Started (even partly): from now on the sortie is followed, and a resume follows it.
+        failed.extend(join_errors(&mut tasks, "start task").await?);
+        if !failed.is_empty() {
+            return self.drop_start(p, cycle.k, failed).await;
+        }
+        // 4. The stations drive only once the drones are in the air: a drone that is still
+        // spinning up on a rover's charger would be carried away from the cell its mission
+        // starts on (and no field team lets a rover drive with a drone taking off from it).
+        for st in cycle.stations.iter().filter(|s| s.drives) {
+            let fleet = self.fleet().clone();
+            let sysid = st.sysid;
+            tasks.spawn(
+                async move { (sysid, fleet.start_mission(sysid).await.map_err(Into::into)) },
+            );
+        }
+        let failed = join_errors(&mut tasks, "start task").await?;
+        if !failed.is_empty() {
+            for st in cycle.stations.iter().filter(|s| s.drives) {
+                if let Err(e) = flight::hold_here(self.fleet(), st.sysid).await {
+                    tracing::warn!("station {}: stopping it: {e}", st.sysid);
+                }
+            }
+            return self.drop_start(p, cycle.k, failed).await;
+        }
+        // 5. The drones fly their missions.
+        for d in cycle.drones.iter().filter(|d| d.flies) {
+            let fleet = self.fleet().clone();
+            let sysid = d.sysid;
+            tasks.spawn(async move {
+                let r = fleet.start_mission(sysid).await;
+                if r.is_ok() {
+                    let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
+                }
+                (sysid, r.map_err(Into::into))
+            });
+        }
+        let unstarted = join_errors(&mut tasks, "start task").await?;
+        if let Ok(mut set) = self.no_mission.lock() {
+            set.clear();
+            set.extend(unstarted.iter().map(|(s, _)| *s));
+        }
+        for (sysid, e) in &unstarted {
+            self.say(
+                Progress::warning(format!(
+                    "drone {sysid}: its mission did not start ({}): it hovers over its station \
+                     and lands at the rendezvous; its visits of this sortie are not flown",
+                    crate::app::error::chain(e)
+                ))
+                .about(*sysid),
+            );
+        }
+        // Started: from now on the sortie is followed, and a resume follows it.
         self.shared
             .commit(|s| {
                 s.on_started()?;
@@ -203,18 +290,132 @@ impl Runner {
                 ))
             })
             .await?;
-        if !failed.is_empty() {
-            return Err(RunnerError::check(format!(
-                "the sortie of epoch {p}, cycle {} could not start every vehicle: {}",
-                cycle.k,
-                failed.join("; ")
-            )));
-        }
         self.say(Progress::info(format!(
             "epoch {p} cycle {}: flying",
             cycle.k
         )));
         Ok(())
+    }
+
+    /// The sortie could not start every vehicle (`failed`, before anything drove): each goes
+    /// out of the run — the operator told which and why, the journal says so — and the
+    /// sortie is dropped, to be planned again without them
+    /// ([`ClassificationState::start_failed`]). First, once the commands still being resent
+    /// have died out, each is made safe: a drone in the air lands on its station, one armed
+    /// on the ground is disarmed.
+    pub(super) async fn drop_start(
+        &self,
+        p: u64,
+        k: usize,
+        failed: Vec<(u8, RunnerError)>,
+    ) -> RunnerResult<()> {
+        // The command sender's budget is on the fleet's clock (a simulator's time when the
+        // fleet follows one).
+        let clock = self.fleet().clock();
+        let budget =
+            fleetmap_core::proto::command::CommandSender::budget(&self.fleet().config().command);
+        tokio::time::sleep(clock.wall_until(clock.now() + budget)).await;
+        let alt: BTreeMap<u8, f64> = self
+            .shared
+            .read(|s| s.drones.iter().map(|d| (d.sysid, d.altitude_m)).collect())
+            .await;
+        for (sysid, _) in &failed {
+            let Some(v) = self.fleet().vehicle(*sysid) else {
+                continue;
+            };
+            let r = if v.flavour.flies() && flight::airborne(&v) {
+                let station = self.nearest_station_id(*sysid).await;
+                match station {
+                    Some(st) => dock(
+                        &self.shared,
+                        *sysid,
+                        st,
+                        alt.get(sysid).copied().unwrap_or(10.0),
+                        (0, 1),
+                    )
+                    .await
+                    .map(|_| ()),
+                    None => flight::land_here(self.fleet(), *sysid, self.shared.patience)
+                        .await
+                        .map_err(Into::into),
+                }
+            } else if v.armed && v.flavour.flies() {
+                self.fleet().disarm(*sysid).await.map_err(Into::into)
+            } else {
+                Ok(())
+            };
+            if let Err(e) = r {
+                tracing::warn!("vehicle {sysid}: making it safe after a failed start: {e}");
+            }
+        }
+        let snap = self.fleet().snapshot().vehicles;
+        let st = self.shared.read(|s| s.clone()).await;
+        let actual = observed_config(&st, &snap, &st.config)?;
+        let list: Vec<(u8, String, Option<String>)> = failed
+            .iter()
+            .map(|(sysid, e)| (*sysid, crate::app::error::chain(e), e.needs_person()))
+            .collect();
+        let outs = self
+            .shared
+            .commit(|s| {
+                s.start_failed(actual, &list)?;
+                let mut events: Vec<BanditEvent> = list
+                    .iter()
+                    .filter_map(|(sysid, reason, fix)| {
+                        Some(BanditEvent::VehicleOut {
+                            sysid: *sysid,
+                            role: s.role_of(*sysid)?,
+                            reason: reason.clone(),
+                            fix: fix.clone(),
+                            epoch: p,
+                        })
+                    })
+                    .collect();
+                events.push(BanditEvent::SortieDropped { epoch: p });
+                let outs: Vec<(u8, Role, u32)> = list
+                    .iter()
+                    .filter_map(|(sysid, _, _)| {
+                        let o = s.out.get(sysid)?;
+                        Some((*sysid, o.role, o.wait_sorties))
+                    })
+                    .collect();
+                Ok((outs, events))
+            })
+            .await?;
+        for ((sysid, reason, fix), (_, role, wait)) in list.iter().zip(&outs) {
+            let then = match (fix, wait) {
+                (Some(fix), _) => format!("a person must fix it: {fix}; it rejoins once ready"),
+                (None, 0) => "it is tried again at the next sortie".to_string(),
+                (None, w) => format!("it is tried again after {w} more sortie(s)"),
+            };
+            self.say(
+                Progress::warning(format!(
+                    "{} {sysid} cannot start ({reason}): the sortie of epoch {p}, cycle {k} is \
+                     planned again without it — {then}",
+                    role.name()
+                ))
+                .about(*sysid),
+            );
+        }
+        Ok(())
+    }
+
+    /// The station nearest to vehicle `sysid` by telemetry (within 5 m).
+    pub(super) async fn nearest_station_id(&self, sysid: u8) -> Option<u8> {
+        let stations: Vec<u8> = self
+            .shared
+            .read(|s| s.stations.iter().map(|m| m.sysid).collect())
+            .await;
+        let p = self.fleet().vehicle(sysid)?.position?;
+        stations
+            .iter()
+            .filter_map(|&st| {
+                let q = self.fleet().vehicle(st)?.position?;
+                Some((local::distance(p.lat, p.lon, q.lat, q.lon), st))
+            })
+            .filter(|(d, _)| *d <= 5.0)
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, st)| st)
     }
 
     /// Follow the sortie in flight until every drone landed and every station arrived.
@@ -239,12 +440,18 @@ impl Runner {
         let budget = self.shared.patience.secs(estimate * 4.0 + 300.0);
         let deadline = self.fleet().clock().now() + budget;
         let mut pilots = tokio::task::JoinSet::new();
+        let no_mission = self
+            .no_mission
+            .lock()
+            .map(|s| s.clone())
+            .unwrap_or_default();
         for d in cycle.drones.iter().filter(|d| d.flies && !d.landed) {
             let pilot = DronePilot {
                 shared: self.shared.clone(),
                 sysid: d.sysid,
                 items: d.items.clone(),
                 resumed,
+                no_mission: no_mission.contains(&d.sysid),
                 deadline,
             };
             pilots.spawn(pilot.run());
@@ -268,7 +475,7 @@ impl Runner {
                 _ = tick.tick() => {}
             }
             if self.fleet().clock().now() > deadline {
-                return Err(RunnerError::check(format!(
+                return Err(RunnerError::Overdue(format!(
                     "epoch {p} cycle {}: the sortie did not end within {:.0} s",
                     cycle.k,
                     budget.as_secs_f64()
@@ -498,4 +705,38 @@ impl Runner {
         }
         Ok(())
     }
+}
+
+/// `op`, tried up to three times while it fails for want of an answer.
+pub(super) async fn again<F, Fut>(mut op: F) -> Result<(), crate::fleet::FleetError>
+where
+    F: FnMut() -> Fut,
+    Fut: std::future::Future<Output = Result<(), crate::fleet::FleetError>>,
+{
+    let mut attempt = 0;
+    loop {
+        attempt += 1;
+        match op().await {
+            Err(e) if attempt < 3 && e.is_transient() => {
+                tracing::warn!("{e} (trying again)");
+            }
+            r => return r,
+        }
+    }
+}
+
+/// The tasks' errors, by vehicle.
+pub(super) async fn join_errors(
+    tasks: &mut tokio::task::JoinSet<(u8, RunnerResult<()>)>,
+    what: &'static str,
+) -> RunnerResult<Vec<(u8, RunnerError)>> {
+    let mut failed = Vec::new();
+    while let Some(r) = tasks.join_next().await {
+        let (sysid, r) = r.map_err(RunnerError::task(what))?;
+        if let Err(e) = r {
+            failed.push((sysid, e));
+        }
+    }
+    failed.sort_by_key(|(s, _)| *s);
+    Ok(failed)
 }

@@ -175,23 +175,6 @@ pub(super) async fn enable_fence(fleet: &FleetHandle, v: &VehicleSnapshot) -> Ru
     Ok(())
 }
 
-/// Wait for every task of `tasks` (one per vehicle) and return the vehicles whose operation
-/// failed, with the error on one line; a task that panicked or was cancelled is an error
-/// (`what` names the task).
-pub(super) async fn join_failures(
-    tasks: &mut tokio::task::JoinSet<(u8, RunnerResult<()>)>,
-    what: &'static str,
-) -> RunnerResult<Vec<(u8, String)>> {
-    let mut failed = Vec::new();
-    while let Some(r) = tasks.join_next().await {
-        let (sysid, r) = r.map_err(RunnerError::task(what))?;
-        if let Err(e) = r {
-            failed.push((sysid, crate::app::error::chain(&e)));
-        }
-    }
-    Ok(failed)
-}
-
 /// Whether a failed operation may succeed when tried again: no answer (a lost frame, a busy
 /// link), as opposed to the vehicle saying no.
 pub(super) fn transient(e: &RunnerError) -> bool {

@@ -168,6 +168,24 @@ pub enum MappingEvent {
         /// Why.
         reason: String,
     },
+    /// A drone could not take off, or its steps kept failing: it leaves the tree as for a
+    /// battery swap (its vertex kept) and waits on the ground; the others go on.
+    Grounded {
+        /// Vehicle.
+        sysid: u8,
+        /// What failed.
+        reason: String,
+        /// What a person must fix (absent: it is tried again by itself with auto-resume).
+        #[serde(default, skip_serializing_if = "Option::is_none")]
+        fix: Option<String>,
+    },
+    /// A grounded drone takes part again.
+    ReadyAgain {
+        /// Vehicle.
+        sysid: u8,
+        /// How: "auto" (its telemetry says it is ready) or "operator".
+        by: String,
+    },
     /// A step failed and will be retried.
     StepFailed {
         /// Vehicle.

@@ -80,6 +80,7 @@ use std::time::Duration;
 use tokio::sync::{broadcast, mpsc, watch};
 
 mod events;
+mod grounded;
 pub(crate) mod kind;
 pub mod report;
 pub use self::kind::Runway;
@@ -138,7 +139,8 @@ pub struct RunOptions {
     pub patience: Patience,
     /// A vehicle is "there" within this horizontal distance of a cell centre, metres.
     pub tolerance_m: f64,
-    /// Consecutive failed steps after which a pilot gives up (the run stops; resume later).
+    /// Consecutive failed steps after which a pilot grounds its drone (it leaves the tree as
+    /// for a battery swap and waits: [`Pilot::ground`]); the others go on.
     pub max_failures: u32,
     /// Failed pictures (dropped by the sanity check, lost, unreadable) retaken per cell
     /// visit, and rejected sweep pictures in a row, before the camera is declared faulty.
@@ -406,6 +408,9 @@ struct Pilot {
     /// Where the vehicle's home was last known, grid metres (east, north): the reach rule's
     /// home while the autopilot reports none.
     home_xy: Option<(f64, f64)>,
+    /// Groundings in a row without a step flown in between, and when the last one was
+    /// (runtime clock): the back-off of a grounded drone's retries ([`Pilot::ground`]).
+    grounded: (u32, Option<tokio::time::Instant>),
 }
 
 enum PilotEnd {

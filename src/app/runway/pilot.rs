@@ -58,7 +58,13 @@ impl Pilot {
             self.wait_unpaused().await;
             match self.step().await {
                 Ok(Some(end)) => return Ok(end),
-                Ok(None) => failures = 0,
+                Ok(None) => {
+                    failures = 0;
+                    // A step flown: groundings in a row start again from zero.
+                    if self.vehicle().is_some_and(|v| flight::airborne(&v)) {
+                        self.grounded.0 = 0;
+                    }
+                }
                 Err(e) => {
                     failures += 1;
                     let reason = crate::app::error::chain(&e);
@@ -70,12 +76,22 @@ impl Pilot {
                     let max = self.shared.patience.secs(2.0);
                     let _ = self
                         .shared
-                        .commit(|_| Ok(((), Some(MappingEvent::StepFailed { sysid, reason }))))
+                        .commit(|_| {
+                            Ok((
+                                (),
+                                Some(MappingEvent::StepFailed {
+                                    sysid,
+                                    reason: reason.clone(),
+                                }),
+                            ))
+                        })
                         .await;
-                    if failures >= self.shared.max_failures.max(1) {
-                        return Err(e.context(format!(
-                            "vehicle {sysid}: giving up after {failures} failed steps"
-                        )));
+                    // A drone that cannot take off, or whose steps keep failing, leaves the
+                    // tree; the others go on.
+                    if self.cannot_take_off(&e) || failures >= self.shared.max_failures.max(1) {
+                        failures = 0;
+                        self.ground(&e).await?;
+                        continue;
                     }
                     tokio::time::sleep(max).await;
                 }
@@ -554,10 +570,26 @@ impl Pilot {
                 .lock()
                 .map(|s| s.contains(&sysid))
                 .unwrap_or(false);
-            if here {
-                flight::land_here(&fleet, sysid, self.shared.patience).await?;
+            let landed = if here {
+                flight::land_here(&fleet, sysid, self.shared.patience).await
             } else {
-                flight::return_and_land(&fleet, sysid, dist, speed, self.shared.patience).await?;
+                flight::return_and_land(&fleet, sysid, dist, speed, self.shared.patience).await
+            };
+            match landed {
+                Ok(()) => {}
+                // Grounded and out of reach (a link that stays dark): its autopilot's own
+                // failsafe brings it down; it waits like the others.
+                Err(e) if self.grounded_now().await.is_some() => {
+                    self.shared.say(
+                        Progress::warning(format!(
+                            "vehicle {sysid}: could not bring it home ({}): it is left to its \
+                             autopilot's failsafe",
+                            crate::app::error::chain(&e)
+                        ))
+                        .about(sysid),
+                    );
+                }
+                Err(e) => return Err(e.into()),
             }
             let reboots = self.vehicle().map(|v| v.reboots).unwrap_or(0);
             let now = self.shared.now();
@@ -572,10 +604,19 @@ impl Pilot {
                 .shared
                 .read(|s| s.robot(sysid).map(|r| r.status == RobotStatus::Landed))
                 .await?;
+            let grounded = self.grounded_now().await;
             if retired {
                 self.shared.say(
                     Progress::info(format!(
                         "vehicle {sysid}: landed: the map is complete, no battery swap needed"
+                    ))
+                    .about(sysid),
+                );
+            } else if let Some(g) = &grounded {
+                self.shared.say(
+                    Progress::notice(format!(
+                        "vehicle {sysid}: on the ground, out of the run ({})",
+                        g.fix.as_deref().unwrap_or(&g.reason)
                     ))
                     .about(sysid),
                 );
@@ -616,6 +657,49 @@ impl Pilot {
                 .lock()
                 .map(|mut s| s.remove(&sysid))
                 .unwrap_or(false);
+            if let Some(g) = self.grounded_now().await {
+                if by_operator || self.ready_again() {
+                    let now = self.shared.now();
+                    let by = if by_operator { "operator" } else { "auto" }.to_string();
+                    self.shared
+                        .commit(|s| {
+                            s.on_ready_again(sysid, now)?;
+                            Ok(((), Some(MappingEvent::ReadyAgain { sysid, by })))
+                        })
+                        .await?;
+                    self.shared.say(
+                        Progress::notice(format!(
+                            "vehicle {sysid} is ready again: taking off to rejoin (it was out: {})",
+                            g.reason
+                        ))
+                        .about(sysid),
+                    );
+                    return Ok(None);
+                }
+                // The wait counts from the grounding (or from this runner's start).
+                self.grounded
+                    .1
+                    .get_or_insert_with(tokio::time::Instant::now);
+                if !self.waits_by_itself() && !self.shared.interactive {
+                    self.shared.say(
+                        Progress::error(format!(
+                            "vehicle {sysid} waits for a person: {} — then `fleetmap resume`",
+                            g.fix.as_deref().unwrap_or(&g.reason)
+                        ))
+                        .about(sysid),
+                    );
+                    return Ok(Some(PilotEnd::WaitingForOperator));
+                }
+                if self
+                    .shared
+                    .read(|s| matches!(s.phase, Phase::Finished { .. }))
+                    .await
+                {
+                    return Ok(None);
+                }
+                self.wait_change(Duration::from_millis(500)).await;
+                continue;
+            }
             let rules = self.shared.read(|s| s.params.battery.clone()).await;
             let fresh = self.vehicle().is_some_and(|v| {
                 let rebooted = reboots_at.is_none_or(|r| v.reboots > r);

@@ -187,7 +187,10 @@ pub async fn run(
             }
         });
     }
-    let mut tasks = Vec::new();
+    // The pilots end with the run: dropped with this future (a GCS that stops), they stop
+    // too, and nothing more is written for them.
+    let mut pilots = JoinSet::new();
+    let mut by_task = HashMap::new();
     for &sysid in &sysids {
         let pilot = Pilot {
             sysid,
@@ -198,25 +201,34 @@ pub async fn run(
             first_sweep: true,
             sweep_rejects: 0,
             home_xy: None,
+            grounded: (0, None),
         };
-        tasks.push((sysid, tokio::spawn(pilot.run())));
+        let id = pilots.spawn(pilot.run()).id();
+        by_task.insert(id, sysid);
     }
+    let mut ended: Vec<(u8, RunnerResult<PilotEnd>)> = Vec::new();
+    while let Some(r) = pilots.join_next_with_id().await {
+        match r {
+            Ok((id, r)) => ended.push((by_task.get(&id).copied().unwrap_or(0), r)),
+            Err(e) => {
+                let sysid = by_task.get(&e.id()).copied().unwrap_or(0);
+                ended.push((
+                    sysid,
+                    Err(RunnerError::task("pilot task")(e).context(format!("vehicle {sysid}"))),
+                ));
+            }
+        }
+    }
+    ended.sort_by_key(|(s, _)| *s);
     let mut waiting = Vec::new();
     let mut first_err = None;
-    for (sysid, t) in tasks {
-        match t.await {
-            Ok(Ok(PilotEnd::Done)) => {}
-            Ok(Ok(PilotEnd::WaitingForOperator)) => waiting.push(sysid),
-            Ok(Err(e)) => {
-                if first_err.is_none() {
-                    first_err = Some(e);
-                }
-            }
+    for (sysid, r) in ended {
+        match r {
+            Ok(PilotEnd::Done) => {}
+            Ok(PilotEnd::WaitingForOperator) => waiting.push(sysid),
             Err(e) => {
                 if first_err.is_none() {
-                    first_err = Some(
-                        RunnerError::task("pilot task")(e).context(format!("vehicle {sysid}")),
-                    );
+                    first_err = Some(e);
                 }
             }
         }

@@ -65,7 +65,8 @@ pub(super) async fn fly<K: RunKind>(
             Outcome::WaitingForOperator { sysids } => {
                 let list: Vec<String> = sysids.iter().map(|s| s.to_string()).collect();
                 println!(
-                    "vehicle(s) {} landed for a battery swap: swap, then `fleetmap resume {}`",
+                    "vehicle(s) {} wait on the ground for the operator (a battery swap, or what \
+                     the lines above say to fix): then `fleetmap resume {}`",
                     list.join(", "),
                     path.display()
                 );

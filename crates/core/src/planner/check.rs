@@ -40,7 +40,9 @@ pub(crate) fn check_plan(inst: &Instance, plan: &Plan) -> Result<(), CheckError>
 /// moves (a king's move or a pass, 7b, 7c), obstacles (8b) and station-admissible cells (8c),
 /// stations never sharing a cell (7d), drones never sharing a cell strictly inside a cycle
 /// (7e), drones on a cell occupied by a station at the first and last step of every cycle (9d),
-/// at most C drones there (10), and every goal visited (8a).
+/// at most C drones there (10; fewer on a pinned station with chargers taken), pinned
+/// stations that never leave their cell ([`super::scenario::Pin`]), and every goal visited
+/// (8a).
 pub fn check_plan_with(inst: &Instance, plan: &Plan, opts: CheckOptions) -> Result<(), CheckError> {
     let mut v: Vec<String> = Vec::new();
     let g = &inst.grid;
@@ -126,6 +128,21 @@ pub fn check_plan_with(inst: &Instance, plan: &Plan, opts: CheckOptions) -> Resu
             }
         }
     }
+    for pin in &inst.pinned {
+        let home = g.cell(inst.stations[pin.station]);
+        if let Some(c) = plan.stations[pin.station]
+            .iter()
+            .flatten()
+            .find(|&&c| c != home)
+        {
+            v.push(format!(
+                "station {} is held at {} but moves to {}",
+                pin.station,
+                show(home),
+                show(*c)
+            ));
+        }
+    }
     for k in 0..kc {
         for b in 0..tc {
             let mut seen = BTreeSet::new();
@@ -164,10 +181,22 @@ pub fn check_plan_with(inst: &Instance, plan: &Plan, opts: CheckOptions) -> Resu
             }
             if let Some(cap) = inst.capacity {
                 for (c, n) in count {
-                    if n > cap {
+                    // A pinned station standing there has chargers taken already.
+                    let taken = inst
+                        .pinned
+                        .iter()
+                        .find(|p| g.cell(inst.stations[p.station]) == c)
+                        .map_or(0, |p| p.taken);
+                    if n + taken > cap {
                         v.push(format!(
-                            "{n} drones on the station at {} at cycle {k} step {j}, capacity {cap}",
-                            show(c)
+                            "{n} drones on the station at {} at cycle {k} step {j}, capacity \
+                             {cap}{}",
+                            show(c),
+                            if taken > 0 {
+                                format!(" with {taken} charger(s) taken")
+                            } else {
+                                String::new()
+                            }
                         ));
                     }
                 }

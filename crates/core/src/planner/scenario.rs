@@ -124,6 +124,22 @@ pub struct Instance {
     pub k_max: usize,
     /// C of eq. (10), or `None` for no limit.
     pub capacity: Option<usize>,
+    /// Stations that stay on their start cell for the whole plan, with the chargers taken
+    /// there by drones that do not fly ([`Pin`]); empty in the paper's problem, and in every
+    /// scenario file (a field run sets them: [`Instance::with_pins`]).
+    pub pinned: Vec<Pin>,
+}
+
+/// A station held on its start cell for the whole plan — a rover that cannot drive, or one
+/// carrying a drone that is out of the run — with `taken` of its C chargers taken by drones
+/// that stay on it (not in the instance's drones): at most C − `taken` drones of the plan on
+/// it at a cycle boundary (10).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Pin {
+    /// The station (index into [`Instance::stations`]).
+    pub station: usize,
+    /// Chargers on it taken by drones outside the plan.
+    pub taken: usize,
 }
 
 impl Instance {
@@ -237,7 +253,57 @@ impl Instance {
             tc,
             k_max,
             capacity,
+            pinned: Vec::new(),
         })
+    }
+
+    /// This instance with stations held on their start cells ([`Pin`]). Malformed: a station
+    /// index out of range, a station pinned twice. Infeasible whatever K: a pinned station
+    /// with more chargers taken than C, or the drones starting on it and the chargers taken
+    /// there together above C (10).
+    pub fn with_pins(mut self, pins: Vec<Pin>) -> Result<Instance, ScenarioError> {
+        for (n, p) in pins.iter().enumerate() {
+            if p.station >= self.stations.len() {
+                return Err(ScenarioError::Invalid(format!(
+                    "pinned station {} does not exist",
+                    p.station
+                )));
+            }
+            if pins[..n].iter().any(|q| q.station == p.station) {
+                return Err(ScenarioError::Invalid(format!(
+                    "station {} is pinned twice",
+                    p.station
+                )));
+            }
+            if let Some(c) = self.capacity {
+                let cell = self.stations[p.station];
+                let on = self.drones.iter().filter(|&&d| d == cell).count();
+                if on + p.taken > c {
+                    let rc = self.grid.cell(cell);
+                    return Err(ScenarioError::Infeasible(format!(
+                        "the station held at [{}, {}] has {} charger(s) taken and {on} drone(s) \
+                         on it, capacity {c} (eq. 10)",
+                        rc.row, rc.col, p.taken
+                    )));
+                }
+            }
+        }
+        self.pinned = pins;
+        Ok(self)
+    }
+
+    /// The pin of the station held on cell `l` (dense index), if one is.
+    pub(crate) fn pin_at(&self, l: usize) -> Option<&Pin> {
+        self.pinned
+            .iter()
+            .find(|p| self.stations.get(p.station) == Some(&l))
+    }
+
+    /// Drones of the plan allowed on the station at cell `l` at a cycle boundary: C (10),
+    /// less the chargers taken there when a pinned station stands on `l`; `None`: no limit.
+    pub(crate) fn capacity_at(&self, l: usize) -> Option<usize> {
+        let c = self.capacity?;
+        Some(c.saturating_sub(self.pin_at(l).map_or(0, |p| p.taken)))
     }
 
     /// Nd, the number of drones.

@@ -10,6 +10,8 @@
 //!   silence, back on the next heartbeat, reboots detected).
 //! * [`command`] — COMMAND_LONG / COMMAND_INT with COMMAND_ACK, retries, IN_PROGRESS.
 //! * [`arming`] — when a vehicle may be armed (more than the autopilot's flag).
+//! * [`launch`] — getting a vehicle into a mode, armed or off the ground, confirmed from its
+//!   own state and retried from it with a bounded back-off.
 //! * [`mission`] — mission, fence and rally upload / download / clear / set current.
 //! * [`flavour`] — everything that differs between ArduPilot Copter, ArduPilot Rover and
 //!   PX4: which mode table, how to arm, take off, start a mission, go to a point, return, land.
@@ -26,6 +28,7 @@ pub mod command;
 pub mod flavour;
 pub mod heartbeat;
 pub mod image_transfer;
+pub mod launch;
 pub mod mission;
 pub mod mode;
 pub mod severity;

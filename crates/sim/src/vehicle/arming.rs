@@ -35,9 +35,15 @@ impl SimVehicle {
 
     pub(super) fn prearm_failure(&self, now: Time) -> Option<&'static str> {
         let f = self.cfg.flavour;
+        let compass = self
+            .cfg
+            .compass_fault_until_s
+            .is_some_and(|t| now.as_secs_f64() < t);
         match f.autopilot {
             SimAutopilot::ArduPilot => {
-                if !self.gps_fix(now) {
+                if compass {
+                    Some("PreArm: Compass not calibrated")
+                } else if !self.gps_fix(now) {
                     Some("PreArm: GPS 1: Bad fix")
                 } else if !self.position_ok(now) {
                     if f.is_copter() {
@@ -59,6 +65,8 @@ impl SimVehicle {
                         .is_none_or(|t| now.saturating_since(t) > self.gcs_link_loss_timeout())
                 {
                     Some("Preflight Fail: No connection to the GCS")
+                } else if compass {
+                    Some("Preflight Fail: Compass Sensor 0 missing")
                 } else if !self.gps_fix(now) || !self.position_ok(now) {
                     Some("Preflight Fail: No valid global position estimate")
                 } else if self.power.battery.fraction() * 100.0 <= self.cfg.failsafe.rtl_pct {

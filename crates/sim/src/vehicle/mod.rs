@@ -245,6 +245,11 @@ pub struct VehicleConfig {
     /// [`Px4Link::TELEM1`] for a telemetry radio on TELEM1 as in the field,
     /// [`Px4Link::SITL_UDP`] to compare with PX4 SITL. ArduPilot ignores it.
     pub px4_link: Px4Link,
+    /// A pre-arm check that fails until this simulated time, seconds (ArduPilot "PreArm:
+    /// Compass not calibrated", PX4 "Preflight Fail: Compass Sensor 0 missing"; infinite:
+    /// until a person fixes it; `None`: it passes): a vehicle that refuses to arm, for the
+    /// ground station's handling of one that cannot start.
+    pub compass_fault_until_s: Option<f64>,
 }
 
 impl VehicleConfig {
@@ -300,6 +305,7 @@ impl VehicleConfig {
             gcs_time_scale: 1.0,
             power_off_s: 3.0,
             px4_link: Px4Link::NETWORK,
+            compass_fault_until_s: None,
         }
     }
 }

@@ -35,6 +35,7 @@ pub use self::times::{
     Activity, CLOCK_SAMPLE_S, Milestone, MilestoneKind, MissionClock, RobotTimes, Share, Wait,
     WaitTimes,
 };
+pub use self::vehicle::Grounded;
 
 use super::ExploreError;
 use super::dfs::{Action, Allocation, Explorer, ExplorerConfig, RobotId, Sharing, VertexState};
@@ -314,6 +315,10 @@ pub struct RobotRecord {
     /// before this field existed.
     #[serde(default)]
     pub camera_fault: Option<String>,
+    /// It could not take off, or its steps kept failing ([`Grounded`]): out of the run as for
+    /// a battery swap, on the ground, until it is ready again or the operator says so.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub grounded: Option<Grounded>,
     /// Its time since the team's first take-off: flying, waiting, on the ground
     /// ([`MissionClock`]); zero in runs saved before it was measured.
     #[serde(default)]
@@ -476,6 +481,7 @@ impl MappingState {
                 distance_m: 0.0,
                 track: Vec::new(),
                 camera_fault: None,
+                grounded: None,
                 visit: None,
                 sweep_item: None,
                 times: RobotTimes::default(),

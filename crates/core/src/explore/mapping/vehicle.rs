@@ -1,7 +1,20 @@
-//! Vehicle events of the runway mapping run: low battery, camera faults, battery swaps
-//! (landing, swapping, resuming), going home and landing.
+//! Vehicle events of the runway mapping run: low battery, camera faults, a drone that cannot
+//! take off, battery swaps (landing, swapping, resuming), going home and landing.
 
 use super::*;
+
+/// Why a drone is on the ground out of the run (it could not take off, or its steps kept
+/// failing) and what a person must fix, if anything.
+#[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Grounded {
+    /// What failed.
+    pub reason: String,
+    /// What a person must fix (`None`: a retry may succeed by itself).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub fix: Option<String>,
+    /// Times in a row it was grounded without flying a step in between.
+    pub tries: u32,
+}
 
 impl MappingState {
     /// `sysid` must change its battery: it leaves the exploration (its vertex is kept) and
@@ -39,6 +52,35 @@ impl MappingState {
         Ok(())
     }
 
+    /// `sysid` could not take off, or its steps kept failing (`reason`; `fix`: what a person
+    /// must fix, if anything): it leaves the run as for a battery swap
+    /// ([`MappingState::on_battery_low`]: its vertex is kept, a confirmation it was making is
+    /// given up) and waits on the ground ([`MappingState::on_landed_for_swap`]) until it is
+    /// ready again or the operator says so ([`MappingState::on_ready_again`],
+    /// [`MappingState::on_swapped`]). `tries` counts the groundings in a row.
+    pub fn on_grounded(
+        &mut self,
+        sysid: u8,
+        reason: String,
+        fix: Option<String>,
+        tries: u32,
+        now: Time,
+    ) -> Result<(), MappingError> {
+        self.abandon_confirmation(sysid);
+        self.on_battery_low(sysid, now)?;
+        self.robot_mut(sysid)?.grounded = Some(Grounded { reason, fix, tries });
+        Ok(())
+    }
+
+    /// `sysid`, grounded ([`MappingState::on_grounded`]), is ready again: it goes back to
+    /// what it was doing, as after a battery swap but without counting one.
+    pub fn on_ready_again(&mut self, sysid: u8, now: Time) -> Result<(), MappingError> {
+        if self.robot(sysid)?.grounded.is_none() {
+            return Ok(());
+        }
+        self.on_swapped(sysid, now)
+    }
+
     /// `sysid` landed for its swap; `reboots` is the vehicle's reboot counter then. When it
     /// knows the map is complete it is retired instead ([`Explorer::retire`]): landed for good.
     pub fn on_landed_for_swap(
@@ -65,7 +107,8 @@ impl MappingState {
     }
 
     /// `sysid` has a fresh battery: it goes back to what it was doing (the DFS from its saved
-    /// vertex).
+    /// vertex). The operator's word for a drone that was grounded too
+    /// ([`MappingState::on_grounded`]): then no battery swap is counted.
     pub fn on_swapped(&mut self, sysid: u8, now: Time) -> Result<(), MappingError> {
         self.touch(now);
         let exploring = matches!(self.phase, Phase::Explore { .. });
@@ -76,7 +119,10 @@ impl MappingState {
         ) {
             return Ok(());
         }
-        r.battery_swaps += 1;
+        // A drone grounded (it could not take off) had no battery swapped.
+        if r.grounded.take().is_none() {
+            r.battery_swaps += 1;
+        }
         r.reboots_at_landing = None;
         r.camera_fault = None;
         let before = r.status_before_swap.take().unwrap_or(RobotStatus::Idle);

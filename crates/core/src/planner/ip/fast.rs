@@ -340,9 +340,11 @@ pub(crate) fn solve_cycles(
                     add(&mut p, sum(inflow).leq(1.0));
                 }
             } else {
-                // (9d) + (10): drones only where a station is, at most cap_l of them.
+                // (9d) + (10): drones only where a station is, at most cap_l of them (fewer
+                // on a pinned station with chargers taken: it is always the station on l).
                 let per_arc = if boundary(t - 1) { cap } else { 1 };
-                let cap_l = cap.min(n_in * per_arc);
+                let cap_here = inst.capacity_at(l).map_or(cap, |c| c.min(cap));
+                let cap_l = cap_here.min(n_in * per_arc);
                 let s = t / dt * ct;
                 let stations_here = sum(sin.get(&(s, l)));
                 add(&mut p, sum(inflow).leq(cap_l as f64 * stations_here));
@@ -370,6 +372,20 @@ pub(crate) fn solve_cycles(
             }
             if inflow.map_or(0, Vec::len) >= 2 {
                 add(&mut p, sum(inflow).leq(1.0));
+            }
+        }
+    }
+    // Pinned stations stay on their cell: the arc l → l carries one station at every
+    // station time (no other station can enter l then, 7d).
+    for pin in &inst.pinned {
+        let l = inst.stations[pin.station];
+        for layer in sarcs.iter().skip(1) {
+            match layer.iter().find(|a| a.from == l && a.to == l) {
+                Some(a) => add(&mut p, Expression::from(a.var).eq(1.0)),
+                None => {
+                    attempt.seconds = elapsed() - t0;
+                    return (RawResult::Infeasible, attempt);
+                }
             }
         }
     }

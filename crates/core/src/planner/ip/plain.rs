@@ -125,6 +125,15 @@ pub(crate) fn solve(
             add(&mut p, Expression::from(lam[k]).geq(lam[k + 1]));
         }
     }
+    // Pinned stations stay on their start cell in every active cycle.
+    for pin in &inst.pinned {
+        let (a, l) = (pin.station, inst.stations[pin.station]);
+        for (k, &on) in lam.iter().enumerate() {
+            for b in 0..tc {
+                add(&mut p, (Expression::from(y(a, b, k, l)) - on).eq(0.0));
+            }
+        }
+    }
     // (8a)
     for &l in &inst.goals {
         let mut e = Expression::with_capacity(nd * td * kk);
@@ -198,8 +207,8 @@ pub(crate) fn solve(
                 add(&mut p, s0.clone().geq(x(i, 0, k, l)));
                 add(&mut p, s1.clone().geq(x(i, td - 1, k, l)));
             }
-            // (10)
-            if let Some(c) = inst.capacity {
+            // (10), less the chargers taken on a pinned station standing on l
+            if let Some(c) = inst.capacity_at(l) {
                 let e0 = sum(&mut (0..nd).map(|i| x(i, 0, k, l)));
                 let e1 = sum(&mut (0..nd).map(|i| x(i, td - 1, k, l)));
                 add(&mut p, e0.leq(c as f64));

@@ -55,22 +55,27 @@ impl ClassificationState {
             let path = plan.drones[i][k].clone();
             let last = path.last().copied().unwrap_or_default();
             let first = path.first().copied().unwrap_or_default();
-            let land_on = station_paths
-                .iter()
-                .position(|s| s.last() == Some(&last))
-                .ok_or_else(|| {
-                    SortieError::Plan(format!(
+            let out = self.is_out(m.sysid);
+            let land_on = match station_paths.iter().position(|s| s.last() == Some(&last)) {
+                Some(a) => a,
+                // A drone out of the run, off every station: it does not fly (no slot).
+                None if out => 0,
+                None => {
+                    return Err(SortieError::Plan(format!(
                         "drone {} ends cycle {k} at {last}, where no station ends it (9d)",
                         m.sysid
-                    ))
-                })?;
-            landing.entry(land_on).or_default().push(i);
+                    )));
+                }
+            };
+            if !out || station_paths.get(land_on).and_then(|s| s.last()) == Some(&last) {
+                landing.entry(land_on).or_default().push(i);
+            }
             // The station it stands on at the start: if that station drives away, the drone
             // must be in the air even when its own path stays (a landed drone rides along).
             let under = station_paths.iter().position(|s| s.first() == Some(&first));
             let station_moves = under.is_none_or(|a| stations[a].drives);
             let moves = path.windows(2).any(|w| w[0] != w[1]);
-            let flies = moves || station_moves || under != Some(land_on);
+            let flies = !out && (moves || station_moves || under != Some(land_on));
             let capture: Vec<bool> = path
                 .iter()
                 .enumerate()
@@ -175,9 +180,19 @@ impl ClassificationState {
         Ok(())
     }
 
-    /// The vehicles were started.
+    /// The vehicles were started (those that move: their failed starts in a row are
+    /// forgotten).
     pub fn on_started(&mut self) -> Result<(), SortieError> {
-        self.cycle_mut()?.phase = CyclePhase::Started;
+        let c = self.cycle_mut()?;
+        c.phase = CyclePhase::Started;
+        let started: Vec<u8> = c
+            .drones
+            .iter()
+            .filter(|d| d.flies)
+            .map(|d| d.sysid)
+            .chain(c.stations.iter().filter(|s| s.drives).map(|s| s.sysid))
+            .collect();
+        self.forget_start_failures(&started);
         Ok(())
     }
 
@@ -297,6 +312,10 @@ impl ClassificationState {
             e.cycles_flown += 1;
             e.flight_s += c.elapsed_s;
             e.next_cycle = c.k + 1;
+            // One sortie less for the members out to sit out.
+            for o in self.out.values_mut() {
+                o.wait_sorties = o.wait_sorties.saturating_sub(1);
+            }
         }
         let as_planned = actual == c.planned_end();
         self.config = actual;

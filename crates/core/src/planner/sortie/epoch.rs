@@ -50,18 +50,22 @@ impl ClassificationState {
     }
 
     /// The IP instance (Algorithm 2's input) for the rest of the epoch: the remaining goals
-    /// from the current team configuration, at most `k_max` cycles.
+    /// from the current team configuration, at most `k_max` cycles, for the drones that take
+    /// part ([`ClassificationState::active_drones`]) — the stations that are out, or carry a
+    /// drone that is out, held on their cells ([`ClassificationState::pins`]).
     pub fn instance(&self, k_max: usize) -> Result<Instance, SortieError> {
         let grid = self.layout.planner_grid()?;
         let idx = |c: Cell| -> Result<usize, SortieError> {
             grid.index(self.layout.to_planner(c))
                 .ok_or_else(|| SortieError::Plan(format!("cell {c} is outside the area")))
         };
+        // The drones that take part; those out stay where they are (not planned).
         let drones = self
-            .config
             .drones
             .iter()
-            .map(|&c| idx(c))
+            .zip(&self.config.drones)
+            .filter(|(m, _)| !self.is_out(m.sysid))
+            .map(|(_, &c)| idx(c))
             .collect::<Result<_, _>>()?;
         let stations = self
             .config
@@ -74,6 +78,7 @@ impl ClassificationState {
             .into_iter()
             .map(idx)
             .collect::<Result<_, _>>()?;
+        let pins: Vec<Pin> = self.pins(&self.config);
         Instance::new(
             grid,
             drones,
@@ -84,6 +89,7 @@ impl ClassificationState {
             k_max.max(1),
             self.params.capacity,
         )
+        .and_then(|i| i.with_pins(pins))
         .map_err(|e| SortieError::Plan(e.to_string()))
     }
 
@@ -95,7 +101,8 @@ impl ClassificationState {
         }
     }
 
-    /// Take the IP's plan (planner cells, re-paired) for the rest of the epoch.
+    /// Take the IP's plan (planner cells, re-paired) for the rest of the epoch: paths for
+    /// the drones that take part, in team order; the drones out stay on their cells.
     pub fn accept_plan(&mut self, plan: &Plan, seconds: f64) -> Result<(), SortieError> {
         let layout = self.layout.clone();
         let conv = |v: &Vec<Vec<Vec<Cell>>>| -> Vec<Vec<Vec<Cell>>> {
@@ -113,14 +120,29 @@ impl ClassificationState {
                 })
                 .collect()
         };
-        let sp = SortiePlan {
-            cycles: plan.cycles,
-            drones: conv(&plan.drones),
-            stations: conv(&plan.stations),
-        };
-        if sp.drones.len() != self.drones.len() || sp.stations.len() != self.stations.len() {
+        let active = self.active_drones();
+        if plan.drones.len() != active.len() || plan.stations.len() != self.stations.len() {
             return Err(SortieError::Plan("the plan does not match the team".into()));
         }
+        // The drones out stay where they are for every cycle of the plan.
+        let mut planned = conv(&plan.drones).into_iter();
+        let mut drones = Vec::with_capacity(self.drones.len());
+        for (m, &cell) in self.drones.iter().zip(&self.config.drones) {
+            if self.is_out(m.sysid) {
+                drones.push(vec![vec![cell; self.params.td]; plan.cycles]);
+            } else {
+                drones.push(
+                    planned.next().ok_or_else(|| {
+                        SortieError::Plan("the plan does not match the team".into())
+                    })?,
+                );
+            }
+        }
+        let sp = SortiePlan {
+            cycles: plan.cycles,
+            drones,
+            stations: conv(&plan.stations),
+        };
         let e = self
             .epoch
             .as_mut()

@@ -40,10 +40,12 @@ mod epoch;
 mod layout;
 mod measure;
 pub mod missions;
+mod out;
 mod records;
 
 pub use layout::{Layout, Member, SortiePlan, TeamConfig};
 pub use measure::ImageMismatch;
+pub use out::{Role, Sidelined};
 pub use records::*;
 
 use crate::geo::{Cell, Grid as GeoGrid};
@@ -52,7 +54,7 @@ use crate::mission::item::MissionItem;
 use crate::planner::bandit::{self, BanditState, Label};
 use crate::planner::grid::Grid as PlannerGrid;
 use crate::planner::plan::Plan;
-use crate::planner::scenario::Instance;
+use crate::planner::scenario::{Instance, Pin};
 use crate::vision::camera::CameraModel;
 use crate::vision::green::GreenParams;
 use missions::{CycleMission, DroneMissionSpec};
@@ -195,6 +197,14 @@ pub struct ClassificationState {
     pub airborne_s: BTreeMap<u8, f64>,
     /// Times the run was resumed.
     pub resumes: u32,
+    /// Members out of the run for now, and why ([`Sidelined`]; `out.rs`); absent in runs
+    /// saved before members could go out.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub out: BTreeMap<u8, Sidelined>,
+    /// Failed sortie starts in a row, per vehicle (the back-off of [`Sidelined`]); cleared
+    /// by a sortie it starts.
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub start_failures: BTreeMap<u8, u32>,
 }
 
 /// The green-pixel measurement of `def` (`[classification.green]`, defaults when absent).
@@ -312,6 +322,8 @@ impl ClassificationState {
             image_failures: 0,
             last_measurement: None,
             resumes: 0,
+            out: BTreeMap::new(),
+            start_failures: BTreeMap::new(),
         };
         s.validate_config(&s.config)?;
         Ok(s)
@@ -349,7 +361,9 @@ impl ClassificationState {
     }
 
     /// Check that drones are on station cells, stations on roads and apart, at most C drones
-    /// per station, everything inside G and off O — what (7a) needs of (X_0, Y_0).
+    /// per station, everything inside G and off O — what (7a) needs of (X_0, Y_0). A drone
+    /// out of the run may stand anywhere (it is not planned); on a station it takes a
+    /// charger.
     pub fn validate_config(&self, c: &TeamConfig) -> Result<(), SortieError> {
         let bad = |m: String| Err(SortieError::Plan(m));
         if c.drones.len() != self.drones.len() || c.stations.len() != self.stations.len() {
@@ -371,6 +385,9 @@ impl ClassificationState {
         }
         let mut per: BTreeMap<Cell, usize> = BTreeMap::new();
         for (m, &cell) in self.drones.iter().zip(&c.drones) {
+            if self.is_out(m.sysid) && !distinct.contains(&cell) {
+                continue;
+            }
             if !distinct.contains(&cell) {
                 return bad(format!(
                     "drone {} is at cell {cell}, where no station is (9d): a drone must start \
@@ -434,9 +451,14 @@ impl ClassificationState {
         c.stations.get(d.land_on)
     }
 
-    /// Start the run clock of a resume: counts it.
+    /// Start the run clock of a resume: counts it. The operator's resume is the word to try
+    /// again every member that is out: each is eligible at once ([`ClassificationState::
+    /// eligible`]; it is taken back when its telemetry says it is ready).
     pub fn on_resume(&mut self) {
         self.resumes += 1;
+        for o in self.out.values_mut() {
+            o.wait_sorties = 0;
+        }
     }
 }
 

@@ -343,3 +343,126 @@ fn visits_without_images_and_epochs_without_measurement() {
         "a measured epoch ends the row"
     );
 }
+
+/// A drone that cannot start goes out: the sortie is dropped before anything moved, the rest
+/// of the epoch is planned for the three others with its station held on its cell (its
+/// charger taken), and the run classifies every cell without it; a resume makes it eligible,
+/// and taken back it flies again. What is out, and why, survives a save.
+#[test]
+fn a_drone_that_cannot_start_is_left_out_and_its_station_held() {
+    let mut s = state(HARDWARE, None);
+    s.begin_epoch().unwrap();
+    plan(&mut s);
+    s.prepare_cycle().unwrap();
+    s.on_verified().unwrap();
+    assert_eq!(s.next(), Next::Start);
+    let start = s.config.clone();
+    let fix = Some("clear the pre-arm failure it reports: PreArm: Compass not calibrated".into());
+    s.start_failed(start.clone(), &[(4, "arming refused".into(), fix)])
+        .unwrap();
+    assert!(
+        s.cycle().is_none() && s.next() == Next::Plan,
+        "the sortie is dropped"
+    );
+    assert_eq!(s.active_drones(), vec![1, 2, 3]);
+    assert_eq!(
+        s.eligible(),
+        vec![4],
+        "tried again at the next sortie (first failure)"
+    );
+    // Drone 4 stands on station 6 at [3, 4]: station 6 is held, one charger taken.
+    assert_eq!(
+        s.pins(&s.config),
+        vec![Pin {
+            station: 1,
+            taken: 1
+        }]
+    );
+    let inst = s.instance(s.params.k_max).unwrap();
+    assert_eq!(inst.nd(), 3);
+    let text = serde_json::to_string(&s).unwrap();
+    let back: ClassificationState = serde_json::from_str(&text).unwrap();
+    assert_eq!(back.out, s.out);
+    assert_eq!(back.start_failures.get(&4), Some(&1));
+    // Fly the rest without drone 4 (it is not taken back: its checks keep failing).
+    let mut key = 0;
+    let mut sorties = 0;
+    while s.next() != Next::Finished {
+        match s.next() {
+            Next::BeginEpoch => {
+                s.begin_epoch().unwrap();
+            }
+            Next::Plan => plan(&mut s),
+            Next::Prepare => {
+                s.prepare_cycle().unwrap();
+                let c = s.cycle().unwrap();
+                let d4 = c.drones.iter().find(|d| d.sysid == 4).unwrap();
+                assert!(!d4.flies && d4.captures.is_empty() && d4.items.is_empty());
+                assert!(d4.path.iter().all(|&c| c == Cell::new(3, 4)));
+                let st6 = c.stations.iter().find(|x| x.sysid == 6).unwrap();
+                assert!(!st6.drives, "station 6 holds drone 4: it does not drive");
+                // at most C − 1 drones of the plan land on it
+                let on6 = c
+                    .drones
+                    .iter()
+                    .filter(|d| d.sysid != 4 && d.path.last() == Some(&Cell::new(3, 4)))
+                    .count();
+                assert!(on6 < 2, "{on6} drones land beside drone 4 on station 6");
+            }
+            Next::Upload | Next::Start => {
+                fly(&mut s, &mut key);
+                sorties += 1;
+                let end = s.cycle().unwrap().planned_end();
+                s.finish_cycle(end, false).unwrap();
+            }
+            Next::Follow | Next::Finished => unreachable!(),
+        }
+        assert!(sorties < 200);
+    }
+    assert_eq!(
+        s.bandit.keep().into_iter().collect::<BTreeSet<_>>(),
+        green()
+    );
+    assert!(s.is_out(4));
+    // The operator resumes: drone 4 may be tried; taken back, it flies in the next plan.
+    s.on_resume();
+    assert_eq!(s.eligible(), vec![4]);
+    assert!(s.reinstate(4));
+    assert!(!s.is_out(4) && s.pins(&s.config).is_empty());
+    assert_eq!(s.instance(1).unwrap().nd(), 4);
+}
+
+/// A station that cannot drive is held on its cell with no charger taken, and a failed
+/// start counted in a row backs the member off: 0, 1, 3, 7, 7 sorties.
+#[test]
+fn a_station_that_cannot_drive_is_held_and_retries_back_off() {
+    let mut s = state(HARDWARE, None);
+    s.begin_epoch().unwrap();
+    let cfg = s.config.clone();
+    let mut waits = Vec::new();
+    for _ in 0..5 {
+        s.start_failed(cfg.clone(), &[(5, "MISSION_START refused".into(), None)])
+            .unwrap();
+        waits.push(s.out[&5].wait_sorties);
+        assert!(s.reinstate(5));
+    }
+    assert_eq!(waits, vec![0, 1, 3, 7, 7]);
+    s.start_failed(cfg, &[(5, "MISSION_START refused".into(), None)])
+        .unwrap();
+    assert_eq!(s.out[&5].role, Role::Station);
+    assert_eq!(
+        s.pins(&s.config),
+        vec![Pin {
+            station: 0,
+            taken: 0
+        }]
+    );
+    plan(&mut s);
+    s.prepare_cycle().unwrap();
+    let c = s.cycle().unwrap();
+    assert!(c.stations.iter().any(|x| x.sysid == 5 && !x.drives));
+    // Started: its failures in a row are forgotten by the vehicles that moved.
+    s.on_verified().unwrap();
+    s.on_started().unwrap();
+    assert_eq!(s.start_failures.get(&5), Some(&6), "station 5 did not move");
+}

@@ -1,0 +1,140 @@
+//! Members out of the run (a drone that could not take off, a station that could not drive:
+//! [`fleetmap_core::planner::sortie::Sidelined`]): taking them back once their telemetry says
+//! they are ready, and waiting for them when the run cannot go on without them.
+
+use super::*;
+use crate::app::error::{RunnerError, RunnerResult};
+
+impl Runner {
+    /// Whether member `sysid` is ready to take part again, by its telemetry: heard, booted,
+    /// ready to arm (or armed), and — a drone — standing on a station's cell.
+    pub(super) async fn ready_again(&self, sysid: u8) -> bool {
+        let Some(v) = self.fleet().vehicle(sysid) else {
+            return false;
+        };
+        let now = self.fleet().clock().now();
+        let on_station = self
+            .shared
+            .read(|s| {
+                let i = s.drones.iter().position(|m| m.sysid == sysid);
+                i.is_none_or(|i| {
+                    s.config
+                        .drones
+                        .get(i)
+                        .is_some_and(|c| s.config.stations.contains(c))
+                })
+            })
+            .await;
+        v.alive && !v.booting && (v.armed || v.arm_blockers(now).is_empty()) && on_station
+    }
+
+    /// Take back the members out whose wait is over and that are ready again (journalled,
+    /// told); returns how many.
+    pub(super) async fn members_back(&self) -> RunnerResult<usize> {
+        let eligible = self.shared.read(|s| s.eligible()).await;
+        let mut back = 0;
+        for sysid in eligible {
+            if !self.ready_again(sysid).await {
+                continue;
+            }
+            let was = self
+                .shared
+                .commit(|s| {
+                    let was = s
+                        .out
+                        .get(&sysid)
+                        .map(|o| o.reason.clone())
+                        .unwrap_or_default();
+                    s.reinstate(sysid);
+                    Ok((was.clone(), vec![BanditEvent::VehicleBack { sysid, was }]))
+                })
+                .await?;
+            back += 1;
+            self.say(
+                Progress::notice(format!(
+                    "vehicle {sysid} is ready again and rejoins the run (it was out: {was})"
+                ))
+                .about(sysid),
+            );
+        }
+        Ok(back)
+    }
+
+    /// Every drone is out: no sortie can fly. Wait for those a retry may bring back; stop
+    /// when a person must fix every one of them.
+    pub(super) async fn need_a_drone(&self) -> RunnerResult<()> {
+        if self.shared.read(|s| s.active_drones().is_empty()).await {
+            self.wait_for_members("no drone can fly").await?;
+        }
+        Ok(())
+    }
+
+    /// The run cannot go on without members that are out (`why`): wait for them — every
+    /// member out is tried again, with a back-off of 5 s doubling to 80 s, for at most 20
+    /// tries (about 20 minutes of the fleet's time, scaled by the patience) — until one
+    /// rejoins. Stops at once, saying what to fix, when a person must fix every one of them,
+    /// and after the last try.
+    pub(super) async fn wait_for_members(&self, why: &str) -> RunnerResult<()> {
+        const TRIES: u32 = 20;
+        for attempt in 0..TRIES {
+            let outs: Vec<(u8, Sidelined)> = self
+                .shared
+                .read(|s| s.out.iter().map(|(k, v)| (*k, v.clone())).collect())
+                .await;
+            let list = || {
+                outs.iter()
+                    .map(|(sysid, o)| {
+                        format!(
+                            "{} {sysid}: {}",
+                            o.role.name(),
+                            o.fix.as_deref().unwrap_or(&o.reason)
+                        )
+                    })
+                    .collect::<Vec<_>>()
+                    .join("; ")
+            };
+            if outs.iter().all(|(_, o)| o.fix.is_some()) {
+                return Err(RunnerError::check(format!(
+                    "{why}: a person must fix {}",
+                    list()
+                )));
+            }
+            // Every member out may be tried now.
+            self.shared
+                .commit(|s| {
+                    for o in s.out.values_mut() {
+                        o.wait_sorties = 0;
+                    }
+                    Ok(((), Vec::new()))
+                })
+                .await?;
+            if self.members_back().await? > 0 {
+                return Ok(());
+            }
+            let wait = self
+                .shared
+                .patience
+                .secs(5.0 * f64::from(1u32 << attempt.min(4)));
+            if attempt == 0 {
+                self.say(Progress::warning(format!(
+                    "{why}: waiting for {} to be ready again",
+                    list()
+                )));
+            }
+            tokio::time::sleep(wait).await;
+        }
+        let outs: Vec<String> = self
+            .shared
+            .read(|s| {
+                s.out
+                    .iter()
+                    .map(|(k, o)| format!("{} {k}: {}", o.role.name(), o.reason))
+                    .collect()
+            })
+            .await;
+        Err(RunnerError::check(format!(
+            "{why}, and after {TRIES} tries none of them is ready: {}",
+            outs.join("; ")
+        )))
+    }
+}
