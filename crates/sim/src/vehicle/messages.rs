@@ -259,7 +259,7 @@ impl SimVehicle {
                 })
             }
             x if x == id!(WIND_DATA) => {
-                if !(ap && copter) || !self.position_ok(now) {
+                if !(ap && copter && self.position_ok(now)) {
                     return None;
                 }
                 let (wn, we) = self.wind_ne();
