@@ -25,6 +25,7 @@ async fn a_run_whose_pictures_never_arrive_stops_with_a_reason() {
         charge_minutes: 6.0,
         sensor_flip: 0.0,
         onboard: None,
+        radio: None,
     };
     let d = bandit_sim::start_team(bandit_sim::HARDWARE_TEAM, &world, &setup)
         .await

@@ -56,6 +56,7 @@ fn setup(speedup: f64) -> SimSetup {
         charge_minutes: 6.0,
         sensor_flip: 0.0,
         onboard: None,
+        radio: None,
     }
 }
 
@@ -341,7 +342,7 @@ async fn a_vehicle_that_rejects_its_mission_stops_the_sortie_before_take_off() {
             mission: 5,
             ..Capacity::ARDUPILOT
         });
-    let d = bandit_sim::start(sim, s.speedup).await.unwrap();
+    let d = bandit_sim::start(sim, &s).await.unwrap();
     let state = bandit::new_state(&d.fleet, &def, Duration::from_secs(60), None)
         .await
         .unwrap();

@@ -4,15 +4,18 @@
 //! GCS clock running at the simulator's speed-up — what `fleetmap demo --bandit` and the
 //! end-to-end tests fly.
 
+use crate::app::demo::{fleet_config, memory_links};
 use crate::app::error::SimStartError;
 use crate::fleet::{self, FleetConfig, FleetHandle};
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
+use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::radio::RadioConfig;
 use fleetmap_io::link::transport::{LinkOptions, open_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, GcsClock, ServeOptions, SimHandle};
+use fleetmap_sim::server::{self, GcsClock, ServeOptions, SimHandle, SimTask};
 use tokio::sync::mpsc;
 
 /// The hardware field world (`assets/worlds/hardware-6x6.toml`).
@@ -51,6 +54,9 @@ pub struct SimSetup {
     /// [`crate::app::bandit::green_spec_of`]) and send the green share instead of the
     /// picture; `None`: every picture is sent whole.
     pub onboard: Option<fleetmap_core::vision::onboard::GreenSpec>,
+    /// Each vehicle behind its own telemetry radio (budget counted in simulated time), the
+    /// fleet told its budget; `None`: links that carry everything.
+    pub radio: Option<RadioConfig>,
 }
 
 impl Default for SimSetup {
@@ -63,6 +69,7 @@ impl Default for SimSetup {
             charge_minutes: 30.0,
             sensor_flip: 0.0,
             onboard: None,
+            radio: None,
         }
     }
 }
@@ -84,9 +91,13 @@ pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> Result<SimConf
             c.onboard = setup
                 .onboard
                 .map(fleetmap_core::vision::onboard::OnboardSpec::Green);
+            c.transfer_rate_bps = crate::app::demo::camera_rate(setup.radio.as_ref());
         }
     }
-    Ok(sc)
+    Ok(match &setup.radio {
+        Some(r) => sc.with_radio(r.clone()),
+        None => sc,
+    })
 }
 
 /// A running simulator and the fleet connected to it.
@@ -102,7 +113,9 @@ pub struct SimFleet {
 /// as field teams wire several vehicles: the fleet listens on one loopback UDP port
 /// (`udpin:127.0.0.1:0`) and every vehicle sends to it from its own socket (the simulator's
 /// `udpout`), as several SITL instances or Wi-Fi drones do.
-pub async fn start(sim: Sim, speedup: f64) -> Result<SimFleet, SimStartError> {
+/// The fleet is told each link's budget when `setup` puts the vehicles behind radios.
+pub async fn start(sim: Sim, setup: &SimSetup) -> Result<SimFleet, SimStartError> {
+    let speedup = setup.speedup;
     let (ev_tx, ev_rx) = mpsc::channel(4096);
     let spec: ConnSpec = "udpin:127.0.0.1:0".parse()?;
     let link = open_link(0, spec, &LinkOptions::default(), ev_tx).await?;
@@ -126,7 +139,7 @@ pub async fn start(sim: Sim, speedup: f64) -> Result<SimFleet, SimStartError> {
     let fleet = fleet::spawn(
         vec![link],
         ev_rx,
-        FleetConfig::at_speedup(speedup),
+        fleet_config(FleetConfig::at_speedup(speedup), setup.radio.as_ref()),
         handle.clock(),
     );
     Ok(SimFleet { fleet, sim: handle })
@@ -139,5 +152,26 @@ pub async fn start_team(
     setup: &SimSetup,
 ) -> Result<SimFleet, SimStartError> {
     let sim = Sim::new(sim_config(spec, world, setup)?, Time::ZERO)?;
-    start(sim, setup.speedup).await
+    start(sim, setup).await
+}
+
+/// The simulator for `spec` over `world` behind in-process links, one per vehicle, and a
+/// fleet on them, both on the runtime's clock at real speed (`setup.speedup` aside): with
+/// tokio's clock paused (tests with `start_paused`) the whole run is virtual and as fast as
+/// the CPU allows.
+pub async fn start_virtual(
+    spec: &str,
+    world: &World,
+    setup: &SimSetup,
+) -> Result<(FleetHandle, SimTask), SimStartError> {
+    let sim = Sim::new(sim_config(spec, world, setup)?, Time::ZERO)?;
+    let (links, ev_rx, ports) = memory_links(&sim);
+    let handle = server::spawn_memory(sim, ports);
+    let fleet = fleet::spawn(
+        links,
+        ev_rx,
+        fleet_config(FleetConfig::default(), setup.radio.as_ref()),
+        MonotonicClock::new(),
+    );
+    Ok((fleet, handle))
 }

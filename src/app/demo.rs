@@ -15,6 +15,7 @@ use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::ConnSpec;
+use fleetmap_io::link::radio::RadioConfig;
 use fleetmap_io::link::transport::{LinkOptions, open_link, open_memory_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
@@ -45,6 +46,9 @@ pub struct DemoConfig {
     /// [`crate::app::runway::runway_definition_of`]) and send each picture's cell and region
     /// counts instead of the picture; `None`: every picture is sent whole.
     pub onboard: Option<fleetmap_core::vision::onboard_runway::RunwayDefinition>,
+    /// Each vehicle behind its own telemetry radio (budget counted in simulated time), the
+    /// fleet told its budget ([`fleet_config`]); `None`: links that carry everything.
+    pub radio: Option<RadioConfig>,
 }
 
 impl Default for DemoConfig {
@@ -57,6 +61,7 @@ impl Default for DemoConfig {
             swap_after_s: 30.0,
             altitude_separation_m: 0.0,
             onboard: None,
+            radio: None,
         }
     }
 }
@@ -163,6 +168,26 @@ pub async fn start_virtual(
     cfg: &DemoConfig,
 ) -> Result<(FleetHandle, SimTask), SimStartError> {
     let sim = Sim::new(sim_config(spec, world, cfg)?, Time::ZERO)?;
+    let (links, ev_rx, ports) = memory_links(&sim);
+    let handle = server::spawn_memory(sim, ports);
+    let fleet = fleet::spawn(
+        links,
+        ev_rx,
+        fleet_config(FleetConfig::default(), cfg.radio.as_ref()),
+        MonotonicClock::new(),
+    );
+    Ok((fleet, handle))
+}
+
+/// One in-process link per vehicle of `sim`, in system-id order: the fleet's handles and
+/// events, and the simulator's ports.
+pub(crate) fn memory_links(
+    sim: &Sim,
+) -> (
+    Vec<fleetmap_io::link::transport::LinkHandle>,
+    mpsc::Receiver<fleetmap_io::link::transport::LinkEvent>,
+    Vec<fleetmap_io::link::transport::MemoryPort>,
+) {
     let (ev_tx, ev_rx) = mpsc::channel(4096);
     let mut links = Vec::new();
     let mut ports = Vec::new();
@@ -176,10 +201,31 @@ pub async fn start_virtual(
         links.push(h);
         ports.push(p);
     }
-    drop(ev_tx);
-    let handle = server::spawn_memory(sim, ports);
-    let fleet = fleet::spawn(links, ev_rx, FleetConfig::default(), MonotonicClock::new());
-    Ok((fleet, handle))
+    (links, ev_rx, ports)
+}
+
+/// The share of a radio's bytes a camera's pictures may take, as `fleetmap camera
+/// --image-rate` is set for a radio (about 600 B/s on 2,000 B/s): what is left when the
+/// vehicle's telemetry (40 %) and the GCS's sends (25 %) have theirs.
+pub(crate) const CAMERA_RADIO_SHARE: f64 = 0.3;
+
+/// The simulated cameras' image pacing behind `radio` ([`CAMERA_RADIO_SHARE`] of it), `None`
+/// (one burst per picture) without one.
+pub(crate) fn camera_rate(radio: Option<&RadioConfig>) -> Option<f64> {
+    radio
+        .filter(|r| r.bytes_per_s > 0)
+        .map(|r| f64::from(r.bytes_per_s) * CAMERA_RADIO_SHARE)
+}
+
+/// `base` with the budget of `radio` (what an operator writes as `--link radio:BYTES` for
+/// such a radio): the fleet plans each vehicle's telemetry and paces its own sends to it.
+pub(crate) fn fleet_config(mut base: FleetConfig, radio: Option<&RadioConfig>) -> FleetConfig {
+    if let Some(r) = radio.filter(|r| r.bytes_per_s > 0) {
+        base.budget = Some(fleetmap_core::budget::LinkBudget::Radio {
+            bytes_per_s: r.bytes_per_s,
+        });
+    }
+    base
 }
 
 fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> Result<SimConfig, SimStartError> {
@@ -194,9 +240,13 @@ fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> Result<SimConfig, S
                 .onboard
                 .clone()
                 .map(fleetmap_core::vision::onboard::OnboardSpec::Runway);
+            c.transfer_rate_bps = camera_rate(cfg.radio.as_ref());
         }
     }
-    Ok(sc)
+    Ok(match &cfg.radio {
+        Some(r) => sc.with_radio(r.clone()),
+        None => sc,
+    })
 }
 
 /// Start the simulator with `spec` vehicles over `world` and a fleet connected to each
@@ -242,7 +292,7 @@ pub(crate) async fn start_at(
     let fleet = fleet::spawn(
         links,
         ev_rx,
-        FleetConfig::at_speedup(ceiling),
+        fleet_config(FleetConfig::at_speedup(ceiling), cfg.radio.as_ref()),
         handle.clock(),
     );
     Ok(DemoFleet {

@@ -176,12 +176,17 @@ pub(crate) async fn fly_to(
     let guided = v.flavour.guided_mode().ok();
     let in_guided =
         |s: &VehicleSnapshot| guided.is_some_and(|m| s.flavour.is_mode(s.custom_mode, m));
-    // Speed: ArduPilot resets it when the mode changes, so enter the mode first.
+    // Speed: ArduPilot resets it when the mode changes, so enter the mode first. In the mode,
+    // the speed and the target go together (two command ids: both in flight at once), one
+    // round trip instead of two over a slow or lossy link.
     if !in_guided(&v) {
         fleet.goto(sysid, lat, lon, alt).await?;
     }
-    let _ = set_speed(fleet, sysid, speed).await;
-    fleet.goto(sysid, lat, lon, alt).await?;
+    let (_, went) = tokio::join!(
+        set_speed(fleet, sysid, speed),
+        fleet.goto(sysid, lat, lon, alt)
+    );
+    went?;
     let budget = patience.secs(leg_s * 2.0 + 30.0);
     let there = |s: &VehicleSnapshot| {
         distance_to(s, lat, lon) <= tolerance_m
@@ -323,6 +328,36 @@ pub struct Captured {
 /// takes the picture again, by then the queue has moved on).
 pub(crate) const CAPTURE_MAX_WAIT_S: f64 = 120.0;
 
+/// Nominal seconds after the capture command, and between two requests, before the camera is
+/// asked again for a capture it has not been heard to take ([`capture`]): a camera takes and
+/// announces a single picture within a few hundred milliseconds, and over a 2,000 B/s radio
+/// the command, the ACK and the announcement cross in well under a second more.
+pub(crate) const RESEND_AFTER_S: f64 = 1.5;
+
+/// Nominal seconds after half of a capture was heard (its announcement or its on-board
+/// result: the camera sends them back to back) before the other half is asked for.
+pub(crate) const RESULT_AFTER_S: f64 = 0.5;
+
+/// MAV_CMD_REQUEST_MESSAGE for the CAMERA_IMAGE_CAPTURED of capture `image_index` from
+/// `camera`, or with `following` of it and every capture after it (param3 −1).
+fn capture_again(camera: Endpoint, image_index: i32, following: bool) -> Command {
+    const CAMERA_IMAGE_CAPTURED: f32 = 263.0;
+    let range = if following { -1.0 } else { 0.0 };
+    Command::long(
+        camera,
+        MavCmd::MAV_CMD_REQUEST_MESSAGE,
+        [
+            CAMERA_IMAGE_CAPTURED,
+            image_index as f32,
+            range,
+            0.0,
+            0.0,
+            0.0,
+            0.0,
+        ],
+    )
+}
+
 /// Take picture `seq` and wait for its image from `sysid`, at most 10 s (scaled by
 /// `patience`) after the command or after the last image data heard from the vehicle, and
 /// never more than [`CAPTURE_MAX_WAIT_S`]. One capture: an image that does not arrive is
@@ -332,11 +367,22 @@ pub(crate) const CAPTURE_MAX_WAIT_S: f64 = 120.0;
 /// The picture is one announced after the command (CAMERA_IMAGE_CAPTURED, matched by
 /// `time_boot_ms` and `image_index`): earlier pictures still in transfer are passed over.
 /// From a camera that announces nothing, the image that arrived, a second after it did.
+///
+/// A picture measured on board needs both its announcement (the pose) and its result; over a
+/// lossy radio one of them is lost now and then. Once one of them names the picture and it
+/// has not arrived [`RESEND_AFTER_S`] after the command (and every as long again), the
+/// camera is asked for the capture again (MAV_CMD_REQUEST_MESSAGE for that
+/// CAMERA_IMAGE_CAPTURED, as the MAVLink camera protocol recovers a missed capture; the
+/// camera sends the announcement and its result again), in the background: the wait goes on.
+/// When neither has come, the captures after `after` (the image index of the vehicle's last
+/// picture that arrived) are asked for: the one commanded is among them unless the camera
+/// restarted its count, and then it answers that it has none.
 pub async fn capture(
     fleet: &FleetHandle,
     rx: &mut broadcast::Receiver<Arc<ReceivedImage>>,
     sysid: u8,
     seq: u32,
+    after: Option<i32>,
     patience: Patience,
 ) -> Result<Captured, FlightError> {
     use mavlink::dialects::ardupilotmega::MavMessage;
@@ -347,8 +393,12 @@ pub async fn capture(
     let longest = started + patience.secs(CAPTURE_MAX_WAIT_S);
     let mut frames = fleet.subscribe();
     drain_images(rx);
-    fleet.capture_image(sysid, seq).await?;
-    let at_trigger = fleet.vehicle(sysid);
+    // The command runs beside the wait: a picture whose ACK was lost is taken all the same
+    // (the command sent again carries the same sequence number and takes no second one).
+    let command = fleet.capture_image(sysid, seq);
+    tokio::pin!(command);
+    let mut commanded = false;
+    let mut at_trigger = None;
     let key_of =
         |image: &ReceivedImage| image.pose.as_ref().map(|p| (p.time_boot_ms, p.image_index));
     // The pictures announced since the command (the camera's, and any other component's),
@@ -356,27 +406,78 @@ pub async fn capture(
     let mut announced: Vec<(u32, i32)> = Vec::new();
     let mut early: Option<(Arc<ReceivedImage>, Time)> = None;
     let mut deadline = started + wait;
+    // The capture as the camera named it (announcement or on-board result), when the camera
+    // will next be asked for it, and the requests in flight (aborted on return).
+    let mut named: Option<i32> = None;
+    let camera = fleet
+        .vehicle(sysid)
+        .and_then(|v| v.camera_compid)
+        .map(|c| Endpoint::new(sysid, c));
+    let mut ask_at = started + patience.secs(RESEND_AFTER_S);
+    let mut asking = tokio::task::JoinSet::new();
+    // A capture after the vehicle's last picture: not an earlier one sent again late.
+    let is_new = |index: i32| after.is_none_or(|a| index > a);
     loop {
+        let ask = named
+            .map(|i| (i, false))
+            .or(after.map(|a| (a.saturating_add(1), true)));
+        if let (Some((index, following)), Some(cam)) = (ask, camera)
+            && clock.now() >= ask_at
+        {
+            ask_at = clock.now() + patience.secs(RESEND_AFTER_S);
+            tracing::info!("vehicle {sysid}: asking the camera again for capture {index}");
+            let fleet = fleet.clone();
+            asking.spawn(async move {
+                let _ = fleet.command(capture_again(cam, index, following)).await;
+            });
+        }
         // An image came and nothing was announced since the command: its announcement, sent
         // before it, would be in within a second; without one the camera does not announce.
         let until = match &early {
             Some((_, at)) if announced.is_empty() => deadline.min(*at + patience.secs(1.0)),
             _ => deadline,
         };
-        let left = clock.wall_until(until);
+        // woken to ask the camera again, or to give up
+        let wake = match (named, after, camera) {
+            (None, None, _) | (_, _, None) => until,
+            _ => until.min(ask_at),
+        };
+        let left = clock.wall_until(wake);
         tokio::select! {
             biased;
+            r = &mut command, if !commanded => {
+                commanded = true;
+                at_trigger.get_or_insert_with(|| fleet.vehicle(sysid));
+                // a command that failed took no picture, unless one came meanwhile
+                if announced.is_empty() && named.is_none() {
+                    r?;
+                }
+            }
             f = frames.recv() => match f {
                 Ok(inc) if inc.frame.sysid() == sysid => match &inc.frame.message {
                     Ok(MavMessage::CAMERA_IMAGE_CAPTURED(c)) => {
                         let key = (c.time_boot_ms, c.image_index);
                         announced.push(key);
+                        if is_new(c.image_index) {
+                            named.get_or_insert(c.image_index);
+                        }
+                        at_trigger.get_or_insert_with(|| fleet.vehicle(sysid));
+                        // its result follows it at once: asked for if it is not in soon
+                        ask_at = ask_at.min(clock.now() + patience.secs(RESULT_AFTER_S));
                         if let Some((image, _)) = early.take_if(|(i, _)| key_of(i) == Some(key)) {
-                            return Ok(Captured { image, at_trigger });
+                            return Ok(Captured { image, at_trigger: at_trigger.flatten() });
                         }
                     }
                     Ok(MavMessage::ENCAPSULATED_DATA(_) | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)) => {
                         deadline = (clock.now() + wait).min(longest);
+                    }
+                    // an on-board result whose announcement may have been lost: its index
+                    // (low 16 bits: a camera takes fewer pictures between two boots)
+                    Ok(MavMessage::DEBUG_FLOAT_ARRAY(d)) if named.is_none() => {
+                        named = measured_index(d, after).filter(|&i| is_new(i));
+                        if named.is_some() {
+                            ask_at = ask_at.min(clock.now() + patience.secs(RESULT_AFTER_S));
+                        }
                     }
                     _ => {}
                 },
@@ -384,21 +485,29 @@ pub async fn capture(
                 Err(broadcast::error::RecvError::Closed) => return Err(FlightError::ImagesClosed),
             },
             r = rx.recv() => match r {
-                Ok(image) if image.sysid == sysid => match key_of(&image) {
-                    Some(k) if announced.contains(&k) => return Ok(Captured { image, at_trigger }),
-                    // Announced before the command (an earlier picture still in transfer), or
-                    // its announcement is still on the way.
-                    Some(_) => early = Some((image, clock.now())),
-                    None => return Ok(Captured { image, at_trigger }),
-                },
+                Ok(image) if image.sysid == sysid => {
+                    let at_trigger = at_trigger.clone().unwrap_or_else(|| fleet.vehicle(sysid));
+                    match key_of(&image) {
+                        Some(k) if announced.contains(&k) => return Ok(Captured { image, at_trigger }),
+                        // Announced before the command (an earlier picture still in transfer),
+                        // or its announcement is still on the way.
+                        Some(_) => early = Some((image, clock.now())),
+                        None => return Ok(Captured { image, at_trigger }),
+                    }
+                }
                 Ok(_) | Err(broadcast::error::RecvError::Lagged(_)) => {}
                 Err(broadcast::error::RecvError::Closed) => return Err(FlightError::ImagesClosed),
             },
-            // The wall time until `until` on the fleet's clock (a lower bound when it
+            // The wall time until `wake` on the fleet's clock (a lower bound when it
             // follows a simulator: waking early only goes round the loop again).
-            _ = tokio::time::sleep(left) => if left.is_zero() || clock.now() >= until { break },
+            _ = tokio::time::sleep(left) => {
+                if clock.now() >= until || (left.is_zero() && wake == until) {
+                    break;
+                }
+            }
         }
     }
+    let at_trigger = at_trigger.flatten();
     // Nothing was announced: a camera that does not announce its pictures.
     if announced.is_empty()
         && let Some((image, _)) = early
@@ -409,6 +518,38 @@ pub async fn capture(
         sysid,
         seq,
         waited_s: clock.now().saturating_since(started).as_secs_f64(),
+    })
+}
+
+/// The image index of the picture an on-board result (DEBUG_FLOAT_ARRAY "fm.green" or
+/// "fm.rwy", not a status) is of. The result carries its low 16 bits; the high ones are
+/// those of the index nearest `after` (the vehicle's last picture) with those low bits.
+fn measured_index(
+    d: &mavlink::dialects::ardupilotmega::DEBUG_FLOAT_ARRAY_DATA,
+    after: Option<i32>,
+) -> Option<i32> {
+    use fleetmap_core::vision::onboard::OnboardMeasurement;
+    use fleetmap_core::vision::onboard_runway::RunwayMeasurement;
+    let lo = match OnboardMeasurement::from_message(d) {
+        Some(m) => m.image_index_lo,
+        None => {
+            RunwayMeasurement::from_message(d)
+                .filter(|m| !m.is_status())?
+                .image_index_lo
+        }
+    };
+    let lo = i32::from(lo);
+    Some(match after {
+        Some(a) if a >= 0 => {
+            let full = (a & !0xFFFF) | lo;
+            // well behind `after`: the low bits wrapped; just behind: an earlier picture
+            if a - full > 0x8000 {
+                full.saturating_add(0x1_0000)
+            } else {
+                full
+            }
+        }
+        _ => lo,
     })
 }
 

@@ -6,7 +6,8 @@
 //! Triggers: ArduPilot's CAMERA_FEEDBACK (sent by AP_Camera for every picture it takes, with
 //! the position and attitude at that moment), PX4's CAMERA_TRIGGER (camera_trigger module),
 //! and the MAVLink camera protocol's own commands addressed to component 100
-//! (MAV_CMD_IMAGE_START_CAPTURE / _STOP_CAPTURE, REQUEST_MESSAGE for CAMERA_INFORMATION) from
+//! (MAV_CMD_IMAGE_START_CAPTURE / _STOP_CAPTURE, REQUEST_MESSAGE for CAMERA_INFORMATION,
+//! CAMERA_CAPTURE_STATUS and a missed CAMERA_IMAGE_CAPTURED) from
 //! any component but the autopilot's.
 //! The pose comes from GLOBAL_POSITION_INT (position, altitude above home, heading) and
 //! ATTITUDE (roll, pitch, yaw) of the autopilot component (id 1); the ground is taken as flat
@@ -357,12 +358,12 @@ impl PairedCameras {
             MavMessage::COMMAND_LONG(c) => (
                 c.command,
                 (c.target_system, c.target_component),
-                [c.param1, c.param2, c.param3],
+                [c.param1, c.param2, c.param3, c.param4],
             ),
             MavMessage::COMMAND_INT(c) => (
                 c.command,
                 (c.target_system, c.target_component),
-                [c.param1, c.param2, c.param3],
+                [c.param1, c.param2, c.param3, c.param4],
             ),
             // A request to send a picture again (no target: see the module documentation):
             // the camera holding a picture of that size answers, the others ignore it.
@@ -395,18 +396,19 @@ impl PairedCameras {
                 mav::MavResult::MAV_RESULT_TEMPORARILY_REJECTED
             }
             2000 => {
-                t.camera
-                    .start_capture(f64::from(p[1]), p[2].max(0.0) as u32, now);
+                t.camera.capture_command(
+                    f64::from(p[1]),
+                    p[2].max(0.0) as u32,
+                    p[3].max(0.0) as u32,
+                    now,
+                );
                 mav::MavResult::MAV_RESULT_ACCEPTED
             }
             2001 => {
                 t.camera.stop_capture();
                 mav::MavResult::MAV_RESULT_ACCEPTED
             }
-            512 if p[0] as u32 == 259 => {
-                extra = Some(t.camera.information(tb));
-                mav::MavResult::MAV_RESULT_ACCEPTED
-            }
+            512 => t.camera.request_message([p[0], p[1], p[2]], tb),
             521 => {
                 extra = Some(t.camera.information(tb));
                 mav::MavResult::MAV_RESULT_ACCEPTED

@@ -414,11 +414,17 @@ impl Pilot {
                 &mut self.images,
                 sysid,
                 self.capture_seq,
+                self.last_image,
                 self.shared.patience,
             )
             .await
             {
-                Ok(shot) => shot,
+                Ok(shot) => {
+                    if let Some(p) = &shot.image.pose {
+                        self.last_image = Some(p.image_index);
+                    }
+                    shot
+                }
                 Err(FlightError::NoImage { seq, waited_s, .. }) => {
                     retakes += 1;
                     let reason = format!(

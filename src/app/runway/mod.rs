@@ -400,6 +400,9 @@ struct Pilot {
     shared: Arc<Shared>,
     images: broadcast::Receiver<Arc<ReceivedImage>>,
     capture_seq: u32,
+    /// The image index of this vehicle's last picture that arrived (what its camera is asked
+    /// for after when a capture goes unheard: [`flight::capture`]).
+    last_image: Option<i32>,
     held: bool,
     /// No sweep entered yet by this process (a restart may have missed images).
     first_sweep: bool,

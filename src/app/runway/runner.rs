@@ -197,6 +197,7 @@ pub async fn run(
             shared: shared.clone(),
             images: hub.subscribe(),
             capture_seq: 0,
+            last_image: None,
             held: false,
             first_sweep: true,
             sweep_rejects: 0,

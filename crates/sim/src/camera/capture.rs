@@ -251,9 +251,12 @@ impl SimCamera {
             (None, _) => None,
         };
         let measured = result.is_some();
-        self.outbox
-            .push_back(MavMessage::CAMERA_IMAGE_CAPTURED(captured));
-        self.outbox.extend(result);
+        let messages: Vec<MavMessage> =
+            std::iter::once(MavMessage::CAMERA_IMAGE_CAPTURED(captured))
+                .chain(result)
+                .collect();
+        self.outbox.extend(messages.iter().cloned());
+        self.keep_capture(index, messages);
         if let Some(j) = &jpeg {
             if self.config.mavlink_transfer && !measured {
                 // The announcement just sent counts against the image's pacing: the

@@ -1,7 +1,8 @@
 //! The simulated camera: a MAVLink camera component (component id 100) on each vehicle.
 //!
-//! It answers the MAVLink camera protocol (MAV_CMD_REQUEST_MESSAGE for CAMERA_INFORMATION and
-//! CAMERA_CAPTURE_STATUS, MAV_CMD_IMAGE_START_CAPTURE with interval and count,
+//! It answers the MAVLink camera protocol (MAV_CMD_REQUEST_MESSAGE for CAMERA_INFORMATION,
+//! CAMERA_CAPTURE_STATUS and a missed CAMERA_IMAGE_CAPTURED with its on-board result:
+//! [`requests`]; MAV_CMD_IMAGE_START_CAPTURE with interval, count and sequence number,
 //! MAV_CMD_IMAGE_STOP_CAPTURE) and is triggered by the autopilot's mission items
 //! (IMAGE_START_CAPTURE, DO_DIGICAM_CONTROL, DO_SET_CAM_TRIGG_DIST). Each capture renders the
 //! view at the vehicle's true pose ([`crate::render`]), encodes it as JPEG with the
@@ -62,6 +63,7 @@ mod capture;
 mod config;
 mod onboard;
 mod pacer;
+mod requests;
 mod transfer;
 mod trigger;
 
@@ -128,6 +130,11 @@ pub struct SimCamera {
     runway: Option<RunwayDefinition>,
     /// When the camera last said it has no grid (on its clock).
     last_status: Option<Time>,
+    /// The latest captures' announcements and on-board results, to send again
+    /// ([`requests`]).
+    kept: VecDeque<requests::KeptCapture>,
+    /// The sequence number of the last single capture commanded ([`requests`]).
+    last_capture_seq: Option<u32>,
 }
 
 impl SimCamera {
@@ -159,6 +166,8 @@ impl SimCamera {
             shots: VecDeque::new(),
             runway: runway_of(&config),
             last_status: None,
+            kept: VecDeque::new(),
+            last_capture_seq: None,
             config,
         }
     }
@@ -189,6 +198,8 @@ impl SimCamera {
         // a companion computer powered by the vehicle's battery forgets the announced grid
         self.runway = runway_of(&self.config);
         self.last_status = None;
+        self.kept.clear();
+        self.last_capture_seq = None;
     }
 
     #[cfg(test)]

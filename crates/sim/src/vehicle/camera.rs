@@ -94,26 +94,17 @@ impl SimVehicle {
         let mut extra = None;
         let result = match c.command {
             C::MAV_CMD_IMAGE_START_CAPTURE => {
-                // param2 interval s, param3 total images (0 = until stopped)
+                // param2 interval s, param3 total images (0 = until stopped), param4 the
+                // single capture's sequence number
                 let count = c.param3.max(0.0) as u32;
-                cam.start_capture(f64::from(c.param2), count, now);
+                cam.capture_command(f64::from(c.param2), count, c.param4.max(0.0) as u32, now);
                 R::MAV_RESULT_ACCEPTED
             }
             C::MAV_CMD_IMAGE_STOP_CAPTURE => {
                 cam.stop_capture();
                 R::MAV_RESULT_ACCEPTED
             }
-            C::MAV_CMD_REQUEST_MESSAGE => match c.param1 as u32 {
-                telemetry::id::CAMERA_INFORMATION => {
-                    extra = Some(cam.information(tb));
-                    R::MAV_RESULT_ACCEPTED
-                }
-                telemetry::id::CAMERA_CAPTURE_STATUS => {
-                    extra = Some(cam.capture_status(tb));
-                    R::MAV_RESULT_ACCEPTED
-                }
-                _ => R::MAV_RESULT_UNSUPPORTED,
-            },
+            C::MAV_CMD_REQUEST_MESSAGE => cam.request_message([c.param1, c.param2, c.param3], tb),
             C::MAV_CMD_REQUEST_CAMERA_INFORMATION => {
                 extra = Some(cam.information(tb));
                 R::MAV_RESULT_ACCEPTED

@@ -46,11 +46,6 @@ pub(super) mod id {
     pub(crate) const HOME_POSITION: u32 = <mav::HOME_POSITION_DATA as MessageData>::ID;
     /// EXTENDED_SYS_STATE (message id 245).
     pub(crate) const EXTENDED_SYS_STATE: u32 = <mav::EXTENDED_SYS_STATE_DATA as MessageData>::ID;
-    /// CAMERA_INFORMATION (message id 259), answered by the camera component.
-    pub(crate) const CAMERA_INFORMATION: u32 = <mav::CAMERA_INFORMATION_DATA as MessageData>::ID;
-    /// CAMERA_CAPTURE_STATUS (message id 262), answered by the camera component.
-    pub(crate) const CAMERA_CAPTURE_STATUS: u32 =
-        <mav::CAMERA_CAPTURE_STATUS_DATA as MessageData>::ID;
     /// MESSAGE_INTERVAL (message id 244).
     pub(crate) const MESSAGE_INTERVAL: u32 = <mav::MESSAGE_INTERVAL_DATA as MessageData>::ID;
 }
