@@ -15,7 +15,7 @@ use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
 use fleetmap_io::link::ConnSpec;
-use fleetmap_io::link::radio::RadioConfig;
+use fleetmap_io::link::radio::{RadioConfig, RadioStats};
 use fleetmap_io::link::relay::{Relay, RelayOptions, RelayStats};
 use fleetmap_io::link::transport::{LinkOptions, open_link};
 use fleetmap_sim::harness::Sim;
@@ -222,5 +222,114 @@ async fn hardware_mission_through_5000_byte_radios_measured_on_board() {
             "{carried} B in {secs:.0} s of simulated time"
         );
         assert!(s.gcs_radio.radio_status > 0 && s.vehicle_radio.radio_status > 0);
+    }
+}
+
+/// Fly the hardware mission in virtual time (in-process links, tokio's clock paused) with
+/// on-board measurement, every vehicle behind its own simulated `radio` (`None`: plain
+/// links); returns the report, whether keep is the green tiles, and each radio's counts
+/// with the simulated seconds they were counted over.
+async fn fly_virtual(
+    name: &str,
+    radio: Option<RadioConfig>,
+) -> (
+    bandit_report::ClassificationReport,
+    bool,
+    Vec<RadioStats>,
+    f64,
+) {
+    let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
+    let def = MissionDef::parse(bandit_sim::HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
+    let green = world.green_cells();
+    let setup = SimSetup {
+        seed: 3,
+        camera_px: 160,
+        charge_minutes: 6.0,
+        onboard: bandit::green_spec_of(&def),
+        radio,
+        ..SimSetup::default()
+    };
+    let (fleet, sim) = bandit_sim::start_virtual(bandit_sim::HARDWARE_TEAM, &world, &setup)
+        .await
+        .unwrap();
+    let state = bandit::new_state(&fleet, &def, Duration::from_secs(60), None)
+        .await
+        .unwrap();
+    let tmp = tempfile::tempdir().unwrap();
+    let run = RunDir::create(
+        tmp.path().join("run"),
+        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
+        Some(bandit_sim::HARDWARE_MISSION),
+    )
+    .unwrap();
+    let hub = fleetmap::app::images::image_hub(&fleet);
+    let done = bandit::run(fleet.clone(), &hub, run, state, RunOptions::default())
+        .await
+        .unwrap_or_else(|e| {
+            panic!(
+                "{name}: the run failed: {}",
+                fleetmap::app::error::chain(&e)
+            )
+        });
+    fleet.shutdown().await;
+    let sim = sim.stop().await.unwrap();
+    let stats: Vec<RadioStats> = sim
+        .sysids()
+        .into_iter()
+        .filter_map(|v| sim.radio_stats(v))
+        .collect();
+    let seconds = sim.now().as_secs_f64();
+    let report = bandit_report::report(&done, Some(&green));
+    println!(
+        "{name}: {} epochs, {} measurements, {} images ignored, {} failed, {:.0} s of drone \
+         flight, {seconds:.0} s simulated",
+        report.epochs,
+        report.measurements,
+        done.ignored_images,
+        done.image_failures,
+        report.flight_time_s,
+    );
+    let keep_is_truth = done.is_finished() && done.bandit.keep() == green;
+    (report, keep_is_truth, stats, seconds)
+}
+
+/// The acceptance of telemetry radios for spatial classification: the 6×6 mission with
+/// every vehicle behind its own 2,000 B/s radio (half duplex, 4 kB buffers, 10 % of frames
+/// lost, counted in the vehicles' time), the cameras measuring on board, ends as on plain
+/// links: keep = the green tiles, nothing unclassified, the same number of epochs.
+#[tokio::test(flavor = "current_thread", start_paused = true)]
+async fn hardware_mission_through_2000_byte_radios_losing_10_percent() {
+    let _ = tracing_subscriber::fmt()
+        .with_test_writer()
+        .with_env_filter("warn,highs=error")
+        .try_init();
+    let (plain, plain_ok, none, _) = fly_virtual("plain links", None).await;
+    assert!(plain_ok, "plain: keep is not the green tiles");
+    assert!(none.is_empty());
+    let radio = RadioConfig {
+        loss: 0.1,
+        ..RadioConfig::radio(2000)
+    };
+    let (over, ok, radios, seconds) = fly_virtual("2000 B/s radios, 10 % loss", Some(radio)).await;
+    assert!(ok, "radios: keep is not the green tiles");
+    assert!(over.unclassified.is_empty(), "{:?}", over.unclassified);
+    assert_eq!(over.errors.as_deref(), Some(&[][..]));
+    assert_eq!(over.epochs, plain.epochs);
+    assert_eq!(radios.len(), 6);
+    for (i, r) in radios.iter().enumerate() {
+        let air_s = (r.down.air_us + r.up.air_us) as f64 / 1e6;
+        println!(
+            "radio {}: down {} B/s offered, {} lost, {} dropped; up {} B/s offered, {} lost; \
+             air {:.0} %",
+            i + 1,
+            r.down.bytes_in as f64 / seconds,
+            r.down.lost,
+            r.down.dropped,
+            r.up.bytes_in as f64 / seconds,
+            r.up.lost,
+            100.0 * air_s / seconds
+        );
+        assert!(r.down.lost > 0 && r.up.lost > 0, "{r:?}");
+        assert!(air_s <= seconds + 1.0, "{air_s} s of air in {seconds} s");
     }
 }
