@@ -69,6 +69,37 @@ pub struct DemoArgs {
     /// With --bandit: the simulated cameras' sensor (the bandit paper's degraded sensor, §V).
     #[command(flatten)]
     pub sensor: crate::cli::camera::SensorArgs,
+    /// Every vehicle behind its own simulated telemetry radio carrying this many bytes a
+    /// second of simulated time, both directions together (a SiK pair: half duplex, 4 kB
+    /// buffers, RADIO_STATUS); the GCS plans for it as for `--link radio:BYTES`. On a radio
+    /// the runway cameras classify their pictures on board, as the spatial-classification
+    /// cameras always do.
+    #[arg(long, value_name = "BYTES_PER_S")]
+    pub radio: Option<u32>,
+    /// With --radio: the share of frames each radio loses on the air, 0–1.
+    #[arg(long, value_name = "P", default_value_t = 0.0, requires = "radio")]
+    pub radio_loss: f64,
+}
+
+impl DemoArgs {
+    /// The radio `--radio` and `--radio-loss` describe, if any.
+    pub(crate) fn radio(&self) -> anyhow::Result<Option<fleetmap_io::link::radio::RadioConfig>> {
+        let Some(b) = self.radio else {
+            return Ok(None);
+        };
+        let min = fleetmap_core::budget::LinkBudget::MIN_RADIO;
+        let max = fleetmap_core::budget::LinkBudget::MAX_RADIO;
+        if !(min..=max).contains(&b) {
+            bail!("--radio must be between {min} and {max} bytes a second");
+        }
+        let cfg = fleetmap_io::link::radio::RadioConfig {
+            loss: self.radio_loss,
+            ..fleetmap_io::link::radio::RadioConfig::radio(b)
+        };
+        cfg.validate()
+            .map_err(|e| anyhow::anyhow!("--radio-loss: {e}"))?;
+        Ok(Some(cfg))
+    }
 }
 
 /// Run `fleetmap demo`.
@@ -88,12 +119,13 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
     if !(args.battery_minutes.is_finite() && args.battery_minutes >= 3.0) {
         bail!("--battery-minutes must be at least 3");
     }
-    let cfg = DemoConfig {
+    let mut cfg = DemoConfig {
         drones: args.drones,
         speedup: args.speedup,
         seed: args.seed,
         battery_minutes: args.battery_minutes,
         altitude_separation_m: args.separation,
+        radio: args.radio()?,
         ..DemoConfig::default()
     };
     let (world_text, world) = match &args.world {
@@ -105,6 +137,10 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         }
     };
     let (text, def, mission_file) = demo::mission_for(&world, &cfg)?;
+    if cfg.radio.is_some() {
+        // pictures do not fit a radio: the cameras classify them on board
+        cfg.onboard = crate::app::runway::runway_definition_of(&def);
+    }
     let tui = !args.headless
         && std::io::IsTerminal::is_terminal(&std::io::stdin())
         && std::io::IsTerminal::is_terminal(&std::io::stdout());
@@ -347,6 +383,7 @@ pub(crate) fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         sensor_flip,
         // a field camera measures on board: the green share, not the picture, on the link
         onboard: bandit::green_spec_of(&def),
+        radio: args.radio()?,
         ..SimSetup::default()
     };
     let json = args.json;
