@@ -8,13 +8,14 @@
 //! faster than real time (the in-process demo) they are generous by the same factor.
 
 use crate::app::images::ReceivedImage;
+use crate::fleet::capture_params;
 use crate::fleet::{FleetError, FleetHandle, VehicleSnapshot};
 use fleetmap_core::geo::local;
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::Command;
 use fleetmap_core::proto::flavour::takeoff_reached;
 use fleetmap_core::time::Time;
-use mavlink::dialects::ardupilotmega::MavCmd;
+use mavlink::dialects::ardupilotmega::{MavCmd, MavMessage};
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::broadcast;
@@ -340,10 +341,10 @@ pub(crate) const RESULT_AFTER_S: f64 = 0.5;
 
 /// MAV_CMD_REQUEST_MESSAGE for the CAMERA_IMAGE_CAPTURED of capture `image_index` from
 /// `camera`, or with `following` of it and every capture after it (param3 −1).
-fn capture_again(camera: Endpoint, image_index: i32, following: bool) -> Command {
+fn capture_again(camera: Endpoint, image_index: i32, following: bool) -> MavMessage {
     const CAMERA_IMAGE_CAPTURED: f32 = 263.0;
     let range = if following { -1.0 } else { 0.0 };
-    Command::long(
+    command_long(
         camera,
         MavCmd::MAV_CMD_REQUEST_MESSAGE,
         [
@@ -356,6 +357,23 @@ fn capture_again(camera: Endpoint, image_index: i32, following: bool) -> Command
             0.0,
         ],
     )
+}
+
+/// A COMMAND_LONG to `to`, sent outside the command protocol (no ACK awaited).
+fn command_long(to: Endpoint, command: MavCmd, p: [f32; 7]) -> MavMessage {
+    MavMessage::COMMAND_LONG(mavlink::dialects::ardupilotmega::COMMAND_LONG_DATA {
+        param1: p[0],
+        param2: p[1],
+        param3: p[2],
+        param4: p[3],
+        param5: p[4],
+        param6: p[5],
+        param7: p[6],
+        command,
+        target_system: to.sysid,
+        target_component: to.compid,
+        confirmation: 0,
+    })
 }
 
 /// Take picture `seq` and wait for its image from `sysid`, at most 10 s (scaled by
@@ -385,7 +403,6 @@ pub async fn capture(
     after: Option<i32>,
     patience: Patience,
 ) -> Result<Captured, FlightError> {
-    use mavlink::dialects::ardupilotmega::MavMessage;
     // Every instant on the fleet's clock, the one the links and the vehicles' timeouts use.
     let clock = fleet.clock();
     let wait = patience.secs(10.0);
@@ -414,22 +431,42 @@ pub async fn capture(
         .and_then(|v| v.camera_compid)
         .map(|c| Endpoint::new(sysid, c));
     let mut ask_at = started + patience.secs(RESEND_AFTER_S);
-    let mut asking = tokio::task::JoinSet::new();
     // A capture after the vehicle's last picture: not an earlier one sent again late.
     let is_new = |index: i32| after.is_none_or(|a| index > a);
     loop {
-        let ask = named
-            .map(|i| (i, false))
-            .or(after.map(|a| (a.saturating_add(1), true)));
-        if let (Some((index, following)), Some(cam)) = (ask, camera)
+        // Ask again, on this capture's own schedule: fire and forget, every RESEND_AFTER_S,
+        // not through the command protocol (whose retries wait for its own timeout, stretched
+        // on a sped-up simulator, and queue behind earlier requests of the same command).
+        if let Some(cam) = camera
             && clock.now() >= ask_at
         {
             ask_at = clock.now() + patience.secs(RESEND_AFTER_S);
-            tracing::info!("vehicle {sysid}: asking the camera again for capture {index}");
-            let fleet = fleet.clone();
-            asking.spawn(async move {
-                let _ = fleet.command(capture_again(cam, index, following)).await;
-            });
+            let mut again = Vec::new();
+            match named {
+                Some(index) => again.push(capture_again(cam, index, false)),
+                None => {
+                    // the command may not have arrived: the same sequence number takes no
+                    // second picture if it did
+                    if !commanded {
+                        again.push(command_long(
+                            cam,
+                            MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+                            capture_params(seq),
+                        ));
+                    }
+                    if let Some(a) = after {
+                        again.push(capture_again(cam, a.saturating_add(1), true));
+                    }
+                }
+            }
+            if !again.is_empty() {
+                tracing::info!(
+                    "vehicle {sysid}: asking the camera again for capture {seq} ({named:?})"
+                );
+            }
+            for m in again {
+                let _ = fleet.send_to(sysid, m).await;
+            }
         }
         // An image came and nothing was announced since the command: its announcement, sent
         // before it, would be in within a second; without one the camera does not announce.
@@ -438,9 +475,9 @@ pub async fn capture(
             _ => deadline,
         };
         // woken to ask the camera again, or to give up
-        let wake = match (named, after, camera) {
-            (None, None, _) | (_, _, None) => until,
-            _ => until.min(ask_at),
+        let wake = match camera {
+            Some(_) => until.min(ask_at),
+            None => until,
         };
         let left = clock.wall_until(wake);
         tokio::select! {

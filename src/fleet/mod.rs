@@ -36,6 +36,7 @@ mod actor;
 mod error;
 mod handle;
 mod ops;
+pub(crate) use ops::capture_params;
 mod state;
 mod telemetry;
 mod vehicle_link;

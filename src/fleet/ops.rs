@@ -590,7 +590,7 @@ impl FleetHandle {
             Some(c) => Command::long(
                 Endpoint::new(sysid, c),
                 MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
-                [0.0, 0.0, 1.0, seq as f32, f32::NAN, f32::NAN, f32::NAN],
+                capture_params(seq),
             ),
             None => Command::long(
                 Endpoint::new(sysid, v.compid),
@@ -600,4 +600,10 @@ impl FleetHandle {
         };
         self.command(cmd).await.map(|_| ())
     }
+}
+
+/// MAV_CMD_IMAGE_START_CAPTURE's params for single capture `seq`: no interval, one image, the
+/// sequence number that makes a command sent again take no second picture (common.xml).
+pub(crate) fn capture_params(seq: u32) -> [f32; 7] {
+    [0.0, 0.0, 1.0, seq as f32, f32::NAN, f32::NAN, f32::NAN]
 }
