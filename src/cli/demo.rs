@@ -69,22 +69,37 @@ pub struct DemoArgs {
     /// With --bandit: the simulated cameras' sensor (the bandit paper's degraded sensor, §V).
     #[command(flatten)]
     pub sensor: crate::cli::camera::SensorArgs,
+    /// Every vehicle behind its own simulated telemetry radio. On a radio the runway
+    /// cameras classify their pictures on board, as the spatial-classification cameras
+    /// always do.
+    #[command(flatten)]
+    pub radio: RadioArgs,
+}
+
+/// `--radio` and `--radio-loss`: every simulated vehicle behind its own radio (`fleetmap demo`,
+/// `fleetmap sim`).
+#[derive(Debug, Args)]
+pub struct RadioArgs {
     /// Every vehicle behind its own simulated telemetry radio carrying this many bytes a
     /// second of simulated time, both directions together (a SiK pair: half duplex, 4 kB
-    /// buffers, RADIO_STATUS); the GCS plans for it as for `--link radio:BYTES`. On a radio
-    /// the runway cameras classify their pictures on board, as the spatial-classification
-    /// cameras always do.
-    #[arg(long, value_name = "BYTES_PER_S")]
-    pub radio: Option<u32>,
+    /// buffers, RADIO_STATUS); a GCS should plan for it as fleetmap does with
+    /// `--link radio:BYTES`.
+    #[arg(long = "radio", value_name = "BYTES_PER_S")]
+    pub radio_bytes_per_s: Option<u32>,
     /// With --radio: the share of frames each radio loses on the air, 0–1.
-    #[arg(long, value_name = "P", default_value_t = 0.0, requires = "radio")]
+    #[arg(
+        long = "radio-loss",
+        value_name = "P",
+        default_value_t = 0.0,
+        requires = "radio_bytes_per_s"
+    )]
     pub radio_loss: f64,
 }
 
-impl DemoArgs {
-    /// The radio `--radio` and `--radio-loss` describe, if any.
-    pub(crate) fn radio(&self) -> anyhow::Result<Option<fleetmap_io::link::radio::RadioConfig>> {
-        let Some(b) = self.radio else {
+impl RadioArgs {
+    /// The radio these arguments describe, if any.
+    pub(crate) fn config(&self) -> anyhow::Result<Option<fleetmap_io::link::radio::RadioConfig>> {
+        let Some(b) = self.radio_bytes_per_s else {
             return Ok(None);
         };
         let min = fleetmap_core::budget::LinkBudget::MIN_RADIO;
@@ -125,7 +140,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         seed: args.seed,
         battery_minutes: args.battery_minutes,
         altitude_separation_m: args.separation,
-        radio: args.radio()?,
+        radio: args.radio.config()?,
         ..DemoConfig::default()
     };
     let (world_text, world) = match &args.world {
@@ -383,7 +398,7 @@ pub(crate) fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         sensor_flip,
         // a field camera measures on board: the green share, not the picture, on the link
         onboard: bandit::green_spec_of(&def),
-        radio: args.radio()?,
+        radio: args.radio.config()?,
         ..SimSetup::default()
     };
     let json = args.json;

@@ -111,6 +111,9 @@ pub struct SimArgs {
     /// GCS uses. A 57600-baud radio carries ~5 KB/s in all: use 3000 there.
     #[arg(long, value_name = "BYTES_PER_S", default_value_t = 20_000)]
     pub(crate) image_rate: u32,
+    /// Every vehicle behind its own simulated telemetry radio, counted in simulated time.
+    #[command(flatten)]
+    pub(crate) radio: crate::cli::demo::RadioArgs,
 }
 
 fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
@@ -160,6 +163,9 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?;
     let faults = args.faults.faults()?;
     cfg = cfg.with_faults(faults);
+    if let Some(r) = args.radio.config()? {
+        cfg = cfg.with_radio(r);
+    }
     if let Some(k) = &args.signing_key {
         cfg.signing_key = Some(fleetmap_io::link::signing::SigningKey::read(k)?);
     }
