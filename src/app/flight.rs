@@ -387,14 +387,17 @@ fn command_long(to: Endpoint, command: MavCmd, p: [f32; 7]) -> MavMessage {
 /// From a camera that announces nothing, the image that arrived, a second after it did.
 ///
 /// A picture measured on board needs both its announcement (the pose) and its result; over a
-/// lossy radio one of them is lost now and then. Once one of them names the picture and it
-/// has not arrived [`RESEND_AFTER_S`] after the command (and every as long again), the
-/// camera is asked for the capture again (MAV_CMD_REQUEST_MESSAGE for that
-/// CAMERA_IMAGE_CAPTURED, as the MAVLink camera protocol recovers a missed capture; the
-/// camera sends the announcement and its result again), in the background: the wait goes on.
-/// When neither has come, the captures after `after` (the image index of the vehicle's last
-/// picture that arrived) are asked for: the one commanded is among them unless the camera
-/// restarted its count, and then it answers that it has none.
+/// lossy radio one of them is lost now and then, and so are the command and its ACK. The
+/// command runs beside the wait (an image that comes before the ACK counts), and the capture
+/// is asked for again on its own schedule, fire and forget: [`RESULT_AFTER_S`] after one half
+/// named the picture, the camera is asked for it (MAV_CMD_REQUEST_MESSAGE for that
+/// CAMERA_IMAGE_CAPTURED, as the MAVLink camera protocol recovers a missed capture; the camera
+/// sends the announcement and its result again); when nothing has named it
+/// [`RESEND_AFTER_S`] after the command, the command is sent again while unacknowledged (its
+/// sequence number makes a repeat take no second picture) and the captures after `after`
+/// (the image index of the vehicle's last picture that arrived) are asked for — the one
+/// commanded is among them unless the camera restarted its count, and then it answers that it
+/// has none. Both repeat every [`RESEND_AFTER_S`] until the picture arrives or the wait ends.
 pub async fn capture(
     fleet: &FleetHandle,
     rx: &mut broadcast::Receiver<Arc<ReceivedImage>>,
@@ -423,8 +426,8 @@ pub async fn capture(
     let mut announced: Vec<(u32, i32)> = Vec::new();
     let mut early: Option<(Arc<ReceivedImage>, Time)> = None;
     let mut deadline = started + wait;
-    // The capture as the camera named it (announcement or on-board result), when the camera
-    // will next be asked for it, and the requests in flight (aborted on return).
+    // The capture as the camera named it (announcement or on-board result), and when the
+    // camera will next be asked for it.
     let mut named: Option<i32> = None;
     let camera = fleet
         .vehicle(sysid)
@@ -650,6 +653,36 @@ pub(crate) fn distance_home(v: &VehicleSnapshot) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn an_on_board_result_names_the_picture_nearest_the_last_one() {
+        use fleetmap_core::vision::onboard::OnboardMeasurement;
+        let result = |index: i32| match (OnboardMeasurement {
+            time_boot_ms: 1000,
+            image_index_lo: index as u16,
+            spec: 7,
+            picture_bytes: 1000,
+            value: fleetmap_core::vision::onboard::GreenShare {
+                share: 0.5,
+                pixels: 100,
+            },
+        })
+        .to_message()
+        {
+            MavMessage::DEBUG_FLOAT_ARRAY(d) => d,
+            m => panic!("{m:?}"),
+        };
+        assert_eq!(measured_index(&result(5), None), Some(5));
+        assert_eq!(measured_index(&result(8), Some(6)), Some(8));
+        // an earlier picture sent again: behind the last one, not 65,536 ahead
+        assert_eq!(measured_index(&result(5), Some(6)), Some(5));
+        // the low 16 bits wrapped past the last picture
+        assert_eq!(measured_index(&result(2), Some(0xFFFF)), Some(0x1_0002));
+        assert_eq!(
+            measured_index(&result(0x1_0003), Some(0x1_0001)),
+            Some(0x1_0003)
+        );
+    }
 
     #[test]
     fn grid_headings() {
