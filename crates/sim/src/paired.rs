@@ -388,7 +388,7 @@ impl PairedCameras {
             .map(|p| Self::ctx(t, p, now).time_boot_ms)
             .unwrap_or(0);
         let fresh = Self::fresh_pose(t, now, max_age).is_some();
-        let mut extra = None;
+        let mut extra = Vec::new();
         let mut refused = false;
         let result = match command as u16 {
             2000 if !fresh => {
@@ -408,9 +408,13 @@ impl PairedCameras {
                 t.camera.stop_capture();
                 mav::MavResult::MAV_RESULT_ACCEPTED
             }
-            512 => t.camera.request_message([p[0], p[1], p[2]], tb),
+            512 => {
+                let (result, answer) = t.camera.request_message([p[0], p[1], p[2]], tb);
+                extra = answer;
+                result
+            }
             521 => {
-                extra = Some(t.camera.information(tb));
+                extra = vec![t.camera.information(tb)];
                 mav::MavResult::MAV_RESULT_ACCEPTED
             }
             _ => mav::MavResult::MAV_RESULT_UNSUPPORTED,
@@ -428,7 +432,7 @@ impl PairedCameras {
             target_component: from.1,
         });
         self.push(tsys, ack);
-        if let Some(m) = extra {
+        for m in extra {
             self.push(tsys, m);
         }
     }

@@ -62,19 +62,17 @@ impl SimCamera {
         self.start_capture(interval_s, count, now);
     }
 
-    /// MAV_CMD_REQUEST_MESSAGE with params 1–3 at `time_boot_ms`: what is asked for is
-    /// queued for sending; returns the command's result.
-    pub fn request_message(&mut self, params: [f32; 3], time_boot_ms: u32) -> mav::MavResult {
+    /// MAV_CMD_REQUEST_MESSAGE with params 1–3 at `time_boot_ms`: the command's result and
+    /// what is asked for, to send right after the ACK.
+    pub fn request_message(
+        &mut self,
+        params: [f32; 3],
+        time_boot_ms: u32,
+    ) -> (mav::MavResult, Vec<MavMessage>) {
         let [id, p2, p3] = params;
-        match id as u32 {
-            CAMERA_INFORMATION => {
-                let m = self.information(time_boot_ms);
-                self.outbox.push_back(m);
-            }
-            CAMERA_CAPTURE_STATUS => {
-                let m = self.capture_status(time_boot_ms);
-                self.outbox.push_back(m);
-            }
+        let answer = match id as u32 {
+            CAMERA_INFORMATION => vec![self.information(time_boot_ms)],
+            CAMERA_CAPTURE_STATUS => vec![self.capture_status(time_boot_ms)],
             CAMERA_IMAGE_CAPTURED => {
                 let (first, last) = (p2 as i32, p3 as i32);
                 let wanted = |i: i32| match (first, last) {
@@ -90,13 +88,13 @@ impl SimCamera {
                     .flat_map(|k| k.messages.iter().cloned())
                     .collect();
                 if again.is_empty() {
-                    return mav::MavResult::MAV_RESULT_FAILED;
+                    return (mav::MavResult::MAV_RESULT_FAILED, again);
                 }
-                self.outbox.extend(again);
+                again
             }
-            _ => return mav::MavResult::MAV_RESULT_UNSUPPORTED,
-        }
-        mav::MavResult::MAV_RESULT_ACCEPTED
+            _ => return (mav::MavResult::MAV_RESULT_UNSUPPORTED, Vec::new()),
+        };
+        (mav::MavResult::MAV_RESULT_ACCEPTED, answer)
     }
 }
 
@@ -112,13 +110,17 @@ mod tests {
         })
     }
 
-    fn indexes(cam: &mut SimCamera) -> Vec<i32> {
-        std::iter::from_fn(|| cam.outbox.pop_front())
+    /// The request's result and the image indexes of the announcements it sends again.
+    fn ask(cam: &mut SimCamera, params: [f32; 3]) -> (mav::MavResult, Vec<i32>) {
+        let (r, msgs) = cam.request_message(params, 0);
+        let indexes = msgs
+            .into_iter()
             .filter_map(|m| match m {
                 MavMessage::CAMERA_IMAGE_CAPTURED(c) => Some(c.image_index),
                 _ => None,
             })
-            .collect()
+            .collect();
+        (r, indexes)
     }
 
     #[test]
@@ -129,23 +131,23 @@ mod tests {
             cam.keep_capture(i, vec![announcement(i), result]);
         }
         let ok = mav::MavResult::MAV_RESULT_ACCEPTED;
-        assert_eq!(cam.request_message([263.0, 30.0, 0.0], 0), ok);
         // the announcement and the result after it
-        assert_eq!(cam.outbox.len(), 2);
-        assert_eq!(indexes(&mut cam), [30]);
-        assert_eq!(cam.request_message([263.0, 66.0, -1.0], 0), ok);
-        assert_eq!(indexes(&mut cam), [66, 67, 68]);
-        assert_eq!(cam.request_message([263.0, 10.0, 12.0], 0), ok);
-        assert_eq!(indexes(&mut cam), [10, 11, 12]);
-        assert_eq!(cam.request_message([263.0, -1.0, 0.0], 0), ok);
-        assert_eq!(indexes(&mut cam).len(), KEPT_CAPTURES);
+        assert_eq!(cam.request_message([263.0, 30.0, 0.0], 0).1.len(), 2);
+        assert_eq!(ask(&mut cam, [263.0, 30.0, 0.0]), (ok, vec![30]));
+        assert_eq!(ask(&mut cam, [263.0, 66.0, -1.0]), (ok, vec![66, 67, 68]));
+        assert_eq!(ask(&mut cam, [263.0, 10.0, 12.0]), (ok, vec![10, 11, 12]));
+        assert_eq!(ask(&mut cam, [263.0, -1.0, 0.0]).1.len(), KEPT_CAPTURES);
         // forgotten, or not taken yet
         let failed = mav::MavResult::MAV_RESULT_FAILED;
-        assert_eq!(cam.request_message([263.0, 2.0, 0.0], 0), failed);
-        assert_eq!(cam.request_message([263.0, 69.0, -1.0], 0), failed);
-        assert!(cam.outbox.is_empty());
+        assert_eq!(ask(&mut cam, [263.0, 2.0, 0.0]), (failed, vec![]));
+        assert_eq!(ask(&mut cam, [263.0, 69.0, -1.0]), (failed, vec![]));
+        // the camera's information and status
+        let (r, m) = cam.request_message([259.0, 0.0, 0.0], 0);
+        assert!(r == ok && matches!(m[..], [MavMessage::CAMERA_INFORMATION(_)]));
+        let (r, m) = cam.request_message([262.0, 0.0, 0.0], 0);
+        assert!(r == ok && matches!(m[..], [MavMessage::CAMERA_CAPTURE_STATUS(_)]));
         assert_eq!(
-            cam.request_message([33.0, 0.0, 0.0], 0),
+            cam.request_message([33.0, 0.0, 0.0], 0).0,
             mav::MavResult::MAV_RESULT_UNSUPPORTED
         );
     }

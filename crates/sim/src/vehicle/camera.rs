@@ -91,7 +91,7 @@ impl SimVehicle {
             return; // no camera component: nobody answers
         };
         use mav::MavCmd as C;
-        let mut extra = None;
+        let mut extra = Vec::new();
         let result = match c.command {
             C::MAV_CMD_IMAGE_START_CAPTURE => {
                 // param2 interval s, param3 total images (0 = until stopped), param4 the
@@ -104,13 +104,17 @@ impl SimVehicle {
                 cam.stop_capture();
                 R::MAV_RESULT_ACCEPTED
             }
-            C::MAV_CMD_REQUEST_MESSAGE => cam.request_message([c.param1, c.param2, c.param3], tb),
+            C::MAV_CMD_REQUEST_MESSAGE => {
+                let (result, answer) = cam.request_message([c.param1, c.param2, c.param3], tb);
+                extra = answer;
+                result
+            }
             C::MAV_CMD_REQUEST_CAMERA_INFORMATION => {
-                extra = Some(cam.information(tb));
+                extra = vec![cam.information(tb)];
                 R::MAV_RESULT_ACCEPTED
             }
             C::MAV_CMD_REQUEST_CAMERA_CAPTURE_STATUS => {
-                extra = Some(cam.capture_status(tb));
+                extra = vec![cam.capture_status(tb)];
                 R::MAV_RESULT_ACCEPTED
             }
             C::MAV_CMD_DO_DIGICAM_CONTROL => {
@@ -132,7 +136,7 @@ impl SimVehicle {
                 target_component: from.compid,
             }),
         );
-        if let Some(m) = extra {
+        for m in extra {
             self.queue(CAMERA_COMPID, m);
         }
     }
