@@ -1178,8 +1178,9 @@ class Team:
         cmd = [binary, "--model", "+" if copter else "rover", "--speedup", f"{self.args.speedup:g}",
                "-I", str(instance), "--home", f"{lat:.8f},{lon:.8f},{self.ground_alt},0",
                "--defaults", f"{defaults},{extra}", "--serial0", f"udpclient:127.0.0.1:{gcs}"]
-        if copter:
-            cmd += ["--serial1", f"udpclient:127.0.0.1:{camera}"]
+        # SITL's SERIAL1 listens on TCP 5762 + 10 × instance unless told otherwise: a rover's
+        # moves to 5761 so that SERIAL2 can take 5762 (a clash stops the SITL at its start)
+        cmd += ["--serial1", f"udpclient:127.0.0.1:{camera}" if copter else "tcp:1"]
         # SERIAL2 (MAVLink 2 by default) listens on TCP 5760 + 2 + 10 × instance for the crew.
         cmd += ["--serial2", "tcp:2"]
         self.crew[sysid] = f"tcp:127.0.0.1:{5762 + 10 * instance}"
