@@ -91,6 +91,15 @@ radio. Each check prints one line; `--json FILE` writes them all. The checks:
             unclassified, no labelling error). The figures beyond fleetmap's report come from
             the GCS's .tlog; the row is printed as a Markdown table row and goes into --json.
 
+Telemetry radios (bandit-fleet, runway --team): with --radio BYTES (and --radio-loss P) every
+vehicle's link (ArduPilot SERIAL0, PX4's GCS link) goes through its own `fleetmap relay --radio
+BYTES --loss P --clock speedup:SPEEDUP --stats WORK/radio-SYSID.json` into the GCS's port: whole
+datagrams, one budget for both directions (half duplex), 4 kB buffers, RADIO_STATUS, the budget
+in the vehicles' time. The GCS gets `--link radio:BYTES`, the runway cameras classify on board
+(`fleetmap camera --mission`), every camera's --image-rate defaults to 30 % of BYTES. The row
+gains a column: the radios' bytes per second per vehicle (vehicle → GCS + GCS → vehicle, on the
+vehicles' clock, mean and busiest), the share of frames lost and those dropped on a full buffer.
+
 Only standard-library Python; the binary is $FLEETMAP (default: fleetmap on the PATH, else
 target/debug/fleetmap). Run it against simulators, or real vehicles in a safe open area only:
 `fly` flies the vehicle.
