@@ -28,15 +28,11 @@ impl Pilot {
     /// autopilot as MAV_CMD_DO_DIGICAM_CONTROL, which a MAVLink camera never sees: the
     /// picture would be waited for in vain and taken again.
     pub(super) async fn wait_for_camera(&self) {
-        let clock = self.fleet().clock().clone();
-        let deadline = clock.now() + self.shared.patience.secs(CAMERA_WAIT_S);
-        while self.vehicle().is_some_and(|v| v.camera_compid.is_none()) && clock.now() < deadline {
-            let left = clock.wall_until(deadline);
-            if left.is_zero() {
-                break;
-            }
-            tokio::time::sleep(left.min(Duration::from_millis(100))).await;
-        }
+        let wait = self.shared.patience.secs(CAMERA_WAIT_S);
+        let _ = self
+            .fleet()
+            .wait_until(self.sysid, wait, |v| v.camera_compid.is_some())
+            .await;
     }
 
     pub(super) fn fleet(&self) -> &FleetHandle {
