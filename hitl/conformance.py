@@ -91,6 +91,15 @@ radio. Each check prints one line; `--json FILE` writes them all. The checks:
             unclassified, no labelling error). The figures beyond fleetmap's report come from
             the GCS's .tlog; the row is printed as a Markdown table row and goes into --json.
 
+Telemetry radios (bandit-fleet, runway --team): with --radio BYTES (and --radio-loss P) every
+vehicle's link (ArduPilot SERIAL0, PX4's GCS link) goes through its own `fleetmap relay --radio
+BYTES --loss P --clock speedup:SPEEDUP --stats WORK/radio-SYSID.json` into the GCS's port: whole
+datagrams, one budget for both directions (half duplex), 4 kB buffers, RADIO_STATUS, the budget
+in the vehicles' time. The GCS gets `--link radio:BYTES`, the runway cameras classify on board
+(`fleetmap camera --mission`), every camera's --image-rate defaults to 30 % of BYTES. The row
+gains a column: the radios' bytes per second per vehicle (vehicle → GCS + GCS → vehicle, on the
+vehicles' clock, mean and busiest), the share of frames lost and those dropped on a full buffer.
+
 Only standard-library Python; the binary is $FLEETMAP (default: fleetmap on the PATH, else
 target/debug/fleetmap). Run it against simulators, or real vehicles in a safe open area only:
 `fly` flies the vehicle.
@@ -582,7 +591,7 @@ def runway_check(checks):
             return checks.record("runway", False, "a real autopilot needs --camera-link (its camera port)", 0)
         sim = None
         camera = Proc([BIN, "sim", "--camera-only", "--world", world, "--connect", args.camera_link,
-                       "--image-rate", str(args.image_rate)], os.path.join(work, "camera.log"))
+                       "--image-rate", str(image_rate(args))], os.path.join(work, "camera.log"))
         conn = b.conn()
         crew = True
     log_path = os.path.join(work, "run.log")
@@ -654,6 +663,14 @@ def runway_check(checks):
 # runway --team: the runway field test on a team of SITL copters
 
 SWAP_WANTED = re.compile(r"vehicle (\d+): landed: waiting for a battery swap")
+
+
+def image_rate(args):
+    """The cameras' --image-rate: --image-rate, else 60 000 B/s, or on a radio (--radio) 30 %
+    of its budget (pictures go only when the GCS asks for one)."""
+    if args.image_rate:
+        return args.image_rate
+    return round(0.3 * args.radio) if args.radio else 60000
 
 
 def world_homes(world, n):
@@ -854,9 +871,12 @@ def runway_team_check(checks, work):
         fleet, conns = start_team(args, work, members, world_def.get("ground_alt_amsl_m", 0.0), camera_port,
                                   battery_mah=battery_mah, px4_battery_s=px4_battery_s, px4_min_pct=5)
         # one camera for every copter: renders the world at each capture and sends the
-        # picture back through the copter's autopilot (image transmission)
-        camera = Proc([args.camera_bin or BIN, "camera", "--source", "render", "--world", world,
-                       "--image-rate", str(args.image_rate), "--connect", f"udpin:127.0.0.1:{camera_port}"],
+        # picture back through the copter's autopilot (image transmission); on a radio it
+        # classifies on board (the mission's definition) and sends its 84-byte result, the
+        # picture only when the GCS asks for it
+        onboard = ["--mission", mission] if args.radio else []
+        camera = Proc([args.camera_bin or BIN, "camera", "--source", "render", "--world", world, *onboard,
+                       "--image-rate", str(image_rate(args)), "--connect", f"udpin:127.0.0.1:{camera_port}"],
                       os.path.join(work, "camera.log"))
         gcs = Gcs(["run", mission, *conns, "--world", world, "--headless", "--auto-resume", "--run-dir", run_dir,
                    "--tlog", tlogs[0], "--wait", str(args.fleet_wait)], log_path, on_line)
@@ -886,6 +906,7 @@ def runway_team_check(checks, work):
         if fleet:
             fleet.close()
     secs = time.monotonic() - t0
+    radio = radio_figures(work, sysids)
     code, out, err, _ = run(["report", run_dir, "--world", world, "--json"], timeout=120)
     try:
         rep = json.loads(out)
@@ -937,7 +958,8 @@ def runway_team_check(checks, work):
            "killed": killed, "seconds": round(secs, 1), "to_map_complete_s": mt.get("to_map_complete_s"),
            "to_last_landing_s": mt.get("to_last_landing_s"), "vehicle_clock_rate": rate,
            "battery_mah": battery_mah,
-           "px4_battery_s": px4_battery_s, "mission": mission, "problems": problems,
+           "px4_battery_s": px4_battery_s, "mission": mission, "radio_bps": args.radio,
+           "radio_loss": args.radio_loss if args.radio else None, "radio": radio, "problems": problems,
            "result": "pass" if ok else "fail"}
     fmt = lambda x: "-" if x is None else f"{x:.0f}"
     detail = (f"{wiring}, {label}, ×{args.speedup:g}: IoU {100 * iou:.1f} % (best possible {100 * best:.1f} %), "
@@ -948,12 +970,14 @@ def runway_team_check(checks, work):
               f"GCS killed and resumed: {'yes' if killed else 'NO'}, mission time (GCS clock) to map complete "
               f"{fmt(row['to_map_complete_s'])} s, to last landing {fmt(row['to_last_landing_s'])} s, the "
               f"vehicles' clock ran ×{rate}; "
-              f"{'; '.join(problems) or 'no problem'}; work {work}")
+              + (f"radios {radio_cell(args, radio)}; " if args.radio else "")
+              + f"{'; '.join(problems) or 'no problem'}; work {work}")
     cells = [f"{label}, ×{args.speedup:g}", wiring, f"{100 * iou:.1f} % ({100 * best:.1f} %)",
              f"{row['battery_swaps']} ({cycled_ok} power cycles"
              + (f", {len(refills)} resumed before theirs" if refills else "") + ")", str(row["cells"]),
              f"{row['pictures']} + {row['sweep_pictures']}", str(lost), f"{secs:.0f}",
              f"{fmt(row['to_map_complete_s'])} / {fmt(row['to_last_landing_s'])} (vehicles ×{rate})",
+             *([radio_cell(args, radio)] if args.radio else []),
              "pass" if ok else "fail: " + "; ".join(problems)]
     print("| " + " | ".join(cells) + " |", flush=True)
     return checks.record("runway", ok, detail, secs, row=row)
@@ -1113,6 +1137,7 @@ class Team:
     def __init__(self, args, work, members, gcs_ports, camera_port, ground_alt, battery_mah,
                  px4_battery_s, px4_min_pct=None):
         self.procs = {}                 # sysid → Proc
+        self.radios = {}                # sysid → its radio's relay (start_team, with --radio)
         self.starts = {}                # sysid → (args, log, cwd, env): to start it again
         self.crew = {}                  # sysid → the crew's connection (ArduPilot SERIAL2)
         self.work = work
@@ -1162,8 +1187,9 @@ class Team:
         cmd = [binary, "--model", "+" if copter else "rover", "--speedup", f"{self.args.speedup:g}",
                "-I", str(instance), "--home", f"{lat:.8f},{lon:.8f},{self.ground_alt},0",
                "--defaults", f"{defaults},{extra}", "--serial0", f"udpclient:127.0.0.1:{gcs}"]
-        if copter:
-            cmd += ["--serial1", f"udpclient:127.0.0.1:{camera}"]
+        # SITL's SERIAL1 listens on TCP 5762 + 10 × instance unless told otherwise: a rover's
+        # moves to 5761 so that SERIAL2 can take 5762 (a clash stops the SITL at its start)
+        cmd += ["--serial1", f"udpclient:127.0.0.1:{camera}" if copter else "tcp:1"]
         # SERIAL2 (MAVLink 2 by default) listens on TCP 5760 + 2 + 10 × instance for the crew.
         cmd += ["--serial2", "tcp:2"]
         self.crew[sysid] = f"tcp:127.0.0.1:{5762 + 10 * instance}"
@@ -1225,6 +1251,8 @@ class Team:
     def close(self):
         for p in self.procs.values():
             p.stop(signal.SIGTERM)
+        for r in self.radios.values():
+            r.stop()  # SIGINT: the relay writes its --stats file
 
 
 TEAM_NAMES = {"arducopter": "ArduCopter", "ardurover": "ArduRover", "px4": "PX4 SIH"}
@@ -1243,12 +1271,97 @@ def start_team(args, work, members, ground_alt, camera_port, battery_mah, px4_ba
         gcs_ports = [free_udp_port()] * len(members)
     else:
         gcs_ports = [free_udp_port() for _ in members]
-    team = Team(args, work, members, gcs_ports, camera_port, ground_alt, battery_mah, px4_battery_s,
-                px4_min_pct)
+    radios, vehicle_ports = radio_relays(args, work, members, gcs_ports)
+    try:
+        team = Team(args, work, members, vehicle_ports, camera_port, ground_alt, battery_mah, px4_battery_s,
+                    px4_min_pct)
+    except BaseException:
+        for r in radios.values():
+            r.stop()
+        raise
+    team.radios = radios
     conns = []
     for p in dict.fromkeys(gcs_ports):
         conns += ["--connect", f"udpin:127.0.0.1:{p}"]
+    if args.radio:
+        # the GCS plans for the budget (as a mission file's `link = "radio:BYTES"`)
+        conns += ["--link", f"radio:{args.radio}"]
     return team, conns
+
+
+def radio_relays(args, work, members, gcs_ports):
+    """With --radio: every vehicle's link (its SERIAL0, PX4's GCS link) through its own
+    emulated SiK radio pair, `fleetmap relay --radio BYTES --loss P`, into the GCS port
+    `gcs_ports` gives it: whole datagrams, one byte budget for both directions (half duplex),
+    a 4 kB buffer each way, RADIO_STATUS as SiK radios write it, the budget counted in the
+    vehicle's time (`--clock speedup:N`: a SITL at ×N sends N times the bytes per wall
+    second). Each relay writes its counts per message to WORK/radio-SYSID.json when it stops.
+    Returns ({sysid: relay Proc}, the ports the vehicles send to); without --radio, ({}, the
+    GCS ports themselves)."""
+    if not args.radio:
+        return {}, list(gcs_ports)
+    relays, ports = {}, []
+    try:
+        for (sysid, kind, _), gcs in zip(members, gcs_ports):
+            port = free_udp_port()
+            speedup = (args.px4_speedup or args.speedup) if kind == "px4" else args.speedup
+            relays[sysid] = Proc(
+                [BIN, "relay", "--gcs", f"udpout:127.0.0.1:{gcs}", "--vehicle", f"udpin:127.0.0.1:{port}",
+                 "--radio", str(args.radio), "--loss", f"{args.radio_loss:g}", "--clock", f"speedup:{speedup:g}",
+                 "--seed", str(sysid), "--report-every", "0",
+                 "--stats", os.path.join(work, f"radio-{sysid}.json")],
+                os.path.join(work, f"radio-{sysid}.log"))
+            ports.append(port)
+    except BaseException:
+        for r in relays.values():
+            r.stop()
+        raise
+    time.sleep(0.3)
+    return relays, ports
+
+
+def radio_figures(work, sysids):
+    """What the radios of radio_relays carried, from their --stats files: per vehicle the
+    bytes per second delivered each way (vehicle → GCS "down", GCS → vehicle "up", on the
+    vehicle's clock), frames lost on the air and dropped on a full buffer; and the means over
+    the vehicles. None without radio stats."""
+    per = {}
+    for s in sysids:
+        try:
+            st = json.load(open(os.path.join(work, f"radio-{s}.json")))
+        except (OSError, ValueError):
+            continue
+        secs = st["clock_us"] / 1e6
+        if secs <= 0:
+            continue
+        d, u = st["down"], st["up"]
+        frames = d["frames_in"] + u["frames_in"]
+        per[s] = {"vehicle_s": round(secs, 1), "down_bps": round(d["bytes_out"] / secs),
+                  "up_bps": round(u["bytes_out"] / secs), "offered_down_bps": round(d["bytes_in"] / secs),
+                  "frames": frames, "lost": d["lost"] + u["lost"],
+                  "dropped": d["rate_dropped"] + u["rate_dropped"],
+                  "loss": round((d["lost"] + u["lost"]) / frames, 3) if frames else None}
+    if not per:
+        return None
+    mean = lambda k: round(sum(v[k] for v in per.values()) / len(per))
+    lost = sum(v["lost"] for v in per.values())
+    frames = sum(v["frames"] for v in per.values())
+    return {"by_vehicle": per, "down_bps": mean("down_bps"), "up_bps": mean("up_bps"),
+            "max_bps": max(v["down_bps"] + v["up_bps"] for v in per.values()),
+            "loss": round(lost / frames, 3) if frames else 0.0,
+            "dropped": sum(v["dropped"] for v in per.values())}
+
+
+def radio_cell(args, fig):
+    """The radios' column of a row: "2000 B/s, 10 %: 1 512 + 96 B/s a vehicle (at most 1 700),
+    10.1 % lost, 0 dropped"."""
+    if not args.radio:
+        return None
+    head = f"{args.radio} B/s, {100 * args.radio_loss:g} %"
+    if not fig:
+        return head + ": no radio stats"
+    return (f"{head}: {fig['down_bps']} + {fig['up_bps']} B/s a vehicle (at most {fig['max_bps']}), "
+            f"{100 * fig['loss']:.1f} % lost, {fig['dropped']} dropped")
 
 
 def bandit_fleet_check(checks, work):
@@ -1303,7 +1416,7 @@ def bandit_fleet_check(checks, work):
         # with --camera-pictures it pushes every picture instead (image transmission).
         measure = [] if args.camera_pictures else ["--mission", mission]
         camera = Proc([args.camera_bin or BIN, "camera", "--source", "render", "--world", world, *measure,
-                       "--image-rate", str(args.image_rate), "--connect", f"udpin:127.0.0.1:{camera_port}"],
+                       "--image-rate", str(image_rate(args)), "--connect", f"udpin:127.0.0.1:{camera_port}"],
                       os.path.join(work, "camera.log"))
         cmd = [BIN, "run", mission, *conns, "--world", world, "--headless", "--auto-resume",
                "--run-dir", run_dir, "--tlog", tlog, "--wait", str(args.fleet_wait)]
@@ -1334,6 +1447,7 @@ def bandit_fleet_check(checks, work):
         if fleet:
             fleet.close()
     secs = time.monotonic() - t0
+    radio = radio_figures(work, [s for s, _, _ in members])
     open(os.path.join(work, "run.err"), "w").write("".join(err_lines))
     # The epochs' wall-clock spans, from the GCS's progress lines.
     starts, ends = {}, {}
@@ -1348,7 +1462,8 @@ def bandit_fleet_check(checks, work):
     figures = tlog_figures(tlog, drones, spans)
     row = {"wiring": "one port" if shared else "one port per vehicle", "team": label,
            "camera": "pictures" if args.camera_pictures else "on board",
-           "speedup": args.speedup, "seconds": round(secs, 1), "exit": result, **figures}
+           "speedup": args.speedup, "seconds": round(secs, 1), "exit": result, "radio_bps": args.radio,
+           "radio_loss": args.radio_loss if args.radio else None, "radio": radio, **figures}
     code, out, err, _ = run(["report", run_dir, "--world", world, "--json"], timeout=120)
     try:
         rep = json.loads(out)
@@ -1382,7 +1497,7 @@ def bandit_fleet_check(checks, work):
               f"sent/lost ({figures['onboard_measurements']} measured on board of {figures['captures']} "
               f"captures); per epoch {epochs or '-'}; keep {len(keep)} reject {row['reject']} unclassified "
               f"{row['unclassified']}; errors: {error or 'none'}, {row['labelling_errors']} labelling; "
-              f"work {work}")
+              + (f"radios {radio_cell(args, radio)}; " if args.radio else "") + f"work {work}")
     # The row as docs/results/conformance.md tabulates it.
     per = figures["per_epoch"]
     cells = [row["wiring"], f"{label}, ×{args.speedup:g}", str(row["epochs"]), str(row["samples"]),
@@ -1391,7 +1506,8 @@ def bandit_fleet_check(checks, work):
                        else f"{e['wall_s']:.0f}" for e in per) or "-",
              ", ".join(f"{e['flight_max_s']:.0f}" for e in per) or "-",
              f"{len(keep)} / {row['reject']} / {row['unclassified']}",
-             error or f"none ({row['labelling_errors']} labelling)", row["result"]]
+             error or f"none ({row['labelling_errors']} labelling)",
+             *([radio_cell(args, radio)] if args.radio else []), row["result"]]
     print("| " + " | ".join(cells) + " |", flush=True)
     return checks.record("bandit-fleet", bool(ok), detail, secs, row=row)
 
@@ -1413,7 +1529,8 @@ def main():
     ap.add_argument("--mission", help="runway, bandit-fleet checks: the mission file "
                     "(default: missions/runway-field-test.toml, hardware-6x6.toml)")
     ap.add_argument("--camera-link", help="runway check on a real autopilot: where its camera port sends")
-    ap.add_argument("--image-rate", type=int, default=60000, help="runway check: camera bytes per second")
+    ap.add_argument("--image-rate", type=int,
+                    help="runway, bandit-fleet: camera bytes per second (default 60000; with --radio 30 %% of it)")
     ap.add_argument("--runway-speedup", type=float, default=10.0, help="runway check on a simulator: its speed")
     ap.add_argument("--kill-after", type=int, default=60, help="runway check: kill the GCS after this many images")
     ap.add_argument("--runway-timeout", type=int, default=7200, help="runway check: seconds")
@@ -1457,6 +1574,13 @@ def main():
     ap.add_argument("--fleet-timeout", type=int, default=7200, help="bandit-fleet: seconds")
     ap.add_argument("--power-cycle", metavar="CMD",
                     help="shell command that power-cycles the vehicle (default: MAV_CMD_PREFLIGHT_REBOOT_SHUTDOWN)")
+    ap.add_argument("--radio", type=int, metavar="BYTES",
+                    help="bandit-fleet, runway --team: every vehicle's link through its own emulated SiK "
+                         "radio (`fleetmap relay --radio BYTES`, half duplex, 4 kB buffers, the budget in "
+                         "the vehicles' time) into the GCS port; the GCS gets --link radio:BYTES, runway "
+                         "cameras classify on board (default: no radio)")
+    ap.add_argument("--radio-loss", type=float, default=0.0, metavar="P",
+                    help="with --radio: the share of frames each radio loses, each way (e.g. 0.1)")
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--keep", action="store_true", help="keep the working directory")
     args = ap.parse_args()

@@ -406,6 +406,9 @@ impl Pilot {
                 )
                 .await?;
             }
+            if self.capture_seq == 0 {
+                self.wait_for_camera().await;
+            }
             self.capture_seq += 1;
             let fleet = self.shared.fleet.clone();
             let shutter = self.shared.now();

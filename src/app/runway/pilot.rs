@@ -16,7 +16,25 @@ const DWELL_PER_PICTURE_S: f64 = 3.0;
 /// come within reach asks again.
 const REACH_RECHECK_S: f64 = 10.0;
 
+/// Longest wait, seconds of the fleet clock (× patience), of a pilot's first capture for its
+/// vehicle's camera component to be heard ([`Pilot::wait_for_camera`]).
+const CAMERA_WAIT_S: f64 = 5.0;
+
 impl Pilot {
+    /// Before this pilot's first capture: wait (at most [`CAMERA_WAIT_S`]) until the vehicle's
+    /// camera component has been heard. A GCS that has just started — a run resumed over
+    /// drones in the air — may not have heard the camera's heartbeat yet (1 Hz through the
+    /// autopilot, later still over a lossy radio), and without it the capture goes to the
+    /// autopilot as MAV_CMD_DO_DIGICAM_CONTROL, which a MAVLink camera never sees: the
+    /// picture would be waited for in vain and taken again.
+    pub(super) async fn wait_for_camera(&self) {
+        let wait = self.shared.patience.secs(CAMERA_WAIT_S);
+        let _ = self
+            .fleet()
+            .wait_until(self.sysid, wait, |v| v.camera_compid.is_some())
+            .await;
+    }
+
     pub(super) fn fleet(&self) -> &FleetHandle {
         &self.shared.fleet
     }
