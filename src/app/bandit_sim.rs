@@ -4,12 +4,11 @@
 //! GCS clock running at the simulator's speed-up — what `fleetmap demo --bandit` and the
 //! end-to-end tests fly.
 
-use crate::app::demo::{fleet_config, memory_links};
+use crate::app::demo::{fleet_config, serve_virtual};
 use crate::app::error::SimStartError;
 use crate::fleet::{self, FleetConfig, FleetHandle};
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
-use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::radio::RadioConfig;
 use fleetmap_io::link::transport::{LinkOptions, open_link};
@@ -165,13 +164,5 @@ pub async fn start_virtual(
     setup: &SimSetup,
 ) -> Result<(FleetHandle, SimTask), SimStartError> {
     let sim = Sim::new(sim_config(spec, world, setup)?, Time::ZERO)?;
-    let (links, ev_rx, ports) = memory_links(&sim);
-    let handle = server::spawn_memory(sim, ports);
-    let fleet = fleet::spawn(
-        links,
-        ev_rx,
-        fleet_config(FleetConfig::default(), setup.radio.as_ref()),
-        MonotonicClock::new(),
-    );
-    Ok((fleet, handle))
+    Ok(serve_virtual(sim, setup.radio.as_ref()))
 }

@@ -168,20 +168,26 @@ pub async fn start_virtual(
     cfg: &DemoConfig,
 ) -> Result<(FleetHandle, SimTask), SimStartError> {
     let sim = Sim::new(sim_config(spec, world, cfg)?, Time::ZERO)?;
+    Ok(serve_virtual(sim, cfg.radio.as_ref()))
+}
+
+/// Serve `sim` over in-process links, one per vehicle, and spawn a fleet on them, both on the
+/// runtime's clock; the fleet plans for `radio` when the vehicles are behind radios.
+pub(crate) fn serve_virtual(sim: Sim, radio: Option<&RadioConfig>) -> (FleetHandle, SimTask) {
     let (links, ev_rx, ports) = memory_links(&sim);
     let handle = server::spawn_memory(sim, ports);
     let fleet = fleet::spawn(
         links,
         ev_rx,
-        fleet_config(FleetConfig::default(), cfg.radio.as_ref()),
+        fleet_config(FleetConfig::default(), radio),
         MonotonicClock::new(),
     );
-    Ok((fleet, handle))
+    (fleet, handle)
 }
 
 /// One in-process link per vehicle of `sim`, in system-id order: the fleet's handles and
 /// events, and the simulator's ports.
-pub(crate) fn memory_links(
+fn memory_links(
     sim: &Sim,
 ) -> (
     Vec<fleetmap_io::link::transport::LinkHandle>,

@@ -8,7 +8,7 @@
 //! faster than real time (the in-process demo) they are generous by the same factor.
 
 use crate::app::images::ReceivedImage;
-use crate::fleet::capture_params;
+use crate::fleet::capture_command;
 use crate::fleet::{FleetError, FleetHandle, VehicleSnapshot};
 use fleetmap_core::geo::local;
 use fleetmap_core::proto::Endpoint;
@@ -344,7 +344,7 @@ pub(crate) const RESULT_AFTER_S: f64 = 0.5;
 fn capture_again(camera: Endpoint, image_index: i32, following: bool) -> MavMessage {
     const CAMERA_IMAGE_CAPTURED: f32 = 263.0;
     let range = if following { -1.0 } else { 0.0 };
-    command_long(
+    Command::long(
         camera,
         MavCmd::MAV_CMD_REQUEST_MESSAGE,
         [
@@ -357,23 +357,7 @@ fn capture_again(camera: Endpoint, image_index: i32, following: bool) -> MavMess
             0.0,
         ],
     )
-}
-
-/// A COMMAND_LONG to `to`, sent outside the command protocol (no ACK awaited).
-fn command_long(to: Endpoint, command: MavCmd, p: [f32; 7]) -> MavMessage {
-    MavMessage::COMMAND_LONG(mavlink::dialects::ardupilotmega::COMMAND_LONG_DATA {
-        param1: p[0],
-        param2: p[1],
-        param3: p[2],
-        param4: p[3],
-        param5: p[4],
-        param6: p[5],
-        param7: p[6],
-        command,
-        target_system: to.sysid,
-        target_component: to.compid,
-        confirmation: 0,
-    })
+    .message(0)
 }
 
 /// Take picture `seq` and wait for its image from `sysid`, at most 10 s (scaled by
@@ -451,11 +435,7 @@ pub async fn capture(
                     // the command may not have arrived: the same sequence number takes no
                     // second picture if it did
                     if !commanded {
-                        again.push(command_long(
-                            cam,
-                            MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
-                            capture_params(seq),
-                        ));
+                        again.push(capture_command(cam, seq).message(0));
                     }
                     if let Some(a) = after {
                         again.push(capture_again(cam, a.saturating_add(1), true));

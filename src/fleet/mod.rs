@@ -36,7 +36,7 @@ mod actor;
 mod error;
 mod handle;
 mod ops;
-pub(crate) use ops::capture_params;
+pub(crate) use ops::capture_command;
 mod state;
 mod telemetry;
 mod vehicle_link;

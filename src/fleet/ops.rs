@@ -587,11 +587,7 @@ impl FleetHandle {
     pub async fn capture_image(&self, sysid: u8, seq: u32) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
         let cmd = match v.camera_compid {
-            Some(c) => Command::long(
-                Endpoint::new(sysid, c),
-                MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
-                capture_params(seq),
-            ),
+            Some(c) => capture_command(Endpoint::new(sysid, c), seq),
             None => Command::long(
                 Endpoint::new(sysid, v.compid),
                 MavCmd::MAV_CMD_DO_DIGICAM_CONTROL,
@@ -602,8 +598,12 @@ impl FleetHandle {
     }
 }
 
-/// MAV_CMD_IMAGE_START_CAPTURE's params for single capture `seq`: no interval, one image, the
-/// sequence number that makes a command sent again take no second picture (common.xml).
-pub(crate) fn capture_params(seq: u32) -> [f32; 7] {
-    [0.0, 0.0, 1.0, seq as f32, f32::NAN, f32::NAN, f32::NAN]
+/// MAV_CMD_IMAGE_START_CAPTURE to `camera` for single capture `seq`: no interval, one image,
+/// the sequence number that makes a command sent again take no second picture (common.xml).
+pub(crate) fn capture_command(camera: Endpoint, seq: u32) -> Command {
+    Command::long(
+        camera,
+        MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
+        [0.0, 0.0, 1.0, seq as f32, f32::NAN, f32::NAN, f32::NAN],
+    )
 }

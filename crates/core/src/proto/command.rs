@@ -116,7 +116,10 @@ impl Command {
         }
     }
 
-    fn message(&self, confirmation: u8) -> MavMessage {
+    /// The message the command travels as; `confirmation` counts its resends (COMMAND_LONG
+    /// only). A caller that repeats a command on its own schedule, outside [`CommandSender`],
+    /// sends this with 0.
+    pub fn message(&self, confirmation: u8) -> MavMessage {
         match &self.args {
             CommandArgs::Long(p) => MavMessage::COMMAND_LONG(COMMAND_LONG_DATA {
                 param1: p[0],
