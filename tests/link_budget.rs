@@ -176,7 +176,15 @@ async fn a_radio_that_reports_itself_is_planned_for() {
     assert_eq!(q.budget, LinkBudget::radio());
     assert!(q.budget_assumed);
     let r = q.radio.expect("the radio's report");
-    assert_eq!((r.rssi, r.remrssi, r.txbuf, r.rxerrors), (180, 170, 97, 3));
+    assert_eq!(
+        (
+            r.status.rssi,
+            r.status.remrssi,
+            r.status.txbuf,
+            r.status.rxerrors
+        ),
+        (180, 170, 97, 3)
+    );
     assert!(r.age_s <= 1.5);
     let late = rates(&rig.tally, t0, 30, 60);
     assert!(!late.contains_key(&30), "ATTITUDE stopped: {late:?}");

@@ -271,7 +271,7 @@ pub(crate) fn format_link(q: &crate::fleet::LinkQuality) -> String {
     if let Some(r) = &q.radio {
         s.push_str(&format!(
             " rssi {}/{} txbuf {}% rxerr {}",
-            r.rssi, r.remrssi, r.txbuf, r.rxerrors
+            r.status.rssi, r.status.remrssi, r.status.txbuf, r.status.rxerrors
         ));
     }
     s

@@ -75,23 +75,14 @@ pub struct LinkQuality {
 }
 
 /// What a telemetry radio reports about itself (RADIO_STATUS, sent by a SiK radio with
-/// MAVLink framing into the serial side it is plugged into: the GCS's radio into the GCS).
+/// MAVLink framing into the serial side it is plugged into: the GCS's radio into the GCS, so
+/// `rssi`, `txbuf` and `rxerrors` are the GCS radio's, `remrssi` the vehicle radio's as it
+/// last heard it).
 #[derive(Clone, Copy, Debug, Default, PartialEq, Serialize)]
 pub struct RadioReport {
-    /// Signal strength at the GCS's radio (SiK: 0–255, about 1.9 per dB).
-    pub rssi: u8,
-    /// Signal strength at the vehicle's radio, as the GCS's radio last heard it.
-    pub remrssi: u8,
-    /// Free space in the GCS radio's transmit buffer, percent.
-    pub txbuf: u8,
-    /// Background noise at the GCS's radio.
-    pub noise: u8,
-    /// Background noise at the vehicle's radio.
-    pub remnoise: u8,
-    /// Packets the GCS's radio received damaged (a counter that wraps at 65,536).
-    pub rxerrors: u16,
-    /// Packets repaired by error correction (a counter that wraps at 65,536).
-    pub fixed: u16,
+    /// The report's fields.
+    #[serde(flatten)]
+    pub status: fleetmap_io::link::radio::RadioStatus,
     /// Seconds since the report arrived (fleet clock).
     pub age_s: f64,
 }

@@ -192,13 +192,7 @@ impl VehicleLink {
             .as_ref()
             .filter(|(_, at)| now.saturating_since(*at) <= RADIO_STALE)
             .map(|(r, at)| RadioReport {
-                rssi: r.rssi,
-                remrssi: r.remrssi,
-                txbuf: r.txbuf,
-                noise: r.noise,
-                remnoise: r.remnoise,
-                rxerrors: r.rxerrors,
-                fixed: r.fixed,
+                status: r.into(),
                 age_s: now.saturating_since(*at).as_secs_f64(),
             });
     }

@@ -130,7 +130,10 @@ pub(crate) fn vehicle_row(
                 (v.link_quality.down_bytes_per_s + v.link_quality.up_bytes_per_s) as f32,
             ),
             budget_bytes_per_s: v.link_quality.budget.bytes_per_s(),
-            rssi: v.link_quality.radio.map(|r| (r.rssi, r.remrssi)),
+            rssi: v
+                .link_quality
+                .radio
+                .map(|r| (r.status.rssi, r.status.remrssi)),
         },
         cell,
         activity,

@@ -18,8 +18,9 @@ const CRC_EXTRA: u8 = 185;
 /// Payload length: 2 + 2 + 5 × 1 bytes.
 const PAYLOAD_LEN: u8 = 9;
 
-/// What one report says (the fields of MAVLink's RADIO_STATUS).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+/// What one report says (the fields of MAVLink's RADIO_STATUS): what a radio model writes,
+/// and what the GCS shows of a radio it hears.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct RadioStatus {
     /// Signal strength this radio receives (SiK: the Si1000's RSSI register, filtered).
     pub rssi: u8,
@@ -36,6 +37,20 @@ pub struct RadioStatus {
     pub rxerrors: u16,
     /// Packets repaired by error correction (always 0 here: no ECC is modelled).
     pub fixed: u16,
+}
+
+impl From<&mavlink::dialects::ardupilotmega::RADIO_STATUS_DATA> for RadioStatus {
+    fn from(r: &mavlink::dialects::ardupilotmega::RADIO_STATUS_DATA) -> RadioStatus {
+        RadioStatus {
+            rssi: r.rssi,
+            remrssi: r.remrssi,
+            txbuf: r.txbuf,
+            noise: r.noise,
+            remnoise: r.remnoise,
+            rxerrors: r.rxerrors,
+            fixed: r.fixed,
+        }
+    }
 }
 
 /// Percent of a buffer of `capacity` bytes that is free with `used` bytes in it, computed
