@@ -20,7 +20,7 @@
 //! level ones.
 
 use fleetmap::app::images;
-use fleetmap::app::kind::Outcome;
+use fleetmap::app::kind::{OperatorTask, Outcome};
 use fleetmap::app::runway::report::truth_coverage;
 use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::fleet::{self, FleetConfig};
@@ -387,7 +387,7 @@ async fn a_camera_stuck_at_its_boot_pose_maps_nothing_and_waits_for_the_operator
     let (lat, lon) = local::offset(STRIP_CENTRE.0, STRIP_CENTRE.1, -300.0, -150.0);
     let rule: Rule = Box::new(move |_| Fate::Claim(lat, lon, 0.0));
     let f = fly(rule, 7).await;
-    assert_eq!(f.outcome, Outcome::WaitingForOperator { sysids: vec![1] });
+    waits_for_the_camera(&f.outcome);
     let s = &f.state;
     assert!(
         s.book.positive_cells().is_empty(),
@@ -442,7 +442,7 @@ async fn a_camera_stuck_at_its_boot_pose_maps_nothing_and_waits_for_the_operator
 async fn a_sweep_that_gets_no_pictures_stops_with_a_clear_reason() {
     let rule: Rule = Box::new(|_| Fate::Lose);
     let f = fly(rule, 5).await;
-    assert_eq!(f.outcome, Outcome::WaitingForOperator { sysids: vec![1] });
+    waits_for_the_camera(&f.outcome);
     assert!(f.state.book.detections().is_empty());
     assert!(f.state.book.positive_cells().is_empty());
     let fault = f.events.iter().find_map(|e| match e {
@@ -471,7 +471,7 @@ async fn a_camera_that_goes_bad_mid_run_stops_the_visit_at_the_retake_limit() {
         }
     });
     let f = fly(rule, 7).await;
-    assert_eq!(f.outcome, Outcome::WaitingForOperator { sysids: vec![1] });
+    waits_for_the_camera(&f.outcome);
     let s = &f.state;
     let fault_cell = f
         .events
@@ -696,4 +696,25 @@ async fn pictures_queued_on_a_slow_payload_link_are_not_a_camera_fault() {
     let s = &f.state;
     assert!(s.explorer.as_ref().is_some_and(|e| e.is_finished()));
     assert_maps_the_strip(s, &f.world);
+}
+
+/// Vehicle 1 alone waits on the ground, for its camera to be fixed: not for a battery swap
+/// (a camera fault is not a battery swap, and the operator is told so).
+fn waits_for_the_camera(outcome: &Outcome) {
+    match outcome {
+        Outcome::WaitingForOperator { waiting } => {
+            assert_eq!(waiting.len(), 1, "{waiting:?}");
+            assert_eq!(waiting[0].0, 1);
+            assert!(
+                matches!(waiting[0].1, OperatorTask::CameraFix(_)),
+                "{waiting:?}"
+            );
+            let lines = fleetmap::app::kind::waiting_lines(waiting);
+            assert!(
+                lines[0].starts_with("vehicle 1 waits for its camera fixed"),
+                "{lines:?}"
+            );
+        }
+        other => panic!("expected vehicle 1 to wait for its camera, got {other:?}"),
+    }
 }

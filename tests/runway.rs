@@ -9,7 +9,7 @@
 
 use fleetmap::app::demo::{self, DemoConfig};
 use fleetmap::app::images;
-use fleetmap::app::kind::Outcome;
+use fleetmap::app::kind::{OperatorTask, Outcome};
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::store::{RunDir, RunMeta};
@@ -325,8 +325,8 @@ async fn the_mission_time_survives_a_resume() {
         before = Some(clock);
         match outcome {
             Outcome::Finished => break,
-            Outcome::WaitingForOperator { sysids } => {
-                assert_eq!(sysids, vec![1]);
+            Outcome::WaitingForOperator { waiting } => {
+                assert_eq!(waiting, vec![(1, OperatorTask::BatterySwap)]);
                 assert!(starts < 6, "more swaps than the strip needs");
                 // The crew swaps the battery (the simulator does it 20 s after landing).
                 tokio::time::sleep(Duration::from_secs(30)).await;

@@ -9,7 +9,7 @@
 //! (ten minutes with auto-resume), then the run ends saying what a person must fix.
 
 use fleetmap::app::images;
-use fleetmap::app::kind::Outcome;
+use fleetmap::app::kind::{OperatorTask, Outcome};
 use fleetmap::app::runway::report::{report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
@@ -228,7 +228,15 @@ async fn a_lone_drone_that_is_never_fixed_ends_the_run_saying_what_to_fix() {
     RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
     let t0 = tokio::time::Instant::now();
     let (lines, ended) = fly(&fleet, &dir, state, |_| false).await;
-    assert_eq!(ended, Some(Outcome::WaitingForOperator { sysids: vec![1] }));
+    match &ended {
+        Some(Outcome::WaitingForOperator { waiting }) => {
+            assert_eq!(waiting.len(), 1, "{waiting:?}");
+            assert_eq!(waiting[0].0, 1);
+            // what a person must fix, not a battery swap
+            assert!(matches!(waiting[0].1, OperatorTask::Fix(_)), "{waiting:?}");
+        }
+        other => panic!("expected vehicle 1 to wait for a fix, got {other:?}"),
+    }
     let waited = t0.elapsed();
     assert!(
         waited >= Duration::from_secs(600) && waited < Duration::from_secs(900),

@@ -28,11 +28,68 @@ pub enum Outcome {
     /// The mission is complete and every robot landed.
     Finished,
     /// Robots are on the ground waiting for the operator (runway mapping: battery swaps
-    /// without `auto_resume`): run `fleetmap resume` after the swaps.
+    /// without `auto_resume`, a faulty camera, a drone that cannot take off): run
+    /// `fleetmap resume` once each vehicle's task is done.
     WaitingForOperator {
-        /// The vehicles waiting.
-        sysids: Vec<u8>,
+        /// The vehicles waiting, in system-id order, each with what it waits for.
+        waiting: Vec<(u8, OperatorTask)>,
     },
+}
+
+impl Outcome {
+    /// The vehicles waiting for the operator (none when the run finished).
+    pub fn waiting_sysids(&self) -> Vec<u8> {
+        match self {
+            Outcome::Finished => Vec::new(),
+            Outcome::WaitingForOperator { waiting } => waiting.iter().map(|(s, _)| *s).collect(),
+        }
+    }
+}
+
+/// What a vehicle on the ground waits for a person to do before `fleetmap resume`: a camera
+/// fault is not a battery swap, and the operator is told which is which.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum OperatorTask {
+    /// It landed for a battery swap.
+    BatterySwap,
+    /// Its camera was declared faulty (why): fix the camera (a fresh battery does not).
+    CameraFix(String),
+    /// It is out of the run for what a person must fix (the fix, or the reason when no fix
+    /// is known): a drone that could not take off, arm or change mode.
+    Fix(String),
+}
+
+/// One line per task of the vehicles waiting for the operator, naming each vehicle:
+/// "vehicle(s) 1, 3 wait for a battery swap", "vehicle 2 waits for its camera fixed (…)".
+pub fn waiting_lines(waiting: &[(u8, OperatorTask)]) -> Vec<String> {
+    let mut lines: Vec<(OperatorTask, Vec<u8>)> = Vec::new();
+    for (sysid, task) in waiting {
+        match lines.iter_mut().find(|(t, _)| t == task) {
+            Some((_, ids)) => ids.push(*sysid),
+            None => lines.push((task.clone(), vec![*sysid])),
+        }
+    }
+    lines
+        .into_iter()
+        .map(|(task, ids)| {
+            let list: Vec<String> = ids.iter().map(u8::to_string).collect();
+            if ids.len() == 1 {
+                format!("vehicle {} waits for {task}", list[0])
+            } else {
+                format!("vehicles {} wait for {task}", list.join(", "))
+            }
+        })
+        .collect()
+}
+
+impl std::fmt::Display for OperatorTask {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            OperatorTask::BatterySwap => f.write_str("a battery swap"),
+            OperatorTask::CameraFix(why) => write!(f, "its camera fixed ({why})"),
+            OperatorTask::Fix(fix) => write!(f, "a fix: {fix}"),
+        }
+    }
 }
 
 /// What `fleetmap export` writes.

@@ -121,6 +121,8 @@ struct Shared {
     /// Drones whose autopilot has reported charging at least once (BATTERY_STATUS
     /// charge_state): only for those is "not charging" evidence of a missed charger.
     reports_charging: Arc<std::sync::Mutex<BTreeSet<u8>>>,
+    /// The run's image intake: which cameras are still sending pictures.
+    hub: ImageHub,
 }
 
 impl Shared {

@@ -525,6 +525,7 @@ pub async fn run(
         fleet: fleet.clone(),
         patience: opts.patience,
         reports_charging: Arc::new(std::sync::Mutex::new(BTreeSet::new())),
+        hub: hub.clone(),
     });
     shared
         .commit(|_| Ok(((), vec![BanditEvent::Started { resumed }])))

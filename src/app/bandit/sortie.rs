@@ -548,26 +548,7 @@ impl Runner {
         while let Some(r) = pilots.join_next().await {
             r.map_err(RunnerError::task("drone task"))??;
         }
-        // Images still on their way (the last captures): wait until every visit has its B
-        // images, or nothing new arrived for a second (lost images stay lost).
-        let mut last = self
-            .shared
-            .read(|s| (s.measurements, s.ignored_images))
-            .await;
-        for _ in 0..10 {
-            if self.shared.read(|s| s.captures_left()).await == 0 {
-                break;
-            }
-            tokio::time::sleep(self.shared.patience.secs(1.0)).await;
-            let now = self
-                .shared
-                .read(|s| (s.measurements, s.ignored_images))
-                .await;
-            if now == last {
-                break;
-            }
-            last = now;
-        }
+        self.wait_for_pictures(&cycle).await;
         self.warn_short_visits().await;
         // The rendezvous: where is everyone?
         let snap = self.fleet().snapshot().vehicles;
@@ -611,6 +592,59 @@ impl Runner {
             )));
         }
         Ok(())
+    }
+
+    /// Wait for the pictures still on their way after the drones landed, while they flow: until
+    /// every capture visit has its B images, or no camera of the sortie's drones has sent
+    /// anything of a picture for [`PICTURE_STALL_S`] of the fleet's clock (lost pictures
+    /// stay lost), or [`PICTURE_WAIT_MAX_S`] in all. A camera slower than the samples asked
+    /// (whole pictures over a radio or a slow serial port: tens of seconds each) delivers
+    /// them after the landing; finishing the sortie before they arrive would drop them (they
+    /// no longer match a flying sortie) and, epoch after epoch, end the run with "no
+    /// measurement" while pictures were arriving. The operator is told what is awaited.
+    pub(super) async fn wait_for_pictures(&self, cycle: &fleetmap_core::planner::sortie::CycleRun) {
+        let drones: Vec<u8> = cycle
+            .drones
+            .iter()
+            .filter(|d| d.flies)
+            .map(|d| d.sysid)
+            .collect();
+        let clock = self.fleet().clock();
+        let start = clock.now();
+        let stall = Duration::from_secs_f64(PICTURE_STALL_S);
+        let mut told = None::<fleetmap_core::time::Time>;
+        loop {
+            let left = self.shared.read(|s| s.captures_left()).await;
+            if left == 0 {
+                return;
+            }
+            let now = clock.now();
+            let flowing: Vec<u8> = drones
+                .iter()
+                .copied()
+                .filter(|&d| {
+                    self.shared
+                        .hub
+                        .last_picture_traffic(d)
+                        .is_some_and(|t| now.saturating_since(t) < stall)
+                })
+                .collect();
+            let waited = now.saturating_since(start);
+            if flowing.is_empty() || waited.as_secs_f64() >= PICTURE_WAIT_MAX_S {
+                return;
+            }
+            if told.is_none_or(|t| now.saturating_since(t) >= Duration::from_secs(60)) {
+                told = Some(now);
+                let list: Vec<String> = flowing.iter().map(u8::to_string).collect();
+                self.say(Progress::info(format!(
+                    "{left} capture visit(s) short of their images after the landing: waiting \
+                     while drone(s) {} still send pictures ({:.0} s so far)",
+                    list.join(", "),
+                    waited.as_secs_f64()
+                )));
+            }
+            tokio::time::sleep(self.shared.patience.secs(1.0)).await;
+        }
     }
 
     /// One warning per drone whose capture visits of the sortie ended short of their B
@@ -706,6 +740,15 @@ impl Runner {
         Ok(())
     }
 }
+
+/// A camera that sent nothing of a picture for this long (seconds of the fleet's clock) has
+/// nothing more on its way: ten seconds cover an image receiver's requests for the missing
+/// packets of a picture and the camera's answer over a lossy radio.
+pub(super) const PICTURE_STALL_S: f64 = 10.0;
+
+/// The longest a sortie waits for pictures still arriving after its drones landed, seconds
+/// of the fleet's clock (30 minutes: four cells of 30 pictures of 55 kB at 5 kB/s take 22).
+pub(super) const PICTURE_WAIT_MAX_S: f64 = 1800.0;
 
 /// `op`, tried up to three times while it fails for want of an answer.
 pub(super) async fn again<F, Fut>(mut op: F) -> Result<(), crate::fleet::FleetError>

@@ -7,7 +7,9 @@ use crate::fleet::{FleetHandle, Incoming};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::image_transfer::{FileUrlError, ReceiverConfig};
 use fleetmap_io::files::read_file_url;
+use fleetmap_core::time::Time;
 use mavlink::dialects::ardupilotmega::MavMessage;
+use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::{broadcast, mpsc, oneshot, watch};
@@ -30,6 +32,9 @@ pub struct ImageHub {
     accept: Arc<watch::Sender<Option<u32>>>,
     runway: Arc<watch::Sender<Option<RunwayAccept>>>,
     asks: mpsc::UnboundedSender<Ask>,
+    /// When each vehicle's camera last sent anything of a picture (a capture's record, its
+    /// on-board result, or image-transmission data), on the fleet's clock.
+    traffic: Arc<std::sync::Mutex<BTreeMap<u8, Time>>>,
 }
 
 impl ImageHub {
@@ -50,6 +55,14 @@ impl ImageHub {
     /// ask for the picture of every runway result.
     pub fn accept_runway(&self, accept: Option<RunwayAccept>) {
         self.runway.send_replace(accept);
+    }
+
+    /// When vehicle `sysid`'s camera last sent anything of a picture (CAMERA_IMAGE_CAPTURED,
+    /// an on-board result, DATA_TRANSMISSION_HANDSHAKE or ENCAPSULATED_DATA), on the fleet's
+    /// clock: a runner waits for pictures still on their way while this moves (a camera
+    /// slower than the samples asked still delivers them after the drone landed).
+    pub fn last_picture_traffic(&self, sysid: u8) -> Option<Time> {
+        self.traffic.lock().ok()?.get(&sysid).copied()
     }
 
     /// Ask vehicle `sysid`'s camera for the picture of `size` bytes it took at
@@ -88,11 +101,13 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
     let (accept, mut accepted) = watch::channel(None);
     let (runway, mut runway_accepted) = watch::channel(None);
     let (asks, mut asked) = mpsc::unbounded_channel::<Ask>();
+    let traffic = Arc::new(std::sync::Mutex::new(BTreeMap::new()));
     let hub = ImageHub {
         tx: tx.clone(),
         accept: Arc::new(accept),
         runway: Arc::new(runway),
         asks,
+        traffic: traffic.clone(),
     };
     let mut frames = fleet.subscribe();
     let fleet = fleet.clone();
@@ -110,10 +125,16 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
                 r = frames.recv() => match r {
                     Ok(Incoming { frame, .. }) => {
                         if let Ok(msg) = &frame.message {
+                            let now = fleet.clock().now();
+                            if is_picture_traffic(msg)
+                                && let Ok(mut t) = traffic.lock()
+                            {
+                                t.insert(frame.sysid(), now);
+                            }
                             intake.handle_message(
                                 Endpoint::new(frame.sysid(), frame.compid()),
                                 msg,
-                                fleet.clock().now(),
+                                now,
                             );
                         }
                     }
@@ -188,6 +209,18 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
         }
     });
     hub
+}
+
+/// Whether `msg` carries part of a picture or its record: what
+/// [`ImageHub::last_picture_traffic`] follows.
+fn is_picture_traffic(msg: &MavMessage) -> bool {
+    matches!(
+        msg,
+        MavMessage::CAMERA_IMAGE_CAPTURED(_)
+            | MavMessage::DATA_TRANSMISSION_HANDSHAKE(_)
+            | MavMessage::ENCAPSULATED_DATA(_)
+            | MavMessage::DEBUG_FLOAT_ARRAY(_)
+    )
 }
 
 /// The image intake for a run: its receivers wait 300 ms of *wall* time for missing packets

@@ -418,7 +418,8 @@ struct Pilot {
 
 enum PilotEnd {
     Done,
-    WaitingForOperator,
+    /// On the ground until a person does the task.
+    WaitingForOperator(crate::app::kind::OperatorTask),
 }
 
 #[cfg(test)]

@@ -4,6 +4,7 @@
 
 use super::*;
 use crate::app::error::RunnerResult;
+use crate::app::kind::OperatorTask;
 use fleetmap_core::explore::reach::Reach;
 
 /// Seconds a drone is counted over a cell per picture still to take, when the reach rule
@@ -706,7 +707,9 @@ impl Pilot {
                         ))
                         .about(sysid),
                     );
-                    return Ok(Some(PilotEnd::WaitingForOperator));
+                    return Ok(Some(PilotEnd::WaitingForOperator(OperatorTask::Fix(
+                        g.fix.clone().unwrap_or_else(|| g.reason.clone()),
+                    ))));
                 }
                 if self
                     .shared
@@ -748,7 +751,11 @@ impl Pilot {
                 return Ok(None);
             }
             if !auto && !self.shared.interactive {
-                return Ok(Some(PilotEnd::WaitingForOperator));
+                let task = match self.camera_fault_now().await {
+                    Some(why) => OperatorTask::CameraFix(why),
+                    None => OperatorTask::BatterySwap,
+                };
+                return Ok(Some(PilotEnd::WaitingForOperator(task)));
             }
             if self
                 .shared

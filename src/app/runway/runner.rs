@@ -226,7 +226,7 @@ pub async fn run(
     for (sysid, r) in ended {
         match r {
             Ok(PilotEnd::Done) => {}
-            Ok(PilotEnd::WaitingForOperator) => waiting.push(sysid),
+            Ok(PilotEnd::WaitingForOperator(task)) => waiting.push((sysid, task)),
             Err(e) => {
                 if first_err.is_none() {
                     first_err = Some(e);
@@ -256,6 +256,6 @@ pub async fn run(
     if waiting.is_empty() {
         Ok(Outcome::Finished)
     } else {
-        Ok(Outcome::WaitingForOperator { sysids: waiting })
+        Ok(Outcome::WaitingForOperator { waiting })
     }
 }

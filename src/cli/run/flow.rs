@@ -62,14 +62,11 @@ pub(super) async fn fly<K: RunKind>(
                 println!("`fleetmap report {}` for the results", path.display());
                 Ok(ExitCode::SUCCESS)
             }
-            Outcome::WaitingForOperator { sysids } => {
-                let list: Vec<String> = sysids.iter().map(|s| s.to_string()).collect();
-                println!(
-                    "vehicle(s) {} wait on the ground for the operator (a battery swap, or what \
-                     the lines above say to fix): then `fleetmap resume {}`",
-                    list.join(", "),
-                    path.display()
-                );
+            Outcome::WaitingForOperator { waiting } => {
+                for line in crate::app::kind::waiting_lines(&waiting) {
+                    println!("{line}, on the ground");
+                }
+                println!("then `fleetmap resume {}`", path.display());
                 Ok(ExitCode::from(3))
             }
         };

@@ -183,6 +183,8 @@ fn a_camera_fault_is_saved_and_cleared_by_the_operator() {
     back.on_landed_for_swap(1, 0, t).unwrap();
     back.on_swapped(1, t).unwrap();
     assert_eq!(back.robot(1).unwrap().camera_fault, None);
+    // the camera was fixed: no battery swap is counted
+    assert_eq!(back.robot(1).unwrap().battery_swaps, 0);
     // Runs saved before the field existed load without it.
     let old = json.replace(",\"camera_fault\":\"pictures 300 m from their cell\"", "");
     assert_ne!(old, json);

@@ -119,12 +119,14 @@ impl MappingState {
         ) {
             return Ok(());
         }
-        // A drone grounded (it could not take off) had no battery swapped.
-        if r.grounded.take().is_none() {
+        // A drone grounded (it could not take off) had no battery swapped, nor one whose
+        // camera was fixed (a camera fault is not a battery swap).
+        let grounded = r.grounded.take().is_some();
+        let camera = r.camera_fault.take().is_some();
+        if !grounded && !camera {
             r.battery_swaps += 1;
         }
         r.reboots_at_landing = None;
-        r.camera_fault = None;
         let before = r.status_before_swap.take().unwrap_or(RobotStatus::Idle);
         r.status = match before {
             RobotStatus::Sweeping | RobotStatus::Holding | RobotStatus::Confirming => {
