@@ -2,6 +2,7 @@
 //! [`fleetmap_core::planner::sortie::Sidelined`]): taking them back once their telemetry says
 //! they are ready, and waiting for them when the run cannot go on without them.
 
+use super::pilot::dock;
 use super::*;
 use crate::app::error::{RunnerError, RunnerResult};
 
@@ -28,13 +29,105 @@ impl Runner {
         v.alive && !v.booting && (v.armed || v.arm_blockers(now).is_empty()) && on_station
     }
 
+    /// A drone out that stands off every station (its autopilot's failsafe landed it where it
+    /// was, [`DronePilot::taken_home`]) and is ready to fly again with the charge a sortie
+    /// needs (its battery swapped): fly it to the nearest station with a free charger and land
+    /// it there, so that it can be planned again (every sensing cycle starts on a station,
+    /// 9d). Returns whether it now stands on a station, ready.
+    pub(super) async fn fly_to_a_station(&self, sysid: u8) -> RunnerResult<bool> {
+        let Some(v) = self.fleet().vehicle(sysid) else {
+            return Ok(false);
+        };
+        let now = self.fleet().clock().now();
+        let (off_station, need, alt, stations, capacity) = self
+            .shared
+            .read(|s| {
+                let i = s.drones.iter().position(|m| m.sysid == sysid);
+                let need = charge_needed_pct(s, observed_sortie_s(s));
+                let alt = i.map_or(10.0, |i| s.drones[i].altitude_m);
+                // (station, its cell, drones on it)
+                let stations: Vec<(u8, Cell, usize)> = s
+                    .stations
+                    .iter()
+                    .zip(&s.config.stations)
+                    .filter(|(m, _)| !s.is_out(m.sysid))
+                    .map(|(m, &c)| {
+                        (m.sysid, c, s.config.drones.iter().filter(|&&d| d == c).count())
+                    })
+                    .collect();
+                let off = i.is_some_and(|i| {
+                    s.config
+                        .drones
+                        .get(i)
+                        .is_some_and(|c| !s.config.stations.contains(c))
+                });
+                (off, need, alt, stations, s.params.capacity)
+            })
+            .await;
+        let ready = v.alive
+            && !v.booting
+            && !v.armed
+            && v.arm_blockers(now).is_empty()
+            && v.flavour.flies()
+            && v.battery_pct.is_some_and(|p| f64::from(p) >= need);
+        if !ready || !off_station {
+            return Ok(false);
+        }
+        let Some(p) = v.position else {
+            return Ok(false);
+        };
+        let Some((station, cell, taken)) = stations
+            .iter()
+            .filter(|(_, _, n)| capacity.is_none_or(|c| *n < c))
+            .filter_map(|&(st, c, n)| {
+                let q = self.fleet().vehicle(st)?.position?;
+                Some((local::distance(p.lat, p.lon, q.lat, q.lon), (st, c, n)))
+            })
+            .min_by(|a, b| a.0.total_cmp(&b.0))
+            .map(|(_, x)| x)
+        else {
+            return Ok(false);
+        };
+        self.say(
+            Progress::notice(format!(
+                "drone {sysid}: ready again ({} %), off every station: flying it to station \
+                 {station}",
+                v.battery_pct.unwrap_or(0)
+            ))
+            .about(sysid),
+        );
+        let slot = (taken, capacity.unwrap_or(taken + 1).max(taken + 1));
+        let flown = async {
+            flight::ensure_airborne(self.fleet(), sysid, alt as f32, self.shared.patience).await?;
+            dock(&self.shared, sysid, station, alt, slot).await
+        }
+        .await;
+        if let Err(e) = flown {
+            self.say(
+                Progress::warning(format!(
+                    "drone {sysid}: flying it to station {station}: {}",
+                    crate::app::error::chain(&e)
+                ))
+                .about(sysid),
+            );
+            return Ok(false);
+        }
+        self.shared
+            .commit(|s| {
+                s.relocate_drone(sysid, cell)?;
+                Ok(((), Vec::new()))
+            })
+            .await?;
+        Ok(self.ready_again(sysid).await)
+    }
+
     /// Take back the members out whose wait is over and that are ready again (journalled,
     /// told); returns how many.
     pub(super) async fn members_back(&self) -> RunnerResult<usize> {
         let eligible = self.shared.read(|s| s.eligible()).await;
         let mut back = 0;
         for sysid in eligible {
-            if !self.ready_again(sysid).await {
+            if !self.ready_again(sysid).await && !self.fly_to_a_station(sysid).await? {
                 continue;
             }
             let was = self

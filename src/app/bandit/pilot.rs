@@ -51,6 +51,9 @@ impl DronePilot {
                     .commit(|st| Ok((st.on_drone_progress(sysid, &done)?, Vec::new())))
                     .await?;
             }
+            if taken_over(&v) {
+                return self.taken_home(step, warning.as_deref()).await;
+            }
             if complete && flight::airborne(&v) {
                 break;
             }
@@ -60,15 +63,9 @@ impl DronePilot {
                     return self.landed().await;
                 }
                 if seen_active {
-                    return Err(RunnerError::check(format!(
-                        "drone {sysid} is on the ground before the end of its mission (mode {}, \
-                         step {step}, battery {}, the autopilot's last warning: {})",
-                        v.mode,
-                        v.battery_pct
-                            .map(|p| format!("{p} %"))
-                            .unwrap_or_else(|| "?".into()),
-                        warning.as_deref().unwrap_or("none")
-                    )));
+                    // Down before the end of its mission (a failsafe LAND, a crash, a
+                    // disarm on the ground): out of the run, the others go on.
+                    return self.taken_home(step, warning.as_deref()).await;
                 }
             }
             if self.shared.fleet.clock().now() > self.deadline {
@@ -92,6 +89,11 @@ impl DronePilot {
                 .await;
             if arrived {
                 break;
+            }
+            if let Some(v) = self.fleet().vehicle(sysid)
+                && (taken_over(&v) || (v.on_ground() && !v.armed))
+            {
+                return self.taken_home(step, warning.as_deref()).await;
             }
             if !told {
                 self.shared.say(
@@ -127,6 +129,78 @@ impl DronePilot {
             .await;
         dock(&self.shared, sysid, station, alt, slot).await?;
         self.landed().await
+    }
+
+    /// The drone's autopilot took it out of its mission (a battery or link failsafe: RTL or
+    /// LAND that the GCS did not ask for), or it came down before the end of its mission:
+    /// the operator is told why, it is followed until it has landed where its autopilot
+    /// takes it, and it goes out of the run ([`ClassificationState::sideline`]) — the
+    /// measurements it made count, the visits it did not fly are planned again for the
+    /// others, and it rejoins once ready again (a fresh battery: the runner flies it to a
+    /// station first, [`Runner::members_back`]).
+    pub(super) async fn taken_home(&self, step: usize, warning: Option<&str>) -> RunnerResult<()> {
+        let sysid = self.sysid;
+        let v = self
+            .fleet()
+            .vehicle(sysid)
+            .ok_or(crate::fleet::FleetError::NoVehicle { sysid })?;
+        let battery = v
+            .battery_pct
+            .map(|p| format!("{p} %"))
+            .unwrap_or_else(|| "?".into());
+        let reason = format!(
+            "its autopilot took it out of its mission at step {step} (mode {}, battery {battery}, \
+             its last warning: {})",
+            v.mode,
+            warning.unwrap_or("none")
+        );
+        self.shared.say(
+            Progress::warning(format!(
+                "drone {sysid}: {reason}: its measurements count, the visits it has not flown \
+                 are planned again for the others; it lands where its autopilot takes it"
+            ))
+            .about(sysid),
+        );
+        let clock = self.fleet().clock();
+        let wait = clock.wall_until(self.deadline);
+        if self
+            .fleet()
+            .wait_until(sysid, wait, |v| v.on_ground() && !v.armed)
+            .await
+            .is_err()
+        {
+            return Err(RunnerError::Overdue(format!(
+                "drone {sysid}: taken out of its mission by its autopilot ({}), it has not \
+                 landed by the end of the sortie",
+                v.mode
+            )));
+        }
+        let fix = format!(
+            "swap its battery if it is low (battery {battery}) and check why its autopilot \
+             took over; once it is ready to arm, fleetmap flies it to the nearest station and \
+             it rejoins"
+        );
+        let epoch = self.shared.read(|s| s.bandit.epoch).await;
+        self.shared
+            .commit(|s| {
+                s.on_landed(sysid)?;
+                s.sideline(sysid, reason.clone(), Some(fix.clone()))?;
+                Ok((
+                    (),
+                    vec![BanditEvent::VehicleOut {
+                        sysid,
+                        role: Role::Drone,
+                        reason: reason.clone(),
+                        fix: Some(fix.clone()),
+                        epoch,
+                    }],
+                ))
+            })
+            .await?;
+        self.shared.say(
+            Progress::notice(format!("drone {sysid}: landed, out of the run: {fix}")).about(sysid),
+        );
+        Ok(())
     }
 
     pub(super) async fn landed(&self) -> RunnerResult<()> {
@@ -171,6 +245,15 @@ impl DronePilot {
         }
         Ok(())
     }
+}
+
+/// Whether the drone's autopilot has taken it over in flight: a return or a landing the GCS
+/// does not ask for while a drone flies its mission or waits for its station (the GCS lands
+/// it with LAND only in [`land_on`], after this pilot's watch).
+fn taken_over(v: &VehicleSnapshot) -> bool {
+    flight::airborne(v)
+        && v.flight_mode()
+            .is_some_and(|m| m.is_failsafe_return_or_land())
 }
 
 /// Land drone `sysid` on charger slot `slot` = (index, of how many) of station `station`,

@@ -6,8 +6,10 @@ use super::*;
 use crate::app::error::{RunnerError, RunnerResult};
 
 impl Runner {
-    /// Wait until every drone that flies the sortie has the charge it needs.
-    pub(super) async fn wait_for_charge(&self) -> RunnerResult<()> {
+    /// Wait until every drone that flies the sortie has the charge it needs. Returns the
+    /// drones that do not charge (their charge has not risen for two minutes): they cannot
+    /// start, and the sortie is planned again without them ([`Self::drop_start`]).
+    pub(super) async fn wait_for_charge(&self) -> RunnerResult<Vec<(u8, RunnerError)>> {
         let (cycle, needs) = self
             .shared
             .read(|s| {
@@ -27,10 +29,11 @@ impl Runner {
                 (c, needs)
             })
             .await;
+        let mut flat = Vec::new();
         if cycle.is_none() {
-            return Ok(());
+            return Ok(flat);
         }
-        for (sysid, need) in needs {
+        'drones: for (sysid, need) in needs {
             // A drone already in the air (a sortie dropped for a vehicle that could not
             // start left it hovering over its station) flies on what it has.
             if self
@@ -71,16 +74,21 @@ impl Runner {
                             since = self.fleet().clock().now();
                         } else if self.fleet().clock().now().saturating_since(since) > stall {
                             let wh = self.nearest_station(sysid).await;
-                            return Err(RunnerError::check(format!(
-                                "drone {sysid} is not charging (stuck at {now_pct} %, the sortie \
-                                 needs {need:.0} %): is it on its station's charger?{wh}"
-                            )));
+                            flat.push((
+                                sysid,
+                                RunnerError::check(format!(
+                                    "drone {sysid} is not charging (stuck at {now_pct} %, the \
+                                     sortie needs {need:.0} %): put it on its station's charger \
+                                     or swap its battery{wh}"
+                                )),
+                            ));
+                            continue 'drones;
                         }
                     }
                 }
             }
         }
-        Ok(())
+        Ok(flat)
     }
 
     /// Wait while the operator has paused the run (before a sortie starts).
@@ -125,18 +133,21 @@ impl Runner {
     ///    over its station and lands at the rendezvous (its visits are not flown).
     pub(super) async fn start(&self) -> RunnerResult<()> {
         // A pause that came while the drones charged holds the sortie too.
-        loop {
+        let flat = loop {
             self.wait_unpaused().await;
-            self.wait_for_charge().await?;
+            let flat = self.wait_for_charge().await?;
             if !self.paused() {
-                break;
+                break flat;
             }
-        }
+        };
         let (p, cycle) = self
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
             .await;
         let cycle = cycle.context("no sortie is verified")?;
+        if !flat.is_empty() {
+            return self.drop_start(p, cycle.k, flat).await;
+        }
         let patience = self.shared.patience;
         let altitudes: BTreeMap<u8, f64> = self
             .shared
@@ -459,6 +470,9 @@ impl Runner {
         let mut snaps = self.fleet().watch();
         let mut seen_active: BTreeSet<u8> = BTreeSet::new();
         let mut held: BTreeSet<u8> = BTreeSet::new();
+        // Where each driving station last made progress, and when (fleet clock).
+        let mut moved: BTreeMap<u8, (crate::fleet::GeoPoint, fleetmap_core::time::Time)> =
+            BTreeMap::new();
         let mut tick = tokio::time::interval(Duration::from_millis(250));
         loop {
             tokio::select! {
@@ -506,6 +520,17 @@ impl Runner {
                             })
                     })
                     .await;
+                let arrived_now = self
+                    .shared
+                    .read(|s| {
+                        s.cycle()
+                            .and_then(|c| c.stations.iter().find(|x| x.sysid == sysid))
+                            .is_some_and(|x| x.arrived)
+                    })
+                    .await;
+                if !changed && !arrived_now && !complete && active {
+                    self.watch_station(sysid, v, &mut moved).await?;
+                }
                 if changed {
                     let arrived = self
                         .shared
@@ -591,6 +616,71 @@ impl Runner {
                 stats.unclassified
             )));
         }
+        Ok(())
+    }
+
+    /// Follow a station driving to its rendezvous: one that has not moved
+    /// [`STATION_PROGRESS_M`] in [`STATION_STUCK_S`] of the fleet's clock while its mission
+    /// runs (a rover stuck in mud, on a kerb, with a wheel failed) is stuck — it is stopped
+    /// (HOLD), its leg ends where it stands, the drones waiting for it land on it there rather
+    /// than hover until their batteries run out, it goes out of the run for a sortie, and the
+    /// rest of the epoch is planned with it held on its cell
+    /// ([`ClassificationState::on_station_stuck`]). The operator is told.
+    pub(super) async fn watch_station(
+        &self,
+        sysid: u8,
+        v: &VehicleSnapshot,
+        moved: &mut BTreeMap<u8, (crate::fleet::GeoPoint, fleetmap_core::time::Time)>,
+    ) -> RunnerResult<()> {
+        let Some(p) = v.position else {
+            return Ok(());
+        };
+        let now = self.fleet().clock().now();
+        let (from, since) = *moved.entry(sysid).or_insert((p, now));
+        if local::distance(from.lat, from.lon, p.lat, p.lon) >= STATION_PROGRESS_M {
+            moved.insert(sysid, (p, now));
+            return Ok(());
+        }
+        let still = now.saturating_since(since).as_secs_f64();
+        if still < STATION_STUCK_S {
+            return Ok(());
+        }
+        moved.remove(&sysid);
+        let reason = format!(
+            "stuck on its way to the rendezvous: moved less than {STATION_PROGRESS_M:.0} m in \
+             {still:.0} s with its mission running (mode {}, at item {})",
+            v.mode,
+            v.mission_current
+                .map(|i| i.to_string())
+                .unwrap_or_else(|| "?".into())
+        );
+        if let Err(e) = flight::hold_here(self.fleet(), sysid).await {
+            tracing::warn!("station {sysid}: stopping it: {e}");
+        }
+        let epoch = self.shared.read(|s| s.bandit.epoch).await;
+        self.shared
+            .commit(|s| {
+                s.on_station_stuck(sysid, reason.clone())?;
+                let fix = s.out.get(&sysid).and_then(|o| o.fix.clone());
+                Ok((
+                    (),
+                    vec![BanditEvent::VehicleOut {
+                        sysid,
+                        role: Role::Station,
+                        reason: reason.clone(),
+                        fix,
+                        epoch,
+                    }],
+                ))
+            })
+            .await?;
+        self.say(
+            Progress::warning(format!(
+                "station {sysid}: {reason}. Its drones land on it where it stands; the rest of \
+                 the epoch is planned with it held there, and it is tried again after a sortie"
+            ))
+            .about(sysid),
+        );
         Ok(())
     }
 
@@ -740,6 +830,15 @@ impl Runner {
         Ok(())
     }
 }
+
+/// A driving station must move at least this far, metres, every [`STATION_STUCK_S`]
+/// ([`Runner::watch_station`]).
+pub(super) const STATION_PROGRESS_M: f64 = 1.0;
+
+/// A station that has not moved [`STATION_PROGRESS_M`] in this long (seconds of the fleet's
+/// clock) with its mission running is stuck: a station mission is waypoints only (no waits),
+/// and a rover at the paper's speeds covers several metres a second.
+pub(super) const STATION_STUCK_S: f64 = 45.0;
 
 /// A camera that sent nothing of a picture for this long (seconds of the fleet's clock) has
 /// nothing more on its way: ten seconds cover an image receiver's requests for the missing

@@ -128,6 +128,74 @@ impl ClassificationState {
         self.abandon_cycle(actual)
     }
 
+    /// Member `sysid` goes out during a sortie that goes on without it (`reason`; `fix`: what
+    /// a person must do, if anything): a drone its autopilot's failsafe took home, a station
+    /// stuck on its way. It is eligible again at once ([`ClassificationState::eligible`]):
+    /// the shell takes it back when its telemetry says it is ready. The sortie's record is
+    /// left as it is; the caller ends the member's part of it ([`Self::on_landed`],
+    /// [`Self::on_station_stuck`]).
+    pub fn sideline(
+        &mut self,
+        sysid: u8,
+        reason: String,
+        fix: Option<String>,
+    ) -> Result<(), SortieError> {
+        let role = self
+            .role_of(sysid)
+            .ok_or(SortieError::UnknownVehicle(sysid))?;
+        self.out.insert(
+            sysid,
+            Sidelined {
+                role,
+                reason,
+                fix,
+                epoch: self.bandit.epoch,
+                wait_sorties: 0,
+            },
+        );
+        Ok(())
+    }
+
+    /// Station `sysid` is stuck on its way to the rendezvous (`reason`): it goes out
+    /// ([`Self::sideline`]) and its leg of the sortie ends where it stands — the drones that
+    /// were to land on it land on it there (its reported position), and the rest of the
+    /// epoch is planned with it held on the cell it stands on.
+    pub fn on_station_stuck(&mut self, sysid: u8, reason: String) -> Result<(), SortieError> {
+        let fix = format!("free station {sysid} (it made no progress toward its rendezvous)");
+        let leg = self
+            .cycle_mut()?
+            .stations
+            .iter_mut()
+            .find(|s| s.sysid == sysid)
+            .ok_or(SortieError::UnknownVehicle(sysid))?;
+        leg.arrived = true;
+        self.sideline(sysid, reason, Some(fix))?;
+        // One sortie out at least: a rover that is still stuck would be found so again.
+        if let Some(o) = self.out.get_mut(&sysid) {
+            o.wait_sorties = 1;
+        }
+        Ok(())
+    }
+
+    /// Drone `sysid`, out, now stands on the station cell `cell` (the shell flew it there):
+    /// the team configuration says so, and the drone may be planned from it.
+    pub fn relocate_drone(&mut self, sysid: u8, cell: Cell) -> Result<(), SortieError> {
+        let i = self
+            .drones
+            .iter()
+            .position(|m| m.sysid == sysid)
+            .ok_or(SortieError::UnknownVehicle(sysid))?;
+        if !self.config.stations.contains(&cell) {
+            return Err(SortieError::Plan(format!(
+                "drone {sysid} cannot be placed on cell {cell}: no station is there"
+            )));
+        }
+        if let Some(c) = self.config.drones.get_mut(i) {
+            *c = cell;
+        }
+        Ok(())
+    }
+
     /// Members out whose wait is over: the shell tries them (their telemetry says whether
     /// they are ready) and takes them back with [`ClassificationState::reinstate`].
     pub fn eligible(&self) -> Vec<u8> {

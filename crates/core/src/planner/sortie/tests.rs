@@ -466,3 +466,81 @@ fn a_station_that_cannot_drive_is_held_and_retries_back_off() {
     s.on_started().unwrap();
     assert_eq!(s.start_failures.get(&5), Some(&6), "station 5 did not move");
 }
+
+/// A drone whose autopilot's failsafe took it home mid-sortie goes out without dropping the
+/// sortie: the others finish it, the sortie ends with the drone off every station (allowed
+/// for a drone out), the rest is planned without it, and once flown back onto a station
+/// it is taken back and planned again. What is out survives a save.
+#[test]
+fn a_drone_taken_home_by_its_failsafe_is_out_and_rejoins_from_a_station() {
+    let mut s = state(HARDWARE, None);
+    s.begin_epoch().unwrap();
+    plan(&mut s);
+    s.prepare_cycle().unwrap();
+    s.on_verified().unwrap();
+    s.on_started().unwrap();
+    s.sideline(
+        2,
+        "battery failsafe (RTL at 18 %)".into(),
+        Some("swap its battery".into()),
+    )
+    .unwrap();
+    s.on_landed(2).unwrap();
+    assert!(s.is_out(2) && s.eligible() == vec![2]);
+    assert_eq!(s.active_drones(), vec![1, 3, 4]);
+    let back: ClassificationState =
+        serde_json::from_str(&serde_json::to_string(&s).unwrap()).unwrap();
+    assert_eq!(back.out, s.out);
+    // It landed where its autopilot took it: a cell with no station.
+    let mut actual = s.cycle().unwrap().planned_end();
+    let off = (0..6)
+        .flat_map(|r| (0..6).map(move |c| Cell::new(r, c)))
+        .find(|c| !actual.stations.contains(c) && !s.layout.obstacles.contains(c))
+        .unwrap();
+    actual.drones[1] = off;
+    s.finish_cycle(actual.clone(), false).unwrap();
+    assert_eq!(s.config.drones[1], off);
+    // Planned without it, from where the others are.
+    assert_eq!(s.instance(s.params.k_max).unwrap().nd(), 3);
+    // Flown back onto a station, it is taken back and planned again.
+    assert!(s.relocate_drone(2, off).is_err(), "no station there");
+    let station = s.config.stations[0];
+    s.relocate_drone(2, station).unwrap();
+    assert!(s.reinstate(2));
+    assert_eq!(s.instance(s.params.k_max).unwrap().nd(), 4);
+}
+
+/// A station stuck on its way to the rendezvous ends its leg where it stands and goes out
+/// for one sortie at least: the sortie can complete (the drones land on it there), the rest
+/// is planned with it held on its cell.
+#[test]
+fn a_stuck_station_ends_its_leg_where_it_stands_and_is_held() {
+    let mut s = state(HARDWARE, None);
+    s.begin_epoch().unwrap();
+    plan(&mut s);
+    s.prepare_cycle().unwrap();
+    s.on_verified().unwrap();
+    s.on_started().unwrap();
+    let c = s.cycle().unwrap().clone();
+    let st = c.stations[0].sysid;
+    assert!(s.on_station_stuck(99, "stuck".into()).is_err());
+    s.on_station_stuck(st, "no progress for 60 s".into()).unwrap();
+    assert!(s.cycle().unwrap().stations[0].arrived);
+    assert!(s.is_out(st) && s.eligible().is_empty(), "out for a sortie");
+    for d in &c.drones {
+        s.on_landed(d.sysid).unwrap();
+    }
+    // It stands where it started (a road cell): the drones that were to land on it did.
+    let mut actual = c.planned_end();
+    let first = c.stations[0].path[0];
+    for (i, d) in actual.drones.clone().iter().enumerate() {
+        if *d == actual.stations[0] {
+            actual.drones[i] = first;
+        }
+    }
+    actual.stations[0] = first;
+    assert_ne!(actual.stations[1], first);
+    s.finish_cycle(actual, false).unwrap();
+    assert_eq!(s.eligible(), vec![st], "tried again after a sortie");
+    assert!(s.pins(&s.config).iter().any(|p| p.station == 0));
+}
