@@ -87,6 +87,13 @@ impl Battery {
         self.current_a = -rate * 3.6;
     }
 
+    /// The charge left drops to `fraction` (0–1) of the capacity at once; a battery with
+    /// less left keeps what it has.
+    pub(crate) fn drop_to(&mut self, fraction: f64) {
+        let consumed = (1.0 - fraction.clamp(0.0, 1.0)) * self.config.capacity_mah;
+        self.consumed_mah = self.consumed_mah.max(consumed);
+    }
+
     /// Fraction of charge left, 0–1.
     pub fn fraction(&self) -> f64 {
         (1.0 - self.consumed_mah / self.config.capacity_mah).clamp(0.0, 1.0)

@@ -25,6 +25,7 @@
 //! mobile charging stations).
 
 use crate::camera::CapturedImage;
+use crate::fault::{FaultPlan, FaultSpecError, ScheduledFault};
 use crate::flavour::{Flavour, VehicleKind};
 use crate::vehicle::{DT, Px4Link, SimVehicle, VehicleConfig, VehicleEvent};
 use fleetmap_core::time::Time;
@@ -57,6 +58,9 @@ pub enum SimError {
     /// A link fault setting is invalid.
     #[error(transparent)]
     Faults(#[from] FaultError),
+    /// A scheduled fault names a vehicle (or a camera) the simulation does not have.
+    #[error(transparent)]
+    Fault(#[from] FaultSpecError),
     /// Two vehicles share a system id.
     #[error("system id {0} is used twice")]
     DuplicateSysid(u8),
@@ -142,6 +146,9 @@ pub struct SimConfig {
     /// budget, buffers and loss counted in simulated time ([`RadioPair`]); the link faults
     /// apply after the air. `None`: the vehicles' links carry whatever they send.
     pub radio: Option<RadioConfig>,
+    /// Faults scheduled in simulated time since the start ([`crate::fault`]): outages of the
+    /// links, a battery that drops, a camera that fails or slows, a vehicle stuck.
+    pub faults: Vec<ScheduledFault>,
 }
 
 /// The default `SimConfig::unix_epoch_us`: 2025-01-01T00:00:00Z.
@@ -205,6 +212,7 @@ impl SimConfig {
             signing_key: None,
             unix_epoch_us: DEFAULT_EPOCH_US,
             radio: None,
+            faults: Vec::new(),
         })
     }
 
@@ -220,6 +228,15 @@ impl SimConfig {
         let n = self.vehicles.len();
         self.uplink = vec![faults.clone(); n];
         self.downlink = vec![faults; n];
+        self
+    }
+
+    /// Add `faults` to the schedule ([`SimConfig::faults`]).
+    pub fn with_scheduled_faults(
+        mut self,
+        faults: impl IntoIterator<Item = ScheduledFault>,
+    ) -> SimConfig {
+        self.faults.extend(faults);
         self
     }
 
@@ -292,6 +309,8 @@ pub struct Sim {
     images: VecDeque<(u8, CapturedImage)>,
     events: VecDeque<(u8, VehicleEvent)>,
     epoch_us: u64,
+    /// The scheduled faults still to start or end.
+    faults: FaultPlan,
 }
 
 fn vehicle_codec(key: &Option<SigningKey>) -> Codec {
@@ -335,14 +354,19 @@ fn receive(s: &mut Slot, bytes: &[u8], t: Time, unix_us: u64) {
 impl Sim {
     /// Power up every vehicle at `start`.
     pub fn new(cfg: SimConfig, start: Time) -> Result<Sim, SimError> {
+        let cameras: Vec<bool> = cfg.vehicles.iter().map(|v| v.camera.is_some()).collect();
+        let faults = FaultPlan::new(&cfg.faults, &cameras, start)?;
         let mut seen = std::collections::HashSet::new();
         let mut slots = Vec::new();
         for (i, vc) in cfg.vehicles.into_iter().enumerate() {
             if !seen.insert(vc.sysid) {
                 return Err(SimError::DuplicateSysid(vc.sysid));
             }
-            let up_f = cfg.uplink.get(i).cloned().unwrap_or_default();
-            let down_f = cfg.downlink.get(i).cloned().unwrap_or_default();
+            let mut up_f = cfg.uplink.get(i).cloned().unwrap_or_default();
+            let mut down_f = cfg.downlink.get(i).cloned().unwrap_or_default();
+            // a scheduled outage darkens both directions
+            up_f.blackouts.extend(faults.outages(i));
+            down_f.blackouts.extend(faults.outages(i));
             up_f.validate()?;
             down_f.validate()?;
             let seed = cfg.seed ^ (u64::from(vc.sysid) << 32);
@@ -370,7 +394,11 @@ impl Sim {
             images: VecDeque::new(),
             events: VecDeque::new(),
             epoch_us: cfg.unix_epoch_us,
+            faults,
         };
+        if sim.faults.due(start) {
+            sim.apply_faults(start);
+        }
         sim.collect_outputs(start);
         Ok(sim)
     }
@@ -530,6 +558,9 @@ impl Sim {
 
     fn tick(&mut self, t: Time) {
         self.now = t;
+        if self.faults.due(t) {
+            self.apply_faults(t);
+        }
         // uplink deliveries first: commands act at this tick
         let unix = self.unix_us(t);
         for s in &mut self.slots {
@@ -556,6 +587,22 @@ impl Sim {
             s.radio_out(t);
             while let Some(d) = s.down.poll(t) {
                 s.delivered.push_back(d);
+            }
+        }
+    }
+
+    /// The scheduled faults that start or end by `t`: applied to their vehicles, announced
+    /// as events.
+    fn apply_faults(&mut self, t: Time) {
+        let (actions, events) = self.faults.step(t);
+        for (i, a) in actions {
+            if let Some(s) = self.slots.get_mut(i) {
+                a.apply(&mut s.v, t);
+            }
+        }
+        for (i, ev) in events {
+            if let Some(s) = self.slots.get(i) {
+                self.events.push_back((s.v.sysid(), ev));
             }
         }
     }

@@ -15,6 +15,7 @@ pub mod mission_server;
 
 pub mod battery;
 pub mod camera;
+pub mod fault;
 pub mod fence;
 pub mod harness;
 pub mod motion;

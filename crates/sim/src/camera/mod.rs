@@ -177,6 +177,34 @@ impl SimCamera {
         &self.config
     }
 
+    /// Pace image transmission to `rate` bytes per second from now (`None`, or a rate that is
+    /// not finite and positive: every image queued at once). Images already waiting for the
+    /// bucket keep their order; unpaced, they are all queued now.
+    pub(crate) fn set_transfer_rate(&mut self, rate: Option<f64>) {
+        let rate = rate.filter(|r| r.is_finite() && *r > 0.0);
+        self.config.transfer_rate_bps = rate;
+        if let Some(r) = rate {
+            match self.pacer.as_mut() {
+                Some(p) => p.set_rate(r),
+                None => self.pacer = Some(Pacer::new(r)),
+            }
+        } else if let Some(p) = self.pacer.as_mut() {
+            // release everything waiting, in order, then stop pacing
+            p.tokens = f64::INFINITY;
+            self.release();
+            self.pacer = None;
+        }
+    }
+
+    /// The minimum time between two captures, seconds (negative or not finite: 0).
+    pub(crate) fn set_min_interval(&mut self, seconds: f64) {
+        self.config.min_interval_s = if seconds.is_finite() {
+            seconds.max(0.0)
+        } else {
+            0.0
+        };
+    }
+
     /// Power cycle with the vehicle: counters restart, captures in progress stop.
     pub fn reboot(&mut self) {
         self.boot += 1;

@@ -52,6 +52,14 @@ impl Pacer {
         }
     }
 
+    /// Change the rate from now on (bytes per second, finite and positive); the tokens
+    /// already earned are kept, up to the new capacity.
+    pub(super) fn set_rate(&mut self, rate: f64) {
+        self.rate = rate;
+        self.burst = (rate * PACE_BURST_S).max(Self::largest());
+        self.tokens = self.tokens.min(self.burst);
+    }
+
     /// Add the tokens earned since the last refill. An idle bucket (`backlog` false) fills
     /// up to its capacity only; one with frames waiting keeps up to
     /// [`PACE_MAX_BACK_TO_BACK`] frames' worth (a shell that polls late loses that part of

@@ -6,7 +6,7 @@ impl SimVehicle {
     // ------------------------------------------------------------------ camera
 
     pub(super) fn update_camera(&mut self, now: Time) {
-        if self.camera.is_none() {
+        if self.camera.is_none() || self.faults.camera_failed {
             return;
         }
         let (lat, lon, u) = self.true_position();
@@ -87,8 +87,8 @@ impl SimVehicle {
     pub(super) fn camera_command(&mut self, from: Endpoint, c: &mav::COMMAND_INT_DATA, now: Time) {
         use mav::MavResult as R;
         let tb = self.time_boot_ms(now);
-        let Some(cam) = self.camera.as_mut() else {
-            return; // no camera component: nobody answers
+        let Some(cam) = self.live_camera() else {
+            return; // no camera component, or a failed one: nobody answers
         };
         use mav::MavCmd as C;
         let mut extra = Vec::new();

@@ -171,7 +171,19 @@ impl SimVehicle {
             Command::Ground => Command::Ground,
         };
         let wind = self.wind_ne();
+        let pinned = (self.flight.m.e, self.flight.m.n, self.flight.m.heading_deg);
         motion::step(&mut self.flight.m, &cmd, &self.cfg.limits, wind, rover, DT);
+        if self.faults.stuck {
+            // no horizontal progress: it stays where it is (a rover cannot turn either), a
+            // copter may still climb and descend
+            self.flight.m.e = pinned.0;
+            self.flight.m.n = pinned.1;
+            self.flight.m.ve = 0.0;
+            self.flight.m.vn = 0.0;
+            if rover {
+                self.flight.m.heading_deg = pinned.2;
+            }
+        }
         if rover {
             self.arming.landed = true;
             return;

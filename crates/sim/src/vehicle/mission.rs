@@ -260,13 +260,13 @@ impl SimVehicle {
             }
             // DO_DIGICAM_CONTROL: shooting command in param5 (x)
             mi::DO_DIGICAM_CONTROL if item.x == 1 => {
-                if let Some(c) = self.camera.as_mut() {
+                if let Some(c) = self.live_camera() {
                     c.trigger();
                 }
             }
             mi::DO_SET_CAM_TRIGG_DIST => {
                 let pos = (self.flight.m.e, self.flight.m.n);
-                if let Some(c) = self.camera.as_mut() {
+                if let Some(c) = self.live_camera() {
                     c.set_trigger_distance(f64::from(item.param1), pos);
                     if item.param3 >= 1.0 {
                         c.trigger();
@@ -274,12 +274,12 @@ impl SimVehicle {
                 }
             }
             mi::IMAGE_START_CAPTURE => {
-                if let Some(c) = self.camera.as_mut() {
+                if let Some(c) = self.live_camera() {
                     c.start_capture(f64::from(item.param2), item.param3.max(0.0) as u32, now);
                 }
             }
             mi::IMAGE_STOP_CAPTURE => {
-                if let Some(c) = self.camera.as_mut() {
+                if let Some(c) = self.live_camera() {
                     c.stop_capture();
                 }
             }

@@ -80,6 +80,7 @@ mod arming;
 mod camera;
 mod commands;
 mod estimator;
+mod faults;
 mod flight;
 mod geofence;
 mod messages;
@@ -143,6 +144,7 @@ mod mi {
 
 use arming::Arming;
 use estimator::Estimator;
+use faults::Faults;
 use flight::{Flight, Home, Nav, Point, RtlPhase};
 use geofence::Geofence;
 use mission::{Exec, Missions};
@@ -326,6 +328,10 @@ pub enum VehicleEvent {
     Landed,
     /// A battery failsafe triggered (RTL or LAND).
     BatteryFailsafe(Mode),
+    /// A scheduled fault began ([`crate::fault`]; the harness announces it).
+    FaultStarted(crate::fault::Fault),
+    /// A scheduled fault ended.
+    FaultEnded(crate::fault::Fault),
     /// The vehicle breached its geofence (the moment it crossed into a breach).
     FenceBreached {
         /// True position, local metres (east, north, up) from the world's reference.
@@ -359,6 +365,7 @@ pub struct SimVehicle {
     missions: Missions,
     telemetry: Telemetry,
     camera: Option<SimCamera>,
+    faults: Faults,
 }
 
 /// The header of a frame `from` sends with sequence number `seq`.
@@ -447,6 +454,7 @@ impl SimVehicle {
             cfg,
             world,
             camera,
+            faults: Faults::default(),
         };
         v.estimator.gps_err = v.gps_raw_err();
         v.estimator.gps_lag = v.estimator.gps_err;
@@ -567,7 +575,7 @@ impl SimVehicle {
         if let Some(m) = self.missions.server.poll_transmit() {
             self.telemetry.outbox.push_back((AUTOPILOT_COMPID, m));
         }
-        let cam_msg = self.camera.as_mut().and_then(|c| c.poll_transmit());
+        let cam_msg = self.live_camera().and_then(|c| c.poll_transmit());
         if let Some(m) = cam_msg {
             self.telemetry.outbox.push_back((CAMERA_COMPID, m));
         }
@@ -586,7 +594,7 @@ impl SimVehicle {
 
     /// The next captured image (write its file before sending the messages that follow).
     pub fn poll_image(&mut self) -> Option<CapturedImage> {
-        self.camera.as_mut().and_then(|c| c.poll_image())
+        self.live_camera().and_then(|c| c.poll_image())
     }
 
     /// When the vehicle next needs [`SimVehicle::step`]: its next 20 Hz tick.
@@ -667,7 +675,7 @@ impl SimVehicle {
             }
             // a request for a picture, or the runway run's grid: the camera's
             MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) | MavMessage::DEBUG_FLOAT_ARRAY(_) => {
-                if let Some(c) = self.camera.as_mut() {
+                if let Some(c) = self.live_camera() {
                     c.handle_gcs_message(msg);
                 }
             }

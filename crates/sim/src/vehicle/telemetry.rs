@@ -261,7 +261,7 @@ impl SimVehicle {
         for &id in &due {
             if id == self::id::HEARTBEAT {
                 self.send_heartbeat(now);
-                if self.camera.is_some() {
+                if self.camera.is_some() && !self.faults.camera_failed {
                     self.queue(CAMERA_COMPID, camera_heartbeat());
                 }
                 continue;
