@@ -166,3 +166,13 @@ pub async fn start_virtual(
     let sim = Sim::new(sim_config(spec, world, setup)?, Time::ZERO)?;
     Ok(serve_virtual(sim, setup.radio.as_ref()))
 }
+
+/// [`start_virtual`] with a simulator configuration of the caller's ([`sim_config`] changed:
+/// faults scheduled, a crew that swaps some batteries).
+pub async fn start_virtual_with(
+    cfg: SimConfig,
+    setup: &SimSetup,
+) -> Result<(FleetHandle, SimTask), SimStartError> {
+    let sim = Sim::new(cfg, Time::ZERO)?;
+    Ok(serve_virtual(sim, setup.radio.as_ref()))
+}

@@ -51,7 +51,7 @@ impl DronePilot {
                     .commit(|st| Ok((st.on_drone_progress(sysid, &done)?, Vec::new())))
                     .await?;
             }
-            if taken_over(&v) {
+            if taken_over(&v, self.resumed) {
                 return self.taken_home(step, warning.as_deref()).await;
             }
             if complete && flight::airborne(&v) {
@@ -90,10 +90,14 @@ impl DronePilot {
             if arrived {
                 break;
             }
-            if let Some(v) = self.fleet().vehicle(sysid)
-                && (taken_over(&v) || (v.on_ground() && !v.armed))
-            {
-                return self.taken_home(step, warning.as_deref()).await;
+            if let Some(v) = self.fleet().vehicle(sysid) {
+                if v.on_ground() && !v.armed && self.resumed {
+                    // It landed while no GCS was listening.
+                    return self.landed().await;
+                }
+                if taken_over(&v, self.resumed) || (v.on_ground() && !v.armed) {
+                    return self.taken_home(step, warning.as_deref()).await;
+                }
             }
             if !told {
                 self.shared.say(
@@ -248,12 +252,16 @@ impl DronePilot {
 }
 
 /// Whether the drone's autopilot has taken it over in flight: a return or a landing the GCS
-/// does not ask for while a drone flies its mission or waits for its station (the GCS lands
-/// it with LAND only in [`land_on`], after this pilot's watch).
-fn taken_over(v: &VehicleSnapshot) -> bool {
+/// does not ask for while a drone flies its mission or waits for its station. The GCS lands
+/// a drone with LAND only in [`land_on`], after this pilot's watch — but a run resumed
+/// (`resumed`) may find a drone in the LAND its last GCS gave it over its station: then only
+/// a return (RTL, SMART_RTL: never asked for by this runner) is the autopilot's.
+fn taken_over(v: &VehicleSnapshot, resumed: bool) -> bool {
+    use fleetmap_core::proto::mode::{CopterMode, Mode, Px4Mode};
+    let landing = |m: Mode| matches!(m, Mode::Copter(CopterMode::Land) | Mode::Px4(Px4Mode::Land));
     flight::airborne(v)
         && v.flight_mode()
-            .is_some_and(|m| m.is_failsafe_return_or_land())
+            .is_some_and(|m| m.is_failsafe_return_or_land() && !(resumed && landing(m)))
 }
 
 /// Land drone `sysid` on charger slot `slot` = (index, of how many) of station `station`,
