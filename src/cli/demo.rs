@@ -81,6 +81,17 @@ pub struct DemoArgs {
     pub faults: Vec<String>,
 }
 
+/// The schedule `--fault` gives (each occurrence one or more comma-separated entries).
+pub(crate) fn fault_schedule(
+    specs: &[String],
+) -> anyhow::Result<Vec<fleetmap_sim::fault::ScheduledFault>> {
+    let mut all = Vec::new();
+    for s in specs {
+        all.extend(fleetmap_sim::fault::parse_faults(s).context("--fault")?);
+    }
+    Ok(all)
+}
+
 /// `--radio` and `--radio-loss`: every simulated vehicle behind its own radio (`fleetmap demo`,
 /// `fleetmap sim`).
 #[derive(Debug, Args)]
@@ -146,7 +157,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         battery_minutes: args.battery_minutes,
         altitude_separation_m: args.separation,
         radio: args.radio.config()?,
-        faults: crate::cli::sim::fault_schedule(&args.faults)?,
+        faults: fault_schedule(&args.faults)?,
         ..DemoConfig::default()
     };
     let (world_text, world) = match &args.world {
@@ -405,7 +416,7 @@ pub(crate) fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         // a field camera measures on board: the green share, not the picture, on the link
         onboard: bandit::green_spec_of(&def),
         radio: args.radio.config()?,
-        faults: crate::cli::sim::fault_schedule(&args.faults)?,
+        faults: fault_schedule(&args.faults)?,
         ..SimSetup::default()
     };
     let json = args.json;

@@ -123,17 +123,6 @@ pub struct SimArgs {
     pub(crate) scheduled_faults: Vec<String>,
 }
 
-/// The schedule `--fault` gives (each occurrence one or more comma-separated entries).
-pub(crate) fn fault_schedule(
-    specs: &[String],
-) -> anyhow::Result<Vec<fleetmap_sim::fault::ScheduledFault>> {
-    let mut all = Vec::new();
-    for s in specs {
-        all.extend(fleetmap_sim::fault::parse_faults(s).context("--fault")?);
-    }
-    Ok(all)
-}
-
 fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
     let (a, b) = s
         .split_once([',', '@'])
@@ -179,7 +168,7 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     }
     let sensor_flip = args.sensor.probability()?;
     let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?
-        .with_scheduled_faults(fault_schedule(&args.scheduled_faults)?);
+        .with_scheduled_faults(crate::cli::demo::fault_schedule(&args.scheduled_faults)?);
     let faults = args.faults.faults()?;
     cfg = cfg.with_faults(faults);
     if let Some(r) = args.radio.config()? {
