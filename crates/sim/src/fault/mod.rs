@@ -362,6 +362,10 @@ struct Applied {
     interval: Option<f64>,
 }
 
+/// What passing some starts and ends brings: the actions on the vehicles and the transitions
+/// to announce, each with its vehicle's index.
+pub(crate) type Step = (Vec<(usize, Action)>, Vec<(usize, Transition)>);
+
 /// A schedule resolved against a simulation's vehicles: which vehicle changes how at which
 /// time. Overlapping windows combine: the camera is off, or the vehicle stuck, while any
 /// window says so; of several camera-rate (or camera-interval) windows the one that started
@@ -452,7 +456,7 @@ impl FaultPlan {
 
     /// The starts and ends passed by `t` (all of them since the last call): the actions on
     /// the vehicles, by index, and the transitions to announce (a fault started or ended).
-    pub(crate) fn step(&mut self, t: Time) -> (Vec<(usize, Action)>, Vec<(usize, Transition)>) {
+    pub(crate) fn step(&mut self, t: Time) -> Step {
         let since = self.next;
         while self.times.get(self.next).is_some_and(|&b| b <= t) {
             self.next += 1;
