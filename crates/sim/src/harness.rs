@@ -317,7 +317,7 @@ pub struct Sim {
 fn apply_fault(v: &mut SimVehicle, a: Action, now: Time) {
     match a {
         Action::Battery(p) => v.drop_battery_to(p),
-        Action::CameraFailed(f) => v.set_camera_failed(f, now),
+        Action::CameraFailed(f) => v.set_camera_failed(f),
         Action::CameraRate(r) => v.set_camera_transfer_rate(r),
         Action::CameraInterval(i) => v.set_camera_min_interval(i),
         Action::Stuck(s) => v.set_stuck(s),
