@@ -313,8 +313,8 @@ pub struct Sim {
     faults: FaultPlan,
 }
 
-/// What a scheduled fault does to vehicle `v` at `now`.
-fn apply_fault(v: &mut SimVehicle, a: Action, now: Time) {
+/// What a scheduled fault does to vehicle `v`.
+fn apply_fault(v: &mut SimVehicle, a: Action) {
     match a {
         Action::Battery(p) => v.drop_battery_to(p),
         Action::CameraFailed(f) => v.set_camera_failed(f),
@@ -608,7 +608,7 @@ impl Sim {
         let (actions, events) = self.faults.step(t);
         for (i, a) in actions {
             if let Some(s) = self.slots.get_mut(i) {
-                apply_fault(&mut s.v, a, t);
+                apply_fault(&mut s.v, a);
             }
         }
         for (i, tr) in events {
