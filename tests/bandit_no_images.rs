@@ -26,6 +26,7 @@ async fn a_run_whose_pictures_never_arrive_stops_with_a_reason() {
         sensor_flip: 0.0,
         onboard: None,
         radio: None,
+        faults: Vec::new(),
     };
     let d = bandit_sim::start_team(bandit_sim::HARDWARE_TEAM, &world, &setup)
         .await

@@ -57,6 +57,7 @@ fn setup(speedup: f64) -> SimSetup {
         sensor_flip: 0.0,
         onboard: None,
         radio: None,
+        faults: Vec::new(),
     }
 }
 

@@ -12,6 +12,7 @@ use fleetmap_core::world::World;
 use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::radio::RadioConfig;
 use fleetmap_io::link::transport::{LinkOptions, open_link};
+use fleetmap_sim::fault::ScheduledFault;
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
 use fleetmap_sim::server::{self, GcsClock, ServeOptions, SimHandle, SimTask};
@@ -56,6 +57,9 @@ pub struct SimSetup {
     /// Each vehicle behind its own telemetry radio (budget counted in simulated time), the
     /// fleet told its budget; `None`: links that carry everything.
     pub radio: Option<RadioConfig>,
+    /// Faults scheduled in the simulator ([`fleetmap_sim::fault`]: link outages, a battery
+    /// that drops, a camera that dies or slows, a rover stuck on its way), in simulated time.
+    pub faults: Vec<ScheduledFault>,
 }
 
 impl Default for SimSetup {
@@ -69,6 +73,7 @@ impl Default for SimSetup {
             sensor_flip: 0.0,
             onboard: None,
             radio: None,
+            faults: Vec::new(),
         }
     }
 }
@@ -76,7 +81,8 @@ impl Default for SimSetup {
 /// The simulator configuration for `spec` over `world` (the world's default homes: the
 /// mission's start cells), without battery swaps (the rovers charge the drones).
 pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> Result<SimConfig, SimStartError> {
-    let mut sc = SimConfig::from_spec(spec, Some(world.clone()), None, setup.seed)?;
+    let mut sc = SimConfig::from_spec(spec, Some(world.clone()), None, setup.seed)?
+        .with_scheduled_faults(setup.faults.iter().copied());
     for v in &mut sc.vehicles {
         if v.flavour.is_copter() {
             v.battery.minutes = setup.battery_minutes;

@@ -17,6 +17,7 @@ use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::radio::RadioConfig;
 use fleetmap_io::link::transport::{LinkOptions, open_link, open_memory_link};
+use fleetmap_sim::fault::ScheduledFault;
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
 use fleetmap_sim::server::{self, GcsClock, ServeOptions, SimHandle, SimTask};
@@ -49,6 +50,9 @@ pub struct DemoConfig {
     /// Each vehicle behind its own telemetry radio (budget counted in simulated time), the
     /// fleet told its budget ([`fleet_config`]); `None`: links that carry everything.
     pub radio: Option<RadioConfig>,
+    /// Faults scheduled in the simulator ([`fleetmap_sim::fault`]: link outages, a battery
+    /// that drops, a camera that dies or slows, a vehicle stuck), in simulated time.
+    pub faults: Vec<ScheduledFault>,
 }
 
 impl Default for DemoConfig {
@@ -62,6 +66,7 @@ impl Default for DemoConfig {
             altitude_separation_m: 0.0,
             onboard: None,
             radio: None,
+            faults: Vec::new(),
         }
     }
 }
@@ -235,7 +240,8 @@ pub(crate) fn fleet_config(mut base: FleetConfig, radio: Option<&RadioConfig>) -
 }
 
 fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> Result<SimConfig, SimStartError> {
-    let mut sc = SimConfig::from_spec(spec, Some(world), None, cfg.seed)?;
+    let mut sc = SimConfig::from_spec(spec, Some(world), None, cfg.seed)?
+        .with_scheduled_faults(cfg.faults.iter().copied());
     for v in &mut sc.vehicles {
         if v.flavour.is_copter() {
             v.battery.minutes = cfg.battery_minutes;

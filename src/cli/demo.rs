@@ -74,6 +74,22 @@ pub struct DemoArgs {
     /// always do.
     #[command(flatten)]
     pub radio: RadioArgs,
+    /// A scheduled fault in the simulator, `TARGET:FAULT[@START[..END]]` (repeatable): e.g.
+    /// `2:battery=20@300s`, `1:camera=off@200s..400s`, `all:outage@120s..420s`, `5:stuck@100s`
+    /// (as `fleetmap sim --fault`; docs/simulator.md, "Scheduled faults").
+    #[arg(long = "fault", value_name = "SPEC")]
+    pub faults: Vec<String>,
+}
+
+/// The schedule `--fault` gives (each occurrence one or more comma-separated entries).
+pub(crate) fn fault_schedule(
+    specs: &[String],
+) -> anyhow::Result<Vec<fleetmap_sim::fault::ScheduledFault>> {
+    let mut all = Vec::new();
+    for s in specs {
+        all.extend(fleetmap_sim::fault::parse_faults(s).context("--fault")?);
+    }
+    Ok(all)
 }
 
 /// `--radio` and `--radio-loss`: every simulated vehicle behind its own radio (`fleetmap demo`,
@@ -141,6 +157,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         battery_minutes: args.battery_minutes,
         altitude_separation_m: args.separation,
         radio: args.radio.config()?,
+        faults: fault_schedule(&args.faults)?,
         ..DemoConfig::default()
     };
     let (world_text, world) = match &args.world {
@@ -399,6 +416,7 @@ pub(crate) fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         // a field camera measures on board: the green share, not the picture, on the link
         onboard: bandit::green_spec_of(&def),
         radio: args.radio.config()?,
+        faults: fault_schedule(&args.faults)?,
         ..SimSetup::default()
     };
     let json = args.json;

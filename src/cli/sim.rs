@@ -114,6 +114,13 @@ pub struct SimArgs {
     /// Every vehicle behind its own simulated telemetry radio, counted in simulated time.
     #[command(flatten)]
     pub(crate) radio: crate::cli::demo::RadioArgs,
+    /// A scheduled fault, `TARGET:FAULT[@START[..END]]` (repeatable, or comma-separated):
+    /// TARGET a vehicle number or `all`; FAULT `outage`, `battery=PERCENT`, `camera=off`,
+    /// `camera-rate=BYTES_PER_S`, `camera-interval=SECONDS` or `stuck`; times in simulated
+    /// seconds (`300s`, `5m`). E.g. `2:battery=20@300s`, `all:outage@120s..420s`
+    /// (docs/simulator.md, "Scheduled faults").
+    #[arg(long = "fault", value_name = "SPEC")]
+    pub(crate) scheduled_faults: Vec<String>,
 }
 
 fn parse_pair(s: &str, what: &str) -> anyhow::Result<(f64, f64)> {
@@ -160,7 +167,8 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
         bail!("--camera-px must be between 8 and 4096");
     }
     let sensor_flip = args.sensor.probability()?;
-    let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?;
+    let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?
+        .with_scheduled_faults(crate::cli::demo::fault_schedule(&args.scheduled_faults)?);
     let faults = args.faults.faults()?;
     cfg = cfg.with_faults(faults);
     if let Some(r) = args.radio.config()? {
@@ -230,6 +238,9 @@ fn run_camera_only(args: SimArgs) -> anyhow::Result<ExitCode> {
         .map_err(|_| anyhow::anyhow!("--camera-only takes one --connect endpoint"))?;
     if args.world.is_none() {
         bail!("--camera-only needs --world");
+    }
+    if !args.scheduled_faults.is_empty() {
+        bail!("--fault is for the simulated vehicles; --camera-only simulates none");
     }
     crate::cli::camera::run(crate::cli::camera::CameraArgs {
         connect,

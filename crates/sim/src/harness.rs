@@ -25,7 +25,7 @@
 //! mobile charging stations).
 
 use crate::camera::CapturedImage;
-use crate::fault::{FaultPlan, FaultSpecError, ScheduledFault};
+use crate::fault::{Action, FaultPlan, FaultSpecError, ScheduledFault};
 use crate::flavour::{Flavour, VehicleKind};
 use crate::vehicle::{DT, Px4Link, SimVehicle, VehicleConfig, VehicleEvent};
 use fleetmap_core::time::Time;
@@ -313,6 +313,17 @@ pub struct Sim {
     faults: FaultPlan,
 }
 
+/// What a scheduled fault does to vehicle `v`.
+fn apply_fault(v: &mut SimVehicle, a: Action) {
+    match a {
+        Action::Battery(p) => v.drop_battery_to(p),
+        Action::CameraFailed(f) => v.set_camera_failed(f),
+        Action::CameraRate(r) => v.set_camera_transfer_rate(r),
+        Action::CameraInterval(i) => v.set_camera_min_interval(i),
+        Action::Stuck(s) => v.set_stuck(s),
+    }
+}
+
 fn vehicle_codec(key: &Option<SigningKey>) -> Codec {
     match key {
         Some(k) => Codec::with_signing(Signing::new(k.clone(), 0)),
@@ -597,11 +608,16 @@ impl Sim {
         let (actions, events) = self.faults.step(t);
         for (i, a) in actions {
             if let Some(s) = self.slots.get_mut(i) {
-                a.apply(&mut s.v, t);
+                apply_fault(&mut s.v, a);
             }
         }
-        for (i, ev) in events {
+        for (i, tr) in events {
             if let Some(s) = self.slots.get(i) {
+                let ev = if tr.started {
+                    VehicleEvent::FaultStarted(tr.fault)
+                } else {
+                    VehicleEvent::FaultEnded(tr.fault)
+                };
                 self.events.push_back((s.v.sysid(), ev));
             }
         }

@@ -606,7 +606,11 @@ async fn write_images(dir: &Path, images: Vec<CapturedImage>) {
 fn log_event(sysid: u8, ev: &crate::vehicle::VehicleEvent) {
     use crate::vehicle::VehicleEvent as E;
     match ev {
-        E::FenceBreached { .. } | E::BatteryFailsafe(_) | E::FaultStarted(_) | E::FaultEnded(_) => {
+        E::FaultStarted(f) => {
+            tracing::warn!("simulated vehicle {sysid}: scheduled fault {f} starts")
+        }
+        E::FaultEnded(f) => tracing::warn!("simulated vehicle {sysid}: scheduled fault {f} ends"),
+        E::FenceBreached { .. } | E::BatteryFailsafe(_) => {
             tracing::warn!("simulated vehicle {sysid}: {ev:?}")
         }
         _ => tracing::info!("simulated vehicle {sysid}: {ev:?}"),

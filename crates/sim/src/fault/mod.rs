@@ -25,7 +25,6 @@
 //! ([`fleetmap_io::link::faults::LinkFaults::blackouts`]); the other faults act on the vehicle
 //! ([`FaultPlan`]).
 
-use crate::vehicle::{SimVehicle, VehicleEvent};
 use fleetmap_core::time::Time;
 use std::fmt;
 use std::str::FromStr;
@@ -58,7 +57,7 @@ pub enum Fault {
     /// The vehicle's link carries nothing, either way, until the end: a radio out of range or
     /// a dead telemetry modem. The vehicle flies on and reacts as its autopilot does to a lost
     /// GCS (the simulated PX4's data-link-loss failsafe, NAV_DLL_ACT after COM_DL_LOSS_T; the
-    /// simulated ArduPilot has FS_GCS_ENABLE 0, SITL's default, and carries on).
+    /// simulated ArduPilot has FS_GCS_ENABLE 0, its default, and carries on).
     Outage,
     /// The battery's charge drops to this percentage of its capacity (0–100), at once: a
     /// failing cell, a pack that was not full, a cold battery. The autopilot's own battery
@@ -312,7 +311,8 @@ pub fn parse_faults(spec: &str) -> Result<Vec<ScheduledFault>, FaultSpecError> {
     entries.into_iter().map(str::parse).collect()
 }
 
-/// What the harness does to one vehicle when the schedule says so.
+/// What the harness does to one vehicle when the schedule says so (the harness applies it:
+/// `harness::apply_fault`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub(crate) enum Action {
     /// Drop the battery to this percentage.
@@ -327,17 +327,14 @@ pub(crate) enum Action {
     Stuck(bool),
 }
 
-impl Action {
-    /// Apply to `v` at `now`.
-    pub(crate) fn apply(self, v: &mut SimVehicle, now: Time) {
-        match self {
-            Action::Battery(p) => v.drop_battery_to(p),
-            Action::CameraFailed(f) => v.set_camera_failed(f, now),
-            Action::CameraRate(r) => v.set_camera_transfer_rate(r),
-            Action::CameraInterval(i) => v.set_camera_min_interval(i),
-            Action::Stuck(s) => v.set_stuck(s),
-        }
-    }
+/// A fault of the schedule started (`started`) or ended on a vehicle: what the harness
+/// announces.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(crate) struct Transition {
+    /// The fault.
+    pub(crate) fault: Fault,
+    /// Whether it started (else it ended).
+    pub(crate) started: bool,
 }
 
 /// One entry resolved to one vehicle (its index in the simulation) on the simulation's
@@ -364,6 +361,10 @@ struct Applied {
     rate: Option<f64>,
     interval: Option<f64>,
 }
+
+/// What passing some starts and ends brings: the actions on the vehicles and the transitions
+/// to announce, each with its vehicle's index.
+pub(crate) type Step = (Vec<(usize, Action)>, Vec<(usize, Transition)>);
 
 /// A schedule resolved against a simulation's vehicles: which vehicle changes how at which
 /// time. Overlapping windows combine: the camera is off, or the vehicle stuck, while any
@@ -454,8 +455,8 @@ impl FaultPlan {
     }
 
     /// The starts and ends passed by `t` (all of them since the last call): the actions on
-    /// the vehicles, by index, and the events to announce (a fault started or ended).
-    pub(crate) fn step(&mut self, t: Time) -> (Vec<(usize, Action)>, Vec<(usize, VehicleEvent)>) {
+    /// the vehicles, by index, and the transitions to announce (a fault started or ended).
+    pub(crate) fn step(&mut self, t: Time) -> Step {
         let since = self.next;
         while self.times.get(self.next).is_some_and(|&b| b <= t) {
             self.next += 1;
@@ -469,13 +470,25 @@ impl FaultPlan {
         let mut actions = Vec::new();
         for e in &self.entries {
             if passed(e.from) {
-                events.push((e.vehicle, VehicleEvent::FaultStarted(e.fault)));
+                events.push((
+                    e.vehicle,
+                    Transition {
+                        fault: e.fault,
+                        started: true,
+                    },
+                ));
                 if let Fault::Battery { percent } = e.fault {
                     actions.push((e.vehicle, Action::Battery(percent)));
                 }
             }
             if e.until.is_some_and(passed) {
-                events.push((e.vehicle, VehicleEvent::FaultEnded(e.fault)));
+                events.push((
+                    e.vehicle,
+                    Transition {
+                        fault: e.fault,
+                        started: false,
+                    },
+                ));
             }
         }
         for (i, applied) in self.applied.iter_mut().enumerate() {

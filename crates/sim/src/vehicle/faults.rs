@@ -41,7 +41,7 @@ impl SimVehicle {
     /// The camera component fails (`true`): what it had queued is lost, and it stays silent;
     /// or it comes back (`false`) as a camera that rebooted — a new boot, its message
     /// sequence from 0, its heartbeat with the autopilot's next one.
-    pub(crate) fn set_camera_failed(&mut self, failed: bool, _now: Time) {
+    pub(crate) fn set_camera_failed(&mut self, failed: bool) {
         if failed == self.faults.camera_failed {
             return;
         }
