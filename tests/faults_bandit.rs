@@ -80,8 +80,7 @@ async fn fly(name: &str, faults: &str, setup: SimSetup, crew: &[u8], kill_at: us
     .await;
     if killed {
         // The laptop comes back: `fleetmap resume` reads the run directory.
-        let saved: ClassificationState =
-            RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
+        let saved: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
         let (more, _) = run(&fleet, &dir, saved, |_| false).await;
         lines.extend(more);
     }
@@ -194,8 +193,14 @@ fn check_finished(f: &Flown) {
         }
     }
     let expected: BTreeSet<u64> = (1..=f.state.measurements).collect();
-    assert_eq!(numbers, expected, "the journal's measurements are the state's");
-    assert!(matches!(f.events.last(), Some(BanditEvent::Finished { .. })));
+    assert_eq!(
+        numbers, expected,
+        "the journal's measurements are the state's"
+    );
+    assert!(matches!(
+        f.events.last(),
+        Some(BanditEvent::Finished { .. })
+    ));
 }
 
 fn told<'a>(f: &'a Flown, what: &str) -> Vec<&'a String> {
@@ -212,7 +217,6 @@ fn onboard() -> SimSetup {
         ..SimSetup::default()
     }
 }
-
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn a_drone_dark_for_30_s_and_everyone_dark_for_5_minutes() {
@@ -252,11 +256,24 @@ async fn a_battery_failsafe_mid_sortie_keeps_the_samples_and_the_drone_rejoins()
     let out = told(&f, "drone 2: its autopilot took it out of its mission");
     assert!(!out.is_empty(), "{:#?}", f.lines);
     assert!(
-        f.events.iter().any(|e| matches!(
-            e,
-            BanditEvent::VehicleOut { sysid: 2, .. }
-        )),
+        f.events
+            .iter()
+            .any(|e| matches!(e, BanditEvent::VehicleOut { sysid: 2, .. })),
         "drone 2 out in the journal"
+    );
+    for l in f
+        .lines
+        .iter()
+        .filter(|l| l.contains("drone 2") || l.contains("vehicle 2"))
+    {
+        println!("  {l}");
+    }
+    // Landed off every station: flown to one once its battery is swapped, then back in.
+    assert!(
+        !told(&f, "drone 2: ready again").is_empty()
+            && !told(&f, "flying it to station").is_empty(),
+        "{:#?}",
+        f.lines
     );
     assert!(
         f.events
@@ -299,14 +316,7 @@ async fn a_camera_slower_than_the_samples_asked_still_delivers_them() {
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn a_station_stuck_on_its_way_does_not_leave_drones_hovering() {
-    let f = fly(
-        "station 5 stuck",
-        "5:stuck@100s",
-        onboard(),
-        &[],
-        12,
-    )
-    .await;
+    let f = fly("station 5 stuck", "5:stuck@100s", onboard(), &[], 12).await;
     check_finished(&f);
     let stuck = told(&f, "station 5: stuck on its way");
     assert!(!stuck.is_empty(), "{:#?}", f.lines);

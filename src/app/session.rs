@@ -200,9 +200,9 @@ impl<K: RunKind> Attach for KindRun<K> {
                     .await;
                     Ok(None)
                 }
-                Ok((Outcome::WaitingForOperator { waiting }, _)) => Ok(Some(
-                    crate::app::kind::waiting_lines(&waiting).join("; "),
-                )),
+                Ok((Outcome::WaitingForOperator { waiting }, _)) => {
+                    Ok(Some(crate::app::kind::waiting_lines(&waiting).join("; ")))
+                }
                 Err(e) => Err(e),
             };
             (r, path, relay)

@@ -52,7 +52,11 @@ impl Runner {
                     .zip(&s.config.stations)
                     .filter(|(m, _)| !s.is_out(m.sysid))
                     .map(|(m, &c)| {
-                        (m.sysid, c, s.config.drones.iter().filter(|&&d| d == c).count())
+                        (
+                            m.sysid,
+                            c,
+                            s.config.drones.iter().filter(|&&d| d == c).count(),
+                        )
                     })
                     .collect();
                 let off = i.is_some_and(|i| {

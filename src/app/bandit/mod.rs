@@ -77,6 +77,7 @@ mod members;
 mod pilot;
 mod runner;
 mod sortie;
+mod stragglers;
 #[cfg(test)]
 mod tests;
 mod upload;

@@ -524,7 +524,8 @@ fn a_stuck_station_ends_its_leg_where_it_stands_and_is_held() {
     let c = s.cycle().unwrap().clone();
     let st = c.stations[0].sysid;
     assert!(s.on_station_stuck(99, "stuck".into()).is_err());
-    s.on_station_stuck(st, "no progress for 60 s".into()).unwrap();
+    s.on_station_stuck(st, "no progress for 60 s".into())
+        .unwrap();
     assert!(s.cycle().unwrap().stations[0].arrived);
     assert!(s.is_out(st) && s.eligible().is_empty(), "out for a sortie");
     for d in &c.drones {
