@@ -24,8 +24,8 @@
 //!   moves the stream to a new track for good: no return. Two tracks a few numbers apart
 //!   may be one counter braided by reordering across a burst of loss, so their switches do
 //!   not count; two counters in step are told instead by *collisions*: a frame with the
-//!   number of one received moments before ([`SysidWatchConfig::collision_ttl`], the
-//!   counters not gone round since) but another content. A reboot restarts the counter
+//!   number of one received moments before ([`SysidWatchConfig::collision_ttl`]: well
+//!   within a counter's round at the rate heard) but another content. A reboot restarts the counter
 //!   only after seconds of silence, after which earlier numbers do not collide.
 //! * **Heartbeat identity.** A running autopilot keeps its MAV_TYPE and MAV_AUTOPILOT; the
 //!   heartbeats of one (link, sysid, compid) that flip between two identities
@@ -58,8 +58,10 @@ pub struct SysidWatchConfig {
     /// A duplicate is recognised by content for this long after the original.
     pub dup_ttl: Duration,
     /// A frame with the number of one received this recently (and since the stream's last
-    /// silence of [`SysidWatchConfig::silence`]) but another content is a collision.
-    pub collision_ttl: Duration,
+    /// silence of [`SysidWatchConfig::silence`]) but another content is a collision: the
+    /// time the stream takes to bring 64 frames (a quarter of a counter's round, so at most
+    /// half of one at 50 % loss), within these bounds.
+    pub collision_ttl: (Duration, Duration),
     /// Reception gap after which the counter may have restarted (a reboot is silent for
     /// longer: ArduPilot and PX4 take seconds to boot).
     pub silence: Duration,
@@ -86,7 +88,8 @@ impl Default for SysidWatchConfig {
             hole_ttl: Duration::from_millis(1500),
             track_ttl: Duration::from_secs(2),
             dup_ttl: Duration::from_secs(3),
-            collision_ttl: Duration::from_secs(2),
+            // The lower bound is under half a counter's round up to 256 Hz.
+            collision_ttl: (Duration::from_millis(500), Duration::from_secs(3)),
             silence: Duration::from_millis(500),
             collisions: 8,
             min_track_frames: 5,
@@ -270,6 +273,9 @@ impl SysidWatch {
             s.resumed_at = now;
         }
         s.last_at = now;
+        let rate = s.frames as f64 / now.saturating_since(s.first).as_secs_f64().max(1.0);
+        let ttl = Duration::from_secs_f64(64.0 / rate.max(1e-3))
+            .clamp(cfg.collision_ttl.0, cfg.collision_ttl.1);
         match s.seen[usize::from(seq)] {
             // A duplicate: the same frame again (a radio's retry, a second path).
             Some((c, at, _)) if c == check && now.saturating_since(at) <= cfg.dup_ttl => return,
@@ -278,7 +284,7 @@ impl SysidWatch {
             // second counter in step with the first.
             Some((_, at, stamp))
                 if at >= s.resumed_at
-                    && now.saturating_since(at) <= cfg.collision_ttl
+                    && now.saturating_since(at) <= ttl
                     && s.advanced.saturating_sub(stamp) < 128 =>
             {
                 s.collisions.push_back(now);
