@@ -23,7 +23,8 @@ pub enum RunError {
     /// (nothing was uploaded, armed or switched), or a resumed one does not go on.
     #[error(
         "REFUSED: two or more autopilots answer as system id {sysid} ({evidence}); nothing \
-         was uploaded, armed or switched. {}", crate::fleet::SysidConflict::FIX
+         was uploaded, armed or switched. {}",
+        crate::fleet::SysidConflict::FIX
     )]
     SysidConflict {
         /// The shared system id.

@@ -604,7 +604,9 @@ impl Actor {
 }
 
 /// How the operator is told of `c`.
-fn conflict_seen(c: &fleetmap_core::proto::sysid_conflict::Conflict) -> crate::fleet::SysidConflict {
+fn conflict_seen(
+    c: &fleetmap_core::proto::sysid_conflict::Conflict,
+) -> crate::fleet::SysidConflict {
     crate::fleet::SysidConflict {
         evidence: c.evidence.to_string(),
         link: c.link,

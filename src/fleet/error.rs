@@ -101,7 +101,8 @@ pub enum FleetError {
     /// of them, so nothing is ([`crate::fleet::SysidConflict`]).
     #[error(
         "vehicle {sysid}: two or more autopilots answer as system id {sysid} ({evidence}); \
-         fleetmap sends nothing to it: {}", crate::fleet::SysidConflict::FIX
+         fleetmap sends nothing to it: {}",
+        crate::fleet::SysidConflict::FIX
     )]
     SysidConflict {
         /// System id.
@@ -248,9 +249,7 @@ impl FleetError {
                 "the autopilot refuses the list ({error}): check the mission against the vehicle"
             )),
             FleetError::Flavour { error, .. } => Some(format!("{error}")),
-            FleetError::SysidConflict { .. } => {
-                Some(crate::fleet::SysidConflict::FIX.to_string())
-            }
+            FleetError::SysidConflict { .. } => Some(crate::fleet::SysidConflict::FIX.to_string()),
             FleetError::Command {
                 error:
                     error @ (CommandError::Unsupported { .. } | CommandError::UnsupportedFrame { .. }),

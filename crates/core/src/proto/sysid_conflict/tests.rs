@@ -164,7 +164,14 @@ fn counters_a_few_apart_are_found_too() {
     // after a small loss, then the two part.
     for d in [0u8, 1, 3, 9, 31, 250] {
         let a = sender(1, Time::ZERO, hz(50.0), 500, 100, &[]);
-        let b = sender(2, Time::from_millis(3), hz(50.0), 500, 100u8.wrapping_add(d), &[]);
+        let b = sender(
+            2,
+            Time::from_millis(3),
+            hz(50.0),
+            500,
+            100u8.wrapping_add(d),
+            &[],
+        );
         let (_, c) = watch(&merge(vec![(0, a), (0, b)]));
         let c = c.unwrap_or_else(|| panic!("offset {d}: no conflict"));
         assert!(c.at <= Time::from_secs(3), "offset {d}: found at {}", c.at);
@@ -191,7 +198,10 @@ fn a_reboot_is_not_a_conflict() {
             hz(50.0),
             2000,
             140,
-            &[(400, Duration::from_millis(gap_ms)), (1300, Duration::from_millis(gap_ms))],
+            &[
+                (400, Duration::from_millis(gap_ms)),
+                (1300, Duration::from_millis(gap_ms)),
+            ],
         );
         let (_, c) = watch(&merge(vec![(0, f)]));
         assert_eq!(c, None, "reboot after {gap_ms} ms");
@@ -296,4 +306,3 @@ proptest! {
         );
     }
 }
-
