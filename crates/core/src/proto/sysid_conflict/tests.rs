@@ -5,8 +5,11 @@
 
 use super::*;
 use proptest::prelude::*;
-use rand::{Rng, SeedableRng};
+use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
+
+/// One frame as sent: (seq, content check, time).
+type Sent = (u8, u16, Time);
 
 /// One frame as a link delivers it: (link, seq, content check, arrival time).
 type Delivered = (usize, u8, u16, Time);
@@ -98,7 +101,7 @@ fn link(
 }
 
 /// Merge deliveries of several links / senders into arrival order.
-fn merge(parts: Vec<(usize, Vec<(u8, u16, Time)>)>) -> Vec<Delivered> {
+fn merge(parts: Vec<(usize, Vec<Sent>)>) -> Vec<Delivered> {
     let mut all: Vec<Delivered> = parts
         .into_iter()
         .flat_map(|(l, fs)| fs.into_iter().map(move |(s, c, t)| (l, s, c, t)))
