@@ -19,6 +19,19 @@ pub struct CpuError(#[source] pub tokio::task::JoinError);
 /// Why a run could not be started, resumed, flown or reported.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
+    /// Two or more autopilots answer as one of the run's system ids: the run does not start
+    /// (nothing was uploaded, armed or switched), or a resumed one does not go on.
+    #[error(
+        "REFUSED: two or more autopilots answer as system id {sysid} ({evidence}); nothing \
+         was uploaded, armed or switched. {}",
+        crate::fleet::SysidConflict::FIX
+    )]
+    SysidConflict {
+        /// The shared system id.
+        sysid: u8,
+        /// What showed it.
+        evidence: String,
+    },
     /// A vehicle of the run stayed silent.
     #[error("no heartbeat from system {sysid} within {wait_s:.0} s")]
     NotHeard {

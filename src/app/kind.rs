@@ -276,7 +276,7 @@ pub async fn heard(fleet: &FleetHandle, sysid: u8, wait: Duration) -> Result<(),
             wait_s: wait.as_secs_f64(),
             source,
         })?;
-    Ok(())
+    crate::app::one_autopilot(fleet, sysid, wait).await
 }
 
 /// Write every export of a finished run into its `exports/` (file I/O: call it off the

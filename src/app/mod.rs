@@ -36,8 +36,8 @@ use fleetmap_core::geo::{Grid, LatLon};
 use fleetmap_core::mission::definition::{MissionDef, Origin};
 use std::time::Duration;
 
-/// Wait until every drone and station of `def` has been heard (and, for the drone that
-/// anchors an `origin = "vehicle"` grid, has a home position).
+/// Wait until every drone and station of `def` has been heard, each long enough to tell it
+/// is one autopilot ([`one_autopilot`]: two behind one system id refuse the run).
 pub(crate) async fn wait_for_team(
     fleet: &FleetHandle,
     def: &MissionDef,
@@ -52,6 +52,55 @@ pub(crate) async fn wait_for_team(
                 role: format!("{:?}", v.role),
                 source,
             })?;
+    }
+    for v in &def.vehicles {
+        one_autopilot(fleet, v.sysid, wait).await?;
+    }
+    Ok(())
+}
+
+/// Wait (up to `wait`) until vehicle `sysid` has been heard long enough to tell whether a
+/// second autopilot shares its system id ([`crate::fleet::VehicleSnapshot::sysid_checked`],
+/// a few seconds of its telemetry), then refuse it if one does. A vehicle that sends too
+/// little to tell within `wait` is let through with a warning (the fleet keeps watching:
+/// a conflict found later stops every command to it).
+pub(crate) async fn one_autopilot(
+    fleet: &FleetHandle,
+    sysid: u8,
+    wait: Duration,
+) -> Result<(), RunError> {
+    if fleet
+        .wait_until(sysid, wait, |v| {
+            v.sysid_checked || v.sysid_conflict.is_some()
+        })
+        .await
+        .is_err()
+    {
+        tracing::warn!(
+            "vehicle {sysid}: too little traffic in {:.0} s to tell whether another autopilot \
+             shares its system id; going on, still watching",
+            wait.as_secs_f64()
+        );
+    }
+    refuse_conflicts(fleet, [sysid])
+}
+
+/// [`RunError::SysidConflict`] for the first of `sysids` behind which two autopilots answer.
+pub(crate) fn refuse_conflicts(
+    fleet: &FleetHandle,
+    sysids: impl IntoIterator<Item = u8>,
+) -> Result<(), RunError> {
+    for sysid in sysids {
+        if let Some(c) = fleet.vehicle(sysid).and_then(|v| v.sysid_conflict) {
+            tracing::error!(
+                "vehicle {sysid}: two or more autopilots answer as system id {sysid}: the run is \
+                 refused"
+            );
+            return Err(RunError::SysidConflict {
+                sysid,
+                evidence: c.evidence,
+            });
+        }
     }
     Ok(())
 }

@@ -17,6 +17,11 @@ pub struct SimArgs {
     /// Vehicles, e.g. `3xcopter:ardupilot,1xrover:ardupilot`; vehicle k gets system id k.
     #[arg(long, default_value = "1xcopter:ardupilot")]
     pub vehicles: String,
+    /// Give vehicle K system id ID instead of K (`--sysid 2=1`), also an id another vehicle
+    /// has: two autopilots left at the same SYSID_THISMAV, as two SITLs sending to one GCS
+    /// port. Repeatable.
+    #[arg(long = "sysid", value_name = "K=ID")]
+    pub(crate) sysids: Vec<String>,
     /// Where to serve them: `udpout:HOST:PORT` or `udp:HOST:PORT` (each vehicle from its own
     /// socket), `udpin:HOST:PORT` / `tcpin:HOST:PORT` (vehicle k on PORT+k−1); repeat once
     /// per vehicle for explicit endpoints.
@@ -169,6 +174,18 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     let sensor_flip = args.sensor.probability()?;
     let mut cfg = SimConfig::from_spec(&args.vehicles, world, home, args.seed)?
         .with_scheduled_faults(crate::cli::demo::fault_schedule(&args.scheduled_faults)?);
+    for s in &args.sysids {
+        let parsed = s.split_once('=').and_then(|(k, id)| {
+            Some((
+                k.trim().parse::<usize>().ok()?,
+                id.trim().parse::<u8>().ok()?,
+            ))
+        });
+        match parsed {
+            Some((k, id)) if id > 0 => cfg = cfg.with_sysid(k, id)?,
+            _ => bail!("--sysid {s:?}: give VEHICLE=ID, e.g. 2=1 (ID 1–255)"),
+        }
+    }
     let faults = args.faults.faults()?;
     cfg = cfg.with_faults(faults);
     if let Some(r) = args.radio.config()? {

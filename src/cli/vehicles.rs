@@ -241,7 +241,7 @@ pub(crate) fn format_vehicle(v: &VehicleSnapshot) -> String {
         _ => "-".into(),
     };
     format!(
-        "{:<4} {:<18} {:<10} {:<6} {:<24} {:<9} {:<12} {:<11} {}{}",
+        "{:<4} {:<18} {:<10} {:<6} {:<24} {:<9} {:<12} {:<11} {}{}{}",
         v.sysid,
         v.flavour.to_string(),
         v.mode,
@@ -251,6 +251,11 @@ pub(crate) fn format_vehicle(v: &VehicleSnapshot) -> String {
         gps,
         batt,
         if v.alive { "" } else { "LOST " },
+        if v.sysid_conflict.is_some() {
+            "ID CONFLICT "
+        } else {
+            ""
+        },
         format_link(&v.link_quality),
     )
 }
@@ -289,6 +294,18 @@ pub(crate) fn print_snapshot(s: &FleetSnapshot, json: bool) -> anyhow::Result<()
     );
     for v in s.vehicles.values() {
         println!("{}", format_vehicle(v));
+        if let Some(c) = &v.sysid_conflict {
+            println!(
+                "     SYSTEM ID CONFLICT: two or more autopilots answer as system id {} on link \
+                 {} ({}; found {:.1} s after it was first heard). fleetmap sends nothing to it. \
+                 To fix: {}.",
+                v.sysid,
+                c.link,
+                c.evidence,
+                c.detect_s,
+                crate::fleet::SysidConflict::FIX
+            );
+        }
         if let Some(t) = &v.last_text {
             println!("     last message: {}", t.text);
         }
@@ -316,6 +333,12 @@ pub fn run(args: VehiclesArgs) -> anyhow::Result<ExitCode> {
         tokio::time::sleep(Duration::from_secs_f64(args.wait)).await;
         let snap = session.fleet.snapshot();
         let found = !snap.vehicles.is_empty();
+        let conflicts: Vec<u8> = snap
+            .vehicles
+            .values()
+            .filter(|v| v.sysid_conflict.is_some())
+            .map(|v| v.sysid)
+            .collect();
         print_snapshot(&snap, args.conn.json)?;
         session.close().await?;
         if !found {
@@ -324,6 +347,12 @@ pub fn run(args: VehiclesArgs) -> anyhow::Result<ExitCode> {
                 "no vehicle heard on {} within {} s",
                 names.join(", "),
                 args.wait
+            );
+        }
+        if let Some(first) = conflicts.first() {
+            anyhow::bail!(
+                "two or more autopilots answer as system id {first}: {}",
+                crate::fleet::SysidConflict::FIX
             );
         }
         Ok(ExitCode::SUCCESS)

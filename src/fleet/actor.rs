@@ -24,6 +24,7 @@ use fleetmap_core::proto::mission::MissionEvent;
 use fleetmap_core::proto::mission::MissionOp;
 use fleetmap_core::proto::mission::MissionOutcome;
 use fleetmap_core::proto::mission::OpId;
+use fleetmap_core::proto::sysid_conflict::SysidWatch;
 use fleetmap_core::proto::telemetry::STREAMS_STALE;
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::MonotonicClock;
@@ -109,6 +110,22 @@ pub(super) struct Actor {
     pub(super) snapshot_tx: watch::Sender<FleetSnapshot>,
     pub(super) incoming: broadcast::Sender<Incoming>,
     pub(super) next_snapshot: Time,
+    /// Two autopilots behind one system id ([`fleetmap_core::proto::sysid_conflict`]).
+    pub(super) sysids: SysidWatch,
+}
+
+/// The CRC of a frame (its content check for [`SysidWatch`]): the two bytes after the
+/// payload; 0 for a frame too short to hold them (the codec never yields one).
+fn frame_check(frame: &Frame) -> u16 {
+    let hdr = match frame.version {
+        mavlink::MavlinkVersion::V1 => 6,
+        mavlink::MavlinkVersion::V2 => 10,
+    };
+    let at = hdr + usize::from(frame.raw.get(1).copied().unwrap_or(0));
+    match (frame.raw.get(at), frame.raw.get(at + 1)) {
+        (Some(lo), Some(hi)) => u16::from_le_bytes([*lo, *hi]),
+        _ => 0,
+    }
 }
 
 /// MISSION_ITEM (39) and MISSION_ITEM_INT (73) carry `seq` at payload offset 28.
@@ -314,6 +331,8 @@ impl Actor {
         }
         self.routes.insert(from, link);
         self.sys_routes.insert(from.sysid, link);
+        self.sysids
+            .handle_frame(link, from, frame.header.sequence, frame_check(&frame), now);
         if let Some(v) = self.vehicles.get_mut(&from.sysid) {
             v.link.received(frame.raw.len());
             if v.snap.compid == from.compid {
@@ -336,6 +355,7 @@ impl Actor {
                 _ => Beat::from_payload(frame.payload()),
             };
             self.liveness.handle_heartbeat(from, &beat, now);
+            self.sysids.handle_heartbeat(link, from, &beat, now);
             self.on_heartbeat(from, &beat, (link, peer), now);
         }
         match &frame.message {
@@ -394,6 +414,7 @@ impl Actor {
             Some(_) => {} // a second autopilot component on the same system: ignored
             None => {
                 let mut snap = VehicleSnapshot::new(from.sysid, from.compid, beat, link, now);
+                snap.sysid_conflict = self.sysids.conflict_of(from.sysid).map(conflict_seen);
                 let budget = self.configured_budget(from.sysid);
                 snap.camera_compid = self.cameras.get(&from.sysid).copied();
                 let mission = MissionClient::new(
@@ -454,8 +475,10 @@ impl Actor {
                 }
                 LivenessEvent::Rebooted { who } => {
                     let mut rerequest = false;
+                    // Two autopilots behind one id look like one that reboots all the time.
                     if let Some(v) = self.vehicles.get_mut(&who.sysid)
                         && v.snap.compid == who.compid
+                        && v.snap.sysid_conflict.is_none()
                     {
                         tracing::warn!("vehicle {} rebooted", who.sysid);
                         v.snap.reboots += 1;
@@ -471,6 +494,7 @@ impl Actor {
                 LivenessEvent::Discovered { .. } => {}
             }
         }
+        self.sysid_conflicts(now);
         self.stop_unwanted(now);
         while let Some(m) = self.commands.poll_transmit() {
             self.route(&m);
@@ -515,6 +539,29 @@ impl Actor {
         self.flush_uplinks(now);
     }
 
+    /// Mark the vehicles behind which the watch found two autopilots, say so loudly, and
+    /// publish at once (operations refuse them from the next snapshot on).
+    fn sysid_conflicts(&mut self, now: Time) {
+        while let Some(c) = self.sysids.poll_event() {
+            let seen = conflict_seen(&c);
+            tracing::error!(
+                "SYSTEM ID CONFLICT: two or more autopilots answer as system id {} on link {} \
+                 ({}; found after {:.1} s): fleetmap will send nothing more to vehicle {} — \
+                 {}",
+                c.who.sysid,
+                c.link,
+                seen.evidence,
+                seen.detect_s,
+                c.who.sysid,
+                crate::fleet::SysidConflict::FIX
+            );
+            if let Some(v) = self.vehicles.get_mut(&c.who.sysid) {
+                v.snap.sysid_conflict = Some(seen);
+                self.next_snapshot = now;
+            }
+        }
+    }
+
     fn publish(&mut self, now: Time) {
         let statuses: Vec<_> = self.links.iter().map(|l| l.status()).collect();
         let mut snap = FleetSnapshot {
@@ -547,10 +594,22 @@ impl Actor {
                 v.rate_hz,
                 now,
             );
+            v.snap.sysid_checked = self.sysids.checked(*sysid, now);
             v.link.sample_rates(now);
             v.link.describe(&mut v.snap.link_quality, now);
             snap.vehicles.insert(*sysid, v.snap.clone());
         }
         let _ = self.snapshot_tx.send(snap);
+    }
+}
+
+/// How the operator is told of `c`.
+fn conflict_seen(
+    c: &fleetmap_core::proto::sysid_conflict::Conflict,
+) -> crate::fleet::SysidConflict {
+    crate::fleet::SysidConflict {
+        evidence: c.evidence.to_string(),
+        link: c.link,
+        detect_s: c.at.saturating_since(c.since).as_secs_f64(),
     }
 }

@@ -97,6 +97,19 @@ pub enum FleetError {
         /// What showed it booting.
         why: String,
     },
+    /// Two or more autopilots answer as this system id: whatever is sent to it reaches one
+    /// of them, so nothing is ([`crate::fleet::SysidConflict`]).
+    #[error(
+        "vehicle {sysid}: two or more autopilots answer as system id {sysid} ({evidence}); \
+         fleetmap sends nothing to it: {}",
+        crate::fleet::SysidConflict::FIX
+    )]
+    SysidConflict {
+        /// System id.
+        sysid: u8,
+        /// What showed it.
+        evidence: String,
+    },
     /// The fleet task has stopped.
     #[error("the fleet task has stopped")]
     Stopped,
@@ -167,7 +180,7 @@ impl FleetError {
     ///
     /// Every other variant is final: refusals (`ArmRefused`, a `Command` or `Mission`
     /// rejection, a read-back that differs), `Flavour`, `NotReady`, `Booting`, `NoVehicle`
-    /// and `Stopped`. This is the rule the bandit runner applies (`app::bandit`, its
+    /// `SysidConflict` and `Stopped`. This is the rule the bandit runner applies (`app::bandit`, its
     /// `transient` function) when it decides whether to retry an upload.
     pub(crate) fn is_transient(&self) -> bool {
         match self {
@@ -236,6 +249,7 @@ impl FleetError {
                 "the autopilot refuses the list ({error}): check the mission against the vehicle"
             )),
             FleetError::Flavour { error, .. } => Some(format!("{error}")),
+            FleetError::SysidConflict { .. } => Some(crate::fleet::SysidConflict::FIX.to_string()),
             FleetError::Command {
                 error:
                     error @ (CommandError::Unsupported { .. } | CommandError::UnsupportedFrame { .. }),

@@ -77,8 +77,26 @@ impl FleetHandle {
         self.snapshot.borrow().vehicles.get(&sysid).cloned()
     }
 
+    /// The vehicle `sysid`, to be commanded: an error when it is not heard, or when two
+    /// autopilots answer as it ([`FleetError::SysidConflict`]).
     pub(super) fn require(&self, sysid: u8) -> Result<VehicleSnapshot, FleetError> {
-        self.vehicle(sysid).ok_or(FleetError::NoVehicle { sysid })
+        let v = self.vehicle(sysid).ok_or(FleetError::NoVehicle { sysid })?;
+        match &v.sysid_conflict {
+            Some(c) => Err(FleetError::SysidConflict {
+                sysid,
+                evidence: c.evidence.clone(),
+            }),
+            None => Ok(v),
+        }
+    }
+
+    /// [`FleetError::SysidConflict`] when two autopilots answer as `sysid`.
+    pub(crate) fn conflict(&self, sysid: u8) -> Option<FleetError> {
+        let v = self.vehicle(sysid)?;
+        v.sysid_conflict.map(|c| FleetError::SysidConflict {
+            sysid,
+            evidence: c.evidence,
+        })
     }
 
     /// Wait until `pred` holds for vehicle `sysid` (checked on every snapshot).
@@ -140,6 +158,9 @@ impl FleetHandle {
         let sysid = cmd.target.sysid;
         let give_up = tokio::time::Instant::now() + self.cfg.ops.boot_wait;
         loop {
+            if let Some(e) = self.conflict(sysid) {
+                return Err(e);
+            }
             // A system not heard yet (a camera, a command sent blind) is not waited for.
             if self.vehicle(sysid).is_some() {
                 self.wait_booted(sysid).await?;
@@ -209,6 +230,10 @@ impl FleetHandle {
 
     /// Send any message (routed by its target); returns the number of links it went out on.
     pub async fn send(&self, msg: MavMessage) -> Result<usize, FleetError> {
+        use mavlink::Message;
+        if let Some(e) = msg.target_system_id().and_then(|s| self.conflict(s)) {
+            return Err(e);
+        }
         self.request(|reply| Request::Send {
             msg: Box::new(msg),
             reply,
@@ -221,6 +246,9 @@ impl FleetHandle {
     /// and on a radio as bulk traffic behind the vehicle's commands and mission transfers.
     /// Returns how many links it went to (1 when queued).
     pub async fn send_to(&self, to: u8, msg: MavMessage) -> Result<usize, FleetError> {
+        if let Some(e) = self.conflict(to) {
+            return Err(e);
+        }
         self.request(|reply| Request::SendTo {
             to,
             msg: Box::new(msg),
@@ -243,6 +271,9 @@ impl FleetHandle {
         use mavlink::dialects::ardupilotmega::MavMissionResult as R;
         let give_up = tokio::time::Instant::now() + self.cfg.ops.boot_wait;
         loop {
+            if let Some(e) = self.conflict(sysid) {
+                return Err(e);
+            }
             self.wait_booted(sysid).await?;
             let (o, p) = (op.clone(), progress.clone());
             let r = self

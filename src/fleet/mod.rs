@@ -43,7 +43,9 @@ mod vehicle_link;
 
 pub use error::{FleetError, StateSeen};
 pub use handle::FleetHandle;
-pub use state::{FleetSnapshot, GeoPoint, LinkQuality, RadioReport, StatusText, VehicleSnapshot};
+pub use state::{
+    FleetSnapshot, GeoPoint, LinkQuality, RadioReport, StatusText, SysidConflict, VehicleSnapshot,
+};
 
 use self::actor::Actor;
 use fleetmap_core::budget::LinkBudget;
@@ -219,6 +221,7 @@ pub fn spawn(
         snapshot_tx,
         incoming: incoming.clone(),
         next_snapshot: now,
+        sysids: fleetmap_core::proto::sysid_conflict::SysidWatch::new(Default::default()),
     };
     tokio::spawn(actor.run(rx, events));
     FleetHandle {

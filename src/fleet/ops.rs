@@ -283,6 +283,9 @@ impl FleetHandle {
         let mut others: JoinSet<(LaunchStep, Result<(), CommandError>)> = JoinSet::new();
         let result = loop {
             snaps.borrow_and_update();
+            if let Some(e) = self.conflict(sysid) {
+                break Err(e);
+            }
             let now = since();
             match machine.poll(now, &self.observed(sysid)) {
                 Action::Done => break Ok(()),

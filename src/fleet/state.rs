@@ -190,6 +190,31 @@ pub struct VehicleSnapshot {
     pub(crate) last_message: Time,
     /// When the last GLOBAL_POSITION_INT arrived (fleet clock).
     pub(crate) position_at: Option<Time>,
+    /// Two (or more) autopilots answer as this system id on its link
+    /// ([`fleetmap_core::proto::sysid_conflict`]): nothing is sent to it any more
+    /// ([`crate::fleet::FleetError::SysidConflict`]) until fleetmap is restarted.
+    pub sysid_conflict: Option<SysidConflict>,
+    /// It has been heard long enough to say that no second autopilot shares its id
+    /// ([`fleetmap_core::proto::sysid_conflict::SysidWatch::checked`]), or a conflict was
+    /// seen.
+    pub sysid_checked: bool,
+}
+
+/// Two autopilots seen behind one system id, as the operator is told.
+#[derive(Clone, Debug, PartialEq, Serialize)]
+pub struct SysidConflict {
+    /// What showed it.
+    pub evidence: String,
+    /// The link it was seen on (index of `--connect`).
+    pub link: usize,
+    /// Seconds from the first frame heard from that system on that link to the decision.
+    pub detect_s: f64,
+}
+
+impl SysidConflict {
+    /// What the operator must do, said once for every message.
+    pub const FIX: &'static str = "give each autopilot its own system id (ArduPilot: \
+        SYSID_THISMAV, PX4: MAV_SYS_ID), reboot them, then restart fleetmap";
 }
 
 impl VehicleSnapshot {
@@ -315,6 +340,8 @@ impl VehicleSnapshot {
             link_quality: LinkQuality::default(),
             last_message: now,
             position_at: None,
+            sysid_conflict: None,
+            sysid_checked: false,
         }
     }
 

@@ -102,7 +102,11 @@ pub(crate) fn vehicle_row(
         role,
         autopilot: v.flavour.autopilot,
         vehicle_type: v.flavour.class,
-        mode: v.mode.clone(),
+        mode: if v.sysid_conflict.is_some() {
+            "ID CONFLICT".into()
+        } else {
+            v.mode.clone()
+        },
         armed: v.armed,
         battery: Battery {
             remaining_pct: v.battery_pct.and_then(|p| u8::try_from(p).ok()),
@@ -136,7 +140,15 @@ pub(crate) fn vehicle_row(
                 .map(|r| (r.status.rssi, r.status.remrssi)),
         },
         cell,
-        activity,
+        // Said where the operator looks first, over whatever the runner had it doing.
+        activity: match &v.sysid_conflict {
+            Some(_) => Some(format!(
+                "TWO AUTOPILOTS AS ID {}: not commanded; {}",
+                v.sysid,
+                crate::fleet::SysidConflict::FIX
+            )),
+            None => activity,
+        },
     }
 }
 

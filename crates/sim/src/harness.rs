@@ -61,9 +61,12 @@ pub enum SimError {
     /// A scheduled fault names a vehicle (or a camera) the simulation does not have.
     #[error(transparent)]
     Fault(#[from] FaultSpecError),
-    /// Two vehicles share a system id.
+    /// Two vehicles share a system id (and [`SimConfig::shared_sysids`] does not allow it).
     #[error("system id {0} is used twice")]
     DuplicateSysid(u8),
+    /// A vehicle to give another system id is not in the spec.
+    #[error("no vehicle {0} to give a system id (vehicles are numbered from 1)")]
+    NoVehicle(usize),
 }
 
 /// One entry of a `--vehicles` spec: how many, which flavour, and for PX4 which MAVLink
@@ -149,6 +152,11 @@ pub struct SimConfig {
     /// Faults scheduled in simulated time since the start ([`crate::fault`]): outages of the
     /// links, a battery that drops, a camera that fails or slows, a vehicle stuck.
     pub faults: Vec<ScheduledFault>,
+    /// Allow two vehicles with the same system id: two autopilots left at the same
+    /// `SYSID_THISMAV` / `MAV_SYS_ID`, as two SITLs sending to one GCS port are. Each keeps
+    /// its own endpoint; address them by index ([`Sim::send_bytes_at`], [`Sim::recv_bytes_at`])
+    /// — the `sysid` methods reach the first. Set by [`SimConfig::with_sysid`].
+    pub shared_sysids: bool,
 }
 
 /// The default `SimConfig::unix_epoch_us`: 2025-01-01T00:00:00Z.
@@ -213,7 +221,20 @@ impl SimConfig {
             unix_epoch_us: DEFAULT_EPOCH_US,
             radio: None,
             faults: Vec::new(),
+            shared_sysids: false,
         })
+    }
+
+    /// Give vehicle `vehicle` (1-based, in the spec's order) system id `sysid`, also one
+    /// another vehicle has (see [`SimConfig::shared_sysids`]).
+    pub fn with_sysid(mut self, vehicle: usize, sysid: u8) -> Result<SimConfig, SimError> {
+        let v = vehicle
+            .checked_sub(1)
+            .and_then(|k| self.vehicles.get_mut(k))
+            .ok_or(SimError::NoVehicle(vehicle))?;
+        v.sysid = sysid;
+        self.shared_sysids = true;
+        Ok(self)
     }
 
     /// Put every vehicle behind its own telemetry radio pair of `radio` (see
@@ -370,7 +391,7 @@ impl Sim {
         let mut seen = std::collections::HashSet::new();
         let mut slots = Vec::new();
         for (i, vc) in cfg.vehicles.into_iter().enumerate() {
-            if !seen.insert(vc.sysid) {
+            if !seen.insert(vc.sysid) && !cfg.shared_sysids {
                 return Err(SimError::DuplicateSysid(vc.sysid));
             }
             let mut up_f = cfg.uplink.get(i).cloned().unwrap_or_default();
@@ -424,7 +445,7 @@ impl Sim {
         self.world.as_deref()
     }
 
-    /// System ids in order.
+    /// System ids in order (the index of each is its endpoint's).
     pub fn sysids(&self) -> Vec<u8> {
         self.slots.iter().map(|s| s.v.sysid()).collect()
     }
@@ -453,6 +474,19 @@ impl Sim {
         if let Some(s) = self.slot_mut(sysid) {
             s.carry_from_gcs(bytes.to_vec(), now);
         }
+    }
+
+    /// Bytes sent by the GCS to the endpoint of vehicle `k` (index in [`Sim::sysids`]) now.
+    pub fn send_bytes_at(&mut self, k: usize, bytes: &[u8]) {
+        let now = self.now;
+        if let Some(s) = self.slots.get_mut(k) {
+            s.carry_from_gcs(bytes.to_vec(), now);
+        }
+    }
+
+    /// The next datagram vehicle `k` (index in [`Sim::sysids`]) delivered to the GCS by now.
+    pub fn recv_bytes_at(&mut self, k: usize) -> Option<Vec<u8>> {
+        self.slots.get_mut(k).and_then(|s| s.delivered.pop_front())
     }
 
     /// Encode and send one message from the GCS (`header` is the GCS's) to vehicle `sysid`.

@@ -229,9 +229,10 @@ impl Stepper {
         }
     }
 
-    /// What vehicle `sysid`'s endpoint received: it acts now, in simulated time.
-    fn receive(&mut self, sysid: u8, bytes: &[u8]) {
-        self.sim.send_bytes(sysid, bytes);
+    /// What the endpoint of vehicle `k` (index in [`Sim::sysids`]) received: it acts now,
+    /// in simulated time.
+    fn receive(&mut self, k: usize, bytes: &[u8]) {
+        self.sim.send_bytes_at(k, bytes);
     }
 
     /// Let the vehicles answer what they received, at the current simulated time (a mission
@@ -378,7 +379,7 @@ where
         // what arrived since the last turn acts at the current simulated time
         let mut got = false;
         while let Ok((k, bytes, _)) = rx.try_recv() {
-            stepper.receive(sysids[k], &bytes);
+            stepper.receive(k, &bytes);
             got = true;
         }
         if got {
@@ -407,7 +408,7 @@ where
         let wall_now = wall.now();
         for (k, &sysid) in sysids.iter().enumerate() {
             let q = &mut pending[k];
-            while let Some(d) = stepper.sim.recv_bytes(sysid) {
+            while let Some(d) = stepper.sim.recv_bytes_at(k) {
                 q.push(wall_now, d);
             }
             match q.expire(wall_now) {
@@ -461,7 +462,7 @@ where
         tokio::select! {
             r = rx.recv() => {
                 if let Some((k, bytes, _)) = r {
-                    stepper.receive(sysids[k], &bytes);
+                    stepper.receive(k, &bytes);
                 }
             }
             _ = pause(wait) => {}

@@ -480,6 +480,8 @@ pub async fn run(
     mut state: ClassificationState,
     mut opts: RunOptions,
 ) -> RunnerResult<ClassificationState> {
+    // Nothing is sent to a system id two autopilots answer to.
+    crate::app::refuse_conflicts(&fleet, state.sysids())?;
     let resumed = state.measurements > 0 || state.epoch.is_some() || !state.epochs.is_empty();
     if resumed {
         state.on_resume();

@@ -79,6 +79,8 @@ pub async fn run(
 ) -> RunnerResult<Outcome> {
     let mut state = state;
     let sysids: Vec<u8> = state.robots.iter().map(|r| r.sysid).collect();
+    // Nothing is sent to a system id two autopilots answer to.
+    crate::app::refuse_conflicts(&fleet, sysids.iter().copied())?;
     // A moving region: its epoch is this start unless the state has one (a resumed run, or
     // the demo's simulator start); read against the fleet clock once.
     let motion = state.params.motion();

@@ -20,6 +20,8 @@
 //! * [`telemetry`] — which telemetry to ask a vehicle for so that it fits its link, and the
 //!   streams to stop on a radio.
 //! * [`uplink`] — what the GCS sends a vehicle over a radio, most urgent first and paced.
+//! * [`sysid_conflict`] — two autopilots answering as one system id on one link, told from
+//!   their sequence counters and heartbeats.
 //! * [`image_transfer`] — receiving pictures by MAVLink image transmission
 //!   (DATA_TRANSMISSION_HANDSHAKE + ENCAPSULATED_DATA), with re-requests on a lossy link.
 
@@ -32,6 +34,7 @@ pub mod launch;
 pub mod mission;
 pub mod mode;
 pub mod severity;
+pub mod sysid_conflict;
 pub mod telemetry;
 pub mod uplink;
 

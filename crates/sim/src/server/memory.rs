@@ -8,7 +8,7 @@ use fleetmap_io::clock::MonotonicClock;
 use tokio::sync::mpsc;
 
 /// Serve `sim` over in-process links, one [`fleetmap_io::link::transport::MemoryPort`] per vehicle
-/// in system-id order, on the runtime's clock at real speed. With tokio's clock paused
+/// in the order of [`Sim::sysids`], on the runtime's clock at real speed. With tokio's clock paused
 /// (tests with `start_paused`) this is a fully virtual run: the simulator, the links and the
 /// fleet share tokio's virtual time, which jumps to the next timer whenever every task
 /// waits, so simulated minutes cost only the CPU time of the work done.
@@ -45,8 +45,8 @@ pub fn spawn_memory(sim: Sim, ports: Vec<fleetmap_io::link::transport::MemoryPor
             while let Some((sysid, ev)) = stepper.sim.poll_event() {
                 log_event(sysid, &ev);
             }
-            for (k, &sysid) in sysids.iter().enumerate() {
-                while let Some(d) = stepper.sim.recv_bytes(sysid) {
+            for k in 0..sysids.len() {
+                while let Some(d) = stepper.sim.recv_bytes_at(k) {
                     if let Some(o) = outs.get(k) {
                         let _ = o.send(d);
                     }
@@ -60,8 +60,8 @@ pub fn spawn_memory(sim: Sim, ports: Vec<fleetmap_io::link::transport::MemoryPor
                     }
                     let mut next = r;
                     while let Some((k, bytes)) = next {
-                        if let Some(&s) = sysids.get(k) {
-                            stepper.receive(s, &bytes);
+                        if k < sysids.len() {
+                            stepper.receive(k, &bytes);
                         }
                         next = rx.try_recv().ok();
                     }
