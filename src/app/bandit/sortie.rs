@@ -461,7 +461,10 @@ impl Runner {
         let mut held: BTreeSet<u8> = BTreeSet::new();
         let mut tick = tokio::time::interval(Duration::from_millis(250));
         loop {
+            // `biased`: in this order, not tokio's random one (a run on a paused clock is the
+            // same every time); the checks below run whichever branch woke.
             tokio::select! {
+                biased;
                 r = pilots.join_next(), if !pilots.is_empty() => {
                     if let Some(r) = r {
                         r.map_err(RunnerError::task("drone task"))??;
