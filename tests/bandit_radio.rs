@@ -101,7 +101,7 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
     )
     .await
     .unwrap();
-    let (stop_tx, stop_rx) = tokio::sync::watch::channel(false);
+    let (stop_tx, stop_rx) = fleetmap_io::watch::channel(false);
     let radios: Vec<_> = relays
         .into_iter()
         .map(|r| {

@@ -10,11 +10,12 @@ use fleetmap::tui::*;
 use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::MonotonicClock;
+use fleetmap_io::watch;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 use ratatui::style::{Color, Modifier};
 use std::time::Duration;
-use tokio::sync::{mpsc, watch};
+use tokio::sync::mpsc;
 
 mod common;
 use common::pty;

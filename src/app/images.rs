@@ -47,7 +47,7 @@ use fleetmap_core::vision::meta::{ImageMeta, read_meta};
 use fleetmap_core::vision::onboard::OnboardMeasurement;
 use fleetmap_core::vision::onboard_runway::RunwayMeasurement;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
-use std::collections::{HashMap, VecDeque};
+use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 
 pub(crate) mod announce;
@@ -241,7 +241,9 @@ fn yaw_of_quaternion(q: [f32; 4]) -> Option<f64> {
 pub struct Intake {
     gcs: Endpoint,
     config: ReceiverConfig,
-    receivers: HashMap<Endpoint, ImageReceiver>,
+    /// One receiver per camera, in endpoint order (the order their timers and sends run in:
+    /// the same every run).
+    receivers: BTreeMap<Endpoint, ImageReceiver>,
     delivered: VecDeque<CaptureKey>,
     /// CAMERA_IMAGE_CAPTURED poses of the latest captures (for images that arrive by image
     /// transmission, whose JPEG metadata names the capture), at most [`CAPTURED_KEPT`].
@@ -279,7 +281,7 @@ impl Intake {
         Intake {
             gcs,
             config,
-            receivers: HashMap::new(),
+            receivers: BTreeMap::new(),
             delivered: VecDeque::new(),
             captured: VecDeque::new(),
             measured: VecDeque::new(),

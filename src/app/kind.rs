@@ -14,13 +14,14 @@ use crate::tui::live::RunView;
 use crate::tui::{Command, CommandError, Target};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;
+use fleetmap_io::watch;
 use serde::Serialize;
 use serde::de::DeserializeOwned;
 use std::future::Future;
 use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::{mpsc, watch};
+use tokio::sync::mpsc;
 
 /// How a run ended.
 #[derive(Clone, Debug, PartialEq, Eq)]

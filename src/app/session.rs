@@ -32,11 +32,12 @@ use crate::tui::{
     Target, UiConfig,
 };
 use fleetmap_core::proto::severity::Severity;
+use fleetmap_io::watch;
 use std::future::Future;
 use std::pin::Pin;
 use std::sync::{Arc, Mutex};
 use std::time::Duration;
-use tokio::sync::{mpsc, watch};
+use tokio::sync::mpsc;
 use tokio::task::JoinSet;
 
 /// How long a finished run's helpers (its log relay, its view relay) may take to pass on

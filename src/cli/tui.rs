@@ -24,13 +24,14 @@ use clap::{Args, ValueEnum};
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::ConnSpec;
+use fleetmap_io::watch;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 use std::io::IsTerminal;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
 use std::time::{Duration, Instant};
-use tokio::sync::{mpsc, watch};
+use tokio::sync::mpsc;
 
 /// Which built-in sample to show.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]

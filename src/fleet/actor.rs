@@ -33,6 +33,7 @@ use fleetmap_io::link::peers::PeerKey;
 use fleetmap_io::link::transport::LinkEvent;
 use fleetmap_io::link::transport::LinkHandle;
 use fleetmap_io::link::transport::LinkId;
+use fleetmap_io::watch;
 use mavlink::Message;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::BTreeMap;
@@ -42,7 +43,6 @@ use std::time::Duration;
 use tokio::sync::broadcast;
 use tokio::sync::mpsc;
 use tokio::sync::oneshot;
-use tokio::sync::watch;
 
 pub(super) type Reply<T> = oneshot::Sender<T>;
 
@@ -150,7 +150,11 @@ impl Actor {
             let now = self.clock.now();
             let wake = self.next_wake(now);
             let sleep = tokio::time::sleep(self.clock.wall_until(wake));
+            // `biased`: the branches in this order, not tokio's random one, so that a run on
+            // a paused clock is the same every time (each branch drains a finite queue; the
+            // timers are run below on every pass, whichever branch woke).
             tokio::select! {
+                biased;
                 req = req_rx.recv() => match req {
                     Some(Request::Shutdown { reply }) => {
                         let _ = reply.send(());
@@ -318,8 +322,9 @@ impl Actor {
         let LinkEvent::Frame {
             link,
             frame,
-            unix_us,
+            received,
             peer,
+            ..
         } = ev
         else {
             return;
@@ -346,7 +351,7 @@ impl Actor {
         let frame: Arc<Frame> = Arc::from(frame);
         let _ = self.incoming.send(Incoming {
             link,
-            unix_us,
+            received,
             frame: frame.clone(),
         });
         if frame.msg_id == 0 {

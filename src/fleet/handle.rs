@@ -22,13 +22,13 @@ use fleetmap_core::proto::mission::MissionOp;
 use fleetmap_core::proto::mission::MissionOutcome;
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::transport::LinkHandle;
+use fleetmap_io::watch;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::time::Duration;
 use tokio::sync::broadcast;
 use tokio::sync::mpsc;
 use tokio::sync::oneshot;
-use tokio::sync::watch;
 
 /// Handle to the fleet task (cheap to clone).
 #[derive(Clone)]

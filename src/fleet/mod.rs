@@ -64,13 +64,13 @@ use fleetmap_io::link::transport::LinkHandle;
 use fleetmap_io::link::transport::LinkId;
 use fleetmap_io::link::transport::LinkOptions;
 use fleetmap_io::link::transport::open_link;
+use fleetmap_io::watch;
 use std::collections::BTreeMap;
 use std::collections::HashMap;
 use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::broadcast;
 use tokio::sync::mpsc;
-use tokio::sync::watch;
 
 /// Fleet configuration.
 #[derive(Clone, Debug)]
@@ -174,8 +174,8 @@ const BOOT_RETRY: Duration = Duration::from_millis(500);
 pub struct Incoming {
     /// The link it came on.
     pub link: LinkId,
-    /// Reception time, µs since the Unix epoch.
-    pub(crate) unix_us: u64,
+    /// When its link received it, on the runtime's clock (virtual when the clock is paused).
+    pub(crate) received: tokio::time::Instant,
     /// The frame (header, raw bytes, parsed message or why not).
     pub frame: Arc<Frame>,
 }

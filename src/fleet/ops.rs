@@ -344,7 +344,10 @@ impl FleetHandle {
                 }
                 Action::Wait(until) => {
                     let sleep = until.saturating_since(now);
+                    // `biased`: in this order, not tokio's random one, so that a run on a
+                    // paused clock is the same every time.
                     tokio::select! {
+                        biased;
                         Some(r) = modes.join_next(), if !modes.is_empty() => {
                             if let Ok((step, r)) = r {
                                 machine.on_result(step, r, since());

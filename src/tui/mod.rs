@@ -23,7 +23,8 @@
 //! ```no_run
 //! # async fn demo() -> Result<(), Box<dyn std::error::Error>> {
 //! use fleetmap::tui::{App, Model, ShellIo, ShellOptions, Source, SourceKind, UiConfig};
-//! use tokio::sync::{mpsc, watch};
+//! use tokio::sync::mpsc;
+//! use fleetmap_io::watch;
 //! let (snap_tx, snap_rx) = watch::channel(Model::default());
 //! let (cmd_tx, mut cmd_rx) = mpsc::channel(32);
 //! let (result_tx, result_rx) = mpsc::channel(32);

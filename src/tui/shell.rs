@@ -21,12 +21,13 @@ use super::update::update;
 use super::view;
 use crossterm::event::{Event as TermEvent, KeyEventKind};
 use fleetmap_io::clock::MonotonicClock;
+use fleetmap_io::watch;
 use ratatui::Terminal;
 use ratatui::backend::Backend;
 use std::collections::VecDeque;
 use std::io::{self, Write};
 use std::time::Duration;
-use tokio::sync::{mpsc, watch};
+use tokio::sync::mpsc;
 
 /// A terminal UI failure.
 #[derive(Debug, thiserror::Error)]

@@ -30,7 +30,7 @@ pub fn unix_ms() -> u64 {
 }
 
 /// Wall-clock microseconds since the Unix epoch (0 if the clock is before it): the
-/// timestamp the links put on every frame they receive (`fleet::Incoming::unix_us`).
+/// timestamp the links put on every frame they receive (`link::transport::LinkEvent::Frame`).
 pub fn unix_us() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)

@@ -16,9 +16,10 @@ use crate::tui::{Command, CommandError, Target};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::planner::sortie::ClassificationState;
 use fleetmap_core::world::World;
+use fleetmap_io::watch;
 use std::path::Path;
 use std::time::Duration;
-use tokio::sync::{mpsc, watch};
+use tokio::sync::mpsc;
 
 /// Spatial classification (the bandit paper): UCB epochs, integer-program sorties with
 /// charging rovers.

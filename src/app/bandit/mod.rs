@@ -58,13 +58,14 @@ use fleetmap_core::vision::green::GreenParams;
 use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
 use fleetmap_core::vision::onboard::GreenSpec;
 use fleetmap_core::vision::sanity::{self, CaptureClaim, CaptureLimits, check_capture};
+use fleetmap_io::watch;
 use mavlink::dialects::ardupilotmega::MavCmd;
 use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
 use std::collections::{BTreeMap, BTreeSet};
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{broadcast, mpsc};
 
 use fleetmap_core::planner::sortie::KIND;
 

@@ -475,7 +475,10 @@ impl Runner {
             BTreeMap::new();
         let mut tick = tokio::time::interval(Duration::from_millis(250));
         loop {
+            // `biased`: in this order, not tokio's random one (a run on a paused clock is the
+            // same every time); the checks below run whichever branch woke.
             tokio::select! {
+                biased;
                 r = pilots.join_next(), if !pilots.is_empty() => {
                     if let Some(r) = r {
                         r.map_err(RunnerError::task("drone task"))??;

@@ -8,11 +8,12 @@ use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::image_transfer::{FileUrlError, ReceiverConfig};
 use fleetmap_core::time::Time;
 use fleetmap_io::files::read_file_url;
+use fleetmap_io::watch;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::BTreeMap;
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::{broadcast, mpsc, oneshot, watch};
+use tokio::sync::{broadcast, mpsc, oneshot};
 
 /// A runner's request for a picture whose on-board result it has ([`ImageHub::ask_picture`]).
 #[derive(Debug)]
@@ -121,7 +122,11 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
                 .poll_timeout()
                 .map(|t| fleet.clock().wall_until(t))
                 .unwrap_or(Duration::from_secs(1));
+            // `biased`: in this order, not tokio's random one, so that a run on a paused
+            // clock is the same every time; the timers run below on every pass, so a stream of
+            // frames cannot hold them back.
             tokio::select! {
+                biased;
                 r = frames.recv() => match r {
                     Ok(Incoming { frame, .. }) => {
                         if let Ok(msg) = &frame.message {
@@ -143,7 +148,6 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
                     }
                     Err(broadcast::error::RecvError::Closed) => return,
                 },
-                _ = tokio::time::sleep(wait) => intake.handle_timeout(fleet.clock().now()),
                 Ok(()) = accepted.changed() => intake.accept_onboard(*accepted.borrow_and_update()),
                 Ok(()) = runway_accepted.changed() => {
                     let a = runway_accepted.borrow_and_update().clone();
@@ -158,6 +162,11 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
                     waiting.retain(|a| !a.reply.is_closed());
                     waiting.push(ask);
                 }
+                _ = tokio::time::sleep(wait) => {}
+            }
+            let now = fleet.clock().now();
+            if intake.poll_timeout().is_some_and(|t| t <= now) {
+                intake.handle_timeout(now);
             }
             while let Some(read) = intake.poll_file_read() {
                 let url = read.url.clone();

@@ -17,10 +17,11 @@ use crate::app::error::Context as _;
 use crate::app::error::{RunnerError, RunnerResult};
 use crate::store::{RunDir, RunStore};
 use fleetmap_io::clock::MonotonicClock;
+use fleetmap_io::watch;
 use serde::Serialize;
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::{Mutex, mpsc, watch};
+use tokio::sync::{Mutex, mpsc};
 
 /// How often [`RunCore::spawn_tracker`] samples the fleet, in runtime time.
 pub(crate) const TRACK_PERIOD: Duration = Duration::from_millis(500);

@@ -260,6 +260,7 @@ async fn audit_picture(
     let picture = loop {
         let left = clock.wall_until(deadline);
         tokio::select! {
+            biased; // the picture first if it came at the deadline, and the same every run
             r = &mut rx => break r.map_err(|_| "the image intake stopped".to_string())?,
             _ = tokio::time::sleep(left) => {
                 if left.is_zero() || clock.now() >= deadline {

@@ -71,13 +71,14 @@ use fleetmap_core::vision::sanity::{
     CaptureClaim, CaptureLimits, SWEEP_MAX_TILT_DEG, check_capture,
 };
 use fleetmap_core::vision::votes::{Detection, GeoPosition};
+use fleetmap_io::watch;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use nalgebra::UnitQuaternion;
 use serde::{Deserialize, Serialize};
 use std::collections::{HashMap, HashSet};
 use std::sync::Arc;
 use std::time::Duration;
-use tokio::sync::{broadcast, mpsc, watch};
+use tokio::sync::{broadcast, mpsc};
 
 mod events;
 mod grounded;
@@ -280,13 +281,15 @@ impl Shared {
         self.run.now()
     }
 
-    /// The fleet-clock time at which a frame stamped `unix_us` by its link arrived: now, less
-    /// the wall time since (scaled like the fleet clock). A task that runs late on a busy
-    /// machine still dates what it reads by its arrival.
-    fn received_at(&self, unix_us: u64) -> Time {
-        let late_us = fleetmap_io::clock::unix_us().saturating_sub(unix_us);
+    /// The fleet-clock time at which a frame its link received at `received` (the runtime's
+    /// clock) arrived: now, less the time since on the runtime's clock, scaled like the fleet
+    /// clock. A task that runs late on a busy machine still dates what it reads by its
+    /// arrival; on a paused clock (virtual time) the lateness is virtual, so the date is the
+    /// same on every run.
+    fn received_at(&self, received: tokio::time::Instant) -> Time {
+        let late = received.elapsed();
         let speedup = self.fleet.clock().speedup();
-        self.now() - Duration::from_secs_f64(late_us as f64 / 1e6 * speedup)
+        self.now() - Duration::try_from_secs_f64(late.as_secs_f64() * speedup).unwrap_or_default()
     }
 
     /// Mutate the state, save it, then journal `event` and after it the mission clock's

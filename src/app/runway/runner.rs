@@ -85,11 +85,17 @@ pub async fn run(
     // the demo's simulator start); read against the fleet clock once.
     let motion = state.params.motion();
     let roi = if motion.speed() > 0.0 {
-        let epoch = *state
-            .roi_epoch_unix_ms
-            .get_or_insert_with(fleetmap_io::clock::unix_ms);
         let clock = fleet.clock();
-        RoiClock::new(motion, clock.now(), clock.secs_since_unix_ms(epoch))
+        // A new epoch is this very moment: no time has passed since (not a second reading of
+        // the wall clock, which would put a machine's microseconds into a virtual-time run).
+        let since_epoch_s = match state.roi_epoch_unix_ms {
+            Some(epoch) => clock.secs_since_unix_ms(epoch),
+            None => {
+                state.roi_epoch_unix_ms = Some(fleetmap_io::clock::unix_ms());
+                0.0
+            }
+        };
+        RoiClock::new(motion, clock.now(), since_epoch_s)
     } else {
         RoiClock::fixed()
     };

@@ -112,7 +112,25 @@ impl Pilot {
         // The vehicle has flown the whole sweep (its pictures may still be in transfer).
         let mut flown = false;
         loop {
+            // `biased`: in this order, not tokio's random one, so that a run on a paused clock
+            // is the same every time. The phase and the battery tick first: they are ready
+            // seldom, so they cannot starve the frames, nor a stream of frames them; the
+            // frames before the images and the snapshots, which then see them counted.
             tokio::select! {
+                biased;
+                _ = changed.changed() => {
+                    // A new phase, or the operator's pause (the step loop holds the vehicle).
+                    if *self.shared.paused.borrow()
+                        || self.shared.read(|s| s.phase != Phase::Sweep).await
+                    {
+                        return Ok(());
+                    }
+                }
+                _ = tick.tick() => {
+                    if self.check_battery().await? {
+                        return Ok(());
+                    }
+                }
                 f = frames.recv() => {
                     match f {
                         Ok(inc) => heard.on_frame(sysid, &inc, &self.shared),
@@ -130,8 +148,8 @@ impl Pilot {
                         continue;
                     }
                     // The frames before this image (its announcement among them) may still be
-                    // queued: `select!` picks among ready branches at random, and a busy
-                    // machine leaves both ready. Read them first.
+                    // queued: a busy machine can have the image before the broadcast of the
+                    // frames reached this task. Read them first.
                     let now = self.shared.now();
                     loop {
                         match frames.try_recv() {
@@ -190,19 +208,6 @@ impl Pilot {
                                 "vehicle {sysid}: sweep flown; waiting for {pending} pictures still in transfer"
                             )).about(sysid));
                         }
-                    }
-                }
-                _ = changed.changed() => {
-                    // A new phase, or the operator's pause (the step loop holds the vehicle).
-                    if *self.shared.paused.borrow()
-                        || self.shared.read(|s| s.phase != Phase::Sweep).await
-                    {
-                        return Ok(());
-                    }
-                }
-                _ = tick.tick() => {
-                    if self.check_battery().await? {
-                        return Ok(());
                     }
                 }
             }
@@ -496,7 +501,7 @@ impl SweepFrames {
         if inc.frame.sysid() == sysid
             && let Ok(m) = &inc.frame.message
         {
-            self.on_message(inc.frame.compid(), m, shared.received_at(inc.unix_us));
+            self.on_message(inc.frame.compid(), m, shared.received_at(inc.received));
         }
     }
 

@@ -9,16 +9,18 @@ fn opt(x: Option<f64>) -> String {
     x.map(|v| format!("{v:.3}")).unwrap_or_default()
 }
 
-/// `runway_trials.csv`: one row per trial (seconds of simulated time).
+/// `runway_trials.csv`: one row per trial (seconds of simulated time). Nothing of the machine's
+/// in it — a trial's wall time is in the JSON summary and the progress line — so that a study in
+/// virtual time writes the same file for the same seed on every run.
 pub fn trials_csv(study: &Study) -> String {
     let mut s = String::from(
         "drones,trial,seed,finished,to_dfs_start_s,to_map_complete_s,to_last_landing_s,iou,\
          iou_best_possible,cells_mapped,images,battery_swaps,airborne_s,flying_share,\
-         waiting_share,ground_share,wall_s,error\n",
+         waiting_share,ground_share,error\n",
     );
     for t in &study.trials {
         s.push_str(&format!(
-            "{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.4},{:.4},{:.4},{:.1},{}\n",
+            "{},{},{},{},{},{},{},{},{},{},{},{},{:.1},{:.4},{:.4},{:.4},{}\n",
             t.drones,
             t.trial,
             t.seed,
@@ -35,7 +37,6 @@ pub fn trials_csv(study: &Study) -> String {
             t.flying_share,
             t.waiting_share,
             t.ground_share,
-            t.wall_s,
             t.error
                 .as_deref()
                 .map(|e| format!("\"{}\"", e.replace('"', "'")))

@@ -2,7 +2,7 @@
 //!
 //! The UI never reads the fleet actor or the mission runners directly. An adapter (in the
 //! shell) fills a [`Model`] from fleet snapshots and runner progress and publishes it on a
-//! `tokio::sync::watch` channel; a replay file or a test constructs one the same way. Every
+//! `fleetmap_io::watch` channel; a replay file or a test constructs one the same way. Every
 //! type here is `serde`, so a [`Model`] round-trips through JSON (replay files are JSON Lines
 //! of [`crate::tui::replay::ReplayFrame`]).
 //!

@@ -53,7 +53,11 @@ pub fn spawn_memory(sim: Sim, ports: Vec<fleetmap_io::link::transport::MemoryPor
                 }
             }
             let wait = stepper.wait(clock.now());
+            // `biased`: in this order, not tokio's random one, so that a run on a paused
+            // clock is the same every time (a stop first: it ends the task).
             tokio::select! {
+                biased;
+                _ = &mut stop_rx => return Ok(stepper.sim),
                 r = rx.recv(), if open => {
                     if r.is_none() {
                         open = false;
@@ -68,7 +72,6 @@ pub fn spawn_memory(sim: Sim, ports: Vec<fleetmap_io::link::transport::MemoryPor
                     stepper.deliver();
                 }
                 _ = pause(wait) => {}
-                _ = &mut stop_rx => return Ok(stepper.sim),
             }
         }
     });

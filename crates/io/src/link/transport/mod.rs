@@ -23,6 +23,7 @@ use super::peers::{PeerKey, PeerTable};
 use super::signing::Signing;
 use super::tlog::TlogHandle;
 use crate::clock::MonotonicClock;
+use crate::watch;
 use fleetmap_core::proto::Endpoint;
 use io::{Reader, Writer};
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -32,7 +33,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use task::LinkTask;
 use tokio::net::{TcpListener, UdpSocket};
-use tokio::sync::{mpsc, watch};
+use tokio::sync::mpsc;
 
 /// Receive buffer asked for on every UDP socket, bytes. The default (212 992 bytes on Linux)
 /// holds only about 170 small datagrams, since the kernel counts each one's whole buffer:
@@ -76,8 +77,12 @@ pub enum LinkEvent {
         link: LinkId,
         /// The frame.
         frame: Box<Frame>,
-        /// Reception time, µs since the Unix epoch.
+        /// Reception time, µs since the Unix epoch (wall clock: for logs and recordings).
         unix_us: u64,
+        /// Reception time on the runtime's clock: the wall clock's monotonic time, or the
+        /// virtual time of a runtime whose clock is paused — what a reader's lateness is
+        /// measured against, the same on every run of a virtual-time test.
+        received: tokio::time::Instant,
         /// Which of a serving link's peers (`udpin`, `tcpin`) sent it; `None` on a link with
         /// one peer. Several radios, each with its own vehicle, can send to one UDP port: what
         /// a radio reports about itself (RADIO_STATUS) concerns the vehicles behind it only.

@@ -8,10 +8,11 @@ use crate::clock::MonotonicClock;
 use crate::link::codec::Codec;
 use crate::link::peers::{PeerKey, PeerTable};
 use crate::link::tlog::TlogHandle;
+use crate::watch;
 use mavlink::Message;
 use std::time::Duration;
 use tokio::io::AsyncWriteExt;
-use tokio::sync::{mpsc, watch};
+use tokio::sync::mpsc;
 
 pub(super) struct LinkTask {
     pub(super) id: LinkId,
@@ -35,7 +36,17 @@ impl LinkTask {
         let mut tick = tokio::time::interval(Duration::from_millis(200));
         tick.set_missed_tick_behavior(tokio::time::MissedTickBehavior::Skip);
         loop {
+            // `biased`: in this order, not tokio's random one, so that a run on a paused
+            // clock is the same every time. The tick first: it is ready once a period, so it
+            // cannot starve the others, nor they it.
             tokio::select! {
+                biased;
+                _ = tick.tick() => {
+                    for gone in self.peers.expire(self.clock.now()) {
+                        tracing::info!("link {}: peer {gone} silent, forgotten", self.status.name);
+                    }
+                    self.publish();
+                }
                 cmd = self.rx.recv() => {
                     let Some(cmd) = cmd else { break };
                     let now = unix_now_us();
@@ -57,12 +68,6 @@ impl LinkTask {
                     if !self.handle_read(out, &buf).await {
                         break;
                     }
-                }
-                _ = tick.tick() => {
-                    for gone in self.peers.expire(self.clock.now()) {
-                        tracing::info!("link {}: peer {gone} silent, forgotten", self.status.name);
-                    }
-                    self.publish();
                 }
             }
         }
@@ -143,6 +148,7 @@ impl LinkTask {
     /// fleet. Returns false when the fleet is gone.
     async fn deliver(&mut self, data: &[u8], peer: Option<(PeerKey, String)>) -> bool {
         let now = unix_now_us();
+        let received = tokio::time::Instant::now();
         let key = peer.as_ref().map(|(k, _)| *k);
         let frames = match &peer {
             Some((key, name)) => {
@@ -166,6 +172,7 @@ impl LinkTask {
                 link: self.id,
                 frame: Box::new(frame),
                 unix_us: now,
+                received,
                 peer: key,
             };
             if self.events.send(ev).await.is_err() {
