@@ -407,7 +407,7 @@ impl Actor {
         if beat.mav_type == 30 || (100..=105).contains(&from.compid) && !beat.is_autopilot() {
             self.cameras.insert(from.sysid, from.compid);
             if let Some(v) = self.vehicles.get_mut(&from.sysid) {
-                v.snap.camera_compid = Some(from.compid);
+                v.snap.camera_heard(from.compid, now);
             }
             return;
         }

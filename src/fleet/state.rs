@@ -182,6 +182,12 @@ pub struct VehicleSnapshot {
     pub(crate) ekf_flags: Option<u16>,
     /// A camera component (MAV_COMP_ID_CAMERA…) was heard on this system.
     pub camera_compid: Option<u8>,
+    /// When the camera component's heartbeat last arrived (fleet clock).
+    pub(crate) camera_heard_at: Option<Time>,
+    /// When the camera's current run of heartbeats began (fleet clock): its first heartbeat,
+    /// or the first after a silence of more than [`CAMERA_SILENCE_S`] (a camera that was off,
+    /// rebooted or unplugged, and is back).
+    pub(crate) camera_since: Option<Time>,
     /// Link carrying this vehicle (index of `--connect`).
     pub link: usize,
     /// Link quality from the autopilot's sequence numbers.
@@ -217,7 +223,36 @@ impl SysidConflict {
         SYSID_THISMAV, PX4: MAV_SYS_ID), reboot them, then restart fleetmap";
 }
 
+/// A camera's heartbeat (1 Hz in the MAVLink camera protocol) missing for longer than this
+/// is a camera that went silent, seconds: the next one starts a new run
+/// ([`VehicleSnapshot::camera_since`]). Three beats, as the GCS's own liveness window counts.
+pub(crate) const CAMERA_SILENCE_S: f64 = 3.0;
+
 impl VehicleSnapshot {
+    /// The camera component's heartbeat arrived at `now`.
+    pub(crate) fn camera_heard(&mut self, compid: u8, now: Time) {
+        self.camera_compid = Some(compid);
+        let silent = self
+            .camera_heard_at
+            .is_none_or(|t| now.saturating_since(t).as_secs_f64() > CAMERA_SILENCE_S);
+        if silent {
+            self.camera_since = Some(now);
+        }
+        self.camera_heard_at = Some(now);
+    }
+
+    /// Whether the camera has been heard within [`CAMERA_SILENCE_S`] of `now`, in a run of
+    /// heartbeats that began at or after `since` (`None`: any).
+    pub(crate) fn camera_heard_since(&self, since: Option<Time>, now: Time) -> bool {
+        let recent = self
+            .camera_heard_at
+            .is_some_and(|t| now.saturating_since(t).as_secs_f64() <= CAMERA_SILENCE_S);
+        recent
+            && self
+                .camera_since
+                .is_some_and(|s| since.is_none_or(|at| s >= at))
+    }
+
     /// Whether the autopilot says it is on the ground: EXTENDED_SYS_STATE when reported,
     /// otherwise disarmed.
     pub fn on_ground(&self) -> bool {
@@ -336,6 +371,8 @@ impl VehicleSnapshot {
             prearm_ok: None,
             ekf_flags: None,
             camera_compid: None,
+            camera_heard_at: None,
+            camera_since: None,
             link,
             link_quality: LinkQuality::default(),
             last_message: now,
@@ -523,5 +560,39 @@ where
     match v.and_then(|e| e.to_u8()) {
         Some(n) => s.serialize_some(&n),
         None => s.serialize_none(),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A camera heard at 1 Hz is one run of heartbeats; one silent for longer than
+    /// [`CAMERA_SILENCE_S`] starts a new run when it is heard again, and only a run that began
+    /// after a given moment counts as heard since then.
+    #[test]
+    fn a_camera_silent_and_heard_again_starts_a_new_run() {
+        let beat = fleetmap_core::proto::heartbeat::Beat {
+            custom_mode: 0,
+            mav_type: 2,
+            autopilot: 3,
+            base_mode: 0,
+            system_status: 3,
+        };
+        let mut v = VehicleSnapshot::new(1, 1, &beat, 0, Time::ZERO);
+        assert!(!v.camera_heard_since(None, Time::ZERO));
+        for s in 0..10 {
+            v.camera_heard(100, Time::from_secs(s));
+        }
+        assert_eq!(v.camera_since, Some(Time::ZERO));
+        assert!(v.camera_heard_since(None, Time::from_secs(11)));
+        // silent: not heard within the window
+        assert!(!v.camera_heard_since(None, Time::from_secs(20)));
+        // a camera heartbeating on is not heard "since" a later moment
+        assert!(!v.camera_heard_since(Some(Time::from_secs(5)), Time::from_secs(9)));
+        // back after a silence: a new run
+        v.camera_heard(100, Time::from_secs(30));
+        assert_eq!(v.camera_since, Some(Time::from_secs(30)));
+        assert!(v.camera_heard_since(Some(Time::from_secs(5)), Time::from_secs(31)));
     }
 }

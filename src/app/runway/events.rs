@@ -160,6 +160,16 @@ pub enum MappingEvent {
         cell: Option<Cell>,
         /// The last failure.
         reason: String,
+        /// The camera went silent (captures unanswered, pictures that never came) rather
+        /// than sending wrong pictures: it may come back by itself. Absent: false.
+        #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+        silent: bool,
+    },
+    /// A vehicle's silent camera was heard again: the vehicle rejoins by itself (auto-resume;
+    /// no battery swap).
+    CameraBack {
+        /// Vehicle.
+        sysid: u8,
     },
     /// An image was lost or unreadable.
     ImageFailed {

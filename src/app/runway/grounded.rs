@@ -129,4 +129,43 @@ impl Pilot {
             .read(|s| s.robot(sysid).ok().and_then(|r| r.grounded.clone()))
             .await
     }
+
+    /// A step failed (`reason`) with nothing heard from the vehicle: its link is dark. Said
+    /// once per outage (`dark` keeps when it was first seen, fleet clock) — its autopilot flies
+    /// on meanwhile, as ArduPilot does with its GCS failsafe off — and the step retried.
+    /// Returns whether the failure was that.
+    pub(super) fn link_dark(&self, dark: &mut Option<Time>, reason: &str) -> bool {
+        let Some(v) = self.vehicle().filter(|v| !v.alive) else {
+            return false;
+        };
+        if dark.is_none() {
+            *dark = Some(self.shared.now());
+            self.shared.say(
+                Progress::warning(format!(
+                    "vehicle {}: LINK LOST: nothing heard from it for {:.0} s ({reason}); its \
+                     autopilot flies on, and the GCS keeps trying",
+                    self.sysid, v.heartbeat_age_s
+                ))
+                .about(self.sysid),
+            );
+        }
+        true
+    }
+
+    /// The vehicle is heard again after its link was dark ([`Pilot::link_dark`]): said.
+    pub(super) fn link_back(&self, dark: &mut Option<Time>) {
+        if let Some(since) = *dark
+            && self.vehicle().is_some_and(|v| v.alive)
+        {
+            *dark = None;
+            self.shared.say(
+                Progress::notice(format!(
+                    "vehicle {}: link back (dark for {:.0} s at least): going on",
+                    self.sysid,
+                    self.shared.now().saturating_since(since).as_secs_f64()
+                ))
+                .about(self.sysid),
+            );
+        }
+    }
 }

@@ -427,7 +427,28 @@ impl Pilot {
                     if let Some(p) = &shot.image.pose {
                         self.last_image = Some(p.image_index);
                     }
+                    self.camera.last_picture = Some(self.fleet().clock().now());
                     shot
+                }
+                // The camera did not answer while its autopilot is heard: a camera gone
+                // silent (off, rebooting, unplugged), retaken like a picture that never came;
+                // a vehicle not heard at all is a link outage, a step retried.
+                Err(FlightError::Fleet(crate::fleet::FleetError::Command {
+                    error: fleetmap_core::proto::command::CommandError::Timeout { attempts, .. },
+                    ..
+                })) if self.vehicle().is_some_and(|v| v.alive) => {
+                    retakes += 1;
+                    let reason = format!(
+                        "cell {cell}: its camera did not answer capture {} ({attempts} tries)",
+                        self.capture_seq
+                    );
+                    if self
+                        .picture_failed(cell, retakes, PictureFailure::Lost(reason))
+                        .await?
+                    {
+                        return Ok(false);
+                    }
+                    continue;
                 }
                 Err(FlightError::NoImage { seq, waited_s, .. }) => {
                     retakes += 1;
@@ -673,6 +694,9 @@ impl Pilot {
     ) -> RunnerResult<bool> {
         let sysid = self.sysid;
         let max = self.shared.max_retakes;
+        // Pictures that never came (or captures the camera did not answer): a silent camera.
+        // Wrong or unreadable pictures are not.
+        let silent = matches!(failure, PictureFailure::Lost(_));
         let (reason, ev) = match failure {
             PictureFailure::Lost(r) | PictureFailure::Unreadable(r) => (
                 r.clone(),
@@ -705,6 +729,7 @@ impl Pilot {
             self.camera_fault(
                 Some(cell),
                 format!("{retakes} pictures in one visit did not count; the last: {reason}"),
+                silent,
             )
             .await?;
             return Ok(true);
@@ -725,39 +750,6 @@ impl Pilot {
         self.shared
             .read(|s| s.robot(sysid).ok().and_then(|r| r.camera_fault.clone()))
             .await
-    }
-
-    /// The camera cannot be trusted (`reason`): warn, journal [`MappingEvent::CameraFault`]
-    /// and take the vehicle out of the run as for a battery swap (its vertex is kept, a
-    /// confirmation it was making is given up), so that [`Pilot::swap`] brings it home and
-    /// waits for the operator. Nothing of this camera is credited after this.
-    pub(super) async fn camera_fault(
-        &mut self,
-        cell: Option<Cell>,
-        reason: String,
-    ) -> RunnerResult<()> {
-        let sysid = self.sysid;
-        let now = self.shared.now();
-        let line = format!(
-            "vehicle {sysid}: CAMERA FAULT: {reason}. No more of its pictures are counted; it \
-             returns home, lands and waits for the operator (check where the camera gets its \
-             position and attitude from, then `fleetmap resume` or `b`)"
-        );
-        self.shared.say(Progress::error(line).about(sysid));
-        self.shared
-            .commit(|s| {
-                s.on_camera_fault(sysid, reason.clone(), now)?;
-                Ok((
-                    (),
-                    Some(MappingEvent::CameraFault {
-                        sysid,
-                        cell,
-                        reason,
-                    }),
-                ))
-            })
-            .await?;
-        Ok(())
     }
 }
 

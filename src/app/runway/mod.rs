@@ -30,8 +30,11 @@
 //!   one visit (or that many rejected sweep pictures in a row) the camera is declared faulty
 //!   ([`MappingEvent::CameraFault`], a warning): nothing more of it is credited, the vehicle
 //!   leaves the tree (its vertex is kept, as for a battery swap), returns home, lands and
-//!   **waits for the operator** — never resuming by itself, since a fresh battery does not
-//!   repair a camera — who fixes the camera and resumes (`fleetmap resume`, or `b` in the UI).
+//!   **waits for the operator** — a fresh battery does not repair a camera — who fixes the
+//!   camera and resumes (`fleetmap resume`, or `b` in the UI). A camera that went **silent**
+//!   instead (its captures unanswered, its pictures never arriving, while the autopilot is
+//!   heard) is a camera that may come back: with auto-resume its vehicle rejoins by itself
+//!   once the camera is heard again ([`MappingEvent::CameraBack`], see [`camera`]).
 //! * **Where the camera looked**: when the picture's attitude is known (CAMERA_IMAGE_CAPTURED
 //!   `q`), the 3 × 3 cells are cut from it as a north-up orthophoto around the cell centre
 //!   ([`fleetmap_core::vision::geometry::orthophoto`]: pinhole camera rotated by the attitude,
@@ -80,6 +83,7 @@ use std::sync::Arc;
 use std::time::Duration;
 use tokio::sync::{broadcast, mpsc};
 
+mod camera;
 mod events;
 mod grounded;
 pub(crate) mod kind;
@@ -417,6 +421,8 @@ struct Pilot {
     /// Groundings in a row without a step flown in between, and when the last one was
     /// (runtime clock): the back-off of a grounded drone's retries ([`Pilot::ground`]).
     grounded: (u32, Option<tokio::time::Instant>),
+    /// Its camera's silences ([`camera`]).
+    camera: camera::CameraWatch,
 }
 
 enum PilotEnd {

@@ -17,25 +17,7 @@ const DWELL_PER_PICTURE_S: f64 = 3.0;
 /// come within reach asks again.
 const REACH_RECHECK_S: f64 = 10.0;
 
-/// Longest wait, seconds of the fleet clock (× patience), of a pilot's first capture for its
-/// vehicle's camera component to be heard ([`Pilot::wait_for_camera`]).
-const CAMERA_WAIT_S: f64 = 5.0;
-
 impl Pilot {
-    /// Before this pilot's first capture: wait (at most [`CAMERA_WAIT_S`]) until the vehicle's
-    /// camera component has been heard. A GCS that has just started — a run resumed over
-    /// drones in the air — may not have heard the camera's heartbeat yet (1 Hz through the
-    /// autopilot, later still over a lossy radio), and without it the capture goes to the
-    /// autopilot as MAV_CMD_DO_DIGICAM_CONTROL, which a MAVLink camera never sees: the
-    /// picture would be waited for in vain and taken again.
-    pub(super) async fn wait_for_camera(&self) {
-        let wait = self.shared.patience.secs(CAMERA_WAIT_S);
-        let _ = self
-            .fleet()
-            .wait_until(self.sysid, wait, |v| v.camera_compid.is_some())
-            .await;
-    }
-
     pub(super) fn fleet(&self) -> &FleetHandle {
         &self.shared.fleet
     }
@@ -73,9 +55,14 @@ impl Pilot {
 
     pub(super) async fn run(mut self) -> RunnerResult<PilotEnd> {
         let mut failures = 0u32;
+        // When a step first failed with nothing heard from the vehicle (fleet clock): its
+        // link is dark, said once, and again when it is back.
+        let mut dark: Option<Time> = None;
         loop {
             self.wait_unpaused().await;
-            match self.step().await {
+            let stepped = self.step().await;
+            self.link_back(&mut dark);
+            match stepped {
                 Ok(Some(end)) => return Ok(end),
                 Ok(None) => {
                     failures = 0;
@@ -87,10 +74,15 @@ impl Pilot {
                 Err(e) => {
                     failures += 1;
                     let reason = crate::app::error::chain(&e);
-                    self.shared.say(
-                        Progress::warning(format!("vehicle {}: {reason} (retrying)", self.sysid))
+                    if !self.link_dark(&mut dark, &reason) {
+                        self.shared.say(
+                            Progress::warning(format!(
+                                "vehicle {}: {reason} (retrying)",
+                                self.sysid
+                            ))
                             .about(self.sysid),
-                    );
+                        );
+                    }
                     let sysid = self.sysid;
                     let max = self.shared.patience.secs(2.0);
                     let _ = self
@@ -640,10 +632,8 @@ impl Pilot {
                     .about(sysid),
                 );
             } else if let Some(why) = &fault {
-                self.shared.say(Progress::notice(format!(
-                    "vehicle {sysid}: landed: waiting for the operator to fix the camera ({why}); \
-                     it will not resume by itself"
-                )).about(sysid));
+                let line = self.landed_for_camera(why).await;
+                self.shared.say(Progress::notice(line).about(sysid));
             } else {
                 self.shared.say(
                     Progress::notice(format!(
@@ -721,6 +711,13 @@ impl Pilot {
                 self.wait_change(Duration::from_millis(500)).await;
                 continue;
             }
+            // A camera that went silent: back when it is heard again ([`camera`]).
+            if !by_operator && let Some(back) = self.silent_camera_wait().await? {
+                if back {
+                    return Ok(None);
+                }
+                continue;
+            }
             let rules = self.shared.read(|s| s.params.battery.clone()).await;
             let fresh = self.vehicle().is_some_and(|v| {
                 let rebooted = reboots_at.is_none_or(|r| v.reboots > r);
@@ -731,6 +728,9 @@ impl Pilot {
             // A faulty camera waits for the operator: a fresh battery does not repair it.
             let auto = self.shared.auto_resume && self.camera_fault_now().await.is_none();
             if by_operator || (auto && fresh) {
+                // A battery swap is a power cycle: the camera counts its pictures from 0
+                // again, so no index of before names a picture it has not sent.
+                self.last_image = None;
                 let now = self.shared.now();
                 if let Ok(mut set) = self.shared.land_here.lock() {
                     set.remove(&sysid);

@@ -211,6 +211,7 @@ pub async fn run(
             sweep_rejects: 0,
             home_xy: None,
             grounded: (0, None),
+            camera: Default::default(),
         };
         let id = pilots.spawn(pilot.run()).id();
         by_task.insert(id, sysid);

@@ -159,6 +159,7 @@ impl Pilot {
                         }
                     }
                     heard.on_image(now);
+                    self.camera.last_picture = Some(self.fleet().clock().now());
                     let key = img.pose.as_ref().map(|p| (p.time_boot_ms, p.image_index));
                     let announced_at = key.and_then(|k| heard.announced_at(k));
                     if self.sweep_image(&img, announced_at).await? {
@@ -187,7 +188,7 @@ impl Pilot {
                                  (ArduPilot: a camera backend, CAM1_TYPE) and that the camera is \
                                  connected"
                             );
-                            self.camera_fault(None, reason).await?;
+                            self.camera_fault(None, reason, true).await?;
                             return Ok(());
                         }
                     }
@@ -328,6 +329,7 @@ impl Pilot {
                 self.camera_fault(
                     None,
                     format!("{retakes} sweep pictures in a row did not count; the last: {reason}"),
+                    false,
                 )
                 .await?;
                 return Ok(true);

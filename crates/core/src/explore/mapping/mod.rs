@@ -315,6 +315,12 @@ pub struct RobotRecord {
     /// before this field existed.
     #[serde(default)]
     pub camera_fault: Option<String>,
+    /// Its camera fault is a camera that went silent — no answer to captures, no pictures —
+    /// not one whose pictures were wrong ([`MappingState::on_camera_silent`]): when the camera
+    /// is heard again (back from a reboot, its cable refitted) the vehicle may rejoin by
+    /// itself; wrong pictures wait for a person. Absent (false) in runs saved before it.
+    #[serde(default, skip_serializing_if = "std::ops::Not::not")]
+    pub camera_silent: bool,
     /// It could not take off, or its steps kept failing ([`Grounded`]): out of the run as for
     /// a battery swap, on the ground, until it is ready again or the operator says so.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -481,6 +487,7 @@ impl MappingState {
                 distance_m: 0.0,
                 track: Vec::new(),
                 camera_fault: None,
+                camera_silent: false,
                 grounded: None,
                 visit: None,
                 sweep_item: None,

@@ -192,6 +192,34 @@ fn a_camera_fault_is_saved_and_cleared_by_the_operator() {
     assert_eq!(old.robot(1).unwrap().camera_fault, None);
 }
 
+/// A camera that went silent is saved as such (a resumed run knows it may come back by
+/// itself), a wrong-pictures fault is not, and the vehicle's return clears both without
+/// counting a battery swap.
+#[test]
+fn a_silent_camera_is_saved_as_one_and_its_return_is_no_battery_swap() {
+    let mut s = MappingState::new(&def(1), grid(), Sharing::Gcs).unwrap();
+    let t = Time::from_secs(10);
+    s.on_camera_silent(1, "6 captures unanswered".into(), t)
+        .unwrap();
+    assert_eq!(s.robot(1).unwrap().status, RobotStatus::ReturningForSwap);
+    let json = serde_json::to_string(&s).unwrap();
+    let mut back: MappingState = serde_json::from_str(&json).unwrap();
+    let r = back.robot(1).unwrap();
+    assert!(r.camera_silent);
+    assert_eq!(r.camera_fault.as_deref(), Some("6 captures unanswered"));
+    back.on_landed_for_swap(1, 0, t).unwrap();
+    back.on_swapped(1, t).unwrap();
+    let r = back.robot(1).unwrap();
+    assert!(!r.camera_silent && r.camera_fault.is_none());
+    assert_eq!(r.battery_swaps, 0);
+    // a fault of wrong pictures is not a silent camera, nor one after it
+    s.on_camera_fault(1, "pictures 300 m from their cell".into(), t)
+        .unwrap();
+    assert!(!s.robot(1).unwrap().camera_silent);
+    // not written when false: earlier runs' files are unchanged
+    assert!(!serde_json::to_string(&s).unwrap().contains("camera_silent"));
+}
+
 #[test]
 fn battery_need_grows_with_distance() {
     let s = MappingState::new(&def(1), grid(), Sharing::Gcs).unwrap();

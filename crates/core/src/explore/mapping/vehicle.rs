@@ -48,7 +48,24 @@ impl MappingState {
     ) -> Result<(), MappingError> {
         self.abandon_confirmation(sysid);
         self.on_battery_low(sysid, now)?;
-        self.robot_mut(sysid)?.camera_fault = Some(reason);
+        let r = self.robot_mut(sysid)?;
+        r.camera_fault = Some(reason);
+        r.camera_silent = false;
+        Ok(())
+    }
+
+    /// `sysid`'s camera went silent (`reason`: captures unanswered, pictures that never
+    /// arrived): out of the run as for [`MappingState::on_camera_fault`], but marked as a camera
+    /// that may come back by itself ([`RobotRecord::camera_silent`]); [`MappingState::on_swapped`]
+    /// brings the vehicle back once it is heard again, no battery swap counted.
+    pub fn on_camera_silent(
+        &mut self,
+        sysid: u8,
+        reason: String,
+        now: Time,
+    ) -> Result<(), MappingError> {
+        self.on_camera_fault(sysid, reason, now)?;
+        self.robot_mut(sysid)?.camera_silent = true;
         Ok(())
     }
 
@@ -123,6 +140,7 @@ impl MappingState {
         // camera was fixed (a camera fault is not a battery swap).
         let grounded = r.grounded.take().is_some();
         let camera = r.camera_fault.take().is_some();
+        r.camera_silent = false;
         if !grounded && !camera {
             r.battery_swaps += 1;
         }
