@@ -62,7 +62,8 @@ build: sysdeps
 ## The benchmarks are not run here (`make bench`; clippy compiles them).
 SLOW_TESTS := bandit_run demo_headless runway_kill
 WAITING_TESTS := conformance
-OTHER_TESTS := $(filter-out $(SLOW_TESTS) $(WAITING_TESTS),$(basename $(notdir $(wildcard tests/*.rs))))
+OTHER_TESTS := $(filter-out $(SLOW_TESTS) $(WAITING_TESTS),$(basename $(notdir $(wildcard tests/*.rs))) \
+  $(notdir $(patsubst %/main.rs,%,$(wildcard tests/*/main.rs))))
 test: sysdeps
 	@mkdir -p target
 	@$(MAKE) --no-print-directory venv > target/venv.log 2>&1 & venv=$$!; \

@@ -21,7 +21,7 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::sync::mpsc;
 
-mod common;
+use crate::common;
 
 /// Every frame the GCS sent, on any link.
 type Sent = Arc<Mutex<Vec<Vec<u8>>>>;

@@ -35,7 +35,7 @@ use serde_json::Value;
 use std::path::Path;
 use std::time::{Duration, Instant};
 
-mod common;
+use crate::common;
 
 /// A fresh current-thread runtime with its clock paused: the study's trial runtime.
 fn virtual_runtime() -> tokio::runtime::Runtime {

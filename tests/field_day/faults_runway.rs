@@ -38,7 +38,7 @@ use std::path::Path;
 use std::time::Duration;
 use tokio::sync::{OnceCell, mpsc};
 
-mod common;
+use crate::common;
 
 /// The drones.
 const DRONES: u8 = 2;
