@@ -193,8 +193,10 @@ fn one_vehicle_over_two_links_is_not_a_conflict() {
 
 #[test]
 fn a_reboot_is_not_a_conflict() {
-    // An autopilot is silent for seconds while it boots (ArduCopter SITL ~1 s, boards more).
-    for gap_ms in [600u64, 1000, 2500, 8000] {
+    // An autopilot is silent for seconds while it boots (ArduCopter SITL ~1 s, boards more);
+    // behind a radio's buffer the frames before the reboot come right before those after it
+    // (0 ms: ArduCopter SITL at ×5 behind a SiK radio showed 0.3 s).
+    for gap_ms in [0u64, 50, 300, 600, 1000, 2500, 8000] {
         let f = sender(
             1,
             Time::ZERO,
@@ -266,7 +268,7 @@ proptest! {
         dup in 0.0f64..0.3,
         p_reorder in 0.0f64..0.3,
         reorder in 0usize..5,
-        reboots in proptest::collection::vec((0usize..3000, 600u64..4000), 0..3),
+        reboots in proptest::collection::vec((0usize..3000, 0u64..4000), 0..3),
         links in 1usize..3,
     ) {
         let mut rng = ChaCha8Rng::seed_from_u64(seed);
