@@ -814,6 +814,7 @@ def runway_team_check(checks, work):
     busy = set()                    # drones being power-cycled
     resumed = set()                 # drones the GCS sent up again since they landed for a swap
     refills = []                    # PX4 drones resumed before their power cycle
+    cycle_starts = []               # (sysid, monotonic start) of each power cycle
     crews = []
 
     def crew(sysid):
@@ -833,8 +834,24 @@ def runway_team_check(checks, work):
         ok, how = fleet.power_cycle(sysid)
         with lock:
             cycles.append((sysid, ok, how, round(time.monotonic() - t, 1)))
+            cycle_starts.append((sysid, t))
             busy.discard(sysid)
         print(f"  | crew: vehicle {sysid} {how} ({'ok' if ok else 'FAILED'})", flush=True)
+
+    def fault_swap(sysid, since):
+        """The battery a failsafe brought down swapped, unless the crew above (the GCS asked
+        for it) is at it or did it after `since` (monotonic)."""
+        with lock:
+            if sysid in busy or any(s == sysid and t >= since for s, t in cycle_starts):
+                return True, "swapped by the crew when the GCS asked"
+            busy.add(sysid)
+        t = time.monotonic()
+        ok, how = fleet.power_cycle(sysid)
+        with lock:
+            cycles.append((sysid, ok, how, round(time.monotonic() - t, 1)))
+            cycle_starts.append((sysid, t))
+            busy.discard(sysid)
+        return ok, how
 
     def on_line(line):
         with lock:
@@ -866,6 +883,7 @@ def runway_team_check(checks, work):
     t0 = time.monotonic()
     fleet = camera = gcs = None
     killed, result, stopped = False, None, False
+    faults = None
     tlogs = [os.path.join(work, "gcs.tlog"), os.path.join(work, "gcs-resume.tlog")]
     try:
         fleet, conns = start_team(args, work, members, world_def.get("ground_alt_amsl_m", 0.0), camera_port,
@@ -878,8 +896,10 @@ def runway_team_check(checks, work):
         camera = Proc([args.camera_bin or BIN, "camera", "--source", "render", "--world", world, *onboard,
                        "--image-rate", str(image_rate(args)), "--connect", f"udpin:127.0.0.1:{camera_port}"],
                       os.path.join(work, "camera.log"))
+        faults = FaultCrew(args, fleet, args.faults, fault_swap)
         gcs = Gcs(["run", mission, *conns, "--world", world, "--headless", "--auto-resume", "--run-dir", run_dir,
                    "--tlog", tlogs[0], "--wait", str(args.fleet_wait)], log_path, on_line)
+        faults.start()
         deadline = t0 + args.runway_timeout
         while time.monotonic() < deadline:
             time.sleep(1)
@@ -897,6 +917,8 @@ def runway_team_check(checks, work):
     except (KeyboardInterrupt, SystemExit):
         stopped = True
     finally:
+        if faults:
+            faults.close()
         if gcs is not None:
             gcs.stop(signal.SIGINT)
         for t in crews:
@@ -960,6 +982,8 @@ def runway_team_check(checks, work):
            "battery_mah": battery_mah,
            "px4_battery_s": px4_battery_s, "mission": mission, "radio_bps": args.radio,
            "radio_loss": args.radio_loss if args.radio else None, "radio": radio, "problems": problems,
+           "faults": [f["spec"] for f in args.faults], "fault_crew": faults.log if faults else [],
+           "told": told_lines(lines),
            "result": "pass" if ok else "fail"}
     fmt = lambda x: "-" if x is None else f"{x:.0f}"
     detail = (f"{wiring}, {label}, ×{args.speedup:g}: IoU {100 * iou:.1f} % (best possible {100 * best:.1f} %), "
@@ -1182,6 +1206,9 @@ class Team:
         lines = [f"MAV_SYSID {sysid}", f"BATT_CAPACITY {self.battery_mah}"]
         if copter:
             lines += ["CAM1_TYPE 1", "CAM2_TYPE 0"]
+        if any(f["kind"] == "battery" for f in self.args.faults):
+            # the battery failsafe a field team sets: RTL (--fault battery sets it off)
+            lines += ["BATT_FS_LOW_ACT 2"]
         open(extra, "w").write("\n".join(lines) + "\n")
         instance = self.args.instance_base + sysid
         cmd = [binary, "--model", "+" if copter else "rover", "--speedup", f"{self.args.speedup:g}",
@@ -1305,10 +1332,12 @@ def radio_relays(args, work, members, gcs_ports):
         for (sysid, kind, _), gcs in zip(members, gcs_ports):
             port = free_udp_port()
             speedup = (args.px4_speedup or args.speedup) if kind == "px4" else args.speedup
+            dark = blackouts_for(args.faults, sysid)
             relays[sysid] = Proc(
                 [BIN, "relay", "--gcs", f"udpout:127.0.0.1:{gcs}", "--vehicle", f"udpin:127.0.0.1:{port}",
                  "--radio", str(args.radio), "--loss", f"{args.radio_loss:g}", "--clock", f"speedup:{speedup:g}",
                  "--seed", str(sysid), "--report-every", "0",
+                 *(["--blackout", dark] if dark else []),
                  "--stats", os.path.join(work, f"radio-{sysid}.json")],
                 os.path.join(work, f"radio-{sysid}.log"))
             ports.append(port)
@@ -1364,6 +1393,214 @@ def radio_cell(args, fig):
             f"{100 * fig['loss']:.1f} % lost, {fig['dropped']} dropped")
 
 
+# ---------------------------------------------------------------------------------------------
+# Field faults on a SITL team (--fault, --kill-at): what a field day does to the team checks
+
+FAULT_SPEC = re.compile(r"^(all|\d+):(outage|battery|stuck)@(\d+(?:\.\d+)?)(?:\.\.(\d+(?:\.\d+)?))?$")
+
+
+def parse_faults(specs):
+    """--fault specs → [{"who": "all" | sysid, "kind", "start", "end"}] (seconds of the
+    vehicles' clock; `end` None for an instant or for ever). Raises ValueError with the spec.
+      K|all:outage@START..END  the vehicle's radio (or every one) carries nothing either way
+                               from START to END, counted from the radios' start (a second or
+                               two before the GCS's); needs --radio
+      K:battery@T              T after vehicle K first armed, its battery failsafe fires (the
+                               crew sets BATT_LOW_MAH above what is left; BATT_FS_LOW_ACT 2,
+                               RTL, on every ArduPilot of the team): the autopilot returns by
+                               itself; once it is down the crew swaps the battery (power cycle)
+      K:stuck@START[..END]     from START after rover K first armed (to END, or for ever) its
+                               throttle is held at neutral (SERVO3_MIN = SERVO3_MAX = 1500): it
+                               stays in its mission and goes nowhere, a rover bogged down"""
+    out = []
+    for spec in specs or []:
+        m = FAULT_SPEC.match(spec.strip())
+        if not m:
+            raise ValueError(f"--fault {spec!r}: expected K|all:outage@START..END, K:battery@T or "
+                             "K:stuck@START[..END] (seconds of the vehicles' clock)")
+        who = m.group(1) if m.group(1) == "all" else int(m.group(1))
+        kind, start = m.group(2), float(m.group(3))
+        end = float(m.group(4)) if m.group(4) else None
+        if kind == "outage" and end is None:
+            raise ValueError(f"--fault {spec!r}: an outage needs START..END")
+        if kind != "outage" and who == "all":
+            raise ValueError(f"--fault {spec!r}: a {kind} fault names one vehicle")
+        if end is not None and end <= start:
+            raise ValueError(f"--fault {spec!r}: END before START")
+        out.append({"who": who, "kind": kind, "start": start, "end": end, "spec": spec.strip()})
+    return out
+
+
+def blackouts_for(faults, sysid):
+    """The relay's --blackout windows for `sysid` (START+DURATION, comma separated), or None."""
+    w = [f"{f['start']:g}+{f['end'] - f['start']:g}" for f in faults
+         if f["kind"] == "outage" and f["who"] in ("all", sysid)]
+    return ",".join(w) or None
+
+
+class Crew:
+    """A second GCS (system id 250) on one ArduPilot's SERIAL2 (TCP: one client at a time, so
+    it is opened for each step and closed again), through pymavlink: what the field crew
+    does to a vehicle by hand, set a parameter, watch its heartbeat."""
+
+    def __init__(self, conn, sysid):
+        self.conn, self.sysid = conn, sysid
+
+    def _open(self):
+        try:
+            from pymavlink import mavutil
+        except ImportError:
+            sys.exit("--fault battery / stuck need pymavlink (make's .venv: run with .venv/bin/python)")
+        return mavutil, mavutil.mavlink_connection(self.conn, source_system=250, source_component=190)
+
+    def set_param(self, name, value, tries=5):
+        """PARAM_SET until PARAM_VALUE echoes `value`. Returns the value read back or None."""
+        mavutil, m = self._open()
+        try:
+            for _ in range(tries):
+                m.mav.param_set_send(self.sysid, 1, name.encode(), float(value),
+                                     mavutil.mavlink.MAV_PARAM_TYPE_REAL32)
+                end = time.monotonic() + 3
+                while time.monotonic() < end:
+                    msg = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=0.5)
+                    if msg and msg.get_srcSystem() == self.sysid and msg.param_id == name \
+                            and abs(msg.param_value - float(value)) < 1e-3:
+                        return msg.param_value
+        finally:
+            m.close()
+        return None
+
+    def get_param(self, name):
+        mavutil, m = self._open()
+        try:
+            for _ in range(5):
+                m.mav.param_request_read_send(self.sysid, 1, name.encode(), -1)
+                msg = m.recv_match(type="PARAM_VALUE", blocking=True, timeout=2)
+                if msg and msg.get_srcSystem() == self.sysid and msg.param_id == name:
+                    return msg.param_value
+        finally:
+            m.close()
+        return None
+
+    def wait_heartbeat(self, test, timeout, stop):
+        """Wait (wall seconds) until `test(armed, mode)` holds for the autopilot's heartbeat;
+        returns (armed, mode) then, or None on timeout or when `stop` is set."""
+        mavutil, m = self._open()
+        try:
+            end = time.monotonic() + timeout
+            while time.monotonic() < end and not stop.is_set():
+                msg = m.recv_match(type="HEARTBEAT", blocking=True, timeout=1)
+                if not msg or msg.get_srcSystem() != self.sysid or msg.get_srcComponent() != 1:
+                    continue
+                armed = bool(msg.base_mode & mavutil.mavlink.MAV_MODE_FLAG_SAFETY_ARMED)
+                mode = mavutil.mode_string_v10(msg)
+                if test(armed, mode):
+                    return armed, mode
+        finally:
+            m.close()
+        return None
+
+
+class FaultCrew:
+    """Plays --fault's battery and stuck faults on a running SITL team (outages are the radio
+    relays' --blackout): one thread per fault, each logging what it did with the vehicles'
+    clock (wall × speedup since the GCS started). `power_cycle(sysid, since)` is the team's
+    swap (`since`: when the failsafe was set off, monotonic), returning (ok, how)."""
+
+    def __init__(self, args, team, faults, power_cycle):
+        self.args, self.team, self.power_cycle = args, team, power_cycle
+        self.faults = [f for f in faults if f["kind"] in ("battery", "stuck")]
+        self.stop = threading.Event()
+        self.log = []                   # (vehicle seconds since the GCS's start, sysid, what)
+        self.threads = []
+        self.t0 = time.monotonic()
+        for f in self.faults:
+            if self.team.kinds.get(f["who"]) not in ("arducopter", "ardurover"):
+                sys.exit(f"--fault {f['spec']}: vehicle {f['who']} is not an ArduPilot of the team")
+            if f["kind"] == "stuck" and self.team.kinds[f["who"]] != "ardurover":
+                sys.exit(f"--fault {f['spec']}: only a rover gets stuck")
+
+    def start(self):
+        self.t0 = time.monotonic()
+        for f in self.faults:
+            t = threading.Thread(target=self.play, args=(f,), daemon=True)
+            self.threads.append(t)
+            t.start()
+
+    def now(self):
+        return round((time.monotonic() - self.t0) * self.args.speedup, 1)
+
+    def say(self, sysid, what):
+        self.log.append((self.now(), sysid, what))
+        print(f"  | fault crew, t={self.now():.0f} s (vehicles' clock): vehicle {sysid}: {what}", flush=True)
+
+    def sleep_vehicle(self, secs):
+        return not self.stop.wait(secs / self.args.speedup)
+
+    def play(self, f):
+        sysid = f["who"]
+        crew = Crew(self.team.crew[sysid], sysid)
+        try:
+            if crew.wait_heartbeat(lambda armed, _m: armed, 3600, self.stop) is None:
+                return
+            self.say(sysid, "armed")
+            if not self.sleep_vehicle(f["start"]):
+                return
+            if f["kind"] == "battery":
+                self.battery(crew, sysid)
+            else:
+                self.stuck(crew, sysid, f)
+        except Exception as e:  # the row says it; the run goes on
+            self.say(sysid, f"the crew failed: {e!r}")
+
+    def battery(self, crew, sysid):
+        cap = crew.get_param("BATT_CAPACITY") or self.team.battery_mah
+        if crew.set_param("BATT_LOW_MAH", cap - 1) is None:
+            self.say(sysid, "BATT_LOW_MAH not taken")
+            return
+        since = time.monotonic()
+        self.say(sysid, f"battery failsafe set off (BATT_LOW_MAH {cap - 1:.0f} of {cap:.0f} mAh)")
+        got = crew.wait_heartbeat(lambda _a, mode: mode in ("RTL", "LAND", "SMART_RTL"), 120, self.stop)
+        self.say(sysid, f"its autopilot switched to {got[1]}" if got else "no failsafe mode seen in 120 s")
+        # the failsafe holds until the next boot; the crew puts the parameter back at once
+        crew.set_param("BATT_LOW_MAH", 0)
+        if crew.wait_heartbeat(lambda armed, _m: not armed, 1800, self.stop) is None:
+            return
+        self.say(sysid, "down and disarmed")
+        if self.sleep_vehicle(20):
+            ok, how = self.power_cycle(sysid, since)
+            self.say(sysid, f"battery swapped: {how}" if ok else f"battery swap failed: {how}")
+
+    def stuck(self, crew, sysid, f):
+        low, high = crew.get_param("SERVO3_MIN"), crew.get_param("SERVO3_MAX")
+        trim = crew.get_param("SERVO3_TRIM") or 1500
+        if low is None or high is None:
+            self.say(sysid, "SERVO3_MIN / SERVO3_MAX not read")
+            return
+        if crew.set_param("SERVO3_MIN", trim) is None or crew.set_param("SERVO3_MAX", trim) is None:
+            self.say(sysid, "SERVO3 limits not taken")
+            return
+        self.say(sysid, f"stuck: throttle held at {trim:.0f} µs (was {low:.0f}–{high:.0f})")
+        if f["end"] is None or not self.sleep_vehicle(f["end"] - f["start"]):
+            return
+        crew.set_param("SERVO3_MIN", low)
+        crew.set_param("SERVO3_MAX", high)
+        self.say(sysid, "free again")
+
+    def close(self):
+        self.stop.set()
+        for t in self.threads:
+            t.join(timeout=30)
+
+
+def told_lines(lines, limit=40):
+    """The GCS's lines an operator would read about faults (warnings naming a vehicle)."""
+    pat = re.compile(r"out of its mission|ready again|stuck|LINK LOST|link back|not heard|failsafe|"
+                     r"battery swap|flying it to station|CAMERA|waiting for pictures|no measurement|"
+                     r"ID CONFLICT|resum", re.I)
+    return [l for _, l in lines if pat.search(l)][:limit]
+
+
 def bandit_fleet_check(checks, work):
     """The spatial-classification mission on a team of SITL autopilots with the camera
     process and `fleetmap run`, to its end: one row (see the module's docstring)."""
@@ -1399,15 +1636,15 @@ def bandit_fleet_check(checks, work):
     fleet = camera = gcs = None
     lines = []  # (unix time, line) of the GCS's output
 
-    def read_lines(stream, log):
-        for line in stream:
-            lines.append((time.time(), line.rstrip("\n")))
-            log.write(line)
-            log.flush()
-            if re.search(r"epoch \d+ done|every cell classified|run finished", line):
-                print(f"  | {line.rstrip()}", flush=True)
+    def on_line(line):
+        lines.append((time.time(), line))
+        if re.search(r"epoch \d+ done|every cell classified|run finished", line) or told_lines([(0, line)]):
+            print(f"  | {line}", flush=True)
 
-    result, stopped, err_lines = None, False, []
+    result, stopped, killed = None, False, None
+    crew = None
+    tlogs = [tlog, os.path.join(work, "gcs-resume.tlog")]
+    logs = [os.path.join(work, "run.log"), os.path.join(work, "run.log.resume")]
     try:
         fleet, conns = start_team(args, work, members, ground_alt, camera_port,
                                   battery_mah=args.battery_mah or 30000,
@@ -1418,37 +1655,40 @@ def bandit_fleet_check(checks, work):
         camera = Proc([args.camera_bin or BIN, "camera", "--source", "render", "--world", world, *measure,
                        "--image-rate", str(image_rate(args)), "--connect", f"udpin:127.0.0.1:{camera_port}"],
                       os.path.join(work, "camera.log"))
-        cmd = [BIN, "run", mission, *conns, "--world", world, "--headless", "--auto-resume",
-               "--run-dir", run_dir, "--tlog", tlog, "--wait", str(args.fleet_wait)]
-        gcs_log = open(os.path.join(work, "run.log"), "w")
-        gcs = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-        reader = threading.Thread(target=read_lines, args=(gcs.stdout, gcs_log), daemon=True)
-        reader.start()
-        err_reader = threading.Thread(target=lambda: err_lines.extend(gcs.stderr), daemon=True)
-        err_reader.start()
+        crew = FaultCrew(args, fleet, args.faults, lambda sysid, _since: fleet.power_cycle(sysid))
+        gcs = Gcs(["run", mission, *conns, "--world", world, "--headless", "--auto-resume",
+                   "--run-dir", run_dir, "--tlog", tlogs[0], "--wait", str(args.fleet_wait)], logs[0], on_line)
+        crew.start()
+        deadline = time.monotonic() + args.fleet_timeout
         try:
-            result = gcs.wait(timeout=args.fleet_timeout)
-        except subprocess.TimeoutExpired:
-            result = None
+            while time.monotonic() < deadline:
+                time.sleep(0.5)
+                if killed is None and args.kill_at is not None and crew.now() >= args.kill_at:
+                    # the laptop dies (SIGKILL: nothing more written), and `fleetmap resume`
+                    gcs.stop(signal.SIGKILL)
+                    killed = crew.now()
+                    print(f"  | GCS killed (SIGKILL) at t={killed:.0f} s (vehicles' clock); resuming", flush=True)
+                    time.sleep(2)
+                    gcs = Gcs(["resume", run_dir, *conns, "--headless", "--auto-resume", "--tlog", tlogs[1],
+                               "--wait", str(args.fleet_wait)], logs[1], on_line)
+                    continue
+                if gcs.p.poll() is not None:
+                    result = gcs.p.returncode
+                    break
         except (KeyboardInterrupt, SystemExit):
             # stopped (Ctrl-C, SIGTERM): the row still says how far the run got
             result, stopped = None, True
-        reader.join(timeout=5)
-        err_reader.join(timeout=5)
     finally:
-        if gcs is not None and gcs.poll() is None:
-            gcs.send_signal(signal.SIGINT)
-            try:
-                gcs.wait(timeout=10)
-            except subprocess.TimeoutExpired:
-                gcs.kill()
+        if crew:
+            crew.close()
+        if gcs is not None:
+            gcs.stop(signal.SIGINT)
         if camera:
             camera.stop()
         if fleet:
             fleet.close()
     secs = time.monotonic() - t0
     radio = radio_figures(work, [s for s, _, _ in members])
-    open(os.path.join(work, "run.err"), "w").write("".join(err_lines))
     # The epochs' wall-clock spans, from the GCS's progress lines.
     starts, ends = {}, {}
     for t, line in lines:
@@ -1460,9 +1700,22 @@ def bandit_fleet_check(checks, work):
             ends[int(m.group(1))] = t
     spans = [(e, starts[e], ends[e]) for e in sorted(ends) if e in starts]
     figures = tlog_figures(tlog, drones, spans)
+    if killed is not None and os.path.exists(tlogs[1]):
+        # the epochs after the kill are in the resumed GCS's .tlog
+        # (an epoch the kill cut in two: the vehicle time and flights of both halves)
+        later = tlog_figures(tlogs[1], drones, spans)
+        add = lambda x, y: None if x is None and y is None else (x or 0) + (y or 0)
+        for e, f in zip(figures["per_epoch"], later["per_epoch"]):
+            e["vehicle_s"] = add(e["vehicle_s"], f["vehicle_s"])
+            e["flight_max_s"] = max(e["flight_max_s"] or 0, f["flight_max_s"] or 0)
+            e["flight_total_s"] = add(e["flight_total_s"], f["flight_total_s"])
+        for k in ("pictures_sent", "pictures_lost", "onboard_measurements", "captures"):
+            figures[k] += later[k]
     row = {"wiring": "one port" if shared else "one port per vehicle", "team": label,
            "camera": "pictures" if args.camera_pictures else "on board",
            "speedup": args.speedup, "seconds": round(secs, 1), "exit": result, "radio_bps": args.radio,
+           "faults": [f["spec"] for f in args.faults], "killed_at_vehicle_s": killed,
+           "fault_crew": crew.log if crew else [], "told": told_lines(lines),
            "radio_loss": args.radio_loss if args.radio else None, "radio": radio, **figures}
     code, out, err, _ = run(["report", run_dir, "--world", world, "--json"], timeout=120)
     try:
@@ -1480,7 +1733,8 @@ def bandit_fleet_check(checks, work):
     elif result is None:
         error = f"not finished within {args.fleet_timeout} s"
     elif result != 0:
-        error = f"the run exited {result}: " + fleetmap_error("".join(err_lines), result)
+        error = f"the run exited {result}: " + last_line(open(logs[1 if killed is not None else 0],
+                                                              errors="replace").read())
     elif not rep:
         error = f"report: {last_line(err)}"
     else:
@@ -1581,9 +1835,22 @@ def main():
                          "cameras classify on board (default: no radio)")
     ap.add_argument("--radio-loss", type=float, default=0.0, metavar="P",
                     help="with --radio: the share of frames each radio loses, each way (e.g. 0.1)")
+    ap.add_argument("--fault", action="append", default=[], metavar="SPEC",
+                    help="bandit-fleet, runway --team: a field fault, K|all:outage@START..END (needs --radio), "
+                         "K:battery@T or K:stuck@START[..END], seconds of the vehicles' clock (see "
+                         "'Field faults' in the module's docstring); may be given several times")
+    ap.add_argument("--kill-at", type=float, metavar="SECONDS",
+                    help="bandit-fleet: kill the GCS (SIGKILL) this long after its start (vehicles' clock) "
+                         "and resume the run")
     ap.add_argument("--json", help="write the results here")
     ap.add_argument("--keep", action="store_true", help="keep the working directory")
     args = ap.parse_args()
+    try:
+        args.faults = parse_faults(args.fault)
+    except ValueError as e:
+        sys.exit(str(e))
+    if any(f["kind"] == "outage" for f in args.faults) and not args.radio:
+        sys.exit("--fault …:outage needs --radio (the radio relays black the link out)")
     # A runner stopped with SIGTERM (or Ctrl-C) still stops what it started (the finally below).
     signal.signal(signal.SIGTERM, lambda *_: sys.exit(143))
     args.losses = [int(x) for x in args.losses.split(",") if x.strip()]
