@@ -964,6 +964,8 @@ def runway_team_check(checks, work):
         "; ".join(failed_cycles),
         "" if lost == 0 else f"{lost} pictures lost",
         "" if not not_landed else "not landed: " + ", ".join(not_landed),
+        # no two drones of the team share a system id: a conflict said is a false alarm
+        next((f"a system-id conflict was reported: {l[:160]}" for _, l in lines if "ID CONFLICT" in l), ""),
     ] if p]
     ok = not problems
     row = {"team": label, "wiring": wiring, "speedup": args.speedup, "iou": iou, "iou_best_possible": best,
@@ -1598,7 +1600,8 @@ def told_lines(lines, limit=40):
     pat = re.compile(r"out of its mission|ready again|stuck|LINK LOST|link back|not heard|failsafe|"
                      r"battery swap|flying it to station|CAMERA|waiting for pictures|no measurement|"
                      r"ID CONFLICT|resum", re.I)
-    return [l for _, l in lines if pat.search(l)][:limit]
+    # the progress lines ("[  12.3 s] …"), not the log's copy of the same warning
+    return [l for _, l in lines if pat.search(l) and "\x1b[" not in l][:limit]
 
 
 def bandit_fleet_check(checks, work):
@@ -1739,6 +1742,10 @@ def bandit_fleet_check(checks, work):
         error = f"report: {last_line(err)}"
     else:
         error = ""
+    # no two members of the team share a system id: a conflict said is a false alarm
+    conflicts = [l for _, l in lines if "ID CONFLICT" in l]
+    if conflicts and not error:
+        error = f"a system-id conflict was reported: {conflicts[0][:160]}"
     ok = (not error and rep.get("finished") and keep == truth and row["unclassified"] == 0
           and row["labelling_errors"] == 0)
     row["error"] = error

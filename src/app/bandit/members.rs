@@ -77,18 +77,16 @@ impl Runner {
         if !ready || !off_station {
             return Ok(false);
         }
-        let Some(p) = v.position else {
-            return Ok(false);
+        // the nearest station in the run with a free charger
+        let free = |st: u8| {
+            stations
+                .iter()
+                .any(|&(s, _, n)| s == st && capacity.is_none_or(|c| n < c))
         };
-        let Some((station, cell, taken)) = stations
-            .iter()
-            .filter(|(_, _, n)| capacity.is_none_or(|c| *n < c))
-            .filter_map(|&(st, c, n)| {
-                let q = self.fleet().vehicle(st)?.position?;
-                Some((local::distance(p.lat, p.lon, q.lat, q.lon), (st, c, n)))
-            })
-            .min_by(|a, b| a.0.total_cmp(&b.0))
-            .map(|(_, x)| x)
+        let Some((station, cell, taken)) = self
+            .nearest_station_to(sysid, free)
+            .await
+            .and_then(|(_, st)| stations.iter().find(|(s, _, _)| *s == st).copied())
         else {
             return Ok(false);
         };

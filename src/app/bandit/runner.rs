@@ -367,22 +367,32 @@ impl Runner {
         Ok(())
     }
 
-    /// " It is N m from station S." from telemetry (empty when a position is missing).
-    pub(super) async fn nearest_station(&self, sysid: u8) -> String {
+    /// The station nearest to vehicle `sysid` by telemetry among those `among` accepts: its
+    /// distance, metres, and its system id (None when a position is missing).
+    pub(super) async fn nearest_station_to(
+        &self,
+        sysid: u8,
+        among: impl Fn(u8) -> bool,
+    ) -> Option<(f64, u8)> {
         let stations: Vec<u8> = self
             .shared
             .read(|s| s.stations.iter().map(|m| m.sysid).collect())
             .await;
-        let Some(p) = self.fleet().vehicle(sysid).and_then(|v| v.position) else {
-            return String::new();
-        };
+        let p = self.fleet().vehicle(sysid)?.position?;
         stations
-            .iter()
-            .filter_map(|&st| {
+            .into_iter()
+            .filter(|&st| among(st))
+            .filter_map(|st| {
                 let q = self.fleet().vehicle(st)?.position?;
                 Some((local::distance(p.lat, p.lon, q.lat, q.lon), st))
             })
             .min_by(|a, b| a.0.total_cmp(&b.0))
+    }
+
+    /// " It is N m from station S." from telemetry (empty when a position is missing).
+    pub(super) async fn nearest_station(&self, sysid: u8) -> String {
+        self.nearest_station_to(sysid, |_| true)
+            .await
             .map(|(d, st)| format!(" It is {d:.1} m from station {st}."))
             .unwrap_or_default()
     }

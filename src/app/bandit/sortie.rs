@@ -413,19 +413,9 @@ impl Runner {
 
     /// The station nearest to vehicle `sysid` by telemetry (within 5 m).
     pub(super) async fn nearest_station_id(&self, sysid: u8) -> Option<u8> {
-        let stations: Vec<u8> = self
-            .shared
-            .read(|s| s.stations.iter().map(|m| m.sysid).collect())
-            .await;
-        let p = self.fleet().vehicle(sysid)?.position?;
-        stations
-            .iter()
-            .filter_map(|&st| {
-                let q = self.fleet().vehicle(st)?.position?;
-                Some((local::distance(p.lat, p.lon, q.lat, q.lon), st))
-            })
+        self.nearest_station_to(sysid, |_| true)
+            .await
             .filter(|(d, _)| *d <= 5.0)
-            .min_by(|a, b| a.0.total_cmp(&b.0))
             .map(|(_, st)| st)
     }
 
