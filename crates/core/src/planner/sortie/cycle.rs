@@ -275,13 +275,17 @@ impl ClassificationState {
             .collect()
     }
 
-    /// Add airborne time to a drone and flight time to the sortie in flight, seconds.
+    /// Add airborne time to the drones `airborne` and, while one of them is in the air,
+    /// flight time to the sortie in flight, seconds. The time a sortie waits on the ground
+    /// (its drones landed, their cameras still sending pictures) is not flight: the charge
+    /// the next sortie needs is estimated from it ([`EpochRun::flight_s`]).
     pub fn on_tick(&mut self, airborne: &[u8], dt_s: f64) {
         let dt = dt_s.max(0.0);
         for s in airborne {
             *self.airborne_s.entry(*s).or_insert(0.0) += dt;
         }
-        if let Some(e) = &mut self.epoch
+        if !airborne.is_empty()
+            && let Some(e) = &mut self.epoch
             && let Some(c) = &mut e.cycle
             && c.phase == CyclePhase::Started
         {

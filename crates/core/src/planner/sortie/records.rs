@@ -137,7 +137,7 @@ pub struct EpochRun {
     pub solves: u32,
     /// Planner wall time, seconds, every solve of the epoch included.
     pub planner_s: f64,
-    /// Seconds the epoch's sorties took (fleet clock).
+    /// Seconds the epoch's sorties had a drone in the air (fleet clock).
     pub flight_s: f64,
     /// Cells measured in this epoch (at least one counted image).
     pub measured: BTreeSet<Cell>,

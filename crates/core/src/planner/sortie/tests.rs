@@ -233,6 +233,22 @@ fn an_interrupted_sortie_is_replanned_from_where_the_team_is() {
 }
 
 #[test]
+fn a_sortie_waiting_on_the_ground_for_pictures_is_not_flight_time() {
+    let mut s = state(HARDWARE, None);
+    s.begin_epoch().unwrap();
+    plan(&mut s);
+    s.prepare_cycle().unwrap();
+    s.on_verified().unwrap();
+    s.on_started().unwrap();
+    let d = s.cycle().unwrap().drones[0].sysid;
+    s.on_tick(&[d], 60.0);
+    // landed, the cameras still sending: ten minutes on the ground
+    s.on_tick(&[], 600.0);
+    assert_eq!(s.cycle().unwrap().elapsed_s, 60.0);
+    assert_eq!(s.airborne_s.get(&d).copied(), Some(60.0));
+}
+
+#[test]
 fn lock_step_holds_the_drones_that_are_ahead() {
     let text = HARDWARE.replace("altitude_separation_m = 2.0", "altitude_separation_m = 0.0");
     let mut s = state(&text, None);
