@@ -100,7 +100,21 @@ in the vehicles' time. The GCS gets `--link radio:BYTES`, the runway cameras cla
 gains a column: the radios' bytes per second per vehicle (vehicle → GCS + GCS → vehicle, on the
 vehicles' clock, mean and busiest), the share of frames lost and those dropped on a full buffer.
 
-Only standard-library Python; the binary is $FLEETMAP (default: fleetmap on the PATH, else
+Field faults (bandit-fleet, runway --team): --fault SPEC, as many as wanted, in seconds of the
+vehicles' clock. `K|all:outage@START..END` blacks out vehicle K's radio (or every one; needs
+--radio) from START to END counted from the radios' start (a second or two before the GCS's);
+`K:battery@T` sets off vehicle K's own battery failsafe T after it first armed (the crew sets
+BATT_LOW_MAH above what is left on its SERIAL2, every ArduPilot of the team has
+BATT_FS_LOW_ACT 2, RTL; the parameter is put back once the failsafe fired, and once the
+vehicle is down the crew swaps the battery: a power cycle); `K:stuck@START[..END]` holds rover
+K's throttle at neutral (SERVO3_MIN = SERVO3_MAX = its trim) from START after it first armed:
+it stays in its mission and goes nowhere. --kill-at T (bandit-fleet; runway uses --kill-after)
+kills the GCS with SIGKILL T after its start and resumes the run. The row adds the faults, the
+crew's log and what the GCS told the operator; a system-id conflict reported fails it (no two
+members share an id). The battery and stuck faults talk MAVLink through pymavlink (make's
+.venv: run the script with .venv/bin/python).
+
+Otherwise only standard-library Python; the binary is $FLEETMAP (default: fleetmap on the PATH, else
 target/debug/fleetmap). Run it against simulators, or real vehicles in a safe open area only:
 `fly` flies the vehicle.
 """
