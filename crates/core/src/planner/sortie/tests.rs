@@ -40,6 +40,17 @@ fn plan(s: &mut ClassificationState) {
     }
 }
 
+/// The hardware mission with its first epoch planned and its first sortie started.
+fn first_sortie_started() -> ClassificationState {
+    let mut s = state(HARDWARE, None);
+    s.begin_epoch().unwrap();
+    plan(&mut s);
+    s.prepare_cycle().unwrap();
+    s.on_verified().unwrap();
+    s.on_started().unwrap();
+    s
+}
+
 /// Fly the prepared sortie in the model: every capture gets its B images (positive on the
 /// green tiles), every vehicle reaches its last step.
 fn fly(s: &mut ClassificationState, key: &mut i32) {
@@ -181,12 +192,7 @@ fn the_hardware_field_with_the_default_kl_bound_needs_19_samples_a_cell() {
 
 #[test]
 fn an_interrupted_sortie_is_replanned_from_where_the_team_is() {
-    let mut s = state(HARDWARE, None);
-    s.begin_epoch().unwrap();
-    plan(&mut s);
-    s.prepare_cycle().unwrap();
-    s.on_verified().unwrap();
-    s.on_started().unwrap();
+    let mut s = first_sortie_started();
     // two images of the first capture visit, then the GCS dies
     let c = s.cycle().unwrap().clone();
     let d = c.drones.iter().find(|d| !d.captures.is_empty()).unwrap();
@@ -234,12 +240,7 @@ fn an_interrupted_sortie_is_replanned_from_where_the_team_is() {
 
 #[test]
 fn a_sortie_waiting_on_the_ground_for_pictures_is_not_flight_time() {
-    let mut s = state(HARDWARE, None);
-    s.begin_epoch().unwrap();
-    plan(&mut s);
-    s.prepare_cycle().unwrap();
-    s.on_verified().unwrap();
-    s.on_started().unwrap();
+    let mut s = first_sortie_started();
     let d = s.cycle().unwrap().drones[0].sysid;
     s.on_tick(&[d], 60.0);
     // landed, the cameras still sending: ten minutes on the ground
@@ -489,12 +490,7 @@ fn a_station_that_cannot_drive_is_held_and_retries_back_off() {
 /// it is taken back and planned again. What is out survives a save.
 #[test]
 fn a_drone_taken_home_by_its_failsafe_is_out_and_rejoins_from_a_station() {
-    let mut s = state(HARDWARE, None);
-    s.begin_epoch().unwrap();
-    plan(&mut s);
-    s.prepare_cycle().unwrap();
-    s.on_verified().unwrap();
-    s.on_started().unwrap();
+    let mut s = first_sortie_started();
     s.sideline(
         2,
         "battery failsafe (RTL at 18 %)".into(),
@@ -531,12 +527,7 @@ fn a_drone_taken_home_by_its_failsafe_is_out_and_rejoins_from_a_station() {
 /// is planned with it held on its cell.
 #[test]
 fn a_stuck_station_ends_its_leg_where_it_stands_and_is_held() {
-    let mut s = state(HARDWARE, None);
-    s.begin_epoch().unwrap();
-    plan(&mut s);
-    s.prepare_cycle().unwrap();
-    s.on_verified().unwrap();
-    s.on_started().unwrap();
+    let mut s = first_sortie_started();
     let c = s.cycle().unwrap().clone();
     let st = c.stations[0].sysid;
     assert!(s.on_station_stuck(99, "stuck".into()).is_err());
