@@ -27,8 +27,9 @@
 //!   number of one received moments before ([`SysidWatchConfig::collision_ttl`]: well
 //!   within a counter's round at the rate heard) but another content. A reboot restarts the counter
 //!   from 0 after seconds of silence, or, behind a radio's buffer, right after the last frames
-//!   before it: after a silence, or a number below 8 that continues no track, earlier
-//!   numbers do not collide.
+//!   before it. After a silence, or after a number below 8 that continues no track, earlier
+//!   numbers no longer collide; and collisions make a conflict only when they spread over
+//!   more than their ttl (a restart whose first frames were lost collides only within it).
 //! * **Heartbeat identity.** A running autopilot keeps its MAV_TYPE and MAV_AUTOPILOT; the
 //!   heartbeats of one (link, sysid, compid) that flip between two identities
 //!   [`SysidWatchConfig::flips`] times within the window come from two autopilots (a copter
