@@ -332,6 +332,20 @@ const MAV_STATE_BOOT: u8 = 1;
 const PREARM_BIT: u32 = 0x1000_0000;
 
 impl VehicleSnapshot {
+    /// An ArduCopter (MAV_TYPE_QUADROTOR, MAV_AUTOPILOT_ARDUPILOTMEGA, active) first heard at
+    /// time zero on link 0, for tests.
+    #[cfg(test)]
+    pub(crate) fn test_copter(sysid: u8) -> VehicleSnapshot {
+        let beat = Beat {
+            custom_mode: 0,
+            mav_type: 2,
+            autopilot: 3,
+            base_mode: 0,
+            system_status: 3,
+        };
+        VehicleSnapshot::new(sysid, 1, &beat, 0, Time::ZERO)
+    }
+
     /// A vehicle first heard with heartbeat `beat` from `sysid`/`compid` on `link`.
     pub fn new(sysid: u8, compid: u8, beat: &Beat, link: usize, now: Time) -> VehicleSnapshot {
         let flavour = Flavour::from_heartbeat(beat.autopilot, beat.mav_type);
@@ -572,14 +586,7 @@ mod tests {
     /// after a given moment counts as heard since then.
     #[test]
     fn a_camera_silent_and_heard_again_starts_a_new_run() {
-        let beat = fleetmap_core::proto::heartbeat::Beat {
-            custom_mode: 0,
-            mav_type: 2,
-            autopilot: 3,
-            base_mode: 0,
-            system_status: 3,
-        };
-        let mut v = VehicleSnapshot::new(1, 1, &beat, 0, Time::ZERO);
+        let mut v = VehicleSnapshot::test_copter(1);
         assert!(!v.camera_heard_since(None, Time::ZERO));
         for s in 0..10 {
             v.camera_heard(100, Time::from_secs(s));

@@ -695,14 +695,7 @@ mod tests {
     fn log_takes_each_statustext_once() {
         let mut log = LiveLog::default();
         let mut f = FleetSnapshot::default();
-        let beat = fleetmap_core::proto::heartbeat::Beat {
-            custom_mode: 0,
-            mav_type: 2,
-            autopilot: 3,
-            base_mode: 0,
-            system_status: 3,
-        };
-        let mut v = VehicleSnapshot::new(3, 1, &beat, 0, Time::ZERO);
+        let mut v = VehicleSnapshot::test_copter(3);
         v.last_text = Some(crate::fleet::StatusText {
             severity: fleetmap_core::proto::severity::Severity::Warning,
             text: "PreArm: Need Position Estimate".into(),

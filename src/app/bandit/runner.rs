@@ -722,14 +722,7 @@ mod position_tests {
     /// its start cell"). A position counts once the vehicle has a home, and never at 0°, 0°.
     #[test]
     fn a_position_before_the_autopilot_has_an_origin_is_not_where_it_stands() {
-        let beat = fleetmap_core::proto::heartbeat::Beat {
-            custom_mode: 0,
-            mav_type: 2,
-            autopilot: 3,
-            base_mode: 0,
-            system_status: 3,
-        };
-        let mut v = VehicleSnapshot::new(1, 1, &beat, 0, fleetmap_core::time::Time::ZERO);
+        let mut v = VehicleSnapshot::test_copter(1);
         let null = crate::fleet::GeoPoint {
             lat: 0.0,
             lon: 0.0,

@@ -27,16 +27,9 @@ fn a_drone_is_on_the_nearest_station() {
         ],
         stations: vec![Cell::new(3, 1), Cell::new(3, 2)],
     };
-    let beat = fleetmap_core::proto::heartbeat::Beat {
-        custom_mode: 0,
-        mav_type: 2,
-        autopilot: 3,
-        base_mode: 0,
-        system_status: 3,
-    };
     let s = state.grid.cell_size();
     let at = |sysid: u8, east: f64, north: f64| {
-        let mut v = VehicleSnapshot::new(sysid, 1, &beat, 0, fleetmap_core::time::Time::ZERO);
+        let mut v = VehicleSnapshot::test_copter(sysid);
         let p = state.grid.from_xy(east, north).unwrap();
         v.position = Some(crate::fleet::GeoPoint {
             lat: p.lat,
