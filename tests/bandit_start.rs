@@ -15,6 +15,8 @@
 //!   planned again without it, then fly; once its link is back it rejoins and flies, and the
 //!   run classifies every cell.
 
+mod common;
+
 use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
@@ -166,41 +168,7 @@ async fn fly(
     state: ClassificationState,
     stop: impl Fn(&str) -> bool,
 ) -> (Vec<String>, bool) {
-    let hub = fleetmap::app::images::image_hub(&team.fleet);
-    let (tx, mut rx) = mpsc::unbounded_channel();
-    let opts = RunOptions {
-        progress: Some(tx),
-        auto_resume: true,
-        ..RunOptions::default()
-    };
-    let run = RunDir::open(dir).unwrap();
-    let fleet = team.fleet.clone();
-    let mut task =
-        tokio::spawn(async move { bandit::run(fleet, &hub, run, state, opts).await.map(|_| ()) });
-    let mut lines = Vec::new();
-    loop {
-        tokio::select! {
-            r = &mut task => {
-                r.expect("the run task").expect("the run failed");
-                while let Ok(l) = rx.try_recv() {
-                    lines.push(l.to_string());
-                }
-                return (lines, false);
-            }
-            Some(l) = rx.recv() => {
-                let l = l.to_string();
-                eprintln!("{l}");
-                let halt = stop(&l);
-                lines.push(l);
-                if halt {
-                    // The GCS dies here: nothing more is saved.
-                    task.abort();
-                    let _ = task.await;
-                    return (lines, true);
-                }
-            }
-        }
-    }
+    common::bandit::run_until(&team.fleet, dir, state, stop).await
 }
 
 fn check_finished(s: &ClassificationState, world: &World) {

@@ -1,5 +1,7 @@
 //! Shared by the end-to-end tests that fly the runway mission over a small world.
 
+#[allow(dead_code)] // only the tests that fly the spatial-classification mission
+pub mod bandit;
 #[allow(dead_code)] // not every test binary drives a pseudo-terminal
 pub mod pty;
 #[allow(dead_code)] // only the tests with a router between the GCS and the vehicles

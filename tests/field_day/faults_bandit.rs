@@ -18,7 +18,8 @@
 //! Every run must end with keep = the green tiles, nothing unclassified, no measurement
 //! counted twice, and the operator told of the fault, naming the vehicle.
 
-use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
+use crate::common::bandit::run_until;
+use fleetmap::app::bandit::{self, BanditEvent};
 use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet::FleetHandle;
 use fleetmap::store::{RunDir, RunMeta};
@@ -28,9 +29,7 @@ use fleetmap_core::world::World;
 use fleetmap_sim::fault::parse_faults;
 use fleetmap_sim::server::SimTask;
 use std::collections::BTreeSet;
-use std::path::Path;
 use std::time::Duration;
-use tokio::sync::mpsc;
 
 /// What one faulty run gave.
 struct Flown {
@@ -73,7 +72,7 @@ async fn fly(name: &str, faults: &str, setup: SimSetup, crew: &[u8], kill_at: us
     )
     .unwrap();
     let mut n = 0;
-    let (mut lines, killed) = run(&fleet, &dir, state, |_| {
+    let (mut lines, killed) = run_until(&fleet, &dir, state, |_| {
         n += 1;
         n == kill_at
     })
@@ -81,7 +80,7 @@ async fn fly(name: &str, faults: &str, setup: SimSetup, crew: &[u8], kill_at: us
     if killed {
         // The laptop comes back: `fleetmap resume` reads the run directory.
         let saved: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
-        let (more, _) = run(&fleet, &dir, saved, |_| false).await;
+        let (more, _) = run_until(&fleet, &dir, saved, |_| false).await;
         lines.extend(more);
     }
     let state: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
@@ -126,52 +125,6 @@ async fn start(setup: &SimSetup, faults: &str, crew: &[u8]) -> (FleetHandle, Sim
         cfg.vehicles[usize::from(s) - 1].swap_after_s = Some(20.0);
     }
     bandit_sim::start_virtual_with(cfg, setup).await.unwrap()
-}
-
-/// Run `state` in `dir` to its end, or until `stop` says so of a progress line (the GCS
-/// dies there); returns the lines and whether it was stopped.
-async fn run(
-    fleet: &FleetHandle,
-    dir: &Path,
-    state: ClassificationState,
-    mut stop: impl FnMut(&str) -> bool,
-) -> (Vec<String>, bool) {
-    let hub = fleetmap::app::images::image_hub(fleet);
-    let (tx, mut rx) = mpsc::unbounded_channel();
-    let opts = RunOptions {
-        progress: Some(tx),
-        auto_resume: true,
-        ..RunOptions::default()
-    };
-    let run = RunDir::open(dir).unwrap();
-    let fleet = fleet.clone();
-    let mut task =
-        tokio::spawn(async move { bandit::run(fleet, &hub, run, state, opts).await.map(|_| ()) });
-    let mut lines = Vec::new();
-    loop {
-        tokio::select! {
-            biased;
-            r = &mut task => {
-                if let Err(e) = r.expect("the run task") {
-                    panic!("the run failed: {}\n{lines:#?}", fleetmap::app::error::chain(&e));
-                }
-                while let Ok(l) = rx.try_recv() {
-                    lines.push(l.to_string());
-                }
-                return (lines, false);
-            }
-            Some(l) = rx.recv() => {
-                let l = l.to_string();
-                let halt = stop(&l);
-                lines.push(l);
-                if halt {
-                    task.abort();
-                    let _ = task.await;
-                    return (lines, true);
-                }
-            }
-        }
-    }
 }
 
 /// The run ended right: every cell classified, keep = the green tiles, and the journal's
