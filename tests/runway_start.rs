@@ -8,10 +8,9 @@
 //! finishes with the strip mapped. A lone drone whose check never passes waits for its fix
 //! (ten minutes with auto-resume), then the run ends saying what a person must fix.
 
-use fleetmap::app::images;
 use fleetmap::app::kind::{OperatorTask, Outcome};
 use fleetmap::app::runway::report::{report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent, RunOptions};
+use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::explore::dfs::Sharing;
@@ -80,41 +79,9 @@ async fn fly(
     fleet: &FleetHandle,
     dir: &Path,
     state: MappingState,
-    mut stop: impl FnMut(&str) -> bool,
+    stop: impl FnMut(&str) -> bool,
 ) -> (Vec<String>, Option<Outcome>) {
-    let hub = images::spawn(fleet);
-    let (tx, mut rx) = mpsc::unbounded_channel();
-    let opts = RunOptions {
-        auto_resume: true,
-        progress: Some(tx),
-        ..RunOptions::default()
-    };
-    let run = RunDir::open(dir).unwrap();
-    let f = fleet.clone();
-    let mut task = tokio::spawn(async move { runway::run(f, &hub, run, state, opts).await });
-    let mut lines = Vec::new();
-    loop {
-        tokio::select! {
-            r = &mut task => {
-                let outcome = r.expect("the run task").expect("the run failed");
-                while let Ok(l) = rx.try_recv() {
-                    lines.push(l.to_string());
-                }
-                return (lines, Some(outcome));
-            }
-            Some(l) = rx.recv() => {
-                let l = l.to_string();
-                eprintln!("{l}");
-                let halt = stop(&l);
-                lines.push(l);
-                if halt {
-                    task.abort();
-                    let _ = task.await;
-                    return (lines, None);
-                }
-            }
-        }
-    }
+    common::runway::run_until(fleet, dir, state, stop).await
 }
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]

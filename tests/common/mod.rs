@@ -6,6 +6,8 @@ pub mod bandit;
 pub mod pty;
 #[allow(dead_code)] // only the tests with a router between the GCS and the vehicles
 pub mod router;
+#[allow(dead_code)] // only the tests that fly the runway mission run by run
+pub mod runway;
 
 /// A UDP port on 127.0.0.1 that was free a moment ago (for a `fleetmap sim` to listen on).
 #[allow(dead_code)] // not every test binary starts a simulator process

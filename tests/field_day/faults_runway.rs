@@ -21,10 +21,9 @@
 //! small (about 20 s a run); the 3-drone field test takes minutes a run.
 
 use fleetmap::app::demo::{self, DemoConfig};
-use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent, RunOptions};
+use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::fleet::FleetHandle;
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::explore::dfs::Sharing;
@@ -36,7 +35,7 @@ use fleetmap_sim::fault::parse_faults;
 use std::collections::BTreeSet;
 use std::path::Path;
 use std::time::Duration;
-use tokio::sync::{OnceCell, mpsc};
+use tokio::sync::OnceCell;
 
 use crate::common;
 
@@ -221,50 +220,12 @@ async fn run(
     fleet: &FleetHandle,
     dir: &Path,
     state: MappingState,
-    mut stop: impl FnMut(&str) -> bool,
+    stop: impl FnMut(&str) -> bool,
 ) -> (Vec<String>, bool) {
-    let hub = images::spawn(fleet);
-    let (tx, mut rx) = mpsc::unbounded_channel();
-    let opts = RunOptions {
-        auto_resume: true,
-        progress: Some(tx),
-        ..RunOptions::default()
-    };
-    let run = RunDir::open(dir).unwrap();
-    let f = fleet.clone();
-    let mut task = tokio::spawn(async move { runway::run(f, &hub, run, state, opts).await });
-    let mut lines = Vec::new();
-    loop {
-        tokio::select! {
-            biased;
-            r = &mut task => {
-                let outcome = r.expect("the run task");
-                while let Ok(l) = rx.try_recv() {
-                    lines.push(l.to_string());
-                }
-                match outcome {
-                    Ok(Outcome::Finished) => return (lines, false),
-                    Ok(other) => panic!("the run ended with {other:?}\n{lines:#?}"),
-                    Err(e) => panic!(
-                        "the run failed: {}\n{lines:#?}",
-                        fleetmap::app::error::chain(&e)
-                    ),
-                }
-            }
-            Some(l) = rx.recv() => {
-                let l = l.to_string();
-                if std::env::var_os("FAULTS_VERBOSE").is_some() {
-                    eprintln!("{l}");
-                }
-                let halt = stop(&l);
-                lines.push(l);
-                if halt {
-                    task.abort();
-                    let _ = task.await;
-                    return (lines, true);
-                }
-            }
-        }
+    match common::runway::run_until(fleet, dir, state, stop).await {
+        (lines, None) => (lines, true),
+        (lines, Some(Outcome::Finished)) => (lines, false),
+        (lines, Some(other)) => panic!("the run ended with {other:?}\n{lines:#?}"),
     }
 }
 
