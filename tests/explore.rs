@@ -46,6 +46,20 @@ fn check_invariants(
     start: Cell,
     perfect: bool,
 ) -> Result<(), TestCaseError> {
+    check_invariants_of(out, roi, start, perfect, false)
+}
+
+/// [`check_invariants`]; with `direct` (direct transit) a move may pass imaged vertices, so
+/// consecutive cells of a path need not be neighbours — nor different: decisions made in
+/// passing may bring a robot back to the cell it stands on (up to a parent it passes,
+/// then down again as the need there says), a move of length 0.
+fn check_invariants_of(
+    out: &SimOutcome,
+    roi: &HashSet<Cell>,
+    start: Cell,
+    perfect: bool,
+    direct: bool,
+) -> Result<(), TestCaseError> {
     prop_assert!(out.explorer.is_finished());
     let tree = out.explorer.tree();
     for n in tree.nodes() {
@@ -68,9 +82,33 @@ fn check_invariants(
     for p in &out.paths {
         prop_assert_eq!(p.last(), Some(&start));
         for w in p.windows(2) {
-            prop_assert_eq!(w[0].manhattan(w[1]), 1);
+            prop_assert!(w[0].manhattan(w[1]) == 1 || direct, "{} to {}", w[0], w[1]);
         }
     }
+    Ok(())
+}
+
+/// The run's cost is within Lemma 1's bound (eq. 2, with C the cells of the tree the run
+/// built) for `robots` robots and the ROI speed `sp`; `what` names the case in the failure.
+fn within_lemma_1(
+    out: &SimOutcome,
+    robots: usize,
+    sp: f64,
+    what: &str,
+) -> Result<(), TestCaseError> {
+    let c = out.tree_cells;
+    let bound = lemma1_upper_bound(c, out.d_max, robots, 1.0, sp);
+    prop_assert!(
+        out.cost <= bound * (1.0 + 1e-9),
+        "cost {} > Lemma 1 bound {} (C {}, R {}, d_max {}, S_p {}{})",
+        out.cost,
+        bound,
+        c,
+        robots,
+        out.d_max,
+        sp,
+        what
+    );
     Ok(())
 }
 
@@ -81,7 +119,7 @@ fn run_case(
     ratio: f64,
     dir: usize,
     noise: f64,
-    (sharing, allocation): (Sharing, Allocation),
+    (sharing, allocation, direct_transit): (Sharing, Allocation, bool),
 ) -> (SimOutcome, HashSet<Cell>, Cell, f64) {
     let (roi, start) = roi_from_seed(seed, cells);
     let sp = if ratio == 0.0 { 0.0 } else { 1.0 / ratio };
@@ -94,6 +132,7 @@ fn run_case(
         roi_velocity: v,
         observe_time: 0.0,
         record_paths: true,
+        direct_transit,
     };
     let out = {
         let mut sense = noisy_sensor(&roi, seed, noise);
@@ -118,14 +157,10 @@ proptest! {
         dir in 0usize..4,
         noise in prop_oneof![Just(0.0), 0.0f64..0.15],
     ) {
-        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Gcs, Allocation::Paper));
+        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Gcs, Allocation::Paper, false));
         check_invariants(&out, &roi, start, noise == 0.0)?;
         prop_assert_eq!(out.explorer.uninformed_decisions(), 0);
-        let c = out.tree_cells;
-        let bound = lemma1_upper_bound(c, out.d_max, robots, 1.0, sp);
-        prop_assert!(out.cost <= bound * (1.0 + 1e-9),
-            "cost {} > Lemma 1 bound {} (C {}, R {}, d_max {}, S_p {})",
-            out.cost, bound, c, robots, out.d_max, sp);
+        within_lemma_1(&out, robots, sp, "")?;
     }
 
     /// GCS sharing with the nearest-frontier allocation, on the same cases: the invariants
@@ -141,14 +176,31 @@ proptest! {
         noise in prop_oneof![Just(0.0), 0.0f64..0.15],
     ) {
         let (out, roi, start, sp) =
-            run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Gcs, Allocation::NearestFrontier));
+            run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Gcs, Allocation::NearestFrontier, false));
         check_invariants(&out, &roi, start, noise == 0.0)?;
         prop_assert_eq!(out.explorer.config().allocation, Allocation::NearestFrontier);
-        let c = out.tree_cells;
-        let bound = lemma1_upper_bound(c, out.d_max, robots, 1.0, sp);
-        prop_assert!(out.cost <= bound * (1.0 + 1e-9),
-            "cost {} > Lemma 1 bound {} (C {}, R {}, d_max {}, S_p {})",
-            out.cost, bound, c, robots, out.d_max, sp);
+        within_lemma_1(&out, robots, sp, "")?;
+    }
+
+    /// GCS sharing with direct transit (fleetmap's field rule: a lone robot flies straight
+    /// over imaged vertices), with Algorithm 1's split or the spread allocation: the
+    /// invariants of §4 hold and the cost — every robot back at the start, a tour ended
+    /// away from it flown straight back — never exceeds Lemma 1.
+    #[test]
+    fn direct_transit_covers_terminates_and_meets_lemma_1(
+        seed in any::<u64>(),
+        cells in 1usize..160,
+        robots in 1usize..=20,
+        ratio in prop_oneof![Just(0.0), 1.2f64..6.0],
+        dir in 0usize..4,
+        noise in prop_oneof![Just(0.0), 0.0f64..0.15],
+        spread in any::<bool>(),
+    ) {
+        let allocation = if spread { Allocation::Spread } else { Allocation::Paper };
+        let (out, roi, start, sp) =
+            run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Gcs, allocation, true));
+        check_invariants_of(&out, &roi, start, noise == 0.0, true)?;
+        within_lemma_1(&out, robots, sp, &format!(", {allocation}"))?;
     }
 
     /// Meeting-only sharing (the paper's model): the invariants of §4 hold, and the cost
@@ -163,14 +215,10 @@ proptest! {
         dir in 0usize..4,
         noise in prop_oneof![Just(0.0), 0.0f64..0.15],
     ) {
-        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Meet, Allocation::Paper));
+        let (out, roi, start, sp) = run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Meet, Allocation::Paper, false));
         check_invariants(&out, &roi, start, noise == 0.0)?;
-        let c = out.tree_cells;
-        let bound = lemma1_upper_bound(c, out.d_max, robots, 1.0, sp);
         if out.explorer.uninformed_decisions() == 0 {
-            prop_assert!(out.cost <= bound * (1.0 + 1e-9),
-                "informed run: cost {} > Lemma 1 bound {} (C {}, R {}, d_max {}, S_p {})",
-                out.cost, bound, c, robots, out.d_max, sp);
+            within_lemma_1(&out, robots, sp, ", an informed run")?;
         }
     }
 }

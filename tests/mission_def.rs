@@ -297,9 +297,10 @@ fn sweep_and_battery_keys_are_read_checked_and_used() {
     };
     let plain = MissionDef::parse(&base, "plain.toml").unwrap();
     let s0 = MappingState::new(&plain, grid(&plain), Sharing::Gcs).unwrap();
+    // Without the key the drones spread over the frontier (the field default).
     assert_eq!(
         s0.params.allocation,
-        fleetmap_core::explore::dfs::Allocation::Paper
+        fleetmap_core::explore::dfs::Allocation::Spread
     );
     let text = with(
         "lane_spacing_m = 4.0\nsweep_position_tolerance_m = 0.5\nallocation = \"nearest_frontier\"",

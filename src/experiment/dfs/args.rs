@@ -86,7 +86,9 @@ pub enum AllocationChoice {
     Paper,
     /// Idle robots to the nearest unexplored vertex ([`Allocation::NearestFrontier`]).
     NearestFrontier,
-    /// Both, on the same ROIs.
+    /// The robots spread over the frontier ([`Allocation::Spread`]).
+    Spread,
+    /// The paper's and nearest frontier, on the same ROIs.
     Both,
 }
 
@@ -96,7 +98,8 @@ impl AllocationChoice {
             // Nearest-frontier needs the global view: with meetings it is the paper's rule.
             (Sharing::Meet, _) | (_, AllocationChoice::Paper) => vec![Allocation::Paper],
             (_, AllocationChoice::NearestFrontier) => vec![Allocation::NearestFrontier],
-            (_, AllocationChoice::Both) => Allocation::ALL.to_vec(),
+            (_, AllocationChoice::Spread) => vec![Allocation::Spread],
+            (_, AllocationChoice::Both) => vec![Allocation::Paper, Allocation::NearestFrontier],
         }
     }
 }

@@ -499,6 +499,7 @@ pub fn run_trial(
             roi_velocity: v,
             observe_time: 0.0,
             record_paths: false,
+            direct_transit: false,
         },
     )?;
     let c = roi.len();

@@ -133,6 +133,7 @@ pub fn table(study: &Study) -> String {
             match c.allocation {
                 Allocation::Paper => "paper",
                 Allocation::NearestFrontier => "near",
+                Allocation::Spread => "spread",
             },
             c.cells,
             c.robots,

@@ -1,6 +1,6 @@
 //! The team-size study's figure: time to the complete map and to the last landing against
 //! the number of drones (mean, min–max bars over the trials), beside one drone's time divided
-//! by the team size (a team that never waits and splits the work evenly) and the goals.
+//! by the team size (a team that never waits and splits the work evenly) and the goals.
 //!
 //! Rendering is plotters' bitmap backend into a memory buffer, encoded with `image`; text
 //! uses DejaVu Sans embedded from `assets/fonts/` through plotters' `ab_glyph` feature, so no
@@ -109,7 +109,7 @@ pub(crate) fn team_png(study: &Study) -> anyhow::Result<Vec<u8>> {
                         .map(|&p| Cross::new(p, 8, GOAL.stroke_width(3))),
                 )
                 .map_err(|e| err(&e))?
-                .label("goal (3 drones 0.45×, 6 drones 0.3× of one)")
+                .label("goal (3 drones 0.36×, 6 drones 0.20× of one)")
                 .legend(|(x, y)| Cross::new((x + 12, y), 6, GOAL.stroke_width(3)));
         }
         for (name, colour, pts) in [

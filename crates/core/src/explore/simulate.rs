@@ -32,6 +32,11 @@ pub struct SimConfig {
     pub observe_time: f64,
     /// Keep every robot's sequence of cells in the outcome.
     pub record_paths: bool,
+    /// Direct transit ([`ExplorerConfig::direct_transit`]): a move may pass several imaged
+    /// vertices, flown straight (charged at its straight length); a robot whose tour ends
+    /// away from the start flies straight back to it (the cost is still everyone at the
+    /// start). Off in the paper's model.
+    pub direct_transit: bool,
 }
 
 impl Default for SimConfig {
@@ -44,6 +49,7 @@ impl Default for SimConfig {
             roi_velocity: (0.0, 0.0),
             observe_time: 0.0,
             record_paths: false,
+            direct_transit: false,
         }
     }
 }
@@ -156,6 +162,7 @@ pub fn simulate_sensed(
         ExplorerConfig {
             sharing: cfg.sharing,
             allocation: cfg.allocation,
+            direct_transit: cfg.direct_transit,
         },
         start,
         &ids,
@@ -231,7 +238,7 @@ pub fn simulate_sensed(
             }
             Kind::Poll => match ex.next_action(id)? {
                 Action::MoveTo(c) => {
-                    if pos[r].manhattan(c) != 1 {
+                    if pos[r].manhattan(c) != 1 && !cfg.direct_transit {
                         return Err(ExploreError::Simulation(format!(
                             "robot {id} sent from {} to non-adjacent {c}",
                             pos[r]
@@ -260,7 +267,17 @@ pub fn simulate_sensed(
                     false
                 }
                 Action::Done => {
-                    done[r] = Some(t);
+                    // Direct transit ends a tour where the robot is: fly it to the start.
+                    let back = if pos[r] == start {
+                        0.0
+                    } else {
+                        motion.travel_time(pos[r], start, 1.0, cfg.robot_speed)?
+                    };
+                    flight[r] += back;
+                    if back > 0.0 && cfg.record_paths {
+                        paths[r].push(start);
+                    }
+                    done[r] = Some(t + back);
                     true
                 }
                 Action::ReturnHome => {

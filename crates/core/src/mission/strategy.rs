@@ -30,6 +30,16 @@ pub enum Allocation {
     /// [`Sharing::Meet`](crate::explore::dfs::Sharing::Meet) this is the same as [`Allocation::Paper`] (a robot does not know
     /// where the frontier is).
     NearestFrontier,
+    /// With [`Sharing::Gcs`](crate::explore::dfs::Sharing::Gcs) only: nearest frontier, with
+    /// the robots spread over the frontier instead of halved at a branch. The robots at v
+    /// send one robot to each child whose subtree holds a frontier vertex (nearest first),
+    /// then more, up to one per frontier vertex of that subtree; robots left over walk back
+    /// up when some other part of the tree holds a frontier vertex (else they join the
+    /// children, as line 19 would). A robot decides on arriving at a vertex, without
+    /// waiting for robots that did not travel with it (at the start: each robot reaching
+    /// the root). With [`Sharing::Meet`](crate::explore::dfs::Sharing::Meet) it is
+    /// [`Allocation::Paper`].
+    Spread,
 }
 
 impl Allocation {
@@ -38,14 +48,19 @@ impl Allocation {
         Allocation::Paper
     }
 
-    /// Both allocations, the paper's first.
-    pub const ALL: [Allocation; 2] = [Allocation::Paper, Allocation::NearestFrontier];
+    /// Every allocation, the paper's first.
+    pub const ALL: [Allocation; 3] = [
+        Allocation::Paper,
+        Allocation::NearestFrontier,
+        Allocation::Spread,
+    ];
 
-    /// A stable name (the serde name): `paper` or `nearest_frontier`, for reports.
+    /// A stable name (the serde name): `paper`, `nearest_frontier` or `spread`, for reports.
     pub fn name(self) -> &'static str {
         match self {
             Allocation::Paper => "paper",
             Allocation::NearestFrontier => "nearest_frontier",
+            Allocation::Spread => "spread",
         }
     }
 }

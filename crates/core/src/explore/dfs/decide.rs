@@ -7,6 +7,9 @@ use super::*;
 impl Explorer {
     /// Algorithm 1 at the robot's vertex, for its group.
     pub(super) fn decide(&mut self, i: usize) -> Action {
+        // Direct transit: vertices passed through without stopping, at most one per tree
+        // vertex (a guard; a lone robot's walk towards work does not revisit a vertex).
+        let mut passes = 0usize;
         loop {
             let v = self.robots[i].node;
             let vcell = self.cell(v);
@@ -48,7 +51,10 @@ impl Explorer {
             // Nearest-frontier allocation: `up` sends the robots back to the parent although
             // a child is not explored (nothing is left to open in it, something is elsewhere).
             let mut up = false;
-            if self.config.effective_allocation() == Allocation::NearestFrontier {
+            if matches!(
+                self.config.effective_allocation(),
+                Allocation::NearestFrontier | Allocation::Spread
+            ) {
                 let kn = &self.knowledge[k];
                 let mut open: Vec<(u32, NodeId)> = cands
                     .iter()
@@ -60,6 +66,21 @@ impl Explorer {
                     cands = open.into_iter().map(|(_, c)| c).collect();
                 } else if self.tree.node(v).parent.is_some() && self.any_frontier(kn) {
                     up = true;
+                }
+            }
+            if self.config.effective_allocation() == Allocation::Spread
+                && let Some(plan) = self.spread(k, v, &group)
+            {
+                // Robots in group order: the first `plan[0].1` to the first target, …
+                let mut from = 0;
+                for (to, n) in plan {
+                    let chunk: Vec<usize> = group[from..from + n].to_vec();
+                    from += n;
+                    self.dispatch(&chunk, v, to);
+                }
+                match self.after_dispatch(i, &mut passes) {
+                    Some(action) => return action,
+                    None => continue,
                 }
             }
             if self.config.sharing == Sharing::Meet {
@@ -100,12 +121,9 @@ impl Explorer {
                 self.dispatch(&group[..h], v, cands[0]);
                 self.dispatch(&group[h..], v, cands[1]);
             }
-            match self.robots[i].phase {
-                Phase::Moving { to } => return Action::MoveTo(self.cell(to)),
-                // A zero-length (dummy) edge: decide again at the new vertex.
-                Phase::AtVertex => continue,
-                Phase::Done => return Action::Done,
-                _ => return Action::Wait,
+            match self.after_dispatch(i, &mut passes) {
+                Some(action) => return action,
+                None => continue,
             }
         }
     }
@@ -162,6 +180,135 @@ impl Explorer {
             stack.extend(node.children.iter().copied());
         }
         best
+    }
+
+    /// [`Allocation::Spread`] at `v` for the robots `group` (indices) with knowledge index
+    /// `ki`: where each share of them goes, as (vertex, how many) in the order of the robots.
+    /// A child's *need* is the frontier vertices (nobody reached or was sent to them) of its
+    /// subtree less the robots already working in it. One robot to each child in need
+    /// (nearest frontier first), then more in turn up to its need; the rest back to the
+    /// parent when the frontier outside `v`'s subtree is not covered by the robots out
+    /// there, else in turn to the children with a frontier vertex. `None` when no child's
+    /// subtree holds a frontier vertex: nearest frontier's rule then applies (back up if the
+    /// tree holds one elsewhere, else Algorithm 1's).
+    pub(super) fn spread(
+        &self,
+        ki: usize,
+        v: NodeId,
+        group: &[usize],
+    ) -> Option<Vec<(NodeId, usize)>> {
+        let kn = &self.knowledge[ki];
+        let k = group.len();
+        let mut open: Vec<(u32, usize, NodeId)> = self
+            .candidates(kn, v)
+            .into_iter()
+            .filter_map(|c| {
+                let d = self.frontier_depth(kn, c)?;
+                let need = self
+                    .count_frontier(kn, c)
+                    .saturating_sub(self.robots_working_in(c, group));
+                Some((d, need, c))
+            })
+            .collect();
+        if open.is_empty() || k == 0 {
+            return None;
+        }
+        // Stable: ties keep Algorithm 1's order.
+        open.sort_by_key(|&(d, _, _)| d);
+        let outside_need = (self.count_frontier(kn, Tree::ROOT) - self.count_frontier(kn, v))
+            .saturating_sub(
+                self.robots_working(group)
+                    .saturating_sub(self.robots_working_in(v, group)),
+            );
+        let up = self.tree.node(v).parent.filter(|_| outside_need > 0);
+        let mut share = vec![0usize; open.len()];
+        let mut left = k;
+        loop {
+            let mut gave = false;
+            for (j, &(_, need, _)) in open.iter().enumerate() {
+                if left > 0 && share[j] < need {
+                    share[j] += 1;
+                    left -= 1;
+                    gave = true;
+                }
+            }
+            if !gave || left == 0 {
+                break;
+            }
+        }
+        let mut plan: Vec<(NodeId, usize)> = open
+            .iter()
+            .zip(&share)
+            .filter(|&(_, &n)| n > 0)
+            .map(|(&(_, _, c), &n)| (c, n))
+            .collect();
+        if left > 0 {
+            match up {
+                Some(p) => plan.push((p, left)),
+                None => {
+                    // Nothing uncovered elsewhere: the rest help where the frontier is.
+                    let mut j = 0;
+                    while left > 0 {
+                        let c = open[j % open.len()].2;
+                        match plan.iter_mut().find(|(x, _)| *x == c) {
+                            Some(e) => e.1 += 1,
+                            None => plan.push((c, 1)),
+                        }
+                        left -= 1;
+                        j += 1;
+                    }
+                }
+            }
+        }
+        Some(plan)
+    }
+
+    /// Robots in the tree (not paused, not done, not in `group`).
+    fn robots_working(&self, group: &[usize]) -> usize {
+        (0..self.robots.len())
+            .filter(|j| !group.contains(j))
+            .filter(|&j| !matches!(self.robots[j].phase, Phase::Paused | Phase::Done))
+            .count()
+    }
+
+    /// Robots (not paused, not done, not in `group`) standing in the subtree of `c` or
+    /// headed into it.
+    fn robots_working_in(&self, c: NodeId, group: &[usize]) -> usize {
+        let inside = |mut n: NodeId| loop {
+            if n == c {
+                return true;
+            }
+            match self.tree.node(n).parent {
+                Some(p) => n = p,
+                None => return false,
+            }
+        };
+        (0..self.robots.len())
+            .filter(|j| !group.contains(j))
+            .filter(|&j| match self.robots[j].phase {
+                Phase::Paused | Phase::Done => false,
+                Phase::Moving { to } => inside(to),
+                _ => inside(self.robots[j].node),
+            })
+            .count()
+    }
+
+    /// Frontier vertices (real vertices nobody reached or was sent to) in the subtree of
+    /// `c`, by knowledge `kn`.
+    fn count_frontier(&self, kn: &Knowledge, c: NodeId) -> usize {
+        let mut n = 0;
+        let mut stack = vec![c];
+        while let Some(x) = stack.pop() {
+            if kn.explored(x) {
+                continue;
+            }
+            let node = self.tree.node(x);
+            if node.kind == NodeKind::Real && !kn.visited(x) && !kn.claimed(x) {
+                n += 1;
+            }
+            stack.extend(node.children.iter().copied());
+        }
+        n
     }
 
     /// Whether any real vertex of the tree is unexplored by knowledge `kn`.

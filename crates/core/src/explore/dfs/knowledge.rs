@@ -82,6 +82,15 @@ impl Knowledge {
         self.claimed.set(n.index(), true);
     }
 
+    /// Forget that `n` was visited or claimed: a vertex not yet imaged whose robot left the
+    /// tree is unexplored again (explored states cannot change: `n` was not explored).
+    pub(crate) fn release(&mut self, tree: &Tree, n: NodeId) {
+        if tree.node(n).kind == NodeKind::Real && !tree.node(n).observed {
+            self.visited.set(n.index(), false);
+            self.claimed.set(n.index(), false);
+        }
+    }
+
     /// Record a visit and propagate the explored state upward.
     pub(crate) fn visit(&mut self, tree: &Tree, n: NodeId) {
         self.visited.set(n.index(), true);

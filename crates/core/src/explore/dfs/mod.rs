@@ -59,6 +59,11 @@
 //!   rather than follow another group into a subtree with nothing left to open. With no
 //!   frontier anywhere, Algorithm 1's rule applies (the groups still out may find more).
 //!
+//! - [`Allocation::Spread`] (GCS sharing only): nearest frontier, the robots at v spread
+//!   over the frontier rather than halved: one to each child whose subtree holds a frontier
+//!   vertex, then more up to one per frontier vertex there, the rest back up when a frontier
+//!   vertex lies elsewhere; each robot decides on reaching the start.
+//!
 //! The tree, the dummies and the vertex states are built exactly as before, so the tree is
 //! binary and every robot's move is a tree edge. Every robot either moves towards a frontier
 //! vertex along the tree path (which stays finite: vertices only become non-frontier) or
@@ -84,9 +89,23 @@
 //!     persist(serde_json::to_vec(&explorer)); // all state is serialisable
 //! }
 //! ```
-//! `MoveTo` always names a 4-neighbour of the robot's cell along a tree edge (every path runs
-//! over known ROI cells); `Rejoin` is the transit from wherever the robot is (its sweep, or
-//! home after a battery swap) to the start or to its saved vertex.
+//! `MoveTo` names a 4-neighbour of the robot's cell along a tree edge (every path runs over
+//! known ROI cells) — or, with direct transit, the first vertex past a run of imaged ones
+//! that a lone robot passes through without stopping; `Rejoin` is the transit from wherever
+//! the robot is (its sweep, or home after a battery swap) to the start or to its saved
+//! vertex.
+//!
+//! # Where fleetmap departs from Algorithm 1 (the field's rules)
+//! - [`Allocation::Spread`] (above, and docs/results/dfs.md).
+//! - Direct transit ([`ExplorerConfig::direct_transit`]): a lone robot passes imaged
+//!   vertices without stopping and flies straight on.
+//! - Handover ([`Explorer::pause`]): a robot leaving for a battery swap releases the vertex
+//!   it was headed to.
+//! - Home when the map is done (`Explorer::finish_where_it_is`): no walk back to the start.
+//!
+//! None changes how the tree is built or the vertex states; the property test
+//! `direct_transit_covers_terminates_and_meets_lemma_1` (tests/explore.rs) checks the first
+//! two against Lemma 1.
 
 mod decide;
 mod knowledge;
@@ -148,6 +167,18 @@ pub struct ExplorerConfig {
     /// explorer saved before this field existed ran the paper's split and keeps it on resume.
     #[serde(default = "Allocation::paper")]
     pub allocation: Allocation,
+    /// Direct transit (fleetmap's rule, [`Sharing::Gcs`] only): a robot travelling alone
+    /// through vertices already imaged does not stop at each of them. The decisions
+    /// Algorithm 1 would make there (with what the team knows now) are made at once, and
+    /// the robot flies straight to the first vertex where something is left to do — one not
+    /// imaged yet, or one where other robots stand or are headed (so groups still pool as
+    /// in line 19). The straight flight is never longer than the tree path (triangle
+    /// inequality), so no robot reaches a vertex later than by the walk it replaces; the
+    /// tree, the vertex states and the moves counted (one per tree edge passed) are as in
+    /// the walk. [`Action::MoveTo`] may then name a vertex several edges away. Off in the
+    /// paper's model (the Fig. 7 study) and in explorers saved before it existed.
+    #[serde(default)]
+    pub direct_transit: bool,
 }
 
 impl ExplorerConfig {
@@ -285,13 +316,15 @@ impl Explorer {
         if let Some(w) = ids.windows(2).find(|w| w[0] == w[1]) {
             return Err(ExploreError::DuplicateRobot(w[0]));
         }
+        // Spread: each robot decides on reaching the start, not waiting for the others.
+        let alone = config.effective_allocation() == Allocation::Spread;
         let states = robots
             .iter()
             .map(|&id| RobotState {
                 id,
                 node: Tree::ROOT,
                 phase: Phase::Rejoining,
-                companions: ids.clone(),
+                companions: if alone { vec![id] } else { ids.clone() },
                 moves: 0,
             })
             .collect();
@@ -459,7 +492,13 @@ impl Explorer {
         let r = &self.robots[i];
         Ok(match r.phase {
             Phase::Rejoining => Action::Rejoin(self.cell(r.node)),
-            Phase::Moving { to } => Action::MoveTo(self.cell(to)),
+            Phase::Moving { to } => {
+                if self.pass_through(i, to) {
+                    self.decide(i)
+                } else {
+                    Action::MoveTo(self.cell(to))
+                }
+            }
             Phase::Paused => Action::ReturnHome,
             Phase::Observing => Action::Observe,
             Phase::Done => {
@@ -476,6 +515,67 @@ impl Explorer {
             }
             Phase::AtVertex => self.decide(i),
         })
+    }
+
+    /// What robot `i` does once a decision has set its phase: move (or, by direct transit
+    /// through `to`, decide again there: `None`, counted in `passes`, at most one pass per
+    /// vertex of the tree), decide again at a vertex reached by a zero-length (dummy) edge
+    /// (`None`), be done, or wait.
+    pub(super) fn after_dispatch(&mut self, i: usize, passes: &mut usize) -> Option<Action> {
+        match self.robots[i].phase {
+            Phase::Moving { to } => {
+                if *passes < self.tree.len() && self.pass_through(i, to) {
+                    *passes += 1;
+                    return None;
+                }
+                Some(Action::MoveTo(self.cell(to)))
+            }
+            Phase::AtVertex => None,
+            Phase::Done => Some(Action::Done),
+            _ => Some(Action::Wait),
+        }
+    }
+
+    /// Whether a robot other than `i` stands at `cell`, images it, rejoins to it or is headed
+    /// there (paused and finished robots are nowhere).
+    fn others_at(&self, i: usize, cell: Cell) -> bool {
+        self.robots.iter().enumerate().any(|(j, o)| {
+            j != i
+                && match o.phase {
+                    Phase::Moving { to } => self.cell(to) == cell,
+                    Phase::AtVertex | Phase::Observing | Phase::Rejoining => {
+                        self.cell(o.node) == cell
+                    }
+                    Phase::Paused | Phase::Done => false,
+                }
+        })
+    }
+
+    /// Direct transit ([`ExplorerConfig::direct_transit`]): robot `i`, sent along the edge to
+    /// `to`, passes through it without stopping when it travels alone, `to` is already
+    /// imaged, and no other robot stands there or is headed there. Then it counts as having
+    /// arrived (one move) and decides there at once. Returns whether it did.
+    pub(super) fn pass_through(&mut self, i: usize, to: NodeId) -> bool {
+        if !self.config.direct_transit || self.config.sharing != Sharing::Gcs {
+            return false;
+        }
+        let r = &self.robots[i];
+        if r.phase != (Phase::Moving { to }) || r.companions != [r.id] {
+            return false;
+        }
+        let node = self.tree.node(to);
+        if node.kind != NodeKind::Real || !node.observed {
+            return false;
+        }
+        if self.others_at(i, node.cell) {
+            return false;
+        }
+        self.robots[i].moves += 1;
+        self.robots[i].node = to;
+        self.robots[i].phase = Phase::AtVertex;
+        let k = self.kidx(i);
+        self.knowledge[k].visit(&self.tree, to);
+        true
     }
 
     /// The runner reports that `robot` reached the centre of `cell` (after `MoveTo` or
@@ -592,10 +692,30 @@ impl Explorer {
 
     /// Take `robot` out of the exploration (battery swap, operator): it leaves its group,
     /// which carries on without it, and keeps its vertex to resume from. Idempotent.
+    ///
+    /// Handover (fleetmap's rule, [`Sharing::Gcs`]): the vertex it was flying to or was
+    /// about to image, not yet imaged and with no other robot there or headed there, is
+    /// released — unexplored again, as if it had never been sent there — so the robots
+    /// still in the tree take it (Algorithm 1 opens unexplored children first; nearest
+    /// frontier and spread count it as frontier). Without it the vertex would stay "under
+    /// exploration" with nobody working on it until the robot is back from its swap.
     pub fn pause(&mut self, robot: RobotId) -> Result<(), ExploreError> {
         let i = self.idx(robot)?;
         if self.robots[i].phase == Phase::Paused {
             return Ok(());
+        }
+        if self.config.sharing == Sharing::Gcs {
+            let r = &self.robots[i];
+            let pending = match r.phase {
+                Phase::Moving { to } => Some(to),
+                Phase::AtVertex | Phase::Observing | Phase::Rejoining => Some(r.node),
+                Phase::Paused | Phase::Done => None,
+            };
+            if let Some(n) = pending
+                && !self.others_at(i, self.cell(n))
+            {
+                self.knowledge[0].release(&self.tree, n);
+            }
         }
         for r in &mut self.robots {
             r.companions.retain(|&c| c != robot);
@@ -620,6 +740,39 @@ impl Explorer {
         Ok(true)
     }
 
+    /// Home when the map is done (fleetmap's rule; Algorithm 1 walks every robot back to the
+    /// start, lines 3–5 and 24): once every vertex of the tree is explored by what the whole
+    /// team knows, a robot still in the tree has nothing left to reach — walking back only
+    /// re-walks edges whose reward was collected — so its tour ends where it is and the
+    /// runner flies it straight home. It leaves its group (the others decide without
+    /// waiting for it), and counts as back at the start ([`Explorer::is_finished`]). Changes
+    /// no vertex state, so the map and every cell's decision are those of the full walk; and
+    /// since it only shortens tours after the last vertex is reached, every bound of the
+    /// paper on the time to the last vertex (Lemma 1, eq. 8) is untouched. Returns whether
+    /// the robot was finished (false while part of the tree is not explored, or when it is
+    /// paused or already done).
+    pub(crate) fn finish_where_it_is(&mut self, robot: RobotId) -> Result<bool, ExploreError> {
+        let i = self.idx(robot)?;
+        if matches!(self.robots[i].phase, Phase::Paused | Phase::Done) {
+            return Ok(false);
+        }
+        let global = self.global();
+        if !global.explored(Tree::ROOT) {
+            return Ok(false);
+        }
+        for r in &mut self.robots {
+            r.companions.retain(|&c| c != robot);
+        }
+        let k = self.kidx(i);
+        // With meeting sharing the GCS tells it what the team knows (it could not learn
+        // it otherwise before it is back at the start).
+        self.knowledge[k] = global;
+        self.robots[i].companions = vec![robot];
+        self.robots[i].node = Tree::ROOT;
+        self.robots[i].phase = Phase::Done;
+        Ok(true)
+    }
+
     /// Bring a paused robot back: it flies to its saved vertex ([`Action::Rejoin`]) and
     /// carries on from there alone — or straight to the start if it knows everything is
     /// already explored.
@@ -636,5 +789,7 @@ impl Explorer {
     }
 }
 
+#[cfg(test)]
+mod team_tests;
 #[cfg(test)]
 mod tests;

@@ -4,24 +4,24 @@ use super::*;
 use crate::explore::simulate::{SimConfig, simulate};
 use std::collections::HashSet;
 
-fn c(row: i32, col: i32) -> Cell {
+pub(super) fn c(row: i32, col: i32) -> Cell {
     Cell::new(row, col)
 }
 
-fn roi(cells: &[(i32, i32)]) -> HashSet<Cell> {
+pub(super) fn roi(cells: &[(i32, i32)]) -> HashSet<Cell> {
     cells.iter().map(|&(r, q)| c(r, q)).collect()
 }
 
-fn labels(roi: &HashSet<Cell>, at: Cell) -> [bool; 4] {
+pub(super) fn labels(roi: &HashSet<Cell>, at: Cell) -> [bool; 4] {
     Dir4::ALL.map(|d| roi.contains(&at.step(d)))
 }
 
-fn ids(n: u8) -> Vec<RobotId> {
+pub(super) fn ids(n: u8) -> Vec<RobotId> {
     (1..=n).map(RobotId).collect()
 }
 
 /// Bring every robot to the start and let the first one image it.
-fn gather(ex: &mut Explorer, roi: &HashSet<Cell>) {
+pub(super) fn gather(ex: &mut Explorer, roi: &HashSet<Cell>) {
     let start = ex.start();
     for r in ex.robots().iter().map(|r| r.id).collect::<Vec<_>>() {
         assert_eq!(ex.next_action(r).unwrap(), Action::Rejoin(start));
@@ -739,6 +739,7 @@ fn allocation_is_optional_in_saved_states_and_named_stably() {
     let meet = ExplorerConfig {
         sharing: Sharing::Meet,
         allocation: Allocation::NearestFrontier,
+        direct_transit: false,
     };
     assert_eq!(meet.effective_allocation(), Allocation::Paper);
     assert_eq!(

@@ -71,6 +71,8 @@ impl MappingState {
                     ExplorerConfig {
                         sharing: self.params.sharing,
                         allocation: self.params.allocation,
+                        // The drones fly: no stop over cells already imaged on the way.
+                        direct_transit: true,
                     },
                     root,
                     &ids,

@@ -633,6 +633,7 @@ impl MappingState {
                 }
             }
             Phase::Explore { .. } => {
+                let complete = self.map_complete(); // then home, not back to the start
                 let ex = self
                     .explorer
                     .as_mut()
@@ -641,6 +642,9 @@ impl MappingState {
                         what: "a DFS step",
                         phase: "exploring without an explorer".into(),
                     })?;
+                if complete && ex.finish_where_it_is(RobotId(sysid))? {
+                    return Ok(Directive::GoHome);
+                }
                 let action = ex.next_action(RobotId(sysid))?;
                 self.robot_mut(sysid)?.status = RobotStatus::Exploring;
                 match action {
@@ -728,7 +732,7 @@ impl MappingState {
     /// Whether `sysid` may fly out to region cell `cell` now ([`crate::explore::reach`]): from
     /// `from` (ground metres of the grid) with `charge_pct`, home at `home`, staying `dwell_s`
     /// over the cell, at region time `roi_now`. Once the map is complete a flight to a cell is
-    /// only the way back to the DFS's start: anything but [`Reach::Fly`] then sends the drone
+    /// only the end of a step begun before: anything but [`Reach::Fly`] then sends the drone
     /// home ([`Reach::SwapFirst`], after which it lands for good), never ends the run.
     #[allow(clippy::too_many_arguments)]
     pub fn reach_of(

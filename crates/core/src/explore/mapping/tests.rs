@@ -95,9 +95,19 @@ fn sweep_detection_confirmation_and_dfs_to_the_end() {
         s.on_cell_image(det(1, n, k, false)).unwrap();
     }
     assert!(s.on_observed(1, n, Time::from_secs(20)).unwrap().is_empty());
-    assert_eq!(s.directive(1).unwrap(), Directive::Dfs(Action::MoveTo(c)));
-    s.on_arrived(1, c, Time::from_secs(24)).unwrap();
+    // The map is complete: home from where it is, not back along the tree to the start.
+    assert!(s.map_complete());
     assert_eq!(s.directive(1).unwrap(), Directive::GoHome);
+    assert_eq!(
+        s.explorer
+            .as_ref()
+            .unwrap()
+            .robot(RobotId(1))
+            .unwrap()
+            .moves,
+        1,
+        "no move back to the start"
+    );
     s.on_going_home(1, Time::from_secs(25)).unwrap();
     assert!(!s.is_finished());
     s.on_landed(1, Time::from_secs(40)).unwrap();
@@ -478,4 +488,76 @@ fn once_the_map_is_complete_an_unreachable_flight_sends_the_drone_home_instead()
         )
         .unwrap();
     assert!(matches!(v, Reach::SwapFirst { .. }), "{v:?}");
+}
+
+/// Start the DFS at `c` with every drone of `s` (confirmed by drone 1, nothing positive
+/// around it in the confirmation's pictures).
+fn start_dfs(s: &mut MappingState, c: Cell) {
+    let pos = NeighbourLabels {
+        center: true,
+        ..NeighbourLabels::default()
+    };
+    s.on_sweep_image(1, c, 0.0, RegionFractions::default(), pos, Time::ZERO)
+        .unwrap();
+    for k in 0..5 {
+        s.on_cell_image(det(1, c, 1000 + k, false)).unwrap();
+    }
+    assert_eq!(s.on_confirmed(1, c, Time::from_secs(1)).unwrap(), Some(c));
+}
+
+/// Home when the map is done: two drones walk north together from the start; once the last
+/// vertex (two cells out) is imaged, both are told to fly home from where they are — no
+/// move back along the tree — and the run finishes when both have landed.
+#[test]
+fn once_the_map_is_complete_every_drone_flies_home_from_where_it_is() {
+    let mut s = MappingState::new(&def(2), grid(), Sharing::Gcs).unwrap();
+    let c = Cell::new(3, 2);
+    start_dfs(&mut s, c);
+    let n = c.step(Dir4::North);
+    let nn = n.step(Dir4::North);
+    for id in [1, 2] {
+        assert_eq!(s.directive(id).unwrap(), Directive::Dfs(Action::Rejoin(c)));
+        s.on_arrived(id, c, Time::from_secs(2)).unwrap();
+    }
+    let mut k = 0;
+    // Image `at` with drone 1 (north positive or not), drone 2 waiting beside it.
+    let mut image = |s: &mut MappingState, at: Cell, north: bool| {
+        assert_eq!(s.directive(1).unwrap(), Directive::Dfs(Action::Observe));
+        assert_eq!(s.directive(2).unwrap(), Directive::Dfs(Action::Wait));
+        for _ in 0..5 {
+            s.on_cell_image(det(1, at, k, north)).unwrap();
+            k += 1;
+        }
+        s.on_observed(1, at, Time::from_secs(3 + k)).unwrap();
+    };
+    image(&mut s, c, true);
+    for to in [n, nn] {
+        assert!(!s.map_complete());
+        for id in [1, 2] {
+            assert_eq!(s.directive(id).unwrap(), Directive::Dfs(Action::MoveTo(to)));
+        }
+        for id in [1, 2] {
+            s.on_arrived(id, to, Time::from_secs(30)).unwrap();
+        }
+        image(&mut s, to, to == n);
+    }
+    assert!(s.map_complete());
+    assert!(s.clock.map_complete_s.is_some());
+    for id in [1, 2] {
+        assert_eq!(s.directive(id).unwrap(), Directive::GoHome, "vehicle {id}");
+        let ex = s.explorer.as_ref().unwrap();
+        let r = ex.robot(RobotId(id)).unwrap();
+        assert_eq!(r.moves, 2, "vehicle {id}: no move back towards the start");
+        assert_eq!(r.phase, crate::explore::dfs::Phase::Done);
+    }
+    assert!(s.explorer.as_ref().unwrap().is_finished());
+    for id in [1, 2] {
+        s.on_going_home(id, Time::from_secs(60)).unwrap();
+        assert_eq!(s.directive(id).unwrap(), Directive::GoHome);
+    }
+    s.on_landed(1, Time::from_secs(80)).unwrap();
+    assert!(!s.is_finished());
+    s.on_landed(2, Time::from_secs(81)).unwrap();
+    assert!(s.is_finished());
+    assert_eq!(s.book.positive_cells(), vec![c, n, nn]);
 }

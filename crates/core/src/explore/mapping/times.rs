@@ -125,7 +125,9 @@ pub struct RobotTimes {
     pub imaging_s: f64,
     /// Of `flying_s`: flying home — for a battery swap, or at the end.
     pub homing_s: f64,
-    /// Of `flying_s`: after the map was complete, back to the DFS's start (before homing).
+    /// Of `flying_s`: after the map was complete, before homing: the step a drone was flying
+    /// when the last vertex was imaged (in runs before drones went home from where they
+    /// were, the walk back to the DFS's start).
     pub returning_s: f64,
     /// Airborne and holding, by reason.
     pub waiting: WaitTimes,

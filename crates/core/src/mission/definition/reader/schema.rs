@@ -350,9 +350,15 @@ fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
         Ctx::num_of,
     );
     let allocations = Allocation::ALL.map(|a| (a.name(), a));
-    let allocation = ctx.or(t, p, "allocation", Allocation::default(), |c, p, v| {
-        c.word_of(p, v, &allocations)
-    });
+    // A mission file without the key spreads the drones over the frontier (with direct
+    // transit, the field's rules: docs/results/dfs.md, "Team runway mapping").
+    let allocation = ctx.or(
+        t,
+        p,
+        "allocation",
+        crate::mission::definition::runway::default_allocation(),
+        |c, p, v| c.word_of(p, v, &allocations),
+    );
     let velocity = "[north, east] (metres per second)";
     let roi_velocity_ne_mps = ctx
         .opt(t, p, "roi_velocity_ne_mps", |c, p, v| {
