@@ -233,13 +233,39 @@ async fn one_robot_maps_the_runway_with_battery_swaps() {
     assert!(f.report.tree_vertices >= 100, "{}", f.report.tree_vertices);
 }
 
-/// Three robots: every cell of the runway explored, every robot back at the start and then
-/// home.
+/// Three robots: every cell of the runway explored, and once the map is complete every
+/// robot flies straight home from where it is (no new step of the DFS after the complete
+/// map) and lands.
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn three_robots_explore_every_runway_cell_and_come_back() {
     let f = fly(3, 2).await;
     print(&f.report);
     check_mission_time(&f.report, &f.events, 1);
+    let complete = f
+        .events
+        .iter()
+        .position(|e| {
+            matches!(
+                e,
+                MappingEvent::Milestone {
+                    what: MilestoneKind::MapComplete,
+                    ..
+                }
+            )
+        })
+        .expect("the map complete milestone");
+    // At most the flight each drone was on when the last vertex was imaged ends after it
+    // (a move is not broken off); no drone takes a second step of the DFS.
+    for id in 1..=3u8 {
+        let after = f.events[complete..]
+            .iter()
+            .filter(|e| matches!(e, MappingEvent::Arrived { sysid, .. } if *sysid == id))
+            .count();
+        assert!(
+            after <= 1,
+            "vehicle {id}: {after} DFS moves after the complete map"
+        );
+    }
     let s = &f.state;
     let ex = s.explorer.as_ref().unwrap();
     assert!(ex.is_finished());
@@ -255,7 +281,7 @@ async fn three_robots_explore_every_runway_cell_and_come_back() {
     );
     for r in &s.robots {
         assert_eq!(r.status, RobotStatus::Landed, "vehicle {}", r.sysid);
-        // back at the start, then landed at home
+        // landed at home, its tour over
         let v = f.fleet.vehicle(r.sysid).unwrap();
         let (p, h) = (v.position.unwrap(), v.home.unwrap());
         assert!(

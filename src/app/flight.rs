@@ -339,17 +339,23 @@ pub(crate) const RESEND_AFTER_S: f64 = 1.5;
 /// result: the camera sends them back to back) before the other half is asked for.
 pub(crate) const RESULT_AFTER_S: f64 = 0.5;
 
-/// MAV_CMD_REQUEST_MESSAGE for the CAMERA_IMAGE_CAPTURED of capture `image_index` from
-/// `camera`, or with `following` of it and every capture after it (param3 −1).
-fn capture_again(camera: Endpoint, image_index: i32, following: bool) -> MavMessage {
+/// MAV_CMD_REQUEST_MESSAGE for the CAMERA_IMAGE_CAPTURED of captures `first` to `last` from
+/// `camera` (`None`: `first` and every capture after it). Param2 is the first index, param3 0
+/// for that one alone, −1 for all the following or the last index of a range (common.xml,
+/// CAMERA_IMAGE_CAPTURED).
+pub(crate) fn capture_again(camera: Endpoint, first: i32, last: Option<i32>) -> MavMessage {
     const CAMERA_IMAGE_CAPTURED: f32 = 263.0;
-    let range = if following { -1.0 } else { 0.0 };
+    let range = match last {
+        None => -1.0,
+        Some(l) if l <= first => 0.0,
+        Some(l) => l as f32,
+    };
     Command::long(
         camera,
         MavCmd::MAV_CMD_REQUEST_MESSAGE,
         [
             CAMERA_IMAGE_CAPTURED,
-            image_index as f32,
+            first as f32,
             range,
             0.0,
             0.0,
@@ -430,7 +436,7 @@ pub async fn capture(
             ask_at = clock.now() + patience.secs(RESEND_AFTER_S);
             let mut again = Vec::new();
             match named {
-                Some(index) => again.push(capture_again(cam, index, false)),
+                Some(index) => again.push(capture_again(cam, index, Some(index))),
                 None => {
                     // the command may not have arrived: the same sequence number takes no
                     // second picture if it did
@@ -438,7 +444,7 @@ pub async fn capture(
                         again.push(capture_command(cam, seq).message(0));
                     }
                     if let Some(a) = after {
-                        again.push(capture_again(cam, a.saturating_add(1), true));
+                        again.push(capture_again(cam, a.saturating_add(1), None));
                     }
                 }
             }
@@ -544,7 +550,7 @@ pub async fn capture(
 /// The image index of the picture an on-board result (DEBUG_FLOAT_ARRAY "fm.green" or
 /// "fm.rwy", not a status) is of. The result carries its low 16 bits; the high ones are
 /// those of the index nearest `after` (the vehicle's last picture) with those low bits.
-fn measured_index(
+pub(crate) fn measured_index(
     d: &mavlink::dialects::ardupilotmega::DEBUG_FLOAT_ARRAY_DATA,
     after: Option<i32>,
 ) -> Option<i32> {

@@ -1,6 +1,7 @@
 //! `fleetmap demo [--headless] [--run-dir DIR]`: the embedded default — the simulator
 //! in-process (three ArduPilot copters over the runway world) and the runway field-test
-//! mission flown to the end, battery swaps included, sped up to finish within minutes.
+//! mission flown to the end (battery swaps included when `--battery-minutes` is short enough),
+//! sped up to finish within minutes.
 
 use crate::app::demo::{self, DemoConfig};
 use crate::app::kind::{Outcome, RunKind, RunSettings};

@@ -2,6 +2,8 @@
 
 #[allow(dead_code)] // only the tests that fly the spatial-classification mission
 pub mod bandit;
+#[allow(dead_code)] // only the tests that drive a run task (through bandit or runway)
+pub mod drive;
 #[allow(dead_code)] // not every test binary drives a pseudo-terminal
 pub mod pty;
 #[allow(dead_code)] // only the tests with a router between the GCS and the vehicles

@@ -294,7 +294,7 @@ async fn the_fault_free_reference_maps_the_strip() {
 async fn one_drone_dark_for_30_s() {
     let f = fly(
         "drone 2 dark 30 s",
-        "2:outage@60s..90s",
+        "2:outage@70s..100s",
         true,
         Some(Kill {
             mark: "vehicle 2: LINK LOST",
@@ -339,7 +339,7 @@ async fn every_drone_dark_for_5_minutes() {
 async fn a_battery_failsafe_mid_flight_keeps_the_map_and_the_drone_rejoins() {
     let f = fly(
         "drone 2 battery failsafe",
-        "2:battery=15@60s",
+        "2:battery=15@45s",
         true,
         Some(Kill {
             mark: "vehicle 2: the autopilot's failsafe took over",

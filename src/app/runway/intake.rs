@@ -130,6 +130,9 @@ pub(super) struct Onboard {
     pub(super) audits: tokio::sync::Mutex<tokio::task::JoinSet<()>>,
     /// Vehicles with an audit in flight, and the cells audited.
     busy: std::sync::Mutex<(HashSet<u8>, HashSet<Cell>)>,
+    /// Set when the run ends: audits still waiting for their picture give up (and are
+    /// journalled as lost).
+    over: tokio::sync::watch::Sender<bool>,
 }
 
 impl Onboard {
@@ -146,12 +149,16 @@ impl Onboard {
             spec,
             audits: tokio::sync::Mutex::new(tokio::task::JoinSet::new()),
             busy: std::sync::Mutex::new((HashSet::new(), HashSet::new())),
+            over: tokio::sync::watch::Sender::new(false),
         }
     }
 
-    /// The end of the runner: audits still waiting for their picture are given up.
+    /// The end of the runner: audits still waiting for their picture give up, each
+    /// journalled as lost, and are waited for.
     pub(super) async fn finish(&self) {
-        self.audits.lock().await.shutdown().await;
+        self.over.send_replace(true);
+        let mut audits = self.audits.lock().await;
+        while audits.join_next().await.is_some() {}
     }
 
     /// Whether a picture of vehicle `sysid` may be audited for a decision about `cell`: none
@@ -257,11 +264,15 @@ async fn audit_picture(
             .ask_picture(sysid, pose.time_boot_ms, pose.image_index, m.picture_bytes);
     let clock = shared.fleet.clock().clone();
     let deadline = clock.now() + shared.patience.secs(AUDIT_WAIT_S);
+    let mut over = shared.onboard.over.subscribe();
     let picture = loop {
         let left = clock.wall_until(deadline);
         tokio::select! {
             biased; // the picture first if it came at the deadline, and the same every run
             r = &mut rx => break r.map_err(|_| "the image intake stopped".to_string())?,
+            _ = over.wait_for(|o| *o) => {
+                return Err("the run ended before the picture arrived".to_string());
+            }
             _ = tokio::time::sleep(left) => {
                 if left.is_zero() || clock.now() >= deadline {
                     return Err(format!("the picture did not arrive within {AUDIT_WAIT_S:.0} s"));
@@ -410,225 +421,234 @@ impl Pilot {
             if self.capture_seq == 0 {
                 self.wait_for_camera().await;
             }
-            self.capture_seq += 1;
-            let fleet = self.shared.fleet.clone();
             let shutter = self.shared.now();
-            let shot = match flight::capture(
-                &fleet,
-                &mut self.images,
-                sysid,
-                self.capture_seq,
-                self.last_image,
-                self.shared.patience,
-            )
-            .await
-            {
-                Ok(shot) => {
-                    if let Some(p) = &shot.image.pose {
-                        self.last_image = Some(p.image_index);
-                    }
-                    self.camera.last_picture = Some(self.fleet().clock().now());
-                    shot
-                }
-                // The camera did not answer while its autopilot is heard: a camera gone
-                // silent (off, rebooting, unplugged), retaken like a picture that never came;
-                // a vehicle not heard at all is a link outage, a step retried.
-                Err(FlightError::Fleet(crate::fleet::FleetError::Command {
-                    error: fleetmap_core::proto::command::CommandError::Timeout { attempts, .. },
-                    ..
-                })) if self.vehicle().is_some_and(|v| v.alive) => {
-                    retakes += 1;
-                    let reason = format!(
-                        "cell {cell}: its camera did not answer capture {} ({attempts} tries)",
-                        self.capture_seq
-                    );
-                    if self
-                        .picture_failed(cell, retakes, PictureFailure::Lost(reason))
-                        .await?
-                    {
-                        return Ok(false);
-                    }
-                    continue;
-                }
-                Err(FlightError::NoImage { seq, waited_s, .. }) => {
-                    retakes += 1;
-                    let reason = format!(
-                        "cell {cell}: no image arrived within {waited_s:.0} s of capture {seq}"
-                    );
-                    if self
-                        .picture_failed(cell, retakes, PictureFailure::Lost(reason))
-                        .await?
-                    {
-                        return Ok(false);
-                    }
-                    continue;
-                }
-                Err(e) => return Err(e.into()),
+            let shots = match self.visit_camera(missing) {
+                Some((camera, after)) => self.take_several(cell, camera, after, missing).await?,
+                None => vec![self.take_one(cell).await?],
             };
-            let v_now = self.vehicle();
-            let at_shutter = shot.at_trigger.as_ref().or(v_now.as_ref());
-            let pose = shot_pose(&shot.image, at_shutter);
-            let (params, camera, planned, grid) = self.shared.picture_setting(sysid).await;
-            let cell_m = grid.cell_size();
-            let centre = (f64::from(cell.col) * cell_m, f64::from(cell.row) * cell_m);
-            // In the region's frame (the grid's own for a static region) at the shutter.
-            let xy = pose.as_ref().and_then(|p| {
-                grid.to_xy(LatLon {
-                    lat: p.lat,
-                    lon: p.lon,
-                })
-                .ok()
-                .map(|(e, n)| self.shared.roi.in_region(e, n, shutter))
-            });
-            let verdict = match (&pose, xy) {
-                (Some(p), Some((e, n))) => check_capture(
-                    &CaptureClaim {
-                        horizontal_offset_m: Some((centre.0 - e).hypot(centre.1 - n)),
-                        altitude_m: p.alt_m,
-                        attitude: p.attitude,
-                        heading_deg: p.camera_heading_deg,
-                        expected_heading_deg: at_shutter.and_then(|v| v.heading_deg).map(f64::from),
+            for shot in shots {
+                let failure = match shot {
+                    Ok(shot) => match self.count_shot(cell, shot, shutter).await? {
+                        Ok(()) => continue,
+                        Err(failure) => failure,
                     },
-                    planned,
-                    &self.shared.limits,
-                )
-                .map_err(|r| {
-                    format!(
-                        "cell {cell}: {} picture {r}",
-                        if p.from_camera {
-                            "the camera's"
-                        } else {
-                            "the telemetry's"
-                        }
-                    )
-                }),
-                (Some(p), None) => Err(format!(
-                    "cell {cell}: the picture's position ({:.7}, {:.7}) is not on the grid",
-                    p.lat, p.lon
-                )),
-                (None, _) => Err(format!(
-                    "cell {cell}: neither the camera nor the telemetry says where the picture was taken"
-                )),
-            };
-            if let Err(reason) = verdict {
+                    Err(failure) => failure,
+                };
                 retakes += 1;
-                if self
-                    .picture_failed(cell, retakes, PictureFailure::Rejected(reason))
-                    .await?
-                {
+                if self.picture_failed(cell, retakes, failure).await? {
                     return Ok(false);
                 }
-                continue;
-            }
-            // Checked above: a pose with a grid position.
-            let (Some(pose), Some((e, n))) = (pose, xy) else {
-                continue;
-            };
-            // The camera's own classification when it made one with the run's definition,
-            // else the GCS's of the picture.
-            let onboard = shot.image.runway;
-            let result = match &onboard {
-                Some(m) => self
-                    .shared
-                    .onboard
-                    .classification(m, shot.image.pose.as_ref(), cell),
-                None => {
-                    let cut = match pose.attitude {
-                        Some(attitude) => Cut::Ortho {
-                            attitude,
-                            altitude_m: pose.alt_m.unwrap_or(planned),
-                            request: OrthoRequest {
-                                cell_m,
-                                centre_east_north_m: (centre.0 - e, centre.1 - n),
-                                grid_north_deg: grid
-                                    .convergence_and_scale(LatLon {
-                                        lat: pose.lat,
-                                        lon: pose.lon,
-                                    })
-                                    .map(|(g, _)| g)
-                                    .unwrap_or(0.0),
-                            },
-                        },
-                        None => Cut::Centre {
-                            heading_deg: pose.heading_deg,
-                            altitude_m: planned,
-                        },
-                    };
-                    let bytes = shot.image.bytes.clone();
-                    cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m))
-                        .await?
-                        .map_err(|r| PictureFailure::Unreadable(format!("cell {cell}: {r}")))
-                }
-            };
-            let c = match result {
-                Ok(c) => c,
-                Err(failure) => {
-                    retakes += 1;
-                    if self.picture_failed(cell, retakes, failure).await? {
-                        return Ok(false);
-                    }
-                    continue;
-                }
-            };
-            let now = self.shared.now();
-            let (lat, lon, heading) = (pose.lat, pose.lon, pose.heading_deg);
-            let alt_m = pose.alt_m.unwrap_or(planned);
-            let measured = onboard.is_some();
-            let audit = self
-                .shared
-                .commit(|s| {
-                    let image_id = s.next_image_id();
-                    let det = Detection {
-                        image_id: image_id.clone(),
-                        vehicle: sysid,
-                        time: now,
-                        cell,
-                        position: Some(GeoPosition {
-                            lat_deg: lat,
-                            lon_deg: lon,
-                            alt_m,
-                        }),
-                        heading_deg: heading,
-                        fractions: c.fractions,
-                        labels: c.labels,
-                    };
-                    let decided = s.book.decisions().len();
-                    let changed = s
-                        .on_cell_image(det)?
-                        .into_iter()
-                        .map(|u| (u.cell, format!("{:?}", u.to).to_lowercase()))
-                        .collect();
-                    // A decision of this visit won by one vote, settled by a picture the
-                    // camera classified: ask for the picture (an audit), if none is asked
-                    // for this vehicle or this cell yet.
-                    let disputed = s.book.decisions()[decided..]
-                        .iter()
-                        .find(|d| d.vehicle == sysid && d.votes_for.abs_diff(d.votes_against) <= 1)
-                        .map(|d| d.cell);
-                    let audit = measured
-                        && disputed.is_some_and(|d| self.shared.onboard.may_audit(sysid, d));
-                    if measured {
-                        s.onboard.cell_pictures += 1;
-                    }
-                    if audit {
-                        s.onboard.audits += 1;
-                    }
-                    let ev = MappingEvent::Image {
-                        sysid,
-                        image_id: image_id.clone(),
-                        cell,
-                        labels: labels5(&c),
-                        fractions: fractions5(&c),
-                        changed,
-                        onboard: measured,
-                    };
-                    Ok((audit.then_some(image_id), Some(ev)))
-                })
-                .await?;
-            if let (Some(image_id), Some(m)) = (audit, onboard) {
-                self.audit(cell, image_id, shot.image.clone(), m).await;
             }
         }
+    }
+
+    /// Take one picture of `cell` ([`flight::capture`]).
+    async fn take_one(
+        &mut self,
+        cell: Cell,
+    ) -> RunnerResult<Result<flight::Captured, PictureFailure>> {
+        let sysid = self.sysid;
+        self.capture_seq += 1;
+        let fleet = self.shared.fleet.clone();
+        let shot = match flight::capture(
+            &fleet,
+            &mut self.images,
+            sysid,
+            self.capture_seq,
+            self.last_image,
+            self.shared.patience,
+        )
+        .await
+        {
+            Ok(shot) => {
+                if let Some(p) = &shot.image.pose {
+                    self.last_image = Some(p.image_index);
+                }
+                // announced with its index and measured on board: the next visit may
+                // take its pictures several at a time
+                self.in_flight_ok = shot.image.pose.is_some() && shot.image.runway.is_some();
+                self.camera.last_picture = Some(self.fleet().clock().now());
+                Ok(shot)
+            }
+            // The camera did not answer while its autopilot is heard: a camera gone
+            // silent (off, rebooting, unplugged), retaken like a picture that never came;
+            // a vehicle not heard at all is a link outage, a step retried.
+            Err(FlightError::Fleet(crate::fleet::FleetError::Command {
+                error: fleetmap_core::proto::command::CommandError::Timeout { attempts, .. },
+                ..
+            })) if self.vehicle().is_some_and(|v| v.alive) => Err(PictureFailure::Lost(format!(
+                "cell {cell}: its camera did not answer capture {} ({attempts} tries)",
+                self.capture_seq
+            ))),
+            Err(FlightError::NoImage { seq, waited_s, .. }) => Err(PictureFailure::Lost(format!(
+                "cell {cell}: no image arrived within {waited_s:.0} s of capture {seq}"
+            ))),
+            Err(e) => return Err(e.into()),
+        };
+        Ok(shot)
+    }
+
+    /// Count picture `shot` of `cell` (taken at region time `shutter`): checked where it
+    /// was taken, classified (on board or here), its votes journalled. Returns why it did
+    /// not count.
+    async fn count_shot(
+        &mut self,
+        cell: Cell,
+        shot: flight::Captured,
+        shutter: Time,
+    ) -> RunnerResult<Result<(), PictureFailure>> {
+        let sysid = self.sysid;
+        let v_now = self.vehicle();
+        let at_shutter = shot.at_trigger.as_ref().or(v_now.as_ref());
+        let pose = shot_pose(&shot.image, at_shutter);
+        let (params, camera, planned, grid) = self.shared.picture_setting(sysid).await;
+        let cell_m = grid.cell_size();
+        let centre = (f64::from(cell.col) * cell_m, f64::from(cell.row) * cell_m);
+        // In the region's frame (the grid's own for a static region) at the shutter.
+        let xy = pose.as_ref().and_then(|p| {
+            grid.to_xy(LatLon {
+                lat: p.lat,
+                lon: p.lon,
+            })
+            .ok()
+            .map(|(e, n)| self.shared.roi.in_region(e, n, shutter))
+        });
+        let verdict = match (&pose, xy) {
+            (Some(p), Some((e, n))) => check_capture(
+                &CaptureClaim {
+                    horizontal_offset_m: Some((centre.0 - e).hypot(centre.1 - n)),
+                    altitude_m: p.alt_m,
+                    attitude: p.attitude,
+                    heading_deg: p.camera_heading_deg,
+                    expected_heading_deg: at_shutter.and_then(|v| v.heading_deg).map(f64::from),
+                },
+                planned,
+                &self.shared.limits,
+            )
+            .map_err(|r| {
+                format!(
+                    "cell {cell}: {} picture {r}",
+                    if p.from_camera {
+                        "the camera's"
+                    } else {
+                        "the telemetry's"
+                    }
+                )
+            }),
+            (Some(p), None) => Err(format!(
+                "cell {cell}: the picture's position ({:.7}, {:.7}) is not on the grid",
+                p.lat, p.lon
+            )),
+            (None, _) => Err(format!(
+                "cell {cell}: neither the camera nor the telemetry says where the picture was taken"
+            )),
+        };
+        if let Err(reason) = verdict {
+            return Ok(Err(PictureFailure::Rejected(reason)));
+        }
+        // Checked above: a pose with a grid position.
+        let (Some(pose), Some((e, n))) = (pose, xy) else {
+            return Ok(Ok(()));
+        };
+        // The camera's own classification when it made one with the run's definition,
+        // else the GCS's of the picture.
+        let onboard = shot.image.runway;
+        let result = match &onboard {
+            Some(m) => self
+                .shared
+                .onboard
+                .classification(m, shot.image.pose.as_ref(), cell),
+            None => {
+                let cut = match pose.attitude {
+                    Some(attitude) => Cut::Ortho {
+                        attitude,
+                        altitude_m: pose.alt_m.unwrap_or(planned),
+                        request: OrthoRequest {
+                            cell_m,
+                            centre_east_north_m: (centre.0 - e, centre.1 - n),
+                            grid_north_deg: grid
+                                .convergence_and_scale(LatLon {
+                                    lat: pose.lat,
+                                    lon: pose.lon,
+                                })
+                                .map(|(g, _)| g)
+                                .unwrap_or(0.0),
+                        },
+                    },
+                    None => Cut::Centre {
+                        heading_deg: pose.heading_deg,
+                        altitude_m: planned,
+                    },
+                };
+                let bytes = shot.image.bytes.clone();
+                cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m))
+                    .await?
+                    .map_err(|r| PictureFailure::Unreadable(format!("cell {cell}: {r}")))
+            }
+        };
+        let c = match result {
+            Ok(c) => c,
+            Err(failure) => return Ok(Err(failure)),
+        };
+        let now = self.shared.now();
+        let (lat, lon, heading) = (pose.lat, pose.lon, pose.heading_deg);
+        let alt_m = pose.alt_m.unwrap_or(planned);
+        let measured = onboard.is_some();
+        let audit = self
+            .shared
+            .commit(|s| {
+                let image_id = s.next_image_id();
+                let det = Detection {
+                    image_id: image_id.clone(),
+                    vehicle: sysid,
+                    time: now,
+                    cell,
+                    position: Some(GeoPosition {
+                        lat_deg: lat,
+                        lon_deg: lon,
+                        alt_m,
+                    }),
+                    heading_deg: heading,
+                    fractions: c.fractions,
+                    labels: c.labels,
+                };
+                let decided = s.book.decisions().len();
+                let changed = s
+                    .on_cell_image(det)?
+                    .into_iter()
+                    .map(|u| (u.cell, format!("{:?}", u.to).to_lowercase()))
+                    .collect();
+                // A decision of this visit won by one vote, settled by a picture the
+                // camera classified: ask for the picture (an audit), if none is asked
+                // for this vehicle or this cell yet.
+                let disputed = s.book.decisions()[decided..]
+                    .iter()
+                    .find(|d| d.vehicle == sysid && d.votes_for.abs_diff(d.votes_against) <= 1)
+                    .map(|d| d.cell);
+                let audit =
+                    measured && disputed.is_some_and(|d| self.shared.onboard.may_audit(sysid, d));
+                if measured {
+                    s.onboard.cell_pictures += 1;
+                }
+                if audit {
+                    s.onboard.audits += 1;
+                }
+                let ev = MappingEvent::Image {
+                    sysid,
+                    image_id: image_id.clone(),
+                    cell,
+                    labels: labels5(&c),
+                    fractions: fractions5(&c),
+                    changed,
+                    onboard: measured,
+                };
+                Ok((audit.then_some(image_id), Some(ev)))
+            })
+            .await?;
+        if let (Some(image_id), Some(m)) = (audit, onboard) {
+            self.audit(cell, image_id, shot.image.clone(), m).await;
+        }
+        Ok(Ok(()))
     }
 
     /// Ask for the picture `img` (whose on-board result `m` was counted as `image_id` over

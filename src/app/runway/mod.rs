@@ -93,6 +93,7 @@ mod intake;
 mod pilot;
 mod runner;
 mod sweep;
+mod visit_captures;
 
 pub use self::events::*;
 pub use self::intake::runway_definition_of;
@@ -410,6 +411,11 @@ struct Pilot {
     /// The image index of this vehicle's last picture that arrived (what its camera is asked
     /// for after when a capture goes unheard: [`flight::capture`]).
     last_image: Option<i32>,
+    /// Whether its last picture came announced with its index and measured on board: a
+    /// visit may then take its pictures several at a time ([`visit_captures`]).
+    in_flight_ok: bool,
+    /// The round trips of its camera's link (the timeout of a visit's captures).
+    round_trip: fleetmap_core::proto::captures::RoundTrip,
     held: bool,
     /// No sweep entered yet by this process (a restart may have missed images).
     first_sweep: bool,

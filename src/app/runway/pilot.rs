@@ -731,6 +731,7 @@ impl Pilot {
                 // A battery swap is a power cycle: the camera counts its pictures from 0
                 // again, so no index of before names a picture it has not sent.
                 self.last_image = None;
+                self.in_flight_ok = false;
                 let now = self.shared.now();
                 if let Ok(mut set) = self.shared.land_here.lock() {
                     set.remove(&sysid);

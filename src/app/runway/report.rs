@@ -141,8 +141,9 @@ pub struct RobotTimeReport {
     /// Of `flying_s`: flying home — for a battery swap (or to land for good when the map is
     /// complete by then), or at the end.
     pub homing_s: f64,
-    /// Of `flying_s`: after the map was complete, back to the DFS's start (Algorithm 1 ends
-    /// with every robot there) before homing.
+    /// Of `flying_s`: after the map was complete, before homing — the step a drone was
+    /// flying when the last vertex was imaged (runs before drones went home from where they
+    /// were: the walk back to the DFS's start, with which Algorithm 1 ends).
     pub(crate) returning_s: f64,
     /// Airborne and holding.
     pub waiting_s: f64,
@@ -256,8 +257,8 @@ pub struct MappingReport {
     pub kind: &'static str,
     /// Mission name.
     pub mission: String,
-    /// How the DFS allocated the robots at a vertex: `paper` (Algorithm 1's split) or
-    /// `nearest_frontier` (ours; `runway.allocation`, with GCS sharing only).
+    /// How the DFS allocated the robots at a vertex: `paper` (Algorithm 1's split),
+    /// `nearest_frontier` or `spread` (ours; `runway.allocation`, with GCS sharing only).
     pub allocation: &'static str,
     /// Vertex-state sharing: `gcs` or `meet`.
     pub sharing: String,
@@ -410,6 +411,7 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
         allocation: ExplorerConfig {
             sharing: state.params.sharing,
             allocation: state.params.allocation,
+            direct_transit: false,
         }
         .effective_allocation()
         .name(),

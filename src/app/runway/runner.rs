@@ -206,6 +206,8 @@ pub async fn run(
             images: hub.subscribe(),
             capture_seq: 0,
             last_image: None,
+            in_flight_ok: false,
+            round_trip: super::visit_captures::round_trip(shared.patience),
             held: false,
             first_sweep: true,
             sweep_rejects: 0,

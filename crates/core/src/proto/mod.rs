@@ -26,6 +26,7 @@
 //!   (DATA_TRANSMISSION_HANDSHAKE + ENCAPSULATED_DATA), with re-requests on a lossy link.
 
 pub mod arming;
+pub mod captures;
 pub mod command;
 pub mod flavour;
 pub mod heartbeat;
