@@ -52,27 +52,31 @@ build: sysdeps
 ## compile the crate and everything that depends on tokio a second time.
 #
 ## The Python environment is filled while cargo compiles (pip mostly waits on the network).
-## The longest end-to-end tests ($(SLOW_TESTS)) fly simulated missions in real time, mostly
-## waiting: they run beside the rest of the suite (their output follows), which takes minutes
-## off `make test` on 2 cores. (demo_headless: the runway and bandit demos headless, in
-## parallel, 3 to 5½ minutes.) The conformance checks ($(WAITING_TESTS): hitl/conformance.py
-## against the simulator, an ArduPilot and a PX4 copter in parallel, about 5 minutes) judge
-## mission transfers at real time and so mostly wait on the autopilots' timeouts: they run as a
-## third job beside both. Then the documentation's examples (`--doc`: they must compile).
-## The benchmarks are not run here (`make bench`; clippy compiles them).
+## The integration and end-to-end tests are one test binary (tests/suite: one link of the
+## whole crate instead of one per file). Its longest modules ($(SLOW_TESTS)) fly simulated
+## missions in real time, mostly waiting: they run as a second process beside the rest (their
+## output follows), which takes minutes off `make test` on 2 cores. (demo_headless: the runway
+## and bandit demos headless, in parallel, 3 to 5½ minutes.) The conformance checks
+## ($(WAITING_TESTS): hitl/conformance.py against the simulator, an ArduPilot and a PX4 copter
+## in parallel, about 5 minutes) judge mission transfers at real time and so mostly wait on the
+## autopilots' timeouts: they run as a third process beside both. Then the documentation's
+## examples (`--doc`: they must compile). The benchmarks are not run here (`make bench`; clippy
+## compiles them).
 SLOW_TESTS := bandit_run demo_headless runway_kill
 WAITING_TESTS := conformance
-OTHER_TESTS := $(filter-out $(SLOW_TESTS) $(WAITING_TESTS),$(basename $(notdir $(wildcard tests/*.rs))) \
-  $(notdir $(patsubst %/main.rs,%,$(wildcard tests/*/main.rs))))
+# libtest filters: a module's tests are those whose path starts `MODULE::`.
+SLOW_FILTERS := $(addsuffix ::,$(SLOW_TESTS))
+WAITING_FILTERS := $(addsuffix ::,$(WAITING_TESTS))
+SKIP_FILTERS := $(addprefix --skip ,$(SLOW_FILTERS) $(WAITING_FILTERS))
 test: sysdeps
 	@mkdir -p target
 	@$(MAKE) --no-print-directory venv > target/venv.log 2>&1 & venv=$$!; \
 	  $(CARGO) test --workspace --lib --bins --tests --no-fail-fast --no-run; built=$$?; \
 	  wait $$venv; v=$$?; cat target/venv.log; \
 	  [ $$built = 0 ] && [ $$v = 0 ]
-	@$(CARGO) test --no-fail-fast $(addprefix --test ,$(WAITING_TESTS)) > target/waiting-tests.log 2>&1 & waiting=$$!; \
-	  $(CARGO) test --no-fail-fast $(addprefix --test ,$(SLOW_TESTS)) > target/slow-tests.log 2>&1 & slow=$$!; \
-	  $(CARGO) test --no-fail-fast --workspace --lib --bins $(addprefix --test ,$(OTHER_TESTS)); rest=$$?; \
+	@$(CARGO) test --no-fail-fast --test suite -- $(WAITING_FILTERS) > target/waiting-tests.log 2>&1 & waiting=$$!; \
+	  $(CARGO) test --no-fail-fast --test suite -- $(SLOW_FILTERS) > target/slow-tests.log 2>&1 & slow=$$!; \
+	  $(CARGO) test --no-fail-fast --workspace --lib --bins --test suite -- $(SKIP_FILTERS); rest=$$?; \
 	  wait $$slow; s=$$?; echo "--- $(SLOW_TESTS):"; cat target/slow-tests.log; \
 	  wait $$waiting; w=$$?; echo "--- $(WAITING_TESTS):"; cat target/waiting-tests.log; \
 	  [ $$rest = 0 ] && [ $$s = 0 ] && [ $$w = 0 ]

@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Generate assets/golden/utm_pyproj.csv: UTM reference values from PROJ (via pyproj).
 
-Run ONCE (the output is committed; tests/geo.rs compares fleetmap's UTM against every row in
+Run ONCE (the output is committed; tests/suite/geo.rs compares fleetmap's UTM against every row in
 both directions to 1 mm):
 
     /work/venv/bin/python scripts/gen_utm_golden.py

@@ -2,7 +2,7 @@
 //! program of [`fleetmap_core::planner::ip::fast`] against the paper's model as printed
 //! ([`fleetmap_core::planner::ip::plain`]) on random epochs of Algorithm 1.
 //!
-//! The small random scenarios of `tests/planner.rs` cannot show an over-pruned fast model at
+//! The small random scenarios of `tests/suite/planner.rs` cannot show an over-pruned fast model at
 //! the scale the paper flies: 10 × 10 cells, N_d = 10 drones, N_c = 5 stations,
 //! (T_d, T_c) = (8, 4) and a charger capacity C ≥ 2 that lets drones share a station. A fast
 //! model that removed a feasible plan would not produce an invalid plan — it would need more

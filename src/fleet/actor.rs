@@ -340,7 +340,7 @@ impl Actor {
         // own frames in order on a link, but forwards another component's (a camera behind
         // it) from per-route queues, reordered by more than loss explains (PX4's payload
         // link queues a camera's image data behind its messages; a false conflict then
-        // stopped the runway run of tests/image_sanity.rs).
+        // stopped the runway run of tests/suite/image_sanity.rs).
         if from.compid == fleetmap_core::proto::AUTOPILOT_COMPID {
             self.sysids
                 .handle_frame(link, from, frame.header.sequence, frame_check(&frame), now);

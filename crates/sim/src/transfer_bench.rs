@@ -2,7 +2,7 @@
 //! ([`fleetmap_core::proto::mission::MissionClient`]) against the simulator's vehicle-side mission
 //! protocol ([`MissionServer`], ArduPilot or PX4 behaviour) over a simulated network that
 //! loses, duplicates and delays messages. Used by `fleetmap bench transfer` (round-trip times
-//! of a mission at given losses) and by `tests/mavlink_proto.rs` (the transfer property).
+//! of a mission at given losses) and by `tests/suite/mavlink_proto.rs` (the transfer property).
 //!
 //! Pure and deterministic: no sockets, no clock reads, no async runtime. Time is virtual
 //! ([`Time`], starting at zero) and jumps from one event to the next (a message arriving, a

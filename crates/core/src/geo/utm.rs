@@ -2,11 +2,11 @@
 //!
 //! The projection is Krüger's series to n⁶ (see `tm.rs`: Karney 2011 / GeographicLib
 //! `TransverseMercator`, the same algorithm as PROJ's default "exact" tmerc), so the results
-//! agree with PROJ (pyproj, EPSG:326zz/327zz) to a few nanometres; `tests/geo.rs` checks
+//! agree with PROJ (pyproj, EPSG:326zz/327zz) to a few nanometres; `tests/suite/geo.rs` checks
 //! 8 878 reference points from `assets/golden/utm_pyproj.csv` to 1 mm in both directions.
 //!
 //! We do not use the `utm` crate (0.1.6) for conversions. Measured against the same golden
-//! file (`tests/geo.rs::utm_crate_against_proj` prints the numbers): its forward projection is
+//! file (`tests/suite/geo.rs::utm_crate_against_proj` prints the numbers): its forward projection is
 //! within 0.99 mm inside the standard zones but off by up to 2.2 m for points outside the
 //! zone (a grid reaching into the next zone), and its inverse is off by up to 0.77 m inside
 //! the standard zones (19 m outside, where it also rejects eastings beyond 100–1000 km).

@@ -213,7 +213,7 @@ mod tests {
         }
     }
 
-    // The round trip through the GCS's MAVLink codec: tests/vision.rs.
+    // The round trip through the GCS's MAVLink codec: tests/suite/vision.rs.
 
     #[test]
     fn other_arrays_and_bad_numbers_are_not_measurements() {

@@ -25,7 +25,7 @@
 //! report, stop))`.
 //!
 //! In process, every simulated vehicle behind its own radio to one fleet (the fleet sees
-//! one in-process link per vehicle; `tests/radio_fleet.rs` runs exactly this):
+//! one in-process link per vehicle; `tests/suite/radio_fleet.rs` runs exactly this):
 //!
 //! ```text
 //! let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
@@ -45,7 +45,7 @@
 //! `spawn_memory` runs the vehicles on the runtime's clock, which is the relay's default
 //! clock too. A simulator served over sockets at a speed-up (`fleetmap_sim::server::spawn`)
 //! publishes its time: give each relay `.with_clock(handle.clock())` so that its budget is
-//! counted in that time (`tests/bandit_radio.rs`).
+//! counted in that time (`tests/suite/bandit_radio.rs`).
 
 use super::addr::ConnSpec;
 use super::codec::Frame;

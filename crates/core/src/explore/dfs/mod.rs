@@ -104,7 +104,7 @@
 //! - Home when the map is done (`Explorer::finish_where_it_is`): no walk back to the start.
 //!
 //! None changes how the tree is built or the vertex states; the property test
-//! `direct_transit_covers_terminates_and_meets_lemma_1` (tests/explore.rs) checks the first
+//! `direct_transit_covers_terminates_and_meets_lemma_1` (tests/suite/explore.rs) checks the first
 //! two against Lemma 1.
 
 mod decide;

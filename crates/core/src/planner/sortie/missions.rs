@@ -630,6 +630,6 @@ mod tests {
         assert_eq!(two_rows, vec![(0, 0, 1, 1)]);
         let items = fence_items(&g, 10, 10, &obstacles, 1.0).unwrap();
         assert_eq!(items.len(), 4 * 4);
-        // The simulator's fence keeping to these items: tests/planner.rs.
+        // The simulator's fence keeping to these items: tests/suite/planner.rs.
     }
 }
