@@ -45,6 +45,10 @@ use tokio::task::JoinSet;
 /// dropped its senders, so this only bounds a sender kept alive elsewhere.
 const DRAIN: Duration = Duration::from_secs(1);
 
+/// How long an operator's quit waits for a finished run to write its exports (the plots of
+/// a large map take seconds on a loaded laptop).
+const EXPORTS_ON_QUIT: Duration = Duration::from_secs(120);
+
 /// What to do with a finished run's final state `S` (write its exports).
 pub(crate) type OnFinish<S> = Box<dyn FnOnce(&RunDir, &S) + Send>;
 
@@ -88,6 +92,9 @@ type RunState = Arc<dyn ShowRun>;
 /// A run's state as the panes show it.
 trait ShowRun: Send + Sync {
     fn view(&self) -> RunView<'_>;
+    /// Whether the run's state is finished ([`RunKind::is_finished`]): its exports may still
+    /// be being written.
+    fn is_finished(&self) -> bool;
 }
 
 /// A state of kind `K`.
@@ -96,6 +103,9 @@ struct Shown<K: RunKind>(Arc<K::State>);
 impl<K: RunKind> ShowRun for Shown<K> {
     fn view(&self) -> RunView<'_> {
         K::view(&self.0)
+    }
+    fn is_finished(&self) -> bool {
+        K::is_finished(&self.0)
     }
 }
 
@@ -418,13 +428,28 @@ pub(crate) async fn run(
     let result = crate::tui::run(app, io, options).await;
     tasks.shutdown().await;
     let finished = shared.finished.lock().map(|f| *f).unwrap_or(false);
+    // A run whose state is finished is writing its exports (the UI says DONE from the
+    // state, before they are written): an operator who quits at once must not cut them off.
+    let exporting = shared
+        .view
+        .borrow()
+        .as_ref()
+        .is_some_and(|v| v.is_finished());
     if finished {
         // It has said how the run ended: nothing is left for it to do.
         while runner.join_next().await.is_some() {}
+    } else if exporting {
+        // Only its exports are left to write (seconds; bounded all the same).
+        let joined = async { while runner.join_next().await.is_some() {} };
+        if tokio::time::timeout(EXPORTS_ON_QUIT, joined).await.is_err() {
+            tracing::warn!("the finished run's exports took over {EXPORTS_ON_QUIT:?}: stopped");
+            runner.shutdown().await;
+        }
     } else {
         runner.shutdown().await;
     }
     result?;
+    let finished = shared.finished.lock().map(|f| *f).unwrap_or(finished);
     Ok(SessionEnd::Quit { finished })
 }
 

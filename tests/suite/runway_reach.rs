@@ -24,8 +24,6 @@ use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;
 use std::time::Duration;
 
-use crate::common;
-
 /// Grass with one asphalt band 200 m east-west by 24 m, its centre 10 m north of the first
 /// home, drifting east (away from home) at `ve` m/s: wide enough that the sweep box stays over
 /// it for the first two minutes.

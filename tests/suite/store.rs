@@ -3,9 +3,10 @@
 //! cut the journal is read back correctly.
 //!
 //! The writer is this test binary itself: `parent` spawns it with
-//! `--ignored --exact writer_process` and `FLEETMAP_STORE_WRITER=<run dir>` in the
+//! `--ignored --exact store::writer_process` and `FLEETMAP_STORE_WRITER=<run dir>` in the
 //! environment (an ignored test, so that a normal `cargo test` never runs it on its own).
 
+use crate::common;
 use fleetmap::store::{RunDir, RunMeta};
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
@@ -86,7 +87,7 @@ fn spawn_writer(dir: &Path) -> std::process::Child {
         .args([
             "--ignored",
             "--exact",
-            "writer_process",
+            &common::test_name(module_path!(), "writer_process"),
             "--nocapture",
             "--test-threads=1",
         ])

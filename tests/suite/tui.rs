@@ -941,8 +941,9 @@ fn the_panic_hook_restores_the_real_terminal() {
     }
     let exe = std::env::current_exe().expect("test binary");
     let cmd = format!(
-        "stty cols 80 rows 24; stty -a | head -c 0; FLEETMAP_PTY_CHILD=1 {} --ignored --exact pty_child_panics_inside_the_ui --nocapture --test-threads=1; echo; echo AFTER; stty -a",
-        exe.display()
+        "stty cols 80 rows 24; stty -a | head -c 0; FLEETMAP_PTY_CHILD=1 {} --ignored --exact {} --nocapture --test-threads=1; echo; echo AFTER; stty -a",
+        exe.display(),
+        common::test_name(module_path!(), "pty_child_panics_inside_the_ui")
     );
     let out = std::process::Command::new("script")
         .args(["-qfec", &cmd, "/dev/null"])

@@ -11,6 +11,16 @@ pub mod router;
 #[allow(dead_code)] // only the tests that fly the runway mission run by run
 pub mod runway;
 
+/// The name libtest knows a test of this binary by (`MODULE::test`), for a test that runs
+/// another of its tests as a child process (`--exact NAME`): `module_path` is the caller's
+/// `module_path!()`, whose first segment (the crate, `suite`) libtest leaves out.
+pub fn test_name(module_path: &str, test: &str) -> String {
+    match module_path.split_once("::") {
+        Some((_, module)) => format!("{module}::{test}"),
+        None => test.to_string(),
+    }
+}
+
 /// A UDP port on 127.0.0.1 that was free a moment ago (for a `fleetmap sim` to listen on).
 #[allow(dead_code)] // not every test binary starts a simulator process
 pub fn free_udp_port() -> u16 {
