@@ -8,7 +8,6 @@
 
 mod common;
 
-mod field_day;
 mod bandit_no_images;
 mod bandit_radio;
 mod bandit_run;
@@ -18,6 +17,7 @@ mod conformance;
 mod demo_headless;
 mod explore;
 mod fast_plain;
+mod field_day;
 mod field_wiring;
 mod geo;
 mod image_resend;
