@@ -1,14 +1,10 @@
-//! Shared by the end-to-end tests that fly the runway mission over a small world.
+//! What several modules of the test suite share: worlds, missions, simulators, pseudo-terminals,
+//! routers, run drivers.
 
-#[allow(dead_code)] // only the tests that fly the spatial-classification mission
 pub mod bandit;
-#[allow(dead_code)] // only the tests that drive a run task (through bandit or runway)
 pub mod drive;
-#[allow(dead_code)] // not every test binary drives a pseudo-terminal
 pub mod pty;
-#[allow(dead_code)] // only the tests with a router between the GCS and the vehicles
 pub mod router;
-#[allow(dead_code)] // only the tests that fly the runway mission run by run
 pub mod runway;
 
 /// The name libtest knows a test of this binary by (`MODULE::test`), for a test that runs
@@ -22,7 +18,6 @@ pub fn test_name(module_path: &str, test: &str) -> String {
 }
 
 /// A UDP port on 127.0.0.1 that was free a moment ago (for a `fleetmap sim` to listen on).
-#[allow(dead_code)] // not every test binary starts a simulator process
 pub fn free_udp_port() -> u16 {
     std::net::UdpSocket::bind("127.0.0.1:0")
         .unwrap()
@@ -43,7 +38,6 @@ pub fn free_udp_port() -> u16 {
 /// the 0.5 black fraction, against a simulated GPS error of σ ≈ 0.4 m. With
 /// `origin = "vehicle"` the grid starts instead at the home the simulated GPS reports, about
 /// a metre off, and the strip's edge cells are only partly runway.
-#[allow(dead_code)] // the pseudo-terminal helpers are shared more widely
 pub const WORLD: &str = r#"
 name = "strip"
 description = "A 20.5 m x 12.5 m asphalt strip: 5 x 3 grid cells and a 0.25 m margin (test world)"
@@ -66,13 +60,11 @@ step_east_m = 3.0
 
 /// The strip's centre in [`WORLD`] (latitude, longitude, degrees): the grid origin that puts
 /// its edges 0.25 m outside cell boundaries.
-#[allow(dead_code)] // not every test binary maps the strip on a fixed grid
 pub const STRIP_CENTRE: (f64, f64) = (37.196800, -80.578100);
 
 /// The runway field-test mission (`missions/runway-field-test.toml`) on a grid anchored at
 /// [`STRIP_CENTRE`] instead of the vehicle's first position, so that the map does not depend on
 /// where the simulated GPS puts home.
-#[allow(dead_code)] // not every test binary flies the strip
 pub fn strip_mission() -> String {
     let field_test = fleetmap::app::demo::RUNWAY_MISSION;
     let (lat, lon) = STRIP_CENTRE;
@@ -92,7 +84,6 @@ pub fn strip_mission() -> String {
 /// own socket, `udpout`), from a thread of its own whose single-threaded runtime gives it one
 /// turn between two calls of `hold` (which keeps the thread busy or blocked: a starved
 /// machine). A fleet in the test follows its time ([`StarvedSim::time`]).
-#[allow(dead_code)] // only the starved-simulator tests
 pub struct StarvedSim {
     /// The simulator's published time.
     pub time: fleetmap_io::clock::SimTime,
@@ -100,7 +91,6 @@ pub struct StarvedSim {
     thread: std::thread::JoinHandle<fleetmap_sim::harness::Sim>,
 }
 
-#[allow(dead_code)] // only the starved-simulator tests
 impl StarvedSim {
     /// Serve `cfg` as described on [`StarvedSim`].
     pub async fn start(
