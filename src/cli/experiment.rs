@@ -22,11 +22,11 @@ pub enum ExperimentCommand {
     /// Join the parts of a bandit study run with `experiment bandit --shard K/N` (e.g. the
     /// tasks of a cluster's job array) into the study's CSV, summary, table and plot.
     Merge(super::bandit::MergeArgs),
-    /// Fast = plain at the bandit paper's scale (issue 17, item 2): both IP models on random
+    /// Fast = plain at the bandit paper's scale: both IP models on random
     /// Algorithm 1 epochs (10×10, 10 drones, 5 stations, Td = 8, Tc = 4, C = 1, 2, 3); exit
     /// status 1 on any difference.
     FastPlain(FastPlainArgs),
-    /// Issue 26: the runway field test flown by teams of drones on the embedded simulator —
+    /// The runway field test flown by teams of drones on the embedded simulator —
     /// time to the complete map and to the last landing, IoU and swaps per team size, and
     /// where each drone's time went (CSV, JSON summary, PNG in --out).
     Runway(crate::experiment::runway::RunwayArgs),

@@ -1,4 +1,4 @@
-//! Fast = plain at the bandit paper's scale (issue 17, item 2): the reformulated integer
+//! Fast = plain at the bandit paper's scale: the reformulated integer
 //! program of [`fleetmap_core::planner::ip::fast`] against the paper's model as printed
 //! ([`fleetmap_core::planner::ip::plain`]) on random epochs of Algorithm 1.
 //!

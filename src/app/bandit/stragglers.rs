@@ -1,5 +1,5 @@
 //! What a sortie meets late or not at all, in flight and after it: a station stuck on its way
-//! to the rendezvous, pictures still on their way after the landings (issue 37).
+//! to the rendezvous, pictures still on their way after the landings.
 
 use super::*;
 use crate::app::error::RunnerResult;

@@ -158,8 +158,8 @@ pub(super) fn charge_needed_pct(state: &ClassificationState, estimate_s: f64) ->
 /// and the no-fly polygons, shrunk by at most 1 m, lie only 1–1.5 m from a station's road:
 /// on ArduRover SITL V4.7.0-dev (90700977), hardware-6x6 epoch 0, station 5 rocked for
 /// minutes 2 m from no-fly cell (2, 2)'s polygon — on the diagonal leg (2, 1) → (3, 2), and,
-/// with that leg routed through (3, 1), on the U-turn at (3, 2) — its waypoint never reached
-/// (issue 25). A station's list is checked by the GCS instead (road cells only, no leg
+/// with that leg routed through (3, 1), on the U-turn at (3, 2) — its waypoint never reached.
+/// A station's list is checked by the GCS instead (road cells only, no leg
 /// through a no-fly cell: [`missions::check_mission`], in [`upload_once`]); the fence stays
 /// uploaded (disabled) for the operator to see.
 pub(super) async fn enable_fence(fleet: &FleetHandle, v: &VehicleSnapshot) -> RunnerResult<()> {

@@ -99,7 +99,7 @@ impl From<fleetmap_core::vision::votes::Confusion> for Counts {
     }
 }
 
-/// The run's mission time (issue 26), seconds of the fleet clock — the vehicles' clock: the
+/// The run's mission time, seconds of the fleet clock — the vehicles' clock: the
 /// wall clock with real vehicles, the simulator's time when it runs in the GCS's process —
 /// from the first take-off ([`fleetmap_core::explore::mapping::MissionClock`]). What a team plans its
 /// day by, and the runway paper's figure (§7: one UAV, 73 minutes, six battery swaps).

@@ -1,5 +1,4 @@
-//! `fleetmap experiment runway`: how much sooner a team maps the runway than one drone
-//! (issue 26).
+//! `fleetmap experiment runway`: how much sooner a team maps the runway than one drone.
 //!
 //! Every trial flies the runway field-test mission (`missions/runway-field-test.toml`, the
 //! world `assets/worlds/runway.toml`) with a team of simulated ArduPilot copters, the GCS in

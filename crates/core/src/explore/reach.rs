@@ -1,4 +1,4 @@
-//! Reach of a moving region's cell (issue 26): before a drone flies out to a cell — a
+//! Reach of a moving region's cell: before a drone flies out to a cell — a
 //! confirmation, a DFS move, a rejoin after a swap — can it get there, take the cell's pictures
 //! and still come home on what its battery holds? Pure: no clock, no I/O; the region's time
 //! comes in as `now`.

@@ -130,7 +130,7 @@ impl MappingParams {
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(tag = "reason", rename_all = "snake_case")]
 pub enum GaveUp {
-    /// The region drifted beyond reach (issue 26): not even a full battery from home could
+    /// The region drifted beyond reach: not even a full battery from home could
     /// fly vehicle `sysid` out to region cell `cell` and bring it back, now or later
     /// ([`crate::explore::reach`]). Nothing was labelled for it: the visits then open were
     /// dropped undecided.

@@ -1,4 +1,4 @@
-//! The mission clock of a runway-mapping run (issue 26): how long the team took from the first
+//! The mission clock of a runway-mapping run: how long the team took from the first
 //! take-off to the start of the DFS, to the complete map and to the last landing, and where
 //! each drone's time went — flying, hovering while it waits, on the ground.
 //!
