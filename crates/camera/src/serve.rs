@@ -37,6 +37,10 @@ pub enum ServeError {
     /// The link could not be opened (bad port, no permission on the serial device, …).
     #[error(transparent)]
     Link(#[from] LinkError),
+    /// The link stopped (a serial port that went away: a USB adapter unplugged); the
+    /// program exits with an error so that its service manager starts it again.
+    #[error("{0}: the link closed")]
+    LinkClosed(String),
     /// The image directory could not be created.
     #[error("cannot create the image directory {}: {source}", dir.display())]
     ImageDir {
@@ -141,7 +145,7 @@ where
                 Some(LinkEvent::Status { up, detail, .. }) => {
                     tracing::info!("camera link {}: {detail}", if up { "up" } else { "down" });
                 }
-                None => break,
+                None => return Err(ServeError::LinkClosed(link.spec.to_string())),
             },
             _ = tokio::time::sleep(wait) => {}
             _ = &mut shutdown => break,

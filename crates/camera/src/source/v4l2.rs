@@ -139,7 +139,7 @@ impl V4l2Source {
 /// A YUYV 4:2:2 frame (`Y0 U Y1 V` per two pixels, rows packed) as RGB, BT.601 studio range.
 fn yuyv_to_rgb(data: &[u8], width: u32, height: u32) -> Result<RgbImage, String> {
     let need = width as usize * height as usize * 2;
-    if width % 2 != 0 || data.len() < need {
+    if !width.is_multiple_of(2) || data.len() < need {
         return Err(format!(
             "{} bytes for a {width} × {height} YUYV frame (needs {need}, even width)",
             data.len()
