@@ -9,6 +9,10 @@ The crates are the architecture (docs/architecture.md, "Crates"):
   (`cargo tree -e normal`) must not contain tokio, mio, socket2 or tokio-serial.
 * `fleetmap-io` and `fleetmap-core` are shared by the ground station and the simulator, so
   neither may depend on `fleetmap-sim` or on the ground station `fleetmap`.
+* `fleetmap-camera` runs on a drone's companion computer (a Raspberry Pi): its normal tree
+  must not contain HiGHS (good_lp, highs-sys, cmake), the terminal UI (ratatui, crossterm),
+  the simulator or the ground station, so that `cargo build -p fleetmap-camera` builds none
+  of them (the core comes without its `highs` feature).
 * The ground station built without its default features (`--no-default-features`, no `sim`)
   must not contain `fleetmap-sim`: a GCS for real vehicles carries no simulator code.
 
@@ -33,6 +37,9 @@ RULES = [
     (["-p", "fleetmap-core"], {"tokio", "mio", "socket2", "tokio-serial", "fleetmap-io", "fleetmap-sim", "fleetmap"},
      "the pure core"),
     (["-p", "fleetmap-io"], {"fleetmap-sim", "fleetmap"}, "the I/O edge"),
+    (["-p", "fleetmap-camera"],
+     {"good_lp", "highs-sys", "cmake", "ratatui", "crossterm", "fleetmap-sim", "fleetmap"},
+     "the companion computer's camera"),
     (["-p", "fleetmap", "--no-default-features"], {"fleetmap-sim", "indicatif"},
      "the ground station without the `sim` feature"),
 ]
@@ -48,7 +55,7 @@ def main():
     if broken:
         sys.exit(1)
     print("crates: core without tokio or sockets; io and core without the simulator; "
-          "the GCS without `sim` has no simulator code")
+          "the camera without HiGHS, TUI or simulator; the GCS without `sim` has no simulator code")
 
 
 if __name__ == "__main__":

@@ -3,7 +3,7 @@
 what its `pub use` statements (which may span lines) bring in, and which modules are public.
 
 Not a Rust front end: comments are not removed, and a file is read up to its
-`#[cfg(test)] mod` (the tests may reach anywhere). The GCS's `main.rs` is no module.
+`#[cfg(test)] mod` (the tests may reach anywhere). The GCS's and the camera program's `main.rs` are no modules.
 """
 import os
 import re
@@ -12,6 +12,7 @@ CRATES = {
     "fleetmap_core": "crates/core/src",
     "fleetmap_io": "crates/io/src",
     "fleetmap_sim": "crates/sim/src",
+    "fleetmap_camera": "crates/camera/src",
     "fleetmap": "src",
 }
 ITEM = re.compile(r"^pub (?:async |const |unsafe )*(fn|struct|enum|trait|type|const|static|mod) (\w+)", re.M)
@@ -77,7 +78,7 @@ def load():
                 if not f.endswith(".rs"):
                     continue
                 path = os.path.join(dirpath, f)
-                if crate == "fleetmap" and path == os.path.join(root, "main.rs"):
+                if crate in ("fleetmap", "fleetmap_camera") and path == os.path.join(root, "main.rs"):
                     continue
                 here = module_path(root, path)
                 text = before_tests(open(path, encoding="utf-8").read())

@@ -5,10 +5,11 @@
 #![allow(deprecated)]
 
 use criterion::{Criterion, criterion_group, criterion_main};
+use fleetmap_camera::pose::CameraPose;
+use fleetmap_camera::render::{Disturbances, render};
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::camera::CameraModel;
 use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::render::{CameraPose, Disturbances, render};
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;

@@ -48,7 +48,7 @@ pub struct SimSetup {
     pub charge_minutes: f64,
     /// A degraded sensor: the probability that a camera image shows the other class of tile
     /// (0: none; the bandit paper's §V degraded-sensor run: 0.05). See
-    /// [`fleetmap_sim::camera::CameraConfig::misclassify_probability`].
+    /// [`fleetmap_camera::camera::CameraConfig::misclassify_probability`].
     pub sensor_flip: f64,
     /// Cameras that measure on board with this definition (the mission's:
     /// [`crate::app::bandit::green_spec_of`]) and send the green share instead of the

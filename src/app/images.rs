@@ -725,6 +725,8 @@ mod tests {
     /// classification of it is the camera's bit for bit.
     #[test]
     fn runway_results_replace_pictures_once_the_camera_has_the_grid() {
+        use fleetmap_camera::camera::{CameraConfig, CaptureContext, SimCamera};
+        use fleetmap_camera::pose::CameraPose;
         use fleetmap_core::geo::{Grid, LatLon};
         use fleetmap_core::vision::camera::CameraModel;
         use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
@@ -733,8 +735,6 @@ mod tests {
             OnboardRegions, RunwayDefinition, RunwaySpec, ShutterPose,
         };
         use fleetmap_core::vision::runway::RunwayParams;
-        use fleetmap_sim::camera::{CameraConfig, CaptureContext, SimCamera};
-        use fleetmap_sim::render::CameraPose;
         let world = fleetmap_core::world::World::from_toml(crate::app::demo::RUNWAY_WORLD).unwrap();
         let model = CameraModel {
             width_px: 120,

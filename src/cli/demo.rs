@@ -69,7 +69,7 @@ pub struct DemoArgs {
     pub bound: Option<crate::cli::bandit::BoundArg>,
     /// With --bandit: the simulated cameras' sensor (the bandit paper's degraded sensor, §V).
     #[command(flatten)]
-    pub sensor: crate::cli::camera::SensorArgs,
+    pub sensor: fleetmap_camera::cli::SensorArgs,
     /// Every vehicle behind its own simulated telemetry radio. On a radio the runway
     /// cameras classify their pictures on board, as the spatial-classification cameras
     /// always do.

@@ -12,8 +12,6 @@ pub mod bench;
 pub(crate) mod bench_fleet;
 #[cfg(feature = "sim")]
 pub(crate) mod bench_transfer;
-#[cfg(feature = "sim")]
-pub mod camera;
 pub mod check;
 pub mod classify;
 pub mod command;
@@ -66,8 +64,7 @@ pub enum Command {
     Sim(Box<sim::SimArgs>),
     /// A MAVLink camera on a companion computer next to an autopilot: pictures from a folder
     /// (or rendered, for SITL), measured on board, sent as small measurements.
-    #[cfg(feature = "sim")]
-    Camera(Box<camera::CameraArgs>),
+    Camera(Box<fleetmap_camera::cli::CameraArgs>),
     /// Convert between mission-grid cells and GPS/UTM coordinates; export cells as GeoJSON/KML.
     Grid(grid::GridArgs),
     /// Classify images with the runway sensing model (and the green-pixel measurement).
@@ -184,8 +181,7 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Experiment(args) => experiment::run(args),
         #[cfg(feature = "sim")]
         Command::Sim(args) => sim::run(*args),
-        #[cfg(feature = "sim")]
-        Command::Camera(args) => camera::run(*args),
+        Command::Camera(args) => fleetmap_camera::cli::run(*args),
         Command::Grid(args) => grid::run(args),
         Command::Classify(args) => classify::run(args),
         Command::Tui(args) => tui::run(args, log_file.as_deref()),

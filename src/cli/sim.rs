@@ -60,7 +60,7 @@ pub struct SimArgs {
     pub camera_px: u32,
     /// The simulated cameras' sensor.
     #[command(flatten)]
-    pub sensor: crate::cli::camera::SensorArgs,
+    pub sensor: fleetmap_camera::cli::SensorArgs,
     /// Battery level (percent) that triggers the failsafe RTL (default: the autopilot's).
     #[arg(long, value_name = "PCT")]
     pub(crate) low_battery: Option<f64>,
@@ -222,7 +222,7 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
     let onboard = args
         .camera_mission
         .as_deref()
-        .map(crate::cli::camera::onboard_spec)
+        .map(fleetmap_camera::mission::onboard_spec)
         .transpose()?;
     for v in &mut cfg.vehicles {
         if v.flavour.is_copter() {
@@ -259,9 +259,9 @@ fn run_camera_only(args: SimArgs) -> anyhow::Result<ExitCode> {
     if !args.scheduled_faults.is_empty() {
         bail!("--fault is for the simulated vehicles; --camera-only simulates none");
     }
-    crate::cli::camera::run(crate::cli::camera::CameraArgs {
+    fleetmap_camera::cli::run(fleetmap_camera::cli::CameraArgs {
         connect,
-        source: crate::cli::camera::Source::Render,
+        source: fleetmap_camera::source::SourceSpec::Render,
         world: args.world,
         mission: args.camera_mission,
         push_pictures: false,
@@ -269,6 +269,7 @@ fn run_camera_only(args: SimArgs) -> anyhow::Result<ExitCode> {
         no_image_transfer: args.no_image_transfer,
         image_rate: args.image_rate,
         wait_ms: 0,
+        command_timeout_ms: 0,
         duration: args.duration,
         seed: args.seed,
         sensor: args.sensor,

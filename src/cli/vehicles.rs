@@ -306,6 +306,10 @@ pub(crate) fn print_snapshot(s: &FleetSnapshot, json: bool) -> anyhow::Result<()
                 crate::fleet::SysidConflict::FIX
             );
         }
+        if let Some(c) = v.camera_compid {
+            // a companion computer's camera (fleetmap-camera) answers as component 100
+            println!("     camera: component {c}");
+        }
         if let Some(t) = &v.last_text {
             println!("     last message: {}", t.text);
         }

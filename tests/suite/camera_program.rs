@@ -62,7 +62,8 @@ impl Drop for Killed {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
     let mission = concat!(env!("CARGO_MANIFEST_DIR"), "/missions/hardware-6x6.toml");
-    let OnboardSpec::Green(spec) = fleetmap::cli::camera::onboard_spec(Path::new(mission)).unwrap()
+    let OnboardSpec::Green(spec) =
+        fleetmap_camera::mission::onboard_spec(Path::new(mission)).unwrap()
     else {
         panic!("a spatial-classification mission measures the green share")
     };
@@ -207,7 +208,7 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
     let mission = format!("{root}/missions/runway-field-test.toml");
     let world_file = format!("{root}/assets/worlds/runway.toml");
     let OnboardSpec::Runway(def) =
-        fleetmap::cli::camera::onboard_spec(Path::new(&mission)).unwrap()
+        fleetmap_camera::mission::onboard_spec(Path::new(&mission)).unwrap()
     else {
         panic!("a runway mission classifies runway pictures")
     };
@@ -355,10 +356,30 @@ fn camera_help_names_its_sources() {
         .unwrap();
     assert!(out.status.success());
     let help = String::from_utf8_lossy(&out.stdout);
-    for source in ["render", "folder:DIR"] {
+    for source in [
+        "render",
+        "folder:DIR",
+        "command:CMD",
+        "v4l2:DEVICE",
+        "serial:",
+    ] {
         assert!(help.contains(source), "{source} missing from:\n{help}");
     }
     // an unknown source is refused with the list
+    let out = Command::new(bin())
+        .args([
+            "camera",
+            "--connect",
+            "udpin:127.0.0.1:0",
+            "--source",
+            "gopro:wifi",
+        ])
+        .output()
+        .unwrap();
+    assert!(!out.status.success());
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(err.contains("`folder:DIR`, `command:CMD`"), "{err}");
+    // a V4L2 camera needs the camera crate's `v4l2` feature, which the station is built without
     let out = Command::new(bin())
         .args([
             "camera",
@@ -371,5 +392,5 @@ fn camera_help_names_its_sources() {
         .unwrap();
     assert!(!out.status.success());
     let err = String::from_utf8_lossy(&out.stderr);
-    assert!(err.contains("`render` or `folder:DIR`"), "{err}");
+    assert!(err.contains("feature `v4l2`"), "{err}");
 }

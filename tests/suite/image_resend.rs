@@ -16,11 +16,11 @@
 //! camera behind the port at once): the picture was lost.
 
 use fleetmap::app::images::{ImageFailure, Intake};
+use fleetmap_camera::camera::{CameraConfig, RECENT_IMAGES};
+use fleetmap_camera::paired::PairedCameras;
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
-use fleetmap_sim::camera::{CameraConfig, RECENT_IMAGES};
-use fleetmap_sim::paired::PairedCameras;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;

@@ -25,6 +25,8 @@ use fleetmap::app::runway::report::truth_coverage;
 use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::fleet::{self, FleetConfig};
 use fleetmap::store::{RunDir, RunMeta};
+use fleetmap_camera::pose::CameraPose;
+use fleetmap_camera::render::{Disturbances, render};
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{MappingState, RobotStatus};
 use fleetmap_core::geo::{LatLon, local};
@@ -41,7 +43,6 @@ use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::codec::{Codec, encode_frame};
 use fleetmap_io::link::transport::{LinkOptions, MemoryPort, open_memory_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::render::{CameraPose, Disturbances, render};
 use fleetmap_sim::server;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use proptest::prelude::*;
@@ -573,7 +574,7 @@ proptest! {
 }
 
 /// The optical axis meets the ground where the simulator centres its render
-/// (`sim::render::footprint_center`) for any tilt and heading.
+/// (`fleetmap_camera::render::footprint_center`) for any tilt and heading.
 #[test]
 fn the_view_centre_is_the_simulators() {
     let world = World::from_toml(WORLD).unwrap();
@@ -591,7 +592,7 @@ fn the_view_centre_is_the_simulators() {
             roll_deg: roll,
             pitch_deg: pitch,
         };
-        let (ce, cn) = fleetmap_sim::render::footprint_center(&world, &pose);
+        let (ce, cn) = fleetmap_camera::render::footprint_center(&world, &pose);
         let (e0, n0) = world.to_local(pose.lat, pose.lon);
         let (n, e) = view_centre_offset(&attitude_from_euler_deg(roll, pitch, yaw), 12.0).unwrap();
         // The simulator shifts by a·tan(pitch) forward and a·tan(roll) to the left, each

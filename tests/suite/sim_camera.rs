@@ -5,6 +5,8 @@
 
 #![allow(deprecated)]
 
+use fleetmap_camera::pose::CameraPose;
+use fleetmap_camera::render::{Disturbances, render};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::image_transfer::{ImageEvent, ImageReceiver, ReceiverConfig};
 use fleetmap_core::time::Time;
@@ -16,7 +18,6 @@ use fleetmap_io::files::read_file_url;
 use fleetmap_io::link::codec::Codec;
 use fleetmap_io::link::faults::LinkFaults;
 use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::render::{CameraPose, Disturbances, render};
 use image::RgbImage;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
@@ -355,8 +356,8 @@ fn images_arrive_over_a_lossy_link_and_as_files() {
 // autopilot for the telemetry it needs, never renders from a stale pose, and paces its image
 // transmission so that a routing autopilot can forward it.
 
-use fleetmap_sim::camera::{CameraConfig, attitude_quaternion};
-use fleetmap_sim::paired::PairedCameras;
+use fleetmap_camera::camera::{CameraConfig, attitude_quaternion};
+use fleetmap_camera::paired::PairedCameras;
 
 const AP1: MavHeader = MavHeader {
     system_id: 1,
@@ -845,10 +846,10 @@ fn paired_camera_wakes_a_silent_arducopter() {
 fn a_flipped_image_is_measured_as_the_other_class_by_the_gcs() {
     use fleetmap::app::bandit::measure_image;
     use fleetmap::app::bandit_sim::{HARDWARE_MISSION, HARDWARE_WORLD};
+    use fleetmap_camera::camera::{CaptureContext, SimCamera};
     use fleetmap_core::geo::{Grid, LatLon};
     use fleetmap_core::mission::definition::{MissionDef, Origin};
     use fleetmap_core::planner::sortie::ClassificationState;
-    use fleetmap_sim::camera::{CaptureContext, SimCamera};
 
     let world = World::from_toml(HARDWARE_WORLD).unwrap();
     let def = MissionDef::parse(HARDWARE_MISSION, "hardware-6x6.toml").unwrap();

@@ -173,7 +173,8 @@ async fn tcp_endpoint_and_image_files() {
     h.stop().await.unwrap();
 }
 
-/// `fleetmap sim --camera-only`: a simulated camera for a real autopilot. The "autopilot"
+/// `fleetmap sim --camera-only` (the camera crate's serve loop): a simulated camera for a
+/// real autopilot. The "autopilot"
 /// here is this test, sending what ArduPilot's AP_Camera sends for a picture.
 #[tokio::test]
 #[allow(deprecated)]
@@ -186,23 +187,23 @@ async fn camera_for_a_real_autopilot() {
         )))
         .unwrap(),
     );
-    let cfg = fleetmap_sim::camera::CameraConfig {
+    let cfg = fleetmap_camera::camera::CameraConfig {
         file_dir: Some(dir.path().display().to_string()),
         mavlink_transfer: false,
         ..Default::default()
     };
-    let cams = fleetmap_sim::paired::PairedCameras::new(world.clone(), cfg, 3);
+    let cams = fleetmap_camera::paired::PairedCameras::new(world.clone(), cfg, 3);
     let (bound_tx, bound_rx) = tokio::sync::oneshot::channel();
     let (stop_tx, stop_rx) = tokio::sync::oneshot::channel::<()>();
     let image_dir = dir.path().to_path_buf();
-    let task = tokio::spawn(fleetmap_sim::server::serve_paired(
+    let task = tokio::spawn(fleetmap_camera::serve::serve(
         cams,
         None,
         parse_connection("udpin:127.0.0.1:0").unwrap(),
         Some(image_dir),
         None,
-        move |b| {
-            let _ = bound_tx.send(b[0].local);
+        move |link| {
+            let _ = bound_tx.send(link.local.expect("a UDP socket's address"));
         },
         async move {
             let _ = stop_rx.await;

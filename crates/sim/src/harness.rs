@@ -24,10 +24,10 @@
 //! [`SimConfig::dock_radius_m`] of a rover rides with it and charges (the bandit paper's
 //! mobile charging stations).
 
-use crate::camera::CapturedImage;
 use crate::fault::{Action, FaultPlan, FaultSpecError, ScheduledFault};
 use crate::flavour::{Flavour, VehicleKind};
 use crate::vehicle::{DT, Px4Link, SimVehicle, VehicleConfig, VehicleEvent};
+use fleetmap_camera::camera::CapturedImage;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::{Wind, World};
 use fleetmap_io::link::codec::Codec;

@@ -1,5 +1,8 @@
 //! The embedded simulated autopilot: ArduPilot and PX4 copters and rovers stepped by virtual
-//! time, their camera, the ground-truth worlds they fly over and the faults of their links.
+//! time, the ground-truth worlds they fly over and the faults of their links. Their camera
+//! (the MAVLink camera component and the renderer that draws its pictures) is the camera
+//! crate's ([`fleetmap_camera::camera`], [`fleetmap_camera::render`]), which the companion
+//! computer's `fleetmap-camera` program runs too.
 //!
 //! Everything here except [`server`] is pure: no sockets, no files, no clock reads. Time is
 //! a [`fleetmap_core::time::Time`] parameter. The worlds it renders are the core's
@@ -14,14 +17,11 @@ pub mod flavour;
 pub mod mission_server;
 
 pub mod battery;
-pub mod camera;
 pub mod fault;
 pub mod fence;
 pub mod harness;
 pub mod motion;
 pub mod pace;
-pub mod paired;
-pub mod render;
 pub mod server;
 pub mod transfer_bench;
 pub mod tx_queue;

@@ -16,20 +16,19 @@
 //! frames that announce them are sent.
 //!
 //! The parts: this module's lock-step serve loop for simulated vehicles ([`serve`],
-//! [`spawn`]); the sockets it and the cameras' loop open (`sockets`); the paired cameras'
-//! loop for real autopilots ([`serve_paired`]); the in-process server ([`spawn_memory`]).
+//! [`spawn`]); the sockets it opens (`sockets`); the in-process server ([`spawn_memory`]).
+//! The camera for a real autopilot (`fleetmap camera`) has its own loop, in the camera crate
+//! (`fleetmap_camera::serve`).
 
 mod memory;
-mod paired;
 mod sockets;
 
 pub use memory::spawn_memory;
-pub use paired::serve_paired;
 
-use crate::camera::CapturedImage;
 use crate::harness::Sim;
 use crate::pace::{Pacer, Speed, SpeedMeter};
 use crate::tx_queue::{Expired, TxQueue};
+use fleetmap_camera::camera::CapturedImage;
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::{MonotonicClock, SimTime};
 use fleetmap_io::link::{ConnSpec, ConnSpecError};

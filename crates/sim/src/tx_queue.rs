@@ -144,12 +144,6 @@ impl TxQueue {
         self.queue.drain(..).map(|(_, d)| d)
     }
 
-    /// Throw everything away (nobody to send to).
-    pub(crate) fn clear(&mut self) {
-        self.queue.clear();
-        self.dropped_in_episode = 0;
-    }
-
     #[cfg(test)]
     /// Datagrams waiting.
     pub(crate) fn len(&self) -> usize {
@@ -161,6 +155,7 @@ impl TxQueue {
         self.queue.len() > Self::HOLD
     }
 
+    #[cfg(test)]
     /// Nothing waiting.
     pub(crate) fn is_empty(&self) -> bool {
         self.queue.is_empty()

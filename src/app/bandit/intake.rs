@@ -58,14 +58,8 @@ pub fn measure_image(
 /// The measurement definition of the spatial-classification mission `def` — what
 /// [`green_spec`] gives for its runs — or `None` for another kind of mission.
 pub fn green_spec_of(def: &fleetmap_core::mission::definition::MissionDef) -> Option<GreenSpec> {
-    (def.kind == fleetmap_core::mission::definition::MissionKind::SpatialClassification).then(
-        || GreenSpec {
-            green: fleetmap_core::planner::sortie::green_params(def),
-            camera: def.camera,
-            cell_m: def.grid.cell_size_m,
-            crop_fraction: fleetmap_core::planner::sortie::CROP_FRACTION,
-        },
-    )
+    // the camera crate's, which the companion computer's camera reads its mission with
+    fleetmap_camera::mission::green_spec_of(def)
 }
 
 /// The run's measurement definition, as a camera that measures on board must be given it

@@ -5,7 +5,7 @@ use super::*;
 use crate::app::error::CpuError;
 use crate::app::error::RunnerResult;
 use crate::app::images::{CapturePose, RunwayAccept};
-use fleetmap_core::mission::definition::{MissionDef, MissionKind, Origin};
+use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::vision::VisionError;
 use fleetmap_core::vision::onboard_runway::{
     OnboardRegions, RunwayDefinition, RunwayMeasurement, RunwaySpec, ShutterPose,
@@ -74,36 +74,11 @@ pub(crate) fn classify_cut(
 }
 
 /// The on-board definition of the runway mission `def` (what `fleetmap camera --mission`
-/// and the simulated cameras are given): its classifier, camera and cell size, and its grid
-/// when the origin is fixed — with `origin = "vehicle"` the GCS announces it when the run
-/// starts. `None` for another kind of mission.
+/// and the simulated cameras are given): the camera crate's
+/// [`fleetmap_camera::mission::runway_definition_of`], which the companion computer's camera
+/// reads its mission with. `None` for another kind of mission.
 pub fn runway_definition_of(def: &MissionDef) -> Option<RunwayDefinition> {
-    let rw = def.runway.as_ref()?;
-    if def.kind != MissionKind::RunwayMapping {
-        return None;
-    }
-    let grid = match def.grid.origin {
-        Origin::Coordinates(p) => Grid::new(
-            LatLon {
-                lat: p.lat,
-                lon: p.lon,
-            },
-            def.grid.cell_size_m,
-        )
-        .ok(),
-        Origin::Vehicle => None,
-    };
-    Some(RunwayDefinition {
-        // as `MappingState::new` reads them
-        params: RunwayParams {
-            intensity_threshold: rw.intensity_threshold,
-            dilation_iterations: rw.dilations,
-            black_fraction_threshold: rw.black_fraction,
-        },
-        camera: def.camera,
-        cell_m: def.grid.cell_size_m,
-        grid,
-    })
+    fleetmap_camera::mission::runway_definition_of(def)
 }
 
 /// The definition a run accepts the cameras' on-board results of: its classifier, camera and

@@ -20,7 +20,7 @@
 //! 4.7 SITLs and `fleetmap sim --camera-only`, every re-request of a run's 26 answered the
 //! camera's latest picture, never the one missing a packet, and 5 of 120 pictures were lost. A
 //! camera that answers a request sends the re-send after the picture leaving now
-//! ([`crate::sim::camera`]); so the receiver asks again only when the camera has gone on to a
+//! (`fleetmap_camera::camera`); so the receiver asks again only when the camera has gone on to a
 //! new picture since the request without sending the one asked for (the request or its re-send
 //! was lost), or has gone quiet, and after the request's wait ([`ReceiverConfig::wait_after`]).
 //! A request costs one of [`ReceiverConfig::retries`] either way: a camera that never answers

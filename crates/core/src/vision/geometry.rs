@@ -3,7 +3,7 @@
 //! ground.
 //!
 //! Frames (the simulator renders with the same ones, `sim::render` and
-//! `sim::camera::attitude_quaternion`):
+//! `fleetmap_camera::camera::attitude_quaternion`):
 //!
 //! * **NED**: x north, y east, z down, origin at the camera.
 //! * **Body**: x forward (the nose), y right, z down. The attitude `R` rotates body vectors
@@ -389,7 +389,7 @@ mod tests {
         assert!(attitude_of_quaternion([2.0, 0.0, 0.0, 0.0]).is_none());
         let q = attitude_of_quaternion([1.0, 0.0, 0.0, 0.0]).unwrap();
         assert!(tilt_deg(&q).abs() < 1e-9);
-        // The simulator's convention (sim::camera::attitude_quaternion) reads back.
+        // The simulator's convention (fleetmap_camera::camera::attitude_quaternion) reads back.
         let a = attitude_from_euler_deg(3.0, -4.0, 250.0);
         let c = a.coords;
         let q = attitude_of_quaternion([c.w as f32, c.x as f32, c.y as f32, c.z as f32]).unwrap();

@@ -76,14 +76,14 @@ pub enum Fault {
     /// camera only after boot and forwards camera commands to the component it found).
     CameraOff,
     /// The camera's image transmission is paced to this many bytes per second
-    /// ([`crate::camera::CameraConfig::transfer_rate_bps`]); at the end, back to its
+    /// ([`fleetmap_camera::camera::CameraConfig::transfer_rate_bps`]); at the end, back to its
     /// configured pacing.
     CameraRate {
         /// Bytes per second of MAVLink 2 frames.
         bytes_per_s: f64,
     },
     /// The camera needs at least this long between two pictures
-    /// ([`crate::camera::CameraConfig::min_interval_s`]): a camera slower than the samples
+    /// ([`fleetmap_camera::camera::CameraConfig::min_interval_s`]): a camera slower than the samples
     /// the GCS asks for; asked faster, it takes them late, one per interval. At the end, back
     /// to its configured interval.
     CameraInterval {

@@ -55,12 +55,12 @@
 #![allow(deprecated)]
 
 use crate::battery::{Battery, BatteryConfig};
-use crate::camera::{CameraConfig, CaptureContext, CapturedImage, SimCamera};
 use crate::fence::Fence;
 use crate::flavour::{Flavour, Mode, SimAutopilot, VehicleKind};
 use crate::mission_server::{HomeItem, MissionEvent, MissionServer};
 use crate::motion::{self, Command, Limits};
-use crate::render::CameraPose;
+use fleetmap_camera::camera::{CameraConfig, CaptureContext, CapturedImage, SimCamera};
+use fleetmap_camera::pose::CameraPose;
 use fleetmap_core::geo::local;
 use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::proto::{CAMERA_COMPID, Endpoint};

@@ -5,7 +5,7 @@
 //! [`requests`]; MAV_CMD_IMAGE_START_CAPTURE with interval, count and sequence number,
 //! MAV_CMD_IMAGE_STOP_CAPTURE) and is triggered by the autopilot's mission items
 //! (IMAGE_START_CAPTURE, DO_DIGICAM_CONTROL, DO_SET_CAM_TRIGG_DIST). Each capture renders the
-//! view at the vehicle's true pose ([`crate::render`]), encodes it as JPEG with the
+//! view at the vehicle's true pose (`crate::render`, cargo feature `render`), encodes it as JPEG with the
 //! capture's metadata in a COM segment ([`fleetmap_core::vision::meta`]) and delivers it
 //! - as CAMERA_IMAGE_CAPTURED (lat, lon, alt, image index, and a `file://` URL when a
 //!   directory is configured: the shell writes the file before the message is sent), and
@@ -16,7 +16,7 @@
 //!
 //! Pacing ([`CameraConfig::transfer_rate_bps`]): by default the handshake and every packet
 //! are queued at once, as the embedded simulator's vehicles have always done (their shell,
-//! [`crate::server`], paces UDP datagrams per vehicle: [`crate::tx_queue`]).
+//! `fleetmap_sim::server`, paces UDP datagrams per vehicle: `fleetmap_sim::tx_queue`).
 //! With a rate, the image transmission leaves through a token bucket in bytes per second of
 //! the camera's own clock (the `now` of [`SimCamera::update`] / [`SimCamera::advance`]):
 //! each message costs its MAVLink 2 frame (10 header bytes, the payload, 2 CRC bytes: 267
@@ -180,7 +180,7 @@ impl SimCamera {
     /// Pace image transmission to `rate` bytes per second from now (`None`, or a rate that is
     /// not finite and positive: every image queued at once). Images already waiting for the
     /// bucket keep their order; unpaced, they are all queued now.
-    pub(crate) fn set_transfer_rate(&mut self, rate: Option<f64>) {
+    pub fn set_transfer_rate(&mut self, rate: Option<f64>) {
         let rate = rate.filter(|r| r.is_finite() && *r > 0.0);
         self.config.transfer_rate_bps = rate;
         if let Some(r) = rate {
@@ -197,7 +197,7 @@ impl SimCamera {
     }
 
     /// The minimum time between two captures, seconds (negative or not finite: 0).
-    pub(crate) fn set_min_interval(&mut self, seconds: f64) {
+    pub fn set_min_interval(&mut self, seconds: f64) {
         self.config.min_interval_s = if seconds.is_finite() {
             seconds.max(0.0)
         } else {
@@ -237,7 +237,7 @@ impl SimCamera {
     }
 
     /// CAMERA_INFORMATION for this camera.
-    pub(crate) fn information(&self, time_boot_ms: u32) -> MavMessage {
+    pub fn information(&self, time_boot_ms: u32) -> MavMessage {
         let m = self.config.model;
         // a 1/2.3" sensor (6.17 mm wide) behind the lens that gives the model's field of view
         let sensor_h = 6.17f32;
@@ -267,7 +267,7 @@ impl SimCamera {
     }
 
     /// CAMERA_CAPTURE_STATUS.
-    pub(crate) fn capture_status(&self, time_boot_ms: u32) -> MavMessage {
+    pub fn capture_status(&self, time_boot_ms: u32) -> MavMessage {
         MavMessage::CAMERA_CAPTURE_STATUS(mav::CAMERA_CAPTURE_STATUS_DATA {
             time_boot_ms,
             image_interval: self

@@ -3,7 +3,9 @@
 //! measurement.
 
 use super::{FRAME_OVERHEAD, RECENT_IMAGES, SimCamera};
-use crate::render::{CameraPose, Disturbances, render};
+use crate::pose::CameraPose;
+#[cfg(feature = "render")]
+use crate::render::{Disturbances, render};
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::meta::{ImageMeta, insert_meta};
 use fleetmap_core::vision::onboard::{OnboardMeasurement, OnboardSpec};
@@ -57,7 +59,7 @@ pub struct CaptureContext {
 /// z down) into the local NED frame: ZYX Euler angles in degrees — roll right wing down,
 /// pitch nose up, yaw clockwise from north — as ATTITUDE / AHRS give them. This is what
 /// CAMERA_IMAGE_CAPTURED.q carries for a camera fixed to the airframe looking down, the
-/// pose the image was rendered at ([`crate::render`] tilts the view by the same roll
+/// pose the image was rendered at (`crate::render` tilts the view by the same roll
 /// and pitch).
 pub fn attitude_quaternion(roll_deg: f64, pitch_deg: f64, yaw_deg: f64) -> [f32; 4] {
     let (sr, cr) = (roll_deg.to_radians() / 2.0).sin_cos();
@@ -131,6 +133,7 @@ impl SimCamera {
             self.shots.push_back(shot);
             return;
         }
+        #[cfg(feature = "render")]
         let img = world.map(|w| {
             let dist = Disturbances {
                 swap_tiles: misclassified,
@@ -138,6 +141,9 @@ impl SimCamera {
             };
             render(w, &ctx.true_pose, &self.config.model, ctx.world_t_s, &dist)
         });
+        // built without the renderer: a camera that is not external has no picture to give
+        #[cfg(not(feature = "render"))]
+        let img: Option<RgbImage> = world.and(None);
         self.finish(shot, img.as_ref());
     }
 

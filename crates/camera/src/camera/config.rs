@@ -6,7 +6,7 @@ use fleetmap_core::vision::onboard::OnboardSpec;
 // named in the documentation only
 #[cfg(doc)]
 use super::{RECENT_IMAGES, Shot, SimCamera};
-#[cfg(doc)]
+#[cfg(all(doc, feature = "render"))]
 use crate::render::Disturbances;
 
 /// How captured images leave the vehicle.

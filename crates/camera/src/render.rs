@@ -21,6 +21,7 @@
 //! tiles with the grey tiles' texture and the grey tiles with the green ones', so the GCS's
 //! green-share measurement of that image says the other class.
 
+use crate::pose::CameraPose;
 use fleetmap_core::vision::camera::CameraModel;
 use fleetmap_core::world::{Surface, World};
 use image::RgbImage;
@@ -28,23 +29,6 @@ use rand::RngExt;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
-
-/// Where the camera is and how it is oriented.
-#[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct CameraPose {
-    /// Latitude of the camera, degrees.
-    pub lat: f64,
-    /// Longitude of the camera, degrees.
-    pub lon: f64,
-    /// Height above the ground, metres.
-    pub alt_agl_m: f64,
-    /// Heading (image up), degrees clockwise from north.
-    pub heading_deg: f64,
-    /// Roll, degrees (right side down positive).
-    pub roll_deg: f64,
-    /// Pitch, degrees (nose up positive).
-    pub pitch_deg: f64,
-}
 
 /// The per-image disturbances, drawn from a seed by [`Disturbances::draw`].
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]

@@ -56,7 +56,7 @@
 //! `MAVLink_routing::check_and_forward`; PX4 passes on two frames per loop of the outgoing
 //! instance, `Mavlink::pass_message`). Each autopilot has its own, so each camera gets the
 //! whole rate, provided its frames go through its own autopilot: the shell sends camera k's
-//! frames to the address autopilot k was last heard from ([`crate::server::serve_paired`]),
+//! frames to the address autopilot k was last heard from ([`crate::serve`]),
 //! as a camera wired to that autopilot's serial port would. Sharing one rate among the N
 //! cameras would make every picture N times slower to arrive for no link's sake. What the
 //! cameras do share is the GCS's own port, which gets N × the rate: a UDP socket on the GCS
@@ -78,7 +78,7 @@
 #![allow(deprecated)]
 
 use crate::camera::{CameraConfig, CaptureContext, CapturedImage, Shot, SimCamera};
-use crate::render::CameraPose;
+use crate::pose::CameraPose;
 use fleetmap_core::proto::CAMERA_COMPID;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;

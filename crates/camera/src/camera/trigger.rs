@@ -30,7 +30,7 @@ impl SimCamera {
     }
 
     /// Take one picture as soon as possible.
-    pub(crate) fn trigger(&mut self) {
+    pub fn trigger(&mut self) {
         self.pending += 1;
     }
 
@@ -56,13 +56,13 @@ impl SimCamera {
     }
 
     /// Stop interval and distance triggering.
-    pub(crate) fn stop_capture(&mut self) {
+    pub fn stop_capture(&mut self) {
         self.interval = None;
         self.trigger_dist = None;
     }
 
     /// Trigger every `meters` of horizontal travel (0 stops), from position (e, n).
-    pub(crate) fn set_trigger_distance(&mut self, meters: f64, pos: (f64, f64)) {
+    pub fn set_trigger_distance(&mut self, meters: f64, pos: (f64, f64)) {
         self.trigger_dist = if meters > 0.0 && meters.is_finite() {
             Some((meters, pos))
         } else {
