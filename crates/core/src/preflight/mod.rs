@@ -210,8 +210,6 @@ fn is(v: Option<&f32>, x: i64) -> bool {
 /// Every finding about the fleet `vehicles` flying `def` from a ground station of system id
 /// `gcs` (255 unless the operator chose another), blockers first, then by vehicle.
 pub fn check(def: &MissionDef, vehicles: &[VehicleReport], gcs: u8) -> Vec<Finding> {
-    #[allow(non_snake_case)]
-    let GCS_SYSID = gcs;
     let mut out = Vec::new();
     let mut add = |severity, check, sysid, what: String, fix: String| {
         out.push(Finding {
@@ -281,9 +279,9 @@ pub fn check(def: &MissionDef, vehicles: &[VehicleReport], gcs: u8) -> Vec<Findi
                         id,
                         format!(
                             "accepts MAVLink only from ground station id {g} ({p} {g} with \
-                             the only-from-GCS option on); fleetmap is {GCS_SYSID}"
+                             the only-from-GCS option on); fleetmap is {gcs}"
                         ),
-                        format!("param set {p} {GCS_SYSID}"),
+                        format!("param set {p} {gcs}"),
                     ),
                     Some((false, false, g, p)) => add(
                         Severity::Warning,
@@ -291,9 +289,9 @@ pub fn check(def: &MissionDef, vehicles: &[VehicleReport], gcs: u8) -> Vec<Findi
                         id,
                         format!(
                             "takes ground station id {g} for its GCS ({p}); fleetmap's \
-                             heartbeats ({GCS_SYSID}) do not count for its GCS failsafe"
+                             heartbeats ({gcs}) do not count for its GCS failsafe"
                         ),
-                        format!("param set {p} {GCS_SYSID}"),
+                        format!("param set {p} {gcs}"),
                     ),
                     None if deaf => add(
                         Severity::Blocker,
@@ -302,12 +300,12 @@ pub fn check(def: &MissionDef, vehicles: &[VehicleReport], gcs: u8) -> Vec<Findi
                         format!(
                             "answers none of fleetmap's parameter reads ({}): it accepts \
                              MAVLink only from another ground station id (MAV_OPTIONS bit 0 \
-                             with MAV_GCS_SYSID not {GCS_SYSID}), or nothing reaches it",
+                             with MAV_GCS_SYSID not {gcs}), or nothing reaches it",
                             r.unread.len()
                         ),
                         format!(
                             "from a GCS it accepts (e.g. MAVProxy --source-system=ITS_GCS_ID): \
-                             param set {MAV_GCS_SYSID} {GCS_SYSID}; or check the link's uplink"
+                             param set {MAV_GCS_SYSID} {gcs}; or check the link's uplink"
                         ),
                     ),
                     _ => {}
