@@ -32,6 +32,18 @@ pub enum RunError {
         /// What showed it.
         evidence: String,
     },
+    /// The fleet check found what would make the run fail (`app::preflight`): the run
+    /// does not start unless the operator overrides it with `--ignore-check`.
+    #[error(
+        "REFUSED: the fleet check found {blockers} blocker(s); nothing was uploaded, armed or \
+         switched. Fix them, or start anyway with --ignore-check.\n{report}"
+    )]
+    CheckFailed {
+        /// How many blockers.
+        blockers: usize,
+        /// Every finding, as printed.
+        report: String,
+    },
     /// A vehicle of the run stayed silent.
     #[error("no heartbeat from system {sysid} within {wait_s:.0} s")]
     NotHeard {

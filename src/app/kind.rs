@@ -160,6 +160,8 @@ pub struct RunSettings {
     /// draws it, milliseconds since the Unix epoch (the demo's simulator start; `None`: the
     /// run's start).
     pub roi_epoch_unix_ms: Option<u64>,
+    /// Start even when the fleet check (`app::preflight`) finds a blocker (`--ignore-check`).
+    pub ignore_check: bool,
 }
 
 impl Default for RunSettings {
@@ -171,6 +173,7 @@ impl Default for RunSettings {
             lock_step: None,
             plan_time_limit_s: None,
             roi_epoch_unix_ms: None,
+            ignore_check: false,
         }
     }
 }

@@ -128,6 +128,8 @@ pub(crate) async fn prepare<K: RunKind>(
     match start {
         Start::New(new) => {
             let new = *new;
+            // the fleet check, before anything is created, uploaded or armed
+            crate::app::preflight::gate(fleet, &new.def, wait, settings.ignore_check).await?;
             let state = K::new_state(fleet, &new.def, settings, wait).await?;
             let (dir, meta) = new.plan(K::KIND, connections, fleetmap_io::clock::unix_ms());
             let line = K::started_line(&dir, &state);
@@ -158,6 +160,13 @@ pub(crate) async fn prepare<K: RunKind>(
             let mut state = loaded.ok_or_else(|| RunError::NoState { path: path.clone() })?;
             if K::is_finished(&state) {
                 return Err(RunError::Finished { path });
+            }
+            let at = run_dir.path().to_path_buf();
+            let def = cpu(move || RunDir::open(&at).map(|rd| rd.mission_text())).await?;
+            if let Ok(Ok(Some(text))) = def
+                && let Ok(def) = MissionDef::parse(&text, "mission.toml")
+            {
+                crate::app::preflight::gate(fleet, &def, wait, settings.ignore_check).await?;
             }
             let line = K::prepare_resume(fleet, &mut state, settings, wait).await?;
             Ok(Ready {

@@ -24,6 +24,7 @@ pub mod images;
 pub mod kind;
 pub mod kinds;
 pub(crate) mod launch;
+pub(crate) mod preflight;
 pub mod run;
 pub mod runway;
 pub(crate) mod session;

@@ -1,6 +1,9 @@
 //! `fleetmap check MISSION.toml`: validate a mission definition file and print a short
 //! summary (exit 0), or every error as `file:line:column: key: message` (exit 1).
 //! `--json` prints the parsed definition as JSON instead (or `{"errors": [...]}`).
+//!
+//! `fleetmap check --connect CONN MISSION.toml` then checks the fleet the mission would fly
+//! (`app::preflight`, docs/fleet-check.md): every finding with its fix, exit 1 on a blocker.
 
 use clap::Args;
 use fleetmap_core::mission::definition::{DefErrors, MissionDef, MissionKind, Origin, SweepBox};
@@ -17,18 +20,40 @@ pub struct CheckArgs {
     /// `{"errors": [{"file", "line", "column", "path", "message"}, ...]}`.
     #[arg(long)]
     pub json: bool,
+    /// Also check the fleet on these links before take-off (system ids, the ground-station
+    /// id each autopilot obeys, failsafes, return altitudes, geofence, cameras, telemetry
+    /// against the link): every finding with its fix, exit status 1 on a blocker.
+    #[arg(long = "connect", value_name = "CONN")]
+    pub connect: Vec<fleetmap_io::link::ConnSpec>,
+    /// With --connect: what every vehicle's link carries (as for `fleetmap run`).
+    #[arg(long, value_name = "LINK", requires = "connect")]
+    pub link: Option<fleetmap_core::budget::LinkBudget>,
+    /// With --connect: our MAVLink system id (255 by default, as for `fleetmap run`).
+    #[arg(long, value_name = "ID", requires = "connect", value_parser = clap::value_parser!(u8).range(1..))]
+    pub gcs_sysid: Option<u8>,
+    /// With --connect: wait this long for every vehicle's heartbeat, seconds.
+    #[arg(
+        long,
+        value_name = "SECONDS",
+        default_value_t = 30.0,
+        requires = "connect"
+    )]
+    pub wait: f64,
 }
 
 /// Validate the file and report.
 pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
     match fleetmap_io::files::load_mission(&args.mission) {
         Ok(def) => {
-            if args.json {
+            if args.json && args.connect.is_empty() {
                 println!("{}", serde_json::to_string_pretty(&def)?);
-            } else {
+            } else if !args.json {
                 print!("{}", summary(&def, &args.mission.display().to_string()));
             }
-            Ok(ExitCode::SUCCESS)
+            if args.connect.is_empty() {
+                return Ok(ExitCode::SUCCESS);
+            }
+            check_fleet(&args, &def)
         }
         Err(errors) => {
             if args.json {
@@ -46,6 +71,36 @@ pub fn run(args: CheckArgs) -> anyhow::Result<ExitCode> {
             Ok(ExitCode::FAILURE)
         }
     }
+}
+
+/// `--connect`: check the fleet on the links, print the findings (JSON with `--json`).
+fn check_fleet(args: &CheckArgs, def: &MissionDef) -> anyhow::Result<ExitCode> {
+    if !(args.wait.is_finite() && args.wait >= 0.0) {
+        anyhow::bail!("--wait must be a non-negative number of seconds");
+    }
+    let wait = std::time::Duration::from_secs_f64(args.wait);
+    let mut conn = crate::cli::vehicles::ConnectArgs::defaults(args.connect.clone());
+    conn.link = args.link;
+    if let Some(id) = args.gcs_sysid {
+        conn.gcs_sysid = id;
+    }
+    let conn = conn.with_mission_links(def);
+    let findings = crate::cli::vehicles::block_on(async move {
+        let session = crate::cli::vehicles::Session::open(&conn).await?;
+        let findings = crate::app::preflight::run_check(&session.fleet, def, wait, wait).await;
+        session.close().await?;
+        anyhow::Ok(findings)
+    })??;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&findings)?);
+    } else {
+        print!("{}", crate::app::preflight::render(&findings));
+    }
+    Ok(if fleetmap_core::preflight::blockers(&findings) > 0 {
+        ExitCode::FAILURE
+    } else {
+        ExitCode::SUCCESS
+    })
 }
 
 fn errors_json(errors: &DefErrors) -> serde_json::Value {

@@ -48,6 +48,9 @@ pub struct DemoArgs {
     /// vehicle waits for "battery swapped — resume" (`b`). Default: both by themselves.
     #[arg(long)]
     pub manual: bool,
+    /// Start even when the fleet check before take-off finds a blocker (docs/fleet-check.md).
+    #[arg(long)]
+    pub ignore_check: bool,
     /// Fly over this world instead of the built-in runway (its default homes must put the
     /// region inside the mission's sweep box).
     #[arg(long, value_name = "FILE")]
@@ -211,6 +214,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         let settings = RunSettings {
             auto_resume: !args.manual,
             roi_epoch_unix_ms: Some(d.started_unix_ms),
+            ignore_check: args.ignore_check,
             ..RunSettings::default()
         };
         let succeeded = |outcome: &Outcome, r: &MappingReport| {
@@ -456,7 +460,10 @@ pub(crate) fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
         let succeeded = |_: &Outcome, r: &ClassificationReport| {
             r.finished && r.interesting_truth.as_ref() == Some(&r.keep)
         };
-        let settings = RunSettings::default();
+        let settings = RunSettings {
+            ignore_check: args.ignore_check,
+            ..RunSettings::default()
+        };
         demo.fly::<Classification>(d.fleet, d.sim, &settings, summary, succeeded)
             .await
     })?

@@ -22,6 +22,14 @@ pub struct SimArgs {
     /// port. Repeatable.
     #[arg(long = "sysid", value_name = "K=ID")]
     pub(crate) sysids: Vec<String>,
+    /// Set parameter NAME of vehicle K to VALUE over its autopilot's defaults
+    /// (`--param 1:MAV_OPTIONS=1`): what a ground station reads with PARAM_REQUEST_READ, and
+    /// for ArduPilot's MAV_OPTIONS / MAV_GCS_SYSID which ground station it obeys. Repeatable.
+    #[arg(long = "param", value_name = "K:NAME=VALUE")]
+    pub(crate) params: Vec<String>,
+    /// Vehicle K has no camera component (a drone whose camera is off). Repeatable.
+    #[arg(long = "no-camera", value_name = "K")]
+    pub(crate) no_camera: Vec<usize>,
     /// Where to serve them: `udpout:HOST:PORT` or `udp:HOST:PORT` (each vehicle from its own
     /// socket), `udpin:HOST:PORT` / `tcpin:HOST:PORT` (vehicle k on PORT+k−1); repeat once
     /// per vehicle for explicit endpoints.
@@ -184,6 +192,37 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
         match parsed {
             Some((k, id)) if id > 0 => cfg = cfg.with_sysid(k, id)?,
             _ => bail!("--sysid {s:?}: give VEHICLE=ID, e.g. 2=1 (ID 1–255)"),
+        }
+    }
+    for s in &args.params {
+        let parsed = s.split_once(':').and_then(|(k, kv)| {
+            let (name, value) = kv.split_once('=')?;
+            Some((
+                k.trim().parse::<usize>().ok()?,
+                name.trim().to_string(),
+                value.trim().parse::<f32>().ok()?,
+            ))
+        });
+        match parsed {
+            Some((k, name, value))
+                if (1..=cfg.vehicles.len()).contains(&k)
+                    && !name.is_empty()
+                    && name.len() <= 16
+                    && value.is_finite() =>
+            {
+                cfg.vehicles[k - 1].params.push((name, value));
+            }
+            _ => bail!(
+                "--param {s:?}: give VEHICLE:NAME=VALUE, e.g. 1:MAV_OPTIONS=1 (vehicle 1–{}, \
+                 a name of at most 16 characters)",
+                cfg.vehicles.len()
+            ),
+        }
+    }
+    for &k in &args.no_camera {
+        match cfg.vehicles.get_mut(k.wrapping_sub(1)) {
+            Some(v) => v.camera = None,
+            None => bail!("--no-camera {k}: no vehicle {k}"),
         }
     }
     let faults = args.faults.faults()?;

@@ -92,6 +92,10 @@ pub struct TuiArgs {
     /// LIVE: take off again by itself after a battery swap (otherwise: `b`).
     #[arg(long)]
     pub auto_resume: bool,
+    /// LIVE: start even when the fleet check before take-off finds a blocker
+    /// (docs/fleet-check.md).
+    #[arg(long)]
+    pub ignore_check: bool,
     /// LIVE: what every vehicle's link carries (`radio:BYTES`, `radio`, `unlimited`; as for
     /// `fleetmap run`). Default: the mission file's `link`.
     #[arg(long, value_name = "LINK")]
@@ -344,6 +348,7 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
     let live = Live {
         settings: RunSettings {
             auto_resume: args.auto_resume,
+            ignore_check: args.ignore_check,
             ..Default::default()
         },
         config: crate::app::session::SessionConfig {

@@ -10,6 +10,7 @@
 //! | [`budget`] | what a vehicle's link carries (a telemetry radio's bytes per second) |
 //! | [`geo`] | mission grid, cell ↔ UTM ↔ WGS84, polygons → cells |
 //! | [`mission`] | mission items, mission definition files, QGC file formats |
+//! | [`preflight`] | the fleet check before take-off: findings (blocker / warning) with their fixes |
 //! | [`proto`] | sans-IO MAVLink micro-services, autopilot flavours and modes, image transmission |
 //! | [`vision`] | the runway classifier, votes, green-pixel measurements, camera geometry |
 //! | [`explore`] | lawnmower sweep and the multi-robot recursive DFS |
@@ -26,6 +27,7 @@ pub mod explore;
 pub mod geo;
 pub mod mission;
 pub mod planner;
+pub mod preflight;
 pub mod proto;
 pub mod time;
 pub mod vision;

@@ -53,6 +53,11 @@ pub struct RunnerArgs {
     /// Spatial classification: HiGHS time limit per integer-program solve, seconds.
     #[arg(long, value_name = "SECONDS")]
     pub(crate) plan_time_limit: Option<f64>,
+    /// Start even when the fleet check before take-off finds a blocker (a duplicate system
+    /// id, an autopilot that obeys another ground station, a drone without a camera): the
+    /// findings are still printed (docs/fleet-check.md).
+    #[arg(long)]
+    pub ignore_check: bool,
 }
 
 impl RunnerArgs {
@@ -65,6 +70,7 @@ impl RunnerArgs {
             lock_step: self.lock_step.then_some(true),
             plan_time_limit_s: self.plan_time_limit,
             roi_epoch_unix_ms: None,
+            ignore_check: self.ignore_check,
         }
     }
 }

@@ -22,6 +22,8 @@
 //! * [`uplink`] — what the GCS sends a vehicle over a radio, most urgent first and paced.
 //! * [`sysid_conflict`] — two autopilots answering as one system id on one link, told from
 //!   their sequence counters and heartbeats.
+//! * [`params`] — reading a few parameters by name (PARAM_REQUEST_READ), retried with
+//!   back-off over a lossy link.
 //! * [`image_transfer`] — receiving pictures by MAVLink image transmission
 //!   (DATA_TRANSMISSION_HANDSHAKE + ENCAPSULATED_DATA), with re-requests on a lossy link.
 
@@ -34,6 +36,7 @@ pub mod image_transfer;
 pub mod launch;
 pub mod mission;
 pub mod mode;
+pub mod params;
 pub mod severity;
 pub mod sysid_conflict;
 pub mod telemetry;

@@ -86,6 +86,7 @@ mod geofence;
 mod messages;
 mod mission;
 mod modes;
+mod params;
 mod power;
 mod streams;
 mod telemetry;
@@ -252,6 +253,10 @@ pub struct VehicleConfig {
     /// until a person fixes it; `None`: it passes): a vehicle that refuses to arm, for the
     /// ground station's handling of one that cannot start.
     pub compass_fault_until_s: Option<f64>,
+    /// Parameters set over the autopilot's defaults (name, value), as a person would have
+    /// set them before the flight: what a ground station reads with PARAM_REQUEST_READ
+    /// (`params`). Empty: the defaults of ArduPilot 4.7 SITL / PX4 1.16.
+    pub params: Vec<(String, f32)>,
 }
 
 impl VehicleConfig {
@@ -308,6 +313,7 @@ impl VehicleConfig {
             power_off_s: 3.0,
             px4_link: Px4Link::NETWORK,
             compass_fault_until_s: None,
+            params: Vec::new(),
         }
     }
 }
@@ -366,6 +372,8 @@ pub struct SimVehicle {
     telemetry: Telemetry,
     camera: Option<SimCamera>,
     faults: Faults,
+    /// The parameters it answers for (`params`).
+    params: Vec<params::Param>,
 }
 
 /// The header of a frame `from` sends with sequence number `seq`.
@@ -451,6 +459,7 @@ impl SimVehicle {
                 link_counts: Default::default(),
                 terrain_request_at: None,
             },
+            params: params::table(&cfg),
             cfg,
             world,
             camera,
@@ -615,6 +624,12 @@ impl SimVehicle {
         }
         self.telemetry.link_counts.received = self.telemetry.link_counts.received.wrapping_add(1);
         let from = Endpoint::of(h);
+        if self.refuses_sender(from.sysid, msg) {
+            return;
+        }
+        if self.handle_param_message(msg) {
+            return;
+        }
         if let MavMessage::HEARTBEAT(hb) = msg
             && hb.mavtype == mav::MavType::MAV_TYPE_GCS
         {

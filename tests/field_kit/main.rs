@@ -1,0 +1,10 @@
+//! The field kit's end-to-end tests in one test binary (every test binary is one more link of
+//! the whole crate on CI's two cores, about 40 s each).
+//!
+//! * `fleet_check`: `fleetmap check --connect` and the check at a run's start, against
+//!   `fleetmap sim` with one mistake per vehicle (docs/fleet-check.md).
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod fleet_check;
