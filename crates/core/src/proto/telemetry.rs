@@ -130,6 +130,20 @@ pub const WANTED: &[Wanted] = &[
 /// its camera's HEARTBEAT (21 bytes at 1 Hz each).
 pub const HEARTBEATS_BYTES_PER_S: f64 = 42.0;
 
+/// TERRAIN_REQUEST's message id. ArduPilot schedules TERRAIN_REQUEST and TERRAIN_REPORT as one
+/// message, `MSG_TERRAIN` (`GCS_MAVLINK::mavlink_id_to_ap_message_id`), in the EXTRA3 group:
+/// each time it is due the vehicle sends a TERRAIN_REPORT and, when it lacks terrain and did
+/// not ask in the last 2 s, a TERRAIN_REQUEST (`AP_Terrain::send_request`, `TerrainGCS.cpp`).
+pub const TERRAIN_REQUEST: u32 = 133;
+/// TERRAIN_REPORT's message id (sent with [`TERRAIN_REQUEST`]; stopping it stops both).
+pub const TERRAIN_REPORT: u32 = 136;
+/// How often a vehicle served terrain on a radio is asked for `MSG_TERRAIN`, Hz.
+pub const TERRAIN_HZ: f64 = 1.0;
+/// What `MSG_TERRAIN` at [`TERRAIN_HZ`] costs on the wire, bytes per second: a TERRAIN_REPORT
+/// (22-byte payload, 34 bytes) each time, and a TERRAIN_REQUEST (18-byte payload, 30 bytes)
+/// at most every 2 s.
+pub const TERRAIN_BYTES_PER_S: f64 = 34.0 * TERRAIN_HZ + 30.0 / 2.0;
+
 /// Telemetry the GCS asked for and has not heard for this long counts as missing: it asks
 /// again.
 pub const STREAMS_STALE: Duration = Duration::from_secs(5);
@@ -151,8 +165,27 @@ pub struct StreamPlan {
 impl StreamPlan {
     /// The plan for a vehicle of `autopilot` on a link of `budget`.
     pub fn for_link(autopilot: Autopilot, budget: LinkBudget) -> StreamPlan {
+        Self::for_link_terrain(autopilot, budget, false)
+    }
+
+    /// [`StreamPlan::for_link`], for a GCS that serves terrain (`terrain`): an ArduPilot
+    /// vehicle on a radio is also asked for [`TERRAIN_REQUEST`] at [`TERRAIN_HZ`] — the
+    /// groups it would otherwise come in are stopped there — and its cost,
+    /// [`TERRAIN_BYTES_PER_S`], comes out of the telemetry's share first; TERRAIN_REPORT
+    /// counts as asked for too, so it is never stopped. On an unlimited link it comes with
+    /// EXTRA3 as before.
+    pub fn for_link_terrain(autopilot: Autopilot, budget: LinkBudget, terrain: bool) -> StreamPlan {
+        let terrain = terrain && autopilot == Autopilot::ArduPilot;
         match budget.telemetry_bytes_per_s() {
             None => Self::unlimited(autopilot),
+            Some(share) if terrain => {
+                let mut plan = Self::within(autopilot, share - TERRAIN_BYTES_PER_S);
+                plan.intervals
+                    .push((TERRAIN_REQUEST, (1e6 / TERRAIN_HZ).round() as f32));
+                plan.expected_bytes_per_s =
+                    plan.expected_bytes_per_s.map(|b| b + TERRAIN_BYTES_PER_S);
+                plan
+            }
             Some(share) => Self::within(autopilot, share),
         }
     }
@@ -216,11 +249,16 @@ impl StreamPlan {
 
     /// The message ids the plan asks for by interval (and not to stop).
     pub fn asked(&self) -> BTreeSet<u32> {
-        self.intervals
+        let mut ids: BTreeSet<u32> = self
+            .intervals
             .iter()
             .filter(|(_, us)| *us > 0.0)
             .map(|(id, _)| *id)
-            .collect()
+            .collect();
+        if ids.contains(&TERRAIN_REQUEST) {
+            ids.insert(TERRAIN_REPORT); // the same `MSG_TERRAIN`
+        }
+        ids
     }
 }
 
@@ -432,6 +470,49 @@ mod tests {
             LinkBudget::Radio { bytes_per_s: 1000 },
         );
         assert!((cost(&plan) - 400.0).abs() < 1.0, "{}", cost(&plan));
+    }
+
+    /// Serving terrain on a radio: MSG_TERRAIN is asked for, paid for out of the same share,
+    /// and neither of its messages is ever stopped; elsewhere nothing changes.
+    #[test]
+    fn terrain_served_on_a_radio_is_asked_for_counted_and_never_stopped() {
+        let budget = LinkBudget::radio();
+        let share = budget.telemetry_bytes_per_s().unwrap();
+        let plan = StreamPlan::for_link_terrain(Autopilot::ArduPilot, budget, true);
+        assert!(plan.intervals.contains(&(TERRAIN_REQUEST, 1e6)));
+        assert!(cost(&plan) <= share + 1e-6, "{}", cost(&plan));
+        let without = StreamPlan::for_link(Autopilot::ArduPilot, budget);
+        assert!(!without.asked().contains(&TERRAIN_REQUEST));
+        // on a slow radio the telemetry gives way to it
+        let slow = LinkBudget::Radio { bytes_per_s: 1000 };
+        let plan_slow = StreamPlan::for_link_terrain(Autopilot::ArduPilot, slow, true);
+        assert!(
+            (cost(&plan_slow) - 400.0).abs() < 1.0,
+            "{}",
+            cost(&plan_slow)
+        );
+        let mut u = Unwanted::new(plan.asked());
+        let t = |ms: u64| Time::from_millis(ms);
+        for k in 0..30 {
+            u.handle_message(TERRAIN_REPORT, t(k * 1000));
+            u.handle_message(TERRAIN_REQUEST, t(k * 2000));
+        }
+        assert_eq!(u.poll_stop(), None);
+        // without terrain, a TERRAIN_REPORT streaming on a radio is stopped as before
+        let mut u = Unwanted::new(without.asked());
+        for k in 0..3 {
+            u.handle_message(TERRAIN_REPORT, t(k * 1000));
+        }
+        assert_eq!(u.poll_stop(), Some(TERRAIN_REPORT));
+        // PX4 and unlimited links are untouched
+        assert_eq!(
+            StreamPlan::for_link_terrain(Autopilot::Px4, budget, true),
+            StreamPlan::for_link(Autopilot::Px4, budget)
+        );
+        assert_eq!(
+            StreamPlan::for_link_terrain(Autopilot::ArduPilot, LinkBudget::Unlimited, true),
+            StreamPlan::for_link(Autopilot::ArduPilot, LinkBudget::Unlimited)
+        );
     }
 
     #[test]
