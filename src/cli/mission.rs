@@ -480,7 +480,7 @@ async fn fly(
     if terrain_items > 0 && v.flavour.autopilot == Autopilot::ArduPilot {
         match terrain {
             Some(t) => {
-                let limit = remaining("waiting for terrain")?.min(TERRAIN_WAIT);
+                let limit = remaining("waiting for terrain")?;
                 wait_for_terrain(json, sysid, t, limit).await?;
             }
             None => say(
@@ -688,12 +688,14 @@ async fn fly(
     Ok(())
 }
 
-/// How long `fly` waits for a vehicle's terrain before it gives up.
-const TERRAIN_WAIT: Duration = Duration::from_secs(120);
+/// How long `fly` waits for a vehicle's terrain to make progress before it gives up: no
+/// TERRAIN_REPORT that changed, and no square sent, for this long.
+const TERRAIN_STALL: Duration = Duration::from_secs(30);
 
 /// Wait until vehicle `sysid` reports its terrain complete (TERRAIN_REPORT with nothing
-/// pending and something loaded), printing its progress; fail with what it waits for when
-/// no tile has it (and the vehicle still lacks it 10 s later), or after `limit`.
+/// pending and something loaded), printing its progress at most every 5 s; fail with what it
+/// waits for when no tile has it (and the vehicle still lacks it 10 s later), when nothing
+/// moved for [`TERRAIN_STALL`], or after `limit` (what is left of `--timeout`).
 async fn wait_for_terrain(
     json: bool,
     sysid: u8,
@@ -704,6 +706,8 @@ async fn wait_for_terrain(
     let started = Instant::now();
     let mut last: Option<(u16, u16)> = None;
     let mut waiting_since: Option<Instant> = None;
+    let mut printed: Option<Instant> = None;
+    let mut moved = (Instant::now(), 0u64);
     say(
         json,
         "terrain",
@@ -716,25 +720,43 @@ async fn wait_for_terrain(
     loop {
         let v = rx.borrow_and_update().vehicles.get(&sysid).cloned();
         if let Some(v) = &v {
+            if v.report != last || v.squares_sent != moved.1 {
+                moved = (Instant::now(), v.squares_sent);
+            }
             if v.report != last
                 && let Some((pending, loaded)) = v.report
             {
                 last = v.report;
-                say(
-                    json,
-                    "terrain",
-                    format!(
-                        "terrain: {pending} squares pending, {loaded} loaded ({} sent)",
-                        v.squares_sent
-                    ),
-                    serde_json::json!({"pending": pending, "loaded": loaded, "sent": v.squares_sent}),
-                );
-                if pending == 0 && loaded > 0 {
+                let done = pending == 0 && loaded > 0;
+                // a line every 5 s at most, and the last one
+                let quiet =
+                    !done && printed.is_some_and(|p: Instant| p.elapsed() < Duration::from_secs(5));
+                if !quiet {
+                    printed = Some(Instant::now());
+                    say(
+                        json,
+                        "terrain",
+                        format!(
+                            "terrain: {pending} squares pending, {loaded} loaded ({} sent)",
+                            v.squares_sent
+                        ),
+                        serde_json::json!({"pending": pending, "loaded": loaded, "sent": v.squares_sent}),
+                    );
+                }
+                if done {
                     return Ok(());
                 }
             }
             match (&v.waiting, waiting_since) {
-                (Some(_), None) => waiting_since = Some(Instant::now()),
+                (Some(line), None) => {
+                    waiting_since = Some(Instant::now());
+                    say(
+                        json,
+                        "terrain_missing",
+                        line.clone(),
+                        serde_json::json!({"sysid": sysid}),
+                    );
+                }
                 (None, _) => waiting_since = None,
                 (Some(line), Some(since)) if since.elapsed() > Duration::from_secs(10) => {
                     bail!("{line}");
@@ -744,14 +766,17 @@ async fn wait_for_terrain(
         }
         let left = limit
             .checked_sub(started.elapsed())
-            .filter(|d| !d.is_zero());
+            .filter(|d| !d.is_zero() && moved.0.elapsed() < TERRAIN_STALL);
         let Some(left) = left else {
             let what = v.and_then(|v| v.waiting).unwrap_or_else(|| {
                 format!(
                     "vehicle {sysid} still lacks terrain (last report: {last:?} pending/loaded)"
                 )
             });
-            bail!("no terrain after {:.0} s: {what}", limit.as_secs_f64());
+            bail!(
+                "no terrain after {:.0} s: {what}",
+                started.elapsed().as_secs_f64()
+            );
         };
         let _ = tokio::time::timeout(left.min(Duration::from_secs(1)), rx.changed()).await;
     }

@@ -130,18 +130,19 @@ pub const WANTED: &[Wanted] = &[
 /// its camera's HEARTBEAT (21 bytes at 1 Hz each).
 pub const HEARTBEATS_BYTES_PER_S: f64 = 42.0;
 
-/// TERRAIN_REQUEST's message id. ArduPilot schedules TERRAIN_REQUEST and TERRAIN_REPORT as one
-/// message, `MSG_TERRAIN` (`GCS_MAVLINK::mavlink_id_to_ap_message_id`), in the EXTRA3 group:
-/// each time it is due the vehicle sends a TERRAIN_REPORT and, when it lacks terrain and did
-/// not ask in the last 2 s, a TERRAIN_REQUEST (`AP_Terrain::send_request`, `TerrainGCS.cpp`).
+/// TERRAIN_REQUEST's message id. ArduPilot sends it from its EXTRA3 group or when asked by
+/// SET_MESSAGE_INTERVAL (`ap_message` MSG_TERRAIN_REQUEST), at most every 2 s, and only while
+/// it lacks terrain (`AP_Terrain::send_request`, `TerrainGCS.cpp`).
 pub const TERRAIN_REQUEST: u32 = 133;
-/// TERRAIN_REPORT's message id (sent with [`TERRAIN_REQUEST`]; stopping it stops both).
+/// TERRAIN_REPORT's message id: how many squares the vehicle waits for and has. A message of
+/// its own (MSG_TERRAIN_REPORT): ArduCopter 4.7 SITL asked for TERRAIN_REQUEST alone sent
+/// no TERRAIN_REPORT (docs/results/conformance.md, "Terrain served from tiles").
 pub const TERRAIN_REPORT: u32 = 136;
-/// How often a vehicle served terrain on a radio is asked for `MSG_TERRAIN`, Hz.
+/// How often a vehicle served terrain on a radio is asked for both, Hz.
 pub const TERRAIN_HZ: f64 = 1.0;
-/// What `MSG_TERRAIN` at [`TERRAIN_HZ`] costs on the wire, bytes per second: a TERRAIN_REPORT
+/// What they cost on the wire at [`TERRAIN_HZ`], bytes per second: a TERRAIN_REPORT
 /// (22-byte payload, 34 bytes) each time, and a TERRAIN_REQUEST (18-byte payload, 30 bytes)
-/// at most every 2 s.
+/// at most every 2 s while the vehicle lacks terrain.
 pub const TERRAIN_BYTES_PER_S: f64 = 34.0 * TERRAIN_HZ + 30.0 / 2.0;
 
 /// Telemetry the GCS asked for and has not heard for this long counts as missing: it asks
@@ -169,19 +170,19 @@ impl StreamPlan {
     }
 
     /// [`StreamPlan::for_link`], for a GCS that serves terrain (`terrain`): an ArduPilot
-    /// vehicle on a radio is also asked for [`TERRAIN_REQUEST`] at [`TERRAIN_HZ`] — the
-    /// groups it would otherwise come in are stopped there — and its cost,
-    /// [`TERRAIN_BYTES_PER_S`], comes out of the telemetry's share first; TERRAIN_REPORT
-    /// counts as asked for too, so it is never stopped. On an unlimited link it comes with
-    /// EXTRA3 as before.
+    /// vehicle on a radio is also asked for [`TERRAIN_REQUEST`] and [`TERRAIN_REPORT`] at
+    /// [`TERRAIN_HZ`] — the group they would otherwise come in is stopped there, so neither
+    /// is ever stopped — and their cost, [`TERRAIN_BYTES_PER_S`], comes out of the
+    /// telemetry's share first. On an unlimited link they come with EXTRA3 as before.
     pub fn for_link_terrain(autopilot: Autopilot, budget: LinkBudget, terrain: bool) -> StreamPlan {
         let terrain = terrain && autopilot == Autopilot::ArduPilot;
         match budget.telemetry_bytes_per_s() {
             None => Self::unlimited(autopilot),
             Some(share) if terrain => {
                 let mut plan = Self::within(autopilot, share - TERRAIN_BYTES_PER_S);
-                plan.intervals
-                    .push((TERRAIN_REQUEST, (1e6 / TERRAIN_HZ).round() as f32));
+                let us = (1e6 / TERRAIN_HZ).round() as f32;
+                plan.intervals.push((TERRAIN_REQUEST, us));
+                plan.intervals.push((TERRAIN_REPORT, us));
                 plan.expected_bytes_per_s =
                     plan.expected_bytes_per_s.map(|b| b + TERRAIN_BYTES_PER_S);
                 plan
@@ -249,16 +250,11 @@ impl StreamPlan {
 
     /// The message ids the plan asks for by interval (and not to stop).
     pub fn asked(&self) -> BTreeSet<u32> {
-        let mut ids: BTreeSet<u32> = self
-            .intervals
+        self.intervals
             .iter()
             .filter(|(_, us)| *us > 0.0)
             .map(|(id, _)| *id)
-            .collect();
-        if ids.contains(&TERRAIN_REQUEST) {
-            ids.insert(TERRAIN_REPORT); // the same `MSG_TERRAIN`
-        }
-        ids
+            .collect()
     }
 }
 
@@ -480,6 +476,7 @@ mod tests {
         let share = budget.telemetry_bytes_per_s().unwrap();
         let plan = StreamPlan::for_link_terrain(Autopilot::ArduPilot, budget, true);
         assert!(plan.intervals.contains(&(TERRAIN_REQUEST, 1e6)));
+        assert!(plan.intervals.contains(&(TERRAIN_REPORT, 1e6)));
         assert!(cost(&plan) <= share + 1e-6, "{}", cost(&plan));
         let without = StreamPlan::for_link(Autopilot::ArduPilot, budget);
         assert!(!without.asked().contains(&TERRAIN_REQUEST));
