@@ -68,6 +68,37 @@ pub fn offset(lat_e7: i32, lon_e7: i32, north_m: f64, east_m: f64) -> (f64, f64)
     )
 }
 
+/// Points between the corners of neighbouring blocks north and east
+/// (`TERRAIN_GRID_BLOCK_SPACING_X`, `_Y`): a block overlaps the next by one square's row.
+pub const BLOCK_STEP: (u32, u32) = (
+    (SQUARES_NORTH as u32 - 1) * SQUARE as u32,
+    (SQUARES_EAST as u32 - 1) * SQUARE as u32,
+);
+
+/// The south-west corner (1e-7 degrees) of the block ArduPilot keeps a location in, for
+/// points `spacing_m` apart (`AP_Terrain::calculate_grid_info`, `TerrainUtil.cpp`): blocks
+/// are laid from the whole degree south-west of the point, every [`BLOCK_STEP`] points, and
+/// the point's offset from that degree is measured as `Location::get_distance_NE` measures
+/// it. What a vehicle at that location asks for first.
+pub fn block_of(lat_e7: i32, lon_e7: i32, spacing_m: u16) -> (i32, i32) {
+    let deg = |v: i32| i64::from(v).div_euclid(10_000_000) * 10_000_000;
+    let (ref_lat, ref_lon) = (deg(lat_e7), deg(lon_e7));
+    let mid = (ref_lat as f64 + f64::from(lat_e7)) / 2.0 * 1e-7;
+    let scale = mid.to_radians().cos().max(0.01);
+    let north = (f64::from(lat_e7) - ref_lat as f64) * METRES_PER_E7;
+    let east = (f64::from(lon_e7) - ref_lon as f64) * METRES_PER_E7 * scale;
+    let s = f64::from(spacing_m.max(1));
+    let idx_x = (north / s) as u32 / BLOCK_STEP.0;
+    let idx_y = (east / s) as u32 / BLOCK_STEP.1;
+    // `Location::offset` from the degree, in whole 1e-7 degrees as ArduPilot keeps them
+    let dlat = (f64::from(idx_x * BLOCK_STEP.0) * s / METRES_PER_E7) as i64;
+    let half = (ref_lat + dlat / 2) as f64 * 1e-7;
+    let dlon = (f64::from(idx_y * BLOCK_STEP.1) * s
+        / METRES_PER_E7
+        / half.to_radians().cos().max(0.01)) as i64;
+    ((ref_lat + dlat) as i32, (ref_lon + dlon) as i32)
+}
+
 impl Request {
     /// The squares asked for, in bit order.
     pub fn gridbits(&self) -> impl Iterator<Item = u8> + '_ {
@@ -135,6 +166,24 @@ mod tests {
         // the last square's far corner: 27 points north, 31 east
         let far = r.square_points(55)[15];
         assert_eq!(far, offset(r.lat_e7, r.lon_e7, 2700.0, 3100.0));
+    }
+
+    /// ArduCopter 4.7 SITL at its CMAC home asked first for the block at
+    /// (-353747690, 1491548424), spacing 100, and then for the 8 around it
+    /// (docs/results/conformance.md, "Terrain served from tiles").
+    #[test]
+    fn blocks_are_where_ardupilot_lays_them() {
+        let (lat, lon) = block_of(-353_632_610, 1_491_652_300, 100);
+        assert!((lat - -353_747_690).abs() <= 1, "{lat}");
+        assert!((lon - 1_491_548_424).abs() <= 1, "{lon}");
+        // its northern neighbour: the corner 24 points north
+        let (lat2, lon2) = block_of(-353_532_093 + 10, 1_491_548_214 + 10, 100);
+        assert!((lat2 - -353_532_093).abs() <= 1, "{lat2}");
+        assert!((lon2 - 1_491_548_214).abs() <= 1, "{lon2}");
+        // northern hemisphere, east of Greenwich
+        let (lat3, lon3) = block_of(473_977_420, 85_455_940, 100);
+        assert!(lat3 <= 473_977_420 && lon3 <= 85_455_940);
+        assert!(473_977_420 - lat3 < 24 * 100 * 90 && 85_455_940 - lon3 < 28 * 100 * 140);
     }
 
     #[test]

@@ -1,0 +1,12 @@
+//! The field kit's end-to-end tests in one test binary: every test binary is one more link
+//! of the whole crate on CI's two cores (about 40 s each), so the kit's files share one.
+//!
+//! * `terrain`: QGroundControl plans whose altitudes need terrain fleetmap cannot compute,
+//!   refused before anything is sent; terrain served from SRTM tiles to the embedded
+//!   simulator (`fleetmap sim` + `fleetmap mission fly --terrain`), and a missing tile named
+//!   before take-off.
+
+#[path = "../common/mod.rs"]
+mod common;
+
+mod terrain;
