@@ -11,6 +11,7 @@
 //! | [`kind`] | one mission kind ([`kind::RunKind`]): what run, resume, report, export, the TUI session and the demo need of a runner |
 //! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume): events, pilot, intake, sweep, runner; its report and GeoJSON / KML / PNG exports, IoU against a simulated world |
 //! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume): events, runner, sortie, pilot, intake, upload; its report (keep / reject / errors, per-epoch figures) and the progress PNG (Fig. 4) |
+//! | [`terrain`] | terrain served from a folder of SRTM tiles: every vehicle's TERRAIN_REQUEST answered, what each waits for |
 //! | [`bandit_sim`] | the embedded simulator with drones and charging rovers (`fleetmap demo --bandit`, tests) |
 
 pub mod bandit;
@@ -28,6 +29,7 @@ pub(crate) mod preflight;
 pub mod run;
 pub mod runway;
 pub(crate) mod session;
+pub(crate) mod terrain;
 
 use crate::app::error::RunError;
 use crate::fleet::FleetHandle;

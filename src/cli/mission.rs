@@ -13,6 +13,7 @@
 //! when every navigation item was flown and the vehicle is down.
 
 use super::vehicles::{ConnectArgs, Session, block_on};
+use crate::app::terrain::TerrainService;
 use crate::fleet::{FleetError, FleetHandle, VehicleSnapshot};
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand, ValueEnum};
@@ -22,7 +23,7 @@ use fleetmap_core::mission::item::{cmd, frame};
 use fleetmap_core::mission::plan::{Plan, parse_plan, write_plan};
 use fleetmap_core::mission::wire::compare_items;
 use fleetmap_core::mission::wpl::{parse_wpl, write_wpl};
-use fleetmap_core::proto::flavour::takeoff_reached;
+use fleetmap_core::proto::flavour::{Autopilot, takeoff_reached};
 use fleetmap_core::proto::mission::MissionOutcome;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
@@ -118,6 +119,11 @@ pub enum MissionCommand {
         /// Give up if the whole flight takes longer, seconds.
         #[arg(long, value_name = "SECONDS", default_value_t = 1800.0)]
         timeout: f64,
+        /// Answer the vehicle's terrain requests (TERRAIN_REQUEST) from the SRTM tiles in this
+        /// folder (`N47E008.hgt` or `.hgt.zip`); a mission with terrain-frame items then
+        /// waits for the vehicle to have its terrain before it takes off (docs/terrain.md).
+        #[arg(long, value_name = "DIR")]
+        terrain: Option<PathBuf>,
     },
 }
 
@@ -320,11 +326,13 @@ pub fn run(args: MissionArgs) -> anyhow::Result<ExitCode> {
             })?
         }
         MissionCommand::Fly {
-            target,
+            mut target,
             file,
             takeoff_alt,
             timeout,
+            terrain,
         } => {
+            target.conn.terrain = terrain;
             if target.kind != ListType::Mission {
                 bail!("mission fly flies a mission (--type mission)");
             }
@@ -343,6 +351,7 @@ pub fn run(args: MissionArgs) -> anyhow::Result<ExitCode> {
                     items,
                     takeoff_alt,
                     Duration::from_secs_f64(timeout),
+                    s.terrain.as_ref(),
                 )
                 .await;
                 s.close().await?;
@@ -413,6 +422,7 @@ async fn fly(
     items: Vec<MissionItem>,
     takeoff_alt: Option<f32>,
     budget: Duration,
+    terrain: Option<&TerrainService>,
 ) -> anyhow::Result<()> {
     let json = target.conn.json;
     let sysid = target.sysid;
@@ -462,7 +472,31 @@ async fn fly(
         .find(|it| is_nav(it.command))
         .is_some_and(|it| it.command == cmd::NAV_LAND || it.command == cmd::NAV_RETURN_TO_LAUNCH);
 
-    // 2. Arm, take off in the right mode, start.
+    // 2. Terrain: an ArduPilot vehicle with terrain-frame items waits for its terrain.
+    let terrain_items = items
+        .iter()
+        .filter(|it| frame::is_terrain(it.frame))
+        .count();
+    if terrain_items > 0 && v.flavour.autopilot == Autopilot::ArduPilot {
+        match terrain {
+            Some(t) => {
+                let limit = remaining("waiting for terrain")?;
+                wait_for_terrain(json, sysid, t, limit).await?;
+            }
+            None => say(
+                json,
+                "terrain",
+                format!(
+                    "{terrain_items} item(s) fly in the terrain frame: the vehicle needs terrain \
+                     data (TERRAIN_ENABLE 1) and has it only from its own cache; give --terrain \
+                     DIR to serve SRTM tiles"
+                ),
+                serde_json::json!({"terrain_items": terrain_items}),
+            ),
+        }
+    }
+
+    // 3. Arm, take off in the right mode, start.
     let flies = v.flavour.flies();
     if flies {
         let alt = takeoff_alt
@@ -514,7 +548,7 @@ async fn fly(
         serde_json::json!({}),
     );
 
-    // 3. Follow it.
+    // 4. Follow it.
     let total = items.len();
     let mut flown: Vec<bool> = vec![false; total];
     let mut rx = fleet.watch();
@@ -602,7 +636,7 @@ async fn fly(
         serde_json::json!({}),
     );
 
-    // 4. Return and land.
+    // 5. Return and land.
     let s = fleet
         .vehicle(sysid)
         .ok_or(FleetError::NoVehicle { sysid })?;
@@ -652,6 +686,100 @@ async fn fly(
         );
     }
     Ok(())
+}
+
+/// How long `fly` waits for a vehicle's terrain to make progress before it gives up: no
+/// TERRAIN_REPORT that changed, and no square sent, for this long.
+const TERRAIN_STALL: Duration = Duration::from_secs(30);
+
+/// Wait until vehicle `sysid` reports its terrain complete (TERRAIN_REPORT with nothing
+/// pending and something loaded), printing its progress at most every 5 s; fail with what it
+/// waits for when no tile has it (and the vehicle still lacks it 10 s later), when nothing
+/// moved for [`TERRAIN_STALL`], or after `limit` (what is left of `--timeout`).
+async fn wait_for_terrain(
+    json: bool,
+    sysid: u8,
+    t: &TerrainService,
+    limit: Duration,
+) -> anyhow::Result<()> {
+    let mut rx = t.watch();
+    let started = Instant::now();
+    let mut last: Option<(u16, u16)> = None;
+    let mut waiting_since: Option<Instant> = None;
+    let mut printed: Option<Instant> = None;
+    let mut moved = (Instant::now(), 0u64);
+    say(
+        json,
+        "terrain",
+        format!(
+            "waiting for vehicle {sysid}'s terrain (served from {})",
+            t.dir().display()
+        ),
+        serde_json::json!({}),
+    );
+    loop {
+        let v = rx.borrow_and_update().vehicles.get(&sysid).cloned();
+        if let Some(v) = &v {
+            if v.report != last || v.squares_sent != moved.1 {
+                moved = (Instant::now(), v.squares_sent);
+            }
+            if v.report != last
+                && let Some((pending, loaded)) = v.report
+            {
+                last = v.report;
+                let done = pending == 0 && loaded > 0;
+                // a line every 5 s at most, and the last one
+                let quiet =
+                    !done && printed.is_some_and(|p: Instant| p.elapsed() < Duration::from_secs(5));
+                if !quiet {
+                    printed = Some(Instant::now());
+                    say(
+                        json,
+                        "terrain",
+                        format!(
+                            "terrain: {pending} squares pending, {loaded} loaded ({} sent)",
+                            v.squares_sent
+                        ),
+                        serde_json::json!({"pending": pending, "loaded": loaded, "sent": v.squares_sent}),
+                    );
+                }
+                if done {
+                    return Ok(());
+                }
+            }
+            match (&v.waiting, waiting_since) {
+                (Some(line), None) => {
+                    waiting_since = Some(Instant::now());
+                    say(
+                        json,
+                        "terrain_missing",
+                        line.clone(),
+                        serde_json::json!({"sysid": sysid}),
+                    );
+                }
+                (None, _) => waiting_since = None,
+                (Some(line), Some(since)) if since.elapsed() > Duration::from_secs(10) => {
+                    bail!("{line}");
+                }
+                _ => {}
+            }
+        }
+        let left = limit
+            .checked_sub(started.elapsed())
+            .filter(|d| !d.is_zero() && moved.0.elapsed() < TERRAIN_STALL);
+        let Some(left) = left else {
+            let what = v.and_then(|v| v.waiting).unwrap_or_else(|| {
+                format!(
+                    "vehicle {sysid} still lacks terrain (last report: {last:?} pending/loaded)"
+                )
+            });
+            bail!(
+                "no terrain after {:.0} s: {what}",
+                started.elapsed().as_secs_f64()
+            );
+        };
+        let _ = tokio::time::timeout(left.min(Duration::from_secs(1)), rx.changed()).await;
+    }
 }
 
 fn command_name(c: u16) -> String {

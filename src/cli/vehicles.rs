@@ -64,6 +64,10 @@ pub struct ConnectArgs {
     /// Per-vehicle links from a mission file (`[[vehicles]] link`); `--link` overrides them.
     #[arg(skip)]
     pub(crate) vehicle_links: BTreeMap<u8, LinkBudget>,
+    /// A folder of SRTM tiles to answer the vehicles' TERRAIN_REQUESTs from (`--terrain` of
+    /// `mission fly` and `run`).
+    #[arg(skip)]
+    pub(crate) terrain: Option<PathBuf>,
 }
 
 impl ConnectArgs {
@@ -83,6 +87,7 @@ impl ConnectArgs {
             gcs_sysid: fleetmap_core::proto::Endpoint::gcs().sysid,
             link: None,
             vehicle_links: BTreeMap::new(),
+            terrain: None,
         }
     }
 
@@ -126,6 +131,8 @@ pub(crate) struct Session {
     /// The fleet.
     pub fleet: FleetHandle,
     tlog: Option<tokio::task::JoinHandle<Result<u64, TlogError>>>,
+    /// The terrain server, with `--terrain`.
+    pub(crate) terrain: Option<crate::app::terrain::TerrainService>,
 }
 
 impl Session {
@@ -157,12 +164,26 @@ impl Session {
             },
             budget: args.link,
             vehicle_budgets: args.vehicle_links.clone(),
+            terrain: args.terrain.is_some(),
             ..FleetConfig::default()
         };
+        if let Some(dir) = &args.terrain
+            && !dir.is_dir()
+        {
+            anyhow::bail!("--terrain {}: not a folder", dir.display());
+        }
         let fleet = fleet::start(&args.connect, &opts, cfg)
             .await
             .context("cannot open the connection")?;
-        Ok(Session { fleet, tlog })
+        let terrain = args
+            .terrain
+            .clone()
+            .map(|dir| crate::app::terrain::spawn(&fleet, dir));
+        Ok(Session {
+            fleet,
+            tlog,
+            terrain,
+        })
     }
 
     /// Wait for vehicle `sysid` (its first heartbeat).
@@ -181,8 +202,11 @@ impl Session {
 
     /// Stop the fleet and the links; flush the tlog.
     pub(crate) async fn close(self) -> anyhow::Result<()> {
+        if let Some(t) = &self.terrain {
+            t.stop();
+        }
         self.fleet.shutdown().await;
-        let Session { fleet, tlog } = self;
+        let Session { fleet, tlog, .. } = self;
         drop(fleet);
         if let Some(task) = tlog {
             // The writer ends when the last link (holding a tlog handle) has stopped.

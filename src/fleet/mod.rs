@@ -92,6 +92,10 @@ pub struct FleetConfig {
     /// What one vehicle's link carries, when said for that vehicle (a mission file's
     /// `[[vehicles]] link`); over `budget`.
     pub vehicle_budgets: BTreeMap<u8, LinkBudget>,
+    /// The GCS answers the vehicles' TERRAIN_REQUESTs (`--terrain DIR`, `app::terrain`):
+    /// an ArduPilot vehicle on a radio is asked for them, and they are never stopped
+    /// ([`StreamPlan::for_link_terrain`](fleetmap_core::proto::telemetry::StreamPlan::for_link_terrain)).
+    pub terrain: bool,
     /// Snapshot publication period.
     pub snapshot_period: Duration,
     /// Timeouts of the composed operations.
@@ -130,6 +134,7 @@ impl Default for FleetConfig {
             request_streams: true,
             budget: None,
             vehicle_budgets: BTreeMap::new(),
+            terrain: false,
             snapshot_period: Duration::from_millis(200),
             ops: OpsConfig::default(),
         }

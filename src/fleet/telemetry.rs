@@ -56,7 +56,8 @@ impl Actor {
         }
     }
 
-    /// Ask for the telemetry that fits the vehicle's link ([`StreamPlan::for_link`]).
+    /// Ask for the telemetry that fits the vehicle's link ([`StreamPlan::for_link_terrain`];
+    /// with terrain served, [`FleetConfig::terrain`](super::FleetConfig::terrain)).
     #[allow(deprecated)] // REQUEST_DATA_STREAM: still what ArduPilot's stream rates obey
     pub(super) fn request_streams(&mut self, ep: Endpoint, now: Time) {
         if !self.cfg.request_streams {
@@ -66,7 +67,10 @@ impl Actor {
             return;
         };
         v.link.streams_at = now;
-        let plan = v.link.replan(v.snap.flavour.autopilot).clone();
+        let plan = v
+            .link
+            .replan(v.snap.flavour.autopilot, self.cfg.terrain)
+            .clone();
         for (stream, hz) in plan.data_streams {
             self.route(&MavMessage::REQUEST_DATA_STREAM(REQUEST_DATA_STREAM_DATA {
                 req_message_rate: hz,

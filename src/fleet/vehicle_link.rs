@@ -159,8 +159,9 @@ impl VehicleLink {
     pub(super) fn replan(
         &mut self,
         autopilot: fleetmap_core::proto::flavour::Autopilot,
+        terrain: bool,
     ) -> &StreamPlan {
-        self.plan = StreamPlan::for_link(autopilot, self.budget);
+        self.plan = StreamPlan::for_link_terrain(autopilot, self.budget, terrain);
         self.unwanted.replan(self.plan.asked());
         &self.plan
     }

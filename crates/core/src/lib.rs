@@ -15,6 +15,7 @@
 //! | [`vision`] | the runway classifier, votes, green-pixel measurements, camera geometry |
 //! | [`explore`] | lawnmower sweep and the multi-robot recursive DFS |
 //! | [`planner`] | UCB bandit, the integer program, linear assignment, baselines |
+//! | [`terrain`] | SRTM `.hgt` tiles parsed from bytes, the terrain protocol's grids, which squares to send |
 //! | [`world`] | ground-truth worlds parsed from TOML text: what the simulator renders and runs are scored against |
 //! | [`time`] | the core's notion of time: plain values handed in by the shell |
 
@@ -29,6 +30,7 @@ pub mod mission;
 pub mod planner;
 pub mod preflight;
 pub mod proto;
+pub mod terrain;
 pub mod time;
 pub mod vision;
 pub mod world;

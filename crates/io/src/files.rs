@@ -7,11 +7,14 @@
 //! as given plus the reason, never a panic), and hand the bytes over. The command line, the
 //! application layer and the tests call them.
 //!
+//! [`terrain`]: SRTM `.hgt` (and `.hgt.zip`) tiles from the folder given with `--terrain`.
+//!
 //! [`pictures`]: a folder a real camera writes into, as the pictures of `fleetmap camera`
 //! (the simulator's camera server reads it without depending on the GCS's application layer).
 
 mod atomic;
 pub mod pictures;
+pub mod terrain;
 
 pub use atomic::{atomic_write, sync_dir};
 

@@ -142,7 +142,8 @@ pub(super) fn start<K: RunKind>(args: RunArgs, new: NewRun) -> anyhow::Result<Ex
     K::options(&settings)?;
     block_on(async move {
         let headless = args.runner.headless;
-        let conn = args.conn.clone().with_mission_links(&new.def);
+        let mut conn = args.conn.clone().with_mission_links(&new.def);
+        conn.terrain = args.terrain.clone();
         connect_and_fly::<K>(
             &conn,
             Start::New(Box::new(new)),

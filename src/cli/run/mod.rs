@@ -110,6 +110,10 @@ pub struct RunArgs {
     /// The simulated world the vehicles fly over (ground truth for the report's IoU).
     #[arg(long, value_name = "FILE")]
     pub world: Option<PathBuf>,
+    /// Answer the ArduPilot vehicles' terrain requests (TERRAIN_REQUEST) from the SRTM tiles
+    /// in this folder (`N47E008.hgt` or `.hgt.zip`; docs/terrain.md).
+    #[arg(long, value_name = "DIR")]
+    pub terrain: Option<PathBuf>,
 }
 
 /// Arguments of `fleetmap resume`.

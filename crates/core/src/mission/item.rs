@@ -83,7 +83,15 @@ pub mod frame {
     /// Global frame, altitude relative to home.
     pub const GLOBAL_RELATIVE_ALT: u8 = 3;
     /// Global frame, altitude above terrain.
-    pub(crate) const GLOBAL_TERRAIN_ALT: u8 = 10;
+    pub const GLOBAL_TERRAIN_ALT: u8 = 10;
+    /// Global frame (lat/lon 1e-7 degrees in MISSION_ITEM), altitude above terrain.
+    pub const GLOBAL_TERRAIN_ALT_INT: u8 = 11;
+
+    /// Whether an item's altitude is above the terrain: the vehicle needs terrain data to
+    /// fly it (ArduPilot: `TERRAIN_ENABLE` and the GCS's TERRAIN_DATA or its own cache).
+    pub fn is_terrain(frame: u8) -> bool {
+        frame == GLOBAL_TERRAIN_ALT || frame == GLOBAL_TERRAIN_ALT_INT
+    }
 }
 
 /// MAV_MISSION_TYPE: which of the autopilot's lists an item belongs to.

@@ -28,6 +28,12 @@
 //!   (`PlanManager::writeMissionItems`). It is read and written separately here.
 //! * DO_JUMP `params[0]` names the target's `doJumpId` (QGroundControl resolves it on load:
 //!   "Could not find doJumpId"); we write `doJumpId` = position + 1 (home is 0), as QGC does.
+//! * An item in QGroundControl's "calculated above terrain" altitude mode (`AltitudeMode` 3)
+//!   is sent as an AMSL altitude that QGroundControl computes from its terrain data; the test
+//!   plans QGroundControl generates (`test/plans/generate_test_plans.py`) save it with
+//!   `params[6]` null until terrain has arrived. Such an item is refused here, naming it
+//!   ([`TERRAIN_CALCULATED`]): uploaded as it is, its altitude is NaN, and ArduCopter
+//!   rejects the whole mission at that item with MAV_MISSION_INVALID_PARAM7.
 //! * Complex items (survey, corridor and structure scans) are flattened to the mission items
 //!   QGroundControl stored with them (`TransectStyleComplexItem.Items`); landing patterns
 //!   without stored items are refused with a clear error.
@@ -50,6 +56,11 @@ const FENCE_RETURN_POINT: u16 = 5000;
 const FENCE_CIRCLE_INCLUSION: u16 = 5003;
 /// MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION.
 const FENCE_CIRCLE_EXCLUSION: u16 = 5004;
+
+/// QGroundControl's `AltitudeMode` "calculated above terrain"
+/// (`QGroundControlQmlGlobal::AltitudeModeCalcAboveTerrain`): the item's altitude above the
+/// terrain, sent as the AMSL altitude QGroundControl computes from its own terrain data.
+pub const TERRAIN_CALCULATED: u8 = 3;
 
 /// A malformed `.plan` file.
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
@@ -188,6 +199,10 @@ struct SimpleJ {
     auto_continue: bool,
     #[serde(rename = "doJumpId", default)]
     do_jump_id: Option<i64>,
+    #[serde(rename = "AltitudeMode", default)]
+    altitude_mode: Option<u8>,
+    #[serde(rename = "Altitude", default)]
+    altitude: Option<f64>,
 }
 
 /// The 1-based line where the JSON object enclosing the `n`-th occurrence of `needle`
@@ -241,6 +256,31 @@ enum ItemError {
     /// A `SimpleItem` whose fields do not read.
     #[error("{0}")]
     Json(#[from] serde_json::Error),
+    /// An item whose altitude QGroundControl computes from terrain data, saved without it.
+    #[error(
+        "{command} {above} m in altitude mode \"calculated above terrain\" (QGroundControl \
+         AltitudeMode 3) has no altitude: QGroundControl sends it as an AMSL altitude it \
+         computes from its terrain data, and saved none; fleetmap does not compute it (the \
+         autopilot would refuse the mission at this item). Open the plan in QGroundControl \
+         until it shows terrain heights and save it again, or set the item to \"terrain \
+         frame\" (AltitudeMode 4), which the vehicle follows with terrain data \
+         (`--terrain DIR` serves it)"
+    )]
+    TerrainCalculated {
+        /// The item's command, named.
+        command: String,
+        /// The altitude above terrain it asked for, metres (as text; "?" if none).
+        above: String,
+    },
+}
+
+/// MAV_CMD `c` by its MAVLink name without the `MAV_CMD_` prefix.
+fn command_name(c: u16) -> String {
+    use mavlink::dialects::ardupilotmega::MavCmd;
+    use num_traits::FromPrimitive;
+    MavCmd::from_u16(c)
+        .map(|m| format!("{m:?}").trim_start_matches("MAV_CMD_").to_string())
+        .unwrap_or_else(|| format!("command {c}"))
 }
 
 fn check_latlon(lat: f64, lon: f64) -> Result<(), ItemError> {
@@ -255,6 +295,12 @@ fn check_latlon(lat: f64, lon: f64) -> Result<(), ItemError> {
 
 fn simple_item(v: &Value) -> Result<(MissionItem, Option<i64>), ItemError> {
     let s: SimpleJ = serde_json::from_value(v.clone())?;
+    if s.altitude_mode == Some(TERRAIN_CALCULATED) && s.params[6].is_none() {
+        return Err(ItemError::TerrainCalculated {
+            command: command_name(s.command),
+            above: s.altitude.map_or("?".into(), |a| format!("{a}")),
+        });
+    }
     let p = |i: usize| s.params[i].unwrap_or(f64::NAN);
     let global = is_global_frame(s.frame);
     let (x, y) = if global {
@@ -377,8 +423,10 @@ pub fn parse_plan(text: &str) -> Result<Plan, PlanError> {
             "SimpleItem" => {
                 let line = line_of_nth(text, "\"SimpleItem\"", simple_seen);
                 simple_seen += 1;
+                // numbered as QGroundControl shows it: home is 0
+                let n = items.len() + 1;
                 let (it, id) =
-                    simple_item(v).map_err(|m| invalid(line, format!("mission item: {m}")))?;
+                    simple_item(v).map_err(|m| invalid(line, format!("mission item {n}: {m}")))?;
                 if let Some(id) = id {
                     jump_ids.insert(id, items.len());
                 }
@@ -411,8 +459,10 @@ pub fn parse_plan(text: &str) -> Result<Plan, PlanError> {
                 for sub in inner {
                     let line = line_of_nth(text, "\"SimpleItem\"", simple_seen);
                     simple_seen += 1;
-                    let (it, id) = simple_item(sub)
-                        .map_err(|m| invalid(line, format!("complex item {name:?}: {m}")))?;
+                    let n = items.len() + 1;
+                    let (it, id) = simple_item(sub).map_err(|m| {
+                        invalid(line, format!("mission item {n} (in {name:?}): {m}"))
+                    })?;
                     if let Some(id) = id {
                         jump_ids.insert(id, items.len());
                     }
@@ -834,5 +884,62 @@ mod tests {
         let bad_after_comment = format!("// header\n{}", &QGC[..40]);
         let e = parse_plan(&bad_after_comment).unwrap_err();
         assert!(e.to_string().contains("line"), "{e}");
+    }
+
+    /// Plans of the shape QGroundControl generates for its ArduCopter tests
+    /// (`test/plans/*-ArduCopter.plan`: every altitude mode, item 6 "calculated above terrain"
+    /// saved without an altitude, item 8 in the terrain frame), written for fleetmap around
+    /// three homes (`tests/plans/`). Each is refused, naming item 6 and its altitude mode,
+    /// before anything is uploaded.
+    #[test]
+    fn calculated_above_terrain_items_without_an_altitude_are_refused_by_number() {
+        let plans = [
+            include_str!("../../../../tests/plans/arducopter-mixed-altitudes-cmac.plan"),
+            include_str!("../../../../tests/plans/arducopter-mixed-altitudes-zurich.plan"),
+            include_str!("../../../../tests/plans/arducopter-mixed-altitudes-issaquah.plan"),
+        ];
+        for text in plans {
+            let e = parse_plan(text).unwrap_err();
+            let m = e.to_string();
+            assert!(m.contains("mission item 6:"), "{m}");
+            assert!(m.contains("calculated above terrain"), "{m}");
+            assert!(m.contains("AltitudeMode 3"), "{m}");
+            assert!(m.contains("NAV_WAYPOINT 60 m"), "{m}");
+            // the line is item 6's
+            let PlanError::Invalid { line, .. } = e else {
+                panic!("{e:?}")
+            };
+            let item6 = text.find("\"doJumpId\": 6").unwrap();
+            let item5 = text.find("\"doJumpId\": 5").unwrap();
+            let line_of = |at: usize| text[..at].matches('\n').count() + 1;
+            assert!(line > line_of(item5) && line <= line_of(item6), "{line}");
+            // With the altitude QGroundControl computes once it has terrain, the plan loads:
+            // item 6 is an AMSL waypoint and item 8 stays in the terrain frame.
+            let fixed = text.replacen(
+                "\"AltitudeMode\": 3,\n        \"AMSLAltAboveTerrain\": null,\n        \"params\": [\n          0,\n          0,\n          0,\n          null,",
+                "\"AltitudeMode\": 3,\n        \"AMSLAltAboveTerrain\": 652,\n        \"params\": [\n          0,\n          0,\n          0,\n          null,",
+                1,
+            );
+            let fixed = {
+                let at = fixed.find("\"AMSLAltAboveTerrain\": 652").unwrap();
+                let close = at + fixed[at..].find("null\n        ]").unwrap();
+                format!("{}652{}", &fixed[..close], &fixed[close + 4..])
+            };
+            let p = parse_plan(&fixed).unwrap();
+            assert_eq!(p.mission.len(), 11);
+            assert_eq!((p.mission[5].frame, p.mission[5].z), (frame::GLOBAL, 652.0));
+            assert_eq!(p.mission[7].frame, 10, "terrain frame");
+        }
+        // A complex item's inner item is numbered in the flattened list.
+        let inner = QGC.replacen(
+            "\"params\": [0, 0, 0, null, 47.3969, 8.5449, 50], \"type\": \"SimpleItem\"",
+            "\"params\": [0, 0, 0, null, 47.3969, 8.5449, null], \"AltitudeMode\": 3, \"type\": \"SimpleItem\"",
+            1,
+        );
+        let m = parse_plan(&inner).unwrap_err().to_string();
+        assert!(m.contains("mission item 4 (in \"survey\")"), "{m}");
+        // Ordinary plans (relative, absolute, terrain frame) still load.
+        assert!(parse_plan(QGC).is_ok());
+        assert!(parse_plan(&write_plan(&parse_plan(QGC).unwrap())).is_ok());
     }
 }

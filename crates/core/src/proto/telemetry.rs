@@ -130,6 +130,21 @@ pub const WANTED: &[Wanted] = &[
 /// its camera's HEARTBEAT (21 bytes at 1 Hz each).
 pub const HEARTBEATS_BYTES_PER_S: f64 = 42.0;
 
+/// TERRAIN_REQUEST's message id. ArduPilot sends it from its EXTRA3 group or when asked by
+/// SET_MESSAGE_INTERVAL (`ap_message` MSG_TERRAIN_REQUEST), at most every 2 s, and only while
+/// it lacks terrain (`AP_Terrain::send_request`, `TerrainGCS.cpp`).
+pub const TERRAIN_REQUEST: u32 = 133;
+/// TERRAIN_REPORT's message id: how many squares the vehicle waits for and has. A message of
+/// its own (MSG_TERRAIN_REPORT): ArduCopter 4.7 SITL asked for TERRAIN_REQUEST alone sent
+/// no TERRAIN_REPORT (docs/results/conformance.md, "Terrain served from tiles").
+pub const TERRAIN_REPORT: u32 = 136;
+/// How often a vehicle served terrain on a radio is asked for both, Hz.
+pub const TERRAIN_HZ: f64 = 1.0;
+/// What they cost on the wire at [`TERRAIN_HZ`], bytes per second: a TERRAIN_REPORT
+/// (22-byte payload, 34 bytes) each time, and a TERRAIN_REQUEST (18-byte payload, 30 bytes)
+/// at most every 2 s while the vehicle lacks terrain.
+pub const TERRAIN_BYTES_PER_S: f64 = 34.0 * TERRAIN_HZ + 30.0 / 2.0;
+
 /// Telemetry the GCS asked for and has not heard for this long counts as missing: it asks
 /// again.
 pub const STREAMS_STALE: Duration = Duration::from_secs(5);
@@ -151,8 +166,27 @@ pub struct StreamPlan {
 impl StreamPlan {
     /// The plan for a vehicle of `autopilot` on a link of `budget`.
     pub fn for_link(autopilot: Autopilot, budget: LinkBudget) -> StreamPlan {
+        Self::for_link_terrain(autopilot, budget, false)
+    }
+
+    /// [`StreamPlan::for_link`], for a GCS that serves terrain (`terrain`): an ArduPilot
+    /// vehicle on a radio is also asked for [`TERRAIN_REQUEST`] and [`TERRAIN_REPORT`] at
+    /// [`TERRAIN_HZ`] — the group they would otherwise come in is stopped there, so neither
+    /// is ever stopped — and their cost, [`TERRAIN_BYTES_PER_S`], comes out of the
+    /// telemetry's share first. On an unlimited link they come with EXTRA3 as before.
+    pub fn for_link_terrain(autopilot: Autopilot, budget: LinkBudget, terrain: bool) -> StreamPlan {
+        let terrain = terrain && autopilot == Autopilot::ArduPilot;
         match budget.telemetry_bytes_per_s() {
             None => Self::unlimited(autopilot),
+            Some(share) if terrain => {
+                let mut plan = Self::within(autopilot, share - TERRAIN_BYTES_PER_S);
+                let us = (1e6 / TERRAIN_HZ).round() as f32;
+                plan.intervals.push((TERRAIN_REQUEST, us));
+                plan.intervals.push((TERRAIN_REPORT, us));
+                plan.expected_bytes_per_s =
+                    plan.expected_bytes_per_s.map(|b| b + TERRAIN_BYTES_PER_S);
+                plan
+            }
             Some(share) => Self::within(autopilot, share),
         }
     }
@@ -432,6 +466,50 @@ mod tests {
             LinkBudget::Radio { bytes_per_s: 1000 },
         );
         assert!((cost(&plan) - 400.0).abs() < 1.0, "{}", cost(&plan));
+    }
+
+    /// Serving terrain on a radio: MSG_TERRAIN is asked for, paid for out of the same share,
+    /// and neither of its messages is ever stopped; elsewhere nothing changes.
+    #[test]
+    fn terrain_served_on_a_radio_is_asked_for_counted_and_never_stopped() {
+        let budget = LinkBudget::radio();
+        let share = budget.telemetry_bytes_per_s().unwrap();
+        let plan = StreamPlan::for_link_terrain(Autopilot::ArduPilot, budget, true);
+        assert!(plan.intervals.contains(&(TERRAIN_REQUEST, 1e6)));
+        assert!(plan.intervals.contains(&(TERRAIN_REPORT, 1e6)));
+        assert!(cost(&plan) <= share + 1e-6, "{}", cost(&plan));
+        let without = StreamPlan::for_link(Autopilot::ArduPilot, budget);
+        assert!(!without.asked().contains(&TERRAIN_REQUEST));
+        // on a slow radio the telemetry gives way to it
+        let slow = LinkBudget::Radio { bytes_per_s: 1000 };
+        let plan_slow = StreamPlan::for_link_terrain(Autopilot::ArduPilot, slow, true);
+        assert!(
+            (cost(&plan_slow) - 400.0).abs() < 1.0,
+            "{}",
+            cost(&plan_slow)
+        );
+        let mut u = Unwanted::new(plan.asked());
+        let t = |ms: u64| Time::from_millis(ms);
+        for k in 0..30 {
+            u.handle_message(TERRAIN_REPORT, t(k * 1000));
+            u.handle_message(TERRAIN_REQUEST, t(k * 2000));
+        }
+        assert_eq!(u.poll_stop(), None);
+        // without terrain, a TERRAIN_REPORT streaming on a radio is stopped as before
+        let mut u = Unwanted::new(without.asked());
+        for k in 0..3 {
+            u.handle_message(TERRAIN_REPORT, t(k * 1000));
+        }
+        assert_eq!(u.poll_stop(), Some(TERRAIN_REPORT));
+        // PX4 and unlimited links are untouched
+        assert_eq!(
+            StreamPlan::for_link_terrain(Autopilot::Px4, budget, true),
+            StreamPlan::for_link(Autopilot::Px4, budget)
+        );
+        assert_eq!(
+            StreamPlan::for_link_terrain(Autopilot::ArduPilot, LinkBudget::Unlimited, true),
+            StreamPlan::for_link(Autopilot::ArduPilot, LinkBudget::Unlimited)
+        );
     }
 
     #[test]

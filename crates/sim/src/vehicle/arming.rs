@@ -33,6 +33,18 @@ impl SimVehicle {
         Duration::from_secs_f64((PX4_DL_LOSS_S * k).min(1.0e9))
     }
 
+    /// The mission flies an item in the terrain frame and the terrain under the vehicle has
+    /// not all arrived.
+    fn needs_terrain(&self) -> bool {
+        !self.telemetry.terrain.complete()
+            && self
+                .missions
+                .server
+                .user_items()
+                .iter()
+                .any(|it| fleetmap_core::mission::item::frame::is_terrain(it.frame))
+    }
+
     pub(super) fn prearm_failure(&self, now: Time) -> Option<&'static str> {
         let f = self.cfg.flavour;
         let compass = self
@@ -53,6 +65,9 @@ impl SimVehicle {
                     }
                 } else if self.power.battery.fraction() * 100.0 <= self.cfg.failsafe.rtl_pct {
                     Some("PreArm: Battery 1 below minimum arming capacity")
+                } else if f.is_copter() && self.needs_terrain() {
+                    // ArduCopter with TERRAIN_ENABLE and terrain-frame items (seen on 4.7 SITL)
+                    Some("PreArm: waiting for terrain data")
                 } else {
                     None
                 }

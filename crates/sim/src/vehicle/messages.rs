@@ -279,19 +279,28 @@ impl SimVehicle {
                 if !(ap && copter) {
                     return None;
                 }
+                // one block: its squares pending and loaded (a real ArduCopter counts 9 and
+                // more, `AP_Terrain::get_statistics`)
+                self.telemetry.terrain.at(lat_e7, lon_e7);
+                let t = self.telemetry.terrain;
+                let loaded = t.have.count_ones() as u16;
                 MavMessage::TERRAIN_REPORT(mav::TERRAIN_REPORT_DATA {
                     lat: lat_e7,
                     lon: lon_e7,
                     terrain_height: 0.0,
                     current_height: amsl as f32,
-                    spacing: 0,
-                    pending: 504,
-                    loaded: 0,
+                    spacing: if t.complete() {
+                        super::telemetry::Terrain::SPACING
+                    } else {
+                        0
+                    },
+                    pending: u16::from(fleetmap_core::terrain::grid::BITS) - loaded,
+                    loaded,
                 })
             }
             x if x == id!(TERRAIN_REQUEST_DATA) => {
-                // AP_Terrain asks the GCS for missing grid blocks; nobody answers, so it asks
-                // again, at most every 2 s (measured: 0.5 Hz with EXTRA3 at 2 Hz)
+                // AP_Terrain asks the GCS for the squares of its block it lacks, at most every
+                // 2 s (measured: 0.5 Hz with EXTRA3 at 2 Hz), and nothing once it has them
                 if !(ap && copter)
                     || self
                         .telemetry
@@ -300,12 +309,17 @@ impl SimVehicle {
                 {
                     return None;
                 }
+                let (lat, lon) = self.telemetry.terrain.at(lat_e7, lon_e7);
+                let mask = super::telemetry::Terrain::ALL & !self.telemetry.terrain.have;
+                if mask == 0 {
+                    return None;
+                }
                 self.telemetry.terrain_request_at = Some(now);
                 MavMessage::TERRAIN_REQUEST(mav::TERRAIN_REQUEST_DATA {
-                    mask: (1 << 56) - 1,
-                    lat: lat_e7 - 115_000,
-                    lon: lon_e7 - 104_000,
-                    grid_spacing: 100,
+                    mask,
+                    lat,
+                    lon,
+                    grid_spacing: super::telemetry::Terrain::SPACING,
                 })
             }
             x if x == id!(EKF_STATUS_REPORT_DATA) => {

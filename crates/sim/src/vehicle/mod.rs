@@ -458,6 +458,7 @@ impl SimVehicle {
                 ping_seq: 0,
                 link_counts: Default::default(),
                 terrain_request_at: None,
+                terrain: Default::default(),
             },
             params: params::table(&cfg),
             cfg,
@@ -687,6 +688,9 @@ impl SimVehicle {
             MavMessage::RADIO_STATUS(r) => self.radio_status(r.txbuf, now),
             MavMessage::SET_POSITION_TARGET_GLOBAL_INT(p) if p.target_system == self.cfg.sysid => {
                 self.position_target(p, now);
+            }
+            MavMessage::TERRAIN_DATA(d) if self.cfg.flavour.is_ardupilot() => {
+                self.telemetry.terrain.data(d);
             }
             // a request for a picture, or the runway run's grid: the camera's
             MavMessage::DATA_TRANSMISSION_HANDSHAKE(_) | MavMessage::DEBUG_FLOAT_ARRAY(_) => {

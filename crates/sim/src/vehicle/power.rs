@@ -76,6 +76,7 @@ impl SimVehicle {
             c.reboot();
         }
         self.telemetry.terrain_request_at = None;
+        // ArduPilot keeps its terrain on the SD card: a reboot keeps it
         self.telemetry.link_counts = Default::default();
         self.reset_schedule(now);
         // ArduPilot: FENCE_ENABLE 0 until the GCS enables it; PX4: any uploaded fence applies
