@@ -63,6 +63,8 @@ build: sysdeps
 ## examples (`--doc`: they must compile). The benchmarks are not run here (`make bench`; clippy
 ## compiles them).
 SLOW_TESTS := bandit_run demo_headless runway_kill
+# The other crates' own integration tests (fleetmap-camera's, over a pseudo-terminal).
+CRATE_TESTS := serial
 WAITING_TESTS := conformance
 # libtest filters: a module's tests are those whose path starts `MODULE::`.
 SLOW_FILTERS := $(addsuffix ::,$(SLOW_TESTS))
@@ -76,7 +78,7 @@ test: sysdeps
 	  [ $$built = 0 ] && [ $$v = 0 ]
 	@$(CARGO) test --no-fail-fast --test suite -- $(WAITING_FILTERS) > target/waiting-tests.log 2>&1 & waiting=$$!; \
 	  $(CARGO) test --no-fail-fast --test suite -- $(SLOW_FILTERS) > target/slow-tests.log 2>&1 & slow=$$!; \
-	  $(CARGO) test --no-fail-fast --workspace --lib --bins --test suite -- $(SKIP_FILTERS); rest=$$?; \
+	  $(CARGO) test --no-fail-fast --workspace --lib --bins --test suite $(addprefix --test ,$(CRATE_TESTS)) -- $(SKIP_FILTERS); rest=$$?; \
 	  wait $$slow; s=$$?; echo "--- $(SLOW_TESTS):"; cat target/slow-tests.log; \
 	  wait $$waiting; w=$$?; echo "--- $(WAITING_TESTS):"; cat target/waiting-tests.log; \
 	  [ $$rest = 0 ] && [ $$s = 0 ] && [ $$w = 0 ]

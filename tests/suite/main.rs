@@ -18,6 +18,7 @@ mod demo_headless;
 mod explore;
 mod fast_plain;
 mod field_day;
+mod field_kit;
 mod field_wiring;
 mod geo;
 mod image_resend;

@@ -1,5 +1,4 @@
-//! The field kit's end-to-end tests in one test binary (every test binary is one more link of
-//! the whole crate on CI's two cores, about 40 s each).
+//! The field kit's end-to-end tests.
 //!
 //! * `fleet_check`: `fleetmap check --connect` and the check at a run's start, against
 //!   `fleetmap sim` with one mistake per vehicle (docs/fleet-check.md).
@@ -7,9 +6,6 @@
 //!   refused before anything is sent; terrain served from SRTM tiles to the embedded
 //!   simulator (`fleetmap sim` + `fleetmap mission fly --terrain`), and a missing tile named
 //!   before take-off.
-
-#[path = "../common/mod.rs"]
-mod common;
 
 mod fleet_check;
 mod terrain;
