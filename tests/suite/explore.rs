@@ -184,10 +184,10 @@ proptest! {
 
     /// GCS sharing with direct transit (fleetmap's field rule: a lone robot flies straight
     /// over imaged vertices), with Algorithm 1's split or the spread allocation: the
-    /// invariants of §4 hold and the cost — every robot back at the start, a tour ended
-    /// away from it flown straight back — never exceeds Lemma 1.
+    /// invariants of §4 hold (every mapped cell visited, every robot home, termination).
+    /// Lemma 1 does not always hold for it: [`direct_transit_can_exceed_lemma_1`].
     #[test]
-    fn direct_transit_covers_terminates_and_meets_lemma_1(
+    fn direct_transit_covers_and_terminates(
         seed in any::<u64>(),
         cells in 1usize..160,
         robots in 1usize..=20,
@@ -197,10 +197,9 @@ proptest! {
         spread in any::<bool>(),
     ) {
         let allocation = if spread { Allocation::Spread } else { Allocation::Paper };
-        let (out, roi, start, sp) =
+        let (out, roi, start, _) =
             run_case(seed, cells, robots, ratio, dir, noise, (Sharing::Gcs, allocation, true));
         check_invariants_of(&out, &roi, start, noise == 0.0, true)?;
-        within_lemma_1(&out, robots, sp, &format!(", {allocation}"))?;
     }
 
     /// Meeting-only sharing (the paper's model): the invariants of §4 hold, and the cost
@@ -458,4 +457,26 @@ fn experiment_dfs_rejects_bad_arguments() {
         assert!(!stderr.trim().is_empty(), "{args:?}");
         assert!(!stderr.contains("panicked"), "{stderr}");
     }
+}
+
+/// Direct transit is outside Lemma 1: a robot that flies straight to the next vertex with
+/// work left decides with what the team knew when it set out, and here the vertex it flies to
+/// is done by the other robot before it arrives. Two robots, 15 static cells (ROI seed
+/// 9 389 100 676 073 550 037, found by the property test): walking the tree, everyone is back
+/// after 18 s; with direct transit after 23.04 s, above eq. (2)'s 23 s (docs/results/dfs.md).
+#[test]
+fn direct_transit_can_exceed_lemma_1() {
+    let seed = 9_389_100_676_073_550_037;
+    let cfg = (Sharing::Gcs, Allocation::Paper, false);
+    let (walk, ..) = run_case(seed, 15, 2, 0.0, 0, 0.0, cfg);
+    let (direct, _, _, sp) = run_case(seed, 15, 2, 0.0, 0, 0.0, (cfg.0, cfg.1, true));
+    let bound = lemma1_upper_bound(direct.tree_cells, direct.d_max, 2, 1.0, sp);
+    assert_eq!((direct.tree_cells, direct.d_max), (15, 8));
+    assert!((walk.cost - 18.0).abs() < 1e-9, "walk {}", walk.cost);
+    assert!((bound - 23.0).abs() < 1e-9, "bound {bound}");
+    assert!(
+        (direct.cost - 23.035).abs() < 1e-3,
+        "direct transit {}",
+        direct.cost
+    );
 }

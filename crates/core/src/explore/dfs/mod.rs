@@ -104,8 +104,9 @@
 //! - Home when the map is done (`Explorer::finish_where_it_is`): no walk back to the start.
 //!
 //! None changes how the tree is built or the vertex states; the property test
-//! `direct_transit_covers_terminates_and_meets_lemma_1` (tests/suite/explore.rs) checks the first
-//! two against Lemma 1.
+//! `direct_transit_covers_and_terminates` (tests/suite/explore.rs) checks §4's invariants with
+//! the first two. Direct transit is outside Lemma 1 (`direct_transit_can_exceed_lemma_1`: a
+//! robot's destination done by another before it arrives).
 
 mod decide;
 mod knowledge;
