@@ -5,11 +5,11 @@
 //! (`serial:/dev/ttyAMA0:921600`, the companion computer's UART wired to the autopilot's
 //! TELEM2), `udpin` / `udpout` or `tcp` / `tcpin`, with the same framing, statistics and
 //! per-system routing the ground station uses. Camera k's frames go to the peer autopilot k
-//! was last heard from (a `udpin` port that several SITL autopilots send to: each camera's
-//! frames go back through its own autopilot, as a camera wired to that autopilot's serial
-//! port would send them; spreading them over every autopilot reordered packets between
-//! paths and counted a packet for the wrong image). A message with a target system goes
-//! where that system was heard.
+//! was last heard from, whatever the message's target ([`LinkHandle::send_via`]; a `udpin`
+//! port that several SITL autopilots send to: each camera's frames go back through its own
+//! autopilot, as a camera wired to that autopilot's serial port would send them; spreading
+//! them over every autopilot reordered packets between paths, counted a packet for the
+//! wrong image, and sent a GCS every COMMAND_ACK once per autopilot).
 //!
 //! Pictures from outside ([`crate::source`]) are taken on a blocking thread, one shot at a
 //! time, while the loop waits; files written for `--image-dir` are written (atomically) before
@@ -122,7 +122,7 @@ where
         while let Some((h, m)) = cams.poll_transmit() {
             let sysid = u8::try_from(h.system_id).unwrap_or(0);
             let src = Endpoint::new(sysid, h.component_id);
-            let queued = link.send_to_system(src, sysid, m);
+            let queued = link.send_via(src, sysid, m);
             if !queued && !link_full {
                 tracing::warn!("camera: the link's queue is full, frames dropped");
             }

@@ -173,7 +173,8 @@ impl Tile {
         // position in samples from the south-west corner
         let y = (lat - f64::from(self.id.lat)) * n;
         let x = (lon - f64::from(self.id.lon)) * n;
-        if !(y.is_finite() && x.is_finite()) || !(0.0..=n).contains(&y) || !(0.0..=n).contains(&x) {
+        // (NaN is in no range)
+        if !((0.0..=n).contains(&y) && (0.0..=n).contains(&x)) {
             return None;
         }
         // the cell's south-west sample, kept inside on the north and east edges

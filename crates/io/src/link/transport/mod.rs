@@ -154,6 +154,9 @@ enum LinkCmd {
     /// A message from the endpoint, to the peer of the system it is addressed to (or to
     /// system `to`, for a message without a target field), else to every peer.
     Send(Endpoint, Box<MavMessage>, Option<u8>),
+    /// A message from the endpoint, to the peer system `via` was last heard from whatever
+    /// its target (else to every peer).
+    Via(Endpoint, Box<MavMessage>, u8),
     Raw(Vec<u8>),
 }
 
@@ -187,6 +190,17 @@ impl LinkHandle {
     pub fn send_to_system(&self, src: Endpoint, to: u8, msg: MavMessage) -> bool {
         self.tx
             .try_send(LinkCmd::Send(src, Box::new(msg), Some(to)))
+            .is_ok()
+    }
+
+    /// Queue `msg` for the peer system `via` was last heard from, whatever the message's own
+    /// target (to every peer while `via` has not been heard): a component behind an
+    /// autopilot (a companion computer's camera on a port several autopilots share) answers
+    /// through its own autopilot, which routes the message on, rather than through every
+    /// autopilot at once.
+    pub fn send_via(&self, src: Endpoint, via: u8, msg: MavMessage) -> bool {
+        self.tx
+            .try_send(LinkCmd::Via(src, Box::new(msg), via))
             .is_ok()
     }
 

@@ -55,6 +55,10 @@ impl LinkTask {
                             self.codec.encode(src.sysid, src.compid, &msg, now),
                             msg.target_system_id().filter(|t| *t != 0).or(to),
                         ),
+                        LinkCmd::Via(src, msg, via) => (
+                            self.codec.encode(src.sysid, src.compid, &msg, now),
+                            Some(via),
+                        ),
                         LinkCmd::Raw(b) => (b, None),
                     };
                     if let Some(t) = &self.tlog {
