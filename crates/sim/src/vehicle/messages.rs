@@ -290,7 +290,7 @@ impl SimVehicle {
                     terrain_height: 0.0,
                     current_height: amsl as f32,
                     spacing: if t.complete() {
-                        super::telemetry::Terrain::SPACING
+                        super::terrain::Terrain::SPACING
                     } else {
                         0
                     },
@@ -310,7 +310,7 @@ impl SimVehicle {
                     return None;
                 }
                 let (lat, lon) = self.telemetry.terrain.at(lat_e7, lon_e7);
-                let mask = super::telemetry::Terrain::ALL & !self.telemetry.terrain.have;
+                let mask = super::terrain::Terrain::ALL & !self.telemetry.terrain.have;
                 if mask == 0 {
                     return None;
                 }
@@ -319,7 +319,7 @@ impl SimVehicle {
                     mask,
                     lat,
                     lon,
-                    grid_spacing: super::telemetry::Terrain::SPACING,
+                    grid_spacing: super::terrain::Terrain::SPACING,
                 })
             }
             x if x == id!(EKF_STATUS_REPORT_DATA) => {

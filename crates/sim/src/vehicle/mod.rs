@@ -90,6 +90,7 @@ mod params;
 mod power;
 mod streams;
 mod telemetry;
+mod terrain;
 
 pub use streams::Px4Link;
 
