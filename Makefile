@@ -61,7 +61,9 @@ build: sysdeps
 ## in parallel, about 5 minutes) judge mission transfers at real time and so mostly wait on the
 ## autopilots' timeouts: they run as a third process beside both. Then the documentation's
 ## examples (`--doc`: they must compile). The benchmarks are not run here (`make bench`; clippy
-## compiles them).
+## compiles them). Every cargo command here selects the whole workspace: cargo unifies the
+## crates' features over the packages selected, and a command for the root package alone
+## would build the workspace's crates a second time with other features.
 SLOW_TESTS := bandit_run demo_headless runway_kill
 # The other crates' own integration tests (fleetmap-camera's, over a pseudo-terminal).
 CRATE_TESTS := serial
@@ -76,8 +78,8 @@ test: sysdeps
 	  $(CARGO) test --workspace --lib --bins --tests --no-fail-fast --no-run; built=$$?; \
 	  wait $$venv; v=$$?; cat target/venv.log; \
 	  [ $$built = 0 ] && [ $$v = 0 ]
-	@$(CARGO) test --no-fail-fast --test suite -- $(WAITING_FILTERS) > target/waiting-tests.log 2>&1 & waiting=$$!; \
-	  $(CARGO) test --no-fail-fast --test suite -- $(SLOW_FILTERS) > target/slow-tests.log 2>&1 & slow=$$!; \
+	@$(CARGO) test --no-fail-fast --workspace --test suite -- $(WAITING_FILTERS) > target/waiting-tests.log 2>&1 & waiting=$$!; \
+	  $(CARGO) test --no-fail-fast --workspace --test suite -- $(SLOW_FILTERS) > target/slow-tests.log 2>&1 & slow=$$!; \
 	  $(CARGO) test --no-fail-fast --workspace --lib --bins --test suite $(addprefix --test ,$(CRATE_TESTS)) -- $(SKIP_FILTERS); rest=$$?; \
 	  wait $$slow; s=$$?; echo "--- $(SLOW_TESTS):"; cat target/slow-tests.log; \
 	  wait $$waiting; w=$$?; echo "--- $(WAITING_TESTS):"; cat target/waiting-tests.log; \
