@@ -213,8 +213,8 @@ async fn create_dir(dir: &Path) -> Result<(), ServeError> {
 
 /// Write `images` into `dir`, each atomically ([`fleetmap_io::files::atomic_write`]: fsynced),
 /// in order, on tokio's blocking pool; returns once all are on disk. One that cannot be
-/// written is logged and skipped.
-async fn write_images(dir: &Path, images: Vec<crate::camera::CapturedImage>) {
+/// written is logged and skipped. (The simulator's paired cameras write theirs with it too.)
+pub async fn write_images(dir: &Path, images: Vec<crate::camera::CapturedImage>) {
     if images.is_empty() {
         return;
     }

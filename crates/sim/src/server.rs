@@ -28,7 +28,7 @@ pub use memory::spawn_memory;
 use crate::harness::Sim;
 use crate::pace::{Pacer, Speed, SpeedMeter};
 use crate::tx_queue::{Expired, TxQueue};
-use fleetmap_camera::camera::CapturedImage;
+use fleetmap_camera::serve::write_images;
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::{MonotonicClock, SimTime};
 use fleetmap_io::link::{ConnSpec, ConnSpecError};
@@ -577,28 +577,6 @@ async fn create_image_dir(dir: &Path) -> Result<(), ServerError> {
         .await
         .unwrap_or_else(|e| Err(std::io::Error::other(e)));
     made.map_err(io_err(dir.display().to_string()))
-}
-
-/// Write `images` into `dir`, each atomically ([`fleetmap_io::files::atomic_write`]: fsynced), in
-/// order, on tokio's blocking pool; returns once all are on disk. One that cannot be written
-/// is logged and skipped.
-async fn write_images(dir: &Path, images: Vec<CapturedImage>) {
-    if images.is_empty() {
-        return;
-    }
-    let dir = dir.to_path_buf();
-    let written = tokio::task::spawn_blocking(move || {
-        for img in images {
-            let path = dir.join(&img.file_name);
-            if let Err(e) = fleetmap_io::files::atomic_write(&path, &img.jpeg) {
-                tracing::warn!("cannot write image {}: {e}", path.display());
-            }
-        }
-    })
-    .await;
-    if let Err(e) = written {
-        tracing::warn!("the image writer stopped: {e}");
-    }
 }
 
 /// Log a vehicle event: failsafes and fence breaches as warnings (what a field team must hear
