@@ -160,8 +160,9 @@ pub struct RunSettings {
     /// draws it, milliseconds since the Unix epoch (the demo's simulator start; `None`: the
     /// run's start).
     pub roi_epoch_unix_ms: Option<u64>,
-    /// Start even when the fleet check (`app::preflight`) finds a blocker (`--ignore-check`).
-    pub ignore_check: bool,
+    /// What a blocker of the fleet check (`app::preflight`) does: stop the start, nothing
+    /// (`--ignore-check`), or wait for the operator's START in the UI.
+    pub on_blocker: crate::app::preflight::OnBlocker,
 }
 
 impl Default for RunSettings {
@@ -173,7 +174,7 @@ impl Default for RunSettings {
             lock_step: None,
             plan_time_limit_s: None,
             roi_epoch_unix_ms: None,
-            ignore_check: false,
+            on_blocker: crate::app::preflight::OnBlocker::Stop,
         }
     }
 }

@@ -11,6 +11,7 @@
 
 use crate::app::error::RunError;
 use crate::app::kind::{Outcome, RunKind, RunSettings, write_exports};
+use crate::app::preflight::{StartCheck, gate};
 use crate::app::run::Progress;
 use crate::app::runway::cpu;
 use crate::app::session::{OnFinish, SessionConfig, SessionEnd, SessionRun};
@@ -112,6 +113,9 @@ pub(crate) struct Ready<K: RunKind> {
     /// A new run's [`RunKind::started_line`], or how a resumed one continues
     /// ([`RunKind::prepare_resume`]).
     pub line: String,
+    /// The fleet check's findings, and what to check again at the operator's START (`None`:
+    /// a resumed run whose mission file is not in its directory, so not checked).
+    pub(crate) check: Option<StartCheck>,
 }
 
 /// Make `start` ready to fly on `fleet`: for a new run, wait up to `wait` for its vehicles,
@@ -129,7 +133,7 @@ pub(crate) async fn prepare<K: RunKind>(
         Start::New(new) => {
             let new = *new;
             // the fleet check, before anything is created, uploaded or armed
-            crate::app::preflight::gate(fleet, &new.def, wait, settings.ignore_check).await?;
+            let check = gate(fleet, &new.def, wait, settings.on_blocker).await?;
             let state = K::new_state(fleet, &new.def, settings, wait).await?;
             let (dir, meta) = new.plan(K::KIND, connections, fleetmap_io::clock::unix_ms());
             let line = K::started_line(&dir, &state);
@@ -150,6 +154,7 @@ pub(crate) async fn prepare<K: RunKind>(
                 state,
                 options,
                 line,
+                check: Some(check),
             })
         }
         Start::Resume(run_dir) => {
@@ -163,17 +168,20 @@ pub(crate) async fn prepare<K: RunKind>(
             }
             let at = run_dir.path().to_path_buf();
             let def = cpu(move || RunDir::open(&at).map(|rd| rd.mission_text())).await?;
-            if let Ok(Ok(Some(text))) = def
-                && let Ok(def) = MissionDef::parse(&text, "mission.toml")
-            {
-                crate::app::preflight::gate(fleet, &def, wait, settings.ignore_check).await?;
-            }
+            let check = match def {
+                Ok(Ok(Some(text))) => match MissionDef::parse(&text, "mission.toml") {
+                    Ok(def) => Some(gate(fleet, &def, wait, settings.on_blocker).await?),
+                    Err(_) => None,
+                },
+                _ => None,
+            };
             let line = K::prepare_resume(fleet, &mut state, settings, wait).await?;
             Ok(Ready {
                 run_dir,
                 state,
                 options,
                 line,
+                check,
             })
         }
     }
@@ -233,7 +241,8 @@ impl<K: RunKind> Ready<K> {
                     self.options,
                     auto_start,
                     Some(exports_on_finish::<K>(world)),
-                );
+                )
+                .with_check(self.check);
                 let SessionEnd::Quit { finished } =
                     crate::app::session::run(fleet.clone(), Some(mission), config).await?;
                 Ok(Flown::Ui { finished })

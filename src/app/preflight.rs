@@ -6,6 +6,9 @@
 //! Every door that starts or resumes a run goes through [`crate::app::launch::prepare`],
 //! which calls [`gate`]: the findings are logged, and a blocker stops the start unless the
 //! operator said `--ignore-check`. `fleetmap check --connect` prints them ([`run_check`]).
+//! In the terminal UI with a run the operator starts, the findings are in the log pane and
+//! a blocker waits for START instead, which checks the fleet again ([`StartCheck`]): the
+//! operator fixes what it says while looking at the fleet, and starts when nothing blocks.
 
 use crate::app::error::RunError;
 use crate::fleet::FleetHandle;
@@ -211,23 +214,43 @@ pub(crate) fn render(findings: &[Finding]) -> String {
         s.push_str(&f.to_string());
         s.push('\n');
     }
-    let b = preflight::blockers(findings);
-    let w = findings.len() - b;
-    s.push_str(&format!(
-        "fleet check: {b} blocker{}, {w} warning{}\n",
-        if b == 1 { "" } else { "s" },
-        if w == 1 { "" } else { "s" }
-    ));
+    s.push_str(&summary(findings));
+    s.push('\n');
     s
 }
 
-/// The check at a run's start: log every finding; with a blocker, stop unless `ignore`.
+/// What a blocker found before a run starts does.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum OnBlocker {
+    /// Stop the start (`fleetmap run`, `resume`, the demo, a UI that starts by itself).
+    #[default]
+    Stop,
+    /// Start anyway (`--ignore-check`).
+    Ignore,
+    /// Let the UI open and stop at the operator's START, which checks again
+    /// ([`StartCheck::at_start`]).
+    AtStart,
+}
+
+impl OnBlocker {
+    /// [`OnBlocker::Ignore`] when the operator said `--ignore-check`, otherwise `otherwise`.
+    pub(crate) fn unless_ignored(ignore_check: bool, otherwise: OnBlocker) -> OnBlocker {
+        if ignore_check {
+            OnBlocker::Ignore
+        } else {
+            otherwise
+        }
+    }
+}
+
+/// The check at a run's start: log every finding; with a blocker, stop unless `on_blocker`
+/// says otherwise.
 pub(crate) async fn gate(
     fleet: &FleetHandle,
     def: &MissionDef,
     wait: Duration,
-    ignore: bool,
-) -> Result<Vec<Finding>, RunError> {
+    on_blocker: OnBlocker,
+) -> Result<StartCheck, RunError> {
     let findings = run_check(fleet, def, wait, wait).await;
     for f in &findings {
         match f.severity {
@@ -237,18 +260,63 @@ pub(crate) async fn gate(
     }
     let blockers = preflight::blockers(&findings);
     if blockers > 0 {
-        if ignore {
-            tracing::warn!(
+        match on_blocker {
+            OnBlocker::Ignore => tracing::warn!(
                 "fleet check: {blockers} blocker(s) ignored (--ignore-check): starting anyway"
-            );
-        } else {
-            return Err(RunError::CheckFailed {
-                blockers,
-                report: render(&findings),
-            });
+            ),
+            OnBlocker::AtStart => tracing::warn!(
+                "fleet check: {blockers} blocker(s): the run waits for START, which checks again"
+            ),
+            OnBlocker::Stop => {
+                return Err(RunError::CheckFailed {
+                    blockers,
+                    report: render(&findings),
+                });
+            }
         }
     }
-    Ok(findings)
+    Ok(StartCheck {
+        def: def.clone(),
+        findings,
+        ignore: on_blocker == OnBlocker::Ignore,
+    })
+}
+
+/// How long the check at the operator's START waits for a vehicle not heard: the fleet
+/// was heard when the UI opened, so this only bounds a vehicle that has gone since.
+const AT_START_WAIT: Duration = Duration::from_secs(10);
+
+/// The fleet check of a run that is about to start: what it found before the UI opened,
+/// and what to check again at the operator's START.
+#[derive(Clone, Debug)]
+pub(crate) struct StartCheck {
+    /// The mission checked.
+    def: MissionDef,
+    /// What the check before the UI found, blockers first.
+    pub findings: Vec<Finding>,
+    /// The operator said `--ignore-check`: blockers do not stop the start.
+    ignore: bool,
+}
+
+impl StartCheck {
+    /// Check the fleet again at the operator's START: the findings (blockers first) and
+    /// whether the run may start (no blocker, or `--ignore-check`).
+    pub(crate) async fn at_start(&self, fleet: &FleetHandle) -> (Vec<Finding>, bool) {
+        let findings = run_check(fleet, &self.def, AT_START_WAIT, AT_START_WAIT).await;
+        let go = self.ignore || preflight::blockers(&findings) == 0;
+        (findings, go)
+    }
+}
+
+/// The summary line under the findings: `fleet check: 1 blocker, 3 warnings`.
+pub(crate) fn summary(findings: &[Finding]) -> String {
+    let b = preflight::blockers(findings);
+    let w = findings.len() - b;
+    format!(
+        "fleet check: {b} blocker{}, {w} warning{}",
+        if b == 1 { "" } else { "s" },
+        if w == 1 { "" } else { "s" }
+    )
 }
 
 /// A finding on one line (logs).

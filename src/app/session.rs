@@ -22,6 +22,7 @@
 use crate::app::error::RunError;
 use crate::app::flight;
 use crate::app::kind::{Attached, CommandReply, Outcome, RunKind};
+use crate::app::preflight::StartCheck;
 use crate::app::run::Progress;
 use crate::app::runway::cpu;
 use crate::fleet::FleetHandle;
@@ -31,6 +32,7 @@ use crate::tui::{
     App, Command, CommandError, CommandRequest, JobResult, Model, REFRESH, ShellIo, ShellOptions,
     Target, UiConfig,
 };
+use fleetmap_core::preflight::{Finding, Severity as CheckSeverity};
 use fleetmap_core::proto::severity::Severity;
 use fleetmap_io::watch;
 use std::future::Future;
@@ -53,8 +55,11 @@ const EXPORTS_ON_QUIT: Duration = Duration::from_secs(120);
 pub(crate) type OnFinish<S> = Box<dyn FnOnce(&RunDir, &S) + Send>;
 
 /// A run the session drives, of any kind (the session is written once, for every
-/// [`RunKind`]).
-pub(crate) struct SessionRun(Box<dyn Attach>);
+/// [`RunKind`]), with the fleet check of its start.
+pub(crate) struct SessionRun {
+    run: Box<dyn Attach>,
+    check: Option<StartCheck>,
+}
 
 impl SessionRun {
     /// The run in `run_dir` of kind `K` from `state`, flown with `options`; it starts at
@@ -67,13 +72,22 @@ impl SessionRun {
         auto_start: bool,
         on_finish: Option<OnFinish<K::State>>,
     ) -> SessionRun {
-        SessionRun(Box::new(KindRun::<K> {
-            run_dir,
-            state,
-            options,
-            auto_start,
-            on_finish,
-        }))
+        SessionRun {
+            run: Box::new(KindRun::<K> {
+                run_dir,
+                state,
+                options,
+                auto_start,
+                on_finish,
+            }),
+            check: None,
+        }
+    }
+
+    /// The fleet check made before the session ([`crate::app::preflight::gate`]): its
+    /// findings open the log, and the operator's START checks again.
+    pub(crate) fn with_check(self, check: Option<StartCheck>) -> SessionRun {
+        SessionRun { check, ..self }
     }
 }
 
@@ -315,7 +329,7 @@ pub(crate) async fn run(
         tracing::warn!("the fleet did not take the UI's snapshot period: {e}");
     }
     let (view_tx, view_rx) = watch::channel::<Option<RunState>>(None);
-    let name = mission.as_ref().map(|m| m.0.name()).unwrap_or_default();
+    let name = mission.as_ref().map(|m| m.run.name()).unwrap_or_default();
     let shared = Arc::new(Shared {
         log: Mutex::new(LiveLog::default()),
         info: Mutex::new(RunInfo {
@@ -328,13 +342,17 @@ pub(crate) async fn run(
     let (start_tx, start_rx) = tokio::sync::oneshot::channel::<()>();
     let has_run = mission.is_some();
     let mut start = Some(start_tx);
+    let check = mission.as_ref().and_then(|m| m.check.clone());
+    if let Some(c) = &check {
+        log_findings(&shared, fleet.clock().now(), &c.findings);
+    }
 
     // The runner: it flies once the operator STARTs it; its mission-level commands reach
     // the executor when it does. Its own set, apart from the others: a finished run is let
     // end by itself, an unfinished one is stopped.
     let (commands_tx, commands_rx) = tokio::sync::oneshot::channel::<Box<dyn MissionCommands>>();
     let mut runner = JoinSet::new();
-    if let Some(SessionRun(m)) = mission {
+    if let Some(SessionRun { run: m, .. }) = mission {
         let _ = view_tx.send(Some(m.view()));
         if m.auto_start()
             && let Some(tx) = start.take()
@@ -382,6 +400,7 @@ pub(crate) async fn run(
     let mut controls = Controls {
         has_run,
         start,
+        check,
         commands: None,
         commands_rx: Some(commands_rx),
     };
@@ -459,6 +478,8 @@ struct Controls {
     has_run: bool,
     /// The operator's START, until it is given.
     start: Option<tokio::sync::oneshot::Sender<()>>,
+    /// The fleet check START makes again (`None`: the run was not checked).
+    check: Option<StartCheck>,
     /// The running run's mission-level commands.
     commands: Option<Box<dyn MissionCommands>>,
     /// Where they come from once the run starts.
@@ -476,6 +497,38 @@ impl Controls {
         }
         self.commands.as_deref()
     }
+}
+
+/// Put the fleet check's findings in the log pane, one line each (a blocker as an error,
+/// a warning as a warning, each with its fix), then the summary line.
+fn log_findings(shared: &Shared, now: fleetmap_core::time::Time, findings: &[Finding]) {
+    let Ok(mut l) = shared.log.lock() else {
+        return;
+    };
+    for f in findings {
+        let severity = match f.severity {
+            CheckSeverity::Blocker => Severity::Error,
+            CheckSeverity::Warning => Severity::Warning,
+        };
+        l.push(
+            now,
+            severity,
+            Some(f.sysid),
+            crate::app::preflight::one_line(f),
+        );
+    }
+    let blockers = fleetmap_core::preflight::blockers(findings) > 0;
+    let severity = if blockers {
+        Severity::Error
+    } else {
+        Severity::Notice
+    };
+    l.push(
+        now,
+        severity,
+        None,
+        crate::app::preflight::summary(findings),
+    );
 }
 
 /// Tell the operator how the run ended (the log; the title bar for a failure).
@@ -534,13 +587,27 @@ async fn execute(
         Target::All => fleet.snapshot().vehicles.keys().copied().collect(),
     };
     if req.command == Command::Start {
-        return if !controls.has_run {
-            Err(CommandError::NoMission)
-        } else if let Some(tx) = controls.start.take() {
-            let _ = tx.send(());
-            Ok("mission started".into())
-        } else {
-            Err(CommandError::AlreadyRunning)
+        if !controls.has_run {
+            return Err(CommandError::NoMission);
+        }
+        if controls.start.is_none() {
+            return Err(CommandError::AlreadyRunning);
+        }
+        if let Some(check) = &controls.check {
+            let (findings, go) = check.at_start(fleet).await;
+            log_findings(shared, fleet.clock().now(), &findings);
+            if !go {
+                return Err(CommandError::CheckFailed(crate::app::preflight::summary(
+                    &findings,
+                )));
+            }
+        }
+        return match controls.start.take() {
+            Some(tx) => {
+                let _ = tx.send(());
+                Ok("mission started".into())
+            }
+            None => Err(CommandError::AlreadyRunning),
         };
     }
     let running = controls.has_run && started;

@@ -6,6 +6,7 @@
 use crate::app::demo::{self, DemoConfig};
 use crate::app::kind::{Outcome, RunKind, RunSettings};
 use crate::app::launch::{Face, Flown, NewRun, Start, finish_exports, prepare};
+use crate::app::preflight::OnBlocker;
 use crate::app::runway::Runway;
 use crate::app::runway::report::MappingReport;
 use crate::cli::vehicles::block_on;
@@ -214,7 +215,7 @@ pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
         let settings = RunSettings {
             auto_resume: !args.manual,
             roi_epoch_unix_ms: Some(d.started_unix_ms),
-            ignore_check: args.ignore_check,
+            on_blocker: OnBlocker::unless_ignored(args.ignore_check, OnBlocker::Stop),
             ..RunSettings::default()
         };
         let succeeded = |outcome: &Outcome, r: &MappingReport| {
@@ -461,7 +462,7 @@ pub(crate) fn run_bandit(args: &DemoArgs) -> anyhow::Result<ExitCode> {
             r.finished && r.interesting_truth.as_ref() == Some(&r.keep)
         };
         let settings = RunSettings {
-            ignore_check: args.ignore_check,
+            on_blocker: OnBlocker::unless_ignored(args.ignore_check, OnBlocker::Stop),
             ..RunSettings::default()
         };
         demo.fly::<Classification>(d.fleet, d.sim, &settings, summary, succeeded)

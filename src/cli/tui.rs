@@ -10,6 +10,7 @@
 
 use crate::app::kind::{RunKind, RunSettings};
 use crate::app::launch::{Face, NewRun, Start, prepare};
+use crate::app::preflight::OnBlocker;
 use crate::store::RunDir;
 use crate::tui::Model;
 use crate::tui::UiConfig;
@@ -348,7 +349,7 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
     let live = Live {
         settings: RunSettings {
             auto_resume: args.auto_resume,
-            ignore_check: args.ignore_check,
+            on_blocker: OnBlocker::unless_ignored(args.ignore_check, OnBlocker::AtStart),
             ..Default::default()
         },
         config: crate::app::session::SessionConfig {

@@ -9,6 +9,7 @@ use super::state::VehicleSnapshot;
 use super::vehicle_link::{VehicleLink, wire_len};
 use fleetmap_core::mission::item::MissionType;
 use fleetmap_core::proto::Endpoint;
+use fleetmap_core::proto::camera_tally::CameraTally;
 use fleetmap_core::proto::command::CmdId;
 use fleetmap_core::proto::command::Command;
 use fleetmap_core::proto::command::CommandAck;
@@ -94,6 +95,8 @@ pub(super) struct VehicleEntry {
     pub(super) status_at: Option<Time>,
     /// Its link: budget, telemetry requests, radio, bytes ([`super::telemetry`]).
     pub(super) link: VehicleLink,
+    /// What its camera component did (pictures, measurements).
+    pub(super) camera: CameraTally,
 }
 
 pub(super) struct Actor {
@@ -384,6 +387,13 @@ impl Actor {
                     }
                     v.mission.handle_message(&frame.header, msg, now);
                 }
+                if self.cameras.get(&from.sysid) == Some(&from.compid)
+                    && let Some(v) = self.vehicles.get_mut(&from.sysid)
+                {
+                    v.camera.handle_message(msg);
+                    v.snap.camera_pictures = v.camera.pictures();
+                    v.snap.camera_measurements = v.camera.measurements();
+                }
             }
             Err(e) => {
                 if let Some(seq) = unparsed_item_seq(&frame)
@@ -446,6 +456,7 @@ impl Actor {
                         rate_hz: 0.0,
                         status_at: None,
                         link: VehicleLink::new(budget, (link, peer), now),
+                        camera: CameraTally::default(),
                     },
                 );
                 tracing::info!(

@@ -188,6 +188,15 @@ pub struct VehicleSnapshot {
     /// or the first after a silence of more than [`CAMERA_SILENCE_S`] (a camera that was off,
     /// rebooted or unplugged, and is back).
     pub(crate) camera_since: Option<Time>,
+    /// Seconds from the camera's last heartbeat to the last refresh; `None` when no camera
+    /// was ever heard on this system.
+    pub camera_age_s: Option<f64>,
+    /// Pictures the camera took, each counted once
+    /// ([`fleetmap_core::proto::camera_tally::CameraTally::pictures`]).
+    pub camera_pictures: u32,
+    /// Measurements the camera made on board and sent
+    /// ([`fleetmap_core::proto::camera_tally::CameraTally::measurements`]).
+    pub camera_measurements: u32,
     /// Link carrying this vehicle (index of `--connect`).
     pub link: usize,
     /// Link quality from the autopilot's sequence numbers.
@@ -239,6 +248,12 @@ impl VehicleSnapshot {
             self.camera_since = Some(now);
         }
         self.camera_heard_at = Some(now);
+    }
+
+    /// Whether the camera has gone silent: heard once, and not for more than
+    /// [`CAMERA_SILENCE_S`] at the last refresh.
+    pub(crate) fn camera_silent(&self) -> bool {
+        self.camera_age_s.is_some_and(|a| a > CAMERA_SILENCE_S)
     }
 
     /// Whether the camera has been heard within [`CAMERA_SILENCE_S`] of `now`, in a run of
@@ -387,6 +402,9 @@ impl VehicleSnapshot {
             camera_compid: None,
             camera_heard_at: None,
             camera_since: None,
+            camera_age_s: None,
+            camera_pictures: 0,
+            camera_measurements: 0,
             link,
             link_quality: LinkQuality::default(),
             last_message: now,
@@ -553,6 +571,9 @@ impl VehicleSnapshot {
         self.alive = alive;
         self.heartbeat_age_s =
             last_beat.map_or(f64::INFINITY, |t| now.saturating_since(t).as_secs_f64());
+        self.camera_age_s = self
+            .camera_heard_at
+            .map(|t| now.saturating_since(t).as_secs_f64());
         if let Some(s) = src {
             self.link_quality.set_source(s, rate_hz);
         }

@@ -195,6 +195,10 @@ pub enum CommandError {
     /// The command never left the UI (why, saying so: a replay, the sample, a full queue…).
     #[error("{0}")]
     NotSent(&'static str),
+    /// START refused: the fleet check found a blocker (its summary; the findings are in
+    /// the log).
+    #[error("not started: {0} (fix what the log says, or restart with --ignore-check)")]
+    CheckFailed(String),
 }
 
 /// Zoom levels as (num, den): a cell is 2·num/den characters wide and num/den high.

@@ -7,9 +7,9 @@
 //! [`build_model`] is a function of its arguments.
 
 use super::model::{
-    Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind, MapModel,
-    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Stat, Track,
-    VehicleRow,
+    Battery, CameraHealth, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapKind,
+    MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Stat,
+    Track, VehicleRow,
 };
 use crate::fleet::{FleetSnapshot, VehicleSnapshot};
 use fleetmap_core::explore::dfs::VertexState;
@@ -140,6 +140,12 @@ pub(crate) fn vehicle_row(
                 .map(|r| (r.status.rssi, r.status.remrssi)),
         },
         cell,
+        camera: v.camera_age_s.map(|age| CameraHealth {
+            heard_s: age as f32,
+            silent: v.camera_silent(),
+            pictures: v.camera_pictures,
+            measurements: v.camera_measurements,
+        }),
         // Said where the operator looks first, over whatever the runner had it doing.
         activity: match &v.sysid_conflict {
             Some(_) => Some(format!(

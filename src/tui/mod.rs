@@ -54,9 +54,9 @@ pub use app::{
 pub use config::{ConfigError, Thresholds, UiConfig};
 pub use keymap::{ALL_ACTIONS, Action, Context, Key, KeyMap, KeyMapError};
 pub use model::{
-    Battery, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapError, MapKind, MapModel,
-    MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Stat, Track,
-    VehicleRow,
+    Battery, CameraHealth, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapError,
+    MapKind, MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus,
+    Stat, Track, VehicleRow,
 };
 pub use shell::{
     REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, install_panic_hook, run, run_loop,

@@ -48,6 +48,12 @@ fn copter(sysid: u8) -> VehicleRow {
         },
         cell: None,
         activity: None,
+        camera: Some(CameraHealth {
+            heard_s: 0.4,
+            silent: false,
+            pictures: 42,
+            measurements: 41,
+        }),
     }
 }
 
@@ -113,6 +119,12 @@ pub fn runway_fixture() -> Model {
         fix: GpsFix::Fix3d,
         satellites: Some(5),
     };
+    v3.camera = Some(CameraHealth {
+        heard_s: 12.4,
+        silent: true,
+        pictures: 97,
+        measurements: 95,
+    });
     v3.link = LinkState {
         quality_pct: Some(0),
         lost: true,
@@ -219,6 +231,7 @@ pub fn classification_fixture() -> Model {
         speed_mps: Some(0.8),
         cell: Some(cell),
         activity: Some("charging pad".into()),
+        camera: None,
         ..copter(id)
     };
     Model {
@@ -333,6 +346,16 @@ pub fn generated(n: usize, seed: u64) -> Model {
                 },
                 cell: Some(cell),
                 activity: Some(format!("lane {}", i % 17)),
+                camera: (!station).then(|| {
+                    let heard_s = rng.random_range(0.0..6.0);
+                    let pictures = rng.random_range(0..400);
+                    CameraHealth {
+                        heard_s,
+                        silent: heard_s > 3.0,
+                        pictures,
+                        measurements: pictures.saturating_sub(rng.random_range(0..3)),
+                    }
+                }),
             }
         })
         .collect();

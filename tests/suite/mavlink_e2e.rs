@@ -800,6 +800,39 @@ async fn capture_goes_to_the_camera_component_when_there_is_one() {
         "IMAGE_START_CAPTURE reached the camera over its own link"
     );
     cap.await.unwrap().unwrap();
+    // Its capture record (heard twice: the GCS asked again) and its on-board measurement:
+    // the fleet counts one picture and one measurement for the camera's health.
+    let captured = MavMessage::CAMERA_IMAGE_CAPTURED(CAMERA_IMAGE_CAPTURED_DATA {
+        time_boot_ms: 4_000,
+        image_index: 0,
+        ..Default::default()
+    });
+    let measured = fleetmap_core::vision::onboard::OnboardMeasurement {
+        time_boot_ms: 4_000,
+        image_index_lo: 0,
+        spec: 1,
+        picture_bytes: 20_000,
+        value: fleetmap_core::vision::onboard::GreenShare {
+            share: 0.4,
+            pixels: 1000,
+        },
+    }
+    .to_message();
+    for m in [&captured, &captured, &measured] {
+        cam.send_to(&c.encode(5, 100, m, 0), ("127.0.0.1", port))
+            .await
+            .unwrap();
+    }
+    let v5 = g
+        .wait_until(5, Duration::from_secs(3), |v| v.camera_measurements == 1)
+        .await
+        .unwrap();
+    assert_eq!((v5.camera_pictures, v5.camera_measurements), (1, 1));
+    assert!(
+        v5.camera_age_s.is_some_and(|a| a < 3.0),
+        "{:?}",
+        v5.camera_age_s
+    );
     g.shutdown().await;
     let _ = v.stop.send(true);
 }

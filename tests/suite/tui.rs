@@ -215,6 +215,12 @@ fn headers_and_values_are_readable_at_both_sizes() {
             );
         }
         assert!(s.contains("LOST"), "{w}x{h}: lost link shown in words");
+        // The camera's health: its column, and a silent camera in words.
+        assert!(s.contains("CAM"), "{w}x{h}: camera column\n{s}");
+        assert!(
+            s.contains("OFF"),
+            "{w}x{h}: silent camera shown in words\n{s}"
+        );
         assert!(
             s.contains("RUNNING"),
             "{w}x{h}: run status in the title bar"

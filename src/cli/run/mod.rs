@@ -70,7 +70,10 @@ impl RunnerArgs {
             lock_step: self.lock_step.then_some(true),
             plan_time_limit_s: self.plan_time_limit,
             roi_epoch_unix_ms: None,
-            ignore_check: self.ignore_check,
+            on_blocker: crate::app::preflight::OnBlocker::unless_ignored(
+                self.ignore_check,
+                crate::app::preflight::OnBlocker::Stop,
+            ),
         }
     }
 }

@@ -21,7 +21,9 @@ mod vehicle;
 pub use log::LogEntry;
 pub use map::{CellState, MapError, MapKind, MapModel, Track};
 pub use mission::{DfsProgress, MissionKind, MissionModel, Phase, RunStatus, Stat};
-pub use vehicle::{Battery, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleRow};
+pub use vehicle::{
+    Battery, CameraHealth, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleRow,
+};
 
 use fleetmap_core::time::Time;
 use serde::{Deserialize, Serialize};

@@ -1,5 +1,5 @@
-//! One fleet-pane row per vehicle: identity (role, firmware, airframe), battery, GPS, link
-//! and mission progress, as the adapter reads them from the vehicle's telemetry.
+//! One fleet-pane row per vehicle: identity (role, firmware, airframe), battery, GPS, link,
+//! camera and mission progress, as the adapter reads them from the vehicle's telemetry.
 
 use fleetmap_core::geo::Cell;
 use serde::{Deserialize, Serialize};
@@ -189,6 +189,20 @@ pub struct LinkState {
     pub(crate) rssi: Option<(u8, u8)>,
 }
 
+/// The vehicle's camera component, as its own messages tell it.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[serde(default)]
+pub struct CameraHealth {
+    /// Seconds since its last heartbeat (1 Hz in the MAVLink camera protocol).
+    pub heard_s: f32,
+    /// It has gone silent: no heartbeat for three beats (the fleet's window for a camera).
+    pub silent: bool,
+    /// Pictures it took (CAMERA_IMAGE_CAPTURED, each counted once).
+    pub pictures: u32,
+    /// Measurements it made on board and sent (green shares, runway regions).
+    pub measurements: u32,
+}
+
 /// Position in the uploaded mission.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct MissionProgress {
@@ -232,4 +246,6 @@ pub struct VehicleRow {
     pub cell: Option<Cell>,
     /// What the mission runner has it doing ("sweep lane 3", "DFS (4, 2)", "battery swap").
     pub activity: Option<String>,
+    /// Its camera; `None` when no camera component was ever heard on this system.
+    pub camera: Option<CameraHealth>,
 }

@@ -1,8 +1,9 @@
 //! The fleet pane: one row per vehicle.
 //!
 //! Two column sets: the full one when the pane is at least [`FULL_WIDTH`] wide, and a
-//! compact one that fits 80 columns (short type names, units in the headers). Values that
-//! need attention get a background colour *and* stay readable as text (`LOST`, `nofix`).
+//! compact one that fits 80 columns (short type names, units in the headers, the camera in
+//! a word). Values that need attention get a background colour *and* stay readable as text
+//! (`LOST`, `nofix`, `OFF`).
 
 use super::theme;
 use super::{pane_block, pane_title};
@@ -16,7 +17,7 @@ use ratatui::widgets::{Cell, HighlightSpacing, Paragraph, Row, Table, TableState
 
 /// Inner width from which the full column set is used (sum of its fixed columns, spacing
 /// and the selection marker).
-pub(crate) const FULL_WIDTH: u16 = 133;
+pub(crate) const FULL_WIDTH: u16 = 148;
 
 struct Column {
     header: &'static str,
@@ -99,6 +100,13 @@ fn alt(v: &VehicleRow, _: &App) -> (String, Style) {
         .unwrap_or_else(|| "     -".into()))
 }
 
+/// Altitude in five characters (to 999.9 m), for the compact set.
+fn alt_short(v: &VehicleRow, _: &App) -> (String, Style) {
+    s(v.alt_m
+        .map(|a| format!("{a:>5.1}"))
+        .unwrap_or_else(|| "    -".into()))
+}
+
 fn speed(v: &VehicleRow, _: &App) -> (String, Style) {
     s(v.speed_mps
         .map(|a| format!("{a:>5.1}"))
@@ -159,6 +167,36 @@ fn rssi(v: &VehicleRow, _: &App) -> (String, Style) {
         .rssi
         .map(|(a, b)| format!("{a:>3}/{b:<3}"))
         .unwrap_or_else(|| "   -   ".into()))
+}
+
+/// The camera component: seconds since its heartbeat, pictures taken / measurements sent
+/// (`  0s   12/12`; `OFF  12s 97/95` once silent); `none` for a drone whose camera was
+/// never heard.
+fn camera_full(v: &VehicleRow, _: &App) -> (String, Style) {
+    let text = match &v.camera {
+        Some(c) => {
+            let age = c.heard_s.min(999.0).floor();
+            if c.silent {
+                format!("OFF {age:>3.0}s {}/{}", c.pictures, c.measurements)
+            } else {
+                format!("{age:>3.0}s {:>4}/{:<4}", c.pictures, c.measurements)
+            }
+        }
+        None if v.role == Role::Drone => "none".into(),
+        None => "-".into(),
+    };
+    (text, theme::level(theme::camera_level(v)))
+}
+
+/// The camera in a word: `ok`, `OFF` (silent), `no` (a drone's camera never heard), `-`.
+fn camera_short(v: &VehicleRow, _: &App) -> (String, Style) {
+    let text = match &v.camera {
+        Some(c) if c.silent => "OFF",
+        Some(_) => "ok",
+        None if v.role == Role::Drone => "no",
+        None => "-",
+    };
+    (text.into(), theme::level(theme::camera_level(v)))
 }
 
 fn activity(v: &VehicleRow, _: &App) -> (String, Style) {
@@ -232,6 +270,11 @@ const FULL: &[Column] = &[
         cell: rssi,
     },
     Column {
+        header: " CAM PICT/MEAS",
+        width: 14,
+        cell: camera_full,
+    },
+    Column {
         header: "ACTIVITY",
         width: 14,
         cell: activity,
@@ -270,9 +313,9 @@ const COMPACT: &[Column] = &[
         cell: gps,
     },
     Column {
-        header: " ALT m",
-        width: 6,
-        cell: alt,
+        header: "ALT m",
+        width: 5,
+        cell: alt_short,
     },
     Column {
         header: "GS m/s",
@@ -288,6 +331,11 @@ const COMPACT: &[Column] = &[
         header: "LINK",
         width: 4,
         cell: link_short,
+    },
+    Column {
+        header: "CAM",
+        width: 3,
+        cell: camera_short,
     },
 ];
 

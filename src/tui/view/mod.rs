@@ -30,8 +30,9 @@ use ratatui::widgets::{Block, BorderType, Paragraph};
 
 /// Smallest terminal the UI draws in (columns, rows); below it a message asks for more.
 pub(crate) const MIN_SIZE: (u16, u16) = (60, 16);
-/// Smallest terminal that gets the wide layout (columns, rows).
-pub(crate) const WIDE_MIN: (u16, u16) = (170, 40);
+/// Smallest terminal that gets the wide layout (columns, rows): the full fleet table
+/// ([`fleet::FULL_WIDTH`]) and a map of at least 35 columns beside it.
+pub(crate) const WIDE_MIN: (u16, u16) = (185, 40);
 
 /// Where each pane goes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -4,7 +4,7 @@
 //! word so that nothing depends on colour alone.
 
 use crate::tui::config::Thresholds;
-use crate::tui::model::{Battery, CellState, Gps, LinkState};
+use crate::tui::model::{Battery, CellState, Gps, LinkState, Role, VehicleRow};
 use fleetmap_core::proto::severity::Severity;
 use ratatui::style::{Color, Modifier, Style};
 
@@ -144,6 +144,18 @@ pub(crate) fn link_level(l: &LinkState, t: &Thresholds) -> Level {
             Some(_) => Level::Ok,
             None => Level::Unknown,
         }
+    }
+}
+
+/// Camera level: a drone's camera silent is critical (its pictures stop), never heard a
+/// warning (the run cannot start without it); a station needs none.
+pub(crate) fn camera_level(v: &VehicleRow) -> Level {
+    match (&v.camera, v.role) {
+        (Some(c), Role::Drone) if c.silent => Level::Critical,
+        (Some(c), Role::Station) if c.silent => Level::Warn,
+        (Some(_), _) => Level::Ok,
+        (None, Role::Drone) => Level::Warn,
+        (None, Role::Station) => Level::Unknown,
     }
 }
 

@@ -275,3 +275,39 @@ fn a_run_does_not_start_on_a_blocker_unless_told_to_ignore_the_check() {
         "{lines:#?}"
     );
 }
+
+#[test]
+fn the_tui_shows_the_findings_and_its_start_checks_again() {
+    use crate::common::pty;
+    if !pty::have_script() {
+        eprintln!("skipped: util-linux `script` is not installed");
+        return;
+    }
+    let (_sim, port) = sim("2xcopter:ardupilot", &["--no-camera", "2"]);
+    let m = mission(2);
+    let tmp = tempfile::tempdir().unwrap();
+    let log = tmp.path().join("ui.log");
+    let cmd = format!(
+        "{} --log-file {} tui --connect udpin:127.0.0.1:{port} --mission {}",
+        bin(),
+        log.display(),
+        m.path().display()
+    );
+    // Wide enough for the log pane beside the map and the fleet.
+    let (_ui, mut keys, mut term) = pty::spawn(&cmd, 250, 70, &log);
+    let deadline = Instant::now() + Duration::from_secs(90);
+    // The blocker does not keep the UI shut: its findings open the log, START waits.
+    term.wait_screen("NOT STARTED", deadline);
+    term.wait_screen("fleet check: 1 blocker", deadline);
+    term.wait_screen("vehicle 2 camera", deadline);
+    // START checks the fleet again and refuses while the camera is missing.
+    keys.press(b"s");
+    term.wait_screen("START mission", deadline);
+    keys.press(b"y");
+    term.wait_screen("not started: fleet check: 1 blocker", deadline);
+    term.pump(Duration::from_secs(1));
+    assert!(term.text().contains("NOT STARTED"), "{}", term.dump());
+    assert!(!term.text().contains("RUNNING"), "{}", term.dump());
+    keys.press(b"q");
+    keys.press(b"y");
+}

@@ -24,10 +24,13 @@
 //!   their sequence counters and heartbeats.
 //! * [`params`] — reading a few parameters by name (PARAM_REQUEST_READ), retried with
 //!   back-off over a lossy link.
+//! * [`camera_tally`] — what a vehicle's camera did: pictures taken and measurements sent,
+//!   each counted once however often it is heard.
 //! * [`image_transfer`] — receiving pictures by MAVLink image transmission
 //!   (DATA_TRANSMISSION_HANDSHAKE + ENCAPSULATED_DATA), with re-requests on a lossy link.
 
 pub mod arming;
+pub mod camera_tally;
 pub mod captures;
 pub mod command;
 pub mod flavour;
