@@ -12,6 +12,7 @@ use crate::cli::vehicles::{ConnectArgs, Session, block_on};
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
 use anyhow::{Context as _, bail};
+use fleetmap_io::link::ConnSpec;
 use std::path::Path;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -173,13 +174,7 @@ pub(super) fn resume<K: RunKind>(args: ResumeArgs, run_dir: RunDir) -> anyhow::R
     if connect.is_empty() {
         bail!("the run remembers no connection: give --connect");
     }
-    let conn = ConnectArgs {
-        signing_key: args.signing_key.clone(),
-        tlog: args.tlog.clone(),
-        link: args.link,
-        ..ConnectArgs::defaults(connect)
-    };
-    let conn = conn.with_run_links(&run_dir)?;
+    let conn = resume_connection(&args, connect).with_run_links(&run_dir)?;
     let settings = args.runner.settings();
     let wait = wait_of(args.runner.wait)?;
     K::options(&settings)?;
@@ -188,6 +183,18 @@ pub(super) fn resume<K: RunKind>(args: ResumeArgs, run_dir: RunDir) -> anyhow::R
         let start = Start::Resume(Box::new(run_dir));
         connect_and_fly::<K>(&conn, start, &settings, wait, headless, Some(&args.run_dir)).await
     })?
+}
+
+/// How `fleetmap resume` connects: `connect` with the options it was given (a resumed run
+/// remembers its links, not its key, log or terrain folder).
+fn resume_connection(args: &ResumeArgs, connect: Vec<ConnSpec>) -> ConnectArgs {
+    ConnectArgs {
+        signing_key: args.signing_key.clone(),
+        tlog: args.tlog.clone(),
+        link: args.link,
+        terrain: args.terrain.clone(),
+        ..ConnectArgs::defaults(connect)
+    }
 }
 
 /// A run's state, for `report` and `export`.
@@ -235,4 +242,29 @@ pub(super) fn export<K: RunKind>(args: ExportArgs, run_dir: RunDir) -> anyhow::R
     };
     println!("{}", path.display());
     Ok(ExitCode::SUCCESS)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    #[test]
+    fn resume_serves_terrain_from_the_folder_it_is_given() {
+        let cli = crate::cli::Cli::try_parse_from([
+            "fleetmap",
+            "resume",
+            "runs/r1",
+            "--terrain",
+            "tiles",
+            "--connect",
+            "udpin:0.0.0.0:14550",
+        ])
+        .expect("resume parses");
+        let crate::cli::Command::Resume(args) = cli.command else {
+            panic!("not resume");
+        };
+        let conn = resume_connection(&args, args.connect.clone());
+        assert_eq!(conn.terrain.as_deref(), Some(std::path::Path::new("tiles")));
+    }
 }

@@ -137,6 +137,10 @@ pub struct ResumeArgs {
     /// file's `link`).
     #[arg(long, value_name = "LINK")]
     pub link: Option<fleetmap_core::budget::LinkBudget>,
+    /// Answer the ArduPilot vehicles' terrain requests from the SRTM tiles in this folder,
+    /// as `fleetmap run --terrain` (the run does not remember it: give it again).
+    #[arg(long, value_name = "DIR")]
+    pub terrain: Option<PathBuf>,
     /// Runner options.
     #[command(flatten)]
     pub runner: RunnerArgs,
