@@ -376,10 +376,12 @@ impl App {
         }
     }
 
-    /// Add a line to the UI's own log.
+    /// Add a line to the UI's own log, stamped with the model's time (the clock of every
+    /// other log line: the fleet's, the replay's), not the UI's own wall clock, so that the
+    /// merged log keeps the order in which things happened.
     pub fn log(&mut self, severity: Severity, text: impl Into<String>) {
         self.ui_log.push(LogEntry {
-            time: self.now,
+            time: self.model.time,
             severity,
             sysid: None,
             text: text.into(),

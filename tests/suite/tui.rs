@@ -1146,3 +1146,21 @@ fn the_binary_runs_in_a_pty_and_restores_the_terminal() {
     // Logs went to the file, not over the screen.
     assert!(log.exists(), "log file created");
 }
+
+#[test]
+fn the_uis_own_lines_keep_their_place_in_the_log_whatever_its_clock() {
+    // Live, the UI's timers run on the wall clock from the UI's start while the model's log
+    // runs on the fleet's clock, which started before (connecting, the fleet check): the
+    // UI's lines are stamped on the model's clock, so they come after what preceded them.
+    let model = sample::runway_fixture();
+    let latest = model.log.iter().map(|e| e.time).max().expect("fixture log");
+    let mut app = app_with(model, 80, 24);
+    update(&mut app, Event::Tick(Time::from_secs(3)));
+    app.log(Severity::Error, "START mission FAILED: not started");
+    let line = app.ui_log.last().expect("the UI's line");
+    assert!(
+        line.time >= latest,
+        "{:?} before the model's {latest:?}",
+        line.time
+    );
+}
