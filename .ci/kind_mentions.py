@@ -1,0 +1,180 @@
+#!/usr/bin/env python3
+"""Count the places outside a mission kind's folders that name the kind: a ratchet.
+
+    .ci/kind_mentions.py            # print every place, grouped by kind and file; exit 1 above the ceiling
+    .ci/kind_mentions.py --quiet    # only the counts
+
+A mission kind should be its folders plus one line in the registry (`registry!(…)` in
+src/app/kinds.rs). Every other line that names the kind is a place a new kind must touch too.
+The goal is 1 per kind (the registry line); CEILING holds today's counts, and CI fails when a
+count rises above its ceiling. When a count falls, lower its ceiling in the same commit.
+
+The rules:
+
+- **Which kinds**: the types in `registry!(…)`; each must have an entry in KINDS below (CI fails
+  on a registered kind that has none).
+- **A kind's folders** (KINDS[…]["folders"]; a path ending in `/` is a folder, otherwise a file):
+  where the code that exists only for that kind lives — its runner and `RunKind` in
+  src/app/<kind>/, its study in src/experiment/<kind>/, its pure state machine and algorithms
+  in the core (the runway: `explore` and the runway classifiers in `vision`; spatial
+  classification: `planner`), and its section of the mission file
+  (crates/core/src/mission/definition/<kind>.rs).
+- **What names a kind** (KINDS[…]["names"]): the words the code uses for it — its name, its
+  type and its modules — matched case-insensitively anywhere in an identifier, a path or a
+  string literal (`runway` in `RunwayView`, `onboard_runway` and "runway-mapping"; `bandit`,
+  `classification` and `sortie` for spatial classification, which the code calls all three).
+  `Classification` is also the runway classifier's result type (a name to be changed): it
+  counts for spatial classification, as a reader would take it.
+- **Where**: the product code, src/ and crates/*/src, without comments (doc comments included)
+  and without `#[cfg(test)]` code (tests, integration tests and benchmarks may name any kind).
+- **A place** is one line; a line naming a kind twice counts once (a line naming both kinds
+  counts for each).
+"""
+import os
+import re
+import sys
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from layers import code_files  # noqa: E402
+from module_cycles import drop_test_modules, strip  # noqa: E402
+
+REGISTRY = "src/app/kinds.rs"
+ROOTS = ["src", "crates/core/src", "crates/io/src", "crates/sim/src", "crates/camera/src"]
+KINDS = {
+    "crate::app::runway::Runway": {
+        "name": "runway-mapping",
+        "folders": [
+            "src/app/runway/",
+            "src/experiment/runway/",
+            "crates/core/src/explore/",
+            "crates/core/src/vision/runway.rs",
+            "crates/core/src/vision/onboard_runway.rs",
+            "crates/core/src/mission/definition/runway.rs",
+        ],
+        "names": ["runway"],
+    },
+    "crate::app::bandit::Classification": {
+        "name": "spatial-classification",
+        "folders": [
+            "src/app/bandit/",
+            "src/experiment/bandit/",
+            "crates/core/src/planner/",
+            "crates/core/src/mission/definition/classification.rs",
+        ],
+        "names": ["bandit", "classification", "sortie"],
+    },
+}
+# Today's counts (lines outside the kind's folders); the goal is 1, the registry line.
+CEILING = {"runway-mapping": 224, "spatial-classification": 165}
+GOAL = 1
+
+
+def registered():
+    text = open(REGISTRY, encoding="utf-8").read()
+    m = re.search(r"^registry!\((.*?)\);", text, re.S | re.M)
+    if m is None:
+        sys.exit(f"kind_mentions: no registry!(…) in {REGISTRY}")
+    return [k.strip() for k in m.group(1).split(",") if k.strip()]
+
+
+def without_comments(text):
+    """Comments out, string literals kept, newlines kept (so line numbers hold)."""
+    out, i, n = [], 0, len(text)
+    while i < n:
+        if text.startswith("//", i):
+            j = text.find("\n", i)
+            i = n if j < 0 else j
+        elif text.startswith("/*", i):
+            depth, j = 1, i + 2
+            while j < n and depth:
+                if text.startswith("/*", j):
+                    depth, j = depth + 1, j + 2
+                elif text.startswith("*/", j):
+                    depth, j = depth - 1, j + 2
+                else:
+                    j += 1
+            out.append("\n" * text.count("\n", i, j))
+            i = j
+        elif text[i] == '"' or (text[i] == "r" and re.match(r'r#*"', text[i:i + 10])
+                                and (i == 0 or not (text[i - 1].isalnum() or text[i - 1] == "_"))):
+            m = re.match(r'r(#*)"', text[i:])
+            if m:
+                end = text.find('"' + m.group(1), i + len(m.group(0)))
+                j = n if end < 0 else end + 1 + len(m.group(1))
+            else:
+                j = i + 1
+                while j < n and text[j] != '"':
+                    j += 2 if text[j] == "\\" else 1
+                j += 1
+            out.append(text[i:j])
+            i = j
+        elif text[i] == "'" and re.match(r"'(\\.|[^\\'])'", text[i:i + 4]):
+            j = text.find("'", i + 2 if text[i + 1] != "\\" else i + 3) + 1
+            out.append(text[i:j])
+            i = j
+        else:
+            out.append(text[i])
+            i += 1
+    return "".join(out)
+
+
+def inside(path, folders):
+    return any(path.startswith(f) if f.endswith("/") else path == f for f in folders)
+
+
+def places(kind):
+    """[(file, line, text)] outside the kind's folders that name it."""
+    words = re.compile("|".join(kind["names"]), re.I)
+    found = []
+    for root in ROOTS:
+        for f, _, _ in code_files(root):
+            if inside(f, kind["folders"]):
+                continue
+            raw = open(f, encoding="utf-8").read()
+            # The lines of `#[cfg(test)] mod … { … }` bodies: where module_cycles' reader blanks them.
+            bare = strip(raw).split("\n")
+            tests = {no for no, (a, b) in enumerate(zip(bare, drop_test_modules("\n".join(bare)).split("\n")), 1) if a != b}
+            for no, line in enumerate(without_comments(raw).split("\n"), 1):
+                if no not in tests and words.search(line):
+                    found.append((f, no, line.strip()))
+    return found
+
+
+def main():
+    quiet = "--quiet" in sys.argv
+    kinds = registered()
+    unknown = [k for k in kinds if k not in KINDS]
+    if unknown:
+        sys.exit(f"kind_mentions: {', '.join(unknown)} registered in {REGISTRY} but not described in "
+                 ".ci/kind_mentions.py's KINDS (its folders and the words that name it)")
+    failed = False
+    summary = []
+    for k in kinds:
+        kind = KINDS[k]
+        found = places(kind)
+        name = kind["name"]
+        if not quiet:
+            files = {}
+            for f, no, line in found:
+                files.setdefault(f, []).append((no, line))
+            print(f"== {name}: {len(found)} lines outside {', '.join(kind['folders'])} name it "
+                  f"({'/'.join(kind['names'])}), in {len(files)} files")
+            for f in sorted(files, key=lambda f: (-len(files[f]), f)):
+                print(f"  {f} ({len(files[f])})")
+                for no, line in files[f]:
+                    print(f"    {no}: {line[:110]}")
+        ceiling = CEILING[name]
+        summary.append(f"{name} {len(found)} (ceiling {ceiling}, goal {GOAL})")
+        if len(found) > ceiling:
+            failed = True
+            print(f"kind_mentions: {name} is named in {len(found)} places outside its folders, "
+                  f"more than the ceiling {ceiling}: fold the new ones into the kind's folders")
+        elif len(found) < ceiling:
+            print(f"kind_mentions: {name} fell to {len(found)}: lower its CEILING in .ci/kind_mentions.py")
+    print("kind_mentions: " + "; ".join(summary))
+    if failed:
+        sys.exit(1)
+
+
+if __name__ == "__main__":
+    main()
