@@ -1,4 +1,4 @@
-//! Criterion benchmarks of the bandit planner's IP (issue 7): per-epoch solve time of the fast
+//! Criterion benchmarks of the bandit planner's IP: per-epoch solve time of the fast
 //! model on the 10×10 default (Nd = 10, Nc = 5, Td = 8, Tc = 4, D = 8, 16 obstacles), on epochs
 //! produced by Algorithm 1 itself (the team carried over between epochs), and the fast model
 //! against the paper's plain model on the 6×6 hardware layout.

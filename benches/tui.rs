@@ -1,4 +1,4 @@
-//! Full-frame redraw time of the terminal UI (issue 9: with 50 simulated vehicles the screen
+//! Full-frame redraw time of the terminal UI (the goal: with 50 simulated vehicles the screen
 //! must still redraw at least 10 times a second, i.e. a frame well under 100 ms).
 //!
 //! Each iteration renders the whole screen into ratatui's `TestBackend` (layout, every pane,

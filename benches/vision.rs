@@ -1,4 +1,4 @@
-//! Criterion benchmarks of the vision module at 1920×1080 (the reference size):
+//! Criterion benchmarks of the vision module at 1920×1080 (a full-HD camera frame, the reference size):
 //! the whole runway pipeline (fast path, reference path, and rayon across a batch), its
 //! steps, and the green-pixel measurement. Throughput is reported in images per second
 //! ("elem/s"). `scripts/bench-vs-opencv.py` runs OpenCV's pipeline on the same images in the

@@ -8,8 +8,8 @@
 //! * `iou_best_possible` — the IoU of the best labelling this grid allows: every cell more
 //!   than half covered by the region (adding a cell with coverage f changes the
 //!   intersection by f and the union by 1 − f, so a cell helps exactly when f > ½ … up to
-//!   the IoU itself; the majority labelling is the standard reference and what the issue
-//!   asks for);
+//!   the IoU itself; the majority labelling is the standard reference, and the one the
+//!   acceptance figures are measured against);
 //! * false positives / negatives of the visit decisions ("483 detections, 27 false
 //!   positives, 53 false negatives" in §7) and of the final cells, a cell counting as region
 //!   when more than half of it is.

@@ -853,7 +853,7 @@ mod tests {
         ));
     }
 
-    /// PX4's integration-test plans as MAVSDK reads them (issue 28): `fw_mission.plan` has a
+    /// PX4's integration-test plans as MAVSDK reads them: `fw_mission.plan` has a
     /// `//` comment after an item's params and `multicopter_mission_geofence_avoid.plan` a
     /// top-level `"UUID"`; both were refused. Comments are skipped outside strings only, and
     /// an error after a comment still names its line.

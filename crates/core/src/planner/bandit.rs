@@ -472,9 +472,9 @@ pub(crate) fn visits_needed(delta_l: f64, batch: u32, n_cells: usize, delta: f64
         * (4.0 * s * (192.0 / (delta_l * delta_l) * s).ln()).ln()
 }
 
-/// P_max of Proposition 2, eq. (12)–(14) (the issue text calls it "(18–20)"; the paper
-/// numbers it (12)–(14)): with probability ≥ 1 − δ, Algorithm 1 terminates within this many
-/// epochs, for true means `mu` (one per candidate cell), batch B and D epoch goals.
+/// P_max of Proposition 2, eq. (12)–(14) of the paper: with probability ≥ 1 − δ, Algorithm 1
+/// terminates within this many epochs, for true means `mu` (one per candidate cell), batch B
+/// and D epoch goals.
 /// D_Δ is the cell with the smallest Δ_l together with the D − 1 cells with the largest Δ_l.
 pub fn p_max(mu: &[f64], theta: f64, epsilon: f64, delta: f64, batch: u32, d: usize) -> f64 {
     let n = mu.len();
@@ -611,7 +611,7 @@ mod tests {
 
     #[test]
     fn kl_needs_about_a_quarter_of_the_3b_samples() {
-        // The issue's figures ("roughly 40 against about 200" at μ = 0.1), computed exactly.
+        // Why the KL bound was adopted ("roughly 40 against about 200" at μ = 0.1), exactly.
         use ConfidenceBound::{Kl, Paper};
         for (mu, kl, paper) in [
             (0, 30, 140),
