@@ -1,4 +1,4 @@
-//! A spatial-classification run whose pictures never reach the GCS (issue 25): the drones fly
+//! A spatial-classification run whose pictures never reach the GCS: the drones fly
 //! their sorties and take their pictures, but nothing arrives — as on PX4 SIH drones whose
 //! camera ignored the mission's capture commands, twelve epochs of the same three goals with
 //! no measurement and no word about it. The run now says after each sortie which drone's

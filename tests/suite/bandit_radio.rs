@@ -1,4 +1,4 @@
-//! Issue 25: the bandit paper's 6×6 mission over telemetry radios. Every vehicle sends to one
+//! The bandit paper's 6×6 mission over telemetry radios. Every vehicle sends to one
 //! GCS port through its own SiK radio pair (`fleetmap relay --radio 5000`: a 57,600-baud
 //! radio's 5,000 bytes a second shared by both directions, as its time-division duplex
 //! shares the air, a 4 kB buffer in each radio with tail drop, RADIO_STATUS written into

@@ -1,4 +1,4 @@
-//! Spatial classification with a real fleet (issue 8): the bandit paper's Algorithm 1 flown
+//! Spatial classification with a real fleet: the bandit paper's Algorithm 1 flown
 //! on the simulator by ArduPilot copters landing on ArduPilot rovers that charge them.
 //!
 //! * the 6×6 hardware mission (`missions/hardware-6x6.toml`, 4 drones + 2 rovers over
@@ -12,7 +12,7 @@
 //!   the run finishes, no acknowledged measurement is lost, the labels are right
 //!   (`fleetmap sim` and the GCS are separate processes);
 //! * `fleetmap demo --bandit` in a pseudo-terminal: the run live in the terminal UI, PAUSE
-//!   holds the next sortie, RESUME lets it finish with the right keep set (issue 9);
+//!   holds the next sortie, RESUME lets it finish with the right keep set;
 //! * lock-step flight (7e): every drone at one altitude, held in step by the runner;
 //! * (ignored: a long run) the 10×10 default with 10 drones and 5 rovers.
 //!
@@ -783,7 +783,7 @@ fn sortie_flying(s: &ClassificationState) -> bool {
         .is_some_and(|c| c.phase == fleetmap_core::planner::sortie::CyclePhase::Started)
 }
 
-/// `fleetmap demo --bandit` in a pseudo-terminal (issue 9): the terminal UI shows the
+/// `fleetmap demo --bandit` in a pseudo-terminal: the terminal UI shows the
 /// spatial-classification run live; PAUSE (`p`) lets the sortie in the air land and starts
 /// no new one; RESUME (`r`, `y`) lets the run go on to the end with the keep set equal to
 /// the green tiles; then quit (`q`, `y`). It flies the paper's bound (`--bound paper`): with

@@ -1,4 +1,4 @@
-//! `fleetmap camera` (issue 25): the camera program on a companion computer, taking its
+//! `fleetmap camera`: the camera program on a companion computer, taking its
 //! pictures from a folder, beside a simulated ArduCopter, wired as a companion computer is —
 //! a MAVLink router (as mavlink-router does: every datagram from one endpoint to all the
 //! others) between the autopilot, the camera and the GCS. The GCS receives the camera's

@@ -1,4 +1,4 @@
-//! The conformance checks of `hitl/conformance.py` (issue 14) against the embedded simulator,
+//! The conformance checks of `hitl/conformance.py` against the embedded simulator,
 //! an ArduPilot and a PX4 copter side by side: ready, upload right after a reboot, mission
 //! round trips through `fleetmap relay` at 0, 30 and 50 % loss (+ 5 % duplicates), a flight
 //! with `fleetmap mission fly`, signing, arming and take-off when commands come late or twice,

@@ -1,10 +1,10 @@
-//! What `make demo` runs without a terminal (issues 2, 6 and 9): the real binary, headless,
+//! What `make demo` runs without a terminal: the real binary, headless,
 //! with the embedded simulator on loopback UDP.
 //!
 //! * `fleetmap demo --headless`: three ArduPilot copters fly the runway field-test mission
 //!   over the runway world with 12-minute batteries, at the default 10× real time; it exits 0
 //!   and prints the report (IoU against the ground truth, battery swaps), every drone has
-//!   had its battery swapped; then `fleetmap report DIR --json` has what issue 6 lists, and
+//!   had its battery swapped; then `fleetmap report DIR --json` has the report's fields, and
 //!   `fleetmap export DIR --format geojson|kml|png` writes a FeatureCollection, well-formed
 //!   KML with the mapped cells as polygons, and a PNG.
 //! * `fleetmap demo --bandit --headless`: four drones and two rovers classify the 6×6
@@ -345,7 +345,7 @@ fn runway_demo_headless_report_and_exports() {
     let iou = number_before(iou_line, "% (best possible");
     let best = number_before(iou_line, "%; the paper's");
     assert!(swaps >= 3.0, "every drone swaps at least once: {flight}");
-    // Issue 6's goal: within 5 points of the best labelling of this grid.
+    // The goal: within 5 points of the best labelling of this grid.
     assert!(
         iou > 0.0 && best <= 100.0 && iou >= best - 5.0,
         "IoU {iou} % against the best possible {best} %"
@@ -360,7 +360,7 @@ fn runway_demo_headless_report_and_exports() {
         );
     }
 
-    // fleetmap report DIR --json: what issue 6 lists.
+    // fleetmap report DIR --json: the report's fields.
     let r = report_json(&run, tmp.path(), "report");
     assert_eq!(r["finished"], Value::Bool(true), "{r}");
     assert_eq!(r["kind"], "runway-mapping", "{r}");
@@ -499,7 +499,7 @@ fn runway_demo_headless_report_and_exports() {
     );
 }
 
-/// Issue 16 item 4: the moving plume (`assets/worlds/plume.toml`, 0.3 m/s east) mapped end
+/// The moving plume (`assets/worlds/plume.toml`, 0.3 m/s east) mapped end
 /// to end by three drones. The map is in the plume's frame, so it matches the plume where it
 /// was at the simulator's start, and not where it is at the end (it has moved on by then by
 /// more than its own length): crediting pictures to ground cells would score badly on the

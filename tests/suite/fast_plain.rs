@@ -1,4 +1,4 @@
-//! Fast = plain (issue 17, item 2), the small version kept in `make test`: both IP models with
+//! Fast = plain, the small version kept in `make test`: both IP models with
 //! the paper's agility (T_d, T_c) = (8, 4) and drones sharing chargers (C = 2 and 3), on
 //! Algorithm 1 epochs of small random worlds and on corridors whose goals need two cycles. The
 //! paper-scale run (10×10, 10 drones, 5 stations, C = 1, 2, 3, 50 instances each) is `fleetmap

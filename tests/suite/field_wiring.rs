@@ -1,4 +1,4 @@
-//! Real fleets on real links (issue 13): vehicles wired the way field setups wire them.
+//! Real fleets on real links: vehicles wired the way field setups wire them.
 //!
 //! * N simulated vehicles (3, and 50) each send to one GCS UDP port from a socket of their
 //!   own, as several SITL instances or Wi-Fi drones do: every vehicle gets its telemetry

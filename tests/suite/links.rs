@@ -1,8 +1,8 @@
 //! The GCS's listening TCP link (`tcpin:`) and its serial link (`serial:PATH:BAUD`, over a
 //! pseudo-terminal pair standing in for a telemetry radio's USB serial port): a vehicle is
 //! seen by its heartbeat, the GCS heartbeat reaches the vehicle, and a `tcpin:` link takes the
-//! next vehicle connection after the first one goes away (issue 3), and serves several
-//! vehicles at once, each on its own connection (issue 13).
+//! next vehicle connection after the first one goes away, and serves several
+//! vehicles at once, each on its own connection.
 
 use fleetmap::fleet::{self, FleetConfig};
 use fleetmap_io::link::ConnSpec;
@@ -112,7 +112,7 @@ async fn frames_for<R: AsyncRead + Unpin>(r: &mut R, d: Duration) -> Vec<(u8, u3
     out
 }
 
-/// Issue 13: a `tcpin:` link serves several clients at once (two vehicles, or MAVProxy and a
+/// A `tcpin:` link serves several clients at once (two vehicles, or MAVProxy and a
 /// vehicle): both get the GCS heartbeat, and a message to one system goes only to the
 /// connection that system speaks on.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]

@@ -423,7 +423,7 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
     g.shutdown().await;
 }
 
-/// Acceptance of issue 3: over real UDP on loopback against the embedded simulator with
+/// The mission protocol's acceptance: over real UDP on loopback against the embedded simulator with
 /// 30 % loss each way, 50 uploads of a 200-item mission all succeed and a download returns
 /// the same items.
 ///

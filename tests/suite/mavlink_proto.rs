@@ -516,7 +516,7 @@ proptest! {
     }
 }
 
-/// Issue 13: what failed against a real ArduCopter through a relay that lost 30 % of the
+/// What failed against a real ArduCopter through a relay that lost 30 % of the
 /// frames each way and duplicated 5 % — 100-item upload + download round trips with the
 /// default (specification) timeouts. Against the simulator's ArduPilot and PX4 protocol,
 /// 20 round trips each: all 20 succeed, with exactly the items sent.

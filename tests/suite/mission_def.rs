@@ -244,7 +244,7 @@ cols = 3
     let d = MissionDef::parse(text, "minimal.toml").unwrap();
     let c = d.classification.unwrap();
     assert_eq!((c.theta, c.epsilon, c.delta), (0.5, 0.05, 0.0001));
-    // Not the paper's (3b) but the KL bound with the same guarantee (issue 17, item 4).
+    // Not the paper's (3b) but the KL bound with the same guarantee, fewer samples.
     assert_eq!(c.bound, fleetmap_core::planner::bandit::ConfidenceBound::Kl);
     assert_eq!(
         (

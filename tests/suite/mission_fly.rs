@@ -241,7 +241,7 @@ fn ardupilot_rover_drives_a_waypoints_file() {
     );
 }
 
-/// A file as Mission Planner and ArduPilot's own test missions write them (issue 28), in
+/// A file as Mission Planner and ArduPilot's own test missions write them, in
 /// `dir`: tabs and spaces mixed, numbered 0, 1, 2, 4, 12 (ArduCopter's weathervane mission has
 /// that gap), and an RTL line in frame 3 carrying the last waypoint's position, which
 /// ArduCopter stores as frame 0 without a position (`AP_Mission::stored_in_location`). Four
@@ -302,7 +302,7 @@ fn upload_verify(port: u16, file: &Path) -> (i32, String, String) {
     )
 }
 
-/// `mission upload --verify` (issue 28): [`mission_planner_file`], whose RTL line ArduCopter
+/// `mission upload --verify`: [`mission_planner_file`], whose RTL line ArduCopter
 /// stores as frame 0 without a position, is uploaded, read back and judged by ArduPilot's
 /// storage rules: it verifies.
 #[test]
@@ -325,7 +325,7 @@ fn ardupilot_copter_upload_verify_accepts_a_frame_3_rtl() {
     );
 }
 
-/// `mission upload --verify` on PX4 (issue 28): a `.plan` shaped like PX4's own
+/// `mission upload --verify` on PX4: a `.plan` shaped like PX4's own
 /// `MC_mission_box.plan` (integration tests), whose take-off carries QGroundControl's pitch 15
 /// in param1, with a waypoint yawing to −90°. PX4 keeps neither a take-off pitch nor a negative
 /// yaw (`format_mavlink_mission_item` returns param1 0 and 270°); the simulated PX4 stores

@@ -1,4 +1,4 @@
-//! End-to-end tests of the bandit/IP planner (issue 7): the fast model against the paper's
+//! End-to-end tests of the bandit/IP planner: the fast model against the paper's
 //! plain model on random scenarios, every plan through the independent checker, the shipped
 //! scenario files through `fleetmap plan`, and a small bandit study.
 

@@ -1,4 +1,4 @@
-//! End-to-end tests of `fleetmap experiment bandit` and `fleetmap bench plan` (issue 7): the
+//! End-to-end tests of `fleetmap experiment bandit` and `fleetmap bench plan`: the
 //! Monte Carlo study writes its CSV, JSON and PNG files, classifies correctly, runs every goal
 //! rule, and the benchmark prints its figures.
 
@@ -149,7 +149,7 @@ fn bad_study_arguments_are_one_line_errors() {
     }
 }
 
-/// Issue 17, item 4, small and pinned: Table I's acceptance row (μ_worst = 0.8, 10×10,
+/// The KL bound, small and pinned: Table I's acceptance row (μ_worst = 0.8, 10×10,
 /// δ = 10⁻⁴) with `--bound kl`, two seeded trials. Every cell classified, none wrongly, in the
 /// epochs pinned here (a change to the bound, the sensing or the planner shows up as a
 /// different count); the paper's (3b) needs about 45 epochs on these worlds.
@@ -252,7 +252,7 @@ fn lines_without_column(text: &str, column: usize) -> Vec<String> {
         .collect()
 }
 
-/// Issue 17, item 1: a study run in two parts (`--shard 1/2`, `--shard 2/2`) and joined with
+/// A study run in two parts (`--shard 1/2`, `--shard 2/2`) and joined with
 /// `experiment merge` writes the trials and epochs of the undivided run (the solve times
 /// aside: they are measured wherever a part runs), and the table with the paper's rows.
 #[test]
@@ -343,7 +343,7 @@ fn csv_fields(line: &str) -> (String, Vec<String>) {
     )
 }
 
-/// Issue 17: a small version of every table and of Fig. 6 — one trial of each variant, two
+/// A small version of every table and of Fig. 6 — one trial of each variant, two
 /// epochs — with each epoch's model size and sample batches pinned, so a drift in the worlds,
 /// the goal rules, the team's constraints or the planner shows up here before it shows up in
 /// the committed results (docs/results/bandit-tables.md). (Two epochs classify no cell under

@@ -1,4 +1,4 @@
-//! A station's second mission (issue 25): ArduRover stays in AUTO after its mission is done
+//! A station's second mission: ArduRover stays in AUTO after its mission is done
 //! (MIS_DONE_BEHAVE 0), and there MAV_CMD_MISSION_START is accepted but starts nothing —
 //! its handler only asks for AUTO (`GCS_MAVLINK_Rover::handle_command_int_packet`,
 //! ArduPilot/ardupilot Rover/GCS_MAVLink_Rover.cpp) and `Rover::set_mode` returns at once for

@@ -1,9 +1,9 @@
-//! Runway mapping end to end on the embedded simulator (issue 6): the GCS's runway run
+//! Runway mapping end to end on the embedded simulator: the GCS's runway run
 //! (`fleetmap::app::runway`) flies simulated ArduPilot copters over the runway world through
 //! the real fleet, link codec and image transfer, on tokio's paused clock — fully virtual
 //! time, so a flight of an hour and more takes only the CPU time of its work.
 //!
-//! Every run's report is checked for its mission time (issue 26) against its journal: first
+//! Every run's report is checked for its mission time against its journal: first
 //! take-off ≤ DFS start ≤ complete map ≤ last landing, each drone's shares adding up to the
 //! mission time, and the figures carried across a resume.
 

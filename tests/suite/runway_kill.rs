@@ -1,4 +1,4 @@
-//! The GCS killed with SIGKILL at 20 random moments of a runway-mapping run (issue 6):
+//! The GCS killed with SIGKILL at 20 random moments of a runway-mapping run:
 //! `fleetmap sim` and `fleetmap run` are separate processes; after every kill the run
 //! directory loads, every detection acknowledged so far (journaled) is still in the saved
 //! state, and `fleetmap resume` carries on. The run completes, and its map equals that of an

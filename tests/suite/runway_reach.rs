@@ -1,4 +1,4 @@
-//! Reach-aware flights for a moving region (issue 26, item 2), end to end on the embedded
+//! Reach-aware flights for a moving region, end to end on the embedded
 //! simulator in virtual time (tokio's paused clock, as `tests/suite/runway.rs`): the GCS's runway run
 //! flies simulated ArduPilot copters through the real fleet, links and image transfer over a
 //! world whose region drifts.

@@ -1,4 +1,4 @@
-//! `fleetmap signing keygen|setup` end to end (issue 3): a key made from a passphrase as MAVProxy
+//! `fleetmap signing keygen|setup` end to end: a key made from a passphrase as MAVProxy
 //! makes it, installed on a `fleetmap sim` vehicle (a separate process) with SETUP_SIGNING; from
 //! then on the vehicle ignores an unsigned command and obeys a signed one.
 

@@ -1,4 +1,4 @@
-//! The simulator keeps time as SITL does (issue 24): starved of CPU, it runs slower than its
+//! The simulator keeps time as SITL does: starved of CPU, it runs slower than its
 //! ceiling instead of skipping ahead, and what the vehicles report stays consistent with the
 //! time they were simulated for.
 //!

@@ -1446,7 +1446,7 @@ fn px4_never_reaches_a_take_off_item_without_a_position() {
 /// MAV_CMD_MISSION_START is accepted but starts nothing: its handler only asks for AUTO
 /// (`GCS_MAVLINK_Rover::handle_command_int_packet`, Rover/GCS_MAVLink_Rover.cpp) and
 /// `Rover::set_mode` returns at once for the mode it is in (seen on ArduRover SITL V4.7.0-dev
-/// 90700977; issue 25). Leaving AUTO first (HOLD) lets MISSION_START run the mission again.
+/// 90700977). Leaving AUTO first (HOLD) lets MISSION_START run the mission again.
 #[test]
 fn ardurover_in_auto_ignores_mission_start_until_it_leaves_auto() {
     const MISSION_START: u16 = 300;

@@ -867,7 +867,7 @@ async fn frames_drawn(secs: f64, feed: Option<(Duration, Duration)>) -> usize {
     terminal.get_frame().count()
 }
 
-/// Issue 9: the screen redraws at least 10 times a second. Counted in virtual time, not
+/// The screen redraws at least 10 times a second. Counted in virtual time, not
 /// timed: with no new data the tick redraws (the stale-data and confirmation countdowns move
 /// on) 10 times a second; with a model every 100 ms (the live session's cadence) each model
 /// is drawn at once and the ticks in between draw nothing more, so the screen does not cost

@@ -1,4 +1,4 @@
-//! `fleetmap demo` in a pseudo-terminal (issue 9): the real binary with the embedded
+//! `fleetmap demo` in a pseudo-terminal: the real binary with the embedded
 //! simulator and the terminal UI, driven by keys as an operator would — START (`s`, `y`),
 //! the drone lands for a battery swap, "battery swapped — resume" (`b`, `y`) after the
 //! simulated crew has swapped it, and the run goes on to the end; then quit (`q`, `y`).

@@ -1,4 +1,4 @@
-//! Issue 37, spatial classification: a field day's faults on the bandit paper's 6×6 hardware
+//! Spatial classification: a field day's faults on the bandit paper's 6×6 hardware
 //! mission (4 ArduCopter drones, 2 ArduRover charging stations) on the embedded simulator,
 //! in virtual time (in-process links, tokio's clock paused), each fault scheduled in the
 //! simulator ([`fleetmap_sim::fault`]) — and each run killed once at a moment drawn from the

@@ -1,4 +1,4 @@
-//! Issue 37, runway mapping: a field day's faults on the runway field-test mission
+//! Runway mapping: a field day's faults on the runway field-test mission
 //! (`missions/runway-field-test.toml`) flown by two simulated ArduCopters over the small strip
 //! world ([`common::WORLD`], five by three 4 m cells, the grid anchored at its centre) with their
 //! cameras classifying on board, in virtual time (in-process links, tokio's clock paused),

@@ -1,4 +1,4 @@
-//! Issue 37's end-to-end tests — a field day's faults — in one test binary: every test
+//! The end-to-end tests of a field day's faults, in one test binary: every test
 //! binary is one more link of the whole crate on CI's two cores (about 40 s each), so the
 //! five files share one.
 //!

@@ -1,5 +1,5 @@
 //! Two autopilots left at the same system id on one link, on the embedded simulator in
-//! virtual time (issue 37, item 5): two simulated ArduCopters both answering as system id 1
+//! virtual time: two simulated ArduCopters both answering as system id 1
 //! share the fleet's link 0 — as two SITLs sending to one GCS UDP port do — and what the GCS
 //! sends on it reaches both. Both missions refuse to start with the error that names the id
 //! and says what to do, before any upload, arming or mode change (checked on every frame the

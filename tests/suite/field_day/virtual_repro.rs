@@ -1,4 +1,4 @@
-//! Same seed, same run (issue 37, item 7): a mission flown in virtual time — the simulator
+//! Same seed, same run: a mission flown in virtual time — the simulator
 //! behind in-process links, the GCS on a current-thread runtime whose clock is paused, as
 //! `fleetmap experiment runway` and the end-to-end tests fly — is the same run every time it is
 //! flown with the same seed, to the byte: the run directory (snapshot and journal), the
