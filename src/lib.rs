@@ -1,30 +1,23 @@
 //! fleetmap — a terminal ground-control station that maps regions of interest with fleets of
 //! PX4 and ArduPilot vehicles over MAVLink.
 //!
-//! The crate follows the layering of `docs/architecture.md`: a pure core (no sockets, no files, no clock
-//! reads; time is a [`time::Time`] parameter) and a thin async shell (link, fleet, app, UI)
-//! built on tokio. Module responsibilities:
+//! This package is the ground station, the top of a workspace of crates (docs/architecture.md,
+//! "Crates"): the pure core that decides (`fleetmap_core`: grid, mission files, sans-IO MAVLink
+//! machines, vision, exploration, planner, worlds, time), the I/O edge (`fleetmap_io`: links,
+//! the clock, files), the simulated autopilot (`fleetmap_sim`, behind the default `sim`
+//! feature) and the MAVLink camera (`fleetmap_camera`). Its own modules are the async shell
+//! on tokio, top-down (the arrows between them, derived from the code:
+//! docs/architecture.md, "Layers"):
 //!
-//! | module | layer | responsibility |
-//! |---|---|---|
-//! | [`geo`] | core | mission grid, cell ↔ UTM ↔ WGS84, polygons → cells |
-//! | [`mission`] | core | mission items, mission definition files, QGC file formats |
-//! | [`proto`] | core | sans-IO MAVLink micro-services and autopilot flavours |
-//! | [`vision`] | core | the runway classifier, votes, green-pixel measurements, camera geometry |
-//! | [`explore`] | core | lawnmower sweep and the multi-robot recursive DFS |
-//! | [`planner`] | core | UCB bandit, the integer program, linear assignment, baselines |
-//! | [`world`] | core | ground-truth worlds (regions and surfaces) parsed from TOML text: what the simulator renders and runs are scored against |
-//! | [`store`] | core + files | the crash-safe run directory |
-//! | [`sim`] | core + thin server | the simulated autopilot and camera (worlds: [`world`]) |
-//! | [`link`] | shell | transports, framing, signing, tlogs |
-//! | [`clock`] | shell | the only clock reader: the monotonic clock (tokio's, virtual when paused) and the planner's stopwatch |
-//! | [`fleet`] | shell | the fleet actor and per-vehicle async operations |
-//! | [`imagery`] | shell | image sources (MAVLink image transfer, directories, simulated camera) |
-//! | [`app`] | shell | mission runners (runway mapping, bandit sorties, resume) |
-//! | [`tui`] | shell | the ratatui operator interface |
-//! | [`experiment`] | batch | Monte Carlo studies reproducing the papers |
-//! | [`files`] | shell | the edge's loaders: the only place mission files, image files and `file://` URLs are read |
-//! | [`cli`] | entry | the `fleetmap` command line |
+//! | module | responsibility |
+//! |---|---|
+//! | [`cli`] | the `fleetmap` command line: one file per subcommand, `mod.rs` declares and dispatches |
+//! | [`tui`] | the ratatui operator interface: view-model, pure update, one view per pane, replay files |
+//! | [`experiment`] | (feature `sim`) the Monte Carlo studies that reproduce the papers' tables and figures |
+//! | [`app`] | the runs: one mission kind ([`app::kind::RunKind`]) and their registry, the run core, the runway-mapping and spatial-classification runners, the image hub, flight steps, the live session; with `sim`, the demos |
+//! | [`fleet`] | the fleet actor: one task owning every vehicle's state and protocol machines, and its handle |
+//! | [`store`] | the crash-safe run directory: atomic snapshots, the append-only journal, the store task |
+//! | `plot` | the font every PNG plot draws its text with |
 
 #![forbid(unsafe_code)]
 #![warn(missing_docs)]

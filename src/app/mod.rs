@@ -1,18 +1,22 @@
-//! Mission runners that tie the layers together (async shell): the runway-mapping run, the
-//! bandit sortie run and resuming a run directory.
+//! The runs (async shell): what a mission kind is, how a run starts, flies, is saved and
+//! resumes, and the two kinds this build flies — runway mapping and spatial classification.
 //!
 //! | module | what |
 //! |---|---|
+//! | [`kind`] | one mission kind ([`kind::RunKind`]): its state, report, exports, resume, how it flies headless or in the TUI, the operator's commands and the panes' view |
+//! | [`kinds`] | the registry of kinds: one `registry!` line per kind; work for any kind is a `KindVisitor` |
+//! | `launch` | the one way to start or resume a run (`prepare`, then `Ready::fly`), for `run`, `resume`, `tui --mission` and `demo` |
+//! | `preflight` | the fleet check on a connected fleet, and the gate it puts before every start |
 //! | [`run`] | the run core both runners share: state lock, durable commits through the store task, progress, view, tracker |
-//! | [`images`] | every image the fleet takes as one stream (MAVLink image transmission, file URLs), and the run's image hub |
-//! | [`crop`] | the centre crops of a picture both missions measure (3 × 3 cells, a share of one cell) |
-//! | [`flight`] | flight steps with timeouts: take off, fly to a point and settle, capture, land |
-//! | [`error`] | the layer's typed errors ([`error::RunError`]): what failed, on which file or vehicle, with its cause |
-//! | [`kind`] | one mission kind ([`kind::RunKind`]): what run, resume, report, export, the TUI session and the demo need of a runner |
+//! | `session` | the live terminal session on a real fleet, with or without a run attached (any kind) |
 //! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume): events, pilot, intake, sweep, runner; its report and GeoJSON / KML / PNG exports, IoU against a simulated world |
 //! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume): events, runner, sortie, pilot, intake, upload; its report (keep / reject / errors, per-epoch figures) and the progress PNG (Fig. 4) |
-//! | [`terrain`] | terrain served from a folder of SRTM tiles: every vehicle's TERRAIN_REQUEST answered, what each waits for |
-//! | [`bandit_sim`] | the embedded simulator with drones and charging rovers (`fleetmap demo --bandit`, tests) |
+//! | [`images`] | every image the fleet takes as one stream (MAVLink image transmission, file URLs), and the run's image hub |
+//! | [`flight`] | flight steps with timeouts: take off, fly to a point and settle, capture, land |
+//! | `terrain` | terrain served from a folder of SRTM tiles: every vehicle's TERRAIN_REQUEST answered, what each waits for |
+//! | [`error`] | the layer's typed errors ([`error::RunError`]): what failed, on which file or vehicle, with its cause |
+//! | [`demo`] | (feature `sim`) `fleetmap demo`: the embedded simulator and the station in one process |
+//! | [`bandit_sim`] | (feature `sim`) the embedded simulator with drones and charging rovers (`fleetmap demo --bandit`, tests) |
 
 pub mod bandit;
 #[cfg(feature = "sim")]

@@ -11,6 +11,8 @@
 //! - `keymap` / `config` — the key table ([`KeyMap`], shared by key handling and help) and
 //!   the TOML config file ([`UiConfig`]: keys and warning thresholds);
 //! - `shell` — crossterm terminal setup, the tokio event loop ([`run`]), the panic hook;
+//! - [`live`] — the view-model filled from a fleet snapshot and a run's state (what the live
+//!   session shows);
 //! - [`replay`] — JSON Lines recordings of models; [`sample`] — fixtures, generated fleets
 //!   and a synthetic animation.
 //!

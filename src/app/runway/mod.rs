@@ -106,7 +106,7 @@ pub const KIND: &str = "runway-mapping";
 /// Seconds of wall-clock time (scaled by the clock's speed-up) without any image data from a
 /// sweeping vehicle after which the pictures its camera announced and did not deliver count
 /// as missing. The receiver asks for a picture missing packets five times over 14 s
-/// (`imagery::transfer::ReceiverConfig`); 20 s covers that with room to spare.
+/// (`fleetmap_core::proto::image_transfer::ReceiverConfig`); 20 s covers that with room to spare.
 const SWEEP_IMAGE_STALL_S: f64 = 20.0;
 
 /// How many announced sweep pictures' reference positions a pilot keeps (a sweep's worth).
