@@ -46,10 +46,17 @@ $(VENV)/.installed: tests/py/requirements.txt | sysdeps
 build: sysdeps
 	$(CARGO) build --bins
 
+## One build serves `make test` and `make demo`: TEST_BUILD compiles every crate's tests and
+## the binaries, and `make demo` runs the binary it built. A `cargo build` would compile the
+## workspace again: without the test targets cargo leaves out the dev-dependencies, and the
+## features they turn on in shared crates (in today's tree serde's `alloc`, zerocopy's `derive`,
+## rustix's `fs`, …) change every crate built on them. (`make build` is that other build.)
+TEST_BUILD := $(CARGO) test --workspace --lib --bins --tests --no-fail-fast --no-run
+
 ## The whole test suite: Rust unit, property and end-to-end tests, then the Python
 ## conformance tests against the built binary. `cargo test` builds the binary itself (with the
-## dev-dependency features, e.g. tokio's test-util): a separate `cargo build` first would
-## compile the crate and everything that depends on tokio a second time.
+## dev-dependency features): a separate `cargo build` first would compile the crate and
+## everything that depends on them a second time.
 #
 ## The Python environment is filled while cargo compiles (pip mostly waits on the network).
 ## The integration and end-to-end tests are one test binary (tests/suite: one link of the
@@ -75,7 +82,7 @@ SKIP_FILTERS := $(addprefix --skip ,$(SLOW_FILTERS) $(WAITING_FILTERS))
 test: sysdeps
 	@mkdir -p target
 	@$(MAKE) --no-print-directory venv > target/venv.log 2>&1 & venv=$$!; \
-	  $(CARGO) test --workspace --lib --bins --tests --no-fail-fast --no-run; built=$$?; \
+	  $(TEST_BUILD); built=$$?; \
 	  wait $$venv; v=$$?; cat target/venv.log; \
 	  [ $$built = 0 ] && [ $$v = 0 ]
 	@$(CARGO) test --no-fail-fast --workspace --test suite -- $(WAITING_FILTERS) > target/waiting-tests.log 2>&1 & waiting=$$!; \
@@ -87,8 +94,10 @@ test: sysdeps
 	$(CARGO) test --workspace --doc
 	FLEETMAP_BIN=$(abspath $(BIN)) $(PY) -m pytest -q tests/py
 
-## The main job on the embedded simulator (the TUI on a terminal, headless otherwise).
-demo: build
+## The main job on the embedded simulator (the TUI on a terminal, headless otherwise), on
+## the binary of `make test`'s build (TEST_BUILD above).
+demo: sysdeps
+	$(TEST_BUILD)
 	@if [ -t 0 ] && [ -t 1 ]; then $(BIN) demo; else $(BIN) demo --headless; fi
 
 bench: sysdeps

@@ -15,6 +15,8 @@ The crates are the architecture (docs/architecture.md, "Crates"):
   of them (the core comes without its `highs` feature).
 * The ground station built without its default features (`--no-default-features`, no `sim`)
   must not contain `fleetmap-sim`: a GCS for real vehicles carries no simulator code.
+* tokio's `test-util` (the paused clock, for tests and the simulated studies) is not in the
+  camera program's or the station-without-`sim`'s build: those are the binaries that fly.
 
 Exit status 1 with one line per broken rule.
 """
@@ -45,8 +47,26 @@ RULES = [
 ]
 
 
+# The builds that must not enable tokio's `test-util` (its normal-edge feature tree).
+NO_TEST_UTIL = [["-p", "fleetmap-camera", "--features", "v4l2"], ["-p", "fleetmap", "--no-default-features"]]
+
+
+def tokio_features(*args):
+    out = subprocess.run(
+        ["cargo", "tree", "--edges", "normal,build,features", "--invert", "tokio", *args],
+        check=True,
+        capture_output=True,
+        text=True,
+    ).stdout
+    return out
+
+
 def main():
     broken = 0
+    for args in NO_TEST_UTIL:
+        if 'tokio feature "test-util"' in tokio_features(*args):
+            broken += 1
+            print(f"crates: cargo tree {' '.join(args)} enables tokio's test-util (a test clock in a flying binary)")
     for args, forbidden, what in RULES:
         found = sorted(tree(*args) & forbidden)
         for name in found:
@@ -55,7 +75,8 @@ def main():
     if broken:
         sys.exit(1)
     print("crates: core without tokio or sockets; io and core without the simulator; "
-          "the camera without HiGHS, TUI or simulator; the GCS without `sim` has no simulator code")
+          "the camera without HiGHS, TUI or simulator; the GCS without `sim` has no simulator code; "
+          "neither has tokio's test-util")
 
 
 if __name__ == "__main__":
