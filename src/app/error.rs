@@ -10,7 +10,7 @@ use fleetmap_core::mission::definition::DefErrors;
 use fleetmap_io::files::WorldFileError;
 use std::path::PathBuf;
 
-/// A blocking task ([`crate::app::runway::cpu`]: the classifier, file I/O) panicked or was
+/// A blocking task (`crate::app::runway::cpu`: the classifier, file I/O) panicked or was
 /// cancelled.
 #[derive(Debug, thiserror::Error)]
 #[error("classifier task")]
@@ -262,7 +262,7 @@ pub enum RunnerError {
         source: fleetmap_core::planner::sortie::missions::UnsafeMission,
     },
     /// A check the runner makes on its way did not hold; the message says what, and on which
-    /// vehicle. A person must see to it ([`RunnerError::needs_person`]).
+    /// vehicle. A person must see to it (`RunnerError::needs_person`).
     #[error("{0}")]
     Check(String),
     /// A vehicle did not get where it was going, or a sortie did not end, in time: a link

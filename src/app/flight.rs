@@ -3,7 +3,7 @@
 //! wait for it, come home and land. Each step has a timeout and a typed error; the runners
 //! decide what to retry.
 //!
-//! Timeouts are wall-clock durations scaled by [`Patience::factor`] (a simulator served
+//! Timeouts are wall-clock durations scaled by `Patience::factor` (a simulator served
 //! slower than real time, or a slow radio link, needs more); with the fleet clock running
 //! faster than real time (the in-process demo) they are generous by the same factor.
 
@@ -368,7 +368,7 @@ pub(crate) fn capture_again(camera: Endpoint, first: i32, last: Option<i32>) -> 
 
 /// Take picture `seq` and wait for its image from `sysid`, at most 10 s (scaled by
 /// `patience`) after the command or after the last image data heard from the vehicle, and
-/// never more than [`CAPTURE_MAX_WAIT_S`]. One capture: an image that does not arrive is
+/// never more than `CAPTURE_MAX_WAIT_S`. One capture: an image that does not arrive is
 /// [`FlightError::NoImage`], for the caller to retry as a new capture (the runway runner
 /// counts it against its retake limit).
 ///
@@ -379,15 +379,15 @@ pub(crate) fn capture_again(camera: Endpoint, first: i32, last: Option<i32>) -> 
 /// A picture measured on board needs both its announcement (the pose) and its result; over a
 /// lossy radio one of them is lost now and then, and so are the command and its ACK. The
 /// command runs beside the wait (an image that comes before the ACK counts), and the capture
-/// is asked for again on its own schedule, fire and forget: [`RESULT_AFTER_S`] after one half
+/// is asked for again on its own schedule, fire and forget: `RESULT_AFTER_S` after one half
 /// named the picture, the camera is asked for it (MAV_CMD_REQUEST_MESSAGE for that
 /// CAMERA_IMAGE_CAPTURED, as the MAVLink camera protocol recovers a missed capture; the camera
 /// sends the announcement and its result again); when nothing has named it
-/// [`RESEND_AFTER_S`] after the command, the command is sent again while unacknowledged (its
+/// `RESEND_AFTER_S` after the command, the command is sent again while unacknowledged (its
 /// sequence number makes a repeat take no second picture) and the captures after `after`
 /// (the image index of the vehicle's last picture that arrived) are asked for — the one
 /// commanded is among them unless the camera restarted its count, and then it answers that it
-/// has none. Both repeat every [`RESEND_AFTER_S`] until the picture arrives or the wait ends.
+/// has none. Both repeat every `RESEND_AFTER_S` until the picture arrives or the wait ends.
 pub async fn capture(
     fleet: &FleetHandle,
     rx: &mut broadcast::Receiver<Arc<ReceivedImage>>,

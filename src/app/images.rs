@@ -24,7 +24,7 @@
 //! camera given the runway mission sends each picture's cell and five region counts
 //! (DEBUG_FLOAT_ARRAY `"fm.rwy"`) and keeps the picture. A run that accepts them
 //! ([`ImageHub::accept_runway`]) announces its grid to the cameras until each confirms it
-//! ([`announce`]), delivers the results made with its definition as [`ReceivedImage`]s
+//! (`announce`), delivers the results made with its definition as [`ReceivedImage`]s
 //! without bytes ([`ReceivedImage::runway`]), and asks for the picture of any other (a camera
 //! without the grid, or with another definition). A runner may ask for a picture it has the
 //! result of ([`ImageHub::ask_picture`], an audit): it comes back to the one who asked, never
@@ -303,7 +303,7 @@ impl Intake {
     }
 
     /// Use the cameras' runway results made with `accept`'s definition, announcing its grid
-    /// to them from `now` on ([`announce`]); `None`: ask for the picture of every runway
+    /// to them from `now` on (`announce`); `None`: ask for the picture of every runway
     /// result.
     pub fn accept_runway(&mut self, accept: Option<RunwayAccept>, now: Time) {
         self.runway = accept.map(|a| Announcer::new(a, now));

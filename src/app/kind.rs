@@ -180,7 +180,7 @@ impl Default for RunSettings {
 }
 
 /// A mission kind (see the module docs). Its methods are the parts in which the two missions
-/// differ; the generic commands ([`crate::app::launch`], `cli::run`) do the rest once.
+/// differ; the generic commands (`crate::app::launch`, `cli::run`) do the rest once.
 pub trait RunKind: Send + Sync + 'static {
     /// The `kind` in `run.json`.
     const KIND: &'static str;
@@ -235,7 +235,7 @@ pub trait RunKind: Send + Sync + 'static {
         options: Self::Options,
         progress: Option<mpsc::UnboundedSender<Progress>>,
     ) -> impl Future<Output = Result<(Outcome, Self::State), RunError>> + Send;
-    /// Fly the run in the TUI session ([`crate::app::session`]): like [`RunKind::fly`], with
+    /// Fly the run in the TUI session (`crate::app::session`): like [`RunKind::fly`], with
     /// the state published after every change and the operator's mission-level commands
     /// (those [`RunKind::command`] sent) taken as they come.
     fn fly_attached(

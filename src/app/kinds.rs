@@ -1,8 +1,8 @@
 //! The mission kinds this build flies: the one list a new kind is registered in
-//! ([`registry!`] below; CONTRIBUTING.md, "Adding a mission kind").
+//! (`registry!` below; CONTRIBUTING.md, "Adding a mission kind").
 //!
 //! Code that works on "a run of whatever kind" is written once, generic over
-//! [`RunKind`], as a [`KindVisitor`]; [`by_name`] and [`of_mission`] call it with the kind
+//! [`RunKind`], as a `KindVisitor`; `by_name` and `of_mission` call it with the kind
 //! a run directory or a mission file names.
 
 use crate::app::kind::RunKind;

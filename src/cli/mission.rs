@@ -4,7 +4,7 @@
 //! points) or QGC WPL 110 text (`.waypoints`, anything else).
 //!
 //! `upload --verify` reads the mission back after the upload and compares it with the file by
-//! the autopilot's storage rules ([`verify_mission`], what `fly` does before it takes off).
+//! the autopilot's storage rules (`verify_mission`, what `fly` does before it takes off).
 //!
 //! `fly` uploads, verifies by download, takes off the way the autopilot wants it (ArduCopter:
 //! GUIDED + arm + NAV_TAKEOFF; PX4: arm + NAV_TAKEOFF with AMSL altitude; rovers just arm),

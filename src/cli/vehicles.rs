@@ -2,7 +2,7 @@
 //!
 //! Also home of the connection options every MAVLink command shares ([`ConnectArgs`]:
 //! `--connect` (repeatable), `--signing-key`, `--tlog`, `--json`, mission protocol timeouts)
-//! and of [`Session`], which opens the links and the fleet and closes them cleanly (the
+//! and of `Session`, which opens the links and the fleet and closes them cleanly (the
 //! tlog is flushed before the command exits).
 
 use crate::fleet::{self, FleetConfig, FleetHandle, FleetSnapshot, VehicleSnapshot};

@@ -10,7 +10,7 @@
 //! instances and the comparison is on the status and the optimal number of cycles, with every
 //! plan of both through the independent checker ([`fleetmap_core::planner::check`]).
 //!
-//! **Instances** ([`generate`]): the problems Algorithm 1 actually hands to the IP, not fresh
+//! **Instances** (`generate`): the problems Algorithm 1 actually hands to the IP, not fresh
 //! starts only. Instance n draws a world of the §VI study ([`Field::random`]: obstacles, μ,
 //! stations, drone i on station i mod N_c), runs Algorithm 1 on it with capacity C for a random
 //! number of epochs p (the fast model plans those epochs, so the team stands wherever p epochs
@@ -33,7 +33,7 @@
 //!
 //! C = 1 cannot hold 10 drones on 5 stations (eq. (10) at the start of every cycle: at most
 //! C · N_c drones can stand on chargers), so for C · N_c < N_d the team is cut to C · N_c drones
-//! ([`effective_drones`]); the row records the team that ran.
+//! (`effective_drones`); the row records the team that ran.
 //!
 //! No file, and no clock read of its own: the caller passes the clock that times each
 //! compared solve (as [`solve_instance`] wants) and receives each row as it is decided. (The
@@ -63,7 +63,7 @@ pub struct FastPlainConfig {
     pub size: usize,
     /// Obstacles per world.
     pub obstacles: usize,
-    /// N_d (cut to C · N_c when C is too small to hold them, [`effective_drones`]).
+    /// N_d (cut to C · N_c when C is too small to hold them, `effective_drones`).
     pub drones: usize,
     /// N_c.
     pub stations: usize,

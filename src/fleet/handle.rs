@@ -206,8 +206,8 @@ impl FleetHandle {
         true
     }
 
-    /// Wait until vehicle `sysid` has finished booting ([`VehicleSnapshot::booting`]), at
-    /// most [`super::OpsConfig::boot_wait`]; returns its snapshot then.
+    /// Wait until vehicle `sysid` has finished booting (`VehicleSnapshot::booting`), at
+    /// most `super::OpsConfig::boot_wait`; returns its snapshot then.
     pub async fn wait_booted(&self, sysid: u8) -> Result<VehicleSnapshot, FleetError> {
         let v = self.require(sysid)?;
         if !v.booting {

@@ -30,7 +30,7 @@
 //! link: budget, telemetry plan, radio report, bytes, the uplink queue), `telemetry.rs` (the
 //! actor's telemetry requests, radio reports and uplinks), `handle.rs` ([`FleetHandle`]: the
 //! async API and the actor's primitives), `ops.rs` (the composed operations), `error.rs`
-//! ([`FleetError`] and [`FleetError::is_transient`]), `state.rs` (snapshots).
+//! ([`FleetError`] and `FleetError::is_transient`), `state.rs` (snapshots).
 
 mod actor;
 mod error;

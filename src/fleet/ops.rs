@@ -103,10 +103,10 @@ impl FleetHandle {
         }
     }
 
-    /// Arm, confirmed from the heartbeat ([`FleetHandle::launch`] with [`Goal::Armed`]): a
+    /// Arm, confirmed from the heartbeat (`FleetHandle::launch` with [`Goal::Armed`]): a
     /// vehicle that is not ready to arm is waited for (GPS fix, position estimate, home,
     /// pre-arm checks: see [`fleetmap_core::proto::flavour::Flavour::arm_blockers`]), at most
-    /// [`super::OpsConfig::arm_ready`]; an ARM whose ACK was lost counts once the heartbeat
+    /// `super::OpsConfig::arm_ready`; an ARM whose ACK was lost counts once the heartbeat
     /// shows armed; a refused one is tried again with a back-off.
     pub async fn arm(&self, sysid: u8) -> Result<(), FleetError> {
         let v = self.require(sysid)?;
@@ -166,7 +166,7 @@ impl FleetHandle {
 
     /// Arm and take off to `alt` metres above home, in the way this autopilot wants
     /// (ArduCopter: GUIDED, arm, NAV_TAKEOFF; PX4: arm, NAV_TAKEOFF with AMSL altitude),
-    /// confirmed from the vehicle's state ([`FleetHandle::launch`] with [`Goal::Airborne`]).
+    /// confirmed from the vehicle's state (`FleetHandle::launch` with [`Goal::Airborne`]).
     /// Returns once the vehicle is seen leaving the ground (taking off or in the air); the
     /// climb to `alt` is the caller's to wait for.
     ///
@@ -528,10 +528,10 @@ impl FleetHandle {
     /// mission_start_needs_leaving_auto`]); from HOLD, MISSION_START enters AUTO and runs the
     /// mission from its current item (seen on ArduRover SITL V4.7.0-dev).
     ///
-    /// Confirmed from the heartbeat, as [`FleetHandle::launch`] confirms a mode: the start
+    /// Confirmed from the heartbeat, as `FleetHandle::launch` confirms a mode: the start
     /// counts once the vehicle is seen in its mission mode — also when the ACK was lost —
     /// and not before; an accepted start that does not show within
-    /// [`super::OpsConfig::mode_confirm`], or a refused one, is tried again (three times,
+    /// `super::OpsConfig::mode_confirm`, or a refused one, is tried again (three times,
     /// 1 s then 2 s apart) from the state the vehicle is in then.
     pub async fn start_mission(&self, sysid: u8) -> Result<(), FleetError> {
         let in_mission = |s: &VehicleSnapshot| {

@@ -38,7 +38,7 @@ pub enum StoreError {
         path: PathBuf,
         /// The version found in the file.
         found: u32,
-        /// The newest version this build reads ([`super::SCHEMA_VERSION`]).
+        /// The newest version this build reads (`migrate::SCHEMA_VERSION`).
         supported: u32,
     },
     /// A file is damaged: not valid JSON, a field missing, a journal line out of sequence.

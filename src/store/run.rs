@@ -160,7 +160,7 @@ fn check_plain_name(name: &str) -> Result<(), StoreError> {
 
 impl RunDir {
     /// Create a new run at `path` (which must not exist, or be an empty directory), with
-    /// `meta` (its `schema_version` is set to [`SCHEMA_VERSION`]) and, when given, a verbatim
+    /// `meta` (its `schema_version` is set to `SCHEMA_VERSION`) and, when given, a verbatim
     /// copy of the mission definition in `mission.toml`.
     ///
     /// `run.json` is written last, so a crash during creation leaves a directory that

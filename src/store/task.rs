@@ -1,7 +1,7 @@
 //! The store task: the one owner of an open [`RunDir`] during a run, doing every save and
 //! journal append off the async workers.
 //!
-//! A runner sends jobs (closures over `&mut RunDir`) through [`RunStore::run`] and awaits
+//! A runner sends jobs (closures over `&mut RunDir`) through `RunStore::run` and awaits
 //! their result, which arrives only once the job has returned — for [`RunDir::save_state`] and
 //! [`RunDir::append_event`] that is after their fsyncs, so an acknowledged save is on disk, as
 //! when the runner called them itself. Jobs run one at a time in the order they were sent:

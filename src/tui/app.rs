@@ -16,7 +16,7 @@ use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use std::fmt;
 
-/// Something that happened, for [`update`].
+/// Something that happened, for [`update`](fn@crate::tui::update).
 #[derive(Clone, Debug, PartialEq)]
 pub enum Event {
     /// A key press (the shell drops releases).
@@ -302,7 +302,7 @@ pub enum MapMode {
 /// The map pane's view state.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct MapView {
-    /// Index into [`ZOOMS`] (used by Follow and Manual).
+    /// Index into `ZOOMS` (used by Follow and Manual).
     pub zoom: usize,
     /// Viewport mode.
     pub mode: MapMode,

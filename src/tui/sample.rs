@@ -1,8 +1,8 @@
 //! Synthetic models: fixed fixtures (snapshot tests, `--sample classification`), a seeded
-//! generator of large fleets (the redraw benchmark) and [`SampleRun`], a toy animation that
+//! generator of large fleets (the redraw benchmark) and `SampleRun`, a toy animation that
 //! makes `fleetmap tui` show something moving before the real fleet adapter exists.
 //!
-//! None of this is the mission algorithm: [`SampleRun`] moves drones along lawnmower lanes
+//! None of this is the mission algorithm: `SampleRun` moves drones along lawnmower lanes
 //! over a hidden diagonal strip, then visits the positives found, so the panes have
 //! changing content. The UI labels it SAMPLE wherever it is shown.
 

@@ -118,7 +118,7 @@ impl SensorArgs {
 }
 
 /// A `--connect` string as a vehicle-side program reads it: the ground station's connection
-/// strings ([`fleetmap_io::link::addr`]), except that `udp:HOST:PORT` sends to HOST:PORT
+/// strings ([`fleetmap_io::link::ConnSpec`]), except that `udp:HOST:PORT` sends to HOST:PORT
 /// (udpout), as an autopilot's or a simulator's `--out` does.
 pub fn parse_connect(s: &str) -> Result<ConnSpec, ConnSpecError> {
     let spec: ConnSpec = s.parse()?;

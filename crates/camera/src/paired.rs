@@ -19,7 +19,7 @@
 //! autopilot it hears, at its first autopilot HEARTBEAT from component 1, as component 100:
 //! - for ArduPilot (HEARTBEAT.autopilot = MAV_AUTOPILOT_ARDUPILOTMEGA), REQUEST_DATA_STREAM
 //!   for MAV_DATA_STREAM_POSITION (GLOBAL_POSITION_INT) and MAV_DATA_STREAM_EXTRA1 (ATTITUDE)
-//!   at [`TELEMETRY_HZ`], as QGroundControl's `APMFirmwarePlugin::initializeStreamRates`
+//!   at `TELEMETRY_HZ`, as QGroundControl's `APMFirmwarePlugin::initializeStreamRates`
 //!   does stream by stream and MAVProxy's `set_stream_rates` (`--streamrate`) does with
 //!   MAV_DATA_STREAM_ALL — both re-send them later (QGC when BATTERY_STATUS / HOME_POSITION
 //!   stop for 10 s, MAVProxy every 15 s);
@@ -30,13 +30,13 @@
 //!   to PX4 (its stream groups are ArduPilot's). QGC follows its stream requests with
 //!   SET_MESSAGE_INTERVAL the same way, so the per-message interval wins.
 //!
-//! It asks again, at most every [`REQUEST_RETRY`], while the pose is stale, and at once when
+//! It asks again, at most every `REQUEST_RETRY`, while the pose is stale, and at once when
 //! the autopilot reboots (GLOBAL_POSITION_INT.time_boot_ms goes back by more than
-//! [`REBOOT_BACKSTEP_MS`]; a smaller step back is a reordered datagram and is ignored):
+//! `REBOOT_BACKSTEP_MS`; a smaller step back is a reordered datagram and is ignored):
 //! message intervals do not survive a reboot.
 //!
 //! **Stale poses.** A picture is never rendered from a pose older than
-//! [`PairedCameras::max_pose_age`] ([`DEFAULT_MAX_POSE_AGE`], measured from the arrival of the
+//! `PairedCameras::max_pose_age` (`DEFAULT_MAX_POSE_AGE`, measured from the arrival of the
 //! last GLOBAL_POSITION_INT). A capture asked for while the pose is stale produces no image:
 //! MAV_CMD_IMAGE_START_CAPTURE is answered MAV_RESULT_TEMPORARILY_REJECTED (PX4's answer to a
 //! command it cannot run yet), and CAMERA_TRIGGER or a due interval shot is dropped; each
@@ -69,7 +69,7 @@
 //! learned route; PX4: target 0 reaches every forwarding instance that has seen a
 //! component), and the request reaches every camera here once per autopilot. Each camera is
 //! offered it; only the one holding a picture of the size it names answers, once
-//! ([`SimCamera::handle_handshake_request`]). The runway run's grid announcement
+//! (`SimCamera::handle_handshake_request`). The runway run's grid announcement
 //! (DEBUG_FLOAT_ARRAY `"fm.grid"`, [`fleetmap_core::vision::onboard_runway`]) is untargeted
 //! too: every camera classifying runway pictures takes it and answers with its status
 //! ([`SimCamera::handle_gcs_message`]).
@@ -182,13 +182,13 @@ pub struct PairedCameras {
 
 impl PairedCameras {
     /// Cameras rendering `world` with `config`, seeded; poses may be
-    /// [`DEFAULT_MAX_POSE_AGE`] old.
+    /// `DEFAULT_MAX_POSE_AGE` old.
     pub fn new(world: Arc<World>, config: CameraConfig, seed: u64) -> PairedCameras {
         PairedCameras::with_world(Some(world), config, seed)
     }
 
     /// Cameras whose pictures come from outside: every capture is a [`Shot`] to take with
-    /// [`PairedCameras::poll_shot`] and complete with [`PairedCameras::deliver`] (`config`'s
+    /// `PairedCameras::poll_shot` and complete with `PairedCameras::deliver` (`config`'s
     /// `external` is set).
     pub fn external(config: CameraConfig, seed: u64) -> PairedCameras {
         let config = CameraConfig {

@@ -17,7 +17,7 @@
 //! sees the asphalt black and the grass — after dilation closes its gaps — white. The
 //! runway's dashed white centreline is a realistic false "white" inside the runway.
 //!
-//! A degraded sensor ([`Disturbances::swap_tiles`]): the image draws the bandit field's green
+//! A degraded sensor (`Disturbances::swap_tiles`): the image draws the bandit field's green
 //! tiles with the grey tiles' texture and the grey tiles with the green ones', so the GCS's
 //! green-share measurement of that image says the other class.
 

@@ -289,7 +289,7 @@ pub(crate) fn grid_cell_corners(
     }
 }
 
-/// The centre (lat, lon) of grid cell (`row`, `col`) (see [`grid_cell_corners`]).
+/// The centre (lat, lon) of grid cell (`row`, `col`) (see `grid_cell_corners`).
 pub fn grid_cell_center(origin: (f64, f64), size: f64, row: i32, col: i32) -> (f64, f64) {
     match crate::geo::Grid::new(crate::geo::LatLon::new(origin.0, origin.1), size) {
         Ok(g) => {

@@ -148,7 +148,7 @@ impl MonotonicClock {
 
     /// The wall-clock duration until this clock reaches `t` (zero if already past). Following
     /// a simulator, a lower bound (the simulator never runs faster than its ceiling; without
-    /// one, at most [`SimTime::MAX_WAIT`]); reading the vehicles' time, at their current
+    /// one, at most `SimTime::MAX_WAIT`); reading the vehicles' time, at their current
     /// rate and at most [`VehicleTime::MAX_WAIT`]: a caller that wakes before `t` sleeps
     /// again.
     pub fn wall_until(&self, t: Time) -> Duration {

@@ -3,7 +3,7 @@
 //!
 //! The simulator's [`Mode`] is what a simulated vehicle does; which of its autopilot's modes
 //! that is, and so the numbers and names on the wire, comes from the GCS's own table,
-//! [`fleetmap_core::proto::mode`] ([`Flavour::autopilot_mode`]).
+//! [`fleetmap_core::proto::mode`] (`Flavour::autopilot_mode`).
 //!
 //! What stays the simulator's own, and why: [`SimAutopilot`] and [`VehicleKind`] are the parts
 //! of the core's [`Autopilot`] and [`VehicleClass`] that the simulator has a model of (no
@@ -206,7 +206,7 @@ impl Flavour {
     }
 
     /// The name this flavour gives `mode` (as the autopilot's GCS shows it): the table's
-    /// name of [`Flavour::autopilot_mode`], or a generic upper-case name for a mode this
+    /// name of `Flavour::autopilot_mode`, or a generic upper-case name for a mode this
     /// flavour does not have.
     pub fn mode_name(self, mode: Mode) -> &'static str {
         self.autopilot_mode(mode)

@@ -21,7 +21,7 @@
 //!
 //! Vehicle k (1-based, in the order of the spec) gets system id k and the world's default
 //! home k (or `--home` plus 3 m east per vehicle). A copter landed within
-//! [`SimConfig::dock_radius_m`] of a rover rides with it and charges (the bandit paper's
+//! `SimConfig::dock_radius_m` of a rover rides with it and charges (the bandit paper's
 //! mobile charging stations).
 
 use crate::fault::{Action, FaultPlan, FaultSpecError, ScheduledFault};

@@ -9,14 +9,14 @@
 //! below −100 ms, so a late frame is made up for by at most 100 ms of wall time and the rest
 //! is simply lost speed; PX4's SITL steps its modules from the simulator's time through its
 //! lock-step scheduler (platforms/posix lockstep_scheduler). The simulator here does the
-//! same: [`Pacer::allowed`] says up to which simulated time the shell may step now. When the
-//! shell falls behind by more than [`Pacer::max_lag`] (it was starved: a busy CPU, a slow
+//! same: `Pacer::allowed` says up to which simulated time the shell may step now. When the
+//! shell falls behind by more than `Pacer::max_lag` (it was starved: a busy CPU, a slow
 //! link), the schedule is moved instead of caught up — the simulator never steps a burst of
 //! simulated seconds to make up for wall time it did not get, it just runs slower.
 //! [`Speed::Max`] has no ceiling: every turn of the shell steps one batch
-//! ([`Pacer::MAX_BATCH`]) and lets the I/O run.
+//! (`Pacer::MAX_BATCH`) and lets the I/O run.
 //!
-//! [`SpeedMeter`] measures the speed achieved (simulated seconds per wall second over the
+//! `SpeedMeter` measures the speed achieved (simulated seconds per wall second over the
 //! last few seconds), which the shell reports and the GCS clock follows
 //! (`fleetmap_io::clock::SimTime`).
 //!

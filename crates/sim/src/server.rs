@@ -346,7 +346,7 @@ fn log_totals(stepper: &Stepper) {
 /// this process follows, and where the speed achieved is read).
 ///
 /// Lock-step: simulated time advances in whole physics steps, at most at `opts.speed`, and
-/// not while a vehicle's outgoing link is backed up ([`TxQueue::backlogged`]) — on a busy
+/// not while a vehicle's outgoing link is backed up (`TxQueue::backlogged`) — on a busy
 /// machine the simulator runs slower, as SITL does, rather than producing moments nobody
 /// hears.
 pub async fn serve<F>(

@@ -7,10 +7,10 @@
 //! seconds' worth per wall second, from every vehicle) while only one burst leaves. The queue
 //! grew to ten thousand datagrams per vehicle and a COMMAND_ACK waited behind seconds of stale
 //! telemetry, so the GCS gave up after its four attempts — a backlog no real link has.
-//! * Pacing is a token bucket on the wall clock: [`TxQueue::RATE`] datagrams per second
-//!   however rarely the shell gets to send, at most [`TxQueue::BURST`] at once (about what a
+//! * Pacing is a token bucket on the wall clock: `TxQueue::RATE` datagrams per second
+//!   however rarely the shell gets to send, at most `TxQueue::BURST` at once (about what a
 //!   Linux UDP receive buffer of 208 KiB holds of small MAVLink frames).
-//! * Nothing older than [`TxQueue::MAX_AGE`] is sent: it is dropped and counted, as a real
+//! * Nothing older than `TxQueue::MAX_AGE` is sent: it is dropped and counted, as a real
 //!   link under overload loses frames rather than delivering them late (ArduPilot writes a
 //!   message only when the port's transmit buffer has room for it, `comm_get_txspace`; a
 //!   telemetry radio's buffer holds a fraction of a second). What arrives is then fresh, and

@@ -56,7 +56,7 @@ pub fn measure_image(
 }
 
 /// The measurement definition of the spatial-classification mission `def` — what
-/// [`green_spec`] gives for its runs — or `None` for another kind of mission.
+/// `green_spec` gives for its runs — or `None` for another kind of mission.
 pub fn green_spec_of(def: &fleetmap_core::mission::definition::MissionDef) -> Option<GreenSpec> {
     // the camera crate's, which the companion computer's camera reads its mission with
     fleetmap_camera::mission::green_spec_of(def)

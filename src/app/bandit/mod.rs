@@ -110,7 +110,7 @@ pub struct RunOptions {
     /// Carry on by itself through failures that may go away (a lost link, a vehicle late
     /// at a rendezvous, a sortie that could not start): the run picks up from its saved
     /// state as `fleetmap resume` would, and stops only for what a person must fix
-    /// ([`crate::app::error::RunnerError::needs_person`]).
+    /// (`crate::app::error::RunnerError::needs_person`).
     pub auto_resume: bool,
 }
 

@@ -457,7 +457,7 @@ pub(super) fn known_position(v: &VehicleSnapshot) -> Option<crate::fleet::GeoPoi
 }
 
 /// A new spatial-classification state for `def` once every vehicle is heard and reports a
-/// position ([`known_position`]; `lock_step` overrides the separation the mission implies).
+/// position (`known_position`; `lock_step` overrides the separation the mission implies).
 pub async fn new_state(
     fleet: &FleetHandle,
     def: &fleetmap_core::mission::definition::MissionDef,

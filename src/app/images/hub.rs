@@ -52,7 +52,7 @@ impl ImageHub {
     }
 
     /// Use the cameras' runway results made with `accept`'s definition and announce its grid
-    /// to `accept.cameras` until they confirm it ([`super::announce`]); `None` (the start):
+    /// to `accept.cameras` until they confirm it (`super::announce`); `None` (the start):
     /// ask for the picture of every runway result.
     pub fn accept_runway(&self, accept: Option<RunwayAccept>) {
         self.runway.send_replace(accept);

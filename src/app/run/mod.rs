@@ -3,7 +3,7 @@
 //! view the TUI draws.
 //!
 //! A commit mutates the state under the lock, hands a snapshot (one `Arc` clone shared with
-//! the view) and the step's journal records to the [`RunStore`] and waits, still holding the
+//! the view) and the step's journal records to the `RunStore` and waits, still holding the
 //! lock, for their acknowledgement: nobody reads a state that is not yet on disk, and
 //! snapshots and records reach the disk in the order of the changes — as when the runners
 //! wrote the files themselves — but the JSON serialisation and the fsyncs happen on the store

@@ -34,7 +34,7 @@
 //!   camera and resumes (`fleetmap resume`, or `b` in the UI). A camera that went **silent**
 //!   instead (its captures unanswered, its pictures never arriving, while the autopilot is
 //!   heard) is a camera that may come back: with auto-resume its vehicle rejoins by itself
-//!   once the camera is heard again ([`MappingEvent::CameraBack`], see [`camera`]).
+//!   once the camera is heard again ([`MappingEvent::CameraBack`], see `camera`).
 //! * **Where the camera looked**: when the picture's attitude is known (CAMERA_IMAGE_CAPTURED
 //!   `q`), the 3 × 3 cells are cut from it as a north-up orthophoto around the cell centre
 //!   ([`fleetmap_core::vision::geometry::orthophoto`]: pinhole camera rotated by the attitude,
@@ -146,7 +146,7 @@ pub struct RunOptions {
     /// A vehicle is "there" within this horizontal distance of a cell centre, metres.
     pub tolerance_m: f64,
     /// Consecutive failed steps after which a pilot grounds its drone (it leaves the tree as
-    /// for a battery swap and waits: [`Pilot::ground`]); the others go on.
+    /// for a battery swap and waits: `Pilot::ground`); the others go on.
     pub max_failures: u32,
     /// Failed pictures (dropped by the sanity check, lost, unreadable) retaken per cell
     /// visit, and rejected sweep pictures in a row, before the camera is declared faulty.

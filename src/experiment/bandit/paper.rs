@@ -6,7 +6,7 @@
 //! comparable to our solver's times in absolute terms), epochs to classify every interesting
 //! cell, and epochs to classify every cell. Fig. 6 has no numbers: the paper states only that
 //! Algorithm 1 finishes both counts before the three data-agnostic baselines
-//! ([`FIG6_CLAIM`]).
+//! (`FIG6_CLAIM`).
 
 use super::{Preset, StudyConfig};
 use fleetmap_core::planner::baselines::GoalRule;

@@ -67,7 +67,7 @@ pub(crate) const SHARD_FORMAT: u32 = 1;
 /// CSV, summary and plot as an undivided run.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ShardFile {
-    /// [`SHARD_FORMAT`].
+    /// `SHARD_FORMAT`.
     pub format: u32,
     /// The whole study (every part holds the same).
     pub study: Study,

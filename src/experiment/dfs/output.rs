@@ -95,7 +95,7 @@ pub fn write_outputs(study: &Study, dir: &Path) -> Result<Vec<PathBuf>, DfsStudy
 /// (R = 1 only), Theorem 1 at OPT's lower bound, the lawnmower baseline, Lemma 2, the mean
 /// ratios ALG/LM and ALG/max(LM, longest round trip), the worst ALG/Lemma 1, the trials
 /// above Lemma 1, and the team's flight and transit shares; then, after a blank line, the
-/// allocation comparison over all trials ([`modes_table`]).
+/// allocation comparison over all trials (`modes_table`).
 pub fn table(study: &Study) -> String {
     let mut s = format!(
         "{:<6} {:<4} {:<5} {:>5} {:>4} {:>6} | {:>8} {:>8} {:>8} | {:>9} {:>7} {:>8} | {:>9} {:>8} | {:>7} {:>7} {:>6} {:>4} | {:>6} {:>7}\n",

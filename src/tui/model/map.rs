@@ -138,7 +138,7 @@ impl CellState {
 
 /// The mission grid as the map pane shows it: a rectangle of cells.
 ///
-/// In JSON, `rows` is a list of strings of [`CellState::glyph`]s, **northernmost row
+/// In JSON, `rows` is a list of strings of `CellState::glyph`s, **northernmost row
 /// first** (the way the map looks, north up); `south_west` is the cell of the first
 /// character of the last string.
 #[derive(Clone, Debug, PartialEq)]

@@ -1,6 +1,6 @@
 //! The fleet pane: one row per vehicle.
 //!
-//! Two column sets: the full one when the pane is at least [`FULL_WIDTH`] wide, and a
+//! Two column sets: the full one when the pane is at least `FULL_WIDTH` wide, and a
 //! compact one that fits 80 columns (short type names, units in the headers, the camera in
 //! a word). Values that need attention get a background colour *and* stay readable as text
 //! (`LOST`, `nofix`, `OFF`).

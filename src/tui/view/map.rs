@@ -3,9 +3,9 @@
 //!
 //! Geometry. A terminal character is about twice as tall as it is wide, so at zoom 1:1 a
 //! grid cell is drawn 2 characters wide and 1 high (square on screen). A zoom level is a
-//! ratio z = num/den from [`ZOOMS`]: a cell takes 2z × z characters; below 1:1 one
+//! ratio z = num/den from `ZOOMS`: a cell takes 2z × z characters; below 1:1 one
 //! character covers 1/(2z) × 1/z cells and shows the one of highest
-//! [`CellState::priority`] (a positive is never hidden by its negative neighbours).
+//! `CellState::priority` (a positive is never hidden by its negative neighbours).
 //! A viewport is the zoom and the screen position of one anchor cell (the grid's north-west
 //! corner): fitting centres the whole grid's characters in the canvas; following centres one
 //! cell and then slides the grid so that no empty space shows beyond an edge when the grid
@@ -31,7 +31,7 @@ const LEGEND_W: u16 = 26;
 /// The map's resolved view.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Viewport {
-    /// Index into [`ZOOMS`].
+    /// Index into `ZOOMS`.
     pub zoom: usize,
     /// The cell whose top-left character is at (`x`, `y`) on the canvas.
     pub(crate) anchor: Cell,

@@ -2,9 +2,9 @@
 //! layout that decides which panes a terminal of a given size gets.
 //!
 //! Two layouts:
-//! - **wide** (at least [`WIDE_MIN`] columns × rows): the map on the left, the fleet table,
+//! - **wide** (at least `WIDE_MIN` columns × rows): the map on the left, the fleet table,
 //!   the mission panel and the log stacked on the right — everything at once;
-//! - **compact** (down to [`MIN_SIZE`], e.g. 80×24): the fleet table on top and *one* of
+//! - **compact** (down to `MIN_SIZE`, e.g. 80×24): the fleet table on top and *one* of
 //!   map / mission / log below, chosen with the focus keys (Tab); the lower pane's title
 //!   lists the three so the operator sees what else there is.
 //!

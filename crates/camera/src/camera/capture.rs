@@ -89,7 +89,7 @@ pub fn shows_other_class(image_seed: u64, p: f64) -> bool {
 
 /// A picture the camera fired and has not delivered yet: with an outside source
 /// ([`CameraConfig::external`]) the shell gets the picture and hands it back with
-/// [`SimCamera::deliver`].
+/// `SimCamera::deliver`.
 #[derive(Clone, Copy, Debug)]
 pub struct Shot {
     /// The camera's image index (since boot).

@@ -31,7 +31,7 @@ pub struct CameraConfig {
     pub transfer_rate_bps: Option<f64>,
     /// A degraded sensor: the probability (0–1, per image) that a picture shows the other
     /// class of the bandit field — rendered with every green tile drawn as a grey tile and
-    /// every grey tile as a green one ([`Disturbances::swap_tiles`]), so the GCS's unchanged
+    /// every grey tile as a green one (`Disturbances::swap_tiles`), so the GCS's unchanged
     /// green-share measurement reads 0 over a green tile and 1 over a grey one. Drawn
     /// independently for each image from the camera's seed and the image's name (vehicle,
     /// boot, index): the same seed flips the same images. The bandit paper's degraded-sensor
@@ -50,7 +50,7 @@ pub struct CameraConfig {
     pub onboard: Option<OnboardSpec>,
     /// The pictures come from outside (a real camera's folder, a video device) instead of
     /// the renderer: a capture becomes a [`Shot`] the shell takes with
-    /// [`SimCamera::poll_shot`] and completes with [`SimCamera::deliver`].
+    /// `SimCamera::poll_shot` and completes with `SimCamera::deliver`.
     pub external: bool,
 }
 

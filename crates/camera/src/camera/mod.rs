@@ -2,7 +2,7 @@
 //!
 //! It answers the MAVLink camera protocol (MAV_CMD_REQUEST_MESSAGE for CAMERA_INFORMATION,
 //! CAMERA_CAPTURE_STATUS and a missed CAMERA_IMAGE_CAPTURED with its on-board result:
-//! [`requests`]; MAV_CMD_IMAGE_START_CAPTURE with interval, count and sequence number,
+//! `requests`; MAV_CMD_IMAGE_START_CAPTURE with interval, count and sequence number,
 //! MAV_CMD_IMAGE_STOP_CAPTURE) and is triggered by the autopilot's mission items
 //! (IMAGE_START_CAPTURE, DO_DIGICAM_CONTROL, DO_SET_CAM_TRIGG_DIST). Each capture renders the
 //! view at the vehicle's true pose (`crate::render`, cargo feature `render`), encodes it as JPEG with the
@@ -20,7 +20,7 @@
 //! With a rate, the image transmission leaves through a token bucket in bytes per second of
 //! the camera's own clock (the `now` of [`SimCamera::update`] / [`SimCamera::advance`]):
 //! each message costs its MAVLink 2 frame (10 header bytes, the payload, 2 CRC bytes: 267
-//! bytes per ENCAPSULATED_DATA), the bucket holds [`PACE_BURST_S`] of the rate (at least one
+//! bytes per ENCAPSULATED_DATA), the bucket holds `PACE_BURST_S` of the rate (at least one
 //! frame), and [`SimCamera::poll_transmit`] only hands out what the bucket has released.
 //! This is for a camera whose images go through a routing autopilot: ArduPilot forwards a
 //! frame only when the outgoing port's transmit buffer has room for it and silently drops
@@ -28,7 +28,7 @@
 //! JPEG sent as one burst loses a large share of its packets. CAMERA_IMAGE_CAPTURED is never
 //! held back by the pacing.
 //!
-//! Re-sends ([`SimCamera::handle_handshake_request`]): a GCS that missed packets asks for the
+//! Re-sends (`SimCamera::handle_handshake_request`): a GCS that missed packets asks for the
 //! image again by its size. The request has no target (DATA_TRANSMISSION_HANDSHAKE has no
 //! target fields), so an autopilot forwards it to every port it has heard a component on
 //! (ArduPilot `MAVLink_routing::check_and_forward`: no target system is a broadcast; PX4
@@ -51,7 +51,7 @@
 //! region counts, classified on the decoded JPEG the camera would send) and the picture kept
 //! for a GCS that asks. A runway camera without the grid (a mission whose origin is the first
 //! vehicle's home) takes it from the GCS's announcement and says it has none meanwhile
-//! ([`onboard`]); it forgets it when it reboots with its vehicle.
+//! (`onboard`); it forgets it when it reboots with its vehicle.
 //!
 //! A degraded sensor ([`CameraConfig::misclassify_probability`]): each image, independently
 //! and with that probability, shows the bandit field's green tiles as grey and its grey

@@ -30,7 +30,7 @@ pub(super) fn runway_of(config: &CameraConfig) -> Option<RunwayDefinition> {
 
 impl SimCamera {
     /// A message from a GCS (any component but the vehicle's own): a request to send a
-    /// picture again (DATA_TRANSMISSION_HANDSHAKE, [`SimCamera::handle_handshake_request`])
+    /// picture again (DATA_TRANSMISSION_HANDSHAKE, `SimCamera::handle_handshake_request`)
     /// or the run's grid (DEBUG_FLOAT_ARRAY `"fm.grid"`), which a camera classifying runway
     /// pictures takes and answers with its status. Anything else is ignored.
     pub fn handle_gcs_message(&mut self, msg: &MavMessage) {

@@ -5,7 +5,7 @@
 //! |---|---|
 //! | `folder:DIR` | a folder a camera writes into: each shot takes the oldest picture not used yet ([`fleetmap_io::files::pictures`]) |
 //! | `command:CMD` | a program run per shot that writes a JPEG (or PNG) to `{out}`, e.g. `command:libcamera-still -n -o {out}` ([`command`]) |
-//! | `v4l2:DEVICE` | a frame grabbed from a Video4Linux2 device, e.g. `v4l2:/dev/video0` (cargo feature `v4l2`; [`v4l2`]) |
+//! | `v4l2:DEVICE` | a frame grabbed from a Video4Linux2 device, e.g. `v4l2:/dev/video0` (cargo feature `v4l2`; `source::v4l2`) |
 //! | `render` | drawn from a world file at the reported pose (cargo feature `render`: `crate::render`) |
 
 pub mod command;

@@ -176,7 +176,7 @@ pub struct LawnmowerConfig {
     /// Worst distance between a waypoint and where the image is taken, metres.
     pub position_tolerance_m: f64,
     /// The distance between lanes, metres (`None`: the widest that leaves no gap, per
-    /// robot, from [`capture_spacing`]). Wider than that is refused: it would leave gaps.
+    /// robot, from `capture_spacing`). Wider than that is refused: it would leave gaps.
     #[serde(default)]
     pub lane_spacing_m: Option<f64>,
     /// Seconds to hold at each capture waypoint (0: fly through).

@@ -5,12 +5,12 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`dfs`] | [`Explorer`]: the sans-IO state machine of Algorithm 1 (tree built online from the 4-neighbour labels of each image, vertex states, dummy vertices, even splits, state shared on meeting or through the GCS, return to the start, pause/resume) |
+//! | [`dfs`] | [`Explorer`](dfs::Explorer): the sans-IO state machine of Algorithm 1 (tree built online from the 4-neighbour labels of each image, vertex states, dummy vertices, even splits, state shared on meeting or through the GCS, return to the start, pause/resume) |
 //! | [`lawnmower`] | the boustrophedon sweep of a bounding box as mission items, split into strips among the robots (§7's first mode) |
 //! | [`motion`] | the translating ROI (§3–4): ground position ↔ ROI-frame cell at time t, relative speeds, intercepts |
 //! | [`reach`] | whether a drone can fly out to a moving region's cell and get back on its battery, or must swap first, or the region is beyond reach |
 //! | [`bounds`] | Lemma 1 (eq. 2), Lemma 2 (eq. 10) and §6's lawnmower baseline |
-//! | [`simulate`] | a discrete-event run of an [`Explorer`] on a known ROI with a perfect sensor (§6's simulations, the property tests) |
+//! | [`simulate`] | a discrete-event run of an [`Explorer`](dfs::Explorer) on a known ROI with a perfect sensor (§6's simulations, the property tests) |
 //!
 //! Cells follow docs/grid.md (rows grow north, columns east, cell (0, 0) centred on the grid
 //! origin); the DFS works in the ROI's own frame, which equals the ground grid when the ROI is

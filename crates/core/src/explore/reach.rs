@@ -12,10 +12,10 @@
 //!    cell's centre will be when the drone gets there at S_r, [`RoiMotion::intercept`]) and
 //!    the time over the cell (`dwell_s`, during which the cell drifts on), still covers the
 //!    return home from where the cell will be at the end of the visit: flight home, descent,
-//!    landing margin and the reserve ([`BatteryModel::return_pct`], the runner's return rule).
+//!    landing margin and the reserve (`BatteryModel::return_pct`, the runner's return rule).
 //! 3. Otherwise, would a fresh battery from home do? A drone leaving home at any time from now
 //!    on, with the charge a swapped battery is guaranteed to report (`full_pct`, less
-//!    [`MARGIN_PCT`]), arriving at time T where the cell is then, costs a round trip that grows
+//!    `MARGIN_PCT`), arriving at time T where the cell is then, costs a round trip that grows
 //!    with the cell's distance from home at T and T + `dwell_s`. That distance is convex in T,
 //!    and the earliest possible arrival is the intercept from home leaving now; so the best
 //!    trip is found on [earliest arrival, closest approach] by a ternary search. When even the
@@ -27,7 +27,7 @@
 //!    cell comes within reach only later (it drifts towards home), else `SwapFirst` (the drone
 //!    is farther from the cell than home is).
 //!
-//! [`MARGIN_PCT`] makes the fresh-battery test of step 3 a little stricter than the test of
+//! `MARGIN_PCT` makes the fresh-battery test of step 3 a little stricter than the test of
 //! step 2, so that a drone standing at home on a fresh battery is never told to swap for the
 //! same battery again (the two tests differ only by where the drone stands, a metre or two).
 

@@ -3,7 +3,7 @@
 //!
 //! GeoJSON follows RFC 7946: a `FeatureCollection` of `Polygon` features, positions
 //! `[lon, lat]` in WGS84 degrees, exterior rings closed and counter-clockwise. Each cell is
-//! drawn as its four UTM corners ([`Grid::cell_corners`]); for cells of a few metres the
+//! drawn as its four UTM corners (`Grid::cell_corners`); for cells of a few metres the
 //! straight lon/lat edges differ from the UTM square by far less than a millimetre.
 //!
 //! KML follows OGC KML 2.2 as read by Google Earth and QGIS: one `Style` per distinct
@@ -90,7 +90,7 @@ fn as_object(properties: &Value) -> Map<String, Value> {
 }
 
 /// A GeoJSON `FeatureCollection`: one square `Polygon` per cell (its corners from
-/// [`Grid::cell_corners`]) whose properties are the given ones plus `"row"` and `"col"`
+/// `Grid::cell_corners`) whose properties are the given ones plus `"row"` and `"col"`
 /// (these two always reflect the cell), then one `Polygon` per extra polygon (e.g. the ground
 /// truth) with its properties (non-object properties are wrapped as `{"value": …}`).
 /// Extra polygons with fewer than 3 vertices or non-finite coordinates are left out and
@@ -164,7 +164,7 @@ fn kml_polygon(ring: &[LatLon]) -> String {
 
 /// A KML 2.2 document: one filled square `Placemark` per cell, named `name` and filled
 /// with `colour` (`aabbggrr` hex, e.g. from [`kml_colour`]; anything else becomes
-/// [`KML_FALLBACK_COLOUR`]), with `row` and `col` in its `ExtendedData`; then each extra
+/// `KML_FALLBACK_COLOUR`), with `row` and `col` in its `ExtendedData`; then each extra
 /// polygon (e.g. the ground truth) as a yellow outline `Placemark` named by its string.
 /// Extra polygons with fewer than 3 vertices or non-finite coordinates are left out.
 pub fn cells_kml(

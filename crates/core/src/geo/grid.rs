@@ -120,7 +120,7 @@ impl Grid {
 
     /// A grid in a chosen UTM `zone` and `hemisphere` (e.g. the zone where most of a field
     /// lies when its start point is just across a zone edge). The origin must be within
-    /// [`utm::MAX_ZONE_OFFSET_DEG`] of the zone's central meridian.
+    /// `utm::MAX_ZONE_OFFSET_DEG` of the zone's central meridian.
     pub fn new_in_zone(
         origin: LatLon,
         cell_size_m: f64,
@@ -193,7 +193,7 @@ impl Grid {
     }
 
     /// [`Grid::cell_center`], but an error when the centre is outside the UTM domain or
-    /// farther than [`utm::MAX_ZONE_OFFSET_DEG`] from the zone.
+    /// farther than `utm::MAX_ZONE_OFFSET_DEG` from the zone.
     pub fn checked_cell_center(&self, c: Cell) -> Result<LatLon, GeoError> {
         utm::from_utm(&self.cell_center_utm(c))
     }
@@ -217,7 +217,7 @@ impl Grid {
     /// The cell that contains `u`, which should be in the grid's zone and hemisphere. A
     /// coordinate in the other hemisphere of the same zone is shifted by the false
     /// northing; one in another zone is re-projected through WGS84. Use
-    /// [`Grid::try_cell_of_utm`] for input from files or the network.
+    /// `Grid::try_cell_of_utm` for input from files or the network.
     pub fn cell_of_utm(&self, u: &Utm) -> Cell {
         let (e, n) = if u.zone == self.zone {
             (

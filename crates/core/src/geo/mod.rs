@@ -232,7 +232,7 @@ pub enum GeoError {
         zone: u8,
         /// Distance from the central meridian, degrees.
         offset_deg: f64,
-        /// The limit, degrees ([`utm::MAX_ZONE_OFFSET_DEG`]).
+        /// The limit, degrees (`utm::MAX_ZONE_OFFSET_DEG`).
         max_deg: f64,
     },
     /// A UTM coordinate in a different zone or hemisphere than required.

@@ -103,7 +103,7 @@ pub fn to_utm(p: LatLon) -> Result<Utm, GeoError> {
 }
 
 /// `p` in a forced `zone` and `hemisphere` (a grid keeps its origin's zone for cells that
-/// reach into the next one). `p` must be within [`MAX_ZONE_OFFSET_DEG`] of the zone's central
+/// reach into the next one). `p` must be within `MAX_ZONE_OFFSET_DEG` of the zone's central
 /// meridian; the hemisphere only selects the false northing, so a point south of the
 /// equator in a northern frame has a negative northing.
 pub fn to_utm_in_zone(p: LatLon, zone: u8, hemisphere: Hemisphere) -> Result<Utm, GeoError> {
@@ -128,7 +128,7 @@ pub fn to_utm_in_zone(p: LatLon, zone: u8, hemisphere: Hemisphere) -> Result<Utm
 }
 
 /// The WGS84 position of a UTM coordinate. The result must lie in the UTM domain
-/// (80°S..=84°N, clamped within 1e-9° of the limits) and within [`MAX_ZONE_OFFSET_DEG`] of
+/// (80°S..=84°N, clamped within 1e-9° of the limits) and within `MAX_ZONE_OFFSET_DEG` of
 /// the zone's central meridian; longitudes are returned in −180..180.
 pub fn from_utm(u: &Utm) -> Result<LatLon, GeoError> {
     if !u.easting.is_finite() {

@@ -72,7 +72,7 @@ impl fmt::Display for Allocation {
 }
 
 /// The confidence interval [lo, hi] around μ̂_l that the goal score (3) and the labels (4) use:
-/// J = hi, (4a) is lo ≥ θ − ε, (4b) is hi ≤ θ + ε (the tie rule of [`BanditState::classify`]
+/// J = hi, (4a) is lo ≥ θ − ε, (4b) is hi ≤ θ + ε (the tie rule of [`BanditState::classify`](crate::planner::bandit::BanditState::classify)
 /// unchanged).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
@@ -80,7 +80,7 @@ pub enum ConfidenceBound {
     /// The paper's (3b): [μ̂ − U, μ̂ + U], for reproducing its figures and tables.
     Paper,
     /// The Bernoulli KL form of the beta-binomial mixture confidence sequence
-    /// ([`kl_interval`](crate::planner::bandit::kl_interval)): the same guarantee (Prop. 1 at the same δ), about 4× fewer samples
+    /// (`planner::bandit::kl_interval`): the same guarantee (Prop. 1 at the same δ), about 4× fewer samples
     /// (40 instead of 210 for a cell at μ̂ = 0.1 with |C| = 100, δ = 10⁻⁴, ε = 0.05). The
     /// field default (docs/results/bandit-bound.md).
     Kl,

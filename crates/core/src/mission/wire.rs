@@ -181,7 +181,7 @@ fn same_f32(a: f32, b: f32, tol: f32) -> bool {
 ///   keeps its delay but not its acceptance radius or yaw), a parameter may come back as 0;
 /// * PX4 keeps, of an item sent in a global frame, only the parameters its `mission_item_s`
 ///   has for the command, some as flags or a wrapped yaw: what it reads back is expected
-///   ([`px4_position_param`]);
+///   (`px4_position_param`);
 /// * `current` and `autocontinue` are not compared (the vehicle sets them).
 ///
 /// Returns the first difference: the item, the field, both values.

@@ -4,7 +4,7 @@
 //!
 //! Beyond the paper, a second confidence interval can replace (3b) in both the goal score (3)
 //! and the labels (4): [`ConfidenceBound::Kl`], the Bernoulli KL form of Robbins' beta-binomial
-//! mixture confidence sequence ([`kl_interval`]). It keeps Prop. 1's guarantee at the same δ
+//! mixture confidence sequence (`kl_interval`). It keeps Prop. 1's guarantee at the same δ
 //! (P(some cell is ever mislabelled) ≤ δ, over all cells and all sample counts) and needs about
 //! a quarter of (3b)'s samples; the proof and its conditions are in `kl_interval` and in
 //! docs/results/bandit-bound.md.
@@ -296,7 +296,7 @@ impl BanditState {
     }
 
     /// The confidence interval [lo, hi] of cell `l` under [`BanditState::bound`]:
-    /// [μ̂_l − U_l, μ̂_l + U_l] for the paper's (3b), [`kl_interval`] for the KL bound;
+    /// [μ̂_l − U_l, μ̂_l + U_l] for the paper's (3b), `kl_interval` for the KL bound;
     /// (−∞, +∞) without samples.
     pub fn interval(&self, l: usize) -> (f64, f64) {
         if self.samples[l] == 0 {
@@ -417,7 +417,7 @@ impl BanditState {
     /// settled in the middle of an epoch is not imaged again in the epoch's later sensing
     /// cycles. Prop. 1 still holds: (15) — [19, Lem. 1], a law-of-the-iterated-logarithm
     /// bound — holds for every sample count n simultaneously, so (4) may be checked after
-    /// any number of samples; so does the KL bound's ([`kl_interval`]).
+    /// any number of samples; so does the KL bound's (`kl_interval`).
     pub fn classify(&mut self) -> Vec<usize> {
         let mut newly = Vec::new();
         let (lo, hi) = (self.theta - self.epsilon, self.theta + self.epsilon);

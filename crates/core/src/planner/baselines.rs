@@ -28,7 +28,7 @@ pub enum GoalRule {
     /// The paper's rule: top-D by J = μ̂ + U (3).
     Ucb,
     /// The improved rule: the D most ambiguous cells by the APT index (see
-    /// [`BanditState::apt_goal_indices`]).
+    /// `BanditState::apt_goal_indices`).
     Apt,
     /// Baseline: uniformly random unclassified cells.
     Random,

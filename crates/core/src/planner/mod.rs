@@ -9,7 +9,7 @@
 //! | [`baselines`] | the goal rules of §VI-5: Random, GreedyCov, GreedyTrav |
 //! | [`plan`] | a plan: cells per vehicle and sensing cycle, and the models' timelines |
 //! | [`ip`] | the IP (11) with (7)–(10): the paper's plain model and the fast model |
-//! | [`assign`] | linear-assignment re-pairing of §III-C |
+//! | `assign` | linear-assignment re-pairing of §III-C |
 //! | [`check`] | an independent checker of plans |
 //! | [`sortie`] | the run on a real fleet: epochs, sorties, measurements (pure state), missions and geofence |
 

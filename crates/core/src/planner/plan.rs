@@ -1,7 +1,7 @@
 //! A plan of the integer program (11): every drone's and station's cells per sensing cycle,
 //! as the paper states it ([`Plan`]) and as the models produce it ([`Timelines`], dense cell
 //! indices on one timeline per vehicle). The result type shared by the models
-//! ([`super::ip`]), the re-pairing ([`super::assign`]) and the independent checker
+//! ([`super::ip`]), the re-pairing (`super::assign`) and the independent checker
 //! ([`super::check`]), kept apart from all three so that none imports another's internals.
 
 use super::scenario::Instance;

@@ -17,7 +17,7 @@
 //!   modes); PX4 takes off with MAV_CMD_NAV_TAKEOFF in any mode once armed, param7 being
 //!   the *AMSL* altitude (QGroundControl `PX4FirmwarePlugin::guidedModeTakeoff` adds the
 //!   vehicle's AMSL altitude; commander switches to AUTO_TAKEOFF). Rovers do not take off.
-//!   When it is done: see [`TAKEOFF_ALT_ACCEPTANCE_M`].
+//!   When it is done: see `TAKEOFF_ALT_ACCEPTANCE_M`.
 //! * Starting a mission: MAV_CMD_MISSION_START. ArduCopter switches to AUTO and sets
 //!   `auto_armed` so the mission runs without throttle input (`GCS_Mavlink.cpp`
 //!   `MAV_CMD_MISSION_START`); Rover switches to AUTO; PX4 commander switches to
@@ -60,7 +60,7 @@ use mavlink::dialects::ardupilotmega::{
 pub(crate) const TAKEOFF_ALT_ACCEPTANCE_M: f32 = 0.8;
 
 /// Whether a vehicle `alt_rel` metres above home has finished a take-off to `target`
-/// metres above home: no lower than [`TAKEOFF_ALT_ACCEPTANCE_M`] below it, less 5 cm for
+/// metres above home: no lower than `TAKEOFF_ALT_ACCEPTANCE_M` below it, less 5 cm for
 /// the millimetre rounding of the reported relative altitude (PX4 compares AMSL
 /// altitudes, the GCS sees `relative_alt`).
 pub fn takeoff_reached(alt_rel: f32, target: f32) -> bool {

@@ -22,12 +22,12 @@
 //! camera that answers a request sends the re-send after the picture leaving now
 //! (`fleetmap_camera::camera`); so the receiver asks again only when the camera has gone on to a
 //! new picture since the request without sending the one asked for (the request or its re-send
-//! was lost), or has gone quiet, and after the request's wait ([`ReceiverConfig::wait_after`]).
+//! was lost), or has gone quiet, and after the request's wait (`ReceiverConfig::wait_after`).
 //! A request costs one of [`ReceiverConfig::retries`] either way: a camera that never answers
 //! loses the picture after that many new pictures or quiet spells.
 //!
 //! **Re-sends nobody asked for.** An announcement of an image just completed (same size, packet
-//! count and payload as one of the last [`DONE_KEPT`] completed) is a re-send the receiver
+//! count and payload as one of the last `DONE_KEPT` completed) is a re-send the receiver
 //! did not need — a request heard twice, or a camera that answers any request with its latest
 //! picture. It is received (a new picture of the very same size would be delivered whole), but
 //! never asked for again if incomplete: asking would make such a camera send its latest picture
@@ -91,7 +91,7 @@ pub enum ImageEvent {
         meta: Option<ImageMeta>,
     },
     /// An image could not be completed (packets still missing after the retries, or more
-    /// interrupted images than [`MAX_WAITING`]).
+    /// interrupted images than `MAX_WAITING`).
     Lost {
         /// Its announced size, bytes.
         size: u32,

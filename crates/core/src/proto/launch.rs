@@ -184,7 +184,7 @@ pub struct Observed {
 
 impl Observed {
     /// Seen off the ground: armed, and in the air (or taking off) by its landed state, or
-    /// above [`OFF_GROUND_M`] when it reports none.
+    /// above `OFF_GROUND_M` when it reports none.
     pub fn off_ground(&self) -> bool {
         self.armed
             && match self.landed {

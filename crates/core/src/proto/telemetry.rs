@@ -322,7 +322,7 @@ const PERIODIC_ARRIVALS: usize = 3;
 
 /// The messages a vehicle on a radio streams without being asked, and the requests to stop
 /// them: one MAV_CMD_SET_MESSAGE_INTERVAL(id, −1) per message once it arrived
-/// [`PERIODIC_ARRIVALS`] times within [`Unwanted::WINDOW`], again at most every
+/// `PERIODIC_ARRIVALS` times within [`Unwanted::WINDOW`], again at most every
 /// [`Unwanted::RETRY`] while it keeps coming, and no more after [`Unwanted::MAX_ASKS`] (a
 /// vehicle that will not stop a message is left alone). Pure: fed with what the autopilot
 /// sends and the time.

@@ -1,7 +1,7 @@
 //! The centre crops both missions cut out of a received picture before measuring it: the
 //! runway's 3 × 3 cells ([`crop_to_cells`]) and the bandit's share of one cell
 //! ([`crop_to_cell`]). Both compute the crop from the camera's ground footprint at the
-//! capture altitude ([`CameraModel::footprint`]) and cut it with [`centre_crop`].
+//! capture altitude (`CameraModel::footprint`) and cut it with `centre_crop`.
 
 use crate::vision::camera::CameraModel;
 use image::RgbImage;

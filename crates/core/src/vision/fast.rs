@@ -3,9 +3,9 @@
 //! After the threshold every pixel is one bit (1 = white, grey > threshold), 64 pixels per
 //! `u64` word, bit `j` of word `i` of a row being pixel `64·i + j`. The steps are:
 //!
-//! 1. **Grey + threshold, fused** ([`threshold_row`]): one pass over the RGB bytes; the grey
+//! 1. **Grey + threshold, fused** (`threshold_row`): one pass over the RGB bytes; the grey
 //!    level is never materialised, the test `gray > t` is done on the fixed-point sum
-//!    (see [`color::gray_sum_above`]).
+//!    (see `color::gray_sum_above`).
 //! 2. **Dilation** by a (2r+1)×(2r+1) square, r = the number of 3×3 iterations. Seven 3×3
 //!    dilations are one 15×15 dilation: with OpenCV's default border for dilation
 //!    (`BORDER_CONSTANT` with `morphologyDefaultBorderValue()`, which never wins a maximum)
@@ -508,7 +508,7 @@ pub fn run_with_intermediates(img: &RgbImage, threshold: u8, radius: u32) -> Int
     }
 }
 
-/// Reusable buffers for [`region_counts_in`], so that classifying a stream of images of
+/// Reusable buffers for `region_counts_in`, so that classifying a stream of images of
 /// the same size allocates nothing per image.
 #[derive(Debug, Default)]
 pub struct Workspace {
@@ -536,7 +536,7 @@ pub(crate) fn region_counts_in(
     region_counts_on(CodePath::Best, ws, img, threshold, radius)
 }
 
-/// [`region_counts_in`] on at most the given code path (for benchmarks and comparisons).
+/// `region_counts_in` on at most the given code path (for benchmarks and comparisons).
 pub fn region_counts_on(
     path: CodePath,
     ws: &mut Workspace,

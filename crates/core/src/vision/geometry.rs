@@ -14,14 +14,14 @@
 //!   image's top is the nose and its right the right wing, so image x (right) is body y and
 //!   image y (down) is body −x.
 //! * **Pixels**: continuous coordinates, 0 at the left / top edge, pixel `i` spans
-//!   `[i, i + 1)` with its centre at `i + 0.5` (as [`CameraModel::ground_offset`]). The focal
+//!   `[i, i + 1)` with its centre at `i + 0.5` (as `CameraModel::ground_offset`). The focal
 //!   length in pixels is `f = (W / 2) / tan(hfov / 2)`; pixels are square.
 //!
 //! A pixel (u, v) looks along `d_cam = ((u − W/2)/f, (v − H/2)/f, 1)`, that is
 //! `d_body = (−d_cam.y, d_cam.x, 1)` and `d_ned = R · d_body`; it sees the ground at
 //! `t · d_ned` with `t = h / d_ned.z` for a camera `h` metres above flat ground. The inverse
 //! takes a ground point `g = (north, east, h)` to `R⁻¹ g` in the body frame and divides by the
-//! depth. Level and facing north this is exactly [`CameraModel::ground_offset`]; tilted by θ
+//! depth. Level and facing north this is exactly `CameraModel::ground_offset`; tilted by θ
 //! the view centre moves `h · tan θ` (nose up looks forward, right wing down looks left), as
 //! the simulator renders it.
 
@@ -37,7 +37,7 @@ pub(crate) const QUATERNION_NORM_TOLERANCE: f64 = 0.1;
 
 /// The attitude in CAMERA_IMAGE_CAPTURED.q (`[w, x, y, z]`, body → NED), or `None` when
 /// it is not a rotation (not finite, all zeros, norm off 1 by more than
-/// [`QUATERNION_NORM_TOLERANCE`]).
+/// `QUATERNION_NORM_TOLERANCE`).
 pub fn attitude_of_quaternion(q: [f32; 4]) -> Option<UnitQuaternion<f64>> {
     let [w, x, y, z] = q.map(f64::from);
     let n = (w * w + x * x + y * y + z * z).sqrt();

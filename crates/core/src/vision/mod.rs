@@ -6,7 +6,7 @@
 //! | item | what |
 //! |---|---|
 //! | [`runway::classify`] | one image + heading → black fractions of the 5 regions and labels of the cell and its 4 neighbours (runway paper §7) |
-//! | [`runway::classify_many`] | the same for several images in parallel (rayon) |
+//! | `runway::classify_many` | the same for several images in parallel (rayon) |
 //! | [`votes::VoteBook`] | 3-of-5 votes per cell and visit, sticky positives, every detection kept |
 //! | [`green::green_fraction`], [`green::measure`] | share of green pixels, one Bernoulli measurement per image (bandit paper §V) |
 //! | [`crop::crop_to_cells`], [`crop::crop_to_cell`] | the centre crops both missions measure (3 × 3 cells; a share of one cell) |
@@ -16,7 +16,7 @@
 //! | [`camera::CameraModel`] | footprint and the altitude at which the centre ninth covers one cell |
 //! | [`geometry::orthophoto`], [`geometry::CameraView`] | pinhole camera at the capture attitude (nalgebra): ground ↔ pixel, the 3 × 3 cells resampled north-up |
 //! | [`sanity::check_capture`] | whether a picture was taken where it is credited (position, altitude, tilt, heading) |
-//! | [`load_image_bytes`] | PNG/JPEG bytes → RGB image, dimensions checked before decoding |
+//! | [`load::load_image_bytes`] | PNG/JPEG bytes → RGB image, dimensions checked before decoding |
 //! | [`synth`] | deterministic synthetic runway / grass / green-tile images for tests and benches |
 //!
 //! Every step that OpenCV also does is pixel-exact with OpenCV (see [`color`] and

@@ -13,7 +13,7 @@
 //! |---|---|
 //! | `time_usec` | the capture's `time_boot_ms` × 1000 (CAMERA_IMAGE_CAPTURED.time_boot_ms) |
 //! | `array_id` | the capture's `image_index`, low 16 bits |
-//! | `name` | `"fm.green"` ([`GREEN_NAME`]) |
+//! | `name` | `"fm.green"` (`GREEN_NAME`) |
 //! | `data[0]` | format version, 1 |
 //! | `data[1]` | the measurement definition's fingerprint ([`GreenSpec::fingerprint`], 24 bits) |
 //! | `data[2]` | the picture's size in bytes (the camera sends it on request: a DATA_TRANSMISSION_HANDSHAKE naming this size) |

@@ -286,7 +286,7 @@ impl RunwayDefinition {
     }
 }
 
-/// The GCS's announcement of the run's grid ([`GRID_NAME`], module documentation).
+/// The GCS's announcement of the run's grid (`GRID_NAME`, module documentation).
 #[derive(Clone, Debug, PartialEq)]
 pub struct GridAnnouncement {
     /// Fingerprint of the definition the GCS accepts ([`RunwaySpec::fingerprint`]).

@@ -1,6 +1,6 @@
 //! The five regions of a downward picture the runway classifier counts in (centre, top,
 //! bottom, left, right; image coordinates, top = the first rows), where they lie in a picture
-//! of a given size ([`RegionGrid`]) and the pixel counts per region ([`RegionCounts`]). Shared
+//! of a given size (`RegionGrid`) and the pixel counts per region ([`RegionCounts`]). Shared
 //! by the fast pipeline ([`super::fast`]), its reference ([`super::reference`]) and the
 //! classifier ([`super::runway`]), so that neither implementation imports the classifier.
 

@@ -65,8 +65,8 @@ pub(crate) const MAX_HEADING_ERROR_DEG: f64 = 10.0;
 
 impl CaptureLimits {
     /// The runway runner's limits for a vehicle "there" within `arrival_tolerance_m` of a
-    /// cell centre: the arrival tolerance plus [`HOVER_MARGIN_M`] horizontally,
-    /// [`VERTICAL_M`], [`MAX_TILT_DEG`], [`MAX_HEADING_ERROR_DEG`].
+    /// cell centre: the arrival tolerance plus `HOVER_MARGIN_M` horizontally,
+    /// [`VERTICAL_M`], [`MAX_TILT_DEG`], `MAX_HEADING_ERROR_DEG`.
     pub fn runway(arrival_tolerance_m: f64) -> CaptureLimits {
         CaptureLimits {
             horizontal_m: arrival_tolerance_m.max(0.0) + HOVER_MARGIN_M,

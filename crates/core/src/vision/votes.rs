@@ -11,7 +11,7 @@
 //!
 //! * A **visit** is a group of consecutive images taken by one vehicle over one cell; it ends
 //!   when it holds `images_per_visit` (5) images, when the same vehicle sends an image taken
-//!   over another cell, or when [`VoteBook::close_visit`] is called (the vehicle moved on).
+//!   over another cell, or when `VoteBook::close_visit` is called (the vehicle moved on).
 //!   Each vehicle has at most one open visit. A sixth image over the same cell opens a new
 //!   visit: every group of five is a fresh vote.
 //! * Every image labels five cells (the cell under the vehicle and its four neighbours,
@@ -174,7 +174,7 @@ pub struct CellRecord {
     pub(crate) positive_since: Option<Time>,
 }
 
-/// A change of a cell's state, returned by [`VoteBook::record`] and [`VoteBook::close_visit`].
+/// A change of a cell's state, returned by [`VoteBook::record`] and `VoteBook::close_visit`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct CellUpdate {
     /// The cell.

@@ -3,7 +3,7 @@
 //! * [`codec`] — the sans-IO frame codec (MAVLink 1 and 2 in, MAVLink 2 out, CRC, resync,
 //!   statistics), used by our links and by the simulator.
 //! * [`signing`] — MAVLink 2 message signing (keys, signing, verification).
-//! * [`addr`] — connection strings as MAVProxy writes them.
+//! * `addr` — connection strings as MAVProxy writes them.
 //! * [`peers`] — the peers of a link that serves several (`udpin`, `tcpin`) and the route
 //!   of each system id among them.
 //! * [`transport`] — one tokio task per link (UDP in/out, TCP client/server, serial).

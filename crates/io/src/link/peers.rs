@@ -7,13 +7,13 @@
 //! seen on each endpoint) do, combined:
 //!
 //! * every peer heard is remembered with the time it was last heard and the system ids that
-//!   spoke from it, and keeps its own reassembly buffer ([`StreamBuffer`]);
+//!   spoke from it, and keeps its own reassembly buffer (`StreamBuffer`);
 //! * a message addressed to a system goes to the peer that system was last heard from — a
 //!   vehicle that comes back from another address (a reboot, another radio) is followed at
 //!   its first frame;
 //! * a broadcast (no target system, or target 0) and a message to a system never heard go
 //!   to every peer;
-//! * a UDP peer silent for [`FORGET_AFTER`] is forgotten with its routes (the sender of a
+//! * a UDP peer silent for `FORGET_AFTER` is forgotten with its routes (the sender of a
 //!   vehicle that is switched off, an old ephemeral port after a restart); a TCP client is
 //!   forgotten when it disconnects.
 

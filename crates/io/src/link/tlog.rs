@@ -3,7 +3,7 @@
 //! the Unix epoch) followed by the raw MAVLink frame (pymavlink `mavutil.mavlogfile`
 //! reads `>Q` then parses the frame; `mavlogdump.py` prints them).
 //!
-//! [`TlogWriter`] is the synchronous writer; [`spawn_tlog`] runs one on a tokio task so
+//! `TlogWriter` is the synchronous writer; [`spawn_tlog`] runs one on a tokio task so
 //! that every link can log through a cheap channel; [`read_tlog`] reads a file back.
 
 use super::codec::{Codec, Frame};

@@ -23,7 +23,7 @@
 //! end, at the first 20 Hz tick at or after it: the same schedule and seed give the same run.
 //! An outage becomes a blackout window of the vehicle's link in both directions
 //! ([`fleetmap_io::link::faults::LinkFaults::blackouts`]); the other faults act on the vehicle
-//! ([`FaultPlan`]).
+//! (`FaultPlan`).
 
 use fleetmap_core::time::Time;
 use std::fmt;

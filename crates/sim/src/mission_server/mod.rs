@@ -30,7 +30,7 @@
 //!   "got MISSION_REQUEST; use MISSION_REQUEST_INT!"; during an upload both are DENIED;
 //! - MISSION_CLEAR_ALL fails (MAV_MISSION_ERROR) during an upload or while the mission runs.
 //! - while it boots (about 2 s after power-up, heartbeat MAV_STATE_BOOT; see
-//!   [`MissionServer::set_loaded`]) the lists are not loaded: every MISSION_COUNT gets
+//!   `MissionServer::set_loaded`) the lists are not loaded: every MISSION_COUNT gets
 //!   MAV_MISSION_NO_SPACE with "Only 0 items are supported", MISSION_REQUEST_LIST a count of 0
 //!   (both seen on ArduCopter 4.7 SITL).
 //!

@@ -227,7 +227,7 @@ pub struct VehicleConfig {
     pub camera: Option<CameraConfig>,
     /// The field crew: swap the battery this long after the vehicle is landed and disarmed
     /// with a used battery (below 95 %), seconds — a power cycle of
-    /// [`VehicleConfig::power_off_s`], then a boot with a full battery, as a real autopilot
+    /// `VehicleConfig::power_off_s`, then a boot with a full battery, as a real autopilot
     /// sees its battery changed. `None`: nobody swaps it. No GCS command swaps a battery
     /// (a real autopilot has none).
     pub swap_after_s: Option<f64>,

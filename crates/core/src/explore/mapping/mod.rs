@@ -372,7 +372,7 @@ pub enum Directive {
 /// The persisted state of a runway-mapping run.
 #[derive(Clone, Debug, Serialize, Deserialize)]
 pub struct MappingState {
-    /// [`MAPPING_SCHEMA`].
+    /// `MAPPING_SCHEMA`.
     pub schema: u32,
     /// The mission's name.
     pub mission: String,

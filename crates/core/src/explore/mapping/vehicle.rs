@@ -99,7 +99,7 @@ impl MappingState {
     }
 
     /// `sysid` landed for its swap; `reboots` is the vehicle's reboot counter then. When it
-    /// knows the map is complete it is retired instead ([`Explorer::retire`]): landed for good.
+    /// knows the map is complete it is retired instead (`Explorer::retire`): landed for good.
     pub fn on_landed_for_swap(
         &mut self,
         sysid: u8,

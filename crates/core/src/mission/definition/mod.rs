@@ -529,7 +529,7 @@ impl MissionDef {
 
     /// Cells whose centres lie in a [`SweepBox::Local`] sweep box, row-major from the
     /// south-west (`None` for WGS84 corners, which need the origin's position, without a
-    /// runway table, or when the box holds more than [`MAX_CELLS`] cells).
+    /// runway table, or when the box holds more than `MAX_CELLS` cells).
     pub fn sweep_cells(&self) -> Option<Vec<Cell>> {
         let SweepBox::Local { north_m, east_m } = self.runway.as_ref()?.sweep else {
             return None;

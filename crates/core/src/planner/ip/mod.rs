@@ -14,7 +14,7 @@
 //!   station can occupy at the end of each cycle), and K = 1, 2, … solved in turn as
 //!   feasibility problems, the first feasible one being optimal.
 //!
-//! After the solve, the plan is re-paired by linear assignment (§III-C, [`super::assign`]).
+//! After the solve, the plan is re-paired by linear assignment (§III-C, `super::assign`).
 //!
 //! Clock reads: none. The caller passes `elapsed`, a clock closure giving the seconds since
 //! the solve began (`clock::stopwatch` at the edge, a fixed value in tests); it feeds

@@ -52,7 +52,7 @@ impl ClassificationState {
     /// The IP instance (Algorithm 2's input) for the rest of the epoch: the remaining goals
     /// from the current team configuration, at most `k_max` cycles, for the drones that take
     /// part ([`ClassificationState::active_drones`]) — the stations that are out, or carry a
-    /// drone that is out, held on their cells ([`ClassificationState::pins`]).
+    /// drone that is out, held on their cells (`ClassificationState::pins`).
     pub fn instance(&self, k_max: usize) -> Result<Instance, SortieError> {
         let grid = self.layout.planner_grid()?;
         let idx = |c: Cell| -> Result<usize, SortieError> {

@@ -15,7 +15,7 @@
 //!
 //! * **Cells.** The state speaks mission cells (rows grow north, docs/grid.md); the IP
 //!   speaks the scenario's top-left indexing (docs/ip-scenario.md): row r of a mission with
-//!   `rows` rows is planner row `rows − 1 − r` ([`Layout::to_planner`]).
+//!   `rows` rows is planner row `rows − 1 − r` (`Layout::to_planner`).
 //! * **Epochs** (Algorithm 1): goals E_p = the top-D unclassified cells by J (3)
 //!   ([`crate::planner::bandit::epoch_goals`]); the IP (11) with K from the mission, doubled
 //!   when infeasible (up to 64, as in the study); the plan re-paired by linear assignment

@@ -43,7 +43,7 @@ use tokio::sync::mpsc;
 /// `net.core.rmem_max`.
 pub(crate) const UDP_RECV_BUFFER: usize = 4 << 20;
 
-/// Ask for [`UDP_RECV_BUFFER`] on `sock`; returns the size the kernel granted, bytes (it
+/// Ask for `UDP_RECV_BUFFER` on `sock`; returns the size the kernel granted, bytes (it
 /// may be less, and Linux reports twice the usable size), or `None` when it refused.
 pub fn enlarge_recv_buffer(sock: &UdpSocket) -> Option<usize> {
     let s = socket2::SockRef::from(sock);
