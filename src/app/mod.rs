@@ -14,6 +14,7 @@
 //! | [`terrain`] | terrain served from a folder of SRTM tiles: every vehicle's TERRAIN_REQUEST answered, what each waits for |
 //! | [`team`] | connecting to a run's team: every vehicle heard, one autopilot per system id, the grid's origin |
 //! | [`blocking`] | blocking work (the classifier, run-directory files) run off the async reactor |
+//! | [`sim_fleet`] | the embedded simulator and a fleet on it, started together over loopback UDP or in-process links (the demo, the bandit team, tests) |
 //! | [`bandit_sim`] | the embedded simulator with drones and charging rovers (`fleetmap demo --bandit`, tests) |
 
 pub mod bandit;
@@ -32,5 +33,7 @@ pub(crate) mod preflight;
 pub mod run;
 pub mod runway;
 pub(crate) mod session;
+#[cfg(feature = "sim")]
+pub mod sim_fleet;
 pub mod team;
 pub(crate) mod terrain;
