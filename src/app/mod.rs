@@ -35,5 +35,5 @@ pub mod runway;
 pub(crate) mod session;
 #[cfg(feature = "sim")]
 pub mod sim_fleet;
-pub mod team;
+pub(crate) mod team;
 pub(crate) mod terrain;

@@ -113,7 +113,7 @@ pub(crate) async fn mission_grid(
 
 /// Wait up to `wait` for vehicle `sysid`'s heartbeat (a clear error when it stays silent),
 /// then refuse it if a second autopilot shares its system id ([`one_autopilot`]).
-pub async fn heard(fleet: &FleetHandle, sysid: u8, wait: Duration) -> RunnerResult<()> {
+pub(crate) async fn heard(fleet: &FleetHandle, sysid: u8, wait: Duration) -> RunnerResult<()> {
     fleet
         .wait_vehicle(sysid, wait)
         .await
