@@ -754,6 +754,81 @@ mod tests {
         assert_eq!(chain(&typed), line);
     }
 
+    /// The typed checks, delays and steps read as the messages the runners wrote before
+    /// they were typed (what the operator reads, and what `--auto-resume` prints).
+    #[test]
+    fn typed_checks_read_as_the_operator_read_them() {
+        let cases: [(String, &str); 7] = [
+            (
+                Check::NotCharging {
+                    sysid: 3,
+                    pct: 41,
+                    need_pct: 79.6,
+                    nearest: " It is 2.5 m from station 5.".into(),
+                }
+                .to_string(),
+                "drone 3 is not charging (stuck at 41 %, the sortie needs 80 %): put it on its \
+                 station's charger or swap its battery It is 2.5 m from station 5.",
+            ),
+            (
+                Check::NoPlan {
+                    epoch: 2,
+                    status: "infeasible",
+                    message: String::new(),
+                    cycles: 8,
+                }
+                .to_string(),
+                "epoch 2: the planner found no plan (infeasible): the goals cannot be reached \
+                 from where the team is within 8 sensing cycles",
+            ),
+            (
+                Check::NoPlan {
+                    epoch: 2,
+                    status: "error",
+                    message: "time limit".into(),
+                    cycles: 8,
+                }
+                .to_string(),
+                "epoch 2: the planner found no plan (error: time limit): the goals cannot be \
+                 reached from where the team is within 8 sensing cycles",
+            ),
+            (
+                Check::Misplaced {
+                    sysid: 1,
+                    distance_m: 9.31,
+                    cell: fleetmap_core::geo::Cell { row: 0, col: 2 },
+                }
+                .to_string(),
+                "vehicle 1 is 9.3 m from the centre of its start cell (0, 2): place it there (or \
+                 fix `start` in the mission file)",
+            ),
+            (
+                Overdue::TakenOut {
+                    sysid: 2,
+                    mode: "RTL".into(),
+                }
+                .to_string(),
+                "drone 2: taken out of its mission by its autopilot (RTL), it has not landed by \
+                 the end of the sortie",
+            ),
+            (
+                Overdue::Landing {
+                    sysid: 2,
+                    wait: Duration::from_secs(90),
+                }
+                .to_string(),
+                "drone 2: did not land within 90s",
+            ),
+            (
+                Step::Geofence { sysid: 4 }.to_string(),
+                "vehicle 4 refused the geofence of the no-fly cells",
+            ),
+        ];
+        for (got, want) in cases {
+            assert_eq!(got, want);
+        }
+    }
+
     /// A fleet error that says the vehicle did not answer is transient under the runner's
     /// steps; a check that failed is not.
     #[test]
