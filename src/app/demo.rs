@@ -45,7 +45,7 @@ pub struct DemoConfig {
     /// counts instead of the picture; `None`: every picture is sent whole.
     pub onboard: Option<fleetmap_core::vision::onboard_runway::RunwayDefinition>,
     /// Each vehicle behind its own telemetry radio (budget counted in simulated time), the
-    /// fleet told its budget ([`crate::app::sim_fleet::fleet_config`]); `None`: links that carry everything.
+    /// fleet told its budget (`sim_fleet::fleet_config`); `None`: links that carry everything.
     pub radio: Option<RadioConfig>,
     /// Faults scheduled in the simulator ([`fleetmap_sim::fault`]: link outages, a battery
     /// that drops, a camera that dies or slows, a vehicle stuck), in simulated time.

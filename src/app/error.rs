@@ -20,7 +20,7 @@ use fleetmap_io::files::WorldFileError;
 use std::path::PathBuf;
 use std::time::Duration;
 
-/// A blocking task ([`crate::app::blocking::run_blocking`]: the classifier, file I/O)
+/// A blocking task (`app::blocking::run_blocking`: the classifier, file I/O)
 /// panicked or was cancelled.
 #[derive(Debug, thiserror::Error)]
 #[error("blocking task (the classifier, file I/O)")]
@@ -279,7 +279,7 @@ pub enum RunnerError {
         source: fleetmap_core::planner::sortie::missions::UnsafeMission,
     },
     /// A check the runner makes on its way did not hold. A person must see to it
-    /// ([`RunnerError::needs_person`]).
+    /// (`RunnerError::needs_person`).
     #[error(transparent)]
     Check(#[from] Check),
     /// A vehicle did not get where it was going, or a sortie did not end, in time: a link

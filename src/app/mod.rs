@@ -12,8 +12,8 @@
 //! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume): events, pilot, intake, sweep, runner; its report and GeoJSON / KML / PNG exports, IoU against a simulated world |
 //! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume): events, runner, sortie, pilot, intake, upload; its report (keep / reject / errors, per-epoch figures) and the progress PNG (Fig. 4) |
 //! | [`terrain`] | terrain served from a folder of SRTM tiles: every vehicle's TERRAIN_REQUEST answered, what each waits for |
-//! | [`team`] | connecting to a run's team: every vehicle heard, one autopilot per system id, the grid's origin |
-//! | [`blocking`] | blocking work (the classifier, run-directory files) run off the async reactor |
+//! | `team` | connecting to a run's team: every vehicle heard, one autopilot per system id, the grid's origin |
+//! | `blocking` | blocking work (the classifier, run-directory files) run off the async reactor |
 //! | [`sim_fleet`] | the embedded simulator and a fleet on it, started together over loopback UDP or in-process links (the demo, the bandit team, tests) |
 //! | [`bandit_sim`] | the embedded simulator with drones and charging rovers (`fleetmap demo --bandit`, tests) |
 

@@ -1,6 +1,6 @@
 //! The embedded simulator and a fleet connected to it, started together (async shell): over
 //! loopback UDP on the simulator's own time ([`serve_udp`]), or over in-process links on the
-//! runtime's clock ([`serve_virtual`]). The runway demo ([`crate::app::demo`]), the simulated
+//! runtime's clock (`serve_virtual`). The runway demo ([`crate::app::demo`]), the simulated
 //! bandit team ([`crate::app::bandit_sim`]) and the tests start theirs here.
 
 use crate::app::error::SimStartError;
@@ -30,7 +30,7 @@ pub enum UdpWiring {
 /// follows the simulator's own time (slower than `speed` when the machine is busy:
 /// [`fleetmap_sim::pace`]), its timeouts stretched for `speed` (as for 4× at `Speed::Max`,
 /// [`FleetConfig::at_speedup`]) and told each link's budget when the vehicles are behind
-/// `radio` ([`fleet_config`]).
+/// `radio` (`fleet_config`).
 pub async fn serve_udp(
     sim: Sim,
     wiring: UdpWiring,

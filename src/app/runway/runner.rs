@@ -69,7 +69,7 @@ fn sample_clock(shared: &Arc<Shared>, sysids: Vec<u8>, tasks: &mut JoinSet<()>) 
 }
 
 /// A new runway-mapping state for `def` once the team is connected
-/// ([`crate::app::team::wait_for_team`]), on the mission grid.
+/// (`app::team::wait_for_team`), on the mission grid.
 pub async fn new_mapping(
     fleet: &FleetHandle,
     def: &fleetmap_core::mission::definition::MissionDef,
