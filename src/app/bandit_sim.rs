@@ -4,19 +4,16 @@
 //! GCS clock running at the simulator's speed-up — what `fleetmap demo --bandit` and the
 //! end-to-end tests fly.
 
-use crate::app::demo::{fleet_config, serve_virtual};
 use crate::app::error::SimStartError;
-use crate::fleet::{self, FleetConfig, FleetHandle};
+use crate::app::sim_fleet::{UdpWiring, serve_udp, serve_virtual};
+use crate::fleet::FleetHandle;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
-use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::radio::RadioConfig;
-use fleetmap_io::link::transport::{LinkOptions, open_link};
 use fleetmap_sim::fault::ScheduledFault;
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, GcsClock, ServeOptions, SimHandle, SimTask};
-use tokio::sync::mpsc;
+use fleetmap_sim::server::{SimHandle, SimTask};
 
 /// The hardware field world (`assets/worlds/hardware-6x6.toml`).
 pub const HARDWARE_WORLD: &str = include_str!("../../assets/worlds/hardware-6x6.toml");
@@ -120,34 +117,9 @@ pub struct SimFleet {
 /// `udpout`), as several SITL instances or Wi-Fi drones do.
 /// The fleet is told each link's budget when `setup` puts the vehicles behind radios.
 pub async fn start(sim: Sim, setup: &SimSetup) -> Result<SimFleet, SimStartError> {
-    let speedup = setup.speedup;
-    let (ev_tx, ev_rx) = mpsc::channel(4096);
-    let spec: ConnSpec = "udpin:127.0.0.1:0".parse()?;
-    let link = open_link(0, spec, &LinkOptions::default(), ev_tx).await?;
-    let gcs = link.local.ok_or(SimStartError::NoLocalAddress)?;
-    let handle = server::spawn(
-        sim,
-        ServeOptions {
-            endpoints: vec![
-                server::parse_connection(&format!("udpout:{gcs}"))
-                    .map_err(SimStartError::Connection)?,
-            ],
-            speed: Speed::times(speedup).ok_or(SimStartError::Speed)?,
-            // the fleet below follows the simulator's time
-            gcs: GcsClock::Simulator,
-            image_dir: None,
-            duration_s: None,
-        },
-    )
-    .await
-    .map_err(SimStartError::Server)?;
-    let fleet = fleet::spawn(
-        vec![link],
-        ev_rx,
-        fleet_config(FleetConfig::at_speedup(speedup), setup.radio.as_ref()),
-        handle.clock(),
-    );
-    Ok(SimFleet { fleet, sim: handle })
+    let speed = Speed::times(setup.speedup).ok_or(SimStartError::Speed)?;
+    let (fleet, sim) = serve_udp(sim, UdpWiring::FleetListens, speed, setup.radio.as_ref()).await?;
+    Ok(SimFleet { fleet, sim })
 }
 
 /// Build and serve a simulator for `spec` over `world` (see [`sim_config`], [`start`]).

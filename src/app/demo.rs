@@ -9,19 +9,16 @@
 
 use crate::app::error::SimStartError;
 use crate::app::runway::report::ROI_SURFACES;
-use crate::fleet::{self, FleetConfig, FleetHandle};
+use crate::app::sim_fleet::{UdpWiring, serve_udp, serve_virtual};
+use crate::fleet::FleetHandle;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
-use fleetmap_io::clock::MonotonicClock;
-use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::radio::RadioConfig;
-use fleetmap_io::link::transport::{LinkOptions, open_link, open_memory_link};
 use fleetmap_sim::fault::ScheduledFault;
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, GcsClock, ServeOptions, SimHandle, SimTask};
-use tokio::sync::mpsc;
+use fleetmap_sim::server::{SimHandle, SimTask};
 
 /// The runway world (`assets/worlds/runway.toml`).
 pub const RUNWAY_WORLD: &str = include_str!("../../assets/worlds/runway.toml");
@@ -48,7 +45,7 @@ pub struct DemoConfig {
     /// counts instead of the picture; `None`: every picture is sent whole.
     pub onboard: Option<fleetmap_core::vision::onboard_runway::RunwayDefinition>,
     /// Each vehicle behind its own telemetry radio (budget counted in simulated time), the
-    /// fleet told its budget (`fleet_config`); `None`: links that carry everything.
+    /// fleet told its budget (`sim_fleet::fleet_config`); `None`: links that carry everything.
     pub radio: Option<RadioConfig>,
     /// Faults scheduled in the simulator ([`fleetmap_sim::fault`]: link outages, a battery
     /// that drops, a camera that dies or slows, a vehicle stuck), in simulated time.
@@ -176,45 +173,6 @@ pub async fn start_virtual(
     Ok(serve_virtual(sim, cfg.radio.as_ref()))
 }
 
-/// Serve `sim` over in-process links, one per vehicle, and spawn a fleet on them, both on the
-/// runtime's clock; the fleet plans for `radio` when the vehicles are behind radios.
-pub(crate) fn serve_virtual(sim: Sim, radio: Option<&RadioConfig>) -> (FleetHandle, SimTask) {
-    let (links, ev_rx, ports) = memory_links(&sim);
-    let handle = server::spawn_memory(sim, ports);
-    let fleet = fleet::spawn(
-        links,
-        ev_rx,
-        fleet_config(FleetConfig::default(), radio),
-        MonotonicClock::new(),
-    );
-    (fleet, handle)
-}
-
-/// One in-process link per vehicle of `sim`, in system-id order: the fleet's handles and
-/// events, and the simulator's ports.
-fn memory_links(
-    sim: &Sim,
-) -> (
-    Vec<fleetmap_io::link::transport::LinkHandle>,
-    mpsc::Receiver<fleetmap_io::link::transport::LinkEvent>,
-    Vec<fleetmap_io::link::transport::MemoryPort>,
-) {
-    let (ev_tx, ev_rx) = mpsc::channel(4096);
-    let mut links = Vec::new();
-    let mut ports = Vec::new();
-    for (i, sysid) in sim.sysids().into_iter().enumerate() {
-        let (h, p) = open_memory_link(
-            i,
-            &format!("sim-{sysid}"),
-            &LinkOptions::default(),
-            ev_tx.clone(),
-        );
-        links.push(h);
-        ports.push(p);
-    }
-    (links, ev_rx, ports)
-}
-
 /// The share of a radio's bytes a camera's pictures may take, as `fleetmap camera
 /// --image-rate` is set for a radio (about 600 B/s on 2,000 B/s): what is left when the
 /// vehicle's telemetry (40 %) and the GCS's sends (25 %) have theirs.
@@ -226,17 +184,6 @@ pub(crate) fn camera_rate(radio: Option<&RadioConfig>) -> Option<f64> {
     radio
         .filter(|r| r.bytes_per_s > 0)
         .map(|r| f64::from(r.bytes_per_s) * CAMERA_RADIO_SHARE)
-}
-
-/// `base` with the budget of `radio` (what an operator writes as `--link radio:BYTES` for
-/// such a radio): the fleet plans each vehicle's telemetry and paces its own sends to it.
-pub(crate) fn fleet_config(mut base: FleetConfig, radio: Option<&RadioConfig>) -> FleetConfig {
-    if let Some(r) = radio.filter(|r| r.bytes_per_s > 0) {
-        base.budget = Some(fleetmap_core::budget::LinkBudget::Radio {
-            bytes_per_s: r.bytes_per_s,
-        });
-    }
-    base
 }
 
 fn sim_config(spec: &str, world: World, cfg: &DemoConfig) -> Result<SimConfig, SimStartError> {
@@ -270,7 +217,7 @@ pub async fn start(spec: &str, world: World, cfg: &DemoConfig) -> Result<DemoFle
 }
 
 /// [`start`] at `speed` (`Speed::Max`: as fast as the machine can; the fleet's timeouts are
-/// then stretched as for 4×, [`FleetConfig::at_speedup`]), `cfg.speedup` aside.
+/// then stretched as for 4×, [`crate::fleet::FleetConfig::at_speedup`]), `cfg.speedup` aside.
 pub(crate) async fn start_at(
     spec: &str,
     world: World,
@@ -278,35 +225,8 @@ pub(crate) async fn start_at(
     speed: Speed,
 ) -> Result<DemoFleet, SimStartError> {
     let sim = Sim::new(sim_config(spec, world.clone(), cfg)?, Time::ZERO)?;
-    let handle = server::spawn(
-        sim,
-        ServeOptions {
-            endpoints: vec![
-                server::parse_connection("udpin:127.0.0.1:0").map_err(SimStartError::Connection)?,
-            ],
-            speed,
-            // the fleet below follows the simulator's time
-            gcs: GcsClock::Simulator,
-            image_dir: None,
-            duration_s: None,
-        },
-    )
-    .await
-    .map_err(SimStartError::Server)?;
-    let (ev_tx, ev_rx) = mpsc::channel(4096);
-    let mut links = Vec::new();
-    for (i, b) in handle.bound.iter().enumerate() {
-        let spec: ConnSpec = format!("udpout:{}", b.local).parse()?;
-        links.push(open_link(i, spec, &LinkOptions::default(), ev_tx.clone()).await?);
-    }
-    drop(ev_tx);
-    let ceiling = speed.ceiling().unwrap_or(4.0);
-    let fleet = fleet::spawn(
-        links,
-        ev_rx,
-        fleet_config(FleetConfig::at_speedup(ceiling), cfg.radio.as_ref()),
-        handle.clock(),
-    );
+    let (fleet, handle) =
+        serve_udp(sim, UdpWiring::LinkPerVehicle, speed, cfg.radio.as_ref()).await?;
     Ok(DemoFleet {
         fleet,
         started_unix_ms: handle.time.started_unix_ms(),

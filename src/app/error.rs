@@ -1,24 +1,162 @@
-//! The application layer's errors: starting, resuming, flying and reporting a run.
+//! The application layer's errors, in two layers that convert one way.
+//!
+//! [`RunnerError`] is the lower one: why a step of a run failed — the fleet, the run store, a
+//! blocking task, the core's models, the team that did not come up, a check of a runner that
+//! did not hold, a vehicle late — with the step it failed in ([`Step`]) wrapped around it.
+//! [`RunError`] is the upper one: starting, resuming and reporting a run — its files, its
+//! options, its report and figures, the terminal UI — and wraps a [`RunnerError`] as its
+//! cause ([`RunError::Runner`]); a runner never meets a [`RunError`]. Each cause is a
+//! variant of one of the two.
 //!
 //! Each variant says what failed and on which file or vehicle, and keeps its cause as the
-//! error's source, so that the command line's one-line report (`{:#}`) reads as before:
-//! "what: why: deeper why".
+//! error's source (`thiserror`'s `#[source]`; `#[error(transparent)]` where the cause says
+//! it all), so that the command line's one-line report (`{:#}`, [`chain`]) reads "what: why:
+//! deeper why".
 
 use crate::fleet::FleetError;
 use crate::store::StoreError;
 use fleetmap_core::mission::definition::DefErrors;
 use fleetmap_io::files::WorldFileError;
 use std::path::PathBuf;
+use std::time::Duration;
 
-/// A blocking task (`crate::app::runway::cpu`: the classifier, file I/O) panicked or was
-/// cancelled.
+/// A blocking task (`app::blocking::run_blocking`: the classifier, file I/O)
+/// panicked or was cancelled.
 #[derive(Debug, thiserror::Error)]
-#[error("classifier task")]
-pub struct CpuError(#[source] pub tokio::task::JoinError);
+#[error("blocking task (the classifier, file I/O)")]
+pub struct BlockingError(#[source] pub tokio::task::JoinError);
 
-/// Why a run could not be started, resumed, flown or reported.
+/// Why a run could not be started, resumed or reported: what the layer that starts, resumes
+/// and reports runs meets itself, and, as [`RunError::Runner`], what a step of the run met.
 #[derive(Debug, thiserror::Error)]
 pub enum RunError {
+    /// The fleet check found what would make the run fail (`app::preflight`): the run
+    /// does not start unless the operator overrides it with `--ignore-check`.
+    #[error(
+        "REFUSED: the fleet check found {blockers} blocker(s); nothing was uploaded, armed or \
+         switched. Fix them, or start anyway with --ignore-check.\n{report}"
+    )]
+    CheckFailed {
+        /// How many blockers.
+        blockers: usize,
+        /// Every finding, as printed.
+        report: String,
+    },
+    /// The mission file could not be read or has errors (each named with its line).
+    #[error(transparent)]
+    Mission(#[from] DefErrors),
+    /// A world file could not be read or is wrong (the error names the file).
+    #[error(transparent)]
+    WorldFile(#[from] WorldFileError),
+    /// The world a run directory names could not be loaded.
+    #[error("world {}", path.display())]
+    World {
+        /// The world file.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: WorldFileError,
+    },
+    /// The run directory could not be created.
+    #[error("cannot create the run directory {}", path.display())]
+    CreateRunDir {
+        /// The directory.
+        path: PathBuf,
+        /// Why.
+        #[source]
+        source: StoreError,
+    },
+    /// A file of the run directory could not be written.
+    #[error("{}", path.display())]
+    Write {
+        /// The file.
+        path: PathBuf,
+        /// The operating system's error.
+        #[source]
+        source: std::io::Error,
+    },
+    /// A run to resume has no saved state.
+    #[error("{} has no saved state yet", path.display())]
+    NoState {
+        /// The run directory.
+        path: PathBuf,
+    },
+    /// A finished flight left no state in its run directory.
+    #[error("{}: the run saved no state", path.display())]
+    NothingSaved {
+        /// The run directory.
+        path: PathBuf,
+    },
+    /// A run to resume has nothing left to do.
+    #[error("{}: the run is already finished", path.display())]
+    Finished {
+        /// The run directory.
+        path: PathBuf,
+    },
+    /// The terminal UI failed.
+    #[error(transparent)]
+    Tui(#[from] crate::tui::TuiError),
+    /// The report could not be made JSON.
+    #[error("the report as JSON")]
+    Json(#[from] serde_json::Error),
+    /// An image could not be encoded.
+    #[error("PNG encoding")]
+    Png(#[from] image::ImageError),
+    /// A plot could not be drawn.
+    #[error(transparent)]
+    Plot(#[from] PlotError),
+    /// A run option is out of range (the message names the option).
+    #[error("{0}")]
+    Option(String),
+    /// A step of the run failed (connecting to the team, flying, saving, a blocking task):
+    /// what the runner's layer reported, with its causes.
+    #[error(transparent)]
+    Runner(#[from] RunnerError),
+}
+
+/// The causes the run layer meets itself that are variants of the layer below
+/// ([`RunnerError`]), so that each cause is one variant: the run store (opening, loading, a
+/// run directory's files), the blocking tasks it runs its file work in, the runway state
+/// (an operator's swap on resume) and the grid (a report scored against its world). They
+/// read as themselves.
+macro_rules! through_runner {
+    ($($cause:ty => $variant:ident),* $(,)?) => {$(
+        impl From<$cause> for RunError {
+            fn from(e: $cause) -> Self {
+                RunError::Runner(RunnerError::$variant(e))
+            }
+        }
+    )*};
+}
+
+through_runner! {
+    StoreError => Store,
+    BlockingError => Blocking,
+    fleetmap_core::explore::mapping::MappingError => Mapping,
+    fleetmap_core::geo::GeoError => Geo,
+}
+
+/// A figure (the bandit report's plot) could not be drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum PlotError {
+    /// The plotting library failed.
+    #[error("plot drawing failed: {0}")]
+    Drawing(String),
+    /// The drawn buffer does not have the image's size.
+    #[error("plot buffer size mismatch")]
+    BufferSize,
+    /// The drawn image could not be encoded as PNG.
+    #[error("PNG encoding")]
+    Encode(#[from] image::ImageError),
+}
+
+/// Why a step of a run stopped: connecting to its team, a runner (runway or bandit), its
+/// pilots, the run store under them. A vehicle that refused or did not answer, a task that
+/// failed, a check on the way that did not hold ([`Check`]), a vehicle late ([`Overdue`]).
+/// A cause is wrapped in the step the runner was in ([`RunnerError::Context`], a [`Step`]),
+/// so the one-line report reads "step: why: deeper why".
+#[derive(Debug, thiserror::Error)]
+pub enum RunnerError {
     /// Two or more autopilots answer as one of the run's system ids: the run does not start
     /// (nothing was uploaded, armed or switched), or a resumed one does not go on.
     #[error(
@@ -31,18 +169,6 @@ pub enum RunError {
         sysid: u8,
         /// What showed it.
         evidence: String,
-    },
-    /// The fleet check found what would make the run fail (`app::preflight`): the run
-    /// does not start unless the operator overrides it with `--ignore-check`.
-    #[error(
-        "REFUSED: the fleet check found {blockers} blocker(s); nothing was uploaded, armed or \
-         switched. Fix them, or start anyway with --ignore-check.\n{report}"
-    )]
-    CheckFailed {
-        /// How many blockers.
-        blockers: usize,
-        /// Every finding, as printed.
-        report: String,
     },
     /// A vehicle of the run stayed silent.
     #[error("no heartbeat from system {sysid} within {wait_s:.0} s")]
@@ -80,134 +206,25 @@ pub enum RunError {
         /// How long the run waited, seconds.
         wait_s: f64,
     },
-    /// The mission grid could not be made at the origin.
-    #[error(transparent)]
-    Grid(#[from] fleetmap_core::geo::GeoError),
-    /// The runway-mapping state could not be made from the mission.
-    #[error(transparent)]
-    Mapping(#[from] fleetmap_core::explore::mapping::MappingError),
-    /// The mission file could not be read or has errors (each named with its line).
-    #[error(transparent)]
-    Mission(#[from] DefErrors),
-    /// A world file could not be read or is wrong (the error names the file).
-    #[error(transparent)]
-    WorldFile(#[from] WorldFileError),
-    /// The world a run directory names could not be loaded.
-    #[error("world {}", path.display())]
-    World {
-        /// The world file.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: WorldFileError,
-    },
-    /// The run directory could not be created.
-    #[error("cannot create the run directory {}", path.display())]
-    CreateRunDir {
-        /// The directory.
-        path: PathBuf,
-        /// Why.
-        #[source]
-        source: StoreError,
-    },
-    /// A file of the run directory could not be written.
-    #[error("{}", path.display())]
-    Write {
-        /// The file.
-        path: PathBuf,
-        /// The operating system's error.
-        #[source]
-        source: std::io::Error,
-    },
-    /// The run directory could not be read or written (the error names the file).
-    #[error(transparent)]
-    Store(#[from] StoreError),
-    /// A run to resume has no saved state.
-    #[error("{} has no saved state yet", path.display())]
-    NoState {
-        /// The run directory.
-        path: PathBuf,
-    },
-    /// A finished flight left no state in its run directory.
-    #[error("{}: the run saved no state", path.display())]
-    NothingSaved {
-        /// The run directory.
-        path: PathBuf,
-    },
-    /// A vehicle to resume with does not report its position.
-    #[error("vehicle {sysid} reports no position")]
-    NoPosition {
-        /// The vehicle.
-        sysid: u8,
-    },
-    /// A run to resume has nothing left to do.
-    #[error("{}: the run is already finished", path.display())]
-    Finished {
-        /// The run directory.
-        path: PathBuf,
-    },
-    /// A blocking task failed.
-    #[error(transparent)]
-    Cpu(#[from] CpuError),
-    /// The terminal UI failed.
-    #[error(transparent)]
-    Tui(#[from] crate::tui::TuiError),
-    /// The report could not be made JSON.
-    #[error("the report as JSON")]
-    Json(#[from] serde_json::Error),
-    /// An image could not be encoded.
-    #[error("PNG encoding")]
-    Png(#[from] image::ImageError),
-    /// A plot could not be drawn.
-    #[error(transparent)]
-    Plot(#[from] PlotError),
-    /// A run option is out of range (the message names the option).
-    #[error("{0}")]
-    Option(String),
-    /// The flight failed: what a runner reported, with its causes.
-    #[error(transparent)]
-    Flight(RunnerError),
-}
-
-/// A figure (the bandit report's plot) could not be drawn.
-#[derive(Debug, thiserror::Error)]
-pub enum PlotError {
-    /// The plotting library failed.
-    #[error("plot drawing failed: {0}")]
-    Drawing(String),
-    /// The drawn buffer does not have the image's size.
-    #[error("plot buffer size mismatch")]
-    BufferSize,
-    /// The drawn image could not be encoded as PNG.
-    #[error("PNG encoding")]
-    Encode(#[from] image::ImageError),
-}
-
-/// Why a runner (runway or bandit), its pilots or the simulated demo fleet stopped: a
-/// vehicle that refused or did not answer, a task that failed, a check on the way that did not
-/// hold. A step's error is wrapped, outermost first, in what the runner was doing and on which
-/// vehicle ([`RunnerError::Context`]), so the one-line report reads "what: why: deeper why".
-#[derive(Debug, thiserror::Error)]
-pub enum RunnerError {
     /// A vehicle refused a command or did not answer, or the fleet's task is gone.
     #[error(transparent)]
     Fleet(#[from] FleetError),
     /// A flight step (take-off, a move, a capture) failed.
     #[error(transparent)]
-    Step(#[from] crate::app::flight::FlightError),
+    Flight(#[from] crate::app::flight::FlightError),
     /// The vehicles refused the sortie's missions.
     #[error(transparent)]
     Rejected(#[from] SortieRejected),
     /// The fleet's event channel closed: the fleet stopped under the runner.
     #[error("the fleet stopped")]
     FleetStopped,
-    /// The run directory could not be written (the error names the file).
+    /// The run directory could not be read or written (the error names the file).
     #[error(transparent)]
     Store(#[from] StoreError),
     /// The mission grid or a position on it could not be computed.
     #[error(transparent)]
     Geo(#[from] fleetmap_core::geo::GeoError),
-    /// The runway-mapping state refused a change.
+    /// The runway-mapping state could not be made from the mission, or refused a change.
     #[error(transparent)]
     Mapping(#[from] fleetmap_core::explore::mapping::MappingError),
     /// The bandit planner could not make or check a sortie.
@@ -228,7 +245,7 @@ pub enum RunnerError {
     StoreThread(#[source] std::io::Error),
     /// A blocking task (the classifier, file I/O) failed.
     #[error(transparent)]
-    Cpu(#[from] CpuError),
+    Blocking(#[from] BlockingError),
     /// A task of the runner (a pilot, the planner, an upload) panicked or was cancelled.
     #[error("{task} failed")]
     Task {
@@ -261,57 +278,323 @@ pub enum RunnerError {
         #[source]
         source: fleetmap_core::planner::sortie::missions::UnsafeMission,
     },
-    /// A check the runner makes on its way did not hold; the message says what, and on which
-    /// vehicle. A person must see to it (`RunnerError::needs_person`).
-    #[error("{0}")]
-    Check(String),
+    /// A check the runner makes on its way did not hold. A person must see to it
+    /// (`RunnerError::needs_person`).
+    #[error(transparent)]
+    Check(#[from] Check),
     /// A vehicle did not get where it was going, or a sortie did not end, in time: a link
-    /// outage or a slow rendezvous, which trying again may get past. The message says which
-    /// vehicle and what it was doing.
-    #[error("{0}")]
-    Overdue(String),
-    /// What the runner was doing (and on which vehicle) when `source` failed.
-    #[error("{what}")]
+    /// outage or a slow rendezvous, which trying again may get past.
+    #[error(transparent)]
+    Overdue(#[from] Overdue),
+    /// The step the runner was in (and its vehicle) when `source` failed.
+    #[error("{step}")]
     Context {
-        /// The step, naming its vehicle where it has one.
-        what: String,
+        /// The step.
+        step: Step,
         /// Why it failed.
         #[source]
         source: Box<RunnerError>,
     },
-    /// An error of the layer itself, met while flying.
-    #[error(transparent)]
-    Run(Box<RunError>),
+}
+
+/// The step of a run an error is wrapped in ([`RunnerError::Context`]); it reads as the
+/// operator sees it before the cause.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Step {
+    /// Uploading a runway vehicle's sweep and reading it back.
+    SweepUpload {
+        /// The vehicle.
+        sysid: u8,
+    },
+    /// A runway vehicle's pilot task.
+    Pilot {
+        /// The vehicle.
+        sysid: u8,
+    },
+    /// Making the geofence of the bandit area's no-fly cells.
+    BuildGeofence,
+    /// Uploading and enabling the geofence on a vehicle.
+    Geofence {
+        /// The vehicle.
+        sysid: u8,
+    },
+    /// Saving the run's state in its directory.
+    SaveState,
+    /// Appending the run's events to its journal.
+    Journal,
+}
+
+impl std::fmt::Display for Step {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Step::SweepUpload { sysid } | Step::Pilot { sysid } => write!(f, "vehicle {sysid}"),
+            Step::BuildGeofence => f.write_str("building the geofence"),
+            Step::Geofence { sysid } => {
+                write!(
+                    f,
+                    "vehicle {sysid} refused the geofence of the no-fly cells"
+                )
+            }
+            Step::SaveState => f.write_str("saving the run state"),
+            Step::Journal => f.write_str("writing the run journal"),
+        }
+    }
+}
+
+/// A check a runner makes on its way that did not hold: what it needed and did not find,
+/// and on which vehicle.
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Check {
+    /// The vehicle's autopilot has no mode that flies a mission.
+    #[error("no mission mode")]
+    NoMissionMode,
+    /// The runway state has no explorer to say where a vehicle observes.
+    #[error("observing without an explorer")]
+    NoExplorer,
+    /// A vehicle the runner needs is not in the fleet's snapshot.
+    #[error("vehicle {sysid} is not heard")]
+    NotHeard {
+        /// The vehicle.
+        sysid: u8,
+    },
+    /// A vehicle reports no position.
+    #[error("vehicle {sysid} reports no position")]
+    NoPosition {
+        /// The vehicle.
+        sysid: u8,
+    },
+    /// A vehicle reports no usable position yet (no GPS fix and home).
+    #[error("vehicle {sysid} reports no position yet (no GPS fix and home)")]
+    NoPositionYet {
+        /// The vehicle.
+        sysid: u8,
+    },
+    /// A vehicle reported no usable position while the run waited for it.
+    #[error("vehicle {sysid} reported no position (a GPS fix and a home) within {wait_s:.0} s")]
+    NoPositionWithin {
+        /// The vehicle.
+        sysid: u8,
+        /// How long the run waited, seconds.
+        wait_s: f64,
+    },
+    /// A vehicle's position is not on the mission grid.
+    #[error("vehicle {sysid}: bad position")]
+    BadPosition {
+        /// The vehicle.
+        sysid: u8,
+    },
+    /// A runway vehicle has no position to aim at a moving region from.
+    #[error("vehicle {sysid}: no position to aim from")]
+    NoAimPosition {
+        /// The vehicle.
+        sysid: u8,
+    },
+    /// A charging station reports no position to land on.
+    #[error("station {station} reports no position")]
+    StationPosition {
+        /// The station.
+        station: u8,
+    },
+    /// A drone has no station to land on.
+    #[error("no landing station")]
+    NoLandingStation,
+    /// The run's state has no sortie where the step needs one.
+    #[error("{0}")]
+    NoSortie(SortieStage),
+    /// A vehicle is not where its start cell is.
+    #[error(
+        "vehicle {sysid} is {distance_m:.1} m from the centre of its start cell {cell}: place \
+         it there (or fix `start` in the mission file)"
+    )]
+    Misplaced {
+        /// The vehicle.
+        sysid: u8,
+        /// How far from the cell's centre, metres.
+        distance_m: f64,
+        /// Its start cell.
+        cell: fleetmap_core::geo::Cell,
+    },
+    /// A drone's charge does not rise on its station.
+    #[error(
+        "drone {sysid} is not charging (stuck at {pct} %, the sortie needs {need_pct:.0} %): put \
+         it on its station's charger or swap its battery{nearest}"
+    )]
+    NotCharging {
+        /// The drone.
+        sysid: u8,
+        /// Its charge, percent (-1: unknown).
+        pct: i8,
+        /// What the sortie needs, percent.
+        need_pct: f64,
+        /// Where the nearest station is, as a sentence after the advice (empty: unknown).
+        nearest: String,
+    },
+    /// The planner found no plan from where the team is.
+    #[error(
+        "epoch {epoch}: the planner found no plan ({status}{}): the goals cannot be reached \
+         from where the team is within {cycles} sensing cycles",
+        if message.is_empty() { String::new() } else { format!(": {message}") }
+    )]
+    NoPlan {
+        /// The epoch.
+        epoch: u64,
+        /// The solver's status.
+        status: &'static str,
+        /// The solver's message (empty: none).
+        message: String,
+        /// The sensing cycles planned for.
+        cycles: usize,
+    },
+    /// The run cannot go on without members a person must fix.
+    #[error("{why}: a person must fix {members}")]
+    MembersNeedPerson {
+        /// Why the run needs them.
+        why: String,
+        /// Each member out and what to fix, "role sysid: fix; …".
+        members: String,
+    },
+    /// The run cannot go on without members, none of which came back.
+    #[error("{why}, and after {tries} tries none of them is ready: {members}")]
+    MembersNotReady {
+        /// Why the run needs them.
+        why: String,
+        /// How many times they were tried.
+        tries: u32,
+        /// Each member out and why, "role sysid: reason; …".
+        members: String,
+    },
+    /// Epochs in a row had capture visits and no measurement: the pictures do not arrive.
+    #[error(
+        "no measurement reached the GCS in the last {epochs} epochs ({visits} capture visits): \
+         the drones' pictures (or their cameras' on-board measurements) do not arrive — \
+         check that each drone's camera takes its pictures and that its messages \
+         (CAMERA_IMAGE_CAPTURED with DEBUG_FLOAT_ARRAY, or image transmission) reach the \
+         GCS, then `fleetmap resume` the run"
+    )]
+    NoMeasurements {
+        /// The epochs without a measurement.
+        epochs: usize,
+        /// The capture visits they had.
+        visits: u64,
+    },
+}
+
+/// Where in a sortie's life a step needed one ([`Check::NoSortie`]).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum SortieStage {
+    /// Uploading a planned sortie.
+    Prepared,
+    /// Starting a verified sortie.
+    Verified,
+    /// Waiting for a flying sortie to end.
+    Flying,
+    /// Recording where an ended sortie left the team.
+    Ended,
+}
+
+impl std::fmt::Display for SortieStage {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            SortieStage::Prepared => "no sortie is prepared",
+            SortieStage::Verified => "no sortie is verified",
+            SortieStage::Flying => "no sortie is flying",
+            SortieStage::Ended => "no sortie",
+        })
+    }
+}
+
+/// A vehicle late: what trying again may get past (a link outage, a slow rendezvous).
+#[derive(Clone, Debug, PartialEq, thiserror::Error)]
+pub enum Overdue {
+    /// A sortie did not end within its budget.
+    #[error("epoch {epoch} cycle {cycle}: the sortie did not end within {budget_s:.0} s")]
+    Sortie {
+        /// The epoch.
+        epoch: u64,
+        /// The sensing cycle.
+        cycle: usize,
+        /// Its budget, seconds.
+        budget_s: f64,
+    },
+    /// A drone's mission did not end by the sortie's deadline.
+    #[error("drone {sysid}: its mission did not end in time (at step {step})")]
+    Mission {
+        /// The drone.
+        sysid: u8,
+        /// The last mission step it reached.
+        step: usize,
+    },
+    /// A drone's station never came to the rendezvous.
+    #[error("drone {sysid}: station {station} never reached the rendezvous")]
+    Rendezvous {
+        /// The drone.
+        sysid: u8,
+        /// Its station.
+        station: u8,
+    },
+    /// A drone its autopilot took out of its mission has not landed.
+    #[error(
+        "drone {sysid}: taken out of its mission by its autopilot ({mode}), it has not landed \
+         by the end of the sortie"
+    )]
+    TakenOut {
+        /// The drone.
+        sysid: u8,
+        /// The mode it was in.
+        mode: String,
+    },
+    /// A drone did not land in time.
+    #[error("drone {sysid}: did not land within {wait:?}")]
+    Landing {
+        /// The drone.
+        sysid: u8,
+        /// How long the runner waited.
+        wait: Duration,
+    },
 }
 
 impl RunnerError {
-    /// A failed check: `what` says what did not hold, and on which vehicle.
-    pub(crate) fn check(what: impl Into<String>) -> Self {
-        RunnerError::Check(what.into())
-    }
-
     /// A task's failure as an error: `task` names it ("drone task").
     pub(crate) fn task(task: &'static str) -> impl FnOnce(tokio::task::JoinError) -> Self {
         move |source| RunnerError::Task { task, source }
     }
 
-    /// This error as the cause of the step `what`.
-    pub(crate) fn context(self, what: impl Into<String>) -> Self {
+    /// This error as the cause of `step`.
+    pub(crate) fn context(self, step: Step) -> Self {
         RunnerError::Context {
-            what: what.into(),
+            step,
             source: Box::new(self),
+        }
+    }
+
+    /// The steps this error is wrapped in, outermost first.
+    pub fn steps(&self) -> Vec<Step> {
+        let mut steps = Vec::new();
+        let mut e = self;
+        while let RunnerError::Context { step, source } = e {
+            steps.push(*step);
+            e = source;
+        }
+        steps
+    }
+
+    /// The cause under the steps ([`RunnerError::Context`]) this error is wrapped in.
+    pub fn cause(&self) -> &RunnerError {
+        match self {
+            RunnerError::Context { source, .. } => source.cause(),
+            other => other,
         }
     }
 
     /// Whether this error is a fleet error (itself or under the steps that name it,
     /// [`RunnerError::Context`]) that says the vehicle did not answer
     /// ([`FleetError::is_transient`]), so that trying again may succeed. A flight step's
-    /// error ([`RunnerError::Step`]) is final, as it was when the runners looked for a fleet
-    /// error in the chain of causes (the step's fleet error is transparent, not a cause).
+    /// error ([`RunnerError::Flight`]) is final, as it was when the runners looked for a
+    /// fleet error in the chain of causes (the step's fleet error is transparent, not a
+    /// cause).
     pub(crate) fn is_transient(&self) -> bool {
-        match self {
+        match self.cause() {
             RunnerError::Fleet(e) => e.is_transient(),
-            RunnerError::Context { source, .. } => source.is_transient(),
             _ => false,
         }
     }
@@ -322,27 +605,16 @@ impl RunnerError {
     /// out. The fleet's rule for a fleet error ([`FleetError::needs_person`]: a vehicle that
     /// never became ready, a pre-arm failure that persists, a list the autopilot refuses),
     /// also under a flight step or a step's context; a refused sortie, an unsafe or
-    /// different mission, a failed check of the runner (placement, charger, camera), the
-    /// run store and the layer's own errors need a person. `fleetmap run --auto-resume`
-    /// carries on through the first kind and stops for the second.
+    /// different mission, a failed check of the runner (placement, charger, camera), a team
+    /// that did not come up, the run store and the rest need a person. `fleetmap run
+    /// --auto-resume` carries on through the first kind and stops for the second.
     pub(crate) fn needs_person(&self) -> Option<String> {
         use crate::app::flight::FlightError;
-        match self {
-            RunnerError::Fleet(e) | RunnerError::Step(FlightError::Fleet(e)) => e.needs_person(),
-            RunnerError::Step(FlightError::ImagesClosed) => Some(self.to_string()),
-            RunnerError::Step(_) | RunnerError::Overdue(_) => None,
-            RunnerError::Context { source, .. } => source.needs_person(),
+        match self.cause() {
+            RunnerError::Fleet(e) | RunnerError::Flight(FlightError::Fleet(e)) => e.needs_person(),
+            e @ RunnerError::Flight(FlightError::ImagesClosed) => Some(e.to_string()),
+            RunnerError::Flight(_) | RunnerError::Overdue(_) => None,
             other => Some(other.to_string()),
-        }
-    }
-}
-
-impl From<RunnerError> for RunError {
-    fn from(e: RunnerError) -> Self {
-        // An error of the layer that a runner met stays that error.
-        match e {
-            RunnerError::Run(r) => *r,
-            other => RunError::Flight(other),
         }
     }
 }
@@ -353,43 +625,18 @@ impl From<crate::store::task::StoreGone> for RunnerError {
     }
 }
 
-impl From<RunError> for RunnerError {
-    fn from(e: RunError) -> Self {
-        match e {
-            RunError::Flight(f) => f,
-            other => RunnerError::Run(Box::new(other)),
-        }
-    }
-}
-
 /// A runner's result.
 pub(crate) type RunnerResult<T> = Result<T, RunnerError>;
 
-/// Name the step a [`RunnerResult`] (or an absent value) failed in.
+/// Name the step a result failed in ([`RunnerError::Context`]).
 pub(crate) trait Context<T> {
-    /// The error (or the absence) as the cause of the step `what`.
-    fn context(self, what: impl Into<String>) -> RunnerResult<T>;
-    /// Like [`Context::context`], the step's name made only on failure.
-    fn with_context<W: Into<String>>(self, what: impl FnOnce() -> W) -> RunnerResult<T>;
+    /// The error as the cause of `step`.
+    fn context(self, step: Step) -> RunnerResult<T>;
 }
 
 impl<T, E: Into<RunnerError>> Context<T> for Result<T, E> {
-    fn context(self, what: impl Into<String>) -> RunnerResult<T> {
-        self.map_err(|e| e.into().context(what))
-    }
-
-    fn with_context<W: Into<String>>(self, what: impl FnOnce() -> W) -> RunnerResult<T> {
-        self.map_err(|e| e.into().context(what()))
-    }
-}
-
-impl<T> Context<T> for Option<T> {
-    fn context(self, what: impl Into<String>) -> RunnerResult<T> {
-        self.ok_or_else(|| RunnerError::check(what))
-    }
-
-    fn with_context<W: Into<String>>(self, what: impl FnOnce() -> W) -> RunnerResult<T> {
-        self.ok_or_else(|| RunnerError::check(what()))
+    fn context(self, step: Step) -> RunnerResult<T> {
+        self.map_err(|e| e.into().context(step))
     }
 }
 
@@ -476,28 +723,110 @@ mod tests {
     use super::*;
 
     /// A runner's error keeps its whole context chain through [`RunError`]: the session's
-    /// log ([`chain`]) prints "what: why: deeper why", outermost step first, down to the
-    /// store's error.
+    /// log ([`chain`]) prints "step: why: deeper why", outermost step first, down to the
+    /// store's error; the steps can be matched on.
     #[test]
     fn a_runners_error_reads_the_same_through_run_error() {
         let inner: Result<(), crate::store::task::StoreGone> = Err(crate::store::task::StoreGone);
         let runner = inner
-            .context("writing the run journal")
-            .context("vehicle 3: pilot task failed")
+            .context(Step::Journal)
+            .context(Step::Pilot { sysid: 3 })
             .unwrap_err();
-        let expected = "vehicle 3: pilot task failed: writing the run journal: the run store \
-                        task stopped (a save panicked): nothing more can be saved";
+        let expected = "vehicle 3: writing the run journal: the run store task stopped (a save \
+                        panicked): nothing more can be saved";
         assert_eq!(chain(&runner), expected);
+        assert_eq!(runner.steps(), [Step::Pilot { sysid: 3 }, Step::Journal]);
+        assert!(matches!(runner.cause(), RunnerError::StoreGone));
         let typed = RunError::from(runner);
-        assert!(matches!(typed, RunError::Flight(_)));
+        assert!(matches!(typed, RunError::Runner(_)));
         assert_eq!(chain(&typed), expected);
     }
 
-    /// An error of the layer a runner met comes out of it as itself, not wrapped.
+    /// The run layer's own store errors read as the store's, as the layer below's cause.
     #[test]
-    fn a_run_error_passes_through_a_runner_unwrapped() {
-        let runner = RunnerError::from(RunError::NoVehicles);
-        assert!(matches!(RunError::from(runner), RunError::NoVehicles));
+    fn a_store_error_of_the_run_layer_reads_as_itself() {
+        let e = StoreError::NotARun {
+            path: PathBuf::from("runs/x"),
+        };
+        let line = e.to_string();
+        let typed = RunError::from(e);
+        assert!(matches!(typed, RunError::Runner(RunnerError::Store(_))));
+        assert_eq!(chain(&typed), line);
+    }
+
+    /// The typed checks, delays and steps read as the messages the runners wrote before
+    /// they were typed (what the operator reads, and what `--auto-resume` prints).
+    #[test]
+    fn typed_checks_read_as_the_operator_read_them() {
+        let cases: [(String, &str); 7] = [
+            (
+                Check::NotCharging {
+                    sysid: 3,
+                    pct: 41,
+                    need_pct: 79.6,
+                    nearest: " It is 2.5 m from station 5.".into(),
+                }
+                .to_string(),
+                "drone 3 is not charging (stuck at 41 %, the sortie needs 80 %): put it on its \
+                 station's charger or swap its battery It is 2.5 m from station 5.",
+            ),
+            (
+                Check::NoPlan {
+                    epoch: 2,
+                    status: "infeasible",
+                    message: String::new(),
+                    cycles: 8,
+                }
+                .to_string(),
+                "epoch 2: the planner found no plan (infeasible): the goals cannot be reached \
+                 from where the team is within 8 sensing cycles",
+            ),
+            (
+                Check::NoPlan {
+                    epoch: 2,
+                    status: "error",
+                    message: "time limit".into(),
+                    cycles: 8,
+                }
+                .to_string(),
+                "epoch 2: the planner found no plan (error: time limit): the goals cannot be \
+                 reached from where the team is within 8 sensing cycles",
+            ),
+            (
+                Check::Misplaced {
+                    sysid: 1,
+                    distance_m: 9.31,
+                    cell: fleetmap_core::geo::Cell { row: 0, col: 2 },
+                }
+                .to_string(),
+                "vehicle 1 is 9.3 m from the centre of its start cell (0, 2): place it there (or \
+                 fix `start` in the mission file)",
+            ),
+            (
+                Overdue::TakenOut {
+                    sysid: 2,
+                    mode: "RTL".into(),
+                }
+                .to_string(),
+                "drone 2: taken out of its mission by its autopilot (RTL), it has not landed by \
+                 the end of the sortie",
+            ),
+            (
+                Overdue::Landing {
+                    sysid: 2,
+                    wait: Duration::from_secs(90),
+                }
+                .to_string(),
+                "drone 2: did not land within 90s",
+            ),
+            (
+                Step::Geofence { sysid: 4 }.to_string(),
+                "vehicle 4 refused the geofence of the no-fly cells",
+            ),
+        ];
+        for (got, want) in cases {
+            assert_eq!(got, want);
+        }
     }
 
     /// A fleet error that says the vehicle did not answer is transient under the runner's
@@ -510,11 +839,11 @@ mod tests {
             waited_s: 5.0,
             now: "disarmed".into(),
         })
-        .context("vehicle 2: arming");
+        .context(Step::Pilot { sysid: 2 });
         assert!(e.is_transient());
         assert!(
-            !RunnerError::check("no sortie")
-                .context("starting")
+            !RunnerError::from(Check::NoSortie(SortieStage::Ended))
+                .context(Step::Pilot { sysid: 2 })
                 .is_transient()
         );
     }
@@ -528,7 +857,9 @@ mod tests {
     fn what_a_person_must_fix_and_what_goes_away() {
         use crate::fleet::StateSeen;
         use fleetmap_core::proto::command::CommandError;
-        use fleetmap_core::proto::launch::{Cause, Goal, Landed, LaunchFailure, Step};
+        use fleetmap_core::proto::launch::{
+            Cause, Goal, Landed, LaunchFailure, Step as LaunchStep,
+        };
         use mavlink::dialects::ardupilotmega::MavCmd;
         use std::time::Duration;
         let state = |prearm: Option<&str>| StateSeen {
@@ -551,7 +882,7 @@ mod tests {
                 }),
                 state: Box::new(state(prearm)),
             })
-            .context("drone 4: starting")
+            .context(Step::Pilot { sysid: 4 })
         };
         let takeoff = CommandError::Failed {
             command: MavCmd::MAV_CMD_NAV_TAKEOFF,
@@ -568,12 +899,15 @@ mod tests {
             ),
             started(
                 Cause::Refused {
-                    step: Step::Takeoff,
+                    step: LaunchStep::Takeoff,
                     error: takeoff,
                 },
                 None,
             ),
-            RunnerError::Overdue("drone 2: station 5 never reached the rendezvous".into()),
+            RunnerError::from(Overdue::Rendezvous {
+                sysid: 2,
+                station: 5,
+            }),
             RunnerError::from(FleetError::Command {
                 sysid: 1,
                 error: CommandError::Timeout {
@@ -589,7 +923,7 @@ mod tests {
         let person = [
             started(
                 Cause::Refused {
-                    step: Step::Arm,
+                    step: LaunchStep::Arm,
                     error: arm,
                 },
                 Some("PreArm: Compass not calibrated"),
@@ -599,8 +933,13 @@ mod tests {
                 waited_s: 60.0,
                 reasons: vec!["pre-arm failure reported: PreArm: Compass not calibrated".into()],
             })
-            .context("drone 4: starting"),
-            RunnerError::check("drone 3 is not charging: is it on its station's charger?"),
+            .context(Step::Pilot { sysid: 4 }),
+            RunnerError::from(Check::NotCharging {
+                sysid: 3,
+                pct: 40,
+                need_pct: 80.0,
+                nearest: String::new(),
+            }),
         ];
         for e in &person {
             assert!(e.needs_person().is_some(), "{e}");
@@ -615,7 +954,7 @@ mod tests {
     /// A typed error names its vehicle and keeps the fleet's answer as its cause.
     #[test]
     fn a_silent_vehicle_is_named_with_the_fleets_answer() {
-        let e = RunError::NotHeard {
+        let e = RunnerError::NotHeard {
             sysid: 9,
             wait_s: 5.0,
             source: FleetError::NoVehicle { sysid: 9 },

@@ -271,19 +271,6 @@ pub trait RunKind: Send + Sync + 'static {
     ) -> Result<(&'static str, Vec<u8>), RunError>;
 }
 
-/// Wait up to `wait` for vehicle `sysid`'s heartbeat (a clear error when it stays silent).
-pub async fn heard(fleet: &FleetHandle, sysid: u8, wait: Duration) -> Result<(), RunError> {
-    fleet
-        .wait_vehicle(sysid, wait)
-        .await
-        .map_err(|source| RunError::NotHeard {
-            sysid,
-            wait_s: wait.as_secs_f64(),
-            source,
-        })?;
-    crate::app::one_autopilot(fleet, sysid, wait).await
-}
-
 /// Write every export of a finished run into its `exports/` (file I/O: call it off the
 /// runtime's workers). Returns the files written.
 pub(crate) fn write_exports<K: RunKind>(

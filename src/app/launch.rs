@@ -9,11 +9,11 @@
 //! simulated world, which is kept in the run directory as `world.toml` so that `fleetmap
 //! report` scores it later wherever the run directory goes.
 
+use crate::app::blocking::run_blocking;
 use crate::app::error::RunError;
 use crate::app::kind::{Outcome, RunKind, RunSettings, write_exports};
 use crate::app::preflight::{StartCheck, gate};
 use crate::app::run::Progress;
-use crate::app::runway::cpu;
 use crate::app::session::{OnFinish, SessionConfig, SessionEnd, SessionRun};
 use crate::fleet::FleetHandle;
 use crate::store::{RunDir, RunMeta};
@@ -138,7 +138,7 @@ pub(crate) async fn prepare<K: RunKind>(
             let (dir, meta) = new.plan(K::KIND, connections, fleetmap_io::clock::unix_ms());
             let line = K::started_line(&dir, &state);
             let (text, world) = (new.text, new.world_toml);
-            let run_dir = cpu(move || -> Result<RunDir, RunError> {
+            let run_dir = run_blocking(move || -> Result<RunDir, RunError> {
                 let run_dir = RunDir::create(&dir, meta, Some(&text))
                     .map_err(|source| RunError::CreateRunDir { path: dir, source })?;
                 if let Some(w) = world {
@@ -161,13 +161,14 @@ pub(crate) async fn prepare<K: RunKind>(
             let run_dir = *run_dir;
             let (at, path) = (run_dir.path().to_path_buf(), run_dir.path().to_path_buf());
             let loaded =
-                cpu(move || RunDir::open(&at).and_then(|rd| rd.load_state::<K::State>())).await??;
+                run_blocking(move || RunDir::open(&at).and_then(|rd| rd.load_state::<K::State>()))
+                    .await??;
             let mut state = loaded.ok_or_else(|| RunError::NoState { path: path.clone() })?;
             if K::is_finished(&state) {
                 return Err(RunError::Finished { path });
             }
             let at = run_dir.path().to_path_buf();
-            let def = cpu(move || RunDir::open(&at).map(|rd| rd.mission_text())).await?;
+            let def = run_blocking(move || RunDir::open(&at).map(|rd| rd.mission_text())).await?;
             let check = match def {
                 Ok(Ok(Some(text))) => match MissionDef::parse(&text, "mission.toml") {
                     Ok(def) => Some(gate(fleet, &def, wait, settings.on_blocker).await?),
@@ -228,7 +229,7 @@ impl<K: RunKind> Ready<K> {
             }
             Face::Ui { config, auto_start } => {
                 let at = self.run_dir.path().to_path_buf();
-                let world = cpu(move || {
+                let world = run_blocking(move || {
                     RunDir::open(&at)
                         .ok()
                         .and_then(|rd| run_world(&rd, None).ok())
@@ -258,7 +259,7 @@ pub(crate) async fn finish_exports<K: RunKind>(
     state: &K::State,
 ) -> Result<(Vec<PathBuf>, K::Report), RunError> {
     let (path, state) = (path.to_path_buf(), state.clone());
-    cpu(move || -> Result<(Vec<PathBuf>, K::Report), RunError> {
+    run_blocking(move || -> Result<(Vec<PathBuf>, K::Report), RunError> {
         let run_dir = RunDir::open(&path)?;
         let world = run_world(&run_dir, None)?;
         let files = write_exports::<K>(&run_dir, &state, world.as_ref())?;

@@ -19,12 +19,12 @@
 //!
 //! The UI never waits on any of them: it only reads the latest model and queues commands.
 
+use crate::app::blocking::run_blocking;
 use crate::app::error::RunError;
 use crate::app::flight;
 use crate::app::kind::{Attached, CommandReply, Outcome, RunKind};
 use crate::app::preflight::StartCheck;
 use crate::app::run::Progress;
-use crate::app::runway::cpu;
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
 use crate::tui::live::{LiveLog, RunInfo, RunView, build_model};
@@ -217,7 +217,7 @@ impl<K: RunKind> Attach for KindRun<K> {
                     // The outputs are file I/O: off the runtime workers.
                     let at = path.clone();
                     let on_finish = m.on_finish;
-                    let _ = cpu(move || {
+                    let _ = run_blocking(move || {
                         if let (Some(f), Ok(rd)) = (on_finish, RunDir::open(&at)) {
                             f(&rd, &state);
                         }

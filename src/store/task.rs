@@ -11,7 +11,7 @@
 //! In a multi-threaded runtime the jobs run on a dedicated thread (named `fleetmap-store`),
 //! so serialising the state (pretty-printed JSON) and the fsyncs never block a runtime
 //! worker. In a current-thread runtime (the virtual-clock tests, `start_paused`) they run
-//! inline, like `crate::app::runway::cpu`'s work: while the only thread waited for another one, a
+//! inline, like `crate::app::blocking::run_blocking`'s work: while the only thread waited for another one, a
 //! paused clock would jump to the next timer and virtual time would run on during the write.
 
 use super::RunDir;

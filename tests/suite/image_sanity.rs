@@ -220,9 +220,10 @@ async fn fly_over(rule: Rule, seed: u64, payload_rate: Option<u32>) -> Flown {
     drop(ev_tx);
     let sim = server::spawn_memory(sim, ports);
     let fleet = fleet::spawn(links, ev_rx, FleetConfig::default(), MonotonicClock::new());
-    let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
+    let state =
+        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+            .await
+            .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let run_dir = RunDir::create(
         tmp.path().join("run"),

@@ -148,9 +148,10 @@ async fn fly(drones: usize, seed: u64) -> Finished {
     let (fleet, sim) = demo::start_virtual(&spec, world.clone(), &cfg)
         .await
         .unwrap();
-    let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
+    let state =
+        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+            .await
+            .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let run_dir = RunDir::create(
         tmp.path().join("run"),
@@ -322,9 +323,10 @@ async fn the_mission_time_survives_a_resume() {
     let (fleet, sim) = demo::start_virtual("1xcopter:ardupilot", world.clone(), &cfg)
         .await
         .unwrap();
-    let mut state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
+    let mut state =
+        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+            .await
+            .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let path = tmp.path().join("run");
     let mut run_dir = RunDir::create(&path, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();

@@ -115,9 +115,10 @@ async fn fly_mission(world: World, text: &str, mut cfg: DemoConfig, onboard: boo
             }
         })
     };
-    let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
+    let state =
+        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+            .await
+            .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let run_dir = RunDir::create(
         tmp.path().join("run"),

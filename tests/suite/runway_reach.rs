@@ -111,9 +111,10 @@ async fn fly(world_text: &str, text: &str, drones: u8, minutes: f64, seed: u64) 
         demo::start_virtual(&format!("{drones}xcopter:ardupilot"), world.clone(), &cfg)
             .await
             .unwrap();
-    let mut state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
+    let mut state =
+        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+            .await
+            .unwrap();
     // The simulator and the fleet clock started together: the region's epoch (its world time
     // 0) is the fleet clock's zero, that many wall milliseconds ago on the runner's reading.
     let fleet_ms = fleet.clock().now().as_millis();

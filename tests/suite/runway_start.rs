@@ -93,9 +93,10 @@ async fn a_drone_that_cannot_take_off_leaves_the_tree_and_rejoins_when_fixed() {
     );
     let def = MissionDef::parse(&text, "strip, two drones").unwrap();
     let (fleet, sim) = team(&world, 2, (2, FIXED_AT_S));
-    let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
+    let state =
+        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+            .await
+            .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
     RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
@@ -187,9 +188,10 @@ async fn a_lone_drone_that_is_never_fixed_ends_the_run_saying_what_to_fix() {
     let text = common::strip_mission();
     let def = MissionDef::parse(&text, "strip").unwrap();
     let (fleet, sim) = team(&world, 1, (1, f64::INFINITY));
-    let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
+    let state =
+        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+            .await
+            .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
     RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();

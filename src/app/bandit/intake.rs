@@ -136,9 +136,20 @@ pub(super) struct ImagePose {
     key: CaptureKey,
 }
 
+/// Why an image has no pose: it came without one and its vehicle's telemetry has none.
+#[derive(Debug, thiserror::Error)]
+pub(super) enum NoPose {
+    /// The vehicle is not in the fleet's snapshot.
+    #[error("vehicle not heard")]
+    NotHeard,
+    /// The vehicle reports no position.
+    #[error("no position")]
+    NoPosition,
+}
+
 /// Where, when and how an image was taken: what the camera said, else the vehicle's
 /// latest telemetry.
-pub(super) fn image_pose(shared: &Shared, img: &ReceivedImage) -> RunnerResult<ImagePose> {
+pub(super) fn image_pose(shared: &Shared, img: &ReceivedImage) -> Result<ImagePose, NoPose> {
     let sysid = img.sysid;
     Ok(match &img.pose {
         Some(p) => ImagePose {
@@ -149,8 +160,8 @@ pub(super) fn image_pose(shared: &Shared, img: &ReceivedImage) -> RunnerResult<I
             key: (sysid, p.time_boot_ms, p.image_index),
         },
         None => {
-            let v = shared.fleet.vehicle(sysid).context("vehicle not heard")?;
-            let p = v.position.context("no position")?;
+            let v = shared.fleet.vehicle(sysid).ok_or(NoPose::NotHeard)?;
+            let p = v.position.ok_or(NoPose::NoPosition)?;
             let t = img.received.as_millis() as u32;
             ImagePose {
                 lat: p.lat,
@@ -272,7 +283,7 @@ pub(super) async fn take_images(
             _ => None,
         })
         .collect();
-    let measured = crate::app::runway::cpu(move || {
+    let measured = crate::app::blocking::run_blocking(move || {
         jobs.into_iter()
             .map(|(i, bytes, alt)| {
                 let m = measure_image(

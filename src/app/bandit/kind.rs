@@ -3,12 +3,11 @@
 
 use super::report::{self, ClassificationReport};
 use super::{BanditEvent, KIND, RunOptions};
-use crate::app::error::RunError;
+use crate::app::error::{Check, RunError, RunnerError};
 use crate::app::flight::Patience;
-use crate::app::kind::{
-    Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, heard,
-};
+use crate::app::kind::{Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings};
 use crate::app::run::Progress;
+use crate::app::team::heard;
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
 use crate::tui::live::RunView;
@@ -105,7 +104,7 @@ impl RunKind for Classification {
             fleet
                 .wait_until(sysid, wait, |v| v.position.is_some())
                 .await
-                .map_err(|_| RunError::NoPosition { sysid })?;
+                .map_err(|_| RunnerError::from(Check::NoPosition { sysid }))?;
         }
         Ok(format!(
             "epoch {}, {} measurements so far, keep {}, reject {}, unclassified {}",

@@ -4,7 +4,7 @@
 
 use super::pilot::dock;
 use super::*;
-use crate::app::error::{RunnerError, RunnerResult};
+use crate::app::error::{Check, RunnerResult};
 
 impl Runner {
     /// Whether member `sysid` is ready to take part again, by its telemetry: heard, booted,
@@ -189,10 +189,11 @@ impl Runner {
                     .join("; ")
             };
             if outs.iter().all(|(_, o)| o.fix.is_some()) {
-                return Err(RunnerError::check(format!(
-                    "{why}: a person must fix {}",
-                    list()
-                )));
+                return Err(Check::MembersNeedPerson {
+                    why: why.to_string(),
+                    members: list(),
+                }
+                .into());
             }
             // Every member out may be tried now.
             self.shared
@@ -227,9 +228,11 @@ impl Runner {
                     .collect()
             })
             .await;
-        Err(RunnerError::check(format!(
-            "{why}, and after {TRIES} tries none of them is ready: {}",
-            outs.join("; ")
-        )))
+        Err(Check::MembersNotReady {
+            why: why.to_string(),
+            tries: TRIES,
+            members: outs.join("; "),
+        }
+        .into())
     }
 }

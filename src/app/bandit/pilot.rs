@@ -2,7 +2,7 @@
 //! on a charging rover's pad.
 
 use super::*;
-use crate::app::error::{RunnerError, RunnerResult};
+use crate::app::error::{Check, Overdue, RunnerResult};
 
 impl DronePilot {
     pub(super) fn fleet(&self) -> &FleetHandle {
@@ -69,9 +69,7 @@ impl DronePilot {
                 }
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                return Err(RunnerError::Overdue(format!(
-                    "drone {sysid}: its mission did not end in time (at step {step})"
-                )));
+                return Err(Overdue::Mission { sysid, step }.into());
             }
             let _ = tokio::time::timeout(Duration::from_millis(500), snaps.changed()).await;
         }
@@ -80,7 +78,7 @@ impl DronePilot {
             .shared
             .read(|s| s.landing_station(sysid).map(|st| st.sysid))
             .await
-            .context("no landing station")?;
+            .ok_or(Check::NoLandingStation)?;
         let mut told = false;
         loop {
             let arrived = self
@@ -109,9 +107,7 @@ impl DronePilot {
                 told = true;
             }
             if self.shared.fleet.clock().now() > self.deadline {
-                return Err(RunnerError::Overdue(format!(
-                    "drone {sysid}: station {station} never reached the rendezvous"
-                )));
+                return Err(Overdue::Rendezvous { sysid, station }.into());
             }
             self.shared.wait_change(Duration::from_millis(500)).await;
         }
@@ -173,11 +169,11 @@ impl DronePilot {
             .await
             .is_err()
         {
-            return Err(RunnerError::Overdue(format!(
-                "drone {sysid}: taken out of its mission by its autopilot ({}), it has not \
-                 landed by the end of the sortie",
-                v.mode
-            )));
+            return Err(Overdue::TakenOut {
+                sysid,
+                mode: v.mode.clone(),
+            }
+            .into());
         }
         let fix = format!(
             "swap its battery if it is low (battery {battery}) and check why its autopilot \
@@ -380,7 +376,7 @@ pub(super) async fn land_on(
         let pos = fleet
             .vehicle(station)
             .and_then(|v| v.position)
-            .with_context(|| format!("station {station} reports no position"))?;
+            .ok_or(Check::StationPosition { station })?;
         Ok(local::offset(pos.lat, pos.lon, north, east))
     };
     let mut at = target()?;
@@ -405,8 +401,6 @@ pub(super) async fn land_on(
     fleet
         .wait_until(sysid, wait, |v| v.on_ground() && !v.armed)
         .await
-        .map_err(|_| {
-            RunnerError::Overdue(format!("drone {sysid}: did not land within {wait:?}"))
-        })?;
+        .map_err(|_| Overdue::Landing { sysid, wait })?;
     Ok(())
 }

@@ -3,7 +3,7 @@
 //! airborne-time tracker and the run's start and final save.
 
 use super::*;
-use crate::app::error::{RunnerError, RunnerResult};
+use crate::app::error::{Check, RunnerError, RunnerResult, SortieStage, Step};
 
 impl Runner {
     pub(super) fn fleet(&self) -> &FleetHandle {
@@ -30,7 +30,7 @@ impl Runner {
                 )
             })
             .await;
-        let items = items.context("building the geofence")?;
+        let items = items.context(Step::BuildGeofence)?;
         let mut tasks = tokio::task::JoinSet::new();
         for sysid in sysids {
             let fleet = self.fleet().clone();
@@ -65,9 +65,7 @@ impl Runner {
                         .await?;
                 }
                 Err(e) => {
-                    first_err.get_or_insert(e.context(format!(
-                        "vehicle {sysid} refused the geofence of the no-fly cells"
-                    )));
+                    first_err.get_or_insert(e.context(Step::Geofence { sysid }));
                 }
             }
         }
@@ -98,19 +96,17 @@ impl Runner {
             .copied()
             .collect();
         for (sysid, cell) in members.into_iter().zip(cells) {
-            let v = snap
-                .get(&sysid)
-                .with_context(|| format!("vehicle {sysid} is not heard"))?;
-            let p = known_position(v).with_context(|| {
-                format!("vehicle {sysid} reports no position yet (no GPS fix and home)")
-            })?;
+            let v = snap.get(&sysid).ok_or(Check::NotHeard { sysid })?;
+            let p = known_position(v).ok_or(Check::NoPositionYet { sysid })?;
             let c = grid.cell_center(cell);
             let d = local::distance(p.lat, p.lon, c.lat, c.lon);
             if d > 0.75 * grid.cell_size() {
-                return Err(RunnerError::check(format!(
-                    "vehicle {sysid} is {d:.1} m from the centre of its start cell {cell}: place \
-                     it there (or fix `start` in the mission file)"
-                )));
+                return Err(Check::Misplaced {
+                    sysid,
+                    distance_m: d,
+                    cell,
+                }
+                .into());
             }
         }
         Ok(())
@@ -149,7 +145,7 @@ impl Runner {
             };
             // Off the reactor (inline on a current-thread runtime: a paused clock would run on
             // while the solver worked on another thread).
-            let out = crate::app::runway::cpu(move || {
+            let out = crate::app::blocking::run_blocking(move || {
                 solve_instance(&inst, &opts, &fleetmap_io::clock::stopwatch())
             })
             .await?;
@@ -209,16 +205,13 @@ impl Runner {
                     k = k0.max(1);
                 }
                 (status, _) => {
-                    return Err(RunnerError::check(format!(
-                        "epoch {p}: the planner found no plan ({}{}): the goals cannot be reached \
-                     from where the team is within {k} sensing cycles",
-                        status.as_str(),
-                        if out.message.is_empty() {
-                            String::new()
-                        } else {
-                            format!(": {}", out.message)
-                        }
-                    )));
+                    return Err(Check::NoPlan {
+                        epoch: p,
+                        status: status.as_str(),
+                        message: out.message.clone(),
+                        cycles: k,
+                    }
+                    .into());
                 }
             }
         }
@@ -284,7 +277,7 @@ impl Runner {
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
             .await;
-        let cycle = cycle.context("no sortie is prepared")?;
+        let cycle = cycle.ok_or(Check::NoSortie(SortieStage::Prepared))?;
         let state = Arc::new(self.shared.read(|s| s.clone()).await);
         let mut tasks = tokio::task::JoinSet::new();
         // Drones and the stations that drive: (sysid, items, start cell, is a station).
@@ -414,13 +407,11 @@ pub(super) async fn no_measurement_stop(runner: &Runner, since: usize) -> Runner
         })
         .await;
     if dry >= MAX {
-        return Err(RunnerError::check(format!(
-            "no measurement reached the GCS in the last {dry} epochs ({visits} capture visits): \
-             the drones' pictures (or their cameras' on-board measurements) do not arrive — \
-             check that each drone's camera takes its pictures and that its messages \
-             (CAMERA_IMAGE_CAPTURED with DEBUG_FLOAT_ARRAY, or image transmission) reach the \
-             GCS, then `fleetmap resume` the run"
-        )));
+        return Err(Check::NoMeasurements {
+            epochs: dry,
+            visits,
+        }
+        .into());
     }
     Ok(())
 }
@@ -464,20 +455,17 @@ pub async fn new_state(
     wait: Duration,
     lock_step: Option<bool>,
 ) -> RunnerResult<ClassificationState> {
-    crate::app::wait_for_team(fleet, def, wait).await?;
+    crate::app::team::wait_for_team(fleet, def, wait).await?;
     for v in &def.vehicles {
         fleet
             .wait_until(v.sysid, wait, |s| known_position(s).is_some())
             .await
-            .map_err(|_| {
-                RunnerError::check(format!(
-                    "vehicle {} reported no position (a GPS fix and a home) within {:.0} s",
-                    v.sysid,
-                    wait.as_secs_f64()
-                ))
+            .map_err(|_| Check::NoPositionWithin {
+                sysid: v.sysid,
+                wait_s: wait.as_secs_f64(),
             })?;
     }
-    let grid = crate::app::mission_grid(fleet, def, wait).await?;
+    let grid = crate::app::team::mission_grid(fleet, def, wait).await?;
     Ok(ClassificationState::new(def, grid, lock_step)?)
 }
 
@@ -491,7 +479,7 @@ pub async fn run(
     mut opts: RunOptions,
 ) -> RunnerResult<ClassificationState> {
     // Nothing is sent to a system id two autopilots answer to.
-    crate::app::refuse_conflicts(&fleet, state.sysids())?;
+    crate::app::team::refuse_conflicts(&fleet, state.sysids())?;
     let resumed = state.measurements > 0 || state.epoch.is_some() || !state.epochs.is_empty();
     if resumed {
         state.on_resume();

@@ -3,7 +3,7 @@
 
 use super::pilot::dock;
 use super::*;
-use crate::app::error::{RunnerError, RunnerResult};
+use crate::app::error::{Check, Overdue, RunnerError, RunnerResult, SortieStage};
 
 impl Runner {
     /// Wait until every drone that flies the sortie has the charge it needs. Returns the
@@ -76,11 +76,13 @@ impl Runner {
                             let wh = self.nearest_station(sysid).await;
                             flat.push((
                                 sysid,
-                                RunnerError::check(format!(
-                                    "drone {sysid} is not charging (stuck at {now_pct} %, the \
-                                     sortie needs {need:.0} %): put it on its station's charger \
-                                     or swap its battery{wh}"
-                                )),
+                                Check::NotCharging {
+                                    sysid,
+                                    pct: now_pct,
+                                    need_pct: need,
+                                    nearest: wh,
+                                }
+                                .into(),
                             ));
                             continue 'drones;
                         }
@@ -144,7 +146,7 @@ impl Runner {
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
             .await;
-        let cycle = cycle.context("no sortie is verified")?;
+        let cycle = cycle.ok_or(Check::NoSortie(SortieStage::Verified))?;
         if !flat.is_empty() {
             return self.drop_start(p, cycle.k, flat).await;
         }
@@ -425,7 +427,7 @@ impl Runner {
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
             .await;
-        let cycle = cycle.context("no sortie is flying")?;
+        let cycle = cycle.ok_or(Check::NoSortie(SortieStage::Flying))?;
         let lock_step = self
             .shared
             .read(|s| s.params.separation == Separation::LockStep)
@@ -482,11 +484,12 @@ impl Runner {
                 _ = tick.tick() => {}
             }
             if self.fleet().clock().now() > deadline {
-                return Err(RunnerError::Overdue(format!(
-                    "epoch {p} cycle {}: the sortie did not end within {:.0} s",
-                    cycle.k,
-                    budget.as_secs_f64()
-                )));
+                return Err(Overdue::Sortie {
+                    epoch: p,
+                    cycle: cycle.k,
+                    budget_s: budget.as_secs_f64(),
+                }
+                .into());
             }
             let snap = self.fleet().snapshot().vehicles;
             // Stations.
@@ -574,7 +577,7 @@ impl Runner {
             .shared
             .read(|s| s.cycle().map(|c| c.planned_end()))
             .await
-            .context("no sortie")?;
+            .ok_or(Check::NoSortie(SortieStage::Ended))?;
         let st = self.shared.read(|s| s.clone()).await;
         let actual = observed_config(&st, &snap, &planned)?;
         let (end, seconds, k) = self

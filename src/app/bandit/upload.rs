@@ -3,7 +3,7 @@
 //! missions and fences with retries of transient failures.
 
 use super::*;
-use crate::app::error::{RunnerError, RunnerResult};
+use crate::app::error::{Check, RunnerError, RunnerResult};
 
 /// Whether the vehicle has done its whole mission `items`: MISSION_ITEM_REACHED of the last
 /// item, or MISSION_CURRENT COMPLETE on the last item once this mission is known to have
@@ -61,13 +61,9 @@ pub(super) fn observed_config(
 ) -> RunnerResult<TeamConfig> {
     let s = state.grid.cell_size();
     let pos = |sysid: u8| -> RunnerResult<(f64, f64)> {
-        let v = snap
-            .get(&sysid)
-            .with_context(|| format!("vehicle {sysid} is not heard"))?;
-        let p = v
-            .position
-            .with_context(|| format!("vehicle {sysid} reports no position"))?;
-        grid_xy(state, p.lat, p.lon).with_context(|| format!("vehicle {sysid}: bad position"))
+        let v = snap.get(&sysid).ok_or(Check::NotHeard { sysid })?;
+        let p = v.position.ok_or(Check::NoPosition { sysid })?;
+        Ok(grid_xy(state, p.lat, p.lon).ok_or(Check::BadPosition { sysid })?)
     };
     let near = |xy: (f64, f64), c: Cell, tol: f64| {
         (xy.0 - f64::from(c.col) * s).hypot(xy.1 - f64::from(c.row) * s) <= tol

@@ -14,7 +14,7 @@ mod progress;
 pub use progress::Progress;
 
 use crate::app::error::Context as _;
-use crate::app::error::{RunnerError, RunnerResult};
+use crate::app::error::{RunnerError, RunnerResult, Step};
 use crate::store::{RunDir, RunStore};
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::watch;
@@ -118,9 +118,9 @@ where
         let saved = snapshot.clone();
         self.store
             .run(move |run| -> RunnerResult<()> {
-                run.save_state(&*saved).context("saving the run state")?;
+                run.save_state(&*saved).context(Step::SaveState)?;
                 for ev in &events {
-                    run.append_event(ev).context("writing the run journal")?;
+                    run.append_event(ev).context(Step::Journal)?;
                 }
                 Ok(())
             })

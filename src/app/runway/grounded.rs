@@ -27,7 +27,7 @@ impl Pilot {
         use crate::fleet::FleetError;
         fn launch(e: &RunnerError) -> bool {
             match e {
-                RunnerError::Fleet(f) | RunnerError::Step(FlightError::Fleet(f)) => matches!(
+                RunnerError::Fleet(f) | RunnerError::Flight(FlightError::Fleet(f)) => matches!(
                     f,
                     FleetError::NotStarted { .. }
                         | FleetError::NotReady { .. }

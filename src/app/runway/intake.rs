@@ -2,7 +2,7 @@
 //! (on a blocking thread), and a visit's pictures with their retakes and camera faults.
 
 use super::*;
-use crate::app::error::CpuError;
+use crate::app::blocking::run_blocking;
 use crate::app::error::RunnerResult;
 use crate::app::images::{CapturePose, RunwayAccept};
 use fleetmap_core::mission::definition::MissionDef;
@@ -256,7 +256,7 @@ async fn audit_picture(
         }
     };
     let bytes = picture.bytes.clone();
-    let r = cpu(move || {
+    let r = run_blocking(move || {
         let img = load_image_bytes(&bytes, &LoadLimits::default())?;
         spec.measure(&img, &shutter)
     })
@@ -267,19 +267,6 @@ async fn audit_picture(
     let l = c.labels;
     let ours = [l.center, l.north, l.west, l.south, l.east];
     Ok((ours, OnboardRegions::of(&r) == m.regions))
-}
-
-/// Run CPU-heavy work (decoding and classifying an image, a few milliseconds) off the
-/// reactor: on a blocking thread in a multi-threaded runtime; inline in a current-thread one
-/// (the virtual-clock tests, where a blocking thread would let virtual time run on while it
-/// works).
-pub(crate) async fn cpu<T: Send + 'static>(
-    f: impl FnOnce() -> T + Send + 'static,
-) -> Result<T, CpuError> {
-    match tokio::runtime::Handle::current().runtime_flavor() {
-        tokio::runtime::RuntimeFlavor::CurrentThread => Ok(f()),
-        _ => tokio::task::spawn_blocking(f).await.map_err(CpuError),
-    }
 }
 
 /// Where a picture was taken: what the camera said, else the vehicle's telemetry `v` (at
@@ -556,7 +543,7 @@ impl Pilot {
                     },
                 };
                 let bytes = shot.image.bytes.clone();
-                cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m))
+                run_blocking(move || classify_cut(&bytes, &cut, &params, &camera, cell_m))
                     .await?
                     .map_err(|r| PictureFailure::Unreadable(format!("cell {cell}: {r}")))
             }

@@ -1,13 +1,15 @@
 //! Runway mapping as a [`RunKind`]: what the commands, the TUI session and the demo need.
 
 use super::report::{self, truth_coverage, truth_outlines};
-use super::{KIND, MappingEvent, Operator, RunOptions, intake::cpu};
+use super::{KIND, MappingEvent, Operator, RunOptions};
+use crate::app::blocking::run_blocking;
 use crate::app::error::RunError;
 use crate::app::flight::Patience;
 use crate::app::kind::{
-    Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, heard, png_bytes,
+    Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, png_bytes,
 };
 use crate::app::run::Progress;
+use crate::app::team::heard;
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
 use crate::tui::live::RunView;
@@ -60,7 +62,7 @@ impl RunKind for Runway {
         settings: &RunSettings,
         wait: Duration,
     ) -> Result<MappingState, RunError> {
-        let mut state = crate::app::new_mapping(fleet, def, settings.sharing, wait).await?;
+        let mut state = super::new_mapping(fleet, def, settings.sharing, wait).await?;
         if state.params.motion().speed() > 0.0 {
             state.roi_epoch_unix_ms = settings.roi_epoch_unix_ms;
         }
@@ -114,7 +116,7 @@ impl RunKind for Runway {
         let hub = crate::app::images::spawn(fleet);
         let outcome = super::run(fleet.clone(), &hub, run_dir, state, options).await?;
         // The runner saved every step; read the last one back (file I/O: off the workers).
-        let state = cpu(move || -> Result<MappingState, RunError> {
+        let state = run_blocking(move || -> Result<MappingState, RunError> {
             RunDir::open(&path)?
                 .load_state()?
                 .ok_or(RunError::NothingSaved { path })

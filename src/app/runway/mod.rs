@@ -50,7 +50,6 @@
 //! * **End**: every robot back at the start (Algorithm 1), then home and landed; the run's
 //!   outputs are written by [`report`].
 
-use crate::app::error::Context as _;
 use crate::app::error::RunnerResult;
 use crate::app::flight::{self, FlightError, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};

@@ -2,7 +2,7 @@
 //! tracker, the operator's commands, and the final save.
 
 use super::*;
-use crate::app::error::{RunnerError, RunnerResult};
+use crate::app::error::{RunnerError, RunnerResult, Step};
 use fleetmap_core::explore::mapping::CLOCK_SAMPLE_S;
 use tokio::task::JoinSet;
 
@@ -68,6 +68,19 @@ fn sample_clock(shared: &Arc<Shared>, sysids: Vec<u8>, tasks: &mut JoinSet<()>) 
     });
 }
 
+/// A new runway-mapping state for `def` once the team is connected
+/// (`app::team::wait_for_team`), on the mission grid.
+pub async fn new_mapping(
+    fleet: &FleetHandle,
+    def: &fleetmap_core::mission::definition::MissionDef,
+    sharing: fleetmap_core::explore::dfs::Sharing,
+    wait: Duration,
+) -> RunnerResult<MappingState> {
+    crate::app::team::wait_for_team(fleet, def, wait).await?;
+    let grid = crate::app::team::mission_grid(fleet, def, wait).await?;
+    Ok(MappingState::new(def, grid, sharing)?)
+}
+
 /// Run (or resume) a runway-mapping run with `fleet` until it finishes, or until robots wait
 /// for the operator. `run` holds the state; the vehicles must already be heard.
 pub async fn run(
@@ -80,7 +93,7 @@ pub async fn run(
     let mut state = state;
     let sysids: Vec<u8> = state.robots.iter().map(|r| r.sysid).collect();
     // Nothing is sent to a system id two autopilots answer to.
-    crate::app::refuse_conflicts(&fleet, sysids.iter().copied())?;
+    crate::app::team::refuse_conflicts(&fleet, sysids.iter().copied())?;
     // A moving region: its epoch is this start unless the state has one (a resumed run, or
     // the demo's simulator start); read against the fleet clock once.
     let motion = state.params.motion();
@@ -226,7 +239,7 @@ pub async fn run(
                 let sysid = by_task.get(&e.id()).copied().unwrap_or(0);
                 ended.push((
                     sysid,
-                    Err(RunnerError::task("pilot task")(e).context(format!("vehicle {sysid}"))),
+                    Err(RunnerError::task("pilot task")(e).context(Step::Pilot { sysid })),
                 ));
             }
         }

@@ -2,7 +2,8 @@
 //! that arrives is checked, classified and voted into the map as it comes.
 
 use super::*;
-use crate::app::error::{RunnerError, RunnerResult};
+use crate::app::blocking::run_blocking;
+use crate::app::error::{Check, RunnerError, RunnerResult, Step};
 
 impl Pilot {
     /// Fly (or keep flying) the sweep, classifying its images, until the phase changes, the
@@ -43,7 +44,7 @@ impl Pilot {
                         what: "sweep",
                         source,
                     }
-                    .context(format!("vehicle {sysid}"))
+                    .context(Step::SweepUpload { sysid })
                 })?;
             self.shared.say(
                 Progress::info(format!(
@@ -55,7 +56,7 @@ impl Pilot {
             flight::ensure_airborne(&fleet, sysid, alt as f32, self.shared.patience).await?;
             if let Some(item) = resume_item.filter(|&i| i > 0) {
                 fleet.set_mission_current(sysid, item).await?;
-                let m = mission_mode.context("no mission mode")?;
+                let m = mission_mode.ok_or(Check::NoMissionMode)?;
                 fleet.set_mode(sysid, m).await?;
             } else {
                 fleet.start_mission(sysid).await?;
@@ -81,7 +82,7 @@ impl Pilot {
                     fleet.set_mission_current(sysid, j).await?;
                 }
             }
-            let m = mission_mode.context("no mission mode")?;
+            let m = mission_mode.ok_or(Check::NoMissionMode)?;
             fleet.set_mode(sysid, m).await?;
             let _ = flight::set_speed(&fleet, sysid, speed as f32).await;
         }
@@ -364,7 +365,7 @@ impl Pilot {
                     },
                 };
                 let bytes = img.bytes.clone();
-                cpu(move || classify_cut(&bytes, &cut, &params, &camera, cell_m))
+                run_blocking(move || classify_cut(&bytes, &cut, &params, &camera, cell_m))
                     .await?
                     .map(|c| (cell, c))
                     .map_err(|e| e.to_string())

@@ -367,7 +367,7 @@ pub fn run(args: &RunwayArgs, progress: &mut dyn FnMut(&TrialRow)) -> anyhow::Re
             let watch = fleetmap_io::clock::stopwatch();
             let rt = match args.speedup {
                 // Paused: tokio advances the clock only when every task waits, and the
-                // classifier runs inline on the one thread (app::runway::intake::cpu).
+                // classifier runs inline on the one thread (app::blocking::run_blocking).
                 StudyClock::Virtual => tokio::runtime::Builder::new_current_thread()
                     .enable_all()
                     .start_paused(true)
@@ -472,7 +472,8 @@ async fn fly(
     };
     let result = async {
         let state =
-            crate::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60)).await?;
+            crate::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+                .await?;
         let mut meta = RunMeta::new(runway::KIND, unix_ms());
         meta.mission_path = Some("built-in runway-field-test.toml".into());
         meta.extra = serde_json::json!({"world": "world.toml"});

@@ -110,9 +110,10 @@ async fn fly(name: &str, faults: &str, onboard: bool, kill: Option<Kill<'_>>) ->
     let (fleet, sim) = demo::start_virtual(&spec, world.clone(), &cfg)
         .await
         .unwrap();
-    let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
+    let state =
+        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+            .await
+            .unwrap();
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
     RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();

@@ -7,7 +7,7 @@
 
 use fleetmap::app::bandit;
 use fleetmap::app::bandit_sim::{self, SimSetup};
-use fleetmap::app::error::RunError;
+use fleetmap::app::error::RunnerError;
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::mission::definition::MissionDef;
@@ -112,10 +112,10 @@ fn commanding(sent: &Sent) -> Vec<String> {
         .collect()
 }
 
-fn assert_refused(r: Result<(), RunError>, sent: &Sent) {
+fn assert_refused(r: Result<(), RunnerError>, sent: &Sent) {
     let e = r.expect_err("the run started with two autopilots on system id 1");
     assert!(
-        matches!(e, RunError::SysidConflict { sysid: 1, .. }),
+        matches!(e, RunnerError::SysidConflict { sysid: 1, .. }),
         "{e:?}"
     );
     let text = e.to_string();
@@ -163,10 +163,14 @@ fn two_drones() -> MissionDef {
 async fn runway_run_refuses_two_autopilots_on_one_system_id() {
     let (fleet, _sim, sent) = wire(strip_sim(true));
     let t0 = tokio::time::Instant::now();
-    let r =
-        fleetmap::app::new_mapping(&fleet, &two_drones(), Sharing::Gcs, Duration::from_secs(60))
-            .await
-            .map(|_| ());
+    let r = fleetmap::app::runway::new_mapping(
+        &fleet,
+        &two_drones(),
+        Sharing::Gcs,
+        Duration::from_secs(60),
+    )
+    .await
+    .map(|_| ());
     assert_refused(r, &sent);
     let v = fleet.vehicle(1).unwrap();
     let c = v.sysid_conflict.expect("vehicle 1 marked");
@@ -182,10 +186,14 @@ async fn runway_run_refuses_two_autopilots_on_one_system_id() {
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn runway_run_starts_on_a_clean_fleet() {
     let (fleet, _sim, _sent) = wire(strip_sim(false));
-    let state =
-        fleetmap::app::new_mapping(&fleet, &two_drones(), Sharing::Gcs, Duration::from_secs(60))
-            .await
-            .expect("a clean fleet starts");
+    let state = fleetmap::app::runway::new_mapping(
+        &fleet,
+        &two_drones(),
+        Sharing::Gcs,
+        Duration::from_secs(60),
+    )
+    .await
+    .expect("a clean fleet starts");
     assert_eq!(state.robots.len(), 2);
     for s in [1, 2] {
         let v = fleet.vehicle(s).unwrap();

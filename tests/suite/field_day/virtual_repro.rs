@@ -174,9 +174,10 @@ fn fly_runway(seed: u64, radio: bool, battery_min: f64) -> Flight {
         let (fleet, sim) = demo::start_virtual("3xcopter:ardupilot", world.clone(), &cfg)
             .await
             .unwrap();
-        let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-            .await
-            .unwrap();
+        let state =
+            fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+                .await
+                .unwrap();
         let tmp = tempfile::tempdir().unwrap();
         let dir = tmp.path().join("run");
         let run_dir = RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
