@@ -90,7 +90,7 @@ async fn read_params(
 }
 
 /// What the check needs from vehicle `sysid`: waits up to `wait` for it to be heard and
-/// for the sysid watch's verdict (as a run's start does: `app::one_autopilot`), reads its
+/// for the sysid watch's verdict (as a run's start does: `app::team::one_autopilot`), reads its
 /// parameters, then waits up to [`SETTLE`] for a drone's camera and up to `home_wait` for
 /// a copter's home (not for an autopilot that answered nothing: it obeys nobody here).
 async fn report(
