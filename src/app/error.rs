@@ -93,9 +93,6 @@ pub enum RunError {
         /// The run directory.
         path: PathBuf,
     },
-    /// The terminal UI failed.
-    #[error(transparent)]
-    Tui(#[from] crate::tui::TuiError),
     /// The report could not be made JSON.
     #[error("the report as JSON")]
     Json(#[from] serde_json::Error),

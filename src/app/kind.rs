@@ -6,12 +6,11 @@
 //! `spatial-classification`). A run directory remembers its kind; the commands dispatch on
 //! it once, through the registry [`crate::app::kinds`].
 
+use crate::app::command::{Command, CommandError, Target};
 use crate::app::error::RunError;
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
-use crate::tui::live::RunView;
-use crate::tui::{Command, CommandError, Target};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;
 use fleetmap_io::watch;
@@ -179,6 +178,28 @@ impl Default for RunSettings {
     }
 }
 
+/// A run's state as the live session shows it: each kind's state, borrowed
+/// ([`RunKind::view`]); the UI's adapter (`tui::live`) reads the panes from it.
+#[derive(Clone, Copy, Debug)]
+pub enum RunView<'a> {
+    /// Runway mapping (sweep, DFS).
+    Mapping(&'a fleetmap_core::explore::mapping::MappingState),
+    /// Spatial classification (bandit + IP).
+    Classification(&'a fleetmap_core::planner::sortie::ClassificationState),
+}
+
+impl<'a> From<&'a fleetmap_core::explore::mapping::MappingState> for RunView<'a> {
+    fn from(s: &'a fleetmap_core::explore::mapping::MappingState) -> Self {
+        RunView::Mapping(s)
+    }
+}
+
+impl<'a> From<&'a fleetmap_core::planner::sortie::ClassificationState> for RunView<'a> {
+    fn from(s: &'a fleetmap_core::planner::sortie::ClassificationState) -> Self {
+        RunView::Classification(s)
+    }
+}
+
 /// A mission kind (see the module docs). Its methods are the parts in which the two missions
 /// differ; the generic commands (`crate::app::launch`, `cli::run`) do the rest once.
 pub trait RunKind: Send + Sync + 'static {
@@ -235,7 +256,7 @@ pub trait RunKind: Send + Sync + 'static {
         options: Self::Options,
         progress: Option<mpsc::UnboundedSender<Progress>>,
     ) -> impl Future<Output = Result<(Outcome, Self::State), RunError>> + Send;
-    /// Fly the run in the TUI session (`crate::app::session`): like [`RunKind::fly`], with
+    /// Fly the run in the TUI session (`crate::tui::session`): like [`RunKind::fly`], with
     /// the state published after every change and the operator's mission-level commands
     /// (those [`RunKind::command`] sent) taken as they come.
     fn fly_attached(

@@ -14,7 +14,6 @@ use crate::app::error::RunError;
 use crate::app::kind::{Outcome, RunKind, RunSettings, write_exports};
 use crate::app::preflight::{StartCheck, gate};
 use crate::app::run::Progress;
-use crate::app::session::{OnFinish, SessionConfig, SessionEnd, SessionRun};
 use crate::fleet::FleetHandle;
 use crate::store::{RunDir, RunMeta};
 use fleetmap_core::mission::definition::MissionDef;
@@ -188,67 +187,16 @@ pub(crate) async fn prepare<K: RunKind>(
     }
 }
 
-/// How to fly a ready run.
-pub(crate) enum Face {
-    /// Without the terminal UI; progress events go to the sender.
-    Headless(Option<tokio::sync::mpsc::UnboundedSender<Progress>>),
-    /// In the terminal UI session until the operator quits.
-    Ui {
-        /// The UI's settings.
-        config: SessionConfig,
-        /// Start at once instead of waiting for the operator's START.
-        auto_start: bool,
-    },
-}
-
-/// How a flight ended.
-pub(crate) enum Flown<K: RunKind> {
-    /// Headless: the run's outcome and final state.
-    Headless {
-        /// How it ended.
-        outcome: Outcome,
-        /// Its final state.
-        state: K::State,
-    },
-    /// The operator closed the UI.
-    Ui {
-        /// Whether the run had finished (its exports are written).
-        finished: bool,
-    },
-}
-
 impl<K: RunKind> Ready<K> {
-    /// Fly the run on `fleet` as `face` says. In the UI, the exports are written when the
-    /// run finishes; headless, the caller writes them ([`finish_exports`]).
-    pub(crate) async fn fly(self, fleet: &FleetHandle, face: Face) -> Result<Flown<K>, RunError> {
-        match face {
-            Face::Headless(progress) => {
-                let (outcome, state) =
-                    K::fly(fleet, self.run_dir, self.state, self.options, progress).await?;
-                Ok(Flown::Headless { outcome, state })
-            }
-            Face::Ui { config, auto_start } => {
-                let at = self.run_dir.path().to_path_buf();
-                let world = run_blocking(move || {
-                    RunDir::open(&at)
-                        .ok()
-                        .and_then(|rd| run_world(&rd, None).ok())
-                })
-                .await?
-                .flatten();
-                let mission = SessionRun::new::<K>(
-                    self.run_dir,
-                    self.state,
-                    self.options,
-                    auto_start,
-                    Some(exports_on_finish::<K>(world)),
-                )
-                .with_check(self.check);
-                let SessionEnd::Quit { finished } =
-                    crate::app::session::run(fleet.clone(), Some(mission), config).await?;
-                Ok(Flown::Ui { finished })
-            }
-        }
+    /// Fly the run on `fleet` without the terminal UI, progress events to `progress`: how
+    /// it ended and its final state. The caller writes the exports ([`finish_exports`]); in
+    /// the UI, `crate::tui::session::fly` flies it and writes them when it finishes.
+    pub(crate) async fn fly_headless(
+        self,
+        fleet: &FleetHandle,
+        progress: Option<tokio::sync::mpsc::UnboundedSender<Progress>>,
+    ) -> Result<(Outcome, K::State), RunError> {
+        K::fly(fleet, self.run_dir, self.state, self.options, progress).await
     }
 }
 
@@ -267,6 +215,9 @@ pub(crate) async fn finish_exports<K: RunKind>(
     })
     .await?
 }
+
+/// What to do with a finished run's final state `S` (write its exports).
+pub(crate) type OnFinish<S> = Box<dyn FnOnce(&RunDir, &S) + Send>;
 
 /// The exports for the TUI session to write when the run finishes, scored against `world`.
 pub(crate) fn exports_on_finish<K: RunKind>(world: Option<World>) -> OnFinish<K::State> {

@@ -8,13 +8,13 @@
 //! | `launch` | the one way to start or resume a run (`prepare`, then `Ready::fly`), for `run`, `resume`, `tui --mission` and `demo` |
 //! | `preflight` | the fleet check on a connected fleet, and the gate it puts before every start |
 //! | [`run`] | the run core both runners share: state lock, durable commits through the store task, progress, view, tracker |
-//! | `session` | the live terminal session on a real fleet, with or without a run attached (any kind) |
 //! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume): events, pilot, intake, sweep, runner; its report and GeoJSON / KML / PNG exports, IoU against a simulated world |
 //! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume): events, runner, sortie, pilot, intake, upload; its report (keep / reject / errors, per-epoch figures) and the progress PNG (Fig. 4) |
 //! | [`images`] | every image the fleet takes as one stream (MAVLink image transmission, file URLs), and the run's image hub |
 //! | [`flight`] | flight steps with timeouts: take off, fly to a point and settle, capture, land |
 //! | `terrain` | terrain served from a folder of SRTM tiles: every vehicle's TERRAIN_REQUEST answered, what each waits for |
 //! | `team` | connecting to a run's team: every vehicle heard, one autopilot per system id, the grid's origin |
+//! | `command` | what an operator asks of a run or a vehicle ([`crate::tui::Command`], `Target`) and why it was not done (`CommandError`): the UI sends them, the kinds answer them |
 //! | `blocking` | blocking work (the classifier, run-directory files) run off the async reactor |
 //! | [`error`] | the layer's typed errors ([`error::RunError`] wrapping [`error::RunnerError`]): what failed, in which step, on which file or vehicle, with its cause |
 //! | [`demo`] | (feature `sim`) `fleetmap demo`: the embedded simulator and the station in one process |
@@ -25,6 +25,7 @@ pub mod bandit;
 #[cfg(feature = "sim")]
 pub mod bandit_sim;
 pub(crate) mod blocking;
+pub(crate) mod command;
 #[cfg(feature = "sim")]
 pub mod demo;
 pub mod error;
@@ -36,7 +37,6 @@ pub(crate) mod launch;
 pub(crate) mod preflight;
 pub mod run;
 pub mod runway;
-pub(crate) mod session;
 #[cfg(feature = "sim")]
 pub mod sim_fleet;
 pub(crate) mod team;

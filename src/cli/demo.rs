@@ -5,7 +5,7 @@
 
 use crate::app::demo::{self, DemoConfig};
 use crate::app::kind::{Outcome, RunKind, RunSettings};
-use crate::app::launch::{Face, Flown, NewRun, Start, finish_exports, prepare};
+use crate::app::launch::{NewRun, Start, finish_exports, prepare};
 use crate::app::preflight::OnBlocker;
 use crate::app::runway::Runway;
 use crate::app::runway::report::MappingReport;
@@ -274,17 +274,14 @@ impl Demo {
         };
         let path = ready.run_dir.path().to_path_buf();
         if self.tui {
-            let face = Face::Ui {
-                config: crate::cli::run::flow::ui_session(crate::tui::Source::new(
-                    crate::tui::SourceKind::Demo,
-                    self.label,
-                )),
-                auto_start: self.auto_start,
-            };
-            let end = ready.fly(&fleet, face).await;
+            let config = crate::cli::run::flow::ui_session(crate::tui::Source::new(
+                crate::tui::SourceKind::Demo,
+                self.label,
+            ));
+            let end = crate::tui::session::fly(ready, &fleet, config, self.auto_start).await;
             fleet.shutdown().await;
             let _ = sim.stop().await;
-            let finished = matches!(end?, Flown::Ui { finished: true });
+            let finished = end?;
             println!(
                 "demo {}: run directory {} (`fleetmap report {}`)",
                 if finished {
@@ -299,13 +296,11 @@ impl Demo {
         }
         println!("demo: run directory {}", path.display());
         let (tx, printer) = crate::cli::run::flow::print_progress();
-        let result = ready.fly(&fleet, Face::Headless(Some(tx))).await;
+        let result = ready.fly_headless(&fleet, Some(tx)).await;
         let _ = tokio::time::timeout(Duration::from_secs(1), printer).await;
         fleet.shutdown().await;
         let _ = sim.stop().await;
-        let Flown::Headless { outcome, state } = result? else {
-            bail!("a headless demo ended in the UI");
-        };
+        let (outcome, state) = result?;
         let (exports, r) = finish_exports::<K>(&path, &state).await?;
         if self.json {
             println!("{}", serde_json::to_string_pretty(&r)?);

@@ -2,14 +2,14 @@
 //!
 //! LIVE with `--connect CONN` (the vehicles heard on the links, their commands executed by
 //! the fleet), with a run from `--mission FILE` or `--resume RUN_DIR` (runway mapping or
-//! spatial classification) that starts on the operator's START (`crate::app::session`). Without `--connect` it shows the
+//! spatial classification) that starts on the operator's START (`crate::tui::session`). Without `--connect` it shows the
 //! built-in SAMPLE (a synthetic animation, or a static spatial-classification fixture) or a
 //! recorded REPLAY file — and says so in the title bar; operator commands are then reported
 //! as *not sent* because no vehicle is connected. `--snapshot COLSxROWS` prints one frame as text without
 //! a terminal; `fleetmap bench tui` measures the redraw rate.
 
 use crate::app::kind::{RunKind, RunSettings};
-use crate::app::launch::{Face, NewRun, Start, prepare};
+use crate::app::launch::{NewRun, Start, prepare};
 use crate::app::preflight::OnBlocker;
 use crate::store::RunDir;
 use crate::tui::Model;
@@ -352,7 +352,7 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
             on_blocker: OnBlocker::unless_ignored(args.ignore_check, OnBlocker::AtStart),
             ..Default::default()
         },
-        config: crate::app::session::SessionConfig {
+        config: crate::tui::session::SessionConfig {
             source: crate::tui::Source::new(
                 crate::tui::SourceKind::Live,
                 format!("LIVE {}", connections.join(", ")),
@@ -370,7 +370,7 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
     let Some(start) = start else {
         return crate::cli::vehicles::block_on(async move {
             let session = crate::cli::vehicles::Session::open(&live.conn).await?;
-            let end = crate::app::session::run(session.fleet.clone(), None, live.config).await;
+            let end = crate::tui::session::run(session.fleet.clone(), None, live.config).await;
             session.close().await?;
             end?;
             Ok(ExitCode::SUCCESS)
@@ -398,7 +398,7 @@ struct Live {
     settings: RunSettings,
     connections: Vec<String>,
     conn: crate::cli::vehicles::ConnectArgs,
-    config: crate::app::session::SessionConfig,
+    config: crate::tui::session::SessionConfig,
     start: Option<Start>,
 }
 
@@ -423,11 +423,7 @@ impl crate::app::kinds::KindVisitor for Live {
             let wait = Duration::from_secs(60);
             let flown = async {
                 let ready = prepare::<K>(fleet, &connections, start, &settings, wait).await?;
-                let face = Face::Ui {
-                    config,
-                    auto_start: false,
-                };
-                ready.fly(fleet, face).await
+                crate::tui::session::fly(ready, fleet, config, false).await
             }
             .await;
             session.close().await?;

@@ -10,6 +10,7 @@
 use super::config::UiConfig;
 use super::keymap::Context;
 use super::model::{LogEntry, Model};
+pub use crate::app::command::{Command, CommandError, Target};
 use crossterm::event::KeyEvent;
 use fleetmap_core::geo::Cell;
 use fleetmap_core::proto::severity::Severity;
@@ -66,75 +67,6 @@ impl Source {
     }
 }
 
-/// Which vehicles a command is for.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Target {
-    /// The whole fleet / the mission as a whole.
-    All,
-    /// One vehicle, by MAVLink system id.
-    Vehicle(u8),
-}
-
-impl fmt::Display for Target {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        match self {
-            Target::All => f.write_str("all vehicles"),
-            Target::Vehicle(id) => write!(f, "vehicle {id}"),
-        }
-    }
-}
-
-/// An operator command.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
-pub enum Command {
-    /// Start the mission.
-    Start,
-    /// Hold position (pause).
-    Hold,
-    /// Resume the paused mission.
-    Resume,
-    /// Return to launch.
-    Rtl,
-    /// Land where it is.
-    Land,
-    /// Arm the motors.
-    Arm,
-    /// Disarm the motors.
-    Disarm,
-    /// The battery was swapped; resume this vehicle's part of the mission.
-    BatterySwapped,
-}
-
-impl Command {
-    /// Upper-case verb for logs and dialogs.
-    pub fn verb(self) -> &'static str {
-        match self {
-            Command::Start => "START mission",
-            Command::Hold => "HOLD",
-            Command::Resume => "RESUME mission",
-            Command::Rtl => "RETURN TO LAUNCH",
-            Command::Land => "LAND",
-            Command::Arm => "ARM",
-            Command::Disarm => "DISARM",
-            Command::BatterySwapped => "BATTERY SWAPPED, resume",
-        }
-    }
-
-    /// What it will do, for the confirmation dialog.
-    pub(crate) fn consequence(self) -> &'static str {
-        match self {
-            Command::Start => "Uploads the missions and the vehicles take off.",
-            Command::Hold => "The vehicles stop and hold position.",
-            Command::Resume => "The vehicles continue the mission from where they stopped.",
-            Command::Rtl => "Flies back to the launch point and lands.",
-            Command::Land => "Descends and lands at its current position.",
-            Command::Arm => "Motors start spinning.",
-            Command::Disarm => "Motors STOP. In the air the vehicle falls.",
-            Command::BatterySwapped => "Takes off again and continues from its last vertex.",
-        }
-    }
-}
-
 /// A command with the id its [`JobResult`] will carry.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub struct CommandRequest {
@@ -169,36 +101,6 @@ pub struct JobResult {
     pub id: u64,
     /// `Ok(detail)` when the vehicles accepted it, `Err(why)` otherwise.
     pub outcome: Result<String, CommandError>,
-}
-
-/// Why a command the UI asked for was not carried out.
-#[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
-pub enum CommandError {
-    /// START without a run.
-    #[error("no mission is loaded (start fleetmap with --mission or --resume)")]
-    NoMission,
-    /// START again.
-    #[error("the mission is already running")]
-    AlreadyRunning,
-    /// A mission-level command before START.
-    #[error("no mission is running (START it first)")]
-    NotStarted,
-    /// A mission-level command without a running run.
-    #[error("no mission is running")]
-    NotRunning,
-    /// The command has no meaning for this kind of mission (why).
-    #[error("{0}")]
-    NotForThisMission(&'static str),
-    /// One or more vehicles refused or did not answer (each one's reason).
-    #[error("{}", .0.join("; "))]
-    Vehicles(Vec<String>),
-    /// The command never left the UI (why, saying so: a replay, the sample, a full queue…).
-    #[error("{0}")]
-    NotSent(&'static str),
-    /// START refused: the fleet check found a blocker (its summary; the findings are in
-    /// the log).
-    #[error("not started: {0} (fix what the log says, or restart with --ignore-check)")]
-    CheckFailed(String),
 }
 
 /// Zoom levels as (num, den): a cell is 2·num/den characters wide and num/den high.

@@ -1,6 +1,6 @@
 //! The live adapter's pure half: fleet snapshots and the runway-mapping state become the UI's
 //! [`Model`] (the async half, which feeds it and carries out the operator's commands, is
-//! `crate::app::session`).
+//! `crate::tui::session`).
 //!
 //! Nothing here reads a clock or touches the network: [`LiveLog`] keeps the messages (the
 //! vehicles' STATUSTEXT and the runner's progress lines) with the times it is given, and
@@ -11,6 +11,7 @@ use super::model::{
     MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Stat,
     Track, VehicleRow,
 };
+use crate::app::kind::RunView;
 use crate::fleet::{FleetSnapshot, VehicleSnapshot};
 use fleetmap_core::explore::dfs::VertexState;
 use fleetmap_core::explore::mapping::{self, MappingState, RobotStatus};
@@ -520,27 +521,6 @@ pub(crate) fn classification_mission(state: &ClassificationState, info: &RunInfo
         battery_swaps: 0,
         planner_time_s: planner_s,
         stats,
-    }
-}
-
-/// The run a live session shows.
-#[derive(Clone, Copy, Debug)]
-pub enum RunView<'a> {
-    /// Runway mapping (sweep, DFS).
-    Mapping(&'a MappingState),
-    /// Spatial classification (bandit + IP).
-    Classification(&'a ClassificationState),
-}
-
-impl<'a> From<&'a MappingState> for RunView<'a> {
-    fn from(s: &'a MappingState) -> Self {
-        RunView::Mapping(s)
-    }
-}
-
-impl<'a> From<&'a ClassificationState> for RunView<'a> {
-    fn from(s: &'a ClassificationState) -> Self {
-        RunView::Classification(s)
     }
 }
 

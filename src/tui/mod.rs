@@ -45,6 +45,7 @@ pub mod live;
 mod model;
 pub mod replay;
 pub mod sample;
+pub(crate) mod session;
 mod shell;
 mod update;
 pub mod view;

@@ -51,7 +51,7 @@ pub struct ShellIo {
 }
 
 /// The screen's refresh period: the default tick (10 frames a second at least), and the
-/// period at which the live session builds a new [`Model`] (`crate::app::session`).
+/// period at which the live session builds a new [`Model`] (`crate::tui::session`).
 pub const REFRESH: Duration = Duration::from_millis(100);
 
 /// Loop settings.

@@ -3,15 +3,15 @@
 
 use super::report::{self, ClassificationReport};
 use super::{BanditEvent, KIND, RunOptions};
+use crate::app::command::{Command, CommandError, Target};
 use crate::app::error::{Check, RunError, RunnerError};
 use crate::app::flight::Patience;
+use crate::app::kind::RunView;
 use crate::app::kind::{Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings};
 use crate::app::run::Progress;
 use crate::app::team::heard;
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
-use crate::tui::live::RunView;
-use crate::tui::{Command, CommandError, Target};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::planner::sortie::ClassificationState;
 use fleetmap_core::world::World;

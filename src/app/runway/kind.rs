@@ -3,8 +3,10 @@
 use super::report::{self, truth_coverage, truth_outlines};
 use super::{KIND, MappingEvent, Operator, RunOptions};
 use crate::app::blocking::run_blocking;
+use crate::app::command::{Command, CommandError, Target};
 use crate::app::error::RunError;
 use crate::app::flight::Patience;
+use crate::app::kind::RunView;
 use crate::app::kind::{
     Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, png_bytes,
 };
@@ -12,8 +14,6 @@ use crate::app::run::Progress;
 use crate::app::team::heard;
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
-use crate::tui::live::RunView;
-use crate::tui::{Command, CommandError, Target};
 use fleetmap_core::explore::mapping::{MappingState, RobotStatus};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;

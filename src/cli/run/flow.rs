@@ -6,7 +6,7 @@
 use super::dir::{connections_label, remembered_connections};
 use super::{ExportArgs, ReportArgs, ResumeArgs, RunArgs};
 use crate::app::kind::{Outcome, RunKind, RunSettings, report_json};
-use crate::app::launch::{Face, Flown, NewRun, Ready, Start, finish_exports, prepare, run_world};
+use crate::app::launch::{NewRun, Ready, Start, finish_exports, prepare, run_world};
 use crate::app::run::Progress;
 use crate::cli::vehicles::{ConnectArgs, Session, block_on};
 use crate::fleet::FleetHandle;
@@ -45,11 +45,9 @@ pub(super) async fn fly<K: RunKind>(
     let path = ready.run_dir.path().to_path_buf();
     if headless || !crate::cli::tui::interactive() {
         let (tx, printer) = print_progress();
-        let flown = ready.fly(fleet, Face::Headless(Some(tx))).await;
+        let flown = ready.fly_headless(fleet, Some(tx)).await;
         let _ = tokio::time::timeout(Duration::from_secs(1), printer).await;
-        let Flown::Headless { outcome, state } = flown? else {
-            bail!("a headless flight ended in the UI");
-        };
+        let (outcome, state) = flown?;
         return match outcome {
             Outcome::Finished => {
                 let (files, report) = finish_exports::<K>(&path, &state).await?;
@@ -72,11 +70,7 @@ pub(super) async fn fly<K: RunKind>(
             }
         };
     }
-    let face = Face::Ui {
-        config: ui_session(source),
-        auto_start: true,
-    };
-    let finished = matches!(ready.fly(fleet, face).await?, Flown::Ui { finished: true });
+    let finished = crate::tui::session::fly(ready, fleet, ui_session(source), true).await?;
     if finished {
         println!(
             "run finished: `fleetmap report {}` for the results",
@@ -92,8 +86,8 @@ pub(super) async fn fly<K: RunKind>(
 }
 
 /// The UI settings of a terminal session: default keys and thresholds, the UI log file.
-pub(crate) fn ui_session(source: crate::tui::Source) -> crate::app::session::SessionConfig {
-    crate::app::session::SessionConfig {
+pub(crate) fn ui_session(source: crate::tui::Source) -> crate::tui::session::SessionConfig {
+    crate::tui::session::SessionConfig {
         source,
         ui: crate::tui::UiConfig::default(),
         log_file: crate::cli::tui::ui_log_file().map(|p| p.display().to_string()),

@@ -22,12 +22,13 @@
 use crate::app::blocking::run_blocking;
 use crate::app::error::RunError;
 use crate::app::flight;
-use crate::app::kind::{Attached, CommandReply, Outcome, RunKind};
+use crate::app::kind::{Attached, CommandReply, Outcome, RunKind, RunView};
+use crate::app::launch::{OnFinish, Ready, exports_on_finish, run_world};
 use crate::app::preflight::StartCheck;
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
-use crate::tui::live::{LiveLog, RunInfo, RunView, build_model};
+use crate::tui::live::{LiveLog, RunInfo, build_model};
 use crate::tui::{
     App, Command, CommandError, CommandRequest, JobResult, Model, REFRESH, ShellIo, ShellOptions,
     Target, UiConfig,
@@ -51,8 +52,46 @@ const DRAIN: Duration = Duration::from_secs(1);
 /// a large map take seconds on a loaded laptop).
 const EXPORTS_ON_QUIT: Duration = Duration::from_secs(120);
 
-/// What to do with a finished run's final state `S` (write its exports).
-pub(crate) type OnFinish<S> = Box<dyn FnOnce(&RunDir, &S) + Send>;
+/// Why a session could not go on: the terminal failed, or (flying a run) its layer did.
+#[derive(Debug, thiserror::Error)]
+pub(crate) enum SessionError {
+    /// The run's layer failed (reading its directory).
+    #[error(transparent)]
+    Run(#[from] RunError),
+    /// The terminal failed.
+    #[error(transparent)]
+    Tui(#[from] crate::tui::TuiError),
+}
+
+/// Fly `ready` in the terminal UI on `fleet` until the operator quits (from the start with
+/// `auto_start`, otherwise at the operator's START, which checks the fleet again): whether
+/// the run finished. Its exports are written when it finishes.
+pub(crate) async fn fly<K: RunKind>(
+    ready: Ready<K>,
+    fleet: &FleetHandle,
+    config: SessionConfig,
+    auto_start: bool,
+) -> Result<bool, SessionError> {
+    let at = ready.run_dir.path().to_path_buf();
+    let world = run_blocking(move || {
+        RunDir::open(&at)
+            .ok()
+            .and_then(|rd| run_world(&rd, None).ok())
+    })
+    .await
+    .map_err(RunError::from)?
+    .flatten();
+    let mission = SessionRun::new::<K>(
+        ready.run_dir,
+        ready.state,
+        ready.options,
+        auto_start,
+        Some(exports_on_finish::<K>(world)),
+    )
+    .with_check(ready.check);
+    let SessionEnd::Quit { finished } = run(fleet.clone(), Some(mission), config).await?;
+    Ok(finished)
+}
 
 /// A run the session drives, of any kind (the session is written once, for every
 /// [`RunKind`]), with the fleet check of its start.
@@ -324,7 +363,7 @@ pub(crate) async fn run(
     fleet: FleetHandle,
     mission: Option<SessionRun>,
     cfg: SessionConfig,
-) -> Result<SessionEnd, RunError> {
+) -> Result<SessionEnd, crate::tui::TuiError> {
     if let Err(e) = fleet.set_snapshot_period(ui_snapshot_period(&fleet)).await {
         tracing::warn!("the fleet did not take the UI's snapshot period: {e}");
     }
