@@ -352,7 +352,7 @@ pub fn runway_mission(state: &MappingState, info: &RunInfo) -> MissionModel {
     }
     MissionModel {
         name: info.name.clone(),
-        kind: MissionKind::RunwayMapping,
+        kind: Some(MissionKind::RunwayMapping),
         phase,
         status,
         cells_classified: state.book.cells().count() as u32,
@@ -510,7 +510,7 @@ pub(crate) fn classification_mission(state: &ClassificationState, info: &RunInfo
         + state.epoch.as_ref().map_or(0.0, |e| e.planner_s);
     MissionModel {
         name: info.name.clone(),
-        kind: MissionKind::SpatialClassification,
+        kind: Some(MissionKind::SpatialClassification),
         phase,
         status,
         cells_classified: (keep + reject) as u32,

@@ -58,8 +58,8 @@ pub use config::{ConfigError, Thresholds, UiConfig};
 pub use keymap::{ALL_ACTIONS, Action, Context, Key, KeyMap, KeyMapError};
 pub use model::{
     Battery, CameraHealth, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapError,
-    MapKind, MapModel, MissionKind, MissionModel, MissionProgress, Model, Phase, Role, RunStatus,
-    Stat, Track, VehicleRow,
+    MapKind, MapModel, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Stat, Track,
+    VehicleRow,
 };
 pub use shell::{
     REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, install_panic_hook, run, run_loop,

@@ -139,7 +139,7 @@ pub fn runway_fixture() -> Model {
         map,
         mission: MissionModel {
             name: "runway field test".into(),
-            kind: MissionKind::RunwayMapping,
+            kind: Some(MissionKind::RunwayMapping),
             phase: Phase::Dfs,
             status: RunStatus::Running,
             cells_classified: 148,
@@ -245,7 +245,7 @@ pub fn classification_fixture() -> Model {
         map,
         mission: MissionModel {
             name: "6x6 hardware test".into(),
-            kind: MissionKind::SpatialClassification,
+            kind: Some(MissionKind::SpatialClassification),
             phase: Phase::Epoch { p: 4 },
             status: RunStatus::Paused,
             cells_classified: 17,
@@ -373,7 +373,7 @@ pub fn generated(n: usize, seed: u64) -> Model {
         map,
         mission: MissionModel {
             name: format!("generated fleet of {n}"),
-            kind: MissionKind::RunwayMapping,
+            kind: Some(MissionKind::RunwayMapping),
             phase: Phase::Dfs,
             status: RunStatus::Running,
             cells_classified: 2000,
@@ -689,7 +689,7 @@ impl SampleRun {
             map: self.map.clone(),
             mission: MissionModel {
                 name: "SAMPLE runway (synthetic)".into(),
-                kind: MissionKind::RunwayMapping,
+                kind: Some(MissionKind::RunwayMapping),
                 phase: self.phase,
                 status: if self.phase == Phase::Done {
                     RunStatus::Done

@@ -372,7 +372,10 @@ fn live_classification_run_shows_labels_obstacles_roads_and_the_team() {
         .filter(|&&c| m.map.get(c) == Some(CellState::Road))
         .count();
     assert!(roads > 0);
-    assert_eq!(m.mission.kind, MissionKind::SpatialClassification);
+    assert_eq!(
+        m.mission.kind,
+        Some(fleetmap_core::mission::definition::MissionKind::SpatialClassification)
+    );
     assert_eq!(m.mission.phase, Phase::Epoch { p: 1 });
     assert_eq!(m.mission.cells_classified, 2);
     assert_eq!(m.mission.cells_total, Some(s.bandit.len() as u32));

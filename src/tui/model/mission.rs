@@ -3,17 +3,45 @@
 use serde::{Deserialize, Serialize};
 use std::fmt;
 
-/// The mission being flown.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MissionKind {
-    /// No mission loaded.
-    #[default]
-    None,
-    /// Runway mapping (sweep, then the multi-robot DFS).
-    RunwayMapping,
-    /// Spatial classification (bandit + IP epochs).
-    SpatialClassification,
+/// The mission kind: the mission file's vocabulary (`None`: no mission loaded).
+pub(crate) use fleetmap_core::mission::definition::MissionKind;
+
+/// How replay files spell [`MissionModel::kind`]: `"none"`, `"runway_mapping"`,
+/// `"spatial_classification"` (the UI's own spelling before it used the mission file's kind).
+mod kind_replay {
+    use super::MissionKind;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// The recorded form (snake_case unit variants).
+    #[derive(Serialize, Deserialize)]
+    #[serde(rename_all = "snake_case")]
+    enum Recorded {
+        None,
+        RunwayMapping,
+        SpatialClassification,
+    }
+
+    pub(super) fn serialize<S: Serializer>(
+        k: &Option<MissionKind>,
+        s: S,
+    ) -> Result<S::Ok, S::Error> {
+        match k {
+            None => Recorded::None,
+            Some(MissionKind::RunwayMapping) => Recorded::RunwayMapping,
+            Some(MissionKind::SpatialClassification) => Recorded::SpatialClassification,
+        }
+        .serialize(s)
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(
+        d: D,
+    ) -> Result<Option<MissionKind>, D::Error> {
+        Ok(match Recorded::deserialize(d)? {
+            Recorded::None => None,
+            Recorded::RunwayMapping => Some(MissionKind::RunwayMapping),
+            Recorded::SpatialClassification => Some(MissionKind::SpatialClassification),
+        })
+    }
 }
 
 /// The mission's phase.
@@ -114,8 +142,9 @@ pub struct Stat {
 pub struct MissionModel {
     /// Human name of the mission (from its definition file).
     pub name: String,
-    /// Kind.
-    pub kind: MissionKind,
+    /// Its kind (`None`: no mission loaded).
+    #[serde(with = "kind_replay")]
+    pub kind: Option<MissionKind>,
     /// Phase.
     pub phase: Phase,
     /// Running, paused, …

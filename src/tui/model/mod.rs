@@ -20,7 +20,8 @@ mod vehicle;
 
 pub use log::LogEntry;
 pub use map::{CellState, MapError, MapKind, MapModel, Track};
-pub use mission::{DfsProgress, MissionKind, MissionModel, Phase, RunStatus, Stat};
+pub(crate) use mission::MissionKind;
+pub use mission::{DfsProgress, MissionModel, Phase, RunStatus, Stat};
 pub use vehicle::{
     Battery, CameraHealth, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleRow,
 };

@@ -25,17 +25,17 @@ pub fn bar(done: u32, total: u32, width: usize) -> String {
     format!("[{}{}]", "#".repeat(filled), ".".repeat(width - filled))
 }
 
-fn kind_name(k: MissionKind) -> &'static str {
+fn kind_name(k: Option<MissionKind>) -> &'static str {
     match k {
-        MissionKind::None => "no mission",
-        MissionKind::RunwayMapping => "runway mapping",
-        MissionKind::SpatialClassification => "spatial classification",
+        None => "no mission",
+        Some(MissionKind::RunwayMapping) => "runway mapping",
+        Some(MissionKind::SpatialClassification) => "spatial classification",
     }
 }
 
 fn lines(m: &MissionModel, width: u16) -> Vec<Line<'static>> {
     let mut out = Vec::new();
-    if m.kind == MissionKind::None && m.name.is_empty() {
+    if m.kind.is_none() && m.name.is_empty() {
         out.push(Line::styled("No mission loaded.", theme::strong()));
         return out;
     }
@@ -92,7 +92,7 @@ fn lines(m: &MissionModel, width: u16) -> Vec<Line<'static>> {
             ),
         ]));
     }
-    if m.kind == MissionKind::SpatialClassification || m.epochs_done > 0 {
+    if m.kind == Some(MissionKind::SpatialClassification) || m.epochs_done > 0 {
         out.push(Line::from(vec![
             label("Epochs"),
             Span::styled(format!("{} done", m.epochs_done), theme::text()),
