@@ -237,6 +237,9 @@ pub trait RunKind: Send + Sync + 'static {
     ) -> impl Future<Output = Result<Self::State, RunError>> + Send;
     /// What to tell the operator about a new run in `dir`.
     fn started_line(dir: &std::path::Path, state: &Self::State) -> String;
+    /// What `fleetmap check` prints of this kind's own section of the mission file `def`,
+    /// a line each, label first (after the lines every kind shares).
+    fn summary_lines(def: &MissionDef) -> Vec<String>;
     /// Make a saved state ready to fly again: wait up to `wait` for its vehicles, and (unless
     /// the run resumes by itself) take `fleetmap resume` as the operator's "battery swapped".
     /// Returns what to tell the operator.
@@ -325,4 +328,9 @@ pub(crate) fn png_bytes(img: &image::RgbImage) -> Result<Vec<u8>, RunError> {
     let mut buf = std::io::Cursor::new(Vec::new());
     img.write_to(&mut buf, image::ImageFormat::Png)?;
     Ok(buf.into_inner())
+}
+
+/// `n` and the word: `1 obstacle`, `3 obstacles`.
+pub(crate) fn plural(n: usize, one: &str, many: &str) -> String {
+    format!("{n} {}", if n == 1 { one } else { many })
 }

@@ -5,8 +5,9 @@
 //! `fleetmap check --connect CONN MISSION.toml` then checks the fleet the mission would fly
 //! (`app::preflight`, docs/fleet-check.md): every finding with its fix, exit 1 on a blocker.
 
+use crate::app::kind::plural;
 use clap::Args;
-use fleetmap_core::mission::definition::{DefErrors, MissionDef, MissionKind, Origin, SweepBox};
+use fleetmap_core::mission::definition::{DefErrors, MissionDef, Origin};
 use std::fmt::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -128,8 +129,14 @@ fn sysids<'a>(
         .join(", ")
 }
 
-fn plural(n: usize, one: &str, many: &str) -> String {
-    format!("{n} {}", if n == 1 { one } else { many })
+/// A kind's own summary lines ([`crate::app::kind::RunKind::summary_lines`]).
+struct SummaryLines<'a>(&'a MissionDef);
+
+impl crate::app::kinds::KindVisitor for SummaryLines<'_> {
+    type Output = Vec<String>;
+    fn visit<K: crate::app::kind::RunKind>(self) -> Vec<String> {
+        K::summary_lines(self.0)
+    }
 }
 
 /// The human summary printed on success.
@@ -197,87 +204,15 @@ pub fn summary(def: &MissionDef, file: &str) -> String {
         "  battery     {} min, return home at {} %",
         def.battery.flight_time_min, def.battery.rtl_reserve_pct
     );
-    match def.kind {
-        MissionKind::RunwayMapping => {
-            let _ = writeln!(
-                s,
-                "  cells       {}",
-                plural(def.area.obstacles.len(), "obstacle", "obstacles")
-            );
-            if let Some(r) = &def.runway {
-                let sweep = match r.sweep {
-                    SweepBox::Local { north_m, east_m } => format!(
-                        "north {} to {} m, east {} to {} m from the origin ({} cells)",
-                        north_m[0],
-                        north_m[1],
-                        east_m[0],
-                        east_m[1],
-                        def.sweep_cells().map_or(0, |c| c.len())
-                    ),
-                    SweepBox::Corners {
-                        south_west,
-                        north_east,
-                    } => format!(
-                        "({:.6}, {:.6}) to ({:.6}, {:.6})",
-                        south_west.lat, south_west.lon, north_east.lat, north_east.lon
-                    ),
-                };
-                let _ = writeln!(s, "  sweep       {sweep}");
-                let _ = writeln!(
-                    s,
-                    "  classifier  {} images per cell, {} votes, threshold {}, {} dilations, \
-                     black fraction {}, FOV {:.2} deg",
-                    r.images_per_cell,
-                    r.votes_required,
-                    r.intensity_threshold,
-                    r.dilations,
-                    r.black_fraction,
-                    def.camera.hfov_deg
-                );
+    // What only this kind's section of the file says: the kind's own lines.
+    match crate::app::kinds::of_mission(def, SummaryLines(def)) {
+        Ok(lines) => {
+            for l in lines {
+                let _ = writeln!(s, "  {l}");
             }
         }
-        MissionKind::SpatialClassification => {
-            let roads = match &def.area.roads {
-                Some(r) => plural(r.len(), "road cell", "road cells"),
-                None => "no road restriction".to_string(),
-            };
-            let roads_note = match (&def.area.roads, def.area.roads_are_candidates) {
-                (Some(_), true) => " (roads included)",
-                (Some(_), false) => " (roads excluded)",
-                (None, _) => "",
-            };
-            let _ = writeln!(
-                s,
-                "  cells       {}; {roads}; {}{roads_note}",
-                plural(def.area.obstacles.len(), "obstacle", "obstacles"),
-                plural(
-                    def.candidate_cells().len(),
-                    "candidate cell",
-                    "candidate cells"
-                ),
-            );
-            if let Some(c) = &def.classification {
-                let cap = c
-                    .charger_capacity
-                    .map_or("no limit".to_string(), |c| c.to_string());
-                let _ = writeln!(
-                    s,
-                    "  planner     theta={} epsilon={} delta={} D={} B={} Td={} Tc={} K={} C={cap}",
-                    c.theta,
-                    c.epsilon,
-                    c.delta,
-                    c.epoch_goals,
-                    c.batch_size,
-                    c.drone_cycle_steps,
-                    c.station_cycle_steps,
-                    c.max_cycles
-                );
-                let _ = writeln!(
-                    s,
-                    "  green       HSV {:?} to {:?}, positive at {} of the pixels",
-                    c.green.hsv_min, c.green.hsv_max, c.green.fraction_threshold
-                );
-            }
+        Err(e) => {
+            let _ = writeln!(s, "  ({e})");
         }
     }
     s

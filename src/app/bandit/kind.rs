@@ -81,6 +81,10 @@ impl RunKind for Classification {
         Ok(super::new_state(fleet, def, wait, settings.lock_step).await?)
     }
 
+    fn summary_lines(def: &MissionDef) -> Vec<String> {
+        super::summary::summary_lines(def)
+    }
+
     fn started_line(dir: &Path, state: &ClassificationState) -> String {
         format!(
             "run directory {} — {}: {} candidate cells, {} drone(s), {} station(s), {:?} separation",

@@ -79,6 +79,7 @@ mod pilot;
 mod runner;
 mod sortie;
 mod stragglers;
+mod summary;
 #[cfg(test)]
 mod tests;
 mod upload;

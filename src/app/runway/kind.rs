@@ -69,6 +69,10 @@ impl RunKind for Runway {
         Ok(state)
     }
 
+    fn summary_lines(def: &MissionDef) -> Vec<String> {
+        super::summary::summary_lines(def)
+    }
+
     fn started_line(dir: &Path, state: &MappingState) -> String {
         format!(
             "run directory {} — grid origin {:.7},{:.7}, {} m cells, {} drone(s)",

@@ -91,6 +91,7 @@ pub use self::kind::Runway;
 mod intake;
 mod pilot;
 mod runner;
+mod summary;
 mod sweep;
 mod visit_captures;
 
