@@ -20,8 +20,7 @@ use crate::common;
 use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
-use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::mission::definition::MissionDef;
+use fleetmap::store::RunDir;
 use fleetmap_core::planner::sortie::{ClassificationState, Role};
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
@@ -143,23 +142,6 @@ async fn team(compass: &[u8], dark: Option<u8>, dark_for: Duration) -> Team {
     }
 }
 
-fn hardware() -> (World, MissionDef) {
-    let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
-    let def = MissionDef::parse(bandit_sim::HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
-    (world, def)
-}
-
-fn journal(dir: &Path) -> Vec<BanditEvent> {
-    RunDir::open(dir)
-        .unwrap()
-        .read_events::<BanditEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|e| e.event)
-        .collect()
-}
-
 /// Fly `state` in `dir` to its end (or until `stop` says so of a progress line); returns the
 /// progress lines and whether it was stopped.
 async fn fly(
@@ -179,19 +161,14 @@ fn check_finished(s: &ClassificationState, world: &World) {
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resume() {
-    let (world, def) = hardware();
+    let (world, _) = common::bandit::hardware();
     let team = team(&[4], None, Duration::ZERO).await;
-    let state = bandit::new_state(&team.fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(
-        &dir,
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
+    let common::NewRun {
+        state,
+        dir,
+        tmp: _tmp,
+        ..
+    } = common::bandit::new_run(&team.fleet).await;
     // Stopped at the end of the first sortie flown without drone 4.
     let (lines, stopped) = fly(&team, &dir, state, |l| {
         l.contains("every drone on its station")
@@ -246,7 +223,7 @@ async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resu
         !lines.iter().any(|l| l.contains("drone 4 cannot start")),
         "a member out is not sent off again while it is not ready: {lines:#?}"
     );
-    let events = journal(&dir);
+    let events = common::journal::<BanditEvent>(&dir);
     let outs: Vec<&BanditEvent> = events
         .iter()
         .filter(|e| matches!(e, BanditEvent::VehicleOut { sysid: 4, .. }))
@@ -281,19 +258,14 @@ async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resu
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
-    let (world, def) = hardware();
+    let (world, _) = common::bandit::hardware();
     let team = team(&[], Some(4), Duration::from_secs(120)).await;
-    let state = bandit::new_state(&team.fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(
-        &dir,
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
+    let common::NewRun {
+        state,
+        dir,
+        tmp: _tmp,
+        ..
+    } = common::bandit::new_run(&team.fleet).await;
     let (lines, _) = fly(&team, &dir, state, |_| false).await;
     assert!(team.went_dark.load(Ordering::SeqCst));
     let done: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
@@ -304,7 +276,7 @@ async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
         .find(|l| l.contains("drone 4 cannot start"))
         .expect("the operator is told");
     assert!(told.contains("tried again"), "{told}");
-    let events = journal(&dir);
+    let events = common::journal::<BanditEvent>(&dir);
     let out = events
         .iter()
         .position(|e| {
@@ -335,19 +307,13 @@ async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn no_drone_that_can_start_stops_the_run_saying_what_to_fix() {
-    let (_, def) = hardware();
     let team = team(&[1, 2, 3, 4], None, Duration::ZERO).await;
-    let state = bandit::new_state(&team.fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    let run = RunDir::create(
-        &dir,
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
+    let common::NewRun {
+        state,
+        run,
+        dir,
+        tmp: _tmp,
+    } = common::bandit::new_run(&team.fleet).await;
     let hub = fleetmap::app::images::image_hub(&team.fleet);
     let (tx, mut rx) = mpsc::unbounded_channel();
     let opts = RunOptions {

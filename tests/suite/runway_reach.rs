@@ -24,6 +24,8 @@ use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;
 use std::time::Duration;
 
+use crate::common;
+
 /// Grass with one asphalt band 200 m east-west by 24 m, its centre 10 m north of the first
 /// home, drifting east (away from home) at `ve` m/s: wide enough that the sweep box stays over
 /// it for the first two minutes.
@@ -146,14 +148,7 @@ async fn fly(world_text: &str, text: &str, drones: u8, minutes: f64, seed: u64) 
     let state: MappingState = RunDir::open(&path).unwrap().load_state().unwrap().unwrap();
     let cov = truth_coverage(&state.grid, &world, 0.0).unwrap();
     let report = report(&state, Some(&cov));
-    let events = RunDir::open(&path)
-        .unwrap()
-        .read_events::<MappingEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|l| l.event)
-        .collect();
+    let events = common::journal::<MappingEvent>(&path);
     let _ = sim.stop().await;
     Ran {
         outcome,

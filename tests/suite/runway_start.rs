@@ -9,11 +9,10 @@
 //! (ten minutes with auto-resume), then the run ends saying what a person must fix.
 
 use fleetmap::app::kind::{OperatorTask, Outcome};
+use fleetmap::app::runway::MappingEvent;
 use fleetmap::app::runway::report::{report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
-use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::explore::dfs::Sharing;
+use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
@@ -62,17 +61,6 @@ fn team(world: &World, drones: usize, compass: (u8, f64)) -> (FleetHandle, SimTa
     (fleet, sim)
 }
 
-fn journal(dir: &Path) -> Vec<MappingEvent> {
-    RunDir::open(dir)
-        .unwrap()
-        .read_events::<MappingEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|e| e.event)
-        .collect()
-}
-
 /// Fly `state` in `dir` with auto-resume until it ends, or until `stop` says so of a
 /// progress line (the GCS dies there); returns the lines, and the outcome if it ended.
 async fn fly(
@@ -93,12 +81,12 @@ async fn a_drone_that_cannot_take_off_leaves_the_tree_and_rejoins_when_fixed() {
     );
     let def = MissionDef::parse(&text, "strip, two drones").unwrap();
     let (fleet, sim) = team(&world, 2, (2, FIXED_AT_S));
-    let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
+    let common::NewRun {
+        state,
+        dir,
+        tmp: _tmp,
+        ..
+    } = common::runway::new_run(&fleet, &def, &text).await;
     // Stopped at drone 1's next step after drone 2 was grounded.
     let mut grounded = false;
     let (lines, ended) = fly(&fleet, &dir, state, |l| {
@@ -145,7 +133,7 @@ async fn a_drone_that_cannot_take_off_leaves_the_tree_and_rejoins_when_fixed() {
     assert!(r2.grounded.is_none());
     assert!(r2.flight_s > 10.0, "drone 2 never flew after it rejoined");
     assert_eq!(r2.battery_swaps, 0, "a grounding is not a battery swap");
-    let events = journal(&dir);
+    let events = common::journal::<MappingEvent>(&dir);
     let out = events
         .iter()
         .position(|e| {
@@ -187,12 +175,12 @@ async fn a_lone_drone_that_is_never_fixed_ends_the_run_saying_what_to_fix() {
     let text = common::strip_mission();
     let def = MissionDef::parse(&text, "strip").unwrap();
     let (fleet, sim) = team(&world, 1, (1, f64::INFINITY));
-    let state = fleetmap::app::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
+    let common::NewRun {
+        state,
+        dir,
+        tmp: _tmp,
+        ..
+    } = common::runway::new_run(&fleet, &def, &text).await;
     let t0 = tokio::time::Instant::now();
     let (lines, ended) = fly(&fleet, &dir, state, |_| false).await;
     match &ended {
