@@ -31,12 +31,7 @@ async fn a_run_whose_pictures_never_arrive_stops_with_a_reason() {
     let d = bandit_sim::start_team(bandit_sim::HARDWARE_TEAM, &world, &setup)
         .await
         .unwrap();
-    let common::NewRun {
-        state,
-        run,
-        dir,
-        tmp: _tmp,
-    } = common::bandit::new_run(&d.fleet).await;
+    let (state, run, dir, _tmp) = common::bandit::new_run(&d.fleet).await;
     // The image intake listens to a fleet with no link: the pictures the simulated cameras
     // take and send never reach it.
     let (_events, deaf_rx) = tokio::sync::mpsc::channel(1);

@@ -97,12 +97,7 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
         fleet::FleetConfig::at_speedup(SPEEDUP),
         handle.clock(),
     );
-    let common::NewRun {
-        state,
-        run,
-        tmp: _tmp,
-        ..
-    } = common::bandit::new_run(&fleet).await;
+    let (state, run, _, _tmp) = common::bandit::new_run(&fleet).await;
     let hub = fleetmap::app::images::image_hub(&fleet);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let label = name.to_string();
@@ -224,12 +219,7 @@ async fn fly_virtual(
     let (fleet, sim) = bandit_sim::start_virtual(bandit_sim::HARDWARE_TEAM, &world, &setup)
         .await
         .unwrap();
-    let common::NewRun {
-        state,
-        run,
-        tmp: _tmp,
-        ..
-    } = common::bandit::new_run(&fleet).await;
+    let (state, run, _, _tmp) = common::bandit::new_run(&fleet).await;
     let hub = fleetmap::app::images::image_hub(&fleet);
     let done = bandit::run(fleet.clone(), &hub, run, state, RunOptions::default())
         .await

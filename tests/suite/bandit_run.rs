@@ -643,23 +643,14 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
     assert_eq!(v["unclassified"], serde_json::json!([]));
     assert_eq!(v["journal_measurements"].as_u64(), Some(done.measurements));
     let png = d.join("p.png");
-    let out = common::fleetmap()
-        .command()
-        .args([
-            "export",
-            run_dir.to_str().unwrap(),
-            "--format",
-            "png",
-            "--out",
-            png.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::fleetmap().ok(&[
+        "export",
+        run_dir.to_str().unwrap(),
+        "--format",
+        "png",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
     assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
     println!(
         "killed in epoch {p_killed} after {in_sortie} measurements of the sortie ({killed_at:.1} s); \

@@ -28,7 +28,6 @@ use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::transport::{LinkOptions, MemoryPort, open_memory_link};
 use fleetmap_sim::harness::Sim;
 use fleetmap_sim::server::{SimTask, spawn_memory};
-use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -142,17 +141,6 @@ async fn team(compass: &[u8], dark: Option<u8>, dark_for: Duration) -> Team {
     }
 }
 
-/// Fly `state` in `dir` to its end (or until `stop` says so of a progress line); returns the
-/// progress lines and whether it was stopped.
-async fn fly(
-    team: &Team,
-    dir: &Path,
-    state: ClassificationState,
-    stop: impl Fn(&str) -> bool,
-) -> (Vec<String>, bool) {
-    common::bandit::run_until(&team.fleet, dir, state, stop).await
-}
-
 fn check_finished(s: &ClassificationState, world: &World) {
     assert!(s.is_finished());
     assert_eq!(s.bandit.keep(), world.green_cells(), "keep set");
@@ -163,14 +151,9 @@ fn check_finished(s: &ClassificationState, world: &World) {
 async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resume() {
     let (world, _) = common::bandit::hardware();
     let team = team(&[4], None, Duration::ZERO).await;
-    let common::NewRun {
-        state,
-        dir,
-        tmp: _tmp,
-        ..
-    } = common::bandit::new_run(&team.fleet).await;
+    let (state, _, dir, _tmp) = common::bandit::new_run(&team.fleet).await;
     // Stopped at the end of the first sortie flown without drone 4.
-    let (lines, stopped) = fly(&team, &dir, state, |l| {
+    let (lines, stopped) = common::bandit::run_until(&team.fleet, &dir, state, |l| {
         l.contains("every drone on its station")
     })
     .await;
@@ -203,7 +186,7 @@ async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resu
     );
     assert_eq!(saved.out.len(), 1);
     // Resumed: still out (its check still fails), and the three others finish.
-    let (lines, stopped) = fly(&team, &dir, saved, |_| false).await;
+    let (lines, stopped) = common::bandit::run_until(&team.fleet, &dir, saved, |_| false).await;
     assert!(!stopped);
     let done: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
     check_finished(&done, &world);
@@ -260,13 +243,8 @@ async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resu
 async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
     let (world, _) = common::bandit::hardware();
     let team = team(&[], Some(4), Duration::from_secs(120)).await;
-    let common::NewRun {
-        state,
-        dir,
-        tmp: _tmp,
-        ..
-    } = common::bandit::new_run(&team.fleet).await;
-    let (lines, _) = fly(&team, &dir, state, |_| false).await;
+    let (state, _, dir, _tmp) = common::bandit::new_run(&team.fleet).await;
+    let (lines, _) = common::bandit::run_until(&team.fleet, &dir, state, |_| false).await;
     assert!(team.went_dark.load(Ordering::SeqCst));
     let done: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
     check_finished(&done, &world);
@@ -308,12 +286,7 @@ async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn no_drone_that_can_start_stops_the_run_saying_what_to_fix() {
     let team = team(&[1, 2, 3, 4], None, Duration::ZERO).await;
-    let common::NewRun {
-        state,
-        run,
-        dir,
-        tmp: _tmp,
-    } = common::bandit::new_run(&team.fleet).await;
+    let (state, run, dir, _tmp) = common::bandit::new_run(&team.fleet).await;
     let hub = fleetmap::app::images::image_hub(&team.fleet);
     let (tx, mut rx) = mpsc::unbounded_channel();
     let opts = RunOptions {

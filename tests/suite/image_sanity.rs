@@ -219,12 +219,7 @@ async fn fly_over(rule: Rule, seed: u64, payload_rate: Option<u32>) -> Flown {
     drop(ev_tx);
     let sim = server::spawn_memory(sim, ports);
     let fleet = fleet::spawn(links, ev_rx, FleetConfig::default(), MonotonicClock::new());
-    let common::NewRun {
-        state,
-        run: run_dir,
-        dir: path,
-        tmp: _tmp,
-    } = common::runway::new_run(&fleet, &def, &text).await;
+    let (state, run_dir, path, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
     let hub = images::spawn(&fleet);
     let (tx, mut rx) = mpsc::unbounded_channel::<fleetmap::app::run::Progress>();
     let lines = Arc::new(Mutex::new(Vec::new()));

@@ -224,17 +224,8 @@ fn scenarios() -> PathBuf {
 }
 
 fn plan_json(file: &str) -> serde_json::Value {
-    let out = common::fleetmap()
-        .command()
-        .args(["plan", "--json", "--scenario"])
-        .arg(scenarios().join(file))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let scenario = scenarios().join(file);
+    let out = common::fleetmap().ok(&["plan", "--json", "--scenario", scenario.to_str().unwrap()]);
     serde_json::from_slice(&out.stdout).unwrap()
 }
 

@@ -137,24 +137,9 @@ async fn fly(drones: usize, seed: u64) -> Finished {
     let (fleet, sim) = demo::start_virtual(&spec, world.clone(), &cfg)
         .await
         .unwrap();
-    let common::NewRun {
-        state,
-        run: run_dir,
-        dir: path,
-        tmp: _tmp,
-    } = common::runway::new_run(&fleet, &def, &text).await;
+    let (state, run_dir, path, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
     let hub = images::spawn(&fleet);
-    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
-    let printer = tokio::spawn(async move {
-        while let Some(line) = rx.recv().await {
-            eprintln!("{line}");
-        }
-    });
-    let opts = RunOptions {
-        auto_resume: true,
-        progress: Some(tx),
-        ..RunOptions::default()
-    };
+    let (opts, printer) = common::runway::printed_options();
     let outcome = runway::run(fleet.clone(), &hub, run_dir, state, opts)
         .await
         .unwrap();

@@ -113,12 +113,7 @@ async fn fly_mission(world: World, text: &str, mut cfg: DemoConfig, onboard: boo
             }
         })
     };
-    let common::NewRun {
-        state,
-        run: run_dir,
-        dir: path,
-        tmp: _tmp,
-    } = common::runway::new_run(&fleet, &def, text).await;
+    let (state, run_dir, path, _tmp) = common::runway::new_run(&fleet, &def, text).await;
     let hub = images::spawn(&fleet);
     let opts = RunOptions {
         auto_resume: true,

@@ -15,7 +15,7 @@ use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
 use fleetmap::app::kind::RunKind;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent, RunOptions};
+use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState, Phase, RobotStatus};
@@ -124,17 +124,7 @@ async fn fly(world_text: &str, text: &str, drones: u8, minutes: f64, seed: u64) 
     let path = tmp.path().join("run");
     let run_dir = RunDir::create(&path, RunMeta::new(runway::KIND, 0), Some(text)).unwrap();
     let hub = images::spawn(&fleet);
-    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
-    let printer = tokio::spawn(async move {
-        while let Some(line) = rx.recv().await {
-            eprintln!("{line}");
-        }
-    });
-    let opts = RunOptions {
-        auto_resume: true,
-        progress: Some(tx),
-        ..RunOptions::default()
-    };
+    let (opts, printer) = common::runway::printed_options();
     let t0 = fleet.clock().now();
     let outcome = tokio::time::timeout(
         Duration::from_secs(2 * 3600),

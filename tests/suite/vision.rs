@@ -482,19 +482,19 @@ fn classify_command_reports_each_image() {
 
 #[test]
 fn bench_classify_prints_images_per_second() {
-    let out = common::fleetmap()
-        .command()
-        .args([
-            "bench", "classify", "--width", "96", "--height", "64", "--images", "3",
-        ])
-        .args(["--seconds", "0.05", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = common::fleetmap().ok(&[
+        "bench",
+        "classify",
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--images",
+        "3",
+        "--seconds",
+        "0.05",
+        "--json",
+    ]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["images_per_second"].as_f64().unwrap() > 0.0);
     assert!(v["images_per_second_parallel"].as_f64().unwrap() > 0.0);

@@ -49,6 +49,18 @@ impl Bin {
             .unwrap_or_else(|e| panic!("cannot run {}: {e}", self.path.display()))
     }
 
+    /// [`Bin::output`] of a run that must succeed: the test fails showing its stderr
+    /// otherwise.
+    pub fn ok(&self, args: &[impl AsRef<OsStr>]) -> Output {
+        let out = self.output(args);
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        out
+    }
+
     /// [`Bin::output`] as (exit code, stdout, stderr), with -1 for a program ended by a
     /// signal and the text decoded lossily.
     pub fn run(&self, args: &[impl AsRef<OsStr>]) -> (i32, String, String) {

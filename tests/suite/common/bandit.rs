@@ -55,10 +55,5 @@ pub async fn new_run(fleet: &FleetHandle) -> super::NewRun<ClassificationState> 
         Some(bandit_sim::HARDWARE_MISSION),
     )
     .unwrap();
-    super::NewRun {
-        state,
-        run,
-        dir,
-        tmp,
-    }
+    (state, run, dir, tmp)
 }

@@ -31,18 +31,15 @@ pub fn journal<E: serde::de::DeserializeOwned>(dir: &std::path::Path) -> Vec<E> 
         .collect()
 }
 
-/// A new run in a run directory of its own, as a test starts one ([`bandit::new_run`],
-/// [`runway::new_run`]).
-pub struct NewRun<S> {
-    /// The mission's first state.
-    pub state: S,
-    /// The run directory as created.
-    pub run: fleetmap::store::RunDir,
-    /// Its path (`run` in `tmp`).
-    pub dir: std::path::PathBuf,
-    /// The temporary directory, removed when dropped.
-    pub tmp: tempfile::TempDir,
-}
+/// A new run as a test starts one ([`bandit::new_run`], [`runway::new_run`]): the mission's
+/// first state, the run directory as created, its path (`run` in the temporary directory) and
+/// the temporary directory (removed when dropped).
+pub type NewRun<S> = (
+    S,
+    fleetmap::store::RunDir,
+    std::path::PathBuf,
+    tempfile::TempDir,
+);
 
 /// A take-off to 10 m, then `waypoints` waypoints for vehicle `k` near 37.1968° N,
 /// 80.5781° W: northward 1e-5° apart, vehicle `k` 1e-5° × `k` east, at 10 to 14 m.

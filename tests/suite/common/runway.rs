@@ -70,10 +70,22 @@ pub async fn new_run(
     let tmp = tempfile::tempdir().unwrap();
     let dir = tmp.path().join("run");
     let run = RunDir::create(&dir, RunMeta::new(KIND, 0), Some(text)).unwrap();
-    super::NewRun {
-        state,
-        run,
-        dir,
-        tmp,
-    }
+    (state, run, dir, tmp)
+}
+
+/// Options for a run that resumes by itself after a battery swap (`auto_resume`), its progress
+/// lines printed to stderr by the returned task, which ends when the run drops its sender.
+pub fn printed_options() -> (RunOptions, tokio::task::JoinHandle<()>) {
+    let (tx, mut rx) = mpsc::unbounded_channel();
+    let printer = tokio::spawn(async move {
+        while let Some(line) = rx.recv().await {
+            eprintln!("{line}");
+        }
+    });
+    let opts = RunOptions {
+        auto_resume: true,
+        progress: Some(tx),
+        ..RunOptions::default()
+    };
+    (opts, printer)
 }

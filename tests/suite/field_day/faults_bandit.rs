@@ -52,12 +52,7 @@ async fn fly(name: &str, faults: &str, setup: SimSetup, crew: &[u8], kill_at: us
         .with_env_filter("warn,highs=error")
         .try_init();
     let (fleet, sim) = start(&setup, faults, crew).await;
-    let common::NewRun {
-        state,
-        dir,
-        tmp: _tmp,
-        ..
-    } = common::bandit::new_run(&fleet).await;
+    let (state, _, dir, _tmp) = common::bandit::new_run(&fleet).await;
     let mut n = 0;
     let (mut lines, killed) = run_until(&fleet, &dir, state, |_| {
         n += 1;

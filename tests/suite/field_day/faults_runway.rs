@@ -108,12 +108,7 @@ async fn fly(name: &str, faults: &str, onboard: bool, kill: Option<Kill<'_>>) ->
     let (fleet, sim) = demo::start_virtual(&spec, world.clone(), &cfg)
         .await
         .unwrap();
-    let common::NewRun {
-        state,
-        dir,
-        tmp: _tmp,
-        ..
-    } = common::runway::new_run(&fleet, &def, &text).await;
+    let (state, _, dir, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
     let mut marked: Option<usize> = None;
     let (mut lines, killed) = run(&fleet, &dir, state, |l| {
         let Some(k) = &kill else { return false };

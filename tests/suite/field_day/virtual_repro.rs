@@ -173,12 +173,7 @@ fn fly_runway(seed: u64, radio: bool, battery_min: f64) -> Flight {
         let (fleet, sim) = demo::start_virtual("3xcopter:ardupilot", world.clone(), &cfg)
             .await
             .unwrap();
-        let common::NewRun {
-            state,
-            run: run_dir,
-            dir,
-            tmp: _tmp,
-        } = common::runway::new_run(&fleet, &def, &text).await;
+        let (state, run_dir, dir, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
         let hub = images::spawn(&fleet);
         let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
         let opts = RunOptions {
@@ -273,12 +268,7 @@ fn fly_bandit(seed: u64) -> Flight {
         let (fleet, sim) = bandit_sim::start_virtual(bandit_sim::HARDWARE_TEAM, &world, &setup)
             .await
             .unwrap();
-        let common::NewRun {
-            state,
-            run,
-            dir,
-            tmp: _tmp,
-        } = common::bandit::new_run(&fleet).await;
+        let (state, run, dir, _tmp) = common::bandit::new_run(&fleet).await;
         let hub = images::image_hub(&fleet);
         let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
         let opts = bandit::RunOptions {
