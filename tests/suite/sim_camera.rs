@@ -222,7 +222,7 @@ struct Gcs {
 
 impl Gcs {
     fn send(&mut self, msg: MavMessage) {
-        let h = self.headers.next();
+        let h = self.headers.next_header();
         self.sim.send(1, &h, &msg);
     }
 

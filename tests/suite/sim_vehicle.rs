@@ -47,7 +47,7 @@ impl Gcs {
     }
 
     fn send(&mut self, msg: MavMessage) {
-        let h = self.headers.next();
+        let h = self.headers.next_header();
         self.sim.send(self.sysid, &h, &msg);
     }
 

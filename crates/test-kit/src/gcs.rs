@@ -66,7 +66,7 @@ pub struct Headers {
 
 impl Headers {
     /// The header of the next message.
-    pub fn next(&mut self) -> MavHeader {
+    pub fn next_header(&mut self) -> MavHeader {
         let gcs = Endpoint::gcs();
         let h = MavHeader {
             system_id: u32::from(gcs.sysid),
