@@ -13,6 +13,8 @@ The crates are the architecture (docs/architecture.md, "Crates"):
   must not contain HiGHS (good_lp, highs-sys, cmake), the terminal UI (ratatui, crossterm),
   the simulator or the ground station, so that `cargo build -p fleetmap-camera` builds none
   of them (the core comes without its `highs` feature).
+* `fleetmap-test-kit`, what the integration tests share, is a dev-dependency of the camera
+  too: the same holds for it, so that `cargo test -p fleetmap-camera` builds none of them.
 * The ground station built without its default features (`--no-default-features`, no `sim`)
   must not contain `fleetmap-sim`: a GCS for real vehicles carries no simulator code.
 * tokio's `test-util` (the paused clock, for tests and the simulated studies) is not in the
@@ -42,6 +44,9 @@ RULES = [
     (["-p", "fleetmap-camera"],
      {"good_lp", "highs-sys", "cmake", "ratatui", "crossterm", "fleetmap-sim", "fleetmap"},
      "the companion computer's camera"),
+    (["-p", "fleetmap-test-kit"],
+     {"good_lp", "highs-sys", "cmake", "ratatui", "crossterm", "fleetmap"},
+     "the tests' kit, which the camera's tests use"),
     (["-p", "fleetmap", "--no-default-features"], {"fleetmap-sim", "indicatif"},
      "the ground station without the `sim` feature"),
 ]
@@ -75,8 +80,8 @@ def main():
     if broken:
         sys.exit(1)
     print("crates: core without tokio or sockets; io and core without the simulator; "
-          "the camera without HiGHS, TUI or simulator; the GCS without `sim` has no simulator code; "
-          "neither has tokio's test-util")
+          "the camera without HiGHS, TUI or simulator; the test kit without HiGHS, TUI or GCS; the GCS without `sim` has no simulator code; "
+          "neither the camera nor the GCS without `sim` has tokio's test-util")
 
 
 if __name__ == "__main__":

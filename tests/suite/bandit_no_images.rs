@@ -7,16 +7,16 @@
 
 use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::app::bandit_sim::{self, SimSetup};
-use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::mission::definition::MissionDef;
+use fleetmap::store::RunDir;
 use fleetmap_core::planner::sortie::{ClassificationState, MAX_EPOCHS_WITHOUT_MEASUREMENT};
 use fleetmap_core::world::World;
 use std::time::Duration;
 
+use crate::common;
+
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_run_whose_pictures_never_arrive_stops_with_a_reason() {
     let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
-    let def = MissionDef::parse(bandit_sim::HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
     let setup = SimSetup {
         speedup: 20.0,
         seed: 3,
@@ -31,17 +31,7 @@ async fn a_run_whose_pictures_never_arrive_stops_with_a_reason() {
     let d = bandit_sim::start_team(bandit_sim::HARDWARE_TEAM, &world, &setup)
         .await
         .unwrap();
-    let state = bandit::new_state(&d.fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    let run = RunDir::create(
-        &dir,
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
+    let (state, run, dir, _tmp) = common::bandit::new_run(&d.fleet).await;
     // The image intake listens to a fleet with no link: the pictures the simulated cameras
     // take and send never reach it.
     let (_events, deaf_rx) = tokio::sync::mpsc::channel(1);

@@ -10,18 +10,14 @@ use fleetmap::app::bandit::report as bandit_report;
 use fleetmap::app::bandit::{self, RunOptions};
 use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet;
-use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::mission::definition::MissionDef;
-use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
-use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::radio::{RadioConfig, RadioStats};
 use fleetmap_io::link::relay::{Relay, RelayOptions, RelayStats};
-use fleetmap_io::link::transport::{LinkOptions, open_link};
-use fleetmap_sim::harness::Sim;
-use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, GcsClock, ServeOptions, parse_connection};
+use fleetmap_sim::server::GcsClock;
 use std::time::{Duration, Instant};
+
+use crate::common;
 
 /// Simulated seconds per wall second (the relays follow the simulator's clock).
 const SPEEDUP: f64 = 20.0;
@@ -52,19 +48,10 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
         onboard: bandit::green_spec_of(&def),
         ..SimSetup::default()
     };
-    let sim = Sim::new(
-        bandit_sim::sim_config(bandit_sim::HARDWARE_TEAM, &world, &setup).unwrap(),
-        Time::ZERO,
-    )
-    .unwrap();
+    let cfg = bandit_sim::sim_config(bandit_sim::HARDWARE_TEAM, &world, &setup).unwrap();
 
     // The GCS: one UDP port for the whole team.
-    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
-    let gcs_spec: ConnSpec = "udpin:127.0.0.1:0".parse().unwrap();
-    let link = open_link(0, gcs_spec, &LinkOptions::default(), ev_tx)
-        .await
-        .unwrap();
-    let gcs = link.local.unwrap();
+    let (link, ev_rx, gcs) = fleetmap_test_kit::gcs::listening_link().await;
 
     // One radio per vehicle, each sending to the GCS port from its own socket.
     let mut relays = Vec::new();
@@ -83,24 +70,13 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
                 .await
                 .unwrap();
                 let v = r.vehicle_local().unwrap();
-                endpoints.push(parse_connection(&format!("udpout:{v}")).unwrap());
+                endpoints.push(fleetmap_test_kit::sim::udpout(v));
                 relays.push(r);
             }
-            None => endpoints.push(parse_connection(&format!("udpout:{gcs}")).unwrap()),
+            None => endpoints.push(fleetmap_test_kit::sim::udpout(gcs)),
         }
     }
-    let handle = server::spawn(
-        sim,
-        ServeOptions {
-            endpoints,
-            speed: Speed::times(SPEEDUP).unwrap(),
-            gcs: GcsClock::Simulator,
-            image_dir: None,
-            duration_s: None,
-        },
-    )
-    .await
-    .unwrap();
+    let handle = fleetmap_test_kit::sim::serve(cfg, endpoints, SPEEDUP, GcsClock::Simulator).await;
     let (stop_tx, stop_rx) = fleetmap_io::watch::channel(false);
     let radios: Vec<_> = relays
         .into_iter()
@@ -121,16 +97,7 @@ async fn fly(name: &str, rate: Option<u32>) -> Flight {
         fleet::FleetConfig::at_speedup(SPEEDUP),
         handle.clock(),
     );
-    let state = bandit::new_state(&fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let run = RunDir::create(
-        tmp.path().join("run"),
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
+    let (state, run, _, _tmp) = common::bandit::new_run(&fleet).await;
     let hub = fleetmap::app::images::image_hub(&fleet);
     let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
     let label = name.to_string();
@@ -252,16 +219,7 @@ async fn fly_virtual(
     let (fleet, sim) = bandit_sim::start_virtual(bandit_sim::HARDWARE_TEAM, &world, &setup)
         .await
         .unwrap();
-    let state = bandit::new_state(&fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let run = RunDir::create(
-        tmp.path().join("run"),
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
+    let (state, run, _, _tmp) = common::bandit::new_run(&fleet).await;
     let hub = fleetmap::app::images::image_hub(&fleet);
     let done = bandit::run(fleet.clone(), &hub, run, state, RunOptions::default())
         .await

@@ -34,12 +34,12 @@ use fleetmap_sim::harness::Sim;
 use fleetmap_sim::mission_server::Capacity;
 use std::collections::BTreeMap;
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 use crate::common;
-use common::free_udp_port;
-use common::pty::{self, bin};
+use common::pty;
+use fleetmap_test_kit::free_udp_port;
 
 fn setup(speedup: f64) -> SimSetup {
     // The simulator's warnings (fence breaches, failsafes, with the vehicle's true and
@@ -59,12 +59,6 @@ fn setup(speedup: f64) -> SimSetup {
         radio: None,
         faults: Vec::new(),
     }
-}
-
-fn hardware() -> (World, MissionDef) {
-    let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
-    let def = MissionDef::parse(bandit_sim::HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
-    (world, def)
 }
 
 fn new_run(dir: &Path, text: &str) -> RunDir {
@@ -146,7 +140,7 @@ impl Flown {
 
 async fn fly_hardware_paper(name: &str, sensor_flip: f64) -> Flown {
     let t0 = Instant::now();
-    let (world, mut def) = hardware();
+    let (world, mut def) = common::bandit::hardware();
     // The paper's (3b), as in its §V test (the figures below are (3b)'s); the other flights
     // here use the field default, the KL bound, which labels every cell within one visit
     // (`planner::sortie` tests pin its 19 samples a cell).
@@ -328,7 +322,7 @@ async fn hardware_mission_with_a_degraded_sensor_keeps_the_green_tiles() {
 
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_vehicle_that_rejects_its_mission_stops_the_sortie_before_take_off() {
-    let (world, def) = hardware();
+    let (world, def) = common::bandit::hardware();
     let s = setup(10.0);
     let mut sim = Sim::new(
         bandit_sim::sim_config(bandit_sim::HARDWARE_TEAM, &world, &s).unwrap(),
@@ -467,49 +461,6 @@ async fn lock_step_flight_holds_drones_in_step_and_classifies() {
 
 // ---------------------------------------------------------------------- SIGKILL + resume
 
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn logged(args: &[&str], log: &Path) -> Proc {
-    let out = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(log)
-        .unwrap();
-    let err = out.try_clone().unwrap();
-    Proc(
-        Command::new(bin())
-            .args(args)
-            .stdout(out)
-            .stderr(err)
-            .spawn()
-            .expect("start fleetmap"),
-    )
-}
-
-fn wait_exit(p: &mut Proc, limit: Duration, log: &Path) -> i32 {
-    let t0 = Instant::now();
-    loop {
-        if let Some(s) = p.0.try_wait().unwrap() {
-            return s.code().unwrap_or(-1);
-        }
-        if t0.elapsed() > limit {
-            let _ = p.0.kill();
-            panic!(
-                "fleetmap did not finish within {limit:?}; log:\n{}",
-                std::fs::read_to_string(log).unwrap_or_default()
-            );
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-}
-
 /// Whether the journal shows a sortie of epoch ≥ 1 in flight with measurements taken in it.
 /// Reads `events.jsonl` as text (a cheap poll while the writer runs).
 fn mid_epoch(dir: &Path) -> Option<usize> {
@@ -553,7 +504,7 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
     std::fs::write(&world, bandit_sim::HARDWARE_WORLD).unwrap();
     let port = free_udp_port();
     let log = d.join("log.txt");
-    let _sim = logged(
+    let _sim = common::fleetmap().logged(
         &[
             "sim",
             "--world",
@@ -593,14 +544,14 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
         "--world",
         world.to_str().unwrap(),
     ]);
-    let mut gcs = logged(&args, &log);
+    let mut gcs = common::fleetmap().logged(&args, &log);
     // Kill it once a sortie of epoch ≥ 1 is flying and has measured something.
     let limit = Instant::now() + Duration::from_secs(240);
     let in_sortie = loop {
         if let Some(n) = mid_epoch(&run_dir) {
             break n;
         }
-        if let Some(s) = gcs.0.try_wait().unwrap() {
+        if let Some(s) = gcs.try_wait().unwrap() {
             panic!(
                 "the run ended ({s}) before it could be killed:\n{}",
                 std::fs::read_to_string(&log).unwrap_or_default()
@@ -613,8 +564,8 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
         );
         std::thread::sleep(Duration::from_millis(50));
     };
-    gcs.0.kill().unwrap(); // SIGKILL
-    let _ = gcs.0.wait();
+    gcs.kill().unwrap(); // SIGKILL
+    let _ = gcs.wait();
     let killed_at = t0.elapsed().as_secs_f64();
     // Every acknowledged measurement is in the saved state.
     let before = journal_measurements(&run_dir);
@@ -632,8 +583,9 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
     let p_killed = st.bandit.epoch;
     // Resume: the vehicles flew on meanwhile; the sortie is followed to its end and the rest
     // of the epoch re-planned from where the team is.
-    let mut resume = logged(&["resume", run_dir.to_str().unwrap(), "--headless"], &log);
-    let code = wait_exit(&mut resume, Duration::from_secs(300), &log);
+    let mut resume =
+        common::fleetmap().logged(&["resume", run_dir.to_str().unwrap(), "--headless"], &log);
+    let code = resume.code_within(Duration::from_secs(300), &log);
     let text = std::fs::read_to_string(&log).unwrap_or_default();
     assert_eq!(code, 0, "{text}");
     assert!(text.contains("resumed in the middle of a sortie"), "{text}");
@@ -665,7 +617,8 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
             .any(|e| matches!(&e.event, BanditEvent::Started { resumed: true }))
     );
     // The report and the progress plot from the command line.
-    let out = Command::new(bin())
+    let out = common::fleetmap()
+        .command()
         .args(["report", run_dir.to_str().unwrap(), "--json"])
         .stderr(Stdio::inherit())
         .output()
@@ -690,22 +643,14 @@ fn sigkill_in_the_middle_of_an_epoch_then_resume_loses_no_measurement() {
     assert_eq!(v["unclassified"], serde_json::json!([]));
     assert_eq!(v["journal_measurements"].as_u64(), Some(done.measurements));
     let png = d.join("p.png");
-    let out = Command::new(bin())
-        .args([
-            "export",
-            run_dir.to_str().unwrap(),
-            "--format",
-            "png",
-            "--out",
-            png.to_str().unwrap(),
-        ])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    common::fleetmap().ok(&[
+        "export",
+        run_dir.to_str().unwrap(),
+        "--format",
+        "png",
+        "--out",
+        png.to_str().unwrap(),
+    ]);
     assert_eq!(&std::fs::read(&png).unwrap()[1..4], b"PNG");
     println!(
         "killed in epoch {p_killed} after {in_sortie} measurements of the sortie ({killed_at:.1} s); \
@@ -799,7 +744,7 @@ fn bandit_demo_in_a_pty_pause_resume_done() {
     let log = tmp.path().join("ui.log");
     let cmd = format!(
         "{} --log-file {} demo --bandit --bound paper --run-dir {} --speedup 20 --camera-px 160",
-        pty::bin(),
+        common::fleetmap().path().display(),
         log.display(),
         run.display()
     );

@@ -20,8 +20,7 @@ use crate::common;
 use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
-use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::mission::definition::MissionDef;
+use fleetmap::store::RunDir;
 use fleetmap_core::planner::sortie::{ClassificationState, Role};
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
@@ -29,7 +28,6 @@ use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::transport::{LinkOptions, MemoryPort, open_memory_link};
 use fleetmap_sim::harness::Sim;
 use fleetmap_sim::server::{SimTask, spawn_memory};
-use std::path::Path;
 use std::sync::Arc;
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::Duration;
@@ -143,34 +141,6 @@ async fn team(compass: &[u8], dark: Option<u8>, dark_for: Duration) -> Team {
     }
 }
 
-fn hardware() -> (World, MissionDef) {
-    let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
-    let def = MissionDef::parse(bandit_sim::HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
-    (world, def)
-}
-
-fn journal(dir: &Path) -> Vec<BanditEvent> {
-    RunDir::open(dir)
-        .unwrap()
-        .read_events::<BanditEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|e| e.event)
-        .collect()
-}
-
-/// Fly `state` in `dir` to its end (or until `stop` says so of a progress line); returns the
-/// progress lines and whether it was stopped.
-async fn fly(
-    team: &Team,
-    dir: &Path,
-    state: ClassificationState,
-    stop: impl Fn(&str) -> bool,
-) -> (Vec<String>, bool) {
-    common::bandit::run_until(&team.fleet, dir, state, stop).await
-}
-
 fn check_finished(s: &ClassificationState, world: &World) {
     assert!(s.is_finished());
     assert_eq!(s.bandit.keep(), world.green_cells(), "keep set");
@@ -179,21 +149,11 @@ fn check_finished(s: &ClassificationState, world: &World) {
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resume() {
-    let (world, def) = hardware();
+    let (world, _) = common::bandit::hardware();
     let team = team(&[4], None, Duration::ZERO).await;
-    let state = bandit::new_state(&team.fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(
-        &dir,
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
+    let (state, _, dir, _tmp) = common::bandit::new_run(&team.fleet).await;
     // Stopped at the end of the first sortie flown without drone 4.
-    let (lines, stopped) = fly(&team, &dir, state, |l| {
+    let (lines, stopped) = common::bandit::run_until(&team.fleet, &dir, state, |l| {
         l.contains("every drone on its station")
     })
     .await;
@@ -226,7 +186,7 @@ async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resu
     );
     assert_eq!(saved.out.len(), 1);
     // Resumed: still out (its check still fails), and the three others finish.
-    let (lines, stopped) = fly(&team, &dir, saved, |_| false).await;
+    let (lines, stopped) = common::bandit::run_until(&team.fleet, &dir, saved, |_| false).await;
     assert!(!stopped);
     let done: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
     check_finished(&done, &world);
@@ -246,7 +206,7 @@ async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resu
         !lines.iter().any(|l| l.contains("drone 4 cannot start")),
         "a member out is not sent off again while it is not ready: {lines:#?}"
     );
-    let events = journal(&dir);
+    let events = common::journal::<BanditEvent>(&dir);
     let outs: Vec<&BanditEvent> = events
         .iter()
         .filter(|e| matches!(e, BanditEvent::VehicleOut { sysid: 4, .. }))
@@ -281,20 +241,10 @@ async fn a_drone_that_cannot_arm_is_left_out_and_the_others_finish_across_a_resu
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
-    let (world, def) = hardware();
+    let (world, _) = common::bandit::hardware();
     let team = team(&[], Some(4), Duration::from_secs(120)).await;
-    let state = bandit::new_state(&team.fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(
-        &dir,
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
-    let (lines, _) = fly(&team, &dir, state, |_| false).await;
+    let (state, _, dir, _tmp) = common::bandit::new_run(&team.fleet).await;
+    let (lines, _) = common::bandit::run_until(&team.fleet, &dir, state, |_| false).await;
     assert!(team.went_dark.load(Ordering::SeqCst));
     let done: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
     check_finished(&done, &world);
@@ -304,7 +254,7 @@ async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
         .find(|l| l.contains("drone 4 cannot start"))
         .expect("the operator is told");
     assert!(told.contains("tried again"), "{told}");
-    let events = journal(&dir);
+    let events = common::journal::<BanditEvent>(&dir);
     let out = events
         .iter()
         .position(|e| {
@@ -335,19 +285,8 @@ async fn a_drone_whose_link_goes_dark_at_take_off_is_out_then_rejoins() {
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn no_drone_that_can_start_stops_the_run_saying_what_to_fix() {
-    let (_, def) = hardware();
     let team = team(&[1, 2, 3, 4], None, Duration::ZERO).await;
-    let state = bandit::new_state(&team.fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    let run = RunDir::create(
-        &dir,
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
+    let (state, run, dir, _tmp) = common::bandit::new_run(&team.fleet).await;
     let hub = fleetmap::app::images::image_hub(&team.fleet);
     let (tx, mut rx) = mpsc::unbounded_channel();
     let opts = RunOptions {

@@ -7,26 +7,19 @@
 
 use fleetmap::app::images;
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap_core::time::Time;
 use fleetmap_core::vision::onboard::OnboardSpec;
-use fleetmap_io::link::ConnSpec;
-use fleetmap_io::link::transport::{LinkOptions, open_link};
-use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::pace::Speed;
-use fleetmap_sim::server::{self, GcsClock, ServeOptions, parse_connection};
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::net::SocketAddr;
 use std::path::Path;
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::Duration;
 use tokio::net::UdpSocket;
 
 use crate::common;
-use common::free_udp_port;
-use common::pty::bin;
-use common::router::{self, End};
+use fleetmap_test_kit::router::{self, End};
+use fleetmap_test_kit::{Guard, free_udp_port, sim};
 
 const GREEN: [u8; 3] = [40, 160, 50];
 const GREY: [u8; 3] = [128, 128, 128];
@@ -50,15 +43,6 @@ fn start_capture(count: f32) -> MavMessage {
     })
 }
 
-struct Killed(std::process::Child);
-
-impl Drop for Killed {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
     let mission = concat!(env!("CARGO_MANIFEST_DIR"), "/missions/hardware-6x6.toml");
@@ -75,18 +59,14 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
     picture(folder.path(), "shot6.png", GREEN);
 
     // the GCS: one UDP port, the image hub accepting the mission's measurements
-    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
-    let spec_gcs: ConnSpec = "udpin:127.0.0.1:0".parse().unwrap();
-    let link = open_link(0, spec_gcs, &LinkOptions::default(), ev_tx)
-        .await
-        .unwrap();
-    let gcs_addr = link.local.unwrap();
+    let (link, ev_rx, gcs_addr) = fleetmap_test_kit::gcs::listening_link().await;
 
     // the camera program, listening where the router sends
     let cam_port = free_udp_port();
     let cam_addr: SocketAddr = format!("127.0.0.1:{cam_port}").parse().unwrap();
-    let _camera = Killed(
-        Command::new(bin())
+    let _camera = Guard::spawn(
+        common::fleetmap()
+            .command()
             .args([
                 "camera",
                 "--connect",
@@ -98,9 +78,7 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
                 "--wait-ms",
                 "300",
             ])
-            .stdout(Stdio::null())
-            .spawn()
-            .unwrap(),
+            .stdout(Stdio::null()),
     );
 
     // the router, and a simulated ArduCopter without a camera of its own sending to it
@@ -112,21 +90,7 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
         End::Fixed(gcs_addr),
     ])
     .await;
-    let mut cfg =
-        SimConfig::from_spec("1xcopter:ardupilot", None, Some((37.195, -80.58)), 1).unwrap();
-    cfg.vehicles[0].camera = None;
-    let sim = server::spawn(
-        Sim::new(cfg, Time::ZERO).unwrap(),
-        ServeOptions {
-            endpoints: vec![parse_connection(&format!("udpout:{router_vehicle}")).unwrap()],
-            speed: Speed::times(1.0).unwrap(),
-            gcs: GcsClock::Simulator,
-            image_dir: None,
-            duration_s: None,
-        },
-    )
-    .await
-    .unwrap();
+    let sim = sim::autopilot_for_a_camera(None, Some((37.195, -80.58)), router_vehicle, 1.0).await;
     let fleet = fleet::spawn(vec![link], ev_rx, FleetConfig::default(), sim.clock());
     let hub = images::spawn(&fleet);
     hub.accept_onboard(Some(spec.fingerprint()));
@@ -216,20 +180,12 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
         def.grid.is_none(),
         "the field test's grid starts at the vehicle"
     );
-    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
-    let link = open_link(
-        0,
-        "udpin:127.0.0.1:0".parse().unwrap(),
-        &LinkOptions::default(),
-        ev_tx,
-    )
-    .await
-    .unwrap();
-    let gcs_addr = link.local.unwrap();
+    let (link, ev_rx, gcs_addr) = fleetmap_test_kit::gcs::listening_link().await;
     let cam_port = free_udp_port();
     let cam_addr: SocketAddr = format!("127.0.0.1:{cam_port}").parse().unwrap();
-    let _camera = Killed(
-        Command::new(bin())
+    let _camera = Guard::spawn(
+        common::fleetmap()
+            .command()
             .args([
                 "camera",
                 "--connect",
@@ -241,9 +197,7 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
                 "--mission",
                 &mission,
             ])
-            .stdout(Stdio::null())
-            .spawn()
-            .unwrap(),
+            .stdout(Stdio::null()),
     );
     let vehicle_sock = UdpSocket::bind("127.0.0.1:0").await.unwrap();
     let router_vehicle = vehicle_sock.local_addr().unwrap();
@@ -254,20 +208,7 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
     ])
     .await;
     let world = fleetmap_io::files::load_world(Path::new(&world_file)).unwrap();
-    let mut cfg = SimConfig::from_spec("1xcopter:ardupilot", Some(world), None, 1).unwrap();
-    cfg.vehicles[0].camera = None;
-    let sim = server::spawn(
-        Sim::new(cfg, Time::ZERO).unwrap(),
-        ServeOptions {
-            endpoints: vec![parse_connection(&format!("udpout:{router_vehicle}")).unwrap()],
-            speed: Speed::times(4.0).unwrap(),
-            gcs: GcsClock::Simulator,
-            image_dir: None,
-            duration_s: None,
-        },
-    )
-    .await
-    .unwrap();
+    let sim = sim::autopilot_for_a_camera(Some(world), None, router_vehicle, 4.0).await;
     let fleet = fleet::spawn(vec![link], ev_rx, FleetConfig::at_speedup(4.0), sim.clock());
     let hub = images::spawn(&fleet);
     let mut rx = hub.subscribe();
@@ -350,7 +291,8 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
 
 #[test]
 fn camera_help_names_its_sources() {
-    let out = Command::new(bin())
+    let out = common::fleetmap()
+        .command()
         .args(["camera", "--help"])
         .output()
         .unwrap();
@@ -366,7 +308,8 @@ fn camera_help_names_its_sources() {
         assert!(help.contains(source), "{source} missing from:\n{help}");
     }
     // an unknown source is refused with the list
-    let out = Command::new(bin())
+    let out = common::fleetmap()
+        .command()
         .args([
             "camera",
             "--connect",
@@ -380,7 +323,8 @@ fn camera_help_names_its_sources() {
     let err = String::from_utf8_lossy(&out.stderr);
     assert!(err.contains("`folder:DIR`, `command:CMD`"), "{err}");
     // a V4L2 camera needs the camera crate's `v4l2` feature, which the station is built without
-    let out = Command::new(bin())
+    let out = common::fleetmap()
+        .command()
         .args([
             "camera",
             "--connect",

@@ -47,7 +47,7 @@ fn conformance_checks_pass_against_the_simulator() {
                     "--kill-after",
                     "10",
                 ])
-                .env("FLEETMAP", common::pty::bin())
+                .env("FLEETMAP", common::fleetmap().path())
                 .stdout(std::process::Stdio::piped())
                 .stderr(std::process::Stdio::piped())
                 .spawn()

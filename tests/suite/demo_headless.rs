@@ -28,21 +28,11 @@
 
 use serde_json::Value;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
-use std::time::{Duration, Instant};
+use std::process::Stdio;
+use std::time::Duration;
 
 use crate::common;
-use common::pty::bin;
-
-/// A child process killed when the test ends (also on a failed assertion).
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
+use fleetmap_test_kit::Guard;
 
 /// What a finished fleetmap process printed.
 struct Output {
@@ -77,35 +67,28 @@ fn fleetmap(args: &[&str], dir: &Path, name: &str, limit: Duration) -> Output {
     let err_path = dir.join(format!("{name}.err"));
     let out = std::fs::File::create(&out_path).expect("stdout file");
     let err = std::fs::File::create(&err_path).expect("stderr file");
-    let mut p = Proc(
-        Command::new(bin())
+    let mut p = Guard::spawn(
+        common::fleetmap()
+            .command()
             .args(args)
             .stdin(Stdio::null())
             .stdout(out)
-            .stderr(err)
-            .spawn()
-            .expect("start fleetmap"),
+            .stderr(err),
     );
-    let t0 = Instant::now();
-    let code = loop {
-        if let Some(s) = p.0.try_wait().expect("wait for fleetmap") {
-            break s.code().unwrap_or(-1);
-        }
-        if t0.elapsed() > limit {
-            let _ = p.0.kill();
-            let _ = p.0.wait();
-            panic!(
-                "`fleetmap {}` did not finish within {limit:?}\n--- stdout:\n{}\n--- stderr:\n{}",
+    let code = p
+        .wait_for(limit, || {
+            format!(
+                "`fleetmap {}`\n--- stdout:\n{}\n--- stderr:\n{}",
                 args.join(" "),
                 std::fs::read_to_string(&out_path).unwrap_or_default(),
                 tail(
                     &std::fs::read_to_string(&err_path).unwrap_or_default(),
                     4000
                 )
-            );
-        }
-        std::thread::sleep(Duration::from_millis(200));
-    };
+            )
+        })
+        .code()
+        .unwrap_or(-1);
     Output {
         code,
         stdout: std::fs::read_to_string(&out_path).unwrap_or_default(),

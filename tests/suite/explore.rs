@@ -13,7 +13,8 @@ use proptest::prelude::*;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::collections::HashSet;
-use std::process::Command;
+
+use crate::common;
 
 fn roi_from_seed(seed: u64, cells: usize) -> (HashSet<Cell>, Cell) {
     random_roi(&mut ChaCha8Rng::seed_from_u64(seed), cells)
@@ -331,14 +332,11 @@ fn persisting_after_every_call_changes_nothing() {
     assert_eq!(map_a.into_iter().collect::<HashSet<_>>(), roi);
 }
 
-fn fleetmap() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fleetmap"))
-}
-
 #[test]
 fn experiment_dfs_writes_csv_json_and_plots() {
     let dir = tempfile::tempdir().unwrap();
-    let out = fleetmap()
+    let out = common::fleetmap()
+        .command()
         .args([
             "experiment",
             "dfs",
@@ -397,7 +395,8 @@ fn experiment_dfs_writes_csv_json_and_plots() {
         assert!(colours.len() > 8, "{png} looks blank");
     }
     // --json prints the summary.
-    let out = fleetmap()
+    let out = common::fleetmap()
+        .command()
         .args([
             "experiment",
             "dfs",
@@ -422,7 +421,8 @@ fn experiment_dfs_reports_lemma_1_violations_loudly() {
     // Meeting-only sharing exceeds the bound on such ROIs (see explore::dfs): the run says
     // so and fails.
     let dir = tempfile::tempdir().unwrap();
-    let out = fleetmap()
+    let out = common::fleetmap()
+        .command()
         .args(["experiment", "dfs", "--sharing", "meet", "--trials", "10"])
         .args(["--sweeps", "cells", "--cells", "60", "--base-robots", "8"])
         .args(["--out"])
@@ -445,7 +445,8 @@ fn experiment_dfs_rejects_bad_arguments() {
         vec!["--sweeps", "cells", "--cells", ""],
     ] {
         let dir = tempfile::tempdir().unwrap();
-        let out = fleetmap()
+        let out = common::fleetmap()
+            .command()
             .args(["experiment", "dfs"])
             .args(&args)
             .arg("--out")

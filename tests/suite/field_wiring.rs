@@ -13,20 +13,16 @@
 //!   first 2 s, the PX4 copter answers at once; both uploads succeed once they are ready.
 
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
-use fleetmap_core::mission::item::{MissionItem, MissionType};
-use fleetmap_core::proto::Endpoint;
-use fleetmap_core::proto::command::Command;
-use fleetmap_core::time::Time;
+use fleetmap_core::mission::item::MissionType;
 use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::transport::LinkOptions;
-use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::server::{self, ServeOptions};
-use mavlink::dialects::ardupilotmega::MavCmd;
+use fleetmap_sim::harness::SimConfig;
+use fleetmap_sim::server::{self};
 use std::collections::HashSet;
 use std::time::{Duration, Instant};
 
 use crate::common;
-use common::router::{self, End};
+use fleetmap_test_kit::router::{self, End};
 
 const HOME: (f64, f64) = (37.1968, -80.5781);
 
@@ -50,46 +46,23 @@ async fn one_port(spec: &str, speedup: f64, wiring: Wiring) -> (FleetHandle, ser
     let gcs = f.links()[0].local.expect("the port the GCS listens on");
     let cfg = SimConfig::from_spec(spec, None, Some(HOME), 11).unwrap();
     let endpoints = match wiring {
-        Wiring::Direct => vec![server::parse_connection(&format!("udpout:{gcs}")).unwrap()],
+        Wiring::Direct => vec![fleetmap_test_kit::sim::udpout(gcs)],
         Wiring::Router => {
             let mut ends = vec![End::Fixed(gcs)];
             let mut endpoints = Vec::new();
             for _ in &cfg.vehicles {
                 let s = tokio::net::UdpSocket::bind("127.0.0.1:0").await.unwrap();
                 let a = s.local_addr().unwrap();
-                endpoints.push(server::parse_connection(&format!("udpout:{a}")).unwrap());
+                endpoints.push(fleetmap_test_kit::sim::udpout(a));
                 ends.push(End::Learn(s));
             }
             router::spawn(ends).await;
             endpoints
         }
     };
-    let sim = Sim::new(cfg, Time::ZERO).unwrap();
-    let served = server::spawn(
-        sim,
-        ServeOptions {
-            endpoints,
-            speed: fleetmap_sim::pace::Speed::Times(speedup),
-            gcs: server::GcsClock::Wall,
-            image_dir: None,
-            duration_s: None,
-        },
-    )
-    .await
-    .unwrap();
+    let served =
+        fleetmap_test_kit::sim::serve(cfg, endpoints, speedup, server::GcsClock::Wall).await;
     (f, served)
-}
-
-fn mission(k: u8) -> Vec<MissionItem> {
-    let mut v = vec![MissionItem::takeoff(10.0)];
-    for i in 0..19 {
-        v.push(MissionItem::waypoint(
-            HOME.0 + f64::from(i) * 1e-5,
-            HOME.1 + f64::from(k) * 1e-5,
-            10.0 + (i % 5) as f32,
-        ));
-    }
-    v
 }
 
 async fn every_vehicle_works(spec: &str, n: u8, wiring: Wiring) {
@@ -119,24 +92,7 @@ async fn every_vehicle_works(spec: &str, n: u8, wiring: Wiring) {
     for k in 1..=n {
         let f = f.clone();
         tasks.push(tokio::spawn(async move {
-            let ack = f
-                .command(Command::long(
-                    Endpoint::new(k, 1),
-                    MavCmd::MAV_CMD_REQUEST_MESSAGE,
-                    [242.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], // HOME_POSITION
-                ))
-                .await;
-            ack.unwrap_or_else(|e| panic!("vehicle {k}: {e}"));
-            let items = mission(k);
-            f.upload_mission(k, MissionType::Mission, items.clone())
-                .await
-                .unwrap_or_else(|e| panic!("vehicle {k} upload: {e}"));
-            let (back, _) = f
-                .download_mission(k, MissionType::Mission)
-                .await
-                .unwrap_or_else(|e| panic!("vehicle {k} download: {e}"));
-            fleetmap_core::mission::wire::compare_items(&items, &back, true)
-                .unwrap_or_else(|d| panic!("vehicle {k}: {d}"));
+            common::command_and_mission_round_trip(&f, k, common::spread_mission(k, 19)).await;
         }));
     }
     for t in tasks {
@@ -192,10 +148,10 @@ fn mission_upload_while_the_vehicles_boot() {
          3\t0\t3\t16\t0\t0\t0\t0\t37.1972\t-80.5782\t10\t1\n",
     )
     .unwrap();
-    let port = common::free_udp_port();
-    let bin = common::pty::bin();
+    let port = fleetmap_test_kit::free_udp_port();
+    let bin = common::fleetmap();
     let upload = |sysid: &str| {
-        std::process::Command::new(&bin)
+        bin.command()
             .args([
                 "mission",
                 "upload",
@@ -217,19 +173,14 @@ fn mission_upload_while_the_vehicles_boot() {
     for (sysid, spec) in [("1", "1xcopter:ardupilot"), ("1", "1xcopter:px4")] {
         let gcs = upload(sysid);
         std::thread::sleep(Duration::from_millis(300));
-        let mut sim = std::process::Command::new(&bin)
-            .args([
-                "sim",
-                "--vehicles",
-                spec,
-                "--connect",
-                &format!("udpout:127.0.0.1:{port}"),
-                "--home=37.1968,-80.5781",
-            ])
-            .stdout(std::process::Stdio::null())
-            .stderr(std::process::Stdio::null())
-            .spawn()
-            .unwrap();
+        let mut sim = bin.quiet(&[
+            "sim",
+            "--vehicles",
+            spec,
+            "--connect",
+            &format!("udpout:127.0.0.1:{port}"),
+            "--home=37.1968,-80.5781",
+        ]);
         let out = gcs.wait_with_output().unwrap();
         let _ = sim.kill();
         let _ = sim.wait();

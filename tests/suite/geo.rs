@@ -10,7 +10,8 @@
 use fleetmap_core::geo::{Cell, GeoError, Grid, Hemisphere, LatLon, Utm, local, utm};
 use proptest::prelude::*;
 use std::collections::BTreeMap;
-use std::process::Command;
+
+use crate::common;
 
 /// Tolerance against PROJ, metres.
 const TOL_M: f64 = 1e-3;
@@ -430,25 +431,13 @@ fn coverage_of_the_runway_in_gps_coordinates() {
 // ---------------------------------------------------------------------------------------
 // The command line.
 
-fn fleetmap(args: &[&str]) -> (i32, String, String) {
-    let out = Command::new(env!("CARGO_BIN_EXE_fleetmap"))
-        .args(args)
-        .output()
-        .expect("run fleetmap");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 fn json(s: &str) -> serde_json::Value {
     serde_json::from_str(s.trim()).unwrap_or_else(|e| panic!("not JSON ({e}): {s}"))
 }
 
 #[test]
 fn cli_to_gps_and_from_gps() {
-    let (code, out, err) = fleetmap(&[
+    let (code, out, err) = common::fleetmap().run(&[
         "grid",
         "--origin",
         "-33.8688,151.2093",
@@ -490,7 +479,7 @@ fn cli_to_gps_and_from_gps() {
     // from-gps of a point inside that cell prints the same cell and centre.
     let inside = inside_point(&g, Cell::new(-3, -7), 0.3, -0.4);
     let (lat, lon) = (inside.lat.to_string(), inside.lon.to_string());
-    let (code, out2, err) = fleetmap(&[
+    let (code, out2, err) = common::fleetmap().run(&[
         "grid",
         "--origin",
         "-33.8688,151.2093",
@@ -504,7 +493,7 @@ fn cli_to_gps_and_from_gps() {
     assert_eq!(json(&out2), v);
 
     // --origin=… and a forced zone.
-    let (code, out, err) = fleetmap(&[
+    let (code, out, err) = common::fleetmap().run(&[
         "grid",
         "--origin=-33.8688,151.2093",
         "--cell-size",
@@ -521,7 +510,7 @@ fn cli_to_gps_and_from_gps() {
 
 #[test]
 fn cli_export_geojson() {
-    let (code, out, err) = fleetmap(&[
+    let (code, out, err) = common::fleetmap().run(&[
         "grid",
         "--origin",
         "37.1968,-80.5781",
@@ -694,7 +683,7 @@ fn cli_bad_arguments_fail_with_one_line() {
     for (args, needle) in cases {
         let mut full = vec!["grid"];
         full.extend(&args);
-        let (code, out, err) = fleetmap(&full);
+        let (code, out, err) = common::fleetmap().run(&full);
         assert_eq!(code, 1, "{args:?} should fail: stdout {out} stderr {err}");
         assert!(out.is_empty(), "{args:?}: {out}");
         assert_eq!(err.lines().count(), 1, "{args:?}: not one line: {err}");
@@ -702,7 +691,7 @@ fn cli_bad_arguments_fail_with_one_line() {
         assert!(err.contains(needle), "{args:?}: {err:?} lacks {needle:?}");
     }
     // A point 2° into zone 18 is converted in the grid's zone 17.
-    let (code, out, err) = fleetmap(&[
+    let (code, out, err) = common::fleetmap().run(&[
         "grid",
         "--origin",
         o,

@@ -429,40 +429,24 @@ fn a_re_send_that_loses_the_packet_again_is_asked_for_again() {
 fn each_camera_answers_through_its_own_autopilot() {
     use fleetmap_io::link::codec::Codec;
     use std::net::UdpSocket;
-    let port = {
-        let s = UdpSocket::bind("127.0.0.1:0").unwrap();
-        s.local_addr().unwrap().port()
-    };
-    struct Kill(std::process::Child);
-    impl Drop for Kill {
-        fn drop(&mut self) {
-            let _ = self.0.kill();
-            let _ = self.0.wait();
-        }
-    }
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_fleetmap"))
-        .args([
-            "sim",
-            "--camera-only",
-            "--world",
-            concat!(
-                env!("CARGO_MANIFEST_DIR"),
-                "/assets/worlds/hardware-6x6.toml"
-            ),
-            "--camera-px",
-            "64",
-            "--image-rate",
-            "20000",
-            "--duration",
-            "20",
-            "--connect",
-            &format!("udpin:127.0.0.1:{port}"),
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let _child = Kill(child);
+    let port = fleetmap_test_kit::free_udp_port();
+    let _child = crate::common::fleetmap().quiet(&[
+        "sim",
+        "--camera-only",
+        "--world",
+        concat!(
+            env!("CARGO_MANIFEST_DIR"),
+            "/assets/worlds/hardware-6x6.toml"
+        ),
+        "--camera-px",
+        "64",
+        "--image-rate",
+        "20000",
+        "--duration",
+        "20",
+        "--connect",
+        &format!("udpin:127.0.0.1:{port}"),
+    ]);
     let w = world();
     let aps: Vec<UdpSocket> = (0..2)
         .map(|_| {

@@ -24,10 +24,9 @@ use fleetmap::app::kind::{OperatorTask, Outcome};
 use fleetmap::app::runway::report::truth_coverage;
 use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap::store::{RunDir, RunMeta};
+use fleetmap::store::RunDir;
 use fleetmap_camera::pose::CameraPose;
 use fleetmap_camera::render::{Disturbances, render};
-use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{MappingState, RobotStatus};
 use fleetmap_core::geo::{LatLon, local};
 use fleetmap_core::mission::definition::MissionDef;
@@ -220,18 +219,7 @@ async fn fly_over(rule: Rule, seed: u64, payload_rate: Option<u32>) -> Flown {
     drop(ev_tx);
     let sim = server::spawn_memory(sim, ports);
     let fleet = fleet::spawn(links, ev_rx, FleetConfig::default(), MonotonicClock::new());
-    let state =
-        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-            .await
-            .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let run_dir = RunDir::create(
-        tmp.path().join("run"),
-        RunMeta::new(runway::KIND, 0),
-        Some(&text),
-    )
-    .unwrap();
-    let path = run_dir.path().to_path_buf();
+    let (state, run_dir, path, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
     let hub = images::spawn(&fleet);
     let (tx, mut rx) = mpsc::unbounded_channel::<fleetmap::app::run::Progress>();
     let lines = Arc::new(Mutex::new(Vec::new()));
@@ -253,13 +241,7 @@ async fn fly_over(rule: Rule, seed: u64, payload_rate: Option<u32>) -> Flown {
     let _ = printer.await;
     let run = RunDir::open(&path).unwrap();
     let state: MappingState = run.load_state().unwrap().unwrap();
-    let events = run
-        .read_events::<MappingEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|l| l.event)
-        .collect();
+    let events = common::journal::<MappingEvent>(&path);
     let _ = sim.stop().await;
     let progress = lines.lock().unwrap().clone();
     Flown {

@@ -2,8 +2,10 @@
 //! more link of the whole crate and its dependencies (on CI's two cores, tens of seconds
 //! each), so every file here is a module of this one (`cargo test --test suite MODULE::`).
 //!
-//! `common` holds what several modules share (worlds, pseudo-terminals, routers, mission
-//! drivers). `make test` runs the slow and the waiting modules as their own processes beside
+//! `common` holds what several modules share and only this suite needs (worlds, missions,
+//! pseudo-terminals, run drivers); what the camera crate's tests share with it (process
+//! guards, the binaries, the MAVLink router, a test GCS, the simulator served on UDP) is the
+//! `fleetmap-test-kit` crate. `make test` runs the slow and the waiting modules as their own processes beside
 //! the rest (the Makefile's `SLOW_TESTS`, `WAITING_TESTS`).
 
 mod common;

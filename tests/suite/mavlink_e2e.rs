@@ -26,6 +26,8 @@ use std::sync::{Arc, Mutex};
 use std::time::Duration;
 use tokio::net::UdpSocket;
 
+use crate::common;
+
 /// What a `Responder` saw and did.
 #[derive(Default, Debug)]
 struct Seen {
@@ -443,8 +445,8 @@ async fn udpin_answers_the_last_sender_and_tcp_reconnects() {
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_way() {
     use fleetmap_io::link::faults::LinkFaults;
-    use fleetmap_sim::harness::{Sim, SimConfig};
-    use fleetmap_sim::server::{self, ServeOptions};
+    use fleetmap_sim::harness::SimConfig;
+    use fleetmap_sim::server::{self};
     const VEHICLES: u8 = 25;
     const ROUNDS: usize = 2;
     let sim_cfg = SimConfig::from_spec(
@@ -458,19 +460,13 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
         loss: 0.3,
         ..LinkFaults::default()
     });
-    let sim = Sim::new(sim_cfg, Time::ZERO).unwrap();
-    let served = server::spawn(
-        sim,
-        ServeOptions {
-            endpoints: vec![server::parse_connection("udpin:127.0.0.1:0").unwrap()],
-            speed: fleetmap_sim::pace::Speed::Times(1.0),
-            gcs: fleetmap_sim::server::GcsClock::Wall,
-            image_dir: None,
-            duration_s: None,
-        },
+    let served = fleetmap_test_kit::sim::serve(
+        sim_cfg,
+        vec![server::parse_connection("udpin:127.0.0.1:0").unwrap()],
+        1.0,
+        fleetmap_sim::server::GcsClock::Wall,
     )
-    .await
-    .unwrap();
+    .await;
     let specs: Vec<ConnSpec> = served.bound.iter().map(|b| udpout(b.local)).collect();
     let cfg = FleetConfig {
         mission: fleetmap_core::proto::mission::MissionConfig {
@@ -555,22 +551,6 @@ async fn fifty_uploads_of_200_items_to_the_simulator_with_30_percent_loss_each_w
     }
 }
 
-/// Run the fleetmap binary (`$FLEETMAP_BIN` if set, as for the Python tests; else the one
-/// cargo built for this test); returns (exit code, stdout, stderr).
-fn cli(args: &[&str]) -> (i32, String, String) {
-    let bin = std::env::var("FLEETMAP_BIN")
-        .unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string());
-    let out = std::process::Command::new(bin)
-        .args(args)
-        .output()
-        .expect("run fleetmap");
-    (
-        out.status.code().unwrap_or(-1),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
-}
-
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn cli_vehicles_mission_files_and_commands() {
     let v = spawn_responder(4, None).await;
@@ -579,7 +559,7 @@ async fn cli_vehicles_mission_files_and_commands() {
     let d = dir.path();
     let c = conn.clone();
     let (code, out, err) = tokio::task::spawn_blocking(move || {
-        cli(&["vehicles", "--connect", &c, "--wait", "1.5", "--json"])
+        common::fleetmap().run(&["vehicles", "--connect", &c, "--wait", "1.5", "--json"])
     })
     .await
     .unwrap();
@@ -601,7 +581,7 @@ async fn cli_vehicles_mission_files_and_commands() {
     let plan = d.join("back.plan");
     let (c, w, p) = (conn.clone(), wp.clone(), plan.clone());
     let r = tokio::task::spawn_blocking(move || {
-        let up = cli(&[
+        let up = common::fleetmap().run(&[
             "mission",
             "upload",
             "--connect",
@@ -610,7 +590,7 @@ async fn cli_vehicles_mission_files_and_commands() {
             "4",
             w.to_str().unwrap(),
         ]);
-        let down = cli(&[
+        let down = common::fleetmap().run(&[
             "mission",
             "download",
             "--connect",
@@ -619,7 +599,7 @@ async fn cli_vehicles_mission_files_and_commands() {
             "4",
             p.to_str().unwrap(),
         ]);
-        let mode = cli(&[
+        let mode = common::fleetmap().run(&[
             "command",
             "--connect",
             &c,
@@ -629,7 +609,7 @@ async fn cli_vehicles_mission_files_and_commands() {
             "mode",
             "loiter",
         ]);
-        let bad_mode = cli(&[
+        let bad_mode = common::fleetmap().run(&[
             "command",
             "--connect",
             &c,
@@ -638,8 +618,8 @@ async fn cli_vehicles_mission_files_and_commands() {
             "mode",
             "MISSION",
         ]);
-        let clear = cli(&["mission", "clear", "--connect", &c, "--sysid", "4"]);
-        let nobody = cli(&[
+        let clear = common::fleetmap().run(&["mission", "clear", "--connect", &c, "--sysid", "4"]);
+        let nobody = common::fleetmap().run(&[
             "mission",
             "clear",
             "--connect",
@@ -696,7 +676,7 @@ async fn cli_vehicles_mission_files_and_commands() {
         "QGC WPL 110\n0 1 0 16 0 0 0 0 0 0 0 1\n1 0 3 16 0 0 0\n",
     )
     .unwrap();
-    let (code, _, err) = cli(&[
+    let (code, _, err) = common::fleetmap().run(&[
         "mission",
         "upload",
         "--connect",

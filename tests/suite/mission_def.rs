@@ -10,7 +10,8 @@ use fleetmap_core::mission::definition::{
 use fleetmap_io::files::load_mission;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+
+use crate::common;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -915,7 +916,8 @@ proptest! {
 // ---- fleetmap check ----------------------------------------------------------------------
 
 fn fleetmap(args: &[&str]) -> std::process::Output {
-    Command::new(env!("CARGO_BIN_EXE_fleetmap"))
+    common::fleetmap()
+        .command()
         .args(args)
         .current_dir(root())
         .output()

@@ -12,13 +12,12 @@
 
 use crate::common;
 
-use common::free_udp_port;
-use common::pty::bin;
 use fleetmap_core::mission::item::MissionItem;
 use fleetmap_core::mission::plan::{Plan, write_plan};
+use fleetmap_test_kit::{Guard, at, free_udp_port};
 use std::io::{BufRead, BufReader};
 use std::path::Path;
-use std::process::{Child, Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
 /// Home of the simulated vehicle (degrees).
@@ -26,42 +25,32 @@ const HOME: (f64, f64) = (37.1968, -80.5781);
 /// Simulated seconds per wall second.
 const SPEEDUP: &str = "8";
 
-/// A child process killed (and reaped) when dropped, so a failing test leaves nothing behind.
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 /// Start `fleetmap sim` with one vehicle `spec` listening on 127.0.0.1:`port`; returns once
 /// it has printed its endpoint (its socket is open and its vehicle has just powered up).
 /// Its log goes to `log`.
-fn start_sim(spec: &str, port: u16, log: &Path) -> Proc {
+fn start_sim(spec: &str, port: u16, log: &Path) -> Guard {
     let err = std::fs::File::create(log).unwrap();
-    let mut child = Command::new(bin())
-        .args([
-            "sim",
-            "--vehicles",
-            spec,
-            "--home",
-            &format!("{},{}", HOME.0, HOME.1),
-            "--connect",
-            &format!("udpin:127.0.0.1:{port}"),
-            "--speedup",
-            SPEEDUP,
-            "--seed",
-            "3",
-            "-v",
-        ])
-        .stdout(Stdio::piped())
-        .stderr(err)
-        .spawn()
-        .expect("start fleetmap sim");
-    let out = child.stdout.take().unwrap();
-    let proc = Proc(child);
+    let mut proc = Guard::spawn(
+        common::fleetmap()
+            .command()
+            .args([
+                "sim",
+                "--vehicles",
+                spec,
+                "--home",
+                &format!("{},{}", HOME.0, HOME.1),
+                "--connect",
+                &format!("udpin:127.0.0.1:{port}"),
+                "--speedup",
+                SPEEDUP,
+                "--seed",
+                "3",
+                "-v",
+            ])
+            .stdout(Stdio::piped())
+            .stderr(err),
+    );
+    let out = proc.stdout.take().unwrap();
     let (tx, rx) = std::sync::mpsc::channel();
     std::thread::spawn(move || {
         let mut line = String::new();
@@ -88,7 +77,8 @@ fn mission_cmd(
     let mut args = vec!["mission", verb, "--connect", &connect, "--sysid", "1"];
     args.extend_from_slice(extra);
     args.push(file.to_str().unwrap());
-    let mut child = Command::new(bin())
+    let mut child = common::fleetmap()
+        .command()
         .args(&args)
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
@@ -119,11 +109,6 @@ fn fly(port: u16, file: &Path) -> (i32, String, String) {
         file,
         Duration::from_secs(240),
     )
-}
-
-/// (lat, lon) `north` and `east` metres from home.
-fn at(north: f64, east: f64) -> (f64, f64) {
-    fleetmap_core::geo::local::offset(HOME.0, HOME.1, north, east)
 }
 
 /// Fly `items` (written to `file_name` in the temporary directory: `.plan` or `.waypoints`)
@@ -196,7 +181,11 @@ fn copter_mission(takeoff_at: Option<(f64, f64)>) -> Vec<MissionItem> {
         ),
         None => MissionItem::takeoff(5.0),
     };
-    let (a, b, c) = (at(17.0, 0.0), at(17.0, 18.0), at(0.0, 18.0));
+    let (a, b, c) = (
+        at(HOME, 17.0, 0.0),
+        at(HOME, 17.0, 18.0),
+        at(HOME, 0.0, 18.0),
+    );
     vec![
         takeoff,
         MissionItem::waypoint(a.0, a.1, 5.0),
@@ -228,7 +217,7 @@ fn px4_copter_flies_a_plan_file() {
 
 #[test]
 fn ardupilot_rover_drives_a_waypoints_file() {
-    let (a, b) = (at(12.0, 0.0), at(12.0, 12.0));
+    let (a, b) = (at(HOME, 12.0, 0.0), at(HOME, 12.0, 12.0));
     let items = vec![
         MissionItem::waypoint(a.0, a.1, 0.0),
         MissionItem::waypoint(b.0, b.1, 0.0),
@@ -248,7 +237,7 @@ fn ardupilot_rover_drives_a_waypoints_file() {
 /// items behind the home line.
 fn mission_planner_file(dir: &Path) -> std::path::PathBuf {
     let file = dir.join("weathervane-like.txt");
-    let (a, b) = (at(15.0, 0.0), at(15.0, 15.0));
+    let (a, b) = (at(HOME, 15.0, 0.0), at(HOME, 15.0, 15.0));
     let text = format!(
         "QGC WPL 110\n\
          0\t1\t0\t16\t0\t0\t0\t0\t{h0:.8}\t{h1:.8}\t0\t1\n\

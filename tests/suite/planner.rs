@@ -12,7 +12,8 @@ use rand::seq::SliceRandom;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use std::path::PathBuf;
-use std::process::Command;
+
+use crate::common;
 
 /// A random small scenario: 3×3 to 5×5 grids, some obstacles, sometimes roads, 1–3 drones on
 /// 1–2 stations, 1–4 goals, (Td, Tc) ∈ {(4, 2), (4, 4), (6, 3), (2, 2)}, K = 3, sometimes a
@@ -218,25 +219,13 @@ fn pinned_stations_stay_and_keep_their_chargers_in_both_models() {
     assert!(e.to_string().contains("is held at [0, 2] but moves"), "{e}");
 }
 
-fn bin() -> PathBuf {
-    PathBuf::from(env!("CARGO_BIN_EXE_fleetmap"))
-}
-
 fn scenarios() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("tests/scenarios")
 }
 
 fn plan_json(file: &str) -> serde_json::Value {
-    let out = Command::new(bin())
-        .args(["plan", "--json", "--scenario"])
-        .arg(scenarios().join(file))
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let scenario = scenarios().join(file);
+    let out = common::fleetmap().ok(&["plan", "--json", "--scenario", scenario.to_str().unwrap()]);
     serde_json::from_slice(&out.stdout).unwrap()
 }
 
@@ -309,7 +298,8 @@ fn cli_rejects_malformed_scenarios_with_one_line() {
     v["stations"][1] = serde_json::json!([0, 0]);
     let bad = dir.path().join("bad.json");
     std::fs::write(&bad, v.to_string()).unwrap();
-    let out = Command::new(bin())
+    let out = common::fleetmap()
+        .command()
         .args(["plan", "--scenario"])
         .arg(&bad)
         .output()
@@ -366,7 +356,8 @@ fn cli_answers_infeasible_for_scenarios_no_plan_can_satisfy() {
         edit(&mut v);
         let file = dir.path().join("never.json");
         std::fs::write(&file, v.to_string()).unwrap();
-        let out = Command::new(bin())
+        let out = common::fleetmap()
+            .command()
             .args(["plan", "--json", "--scenario"])
             .arg(&file)
             .output()
@@ -380,7 +371,8 @@ fn cli_answers_infeasible_for_scenarios_no_plan_can_satisfy() {
         assert_eq!(o["status"], "infeasible", "{why}: {o}");
         assert_eq!(o["cycles"], 0, "{why}");
         assert_eq!(o["drones"], serde_json::json!([]), "{why}");
-        let text = Command::new(bin())
+        let text = common::fleetmap()
+            .command()
             .args(["plan", "--scenario"])
             .arg(&file)
             .output()

@@ -2,15 +2,9 @@
 //! Monte Carlo study writes its CSV, JSON and PNG files, classifies correctly, runs every goal
 //! rule, and the benchmark prints its figures.
 
-use std::path::{Path, PathBuf};
-use std::process::{Command, Output};
+use std::path::Path;
 
-fn fleetmap(args: &[&str]) -> Output {
-    Command::new(PathBuf::from(env!("CARGO_BIN_EXE_fleetmap")))
-        .args(args)
-        .output()
-        .expect("run fleetmap")
-}
+use crate::common;
 
 fn read_json(p: &Path) -> serde_json::Value {
     serde_json::from_str(&std::fs::read_to_string(p).unwrap()).unwrap()
@@ -22,7 +16,7 @@ fn read_json(p: &Path) -> serde_json::Value {
 fn bandit_study_writes_results_and_classifies_correctly() {
     let dir = tempfile::tempdir().unwrap();
     let out = dir.path().join("t1");
-    let o = fleetmap(&[
+    let o = common::fleetmap().output(&[
         "experiment",
         "bandit",
         "--preset",
@@ -80,7 +74,7 @@ fn bandit_study_writes_results_and_classifies_correctly() {
 #[test]
 fn fig6_runs_every_goal_rule() {
     let dir = tempfile::tempdir().unwrap();
-    let o = fleetmap(&[
+    let o = common::fleetmap().output(&[
         "experiment",
         "bandit",
         "--preset",
@@ -120,7 +114,7 @@ fn fig6_runs_every_goal_rule() {
 
 #[test]
 fn bench_plan_prints_quantiles() {
-    let o = fleetmap(&["bench", "plan", "--epochs", "4", "--json"]);
+    let o = common::fleetmap().output(&["bench", "plan", "--epochs", "4", "--json"]);
     assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
     let v: serde_json::Value = serde_json::from_slice(&o.stdout).unwrap();
     assert_eq!(v["epochs"], 4);
@@ -142,7 +136,7 @@ fn bad_study_arguments_are_one_line_errors() {
         &["experiment", "bandit", "--delta", "1.5"],
         &["bench", "plan", "--epochs", "0"],
     ] {
-        let o = fleetmap(args);
+        let o = common::fleetmap().output(args);
         assert!(!o.status.success(), "{args:?}");
         let err = String::from_utf8_lossy(&o.stderr);
         assert_eq!(err.trim().lines().count(), 1, "{args:?}: {err}");
@@ -156,7 +150,7 @@ fn bad_study_arguments_are_one_line_errors() {
 #[test]
 fn kl_bound_table1_row_is_pinned() {
     let dir = tempfile::tempdir().unwrap();
-    let o = fleetmap(&[
+    let o = common::fleetmap().output(&[
         "experiment",
         "bandit",
         "--preset",
@@ -274,7 +268,7 @@ fn table_parts_merge_into_the_undivided_study() {
             "--quiet",
         ];
         args.extend_from_slice(extra);
-        let o = fleetmap(&args);
+        let o = common::fleetmap().output(&args);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         String::from_utf8(o.stdout).unwrap()
     };
@@ -287,7 +281,7 @@ fn table_parts_merge_into_the_undivided_study() {
         assert!(part.contains(&format!("part {k}")), "{part}");
     }
     assert!(!dir.path().join("parts/trials.csv").exists());
-    let o = fleetmap(&[
+    let o = common::fleetmap().output(&[
         "experiment",
         "merge",
         &path("parts"),
@@ -320,7 +314,7 @@ fn table_parts_merge_into_the_undivided_study() {
     );
     assert!(summary["variants"][0]["p_max"]["median"].as_f64().unwrap() > 100.0);
     // One part alone is not the study.
-    let o = fleetmap(&[
+    let o = common::fleetmap().output(&[
         "experiment",
         "merge",
         &path("parts/shard-1-of-2.json"),
@@ -354,7 +348,7 @@ fn every_table_small_version_is_pinned() {
     let mut got: Vec<String> = Vec::new();
     for table in ["I", "II", "III", "IV", "fig6"] {
         let out = dir.path().join(table);
-        let o = fleetmap(&[
+        let o = common::fleetmap().output(&[
             "experiment",
             "bandit",
             "--table",
@@ -474,7 +468,7 @@ fn committed_tables_reproduce() {
             out.to_str().unwrap(),
         ];
         args.extend_from_slice(extra);
-        let o = fleetmap(&args);
+        let o = common::fleetmap().output(&args);
         assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
         let got = std::fs::read_to_string(out.join("trials.csv")).unwrap();
         assert_eq!(got.lines().next().unwrap(), header);

@@ -5,31 +5,16 @@
 //! the fleet hears its radio's RADIO_STATUS on every link.
 
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap_core::mission::item::{MissionItem, MissionType};
-use fleetmap_core::proto::Endpoint;
-use fleetmap_core::proto::command::Command;
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::radio::RadioConfig;
 use fleetmap_io::link::relay::{Relay, RelayOptions};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::server;
-use mavlink::dialects::ardupilotmega::MavCmd;
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-/// A 12-item mission for vehicle `k`.
-fn mission(k: u8) -> Vec<MissionItem> {
-    let mut v = vec![MissionItem::takeoff(10.0)];
-    for i in 0..11 {
-        v.push(MissionItem::waypoint(
-            37.1968 + f64::from(i) * 1e-5,
-            -80.5781 + f64::from(k) * 1e-5,
-            10.0 + (i % 5) as f32,
-        ));
-    }
-    v
-}
+use crate::common;
 
 #[tokio::test(start_paused = true)]
 async fn three_vehicles_each_behind_its_own_radio() {
@@ -102,23 +87,7 @@ async fn three_vehicles_each_behind_its_own_radio() {
     for k in 1..=n {
         let f = f.clone();
         tasks.push(tokio::spawn(async move {
-            f.command(Command::long(
-                Endpoint::new(k, 1),
-                MavCmd::MAV_CMD_REQUEST_MESSAGE,
-                [242.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], // HOME_POSITION
-            ))
-            .await
-            .unwrap_or_else(|e| panic!("vehicle {k}: {e}"));
-            let items = mission(k);
-            f.upload_mission(k, MissionType::Mission, items.clone())
-                .await
-                .unwrap_or_else(|e| panic!("vehicle {k} upload: {e}"));
-            let (back, _) = f
-                .download_mission(k, MissionType::Mission)
-                .await
-                .unwrap_or_else(|e| panic!("vehicle {k} download: {e}"));
-            fleetmap_core::mission::wire::compare_items(&items, &back, true)
-                .unwrap_or_else(|d| panic!("vehicle {k}: {d}"));
+            common::command_and_mission_round_trip(&f, k, common::spread_mission(k, 11)).await;
         }));
     }
     for t in tasks {

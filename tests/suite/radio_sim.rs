@@ -9,34 +9,15 @@
 
 #![allow(deprecated)] // REQUEST_DATA_STREAM: still what ArduPilot's streams obey
 
-use fleetmap_io::link::codec::Codec;
+use fleetmap_test_kit::gcs::Gcs;
+use fleetmap_test_kit::{Guard, free_udp_port};
 use mavlink::dialects::ardupilotmega::{
     HEARTBEAT_DATA, MavAutopilot, MavDataStream, MavMessage, MavType, REQUEST_DATA_STREAM_DATA,
 };
-use std::net::{SocketAddr, UdpSocket};
+use std::net::SocketAddr;
 use std::time::{Duration, Instant};
 
-/// Kills a process the test started if the test fails before it ends it.
-struct Child(std::process::Child);
-
-impl Drop for Child {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn bin() -> String {
-    std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())
-}
-
-fn free_udp_port() -> u16 {
-    UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
-}
+use crate::common;
 
 /// A frame the GCS socket received: when, its bytes, its sender and message.
 struct Got {
@@ -61,57 +42,53 @@ fn boot_ms(m: &MavMessage) -> Option<u32> {
 fn relay_radio_2000_carries_2000_bytes_per_second_of_the_vehicles_time() {
     let dir = tempfile::tempdir().unwrap();
     let stats_file = dir.path().join("radio.json");
-    let gcs = UdpSocket::bind("127.0.0.1:0").unwrap();
-    gcs.set_read_timeout(Some(Duration::from_millis(50)))
-        .unwrap();
-    let gport = gcs.local_addr().unwrap().port();
+    let mut gcs = Gcs::bind();
+    let gport = gcs.addr().port();
     let vport = free_udp_port();
-    let relay = std::process::Command::new(bin())
-        .args([
-            "relay",
-            "--gcs",
-            &format!("udpout:127.0.0.1:{gport}"),
-            "--vehicle",
-            &format!("udpin:127.0.0.1:{vport}"),
-            "--radio",
-            "2000",
-            "--clock",
-            "vehicle",
-            "--stats",
-            stats_file.to_str().unwrap(),
-            "--report-every",
-            "0",
-            "--duration",
-            "300",
-        ])
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut relay = Child(relay);
+    let mut relay = Guard::spawn(
+        common::fleetmap()
+            .command()
+            .args([
+                "relay",
+                "--gcs",
+                &format!("udpout:127.0.0.1:{gport}"),
+                "--vehicle",
+                &format!("udpin:127.0.0.1:{vport}"),
+                "--radio",
+                "2000",
+                "--clock",
+                "vehicle",
+                "--stats",
+                stats_file.to_str().unwrap(),
+                "--report-every",
+                "0",
+                "--duration",
+                "300",
+            ])
+            .stdout(std::process::Stdio::piped()),
+    );
     // the relay's vehicle side is bound before the copter starts sending (a copter that
     // finds no one listening just retries: udpout)
     std::thread::sleep(Duration::from_millis(500));
-    let sim = std::process::Command::new(bin())
-        .args([
-            "sim",
-            "--vehicles",
-            "1xcopter:ardupilot",
-            "--connect",
-            &format!("udpout:127.0.0.1:{vport}"),
-            "--home=37.1968,-80.5781",
-            "--speedup",
-            "5",
-            "--duration",
-            "3000",
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let _sim = Child(sim);
+    let _sim = Guard::spawn(
+        common::fleetmap()
+            .command()
+            .args([
+                "sim",
+                "--vehicles",
+                "1xcopter:ardupilot",
+                "--connect",
+                &format!("udpout:127.0.0.1:{vport}"),
+                "--home=37.1968,-80.5781",
+                "--speedup",
+                "5",
+                "--duration",
+                "3000",
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null()),
+    );
 
-    let mut tx = Codec::new();
-    let mut rx = Codec::new();
     let heartbeat = MavMessage::HEARTBEAT(HEARTBEAT_DATA {
         mavtype: MavType::MAV_TYPE_GCS,
         autopilot: MavAutopilot::MAV_AUTOPILOT_INVALID,
@@ -127,7 +104,6 @@ fn relay_radio_2000_carries_2000_bytes_per_second_of_the_vehicles_time() {
     });
     let mut relay_addr: Option<SocketAddr> = None;
     let mut got: Vec<Got> = Vec::new();
-    let mut buf = [0u8; 2048];
     let start = Instant::now();
     let mut next_beat = start;
     let mut flowing: Option<Instant> = None;
@@ -140,14 +116,13 @@ fn relay_radio_2000_carries_2000_bytes_per_second_of_the_vehicles_time() {
         if let Some(to) = relay_addr
             && Instant::now() >= next_beat
         {
-            gcs.send_to(&tx.encode(255, 190, &heartbeat, 0), to)
-                .unwrap();
-            gcs.send_to(&tx.encode(255, 190, &streams, 0), to).unwrap();
+            gcs.send(&heartbeat, to);
+            gcs.send(&streams, to);
             next_beat += Duration::from_secs(1);
         }
-        if let Ok((n, from)) = gcs.recv_from(&mut buf) {
+        if let Some((from, frames)) = gcs.recv(Duration::from_millis(50)) {
             relay_addr.get_or_insert(from);
-            for f in rx.decode(&buf[..n], 0) {
+            for f in frames {
                 let Ok(msg) = f.message.clone() else { continue };
                 if flowing.is_none() && matches!(msg, MavMessage::ATTITUDE(_)) {
                     flowing = Some(Instant::now());
@@ -162,12 +137,8 @@ fn relay_radio_2000_carries_2000_bytes_per_second_of_the_vehicles_time() {
             }
         }
     }
-    let status = std::process::Command::new("kill")
-        .args(["-TERM", &relay.0.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
-    assert!(relay.0.wait().unwrap().success(), "the relay failed");
+    relay.signal("TERM");
+    assert!(relay.wait().unwrap().success(), "the relay failed");
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(&stats_file).expect("the stats file"))
             .unwrap();

@@ -396,16 +396,6 @@ async fn radio_counts_bytes_in_the_vehicles_time() {
     assert!((wall_rate - 10_000.0).abs() < 300.0, "{wall_rate:.0} B/s");
 }
 
-/// Kills the relay process if the test fails before it does.
-struct Child(std::process::Child);
-
-impl Drop for Child {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
 /// The real binary, `fleetmap relay --rate 5000 --json`, between two UDP sockets on the wall
 /// clock: 4 s of a flood at about 14 kB/s arrive at 5,000 B/s (between 85 % and 105 %: a
 /// busy machine can stall the sender, which only lowers the figure, or delay the first
@@ -420,30 +410,26 @@ fn cli_relay_rate_5000_over_udp() {
         .set_read_timeout(Some(Duration::from_millis(1500)))
         .unwrap();
     let vport = vehicle.local_addr().unwrap().port();
-    let gport = UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port();
-    let child = std::process::Command::new(env!("CARGO_BIN_EXE_fleetmap"))
-        .args([
-            "relay",
-            "--gcs",
-            &format!("udpin:127.0.0.1:{gport}"),
-            "--vehicle",
-            &format!("udpout:127.0.0.1:{vport}"),
-            "--rate",
-            "5000",
-            "--report-every",
-            "0",
-            "--duration",
-            "120",
-            "--json",
-        ])
-        .stdout(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
-    let mut child = Child(child);
+    let gport = fleetmap_test_kit::free_udp_port();
+    let mut child = fleetmap_test_kit::Guard::spawn(
+        crate::common::fleetmap()
+            .command()
+            .args([
+                "relay",
+                "--gcs",
+                &format!("udpin:127.0.0.1:{gport}"),
+                "--vehicle",
+                &format!("udpout:127.0.0.1:{vport}"),
+                "--rate",
+                "5000",
+                "--report-every",
+                "0",
+                "--duration",
+                "120",
+                "--json",
+            ])
+            .stdout(std::process::Stdio::piped()),
+    );
     let gcs = UdpSocket::bind("127.0.0.1:0").unwrap();
     let mut c = Codec::new();
     let mut rx = Codec::new();
@@ -490,14 +476,10 @@ fn cli_relay_rate_5000_over_udp() {
         std::thread::sleep(next.saturating_duration_since(Instant::now()));
     }
     let got = receiver.join().unwrap();
-    let status = std::process::Command::new("kill")
-        .args(["-INT", &child.0.id().to_string()])
-        .status()
-        .unwrap();
-    assert!(status.success());
+    child.signal("INT");
     let mut out = String::new();
-    std::io::Read::read_to_string(child.0.stdout.as_mut().unwrap(), &mut out).unwrap();
-    assert!(child.0.wait().unwrap().success());
+    std::io::Read::read_to_string(child.stdout.as_mut().unwrap(), &mut out).unwrap();
+    assert!(child.wait().unwrap().success());
 
     let mut last = None;
     let mut arrivals = Vec::new();

@@ -15,18 +15,14 @@
 
 use fleetmap::fleet::{self, FleetConfig};
 use fleetmap_core::mission::item::{MissionItem, MissionType};
-use fleetmap_core::time::Time;
 use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::transport::LinkOptions;
-use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::server::{self, ServeOptions};
+use fleetmap_sim::harness::SimConfig;
+use fleetmap_sim::server::GcsClock;
+use fleetmap_test_kit::{at, sim};
 use std::time::Duration;
 
 const HOME: (f64, f64) = (37.195135, -80.579943);
-
-fn at(north: f64, east: f64) -> (f64, f64) {
-    fleetmap_core::geo::local::offset(HOME.0, HOME.1, north, east)
-}
 
 /// A station mission as fleetmap builds it: DO_CHANGE_SPEED, then one waypoint.
 fn station_mission(to: (f64, f64)) -> Vec<MissionItem> {
@@ -44,29 +40,22 @@ async fn the_fleet_starts_a_rovers_second_mission() {
         .await
         .unwrap();
     let gcs = f.links()[0].local.expect("the port the GCS listens on");
-    let sim = Sim::new(
+    let _served = sim::serve(
         SimConfig::from_spec("1xrover:ardupilot", None, Some(HOME), 5).unwrap(),
-        Time::ZERO,
+        vec![sim::udpout(gcs)],
+        5.0,
+        GcsClock::Wall,
     )
-    .unwrap();
-    let _served = server::spawn(
-        sim,
-        ServeOptions {
-            endpoints: vec![server::parse_connection(&format!("udpout:{gcs}")).unwrap()],
-            speed: fleetmap_sim::pace::Speed::Times(5.0),
-            gcs: server::GcsClock::Wall,
-            image_dir: None,
-            duration_s: None,
-        },
-    )
-    .await
-    .unwrap();
+    .await;
     let wait = Duration::from_secs(60);
     f.wait_until(1, wait, |v| v.home.is_some())
         .await
         .expect("the rover and its home");
     let last = 1u16; // user numbering: DO_CHANGE_SPEED 0, the waypoint 1
-    for (k, to) in [at(0.0, 5.0), at(0.0, 0.0)].into_iter().enumerate() {
+    for (k, to) in [at(HOME, 0.0, 5.0), at(HOME, 0.0, 0.0)]
+        .into_iter()
+        .enumerate()
+    {
         f.upload_mission(1, MissionType::Mission, station_mission(to))
             .await
             .unwrap();

@@ -28,17 +28,6 @@ struct Finished {
     fleet: fleetmap::fleet::FleetHandle,
 }
 
-fn journal(path: &std::path::Path) -> Vec<MappingEvent> {
-    RunDir::open(path)
-        .unwrap()
-        .read_events::<MappingEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|l| l.event)
-        .collect()
-}
-
 /// The report's mission time is consistent with the run's journal and with itself: the
 /// milestones journalled once each, in the mission's order, with the report's values; the
 /// complete map journalled with the last vertex's pictures and the last landing with the last
@@ -148,30 +137,9 @@ async fn fly(drones: usize, seed: u64) -> Finished {
     let (fleet, sim) = demo::start_virtual(&spec, world.clone(), &cfg)
         .await
         .unwrap();
-    let state =
-        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-            .await
-            .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let run_dir = RunDir::create(
-        tmp.path().join("run"),
-        RunMeta::new(runway::KIND, 0),
-        Some(&text),
-    )
-    .unwrap();
-    let path = run_dir.path().to_path_buf();
+    let (state, run_dir, path, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
     let hub = images::spawn(&fleet);
-    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
-    let printer = tokio::spawn(async move {
-        while let Some(line) = rx.recv().await {
-            eprintln!("{line}");
-        }
-    });
-    let opts = RunOptions {
-        auto_resume: true,
-        progress: Some(tx),
-        ..RunOptions::default()
-    };
+    let (opts, printer) = common::runway::printed_options();
     let outcome = runway::run(fleet.clone(), &hub, run_dir, state, opts)
         .await
         .unwrap();
@@ -185,7 +153,7 @@ async fn fly(drones: usize, seed: u64) -> Finished {
     Finished {
         state,
         report: r,
-        events: journal(&path),
+        events: common::journal::<MappingEvent>(&path),
         fleet,
     }
 }
@@ -375,7 +343,7 @@ async fn the_mission_time_survives_a_resume() {
     let cov = truth_coverage(&state.grid, &world, 0.0).unwrap();
     let r = report(&state, Some(&cov));
     print(&r);
-    check_mission_time(&r, &journal(&path), starts);
+    check_mission_time(&r, &common::journal::<MappingEvent>(&path), starts);
     assert!(r.robots[0].time.ground_swap_s > 0.0);
     assert!(r.robots[0].time.homing_s > 0.0);
     let _ = sim.stop().await;

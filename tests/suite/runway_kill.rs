@@ -10,7 +10,6 @@
 //! the test is about losing nothing, not about the classifier's edge cases, and it keeps CI
 //! short.
 
-use fleetmap::app::runway::MappingEvent;
 use fleetmap::app::runway::report::truth_coverage;
 use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
@@ -18,64 +17,33 @@ use fleetmap_core::world::World;
 use rand::{RngExt, SeedableRng};
 use std::collections::BTreeSet;
 use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
 use std::time::{Duration, Instant};
 
 use crate::common;
-use common::pty::bin;
-use common::{WORLD, free_udp_port};
+use common::WORLD;
+use fleetmap_test_kit::{Guard, free_udp_port};
 
 /// The simulator's speed-up. The 20 kills come 0.3–2.5 s apart (28 s of GCS time on
 /// average) and must all fall inside the run: at 20× the run sometimes finished after fewer
 /// (1 of 12 runs on a quiet machine), at 10× it lasts about twice as long in wall time.
 const SPEEDUP: &str = "10";
 
-struct Sim(Child);
-
-impl Drop for Sim {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn start_sim(world: &Path, port: u16) -> Sim {
-    let child = Command::new(bin())
-        .args([
-            "sim",
-            "--vehicles",
-            "1xcopter:ardupilot",
-            "--world",
-            world.to_str().unwrap(),
-            "--connect",
-            &format!("udpin:127.0.0.1:{port}"),
-            "--speedup",
-            SPEEDUP,
-            "--swap-after",
-            "20",
-            "--seed",
-            "7",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .expect("start fleetmap sim");
-    Sim(child)
-}
-
-fn gcs(args: &[&str], log: &Path) -> Child {
-    let out = std::fs::OpenOptions::new()
-        .create(true)
-        .append(true)
-        .open(log)
-        .unwrap();
-    let err = out.try_clone().unwrap();
-    Command::new(bin())
-        .args(args)
-        .stdout(out)
-        .stderr(err)
-        .spawn()
-        .expect("start the GCS")
+fn start_sim(world: &Path, port: u16) -> Guard {
+    common::fleetmap().quiet(&[
+        "sim",
+        "--vehicles",
+        "1xcopter:ardupilot",
+        "--world",
+        world.to_str().unwrap(),
+        "--connect",
+        &format!("udpin:127.0.0.1:{port}"),
+        "--speedup",
+        SPEEDUP,
+        "--swap-after",
+        "20",
+        "--seed",
+        "7",
+    ])
 }
 
 fn run_args<'a>(mission: &'a str, conn: &'a str, dir: &'a str, world: &'a str) -> Vec<&'a str> {
@@ -93,51 +61,11 @@ fn run_args<'a>(mission: &'a str, conn: &'a str, dir: &'a str, world: &'a str) -
     ]
 }
 
-fn wait_exit(child: &mut Child, limit: Duration, log: &Path) -> i32 {
-    let t0 = Instant::now();
-    loop {
-        if let Some(s) = child.try_wait().unwrap() {
-            return s.code().unwrap_or(-1);
-        }
-        if t0.elapsed() > limit {
-            let _ = child.kill();
-            panic!(
-                "the GCS did not finish within {limit:?}; log:\n{}",
-                std::fs::read_to_string(log).unwrap_or_default()
-            );
-        }
-        std::thread::sleep(Duration::from_millis(100));
-    }
-}
-
-/// Every image event in the journal (acknowledged detections).
-fn journaled_images(dir: &Path) -> BTreeSet<String> {
-    let run = RunDir::open(dir).expect("the run loads after a kill");
-    let log = run
-        .read_events::<MappingEvent>()
-        .expect("the journal reads");
-    log.events
-        .into_iter()
-        .filter_map(|l| match l.event {
-            MappingEvent::Image { image_id, .. } => Some(image_id),
-            _ => None,
-        })
-        .collect()
-}
-
 fn saved(dir: &Path) -> Option<MappingState> {
     RunDir::open(dir)
         .expect("the run loads after a kill")
         .load_state::<MappingState>()
         .expect("the state loads after a kill")
-}
-
-fn detections(s: &MappingState) -> BTreeSet<String> {
-    s.book
-        .detections()
-        .iter()
-        .map(|r| r.detection.image_id.clone())
-        .collect()
 }
 
 #[test]
@@ -172,8 +100,8 @@ fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
         let conn = format!("udpout:127.0.0.1:{port}");
         let log = root.join("reference.log");
         let d = reference.to_str().unwrap().to_string();
-        let mut g = gcs(&run_args(mission, &conn, &d, &w), &log);
-        let code = wait_exit(&mut g, Duration::from_secs(300), &log);
+        let mut g = common::fleetmap().logged(&run_args(mission, &conn, &d, &w), &log);
+        let code = g.code_within(Duration::from_secs(300), &log);
         assert_eq!(code, 0, "{}", std::fs::read_to_string(&log).unwrap());
     }
     let ref_state = saved(&reference).unwrap();
@@ -208,7 +136,7 @@ fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
     let d = run.to_str().unwrap().to_string();
     let log = root.join("killed.log");
     let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(2024);
-    let mut child = gcs(&run_args(mission, &conn, &d, &w), &log);
+    let mut child = common::fleetmap().logged(&run_args(mission, &conn, &d, &w), &log);
     // The run exists once its first state is saved; the kills start from there.
     let t0 = Instant::now();
     while !run.join("state.json").exists() {
@@ -232,9 +160,9 @@ fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
         child.wait().unwrap();
         kills += 1;
         // The run loads; everything acknowledged is still there.
-        let acked = journaled_images(&run);
+        let acked = common::runway::journal_images(&common::journal(&run));
         let state = saved(&run).expect("a saved state");
-        let kept = detections(&state);
+        let kept = common::runway::detections(&state);
         let lost: Vec<&String> = acked.difference(&kept).collect();
         assert!(
             lost.is_empty(),
@@ -250,10 +178,10 @@ fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
             finished_early = true;
             break;
         }
-        child = gcs(&["resume", &d, "--headless", "--auto-resume"], &log);
+        child = common::fleetmap().logged(&["resume", &d, "--headless", "--auto-resume"], &log);
     }
     if !finished_early {
-        let code = wait_exit(&mut child, Duration::from_secs(300), &log);
+        let code = child.code_within(Duration::from_secs(300), &log);
         assert_eq!(code, 0, "{}", std::fs::read_to_string(&log).unwrap());
     }
     let _ = child.kill();
@@ -264,8 +192,8 @@ fn gcs_killed_twenty_times_loses_nothing_and_maps_the_same() {
         "{}",
         std::fs::read_to_string(&log).unwrap()
     );
-    let acked = journaled_images(&run);
-    assert!(acked.is_subset(&detections(&state)));
+    let acked = common::runway::journal_images(&common::journal(&run));
+    assert!(acked.is_subset(&common::runway::detections(&state)));
     eprintln!(
         "{kills} kills; reference map {:?}; killed-run map {:?}; {} images",
         ref_map,

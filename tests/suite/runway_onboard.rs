@@ -16,15 +16,13 @@ use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent, RunOptions};
-use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::explore::dfs::Sharing;
+use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::world::World;
 use fleetmap_io::link::radio::{RadioConfig, RadioStats};
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::BTreeSet;
 use std::sync::{Arc, Mutex};
-use std::time::Duration;
 
 use crate::common;
 
@@ -115,18 +113,7 @@ async fn fly_mission(world: World, text: &str, mut cfg: DemoConfig, onboard: boo
             }
         })
     };
-    let state =
-        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-            .await
-            .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let run_dir = RunDir::create(
-        tmp.path().join("run"),
-        RunMeta::new(runway::KIND, 0),
-        Some(text),
-    )
-    .unwrap();
-    let path = run_dir.path().to_path_buf();
+    let (state, run_dir, path, _tmp) = common::runway::new_run(&fleet, &def, text).await;
     let hub = images::spawn(&fleet);
     let opts = RunOptions {
         auto_resume: true,
@@ -139,14 +126,7 @@ async fn fly_mission(world: World, text: &str, mut cfg: DemoConfig, onboard: boo
     let state: MappingState = RunDir::open(&path).unwrap().load_state().unwrap().unwrap();
     let cov = truth_coverage(&state.grid, &world, 0.0).unwrap();
     let report = report(&state, Some(&cov));
-    let events = RunDir::open(&path)
-        .unwrap()
-        .read_events::<MappingEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|l| l.event)
-        .collect();
+    let events = common::journal::<MappingEvent>(&path);
     fleet.shutdown().await;
     let radios = match sim.stop().await {
         Ok(sim) => (

@@ -15,7 +15,7 @@ use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
 use fleetmap::app::kind::RunKind;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent, RunOptions};
+use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState, Phase, RobotStatus};
@@ -23,6 +23,8 @@ use fleetmap_core::explore::reach::Unreachable;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;
 use std::time::Duration;
+
+use crate::common;
 
 /// Grass with one asphalt band 200 m east-west by 24 m, its centre 10 m north of the first
 /// home, drifting east (away from home) at `ve` m/s: wide enough that the sweep box stays over
@@ -123,17 +125,7 @@ async fn fly(world_text: &str, text: &str, drones: u8, minutes: f64, seed: u64) 
     let path = tmp.path().join("run");
     let run_dir = RunDir::create(&path, RunMeta::new(runway::KIND, 0), Some(text)).unwrap();
     let hub = images::spawn(&fleet);
-    let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
-    let printer = tokio::spawn(async move {
-        while let Some(line) = rx.recv().await {
-            eprintln!("{line}");
-        }
-    });
-    let opts = RunOptions {
-        auto_resume: true,
-        progress: Some(tx),
-        ..RunOptions::default()
-    };
+    let (opts, printer) = common::runway::printed_options();
     let t0 = fleet.clock().now();
     let outcome = tokio::time::timeout(
         Duration::from_secs(2 * 3600),
@@ -147,14 +139,7 @@ async fn fly(world_text: &str, text: &str, drones: u8, minutes: f64, seed: u64) 
     let state: MappingState = RunDir::open(&path).unwrap().load_state().unwrap().unwrap();
     let cov = truth_coverage(&state.grid, &world, 0.0).unwrap();
     let report = report(&state, Some(&cov));
-    let events = RunDir::open(&path)
-        .unwrap()
-        .read_events::<MappingEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|l| l.event)
-        .collect();
+    let events = common::journal::<MappingEvent>(&path);
     let _ = sim.stop().await;
     Ran {
         outcome,

@@ -9,11 +9,10 @@
 //! (ten minutes with auto-resume), then the run ends saying what a person must fix.
 
 use fleetmap::app::kind::{OperatorTask, Outcome};
+use fleetmap::app::runway::MappingEvent;
 use fleetmap::app::runway::report::{report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
-use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::explore::dfs::Sharing;
+use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
@@ -22,7 +21,6 @@ use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::transport::{LinkOptions, open_memory_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_sim::server::{SimTask, spawn_memory};
-use std::path::Path;
 use std::time::Duration;
 use tokio::sync::mpsc;
 
@@ -62,28 +60,6 @@ fn team(world: &World, drones: usize, compass: (u8, f64)) -> (FleetHandle, SimTa
     (fleet, sim)
 }
 
-fn journal(dir: &Path) -> Vec<MappingEvent> {
-    RunDir::open(dir)
-        .unwrap()
-        .read_events::<MappingEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|e| e.event)
-        .collect()
-}
-
-/// Fly `state` in `dir` with auto-resume until it ends, or until `stop` says so of a
-/// progress line (the GCS dies there); returns the lines, and the outcome if it ended.
-async fn fly(
-    fleet: &FleetHandle,
-    dir: &Path,
-    state: MappingState,
-    stop: impl FnMut(&str) -> bool,
-) -> (Vec<String>, Option<Outcome>) {
-    common::runway::run_until(fleet, dir, state, stop).await
-}
-
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn a_drone_that_cannot_take_off_leaves_the_tree_and_rejoins_when_fixed() {
     let world = World::from_toml(common::WORLD).unwrap();
@@ -93,16 +69,10 @@ async fn a_drone_that_cannot_take_off_leaves_the_tree_and_rejoins_when_fixed() {
     );
     let def = MissionDef::parse(&text, "strip, two drones").unwrap();
     let (fleet, sim) = team(&world, 2, (2, FIXED_AT_S));
-    let state =
-        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-            .await
-            .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
+    let (state, _, dir, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
     // Stopped at drone 1's next step after drone 2 was grounded.
     let mut grounded = false;
-    let (lines, ended) = fly(&fleet, &dir, state, |l| {
+    let (lines, ended) = common::runway::run_until(&fleet, &dir, state, |l| {
         if l.contains("vehicle 2 cannot go on") {
             grounded = true;
             return false;
@@ -132,7 +102,7 @@ async fn a_drone_that_cannot_take_off_leaves_the_tree_and_rejoins_when_fixed() {
     assert!(g.fix.is_some(), "{g:?}");
     assert_eq!(saved.robot(2).unwrap().battery_swaps, 0);
     // Resumed: drone 2 is still grounded until its check passes, then rejoins by itself.
-    let (lines, ended) = fly(&fleet, &dir, saved, |_| false).await;
+    let (lines, ended) = common::runway::run_until(&fleet, &dir, saved, |_| false).await;
     assert_eq!(ended, Some(Outcome::Finished));
     assert!(
         lines
@@ -146,7 +116,7 @@ async fn a_drone_that_cannot_take_off_leaves_the_tree_and_rejoins_when_fixed() {
     assert!(r2.grounded.is_none());
     assert!(r2.flight_s > 10.0, "drone 2 never flew after it rejoined");
     assert_eq!(r2.battery_swaps, 0, "a grounding is not a battery swap");
-    let events = journal(&dir);
+    let events = common::journal::<MappingEvent>(&dir);
     let out = events
         .iter()
         .position(|e| {
@@ -188,15 +158,9 @@ async fn a_lone_drone_that_is_never_fixed_ends_the_run_saying_what_to_fix() {
     let text = common::strip_mission();
     let def = MissionDef::parse(&text, "strip").unwrap();
     let (fleet, sim) = team(&world, 1, (1, f64::INFINITY));
-    let state =
-        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-            .await
-            .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
+    let (state, _, dir, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
     let t0 = tokio::time::Instant::now();
-    let (lines, ended) = fly(&fleet, &dir, state, |_| false).await;
+    let (lines, ended) = common::runway::run_until(&fleet, &dir, state, |_| false).await;
     match &ended {
         Some(Outcome::WaitingForOperator { waiting }) => {
             assert_eq!(waiting.len(), 1, "{waiting:?}");

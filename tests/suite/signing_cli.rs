@@ -3,35 +3,17 @@
 //! then on the vehicle ignores an unsigned command and obeys a signed one.
 
 use sha2::{Digest, Sha256};
-use std::process::{Child, Command, Output, Stdio};
+use std::process::Output;
 
 use crate::common;
-use common::free_udp_port;
-use common::pty::bin;
-
-struct Proc(Child);
-
-impl Drop for Proc {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn run(args: &[&str]) -> Output {
-    Command::new(bin())
-        .args(args)
-        .stdin(Stdio::null())
-        .output()
-        .expect("run fleetmap")
-}
+use fleetmap_test_kit::free_udp_port;
 
 /// `fleetmap <what> --connect CONN --sysid 1 <rest>`.
 fn on_vehicle_1(what: &[&str], conn: &str, rest: &[&str]) -> Output {
     let mut args = what.to_vec();
     args.extend(["--connect", conn, "--sysid", "1"]);
     args.extend(rest);
-    run(&args)
+    common::fleetmap().output(&args)
 }
 
 fn text(o: &Output) -> String {
@@ -50,7 +32,7 @@ fn keygen_then_setup_makes_the_vehicle_require_signatures() {
     let key_s = key.to_str().unwrap();
 
     // keygen: SHA-256 of the passphrase, 64 hex digits, readable by the owner only.
-    let out = run(&[
+    let out = common::fleetmap().output(&[
         "signing",
         "keygen",
         "--passphrase",
@@ -71,29 +53,22 @@ fn keygen_then_setup_makes_the_vehicle_require_signatures() {
         let mode = std::fs::metadata(&key).unwrap().permissions().mode();
         assert_eq!(mode & 0o777, 0o600, "key file mode {mode:o}");
     }
-    let empty = run(&["signing", "keygen", "--passphrase", ""]);
+    let empty = common::fleetmap().output(&["signing", "keygen", "--passphrase", ""]);
     assert!(!empty.status.success());
 
     // A simulated copter without a key.
     let port = free_udp_port();
-    let _sim = Proc(
-        Command::new(bin())
-            .args([
-                "sim",
-                "--vehicles",
-                "1xcopter:ardupilot",
-                "--home",
-                "37.1968,-80.5781",
-                "--connect",
-                &format!("udpin:127.0.0.1:{port}"),
-                "--seed",
-                "2",
-            ])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("start fleetmap sim"),
-    );
+    let _sim = common::fleetmap().quiet(&[
+        "sim",
+        "--vehicles",
+        "1xcopter:ardupilot",
+        "--home",
+        "37.1968,-80.5781",
+        "--connect",
+        &format!("udpin:127.0.0.1:{port}"),
+        "--seed",
+        "2",
+    ]);
     let conn = format!("udpout:127.0.0.1:{port}");
 
     // Before the key: an unsigned command is obeyed.

@@ -18,11 +18,11 @@ use fleetmap_io::files::read_file_url;
 use fleetmap_io::link::codec::Codec;
 use fleetmap_io::link::faults::LinkFaults;
 use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_test_kit::gcs::{Headers, command_long, heartbeat, status_text};
 use image::RgbImage;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
-use num_traits::FromPrimitive;
 use std::time::Duration;
 
 fn runway() -> World {
@@ -214,7 +214,7 @@ fn same_seed_same_image() {
 struct Gcs {
     sim: Sim,
     codec: Codec,
-    seq: u8,
+    headers: Headers,
     rx: ImageReceiver,
     images: Vec<Vec<u8>>,
     captured: Vec<mav::CAMERA_IMAGE_CAPTURED_DATA>,
@@ -222,29 +222,12 @@ struct Gcs {
 
 impl Gcs {
     fn send(&mut self, msg: MavMessage) {
-        let h = MavHeader {
-            system_id: 255,
-            component_id: 190,
-            sequence: self.seq,
-        };
-        self.seq = self.seq.wrapping_add(1);
+        let h = self.headers.next_header();
         self.sim.send(1, &h, &msg);
     }
 
     fn command(&mut self, comp: u8, cmd: u16, p: [f32; 7]) {
-        self.send(MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
-            param1: p[0],
-            param2: p[1],
-            param3: p[2],
-            param4: p[3],
-            param5: p[4],
-            param6: p[5],
-            param7: p[6],
-            command: mav::MavCmd::from_u16(cmd).unwrap(),
-            target_system: 1,
-            target_component: comp,
-            confirmation: 0,
-        }));
+        self.send(command_long((1, comp), cmd, p));
     }
 
     fn run(&mut self, secs: f64) {
@@ -253,14 +236,7 @@ impl Gcs {
             let t = self.sim.now() + Duration::from_millis(50);
             self.sim.advance_to(t);
             if (t.as_millis() / 50).is_multiple_of(20) {
-                self.send(MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
-                    custom_mode: 0,
-                    mavtype: mav::MavType::MAV_TYPE_GCS,
-                    autopilot: mav::MavAutopilot::MAV_AUTOPILOT_INVALID,
-                    base_mode: mav::MavModeFlag::empty(),
-                    system_status: mav::MavState::MAV_STATE_ACTIVE,
-                    mavlink_version: 3,
-                }));
+                self.send(heartbeat());
             }
             while let Some(d) = self.sim.recv_bytes(1) {
                 for f in self.codec.decode(&d, 0) {
@@ -301,7 +277,7 @@ fn images_arrive_over_a_lossy_link_and_as_files() {
     let mut g = Gcs {
         sim,
         codec: Codec::new(),
-        seq: 0,
+        headers: Headers::default(),
         rx: ImageReceiver::new(
             Endpoint::new(1, 100),
             Endpoint::gcs(),
@@ -423,18 +399,7 @@ fn acks(msgs: &[(MavHeader, MavMessage)]) -> Vec<mav::COMMAND_ACK_DATA> {
 }
 
 fn texts(msgs: &[(MavHeader, MavMessage)]) -> Vec<String> {
-    msgs.iter()
-        .filter_map(|(_, m)| match m {
-            MavMessage::STATUSTEXT(t) => Some(
-                t.text
-                    .to_str()
-                    .unwrap_or("")
-                    .trim_end_matches('\0')
-                    .to_string(),
-            ),
-            _ => None,
-        })
-        .collect()
+    msgs.iter().filter_map(|(_, m)| status_text(m)).collect()
 }
 
 /// REQUEST_DATA_STREAMs as (stream, rate Hz) and SET_MESSAGE_INTERVALs as (message id,

@@ -23,8 +23,6 @@ use crate::common;
 use fleetmap::fleet::Incoming;
 use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_io::clock::MonotonicClock;
-use fleetmap_io::link::ConnSpec;
-use fleetmap_io::link::transport::{LinkOptions, open_link};
 use fleetmap_sim::harness::SimConfig;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::BTreeMap;
@@ -89,12 +87,7 @@ async fn a_starved_simulator_slows_down_and_stays_consistent() {
         })
         .collect();
 
-    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
-    let spec: ConnSpec = "udpin:127.0.0.1:0".parse().unwrap();
-    let link = open_link(0, spec, &LinkOptions::default(), ev_tx)
-        .await
-        .unwrap();
-    let gcs = link.local.unwrap();
+    let (link, ev_rx, gcs) = fleetmap_test_kit::gcs::listening_link().await;
     let cfg = SimConfig::from_spec("1xcopter:ardupilot,1xcopter:px4", None, Some(HOME), 3).unwrap();
     // the simulator's thread is held on the CPU for 25 ms between two turns
     let starved =

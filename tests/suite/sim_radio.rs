@@ -9,6 +9,7 @@ use fleetmap_core::time::Time;
 use fleetmap_io::link::codec::Codec;
 use fleetmap_io::link::radio::RadioConfig;
 use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_test_kit::gcs::heartbeat;
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega::{self as mav, MavMessage};
 
@@ -28,17 +29,6 @@ fn all_streams(hz: u16) -> MavMessage {
         target_component: 1,
         req_stream_id: mav::MavDataStream::MAV_DATA_STREAM_ALL,
         start_stop: 1,
-    })
-}
-
-fn heartbeat() -> MavMessage {
-    MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
-        custom_mode: 0,
-        mavtype: mav::MavType::MAV_TYPE_GCS,
-        autopilot: mav::MavAutopilot::MAV_AUTOPILOT_INVALID,
-        base_mode: mav::MavModeFlag::empty(),
-        system_status: mav::MavState::MAV_STATE_ACTIVE,
-        mavlink_version: 3,
     })
 }
 

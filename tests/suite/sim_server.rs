@@ -289,17 +289,11 @@ async fn a_starved_simulator_still_answers_commands_in_time() {
     use fleetmap::app::bandit_sim::HARDWARE_TEAM;
     use fleetmap::fleet::FleetConfig;
     use fleetmap_io::clock::MonotonicClock;
-    use fleetmap_io::link::ConnSpec;
-    use fleetmap_io::link::transport::{LinkOptions, open_link};
+
     use std::time::Instant;
 
     const SPEEDUP: f64 = 20.0;
-    let (ev_tx, ev_rx) = tokio::sync::mpsc::channel(4096);
-    let spec: ConnSpec = "udpin:127.0.0.1:0".parse().unwrap();
-    let link = open_link(0, spec, &LinkOptions::default(), ev_tx)
-        .await
-        .unwrap();
-    let gcs = link.local.unwrap();
+    let (link, ev_rx, gcs) = fleetmap_test_kit::gcs::listening_link().await;
     let cfg = SimConfig::from_spec(HARDWARE_TEAM, None, Some(HOME), 1).unwrap();
     // the hog: the thread is blocked but for one turn of the runtime every 95 ms
     let starved = common::StarvedSim::start(cfg, SPEEDUP, gcs, || {

@@ -9,6 +9,8 @@ use fleetmap_core::mission::item::MissionItem;
 use fleetmap_core::time::Time;
 use fleetmap_sim::flavour::{Flavour, Mode};
 use fleetmap_sim::harness::{Sim, SimConfig};
+use fleetmap_test_kit::at;
+use fleetmap_test_kit::gcs::{Headers, command_long, heartbeat, status_text};
 use mavlink::MavHeader;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -22,7 +24,7 @@ const CREW_SWAP_S: f64 = 5.0;
 struct Gcs {
     sim: Sim,
     sysid: u8,
-    seq: u8,
+    headers: Headers,
     last_hb: Time,
     log: Vec<(Time, MavHeader, MavMessage)>,
 }
@@ -38,31 +40,19 @@ impl Gcs {
         Gcs {
             sim: Sim::new(cfg, Time::ZERO).unwrap(),
             sysid: 1,
-            seq: 0,
+            headers: Headers::default(),
             last_hb: Time::ZERO,
             log: Vec::new(),
         }
     }
 
     fn send(&mut self, msg: MavMessage) {
-        let h = MavHeader {
-            system_id: 255,
-            component_id: 190,
-            sequence: self.seq,
-        };
-        self.seq = self.seq.wrapping_add(1);
+        let h = self.headers.next_header();
         self.sim.send(self.sysid, &h, &msg);
     }
 
     fn heartbeat(&mut self) {
-        self.send(MavMessage::HEARTBEAT(mav::HEARTBEAT_DATA {
-            custom_mode: 0,
-            mavtype: mav::MavType::MAV_TYPE_GCS,
-            autopilot: mav::MavAutopilot::MAV_AUTOPILOT_INVALID,
-            base_mode: mav::MavModeFlag::empty(),
-            system_status: mav::MavState::MAV_STATE_ACTIVE,
-            mavlink_version: 3,
-        }));
+        self.send(heartbeat());
     }
 
     /// Step the simulation until `pred` accepts a received message or `secs` pass.
@@ -92,19 +82,7 @@ impl Gcs {
     }
 
     fn command(&mut self, cmd: u16, p: [f32; 7]) -> mav::MavResult {
-        self.send(MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
-            param1: p[0],
-            param2: p[1],
-            param3: p[2],
-            param4: p[3],
-            param5: p[4],
-            param6: p[5],
-            param7: p[6],
-            command: mav::MavCmd::from_u16(cmd).unwrap(),
-            target_system: self.sysid,
-            target_component: 1,
-            confirmation: 0,
-        }));
+        self.send(command_long((self.sysid, 1), cmd, p));
         match self.wait(
             3.0,
             |m| matches!(m, MavMessage::COMMAND_ACK(a) if a.command as u16 == cmd),
@@ -268,26 +246,17 @@ impl Gcs {
     fn texts(&self) -> Vec<String> {
         self.log
             .iter()
-            .filter_map(|(_, _, m)| match m {
-                MavMessage::STATUSTEXT(s) => Some(
-                    s.text
-                        .to_str()
-                        .unwrap_or("")
-                        .trim_end_matches('\0')
-                        .to_string(),
-                ),
-                _ => None,
-            })
+            .filter_map(|(_, _, m)| status_text(m))
             .collect()
     }
 }
 
-fn at(north: f64, east: f64) -> (f64, f64) {
-    fleetmap_core::geo::local::offset(HOME.0, HOME.1, north, east)
-}
-
 fn mission(copter: bool) -> Vec<MissionItem> {
-    let (a, b, c) = (at(20.0, 0.0), at(20.0, 20.0), at(0.0, 20.0));
+    let (a, b, c) = (
+        at(HOME, 20.0, 0.0),
+        at(HOME, 20.0, 20.0),
+        at(HOME, 0.0, 20.0),
+    );
     let mut v = Vec::new();
     if copter {
         // At the launch position: PX4 flies a take-off item as a waypoint to its position.
@@ -456,7 +425,7 @@ fn fly(flavour: Flavour) {
         assert!(d < 2.0, "{flavour}: landed {d} m from home");
         // a camera image was taken at the second waypoint
         let (_, img) = g.sim.poll_image().expect("an image");
-        let (a, b) = at(20.0, 0.0);
+        let (a, b) = at(HOME, 20.0, 0.0);
         let d = fleetmap_core::geo::local::distance(img.true_pose.lat, img.true_pose.lon, a, b);
         // PX4 reaches a waypoint — and takes the picture that follows — as soon as its estimate
         // is within NAV_ACC_RAD (2 m), still flying; the GPS error (0.4 m per axis) comes on top.
@@ -532,7 +501,7 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
             |m| matches!(m, MavMessage::GLOBAL_POSITION_INT(p) if p.relative_alt > 9_000),
         )
         .unwrap_or_else(|| panic!("{flavour}: not airborne: {:?}", g.texts()));
-        let (lat, lon) = at(0.0, 20.0);
+        let (lat, lon) = at(HOME, 0.0, 20.0);
         let r = g.command(
             192,
             [
@@ -854,7 +823,7 @@ fn ardupilot_needs_a_takeoff_item_to_start_auto_on_the_ground_and_message_interv
         .filter(|(_, _, m)| matches!(m, MavMessage::GLOBAL_POSITION_INT(_)))
         .count();
     assert!((48..=52).contains(&n), "{n} positions in 10 s at 5 Hz");
-    let wp = at(10.0, 0.0);
+    let wp = at(HOME, 10.0, 0.0);
     let items = vec![
         MissionItem::waypoint(HOME.0, HOME.1, 0.0),
         MissionItem::waypoint(wp.0, wp.1, 10.0),
@@ -1136,7 +1105,7 @@ fn exclusion_square(north: f64, east: f64, half: f64) -> Vec<MissionItem> {
     [(-half, -half), (-half, half), (half, half), (half, -half)]
         .iter()
         .map(|(dn, de)| {
-            let (lat, lon) = at(north + dn, east + de);
+            let (lat, lon) = at(HOME, north + dn, east + de);
             MissionItem {
                 param1: 4.0,
                 ..MissionItem::at(5002, lat, lon, 0.0)
@@ -1156,7 +1125,7 @@ fn geofences_are_enforced() {
         g.upload_type(&fence, mav::MavMissionType::MAV_MISSION_TYPE_FENCE),
         mav::MavMissionResult::MAV_MISSION_ACCEPTED
     );
-    let (a, b) = (at(20.0, 0.0), at(20.0, 20.0));
+    let (a, b) = (at(HOME, 20.0, 0.0), at(HOME, 20.0, 20.0));
     let items = vec![
         MissionItem::takeoff(10.0),
         MissionItem::waypoint(a.0, a.1, 10.0),
@@ -1257,7 +1226,7 @@ fn guided_yaw_by_condition_yaw_or_reposition() {
         )
         .unwrap_or_else(|| panic!("{flavour}: not airborne: {:?}", g.texts()));
         // 20 m north-east: the copter faces its direction of travel (45°)
-        let (lat, lon) = at(20.0, 20.0);
+        let (lat, lon) = at(HOME, 20.0, 20.0);
         assert_eq!(
             g.command(
                 192,
@@ -1298,7 +1267,7 @@ fn guided_yaw_by_condition_yaw_or_reposition() {
                 g.command(115, [0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
                 mav::MavResult::MAV_RESULT_UNSUPPORTED
             );
-            let (lat, lon) = at(20.0, 20.0);
+            let (lat, lon) = at(HOME, 20.0, 20.0);
             assert_eq!(
                 g.command(
                     192,
@@ -1421,7 +1390,7 @@ fn px4_never_reaches_a_take_off_item_without_a_position() {
         let mut g = Gcs::new("1xcopter:px4", 3);
         g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
             .expect("home");
-        let a = at(20.0, 0.0);
+        let a = at(HOME, 20.0, 0.0);
         let items = vec![takeoff, MissionItem::waypoint(a.0, a.1, 10.0)];
         assert_eq!(
             g.upload(&items),
@@ -1472,7 +1441,7 @@ fn ardurover_in_auto_ignores_mission_start_until_it_leaves_auto() {
     };
     // First sortie: one cell (5 m) east, started as fleetmap starts a station.
     let accepted = mav::MavMissionResult::MAV_MISSION_ACCEPTED;
-    assert_eq!(g.upload(&station(at(0.0, 5.0))), accepted);
+    assert_eq!(g.upload(&station(at(HOME, 0.0, 5.0))), accepted);
     assert_eq!(
         g.command(SET_CURRENT, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
         ok
@@ -1495,7 +1464,7 @@ fn ardurover_in_auto_ignores_mission_start_until_it_leaves_auto() {
     );
 
     // Second sortie: back to the start cell.
-    assert_eq!(g.upload(&station(at(0.0, 0.0))), accepted);
+    assert_eq!(g.upload(&station(at(HOME, 0.0, 0.0))), accepted);
     assert_eq!(
         g.command(SET_CURRENT, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
         ok

@@ -976,9 +976,9 @@ fn the_panic_hook_restores_the_real_terminal() {
 
 // ---------------------------------------------------------------- the command
 
-/// The binary under test ([`pty::bin`]: `$FLEETMAP_BIN` when set, else cargo's).
+/// The binary under test ([`common::fleetmap`]: `$FLEETMAP_BIN` when set, else cargo's).
 fn bin() -> std::process::Command {
-    std::process::Command::new(pty::bin())
+    common::fleetmap().command()
 }
 
 #[test]
@@ -1122,7 +1122,11 @@ fn the_binary_runs_in_a_pty_and_restores_the_terminal() {
     }
     let dir = tempfile::tempdir().expect("tempdir");
     let log = dir.path().join("tui.log");
-    let shell = format!("{} --log-file {} tui --speed 20", pty::bin(), log.display());
+    let shell = format!(
+        "{} --log-file {} tui --speed 20",
+        common::fleetmap().path().display(),
+        log.display()
+    );
     let (mut child, mut keys, mut term) = pty::spawn(&shell, 100, 30, &log);
     let step = || Instant::now() + Duration::from_secs(60);
     term.wait_raw(b"\x1b[?1049h", step()); // entered the alternate screen

@@ -33,7 +33,7 @@ fn demo_in_a_pty_start_battery_swap_resume_done() {
     let cmd = format!(
         "{} --log-file {} demo --run-dir {} --drones 1 --world {} --battery-minutes 4 \
          --speedup 15 --manual",
-        pty::bin(),
+        common::fleetmap().path().display(),
         log.display(),
         run.display(),
         world.display()

@@ -21,7 +21,8 @@ use image::RgbImage;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
-use std::process::Command;
+
+use crate::common;
 
 fn assets() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("assets/images")
@@ -249,10 +250,6 @@ fn samples_are_classified_as_designed() {
     assert!(shifted > 0.2 && shifted < 0.4, "{shifted}");
 }
 
-fn fleetmap() -> Command {
-    Command::new(env!("CARGO_BIN_EXE_fleetmap"))
-}
-
 /// A PNG whose header claims `w × h` pixels (valid signature and IHDR CRC), with a tiny
 /// IDAT and IEND.
 fn png_header_only(w: u32, h: u32) -> Vec<u8> {
@@ -393,7 +390,8 @@ fn classify_command_reports_each_image() {
     let mut args: Vec<PathBuf> = vec![good.clone()];
     args.extend(bad.iter().cloned());
     args.push(assets().join("grass.png"));
-    let out = fleetmap()
+    let out = common::fleetmap()
+        .command()
         .arg("classify")
         .arg("--json")
         .arg("--heading")
@@ -446,7 +444,8 @@ fn classify_command_reports_each_image() {
     assert!(lines.last().unwrap()["fractions"].is_object());
 
     // Without --json: a line per good image on stdout, one per bad image on stderr.
-    let out = fleetmap()
+    let out = common::fleetmap()
+        .command()
         .arg("classify")
         .args([&good, &bad[0]])
         .output()
@@ -456,7 +455,8 @@ fn classify_command_reports_each_image() {
     assert!(String::from_utf8_lossy(&out.stderr).contains("empty.png"));
 
     // All good → exit 0; bad arguments → a one-line error.
-    let ok = fleetmap()
+    let ok = common::fleetmap()
+        .command()
         .args(["classify", "--green", "--json"])
         .arg(&good)
         .output()
@@ -464,7 +464,8 @@ fn classify_command_reports_each_image() {
     assert!(ok.status.success());
     let v: serde_json::Value = serde_json::from_slice(&ok.stdout).unwrap();
     assert!(v["green"]["fraction"].is_f64());
-    let bad_arg = fleetmap()
+    let bad_arg = common::fleetmap()
+        .command()
         .args(["classify", "--threshold", "2"])
         .arg(&good)
         .output()
@@ -481,18 +482,19 @@ fn classify_command_reports_each_image() {
 
 #[test]
 fn bench_classify_prints_images_per_second() {
-    let out = fleetmap()
-        .args([
-            "bench", "classify", "--width", "96", "--height", "64", "--images", "3",
-        ])
-        .args(["--seconds", "0.05", "--json"])
-        .output()
-        .unwrap();
-    assert!(
-        out.status.success(),
-        "{}",
-        String::from_utf8_lossy(&out.stderr)
-    );
+    let out = common::fleetmap().ok(&[
+        "bench",
+        "classify",
+        "--width",
+        "96",
+        "--height",
+        "64",
+        "--images",
+        "3",
+        "--seconds",
+        "0.05",
+        "--json",
+    ]);
     let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
     assert!(v["images_per_second"].as_f64().unwrap() > 0.0);
     assert!(v["images_per_second_parallel"].as_f64().unwrap() > 0.0);

@@ -1,10 +1,11 @@
-//! What several modules of the test suite share: worlds, missions, simulators, pseudo-terminals,
-//! routers, run drivers.
+//! What several modules of the test suite share and only this suite needs (it names the ground
+//! station's own types): worlds, missions, simulators, pseudo-terminals, run drivers. What the
+//! camera's tests need as well (process guards, the binaries, the router, a test GCS) is in
+//! the `fleetmap-test-kit` crate.
 
 pub mod bandit;
 pub mod drive;
 pub mod pty;
-pub mod router;
 pub mod runway;
 
 /// The name libtest knows a test of this binary by (`MODULE::test`), for a test that runs
@@ -17,13 +18,77 @@ pub fn test_name(module_path: &str, test: &str) -> String {
     }
 }
 
-/// A UDP port on 127.0.0.1 that was free a moment ago (for a `fleetmap sim` to listen on).
-pub fn free_udp_port() -> u16 {
-    std::net::UdpSocket::bind("127.0.0.1:0")
-        .unwrap()
-        .local_addr()
-        .unwrap()
-        .port()
+/// The events of the journal of the run in `dir`, in order (`E`: the mission kind's event
+/// type); the test fails if the run or its journal does not load.
+pub fn journal<E: serde::de::DeserializeOwned>(dir: &std::path::Path) -> Vec<E> {
+    fleetmap::store::RunDir::open(dir)
+        .expect("the run directory opens")
+        .read_events::<E>()
+        .expect("the journal reads")
+        .events
+        .into_iter()
+        .map(|l| l.event)
+        .collect()
+}
+
+/// A new run as a test starts one ([`bandit::new_run`], [`runway::new_run`]): the mission's
+/// first state, the run directory as created, its path (`run` in the temporary directory) and
+/// the temporary directory (removed when dropped).
+pub type NewRun<S> = (
+    S,
+    fleetmap::store::RunDir,
+    std::path::PathBuf,
+    tempfile::TempDir,
+);
+
+/// A take-off to 10 m, then `waypoints` waypoints for vehicle `k` near 37.1968° N,
+/// 80.5781° W: northward 1e-5° apart, vehicle `k` 1e-5° × `k` east, at 10 to 14 m.
+pub fn spread_mission(k: u8, waypoints: u32) -> Vec<fleetmap_core::mission::item::MissionItem> {
+    use fleetmap_core::mission::item::MissionItem;
+    let mut v = vec![MissionItem::takeoff(10.0)];
+    for i in 0..waypoints {
+        v.push(MissionItem::waypoint(
+            37.1968 + f64::from(i) * 1e-5,
+            -80.5781 + f64::from(k) * 1e-5,
+            10.0 + (i % 5) as f32,
+        ));
+    }
+    v
+}
+
+/// Vehicle `k` of fleet `f` acknowledges a command (MAV_CMD_REQUEST_MESSAGE for its
+/// HOME_POSITION), takes the mission `items` and gives it back unchanged; the test fails
+/// naming the vehicle otherwise.
+pub async fn command_and_mission_round_trip(
+    f: &fleetmap::fleet::FleetHandle,
+    k: u8,
+    items: Vec<fleetmap_core::mission::item::MissionItem>,
+) {
+    use fleetmap_core::mission::item::MissionType;
+    use fleetmap_core::proto::{Endpoint, command::Command};
+    use mavlink::dialects::ardupilotmega::MavCmd;
+    f.command(Command::long(
+        Endpoint::new(k, 1),
+        MavCmd::MAV_CMD_REQUEST_MESSAGE,
+        [242.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0], // HOME_POSITION
+    ))
+    .await
+    .unwrap_or_else(|e| panic!("vehicle {k}: {e}"));
+    f.upload_mission(k, MissionType::Mission, items.clone())
+        .await
+        .unwrap_or_else(|e| panic!("vehicle {k} upload: {e}"));
+    let (back, _) = f
+        .download_mission(k, MissionType::Mission)
+        .await
+        .unwrap_or_else(|e| panic!("vehicle {k} download: {e}"));
+    fleetmap_core::mission::wire::compare_items(&items, &back, true)
+        .unwrap_or_else(|d| panic!("vehicle {k}: {d}"));
+}
+
+/// The `fleetmap` binary under test: `$FLEETMAP_BIN` when set (a build made elsewhere), else
+/// the one cargo built for this test run.
+pub fn fleetmap() -> fleetmap_test_kit::Bin {
+    fleetmap_test_kit::Bin::built("FLEETMAP_BIN", env!("CARGO_BIN_EXE_fleetmap"))
 }
 
 /// An asphalt strip of five by three 4 m cells (20 m × 12 m) and a 0.25 m margin on every side

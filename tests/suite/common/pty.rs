@@ -1,15 +1,11 @@
 //! The real binary in a pseudo-terminal (util-linux `script`), its screen read through a
 //! terminal emulator (vt100): shared by the TUI end-to-end tests.
 
+use fleetmap_test_kit::Guard;
 use std::io::{Read, Write};
-use std::process::{Child, ChildStdin, Stdio};
+use std::process::{ChildStdin, Stdio};
 use std::sync::mpsc;
 use std::time::{Duration, Instant};
-
-/// The fleetmap binary under test.
-pub fn bin() -> String {
-    std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())
-}
 
 /// Whether util-linux `script` is there (the tests skip without it).
 pub fn have_script() -> bool {
@@ -19,45 +15,20 @@ pub fn have_script() -> bool {
         .is_ok()
 }
 
-/// The `script` process; killed when dropped (a failed test leaves no UI running: the
-/// program in the pseudo-terminal gets SIGHUP when `script` goes).
-pub struct PtyChild(pub Child);
-
-impl std::ops::Deref for PtyChild {
-    type Target = Child;
-    fn deref(&self) -> &Child {
-        &self.0
-    }
-}
-
-impl std::ops::DerefMut for PtyChild {
-    fn deref_mut(&mut self) -> &mut Child {
-        &mut self.0
-    }
-}
-
-impl Drop for PtyChild {
-    fn drop(&mut self) {
-        if matches!(self.0.try_wait(), Ok(None)) {
-            let _ = self.0.kill();
-            let _ = self.0.wait();
-        }
-    }
-}
-
 /// `shell` (after `stty cols COLS rows ROWS`) in a pseudo-terminal of `cols` × `rows`: the
-/// child, its stdin (the keyboard) and the screen. `log` is the UI's log file (shown when a
-/// wait fails).
-pub fn spawn(shell: &str, cols: u16, rows: u16, log: &std::path::Path) -> (PtyChild, Keys, Term) {
+/// `script` process (killed when dropped: a failed test leaves no UI running, as the program
+/// in the pseudo-terminal gets SIGHUP when `script` goes), its stdin (the keyboard) and the
+/// screen. `log` is the UI's log file (shown when a wait fails).
+pub fn spawn(shell: &str, cols: u16, rows: u16, log: &std::path::Path) -> (Guard, Keys, Term) {
     let cmd = format!("stty cols {cols} rows {rows} && exec {shell}");
-    let mut child = std::process::Command::new("script")
-        .args(["-qfec", &cmd, "/dev/null"])
-        .env("TERM", "xterm-256color")
-        .stdin(Stdio::piped())
-        .stdout(Stdio::piped())
-        .stderr(Stdio::piped())
-        .spawn()
-        .expect("script runs");
+    let mut child = Guard::spawn(
+        std::process::Command::new("script")
+            .args(["-qfec", &cmd, "/dev/null"])
+            .env("TERM", "xterm-256color")
+            .stdin(Stdio::piped())
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped()),
+    );
     let stdin = child.stdin.take().expect("stdin");
     let mut stdout = child.stdout.take().expect("stdout");
     let (tx, rx) = mpsc::channel::<Vec<u8>>();
@@ -77,7 +48,7 @@ pub fn spawn(shell: &str, cols: u16, rows: u16, log: &std::path::Path) -> (PtyCh
         rx,
         log: log.to_path_buf(),
     };
-    (PtyChild(child), Keys(stdin), term)
+    (child, Keys(stdin), term)
 }
 
 /// The keyboard of the pseudo-terminal.
@@ -92,11 +63,7 @@ impl Keys {
 }
 
 /// Wait for the child to exit (pumping the screen), at most `limit`.
-pub fn wait_exit(
-    child: &mut PtyChild,
-    term: &mut Term,
-    limit: Duration,
-) -> std::process::ExitStatus {
+pub fn wait_exit(child: &mut Guard, term: &mut Term, limit: Duration) -> std::process::ExitStatus {
     let t0 = Instant::now();
     loop {
         if let Some(s) = child.try_wait().expect("try_wait") {

@@ -22,14 +22,13 @@ use crate::common::bandit::run_until;
 use fleetmap::app::bandit::{self, BanditEvent};
 use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet::FleetHandle;
-use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::mission::definition::MissionDef;
+use fleetmap::store::RunDir;
 use fleetmap_core::planner::sortie::ClassificationState;
-use fleetmap_core::world::World;
 use fleetmap_sim::fault::parse_faults;
 use fleetmap_sim::server::SimTask;
 use std::collections::BTreeSet;
-use std::time::Duration;
+
+use crate::common;
 
 /// What one faulty run gave.
 struct Flown {
@@ -45,12 +44,6 @@ struct Flown {
     killed: bool,
 }
 
-fn hardware() -> (World, MissionDef) {
-    let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
-    let def = MissionDef::parse(bandit_sim::HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
-    (world, def)
-}
-
 /// Fly the hardware mission with `faults` scheduled in the simulator; the GCS is killed at
 /// the `kill_at`-th progress line (if the run gets that far) and resumed.
 async fn fly(name: &str, faults: &str, setup: SimSetup, crew: &[u8], kill_at: usize) -> Flown {
@@ -58,19 +51,8 @@ async fn fly(name: &str, faults: &str, setup: SimSetup, crew: &[u8], kill_at: us
         .with_test_writer()
         .with_env_filter("warn,highs=error")
         .try_init();
-    let (_, def) = hardware();
     let (fleet, sim) = start(&setup, faults, crew).await;
-    let state = bandit::new_state(&fleet, &def, Duration::from_secs(60), None)
-        .await
-        .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(
-        &dir,
-        RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-        Some(bandit_sim::HARDWARE_MISSION),
-    )
-    .unwrap();
+    let (state, _, dir, _tmp) = common::bandit::new_run(&fleet).await;
     let mut n = 0;
     let (mut lines, killed) = run_until(&fleet, &dir, state, |_| {
         n += 1;
@@ -84,14 +66,7 @@ async fn fly(name: &str, faults: &str, setup: SimSetup, crew: &[u8], kill_at: us
         lines.extend(more);
     }
     let state: ClassificationState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
-    let events = RunDir::open(&dir)
-        .unwrap()
-        .read_events::<BanditEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|e| e.event)
-        .collect();
+    let events = common::journal::<BanditEvent>(&dir);
     fleet.shutdown().await;
     let sim = sim.stop().await.unwrap();
     let seconds = sim.now().as_secs_f64();
@@ -117,7 +92,7 @@ async fn fly(name: &str, faults: &str, setup: SimSetup, crew: &[u8], kill_at: us
 /// in virtual time; the crew swaps the batteries of the drones in `crew` 20 s after they
 /// landed with a used one.
 async fn start(setup: &SimSetup, faults: &str, crew: &[u8]) -> (FleetHandle, SimTask) {
-    let (world, _) = hardware();
+    let (world, _) = common::bandit::hardware();
     let mut cfg = bandit_sim::sim_config(bandit_sim::HARDWARE_TEAM, &world, setup)
         .unwrap()
         .with_scheduled_faults(parse_faults(faults).unwrap());
@@ -132,7 +107,7 @@ async fn start(setup: &SimSetup, faults: &str, crew: &[u8]) -> (FleetHandle, Sim
 /// kill, none lost (the state is saved before its events are journalled, so a kill between
 /// the two could leave a gap; the aborts here fall on other awaits, and a gap would show).
 fn check_finished(f: &Flown) {
-    let (world, _) = hardware();
+    let (world, _) = common::bandit::hardware();
     assert!(f.killed, "the run ended before the GCS was to be killed");
     assert!(f.state.is_finished(), "not finished");
     assert_eq!(f.state.bandit.keep(), world.green_cells(), "keep set");
@@ -161,7 +136,7 @@ fn told<'a>(f: &'a Flown, what: &str) -> Vec<&'a String> {
 }
 
 fn onboard() -> SimSetup {
-    let (_, def) = hardware();
+    let (_, def) = common::bandit::hardware();
     SimSetup {
         seed: 3,
         camera_px: 160,

@@ -25,8 +25,7 @@ use fleetmap::app::kind::Outcome;
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::fleet::FleetHandle;
-use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::explore::dfs::Sharing;
+use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::geo::Cell;
 use fleetmap_core::mission::definition::MissionDef;
@@ -34,7 +33,6 @@ use fleetmap_core::world::World;
 use fleetmap_sim::fault::parse_faults;
 use std::collections::BTreeSet;
 use std::path::Path;
-use std::time::Duration;
 use tokio::sync::OnceCell;
 
 use crate::common;
@@ -110,13 +108,7 @@ async fn fly(name: &str, faults: &str, onboard: bool, kill: Option<Kill<'_>>) ->
     let (fleet, sim) = demo::start_virtual(&spec, world.clone(), &cfg)
         .await
         .unwrap();
-    let state =
-        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-            .await
-            .unwrap();
-    let tmp = tempfile::tempdir().unwrap();
-    let dir = tmp.path().join("run");
-    RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
+    let (state, _, dir, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
     let mut marked: Option<usize> = None;
     let (mut lines, killed) = run(&fleet, &dir, state, |l| {
         let Some(k) = &kill else { return false };
@@ -137,14 +129,17 @@ async fn fly(name: &str, faults: &str, onboard: bool, kill: Option<Kill<'_>>) ->
     if killed {
         // The laptop comes back: `fleetmap resume` reads the run directory.
         let saved: MappingState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
-        at_kill = Some((saved.clone(), journal_images(&journal(&dir))));
+        at_kill = Some((
+            saved.clone(),
+            common::runway::journal_images(&common::journal::<MappingEvent>(&dir)),
+        ));
         let (more, _) = run(&fleet, &dir, saved, |_| false).await;
         lines.extend(more);
     }
     let state: MappingState = RunDir::open(&dir).unwrap().load_state().unwrap().unwrap();
     let cov = truth_coverage(&state.grid, &world, 0.0).unwrap();
     let report = report(&state, Some(&cov));
-    let events = journal(&dir);
+    let events = common::journal::<MappingEvent>(&dir);
     fleet.shutdown().await;
     let _ = sim.stop().await;
     let t = report.truth.as_ref().expect("scored");
@@ -174,36 +169,6 @@ async fn fly(name: &str, faults: &str, onboard: bool, kill: Option<Kill<'_>>) ->
         report,
         at_kill,
     }
-}
-
-fn journal(dir: &Path) -> Vec<MappingEvent> {
-    RunDir::open(dir)
-        .unwrap()
-        .read_events::<MappingEvent>()
-        .unwrap()
-        .events
-        .into_iter()
-        .map(|l| l.event)
-        .collect()
-}
-
-/// The images the journal acknowledged.
-fn journal_images(events: &[MappingEvent]) -> BTreeSet<String> {
-    events
-        .iter()
-        .filter_map(|e| match e {
-            MappingEvent::Image { image_id, .. } => Some(image_id.clone()),
-            _ => None,
-        })
-        .collect()
-}
-
-fn detections(s: &MappingState) -> BTreeSet<String> {
-    s.book
-        .detections()
-        .iter()
-        .map(|r| r.detection.image_id.clone())
-        .collect()
 }
 
 fn decisions(s: &MappingState) -> BTreeSet<(u64, u8, Cell, bool)> {
@@ -268,8 +233,11 @@ async fn check(f: &Flown) {
         "IoU {:.4} against {reference:.4} without the fault",
         f.iou()
     );
-    let kept = detections(&f.state);
-    let lost: Vec<_> = detections(saved).difference(&kept).cloned().collect();
+    let kept = common::runway::detections(&f.state);
+    let lost: Vec<_> = common::runway::detections(saved)
+        .difference(&kept)
+        .cloned()
+        .collect();
     assert!(lost.is_empty(), "detections lost across the kill: {lost:?}");
     let lost: Vec<_> = acked.difference(&kept).cloned().collect();
     assert!(lost.is_empty(), "acknowledged images lost: {lost:?}");
@@ -280,7 +248,7 @@ async fn check(f: &Flown) {
         saved.book.decisions().len() < f.state.book.decisions().len(),
         "the kill came after the mapping"
     );
-    assert!(journal_images(&f.events).is_subset(&kept));
+    assert!(common::runway::journal_images(&f.events).is_subset(&kept));
     let muddled = f.told(&["CAMERA", "battery swap"]);
     assert!(muddled.is_empty(), "{muddled:#?}");
 }

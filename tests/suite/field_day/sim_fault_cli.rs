@@ -3,83 +3,61 @@
 //! of `fleetmap sim` and `fleetmap demo` for a spec that is wrong or names a vehicle the
 //! simulation does not have.
 
-use fleetmap_io::link::codec::Codec;
+use fleetmap_test_kit::Guard;
+use fleetmap_test_kit::gcs::Gcs;
 use mavlink::dialects::ardupilotmega::MavMessage;
-use std::net::UdpSocket;
 use std::time::{Duration, Instant};
 
-/// Kills a process the test started if the test fails before it ends.
-struct Child(std::process::Child);
-
-impl Drop for Child {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn bin() -> String {
-    std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())
-}
+use crate::common;
 
 /// Run the binary with `args` to its end: (success, stderr).
 fn run(args: &[&str]) -> (bool, String) {
-    let out = std::process::Command::new(bin())
-        .args(args)
-        .output()
-        .unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let (code, _, stderr) = common::fleetmap().run(args);
+    (code == 0, stderr)
 }
 
 #[test]
 fn fleetmap_sim_darkens_one_vehicles_link_in_its_outage_window() {
-    let gcs = UdpSocket::bind("127.0.0.1:0").unwrap();
-    gcs.set_read_timeout(Some(Duration::from_millis(100)))
-        .unwrap();
-    let port = gcs.local_addr().unwrap().port();
+    let mut gcs = Gcs::bind();
+    let port = gcs.addr().port();
     // ArduRover streams its positions at 1 Hz unasked: each carries the rover's time
-    let sim = std::process::Command::new(bin())
-        .args([
-            "sim",
-            "--vehicles",
-            "2xrover:ardupilot",
-            "--connect",
-            &format!("udpout:127.0.0.1:{port}"),
-            "--home=37.1968,-80.5781",
-            "--speedup",
-            "10",
-            "--duration",
-            "40",
-            "--fault",
-            "1:outage@20s..30s",
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
-    let mut sim = Child(sim);
-    let mut codec = Codec::new();
+    let mut sim = Guard::spawn(
+        common::fleetmap()
+            .command()
+            .args([
+                "sim",
+                "--vehicles",
+                "2xrover:ardupilot",
+                "--connect",
+                &format!("udpout:127.0.0.1:{port}"),
+                "--home=37.1968,-80.5781",
+                "--speedup",
+                "10",
+                "--duration",
+                "40",
+                "--fault",
+                "1:outage@20s..30s",
+            ])
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null()),
+    );
     // (sysid, the vehicle's time in ms) of every GLOBAL_POSITION_INT
     let mut heard: Vec<(u8, u32)> = Vec::new();
-    let mut buf = [0u8; 4096];
     let start = Instant::now();
     while start.elapsed() < Duration::from_secs(60) {
-        if let Ok(n) = gcs.recv(&mut buf) {
-            for f in codec.decode(&buf[..n], 0) {
+        if let Some((_, frames)) = gcs.recv(Duration::from_millis(100)) {
+            for f in frames {
                 if let Ok(MavMessage::GLOBAL_POSITION_INT(p)) = f.message {
                     heard.push((f.header.system_id as u8, p.time_boot_ms));
                 }
             }
         }
-        if sim.0.try_wait().unwrap().is_some() {
+        if sim.try_wait().unwrap().is_some() {
             break;
         }
     }
     assert!(
-        sim.0.try_wait().unwrap().is_some_and(|s| s.success()),
+        sim.try_wait().unwrap().is_some_and(|s| s.success()),
         "fleetmap sim did not end well within a minute"
     );
     let within = |sysid: u8, a: u32, b: u32| {

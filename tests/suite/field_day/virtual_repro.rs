@@ -24,8 +24,7 @@ use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
 use fleetmap::app::runway::report::{report, truth_coverage};
 use fleetmap::app::runway::{self, RunOptions};
-use fleetmap::store::{RunDir, RunMeta};
-use fleetmap_core::explore::dfs::Sharing;
+use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::planner::sortie::ClassificationState;
@@ -33,7 +32,7 @@ use fleetmap_core::world::World;
 use fleetmap_io::link::radio::RadioConfig;
 use serde_json::Value;
 use std::path::Path;
-use std::time::{Duration, Instant};
+use std::time::Instant;
 
 use crate::common;
 
@@ -174,13 +173,7 @@ fn fly_runway(seed: u64, radio: bool, battery_min: f64) -> Flight {
         let (fleet, sim) = demo::start_virtual("3xcopter:ardupilot", world.clone(), &cfg)
             .await
             .unwrap();
-        let state =
-            fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
-                .await
-                .unwrap();
-        let tmp = tempfile::tempdir().unwrap();
-        let dir = tmp.path().join("run");
-        let run_dir = RunDir::create(&dir, RunMeta::new(runway::KIND, 0), Some(&text)).unwrap();
+        let (state, run_dir, dir, _tmp) = common::runway::new_run(&fleet, &def, &text).await;
         let hub = images::spawn(&fleet);
         let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
         let opts = RunOptions {
@@ -266,7 +259,6 @@ fn without_solver_time(line: &str) -> String {
 fn fly_bandit(seed: u64) -> Flight {
     virtual_runtime().block_on(async {
         let world = World::from_toml(bandit_sim::HARDWARE_WORLD).unwrap();
-        let def = MissionDef::parse(bandit_sim::HARDWARE_MISSION, "hardware-6x6.toml").unwrap();
         let setup = SimSetup {
             seed,
             camera_px: 160,
@@ -276,17 +268,7 @@ fn fly_bandit(seed: u64) -> Flight {
         let (fleet, sim) = bandit_sim::start_virtual(bandit_sim::HARDWARE_TEAM, &world, &setup)
             .await
             .unwrap();
-        let state = bandit::new_state(&fleet, &def, Duration::from_secs(60), None)
-            .await
-            .unwrap();
-        let tmp = tempfile::tempdir().unwrap();
-        let dir = tmp.path().join("run");
-        let run = RunDir::create(
-            &dir,
-            RunMeta::new(fleetmap_core::planner::sortie::KIND, 0),
-            Some(bandit_sim::HARDWARE_MISSION),
-        )
-        .unwrap();
+        let (state, run, dir, _tmp) = common::bandit::new_run(&fleet).await;
         let hub = images::image_hub(&fleet);
         let (tx, mut rx) = tokio::sync::mpsc::unbounded_channel();
         let opts = bandit::RunOptions {

@@ -4,25 +4,14 @@
 //! `fleetmap check --connect --json`, each finding checked by its kind, severity and vehicle;
 //! then `fleetmap run` refusing to start on a blocker and starting with `--ignore-check`.
 
-use crate::common::free_udp_port;
+use fleetmap_test_kit::free_udp_port;
 use serde_json::Value;
 use std::io::{BufRead, BufReader};
-use std::process::{Command, Stdio};
+use std::process::Stdio;
 use std::time::{Duration, Instant};
 
-/// Kills a process the test started when the test ends, however it ends.
-struct Child(std::process::Child);
-
-impl Drop for Child {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn bin() -> String {
-    std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())
-}
+use crate::common;
+use fleetmap_test_kit::Guard;
 
 /// The runway field-test mission with drones 1..=n.
 fn mission(n: u8) -> tempfile::NamedTempFile {
@@ -42,31 +31,28 @@ fn mission(n: u8) -> tempfile::NamedTempFile {
 
 /// `fleetmap sim` with `vehicles` and `extra` arguments, sending to a free UDP port: the
 /// process and the port.
-fn sim(vehicles: &str, extra: &[&str]) -> (Child, u16) {
+fn sim(vehicles: &str, extra: &[&str]) -> (Guard, u16) {
     let port = free_udp_port();
-    let child = Command::new(bin())
-        .args([
-            "sim",
-            "--vehicles",
-            vehicles,
-            "--world",
-            "assets/worlds/runway.toml",
-            "--connect",
-            &format!("udpout:127.0.0.1:{port}"),
-        ])
-        .args(extra)
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    (Child(child), port)
+    let connect = format!("udpout:127.0.0.1:{port}");
+    let mut args = vec![
+        "sim",
+        "--vehicles",
+        vehicles,
+        "--world",
+        "assets/worlds/runway.toml",
+        "--connect",
+        &connect,
+    ];
+    args.extend(extra);
+    (common::fleetmap().quiet(&args), port)
 }
 
 /// `fleetmap check --connect --json` for `drones` drones: (exit success, findings as
 /// (severity, check, sysid, fix)).
 fn check(port: u16, drones: u8) -> (bool, Vec<(String, String, u64, String)>) {
     let m = mission(drones);
-    let out = Command::new(bin())
+    let out = common::fleetmap()
+        .command()
         .args([
             "check",
             "--json",
@@ -203,8 +189,9 @@ fn px4_settings_are_read_byte_wise_by_their_names() {
 fn run_until(port: u16, extra: &[&str], until: &str) -> (Vec<String>, Option<bool>) {
     let m = mission(2);
     let dir = tempfile::tempdir().unwrap();
-    let mut child = Child(
-        Command::new(bin())
+    let mut child = Guard::spawn(
+        common::fleetmap()
+            .command()
             .arg("run")
             .arg(m.path())
             .args([
@@ -218,14 +205,12 @@ fn run_until(port: u16, extra: &[&str], until: &str) -> (Vec<String>, Option<boo
             .arg(dir.path().join("run"))
             .args(extra)
             .stdout(Stdio::piped())
-            .stderr(Stdio::piped())
-            .spawn()
-            .unwrap(),
+            .stderr(Stdio::piped()),
     );
     let (tx, rx) = std::sync::mpsc::channel();
     for pipe in [
-        Box::new(child.0.stdout.take().unwrap()) as Box<dyn std::io::Read + Send>,
-        Box::new(child.0.stderr.take().unwrap()),
+        Box::new(child.stdout.take().unwrap()) as Box<dyn std::io::Read + Send>,
+        Box::new(child.stderr.take().unwrap()),
     ] {
         let tx = tx.clone();
         std::thread::spawn(move || {
@@ -244,7 +229,7 @@ fn run_until(port: u16, extra: &[&str], until: &str) -> (Vec<String>, Option<boo
                 return (lines, None);
             }
         }
-        if let Ok(Some(status)) = child.0.try_wait() {
+        if let Ok(Some(status)) = child.try_wait() {
             while let Ok(l) = rx.recv_timeout(Duration::from_millis(200)) {
                 lines.push(l);
             }
@@ -289,7 +274,7 @@ fn the_tui_shows_the_findings_and_its_start_checks_again() {
     let log = tmp.path().join("ui.log");
     let cmd = format!(
         "{} --log-file {} tui --connect udpin:127.0.0.1:{port} --mission {}",
-        bin(),
+        common::fleetmap().path().display(),
         log.display(),
         m.path().display()
     );

@@ -1,30 +1,13 @@
 //! Terrain (docs/terrain.md) on the command line: the real `fleetmap` binary.
 
 use fleetmap_core::terrain::hgt::{SRTM3_SIDE, Tile, TileId};
-use std::process::{Command, Stdio};
 
-/// Kills a process the test started if the test fails before it ends.
-struct Child(std::process::Child);
-
-impl Drop for Child {
-    fn drop(&mut self) {
-        let _ = self.0.kill();
-        let _ = self.0.wait();
-    }
-}
-
-fn bin() -> String {
-    std::env::var("FLEETMAP_BIN").unwrap_or_else(|_| env!("CARGO_BIN_EXE_fleetmap").to_string())
-}
+use crate::common;
 
 /// Run the binary with `args` to its end: (success, stdout, stderr).
 fn run(args: &[&str]) -> (bool, String, String) {
-    let out = Command::new(bin()).args(args).output().unwrap();
-    (
-        out.status.success(),
-        String::from_utf8_lossy(&out.stdout).into_owned(),
-        String::from_utf8_lossy(&out.stderr).into_owned(),
-    )
+    let (code, stdout, stderr) = common::fleetmap().run(args);
+    (code == 0, stdout, stderr)
 }
 
 /// The three plans shaped like QGroundControl's ArduCopter test plans (`tests/plans/`) are
@@ -32,7 +15,7 @@ fn run(args: &[&str]) -> (bool, String, String) {
 /// listens on the port given.
 #[test]
 fn plans_with_uncomputed_terrain_altitudes_are_refused_before_upload() {
-    let port = crate::common::free_udp_port();
+    let port = fleetmap_test_kit::free_udp_port();
     let conn = format!("udpin:127.0.0.1:{port}");
     for home in ["cmac", "zurich", "issaquah"] {
         let file = format!(
@@ -87,25 +70,19 @@ fn terrain_is_served_from_tiles_and_a_missing_tile_is_named() {
          3\t0\t10\t16\t0\t0\t0\t0\t-35.363000\t149.165500\t12\t1\n",
     )
     .unwrap();
-    let port = crate::common::free_udp_port();
-    let sim = Command::new(bin())
-        .args([
-            "sim",
-            "--vehicles",
-            "1xcopter:ardupilot",
-            "--connect",
-            &format!("udpout:127.0.0.1:{port}"),
-            "--home=-35.363261,149.16523",
-            "--speedup",
-            "20",
-            "--duration",
-            "6000",
-        ])
-        .stdout(Stdio::null())
-        .stderr(Stdio::null())
-        .spawn()
-        .unwrap();
-    let _sim = Child(sim);
+    let port = fleetmap_test_kit::free_udp_port();
+    let _sim = common::fleetmap().quiet(&[
+        "sim",
+        "--vehicles",
+        "1xcopter:ardupilot",
+        "--connect",
+        &format!("udpout:127.0.0.1:{port}"),
+        "--home=-35.363261,149.16523",
+        "--speedup",
+        "20",
+        "--duration",
+        "6000",
+    ]);
     let conn = format!("udpin:127.0.0.1:{port}");
     let fly = |terrain: &std::path::Path| {
         run(&[
