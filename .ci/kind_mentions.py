@@ -77,47 +77,6 @@ def registered():
     return [k.strip() for k in m.group(1).split(",") if k.strip()]
 
 
-def without_comments(text):
-    """Comments out, string literals kept, newlines kept (so line numbers hold)."""
-    out, i, n = [], 0, len(text)
-    while i < n:
-        if text.startswith("//", i):
-            j = text.find("\n", i)
-            i = n if j < 0 else j
-        elif text.startswith("/*", i):
-            depth, j = 1, i + 2
-            while j < n and depth:
-                if text.startswith("/*", j):
-                    depth, j = depth + 1, j + 2
-                elif text.startswith("*/", j):
-                    depth, j = depth - 1, j + 2
-                else:
-                    j += 1
-            out.append("\n" * text.count("\n", i, j))
-            i = j
-        elif text[i] == '"' or (text[i] == "r" and re.match(r'r#*"', text[i:i + 10])
-                                and (i == 0 or not (text[i - 1].isalnum() or text[i - 1] == "_"))):
-            m = re.match(r'r(#*)"', text[i:])
-            if m:
-                end = text.find('"' + m.group(1), i + len(m.group(0)))
-                j = n if end < 0 else end + 1 + len(m.group(1))
-            else:
-                j = i + 1
-                while j < n and text[j] != '"':
-                    j += 2 if text[j] == "\\" else 1
-                j += 1
-            out.append(text[i:j])
-            i = j
-        elif text[i] == "'" and re.match(r"'(\\.|[^\\'])'", text[i:i + 4]):
-            j = text.find("'", i + 2 if text[i + 1] != "\\" else i + 3) + 1
-            out.append(text[i:j])
-            i = j
-        else:
-            out.append(text[i])
-            i += 1
-    return "".join(out)
-
-
 def inside(path, folders):
     return any(path.startswith(f) if f.endswith("/") else path == f for f in folders)
 
@@ -134,7 +93,7 @@ def places(kind):
             # The lines of `#[cfg(test)] mod … { … }` bodies: where module_cycles' reader blanks them.
             bare = strip(raw).split("\n")
             tests = {no for no, (a, b) in enumerate(zip(bare, drop_test_modules("\n".join(bare)).split("\n")), 1) if a != b}
-            for no, line in enumerate(without_comments(raw).split("\n"), 1):
+            for no, line in enumerate(strip(raw, keep_strings=True).split("\n"), 1):
                 if no not in tests and words.search(line):
                     found.append((f, no, line.strip()))
     return found

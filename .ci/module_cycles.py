@@ -25,8 +25,9 @@ PATH = re.compile(r"\b(crate|super|self)((?:::\w+)+)")
 USE = re.compile(r"\buse\s+([^;]*);", re.S)
 
 
-def strip(text):
-    """Comments, string and char literals out; newlines kept so line numbers hold."""
+def strip(text, keep_strings=False):
+    """Comments out, and string and char literals too unless `keep_strings`; newlines kept so
+    line numbers hold."""
     out, i, n = [], 0, len(text)
     while i < n:
         c = text[i]
@@ -48,17 +49,17 @@ def strip(text):
             hashes = re.match(r'r(#*)"', text[i:]).group(1)
             end = text.find('"' + hashes, i + 2 + len(hashes))
             j = n if end < 0 else end + 1 + len(hashes)
-            out.append('""' + "\n" * text.count("\n", i, j))
+            out.append(text[i:j] if keep_strings else '""' + "\n" * text.count("\n", i, j))
             i = j
         elif c == '"':
             j = i + 1
             while j < n and text[j] != '"':
                 j += 2 if text[j] == "\\" else 1
-            out.append('""' + "\n" * text.count("\n", i, j))
+            out.append(text[i:j + 1] if keep_strings else '""' + "\n" * text.count("\n", i, j))
             i = j + 1
         elif c == "'" and re.match(r"'(\\.|[^\\'])'", text[i:i + 4]):
             j = text.find("'", i + 2 if text[i + 1] != "\\" else i + 3) + 1
-            out.append("' '")
+            out.append(text[i:j] if keep_strings else "' '")
             i = j
         else:
             out.append(c)

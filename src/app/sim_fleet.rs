@@ -83,7 +83,7 @@ pub async fn serve_udp(
 
 /// Serve `sim` over in-process links, one per vehicle, and spawn a fleet on them, both on the
 /// runtime's clock; the fleet plans for `radio` when the vehicles are behind radios.
-pub(crate) fn serve_virtual(sim: Sim, radio: Option<&RadioConfig>) -> (FleetHandle, SimTask) {
+pub fn serve_virtual(sim: Sim, radio: Option<&RadioConfig>) -> (FleetHandle, SimTask) {
     let (ev_tx, ev_rx) = mpsc::channel(4096);
     let mut links = Vec::new();
     let mut ports = Vec::new();

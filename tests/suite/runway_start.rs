@@ -11,18 +11,15 @@
 use fleetmap::app::kind::{OperatorTask, Outcome};
 use fleetmap::app::runway::MappingEvent;
 use fleetmap::app::runway::report::{report, truth_coverage};
-use fleetmap::fleet::{self, FleetConfig, FleetHandle};
+use fleetmap::fleet::FleetHandle;
 use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
-use fleetmap_io::clock::MonotonicClock;
-use fleetmap_io::link::transport::{LinkOptions, open_memory_link};
 use fleetmap_sim::harness::{Sim, SimConfig};
-use fleetmap_sim::server::{SimTask, spawn_memory};
+use fleetmap_sim::server::SimTask;
 use std::time::Duration;
-use tokio::sync::mpsc;
 
 use crate::common;
 
@@ -41,23 +38,7 @@ fn team(world: &World, drones: usize, compass: (u8, f64)) -> (FleetHandle, SimTa
         }
     }
     let sim = Sim::new(sc, Time::ZERO).unwrap();
-    let (ev_tx, ev_rx) = mpsc::channel(4096);
-    let mut links = Vec::new();
-    let mut ports = Vec::new();
-    for (i, sysid) in sim.sysids().into_iter().enumerate() {
-        let (h, p) = open_memory_link(
-            i,
-            &format!("sim-{sysid}"),
-            &LinkOptions::default(),
-            ev_tx.clone(),
-        );
-        links.push(h);
-        ports.push(p);
-    }
-    drop(ev_tx);
-    let sim = spawn_memory(sim, ports);
-    let fleet = fleet::spawn(links, ev_rx, FleetConfig::default(), MonotonicClock::new());
-    (fleet, sim)
+    fleetmap::app::sim_fleet::serve_virtual(sim, None)
 }
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]
