@@ -103,7 +103,7 @@ fn decode(c: &mut Criterion) {
 
 /// One 200-item upload, GCS machine ↔ vehicle server, messages passed in memory.
 fn upload_once(ap: bool, items: &[MissionItem]) -> usize {
-    let vehicle = Endpoint::new(1, 1);
+    let vehicle = Endpoint::new(1, fleetmap_core::proto::AUTOPILOT_COMPID);
     let mut client = MissionClient::new(Endpoint::gcs(), vehicle, ap, MissionConfig::default());
     let mut server = MissionServer::new(
         if ap {
@@ -115,13 +115,13 @@ fn upload_once(ap: bool, items: &[MissionItem]) -> usize {
         1,
     );
     let gcs_hdr = MavHeader {
-        system_id: 255,
-        component_id: 190,
+        system_id: fleetmap_core::proto::GCS_SYSID as u32,
+        component_id: fleetmap_core::proto::GCS_COMPID,
         sequence: 0,
     };
     let veh_hdr = MavHeader {
         system_id: 1,
-        component_id: 1,
+        component_id: fleetmap_core::proto::AUTOPILOT_COMPID,
         sequence: 0,
     };
     let now = Time::from_secs(1);

@@ -17,8 +17,8 @@ use std::hint::black_box;
 
 fn command(sim: &mut Sim, sysid: u8, command: mav::MavCmd, p1: f32, p7: f32) {
     let h = MavHeader {
-        system_id: 255,
-        component_id: 190,
+        system_id: fleetmap_core::proto::GCS_SYSID as u32,
+        component_id: fleetmap_core::proto::GCS_COMPID,
         sequence: 0,
     };
     sim.send(
@@ -29,7 +29,7 @@ fn command(sim: &mut Sim, sysid: u8, command: mav::MavCmd, p1: f32, p7: f32) {
             param7: p7,
             command,
             target_system: sysid,
-            target_component: 1,
+            target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
             ..mav::COMMAND_LONG_DATA::default()
         }),
     );
@@ -43,8 +43,8 @@ fn twenty_minutes() -> Sim {
     sim.advance_to(Time::from_secs(20));
     for s in 1..=3 {
         let h = MavHeader {
-            system_id: 255,
-            component_id: 190,
+            system_id: fleetmap_core::proto::GCS_SYSID as u32,
+            component_id: fleetmap_core::proto::GCS_COMPID,
             sequence: 0,
         };
         sim.send(
@@ -53,7 +53,7 @@ fn twenty_minutes() -> Sim {
             &MavMessage::REQUEST_DATA_STREAM(mav::REQUEST_DATA_STREAM_DATA {
                 req_message_rate: 4,
                 target_system: s,
-                target_component: 1,
+                target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
                 req_stream_id: mav::MavDataStream::MAV_DATA_STREAM_ALL,
                 start_stop: 1,
             }),
@@ -63,8 +63,8 @@ fn twenty_minutes() -> Sim {
     sim.advance_to(Time::from_secs(21));
     for s in 1..=3 {
         let h = MavHeader {
-            system_id: 255,
-            component_id: 190,
+            system_id: fleetmap_core::proto::GCS_SYSID as u32,
+            component_id: fleetmap_core::proto::GCS_COMPID,
             sequence: 1,
         };
         sim.send(
@@ -75,7 +75,7 @@ fn twenty_minutes() -> Sim {
                 param2: 4.0,
                 command: mav::MavCmd::MAV_CMD_DO_SET_MODE,
                 target_system: s,
-                target_component: 1,
+                target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
                 ..mav::COMMAND_LONG_DATA::default()
             }),
         );

@@ -682,7 +682,7 @@ mod tests {
                 file_url: "".into(),
             })
         };
-        let cam = Endpoint::new(1, 100);
+        let cam = Endpoint::new(1, fleetmap_core::proto::CAMERA_COMPID);
         let mut intake = Intake::new(Endpoint::gcs());
         // another capture's record first, then this one's
         intake.handle_message(cam, &cic(6), Time::ZERO);
@@ -761,7 +761,7 @@ mod tests {
             },
             7,
         );
-        let from = Endpoint::new(1, 100);
+        let from = Endpoint::new(1, fleetmap_core::proto::CAMERA_COMPID);
         let mut intake = Intake::new(Endpoint::gcs());
         let t0 = Time::from_secs(10);
         intake.accept_runway(

@@ -17,9 +17,10 @@
 use super::vehicles::{ConnectArgs, Session, block_on};
 use anyhow::{Context, bail};
 use clap::{Args, Subcommand};
+use fleetmap_io::clock::unix_us;
 use fleetmap_io::link::signing::{SigningKey, signing_timestamp};
-use fleetmap_io::link::transport::unix_now_us;
-use mavlink::dialects::ardupilotmega::{MavMessage, SETUP_SIGNING_DATA};
+use mavlink::MessageData;
+use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, MavMessage, SETUP_SIGNING_DATA};
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
@@ -108,7 +109,7 @@ async fn send_setup_signing(
     let confirmed = tokio::time::timeout(Duration::from_secs(5), async {
         while let Ok(inc) = sub.recv().await {
             let f = &inc.frame;
-            if f.sysid() == sysid && f.msg_id == 0 && confirms(f) {
+            if f.sysid() == sysid && f.msg_id == HEARTBEAT_DATA::ID && confirms(f) {
                 return true;
             }
         }
@@ -172,7 +173,7 @@ pub fn run(args: SigningArgs) -> anyhow::Result<ExitCode> {
                         sysid,
                         Duration::from_secs_f64(wait),
                         key.0,
-                        signing_timestamp(unix_now_us()),
+                        signing_timestamp(unix_us()),
                         |f| {
                             let Some(sig) = f.signature else {
                                 return false;

@@ -234,10 +234,10 @@ pub fn build(args: &SimArgs) -> anyhow::Result<SimConfig> {
         cfg.signing_key = Some(fleetmap_io::link::signing::SigningKey::read(k)?);
     }
     // signature timestamps follow the wall clock when serving sockets
-    cfg.unix_epoch_us = std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_micros() as u64)
-        .unwrap_or(fleetmap_sim::harness::DEFAULT_EPOCH_US);
+    cfg.unix_epoch_us = match fleetmap_io::clock::unix_us() {
+        0 => fleetmap_sim::harness::DEFAULT_EPOCH_US, // a clock before 1970
+        us => us,
+    };
     if let Some(w) = &args.wind {
         let (speed, from) = parse_pair(w, "--wind")?;
         if speed < 0.0 {

@@ -9,6 +9,7 @@ use crate::fleet::{self, FleetConfig, FleetHandle, FleetSnapshot, VehicleSnapsho
 use anyhow::Context;
 use clap::Args;
 use fleetmap_core::budget::LinkBudget;
+use fleetmap_core::proto::GCS_SYSID;
 use fleetmap_core::proto::mission::MissionConfig;
 use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::signing::{Signing, SigningKey};
@@ -49,7 +50,7 @@ pub struct ConnectArgs {
     /// Our MAVLink system id (MAVProxy's `--source-system`): 255 by default, the id
     /// ArduPilot's MAV_GCS_SYSID expects; give another to run a second GCS beside the first
     /// on the same link (replies are routed to each by system id).
-    #[arg(long, value_name = "ID", default_value_t = 255, value_parser = clap::value_parser!(u8).range(1..))]
+    #[arg(long, value_name = "ID", default_value_t = GCS_SYSID, value_parser = clap::value_parser!(u8).range(1..))]
     pub(crate) gcs_sysid: u8,
     /// Mission protocol: give up after the vehicle has not answered for this long,
     /// seconds (a transfer goes on as long as it answers, however lossy the link).

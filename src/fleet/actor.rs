@@ -36,7 +36,10 @@ use fleetmap_io::link::transport::LinkHandle;
 use fleetmap_io::link::transport::LinkId;
 use fleetmap_io::watch;
 use mavlink::Message;
+use mavlink::MessageData;
 use mavlink::dialects::ardupilotmega::MavMessage;
+use mavlink::dialects::ardupilotmega::{HEARTBEAT_DATA, MISSION_ITEM_INT_DATA};
+use mavlink::dialects::ardupilotmega::{MavComponent, MavType};
 use std::collections::BTreeMap;
 use std::collections::HashMap;
 use std::sync::Arc;
@@ -132,8 +135,10 @@ fn frame_check(frame: &Frame) -> u16 {
 }
 
 /// MISSION_ITEM (39) and MISSION_ITEM_INT (73) carry `seq` at payload offset 28.
+#[allow(deprecated)] // MISSION_ITEM: deprecated, still what some autopilots send
 pub(super) fn unparsed_item_seq(frame: &Frame) -> Option<u16> {
-    if frame.msg_id != 39 && frame.msg_id != 73 {
+    use mavlink::dialects::ardupilotmega::MISSION_ITEM_DATA;
+    if frame.msg_id != MISSION_ITEM_DATA::ID && frame.msg_id != MISSION_ITEM_INT_DATA::ID {
         return None;
     }
     let p = frame.payload();
@@ -364,7 +369,7 @@ impl Actor {
             received,
             frame: frame.clone(),
         });
-        if frame.msg_id == 0 {
+        if frame.msg_id == HEARTBEAT_DATA::ID {
             let beat = match &frame.message {
                 Ok(MavMessage::HEARTBEAT(h)) => Beat::from_data(h),
                 _ => Beat::from_payload(frame.payload()),
@@ -414,7 +419,11 @@ impl Actor {
         now: Time,
     ) {
         // MAV_TYPE_CAMERA = 30; camera components 100..=105.
-        if beat.mav_type == 30 || (100..=105).contains(&from.compid) && !beat.is_autopilot() {
+        let cameras =
+            MavComponent::MAV_COMP_ID_CAMERA as u8..=MavComponent::MAV_COMP_ID_CAMERA6 as u8;
+        if beat.mav_type == MavType::MAV_TYPE_CAMERA as u8
+            || cameras.contains(&from.compid) && !beat.is_autopilot()
+        {
             self.cameras.insert(from.sysid, from.compid);
             if let Some(v) = self.vehicles.get_mut(&from.sysid) {
                 v.snap.camera_heard(from.compid, now);

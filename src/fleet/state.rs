@@ -341,7 +341,7 @@ pub struct FleetSnapshot {
 }
 
 /// MAV_STATE_BOOT (HEARTBEAT system_status).
-const MAV_STATE_BOOT: u8 = 1;
+const MAV_STATE_BOOT: u8 = mavlink::dialects::ardupilotmega::MavState::MAV_STATE_BOOT as u8;
 
 /// MAV_SYS_STATUS_PREARM_CHECK (SYS_STATUS sensor bit 28).
 const PREARM_BIT: u32 = 0x1000_0000;
@@ -353,7 +353,7 @@ impl VehicleSnapshot {
     pub(crate) fn test_copter(sysid: u8) -> VehicleSnapshot {
         let beat = Beat {
             custom_mode: 0,
-            mav_type: 2,
+            mav_type: mavlink::dialects::ardupilotmega::MavType::MAV_TYPE_QUADROTOR as u8,
             autopilot: 3,
             base_mode: 0,
             system_status: 3,

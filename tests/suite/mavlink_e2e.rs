@@ -16,7 +16,7 @@ use fleetmap_io::link::ConnSpec;
 use fleetmap_io::link::codec::Codec;
 use fleetmap_io::link::signing::{Signing, SigningKey};
 use fleetmap_io::link::tlog::{read_tlog, spawn_tlog};
-use fleetmap_io::link::transport::{LinkOptions, unix_now_us};
+use fleetmap_io::{clock::unix_us as unix_now_us, link::transport::LinkOptions};
 use fleetmap_sim::flavour::SimAutopilot;
 use fleetmap_sim::mission_server::{HomeItem, MissionServer};
 use mavlink::MavHeader;

@@ -79,7 +79,7 @@
 
 use crate::camera::{CameraConfig, CaptureContext, CapturedImage, Shot, SimCamera};
 use crate::pose::CameraPose;
-use fleetmap_core::proto::CAMERA_COMPID;
+use fleetmap_core::proto::{AUTOPILOT_COMPID, CAMERA_COMPID};
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
 use image::RgbImage;
@@ -103,9 +103,6 @@ pub(crate) const REQUEST_RETRY: Duration = Duration::from_secs(2);
 /// How far GLOBAL_POSITION_INT.time_boot_ms must go backwards, milliseconds, to count as a
 /// reboot rather than a reordered datagram.
 pub(crate) const REBOOT_BACKSTEP_MS: u32 = 1000;
-
-/// MAV_COMP_ID_AUTOPILOT1.
-const AUTOPILOT_COMPID: u8 = 1;
 
 /// What the cameras did that an operator should hear of (the shell logs these).
 #[derive(Clone, Debug, PartialEq)]
@@ -390,12 +387,12 @@ impl PairedCameras {
         let fresh = Self::fresh_pose(t, now, max_age).is_some();
         let mut extra = Vec::new();
         let mut refused = false;
-        let result = match command as u16 {
-            2000 if !fresh => {
+        let result = match command {
+            mav::MavCmd::MAV_CMD_IMAGE_START_CAPTURE if !fresh => {
                 refused = true;
                 mav::MavResult::MAV_RESULT_TEMPORARILY_REJECTED
             }
-            2000 => {
+            mav::MavCmd::MAV_CMD_IMAGE_START_CAPTURE => {
                 t.camera.capture_command(
                     f64::from(p[1]),
                     p[2].max(0.0) as u32,
@@ -404,16 +401,16 @@ impl PairedCameras {
                 );
                 mav::MavResult::MAV_RESULT_ACCEPTED
             }
-            2001 => {
+            mav::MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE => {
                 t.camera.stop_capture();
                 mav::MavResult::MAV_RESULT_ACCEPTED
             }
-            512 => {
+            mav::MavCmd::MAV_CMD_REQUEST_MESSAGE => {
                 let (result, answer) = t.camera.request_message([p[0], p[1], p[2]], tb);
                 extra = answer;
                 result
             }
-            521 => {
+            mav::MavCmd::MAV_CMD_REQUEST_CAMERA_INFORMATION => {
                 extra = vec![t.camera.information(tb)];
                 mav::MavResult::MAV_RESULT_ACCEPTED
             }
@@ -729,7 +726,7 @@ mod tests {
         let mut cams = PairedCameras::new(world, CameraConfig::default(), 1);
         let ap = MavHeader {
             system_id: 3,
-            component_id: 1,
+            component_id: fleetmap_core::proto::AUTOPILOT_COMPID,
             sequence: 0,
         };
         cams.handle_message(
@@ -752,7 +749,7 @@ mod tests {
         let msgs: Vec<_> = std::iter::from_fn(|| cams.poll_transmit()).collect();
         assert!(
             msgs.iter()
-                .all(|(h, _)| h.system_id == 3 && h.component_id == 100)
+                .all(|(h, _)| h.system_id == 3 && h.component_id == CAMERA_COMPID)
         );
         assert!(
             msgs.iter().any(
@@ -761,17 +758,17 @@ mod tests {
         );
         // a command to the camera component is answered
         let gcs = MavHeader {
-            system_id: 255,
-            component_id: 190,
+            system_id: fleetmap_core::proto::GCS_SYSID as u32,
+            component_id: fleetmap_core::proto::GCS_COMPID,
             sequence: 0,
         };
         cams.handle_message(
             &gcs,
             &MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
-                param1: 259.0,
+                param1: <mav::CAMERA_INFORMATION_DATA as mavlink::MessageData>::ID as f32,
                 command: mav::MavCmd::MAV_CMD_REQUEST_MESSAGE,
                 target_system: 3,
-                target_component: 100,
+                target_component: CAMERA_COMPID,
                 ..mav::COMMAND_LONG_DATA::default()
             }),
             Time::from_secs(2),
@@ -800,7 +797,7 @@ mod tests {
 
     const AP: MavHeader = MavHeader {
         system_id: 3,
-        component_id: 1,
+        component_id: fleetmap_core::proto::AUTOPILOT_COMPID,
         sequence: 0,
     };
 
@@ -995,8 +992,8 @@ mod tests {
             t += Duration::from_millis(100);
         }
         let gcs = MavHeader {
-            system_id: 255,
-            component_id: 190,
+            system_id: fleetmap_core::proto::GCS_SYSID as u32,
+            component_id: fleetmap_core::proto::GCS_COMPID,
             sequence: 0,
         };
         cams.handle_message(
@@ -1005,7 +1002,7 @@ mod tests {
                 param2: 1.0,
                 command: mav::MavCmd::MAV_CMD_IMAGE_START_CAPTURE,
                 target_system: 3,
-                target_component: 100,
+                target_component: CAMERA_COMPID,
                 ..mav::COMMAND_LONG_DATA::default()
             }),
             Time::from_secs(1),
@@ -1069,7 +1066,7 @@ mod tests {
         for sysid in [1, 2] {
             let ap = MavHeader {
                 system_id: sysid,
-                component_id: 1,
+                component_id: fleetmap_core::proto::AUTOPILOT_COMPID,
                 sequence: 0,
             };
             cams.handle_message(
@@ -1085,8 +1082,8 @@ mod tests {
             grid: Grid::new(LatLon::new(37.0, -80.0), 4.0).unwrap(),
         };
         let gcs = MavHeader {
-            system_id: 255,
-            component_id: 190,
+            system_id: fleetmap_core::proto::GCS_SYSID as u32,
+            component_id: fleetmap_core::proto::GCS_COMPID,
             sequence: 0,
         };
         let status = |cams: &mut PairedCameras| -> Vec<(u32, u32)> {

@@ -26,6 +26,7 @@
 pub mod budget;
 pub mod explore;
 pub mod geo;
+mod identity;
 pub mod mission;
 pub mod planner;
 pub mod preflight;

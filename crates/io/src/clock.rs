@@ -23,14 +23,13 @@ use tokio::time::Instant;
 /// Wall-clock milliseconds since the Unix epoch (0 if the clock is before it): run
 /// directories' creation times, and a moving region's epoch.
 pub fn unix_ms() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_millis() as u64)
-        .unwrap_or(0)
+    unix_us() / 1000
 }
 
-/// Wall-clock microseconds since the Unix epoch (0 if the clock is before it): the
-/// timestamp the links put on every frame they receive (`link::transport::LinkEvent::Frame`).
+/// Wall-clock microseconds since the Unix epoch (0 if the clock is before it): the one
+/// reader of the wall clock. The links stamp every frame they receive and sign every frame
+/// they send with it (`link::transport::LinkEvent::Frame`, tlogs, MAVLink signing), and
+/// `fleetmap sim` serving sockets starts its signature timestamps from it.
 pub fn unix_us() -> u64 {
     std::time::SystemTime::now()
         .duration_since(std::time::UNIX_EPOCH)

@@ -8,6 +8,8 @@
 use fleetmap_core::geo::local;
 use fleetmap_core::mission::item::MissionItem;
 use fleetmap_core::world::point_in_polygon;
+use mavlink::dialects::ardupilotmega::MavCmd;
+use num_traits::FromPrimitive;
 
 #[derive(Clone, Debug, PartialEq)]
 enum Zone {
@@ -40,8 +42,11 @@ impl Fence {
         let mut i = 0;
         while i < items.len() {
             let it = &items[i];
-            match it.command {
-                5001 | 5002 => {
+            match MavCmd::from_u16(it.command) {
+                Some(
+                    MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+                    | MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+                ) => {
                     let n = it.param1.max(0.0).round() as usize;
                     let run = items[i..]
                         .iter()
@@ -49,7 +54,8 @@ impl Fence {
                         .count();
                     if n >= 3 && run >= n {
                         zones.push(Zone::Polygon {
-                            inclusion: it.command == 5001,
+                            inclusion: it.command
+                                == MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION as u16,
                             pts: items[i..i + n].iter().map(to_local).collect(),
                         });
                         i += n;
@@ -57,9 +63,12 @@ impl Fence {
                         i += run.max(1);
                     }
                 }
-                5003 | 5004 => {
+                Some(
+                    MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION
+                    | MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
+                ) => {
                     zones.push(Zone::Circle {
-                        inclusion: it.command == 5003,
+                        inclusion: it.command == MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION as u16,
                         c: to_local(it),
                         r: f64::from(it.param1.max(0.0)),
                     });

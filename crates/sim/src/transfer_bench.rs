@@ -34,19 +34,19 @@ use std::collections::BinaryHeap;
 use std::time::Duration;
 
 /// The simulated vehicle's MAVLink address (system 1, autopilot component 1).
-pub const VEHICLE: Endpoint = Endpoint::new(1, 1);
+pub const VEHICLE: Endpoint = Endpoint::new(1, fleetmap_core::proto::AUTOPILOT_COMPID);
 
 /// The header of what the GCS sends (system 255, component 190, as [`Endpoint::gcs`]).
 pub(crate) const GCS_HEADER: MavHeader = MavHeader {
-    system_id: 255,
-    component_id: 190,
+    system_id: fleetmap_core::proto::GCS_SYSID as u32,
+    component_id: fleetmap_core::proto::GCS_COMPID,
     sequence: 0,
 };
 
 /// The header of what the vehicle sends ([`VEHICLE`]).
 pub(crate) const VEHICLE_HEADER: MavHeader = MavHeader {
     system_id: 1,
-    component_id: 1,
+    component_id: fleetmap_core::proto::AUTOPILOT_COMPID,
     sequence: 0,
 };
 

@@ -114,7 +114,7 @@ mod ardurover_arrival {
     fn rover() -> VehicleSnapshot {
         let beat = fleetmap_core::proto::heartbeat::Beat {
             custom_mode: 0,
-            mav_type: 10,
+            mav_type: mavlink::dialects::ardupilotmega::MavType::MAV_TYPE_GROUND_ROVER as u8,
             autopilot: 3,
             base_mode: 0,
             system_status: 3,

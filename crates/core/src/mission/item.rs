@@ -8,12 +8,17 @@
 
 use serde::{Deserialize, Serialize};
 
-/// MAV_CMD values used by fleetmap (MAVLink common.xml).
+/// MAV_CMD values used by fleetmap, as the `u16` a mission item carries: each is the dialect's
+/// `MavCmd` (MAVLink common.xml), named here once so that a `match` on an item's command can use
+/// them as patterns.
 pub mod cmd {
+    use mavlink::dialects::ardupilotmega::MavCmd;
+    use num_traits::FromPrimitive;
+
     /// Fly to a position (param1 hold time s, param2 acceptance radius m, param4 yaw deg).
-    pub const NAV_WAYPOINT: u16 = 16;
+    pub const NAV_WAYPOINT: u16 = MavCmd::MAV_CMD_NAV_WAYPOINT as u16;
     /// The highest navigation command id (MAV_CMD_NAV_LAST).
-    pub(crate) const NAV_LAST: u16 = 95;
+    pub(crate) const NAV_LAST: u16 = MavCmd::MAV_CMD_NAV_LAST as u16;
 
     /// Whether a MAV_CMD is a navigation command: one that is flown and "reached" (take-off,
     /// waypoint, loiter, land, return…), as opposed to DO_ and CONDITION_ commands, which run
@@ -30,62 +35,88 @@ pub mod cmd {
     /// start, go-around, set ROI, VTOL take-off and land, payload place. For every other
     /// command it keeps only the command's own fields: a download returns frame 0 and no
     /// position, whatever was uploaded (Mission Planner writes frame 3 on an RTL line).
+    #[allow(deprecated)] // MAV_CMD_DO_SET_ROI: superseded in common.xml, still one ArduPilot takes
     pub fn ardupilot_stores_location(cmd: u16) -> bool {
+        use MavCmd::*;
         matches!(
-            cmd,
-            16 | 17 | 18 | 19 | 21 | 22 | 30 | 31 | 82 | 92 | 179 | 189 | 191 | 201 | 84 | 85 | 94
+            MavCmd::from_u16(cmd),
+            Some(
+                MAV_CMD_NAV_WAYPOINT
+                    | MAV_CMD_NAV_LOITER_UNLIM
+                    | MAV_CMD_NAV_LOITER_TURNS
+                    | MAV_CMD_NAV_LOITER_TIME
+                    | MAV_CMD_NAV_LAND
+                    | MAV_CMD_NAV_TAKEOFF
+                    | MAV_CMD_NAV_CONTINUE_AND_CHANGE_ALT
+                    | MAV_CMD_NAV_LOITER_TO_ALT
+                    | MAV_CMD_NAV_SPLINE_WAYPOINT
+                    | MAV_CMD_NAV_GUIDED_ENABLE
+                    | MAV_CMD_DO_SET_HOME
+                    | MAV_CMD_DO_LAND_START
+                    | MAV_CMD_DO_GO_AROUND
+                    | MAV_CMD_DO_SET_ROI
+                    | MAV_CMD_NAV_VTOL_TAKEOFF
+                    | MAV_CMD_NAV_VTOL_LAND
+                    | MAV_CMD_NAV_PAYLOAD_PLACE
+            )
         )
     }
     /// Loiter at a position until told otherwise.
-    pub const NAV_LOITER_UNLIM: u16 = 17;
+    pub const NAV_LOITER_UNLIM: u16 = MavCmd::MAV_CMD_NAV_LOITER_UNLIM as u16;
     /// Loiter at a position for param1 seconds.
-    pub const NAV_LOITER_TIME: u16 = 19;
+    pub const NAV_LOITER_TIME: u16 = MavCmd::MAV_CMD_NAV_LOITER_TIME as u16;
     /// Return to the launch position.
-    pub const NAV_RETURN_TO_LAUNCH: u16 = 20;
+    pub const NAV_RETURN_TO_LAUNCH: u16 = MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH as u16;
     /// Land at a position (or here when lat/lon are 0).
-    pub const NAV_LAND: u16 = 21;
+    pub const NAV_LAND: u16 = MavCmd::MAV_CMD_NAV_LAND as u16;
     /// Take off to the item's altitude.
-    pub const NAV_TAKEOFF: u16 = 22;
+    pub const NAV_TAKEOFF: u16 = MavCmd::MAV_CMD_NAV_TAKEOFF as u16;
     /// Climb or descend while loitering until the item's altitude is reached.
-    pub(crate) const NAV_LOITER_TO_ALT: u16 = 31;
+    pub(crate) const NAV_LOITER_TO_ALT: u16 = MavCmd::MAV_CMD_NAV_LOITER_TO_ALT as u16;
     /// VTOL take-off: rise vertically, then transition to forward flight.
-    pub(crate) const NAV_VTOL_TAKEOFF: u16 = 84;
+    pub(crate) const NAV_VTOL_TAKEOFF: u16 = MavCmd::MAV_CMD_NAV_VTOL_TAKEOFF as u16;
     /// VTOL landing: transition to hover, then land vertically.
-    pub(crate) const NAV_VTOL_LAND: u16 = 85;
+    pub(crate) const NAV_VTOL_LAND: u16 = MavCmd::MAV_CMD_NAV_VTOL_LAND as u16;
     /// Jump to item param1, param2 times (−1 = forever).
-    pub const DO_JUMP: u16 = 177;
+    pub const DO_JUMP: u16 = MavCmd::MAV_CMD_DO_JUMP as u16;
     /// Change speed: param1 speed type, param2 speed m/s.
-    pub const DO_CHANGE_SPEED: u16 = 178;
+    pub const DO_CHANGE_SPEED: u16 = MavCmd::MAV_CMD_DO_CHANGE_SPEED as u16;
     /// Set home: param1 = 1 uses the current position, 0 the item's position.
-    pub const DO_SET_HOME: u16 = 179;
+    pub const DO_SET_HOME: u16 = MavCmd::MAV_CMD_DO_SET_HOME as u16;
     /// Legacy camera trigger (param5 = 1 takes one picture).
-    pub const DO_DIGICAM_CONTROL: u16 = 203;
+    pub const DO_DIGICAM_CONTROL: u16 = MavCmd::MAV_CMD_DO_DIGICAM_CONTROL as u16;
     /// Trigger the camera every param1 metres travelled (0 stops).
-    pub const DO_SET_CAM_TRIGG_DIST: u16 = 206;
+    pub const DO_SET_CAM_TRIGG_DIST: u16 = MavCmd::MAV_CMD_DO_SET_CAM_TRIGG_DIST as u16;
     /// Start capturing images: param2 interval s, param3 count, param4 sequence number.
-    pub const IMAGE_START_CAPTURE: u16 = 2000;
+    pub const IMAGE_START_CAPTURE: u16 = MavCmd::MAV_CMD_IMAGE_START_CAPTURE as u16;
     /// Stop capturing images.
-    pub const IMAGE_STOP_CAPTURE: u16 = 2001;
+    pub const IMAGE_STOP_CAPTURE: u16 = MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE as u16;
     /// Fence polygon vertex, inclusion (param1 = vertex count).
-    pub(crate) const NAV_FENCE_POLYGON_VERTEX_INCLUSION: u16 = 5001;
+    pub(crate) const NAV_FENCE_POLYGON_VERTEX_INCLUSION: u16 =
+        MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION as u16;
     /// Fence polygon vertex, exclusion (param1 = vertex count).
-    pub(crate) const NAV_FENCE_POLYGON_VERTEX_EXCLUSION: u16 = 5002;
+    pub(crate) const NAV_FENCE_POLYGON_VERTEX_EXCLUSION: u16 =
+        MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION as u16;
     /// Rally point.
-    pub const NAV_RALLY_POINT: u16 = 5100;
+    pub const NAV_RALLY_POINT: u16 = MavCmd::MAV_CMD_NAV_RALLY_POINT as u16;
 }
 
-/// MAV_FRAME values used by fleetmap.
+/// MAV_FRAME values used by fleetmap, as the `u8` a mission item carries (the dialect's
+/// `MavFrame`).
 pub mod frame {
+    use mavlink::dialects::ardupilotmega::MavFrame;
+
     /// Global frame, altitude AMSL (lat/lon as float degrees in MISSION_ITEM).
-    pub const GLOBAL: u8 = 0;
+    pub const GLOBAL: u8 = MavFrame::MAV_FRAME_GLOBAL as u8;
     /// Not a position (commands without coordinates).
-    pub const MISSION: u8 = 2;
+    pub const MISSION: u8 = MavFrame::MAV_FRAME_MISSION as u8;
     /// Global frame, altitude relative to home.
-    pub const GLOBAL_RELATIVE_ALT: u8 = 3;
+    pub const GLOBAL_RELATIVE_ALT: u8 = MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT as u8;
     /// Global frame, altitude above terrain.
-    pub const GLOBAL_TERRAIN_ALT: u8 = 10;
+    pub const GLOBAL_TERRAIN_ALT: u8 = MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT as u8;
     /// Global frame (lat/lon 1e-7 degrees in MISSION_ITEM), altitude above terrain.
-    pub const GLOBAL_TERRAIN_ALT_INT: u8 = 11;
+    #[allow(deprecated)] // superseded in common.xml, still what QGroundControl plans carry
+    pub const GLOBAL_TERRAIN_ALT_INT: u8 = MavFrame::MAV_FRAME_GLOBAL_TERRAIN_ALT_INT as u8;
 
     /// Whether an item's altitude is above the terrain: the vehicle needs terrain data to
     /// fly it (ArduPilot: `TERRAIN_ENABLE` and the GCS's TERRAIN_DATA or its own cache).

@@ -46,16 +46,17 @@
 
 use super::item::{MissionItem, cmd, deg_to_e7, e7_to_deg, frame};
 use crate::mission::wire::is_global_frame;
+use mavlink::dialects::ardupilotmega::MavCmd;
 use serde::Deserialize;
 use serde_json::{Value, json};
 use std::collections::HashMap;
 
 /// MAV_CMD_NAV_FENCE_RETURN_POINT.
-const FENCE_RETURN_POINT: u16 = 5000;
+const FENCE_RETURN_POINT: u16 = MavCmd::MAV_CMD_NAV_FENCE_RETURN_POINT as u16;
 /// MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION.
-const FENCE_CIRCLE_INCLUSION: u16 = 5003;
+const FENCE_CIRCLE_INCLUSION: u16 = MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION as u16;
 /// MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION.
-const FENCE_CIRCLE_EXCLUSION: u16 = 5004;
+const FENCE_CIRCLE_EXCLUSION: u16 = MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION as u16;
 
 /// QGroundControl's `AltitudeMode` "calculated above terrain"
 /// (`QGroundControlQmlGlobal::AltitudeModeCalcAboveTerrain`): the item's altitude above the
@@ -523,7 +524,11 @@ pub fn parse_plan(text: &str) -> Result<Plan, PlanError> {
                     ),
                 ));
             }
-            let command = if p.inclusion { 5001 } else { 5002 };
+            let command = if p.inclusion {
+                cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION
+            } else {
+                cmd::NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+            };
             for v in &p.polygon {
                 check_latlon(v[0], v[1])
                     .map_err(|m| invalid(line, format!("fence polygon {k}: {m}")))?;
@@ -666,14 +671,14 @@ pub fn write_plan(plan: &Plan) -> String {
     while i < plan.fence.len() {
         let it = &plan.fence[i];
         match it.command {
-            5001 | 5002 => {
+            cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION | cmd::NAV_FENCE_POLYGON_VERTEX_EXCLUSION => {
                 let n = (it.param1.max(1.0) as usize).min(plan.fence.len() - i);
                 let verts: Vec<Value> = plan.fence[i..i + n]
                     .iter()
                     .map(|v| json!([e7_to_deg(v.x), e7_to_deg(v.y)]))
                     .collect();
-                polygons
-                    .push(json!({"inclusion": it.command == 5001, "polygon": verts, "version": 1}));
+                let inclusion = it.command == cmd::NAV_FENCE_POLYGON_VERTEX_INCLUSION;
+                polygons.push(json!({"inclusion": inclusion, "polygon": verts, "version": 1}));
                 i += n;
             }
             FENCE_CIRCLE_INCLUSION | FENCE_CIRCLE_EXCLUSION => {

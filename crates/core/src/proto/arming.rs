@@ -13,7 +13,7 @@
 use super::Endpoint;
 use super::command::Command;
 use super::flavour::Flavour;
-use mavlink::dialects::ardupilotmega::MavCmd;
+use mavlink::dialects::ardupilotmega::{EkfStatusFlags, MavCmd};
 
 /// What the arming check looks at (filled from telemetry by the fleet).
 #[derive(Clone, Debug, Default, PartialEq)]
@@ -37,9 +37,9 @@ pub struct ArmInputs {
 }
 
 /// EKF_STATUS_REPORT flags (ardupilotmega.xml EKF_STATUS_FLAGS).
-const EKF_POS_HORIZ_ABS: u16 = 16;
-const EKF_CONST_POS_MODE: u16 = 128;
-const EKF_UNINITIALIZED: u16 = 1024;
+const EKF_POS_HORIZ_ABS: u16 = EkfStatusFlags::EKF_POS_HORIZ_ABS.bits();
+const EKF_CONST_POS_MODE: u16 = EkfStatusFlags::EKF_CONST_POS_MODE.bits();
+const EKF_UNINITIALIZED: u16 = EkfStatusFlags::EKF_UNINITIALIZED.bits();
 
 impl Flavour {
     /// The arm / disarm command (param2 = 0: no force).

@@ -511,8 +511,8 @@ mod tests {
             result,
             progress: 0,
             result_param2: 0,
-            target_system: 255,
-            target_component: 190,
+            target_system: crate::proto::GCS_SYSID,
+            target_component: crate::proto::GCS_COMPID,
         })
     }
 
@@ -527,7 +527,7 @@ mod tests {
     #[test]
     fn retries_increment_confirmation_then_time_out() {
         let mut s = CommandSender::new(Endpoint::gcs(), CommandConfig::default());
-        let t = Endpoint::new(1, 1);
+        let t = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
         let id = s.start(arm(t), Time::ZERO);
         let mut confirmations = Vec::new();
         let mut now = Time::ZERO;
@@ -560,7 +560,7 @@ mod tests {
     #[test]
     fn in_progress_extends_and_final_ack_completes() {
         let mut s = CommandSender::new(Endpoint::gcs(), CommandConfig::default());
-        let t = Endpoint::new(1, 1);
+        let t = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
         let id = s.start(arm(t), Time::ZERO);
         s.handle_message(
             &hdr(1, 1),
@@ -611,7 +611,7 @@ mod tests {
     #[test]
     fn same_command_queues_and_errors_are_precise() {
         let mut s = CommandSender::new(Endpoint::gcs(), CommandConfig::default());
-        let t = Endpoint::new(1, 1);
+        let t = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
         let a = s.start(arm(t), Time::ZERO);
         let b = s.start(arm(t), Time::ZERO);
         assert!(s.poll_transmit().is_some());

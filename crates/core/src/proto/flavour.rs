@@ -43,8 +43,10 @@ use super::Endpoint;
 use super::command::Command;
 use super::mode::{CopterMode, Mode, Px4Mode, RoverMode};
 use mavlink::dialects::ardupilotmega::{
-    MavCmd, MavFrame, MavMessage, PositionTargetTypemask, SET_POSITION_TARGET_GLOBAL_INT_DATA,
+    MavAutopilot, MavCmd, MavFrame, MavMessage, MavType, PositionTargetTypemask,
+    SET_POSITION_TARGET_GLOBAL_INT_DATA,
 };
+use num_traits::FromPrimitive;
 
 /// How far below the requested altitude a take-off counts as done, metres (0.8).
 ///
@@ -84,11 +86,11 @@ pub enum Autopilot {
 }
 
 /// MAV_AUTOPILOT_ARDUPILOTMEGA (common.xml).
-const MAV_AUTOPILOT_ARDUPILOTMEGA: u8 = 3;
+const MAV_AUTOPILOT_ARDUPILOTMEGA: u8 = MavAutopilot::MAV_AUTOPILOT_ARDUPILOTMEGA as u8;
 /// MAV_AUTOPILOT_INVALID (common.xml): not a flight controller (a GCS, a camera…).
-const MAV_AUTOPILOT_INVALID: u8 = 8;
+const MAV_AUTOPILOT_INVALID: u8 = MavAutopilot::MAV_AUTOPILOT_INVALID as u8;
 /// MAV_AUTOPILOT_PX4 (common.xml).
-const MAV_AUTOPILOT_PX4: u8 = 12;
+const MAV_AUTOPILOT_PX4: u8 = MavAutopilot::MAV_AUTOPILOT_PX4 as u8;
 
 impl Autopilot {
     /// The autopilot a HEARTBEAT.autopilot (MAV_AUTOPILOT) number names.
@@ -247,11 +249,25 @@ impl Flavour {
     /// The flavour of a heartbeat's (MAV_AUTOPILOT, MAV_TYPE).
     pub fn from_heartbeat(autopilot: u8, mav_type: u8) -> Flavour {
         let autopilot = Autopilot::from_mav(autopilot);
-        let class = match mav_type {
-            // quad, coaxial, heli, hexa, octo, tri, dodeca, deca (MAV_TYPE)
-            2 | 3 | 4 | 13 | 14 | 15 | 29 | 35 => VehicleClass::Copter,
-            10 | 11 => VehicleClass::Rover,
-            1 | 19..=25 => VehicleClass::Plane,
+        use MavType::*;
+        let class = match MavType::from_u8(mav_type) {
+            Some(
+                MAV_TYPE_QUADROTOR | MAV_TYPE_COAXIAL | MAV_TYPE_HELICOPTER | MAV_TYPE_HEXAROTOR
+                | MAV_TYPE_OCTOROTOR | MAV_TYPE_TRICOPTER | MAV_TYPE_DODECAROTOR
+                | MAV_TYPE_DECAROTOR,
+            ) => VehicleClass::Copter,
+            Some(MAV_TYPE_GROUND_ROVER | MAV_TYPE_SURFACE_BOAT) => VehicleClass::Rover,
+            // fixed wing and the VTOLs (MAV_TYPE 19 to 25)
+            Some(
+                MAV_TYPE_FIXED_WING
+                | MAV_TYPE_VTOL_TAILSITTER_DUOROTOR
+                | MAV_TYPE_VTOL_TAILSITTER_QUADROTOR
+                | MAV_TYPE_VTOL_TILTROTOR
+                | MAV_TYPE_VTOL_FIXEDROTOR
+                | MAV_TYPE_VTOL_TAILSITTER
+                | MAV_TYPE_VTOL_TILTWING
+                | MAV_TYPE_VTOL_RESERVED5,
+            ) => VehicleClass::Plane,
             _ => VehicleClass::Other,
         };
         Flavour { autopilot, class }
@@ -732,7 +748,7 @@ mod tests {
             Err(FlavourError::UnknownMode { .. })
         ));
         // DO_SET_MODE encodes main and sub mode for PX4.
-        let cmd = p.set_mode_command(Endpoint::new(1, 1), mission);
+        let cmd = p.set_mode_command(Endpoint::new(1, crate::proto::AUTOPILOT_COMPID), mission);
         match cmd.args {
             super::super::command::CommandArgs::Long(p) => {
                 assert_eq!((p[0], p[1], p[2]), (1.0, 4.0, 4.0))
@@ -753,7 +769,7 @@ mod tests {
 
     #[test]
     fn takeoff_plans_follow_each_autopilot() {
-        let t = Endpoint::new(1, 1);
+        let t = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
         let ap = Flavour::ARDU_COPTER.takeoff(t, 12.0, Some(100.0)).unwrap();
         assert_eq!(
             ap[0],
@@ -776,7 +792,7 @@ mod tests {
     #[test]
     fn turning_to_a_heading() {
         use super::super::command::CommandArgs;
-        let t = Endpoint::new(1, 1);
+        let t = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
         // ArduCopter: CONDITION_YAW, absolute, shorter way, default rate.
         let ap = Flavour::ARDU_COPTER.set_yaw(t, -90.0).unwrap();
         match &ap[0] {

@@ -22,14 +22,14 @@ use mavlink::dialects::ardupilotmega::{
 use std::collections::BTreeMap;
 use std::time::Duration;
 
-/// MAV_TYPE_GCS.
-pub const MAV_TYPE_GCS: u8 = 6;
-/// MAV_AUTOPILOT_INVALID.
-pub const MAV_AUTOPILOT_INVALID: u8 = 8;
+/// MAV_TYPE_GCS (6).
+pub const MAV_TYPE_GCS: u8 = MavType::MAV_TYPE_GCS as u8;
+/// MAV_AUTOPILOT_INVALID (8).
+pub const MAV_AUTOPILOT_INVALID: u8 = MavAutopilot::MAV_AUTOPILOT_INVALID as u8;
 /// MAV_STATE_BOOT.
-const MAV_STATE_BOOT: u8 = 1;
+const MAV_STATE_BOOT: u8 = MavState::MAV_STATE_BOOT as u8;
 /// MAV_STATE_STANDBY and later (calibrating, active, critical …).
-const MAV_STATE_STANDBY: u8 = 3;
+const MAV_STATE_STANDBY: u8 = MavState::MAV_STATE_STANDBY as u8;
 
 /// The fields of a HEARTBEAT as raw numbers.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -300,7 +300,7 @@ mod tests {
     fn beat(status: u8) -> Beat {
         Beat {
             custom_mode: 0,
-            mav_type: 2,
+            mav_type: MavType::MAV_TYPE_QUADROTOR as u8,
             autopilot: 3,
             base_mode: 0,
             system_status: status,
@@ -309,7 +309,7 @@ mod tests {
 
     #[test]
     fn gcs_heartbeat_at_1hz_and_lost_after_3s_then_regained() {
-        let v = Endpoint::new(1, 1);
+        let v = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
         let mut l = Liveness::new(Endpoint::gcs(), LivenessConfig::default(), Time::ZERO);
         let mut beats = 0;
         let mut events = Vec::new();
@@ -335,7 +335,7 @@ mod tests {
 
     #[test]
     fn reboot_detected_by_boot_clock_and_boot_state() {
-        let v = Endpoint::new(1, 1);
+        let v = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
         let mut l = Liveness::new(Endpoint::gcs(), LivenessConfig::default(), Time::ZERO);
         l.handle_heartbeat(v, &beat(4), Time::ZERO);
         let _ = l.poll_event();

@@ -509,7 +509,7 @@ mod tests {
     #[test]
     fn reassembles_and_recovers_lost_packets() {
         let data: Vec<u8> = (0..1000u32).map(|i| (i * 7 % 251) as u8).collect();
-        let cam = Endpoint::new(1, 100);
+        let cam = Endpoint::new(1, crate::proto::CAMERA_COMPID);
         let mut r = ImageReceiver::new(cam, Endpoint::gcs(), ReceiverConfig::default());
         let msgs = packets(&data);
         // first pass loses packets 1 and 3
@@ -542,7 +542,7 @@ mod tests {
             other => panic!("{other:?}"),
         }
         // other senders are ignored
-        assert!(!r.handle_message(Endpoint::new(2, 100), &msgs[0], t));
+        assert!(!r.handle_message(Endpoint::new(2, crate::proto::CAMERA_COMPID), &msgs[0], t));
     }
 
     fn request_size(m: Option<MavMessage>) -> Option<u32> {
@@ -559,7 +559,7 @@ mod tests {
     /// the re-send.
     #[test]
     fn an_interrupted_image_is_asked_for_while_the_camera_goes_on() {
-        let cam = Endpoint::new(1, 100);
+        let cam = Endpoint::new(1, crate::proto::CAMERA_COMPID);
         let mut r = ImageReceiver::new(cam, Endpoint::gcs(), ReceiverConfig::default());
         let a: Vec<u8> = (0..1000u32).map(|i| (i % 13) as u8).collect();
         let b: Vec<u8> = (0..3000u32).map(|i| (i % 7) as u8).collect();
@@ -620,7 +620,7 @@ mod tests {
     /// new picture (or goes quiet), and the picture is lost after the retries, not before.
     #[test]
     fn a_camera_that_never_re_sends_loses_the_picture_after_the_retries() {
-        let cam = Endpoint::new(1, 100);
+        let cam = Endpoint::new(1, crate::proto::CAMERA_COMPID);
         let cfg = ReceiverConfig::default();
         let mut r = ImageReceiver::new(cam, Endpoint::gcs(), cfg);
         let a = packets(&[3u8; 800]);
@@ -655,7 +655,7 @@ mod tests {
     /// no request feeds a loop of re-sends.
     #[test]
     fn a_re_send_nobody_needed_is_not_asked_for() {
-        let cam = Endpoint::new(1, 100);
+        let cam = Endpoint::new(1, crate::proto::CAMERA_COMPID);
         let mut r = ImageReceiver::new(cam, Endpoint::gcs(), ReceiverConfig::default());
         let a: Vec<u8> = (0..700u32).map(|i| (i % 11) as u8).collect();
         let pa = packets(&a);
@@ -682,7 +682,7 @@ mod tests {
 
     #[test]
     fn gives_up_after_the_retries() {
-        let cam = Endpoint::new(1, 100);
+        let cam = Endpoint::new(1, crate::proto::CAMERA_COMPID);
         let mut r = ImageReceiver::new(cam, Endpoint::gcs(), ReceiverConfig::default());
         r.handle_message(cam, &packets(&[1u8; 600])[0], Time::ZERO);
         let mut t = Time::ZERO;

@@ -46,15 +46,13 @@ pub mod telemetry;
 pub mod uplink;
 
 use mavlink::MavHeader;
+use mavlink::dialects::ardupilotmega::MavComponent;
 
-/// The GCS's MAVLink system id (docs/grid.md: 255, as QGroundControl and MAVProxy use).
-pub(crate) const GCS_SYSID: u8 = 255;
-/// The GCS's component id (MAV_COMP_ID_MISSIONPLANNER = 190, as QGroundControl uses).
-pub(crate) const GCS_COMPID: u8 = 190;
-/// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1).
-pub const AUTOPILOT_COMPID: u8 = 1;
-/// The first camera's component id (MAV_COMP_ID_CAMERA).
-pub const CAMERA_COMPID: u8 = 100;
+pub use crate::identity::{GCS_COMPID, GCS_SYSID};
+/// The autopilot's component id (MAV_COMP_ID_AUTOPILOT1 = 1).
+pub const AUTOPILOT_COMPID: u8 = MavComponent::MAV_COMP_ID_AUTOPILOT1 as u8;
+/// The first camera's component id (MAV_COMP_ID_CAMERA = 100).
+pub const CAMERA_COMPID: u8 = MavComponent::MAV_COMP_ID_CAMERA as u8;
 
 /// A MAVLink endpoint: (system id, component id).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, PartialOrd, Ord, serde::Serialize)]

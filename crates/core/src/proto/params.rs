@@ -283,7 +283,7 @@ mod tests {
 
     #[test]
     fn asks_a_window_at_a_time_and_reports_each_answer() {
-        let ap = Endpoint::new(3, 1);
+        let ap = Endpoint::new(3, crate::proto::AUTOPILOT_COMPID);
         let cfg = ParamConfig {
             window: 2,
             ..ParamConfig::FAST
@@ -295,7 +295,11 @@ mod tests {
             .collect();
         assert_eq!(first, ["A", "B"]);
         // another system's answer, and an answer to nothing asked, are ignored
-        r.handle_message(Endpoint::new(4, 1), &value("A", 1.0), t0);
+        r.handle_message(
+            Endpoint::new(4, crate::proto::AUTOPILOT_COMPID),
+            &value("A", 1.0),
+            t0,
+        );
         r.handle_message(ap, &value("Z", 1.0), t0);
         assert!(r.poll_event().is_none());
         r.handle_message(ap, &value("B", 2.0), t0);
@@ -315,7 +319,7 @@ mod tests {
 
     #[test]
     fn retries_with_doubling_waits_then_gives_up() {
-        let ap = Endpoint::new(1, 1);
+        let ap = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
         let cfg = ParamConfig {
             window: 1,
             timeout: Duration::from_secs(1),
@@ -345,7 +349,7 @@ mod tests {
     #[test]
     fn reads_everything_over_a_link_that_loses_most_frames() {
         // a deterministic 60 % loss each way: every name is still read within its attempts
-        let ap = Endpoint::new(2, 1);
+        let ap = Endpoint::new(2, crate::proto::AUTOPILOT_COMPID);
         let names = [
             "FS_GCS_ENABLE",
             "RTL_ALT",

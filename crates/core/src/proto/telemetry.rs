@@ -31,7 +31,8 @@
 use super::flavour::Autopilot;
 use crate::budget::LinkBudget;
 use crate::time::Time;
-use mavlink::dialects::ardupilotmega::MavDataStream;
+use mavlink::MessageData;
+use mavlink::dialects::ardupilotmega::{MavDataStream, TERRAIN_REPORT_DATA, TERRAIN_REQUEST_DATA};
 use std::collections::{BTreeMap, BTreeSet};
 use std::time::Duration;
 
@@ -133,11 +134,11 @@ pub const HEARTBEATS_BYTES_PER_S: f64 = 42.0;
 /// TERRAIN_REQUEST's message id. ArduPilot sends it from its EXTRA3 group or when asked by
 /// SET_MESSAGE_INTERVAL (`ap_message` MSG_TERRAIN_REQUEST), at most every 2 s, and only while
 /// it lacks terrain (`AP_Terrain::send_request`, `TerrainGCS.cpp`).
-pub const TERRAIN_REQUEST: u32 = 133;
+pub const TERRAIN_REQUEST: u32 = <TERRAIN_REQUEST_DATA as MessageData>::ID;
 /// TERRAIN_REPORT's message id: how many squares the vehicle waits for and has. A message of
 /// its own (MSG_TERRAIN_REPORT): ArduCopter 4.7 SITL asked for TERRAIN_REQUEST alone sent
 /// no TERRAIN_REPORT (docs/results/conformance.md, "Terrain served from tiles").
-pub const TERRAIN_REPORT: u32 = 136;
+pub const TERRAIN_REPORT: u32 = <TERRAIN_REPORT_DATA as MessageData>::ID;
 /// How often a vehicle served terrain on a radio is asked for both, Hz.
 pub const TERRAIN_HZ: f64 = 1.0;
 /// What they cost on the wire at [`TERRAIN_HZ`], bytes per second: a TERRAIN_REPORT

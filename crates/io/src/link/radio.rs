@@ -62,6 +62,8 @@ pub use status::{
 
 use super::codec::{STX_V1, STX_V2};
 use fleetmap_core::time::Time;
+use mavlink::MessageData;
+use mavlink::dialects::ardupilotmega::HEARTBEAT_DATA;
 use rand::{RngExt, SeedableRng};
 use rand_chacha::ChaCha8Rng;
 use serde::{Deserialize, Serialize};
@@ -600,7 +602,7 @@ impl RadioPair {
         air.served[from.index()] += len;
         air.last = Some(from);
         radio.sent.air_us += until.saturating_since(t).as_micros() as u64;
-        let heartbeat = message_id(&frame) == Some(0);
+        let heartbeat = message_id(&frame) == Some(<HEARTBEAT_DATA as MessageData>::ID);
         let v2 = frame.first() == Some(&STX_V2);
         air.flight = Some(InFlight {
             from,

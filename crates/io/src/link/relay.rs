@@ -143,7 +143,7 @@ impl Default for RelayOptions {
 /// `time_usec` are left out: some carry Unix time or wrap). 0 is left out too (a field never
 /// filled).
 pub fn vehicle_boot_time(frame: &Frame) -> Option<(u8, Duration)> {
-    if frame.compid() != 1 {
+    if frame.compid() != fleetmap_core::proto::AUTOPILOT_COMPID {
         return None;
     }
     let ms = match frame.message.as_ref().ok()? {
@@ -547,9 +547,17 @@ mod tests {
             .unwrap();
         tokio::time::sleep(Duration::from_millis(100)).await;
         for i in 0..500 {
-            g.send_to(&c.encode(255, 190, &ping(i), 0), ("127.0.0.1", gp))
-                .await
-                .unwrap();
+            g.send_to(
+                &c.encode(
+                    fleetmap_core::proto::GCS_SYSID,
+                    fleetmap_core::proto::GCS_COMPID,
+                    &ping(i),
+                    0,
+                ),
+                ("127.0.0.1", gp),
+            )
+            .await
+            .unwrap();
             if i % 50 == 0 {
                 tokio::time::sleep(Duration::from_millis(5)).await;
             }

@@ -28,6 +28,8 @@
 //!   Unsigned frames (including every MAVLink 1 frame) are refused unless `accept_unsigned`
 //!   is set or the message is RADIO_STATUS / RADIO (injected by telemetry radios).
 
+use mavlink::MessageData;
+use mavlink::dialects::ardupilotmega::RADIO_STATUS_DATA;
 use sha2::{Digest, Sha256};
 use std::collections::HashMap;
 use std::path::Path;
@@ -46,9 +48,10 @@ pub(crate) const SIGNATURE_LEN: usize = 13;
 pub(crate) const IFLAG_SIGNED: u8 = 0x01;
 
 /// RADIO_STATUS message id (accepted unsigned, as ArduPilot and MAVProxy do).
-const MSG_ID_RADIO_STATUS: u32 = 109;
+const MSG_ID_RADIO_STATUS: u32 = <RADIO_STATUS_DATA as MessageData>::ID;
 /// RADIO message id (ArduPilot's accept list).
-const MSG_ID_RADIO: u32 = 166;
+#[allow(deprecated)] // RADIO: superseded by RADIO_STATUS in 2013, still on ArduPilot's accept list
+const MSG_ID_RADIO: u32 = <mavlink::dialects::ardupilotmega::RADIO_DATA as MessageData>::ID;
 
 /// Errors reading a signing key.
 #[derive(Debug, thiserror::Error)]

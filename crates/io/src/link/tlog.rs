@@ -176,7 +176,12 @@ mod tests {
         let dir = tempfile::tempdir().unwrap();
         let p = dir.path().join("t.tlog");
         let mut c = Codec::new();
-        let f1 = c.encode(255, 190, &gcs_heartbeat(), 0);
+        let f1 = c.encode(
+            fleetmap_core::proto::GCS_SYSID,
+            fleetmap_core::proto::GCS_COMPID,
+            &gcs_heartbeat(),
+            0,
+        );
         let f2 = c.encode(1, 1, &gcs_heartbeat(), 0);
         {
             let mut w = TlogWriter::create(&p).unwrap();

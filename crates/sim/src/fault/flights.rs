@@ -15,8 +15,8 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use std::time::Duration;
 
 const HOME: (f64, f64) = (37.1965, -80.5785);
-const AUTOPILOT: u8 = 1;
-const CAMERA: u8 = 100;
+const AUTOPILOT: u8 = fleetmap_core::proto::AUTOPILOT_COMPID;
+const CAMERA: u8 = fleetmap_core::proto::CAMERA_COMPID;
 
 /// What the GCS received: (when, from system, header, message).
 type Received = (Time, u8, MavHeader, MavMessage);
@@ -48,8 +48,8 @@ impl Gcs {
 
     fn send(&mut self, sysid: u8, msg: MavMessage) {
         let h = MavHeader {
-            system_id: 255,
-            component_id: 190,
+            system_id: fleetmap_core::proto::GCS_SYSID as u32,
+            component_id: fleetmap_core::proto::GCS_COMPID,
             sequence: self.seq,
         };
         self.seq = self.seq.wrapping_add(1);

@@ -2,6 +2,7 @@
 //! (lossy AP_Mission format) and how PX4 parses, formats and checksums them.
 
 use super::*;
+use mav::MavCmd;
 
 fn check_nan_params(item: &MissionItem, nan_ok_mask: u8) -> Result<(), mav::MavMissionResult> {
     use mav::MavMissionResult as R;
@@ -29,9 +30,14 @@ pub fn ardupilot_store_mission_item(
 ) -> Result<MissionItem, mav::MavMissionResult> {
     use mav::MavMissionResult as R;
     // sanity_check_params: param4 may be NaN for WAYPOINT, LAND, TAKEOFF.
-    let nan_mask = match item.command {
-        16 | 21 | 22 | 84 => 1 << 3,
-        85 => (1 << 2) | (1 << 3),
+    let nan_mask = match MavCmd::from_u16(item.command) {
+        Some(
+            MavCmd::MAV_CMD_NAV_WAYPOINT
+            | MavCmd::MAV_CMD_NAV_LAND
+            | MavCmd::MAV_CMD_NAV_TAKEOFF
+            | MavCmd::MAV_CMD_NAV_VTOL_TAKEOFF,
+        ) => 1 << 3,
+        Some(MavCmd::MAV_CMD_NAV_VTOL_LAND) => (1 << 2) | (1 << 3),
         _ => 0,
     };
     check_nan_params(item, nan_mask)?;
@@ -51,19 +57,21 @@ pub fn ardupilot_store_mission_item(
         y: 0,
         z: 0.0,
     };
-    match item.command {
-        0 | 1 => return Err(R::MAV_MISSION_INVALID),
-        16 => out.param1 = u16p(item.param1), // delay, whole seconds (Copter/Rover)
-        17 => {
+    match MavCmd::from_u16(item.command) {
+        // 0 and 1 name no command: AP_Mission refuses them as invalid, not unsupported
+        None if item.command <= 1 => return Err(R::MAV_MISSION_INVALID),
+        // delay, whole seconds (Copter/Rover)
+        Some(MavCmd::MAV_CMD_NAV_WAYPOINT) => out.param1 = u16p(item.param1),
+        Some(MavCmd::MAV_CMD_NAV_LOITER_UNLIM) => {
             out.param3 = u16p(item.param3.abs()) * if item.param3 < 0.0 { -1.0 } else { 1.0 };
         }
-        19 => {
+        Some(MavCmd::MAV_CMD_NAV_LOITER_TIME) => {
             out.param1 = u16p(item.param1);
             out.param3 = if item.param3 < 0.0 { -1.0 } else { 1.0 };
             out.param4 = if item.param4 > 0.0 { 1.0 } else { 0.0 };
         }
-        20 => {}
-        21 => {
+        Some(MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH) => {}
+        Some(MavCmd::MAV_CMD_NAV_LAND) => {
             out.param1 = u16p(item.param1);
             out.param4 = if !item.param4.is_nan() && item.param4 < 0.0 {
                 -1.0
@@ -71,33 +79,34 @@ pub fn ardupilot_store_mission_item(
                 1.0
             };
         }
-        22 => out.param1 = u16p(item.param1),
-        93 => {
+        Some(MavCmd::MAV_CMD_NAV_TAKEOFF) => out.param1 = u16p(item.param1),
+        Some(MavCmd::MAV_CMD_NAV_DELAY) => {
             // nav_delay: seconds (float), hour, min, sec (int8)
             out.param1 = item.param1;
             out.param2 = i8p(item.param2);
             out.param3 = i8p(item.param3);
             out.param4 = i8p(item.param4);
         }
-        112 => out.param1 = item.param1.trunc(), // delay.seconds is a float in newer builds
-        115 => {
+        // delay.seconds is a float in newer builds
+        Some(MavCmd::MAV_CMD_CONDITION_DELAY) => out.param1 = item.param1.trunc(),
+        Some(MavCmd::MAV_CMD_CONDITION_YAW) => {
             out.param1 = item.param1;
             out.param2 = item.param2;
             out.param3 = i8p(item.param3);
             out.param4 = u8p(item.param4);
         }
-        177 => {
+        Some(MavCmd::MAV_CMD_DO_JUMP) => {
             out.param1 = u16p(item.param1);
             out.param2 = f32::from(item.param2 as i16);
         }
-        178 => {
+        Some(MavCmd::MAV_CMD_DO_CHANGE_SPEED) => {
             out.param1 = u8p(item.param1);
             out.param2 = item.param2;
             out.param3 = i8p(item.param3);
         }
-        179 => out.param1 = u16p(item.param1),
-        201 => out.param1 = u16p(item.param1),
-        203 => {
+        Some(MavCmd::MAV_CMD_DO_SET_HOME) => out.param1 = u16p(item.param1),
+        Some(MavCmd::MAV_CMD_DO_SET_ROI) => out.param1 = u16p(item.param1),
+        Some(MavCmd::MAV_CMD_DO_DIGICAM_CONTROL) => {
             out.param1 = u8p(item.param1);
             out.param2 = u8p(item.param2);
             out.param3 = i8p(item.param3);
@@ -105,11 +114,11 @@ pub fn ardupilot_store_mission_item(
             out.x = i32::from(item.x as u8);
             out.y = i32::from(item.y as u8);
         }
-        206 => {
+        Some(MavCmd::MAV_CMD_DO_SET_CAM_TRIGG_DIST) => {
             out.param1 = item.param1;
             out.param3 = u8p(item.param3);
         }
-        2000 => {
+        Some(MavCmd::MAV_CMD_IMAGE_START_CAPTURE) => {
             // image_start_capture: instance (u8), interval_s (float), total_num_images (u16),
             // start_seq_number (u16)
             out.param1 = u8p(item.param1);
@@ -117,7 +126,7 @@ pub fn ardupilot_store_mission_item(
             out.param3 = u16p(item.param3);
             out.param4 = u16p(item.param4);
         }
-        2001 => out.param1 = u16p(item.param1),
+        Some(MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE) => out.param1 = u16p(item.param1),
         _ => return Err(R::MAV_MISSION_UNSUPPORTED),
     }
     if fleetmap_core::mission::item::cmd::ardupilot_stores_location(item.command) {
@@ -150,8 +159,14 @@ pub fn ardupilot_store_mission_item(
 pub fn ardupilot_store_fence_item(
     item: &MissionItem,
 ) -> Result<MissionItem, mav::MavMissionResult> {
-    match item.command {
-        5000..=5004 => {}
+    match MavCmd::from_u16(item.command) {
+        Some(
+            MavCmd::MAV_CMD_NAV_FENCE_RETURN_POINT
+            | MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+            | MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+            | MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION
+            | MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
+        ) => {}
         _ => return Err(mav::MavMissionResult::MAV_MISSION_UNSUPPORTED),
     }
     check_nan_params(item, 0)?;
@@ -160,7 +175,7 @@ pub fn ardupilot_store_fence_item(
         command: item.command,
         current: false,
         autocontinue: true,
-        param1: if item.command == 5000 {
+        param1: if item.command == MavCmd::MAV_CMD_NAV_FENCE_RETURN_POINT as u16 {
             0.0
         } else {
             item.param1
@@ -222,10 +237,14 @@ pub fn px4_parse_item(
             f => f,
         };
         let (p1, p2, p3, p4) = (item.param1, item.param2, item.param3, item.param4);
-        match item.command {
-            16 => (out.param1, out.param2, out.param3, out.param4) = (p1, p2, 0.0, wrap_yaw(p4)),
-            17 => (out.param1, out.param2, out.param3, out.param4) = (0.0, 0.0, p3, wrap_yaw(p4)),
-            19 => {
+        match MavCmd::from_u16(item.command) {
+            Some(MavCmd::MAV_CMD_NAV_WAYPOINT) => {
+                (out.param1, out.param2, out.param3, out.param4) = (p1, p2, 0.0, wrap_yaw(p4))
+            }
+            Some(MavCmd::MAV_CMD_NAV_LOITER_UNLIM) => {
+                (out.param1, out.param2, out.param3, out.param4) = (0.0, 0.0, p3, wrap_yaw(p4))
+            }
+            Some(MavCmd::MAV_CMD_NAV_LOITER_TIME) => {
                 (out.param1, out.param2, out.param3, out.param4) = (
                     p1,
                     if p2 > 0.0 { 1.0 } else { 0.0 },
@@ -233,33 +252,97 @@ pub fn px4_parse_item(
                     if p4 > 0.0 { 1.0 } else { 0.0 },
                 )
             }
-            21 => (out.param1, out.param2, out.param3, out.param4) = (0.0, p2, 0.0, wrap_yaw(p4)),
-            22 => (out.param1, out.param2, out.param3, out.param4) = (0.0, 0.0, 0.0, wrap_yaw(p4)),
-            5001 | 5002 => {
+            Some(MavCmd::MAV_CMD_NAV_LAND) => {
+                (out.param1, out.param2, out.param3, out.param4) = (0.0, p2, 0.0, wrap_yaw(p4))
+            }
+            Some(MavCmd::MAV_CMD_NAV_TAKEOFF) => {
+                (out.param1, out.param2, out.param3, out.param4) = (0.0, 0.0, 0.0, wrap_yaw(p4))
+            }
+            Some(
+                MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+                | MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION,
+            ) => {
                 (out.param1, out.param2, out.param3, out.param4) =
                     (((p1 + 0.5) as u16) as f32, 0.0, 0.0, 0.0)
             }
-            5003 | 5004 => (out.param1, out.param2, out.param3, out.param4) = (p1, 0.0, 0.0, 0.0),
-            5000 | 5100 => (out.param1, out.param2, out.param3, out.param4) = (0.0, 0.0, 0.0, 0.0),
+            Some(
+                MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION
+                | MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION,
+            ) => (out.param1, out.param2, out.param3, out.param4) = (p1, 0.0, 0.0, 0.0),
+            Some(MavCmd::MAV_CMD_NAV_FENCE_RETURN_POINT | MavCmd::MAV_CMD_NAV_RALLY_POINT) => {
+                (out.param1, out.param2, out.param3, out.param4) = (0.0, 0.0, 0.0, 0.0)
+            }
             _ => return Err(R::MAV_MISSION_UNSUPPORTED),
         }
-        if t == MissionType::Fence && matches!(item.command, 5001 | 5002) && out.param1 < 3.0 {
+        if t == MissionType::Fence
+            && matches!(
+                MavCmd::from_u16(item.command),
+                Some(
+                    MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+                        | MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+                )
+            )
+            && out.param1 < 3.0
+        {
             return Err(R::MAV_MISSION_ERROR); // "Fence: too few vertices"
         }
-        if t == MissionType::Mission && matches!(item.command, 5000..=5004 | 5100) {
+        if t == MissionType::Mission
+            && matches!(
+                MavCmd::from_u16(item.command),
+                Some(
+                    MavCmd::MAV_CMD_NAV_FENCE_RETURN_POINT
+                        | MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_INCLUSION
+                        | MavCmd::MAV_CMD_NAV_FENCE_POLYGON_VERTEX_EXCLUSION
+                        | MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_INCLUSION
+                        | MavCmd::MAV_CMD_NAV_FENCE_CIRCLE_EXCLUSION
+                        | MavCmd::MAV_CMD_NAV_RALLY_POINT
+                )
+            )
+        {
             return Err(R::MAV_MISSION_ERROR);
         }
         Ok(out)
     } else if item.frame == 2 {
-        match item.command {
-            177 => {
+        match MavCmd::from_u16(item.command) {
+            Some(MavCmd::MAV_CMD_DO_JUMP) => {
                 out.param1 = f32::from(item.param1 as u16);
                 out.param2 = f32::from(item.param2 as u16);
             }
-            178 | 179 | 189 | 2003 | 203 | 204 | 205 | 2000 | 2001 | 2500 | 2501 | 200 | 206
-            | 260 | 214 | 530 | 534 | 3000 | 93 | 20 | 195 | 197 | 112 | 114 | 187 | 211 | 400
-            | 1000 | 1001 | 42600 | 531 | 532 => {}
-            201 => {
+            Some(
+                MavCmd::MAV_CMD_DO_CHANGE_SPEED
+                | MavCmd::MAV_CMD_DO_SET_HOME
+                | MavCmd::MAV_CMD_DO_LAND_START
+                | MavCmd::MAV_CMD_DO_TRIGGER_CONTROL
+                | MavCmd::MAV_CMD_DO_DIGICAM_CONTROL
+                | MavCmd::MAV_CMD_DO_MOUNT_CONFIGURE
+                | MavCmd::MAV_CMD_DO_MOUNT_CONTROL
+                | MavCmd::MAV_CMD_IMAGE_START_CAPTURE
+                | MavCmd::MAV_CMD_IMAGE_STOP_CAPTURE
+                | MavCmd::MAV_CMD_VIDEO_START_CAPTURE
+                | MavCmd::MAV_CMD_VIDEO_STOP_CAPTURE
+                | MavCmd::MAV_CMD_DO_CONTROL_VIDEO
+                | MavCmd::MAV_CMD_DO_SET_CAM_TRIGG_DIST
+                | MavCmd::MAV_CMD_OBLIQUE_SURVEY
+                | MavCmd::MAV_CMD_DO_SET_CAM_TRIGG_INTERVAL
+                | MavCmd::MAV_CMD_SET_CAMERA_MODE
+                | MavCmd::MAV_CMD_SET_CAMERA_SOURCE
+                | MavCmd::MAV_CMD_DO_VTOL_TRANSITION
+                | MavCmd::MAV_CMD_NAV_DELAY
+                | MavCmd::MAV_CMD_NAV_RETURN_TO_LAUNCH
+                | MavCmd::MAV_CMD_DO_SET_ROI_LOCATION
+                | MavCmd::MAV_CMD_DO_SET_ROI_NONE
+                | MavCmd::MAV_CMD_CONDITION_DELAY
+                | MavCmd::MAV_CMD_CONDITION_DISTANCE
+                | MavCmd::MAV_CMD_DO_SET_ACTUATOR
+                | MavCmd::MAV_CMD_DO_GRIPPER
+                | MavCmd::MAV_CMD_COMPONENT_ARM_DISARM
+                | MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW
+                | MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_CONFIGURE
+                | MavCmd::MAV_CMD_DO_WINCH
+                | MavCmd::MAV_CMD_SET_CAMERA_ZOOM
+                | MavCmd::MAV_CMD_SET_CAMERA_FOCUS,
+            ) => {}
+            Some(MavCmd::MAV_CMD_DO_SET_ROI) => {
                 let roi = item.param1 as i32;
                 if !(0..=2).contains(&roi) {
                     return Err(R::MAV_MISSION_INVALID_PARAM1);

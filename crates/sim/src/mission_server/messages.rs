@@ -66,7 +66,15 @@ impl Transfer {
 impl ArduPilotState {
     /// See [`Transfer::float_xy_is_degrees`].
     pub(super) fn float_xy_is_degrees(command: u16) -> bool {
-        !matches!(command, 202 | 203 | 1000 | 42703)
+        !matches!(
+            mav::MavCmd::from_u16(command),
+            Some(
+                mav::MavCmd::MAV_CMD_DO_DIGICAM_CONFIGURE
+                    | mav::MavCmd::MAV_CMD_DO_DIGICAM_CONTROL
+                    | mav::MavCmd::MAV_CMD_DO_GIMBAL_MANAGER_PITCHYAW
+                    | mav::MavCmd::MAV_CMD_NAV_ATTITUDE_TIME
+            )
+        )
     }
 }
 

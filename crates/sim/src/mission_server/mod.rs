@@ -65,7 +65,7 @@ use std::collections::VecDeque;
 use std::time::Duration;
 
 /// MAV_COMP_ID_MISSIONPLANNER: PX4 accepts mission messages addressed to it.
-const COMP_MISSIONPLANNER: u8 = 190;
+const COMP_MISSIONPLANNER: u8 = mav::MavComponent::MAV_COMP_ID_MISSIONPLANNER as u8;
 
 /// ArduPilot: re-request an item after this much silence (`wp_recv_timeout_ms`, without the
 /// link's stream slowdown).

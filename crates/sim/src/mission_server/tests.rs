@@ -2,8 +2,8 @@ use super::*;
 use fleetmap_core::mission::item::{cmd, frame};
 
 const GCS: MavHeader = MavHeader {
-    system_id: 255,
-    component_id: 190,
+    system_id: fleetmap_core::proto::GCS_SYSID as u32,
+    component_id: fleetmap_core::proto::GCS_COMPID,
     sequence: 0,
 };
 
@@ -15,7 +15,7 @@ fn count(n: u16, t: mav::MavMissionType) -> MavMessage {
     MavMessage::MISSION_COUNT(mav::MISSION_COUNT_DATA {
         count: n,
         target_system: 1,
-        target_component: 1,
+        target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
         mission_type: t,
         opaque_id: 0,
     })
@@ -33,7 +33,7 @@ fn item_int(seq: u16, it: &MissionItem, t: mav::MavMissionType) -> MavMessage {
         seq,
         command: mav::MavCmd::from_u16(it.command).unwrap(),
         target_system: 1,
-        target_component: 1,
+        target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
         frame: mav::MavFrame::from_u8(it.frame).unwrap(),
         current: 0,
         autocontinue: 1,
@@ -101,7 +101,7 @@ fn ardupilot_upload_uses_mission_request_and_is_lossy() {
         &MavMessage::MISSION_REQUEST_INT(mav::MISSION_REQUEST_INT_DATA {
             seq: 0,
             target_system: 1,
-            target_component: 1,
+            target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
             mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
         }),
         Time::ZERO,
@@ -198,7 +198,7 @@ fn px4_upload_switches_to_int_mode_and_reacks_duplicates() {
         &GCS,
         &MavMessage::MISSION_REQUEST_LIST(mav::MISSION_REQUEST_LIST_DATA {
             target_system: 1,
-            target_component: 1,
+            target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
             mission_type: mt,
         }),
         Time::ZERO,
@@ -209,7 +209,7 @@ fn px4_upload_switches_to_int_mode_and_reacks_duplicates() {
         &MavMessage::MISSION_REQUEST_INT(mav::MISSION_REQUEST_INT_DATA {
             seq: 1,
             target_system: 1,
-            target_component: 1,
+            target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
             mission_type: mt,
         }),
         Time::ZERO,
@@ -267,7 +267,7 @@ fn ardupilot_refuses_uploads_and_reads_empty_while_booting() {
         if t.text.to_str().is_ok_and(|x| x.starts_with("Only 0 items")))));
     let list = MavMessage::MISSION_REQUEST_LIST(mav::MISSION_REQUEST_LIST_DATA {
         target_system: 1,
-        target_component: 1,
+        target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
         mission_type: mt,
     });
     s.handle_message(&GCS, &list, Time::from_secs(1));

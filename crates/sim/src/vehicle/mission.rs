@@ -283,7 +283,7 @@ impl SimVehicle {
                     c.stop_capture();
                 }
             }
-            179 if item.param1 >= 0.5 => self.set_home_here(now),
+            mi::DO_SET_HOME if item.param1 >= 0.5 => self.set_home_here(now),
             _ => {}
         }
     }
@@ -450,7 +450,7 @@ impl SimVehicle {
                 let (e, n) = self.est();
                 let dist = (p.e - e).hypot(p.n - n);
                 let radius = if px4 {
-                    if item.command == 16 && item.param2 > 0.0 {
+                    if item.command == mi::NAV_WAYPOINT && item.param2 > 0.0 {
                         f64::from(item.param2)
                     } else {
                         2.0 // NAV_ACC_RAD
@@ -534,7 +534,8 @@ impl SimVehicle {
 
     pub(super) fn nav_done(&mut self, idx: u16, item: &MissionItem, now: Time) {
         let ap = self.cfg.flavour.is_ardupilot();
-        let arrived_msg_already = ap && item.command == 16 && self.hold_time(item) > 0.0;
+        let arrived_msg_already =
+            ap && item.command == mi::NAV_WAYPOINT && self.hold_time(item) > 0.0;
         if ap && item.command == mi::NAV_WAYPOINT {
             let msg = format!("Reached command #{idx}");
             self.text(mav::MavSeverity::MAV_SEVERITY_INFO, &msg);

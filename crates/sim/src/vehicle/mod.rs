@@ -112,8 +112,12 @@ mod mi {
     pub(super) const NAV_TAKEOFF: u16 = MavCmd::MAV_CMD_NAV_TAKEOFF as u16;
     /// MAV_CMD_NAV_SPLINE_WAYPOINT (82).
     pub(super) const NAV_SPLINE_WAYPOINT: u16 = MavCmd::MAV_CMD_NAV_SPLINE_WAYPOINT as u16;
+    /// MAV_CMD_NAV_VTOL_TAKEOFF (84).
+    pub(super) const NAV_VTOL_TAKEOFF: u16 = MavCmd::MAV_CMD_NAV_VTOL_TAKEOFF as u16;
     /// MAV_CMD_NAV_DELAY (93).
     pub(super) const NAV_DELAY: u16 = MavCmd::MAV_CMD_NAV_DELAY as u16;
+    /// MAV_CMD_DO_AUX_FUNCTION (218).
+    pub(super) const DO_AUX_FUNCTION: u16 = MavCmd::MAV_CMD_DO_AUX_FUNCTION as u16;
     /// MAV_CMD_DO_JUMP (177).
     pub(super) const DO_JUMP: u16 = MavCmd::MAV_CMD_DO_JUMP as u16;
     /// MAV_CMD_DO_CHANGE_SPEED (178).

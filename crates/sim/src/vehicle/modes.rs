@@ -492,9 +492,9 @@ impl SimVehicle {
             .unwrap_or(1) as usize;
         for it in items.iter().skip(start).take(16) {
             match it.command {
-                22 | 84 => return true,
-                93 | 218 => continue,
-                c if c <= 95 => return false,
+                mi::NAV_TAKEOFF | mi::NAV_VTOL_TAKEOFF => return true,
+                mi::NAV_DELAY | mi::DO_AUX_FUNCTION => continue,
+                c if fleetmap_core::mission::item::cmd::is_nav(c) => return false,
                 _ => continue,
             }
         }

@@ -213,11 +213,11 @@ mod tests {
     }
 
     fn read(v: &mut SimVehicle, from: u8, name: &str) -> Option<(f32, T)> {
-        let h = header(Endpoint::new(from, 190), 0);
+        let h = header(Endpoint::new(from, fleetmap_core::proto::GCS_COMPID), 0);
         let req = MavMessage::PARAM_REQUEST_READ(mav::PARAM_REQUEST_READ_DATA {
             param_index: -1,
             target_system: 3,
-            target_component: 1,
+            target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
             param_id: param_id(name),
         });
         v.handle_message(&h, &req, Time::from_secs(1));
@@ -235,18 +235,25 @@ mod tests {
     fn answers_by_name_with_the_defaults_and_the_set_values() {
         let mut ap = vehicle(Flavour::ARDU_COPTER, &[("FS_GCS_ENABLE", 1.0)]);
         assert_eq!(
-            read(&mut ap, 255, "RTL_ALT"),
+            read(&mut ap, fleetmap_core::proto::GCS_SYSID, "RTL_ALT"),
             Some((1500.0, T::MAV_PARAM_TYPE_INT32))
         );
-        assert_eq!(read(&mut ap, 255, "FS_GCS_ENABLE").map(|x| x.0), Some(1.0));
-        assert_eq!(read(&mut ap, 255, "NO_SUCH_PARAM"), None);
+        assert_eq!(
+            read(&mut ap, fleetmap_core::proto::GCS_SYSID, "FS_GCS_ENABLE").map(|x| x.0),
+            Some(1.0)
+        );
+        assert_eq!(
+            read(&mut ap, fleetmap_core::proto::GCS_SYSID, "NO_SUCH_PARAM"),
+            None
+        );
         // PX4 sends integers byte-wise
         let mut px4 = vehicle(Flavour::PX4_COPTER, &[]);
-        let (raw, ty) = read(&mut px4, 255, "GF_ACTION").expect("GF_ACTION");
+        let (raw, ty) =
+            read(&mut px4, fleetmap_core::proto::GCS_SYSID, "GF_ACTION").expect("GF_ACTION");
         assert_eq!(ty, T::MAV_PARAM_TYPE_INT32);
         assert_eq!(raw.to_bits(), 2);
         assert_eq!(
-            read(&mut px4, 255, "RTL_RETURN_ALT").map(|x| x.0),
+            read(&mut px4, fleetmap_core::proto::GCS_SYSID, "RTL_RETURN_ALT").map(|x| x.0),
             Some(60.0)
         );
     }
@@ -257,7 +264,10 @@ mod tests {
             Flavour::ARDU_COPTER,
             &[("MAV_GCS_SYSID", 250.0), ("MAV_OPTIONS", 1.0)],
         );
-        assert_eq!(read(&mut ap, 255, "MAV_OPTIONS"), None);
+        assert_eq!(
+            read(&mut ap, fleetmap_core::proto::GCS_SYSID, "MAV_OPTIONS"),
+            None
+        );
         assert_eq!(read(&mut ap, 250, "MAV_OPTIONS").map(|x| x.0), Some(1.0));
     }
 }

@@ -11,8 +11,8 @@ use std::collections::BTreeMap;
 use std::time::Duration;
 
 const GCS: MavHeader = MavHeader {
-    system_id: 255,
-    component_id: 190,
+    system_id: fleetmap_core::proto::GCS_SYSID as u32,
+    component_id: fleetmap_core::proto::GCS_COMPID,
     sequence: 0,
 };
 
@@ -49,7 +49,7 @@ impl Probe {
 
     pub(crate) fn drain(&mut self) {
         while let Some((h, m)) = self.v.poll_transmit() {
-            if h.component_id != 1 {
+            if h.component_id != fleetmap_core::proto::AUTOPILOT_COMPID {
                 continue;
             }
             let bytes =
@@ -103,7 +103,7 @@ impl Probe {
             param7: p[6],
             command,
             target_system: 1,
-            target_component: 1,
+            target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
             confirmation: 0,
         }));
         self.acks.iter().find(|a| a.0 == command).map(|a| a.1)
@@ -121,7 +121,7 @@ impl Probe {
             mav::REQUEST_DATA_STREAM_DATA {
                 req_message_rate: hz,
                 target_system: 1,
-                target_component: 1,
+                target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
                 req_stream_id: stream,
                 start_stop,
             },

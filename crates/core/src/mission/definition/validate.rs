@@ -194,7 +194,7 @@ fn check_vehicles(c: &mut Checker, def: &MissionDef) {
     let mut names: HashMap<&str, usize> = HashMap::new();
     for (i, v) in def.vehicles.iter().enumerate() {
         let path = format!("vehicles[{i}].sysid");
-        if v.sysid == 0 || v.sysid == 255 {
+        if v.sysid == 0 || v.sysid == crate::identity::GCS_SYSID {
             c.value(
                 &path,
                 &[],

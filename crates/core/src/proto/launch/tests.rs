@@ -353,7 +353,7 @@ fn fly(
 ) -> Flight {
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let gcs = Endpoint::gcs();
-    let target = Endpoint::new(1, 1);
+    let target = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
     let mut sender = CommandSender::new(gcs, CommandConfig::default());
     let mut launch = Launch::new(airborne_goal(), LaunchConfig::default(), Time::ZERO);
     let mut copter = Copter {
@@ -377,7 +377,7 @@ fn fly(
     let mut now = Time::ZERO;
     let header = MavHeader {
         system_id: 1,
-        component_id: 1,
+        component_id: crate::proto::AUTOPILOT_COMPID,
         sequence: 0,
     };
     let takeoff_cmd = match Flavour::ARDU_COPTER.takeoff(target, 10.0, None) {
@@ -401,8 +401,8 @@ fn fly(
                     result,
                     progress: 0,
                     result_param2: 0,
-                    target_system: 255,
-                    target_component: 190,
+                    target_system: crate::proto::GCS_SYSID,
+                    target_component: crate::proto::GCS_COMPID,
                 });
                 down.send(Frame::Ack(ack), now, &mut rng);
             }

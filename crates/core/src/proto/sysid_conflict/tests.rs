@@ -110,7 +110,7 @@ fn merge(parts: Vec<(usize, Vec<Sent>)>) -> Vec<Delivered> {
     all
 }
 
-const WHO: Endpoint = Endpoint::new(1, 1);
+const WHO: Endpoint = Endpoint::new(1, crate::proto::AUTOPILOT_COMPID);
 
 /// Feed the deliveries; the first conflict, if any.
 fn watch(frames: &[Delivered]) -> (SysidWatch, Option<Conflict>) {
@@ -216,12 +216,12 @@ fn a_reboot_is_not_a_conflict() {
 #[test]
 fn heartbeats_flipping_identity_are_a_conflict_and_a_changed_frame_is_not() {
     let copter = Beat {
-        mav_type: 2,
+        mav_type: mavlink::dialects::ardupilotmega::MavType::MAV_TYPE_QUADROTOR as u8,
         autopilot: 3,
         ..Beat::default()
     };
     let rover = Beat {
-        mav_type: 10,
+        mav_type: mavlink::dialects::ardupilotmega::MavType::MAV_TYPE_GROUND_ROVER as u8,
         autopilot: 3,
         ..Beat::default()
     };
@@ -234,7 +234,7 @@ fn heartbeats_flipping_identity_are_a_conflict_and_a_changed_frame_is_not() {
     }
     assert_eq!(w.poll_event(), None);
     // A copter and a rover both at id 1.
-    let other = Endpoint::new(3, 1);
+    let other = Endpoint::new(3, crate::proto::AUTOPILOT_COMPID);
     let mut t = Time::ZERO;
     for k in 0..4 {
         for b in [&copter, &rover] {

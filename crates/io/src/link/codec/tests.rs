@@ -50,7 +50,7 @@ fn round_trip_v1_v2_with_garbage_and_bad_crc() {
     let a = tx.encode(1, 1, &heartbeat(), 0);
     let h1 = MavHeader {
         system_id: 2,
-        component_id: 1,
+        component_id: fleetmap_core::proto::AUTOPILOT_COMPID,
         sequence: 7,
     };
     let b = tx.encode_with_header(&h1, &heartbeat(), MavlinkVersion::V1, 0);
@@ -79,7 +79,8 @@ fn round_trip_v1_v2_with_garbage_and_bad_crc() {
     assert!(s.garbage_bytes >= 4);
     // seq 0, then (bad seq 1 lost), then seq 2 from source (1,1).
     assert_eq!(
-        s.sources[&fleetmap_core::proto::Endpoint::new(1, 1)].lost,
+        s.sources[&fleetmap_core::proto::Endpoint::new(1, fleetmap_core::proto::AUTOPILOT_COMPID)]
+            .lost,
         1
     );
     assert_eq!(s.frames_in, 3);
@@ -165,7 +166,7 @@ fn resyncs_through_random_garbage_and_chunking() {
             let m = MavMessage::MISSION_REQUEST_INT(MISSION_REQUEST_INT_DATA {
                 seq: i,
                 target_system: rng.random(),
-                target_component: 1,
+                target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
                 mission_type: MavMissionType::MAV_MISSION_TYPE_MISSION,
             });
             let f = tx.encode(1, 1, &m, 0);
@@ -184,7 +185,7 @@ fn resyncs_through_random_garbage_and_chunking() {
         }
         let got: Vec<Vec<u8>> = got
             .into_iter()
-            .filter(|f| f.msg_id == 51)
+            .filter(|f| f.msg_id == <MISSION_REQUEST_INT_DATA as mavlink::MessageData>::ID)
             .map(|f| f.raw)
             .collect();
         assert_eq!(got, sent, "seed {seed}");
@@ -213,12 +214,17 @@ fn every_message_type_round_trips() {
         MavMessage::SETUP_SIGNING(SETUP_SIGNING_DATA {
             initial_timestamp: 5,
             target_system: 1,
-            target_component: 1,
+            target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
             secret_key: [7; 32],
         }),
     ];
     for m in &msgs {
-        let f = c.encode(255, 190, m, 0);
+        let f = c.encode(
+            fleetmap_core::proto::GCS_SYSID,
+            fleetmap_core::proto::GCS_COMPID,
+            m,
+            0,
+        );
         let frames = c.decode(&f, 0);
         assert_eq!(frames.len(), 1);
         assert_eq!(frames[0].message.as_ref().ok(), Some(m));

@@ -6,13 +6,15 @@
 //! frame has zero incompatibility and compatibility flags and is never signed).
 
 use crate::link::codec::{STX_V1, STX_V2, frame_crc};
+use mavlink::MessageData;
+use mavlink::dialects::ardupilotmega::RADIO_STATUS_DATA;
 
 /// System id of a SiK radio's reports: `'3'`.
 pub const RADIO_SYSID: u8 = b'3';
 /// Component id of a SiK radio's reports: `'D'`.
 pub const RADIO_COMPID: u8 = b'D';
 /// RADIO_STATUS's message id.
-pub const RADIO_STATUS_ID: u32 = 109;
+pub const RADIO_STATUS_ID: u32 = <RADIO_STATUS_DATA as MessageData>::ID;
 /// RADIO_STATUS's CRC extra (`MAVLINK_RADIO_STATUS_CRC_EXTRA` in SiK's mavlink.c).
 const CRC_EXTRA: u8 = 185;
 /// Payload length: 2 + 2 + 5 × 1 bytes.

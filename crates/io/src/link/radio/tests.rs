@@ -28,7 +28,7 @@ fn heartbeat(v2: bool) -> Vec<u8> {
     let msg = MavMessage::HEARTBEAT(HEARTBEAT_DATA::default());
     let header = MavHeader {
         system_id: 1,
-        component_id: 1,
+        component_id: fleetmap_core::proto::AUTOPILOT_COMPID,
         sequence: 0,
     };
     let version = if v2 {

@@ -59,15 +59,6 @@ pub fn enlarge_recv_buffer(sock: &UdpSocket) -> Option<usize> {
 /// Index of a link in the fleet (0, 1, … in `--connect` order).
 pub type LinkId = usize;
 
-/// Wall-clock time in µs since the Unix epoch (tlog timestamps, signing). 0 if the clock
-/// is before 1970.
-pub fn unix_now_us() -> u64 {
-    std::time::SystemTime::now()
-        .duration_since(std::time::UNIX_EPOCH)
-        .map(|d| d.as_micros() as u64)
-        .unwrap_or(0)
-}
-
 /// Something that happened on a link.
 #[derive(Debug)]
 pub enum LinkEvent {

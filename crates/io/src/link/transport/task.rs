@@ -3,8 +3,8 @@
 //! status.
 
 use super::io::{ReadOutcome, Reader, Writer};
-use super::{LinkCmd, LinkEvent, LinkId, LinkStatus, unix_now_us};
-use crate::clock::MonotonicClock;
+use super::{LinkCmd, LinkEvent, LinkId, LinkStatus};
+use crate::clock::{MonotonicClock, unix_us};
 use crate::link::codec::Codec;
 use crate::link::peers::{PeerKey, PeerTable};
 use crate::link::tlog::TlogHandle;
@@ -49,7 +49,7 @@ impl LinkTask {
                 }
                 cmd = self.rx.recv() => {
                     let Some(cmd) = cmd else { break };
-                    let now = unix_now_us();
+                    let now = unix_us();
                     let (bytes, target) = match cmd {
                         LinkCmd::Send(src, msg, to) => (
                             self.codec.encode(src.sysid, src.compid, &msg, now),
@@ -151,7 +151,7 @@ impl LinkTask {
     /// Decode `data` (from `peer` when the link serves several) and hand the frames to the
     /// fleet. Returns false when the fleet is gone.
     async fn deliver(&mut self, data: &[u8], peer: Option<(PeerKey, String)>) -> bool {
-        let now = unix_now_us();
+        let now = unix_us();
         let received = tokio::time::Instant::now();
         let key = peer.as_ref().map(|(k, _)| *k);
         let frames = match &peer {

@@ -415,7 +415,7 @@ fn ardupilot_streams_slow_down_four_times_while_receiving_waypoints() {
     p.send(MavMessage::MISSION_COUNT(mav::MISSION_COUNT_DATA {
         count: 12,
         target_system: 1,
-        target_component: 1,
+        target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
         mission_type: mav::MavMissionType::MAV_MISSION_TYPE_MISSION,
         opaque_id: 0,
     }));
@@ -439,7 +439,7 @@ fn ardupilot_streams_slow_down_four_times_while_receiving_waypoints() {
             y: -805_785_000,
             z: 10.0,
             target_system: 1,
-            target_component: 1,
+            target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
             autocontinue: 1,
             ..mav::MISSION_ITEM_INT_DATA::default()
         }));
@@ -640,8 +640,8 @@ fn cost_of_the_requests() {
     use crate::harness::{Sim, SimConfig};
     use mavlink::MavHeader;
     let gcs = MavHeader {
-        system_id: 255,
-        component_id: 190,
+        system_id: fleetmap_core::proto::GCS_SYSID as u32,
+        component_id: fleetmap_core::proto::GCS_COMPID,
         sequence: 0,
     };
     type Requests = fn(&mut Sim, u8, &MavHeader);
@@ -652,7 +652,7 @@ fn cost_of_the_requests() {
             &MavMessage::REQUEST_DATA_STREAM(mav::REQUEST_DATA_STREAM_DATA {
                 req_message_rate: 4,
                 target_system: s,
-                target_component: 1,
+                target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
                 req_stream_id: mav::MavDataStream::MAV_DATA_STREAM_ALL,
                 start_stop: 1,
             }),
@@ -667,7 +667,7 @@ fn cost_of_the_requests() {
                 param2: us,
                 command: mav::MavCmd::MAV_CMD_SET_MESSAGE_INTERVAL,
                 target_system: s,
-                target_component: 1,
+                target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
                 ..mav::COMMAND_LONG_DATA::default()
             }),
         )
@@ -687,7 +687,7 @@ fn cost_of_the_requests() {
                 &MavMessage::REQUEST_DATA_STREAM(mav::REQUEST_DATA_STREAM_DATA {
                     req_message_rate: hz,
                     target_system: s,
-                    target_component: 1,
+                    target_component: fleetmap_core::proto::AUTOPILOT_COMPID,
                     req_stream_id: st,
                     start_stop: 1,
                 }),
