@@ -54,6 +54,9 @@ import subprocess
 import sys
 import xml.etree.ElementTree as ET
 
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from module_cycles import strip  # noqa: E402
+
 NOISE = {"MAV", "MSG", "MESSAGE", "ID", "CMD", "COMP", "COMPID"}
 INT = r"(?:0x[0-9A-Fa-f_]+|[0-9][0-9_]*)(?:u8|u16|u32|u64|i32|usize)?"
 # The component ids fleetmap_core::proto names (each from the dialect, GCS_COMPID being fleetmap's choice).
@@ -101,44 +104,6 @@ def dialect(d, name="ardupilotmega.xml", seen=None):
             if x.get("value") is not None:
                 entries.setdefault(int(x.get("value"), 0), x.get("name"))
     return msgs, enums
-
-
-def blank(text):
-    """The text with comments, strings and char literals replaced by spaces (newlines kept)."""
-    out, i, n = [], 0, len(text)
-    keep = lambda s: re.sub(r"[^\n]", " ", s)
-    while i < n:
-        c = text[i]
-        if text.startswith("//", i):
-            j = text.find("\n", i)
-            j = n if j < 0 else j
-        elif text.startswith("/*", i):
-            depth, j = 1, i + 2
-            while j < n and depth:
-                if text.startswith("/*", j):
-                    depth, j = depth + 1, j + 2
-                elif text.startswith("*/", j):
-                    depth, j = depth - 1, j + 2
-                else:
-                    j += 1
-        elif c == "r" and re.match(r'r#*"', text[i:]) and not re.match(r"\w", text[i - 1 : i] or " "):
-            hashes = re.match(r'r(#*)"', text[i:]).group(1)
-            j = text.find('"' + hashes, i + 2 + len(hashes))
-            j = n if j < 0 else j + 1 + len(hashes)
-        elif c == '"':
-            j = i + 1
-            while j < n and text[j] != '"':
-                j += 2 if text[j] == "\\" else 1
-            j += 1
-        elif c == "'" and re.match(r"'(\\.|[^\\'])'|'\\u\{[0-9a-fA-F]+\}'", text[i:]):
-            j = i + re.match(r"'(\\.|[^\\'])'|'\\u\{[0-9a-fA-F]+\}'", text[i:]).end()
-        else:
-            out.append(c)
-            i += 1
-            continue
-        out.append(keep(text[i:j]))
-        i = j
-    return "".join(out)
 
 
 def value(lit):
@@ -212,7 +177,7 @@ class Scan:
 
     def file(self, path):
         with open(path, encoding="utf-8") as f:
-            text = blank(f.read())
+            text = strip(f.read(), blank=True)
         for kind, fields in FIELDS.items():
             field = r"(?:\b(?:" + "|".join(fields) + r")\b(?:\s*\([^()]*\))?)"
             what = {"msg": "message id", "cmd": "MAV_CMD", "type": "MAV_TYPE", "comp": "component id",

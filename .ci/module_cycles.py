@@ -25,15 +25,21 @@ PATH = re.compile(r"\b(crate|super|self)((?:::\w+)+)")
 USE = re.compile(r"\buse\s+([^;]*);", re.S)
 
 
-def strip(text, keep_strings=False):
+CHAR = r"'(\\.|[^\\'])'|'\\u\{[0-9a-fA-F]+\}'"
+
+
+def strip(text, keep_strings=False, blank=False):
     """Comments out, and string and char literals too unless `keep_strings`; newlines kept so
-    line numbers hold."""
+    line numbers hold. With `blank`, every comment and literal becomes as many spaces (its
+    newlines kept), so that every offset into the result is the same offset into `text`."""
     out, i, n = [], 0, len(text)
+    spaces = lambda s: re.sub(r"[^\n]", " ", s)
     while i < n:
         c = text[i]
         if text.startswith("//", i):
             j = text.find("\n", i)
-            i = n if j < 0 else j
+            j = n if j < 0 else j
+            kind = "comment"
         elif text.startswith("/*", i):
             depth, j = 1, i + 2
             while j < n and depth:
@@ -43,27 +49,35 @@ def strip(text, keep_strings=False):
                     depth, j = depth - 1, j + 2
                 else:
                     j += 1
-            out.append("\n" * text.count("\n", i, j))
-            i = j
-        elif c == "r" and re.match(r'r#*"', text[i:i + 10]) and (i == 0 or not text[i - 1].isalnum()):
+            kind = "comment"
+        elif c == "r" and re.match(r'r#*"', text[i:i + 10]) and (i == 0 or not (text[i - 1].isalnum() or text[i - 1] == "_")):
             hashes = re.match(r'r(#*)"', text[i:]).group(1)
             end = text.find('"' + hashes, i + 2 + len(hashes))
             j = n if end < 0 else end + 1 + len(hashes)
-            out.append(text[i:j] if keep_strings else '""' + "\n" * text.count("\n", i, j))
-            i = j
+            kind = "string"
         elif c == '"':
             j = i + 1
             while j < n and text[j] != '"':
                 j += 2 if text[j] == "\\" else 1
-            out.append(text[i:j + 1] if keep_strings else '""' + "\n" * text.count("\n", i, j))
-            i = j + 1
-        elif c == "'" and re.match(r"'(\\.|[^\\'])'", text[i:i + 4]):
-            j = text.find("'", i + 2 if text[i + 1] != "\\" else i + 3) + 1
-            out.append(text[i:j] if keep_strings else "' '")
-            i = j
+            j = min(j + 1, n)
+            kind = "string"
+        elif c == "'" and re.match(CHAR, text[i:i + 12]):
+            j = i + re.match(CHAR, text[i:i + 12]).end()
+            kind = "char"
         else:
             out.append(c)
             i += 1
+            continue
+        span = text[i:j]
+        if blank:
+            out.append(spaces(span))
+        elif kind == "comment":
+            out.append("\n" * span.count("\n") if span.startswith("/*") else "")
+        elif keep_strings:
+            out.append(span)
+        else:
+            out.append('""' + "\n" * span.count("\n") if kind == "string" else "' '")
+        i = j
     return "".join(out)
 
 
