@@ -87,19 +87,10 @@ pub fn heartbeat() -> MavMessage {
 /// COMMAND_LONG `cmd` (a MAV_CMD number, panics on one the dialect lacks) with its seven
 /// parameters, to component `target.1` of system `target.0`, first transmission.
 pub fn command_long(target: (u8, u8), cmd: u16, p: [f32; 7]) -> MavMessage {
-    MavMessage::COMMAND_LONG(mav::COMMAND_LONG_DATA {
-        param1: p[0],
-        param2: p[1],
-        param3: p[2],
-        param4: p[3],
-        param5: p[4],
-        param6: p[5],
-        param7: p[6],
-        command: mav::MavCmd::from_u16(cmd).expect("a MAV_CMD of the dialect"),
-        target_system: target.0,
-        target_component: target.1,
-        confirmation: 0,
-    })
+    let command = mav::MavCmd::from_u16(cmd).expect("a MAV_CMD of the dialect");
+    let (sysid, compid) = target;
+    let target = fleetmap_core::proto::Endpoint::new(sysid, compid);
+    fleetmap_core::proto::command::Command::long(target, command, p).message(0)
 }
 
 /// The text of a STATUSTEXT (without its NUL padding), `None` for any other message.
