@@ -87,6 +87,17 @@ impl Camera {
 /// One visit wanting `wanted` pictures over a link losing `loss` each way with `latency`:
 /// the pictures complete, the pictures the camera took, the simulated end.
 fn visit(wanted: u32, loss: f64, latency_ms: u64, seed: u64) -> (u32, u32, Time, Vec<u32>) {
+    visit_with(wanted, loss, latency_ms, seed, Duration::from_secs(10))
+}
+
+/// [`visit`] with a ledger that gives up after `give_up_after` without progress.
+fn visit_with(
+    wanted: u32,
+    loss: f64,
+    latency_ms: u64,
+    seed: u64,
+    give_up_after: Duration,
+) -> (u32, u32, Time, Vec<u32>) {
     let mut cam = Camera {
         next_index: 10,
         ..Camera::default()
@@ -104,7 +115,7 @@ fn visit(wanted: u32, loss: f64, latency_ms: u64, seed: u64) -> (u32, u32, Time,
         rng: (seed ^ 0x9e37_79b9_7f4a_7c15) | 1,
     };
     let mut now = t(0);
-    let mut ledger = CaptureLedger::new(now, wanted, 9, 1, rtt(), Duration::from_secs(10));
+    let mut ledger = CaptureLedger::new(now, wanted, 9, 1, rtt(), give_up_after);
     let mut halves: BTreeMap<i32, (bool, bool)> = BTreeMap::new();
     let mut seqs = Vec::new();
     while !ledger.is_over(now) && now < t(120_000) {
@@ -277,11 +288,34 @@ fn nothing_heard_gives_up() {
     assert!(now >= t(10_000) && now <= t(10_100), "{now}");
 }
 
+/// A give-up long enough that a link losing 30 % each way is never silent for it (24 tries in
+/// a row failing: below 1e-10).
+const PATIENT: Duration = Duration::from_secs(30);
+
+/// A case the property once failed on with a 10 s give-up: picture 15's result arrived, but
+/// its announcement was lost seven times in a row, and nothing new came for 10 s. The visit
+/// gives up with 5 of 6 (the caller retakes the sixth); a patient one gets all six.
+#[test]
+fn a_visit_whose_last_half_is_lost_for_10_s_gives_up_and_a_patient_one_completes() {
+    let seed = 15_372_013_936_790_894_686;
+    let (complete, taken, end, _) = visit(6, 0.2955, 141, seed);
+    assert_eq!((complete, taken), (5, 6), "by {end}");
+    assert!(end >= t(12_500) && end < t(12_600), "{end}");
+    let (complete, taken, end, _) = visit_with(6, 0.2955, 141, seed, PATIENT);
+    assert_eq!((complete, taken), (6, 6), "by {end}");
+}
+
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(400))]
 
     /// Over any loss up to 30 % each way and any latency, a visit gets its pictures and the
     /// camera takes at most a few more than wanted; with no loss, exactly the ones wanted.
+    ///
+    /// The protocol's property, so the ledger here waits 30 s without progress before it
+    /// gives up (0 short in a sweep of 1,000,000 cases). With the 10 s the runway's visits
+    /// use, 27 of those cases ended short (this test then failed about one run in 90): at
+    /// 30 % loss each way a third of the round trips fail, and 10 s holds eight tries at a
+    /// 1.3 s timeout (the case above). The caller retakes what is missing.
     #[test]
     fn visits_complete_under_loss(
         wanted in 1u32..7,
@@ -289,7 +323,7 @@ proptest! {
         latency in 5u64..600,
         seed in any::<u64>(),
     ) {
-        let (complete, taken, end, seqs) = visit(wanted, loss, latency, seed);
+        let (complete, taken, end, seqs) = visit_with(wanted, loss, latency, seed, PATIENT);
         prop_assert!(complete >= wanted, "{complete} of {wanted} by {end}");
         prop_assert!(taken <= wanted + 3, "{taken} taken for {wanted}");
         // sequence numbers only go up: a repeat is always of the newest command
