@@ -52,6 +52,12 @@ build: sysdeps
 ## features they turn on in shared crates (in today's tree serde's `alloc`, zerocopy's `derive`,
 ## rustix's `fs`, …) change every crate built on them. (`make build` is that other build.)
 TEST_BUILD := $(CARGO) test --workspace --lib --bins --tests --no-fail-fast --no-run
+## Whether cargo compiles incrementally is part of what it fingerprints: a `make demo` from a
+## shell with another CARGO_INCREMENTAL than `make test`'s would compile the workspace's crates
+## again. So every cargo command here builds without incremental compilation (which only adds
+## work to a build from scratch) unless the caller sets CARGO_INCREMENTAL itself; CI sets the
+## same 0.
+export CARGO_INCREMENTAL ?= 0
 
 ## The whole test suite: Rust unit, property and end-to-end tests, then the Python
 ## conformance tests against the built binary. `cargo test` builds the binary itself (with the
