@@ -7,7 +7,7 @@
 
 use fleetmap_core::mission::item::MissionItem;
 use fleetmap_core::time::Time;
-use fleetmap_sim::flavour::{Flavour, Mode};
+use fleetmap_sim::flavour::{SimFlavour, SimMode};
 use fleetmap_sim::harness::{Sim, SimConfig};
 use fleetmap_test_kit::at;
 use fleetmap_test_kit::gcs::{Headers, command_long, heartbeat, status_text};
@@ -92,7 +92,7 @@ impl Gcs {
         }
     }
 
-    fn set_mode(&mut self, flavour: Flavour, mode: Mode) -> mav::MavResult {
+    fn set_mode(&mut self, flavour: SimFlavour, mode: SimMode) -> mav::MavResult {
         let c = flavour.custom_mode(mode).unwrap();
         if flavour.is_ardupilot() {
             self.command(176, [1.0, c as f32, 0.0, 0.0, 0.0, 0.0, 0.0])
@@ -220,10 +220,10 @@ impl Gcs {
 
     /// Arm and take off to `alt_m` above home in guided flight: ArduPilot in GUIDED with a
     /// relative takeoff altitude, PX4 with an AMSL one. Both commands must be accepted.
-    fn arm_and_take_off(&mut self, flavour: Flavour, alt_m: f32) {
+    fn arm_and_take_off(&mut self, flavour: SimFlavour, alt_m: f32) {
         if flavour.is_ardupilot() {
             assert_eq!(
-                self.set_mode(flavour, Mode::Guided),
+                self.set_mode(flavour, SimMode::Guided),
                 mav::MavResult::MAV_RESULT_ACCEPTED
             );
         }
@@ -274,7 +274,7 @@ fn mission(copter: bool) -> Vec<MissionItem> {
     v
 }
 
-fn fly(flavour: Flavour) {
+fn fly(flavour: SimFlavour) {
     let spec = format!("1x{flavour}");
     let mut g = Gcs::new(&spec, 7);
     let copter = flavour.is_copter();
@@ -337,7 +337,7 @@ fn fly(flavour: Flavour) {
     if copter {
         if ap {
             assert_eq!(
-                g.set_mode(flavour, Mode::Guided),
+                g.set_mode(flavour, SimMode::Guided),
                 mav::MavResult::MAV_RESULT_ACCEPTED
             );
             assert_eq!(
@@ -354,7 +354,7 @@ fn fly(flavour: Flavour) {
             )
             .expect("takeoff");
             assert_eq!(
-                g.set_mode(flavour, Mode::Auto),
+                g.set_mode(flavour, SimMode::Auto),
                 mav::MavResult::MAV_RESULT_ACCEPTED
             );
         } else {
@@ -366,7 +366,7 @@ fn fly(flavour: Flavour) {
         }
     } else {
         assert_eq!(
-            g.set_mode(flavour, Mode::Auto),
+            g.set_mode(flavour, SimMode::Auto),
             mav::MavResult::MAV_RESULT_ACCEPTED
         );
         assert_eq!(
@@ -441,27 +441,27 @@ fn fly(flavour: Flavour) {
 
 #[test]
 fn ardupilot_copter_flies_a_mission() {
-    fly(Flavour::ARDU_COPTER);
+    fly(SimFlavour::ARDU_COPTER);
 }
 
 #[test]
 fn px4_copter_flies_a_mission() {
-    fly(Flavour::PX4_COPTER);
+    fly(SimFlavour::PX4_COPTER);
 }
 
 #[test]
 fn ardupilot_rover_drives_a_mission() {
-    fly(Flavour::ARDU_ROVER);
+    fly(SimFlavour::ARDU_ROVER);
 }
 
 #[test]
 fn px4_rover_drives_a_mission() {
-    fly(Flavour::PX4_ROVER);
+    fly(SimFlavour::PX4_ROVER);
 }
 
 #[test]
 fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
-    for flavour in [Flavour::ARDU_COPTER, Flavour::PX4_COPTER] {
+    for flavour in [SimFlavour::ARDU_COPTER, SimFlavour::PX4_COPTER] {
         // the configured levels: RTL at 25 %, land at 8 % (ArduPilot BATT_LOW_MAH /
         // BATT_CRT_MAH, PX4 BAT_CRIT_THR / BAT_EMERGEN_THR)
         let mut g = Gcs::with(&format!("1x{flavour}"), 3, |c| {
@@ -516,7 +516,7 @@ fn low_battery_failsafe_lands_at_home_and_a_swap_reboots() {
         );
         assert_eq!(r, mav::MavResult::MAV_RESULT_ACCEPTED, "{flavour}");
         // hover until the failsafe (12 minutes of battery)
-        let rtl = flavour.custom_mode(Mode::Rtl).unwrap();
+        let rtl = flavour.custom_mode(SimMode::Rtl).unwrap();
         let hb = g.wait(
             900.0,
             |m| matches!(m, MavMessage::HEARTBEAT(h) if h.custom_mode == rtl),
@@ -648,9 +648,9 @@ fn a_copter_landed_on_a_rover_rides_with_it_and_charges() {
             start_stop: 1,
         },
     ));
-    let f = Flavour::ARDU_COPTER;
+    let f = SimFlavour::ARDU_COPTER;
     assert_eq!(
-        g.set_mode(f, Mode::Guided),
+        g.set_mode(f, SimMode::Guided),
         mav::MavResult::MAV_RESULT_ACCEPTED
     );
     assert_eq!(
@@ -686,7 +686,7 @@ fn a_copter_landed_on_a_rover_rides_with_it_and_charges() {
     g.sysid = 2;
     let (tlat, tlon) = fleetmap_core::geo::local::offset(rlat, rlon, 20.0, 0.0);
     assert_eq!(
-        g.set_mode(Flavour::ARDU_ROVER, Mode::Guided),
+        g.set_mode(SimFlavour::ARDU_ROVER, SimMode::Guided),
         mav::MavResult::MAV_RESULT_ACCEPTED
     );
     assert_eq!(
@@ -833,7 +833,7 @@ fn ardupilot_needs_a_takeoff_item_to_start_auto_on_the_ground_and_message_interv
         mav::MavMissionResult::MAV_MISSION_ACCEPTED
     );
     assert_eq!(
-        g.set_mode(Flavour::ARDU_COPTER, Mode::Guided),
+        g.set_mode(SimFlavour::ARDU_COPTER, SimMode::Guided),
         mav::MavResult::MAV_RESULT_ACCEPTED
     );
     assert_eq!(
@@ -841,7 +841,7 @@ fn ardupilot_needs_a_takeoff_item_to_start_auto_on_the_ground_and_message_interv
         mav::MavResult::MAV_RESULT_ACCEPTED
     );
     assert_eq!(
-        g.set_mode(Flavour::ARDU_COPTER, Mode::Auto),
+        g.set_mode(SimFlavour::ARDU_COPTER, SimMode::Auto),
         mav::MavResult::MAV_RESULT_FAILED
     );
     assert!(
@@ -882,13 +882,13 @@ fn ardupilot_needs_a_takeoff_item_to_start_auto_on_the_ground_and_message_interv
 
 #[test]
 fn armed_copter_on_the_ground_disarms_itself() {
-    for f in [Flavour::ARDU_COPTER, Flavour::PX4_COPTER] {
+    for f in [SimFlavour::ARDU_COPTER, SimFlavour::PX4_COPTER] {
         let mut g = Gcs::new(&format!("1x{f}"), 4);
         g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
             .unwrap();
         if f.is_ardupilot() {
             assert_eq!(
-                g.set_mode(f, Mode::Guided),
+                g.set_mode(f, SimMode::Guided),
                 mav::MavResult::MAV_RESULT_ACCEPTED
             );
         }
@@ -1157,9 +1157,9 @@ fn geofences_are_enforced() {
         g.command(207, [1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0]),
         mav::MavResult::MAV_RESULT_ACCEPTED
     );
-    let f = Flavour::ARDU_COPTER;
+    let f = SimFlavour::ARDU_COPTER;
     assert_eq!(
-        g.set_mode(f, Mode::Guided),
+        g.set_mode(f, SimMode::Guided),
         mav::MavResult::MAV_RESULT_ACCEPTED
     );
     assert_eq!(
@@ -1179,7 +1179,7 @@ fn geofences_are_enforced() {
         ),
         mav::MavResult::MAV_RESULT_ACCEPTED
     );
-    let rtl = f.custom_mode(Mode::Rtl).unwrap();
+    let rtl = f.custom_mode(SimMode::Rtl).unwrap();
     g.wait(
         30.0,
         |m| matches!(m, MavMessage::HEARTBEAT(h) if h.custom_mode == rtl),
@@ -1205,7 +1205,7 @@ fn guided_yaw_by_condition_yaw_or_reposition() {
         })
         .is_some()
     };
-    for flavour in [Flavour::ARDU_COPTER, Flavour::PX4_COPTER] {
+    for flavour in [SimFlavour::ARDU_COPTER, SimFlavour::PX4_COPTER] {
         let mut g = Gcs::new(&format!("1x{flavour}"), 5);
         g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
             .unwrap();
@@ -1297,7 +1297,7 @@ fn guided_yaw_by_condition_yaw_or_reposition() {
 /// At 12 m, 1° of tilt moves the footprint by 0.21 m.
 #[test]
 fn a_copter_hovering_in_calm_air_stays_level() {
-    for flavour in [Flavour::ARDU_COPTER, Flavour::PX4_COPTER] {
+    for flavour in [SimFlavour::ARDU_COPTER, SimFlavour::PX4_COPTER] {
         let mut g = Gcs::new(&format!("1x{flavour}"), 11);
         g.wait(25.0, |m| matches!(m, MavMessage::HOME_POSITION(_)))
             .unwrap();
@@ -1352,7 +1352,7 @@ fn setup_signing_is_refused_while_armed_and_ignored_by_px4() {
     });
     let mut g = Gcs::new("1xcopter:ardupilot", 4);
     g.wait(20.0, |_| false);
-    g.arm_and_take_off(Flavour::ARDU_COPTER, 5.0);
+    g.arm_and_take_off(SimFlavour::ARDU_COPTER, 5.0);
     g.send(setup.clone());
     g.wait(1.0, |_| false);
     assert!(
@@ -1453,7 +1453,7 @@ fn ardurover_in_auto_ignores_mission_start_until_it_leaves_auto() {
         reached_last(&mut g),
         "the first mission is driven to its end"
     );
-    let auto = Flavour::ARDU_ROVER.custom_mode(Mode::Auto).unwrap();
+    let auto = SimFlavour::ARDU_ROVER.custom_mode(SimMode::Auto).unwrap();
     let in_auto = g.wait(
         3.0,
         |m| matches!(m, MavMessage::HEARTBEAT(h) if h.custom_mode == auto),
@@ -1495,7 +1495,7 @@ fn ardurover_in_auto_ignores_mission_start_until_it_leaves_auto() {
     );
 
     // Leaving AUTO first: HOLD, then MISSION_START runs the mission.
-    assert_eq!(g.set_mode(Flavour::ARDU_ROVER, Mode::Hold), ok);
+    assert_eq!(g.set_mode(SimFlavour::ARDU_ROVER, SimMode::Hold), ok);
     assert_eq!(g.command(MISSION_START, [0.0; 7]), ok);
     assert!(
         reached_last(&mut g),

@@ -1,16 +1,16 @@
 //! Which autopilot and which airframe a simulated vehicle imitates, and the flight modes with
 //! the numbers each autopilot puts on the wire.
 //!
-//! The simulator's [`Mode`] is what a simulated vehicle does; which of its autopilot's modes
+//! The simulator's [`SimMode`] is what a simulated vehicle does; which of its autopilot's modes
 //! that is, and so the numbers and names on the wire, comes from the GCS's own table,
-//! [`fleetmap_core::proto::mode`] (`Flavour::autopilot_mode`).
+//! [`fleetmap_core::proto::mode`] (`SimFlavour::autopilot_mode`).
 //!
-//! What stays the simulator's own, and why: [`SimAutopilot`] and [`VehicleKind`] are the parts
+//! What stays the simulator's own, and why: [`SimAutopilot`] and [`SimVehicleClass`] are the parts
 //! of the core's [`Autopilot`] and [`VehicleClass`] that the simulator has a model of (no
 //! `Other`, no plane), so the vehicle model matches on them without an impossible arm; both
-//! convert into the core's types, and [`Flavour`] into the core's
+//! convert into the core's types, and [`SimFlavour`] into the core's
 //! [`fleetmap_core::proto::flavour::Flavour`], the flavour the GCS reads from the simulated
-//! HEARTBEAT. [`Mode`] is a behaviour (hold, go to, fly the mission), one value across
+//! HEARTBEAT. [`SimMode`] is a behaviour (hold, go to, fly the mission), one value across
 //! flavours whose autopilot modes differ (ArduCopter LOITER, ArduRover HOLD, PX4 AUTO_LOITER).
 
 use fleetmap_core::proto::flavour::{self as proto_flavour, Autopilot, VehicleClass};
@@ -66,51 +66,51 @@ impl SimAutopilot {
 /// The airframe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
-pub enum VehicleKind {
+pub enum SimVehicleClass {
     /// A multicopter (MAV_TYPE_QUADROTOR).
     Copter,
     /// A ground rover (MAV_TYPE_GROUND_ROVER); it never leaves the ground.
     Rover,
 }
 
-impl From<VehicleKind> for VehicleClass {
-    fn from(k: VehicleKind) -> VehicleClass {
+impl From<SimVehicleClass> for VehicleClass {
+    fn from(k: SimVehicleClass) -> VehicleClass {
         match k {
-            VehicleKind::Copter => VehicleClass::Copter,
-            VehicleKind::Rover => VehicleClass::Rover,
+            SimVehicleClass::Copter => VehicleClass::Copter,
+            SimVehicleClass::Rover => VehicleClass::Rover,
         }
     }
 }
 
 /// Autopilot + airframe.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub struct Flavour {
+pub struct SimFlavour {
     /// The firmware.
     pub autopilot: SimAutopilot,
     /// The airframe.
-    pub kind: VehicleKind,
+    pub kind: SimVehicleClass,
 }
 
-impl Flavour {
+impl SimFlavour {
     /// ArduCopter.
-    pub const ARDU_COPTER: Flavour = Flavour {
+    pub const ARDU_COPTER: SimFlavour = SimFlavour {
         autopilot: SimAutopilot::ArduPilot,
-        kind: VehicleKind::Copter,
+        kind: SimVehicleClass::Copter,
     };
     /// ArduRover.
-    pub const ARDU_ROVER: Flavour = Flavour {
+    pub const ARDU_ROVER: SimFlavour = SimFlavour {
         autopilot: SimAutopilot::ArduPilot,
-        kind: VehicleKind::Rover,
+        kind: SimVehicleClass::Rover,
     };
     /// PX4 multicopter.
-    pub const PX4_COPTER: Flavour = Flavour {
+    pub const PX4_COPTER: SimFlavour = SimFlavour {
         autopilot: SimAutopilot::Px4,
-        kind: VehicleKind::Copter,
+        kind: SimVehicleClass::Copter,
     };
     /// PX4 rover.
-    pub const PX4_ROVER: Flavour = Flavour {
+    pub const PX4_ROVER: SimFlavour = SimFlavour {
         autopilot: SimAutopilot::Px4,
-        kind: VehicleKind::Rover,
+        kind: SimVehicleClass::Rover,
     };
 
     /// Whether this is an ArduPilot vehicle.
@@ -120,17 +120,17 @@ impl Flavour {
 
     /// Whether this vehicle flies.
     pub fn is_copter(self) -> bool {
-        self.kind == VehicleKind::Copter
+        self.kind == SimVehicleClass::Copter
     }
 
     /// The flight mode a vehicle boots into: STABILIZE (ArduCopter), HOLD (ArduRover; real
     /// rovers boot in MANUAL, but without an RC transmitter HOLD is what field setups
     /// configure with INITIAL_MODE), AUTO_LOITER ("Hold") for PX4.
-    pub(crate) fn boot_mode(self) -> Mode {
+    pub(crate) fn boot_mode(self) -> SimMode {
         match (self.autopilot, self.kind) {
-            (SimAutopilot::ArduPilot, VehicleKind::Copter) => Mode::Stabilize,
-            (SimAutopilot::ArduPilot, VehicleKind::Rover) => Mode::Hold,
-            (SimAutopilot::Px4, _) => Mode::Hold,
+            (SimAutopilot::ArduPilot, SimVehicleClass::Copter) => SimMode::Stabilize,
+            (SimAutopilot::ArduPilot, SimVehicleClass::Rover) => SimMode::Hold,
+            (SimAutopilot::Px4, _) => SimMode::Hold,
         }
     }
 
@@ -138,41 +138,41 @@ impl Flavour {
     /// that behaves as `mode` for this flavour, or `None` when this flavour has no such mode.
     /// ArduCopter holds in LOITER; PX4 holds in AUTO_LOITER ("HOLD"), loiters under pilot
     /// control in POSCTL and is guided in OFFBOARD.
-    pub(crate) fn autopilot_mode(self, mode: Mode) -> Option<ProtoMode> {
+    pub(crate) fn autopilot_mode(self, mode: SimMode) -> Option<ProtoMode> {
         use ProtoMode::{Copter, Px4, Rover};
         Some(match (self.autopilot, self.kind) {
-            (SimAutopilot::ArduPilot, VehicleKind::Copter) => Copter(match mode {
-                Mode::Stabilize => CopterMode::Stabilize,
-                Mode::AltHold => CopterMode::AltHold,
-                Mode::Auto => CopterMode::Auto,
-                Mode::Guided => CopterMode::Guided,
-                Mode::Hold => CopterMode::Loiter,
-                Mode::Rtl => CopterMode::Rtl,
-                Mode::Land => CopterMode::Land,
-                Mode::Brake => CopterMode::Brake,
+            (SimAutopilot::ArduPilot, SimVehicleClass::Copter) => Copter(match mode {
+                SimMode::Stabilize => CopterMode::Stabilize,
+                SimMode::AltHold => CopterMode::AltHold,
+                SimMode::Auto => CopterMode::Auto,
+                SimMode::Guided => CopterMode::Guided,
+                SimMode::Hold => CopterMode::Loiter,
+                SimMode::Rtl => CopterMode::Rtl,
+                SimMode::Land => CopterMode::Land,
+                SimMode::Brake => CopterMode::Brake,
                 _ => return None,
             }),
-            (SimAutopilot::ArduPilot, VehicleKind::Rover) => Rover(match mode {
-                Mode::Manual => RoverMode::Manual,
-                Mode::Hold => RoverMode::Hold,
-                Mode::Loiter => RoverMode::Loiter,
-                Mode::Auto => RoverMode::Auto,
-                Mode::Rtl => RoverMode::Rtl,
-                Mode::Guided => RoverMode::Guided,
-                Mode::Initialising => RoverMode::Initialising,
+            (SimAutopilot::ArduPilot, SimVehicleClass::Rover) => Rover(match mode {
+                SimMode::Manual => RoverMode::Manual,
+                SimMode::Hold => RoverMode::Hold,
+                SimMode::Loiter => RoverMode::Loiter,
+                SimMode::Auto => RoverMode::Auto,
+                SimMode::Rtl => RoverMode::Rtl,
+                SimMode::Guided => RoverMode::Guided,
+                SimMode::Initialising => RoverMode::Initialising,
                 _ => return None,
             }),
             (SimAutopilot::Px4, kind) => Px4(match mode {
-                Mode::Manual => Px4Mode::Manual,
-                Mode::AltHold if kind == VehicleKind::Copter => Px4Mode::AltCtl,
-                Mode::Stabilize => Px4Mode::Stabilized,
-                Mode::Loiter => Px4Mode::PosCtl,
-                Mode::Takeoff => Px4Mode::Takeoff,
-                Mode::Hold => Px4Mode::Hold,
-                Mode::Auto => Px4Mode::Mission,
-                Mode::Rtl => Px4Mode::Rtl,
-                Mode::Land if kind == VehicleKind::Copter => Px4Mode::Land,
-                Mode::Guided => Px4Mode::Offboard,
+                SimMode::Manual => Px4Mode::Manual,
+                SimMode::AltHold if kind == SimVehicleClass::Copter => Px4Mode::AltCtl,
+                SimMode::Stabilize => Px4Mode::Stabilized,
+                SimMode::Loiter => Px4Mode::PosCtl,
+                SimMode::Takeoff => Px4Mode::Takeoff,
+                SimMode::Hold => Px4Mode::Hold,
+                SimMode::Auto => Px4Mode::Mission,
+                SimMode::Rtl => Px4Mode::Rtl,
+                SimMode::Land if kind == SimVehicleClass::Copter => Px4Mode::Land,
+                SimMode::Guided => Px4Mode::Offboard,
                 _ => return None,
             }),
         })
@@ -180,13 +180,13 @@ impl Flavour {
 
     /// The HEARTBEAT `custom_mode` of `mode` for this flavour, or `None` when this flavour
     /// has no such mode.
-    pub fn custom_mode(self, mode: Mode) -> Option<u32> {
+    pub fn custom_mode(self, mode: SimMode) -> Option<u32> {
         self.autopilot_mode(mode).map(ProtoMode::custom_mode)
     }
 
     /// The mode a HEARTBEAT/SET_MODE `custom_mode` names for this flavour.
-    pub(crate) fn mode_from_custom(self, custom_mode: u32) -> Option<Mode> {
-        Mode::ALL
+    pub(crate) fn mode_from_custom(self, custom_mode: u32) -> Option<SimMode> {
+        SimMode::ALL
             .iter()
             .copied()
             .find(|m| self.custom_mode(*m) == Some(custom_mode))
@@ -195,8 +195,8 @@ impl Flavour {
     /// MAV_TYPE of the HEARTBEAT.
     pub fn mav_type(self) -> u8 {
         match self.kind {
-            VehicleKind::Copter => 2, // MAV_TYPE_QUADROTOR
-            VehicleKind::Rover => 10, // MAV_TYPE_GROUND_ROVER
+            SimVehicleClass::Copter => 2, // MAV_TYPE_QUADROTOR
+            SimVehicleClass::Rover => 10, // MAV_TYPE_GROUND_ROVER
         }
     }
 
@@ -206,17 +206,17 @@ impl Flavour {
     }
 
     /// The name this flavour gives `mode` (as the autopilot's GCS shows it): the table's
-    /// name of `Flavour::autopilot_mode`, or a generic upper-case name for a mode this
+    /// name of `SimFlavour::autopilot_mode`, or a generic upper-case name for a mode this
     /// flavour does not have.
-    pub fn mode_name(self, mode: Mode) -> &'static str {
+    pub fn mode_name(self, mode: SimMode) -> &'static str {
         self.autopilot_mode(mode)
             .map_or_else(|| mode.generic_name(), ProtoMode::name)
     }
 }
 
-impl From<Flavour> for proto_flavour::Flavour {
+impl From<SimFlavour> for proto_flavour::Flavour {
     /// The core's flavour of this simulated vehicle: what the GCS reads from its HEARTBEAT.
-    fn from(f: Flavour) -> proto_flavour::Flavour {
+    fn from(f: SimFlavour) -> proto_flavour::Flavour {
         proto_flavour::Flavour {
             autopilot: f.autopilot.into(),
             class: f.kind.into(),
@@ -224,17 +224,17 @@ impl From<Flavour> for proto_flavour::Flavour {
     }
 }
 
-impl fmt::Display for Flavour {
+impl fmt::Display for SimFlavour {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
         let k = match self.kind {
-            VehicleKind::Copter => "copter",
-            VehicleKind::Rover => "rover",
+            SimVehicleClass::Copter => "copter",
+            SimVehicleClass::Rover => "rover",
         };
         write!(f, "{k}:{}", self.autopilot.spec_name())
     }
 }
 
-/// Why a `TYPE:AUTOPILOT` vehicle spec does not read ([`Flavour`]'s `FromStr`).
+/// Why a `TYPE:AUTOPILOT` vehicle spec does not read ([`SimFlavour`]'s `FromStr`).
 #[derive(Clone, Debug, PartialEq, Eq, thiserror::Error)]
 pub enum FlavourSpecError {
     /// No `:` between the type and the autopilot.
@@ -248,16 +248,16 @@ pub enum FlavourSpecError {
     Autopilot(String),
 }
 
-impl FromStr for Flavour {
+impl FromStr for SimFlavour {
     type Err = FlavourSpecError;
     /// `copter:ardupilot`, `rover:px4`, … (the `--vehicles` syntax without the count).
-    fn from_str(s: &str) -> Result<Flavour, FlavourSpecError> {
+    fn from_str(s: &str) -> Result<SimFlavour, FlavourSpecError> {
         let (k, a) = s
             .split_once(':')
             .ok_or_else(|| FlavourSpecError::Syntax(s.to_string()))?;
         let kind = match k.trim().to_ascii_lowercase().as_str() {
-            "copter" | "quad" | "multicopter" => VehicleKind::Copter,
-            "rover" => VehicleKind::Rover,
+            "copter" | "quad" | "multicopter" => SimVehicleClass::Copter,
+            "rover" => SimVehicleClass::Rover,
             other => return Err(FlavourSpecError::VehicleType(other.to_string())),
         };
         let autopilot = match a.trim().to_ascii_lowercase().as_str() {
@@ -265,13 +265,13 @@ impl FromStr for Flavour {
             "px4" => SimAutopilot::Px4,
             other => return Err(FlavourSpecError::Autopilot(other.to_string())),
         };
-        Ok(Flavour { autopilot, kind })
+        Ok(SimFlavour { autopilot, kind })
     }
 }
 
 /// A flight mode, independent of the numbers an autopilot gives it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-pub enum Mode {
+pub enum SimMode {
     /// ArduCopter STABILIZE / PX4 STABILIZED: pilot-controlled; the simulator holds still.
     Stabilize,
     /// ArduCopter ALT_HOLD / PX4 ALTCTL.
@@ -298,37 +298,37 @@ pub enum Mode {
     Initialising,
 }
 
-impl Mode {
+impl SimMode {
     /// Every mode.
-    pub const ALL: [Mode; 12] = [
-        Mode::Stabilize,
-        Mode::AltHold,
-        Mode::Manual,
-        Mode::Hold,
-        Mode::Loiter,
-        Mode::Auto,
-        Mode::Guided,
-        Mode::Rtl,
-        Mode::Land,
-        Mode::Takeoff,
-        Mode::Brake,
-        Mode::Initialising,
+    pub const ALL: [SimMode; 12] = [
+        SimMode::Stabilize,
+        SimMode::AltHold,
+        SimMode::Manual,
+        SimMode::Hold,
+        SimMode::Loiter,
+        SimMode::Auto,
+        SimMode::Guided,
+        SimMode::Rtl,
+        SimMode::Land,
+        SimMode::Takeoff,
+        SimMode::Brake,
+        SimMode::Initialising,
     ];
 
     fn generic_name(self) -> &'static str {
         match self {
-            Mode::Stabilize => "STABILIZE",
-            Mode::AltHold => "ALT_HOLD",
-            Mode::Manual => "MANUAL",
-            Mode::Hold => "HOLD",
-            Mode::Loiter => "LOITER",
-            Mode::Auto => "AUTO",
-            Mode::Guided => "GUIDED",
-            Mode::Rtl => "RTL",
-            Mode::Land => "LAND",
-            Mode::Takeoff => "TAKEOFF",
-            Mode::Brake => "BRAKE",
-            Mode::Initialising => "INITIALISING",
+            SimMode::Stabilize => "STABILIZE",
+            SimMode::AltHold => "ALT_HOLD",
+            SimMode::Manual => "MANUAL",
+            SimMode::Hold => "HOLD",
+            SimMode::Loiter => "LOITER",
+            SimMode::Auto => "AUTO",
+            SimMode::Guided => "GUIDED",
+            SimMode::Rtl => "RTL",
+            SimMode::Land => "LAND",
+            SimMode::Takeoff => "TAKEOFF",
+            SimMode::Brake => "BRAKE",
+            SimMode::Initialising => "INITIALISING",
         }
     }
 
@@ -336,13 +336,13 @@ impl Mode {
     pub(crate) fn requires_position(self) -> bool {
         matches!(
             self,
-            Mode::Hold
-                | Mode::Loiter
-                | Mode::Auto
-                | Mode::Guided
-                | Mode::Rtl
-                | Mode::Takeoff
-                | Mode::Brake
+            SimMode::Hold
+                | SimMode::Loiter
+                | SimMode::Auto
+                | SimMode::Guided
+                | SimMode::Rtl
+                | SimMode::Takeoff
+                | SimMode::Brake
         )
     }
 }
@@ -354,24 +354,27 @@ mod tests {
     #[test]
     fn mode_numbers_round_trip() {
         for f in [
-            Flavour::ARDU_COPTER,
-            Flavour::ARDU_ROVER,
-            Flavour::PX4_COPTER,
-            Flavour::PX4_ROVER,
+            SimFlavour::ARDU_COPTER,
+            SimFlavour::ARDU_ROVER,
+            SimFlavour::PX4_COPTER,
+            SimFlavour::PX4_ROVER,
         ] {
-            for m in Mode::ALL {
+            for m in SimMode::ALL {
                 if let Some(c) = f.custom_mode(m) {
                     assert_eq!(f.mode_from_custom(c), Some(m), "{f} {m:?}");
                 }
             }
         }
-        assert_eq!(Flavour::ARDU_COPTER.custom_mode(Mode::Guided), Some(4));
-        assert_eq!(Flavour::ARDU_ROVER.custom_mode(Mode::Auto), Some(10));
         assert_eq!(
-            Flavour::PX4_COPTER.custom_mode(Mode::Auto),
+            SimFlavour::ARDU_COPTER.custom_mode(SimMode::Guided),
+            Some(4)
+        );
+        assert_eq!(SimFlavour::ARDU_ROVER.custom_mode(SimMode::Auto), Some(10));
+        assert_eq!(
+            SimFlavour::PX4_COPTER.custom_mode(SimMode::Auto),
             Some((4 << 16) | (4 << 24))
         );
-        assert_eq!(Flavour::PX4_ROVER.custom_mode(Mode::Land), None);
+        assert_eq!(SimFlavour::PX4_ROVER.custom_mode(SimMode::Land), None);
     }
 
     /// The numbers and names the simulator put on the wire before it read them from
@@ -379,56 +382,61 @@ mod tests {
     #[test]
     fn wire_numbers_and_names_unchanged() {
         let px4 = |main: u32, sub: u32| Some((main << 16) | (sub << 24));
-        use Mode::*;
-        let expected: [(Flavour, Mode, Option<u32>, &str); 48] = [
-            (Flavour::ARDU_COPTER, Stabilize, Some(0), "STABILIZE"),
-            (Flavour::ARDU_COPTER, AltHold, Some(2), "ALT_HOLD"),
-            (Flavour::ARDU_COPTER, Manual, None, "MANUAL"),
-            (Flavour::ARDU_COPTER, Hold, Some(5), "LOITER"),
-            (Flavour::ARDU_COPTER, Loiter, None, "LOITER"),
-            (Flavour::ARDU_COPTER, Auto, Some(3), "AUTO"),
-            (Flavour::ARDU_COPTER, Guided, Some(4), "GUIDED"),
-            (Flavour::ARDU_COPTER, Rtl, Some(6), "RTL"),
-            (Flavour::ARDU_COPTER, Land, Some(9), "LAND"),
-            (Flavour::ARDU_COPTER, Takeoff, None, "TAKEOFF"),
-            (Flavour::ARDU_COPTER, Brake, Some(17), "BRAKE"),
-            (Flavour::ARDU_COPTER, Initialising, None, "INITIALISING"),
-            (Flavour::ARDU_ROVER, Stabilize, None, "STABILIZE"),
-            (Flavour::ARDU_ROVER, AltHold, None, "ALT_HOLD"),
-            (Flavour::ARDU_ROVER, Manual, Some(0), "MANUAL"),
-            (Flavour::ARDU_ROVER, Hold, Some(4), "HOLD"),
-            (Flavour::ARDU_ROVER, Loiter, Some(5), "LOITER"),
-            (Flavour::ARDU_ROVER, Auto, Some(10), "AUTO"),
-            (Flavour::ARDU_ROVER, Guided, Some(15), "GUIDED"),
-            (Flavour::ARDU_ROVER, Rtl, Some(11), "RTL"),
-            (Flavour::ARDU_ROVER, Land, None, "LAND"),
-            (Flavour::ARDU_ROVER, Takeoff, None, "TAKEOFF"),
-            (Flavour::ARDU_ROVER, Brake, None, "BRAKE"),
-            (Flavour::ARDU_ROVER, Initialising, Some(16), "INITIALISING"),
-            (Flavour::PX4_COPTER, Stabilize, px4(7, 0), "STABILIZED"),
-            (Flavour::PX4_COPTER, AltHold, px4(2, 0), "ALTCTL"),
-            (Flavour::PX4_COPTER, Manual, px4(1, 0), "MANUAL"),
-            (Flavour::PX4_COPTER, Hold, px4(4, 3), "HOLD"),
-            (Flavour::PX4_COPTER, Loiter, px4(3, 0), "POSCTL"),
-            (Flavour::PX4_COPTER, Auto, px4(4, 4), "MISSION"),
-            (Flavour::PX4_COPTER, Guided, px4(6, 0), "OFFBOARD"),
-            (Flavour::PX4_COPTER, Rtl, px4(4, 5), "RTL"),
-            (Flavour::PX4_COPTER, Land, px4(4, 6), "LAND"),
-            (Flavour::PX4_COPTER, Takeoff, px4(4, 2), "TAKEOFF"),
-            (Flavour::PX4_COPTER, Brake, None, "BRAKE"),
-            (Flavour::PX4_COPTER, Initialising, None, "INITIALISING"),
-            (Flavour::PX4_ROVER, Stabilize, px4(7, 0), "STABILIZED"),
-            (Flavour::PX4_ROVER, AltHold, None, "ALT_HOLD"),
-            (Flavour::PX4_ROVER, Manual, px4(1, 0), "MANUAL"),
-            (Flavour::PX4_ROVER, Hold, px4(4, 3), "HOLD"),
-            (Flavour::PX4_ROVER, Loiter, px4(3, 0), "POSCTL"),
-            (Flavour::PX4_ROVER, Auto, px4(4, 4), "MISSION"),
-            (Flavour::PX4_ROVER, Guided, px4(6, 0), "OFFBOARD"),
-            (Flavour::PX4_ROVER, Rtl, px4(4, 5), "RTL"),
-            (Flavour::PX4_ROVER, Land, None, "LAND"),
-            (Flavour::PX4_ROVER, Takeoff, px4(4, 2), "TAKEOFF"),
-            (Flavour::PX4_ROVER, Brake, None, "BRAKE"),
-            (Flavour::PX4_ROVER, Initialising, None, "INITIALISING"),
+        use SimMode::*;
+        let expected: [(SimFlavour, SimMode, Option<u32>, &str); 48] = [
+            (SimFlavour::ARDU_COPTER, Stabilize, Some(0), "STABILIZE"),
+            (SimFlavour::ARDU_COPTER, AltHold, Some(2), "ALT_HOLD"),
+            (SimFlavour::ARDU_COPTER, Manual, None, "MANUAL"),
+            (SimFlavour::ARDU_COPTER, Hold, Some(5), "LOITER"),
+            (SimFlavour::ARDU_COPTER, Loiter, None, "LOITER"),
+            (SimFlavour::ARDU_COPTER, Auto, Some(3), "AUTO"),
+            (SimFlavour::ARDU_COPTER, Guided, Some(4), "GUIDED"),
+            (SimFlavour::ARDU_COPTER, Rtl, Some(6), "RTL"),
+            (SimFlavour::ARDU_COPTER, Land, Some(9), "LAND"),
+            (SimFlavour::ARDU_COPTER, Takeoff, None, "TAKEOFF"),
+            (SimFlavour::ARDU_COPTER, Brake, Some(17), "BRAKE"),
+            (SimFlavour::ARDU_COPTER, Initialising, None, "INITIALISING"),
+            (SimFlavour::ARDU_ROVER, Stabilize, None, "STABILIZE"),
+            (SimFlavour::ARDU_ROVER, AltHold, None, "ALT_HOLD"),
+            (SimFlavour::ARDU_ROVER, Manual, Some(0), "MANUAL"),
+            (SimFlavour::ARDU_ROVER, Hold, Some(4), "HOLD"),
+            (SimFlavour::ARDU_ROVER, Loiter, Some(5), "LOITER"),
+            (SimFlavour::ARDU_ROVER, Auto, Some(10), "AUTO"),
+            (SimFlavour::ARDU_ROVER, Guided, Some(15), "GUIDED"),
+            (SimFlavour::ARDU_ROVER, Rtl, Some(11), "RTL"),
+            (SimFlavour::ARDU_ROVER, Land, None, "LAND"),
+            (SimFlavour::ARDU_ROVER, Takeoff, None, "TAKEOFF"),
+            (SimFlavour::ARDU_ROVER, Brake, None, "BRAKE"),
+            (
+                SimFlavour::ARDU_ROVER,
+                Initialising,
+                Some(16),
+                "INITIALISING",
+            ),
+            (SimFlavour::PX4_COPTER, Stabilize, px4(7, 0), "STABILIZED"),
+            (SimFlavour::PX4_COPTER, AltHold, px4(2, 0), "ALTCTL"),
+            (SimFlavour::PX4_COPTER, Manual, px4(1, 0), "MANUAL"),
+            (SimFlavour::PX4_COPTER, Hold, px4(4, 3), "HOLD"),
+            (SimFlavour::PX4_COPTER, Loiter, px4(3, 0), "POSCTL"),
+            (SimFlavour::PX4_COPTER, Auto, px4(4, 4), "MISSION"),
+            (SimFlavour::PX4_COPTER, Guided, px4(6, 0), "OFFBOARD"),
+            (SimFlavour::PX4_COPTER, Rtl, px4(4, 5), "RTL"),
+            (SimFlavour::PX4_COPTER, Land, px4(4, 6), "LAND"),
+            (SimFlavour::PX4_COPTER, Takeoff, px4(4, 2), "TAKEOFF"),
+            (SimFlavour::PX4_COPTER, Brake, None, "BRAKE"),
+            (SimFlavour::PX4_COPTER, Initialising, None, "INITIALISING"),
+            (SimFlavour::PX4_ROVER, Stabilize, px4(7, 0), "STABILIZED"),
+            (SimFlavour::PX4_ROVER, AltHold, None, "ALT_HOLD"),
+            (SimFlavour::PX4_ROVER, Manual, px4(1, 0), "MANUAL"),
+            (SimFlavour::PX4_ROVER, Hold, px4(4, 3), "HOLD"),
+            (SimFlavour::PX4_ROVER, Loiter, px4(3, 0), "POSCTL"),
+            (SimFlavour::PX4_ROVER, Auto, px4(4, 4), "MISSION"),
+            (SimFlavour::PX4_ROVER, Guided, px4(6, 0), "OFFBOARD"),
+            (SimFlavour::PX4_ROVER, Rtl, px4(4, 5), "RTL"),
+            (SimFlavour::PX4_ROVER, Land, None, "LAND"),
+            (SimFlavour::PX4_ROVER, Takeoff, px4(4, 2), "TAKEOFF"),
+            (SimFlavour::PX4_ROVER, Brake, None, "BRAKE"),
+            (SimFlavour::PX4_ROVER, Initialising, None, "INITIALISING"),
         ];
         for (f, m, number, name) in expected {
             assert_eq!(f.custom_mode(m), number, "{f} {m:?}");
@@ -440,16 +448,16 @@ mod tests {
     #[test]
     fn serializes_in_lower_case() {
         assert_eq!(
-            serde_json::to_string(&Flavour::ARDU_COPTER).expect("serializes"),
+            serde_json::to_string(&SimFlavour::ARDU_COPTER).expect("serializes"),
             r#"{"autopilot":"ardupilot","kind":"copter"}"#
         );
         assert_eq!(
-            serde_json::from_str::<Flavour>(r#"{"autopilot":"px4","kind":"rover"}"#)
+            serde_json::from_str::<SimFlavour>(r#"{"autopilot":"px4","kind":"rover"}"#)
                 .expect("reads"),
-            Flavour::PX4_ROVER
+            SimFlavour::PX4_ROVER
         );
         assert!(
-            serde_json::from_str::<Flavour>(r#"{"autopilot":"other","kind":"rover"}"#).is_err()
+            serde_json::from_str::<SimFlavour>(r#"{"autopilot":"other","kind":"rover"}"#).is_err()
         );
     }
 
@@ -462,8 +470,8 @@ mod tests {
             SimAutopilot::try_from(Autopilot::Other(8)),
             Err(Autopilot::Other(8))
         );
-        assert_eq!(Flavour::ARDU_ROVER.mav_autopilot(), 3);
-        assert_eq!(Flavour::PX4_COPTER.mav_autopilot(), 12);
+        assert_eq!(SimFlavour::ARDU_ROVER.mav_autopilot(), 3);
+        assert_eq!(SimFlavour::PX4_COPTER.mav_autopilot(), 12);
     }
 
     /// The GCS reads each simulated flavour's HEARTBEAT (MAV_AUTOPILOT, MAV_TYPE) as the core
@@ -471,10 +479,10 @@ mod tests {
     #[test]
     fn heartbeat_reads_back_as_the_core_flavour() {
         for (f, core) in [
-            (Flavour::ARDU_COPTER, proto_flavour::Flavour::ARDU_COPTER),
-            (Flavour::ARDU_ROVER, proto_flavour::Flavour::ARDU_ROVER),
-            (Flavour::PX4_COPTER, proto_flavour::Flavour::PX4_COPTER),
-            (Flavour::PX4_ROVER, proto_flavour::Flavour::PX4_ROVER),
+            (SimFlavour::ARDU_COPTER, proto_flavour::Flavour::ARDU_COPTER),
+            (SimFlavour::ARDU_ROVER, proto_flavour::Flavour::ARDU_ROVER),
+            (SimFlavour::PX4_COPTER, proto_flavour::Flavour::PX4_COPTER),
+            (SimFlavour::PX4_ROVER, proto_flavour::Flavour::PX4_ROVER),
         ] {
             assert_eq!(proto_flavour::Flavour::from(f), core, "{f}");
             assert_eq!(
@@ -488,17 +496,17 @@ mod tests {
     #[test]
     fn parses_vehicle_specs() {
         assert_eq!(
-            "copter:ardupilot".parse::<Flavour>(),
-            Ok(Flavour::ARDU_COPTER)
+            "copter:ardupilot".parse::<SimFlavour>(),
+            Ok(SimFlavour::ARDU_COPTER)
         );
-        assert_eq!("Rover:PX4".parse::<Flavour>(), Ok(Flavour::PX4_ROVER));
-        assert!("plane:px4".parse::<Flavour>().is_err());
+        assert_eq!("Rover:PX4".parse::<SimFlavour>(), Ok(SimFlavour::PX4_ROVER));
+        assert!("plane:px4".parse::<SimFlavour>().is_err());
         assert_eq!(
-            "copter".parse::<Flavour>(),
+            "copter".parse::<SimFlavour>(),
             Err(FlavourSpecError::Syntax("copter".into()))
         );
         assert_eq!(
-            "plane:px4".parse::<Flavour>().map_err(|e| e.to_string()),
+            "plane:px4".parse::<SimFlavour>().map_err(|e| e.to_string()),
             Err("unknown vehicle type \"plane\" (copter or rover)".into())
         );
     }

@@ -25,7 +25,7 @@
 //! mobile charging stations).
 
 use crate::fault::{Action, FaultPlan, FaultSpecError, ScheduledFault};
-use crate::flavour::{Flavour, VehicleKind};
+use crate::flavour::{SimFlavour, SimVehicleClass};
 use crate::vehicle::{DT, Px4Link, SimVehicle, VehicleConfig, VehicleEvent};
 use fleetmap_camera::camera::CapturedImage;
 use fleetmap_core::time::Time;
@@ -72,7 +72,7 @@ pub enum SimError {
 /// One entry of a `--vehicles` spec: how many, which flavour, and for PX4 which MAVLink
 /// instance the GCS talks to ([`Px4Link`]: `@net`, the default, `@telem1`, or `@sitl`: the
 /// SITL's UDP GCS link, to compare with PX4 SITL).
-type SpecEntry = (usize, Flavour, Option<Px4Link>);
+type SpecEntry = (usize, SimFlavour, Option<Px4Link>);
 
 /// Parse `3xcopter:ardupilot,1xrover:px4,copter:px4@sitl` into entries (a missing `N x`
 /// means one).
@@ -96,7 +96,7 @@ pub(crate) fn parse_vehicle_spec(spec: &str) -> Result<Vec<SpecEntry>, SimError>
             Some((r, l)) => (r, Some(l.trim().to_ascii_lowercase())),
             None => (rest, None),
         };
-        let f = rest.parse::<Flavour>().map_err(|e| err(e.to_string()))?;
+        let f = rest.parse::<SimFlavour>().map_err(|e| err(e.to_string()))?;
         let link = match link.as_deref() {
             None => None,
             Some(_) if f.is_ardupilot() => {
@@ -617,10 +617,10 @@ impl Sim {
         // step: rovers first, so copters standing on them ride along
         let before: Vec<(f64, f64, f64)> = self.slots.iter().map(|s| s.v.true_local()).collect();
         let order: Vec<usize> = (0..self.slots.len())
-            .filter(|&i| self.slots[i].v.config().flavour.kind == VehicleKind::Rover)
+            .filter(|&i| self.slots[i].v.config().flavour.kind == SimVehicleClass::Rover)
             .chain(
                 (0..self.slots.len())
-                    .filter(|&i| self.slots[i].v.config().flavour.kind != VehicleKind::Rover),
+                    .filter(|&i| self.slots[i].v.config().flavour.kind != SimVehicleClass::Rover),
             )
             .collect();
         for &i in &order {
@@ -664,7 +664,7 @@ impl Sim {
             .slots
             .iter()
             .enumerate()
-            .filter(|(_, s)| s.v.config().flavour.kind == VehicleKind::Rover)
+            .filter(|(_, s)| s.v.config().flavour.kind == SimVehicleClass::Rover)
             .map(|(i, s)| {
                 let (e, n, _) = s.v.true_local();
                 ((before[i].0, before[i].1), (e, n))
@@ -675,7 +675,7 @@ impl Sim {
         }
         for (slot, b) in self.slots.iter_mut().zip(before) {
             let v = &mut slot.v;
-            if v.config().flavour.kind != VehicleKind::Copter || !v.landed() || !v.powered() {
+            if v.config().flavour.kind != SimVehicleClass::Copter || !v.landed() || !v.powered() {
                 continue;
             }
             // carried by the rover it stood on before this step
@@ -722,11 +722,11 @@ mod tests {
     fn spec_parsing() {
         let v = parse_vehicle_spec("3xcopter:ardupilot, 1xrover:ardupilot,copter:px4").unwrap();
         assert_eq!(v.len(), 3);
-        assert_eq!(v[0], (3, Flavour::ARDU_COPTER, None));
-        assert_eq!(v[2], (1, Flavour::PX4_COPTER, None));
+        assert_eq!(v[0], (3, SimFlavour::ARDU_COPTER, None));
+        assert_eq!(v[2], (1, SimFlavour::PX4_COPTER, None));
         let v = parse_vehicle_spec("2xcopter:px4@sitl,rover:px4@TELEM1").unwrap();
-        assert_eq!(v[0], (2, Flavour::PX4_COPTER, Some(Px4Link::SITL_UDP)));
-        assert_eq!(v[1], (1, Flavour::PX4_ROVER, Some(Px4Link::TELEM1)));
+        assert_eq!(v[0], (2, SimFlavour::PX4_COPTER, Some(Px4Link::SITL_UDP)));
+        assert_eq!(v[1], (1, SimFlavour::PX4_ROVER, Some(Px4Link::TELEM1)));
         assert!(parse_vehicle_spec("copter:ardupilot@sitl").is_err());
         assert!(parse_vehicle_spec("copter:px4@wifi").is_err());
         assert!(parse_vehicle_spec("0xcopter:px4").is_err());

@@ -5,7 +5,7 @@
 #![allow(deprecated)]
 
 use super::parse_faults;
-use crate::flavour::{Flavour, Mode};
+use crate::flavour::{SimFlavour, SimMode};
 use crate::harness::{Sim, SimConfig};
 use crate::vehicle::VehicleEvent;
 use fleetmap_core::time::Time;
@@ -142,9 +142,9 @@ impl Gcs {
     }
 
     /// Arm in GUIDED (ArduPilot) and, for a copter, take off to `alt` m.
-    fn arm_and_take_off(&mut self, sysid: u8, flavour: Flavour, alt: f32) {
+    fn arm_and_take_off(&mut self, sysid: u8, flavour: SimFlavour, alt: f32) {
         if flavour.is_ardupilot() {
-            let c = flavour.custom_mode(Mode::Guided).unwrap() as f32;
+            let c = flavour.custom_mode(SimMode::Guided).unwrap() as f32;
             self.accepted(
                 sysid,
                 mav::MavCmd::MAV_CMD_DO_SET_MODE,
@@ -248,9 +248,9 @@ fn a_battery_fault_triggers_the_autopilots_own_failsafe_and_the_copter_comes_hom
     // an operator would: at its default 7 %, 2 % above BAT_EMERGEN_THR (5 %) do not last
     // PX4's climb to RTL_RETURN_ALT, and it lands where it is (also what the real one does).
     for (flavour, percent, text) in [
-        (Flavour::ARDU_COPTER, 15, "Battery 1 is low"),
+        (SimFlavour::ARDU_COPTER, 15, "Battery 1 is low"),
         (
-            Flavour::PX4_COPTER,
+            SimFlavour::PX4_COPTER,
             20,
             "Critical battery level! Executing RTL",
         ),
@@ -279,7 +279,7 @@ fn a_battery_fault_triggers_the_autopilots_own_failsafe_and_the_copter_comes_hom
             !g.texts(1).iter().any(|(_, t)| t.starts_with(text)),
             "{flavour}: too early"
         );
-        assert_ne!(v.mode(), Mode::Rtl);
+        assert_ne!(v.mode(), SimMode::Rtl);
         let away = g.local(1);
         assert!(
             away.1 > 20.0,
@@ -294,7 +294,7 @@ fn a_battery_fault_triggers_the_autopilots_own_failsafe_and_the_copter_comes_hom
         );
         assert_eq!(
             v.mode(),
-            Mode::Rtl,
+            SimMode::Rtl,
             "{flavour}: the autopilot returns by itself"
         );
         let said = g.texts(1);
@@ -311,7 +311,7 @@ fn a_battery_fault_triggers_the_autopilots_own_failsafe_and_the_copter_comes_hom
         assert!(
             g.events
                 .iter()
-                .any(|(_, s, e)| *s == 1 && *e == VehicleEvent::BatteryFailsafe(Mode::Rtl))
+                .any(|(_, s, e)| *s == 1 && *e == VehicleEvent::BatteryFailsafe(SimMode::Rtl))
         );
         // home, landed
         g.run_to(140.0);
@@ -483,7 +483,7 @@ fn a_slowed_camera_sends_slower_and_takes_pictures_late_then_recovers() {
 fn a_stuck_rover_keeps_its_mode_and_answers_but_makes_no_progress() {
     let mut g = Gcs::new("1xrover:ardupilot", "1:stuck@40s..70s", |_| {});
     g.run_to(20.0);
-    g.arm_and_take_off(1, Flavour::ARDU_ROVER, 0.0);
+    g.arm_and_take_off(1, SimFlavour::ARDU_ROVER, 0.0);
     g.go_to(1, 200.0, 0.0, 0.0);
     g.run_to(40.0);
     let moving = g.local(1);
@@ -498,7 +498,7 @@ fn a_stuck_rover_keeps_its_mode_and_answers_but_makes_no_progress() {
     g.run_to(69.9);
     let v = g.sim.vehicle(1).unwrap();
     assert!(v.stuck());
-    assert_eq!(v.mode(), Mode::Guided, "it keeps its mode");
+    assert_eq!(v.mode(), SimMode::Guided, "it keeps its mode");
     assert!(v.armed());
     let stuck = g.local(1);
     // at most the step of the tick the fault came in
@@ -528,7 +528,7 @@ fn an_outage_carries_nothing_either_way_on_that_vehicles_link_only() {
     let mut g = Gcs::new("2xcopter:ardupilot", "1:outage@30s..60s", |_| {});
     g.run_to(40.0);
     // a command into the dark is neither answered nor executed
-    let loiter = Flavour::ARDU_COPTER.custom_mode(Mode::Hold).unwrap() as f32;
+    let loiter = SimFlavour::ARDU_COPTER.custom_mode(SimMode::Hold).unwrap() as f32;
     assert_eq!(
         g.command(
             1,
@@ -538,7 +538,7 @@ fn an_outage_carries_nothing_either_way_on_that_vehicles_link_only() {
         ),
         None
     );
-    assert_ne!(g.sim.vehicle(1).unwrap().mode(), Mode::Hold);
+    assert_ne!(g.sim.vehicle(1).unwrap().mode(), SimMode::Hold);
     g.run_to(62.0);
     assert_eq!(g.heard(1, None, 30.0, 60.0), Vec::<Time>::new());
     assert!(!g.heard(1, None, 25.0, 30.0).is_empty());
@@ -581,9 +581,9 @@ fn a_px4_copter_in_an_outage_takes_its_data_link_failsafe() {
         [0.0, 0.0, 0.0, f32::NAN, f32::NAN, f32::NAN, amsl],
     );
     g.run_to(45.0);
-    assert_ne!(g.sim.vehicle(1).unwrap().mode(), Mode::Rtl);
+    assert_ne!(g.sim.vehicle(1).unwrap().mode(), SimMode::Rtl);
     g.run_to(60.0);
-    assert_eq!(g.sim.vehicle(1).unwrap().mode(), Mode::Rtl);
+    assert_eq!(g.sim.vehicle(1).unwrap().mode(), SimMode::Rtl);
 }
 
 #[test]

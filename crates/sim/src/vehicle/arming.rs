@@ -140,8 +140,8 @@ impl SimVehicle {
         self.telemetry.events.push_back(VehicleEvent::Armed(true));
         // modes that start moving when armed
         match self.modes.mode {
-            Mode::Auto if !ap => self.start_or_resume_mission(now),
-            Mode::Takeoff => {
+            SimMode::Auto if !ap => self.start_or_resume_mission(now),
+            SimMode::Takeoff => {
                 let h = self.here();
                 if let Nav::Takeoff(p) = self.flight.nav {
                     self.flight.nav = Nav::Takeoff(Point {
@@ -153,12 +153,12 @@ impl SimVehicle {
                     self.flight.nav = Nav::Takeoff(Point { u: 2.5, ..h });
                 }
             }
-            Mode::Auto if !self.cfg.flavour.is_copter() => self.start_or_resume_mission(now),
-            Mode::Auto => {
+            SimMode::Auto if !self.cfg.flavour.is_copter() => self.start_or_resume_mission(now),
+            SimMode::Auto => {
                 // ArduCopter: armed in AUTO on the ground waits for MISSION_START (no throttle)
                 self.missions.exec.waiting_auto_armed = true;
             }
-            Mode::Hold | Mode::Guided | Mode::Loiter if !self.cfg.flavour.is_copter() => {
+            SimMode::Hold | SimMode::Guided | SimMode::Loiter if !self.cfg.flavour.is_copter() => {
                 self.flight.nav = Nav::Hold(self.here());
             }
             _ => {}
@@ -167,8 +167,8 @@ impl SimVehicle {
         Ok(())
     }
 
-    pub(super) fn mode_can_arm(&self, mode: Mode) -> bool {
-        !matches!(mode, Mode::Rtl | Mode::Land | Mode::Brake)
+    pub(super) fn mode_can_arm(&self, mode: SimMode) -> bool {
+        !matches!(mode, SimMode::Rtl | SimMode::Land | SimMode::Brake)
     }
 
     pub(super) fn disarm(&mut self, now: Time, reason: &str) {
@@ -185,7 +185,7 @@ impl SimVehicle {
             let msg = format!("Disarmed by {reason}");
             self.text(mav::MavSeverity::MAV_SEVERITY_INFO, &msg);
         }
-        if self.modes.mode == Mode::Auto {
+        if self.modes.mode == SimMode::Auto {
             self.missions.exec.running = false;
             self.missions.server.set_mission_running(false);
         }

@@ -144,7 +144,7 @@ impl SimVehicle {
     }
 
     pub(super) fn move_vehicle(&mut self, now: Time) {
-        let rover = self.cfg.flavour.kind == VehicleKind::Rover;
+        let rover = self.cfg.flavour.kind == SimVehicleClass::Rover;
         let was_landed = self.arming.landed;
         let cmd = self.motion_command();
         let (ee, en) = (self.estimator.gps_err.0, self.estimator.gps_err.1);
@@ -343,7 +343,7 @@ impl SimVehicle {
     pub(super) fn drain_battery(&mut self) {
         let load = if !self.arming.armed {
             0.01
-        } else if self.cfg.flavour.kind == VehicleKind::Rover {
+        } else if self.cfg.flavour.kind == SimVehicleClass::Rover {
             0.05 + 0.95 * (self.flight.m.ground_speed() / 1.0).min(2.0)
         } else if self.arming.landed {
             0.1
@@ -391,12 +391,15 @@ impl SimVehicle {
             };
         }
         if ap {
-            // GCS_MAVLINK_Copter::handle_MAV_CMD_NAV_TAKEOFF / Mode::do_user_takeoff
+            // GCS_MAVLINK_Copter::handle_MAV_CMD_NAV_TAKEOFF / SimMode::do_user_takeoff
             if c.frame != mav::MavFrame::MAV_FRAME_GLOBAL_RELATIVE_ALT {
                 return R::MAV_RESULT_DENIED;
             }
             let alt = f64::from(c.z);
-            let user_takeoff = matches!(self.modes.mode, Mode::Guided | Mode::Hold | Mode::AltHold);
+            let user_takeoff = matches!(
+                self.modes.mode,
+                SimMode::Guided | SimMode::Hold | SimMode::AltHold
+            );
             if !self.arming.armed || !self.arming.landed || !user_takeoff || alt <= self.flight.m.u
             {
                 return R::MAV_RESULT_FAILED;
@@ -407,10 +410,10 @@ impl SimVehicle {
         } else {
             // PX4 switches to AUTO_TAKEOFF on NAV_TAKEOFF in the air too (Commander's
             // VEHICLE_CMD_NAV_TAKEOFF; PX4 1.16 SIH: ACCEPTED while climbing and at altitude)
-            if self.check_mode_allowed(Mode::Takeoff, now).is_err() {
+            if self.check_mode_allowed(SimMode::Takeoff, now).is_err() {
                 let msg = format!(
                     "Switching to {} is currently not possible",
-                    self.cfg.flavour.mode_name(Mode::Takeoff)
+                    self.cfg.flavour.mode_name(SimMode::Takeoff)
                 );
                 self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, &msg);
                 return R::MAV_RESULT_TEMPORARILY_REJECTED;
@@ -437,7 +440,7 @@ impl SimVehicle {
                 );
                 2.5
             };
-            self.enter_mode(Mode::Takeoff, now);
+            self.enter_mode(SimMode::Takeoff, now);
             let here = self.here();
             // already higher: the navigator's take-off holds the altitude it is at
             self.flight.nav = Nav::Takeoff(Point {
@@ -581,7 +584,7 @@ impl SimVehicle {
         };
         if self.cfg.flavour.is_ardupilot() {
             // GCS_MAVLINK_Copter::handle_command_int_do_reposition
-            if self.modes.mode != Mode::Guided && !change_mode {
+            if self.modes.mode != SimMode::Guided && !change_mode {
                 return R::MAV_RESULT_DENIED;
             }
             if !nan_pos && (c.x.abs() > 900_000_000 || c.y.abs() > 1_800_000_000) {
@@ -591,10 +594,10 @@ impl SimVehicle {
                 return R::MAV_RESULT_FAILED;
             }
             let p = self.target_from_command(c, long, nan_pos);
-            if self.modes.mode != Mode::Guided
+            if self.modes.mode != SimMode::Guided
                 && self.set_mode_request(
                     1,
-                    self.cfg.flavour.custom_mode(Mode::Guided).unwrap_or(4),
+                    self.cfg.flavour.custom_mode(SimMode::Guided).unwrap_or(4),
                     now,
                 ) != R::MAV_RESULT_ACCEPTED
             {
@@ -613,16 +616,16 @@ impl SimVehicle {
             if !change_mode || (c.param2 as i32) & !1 != 0 {
                 return R::MAV_RESULT_UNSUPPORTED;
             }
-            if self.check_mode_allowed(Mode::Hold, now).is_err() {
+            if self.check_mode_allowed(SimMode::Hold, now).is_err() {
                 let msg = format!(
                     "Switching to {} is currently not possible",
-                    self.cfg.flavour.mode_name(Mode::Hold)
+                    self.cfg.flavour.mode_name(SimMode::Hold)
                 );
                 self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, &msg);
                 return R::MAV_RESULT_TEMPORARILY_REJECTED;
             }
             let p = self.target_from_command(c, long, nan_pos);
-            self.enter_mode(Mode::Hold, now);
+            self.enter_mode(SimMode::Hold, now);
             // navigator_main.cpp: a finite param4 is the yaw setpoint, in radians.
             self.flight.yaw_target_deg = c
                 .param4
@@ -652,7 +655,7 @@ impl SimVehicle {
         } else {
             angle
         };
-        if self.modes.mode == Mode::Guided {
+        if self.modes.mode == SimMode::Guided {
             self.flight.yaw_target_deg = Some(target.rem_euclid(360.0));
         }
         R::MAV_RESULT_ACCEPTED
@@ -666,7 +669,7 @@ impl SimVehicle {
         let mask = p.type_mask.bits();
         let pos_ignore = mask & 0b111 == 0b111;
         let ap = self.cfg.flavour.is_ardupilot();
-        if ap && self.modes.mode != Mode::Guided {
+        if ap && self.modes.mode != SimMode::Guided {
             return; // ignored outside GUIDED
         }
         if pos_ignore {
@@ -687,7 +690,7 @@ impl SimVehicle {
         self.flight.guided_target_at = Some(now);
         self.flight.yaw_target_deg = None;
         // ArduCopter does not take off for a position target; PX4 offboard does
-        if self.modes.mode == Mode::Guided
+        if self.modes.mode == SimMode::Guided
             && !(ap && self.arming.landed && self.cfg.flavour.is_copter())
         {
             self.flight.nav = Nav::Goto {

@@ -82,11 +82,11 @@ impl SimVehicle {
             if self.cfg.flavour.is_ardupilot() {
                 // FENCE_ACTION 1: RTL, or land when RTL is impossible
                 self.text(mav::MavSeverity::MAV_SEVERITY_CRITICAL, "Fence Breached");
-                if !matches!(self.modes.mode, Mode::Rtl | Mode::Land) {
+                if !matches!(self.modes.mode, SimMode::Rtl | SimMode::Land) {
                     if self.flight.home.is_some() {
-                        self.enter_mode(Mode::Rtl, now);
+                        self.enter_mode(SimMode::Rtl, now);
                     } else if self.cfg.flavour.is_copter() {
-                        self.enter_mode(Mode::Land, now);
+                        self.enter_mode(SimMode::Land, now);
                     }
                 }
             } else {
@@ -95,8 +95,11 @@ impl SimVehicle {
                     mav::MavSeverity::MAV_SEVERITY_CRITICAL,
                     "Geofence breached, holding",
                 );
-                if !matches!(self.modes.mode, Mode::Rtl | Mode::Land | Mode::Hold) {
-                    self.enter_mode(Mode::Hold, now);
+                if !matches!(
+                    self.modes.mode,
+                    SimMode::Rtl | SimMode::Land | SimMode::Hold
+                ) {
+                    self.enter_mode(SimMode::Hold, now);
                 }
             }
         }

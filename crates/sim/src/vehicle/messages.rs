@@ -146,7 +146,10 @@ impl SimVehicle {
             x if x == id!(NAV_CONTROLLER_OUTPUT_DATA) => {
                 // ArduCopter always (once initialised); ArduRover and PX4 only while the
                 // autopilot navigates
-                let navigating = matches!(self.modes.mode, Mode::Auto | Mode::Guided | Mode::Rtl);
+                let navigating = matches!(
+                    self.modes.mode,
+                    SimMode::Auto | SimMode::Guided | SimMode::Rtl
+                );
                 if !(navigating || ap && copter) {
                     return None;
                 }

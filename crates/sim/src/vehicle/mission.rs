@@ -61,7 +61,7 @@ impl SimVehicle {
                         self.missions.exec.nav_started = false;
                         self.missions.exec.complete = false;
                         self.missions.exec.jumps.clear();
-                        if self.modes.mode == Mode::Auto && self.arming.armed {
+                        if self.modes.mode == SimMode::Auto && self.arming.armed {
                             self.start_or_resume_mission(now);
                         }
                     }
@@ -675,7 +675,7 @@ impl SimVehicle {
             }
             if self.set_mode_request(
                 1,
-                self.cfg.flavour.custom_mode(Mode::Auto).unwrap_or(3),
+                self.cfg.flavour.custom_mode(SimMode::Auto).unwrap_or(3),
                 now,
             ) != R::MAV_RESULT_ACCEPTED
             {
@@ -686,7 +686,7 @@ impl SimVehicle {
             // AUTO already — a finished mission leaves the rover there — it is ACCEPTED and
             // starts nothing (the mode switch above was a no-op). ArduCopter's handler also
             // calls `mission.start_or_resume()` when the mission is not running.
-            let rover = self.cfg.flavour.kind == VehicleKind::Rover;
+            let rover = self.cfg.flavour.kind == SimVehicleClass::Rover;
             if !rover && (!self.missions.exec.running || self.missions.exec.waiting_auto_armed) {
                 self.start_or_resume_mission(now);
             }
@@ -699,7 +699,7 @@ impl SimVehicle {
                 );
                 return R::MAV_RESULT_DENIED;
             }
-            if self.check_mode_allowed(Mode::Auto, now).is_err() {
+            if self.check_mode_allowed(SimMode::Auto, now).is_err() {
                 self.text(
                     mav::MavSeverity::MAV_SEVERITY_CRITICAL,
                     "Switching to Mission is currently not possible",
@@ -709,8 +709,8 @@ impl SimVehicle {
             if !self.arming.armed && self.arm(now, false).is_err() {
                 return R::MAV_RESULT_TEMPORARILY_REJECTED;
             }
-            if self.modes.mode != Mode::Auto {
-                self.enter_mode(Mode::Auto, now);
+            if self.modes.mode != SimMode::Auto {
+                self.enter_mode(SimMode::Auto, now);
             } else {
                 self.start_or_resume_mission(now);
             }
@@ -720,7 +720,7 @@ impl SimVehicle {
 
     /// DO_PAUSE_CONTINUE (ArduCopter): param1 0 pauses (hold here), 1 resumes the mission.
     pub(super) fn cmd_pause_continue(&mut self, c: &mav::COMMAND_INT_DATA) -> mav::MavResult {
-        if self.modes.mode == Mode::Auto && !self.arming.landed {
+        if self.modes.mode == SimMode::Auto && !self.arming.landed {
             if c.param1 < 0.5 {
                 self.missions.exec.running = false;
                 self.flight.nav = Nav::Hold(self.here());

@@ -56,7 +56,7 @@
 
 use crate::battery::{Battery, BatteryConfig};
 use crate::fence::Fence;
-use crate::flavour::{Flavour, Mode, SimAutopilot, VehicleKind};
+use crate::flavour::{SimAutopilot, SimFlavour, SimMode, SimVehicleClass};
 use crate::mission_server::{HomeItem, MissionEvent, MissionServer};
 use crate::motion::{self, Command, Limits};
 use fleetmap_camera::camera::{CameraConfig, CaptureContext, CapturedImage, SimCamera};
@@ -195,7 +195,7 @@ pub struct VehicleConfig {
     /// MAVLink system id.
     pub sysid: u8,
     /// Autopilot and airframe.
-    pub flavour: Flavour,
+    pub flavour: SimFlavour,
     /// Where it is powered up (lat, lon degrees), on the ground.
     pub start: (f64, f64),
     /// The local frame's reference point shared by all vehicles of a simulation.
@@ -270,8 +270,8 @@ impl VehicleConfig {
     /// position estimate after 15 s (ArduPilot EKF3 in SITL) or 8 s (PX4), a 0.4 m GPS error
     /// (0.37 m shared by every receiver, 0.15 m its own)
     /// and, for copters, the paper's camera.
-    pub fn new(sysid: u8, flavour: Flavour, start: (f64, f64)) -> VehicleConfig {
-        let copter = flavour.kind == VehicleKind::Copter;
+    pub fn new(sysid: u8, flavour: SimFlavour, start: (f64, f64)) -> VehicleConfig {
+        let copter = flavour.kind == SimVehicleClass::Copter;
         let ardupilot = flavour.autopilot == SimAutopilot::ArduPilot;
         VehicleConfig {
             sysid,
@@ -296,7 +296,7 @@ impl VehicleConfig {
                 }
             },
             limits: match (flavour.autopilot, flavour.kind) {
-                (_, VehicleKind::Rover) => Limits::ROVER,
+                (_, SimVehicleClass::Rover) => Limits::ROVER,
                 (SimAutopilot::ArduPilot, _) => Limits::ARDUCOPTER,
                 (SimAutopilot::Px4, _) => Limits::PX4_COPTER,
             },
@@ -338,7 +338,7 @@ pub enum VehicleEvent {
     /// The vehicle touched down.
     Landed,
     /// A battery failsafe triggered (RTL or LAND).
-    BatteryFailsafe(Mode),
+    BatteryFailsafe(SimMode),
     /// A scheduled fault began ([`crate::fault`]; the harness announces it).
     FaultStarted(crate::fault::Fault),
     /// A scheduled fault ended.
@@ -351,7 +351,7 @@ pub enum VehicleEvent {
         /// fence was checked against.
         estimate: (f64, f64),
         /// The flight mode at the breach.
-        mode: Mode,
+        mode: SimMode,
     },
 }
 
@@ -512,7 +512,7 @@ impl SimVehicle {
     }
 
     /// The flight mode.
-    pub fn mode(&self) -> Mode {
+    pub fn mode(&self) -> SimMode {
         self.modes.mode
     }
 

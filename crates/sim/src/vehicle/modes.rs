@@ -7,7 +7,7 @@ use super::*;
 #[derive(Debug)]
 pub(super) struct Modes {
     /// The current flight mode.
-    pub(super) mode: Mode,
+    pub(super) mode: SimMode,
     /// The battery failsafe level reached (0 none, 1 RTL, 2 land).
     pub(super) failsafe_level: u8,
     /// When the last GCS heartbeat arrived (`None` since boot: no GCS seen).
@@ -21,18 +21,18 @@ impl SimVehicle {
 
     pub(super) fn run_mode(&mut self, now: Time) {
         match self.modes.mode {
-            Mode::Auto => self.run_mission(now),
-            Mode::Takeoff => {
+            SimMode::Auto => self.run_mission(now),
+            SimMode::Takeoff => {
                 if let Nav::Takeoff(p) = self.flight.nav
                     && self.arming.armed
                     && (self.flight.m.u - p.u).abs() < 0.8
                 {
                     self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Takeoff detected");
-                    self.enter_mode(Mode::Hold, now);
+                    self.enter_mode(SimMode::Hold, now);
                 }
             }
-            Mode::Rtl => self.run_rtl(now),
-            Mode::Land => {
+            SimMode::Rtl => self.run_rtl(now),
+            SimMode::Land => {
                 if let Nav::Land { p, descending } = self.flight.nav
                     && !descending
                 {
@@ -46,7 +46,7 @@ impl SimVehicle {
                 }
             }
             // PX4 offboard needs a setpoint stream (COM_OF_LOSS_T 1 s)
-            Mode::Guided
+            SimMode::Guided
                 if self.cfg.flavour.autopilot == SimAutopilot::Px4
                     && self
                         .flight
@@ -57,7 +57,7 @@ impl SimVehicle {
                     mav::MavSeverity::MAV_SEVERITY_CRITICAL,
                     "Failsafe activated: offboard control lost",
                 );
-                self.enter_mode(Mode::Hold, now);
+                self.enter_mode(SimMode::Hold, now);
             }
             _ => {}
         }
@@ -104,7 +104,7 @@ impl SimVehicle {
     pub(super) fn on_touchdown(&mut self, now: Time) {
         let ap = self.cfg.flavour.is_ardupilot();
         match self.modes.mode {
-            Mode::Land | Mode::Rtl => {
+            SimMode::Land | SimMode::Rtl => {
                 if let Nav::Rtl { ret_u, .. } = self.flight.nav {
                     self.flight.nav = Nav::Rtl {
                         phase: RtlPhase::Done,
@@ -115,7 +115,7 @@ impl SimVehicle {
                     self.disarm(now, "landed");
                 }
             }
-            Mode::Auto => {
+            SimMode::Auto => {
                 // the mission's LAND / RTL completes on touchdown (handled in run_mission)
             }
             _ => {}
@@ -123,7 +123,7 @@ impl SimVehicle {
     }
 
     pub(super) fn check_auto_disarm(&mut self, now: Time) {
-        if !self.arming.armed || self.cfg.flavour.kind == VehicleKind::Rover {
+        if !self.arming.armed || self.cfg.flavour.kind == SimVehicleClass::Rover {
             return;
         }
         let ap = self.cfg.flavour.is_ardupilot();
@@ -134,8 +134,8 @@ impl SimVehicle {
                 .map(|t| t.max(self.arming.armed_at))
                 .unwrap_or(self.arming.armed_at);
             let taking_off = matches!(self.flight.nav, Nav::Takeoff(_))
-                || (self.modes.mode == Mode::Auto && self.missions.exec.px4_takeoff.is_some())
-                || (self.modes.mode == Mode::Auto
+                || (self.modes.mode == SimMode::Auto && self.missions.exec.px4_takeoff.is_some())
+                || (self.modes.mode == SimMode::Auto
                     && !self.missions.exec.waiting_auto_armed
                     && self.missions.exec.running
                     && self.current_item_is_takeoff());
@@ -194,15 +194,15 @@ impl SimVehicle {
                 );
             }
             if self.arming.armed && !self.arming.landed {
-                if self.flight.home.is_some() && self.enter_mode(Mode::Rtl, now) {
+                if self.flight.home.is_some() && self.enter_mode(SimMode::Rtl, now) {
                     self.telemetry
                         .events
-                        .push_back(VehicleEvent::BatteryFailsafe(Mode::Rtl));
+                        .push_back(VehicleEvent::BatteryFailsafe(SimMode::Rtl));
                 } else if self.cfg.flavour.is_copter() {
-                    self.enter_mode(Mode::Land, now);
+                    self.enter_mode(SimMode::Land, now);
                     self.telemetry
                         .events
-                        .push_back(VehicleEvent::BatteryFailsafe(Mode::Land));
+                        .push_back(VehicleEvent::BatteryFailsafe(SimMode::Land));
                 }
             }
         }
@@ -224,7 +224,7 @@ impl SimVehicle {
             if self.arming.armed
                 && !self.arming.landed
                 && self.cfg.flavour.is_copter()
-                && self.modes.mode != Mode::Land
+                && self.modes.mode != SimMode::Land
             {
                 // already descending at home in RTL's landing phase: keep it
                 let landing_home = matches!(
@@ -235,10 +235,10 @@ impl SimVehicle {
                     }
                 );
                 if !landing_home {
-                    self.enter_mode(Mode::Land, now);
+                    self.enter_mode(SimMode::Land, now);
                     self.telemetry
                         .events
-                        .push_back(VehicleEvent::BatteryFailsafe(Mode::Land));
+                        .push_back(VehicleEvent::BatteryFailsafe(SimMode::Land));
                 }
             }
         }
@@ -257,13 +257,15 @@ impl SimVehicle {
                 mav::MavSeverity::MAV_SEVERITY_CRITICAL,
                 "Connection to ground station lost",
             );
-            if !self.arming.landed && self.modes.mode != Mode::Rtl && self.modes.mode != Mode::Land
+            if !self.arming.landed
+                && self.modes.mode != SimMode::Rtl
+                && self.modes.mode != SimMode::Land
             {
                 self.text(
                     mav::MavSeverity::MAV_SEVERITY_CRITICAL,
                     "Failsafe activated: Return",
                 );
-                self.enter_mode(Mode::Rtl, now);
+                self.enter_mode(SimMode::Rtl, now);
             }
         }
     }
@@ -284,36 +286,36 @@ impl SimVehicle {
 
     /// Switch mode as the autopilot would for an internal reason or a GCS request; returns
     /// whether the mode changed (or already was `mode`).
-    pub(super) fn enter_mode(&mut self, mode: Mode, now: Time) -> bool {
+    pub(super) fn enter_mode(&mut self, mode: SimMode, now: Time) -> bool {
         let here = self.here();
         let copter = self.cfg.flavour.is_copter();
         match mode {
-            Mode::Hold
-            | Mode::Loiter
-            | Mode::Brake
-            | Mode::Stabilize
-            | Mode::AltHold
-            | Mode::Manual => {
+            SimMode::Hold
+            | SimMode::Loiter
+            | SimMode::Brake
+            | SimMode::Stabilize
+            | SimMode::AltHold
+            | SimMode::Manual => {
                 self.flight.nav = if self.arming.landed && copter {
                     Nav::Idle
                 } else {
                     Nav::Hold(here)
                 };
             }
-            Mode::Guided => {
+            SimMode::Guided => {
                 self.flight.nav = if self.arming.landed && copter {
                     Nav::Idle
                 } else {
                     Nav::Hold(here)
                 };
             }
-            Mode::Land => {
+            SimMode::Land => {
                 self.flight.nav = Nav::Land {
                     p: here,
                     descending: true,
                 };
             }
-            Mode::Rtl => {
+            SimMode::Rtl => {
                 let ret_u = if !copter {
                     0.0
                 } else if self.cfg.flavour.is_ardupilot() {
@@ -331,14 +333,14 @@ impl SimVehicle {
                 };
                 self.flight.nav = Nav::Rtl { phase, ret_u };
             }
-            Mode::Takeoff => {
+            SimMode::Takeoff => {
                 let alt = 2.5; // MIS_TAKEOFF_ALT
                 self.flight.nav = Nav::Takeoff(Point { u: alt, ..here });
             }
-            Mode::Auto => {
+            SimMode::Auto => {
                 self.start_or_resume_mission(now);
             }
-            Mode::Initialising => {}
+            SimMode::Initialising => {}
         }
         if self.modes.mode != mode {
             self.modes.mode = mode;
@@ -346,7 +348,7 @@ impl SimVehicle {
             // wp_and_spline_init → WPNAV_SPEED; PX4 navigator reset_cruising_speed)
             self.flight.speed_override = None;
             self.flight.yaw_target_deg = None;
-            if mode != Mode::Auto {
+            if mode != SimMode::Auto {
                 self.missions.exec.running = false;
                 self.missions.server.set_mission_running(false);
             }
@@ -396,8 +398,8 @@ impl SimVehicle {
                 // its `mission.start_or_resume()` do not run again. A finished mission (MIS_
                 // DONE_BEHAVE 0 leaves the rover in AUTO) is not restarted by AUTO or by
                 // MISSION_START (seen on ArduRover SITL V4.7.0-dev 90700977).
-                let rover_ap = f.is_ardupilot() && f.kind == VehicleKind::Rover;
-                if self.modes.mode == mode && (mode != Mode::Auto || rover_ap) {
+                let rover_ap = f.is_ardupilot() && f.kind == SimVehicleClass::Rover;
+                if self.modes.mode == mode && (mode != SimMode::Auto || rover_ap) {
                     return R::MAV_RESULT_ACCEPTED;
                 }
                 self.enter_mode(mode, now);
@@ -420,18 +422,22 @@ impl SimVehicle {
         }
     }
 
-    pub(super) fn check_mode_allowed(&mut self, mode: Mode, now: Time) -> Result<(), &'static str> {
+    pub(super) fn check_mode_allowed(
+        &mut self,
+        mode: SimMode,
+        now: Time,
+    ) -> Result<(), &'static str> {
         let f = self.cfg.flavour;
         // ArduPilot checks a mode's position requirement only when armed ("allow switching to
         // any mode if disarmed. We rely on the arming check": `ignore_checks =
-        // !motors->armed()` in Copter::set_mode, the same in Rover's Mode::enter); PX4's
+        // !motors->armed()` in Copter::set_mode, the same in Rover's SimMode::enter); PX4's
         // commander refuses such a mode disarmed too.
         let ignore_checks = f.is_ardupilot() && !self.arming.armed;
         if mode.requires_position() && !ignore_checks && !self.position_ok(now) {
             return Err("requires position");
         }
         match (f.autopilot, mode) {
-            (SimAutopilot::ArduPilot, Mode::Auto) => {
+            (SimAutopilot::ArduPilot, SimMode::Auto) => {
                 let n = self.missions.server.items(MissionType::Mission).len();
                 if n <= 1 {
                     self.text(
@@ -453,12 +459,12 @@ impl SimVehicle {
                 }
                 Ok(())
             }
-            (SimAutopilot::ArduPilot, Mode::Rtl | Mode::Land)
+            (SimAutopilot::ArduPilot, SimMode::Rtl | SimMode::Land)
                 if self.arming.landed && !self.arming.armed =>
             {
                 Ok(())
             }
-            (SimAutopilot::Px4, Mode::Auto) => {
+            (SimAutopilot::Px4, SimMode::Auto) => {
                 if self.missions.server.items(MissionType::Mission).is_empty()
                     || !self.missions.valid
                 {
@@ -466,7 +472,7 @@ impl SimVehicle {
                 }
                 Ok(())
             }
-            (SimAutopilot::Px4, Mode::Guided) => {
+            (SimAutopilot::Px4, SimMode::Guided) => {
                 if self
                     .flight
                     .guided_target_at
@@ -476,7 +482,7 @@ impl SimVehicle {
                 }
                 Ok(())
             }
-            (SimAutopilot::Px4, Mode::Rtl) if self.flight.home.is_none() => Err("no home"),
+            (SimAutopilot::Px4, SimMode::Rtl) if self.flight.home.is_none() => Err("no home"),
             _ => Ok(()),
         }
     }
@@ -532,14 +538,14 @@ impl SimVehicle {
         if !self.cfg.flavour.is_copter() {
             R::MAV_RESULT_UNSUPPORTED
         } else if self.cfg.flavour.is_ardupilot() {
-            if self.check_mode_allowed(Mode::Land, now).is_ok() {
-                self.enter_mode(Mode::Land, now);
+            if self.check_mode_allowed(SimMode::Land, now).is_ok() {
+                self.enter_mode(SimMode::Land, now);
                 R::MAV_RESULT_ACCEPTED
             } else {
                 R::MAV_RESULT_FAILED
             }
         } else {
-            self.enter_mode(Mode::Land, now);
+            self.enter_mode(SimMode::Land, now);
             self.text(
                 mav::MavSeverity::MAV_SEVERITY_INFO,
                 "Landing at current position",
@@ -552,9 +558,9 @@ impl SimVehicle {
     pub(super) fn cmd_rtl(&mut self, now: Time) -> mav::MavResult {
         use mav::MavResult as R;
         let ap = self.cfg.flavour.is_ardupilot();
-        match self.check_mode_allowed(Mode::Rtl, now) {
+        match self.check_mode_allowed(SimMode::Rtl, now) {
             Ok(()) => {
-                self.enter_mode(Mode::Rtl, now);
+                self.enter_mode(SimMode::Rtl, now);
                 if !ap {
                     self.text(mav::MavSeverity::MAV_SEVERITY_INFO, "Returning to launch");
                 }
@@ -569,9 +575,9 @@ impl SimVehicle {
     pub(super) fn cmd_loiter_unlim(&mut self, now: Time) -> mav::MavResult {
         use mav::MavResult as R;
         let m = if self.cfg.flavour.is_copter() {
-            Mode::Hold
+            SimMode::Hold
         } else {
-            Mode::Loiter
+            SimMode::Loiter
         };
         match self.check_mode_allowed(m, now) {
             Ok(()) => {

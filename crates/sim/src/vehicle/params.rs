@@ -204,9 +204,9 @@ impl SimVehicle {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::flavour::Flavour;
+    use crate::flavour::SimFlavour;
 
-    fn vehicle(flavour: Flavour, params: &[(&str, f32)]) -> SimVehicle {
+    fn vehicle(flavour: SimFlavour, params: &[(&str, f32)]) -> SimVehicle {
         let mut cfg = VehicleConfig::new(3, flavour, (-35.36, 149.16));
         cfg.params = params.iter().map(|(n, v)| ((*n).into(), *v)).collect();
         SimVehicle::new(cfg, None, Time::from_secs(0))
@@ -233,7 +233,7 @@ mod tests {
 
     #[test]
     fn answers_by_name_with_the_defaults_and_the_set_values() {
-        let mut ap = vehicle(Flavour::ARDU_COPTER, &[("FS_GCS_ENABLE", 1.0)]);
+        let mut ap = vehicle(SimFlavour::ARDU_COPTER, &[("FS_GCS_ENABLE", 1.0)]);
         assert_eq!(
             read(&mut ap, fleetmap_core::proto::GCS_SYSID, "RTL_ALT"),
             Some((1500.0, T::MAV_PARAM_TYPE_INT32))
@@ -247,7 +247,7 @@ mod tests {
             None
         );
         // PX4 sends integers byte-wise
-        let mut px4 = vehicle(Flavour::PX4_COPTER, &[]);
+        let mut px4 = vehicle(SimFlavour::PX4_COPTER, &[]);
         let (raw, ty) =
             read(&mut px4, fleetmap_core::proto::GCS_SYSID, "GF_ACTION").expect("GF_ACTION");
         assert_eq!(ty, T::MAV_PARAM_TYPE_INT32);
@@ -261,7 +261,7 @@ mod tests {
     #[test]
     fn an_enforced_gcs_id_makes_ardupilot_deaf_to_everyone_else() {
         let mut ap = vehicle(
-            Flavour::ARDU_COPTER,
+            SimFlavour::ARDU_COPTER,
             &[("MAV_GCS_SYSID", 250.0), ("MAV_OPTIONS", 1.0)],
         );
         assert_eq!(

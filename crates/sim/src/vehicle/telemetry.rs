@@ -369,7 +369,7 @@ impl SimVehicle {
 
     pub(super) fn landed_state(&self) -> mav::MavLandedState {
         use mav::MavLandedState as L;
-        if self.cfg.flavour.kind == VehicleKind::Rover || self.arming.landed {
+        if self.cfg.flavour.kind == SimVehicleClass::Rover || self.arming.landed {
             L::MAV_LANDED_STATE_ON_GROUND
         } else if matches!(self.flight.nav, Nav::Takeoff(_))
             || self.missions.exec.px4_takeoff.is_some()
@@ -422,7 +422,11 @@ impl SimVehicle {
                         }
                         if matches!(
                             self.modes.mode,
-                            Mode::Auto | Mode::Rtl | Mode::Land | Mode::Takeoff | Mode::Hold
+                            SimMode::Auto
+                                | SimMode::Rtl
+                                | SimMode::Land
+                                | SimMode::Takeoff
+                                | SimMode::Hold
                         ) {
                             base |= mav::MavModeFlag::MAV_MODE_FLAG_AUTO_ENABLED;
                         }
@@ -434,7 +438,9 @@ impl SimVehicle {
                 let status = if self.modes.failsafe_level > 0 && self.arming.armed {
                     mav::MavState::MAV_STATE_CRITICAL
                 } else if f.is_ardupilot() {
-                    if self.arming.landed && !(self.arming.armed && f.kind == VehicleKind::Rover) {
+                    if self.arming.landed
+                        && !(self.arming.armed && f.kind == SimVehicleClass::Rover)
+                    {
                         if self.ardupilot_booting(now) {
                             mav::MavState::MAV_STATE_BOOT
                         } else {
@@ -620,7 +626,7 @@ impl SimVehicle {
                     mav::MissionState::MISSION_STATE_ACTIVE
                 } else if !ap
                     && self.missions.exec.nav_index.is_some()
-                    && self.modes.mode == Mode::Auto
+                    && self.modes.mode == SimMode::Auto
                 {
                     // PX4 only. ArduPilot never reports PAUSED: `GCS_MAVLINK::mission_state`
                     // (libraries/GCS_MAVLink/GCS_Common.cpp) maps AP_Mission's STOPPED to
@@ -635,7 +641,7 @@ impl SimVehicle {
                     seq: self.missions.server.current(),
                     total,
                     mission_state: state,
-                    mission_mode: u8::from(self.modes.mode == Mode::Auto),
+                    mission_mode: u8::from(self.modes.mode == SimMode::Auto),
                     // PX4 sends the lists' ids; ArduPilot 4.7 leaves them out
                     // (`GCS_MAVLINK::send_mission_current`)
                     mission_id: if ap {
@@ -713,10 +719,10 @@ impl SimVehicle {
                 // ArduCopter says MC, ArduRover has no landed state (`GCS_MAVLINK::landed_state`
                 // is UNDEFINED unless a vehicle overrides it; Rover does not)
                 let (vtol_state, landed_state) = match (f.autopilot, f.kind) {
-                    (SimAutopilot::ArduPilot, VehicleKind::Copter) => {
+                    (SimAutopilot::ArduPilot, SimVehicleClass::Copter) => {
                         (mav::MavVtolState::MAV_VTOL_STATE_MC, self.landed_state())
                     }
-                    (SimAutopilot::ArduPilot, VehicleKind::Rover) => (
+                    (SimAutopilot::ArduPilot, SimVehicleClass::Rover) => (
                         mav::MavVtolState::MAV_VTOL_STATE_UNDEFINED,
                         mav::MavLandedState::MAV_LANDED_STATE_UNDEFINED,
                     ),

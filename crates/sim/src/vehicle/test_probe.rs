@@ -3,7 +3,7 @@
 //! trailing zeros cut, no signature).
 
 use super::{Px4Link, SimVehicle, VehicleConfig};
-use crate::flavour::Flavour;
+use crate::flavour::SimFlavour;
 use fleetmap_core::time::Time;
 use mavlink::dialects::ardupilotmega::{self as mav, MavMessage};
 use mavlink::{MavHeader, MavlinkVersion, Message};
@@ -29,7 +29,7 @@ pub(crate) struct Probe {
 }
 
 impl Probe {
-    pub(crate) fn new(flavour: Flavour, link: Option<Px4Link>) -> Probe {
+    pub(crate) fn new(flavour: SimFlavour, link: Option<Px4Link>) -> Probe {
         let mut cfg = VehicleConfig::new(1, flavour, (37.1965, -80.5785));
         cfg.camera = None;
         if let Some(l) = link {

@@ -1,7 +1,7 @@
 //! Arming and take-off when commands arrive late or twice, as ArduCopter 4.7 SITL and PX4 1.16
 //! SIH answered them (measured; docs/results/conformance.md, "Arming and take-off").
 
-use crate::flavour::{Flavour, Mode};
+use crate::flavour::{SimFlavour, SimMode};
 use crate::vehicle::test_probe::Probe;
 use mavlink::dialects::ardupilotmega::{MavCmd as C, MavResult as R};
 
@@ -27,7 +27,7 @@ fn takeoff(p: &mut Probe, alt: f32) -> Option<R> {
 
 #[test]
 fn arducopter_auto_disarms_and_refuses_a_take_off_that_comes_late_or_twice() {
-    let mut p = Probe::new(Flavour::ARDU_COPTER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_COPTER, None);
     p.run(20.0);
     assert_eq!(mode(&mut p, &[4.0]), Some(R::MAV_RESULT_ACCEPTED)); // GUIDED
     assert_eq!(mode(&mut p, &[4.0]), Some(R::MAV_RESULT_ACCEPTED)); // the same mode again
@@ -58,7 +58,7 @@ fn arducopter_auto_disarms_and_refuses_a_take_off_that_comes_late_or_twice() {
 
 #[test]
 fn arducopter_takes_off_only_in_a_user_take_off_mode() {
-    let mut p = Probe::new(Flavour::ARDU_COPTER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_COPTER, None);
     p.run(20.0);
     assert_eq!(mode(&mut p, &[0.0]), Some(R::MAV_RESULT_ACCEPTED)); // STABILIZE
     assert_eq!(arm(&mut p), Some(R::MAV_RESULT_ACCEPTED));
@@ -72,14 +72,14 @@ fn arducopter_takes_off_only_in_a_user_take_off_mode() {
 
 #[test]
 fn px4_takes_a_take_off_disarmed_twice_and_in_the_air() {
-    let mut p = Probe::new(Flavour::PX4_COPTER, None);
+    let mut p = Probe::new(SimFlavour::PX4_COPTER, None);
     p.run(15.0);
     let hold = [4.0, 3.0]; // AUTO_LOITER
     assert_eq!(mode(&mut p, &hold), Some(R::MAV_RESULT_ACCEPTED));
     assert_eq!(mode(&mut p, &hold), Some(R::MAV_RESULT_ACCEPTED));
     // disarmed: AUTO_TAKEOFF, waiting for the arming
     assert_eq!(takeoff(&mut p, NAN), Some(R::MAV_RESULT_ACCEPTED));
-    assert_eq!(p.v.mode(), Mode::Takeoff);
+    assert_eq!(p.v.mode(), SimMode::Takeoff);
     assert!(
         p.texts
             .iter()

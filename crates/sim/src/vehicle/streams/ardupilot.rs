@@ -1,7 +1,7 @@
 //! ArduPilot's schedule: stream groups, buckets, `stream_slowdown_ms` (see the parent module).
 
 use super::{ms, next_time};
-use crate::flavour::VehicleKind;
+use crate::flavour::SimVehicleClass;
 use fleetmap_core::time::Time;
 use mavlink::dialects::ardupilotmega as mav;
 use std::time::Duration;
@@ -227,10 +227,10 @@ const HEARTBEAT: u32 = id!(HEARTBEAT_DATA);
 /// The default rate of each group, Hz (the `AP_MAV_DEFAULT_STREAM_RATE_*` defaults of
 /// `GCS_MAVLink_Parameters.cpp`): ArduCopter streams nothing, ArduRover everything at 1 Hz
 /// and parameters at 10 Hz (which send only while a parameter list is requested).
-fn ap_default_rates(kind: VehicleKind) -> [u16; 10] {
+fn ap_default_rates(kind: SimVehicleClass) -> [u16; 10] {
     match kind {
-        VehicleKind::Copter => [0; 10],
-        VehicleKind::Rover => [1, 1, 1, 1, 1, 1, 1, 1, 10, 0],
+        SimVehicleClass::Copter => [0; 10],
+        SimVehicleClass::Rover => [1, 1, 1, 1, 1, 1, 1, 1, 10, 0],
     }
 }
 
@@ -280,7 +280,7 @@ pub(crate) enum ApRefusal {
 
 impl ApSchedule {
     /// The schedule at boot: the vehicle's default group rates, HEARTBEAT at 1 Hz.
-    pub(crate) fn new(kind: VehicleKind, now: Time) -> ApSchedule {
+    pub(crate) fn new(kind: SimVehicleClass, now: Time) -> ApSchedule {
         let mut s = ApSchedule {
             rates: ap_default_rates(kind),
             buckets: [Bucket::default(); 10],
@@ -289,8 +289,8 @@ impl ApSchedule {
             slowdown_ms: 0,
             timesync_at: now,
             min_interval_ms: match kind {
-                VehicleKind::Copter => 4,
-                VehicleKind::Rover => 25,
+                SimVehicleClass::Copter => 4,
+                SimVehicleClass::Rover => 25,
             },
         };
         for g in ApGroup::ALL {

@@ -4,7 +4,7 @@
 //! and RADIO_STATUS.
 
 use super::*;
-use crate::flavour::Flavour;
+use crate::flavour::SimFlavour;
 use crate::vehicle::telemetry::Schedule;
 use crate::vehicle::test_probe::Probe;
 use mavlink::dialects::ardupilotmega::{self as mav, MavMessage};
@@ -233,7 +233,7 @@ fn assert_matches(p: &Probe, secs: f64, table: Table, total_tol: f64, msg_tol: f
 
 #[test]
 fn arducopter_sends_only_heartbeat_until_asked() {
-    let mut p = Probe::new(Flavour::ARDU_COPTER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_COPTER, None);
     p.run(40.0);
     let t = p.table(30.0);
     assert!((t[&0].0 - 1.0).abs() < 0.05, "{t:?}");
@@ -247,7 +247,7 @@ fn arducopter_sends_only_heartbeat_until_asked() {
 
 #[test]
 fn arducopter_costs_what_sitl_costs_after_fleetmaps_requests() {
-    let mut p = Probe::new(Flavour::ARDU_COPTER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_COPTER, None);
     p.run(40.0);
     p.fleetmap_requests();
     p.run(33.0);
@@ -256,7 +256,7 @@ fn arducopter_costs_what_sitl_costs_after_fleetmaps_requests() {
 
 #[test]
 fn ardurover_streams_every_group_at_1_hz_and_as_sitl_after_requests() {
-    let mut p = Probe::new(Flavour::ARDU_ROVER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_ROVER, None);
     p.run(40.0);
     // (LOCAL_POSITION_NED: 28 bytes at rest just after boot, 40 later, when the EKF's vertical
     // velocity is no longer exactly 0; the simulator sends 40)
@@ -295,7 +295,7 @@ fn budget(p: &mut Probe) {
 
 #[test]
 fn arducopter_set_message_interval_alone_after_all_streams_stop() {
-    let mut p = Probe::new(Flavour::ARDU_COPTER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_COPTER, None);
     p.run(30.0);
     p.fleetmap_requests();
     p.run(5.0);
@@ -347,7 +347,7 @@ fn arducopter_set_message_interval_alone_after_all_streams_stop() {
 #[test]
 fn ardupilot_refuses_unknown_messages_and_rates_it_cannot_keep() {
     use mav::MavResult::MAV_RESULT_DENIED as DENIED;
-    let mut p = Probe::new(Flavour::ARDU_ROVER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_ROVER, None);
     p.run(2.0);
     assert_eq!(p.interval(12345, 1e6), Some(DENIED));
     assert!(
@@ -367,7 +367,7 @@ fn ardupilot_refuses_unknown_messages_and_rates_it_cannot_keep() {
 
 #[test]
 fn radio_status_slows_ardupilots_streams_and_lets_them_recover() {
-    let mut p = Probe::new(Flavour::ARDU_COPTER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_COPTER, None);
     p.run(30.0);
     p.fleetmap_requests();
     p.run(20.0);
@@ -408,7 +408,7 @@ fn radio_status_slows_ardupilots_streams_and_lets_them_recover() {
 
 #[test]
 fn ardupilot_streams_slow_down_four_times_while_receiving_waypoints() {
-    let mut p = Probe::new(Flavour::ARDU_COPTER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_COPTER, None);
     p.run(30.0);
     p.fleetmap_requests();
     p.run(10.0);
@@ -460,7 +460,7 @@ fn ardupilot_streams_slow_down_four_times_while_receiving_waypoints() {
 #[test]
 fn ardupilot_buckets_share_intervals_and_take_the_nearest_when_full() {
     let t = Time::ZERO;
-    let mut s = ApSchedule::new(crate::flavour::VehicleKind::Copter, t);
+    let mut s = ApSchedule::new(crate::flavour::SimVehicleClass::Copter, t);
     // ten intervals fill the ten buckets; an eleventh joins the nearest
     let ids = [1u32, 2, 24, 30, 32, 33, 74, 147, 163, 178];
     for (i, id) in ids.iter().enumerate() {
@@ -481,14 +481,14 @@ fn ardupilot_buckets_share_intervals_and_take_the_nearest_when_full() {
 
 #[test]
 fn px4_on_telem1_scales_its_normal_streams_to_1200_bytes_a_second() {
-    let mut p = Probe::new(Flavour::PX4_COPTER, Some(Px4Link::TELEM1));
+    let mut p = Probe::new(SimFlavour::PX4_COPTER, Some(Px4Link::TELEM1));
     p.run(40.0);
     assert_matches(&p, 30.0, PX4_TELEM1_DEFAULTS, 0.06, 0.15, "PX4 TELEM1");
 }
 
 #[test]
 fn px4_on_a_network_link_streams_its_normal_mode_at_full_rate() {
-    let mut p = Probe::new(Flavour::PX4_COPTER, None);
+    let mut p = Probe::new(SimFlavour::PX4_COPTER, None);
     assert_eq!(p.v.config().px4_link, Px4Link::NETWORK);
     p.run(40.0);
     assert_matches(&p, 30.0, PX4_NORMAL_DEFAULTS, 0.05, 0.12, "PX4 Normal");
@@ -496,7 +496,7 @@ fn px4_on_a_network_link_streams_its_normal_mode_at_full_rate() {
 
 #[test]
 fn px4_sitl_gcs_link_has_its_50_hz_streams() {
-    let mut p = Probe::new(Flavour::PX4_COPTER, Some(Px4Link::SITL_UDP));
+    let mut p = Probe::new(SimFlavour::PX4_COPTER, Some(Px4Link::SITL_UDP));
     p.run(20.0);
     p.fleetmap_requests();
     p.run(13.0);
@@ -506,7 +506,7 @@ fn px4_sitl_gcs_link_has_its_50_hz_streams() {
 #[test]
 fn px4_answers_interval_requests_as_px4_does() {
     use mav::MavResult::{MAV_RESULT_ACCEPTED as OK, MAV_RESULT_FAILED as FAILED};
-    let mut p = Probe::new(Flavour::PX4_COPTER, Some(Px4Link::SITL_UDP));
+    let mut p = Probe::new(SimFlavour::PX4_COPTER, Some(Px4Link::SITL_UDP));
     p.run(10.0);
     // no stream for MISSION_CURRENT (the mission manager sends it), EKF_STATUS_REPORT, 12345
     assert_eq!(p.interval(42, 1e6), Some(FAILED));
@@ -550,7 +550,7 @@ fn radio(p: &mut Probe, txbuf: u8, secs: u32) {
 
 #[test]
 fn px4_radio_status_multiplier_on_telem1() {
-    let mut p = Probe::new(Flavour::PX4_COPTER, Some(Px4Link::TELEM1));
+    let mut p = Probe::new(SimFlavour::PX4_COPTER, Some(Px4Link::TELEM1));
     p.run(30.0);
     let before = p.bps(10.0);
     // ×0.8 a report below 25 % free, down to the 5 % floor (measured 110–200 B/s)
@@ -573,7 +573,7 @@ fn px4_radio_status_multiplier_on_telem1() {
 
 #[test]
 fn px4_sitl_link_ignores_radio_status() {
-    let mut p = Probe::new(Flavour::PX4_COPTER, Some(Px4Link::SITL_UDP));
+    let mut p = Probe::new(SimFlavour::PX4_COPTER, Some(Px4Link::SITL_UDP));
     p.run(20.0);
     let before = p.bps(10.0);
     radio(&mut p, 10, 20);
@@ -610,20 +610,20 @@ fn print(name: &str, p: &Probe, secs: f64) {
 #[test]
 #[ignore = "prints the simulator's tables to compare with the measured ones"]
 fn print_tables() {
-    let mut p = Probe::new(Flavour::ARDU_COPTER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_COPTER, None);
     p.run(40.0);
     print("copter a", &p, 30.0);
     p.fleetmap_requests();
     p.run(33.0);
     print("copter b", &p, 30.0);
-    let mut p = Probe::new(Flavour::ARDU_ROVER, None);
+    let mut p = Probe::new(SimFlavour::ARDU_ROVER, None);
     p.run(40.0);
     print("rover a", &p, 30.0);
     p.fleetmap_requests();
     p.run(33.0);
     print("rover b", &p, 30.0);
     for link in [Px4Link::TELEM1, Px4Link::SITL_UDP] {
-        let mut p = Probe::new(Flavour::PX4_COPTER, Some(link));
+        let mut p = Probe::new(SimFlavour::PX4_COPTER, Some(link));
         p.run(40.0);
         print(&format!("px4 {link:?} a"), &p, 30.0);
         p.fleetmap_requests();
