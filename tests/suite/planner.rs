@@ -202,7 +202,7 @@ fn pinned_stations_stay_and_keep_their_chargers_in_both_models() {
             .with_pins(vec![Pin { station: 1, taken }])
             .unwrap()
     };
-    let full = fleetmap_core::planner::plan::Plan {
+    let full = fleetmap_core::planner::plan::IpPlan {
         cycles: 1,
         drones: vec![vec![vec![c(0), c(1)]], vec![vec![c(0), c(1)]]],
         stations: vec![vec![vec![c(0), c(0)]], vec![vec![c(1), c(1)]]],
@@ -210,7 +210,7 @@ fn pinned_stations_stay_and_keep_their_chargers_in_both_models() {
     let e = check_plan_with(&pinned(2, 1), &full, CheckOptions::default()).unwrap_err();
     assert!(e.to_string().contains("1 charger(s) taken"), "{e}");
     assert!(check_plan_with(&pinned(2, 0), &full, CheckOptions::default()).is_ok());
-    let moved = fleetmap_core::planner::plan::Plan {
+    let moved = fleetmap_core::planner::plan::IpPlan {
         cycles: 1,
         drones: vec![vec![vec![c(0), c(1)]], vec![vec![c(0), c(1)]]],
         stations: vec![vec![vec![c(0), c(0)]], vec![vec![c(2), c(1)]]],
@@ -268,7 +268,7 @@ fn cli_solves_the_shipped_scenarios_in_the_spec_format() {
                     })
                     .collect()
             };
-            let plan = fleetmap_core::planner::plan::Plan {
+            let plan = fleetmap_core::planner::plan::IpPlan {
                 cycles: cycles as usize,
                 drones: parse(&v["drones"]),
                 stations: parse(&v["stations"]),

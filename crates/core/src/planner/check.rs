@@ -4,7 +4,7 @@
 //! not with the grid's neighbour lists — so that a bug in a model or in the re-pairing cannot
 //! hide itself.
 
-use super::plan::Plan;
+use super::plan::IpPlan;
 use super::scenario::Instance;
 use crate::geo::Cell;
 use std::collections::{BTreeMap, BTreeSet};
@@ -31,7 +31,7 @@ fn show(c: Cell) -> String {
 
 #[cfg(test)]
 /// Check `plan` against `inst` with the default options (the paper's constraints only).
-pub(crate) fn check_plan(inst: &Instance, plan: &Plan) -> Result<(), CheckError> {
+pub(crate) fn check_plan(inst: &Instance, plan: &IpPlan) -> Result<(), CheckError> {
     check_plan_with(inst, plan, CheckOptions::default())
 }
 
@@ -43,7 +43,11 @@ pub(crate) fn check_plan(inst: &Instance, plan: &Plan) -> Result<(), CheckError>
 /// at most C drones there (10; fewer on a pinned station with chargers taken), pinned
 /// stations that never leave their cell ([`super::scenario::Pin`]), and every goal visited
 /// (8a).
-pub fn check_plan_with(inst: &Instance, plan: &Plan, opts: CheckOptions) -> Result<(), CheckError> {
+pub fn check_plan_with(
+    inst: &Instance,
+    plan: &IpPlan,
+    opts: CheckOptions,
+) -> Result<(), CheckError> {
     let mut v: Vec<String> = Vec::new();
     let g = &inst.grid;
     let (td, tc, kc) = (inst.td, inst.tc, plan.cycles);

@@ -1,5 +1,5 @@
 //! A plan of the integer program (11): every drone's and station's cells per sensing cycle,
-//! as the paper states it ([`Plan`]) and as the models produce it ([`Timelines`], dense cell
+//! as the paper states it ([`IpPlan`]) and as the models produce it ([`Timelines`], dense cell
 //! indices on one timeline per vehicle). The result type shared by the models
 //! ([`super::ip`]), the re-pairing (`super::assign`) and the independent checker
 //! ([`super::check`]), kept apart from all three so that none imports another's internals.
@@ -10,7 +10,7 @@ use serde::{Deserialize, Serialize};
 
 /// Drone and station paths per sensing cycle.
 #[derive(Debug, Clone, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Plan {
+pub struct IpPlan {
     /// The number of sensing cycles (Σ λ_k).
     pub cycles: usize,
     /// `drones[i][k][j]`: where drone i is at step j ∈ [0, T_d − 1] of cycle k. The last cell of
@@ -34,7 +34,7 @@ pub struct Timelines {
 
 impl Timelines {
     /// Cut the timelines into sensing cycles of T_d (T_c) cells each.
-    pub(crate) fn to_plan(&self, inst: &Instance) -> Plan {
+    pub(crate) fn to_plan(&self, inst: &Instance) -> IpPlan {
         let g = &inst.grid;
         let cut = |paths: &[Vec<usize>], len: usize| -> Vec<Vec<Vec<Cell>>> {
             paths
@@ -50,7 +50,7 @@ impl Timelines {
                 })
                 .collect()
         };
-        Plan {
+        IpPlan {
             cycles: self.cycles,
             drones: cut(&self.drones, inst.td),
             stations: cut(&self.stations, inst.tc),
@@ -58,7 +58,7 @@ impl Timelines {
     }
 
     /// Timelines of a plan (`None` if a cell is outside the grid or the cycles do not chain).
-    pub fn from_plan(plan: &Plan, inst: &Instance) -> Option<Timelines> {
+    pub fn from_plan(plan: &IpPlan, inst: &Instance) -> Option<Timelines> {
         let g = &inst.grid;
         let join = |paths: &[Vec<Vec<Cell>>], len: usize| -> Option<Vec<Vec<usize>>> {
             paths

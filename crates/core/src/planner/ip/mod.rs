@@ -26,7 +26,7 @@
 pub mod fast;
 pub mod plain;
 
-use super::plan::{Plan, Timelines};
+use super::plan::{IpPlan, Timelines};
 use super::scenario::{Instance, Scenario, ScenarioError};
 
 use crate::geo::Cell;
@@ -137,7 +137,7 @@ pub struct PlanOutcome {
     /// Optimal, infeasible within K, time limit, or error.
     pub status: PlanStatus,
     /// The plan (with `Optimal`, and with `TimeLimit` when an incumbent exists).
-    pub plan: Option<Plan>,
+    pub plan: Option<IpPlan>,
     /// Wall time of the whole solve, every model and the re-pairing included, in seconds.
     pub solve_seconds: f64,
     /// Integer variables of the model that decided the answer (the last one solved).

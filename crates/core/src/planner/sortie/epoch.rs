@@ -103,7 +103,7 @@ impl ClassificationState {
 
     /// Take the IP's plan (planner cells, re-paired) for the rest of the epoch: paths for
     /// the drones that take part, in team order; the drones out stay on their cells.
-    pub fn accept_plan(&mut self, plan: &Plan, seconds: f64) -> Result<(), SortieError> {
+    pub fn accept_plan(&mut self, plan: &IpPlan, seconds: f64) -> Result<(), SortieError> {
         let layout = self.layout.clone();
         let conv = |v: &Vec<Vec<Vec<Cell>>>| -> Vec<Vec<Vec<Cell>>> {
             v.iter()
