@@ -9,7 +9,7 @@ use fleetmap::experiment::fastplain::{
     self, FastPlainConfig, Generated, GoalSet, Row, Verdict, compare,
 };
 use fleetmap_core::geo::Cell;
-use fleetmap_core::planner::grid::Grid;
+use fleetmap_core::planner::grid::PlannerGrid;
 use fleetmap_core::planner::ip::PlanStatus;
 use fleetmap_core::planner::scenario::Instance;
 use fleetmap_io::clock::stopwatch;
@@ -71,7 +71,7 @@ fn fast_and_plain_agree_on_algorithm_1_epochs_with_shared_chargers() {
 /// one, so after one cycle a drone has been at most 5 columns out (5 out, 2 back to a station
 /// 3 columns on), and column 7 needs two cycles.
 fn corridor(capacity: usize, k_max: usize) -> Generated {
-    let grid = Grid::new(4, 12, &[Cell::new(1, 4), Cell::new(2, 6)], None).expect("grid");
+    let grid = PlannerGrid::new(4, 12, &[Cell::new(1, 4), Cell::new(2, 6)], None).expect("grid");
     let at = |r, c| grid.index(Cell::new(r, c)).expect("cell");
     let stations = vec![at(0, 0), at(3, 0)];
     let drones = (0..2 * capacity.min(2)).map(|i| stations[i % 2]).collect();

@@ -4,7 +4,7 @@
 
 use fleetmap_core::geo::Cell;
 use fleetmap_core::planner::check::{CheckOptions, check_plan_with};
-use fleetmap_core::planner::grid::Grid;
+use fleetmap_core::planner::grid::PlannerGrid;
 use fleetmap_core::planner::ip::{Model, PlanOptions, PlanStatus, solve_instance};
 use fleetmap_core::planner::scenario::{Instance, Scenario};
 use fleetmap_io::clock::stopwatch;
@@ -35,7 +35,7 @@ fn random_instance(rng: &mut ChaCha8Rng) -> Instance {
         } else {
             None
         };
-        let grid = match Grid::new(rows, cols, &obstacles, roads.as_deref()) {
+        let grid = match PlannerGrid::new(rows, cols, &obstacles, roads.as_deref()) {
             Ok(g) => g,
             Err(_) => continue,
         };
@@ -195,7 +195,7 @@ fn pinned_stations_stay_and_keep_their_chargers_in_both_models() {
     // The checker catches a plan that overfills a pinned station's chargers, or moves it.
     let c = |col| Cell::new(0, col);
     let pinned = |cols, taken| {
-        let grid = Grid::new(1, cols, &[], None).unwrap();
+        let grid = PlannerGrid::new(1, cols, &[], None).unwrap();
         let last = cols as usize - 1;
         Instance::new(grid, vec![0, 0], vec![0, last], vec![1], 2, 2, 1, Some(2))
             .unwrap()

@@ -3,7 +3,7 @@
 
 use super::StudyConfig;
 use fleetmap_core::geo::Cell;
-use fleetmap_core::planner::grid::Grid;
+use fleetmap_core::planner::grid::PlannerGrid;
 use rand::RngExt;
 use rand::seq::SliceRandom;
 use rand_chacha::ChaCha8Rng;
@@ -13,7 +13,7 @@ use rand_chacha::ChaCha8Rng;
 #[derive(Debug, Clone, PartialEq)]
 pub struct Field {
     /// G, O, R.
-    pub grid: Grid,
+    pub grid: PlannerGrid,
     /// μ_l per dense cell index (0 for obstacles).
     pub(crate) mu: Vec<f64>,
     /// Whether each cell is interesting (μ_l ≥ θ).
@@ -47,7 +47,7 @@ impl Field {
             order.shuffle(rng);
             let cell = |i: usize| Cell::new((i / cfg.cols) as i32, (i % cfg.cols) as i32);
             let obstacles: Vec<Cell> = order[..cfg.n_obstacles].iter().map(|&i| cell(i)).collect();
-            let grid = Grid::new(cfg.rows as i64, cfg.cols as i64, &obstacles, None)
+            let grid = PlannerGrid::new(cfg.rows as i64, cfg.cols as i64, &obstacles, None)
                 .map_err(|e| StudyError::Config(e.to_string()))?;
             if !grid.free_cells_connected() {
                 continue;
@@ -123,7 +123,7 @@ impl Field {
         ]);
         let station_cells = flip(&[(0, 9), (1, 8), (2, 8), (7, 3), (8, 7)]);
         // The fixture is valid by construction (checked by a unit test).
-        let grid = Grid::new(10, 10, &obstacles, None).unwrap_or_else(|_| unreachable!());
+        let grid = PlannerGrid::new(10, 10, &obstacles, None).unwrap_or_else(|_| unreachable!());
         let idx = |c: Cell| grid.index(c).unwrap_or(0);
         let mut mu = vec![0.0; grid.len()];
         for i in grid.free_cells() {

@@ -36,7 +36,7 @@
 //! therefore orders assignments exactly as the Euclidean one: the integer optimum is a
 //! Euclidean optimum. Forbidden pairs weigh more than any legal assignment can.
 
-use super::grid::Grid;
+use super::grid::PlannerGrid;
 use super::plan::Timelines;
 use super::scenario::Instance;
 use pathfinding::prelude::{Matrix, kuhn_munkres_min};
@@ -58,7 +58,7 @@ pub(crate) fn repair(inst: &Instance, timelines: &mut Timelines) {
 /// Re-pair one team's paths (all the same length) in place; `legal(a, b)` says whether a → b
 /// is one move.
 pub(crate) fn repair_paths(
-    g: &Grid,
+    g: &PlannerGrid,
     paths: &mut [Vec<usize>],
     legal: impl Fn(usize, usize) -> bool,
 ) {
@@ -126,7 +126,7 @@ mod tests {
 
     #[test]
     fn swaps_and_diagonal_crossings_are_removed_with_the_same_occupancy() {
-        let g = Grid::new(3, 3, &[], None).unwrap();
+        let g = PlannerGrid::new(3, 3, &[], None).unwrap();
         let i = |r, c| g.index(Cell::new(r, c)).unwrap();
         // Drone 0: (0,0)→(0,1)→(1,1); drone 1: (0,1)→(0,0)→(1,0) (head-on at step 0→1),
         // then a diagonal crossing at step 1→2 after the swap: (0,1)→(1,0) and (0,0)→(1,1).
@@ -155,7 +155,7 @@ mod tests {
     #[test]
     fn illegal_pairs_are_never_used() {
         // A 1×4 corridor: the cheapest bijection by distance alone is illegal here.
-        let g = Grid::new(1, 4, &[], None).unwrap();
+        let g = PlannerGrid::new(1, 4, &[], None).unwrap();
         let mut paths = vec![vec![0, 1], vec![2, 3]];
         repair_paths(&g, &mut paths, |a, b| g.is_move(a, b));
         assert!(paths.iter().all(|p| g.is_move(p[0], p[1])));

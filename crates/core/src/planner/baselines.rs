@@ -17,7 +17,7 @@
 //!   row-major order.
 
 use super::bandit::BanditState;
-use super::grid::Grid;
+use super::grid::PlannerGrid;
 use rand::seq::SliceRandom;
 use serde::{Deserialize, Serialize};
 
@@ -73,7 +73,7 @@ pub fn choose_goals<R: rand::Rng + ?Sized>(
     rule: GoalRule,
     state: &BanditState,
     d: usize,
-    grid: &Grid,
+    grid: &PlannerGrid,
     team: &[usize],
     rng: &mut R,
 ) -> Vec<usize> {
@@ -95,7 +95,7 @@ pub fn choose_goals<R: rand::Rng + ?Sized>(
 fn greedy(
     state: &BanditState,
     d: usize,
-    grid: &Grid,
+    grid: &PlannerGrid,
     team: &[usize],
     coverage: bool,
 ) -> Vec<usize> {
@@ -143,8 +143,8 @@ mod tests {
     use crate::geo::Cell;
     use rand::SeedableRng;
 
-    fn setup() -> (Grid, BanditState) {
-        let g = Grid::new(1, 6, &[], None).unwrap();
+    fn setup() -> (PlannerGrid, BanditState) {
+        let g = PlannerGrid::new(1, 6, &[], None).unwrap();
         let cells: Vec<Cell> = (0..6).map(|c| Cell::new(0, c)).collect();
         (g, BanditState::new(cells, 0.5, 0.05, 0.1).unwrap())
     }

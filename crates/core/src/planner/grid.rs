@@ -50,7 +50,7 @@ pub enum GridError {
 
 /// The grid with its obstacles and station-admissible cells.
 #[derive(Debug, Clone, PartialEq, Eq)]
-pub struct Grid {
+pub struct PlannerGrid {
     rows: usize,
     cols: usize,
     blocked: Vec<bool>,
@@ -61,7 +61,7 @@ pub struct Grid {
     station_nbrs: Vec<Vec<usize>>,
 }
 
-impl Grid {
+impl PlannerGrid {
     /// Build a grid of `rows × cols` cells with `obstacles` (O) and the station-admissible set
     /// (`None`: every free cell, i.e. R = G \ O as in the paper's §VI simulations).
     pub fn new(
@@ -69,7 +69,7 @@ impl Grid {
         cols: i64,
         obstacles: &[Cell],
         station_cells: Option<&[Cell]>,
-    ) -> Result<Grid, GridError> {
+    ) -> Result<PlannerGrid, GridError> {
         if rows < 1 || cols < 1 || rows > 10_000 || cols > 10_000 || rows * cols > 1_000_000 {
             return Err(GridError::BadSize { rows, cols });
         }
@@ -137,7 +137,7 @@ impl Grid {
             }
             nbrs[i] = list;
         }
-        Ok(Grid {
+        Ok(PlannerGrid {
             rows: r,
             cols: c,
             blocked,
@@ -273,7 +273,7 @@ mod tests {
 
     #[test]
     fn neighbourhoods_respect_obstacles_roads_and_borders() {
-        let g = Grid::new(
+        let g = PlannerGrid::new(
             3,
             3,
             &[Cell::new(1, 1)],
@@ -306,15 +306,15 @@ mod tests {
     #[test]
     fn bad_inputs_are_errors() {
         assert!(matches!(
-            Grid::new(0, 3, &[], None),
+            PlannerGrid::new(0, 3, &[], None),
             Err(GridError::BadSize { .. })
         ));
         assert!(matches!(
-            Grid::new(2, 2, &[Cell::new(2, 0)], None),
+            PlannerGrid::new(2, 2, &[Cell::new(2, 0)], None),
             Err(GridError::OutOfGrid { .. })
         ));
         assert!(matches!(
-            Grid::new(2, 2, &[Cell::new(1, 1)], Some(&[Cell::new(1, 1)])),
+            PlannerGrid::new(2, 2, &[Cell::new(1, 1)], Some(&[Cell::new(1, 1)])),
             Err(GridError::StationCellOnObstacle { .. })
         ));
     }

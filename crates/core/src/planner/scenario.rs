@@ -2,7 +2,7 @@
 //! planner (bandit paper Algorithm 2), read from JSON, validated into an [`Instance`], and
 //! the solved plan written back as JSON with exactly the spec's keys.
 
-use super::grid::{Grid, GridError};
+use super::grid::{GridError, PlannerGrid};
 use crate::geo::Cell;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
@@ -105,11 +105,11 @@ mod opt_cell_list {
     }
 }
 
-/// A validated planning instance in dense cell indices (see [`Grid`]): what the IP solves.
+/// A validated planning instance in dense cell indices (see [`PlannerGrid`]): what the IP solves.
 #[derive(Debug, Clone, PartialEq, Eq)]
 pub struct Instance {
     /// G, O and R.
-    pub grid: Grid,
+    pub grid: PlannerGrid,
     /// X_0: the start cell (dense index) of each drone.
     pub drones: Vec<usize>,
     /// Y_0: the start cell (dense index) of each station; pairwise distinct.
@@ -146,7 +146,7 @@ impl Instance {
     /// Validate a team configuration on `grid` (the checks of [`Scenario::instance`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
-        grid: Grid,
+        grid: PlannerGrid,
         drones: Vec<usize>,
         stations: Vec<usize>,
         goals: Vec<usize>,
@@ -365,7 +365,7 @@ impl Scenario {
     /// an obstacle, a drone off the stations' cells (9d at the first cycle), more than
     /// `capacity` drones on one start cell (10).
     pub fn instance(&self) -> Result<Instance, ScenarioError> {
-        let grid = Grid::new(
+        let grid = PlannerGrid::new(
             self.rows,
             self.cols,
             &self.obstacles,

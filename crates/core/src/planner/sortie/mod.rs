@@ -52,7 +52,7 @@ use crate::geo::{Cell, Grid as GeoGrid};
 use crate::mission::definition::{MissionDef, MissionKind};
 use crate::mission::item::MissionItem;
 use crate::planner::bandit::{self, BanditState, Label};
-use crate::planner::grid::Grid as PlannerGrid;
+use crate::planner::grid::PlannerGrid;
 use crate::planner::plan::IpPlan;
 use crate::planner::scenario::{Instance, Pin};
 use crate::vision::camera::CameraModel;
