@@ -9,7 +9,7 @@
 
 use super::config::UiConfig;
 use super::keymap::Context;
-use super::model::{LogEntry, Model};
+use crate::panes::{LogEntry, Model};
 pub use crate::app::command::{Command, CommandError, Target};
 use crossterm::event::KeyEvent;
 use fleetmap_core::geo::Cell;

@@ -3,7 +3,7 @@
 //!
 //! Three tasks around the UI ([`crate::tui::run`]):
 //! * the **model producer** turns fleet snapshots, the run's state (a `watch` from the
-//!   runner) and the log into [`crate::tui::Model`]s ten times a second
+//!   runner) and the log into [`crate::panes::Model`]s ten times a second
 //!   ([`crate::tui::REFRESH`], [`crate::tui::live::build_model`]), and passes on those that
 //!   differ from the previous one; the fleet is asked to publish its snapshots at least as
 //!   often (in wall time), so that each frame shows fresh telemetry;
@@ -22,15 +22,16 @@
 use crate::app::blocking::run_blocking;
 use crate::app::error::RunError;
 use crate::app::flight;
-use crate::app::kind::{Attached, CommandReply, Outcome, RunKind, RunView};
+use crate::app::kind::{Attached, CommandReply, Outcome, RunKind};
 use crate::app::launch::{OnFinish, Ready, exports_on_finish, run_world};
 use crate::app::preflight::StartCheck;
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
 use crate::store::RunDir;
-use crate::tui::live::{LiveLog, RunInfo, build_model};
+use crate::panes::{Model, Panes, RunInfo};
+use crate::tui::live::{LiveLog, build_model};
 use crate::tui::{
-    App, Command, CommandError, CommandRequest, JobResult, Model, REFRESH, ShellIo, ShellOptions,
+    App, Command, CommandError, CommandRequest, JobResult, REFRESH, ShellIo, ShellOptions,
     Target, UiConfig,
 };
 use fleetmap_core::preflight::{Finding, Severity as CheckSeverity};
@@ -144,7 +145,8 @@ type RunState = Arc<dyn ShowRun>;
 
 /// A run's state as the panes show it.
 trait ShowRun: Send + Sync {
-    fn view(&self) -> RunView<'_>;
+    /// Its panes ([`RunKind::panes`]).
+    fn panes(&self, info: &RunInfo) -> Panes;
     /// Whether the run's state is finished ([`RunKind::is_finished`]): its exports may still
     /// be being written.
     fn is_finished(&self) -> bool;
@@ -154,8 +156,8 @@ trait ShowRun: Send + Sync {
 struct Shown<K: RunKind>(Arc<K::State>);
 
 impl<K: RunKind> ShowRun for Shown<K> {
-    fn view(&self) -> RunView<'_> {
-        K::view(&self.0)
+    fn panes(&self, info: &RunInfo) -> Panes {
+        K::panes(&self.0, info)
     }
     fn is_finished(&self) -> bool {
         K::is_finished(&self.0)
@@ -326,7 +328,7 @@ fn spawn_model_producer(
                     return;
                 };
                 log.absorb(&snap);
-                let mut m = build_model(&snap, view.as_ref().map(|s| (s.view(), &info)), &log);
+                let mut m = build_model(&snap, view.as_ref().map(|s| s.panes(&info)), &log);
                 m.sim_speed = fleet.clock().simulator().and_then(|s| s.achieved());
                 m
             };

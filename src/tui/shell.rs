@@ -16,7 +16,7 @@
 //! `set_panic_hook`).
 
 use super::app::{App, CommandError, CommandRequest, Effect, Event, JobResult};
-use super::model::Model;
+use crate::panes::Model;
 use super::update::update;
 use super::view;
 use crossterm::event::{Event as TermEvent, KeyEventKind};

@@ -75,6 +75,8 @@ pub mod report;
 pub use self::kind::Classification;
 mod intake;
 mod members;
+mod panes;
+pub mod sample;
 mod pilot;
 mod runner;
 mod sortie;

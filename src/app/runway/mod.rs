@@ -89,6 +89,8 @@ pub(crate) mod kind;
 pub mod report;
 pub use self::kind::Runway;
 mod intake;
+mod panes;
+pub mod sample;
 mod pilot;
 mod runner;
 mod summary;

@@ -3,7 +3,7 @@
 use super::theme;
 use crate::tui::app::{App, Pending, Target};
 use crate::tui::keymap::Action;
-use crate::tui::model::{Role, VehicleRow};
+use crate::panes::{Role, VehicleRow};
 use fleetmap_core::time::Time;
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Rect};
