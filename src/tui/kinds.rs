@@ -48,13 +48,13 @@ pub(crate) fn counts_epochs(kind: &MissionKind) -> bool {
 }
 
 /// The names `fleetmap tui --sample` takes, each with what it shows; the default first.
-pub fn sample_names() -> Vec<(&'static str, &'static str)> {
+pub(crate) fn sample_names() -> Vec<(&'static str, &'static str)> {
     looks().iter().map(|l| (l.sample, l.sample_help)).collect()
 }
 
 /// The built-in sample named `name` ([`KindLook::sample`]) with `vehicles` drones when it is
 /// animated; `None` for a name no kind has.
-pub fn sample(name: &str, vehicles: usize) -> Option<Sample> {
+pub(crate) fn sample(name: &str, vehicles: usize) -> Option<Sample> {
     struct Named<'a>(&'a str, usize);
     impl KindVisitor for Named<'_> {
         type Output = Option<Sample>;
@@ -73,4 +73,73 @@ pub(crate) fn default_look() -> KindLook {
         .into_iter()
         .next()
         .expect("the registry holds at least one kind")
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::app::bandit::Classification;
+    use crate::app::runway::Runway;
+    use crate::panes::CellState;
+    use std::borrow::Cow;
+
+    #[test]
+    fn the_kinds_legends_partition_the_cell_states_and_their_names_are_unique() {
+        let looks = looks();
+        let mut seen: Vec<CellState> = Vec::new();
+        for l in &looks {
+            assert!(!l.map.legend.is_empty(), "{}", l.map.label);
+            for s in l.map.legend.iter() {
+                assert!(!seen.contains(s), "{s:?} in two legends");
+                seen.push(*s);
+            }
+        }
+        assert_eq!(seen.len(), CellState::ALL.len());
+        for (i, a) in looks.iter().enumerate() {
+            for b in &looks[i + 1..] {
+                assert_ne!(a.map.label, b.map.label);
+                assert_ne!(a.mission.name, b.mission.name);
+                assert_ne!(a.sample, b.sample);
+            }
+        }
+    }
+
+    /// A replay records the map's label and the mission's name only: it draws as the kind
+    /// does, and a map without a kind (no mission; replays before the label was recorded)
+    /// as the default kind's, runway mapping's.
+    #[test]
+    fn recorded_models_look_as_their_kinds() {
+        let recorded = |label: &str| MapKind {
+            label: Cow::Owned(label.to_string()),
+            legend: Cow::Borrowed(&[]),
+        };
+        assert_eq!(map_look(&recorded("runway")), Runway::LOOK.map);
+        assert_eq!(
+            map_look(&recorded("classification")),
+            Classification::LOOK.map
+        );
+        assert_eq!(map_look(&recorded("")), Runway::LOOK.map);
+        assert_eq!(default_look(), Runway::LOOK);
+        let unknown = recorded("crop dusting");
+        assert_eq!(map_look(&unknown), unknown);
+        let named = |name: &str| MissionKind {
+            name: Cow::Owned(name.to_string()),
+            epochs: false,
+        };
+        assert!(counts_epochs(&named("spatial classification")));
+        assert!(!counts_epochs(&named("runway mapping")));
+        assert!(!counts_epochs(&named("crop dusting")));
+    }
+
+    #[test]
+    fn every_kind_has_its_sample_by_name() {
+        let names: Vec<&str> = sample_names().iter().map(|(n, _)| *n).collect();
+        assert_eq!(names, ["runway", "classification"]);
+        assert!(matches!(sample("runway", 3), Some(Sample::Animated(_))));
+        assert!(matches!(
+            sample("classification", 3),
+            Some(Sample::Static(_))
+        ));
+        assert!(sample("crop-dusting", 3).is_none());
+    }
 }

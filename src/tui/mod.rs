@@ -13,7 +13,7 @@
 //! - `shell` — crossterm terminal setup, the tokio event loop ([`run`]), the panic hook;
 //! - [`live`] — the view-model filled from a fleet snapshot and a run's state (what the live
 //!   session shows);
-//! - [`kinds`] — the mission kinds as the UI sees them (their looks and built-in samples,
+//! - `kinds` — the mission kinds as the UI sees them (their looks and built-in samples,
 //!   through the registry); [`replay`] — JSON Lines recordings of models; [`sample`] — a
 //!   generated fleet.
 //!
@@ -43,7 +43,7 @@
 mod app;
 mod config;
 mod keymap;
-pub mod kinds;
+pub(crate) mod kinds;
 pub mod live;
 pub mod replay;
 pub mod sample;

@@ -1,6 +1,6 @@
 //! Synthetic models: a seeded generator of large fleets (the redraw benchmark,
 //! `fleetmap bench tui`). The kinds' own samples (`fleetmap tui --sample`, the snapshot
-//! tests' fixtures) are in their folders, reached through [`super::kinds::sample`].
+//! tests' fixtures) are in their folders, reached through the registry (`tui::kinds`).
 
 use super::kinds;
 use crate::panes::*;

@@ -5,6 +5,7 @@
 //! binary in a pseudo-terminal.
 
 use crossterm::event::{Event as TermEvent, KeyCode, KeyEvent, KeyModifiers};
+use fleetmap::panes::*;
 use fleetmap::tui::view::help::{self, HelpLine};
 use fleetmap::tui::*;
 use fleetmap_core::proto::severity::Severity;
@@ -19,6 +20,13 @@ use tokio::sync::mpsc;
 
 use crate::common;
 use common::pty;
+
+/// The fixtures: the kinds' own (from their folders) and the generated fleet.
+mod sample {
+    pub(super) use fleetmap::app::bandit::sample::fixture as classification_fixture;
+    pub(super) use fleetmap::app::runway::sample::fixture as runway_fixture;
+    pub(super) use fleetmap::tui::sample::generated;
+}
 
 // ---------------------------------------------------------------- helpers
 
