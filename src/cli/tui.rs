@@ -11,8 +11,8 @@
 use crate::app::kind::{RunKind, RunSettings};
 use crate::app::launch::{NewRun, Start, prepare};
 use crate::app::preflight::OnBlocker;
-use crate::store::RunDir;
 use crate::panes::{Animation, Model, Sample};
+use crate::store::RunDir;
 use crate::tui;
 use crate::tui::UiConfig;
 use crate::tui::replay::{ReplayFrame, read_replay, write_replay};

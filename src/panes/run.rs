@@ -1,8 +1,8 @@
 //! What a mission kind supplies to the screen: its panes drawn from its state
 //! ([`Panes`]), how it looks ([`KindLook`]) and its built-in sample ([`Sample`]).
 
-use super::{LogEntry, MapKind, MapModel, MissionKind, MissionModel, Model, VehicleRow};
 use super::{Battery, CameraHealth, Gps, GpsFix, LinkState, MissionProgress, Role};
+use super::{LogEntry, MapKind, MapModel, MissionKind, MissionModel, Model, VehicleRow};
 use fleetmap_core::geo::Grid;
 use fleetmap_core::proto::flavour::{Autopilot, VehicleClass};
 use fleetmap_core::proto::severity::Severity;

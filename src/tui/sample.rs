@@ -30,7 +30,11 @@ pub fn generated(n: usize, seed: u64) -> Model {
                 17 => 3,
                 _ => 4,
             };
-            let s = legend.get(i).or(legend.first()).copied().unwrap_or_default();
+            let s = legend
+                .get(i)
+                .or(legend.first())
+                .copied()
+                .unwrap_or_default();
             map.set(Cell::new(sw.row + r, sw.col + c), s);
         }
     }

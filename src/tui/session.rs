@@ -27,12 +27,12 @@ use crate::app::launch::{OnFinish, Ready, exports_on_finish, run_world};
 use crate::app::preflight::StartCheck;
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
-use crate::store::RunDir;
 use crate::panes::{Model, Panes, RunInfo};
+use crate::store::RunDir;
 use crate::tui::live::{LiveLog, build_model};
 use crate::tui::{
-    App, Command, CommandError, CommandRequest, JobResult, REFRESH, ShellIo, ShellOptions,
-    Target, UiConfig,
+    App, Command, CommandError, CommandRequest, JobResult, REFRESH, ShellIo, ShellOptions, Target,
+    UiConfig,
 };
 use fleetmap_core::preflight::{Finding, Severity as CheckSeverity};
 use fleetmap_core::proto::severity::Severity;

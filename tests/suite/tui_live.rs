@@ -2,10 +2,10 @@
 //! as the operator sees them — snapshots of the map, mission, fleet and log panes at 80×24 and
 //! 250×70 from a state built by the run's own state machine.
 
-use fleetmap::fleet::{FleetSnapshot, GeoPoint, StatusText, VehicleSnapshot};
 use fleetmap::app::bandit::Classification;
 use fleetmap::app::kind::RunKind;
 use fleetmap::app::runway::Runway;
+use fleetmap::fleet::{FleetSnapshot, GeoPoint, StatusText, VehicleSnapshot};
 use fleetmap::panes::*;
 use fleetmap::tui::live::{LiveLog, build_model};
 use fleetmap::tui::*;
@@ -361,7 +361,11 @@ fn live_classification_run_shows_labels_obstacles_roads_and_the_team() {
         started: true,
         ..RunInfo::default()
     };
-    let m = build_model(&f, Some(Classification::panes(&s, &info)), &LiveLog::default());
+    let m = build_model(
+        &f,
+        Some(Classification::panes(&s, &info)),
+        &LiveLog::default(),
+    );
     assert_eq!(m.map.kind, Classification::LOOK.map);
     assert_eq!((m.map.rows, m.map.cols), (6, 6));
     assert_eq!(m.map.get(Cell::new(0, 0)), Some(CellState::Keep));

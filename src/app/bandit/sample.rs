@@ -2,7 +2,9 @@
 //! classification`, the UI's snapshot tests).
 
 use super::panes::LOOK;
-use crate::panes::{MapModel, MissionModel, Model, Phase, Role, RunStatus, Sample, Stat, VehicleRow};
+use crate::panes::{
+    MapModel, MissionModel, Model, Phase, Role, RunStatus, Sample, Stat, VehicleRow,
+};
 use crate::panes::{copter, log_line};
 use fleetmap_core::geo::Cell;
 use fleetmap_core::proto::flavour::{Autopilot, VehicleClass};
@@ -87,4 +89,3 @@ pub fn fixture() -> Model {
         sim_speed: None,
     }
 }
-

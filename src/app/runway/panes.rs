@@ -3,8 +3,8 @@
 //! from a [`MappingState`].
 
 use crate::panes::{
-    CellState, DfsProgress, KindLook, MapKind, MapModel, MissionKind, MissionModel, Panes,
-    Phase, RunInfo, RunStatus, Stat, Track,
+    CellState, DfsProgress, KindLook, MapKind, MapModel, MissionKind, MissionModel, Panes, Phase,
+    RunInfo, RunStatus, Stat, Track,
 };
 use fleetmap_core::explore::dfs::VertexState;
 use fleetmap_core::explore::mapping::{self, MappingState, RobotStatus};
@@ -284,7 +284,10 @@ mod tests {
             p.map.cols
         );
         assert_eq!(p.map.get(Cell::new(0, 0)), Some(CellState::Unknown));
-        assert_eq!(p.order, s.robots.iter().map(|r| r.sysid).collect::<Vec<_>>());
+        assert_eq!(
+            p.order,
+            s.robots.iter().map(|r| r.sysid).collect::<Vec<_>>()
+        );
     }
 
     #[test]

@@ -199,13 +199,7 @@ impl Toy {
     /// A run with `n` drones (1–20).
     pub(crate) fn new(n: usize) -> Toy {
         let n = n.clamp(1, 20);
-        let map = MapModel::new(
-            LOOK.map,
-            4.0,
-            Cell::new(0, 0),
-            Toy::ROWS,
-            Toy::COLS,
-        );
+        let map = MapModel::new(LOOK.map, 4.0, Cell::new(0, 0), Toy::ROWS, Toy::COLS);
         let truth = (0..Toy::ROWS as i32)
             .flat_map(|r| {
                 (0..Toy::COLS as i32).map(move |c| {

@@ -13,8 +13,8 @@
 
 use super::theme;
 use super::{Areas, lower_tabs, pane_block, pane_title};
-use crate::tui::app::{App, MapMode, Pane};
 use crate::panes::{CellState, MapModel, Role};
+use crate::tui::app::{App, MapMode, Pane};
 use crate::tui::kinds;
 use fleetmap_core::geo::Cell;
 use ratatui::Frame;

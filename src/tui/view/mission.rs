@@ -2,8 +2,8 @@
 
 use super::theme;
 use super::{lower_tabs, pane_block, pane_title};
-use crate::tui::app::{App, Pane};
 use crate::panes::{MissionKind, MissionModel, format_hms};
+use crate::tui::app::{App, Pane};
 use crate::tui::kinds;
 use ratatui::Frame;
 use ratatui::layout::Rect;
@@ -47,12 +47,8 @@ fn lines(m: &MissionModel, width: u16) -> Vec<Line<'static>> {
         Span::styled(format!("  ({})", kind_name(m.kind.as_ref())), theme::text()),
     ]));
     let status_style = match m.status {
-        crate::panes::RunStatus::Failed | crate::panes::RunStatus::BatterySwap => {
-            theme::alarm()
-        }
-        crate::panes::RunStatus::Paused | crate::panes::RunStatus::BeyondReach => {
-            theme::warn()
-        }
+        crate::panes::RunStatus::Failed | crate::panes::RunStatus::BatterySwap => theme::alarm(),
+        crate::panes::RunStatus::Paused | crate::panes::RunStatus::BeyondReach => theme::warn(),
         _ => theme::strong(),
     };
     out.push(Line::from(vec![

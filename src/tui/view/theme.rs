@@ -3,8 +3,8 @@
 //! emphasis by bold, reverse video and background colour, always paired with a glyph or a
 //! word so that nothing depends on colour alone.
 
-use crate::tui::config::Thresholds;
 use crate::panes::{Battery, CellState, Gps, LinkState, Role, VehicleRow};
+use crate::tui::config::Thresholds;
 use fleetmap_core::proto::severity::Severity;
 use ratatui::style::{Color, Modifier, Style};
 
