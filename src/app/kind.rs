@@ -1,10 +1,9 @@
 //! One mission kind: everything `fleetmap run`, `resume`, `report`, `export`, the TUI session
-//! and the demo need of a runner, so that each of them is written once for both missions.
+//! and the demo need of a runner, so that each of them is written once for every mission.
 //!
-//! The two kinds are [`crate::app::runway::Runway`] (runway mapping, `run.json` kind
-//! `runway-mapping`) and [`crate::app::bandit::Classification`] (spatial classification,
-//! `spatial-classification`). A run directory remembers its kind; the commands dispatch on
-//! it once, through the registry [`crate::app::kinds`].
+//! Each kind is a folder of `src/app/` (its runner, its `RunKind`, its panes) registered in
+//! [`crate::app::kinds`]. A run directory remembers its kind (`run.json`'s `kind`, the
+//! kind's [`RunKind::KIND`]); the commands dispatch on it once, through the registry.
 
 use crate::app::command::{Command, CommandError, Target};
 use crate::app::error::RunError;

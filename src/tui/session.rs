@@ -1,16 +1,15 @@
 //! The live terminal session (async shell): the operator's UI on a real fleet, with or
-//! without a run attached (runway mapping or spatial classification).
+//! without a run attached (of any registered kind).
 //!
 //! Three tasks around the UI ([`crate::tui::run`]):
-//! * the **model producer** turns fleet snapshots, the run's state (a `watch` from the
-//!   runner) and the log into [`crate::panes::Model`]s ten times a second
+//! * the **model producer** turns fleet snapshots, the panes of the run's state (a `watch`
+//!   from the runner; [`RunKind::panes`]) and the log into [`crate::panes::Model`]s ten times a second
 //!   ([`crate::tui::REFRESH`], [`crate::tui::live::build_model`]), and passes on those that
 //!   differ from the previous one; the fleet is asked to publish its snapshots at least as
 //!   often (in wall time), so that each frame shows fresh telemetry;
 //! * the **command executor** carries out the operator's commands — mission-level ones
-//!   through the runner, as the run's kind means them ([`RunKind::command`]: runway
-//!   mapping's pause, resume, recall, land, battery swapped; spatial classification's
-//!   pause of the next sortie), vehicle-level ones through the fleet (arm, disarm, RTL,
+//!   through the runner, as the run's kind means them ([`RunKind::command`]: a
+//!   pause, a resume, a recall, a battery swapped, …), vehicle-level ones through the fleet (arm, disarm, RTL,
 //!   land, hold) — and answers each with a [`JobResult`];
 //! * the **runner** ([`RunKind::fly_attached`]) once the operator starts the mission (or
 //!   at once with `auto_start`).
