@@ -343,8 +343,9 @@ impl MapModel {
 /// The JSON form of [`MapModel`].
 #[derive(Serialize, Deserialize)]
 struct MapModelRepr {
-    /// The kind's label ([`MapKind::label`]).
-    #[serde(default)]
+    /// The kind's label ([`MapKind::label`]); absent for a map of no kind (no mission), which
+    /// the UI draws with the default kind's legend.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
     kind: String,
     #[serde(default = "default_cell_size")]
     cell_size_m: f64,

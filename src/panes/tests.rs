@@ -34,6 +34,9 @@ fn map_json_round_trips_and_rejects_bad_rows() {
     back.kind.legend = m.kind.legend.clone();
     assert_eq!(back, m);
 
+    let none = serde_json::to_value(MapModel::default()).expect("serialise");
+    assert!(none.get("kind").is_none(), "{none}");
+
     let ragged = r#"{"rows":["..","..."]}"#;
     let err = serde_json::from_str::<MapModel>(ragged).unwrap_err();
     assert!(err.to_string().contains("map row 1 has 3 cells"), "{err}");
