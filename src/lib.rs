@@ -12,11 +12,12 @@
 //! | module | responsibility |
 //! |---|---|
 //! | [`cli`] | the `fleetmap` command line: one file per subcommand, `mod.rs` declares and dispatches |
-//! | [`tui`] | the ratatui operator interface: view-model, pure update, one view per pane, replay files |
+//! | [`tui`] | the ratatui operator interface: pure update, one view per pane, replay files |
 //! | [`experiment`] | (feature `sim`) the Monte Carlo studies that reproduce the papers' tables and figures |
 //! | [`app`] | the runs: one mission kind ([`app::kind::RunKind`]) and their registry, the run core, the runway-mapping and spatial-classification runners, the image hub, flight steps, the live session; with `sim`, the demos |
 //! | [`fleet`] | the fleet actor: one task owning every vehicle's state and protocol machines, and its handle |
 //! | [`store`] | the crash-safe run directory: atomic snapshots, the append-only journal, the store task |
+//! | [`panes`] | what a run shows: the view-model the UI draws and each mission kind fills, plain `serde` data |
 //! | `plot` | the font every PNG plot draws its text with |
 
 #![forbid(unsafe_code)]
@@ -28,6 +29,7 @@ pub mod cli;
 #[cfg(feature = "sim")]
 pub mod experiment;
 pub mod fleet;
+pub mod panes;
 mod plot;
 pub mod store;
 pub mod tui;

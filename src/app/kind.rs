@@ -1,15 +1,15 @@
 //! One mission kind: everything `fleetmap run`, `resume`, `report`, `export`, the TUI session
-//! and the demo need of a runner, so that each of them is written once for both missions.
+//! and the demo need of a runner, so that each of them is written once for every mission.
 //!
-//! The two kinds are [`crate::app::runway::Runway`] (runway mapping, `run.json` kind
-//! `runway-mapping`) and [`crate::app::bandit::Classification`] (spatial classification,
-//! `spatial-classification`). A run directory remembers its kind; the commands dispatch on
-//! it once, through the registry [`crate::app::kinds`].
+//! Each kind is a folder of `src/app/` (its runner, its `RunKind`, its panes) registered in
+//! [`crate::app::kinds`]. A run directory remembers its kind (`run.json`'s `kind`, the
+//! kind's [`RunKind::KIND`]); the commands dispatch on it once, through the registry.
 
 use crate::app::command::{Command, CommandError, Target};
 use crate::app::error::RunError;
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
+use crate::panes::{KindLook, Panes, RunInfo, Sample};
 use crate::store::RunDir;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;
@@ -178,28 +178,6 @@ impl Default for RunSettings {
     }
 }
 
-/// A run's state as the live session shows it: each kind's state, borrowed
-/// ([`RunKind::view`]); the UI's adapter (`tui::live`) reads the panes from it.
-#[derive(Clone, Copy, Debug)]
-pub enum RunView<'a> {
-    /// Runway mapping (sweep, DFS).
-    Mapping(&'a fleetmap_core::explore::mapping::MappingState),
-    /// Spatial classification (bandit + IP).
-    Classification(&'a fleetmap_core::planner::sortie::ClassificationState),
-}
-
-impl<'a> From<&'a fleetmap_core::explore::mapping::MappingState> for RunView<'a> {
-    fn from(s: &'a fleetmap_core::explore::mapping::MappingState) -> Self {
-        RunView::Mapping(s)
-    }
-}
-
-impl<'a> From<&'a fleetmap_core::planner::sortie::ClassificationState> for RunView<'a> {
-    fn from(s: &'a fleetmap_core::planner::sortie::ClassificationState) -> Self {
-        RunView::Classification(s)
-    }
-}
-
 /// A mission kind (see the module docs). Its methods are the parts in which the two missions
 /// differ; the generic commands (`crate::app::launch`, `cli::run`) do the rest once.
 pub trait RunKind: Send + Sync + 'static {
@@ -207,6 +185,9 @@ pub trait RunKind: Send + Sync + 'static {
     const KIND: &'static str;
     /// The exports written at the end of a run, in this order.
     const EXPORTS: [ExportFormat; 3];
+    /// How the kind's panes look, whatever the state (its map's legend, its name on the
+    /// mission pane, the name of its built-in sample).
+    const LOOK: KindLook;
     /// The state saved in `state.json` after every step.
     type State: Clone + Serialize + DeserializeOwned + Send + Sync + 'static;
     /// The runner's options.
@@ -278,8 +259,11 @@ pub trait RunKind: Send + Sync + 'static {
         targets: &[u8],
         operator: &mpsc::UnboundedSender<Self::Operator>,
     ) -> Option<Result<CommandReply, CommandError>>;
-    /// The state as the TUI's panes show it.
-    fn view(state: &Self::State) -> RunView<'_>;
+    /// The TUI's panes of a run in `state` (`info`: what the session knows of the run).
+    fn panes(state: &Self::State, info: &RunInfo) -> Panes;
+    /// The built-in sample of `fleetmap tui --sample` ([`KindLook::sample`]); `vehicles`:
+    /// the drones of an animated one (1–20).
+    fn sample(vehicles: usize) -> Sample;
 
     /// The report, scored against `world`'s ground truth when there is one.
     fn report(state: &Self::State, world: Option<&World>) -> Result<Self::Report, RunError>;

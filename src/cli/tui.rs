@@ -11,17 +11,19 @@
 use crate::app::kind::{RunKind, RunSettings};
 use crate::app::launch::{NewRun, Start, prepare};
 use crate::app::preflight::OnBlocker;
+use crate::panes::{Animation, Model, Sample};
 use crate::store::RunDir;
-use crate::tui::Model;
+use crate::tui;
 use crate::tui::UiConfig;
 use crate::tui::replay::{ReplayFrame, read_replay, write_replay};
-use crate::tui::sample::{self, SampleRun};
+use crate::tui::sample;
 use crate::tui::update;
 use crate::tui::view;
 use crate::tui::{App, CommandRequest, Event, JobResult};
 use crate::tui::{ShellIo, ShellOptions};
 use anyhow::{Context, anyhow, bail};
-use clap::{Args, ValueEnum};
+use clap::Args;
+use clap::builder::{PossibleValue, PossibleValuesParser};
 use fleetmap_core::time::Time;
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::link::ConnSpec;
@@ -34,13 +36,21 @@ use std::process::ExitCode;
 use std::time::{Duration, Instant};
 use tokio::sync::mpsc;
 
-/// Which built-in sample to show.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, ValueEnum)]
-pub enum SampleKind {
-    /// Synthetic runway-mapping animation (sweep, positives, battery swaps).
-    Runway,
-    /// Static spatial-classification snapshot (drones and charging rovers on a 6x6 grid).
-    Classification,
+/// The values of `--sample`: each mission kind's sample, with what it shows.
+fn sample_values() -> PossibleValuesParser {
+    PossibleValuesParser::new(
+        tui::kinds::sample_names()
+            .into_iter()
+            .map(|(name, help)| PossibleValue::new(name).help(help)),
+    )
+}
+
+/// The default `--sample`: the default kind's (the first registered).
+fn default_sample() -> String {
+    tui::kinds::sample_names()
+        .first()
+        .map(|(name, _)| name.to_string())
+        .unwrap_or_default()
 }
 
 /// Arguments of `fleetmap tui`.
@@ -50,8 +60,8 @@ pub struct TuiArgs {
     #[arg(long, value_name = "FILE")]
     pub replay: Option<PathBuf>,
     /// The built-in sample shown without --replay.
-    #[arg(long, value_enum, default_value_t = SampleKind::Runway)]
-    pub sample: SampleKind,
+    #[arg(long, default_value_t = default_sample(), value_parser = sample_values())]
+    pub sample: String,
     /// Drones in the runway sample (1-20).
     #[arg(long, default_value_t = 3)]
     pub vehicles: usize,
@@ -176,7 +186,7 @@ fn load_config(args: &TuiArgs) -> anyhow::Result<UiConfig> {
 /// What the UI shows, before it starts.
 enum Source {
     Replay(PathBuf, Vec<ReplayFrame>),
-    Animated(usize),
+    Animated(Box<dyn Animation>),
     Static(Box<Model>),
 }
 
@@ -205,7 +215,7 @@ impl Source {
     }
 
     /// The model at `at` seconds (default: replay end / 300 s of the sample).
-    fn model_at(&self, at: Option<f64>) -> Model {
+    fn model_at(self, at: Option<f64>) -> Model {
         match self {
             Source::Replay(_, frames) => {
                 let t = at.map(|s| (s.max(0.0) * 1000.0) as u64);
@@ -215,12 +225,11 @@ impl Source {
                 };
                 frame.map(|f| f.model.clone()).unwrap_or_default()
             }
-            Source::Animated(n) => {
-                let mut run = SampleRun::new(*n);
+            Source::Animated(mut run) => {
                 run.step(Duration::from_secs(at.unwrap_or(300.0).max(0.0) as u64));
                 run.model()
             }
-            Source::Static(m) => (**m).clone(),
+            Source::Static(m) => *m,
         }
     }
 }
@@ -247,19 +256,29 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
         bail!("--at {at}: must be a time in seconds, 0 or more");
     }
     if let Some(path) = &args.export_sample {
-        let mut run = SampleRun::new(args.vehicles);
-        let mut frames = vec![ReplayFrame {
-            t_ms: 0,
-            model: run.model(),
-        }];
-        while !run.done() && frames.len() < 20_000 {
-            run.step(Duration::from_secs(1));
-            let model = run.model();
-            frames.push(ReplayFrame {
-                t_ms: model.time.as_millis(),
-                model,
-            });
-        }
+        // The default kind's sample (the animated one), whatever --sample says.
+        let frames = match tui::kinds::sample(&default_sample(), args.vehicles) {
+            Some(Sample::Animated(mut run)) => {
+                let mut frames = vec![ReplayFrame {
+                    t_ms: 0,
+                    model: run.model(),
+                }];
+                while !run.done() && frames.len() < 20_000 {
+                    run.step(Duration::from_secs(1));
+                    let model = run.model();
+                    frames.push(ReplayFrame {
+                        t_ms: model.time.as_millis(),
+                        model,
+                    });
+                }
+                frames
+            }
+            Some(Sample::Static(model)) => vec![ReplayFrame {
+                t_ms: 0,
+                model: *model,
+            }],
+            None => bail!("no built-in sample to export"),
+        };
         write_replay(path, &frames)?;
         println!("wrote {} frames to {}", frames.len(), path.display());
         return Ok(ExitCode::SUCCESS);
@@ -269,11 +288,10 @@ pub fn run(args: TuiArgs, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
     }
     let source = match &args.replay {
         Some(p) => Source::Replay(p.clone(), read_replay(p)?),
-        None => match args.sample {
-            SampleKind::Runway => Source::Animated(args.vehicles),
-            SampleKind::Classification => {
-                Source::Static(Box::new(sample::classification_fixture()))
-            }
+        None => match tui::kinds::sample(&args.sample, args.vehicles) {
+            Some(Sample::Animated(run)) => Source::Animated(run),
+            Some(Sample::Static(model)) => Source::Static(model),
+            None => bail!("--sample {}: no such sample", args.sample),
         },
     };
     let mut config = config;
@@ -472,8 +490,7 @@ async fn run_ui(app: App, source: Source, speed: f64) -> anyhow::Result<()> {
                 }
                 snap_tx.closed().await;
             }
-            Source::Animated(n) => {
-                let mut run = SampleRun::new(n);
+            Source::Animated(mut run) => {
                 snap_tx.send_replace(run.model());
                 let mut next = Time::from_secs(1);
                 while !run.done() {

@@ -9,8 +9,8 @@
 
 use super::config::UiConfig;
 use super::keymap::Context;
-use super::model::{LogEntry, Model};
 pub use crate::app::command::{Command, CommandError, Target};
+use crate::panes::{LogEntry, Model};
 use crossterm::event::KeyEvent;
 use fleetmap_core::geo::Cell;
 use fleetmap_core::proto::severity::Severity;

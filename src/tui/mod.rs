@@ -1,11 +1,11 @@
 //! The terminal user interface (ratatui): app state, a pure update function and one view per
 //! pane.
 //!
-//! Layers (docs/architecture.md, "Layers"): the UI reads [`Model`] snapshots from a `watch` channel and sends
-//! [`CommandRequest`]s; it never touches the fleet actor or the network itself.
+//! Layers (docs/architecture.md, "Layers"): the UI reads [`Model`](crate::panes::Model) snapshots from a `watch` channel and sends
+//! [`CommandRequest`]s; it never touches the fleet actor or the network itself. What it draws,
+//! the view-model ([`Model`](crate::panes::Model)), is [`crate::panes`]: plain `serde` data an adapter fills from
+//! fleet snapshots and the run's panes (or a replay file, or a test).
 //!
-//! - `model` — the view-model ([`Model`]): plain `serde` data an adapter fills from fleet
-//!   snapshots and runner progress (or a replay file, or a test);
 //! - `app` — [`App`] state and the pure [`update`](fn@update)`(&mut App, Event) -> Vec<Effect>`;
 //! - [`view`] — one render function per pane (fleet, map, mission, log, help, dialogs);
 //! - `keymap` / `config` — the key table ([`KeyMap`], shared by key handling and help) and
@@ -13,10 +13,11 @@
 //! - `shell` — crossterm terminal setup, the tokio event loop ([`run`]), the panic hook;
 //! - [`live`] — the view-model filled from a fleet snapshot and a run's state (what the live
 //!   session shows);
-//! - [`replay`] — JSON Lines recordings of models; [`sample`] — fixtures, generated fleets
-//!   and a synthetic animation.
+//! - `kinds` — the mission kinds as the UI sees them (their looks and built-in samples,
+//!   through the registry); [`replay`] — JSON Lines recordings of models; [`sample`] — a
+//!   generated fleet.
 //!
-//! `model`, `app`, `keymap`, `config`, `shell` and `update` are private: their items have one
+//! `app`, `keymap`, `config`, `shell` and `update` are private: their items have one
 //! public path, `fleetmap::tui::Item`. The view-model's `Severity` is the core's
 //! (`fleetmap_core::proto::severity::Severity`), imported from there.
 //!
@@ -24,7 +25,8 @@
 //!
 //! ```no_run
 //! # async fn demo() -> Result<(), Box<dyn std::error::Error>> {
-//! use fleetmap::tui::{App, Model, ShellIo, ShellOptions, Source, SourceKind, UiConfig};
+//! use fleetmap::panes::Model;
+//! use fleetmap::tui::{App, ShellIo, ShellOptions, Source, SourceKind, UiConfig};
 //! use tokio::sync::mpsc;
 //! use fleetmap_io::watch;
 //! let (snap_tx, snap_rx) = watch::channel(Model::default());
@@ -41,8 +43,8 @@
 mod app;
 mod config;
 mod keymap;
+pub(crate) mod kinds;
 pub mod live;
-mod model;
 pub mod replay;
 pub mod sample;
 pub(crate) mod session;
@@ -56,11 +58,6 @@ pub use app::{
 };
 pub use config::{ConfigError, Thresholds, UiConfig};
 pub use keymap::{ALL_ACTIONS, Action, Context, Key, KeyMap, KeyMapError};
-pub use model::{
-    Battery, CameraHealth, CellState, DfsProgress, Gps, GpsFix, LinkState, LogEntry, MapError,
-    MapKind, MapModel, MissionModel, MissionProgress, Model, Phase, Role, RunStatus, Stat, Track,
-    VehicleRow,
-};
 pub use shell::{
     REFRESH, ShellIo, ShellOptions, TerminalGuard, TuiError, install_panic_hook, run, run_loop,
     write_restore_sequence,

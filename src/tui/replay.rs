@@ -3,10 +3,10 @@
 //! JSON Lines, one [`ReplayFrame`] per line: `{"t_ms": 1500, "model": {...}}` where `t_ms`
 //! is the frame's time since the start of the recording (milliseconds, non-decreasing) and
 //! `model` a [`Model`] (every field optional; the map's `rows` are glyph strings, north
-//! first — see [`crate::tui::model::MapModel`]). Blank lines and lines starting with `#` are
+//! first — see [`crate::panes::MapModel`]). Blank lines and lines starting with `#` are
 //! skipped. `fleetmap tui --export-sample FILE` writes an example.
 
-use super::model::Model;
+use crate::panes::Model;
 use serde::{Deserialize, Serialize};
 use std::path::Path;
 

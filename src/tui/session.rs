@@ -1,16 +1,15 @@
 //! The live terminal session (async shell): the operator's UI on a real fleet, with or
-//! without a run attached (runway mapping or spatial classification).
+//! without a run attached (of any registered kind).
 //!
 //! Three tasks around the UI ([`crate::tui::run`]):
-//! * the **model producer** turns fleet snapshots, the run's state (a `watch` from the
-//!   runner) and the log into [`crate::tui::Model`]s ten times a second
+//! * the **model producer** turns fleet snapshots, the panes of the run's state (a `watch`
+//!   from the runner; [`RunKind::panes`]) and the log into [`crate::panes::Model`]s ten times a second
 //!   ([`crate::tui::REFRESH`], [`crate::tui::live::build_model`]), and passes on those that
 //!   differ from the previous one; the fleet is asked to publish its snapshots at least as
 //!   often (in wall time), so that each frame shows fresh telemetry;
 //! * the **command executor** carries out the operator's commands — mission-level ones
-//!   through the runner, as the run's kind means them ([`RunKind::command`]: runway
-//!   mapping's pause, resume, recall, land, battery swapped; spatial classification's
-//!   pause of the next sortie), vehicle-level ones through the fleet (arm, disarm, RTL,
+//!   through the runner, as the run's kind means them ([`RunKind::command`]: a
+//!   pause, a resume, a recall, a battery swapped, …), vehicle-level ones through the fleet (arm, disarm, RTL,
 //!   land, hold) — and answers each with a [`JobResult`];
 //! * the **runner** ([`RunKind::fly_attached`]) once the operator starts the mission (or
 //!   at once with `auto_start`).
@@ -22,16 +21,17 @@
 use crate::app::blocking::run_blocking;
 use crate::app::error::RunError;
 use crate::app::flight;
-use crate::app::kind::{Attached, CommandReply, Outcome, RunKind, RunView};
+use crate::app::kind::{Attached, CommandReply, Outcome, RunKind};
 use crate::app::launch::{OnFinish, Ready, exports_on_finish, run_world};
 use crate::app::preflight::StartCheck;
 use crate::app::run::Progress;
 use crate::fleet::FleetHandle;
+use crate::panes::{Model, Panes, RunInfo};
 use crate::store::RunDir;
-use crate::tui::live::{LiveLog, RunInfo, build_model};
+use crate::tui::live::{LiveLog, build_model};
 use crate::tui::{
-    App, Command, CommandError, CommandRequest, JobResult, Model, REFRESH, ShellIo, ShellOptions,
-    Target, UiConfig,
+    App, Command, CommandError, CommandRequest, JobResult, REFRESH, ShellIo, ShellOptions, Target,
+    UiConfig,
 };
 use fleetmap_core::preflight::{Finding, Severity as CheckSeverity};
 use fleetmap_core::proto::severity::Severity;
@@ -144,7 +144,8 @@ type RunState = Arc<dyn ShowRun>;
 
 /// A run's state as the panes show it.
 trait ShowRun: Send + Sync {
-    fn view(&self) -> RunView<'_>;
+    /// Its panes ([`RunKind::panes`]).
+    fn panes(&self, info: &RunInfo) -> Panes;
     /// Whether the run's state is finished ([`RunKind::is_finished`]): its exports may still
     /// be being written.
     fn is_finished(&self) -> bool;
@@ -154,8 +155,8 @@ trait ShowRun: Send + Sync {
 struct Shown<K: RunKind>(Arc<K::State>);
 
 impl<K: RunKind> ShowRun for Shown<K> {
-    fn view(&self) -> RunView<'_> {
-        K::view(&self.0)
+    fn panes(&self, info: &RunInfo) -> Panes {
+        K::panes(&self.0, info)
     }
     fn is_finished(&self) -> bool {
         K::is_finished(&self.0)
@@ -326,7 +327,7 @@ fn spawn_model_producer(
                     return;
                 };
                 log.absorb(&snap);
-                let mut m = build_model(&snap, view.as_ref().map(|s| (s.view(), &info)), &log);
+                let mut m = build_model(&snap, view.as_ref().map(|s| s.panes(&info)), &log);
                 m.sim_speed = fleet.clock().simulator().and_then(|s| s.achieved());
                 m
             };

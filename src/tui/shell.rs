@@ -16,9 +16,9 @@
 //! `set_panic_hook`).
 
 use super::app::{App, CommandError, CommandRequest, Effect, Event, JobResult};
-use super::model::Model;
 use super::update::update;
 use super::view;
+use crate::panes::Model;
 use crossterm::event::{Event as TermEvent, KeyEventKind};
 use fleetmap_io::clock::MonotonicClock;
 use fleetmap_io::watch;

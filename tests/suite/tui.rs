@@ -5,6 +5,7 @@
 //! binary in a pseudo-terminal.
 
 use crossterm::event::{Event as TermEvent, KeyCode, KeyEvent, KeyModifiers};
+use fleetmap::panes::*;
 use fleetmap::tui::view::help::{self, HelpLine};
 use fleetmap::tui::*;
 use fleetmap_core::proto::severity::Severity;
@@ -19,6 +20,13 @@ use tokio::sync::mpsc;
 
 use crate::common;
 use common::pty;
+
+/// The fixtures: the kinds' own (from their folders) and the generated fleet.
+mod sample {
+    pub(super) use fleetmap::app::bandit::sample::fixture as classification_fixture;
+    pub(super) use fleetmap::app::runway::sample::fixture as runway_fixture;
+    pub(super) use fleetmap::tui::sample::generated;
+}
 
 // ---------------------------------------------------------------- helpers
 
@@ -971,6 +979,61 @@ fn the_panic_hook_restores_the_real_terminal() {
     assert!(
         after.contains(" icanon") && after.contains(" echo"),
         "raw mode is off: {after}"
+    );
+}
+
+/// A replay records the map's label and the mission's name, not the kind's look: every
+/// fixture read back from a replay file draws exactly as the fixture itself, and a frame in
+/// the spelling of replays recorded before the kinds supplied their panes (an empty map
+/// without `kind`, the mission's `"spatial_classification"`) draws as that kind's.
+#[test]
+fn replayed_models_draw_as_their_kinds() {
+    let dir = tempfile::tempdir().expect("tempdir");
+    let path = dir.path().join("fixtures.jsonl");
+    // No epoch done yet: the pane still counts them (the kind says it has epochs).
+    let mut idle = serde_json::to_value(sample::classification_fixture()).expect("serialize");
+    idle["mission"]["epochs_done"] = 0.into();
+    let idle: Model = serde_json::from_value(idle).expect("a model");
+    let models = [
+        sample::runway_fixture(),
+        sample::classification_fixture(),
+        idle,
+        sample::generated(50, 1),
+        Model::default(),
+    ];
+    let recorded: String = models
+        .iter()
+        .enumerate()
+        .map(|(i, m)| {
+            let frame = replay::ReplayFrame {
+                t_ms: i as u64,
+                model: m.clone(),
+            };
+            serde_json::to_string(&frame).expect("a frame serializes") + "\n"
+        })
+        .collect();
+    std::fs::write(&path, recorded).expect("write");
+    let frames = replay::read_replay(&path).expect("valid replay");
+    for (m, f) in models.iter().zip(&frames) {
+        for (w, h) in SIZES {
+            assert_eq!(
+                text(&draw(&app_with(f.model.clone(), w, h), w, h)),
+                text(&draw(&app_with(m.clone(), w, h), w, h)),
+                "{} at {w}x{h}",
+                m.mission.name
+            );
+        }
+    }
+
+    let old = r#"{"t_ms": 0, "model": {"map": {"rows": ["?K", "x@"]}, "mission": {"name": "old", "kind": "spatial_classification"}}}"#;
+    std::fs::write(&path, old).expect("write");
+    let frames = replay::read_replay(&path).expect("an old replay reads");
+    let s = text(&draw(&app_with(frames[0].model.clone(), 250, 70), 250, 70));
+    assert!(s.contains("(spatial classification)"), "{s}");
+    assert!(s.contains("Epochs   0 done"), "{s}");
+    assert!(
+        s.contains(" runway · north up"),
+        "a map without a kind: {s}"
     );
 }
 

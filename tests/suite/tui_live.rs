@@ -2,8 +2,12 @@
 //! as the operator sees them — snapshots of the map, mission, fleet and log panes at 80×24 and
 //! 250×70 from a state built by the run's own state machine.
 
+use fleetmap::app::bandit::Classification;
+use fleetmap::app::kind::RunKind;
+use fleetmap::app::runway::Runway;
 use fleetmap::fleet::{FleetSnapshot, GeoPoint, StatusText, VehicleSnapshot};
-use fleetmap::tui::live::{LiveLog, RunInfo, build_model};
+use fleetmap::panes::*;
+use fleetmap::tui::live::{LiveLog, build_model};
 use fleetmap::tui::*;
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::MappingState;
@@ -180,7 +184,7 @@ fn app(w: u16, h: u16) -> App {
         paused: false,
         failed: None,
     };
-    let model = build_model(&fs, Some(((&s).into(), &info)), &log);
+    let model = build_model(&fs, Some(Runway::panes(&s, &info)), &log);
     let mut app = App::new(
         UiConfig::default(),
         Source::new(SourceKind::Live, "LIVE udpout:127.0.0.1:14560"),
@@ -252,7 +256,7 @@ fn model_follows_the_run() {
         started: true,
         ..RunInfo::default()
     };
-    let m = build_model(&f, Some(((&s).into(), &info)), &LiveLog::default());
+    let m = build_model(&f, Some(Runway::panes(&s, &info)), &LiveLog::default());
     assert_eq!(m.mission.phase, Phase::Dfs);
     assert_eq!(m.mission.status, RunStatus::Running);
     let root = Cell::new(5, 2);
@@ -275,7 +279,7 @@ fn model_follows_the_run() {
         ..info
     };
     assert_eq!(
-        build_model(&f, Some(((&s).into(), &paused)), &LiveLog::default())
+        build_model(&f, Some(Runway::panes(&s, &paused)), &LiveLog::default())
             .mission
             .status,
         RunStatus::Paused
@@ -357,8 +361,12 @@ fn live_classification_run_shows_labels_obstacles_roads_and_the_team() {
         started: true,
         ..RunInfo::default()
     };
-    let m = build_model(&f, Some(((&s).into(), &info)), &LiveLog::default());
-    assert_eq!(m.map.kind, MapKind::Classification);
+    let m = build_model(
+        &f,
+        Some(Classification::panes(&s, &info)),
+        &LiveLog::default(),
+    );
+    assert_eq!(m.map.kind, Classification::LOOK.map);
     assert_eq!((m.map.rows, m.map.cols), (6, 6));
     assert_eq!(m.map.get(Cell::new(0, 0)), Some(CellState::Keep));
     assert_eq!(m.map.get(Cell::new(5, 5)), Some(CellState::Reject));
@@ -374,7 +382,7 @@ fn live_classification_run_shows_labels_obstacles_roads_and_the_team() {
     assert!(roads > 0);
     assert_eq!(
         m.mission.kind,
-        Some(fleetmap_core::mission::definition::MissionKind::SpatialClassification)
+        Some(MissionKind::new("spatial classification", true))
     );
     assert_eq!(m.mission.phase, Phase::Epoch { p: 1 });
     assert_eq!(m.mission.cells_classified, 2);

@@ -6,11 +6,11 @@ use super::{BanditEvent, KIND, RunOptions};
 use crate::app::command::{Command, CommandError, Target};
 use crate::app::error::{Check, RunError, RunnerError};
 use crate::app::flight::Patience;
-use crate::app::kind::RunView;
 use crate::app::kind::{Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings};
 use crate::app::run::Progress;
 use crate::app::team::heard;
 use crate::fleet::FleetHandle;
+use crate::panes::{KindLook, Panes, RunInfo, Sample};
 use crate::store::RunDir;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::planner::sortie::ClassificationState;
@@ -34,6 +34,7 @@ pub struct Pause(pub bool);
 
 impl RunKind for Classification {
     const KIND: &'static str = KIND;
+    const LOOK: KindLook = super::panes::LOOK;
     const EXPORTS: [ExportFormat; 3] =
         [ExportFormat::Png, ExportFormat::Geojson, ExportFormat::Kml];
     type State = ClassificationState;
@@ -193,8 +194,12 @@ impl RunKind for Classification {
         }
     }
 
-    fn view(state: &ClassificationState) -> RunView<'_> {
-        RunView::Classification(state)
+    fn panes(state: &ClassificationState, info: &RunInfo) -> Panes {
+        super::panes::panes(state, info)
+    }
+
+    fn sample(vehicles: usize) -> Sample {
+        super::sample::sample(vehicles)
     }
 
     fn report(

@@ -6,13 +6,13 @@ use crate::app::blocking::run_blocking;
 use crate::app::command::{Command, CommandError, Target};
 use crate::app::error::RunError;
 use crate::app::flight::Patience;
-use crate::app::kind::RunView;
 use crate::app::kind::{
     Attached, CommandReply, ExportFormat, Outcome, RunKind, RunSettings, png_bytes,
 };
 use crate::app::run::Progress;
 use crate::app::team::heard;
 use crate::fleet::FleetHandle;
+use crate::panes::{KindLook, Panes, RunInfo, Sample};
 use crate::store::RunDir;
 use fleetmap_core::explore::mapping::{MappingState, RobotStatus};
 use fleetmap_core::mission::definition::MissionDef;
@@ -26,6 +26,7 @@ pub struct Runway;
 
 impl RunKind for Runway {
     const KIND: &'static str = KIND;
+    const LOOK: KindLook = super::panes::LOOK;
     const EXPORTS: [ExportFormat; 3] =
         [ExportFormat::Geojson, ExportFormat::Kml, ExportFormat::Png];
     type State = MappingState;
@@ -182,8 +183,12 @@ impl RunKind for Runway {
         }))
     }
 
-    fn view(state: &MappingState) -> RunView<'_> {
-        RunView::Mapping(state)
+    fn panes(state: &MappingState, info: &RunInfo) -> Panes {
+        super::panes::panes(state, info)
+    }
+
+    fn sample(vehicles: usize) -> Sample {
+        super::sample::sample(vehicles)
     }
 
     fn report(state: &MappingState, world: Option<&World>) -> Result<Self::Report, RunError> {

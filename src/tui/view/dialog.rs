@@ -1,9 +1,9 @@
 //! The confirmation dialog and the vehicle-id prompt.
 
 use super::theme;
+use crate::panes::{Role, VehicleRow};
 use crate::tui::app::{App, Pending, Target};
 use crate::tui::keymap::Action;
-use crate::tui::model::{Role, VehicleRow};
 use fleetmap_core::time::Time;
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Rect};

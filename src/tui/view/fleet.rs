@@ -7,8 +7,8 @@
 
 use super::theme;
 use super::{pane_block, pane_title};
+use crate::panes::{Role, VehicleRow};
 use crate::tui::app::{App, Pane};
-use crate::tui::model::{Role, VehicleRow};
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Rect};
 use ratatui::style::Style;

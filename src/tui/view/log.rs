@@ -4,8 +4,8 @@
 
 use super::theme;
 use super::{lower_tabs, pane_block, pane_title};
+use crate::panes::{LogEntry, format_hms};
 use crate::tui::app::{App, Pane};
-use crate::tui::model::{LogEntry, format_hms};
 use fleetmap_core::proto::severity::Severity;
 use ratatui::Frame;
 use ratatui::layout::Rect;

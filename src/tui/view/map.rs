@@ -13,8 +13,9 @@
 
 use super::theme;
 use super::{Areas, lower_tabs, pane_block, pane_title};
+use crate::panes::{CellState, MapModel, Role};
 use crate::tui::app::{App, MapMode, Pane};
-use crate::tui::model::{CellState, MapKind, MapModel, Role};
+use crate::tui::kinds;
 use fleetmap_core::geo::Cell;
 use ratatui::Frame;
 use ratatui::buffer::Buffer;
@@ -239,10 +240,7 @@ fn mode_label(app: &App, vp: &Viewport, w: u16, h: u16) -> String {
 /// Draw the map pane.
 pub fn render(app: &App, frame: &mut Frame, area: Rect, compact: bool) {
     let map = &app.model.map;
-    let kind = match map.kind {
-        MapKind::Runway => "runway",
-        MapKind::Classification => "classification",
-    };
+    let kind = kinds::map_look(&map.kind).label;
     let title = if compact {
         lower_tabs(app, Pane::Map)
     } else {
@@ -396,7 +394,8 @@ fn draw_legend(app: &App, vp: &Viewport, area: Rect, compact: bool, frame: &mut 
     let name = |s: CellState| {
         if compact { s.short_name() } else { s.name() }
     };
-    let mut items: Vec<(String, Style, String)> = CellState::for_kind(map.kind)
+    let legend = kinds::map_look(&map.kind).legend;
+    let mut items: Vec<(String, Style, String)> = legend
         .iter()
         .map(|&s| {
             (
@@ -463,7 +462,7 @@ fn draw_legend(app: &App, vp: &Viewport, area: Rect, compact: bool, frame: &mut 
         let counts = map.counts();
         text.push(Line::raw(""));
         text.push(Line::styled("Cells", theme::header()));
-        for &s in CellState::for_kind(map.kind) {
+        for &s in legend.iter() {
             let i = CellState::ALL.iter().position(|x| *x == s).unwrap_or(0);
             text.push(Line::styled(
                 format!(" {:<21}{:>4}", s.name(), counts[i]),
@@ -518,7 +517,7 @@ mod tests {
 
     #[test]
     fn grids_fit_in_whole_characters() {
-        let map = MapModel::new(MapKind::Runway, 4.0, Cell::new(0, 0), 6, 6);
+        let map = MapModel::new(crate::panes::MapKind::default(), 4.0, Cell::new(0, 0), 6, 6);
         // x2: a cell is 4 x 2 characters; 6 rows need 12 screen rows.
         assert!(!fits(&map, BASE_ZOOM + 1, 78, 11));
         assert!(fits(&map, BASE_ZOOM + 1, 78, 12));

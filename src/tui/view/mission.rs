@@ -2,8 +2,9 @@
 
 use super::theme;
 use super::{lower_tabs, pane_block, pane_title};
+use crate::panes::{MissionKind, MissionModel, format_hms};
 use crate::tui::app::{App, Pane};
-use crate::tui::model::{MissionKind, MissionModel, format_hms};
+use crate::tui::kinds;
 use ratatui::Frame;
 use ratatui::layout::Rect;
 use ratatui::text::{Line, Span};
@@ -25,12 +26,8 @@ pub fn bar(done: u32, total: u32, width: usize) -> String {
     format!("[{}{}]", "#".repeat(filled), ".".repeat(width - filled))
 }
 
-fn kind_name(k: Option<MissionKind>) -> &'static str {
-    match k {
-        None => "no mission",
-        Some(MissionKind::RunwayMapping) => "runway mapping",
-        Some(MissionKind::SpatialClassification) => "spatial classification",
-    }
+fn kind_name(k: Option<&MissionKind>) -> &str {
+    k.map_or("no mission", |k| &k.name)
 }
 
 fn lines(m: &MissionModel, width: u16) -> Vec<Line<'static>> {
@@ -47,15 +44,11 @@ fn lines(m: &MissionModel, width: u16) -> Vec<Line<'static>> {
     out.push(Line::from(vec![
         label("Mission"),
         Span::styled(name.to_string(), theme::strong()),
-        Span::styled(format!("  ({})", kind_name(m.kind)), theme::text()),
+        Span::styled(format!("  ({})", kind_name(m.kind.as_ref())), theme::text()),
     ]));
     let status_style = match m.status {
-        crate::tui::model::RunStatus::Failed | crate::tui::model::RunStatus::BatterySwap => {
-            theme::alarm()
-        }
-        crate::tui::model::RunStatus::Paused | crate::tui::model::RunStatus::BeyondReach => {
-            theme::warn()
-        }
+        crate::panes::RunStatus::Failed | crate::panes::RunStatus::BatterySwap => theme::alarm(),
+        crate::panes::RunStatus::Paused | crate::panes::RunStatus::BeyondReach => theme::warn(),
         _ => theme::strong(),
     };
     out.push(Line::from(vec![
@@ -92,7 +85,7 @@ fn lines(m: &MissionModel, width: u16) -> Vec<Line<'static>> {
             ),
         ]));
     }
-    if m.kind == Some(MissionKind::SpatialClassification) || m.epochs_done > 0 {
+    if m.kind.as_ref().is_some_and(kinds::counts_epochs) || m.epochs_done > 0 {
         out.push(Line::from(vec![
             label("Epochs"),
             Span::styled(format!("{} done", m.epochs_done), theme::text()),

@@ -21,7 +21,7 @@ pub(crate) mod theme;
 
 use super::app::{App, Overlay, Pane};
 use super::keymap::Action;
-use super::model::format_hms;
+use crate::panes::format_hms;
 use ratatui::Frame;
 use ratatui::layout::{Constraint, Layout, Rect};
 use ratatui::style::Style;
@@ -207,7 +207,7 @@ pub(crate) fn lower_tabs(app: &App, shown: Pane) -> Line<'static> {
 }
 
 fn title_bar(app: &App, frame: &mut Frame, area: Rect) {
-    use super::model::RunStatus;
+    use crate::panes::RunStatus;
     let m = &app.model.mission;
     let source_style = if app.source.kind == crate::tui::app::SourceKind::Live {
         theme::ok()

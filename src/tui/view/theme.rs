@@ -3,8 +3,8 @@
 //! emphasis by bold, reverse video and background colour, always paired with a glyph or a
 //! word so that nothing depends on colour alone.
 
+use crate::panes::{Battery, CellState, Gps, LinkState, Role, VehicleRow};
 use crate::tui::config::Thresholds;
-use crate::tui::model::{Battery, CellState, Gps, LinkState, Role, VehicleRow};
 use fleetmap_core::proto::severity::Severity;
 use ratatui::style::{Color, Modifier, Style};
 
@@ -257,7 +257,7 @@ pub(crate) fn home() -> Style {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::tui::model::GpsFix;
+    use crate::panes::GpsFix;
 
     #[test]
     fn battery_takes_the_worse_of_percent_and_volts() {

@@ -1,34 +1,51 @@
 //! The mission pane's data: which mission, its phase, run status and progress figures.
 
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 use std::fmt;
 
-/// The mission kind: the mission file's vocabulary (`None`: no mission loaded).
-pub(crate) use fleetmap_core::mission::definition::MissionKind;
+/// Which mission the pane shows, as its kind describes itself.
+///
+/// Replay files record its name with `_` for spaces (`"runway_mapping"`; `"none"` without a
+/// mission); the UI takes whether it counts epochs from the kind this build registers under
+/// that name.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct MissionKind {
+    /// What the pane calls it, lower case ("… (name)").
+    pub name: Cow<'static, str>,
+    /// Whether its runs count epochs: the pane shows "Epochs N done" from the start.
+    pub epochs: bool,
+}
 
-/// How replay files spell [`MissionModel::kind`]: `"none"`, `"runway_mapping"`,
-/// `"spatial_classification"` (the UI's own spelling before it used the mission file's kind).
+impl MissionKind {
+    /// A kind named `name` (lower case, words separated by spaces) that counts epochs or not.
+    pub const fn new(name: &'static str, epochs: bool) -> MissionKind {
+        MissionKind {
+            name: Cow::Borrowed(name),
+            epochs,
+        }
+    }
+
+    /// The name as replay files record it: `_` for each space.
+    pub(crate) fn recorded(&self) -> String {
+        self.name.replace(' ', "_")
+    }
+}
+
+/// How replay files spell [`MissionModel::kind`]: `"none"`, or the kind's name with `_` for
+/// spaces (the spelling of the UI's own enum of kinds before the kinds named themselves).
 mod kind_replay {
     use super::MissionKind;
     use serde::{Deserialize, Deserializer, Serialize, Serializer};
-
-    /// The recorded form (snake_case unit variants).
-    #[derive(Serialize, Deserialize)]
-    #[serde(rename_all = "snake_case")]
-    enum Recorded {
-        None,
-        RunwayMapping,
-        SpatialClassification,
-    }
+    use std::borrow::Cow;
 
     pub(super) fn serialize<S: Serializer>(
         k: &Option<MissionKind>,
         s: S,
     ) -> Result<S::Ok, S::Error> {
         match k {
-            None => Recorded::None,
-            Some(MissionKind::RunwayMapping) => Recorded::RunwayMapping,
-            Some(MissionKind::SpatialClassification) => Recorded::SpatialClassification,
+            None => "none".to_string(),
+            Some(k) => k.recorded(),
         }
         .serialize(s)
     }
@@ -36,11 +53,11 @@ mod kind_replay {
     pub(super) fn deserialize<'de, D: Deserializer<'de>>(
         d: D,
     ) -> Result<Option<MissionKind>, D::Error> {
-        Ok(match Recorded::deserialize(d)? {
-            Recorded::None => None,
-            Recorded::RunwayMapping => Some(MissionKind::RunwayMapping),
-            Recorded::SpatialClassification => Some(MissionKind::SpatialClassification),
-        })
+        let recorded = String::deserialize(d)?;
+        Ok((recorded != "none").then(|| MissionKind {
+            name: Cow::Owned(recorded.replace('_', " ")),
+            epochs: false,
+        }))
     }
 }
 

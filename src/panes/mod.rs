@@ -1,27 +1,32 @@
-//! The view-model: what the operator's screen shows, as plain data.
+//! What a run shows: the operator's screen as plain data, which the terminal UI draws
+//! (`crate::tui`) and each mission kind fills from its state (`RunKind::panes` in
+//! `crate::app::kind`).
 //!
-//! The UI never reads the fleet actor or the mission runners directly. An adapter (in the
-//! shell) fills a [`Model`] from fleet snapshots and runner progress and publishes it on a
-//! `fleetmap_io::watch` channel; a replay file or a test constructs one the same way. Every
-//! type here is `serde`, so a [`Model`] round-trips through JSON (replay files are JSON Lines
-//! of [`crate::tui::replay::ReplayFrame`]).
+//! The UI never reads the fleet actor or the mission runners directly. An adapter
+//! (`crate::tui::live`) fills a [`Model`] from fleet snapshots and the run's [`Panes`] and
+//! publishes it on a `fleetmap_io::watch` channel; a replay file, a built-in sample or a test
+//! constructs one the same way. Every type of the model is `serde`, so a [`Model`] round-trips
+//! through JSON (replay files are JSON Lines of `crate::tui::replay::ReplayFrame`).
 //!
 //! Units are in the field names: metres (`_m`), metres per second (`_mps`), volts (`_v`),
 //! seconds (`_s`), percent (`_pct`). Times are [`Time`] (µs on the clock of whoever made
 //! the model; the UI shows them as elapsed `h:mm:ss`).
 //!
 //! One file per pane's data: `vehicle` (fleet rows), `map` (grid and cell states),
-//! `mission` (phase and progress), `log` (messages).
+//! `mission` (phase and progress), `log` (messages); `run` is what a kind supplies (its
+//! panes from its state, its look, its built-in sample).
 
 mod log;
 mod map;
 mod mission;
+mod run;
 mod vehicle;
 
 pub use log::LogEntry;
 pub use map::{CellState, MapError, MapKind, MapModel, Track};
-pub(crate) use mission::MissionKind;
-pub use mission::{DfsProgress, MissionModel, Phase, RunStatus, Stat};
+pub use mission::{DfsProgress, MissionKind, MissionModel, Phase, RunStatus, Stat};
+pub use run::{Animation, KindLook, Panes, RunInfo, Sample};
+pub(crate) use run::{copter, log_line};
 pub use vehicle::{
     Battery, CameraHealth, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleRow,
 };

@@ -5,7 +5,7 @@ use fleetmap_core::proto::severity::Severity;
 
 #[test]
 fn map_rows_are_north_up() {
-    let m = MapModel::from_rows(MapKind::Runway, 4.0, Cell::new(-1, 2), &["+.", "-#"])
+    let m = MapModel::from_rows(MapKind::default(), 4.0, Cell::new(-1, 2), &["+.", "-#"])
         .expect("valid rows");
     assert_eq!((m.rows, m.cols), (2, 2));
     // The last string is the southern row (row -1).
@@ -20,14 +20,22 @@ fn map_rows_are_north_up() {
 
 #[test]
 fn map_json_round_trips_and_rejects_bad_rows() {
-    let mut m = MapModel::new(MapKind::Classification, 10.0, Cell::new(0, 0), 3, 4);
+    const LEGEND: [CellState; 2] = [CellState::Unclassified, CellState::Keep];
+    let mut m = MapModel::new(MapKind::new("fields", &LEGEND), 10.0, Cell::new(0, 0), 3, 4);
     assert!(m.set(Cell::new(2, 3), CellState::Keep));
     assert!(!m.set(Cell::new(3, 0), CellState::Keep));
     m.home = Some(Cell::new(0, 0));
     let json = serde_json::to_string(&m).expect("serialise");
     assert!(json.contains(r#""rows":["???K","????","????"]"#), "{json}");
-    let back: MapModel = serde_json::from_str(&json).expect("parse");
+    assert!(json.contains(r#""kind":"fields""#), "{json}");
+    let mut back: MapModel = serde_json::from_str(&json).expect("parse");
+    // The legend is not recorded: the UI takes it from the kind of that label.
+    assert!(back.kind.legend.is_empty());
+    back.kind.legend = m.kind.legend.clone();
     assert_eq!(back, m);
+
+    let none = serde_json::to_value(MapModel::default()).expect("serialise");
+    assert!(none.get("kind").is_none(), "{none}");
 
     let ragged = r#"{"rows":["..","..."]}"#;
     let err = serde_json::from_str::<MapModel>(ragged).unwrap_err();
@@ -38,14 +46,30 @@ fn map_json_round_trips_and_rejects_bad_rows() {
 }
 
 #[test]
-fn glyphs_are_unique_and_kinds_partition_the_states() {
+fn glyphs_are_unique() {
     for a in CellState::ALL {
         assert_eq!(CellState::from_glyph(a.glyph()), Some(a));
     }
-    let runway = CellState::for_kind(MapKind::Runway);
-    let class = CellState::for_kind(MapKind::Classification);
-    assert_eq!(runway.len() + class.len(), CellState::ALL.len());
-    assert!(runway.iter().all(|s| !class.contains(s)));
+}
+
+/// Replay files spell the mission's kind as the UI's own enum did (`"none"`,
+/// `"runway_mapping"`, `"spatial_classification"`): the kind's name with `_` for spaces.
+#[test]
+fn replay_files_keep_the_mission_kind_spelling() {
+    let m = MissionModel {
+        kind: Some(MissionKind::new("crop dusting", true)),
+        ..MissionModel::default()
+    };
+    let v = serde_json::to_value(&m).expect("serialise");
+    assert_eq!(v["kind"], "crop_dusting");
+    let back: MissionModel = serde_json::from_value(v).expect("parse");
+    let kind = back.kind.expect("a kind");
+    assert_eq!(kind.name, "crop dusting");
+    assert!(!kind.epochs, "not recorded: the UI asks the kind");
+    let none = serde_json::to_value(MissionModel::default()).expect("serialise");
+    assert_eq!(none["kind"], "none");
+    let back: MissionModel = serde_json::from_value(none).expect("parse");
+    assert_eq!(back.kind, None);
 }
 
 #[test]

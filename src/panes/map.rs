@@ -3,16 +3,34 @@
 
 use fleetmap_core::geo::Cell;
 use serde::{Deserialize, Serialize};
+use std::borrow::Cow;
 
-/// Which kind of mission map the cells describe (selects the legend).
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum MapKind {
-    /// Runway mapping (sweep + DFS).
-    #[default]
-    Runway,
-    /// Spatial classification (bandit + IP).
-    Classification,
+/// What a kind's map is, as the kind describes it: its name at the foot of the map pane and
+/// the cell states its cells take (the legend).
+///
+/// In replay files only the label is recorded (`"kind"`); the UI takes the legend from the
+/// kind this build registers under that label.
+#[derive(Clone, Debug, Default, PartialEq, Eq, Hash)]
+pub struct MapKind {
+    /// The map's name in the pane's title ("… · north up").
+    pub label: Cow<'static, str>,
+    /// The cell states of its legend, in legend order; the first is a new cell's state.
+    pub legend: Cow<'static, [CellState]>,
+}
+
+impl MapKind {
+    /// A kind's map: `label` and the states of its legend (the first: a new cell's).
+    pub const fn new(label: &'static str, legend: &'static [CellState]) -> MapKind {
+        MapKind {
+            label: Cow::Borrowed(label),
+            legend: Cow::Borrowed(legend),
+        }
+    }
+
+    /// A new cell's state: the legend's first (unknown when the legend is empty).
+    pub(crate) fn initial(&self) -> CellState {
+        self.legend.first().copied().unwrap_or_default()
+    }
 }
 
 /// The state of one map cell. Runway mapping uses the first five, spatial classification
@@ -111,14 +129,6 @@ impl CellState {
         }
     }
 
-    /// The states a map of `kind` uses, in legend order.
-    pub(crate) fn for_kind(kind: MapKind) -> &'static [CellState] {
-        match kind {
-            MapKind::Runway => &CellState::ALL[0..5],
-            MapKind::Classification => &CellState::ALL[5..10],
-        }
-    }
-
     /// When one screen character covers several cells, the one with the highest priority
     /// is shown (a positive is never hidden behind negatives).
     pub(crate) fn priority(self) -> u8 {
@@ -163,8 +173,9 @@ pub struct MapModel {
 }
 
 impl Default for MapModel {
+    /// No map: no mission loaded.
     fn default() -> Self {
-        MapModel::new(MapKind::Runway, 4.0, Cell::new(0, 0), 0, 0)
+        MapModel::new(MapKind::default(), 4.0, Cell::new(0, 0), 0, 0)
     }
 }
 
@@ -202,12 +213,9 @@ pub enum MapError {
 
 impl MapModel {
     /// A `rows × cols` map of `kind` with its south-west corner at `south_west`, every cell
-    /// in the kind's initial state (unknown / unclassified).
+    /// in the kind's initial state (its legend's first).
     pub fn new(kind: MapKind, cell_size_m: f64, south_west: Cell, rows: u32, cols: u32) -> Self {
-        let init = match kind {
-            MapKind::Runway => CellState::Unknown,
-            MapKind::Classification => CellState::Unclassified,
-        };
+        let init = kind.initial();
         MapModel {
             kind,
             cell_size_m,
@@ -335,8 +343,10 @@ impl MapModel {
 /// The JSON form of [`MapModel`].
 #[derive(Serialize, Deserialize)]
 struct MapModelRepr {
-    #[serde(default)]
-    kind: MapKind,
+    /// The kind's label ([`MapKind::label`]); absent for a map of no kind (no mission), which
+    /// the UI draws with the default kind's legend.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    kind: String,
     #[serde(default = "default_cell_size")]
     cell_size_m: f64,
     #[serde(default)]
@@ -356,7 +366,7 @@ fn default_cell_size() -> f64 {
 impl Serialize for MapModel {
     fn serialize<S: serde::Serializer>(&self, s: S) -> Result<S::Ok, S::Error> {
         MapModelRepr {
-            kind: self.kind,
+            kind: self.kind.label.to_string(),
             cell_size_m: self.cell_size_m,
             south_west: self.south_west,
             rows: self.to_rows(),
@@ -370,7 +380,11 @@ impl Serialize for MapModel {
 impl<'de> Deserialize<'de> for MapModel {
     fn deserialize<D: serde::Deserializer<'de>>(d: D) -> Result<Self, D::Error> {
         let r = MapModelRepr::deserialize(d)?;
-        let mut m = MapModel::from_rows(r.kind, r.cell_size_m, r.south_west, &r.rows)
+        let kind = MapKind {
+            label: Cow::Owned(r.kind),
+            legend: Cow::Borrowed(&[]),
+        };
+        let mut m = MapModel::from_rows(kind, r.cell_size_m, r.south_west, &r.rows)
             .map_err(serde::de::Error::custom)?;
         m.tracks = r.tracks;
         m.home = r.home;
