@@ -34,18 +34,19 @@
 //!    keeps going after an error and gives each error a byte span. If there are syntax errors
 //!    they are reported (sorted, the first per line) and nothing else is checked, because the
 //!    rest of the tree is a guess.
-//! 2. **Structure and types** (`reader`): the spanned tree (`DeTable`, whose every key and
-//!    value is a `serde_spanned::Spanned`) is walked against the schema by hand, rather than
-//!    with `toml::from_str`, because serde stops at the first error. Unknown keys (with a
-//!    "did you mean" suggestion), missing required keys, wrong types and integers that do not
-//!    fit their type are all reported. Every value's span is recorded under its key path
+//! 2. **Structure and types** (`reader`; each kind's table by the kind's module, listed in
+//!    `kinds`): the spanned tree (`DeTable`, whose every key and value is a
+//!    `serde_spanned::Spanned`) is walked against the schema by hand, rather than with
+//!    `toml::from_str`, because serde stops at the first error. Unknown keys (with a "did you
+//!    mean" suggestion), missing required keys, wrong types and integers that do not fit
+//!    their type are all reported. Every value's span is recorded under its key path
 //!    (`vehicles[2].sysid`, `area.obstacles[4]`).
-//! 3. **Values and semantics** (`validate`): ranges and cross-field rules on the typed
-//!    [`MissionDef`] (duplicate system ids, an obstacle that is also a road, Td not a
-//!    multiple of Tc, drones without a station, ε outside (0, min(θ, 1−θ)) …). Each problem
-//!    names the key path of the offending value, which the span table turns into a line and
-//!    column. Values that already failed step 2 are replaced by placeholders and *poisoned*:
-//!    problems involving them are not reported twice.
+//! 3. **Values and semantics** (`validate`, then the kind's module): ranges and cross-field
+//!    rules on the typed [`MissionDef`] (duplicate system ids, an obstacle that is also a
+//!    road, Td not a multiple of Tc, drones without a station, ε outside (0, min(θ, 1−θ)) …).
+//!    Each problem names the key path of the offending value, which the span table turns
+//!    into a line and column. Values that already failed step 2 are replaced by placeholders
+//!    and *poisoned*: problems involving them are not reported twice.
 //!
 //! The same [`MissionDef`] also derives serde (`deny_unknown_fields`, the same key names and
 //! defaults) so that it round-trips through TOML and JSON (`fleetmap check --json`, the copy
