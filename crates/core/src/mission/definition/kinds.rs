@@ -151,26 +151,51 @@ impl MissionKind {
 mod tests {
     use super::*;
 
-    const COMMON: &str = "[grid]\norigin = \"vehicle\"\ncell_size_m = 4.0\n\
-                          [flight]\naltitude_m = 12.0\nspeed_m_s = 1.0\n";
-
-    /// A valid file of each kind, with its table.
+    /// A valid file of each kind, with its table, as lines: its own lines after the
+    /// common tables.
     fn examples() -> Vec<MissionDef> {
-        let runway = format!(
-            "name = \"r\"\nkind = \"runway-mapping\"\n{COMMON}\
-             [[vehicles]]\nsysid = 1\nrole = \"drone\"\n\
-             [runway.sweep]\nnorth_m = [0.0, 8.0]\neast_m = [0.0, 8.0]\n"
-        );
-        let classification = format!(
-            "name = \"c\"\nkind = \"spatial-classification\"\n{COMMON}\
-             [area]\nrows = 2\ncols = 2\n\
-             [[vehicles]]\nsysid = 1\nrole = \"drone\"\nstart = [0, 0]\n\
-             [[vehicles]]\nsysid = 2\nrole = \"station\"\nstart = [0, 0]\n\
-             [classification]\ntheta = 0.5\n"
-        );
-        [runway, classification]
+        let common = [
+            "[grid]",
+            "origin = \"vehicle\"",
+            "cell_size_m = 4.0",
+            "[flight]",
+            "altitude_m = 12.0",
+            "speed_m_s = 1.0",
+        ];
+        let files = [
+            vec![
+                "[[vehicles]]",
+                "sysid = 1",
+                "role = \"drone\"",
+                "[runway.sweep]",
+                "north_m = [0.0, 8.0]",
+                "east_m = [0.0, 8.0]",
+            ],
+            vec![
+                "[[vehicles]]",
+                "sysid = 1",
+                "role = \"drone\"",
+                "start = [0, 0]",
+                "[[vehicles]]",
+                "sysid = 2",
+                "role = \"station\"",
+                "start = [0, 0]",
+                "[area]",
+                "rows = 2",
+                "cols = 2",
+                "[classification]",
+                "theta = 0.5",
+            ],
+        ];
+        MissionKind::ALL
             .iter()
-            .map(|t| MissionDef::parse(t, "t.toml").unwrap_or_else(|e| panic!("{e}")))
+            .zip(files)
+            .map(|(k, own)| {
+                let root = [format!("name = \"{k}\""), format!("kind = \"{k}\"")];
+                let lines = root.iter().map(String::as_str).chain(common).chain(own);
+                let text = lines.collect::<Vec<_>>().join("\n");
+                MissionDef::parse(&text, "t.toml").unwrap_or_else(|e| panic!("{e}\n{text}"))
+            })
             .collect()
     }
 
