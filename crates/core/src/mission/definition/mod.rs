@@ -34,18 +34,19 @@
 //!    keeps going after an error and gives each error a byte span. If there are syntax errors
 //!    they are reported (sorted, the first per line) and nothing else is checked, because the
 //!    rest of the tree is a guess.
-//! 2. **Structure and types** (`reader`): the spanned tree (`DeTable`, whose every key and
-//!    value is a `serde_spanned::Spanned`) is walked against the schema by hand, rather than
-//!    with `toml::from_str`, because serde stops at the first error. Unknown keys (with a
-//!    "did you mean" suggestion), missing required keys, wrong types and integers that do not
-//!    fit their type are all reported. Every value's span is recorded under its key path
+//! 2. **Structure and types** (`reader`; each kind's table by the kind's module, listed in
+//!    `kinds`): the spanned tree (`DeTable`, whose every key and value is a
+//!    `serde_spanned::Spanned`) is walked against the schema by hand, rather than with
+//!    `toml::from_str`, because serde stops at the first error. Unknown keys (with a "did you
+//!    mean" suggestion), missing required keys, wrong types and integers that do not fit
+//!    their type are all reported. Every value's span is recorded under its key path
 //!    (`vehicles[2].sysid`, `area.obstacles[4]`).
-//! 3. **Values and semantics** (`validate`): ranges and cross-field rules on the typed
-//!    [`MissionDef`] (duplicate system ids, an obstacle that is also a road, Td not a
-//!    multiple of Tc, drones without a station, ε outside (0, min(θ, 1−θ)) …). Each problem
-//!    names the key path of the offending value, which the span table turns into a line and
-//!    column. Values that already failed step 2 are replaced by placeholders and *poisoned*:
-//!    problems involving them are not reported twice.
+//! 3. **Values and semantics** (`validate`, then the kind's module): ranges and cross-field
+//!    rules on the typed [`MissionDef`] (duplicate system ids, an obstacle that is also a
+//!    road, Td not a multiple of Tc, drones without a station, ε outside (0, min(θ, 1−θ)) …).
+//!    Each problem names the key path of the offending value, which the span table turns
+//!    into a line and column. Values that already failed step 2 are replaced by placeholders
+//!    and *poisoned*: problems involving them are not reported twice.
 //!
 //! The same [`MissionDef`] also derives serde (`deny_unknown_fields`, the same key names and
 //! defaults) so that it round-trips through TOML and JSON (`fleetmap check --json`, the copy
@@ -54,23 +55,18 @@
 
 mod classification;
 mod errors;
+mod kinds;
 mod reader;
 mod runway;
 mod validate;
 
 pub use classification::{ClassificationDef, GreenDef};
 pub use errors::{DefError, DefErrors};
+pub use kinds::MissionKind;
 pub use runway::{RunwayDef, SweepBox};
-// The runway defaults are also the reader's (`reader::schema`).
-pub(crate) use runway::default_sweep_position_tolerance_m;
-use runway::{
-    default_black_fraction, default_dilations, default_images_per_cell,
-    default_intensity_threshold, default_votes_required,
-};
 
 use crate::budget::LinkBudget;
 use crate::geo::Cell;
-use crate::mission::strategy::{Allocation, ConfidenceBound};
 use crate::vision::camera::CameraModel;
 use serde::{Deserialize, Deserializer, Serialize, Serializer};
 use std::collections::HashSet;
@@ -79,33 +75,6 @@ use std::fmt;
 /// The most cells a mission's search area or sweep box may hold (validation limits the
 /// area to 1000 × 1000).
 pub(crate) const MAX_CELLS: u64 = 10_000_000;
-
-/// Which field mission a definition describes.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "kebab-case")]
-pub enum MissionKind {
-    /// Runway mapping (runway paper): lawnmower sweep, then the multi-robot recursive DFS.
-    RunwayMapping,
-    /// Spatial classification (bandit paper): UCB bandit + integer-program sorties with
-    /// mobile charging stations.
-    SpatialClassification,
-}
-
-impl MissionKind {
-    /// The spelling used in mission files (`"runway-mapping"`, `"spatial-classification"`).
-    pub fn as_str(self) -> &'static str {
-        match self {
-            MissionKind::RunwayMapping => "runway-mapping",
-            MissionKind::SpatialClassification => "spatial-classification",
-        }
-    }
-}
-
-impl fmt::Display for MissionKind {
-    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-        f.write_str(self.as_str())
-    }
-}
 
 // Positions are the grid's own `LatLon` (WGS84 degrees); a definition's must lie in the UTM
 // range (latitude −80 … 84), checked by `validate`.
@@ -439,9 +408,7 @@ impl MissionDef {
     /// Give the mission kind's parameter table its defaults when it is absent (what
     /// [`MissionDef::parse`] does; call it after deserialising with serde).
     pub fn fill_defaults(&mut self) {
-        if self.kind == MissionKind::SpatialClassification && self.classification.is_none() {
-            self.classification = Some(ClassificationDef::default());
-        }
+        self.kind.section().fill_default(self);
     }
 
     /// The drones, in file order.
@@ -517,40 +484,6 @@ impl MissionDef {
             .into_iter()
             .filter(|c| !obstacles.contains(c) && !roads.contains(c))
             .collect()
-    }
-
-    /// Station driving speed, m/s: `speed_m_s · Tc / Td` (bandit paper §II: γ = v_d/v_c =
-    /// Td/Tc); `None` for runway mapping.
-    pub fn station_speed_m_s(&self) -> Option<f64> {
-        let c = self.classification.as_ref()?;
-        let td = f64::from(c.drone_cycle_steps.max(1));
-        Some(self.flight.speed_m_s * f64::from(c.station_cycle_steps) / td)
-    }
-
-    /// Cells whose centres lie in a [`SweepBox::Local`] sweep box, row-major from the
-    /// south-west (`None` for WGS84 corners, which need the origin's position, without a
-    /// runway table, or when the box holds more than `MAX_CELLS` cells).
-    pub fn sweep_cells(&self) -> Option<Vec<Cell>> {
-        let SweepBox::Local { north_m, east_m } = self.runway.as_ref()?.sweep else {
-            return None;
-        };
-        let s = self.grid.cell_size_m;
-        let finite = north_m.iter().chain(&east_m).all(|x| x.is_finite());
-        if !(s > 0.0 && s.is_finite() && finite) {
-            return None;
-        }
-        let span = |lo: f64, hi: f64| ((lo / s).ceil(), (hi / s).floor());
-        let ((r0, r1), (c0, c1)) = (span(north_m[0], north_m[1]), span(east_m[0], east_m[1]));
-        let count = (r1 - r0 + 1.0).max(0.0) * (c1 - c0 + 1.0).max(0.0);
-        if count > MAX_CELLS as f64 || r0.abs().max(r1.abs()).max(c0.abs()).max(c1.abs()) > 1e9 {
-            return None;
-        }
-        let (r0, r1, c0, c1) = (r0 as i32, r1 as i32, c0 as i32, c1 as i32);
-        Some(
-            (r0..=r1)
-                .flat_map(|r| (c0..=c1).map(move |c| Cell::new(r, c)))
-                .collect(),
-        )
     }
 }
 

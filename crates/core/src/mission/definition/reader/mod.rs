@@ -12,7 +12,7 @@ use std::ops::Range;
 use toml::Spanned;
 use toml::de::{DeTable, DeValue};
 
-type Val<'i> = Spanned<DeValue<'i>>;
+pub(super) type Val<'i> = Spanned<DeValue<'i>>;
 
 /// At most this many syntax errors are reported (later ones are mostly consequences).
 const MAX_SYNTAX_ERRORS: usize = 20;
@@ -101,7 +101,8 @@ fn describe(v: &DeValue<'_>) -> String {
     }
 }
 
-fn get<'a, 'i>(t: &'a DeTable<'i>, key: &str) -> Option<&'a Val<'i>> {
+/// The value of `key` in table `t`.
+pub(super) fn get<'a, 'i>(t: &'a DeTable<'i>, key: &str) -> Option<&'a Val<'i>> {
     t.iter().find(|(k, _)| k.get_ref() == key).map(|(_, v)| v)
 }
 
@@ -129,7 +130,7 @@ impl<'t> Ctx<'t> {
         }
     }
 
-    fn push(&mut self, offset: usize, path: &str, message: String) {
+    pub(super) fn push(&mut self, offset: usize, path: &str, message: String) {
         let (line, column) = if self.located {
             line_col(self.text, offset)
         } else {
@@ -144,7 +145,7 @@ impl<'t> Ctx<'t> {
         });
     }
 
-    fn poison(&mut self, path: &str) {
+    pub(super) fn poison(&mut self, path: &str) {
         self.poisoned.push(path.to_string());
     }
 
@@ -165,7 +166,7 @@ impl<'t> Ctx<'t> {
     }
 
     /// Report a missing required key of the table at `table_path` and poison it.
-    fn missing(&mut self, table_path: &str, key: &str, expected: &str) {
+    pub(super) fn missing(&mut self, table_path: &str, key: &str, expected: &str) {
         let path = join(table_path, key);
         let offset = self.spans.get(table_path).map_or(0, |s| s.start);
         let msg = if table_path.is_empty() {
@@ -218,7 +219,7 @@ impl<'t> Ctx<'t> {
 
     /// `v` as a table whose keys must be among `known`; unknown keys are reported at the
     /// key, with a suggestion when one is close.
-    fn table<'a, 'i>(
+    pub(super) fn table<'a, 'i>(
         &mut self,
         path: &str,
         v: &'a Val<'i>,
@@ -256,7 +257,7 @@ impl<'t> Ctx<'t> {
     }
 
     /// An optional sub-table: `None` when absent or not a table (the latter reported).
-    fn sub_table<'a, 'i>(
+    pub(super) fn sub_table<'a, 'i>(
         &mut self,
         t: &'a DeTable<'i>,
         tpath: &str,
@@ -273,7 +274,7 @@ impl<'t> Ctx<'t> {
         self.spans.insert(path.to_string(), v.span());
     }
 
-    fn num_of(&mut self, path: &str, v: &Val<'_>) -> Option<f64> {
+    pub(super) fn num_of(&mut self, path: &str, v: &Val<'_>) -> Option<f64> {
         self.record(path, v);
         let n = match v.get_ref() {
             DeValue::Integer(i) => i64::from_str_radix(i.as_str(), i.radix())
@@ -288,7 +289,12 @@ impl<'t> Ctx<'t> {
         n
     }
 
-    fn int_of<T: TryFrom<i64>>(&mut self, path: &str, v: &Val<'_>, expected: &str) -> Option<T> {
+    pub(super) fn int_of<T: TryFrom<i64>>(
+        &mut self,
+        path: &str,
+        v: &Val<'_>,
+        expected: &str,
+    ) -> Option<T> {
         self.record(path, v);
         let DeValue::Integer(i) = v.get_ref() else {
             self.wrong(path, v, expected);
@@ -343,7 +349,12 @@ impl<'t> Ctx<'t> {
     }
 
     /// One of the given words (`kind`, `role`).
-    fn word_of<T: Copy>(&mut self, path: &str, v: &Val<'_>, words: &[(&str, T)]) -> Option<T> {
+    pub(super) fn word_of<T: Copy>(
+        &mut self,
+        path: &str,
+        v: &Val<'_>,
+        words: &[(&str, T)],
+    ) -> Option<T> {
         let list = words
             .iter()
             .map(|(w, _)| format!("{w:?}"))
@@ -399,7 +410,7 @@ impl<'t> Ctx<'t> {
     }
 
     /// A fixed-length array of numbers (`north_m = [min, max]`).
-    fn nums_of<const N: usize>(
+    pub(super) fn nums_of<const N: usize>(
         &mut self,
         path: &str,
         v: &Val<'_>,
@@ -421,7 +432,7 @@ impl<'t> Ctx<'t> {
     }
 
     /// A fixed-length array of small integers (`hsv_min = [h, s, v]`).
-    fn u8s_of<const N: usize>(
+    pub(super) fn u8s_of<const N: usize>(
         &mut self,
         path: &str,
         v: &Val<'_>,
@@ -442,7 +453,7 @@ impl<'t> Ctx<'t> {
         Some(out)
     }
 
-    fn latlon_of(&mut self, path: &str, v: &Val<'_>) -> Option<LatLon> {
+    pub(super) fn latlon_of(&mut self, path: &str, v: &Val<'_>) -> Option<LatLon> {
         let t = self.table(path, v, &["lat", "lon"])?;
         let lat = self.req(t, path, "lat", "a latitude in degrees", Self::num_of);
         let lon = self.req(t, path, "lon", "a longitude in degrees", Self::num_of);
@@ -455,7 +466,7 @@ impl<'t> Ctx<'t> {
     // ---- required / optional fields ---------------------------------------------------
 
     /// A required key read with `f` (which reports its own type errors).
-    fn req<T>(
+    pub(super) fn req<T>(
         &mut self,
         t: &DeTable<'_>,
         tpath: &str,
@@ -480,7 +491,7 @@ impl<'t> Ctx<'t> {
     }
 
     /// An optional key read with `f`: `Ok(None)` when absent, `Err(())` when malformed.
-    fn opt<T>(
+    pub(super) fn opt<T>(
         &mut self,
         t: &DeTable<'_>,
         tpath: &str,
@@ -502,7 +513,7 @@ impl<'t> Ctx<'t> {
 
     /// An optional key with a default (the default also stands in when it is malformed;
     /// the error is reported and the key poisoned).
-    fn or<T>(
+    pub(super) fn or<T>(
         &mut self,
         t: &DeTable<'_>,
         tpath: &str,

@@ -1,24 +1,27 @@
 //! Step 2 of loading a mission file: the walk of the spanned TOML tree against the
 //! schema, table by table (`[grid]`, `[flight]`, `[camera]`, `[battery]`, `[[vehicles]]`,
-//! `[area]`, `[runway]`, `[classification]`), through the typed readers of [`Ctx`].
+//! `[area]`, then each kind's table, read by the kind's module), through the typed readers
+//! of [`Ctx`].
 
 use super::*;
-use crate::mission::strategy::Allocation;
 
-const ROOT_KEYS: &[&str] = &[
-    "name",
-    "kind",
-    "description",
-    "grid",
-    "flight",
-    "camera",
-    "battery",
-    "vehicles",
-    "area",
-    "runway",
-    "classification",
-    "link",
-];
+/// The keys of the file's root: the common parts, each kind's table (in the kinds' order)
+/// between `area` and `link`.
+fn root_keys() -> Vec<&'static str> {
+    let common = [
+        "name",
+        "kind",
+        "description",
+        "grid",
+        "flight",
+        "camera",
+        "battery",
+        "vehicles",
+        "area",
+    ];
+    let tables = MissionKind::ALL.iter().map(|k| k.table());
+    common.into_iter().chain(tables).chain(["link"]).collect()
+}
 
 /// Parse `text` (steps 1 and 2). Syntax errors end the reading; structural errors are kept
 /// in the returned context (with placeholders in the definition) so that validation can add
@@ -50,7 +53,7 @@ pub(in crate::mission::definition) fn read<'t>(
             .unwrap_or(DefErrors { errors: Vec::new() }));
     }
     let root_val = Spanned::new(0..0, DeValue::Table(doc.into_inner()));
-    let root = ctx.table("", &root_val, ROOT_KEYS);
+    let root = ctx.table("", &root_val, &root_keys());
     let empty = DeTable::default();
     let root = root.unwrap_or(&empty);
     let def = read_root(&mut ctx, root);
@@ -63,19 +66,16 @@ fn read_root(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> MissionDef {
             c.str_of(p, v, "a string")
         })
         .unwrap_or_default();
-    let kinds = [
-        ("runway-mapping", MissionKind::RunwayMapping),
-        ("spatial-classification", MissionKind::SpatialClassification),
-    ];
+    let kinds: Vec<_> = MissionKind::ALL.iter().map(|&k| (k.as_str(), k)).collect();
     let kind = ctx
         .req(
             root,
             "",
             "kind",
-            "\"runway-mapping\" or \"spatial-classification\"",
+            &MissionKind::names(MissionKind::ALL.iter().copied(), true),
             |c, p, v| c.word_of(p, v, &kinds),
         )
-        .unwrap_or(MissionKind::RunwayMapping);
+        .unwrap_or(MissionKind::ALL[0]);
     let description = ctx
         .opt(root, "", "description", |c, p, v| {
             c.str_of(p, v, "a string")
@@ -88,10 +88,7 @@ fn read_root(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> MissionDef {
     let battery = read_battery(ctx, root);
     let vehicles = read_vehicles(ctx, root);
     let area = read_area(ctx, root);
-    let runway = read_runway(ctx, root);
-    let classification = read_classification(ctx, root);
-    let link = ctx.opt(root, "", "link", Ctx::link_of).unwrap_or(None);
-    MissionDef {
+    let mut def = MissionDef::without_sections(
         name,
         kind,
         description,
@@ -101,10 +98,13 @@ fn read_root(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> MissionDef {
         battery,
         vehicles,
         area,
-        runway,
-        classification,
-        link,
+    );
+    // Every kind's table, whatever the file's kind, read by the kind's module.
+    for k in MissionKind::ALL {
+        k.section().read(ctx, root, &mut def);
     }
+    def.link = ctx.opt(root, "", "link", Ctx::link_of).unwrap_or(None);
+    def
 }
 
 /// A required table: reported missing (and poisoned) when absent.
@@ -300,201 +300,4 @@ fn read_area(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> AreaDef {
     area.roads = ctx.opt(t, "area", "roads", Ctx::cells_of).unwrap_or(None);
     area.roads_are_candidates = ctx.or(t, "area", "roads_are_candidates", true, Ctx::bool_of);
     area
-}
-
-fn read_runway(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<RunwayDef> {
-    let known = [
-        "images_per_cell",
-        "votes_required",
-        "intensity_threshold",
-        "dilations",
-        "black_fraction",
-        "lane_spacing_m",
-        "sweep_heading_error_deg",
-        "sweep_position_tolerance_m",
-        "allocation",
-        "roi_velocity_ne_mps",
-        "sweep",
-    ];
-    let t = ctx.sub_table(root, "", "runway", &known)?;
-    let count = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| c.int_of::<u32>(p, v, "an integer ≥ 1");
-    let p = "runway";
-    let images_per_cell = ctx.or(t, p, "images_per_cell", default_images_per_cell(), count);
-    let votes_required = ctx.or(t, p, "votes_required", default_votes_required(), count);
-    let intensity_threshold = ctx.or(
-        t,
-        p,
-        "intensity_threshold",
-        default_intensity_threshold(),
-        |c, p, v| c.int_of::<u8>(p, v, "an integer 0–255"),
-    );
-    let dilations = ctx.or(t, p, "dilations", default_dilations(), |c, p, v| {
-        c.int_of::<u32>(p, v, "an integer ≥ 0")
-    });
-    let black_fraction = ctx.or(
-        t,
-        p,
-        "black_fraction",
-        default_black_fraction(),
-        Ctx::num_of,
-    );
-    let lane_spacing_m = ctx.opt(t, p, "lane_spacing_m", Ctx::num_of).unwrap_or(None);
-    let sweep_heading_error_deg = ctx
-        .opt(t, p, "sweep_heading_error_deg", Ctx::num_of)
-        .unwrap_or(None);
-    let sweep_position_tolerance_m = ctx.or(
-        t,
-        p,
-        "sweep_position_tolerance_m",
-        default_sweep_position_tolerance_m(),
-        Ctx::num_of,
-    );
-    let allocations = Allocation::ALL.map(|a| (a.name(), a));
-    // A mission file without the key spreads the drones over the frontier (with direct
-    // transit, the field's rules: docs/results/dfs.md, "Team runway mapping").
-    let allocation = ctx.or(
-        t,
-        p,
-        "allocation",
-        crate::mission::definition::runway::default_allocation(),
-        |c, p, v| c.word_of(p, v, &allocations),
-    );
-    let velocity = "[north, east] (metres per second)";
-    let roi_velocity_ne_mps = ctx
-        .opt(t, p, "roi_velocity_ne_mps", |c, p, v| {
-            c.nums_of::<2>(p, v, velocity)
-        })
-        .unwrap_or(None);
-    let sweep = read_sweep(ctx, t);
-    Some(RunwayDef {
-        images_per_cell,
-        votes_required,
-        intensity_threshold,
-        dilations,
-        black_fraction,
-        lane_spacing_m,
-        sweep_heading_error_deg,
-        sweep_position_tolerance_m,
-        allocation,
-        roi_velocity_ne_mps,
-        sweep,
-    })
-}
-
-fn read_sweep(ctx: &mut Ctx<'_>, runway: &DeTable<'_>) -> SweepBox {
-    let placeholder = SweepBox::Local {
-        north_m: [f64::NAN; 2],
-        east_m: [f64::NAN; 2],
-    };
-    let expected = "a table [runway.sweep] with north_m = [min, max], east_m = [min, max] \
-                    (metres from the origin) or south_west = { lat, lon }, north_east = { lat, lon }";
-    let Some(v) = get(runway, "sweep") else {
-        ctx.missing("runway", "sweep", expected);
-        ctx.poison("runway.sweep");
-        return placeholder;
-    };
-    let p = "runway.sweep";
-    let known = ["north_m", "east_m", "south_west", "north_east"];
-    let Some(t) = ctx.table(p, v, &known) else {
-        ctx.poison(p);
-        return placeholder;
-    };
-    let has = |k: &str| get(t, k).is_some();
-    let local = has("north_m") || has("east_m");
-    let corners = has("south_west") || has("north_east");
-    if local && corners {
-        ctx.push(
-            v.span().start,
-            p,
-            "give either north_m/east_m (metres from the origin) or south_west/north_east \
-             (WGS84 corners), not both"
-                .into(),
-        );
-        ctx.poison(p);
-        return placeholder;
-    }
-    if corners {
-        let sw = ctx.req(t, p, "south_west", "{ lat = …, lon = … }", Ctx::latlon_of);
-        let ne = ctx.req(t, p, "north_east", "{ lat = …, lon = … }", Ctx::latlon_of);
-        match (sw, ne) {
-            (Some(south_west), Some(north_east)) => SweepBox::Corners {
-                south_west,
-                north_east,
-            },
-            _ => {
-                ctx.poison(p);
-                placeholder
-            }
-        }
-    } else {
-        let range = "[min, max] (metres from the origin)";
-        let n = ctx.req(t, p, "north_m", range, |c, p, v| {
-            c.nums_of::<2>(p, v, range)
-        });
-        let e = ctx.req(t, p, "east_m", range, |c, p, v| c.nums_of::<2>(p, v, range));
-        match (n, e) {
-            (Some(north_m), Some(east_m)) => SweepBox::Local { north_m, east_m },
-            _ => {
-                ctx.poison(p);
-                placeholder
-            }
-        }
-    }
-}
-
-fn read_classification(ctx: &mut Ctx<'_>, root: &DeTable<'_>) -> Option<ClassificationDef> {
-    let known = [
-        "theta",
-        "epsilon",
-        "delta",
-        "bound",
-        "epoch_goals",
-        "batch_size",
-        "drone_cycle_steps",
-        "station_cycle_steps",
-        "max_cycles",
-        "charger_capacity",
-        "green",
-    ];
-    let t = ctx.sub_table(root, "", "classification", &known)?;
-    let d = ClassificationDef::default();
-    let p = "classification";
-    let count = |c: &mut Ctx<'_>, p: &str, v: &Val<'_>| c.int_of::<u32>(p, v, "an integer ≥ 1");
-    let mut out = ClassificationDef {
-        theta: ctx.or(t, p, "theta", d.theta, Ctx::num_of),
-        epsilon: ctx.or(t, p, "epsilon", d.epsilon, Ctx::num_of),
-        delta: ctx.or(t, p, "delta", d.delta, Ctx::num_of),
-        bound: ctx.or(t, p, "bound", d.bound, |c, p, v| {
-            c.word_of(p, v, &ConfidenceBound::ALL.map(|b| (b.name(), b)))
-        }),
-        epoch_goals: ctx.or(t, p, "epoch_goals", d.epoch_goals, count),
-        batch_size: ctx.or(t, p, "batch_size", d.batch_size, count),
-        drone_cycle_steps: ctx.or(t, p, "drone_cycle_steps", d.drone_cycle_steps, count),
-        station_cycle_steps: ctx.or(t, p, "station_cycle_steps", d.station_cycle_steps, count),
-        max_cycles: ctx.or(t, p, "max_cycles", d.max_cycles, count),
-        charger_capacity: ctx.opt(t, p, "charger_capacity", count).unwrap_or(None),
-        green: d.green,
-    };
-    let gk = ["hsv_min", "hsv_max", "fraction_threshold"];
-    if let Some(g) = ctx.sub_table(t, p, "green", &gk) {
-        let gp = "classification.green";
-        let hsv = "[h, s, v] (OpenCV HSV: h 0–179, s and v 0–255)";
-        let dg = GreenDef::default();
-        out.green = GreenDef {
-            hsv_min: ctx.or(g, gp, "hsv_min", dg.hsv_min, |c, p, v| {
-                c.u8s_of::<3>(p, v, hsv)
-            }),
-            hsv_max: ctx.or(g, gp, "hsv_max", dg.hsv_max, |c, p, v| {
-                c.u8s_of::<3>(p, v, hsv)
-            }),
-            fraction_threshold: ctx.or(
-                g,
-                gp,
-                "fraction_threshold",
-                dg.fraction_threshold,
-                Ctx::num_of,
-            ),
-        };
-    }
-    Some(out)
 }
