@@ -65,7 +65,7 @@ KINDS = {
     },
 }
 # Today's counts (lines outside the kind's folders); the goal is 1, the registry line.
-CEILING = {"runway-mapping": 197, "spatial-classification": 138}
+CEILING = {"runway-mapping": 151, "spatial-classification": 102}
 GOAL = 1
 
 
