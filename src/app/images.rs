@@ -874,8 +874,8 @@ mod tests {
         };
         let ours = spec.measure(&decoded, &shutter).unwrap();
         assert_eq!(OnboardRegions::of(&ours), m.regions);
-        let c = m.classification(&spec.params).unwrap();
-        assert_eq!(c, ours.classification);
+        let c = m.reading(&spec.params).unwrap();
+        assert_eq!(c, ours.reading);
         // the picture straddles the runway's edge: both classes in it
         assert!(c.counts.black.iter().any(|&b| b > 0), "{c:?}");
     }

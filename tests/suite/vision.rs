@@ -522,7 +522,7 @@ fn votes_from_classified_images_map_a_runway() {
                 .with_runway(strip(0.0, centre, 240.0));
             let img = synth::render_runway(&scene);
             let counts = runway::analyse_in(&mut ws, &img, &params).unwrap();
-            let c = runway::classification_from_counts(counts, 0.0, &params).unwrap();
+            let c = runway::reading_from_counts(counts, 0.0, &params).unwrap();
             book.record(Detection {
                 image_id: format!("{col}-{shot}"),
                 vehicle: 1,

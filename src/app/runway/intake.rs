@@ -11,12 +11,12 @@ use fleetmap_core::vision::onboard_runway::{
     OnboardRegions, RunwayDefinition, RunwayMeasurement, RunwaySpec, ShutterPose,
 };
 
-pub(super) fn labels5(c: &Classification) -> [bool; 5] {
+pub(super) fn labels5(c: &RegionReading) -> [bool; 5] {
     let l = c.labels;
     [l.center, l.north, l.west, l.south, l.east]
 }
 
-pub(super) fn fractions5(c: &Classification) -> [f64; 5] {
+pub(super) fn fractions5(c: &RegionReading) -> [f64; 5] {
     let f = c.fractions;
     [f.center, f.top, f.left, f.bottom, f.right]
 }
@@ -52,7 +52,7 @@ pub(crate) fn classify_cut(
     params: &RunwayParams,
     camera: &CameraModel,
     cell_m: f64,
-) -> Result<Classification, VisionError> {
+) -> Result<RegionReading, VisionError> {
     let img = load_image_bytes(bytes, &LoadLimits::default())?;
     match cut {
         Cut::Centre {
@@ -163,7 +163,7 @@ impl Onboard {
         &self,
         m: &RunwayMeasurement,
         pose: Option<&CapturePose>,
-    ) -> Result<(Cell, Classification), String> {
+    ) -> Result<(Cell, RegionReading), String> {
         let spec = self
             .spec
             .as_ref()
@@ -179,19 +179,19 @@ impl Onboard {
                 r.cell
             ));
         }
-        let c = m.classification(&spec.params).map_err(|e| e.to_string())?;
+        let c = m.reading(&spec.params).map_err(|e| e.to_string())?;
         Ok((r.cell, c))
     }
 
     /// [`Onboard::credited`] for a picture taken over `cell`: the camera's cell must be
     /// `cell` (the cell under the camera is the one visited when the picture passed the
     /// sanity check; otherwise it is taken again).
-    fn classification(
+    fn reading(
         &self,
         m: &RunwayMeasurement,
         pose: Option<&CapturePose>,
         cell: Cell,
-    ) -> Result<Classification, PictureFailure> {
+    ) -> Result<RegionReading, PictureFailure> {
         let (under, c) = self
             .credited(m, pose)
             .map_err(|why| PictureFailure::Unreadable(format!("cell {cell}: {why}")))?;
@@ -263,7 +263,7 @@ async fn audit_picture(
     .await
     .map_err(|e| e.to_string())?
     .map_err(|e| format!("the picture: {e}"))?;
-    let c = &r.classification;
+    let c = &r.reading;
     let l = c.labels;
     let ours = [l.center, l.north, l.west, l.south, l.east];
     Ok((ours, OnboardRegions::of(&r) == m.regions))
@@ -519,7 +519,7 @@ impl Pilot {
             Some(m) => self
                 .shared
                 .onboard
-                .classification(m, shot.image.pose.as_ref(), cell),
+                .reading(m, shot.image.pose.as_ref(), cell),
             None => {
                 let cut = match pose.attitude {
                     Some(attitude) => Cut::Ortho {

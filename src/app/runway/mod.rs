@@ -68,7 +68,7 @@ use fleetmap_core::vision::camera::CameraModel;
 use fleetmap_core::vision::crop::crop_to_cells;
 use fleetmap_core::vision::geometry::{self, OrthoRequest};
 use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
-use fleetmap_core::vision::runway::{Classification, RunwayParams, classify};
+use fleetmap_core::vision::runway::{RegionReading, RunwayParams, classify};
 use fleetmap_core::vision::sanity::{
     CaptureClaim, CaptureLimits, SWEEP_MAX_TILT_DEG, check_capture,
 };

@@ -49,7 +49,7 @@
 //!
 //! Every number is a whole number below 2²⁴, exact in a 32-bit float. With MAVLink 2's
 //! truncation of the trailing zero floats it is 84 bytes on the wire (72 of payload). The
-//! GCS rebuilds the counts, fractions and labels exactly ([`RunwayMeasurement::classification`]).
+//! GCS rebuilds the counts, fractions and labels exactly ([`RunwayMeasurement::reading`]).
 //! A camera without the grid still announces each picture (fingerprint 0, not classified),
 //! so the GCS asks for the picture; and while it has none it says so every
 //! [`STATUS_PERIOD_S`] seconds (a status: `time_usec` 0, size 0), so the GCS tells it the
@@ -77,9 +77,7 @@ use super::VisionError;
 use super::camera::CameraModel;
 use super::geometry::{OrthoRequest, attitude_of_quaternion, orthophoto};
 use super::regions::{RegionCounts, RegionGrid};
-use super::runway::{
-    Classification, NeighbourLabels, RunwayParams, analyse, classification_from_counts,
-};
+use super::runway::{NeighbourLabels, RegionReading, RunwayParams, analyse, reading_from_counts};
 use crate::geo::{Cell, Grid, Hemisphere, LatLon};
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
@@ -167,7 +165,7 @@ pub struct RunwayResult {
     /// Size of the classified orthophoto, pixels (width, height).
     pub size: (u32, u32),
     /// Counts, fractions and labels (heading 0: the orthophoto is north-up).
-    pub classification: Classification,
+    pub reading: RegionReading,
 }
 
 impl RunwaySpec {
@@ -238,7 +236,7 @@ impl RunwaySpec {
         Ok(RunwayResult {
             cell: cut.cell,
             size: o.image.dimensions(),
-            classification: classification_from_counts(counts, 0.0, &self.params)?,
+            reading: reading_from_counts(counts, 0.0, &self.params)?,
         })
     }
 
@@ -383,12 +381,12 @@ pub struct RunwayMeasurement {
     pub spec: u32,
     /// Size of the picture, bytes (what to ask for to get it); 0: a status, no picture.
     pub picture_bytes: u32,
-    /// The classification; `None`: the picture was not classified (no grid, or no pose to
+    /// The reading; `None`: the picture was not classified (no grid, or no pose to
     /// cut it by): the GCS asks for it.
     pub regions: Option<OnboardRegions>,
 }
 
-/// The classification of one picture as it travels: enough to rebuild it exactly.
+/// The reading of one picture as it travels: enough to rebuild it exactly.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OnboardRegions {
     /// The cell under the camera.
@@ -426,7 +424,7 @@ impl OnboardRegions {
     /// index beyond 2²⁴, an orthophoto larger than 2²⁴ pixels a side).
     pub fn of(r: &RunwayResult) -> Option<OnboardRegions> {
         let fits = |v: i64| v.unsigned_abs() <= EXACT_MAX as u64;
-        let c = &r.classification.counts;
+        let c = &r.reading.counts;
         let ok = fits(i64::from(r.cell.row))
             && fits(i64::from(r.cell.col))
             && fits(i64::from(r.size.0))
@@ -436,7 +434,7 @@ impl OnboardRegions {
             cell: r.cell,
             size: r.size,
             black: c.black.map(|b| b as u32),
-            labels: r.classification.labels,
+            labels: r.reading.labels,
         })
     }
 }
@@ -466,11 +464,11 @@ impl RunwayMeasurement {
         }
     }
 
-    /// The classification the camera made, rebuilt with `params` (the definition's, which the
+    /// The reading the camera made, rebuilt with `params` (the definition's, which the
     /// fingerprint vouches for): counts, fractions and labels exactly as
-    /// [`RunwaySpec::measure`] gave them. Errors: no classification, counts that do not fit
+    /// [`RunwaySpec::measure`] gave them. Errors: no reading, counts that do not fit
     /// the orthophoto's size, labels that do not follow from the counts.
-    pub fn classification(&self, params: &RunwayParams) -> Result<Classification, VisionError> {
+    pub fn reading(&self, params: &RunwayParams) -> Result<RegionReading, VisionError> {
         let r = self.regions.ok_or_else(|| {
             VisionError::InvalidParams("the camera did not classify this picture".into())
         })?;
@@ -488,7 +486,7 @@ impl RunwayMeasurement {
             counts.black[region as usize] = u64::from(r.black[i]);
             counts.pixels[region as usize] = pixels;
         }
-        let c = classification_from_counts(counts, 0.0, params)?;
+        let c = reading_from_counts(counts, 0.0, params)?;
         if c.labels != r.labels {
             return Err(VisionError::InvalidParams(format!(
                 "the camera's labels {:?} do not follow from its counts ({:?})",
@@ -688,7 +686,7 @@ mod tests {
             unreachable!()
         };
         assert_eq!(RunwayMeasurement::from_message(&good), Some(m));
-        let c = m.classification(&RunwayParams::default()).unwrap();
+        let c = m.reading(&RunwayParams::default()).unwrap();
         assert_eq!(c.counts.pixels, [9; 5]);
         assert_eq!(c.fractions.left, 3.0 / 9.0);
         let mut green = good.clone();
@@ -706,15 +704,15 @@ mod tests {
         // more black pixels than the region holds, or labels the counts do not give
         let mut too_many = m;
         too_many.regions.as_mut().unwrap().black[0] = 10;
-        assert!(too_many.classification(&RunwayParams::default()).is_err());
+        assert!(too_many.reading(&RunwayParams::default()).is_err());
         let mut wrong = m;
         wrong.regions.as_mut().unwrap().labels.north = true;
-        assert!(wrong.classification(&RunwayParams::default()).is_err());
+        assert!(wrong.reading(&RunwayParams::default()).is_err());
         // a status ties to no capture
         let st = RunwayMeasurement::status(7);
         assert!(st.is_status() && !st.is_of(0, 0));
         assert!(m.is_of(10, 1) && !m.is_of(10, 2));
-        assert!(st.classification(&RunwayParams::default()).is_err());
+        assert!(st.reading(&RunwayParams::default()).is_err());
     }
 
     proptest! {
@@ -763,8 +761,8 @@ mod tests {
             let MavMessage::DEBUG_FLOAT_ARRAY(d) = m.to_message() else { unreachable!() };
             let back = RunwayMeasurement::from_message(&d).unwrap();
             prop_assert_eq!(back, m);
-            let rebuilt = back.classification(&s.params).unwrap();
-            prop_assert_eq!(rebuilt, gcs.classification);
+            let rebuilt = back.reading(&s.params).unwrap();
+            prop_assert_eq!(rebuilt, gcs.reading);
             prop_assert_eq!(back.regions.unwrap().cell, gcs.cell);
         }
     }

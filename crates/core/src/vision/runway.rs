@@ -171,9 +171,10 @@ pub fn labels(
     Ok(out)
 }
 
-/// Result of classifying one image.
+/// What one image says (a *reading*): the black fractions and counts of its five regions
+/// and the labels they give the cell under the camera and its four neighbours.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Classification {
+pub struct RegionReading {
     /// Black fractions in image coordinates.
     pub fractions: RegionFractions,
     /// Labels of the current cell and its neighbours (grid coordinates, heading applied).
@@ -249,22 +250,22 @@ pub fn classify(
     img: &RgbImage,
     heading_deg: f64,
     params: &RunwayParams,
-) -> Result<Classification, VisionError> {
+) -> Result<RegionReading, VisionError> {
     let counts = analyse(img, params)?;
-    classification_from_counts(counts, heading_deg, params)
+    reading_from_counts(counts, heading_deg, params)
 }
 
-/// The classification that follows from region counts (steps 5–6).
-pub fn classification_from_counts(
+/// The reading that follows from region counts (steps 5–6).
+pub fn reading_from_counts(
     counts: RegionCounts,
     heading_deg: f64,
     params: &RunwayParams,
-) -> Result<Classification, VisionError> {
+) -> Result<RegionReading, VisionError> {
     params.validate()?;
     let turns = quarter_turns(heading_deg).ok_or(VisionError::InvalidHeading(heading_deg))?;
     let fractions = counts.fractions();
     let labels = labels(&fractions, heading_deg, params.black_fraction_threshold)?;
-    Ok(Classification {
+    Ok(RegionReading {
         fractions,
         labels,
         counts,
@@ -278,13 +279,13 @@ pub fn classification_from_counts(
 pub(crate) fn classify_many(
     images: &[(&RgbImage, f64)],
     params: &RunwayParams,
-) -> Vec<Result<Classification, VisionError>> {
+) -> Vec<Result<RegionReading, VisionError>> {
     use rayon::prelude::*;
     images
         .par_iter()
         .map_init(fast::Workspace::default, |ws, (img, heading)| {
             let counts = analyse_in(ws, img, params)?;
-            classification_from_counts(counts, *heading, params)
+            reading_from_counts(counts, *heading, params)
         })
         .collect()
 }
