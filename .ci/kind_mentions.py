@@ -16,7 +16,7 @@ The rules:
 - **A kind's folders** (KINDS[…]["folders"]; a path ending in `/` is a folder, otherwise a file):
   where the code that exists only for that kind lives — its runner and `RunKind` in
   src/app/<kind>/, its study in src/experiment/<kind>/, its pure state machine and algorithms
-  in the core (the runway: `explore` and the runway classifiers in `vision`; spatial
+  in the core (the runway: `explore` and `vision::runway`; spatial
   classification: `planner`), and its section of the mission file
   (crates/core/src/mission/definition/<kind>.rs).
 - **What names a kind** (KINDS[…]["names"]): the words the code uses for it — its name, its
@@ -47,8 +47,7 @@ KINDS = {
             "src/app/runway/",
             "src/experiment/runway/",
             "crates/core/src/explore/",
-            "crates/core/src/vision/runway.rs",
-            "crates/core/src/vision/onboard_runway.rs",
+            "crates/core/src/vision/runway/",
             "crates/core/src/mission/definition/runway.rs",
         ],
         "names": ["runway"],

@@ -555,7 +555,7 @@ pub(crate) fn measured_index(
     after: Option<i32>,
 ) -> Option<i32> {
     use fleetmap_core::vision::onboard::OnboardMeasurement;
-    use fleetmap_core::vision::onboard_runway::RunwayMeasurement;
+    use fleetmap_core::vision::runway::onboard::RunwayMeasurement;
     let lo = match OnboardMeasurement::from_message(d) {
         Some(m) => m.image_index_lo,
         None => {

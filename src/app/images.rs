@@ -20,7 +20,7 @@
 //! [`ReceivedImage`] without bytes; otherwise the intake asks the camera for the picture (a
 //! DATA_TRANSMISSION_HANDSHAKE naming its size) and the picture is delivered when it arrives.
 //!
-//! **Runway pictures classified on board** ([`fleetmap_core::vision::onboard_runway`]): a
+//! **Runway pictures classified on board** ([`fleetmap_core::vision::runway::onboard`]): a
 //! camera given the runway mission sends each picture's cell and five region counts
 //! (DEBUG_FLOAT_ARRAY `"fm.rwy"`) and keeps the picture. A run that accepts them
 //! ([`ImageHub::accept_runway`]) announces its grid to the cameras until each confirms it
@@ -45,7 +45,7 @@ use fleetmap_core::proto::image_transfer::{
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::meta::{ImageMeta, read_meta};
 use fleetmap_core::vision::onboard::OnboardMeasurement;
-use fleetmap_core::vision::onboard_runway::RunwayMeasurement;
+use fleetmap_core::vision::runway::onboard::RunwayMeasurement;
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
@@ -731,10 +731,10 @@ mod tests {
         use fleetmap_core::vision::camera::CameraModel;
         use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
         use fleetmap_core::vision::onboard::OnboardSpec;
-        use fleetmap_core::vision::onboard_runway::{
+        use fleetmap_core::vision::runway::RunwayParams;
+        use fleetmap_core::vision::runway::onboard::{
             OnboardRegions, RunwayDefinition, RunwaySpec, ShutterPose,
         };
-        use fleetmap_core::vision::runway::RunwayParams;
         let world = fleetmap_core::world::World::from_toml(crate::app::demo::RUNWAY_WORLD).unwrap();
         let model = CameraModel {
             width_px: 120,

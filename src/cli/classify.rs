@@ -354,8 +354,8 @@ pub fn bench_scene(
     height: u32,
     seed: u64,
     i: usize,
-) -> fleetmap_core::vision::synth::RunwayScene {
-    use fleetmap_core::vision::synth::{RunwayScene, RunwayStrip};
+) -> fleetmap_core::vision::runway::synth::RunwayScene {
+    use fleetmap_core::vision::runway::synth::{RunwayScene, RunwayStrip};
     let side = f64::from(width.min(height));
     let k = i as f64;
     let mut scene = RunwayScene::grass(
@@ -401,7 +401,7 @@ pub fn bench(args: BenchClassifyArgs) -> anyhow::Result<ExitCode> {
         (0..args.images)
             .into_par_iter()
             .map(|i| {
-                fleetmap_core::vision::synth::render_runway(&bench_scene(
+                fleetmap_core::vision::runway::synth::render_runway(&bench_scene(
                     args.width,
                     args.height,
                     args.seed,

@@ -21,7 +21,7 @@ use fleetmap_core::planner::sortie::{ClassificationState, CyclePhase};
 use fleetmap_core::proto::flavour::VehicleClass;
 use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
-use fleetmap_core::vision::votes::CellState as VoteState;
+use fleetmap_core::vision::runway::votes::CellState as VoteState;
 use std::collections::{BTreeMap, HashMap};
 
 /// Most messages kept.

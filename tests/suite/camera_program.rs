@@ -167,7 +167,7 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
     use fleetmap::app::images::RunwayAccept;
     use fleetmap_core::geo::{Grid, LatLon};
     use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
-    use fleetmap_core::vision::onboard_runway::{OnboardRegions, RunwaySpec, ShutterPose};
+    use fleetmap_core::vision::runway::onboard::{OnboardRegions, RunwaySpec, ShutterPose};
     let root = env!("CARGO_MANIFEST_DIR");
     let mission = format!("{root}/missions/runway-field-test.toml");
     let world_file = format!("{root}/assets/worlds/runway.toml");

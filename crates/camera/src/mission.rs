@@ -6,8 +6,8 @@ use anyhow::{Context, bail};
 use fleetmap_core::geo::{Grid, LatLon};
 use fleetmap_core::mission::definition::{MissionDef, MissionKind, Origin};
 use fleetmap_core::vision::onboard::{GreenSpec, OnboardSpec};
-use fleetmap_core::vision::onboard_runway::RunwayDefinition;
 use fleetmap_core::vision::runway::RunwayParams;
+use fleetmap_core::vision::runway::onboard::RunwayDefinition;
 use std::path::Path;
 
 /// The measurement definition of the spatial-classification mission `def` (its green box,

@@ -3,7 +3,7 @@
 //! A camera started with a runway mission whose grid origin is the first vehicle's home
 //! cannot cut its pictures on the grid until it knows where that home is: the GCS announces
 //! the run's grid and the fingerprint of the definition it accepts
-//! ([`fleetmap_core::vision::onboard_runway::GridAnnouncement`], DEBUG_FLOAT_ARRAY
+//! ([`fleetmap_core::vision::runway::onboard::GridAnnouncement`], DEBUG_FLOAT_ARRAY
 //! `"fm.grid"`, without a target: the autopilots forward it to their companion ports) when
 //! the run starts, and again every [`REPEAT`] while a camera of the run has not confirmed it,
 //! at most [`REPEATS`] times in a row. A camera confirms by sending anything runway-related
@@ -18,7 +18,7 @@
 //! vehicles not in the run are not listened to.
 
 use fleetmap_core::time::Time;
-use fleetmap_core::vision::onboard_runway::RunwaySpec;
+use fleetmap_core::vision::runway::onboard::RunwaySpec;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::BTreeSet;
 use std::time::Duration;

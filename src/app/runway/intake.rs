@@ -7,7 +7,7 @@ use crate::app::error::RunnerResult;
 use crate::app::images::{CapturePose, RunwayAccept};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::vision::VisionError;
-use fleetmap_core::vision::onboard_runway::{
+use fleetmap_core::vision::runway::onboard::{
     OnboardRegions, RunwayDefinition, RunwayMeasurement, RunwaySpec, ShutterPose,
 };
 

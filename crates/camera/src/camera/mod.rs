@@ -70,7 +70,7 @@ mod trigger;
 use self::onboard::runway_of;
 use self::pacer::Pacer;
 use fleetmap_core::time::Time;
-use fleetmap_core::vision::onboard_runway::RunwayDefinition;
+use fleetmap_core::vision::runway::onboard::RunwayDefinition;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::VecDeque;

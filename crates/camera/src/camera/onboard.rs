@@ -1,10 +1,10 @@
-//! Runway pictures classified on board ([`fleetmap_core::vision::onboard_runway`]): the grid
+//! Runway pictures classified on board ([`fleetmap_core::vision::runway::onboard`]): the grid
 //! the GCS announces, the camera's status while it has none, and the result of one picture.
 //!
 //! A camera given a runway mission whose grid origin is the first vehicle's home does not
 //! know the grid until the GCS announces it (`"fm.grid"`, untargeted, forwarded to the
 //! camera by the autopilot). Until then it says so every
-//! [`fleetmap_core::vision::onboard_runway::STATUS_PERIOD_S`] seconds of its clock (a status
+//! [`fleetmap_core::vision::runway::onboard::STATUS_PERIOD_S`] seconds of its clock (a status
 //! with fingerprint 0) and announces each picture unclassified, keeping it: the GCS asks for
 //! it. It answers every announcement with a status naming the fingerprint it now classifies
 //! with, and forgets the grid when it reboots with its vehicle.
@@ -13,7 +13,7 @@ use super::{CameraConfig, SimCamera};
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
 use fleetmap_core::vision::onboard::OnboardSpec;
-use fleetmap_core::vision::onboard_runway::{
+use fleetmap_core::vision::runway::onboard::{
     GridAnnouncement, OnboardRegions, RunwayDefinition, RunwayMeasurement, STATUS_PERIOD_S,
     ShutterPose,
 };
@@ -104,8 +104,8 @@ mod tests {
     use super::*;
     use fleetmap_core::geo::{Grid, LatLon};
     use fleetmap_core::vision::camera::CameraModel;
-    use fleetmap_core::vision::onboard_runway::RunwaySpec;
     use fleetmap_core::vision::runway::RunwayParams;
+    use fleetmap_core::vision::runway::onboard::RunwaySpec;
 
     pub(crate) fn runway_config() -> CameraConfig {
         CameraConfig {

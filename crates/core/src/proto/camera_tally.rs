@@ -1,6 +1,6 @@
 //! What a vehicle's camera has done, counted from its own messages: the pictures it took
 //! (CAMERA_IMAGE_CAPTURED) and the measurements it made on board and sent
-//! ([`crate::vision::onboard`]'s `"fm.green"`, [`crate::vision::onboard_runway`]'s `"fm.rwy"`).
+//! ([`crate::vision::onboard`]'s `"fm.green"`, [`crate::vision::runway::onboard`]'s `"fm.rwy"`).
 //!
 //! A GCS hears some of these more than once: it asks again for a capture record or a result
 //! it missed (MAV_CMD_REQUEST_MESSAGE with the image index, as the MAVLink camera protocol
@@ -14,7 +14,7 @@ use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::VecDeque;
 
 use crate::vision::onboard::OnboardMeasurement;
-use crate::vision::onboard_runway::RunwayMeasurement;
+use crate::vision::runway::onboard::RunwayMeasurement;
 
 /// How many recent keys are remembered to tell a resend from a new picture.
 pub const REMEMBERED: usize = 256;

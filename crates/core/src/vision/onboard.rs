@@ -37,8 +37,8 @@
 
 use crate::vision::camera::CameraModel;
 use crate::vision::crop::crop_to_cell;
+use crate::vision::fingerprint24;
 use crate::vision::green::{GreenParams, green_fraction};
-use crate::vision::onboard_runway::fingerprint24;
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -123,8 +123,8 @@ pub enum OnboardSpec {
     /// The spatial-classification mission's green share ([`GreenSpec`], `"fm.green"`).
     Green(GreenSpec),
     /// The runway mission's 3 × 3 regions
-    /// ([`crate::vision::onboard_runway::RunwayDefinition`], `"fm.rwy"`).
-    Runway(crate::vision::onboard_runway::RunwayDefinition),
+    /// ([`crate::vision::runway::onboard::RunwayDefinition`], `"fm.rwy"`).
+    Runway(crate::vision::runway::onboard::RunwayDefinition),
 }
 
 /// A measurement made on board, tied to its picture.

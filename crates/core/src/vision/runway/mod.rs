@@ -34,13 +34,21 @@
 //! treated as the nearest one — the paper flies along the grid, and the 3×3 regions cannot
 //! say more than which neighbour is closest to a region's centre anyway.
 //!
-//! The work is done by the fast bit-packed pipeline ([`super::fast`]);
-//! [`analyse_reference`] runs the plain reference implementation ([`super::reference`])
-//! for tests and checks.
+//! The work is done by the fast bit-packed pipeline ([`crate::vision::fast`]);
+//! [`analyse_reference`] runs the plain reference implementation
+//! ([`crate::vision::reference`]) for tests and checks.
+//!
+//! The runway's other vision lives here too: the pictures classified on board and the grid
+//! announced to the cameras ([`onboard`]), the 3-of-5 vote book ([`votes`]) and the
+//! synthetic runway scene ([`synth`]).
 
-use super::regions::{Region, RegionCounts, RegionFractions};
-use super::{VisionError, fast, reference};
+pub mod onboard;
+pub mod synth;
+pub mod votes;
+
 use crate::geo::Dir4;
+use crate::vision::regions::{Region, RegionCounts, RegionFractions};
+use crate::vision::{VisionError, fast, reference};
 use image::RgbImage;
 use serde::{Deserialize, Serialize};
 
@@ -357,7 +365,7 @@ mod tests {
 
     #[test]
     fn classify_many_equals_one_by_one() {
-        use crate::vision::synth::{RunwayScene, RunwayStrip, render_runway};
+        use super::synth::{RunwayScene, RunwayStrip, render_runway};
         let p = RunwayParams::default();
         let imgs: Vec<RgbImage> = (0..6)
             .map(|i| {

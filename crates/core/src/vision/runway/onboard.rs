@@ -73,12 +73,13 @@
 //! result; a message of our own dialect would be dropped by routers built without it. Its
 //! own name keeps it apart from the green share.
 
-use super::VisionError;
-use super::camera::CameraModel;
-use super::geometry::{OrthoRequest, attitude_of_quaternion, orthophoto};
-use super::regions::{RegionCounts, RegionGrid};
-use super::runway::{NeighbourLabels, RegionReading, RunwayParams, analyse, reading_from_counts};
+use super::{NeighbourLabels, RegionReading, RunwayParams, analyse, reading_from_counts};
 use crate::geo::{Cell, Grid, Hemisphere, LatLon};
+use crate::vision::VisionError;
+use crate::vision::camera::CameraModel;
+use crate::vision::fingerprint24;
+use crate::vision::geometry::{OrthoRequest, attitude_of_quaternion, orthophoto};
+use crate::vision::regions::{Region, RegionCounts, RegionGrid};
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -95,16 +96,6 @@ const FORMAT_VERSION: f32 = 1.0;
 pub const STATUS_PERIOD_S: f64 = 10.0;
 /// Largest whole number a 32-bit float holds exactly with all smaller ones: 2²⁴.
 const EXACT_MAX: f32 = 16_777_216.0;
-
-/// FNV-1a over `bytes`, folded to 24 bits so that a 32-bit float holds it exactly: the
-/// fingerprints of both on-board definitions ([`crate::vision::onboard::GreenSpec::fingerprint`],
-/// [`RunwaySpec::fingerprint`]).
-pub(crate) fn fingerprint24(bytes: &[u8]) -> u32 {
-    let h = bytes.iter().fold(0x811c_9dc5_u32, |h, &b| {
-        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
-    });
-    (h >> 24) ^ (h & 0x00ff_ffff)
-}
 
 /// Where and how a picture was taken, as CAMERA_IMAGE_CAPTURED carries it: the numbers both
 /// the camera and the GCS compute the cut from.
@@ -474,7 +465,7 @@ impl RunwayMeasurement {
         })?;
         let grid = RegionGrid::new(r.size.0, r.size.1);
         let mut counts = RegionCounts::default();
-        for (i, region) in super::regions::Region::ALL.into_iter().enumerate() {
+        for (i, region) in Region::ALL.into_iter().enumerate() {
             let (rows, cols) = grid.bounds(region);
             let pixels = u64::from(rows.end - rows.start) * u64::from(cols.end - cols.start);
             if u64::from(r.black[i]) > pixels {
@@ -555,9 +546,9 @@ impl RunwayMeasurement {
 
 #[cfg(test)]
 mod tests {
+    use super::super::synth::{RunwayScene, RunwayStrip, render_runway};
     use super::*;
     use crate::vision::geometry::attitude_from_euler_deg;
-    use crate::vision::synth::{RunwayScene, RunwayStrip, render_runway};
     use proptest::prelude::*;
 
     pub(crate) fn spec() -> RunwaySpec {
