@@ -4,9 +4,10 @@
 use super::*;
 use crate::app::blocking::run_blocking;
 use crate::app::error::RunnerResult;
-use crate::app::images::{CapturePose, RunwayAccept};
+use crate::app::images::{Announcement, CapturePose, OnboardAccept};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::vision::VisionError;
+use fleetmap_core::vision::onboard::OnboardKind;
 use fleetmap_core::vision::runway::onboard::{
     OnboardRegions, RunwayDefinition, RunwayMeasurement, RunwaySpec, ShutterPose,
 };
@@ -92,6 +93,24 @@ pub(super) fn runway_spec(s: &MappingState) -> Option<RunwaySpec> {
     })
 }
 
+/// What a run accepts of the cameras' results: those of `spec`, whose grid is announced to
+/// the cameras of `cameras` (the run's drones) until each confirms it.
+pub fn onboard_accept(spec: &RunwaySpec, cameras: Vec<u8>) -> OnboardAccept {
+    OnboardAccept {
+        fingerprint: spec.fingerprint(),
+        announce: Some(Announcement {
+            message: spec.announcement().to_message(),
+            cameras,
+        }),
+    }
+}
+
+/// The camera's result of a picture, when it measured it on board with the run's
+/// definition.
+pub(super) fn onboard_result(img: &ReceivedImage) -> Option<RunwayMeasurement> {
+    img.onboard.as_ref()?.get::<RunwayMeasurement>().copied()
+}
+
 /// Longest wait for an audited picture, nominal seconds (a 50 kB picture over a radio that
 /// leaves a kilobyte a second for it, asked again when packets are lost).
 pub(super) const AUDIT_WAIT_S: f64 = 240.0;
@@ -115,10 +134,11 @@ impl Onboard {
     /// grid), through `hub`.
     pub(super) fn start(hub: &ImageHub, state: &MappingState) -> Onboard {
         let spec = runway_spec(state);
-        hub.accept_runway(spec.clone().map(|spec| RunwayAccept {
-            spec,
-            cameras: state.robots.iter().map(|r| r.sysid).collect(),
-        }));
+        let cameras = state.robots.iter().map(|r| r.sysid).collect();
+        hub.accept_onboard(
+            OnboardKind::Runway,
+            spec.as_ref().map(|s| onboard_accept(s, cameras)),
+        );
         Onboard {
             hub: hub.clone(),
             spec,
@@ -428,7 +448,8 @@ impl Pilot {
                 }
                 // announced with its index and measured on board: the next visit may
                 // take its pictures several at a time
-                self.in_flight_ok = shot.image.pose.is_some() && shot.image.runway.is_some();
+                self.in_flight_ok =
+                    shot.image.pose.is_some() && onboard_result(&shot.image).is_some();
                 self.camera.last_picture = Some(self.fleet().clock().now());
                 Ok(shot)
             }
@@ -514,7 +535,7 @@ impl Pilot {
         };
         // The camera's own classification when it made one with the run's definition,
         // else the GCS's of the picture.
-        let onboard = shot.image.runway;
+        let onboard = onboard_result(&shot.image);
         let result = match &onboard {
             Some(m) => self
                 .shared

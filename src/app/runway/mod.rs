@@ -96,8 +96,8 @@ mod sweep;
 mod visit_captures;
 
 pub use self::events::*;
-pub use self::intake::runway_definition_of;
 pub(crate) use self::intake::*;
+pub use self::intake::{onboard_accept, runway_definition_of};
 pub use self::runner::*;
 
 /// The run kind in `run.json`.

@@ -436,6 +436,16 @@ impl RunwayMeasurement {
         self.picture_bytes == 0
     }
 
+    /// The capture it is about: (time_boot_ms, image index's low 16 bits); `None`: a status.
+    pub fn capture(&self) -> Option<(u32, u16)> {
+        (!self.is_status()).then_some((self.time_boot_ms, self.image_index_lo))
+    }
+
+    /// Whether the GCS can use it instead of the picture: the camera classified it.
+    pub fn has_result(&self) -> bool {
+        self.regions.is_some()
+    }
+
     /// Whether this is the result of the capture (`time_boot_ms`, `image_index`).
     pub fn is_of(&self, time_boot_ms: u32, image_index: i32) -> bool {
         !self.is_status()
