@@ -817,7 +817,7 @@ mod tests {
             .1
             .clone();
         cam.handle_gcs_message(&grid);
-        assert_eq!(cam.runway_fingerprint(), Some(spec.fingerprint()));
+        assert_eq!(cam.onboard_fingerprint(), Some(spec.fingerprint()));
         let status: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();
         feed(&mut intake, &status, 2);
         assert!(intake.confirmed(OnboardKind::Runway, 1));

@@ -60,7 +60,7 @@ pub fn measure_image(
 /// `green_spec` gives for its runs — or `None` for another kind of mission.
 pub fn green_spec_of(def: &fleetmap_core::mission::definition::MissionDef) -> Option<GreenSpec> {
     // the camera crate's, which the companion computer's camera reads its mission with
-    fleetmap_camera::mission::green_spec_of(def)
+    fleetmap_camera::camera::onboard::green::spec_of(def)
 }
 
 /// The run's measurement definition, as a camera that measures on board must be given it

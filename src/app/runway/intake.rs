@@ -76,10 +76,10 @@ pub(crate) fn classify_cut(
 
 /// The on-board definition of the runway mission `def` (what `fleetmap camera --mission`
 /// and the simulated cameras are given): the camera crate's
-/// [`fleetmap_camera::mission::runway_definition_of`], which the companion computer's camera
+/// [`fleetmap_camera::camera::onboard::runway::definition_of`], which the companion computer's camera
 /// reads its mission with. `None` for another kind of mission.
 pub fn runway_definition_of(def: &MissionDef) -> Option<RunwayDefinition> {
-    fleetmap_camera::mission::runway_definition_of(def)
+    fleetmap_camera::camera::onboard::runway::definition_of(def)
 }
 
 /// The definition a run accepts the cameras' on-board results of: its classifier, camera and
