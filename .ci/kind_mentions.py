@@ -36,7 +36,7 @@ import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from layers import code_files  # noqa: E402
-from module_cycles import drop_test_modules, strip  # noqa: E402
+from module_cycles import strip  # noqa: E402
 
 REGISTRY = "src/app/kinds.rs"
 ROOTS = ["src", "crates/core/src", "crates/io/src", "crates/sim/src", "crates/camera/src"]
@@ -82,6 +82,23 @@ def inside(path, folders):
     return any(path.startswith(f) if f.endswith("/") else path == f for f in folders)
 
 
+def test_lines(raw):
+    """The line numbers of `#[cfg(test)] mod … { … }` (with their bodies), found on the text
+    with every comment and literal blanked in place, so that a line a multi-line string
+    fills (a test's TOML fixture) is a test line too."""
+    blanked = strip(raw, blank=True)
+    lines = set()
+    for m in re.finditer(r"#\[cfg\(test\)\]\s*(pub(\([^)]*\))?\s+)?mod\s+\w+\s*\{", blanked):
+        depth, j = 1, m.end()
+        while j < len(blanked) and depth:
+            depth += {"{": 1, "}": -1}.get(blanked[j], 0)
+            j += 1
+        first = blanked.count("\n", 0, m.end()) + 1
+        last = blanked.count("\n", 0, j) + 1
+        lines.update(range(first, last + 1))
+    return lines
+
+
 def places(kind):
     """[(file, line, text)] outside the kind's folders that name it."""
     words = re.compile("|".join(kind["names"]), re.I)
@@ -91,9 +108,7 @@ def places(kind):
             if inside(f, kind["folders"]):
                 continue
             raw = open(f, encoding="utf-8").read()
-            # The lines of `#[cfg(test)] mod … { … }` bodies: where module_cycles' reader blanks them.
-            bare = strip(raw).split("\n")
-            tests = {no for no, (a, b) in enumerate(zip(bare, drop_test_modules("\n".join(bare)).split("\n")), 1) if a != b}
+            tests = test_lines(raw)
             for no, line in enumerate(strip(raw, keep_strings=True).split("\n"), 1):
                 if no not in tests and words.search(line):
                     found.append((f, no, line.strip()))
