@@ -274,7 +274,7 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
         }
     }
     for img in &got {
-        let m = runway_result(&img).expect("classified on board");
+        let m = runway_result(img).expect("classified on board");
         assert!(img.bytes.is_empty(), "no picture on the link");
         let pose = img.pose.as_ref().expect("the capture's pose");
         let shutter = ShutterPose {
@@ -288,7 +288,7 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
     }
     // asked for, the last picture comes back, and the GCS classifies it as the camera did
     let img = got.last().unwrap();
-    let (m, pose) = (runway_result(&img).unwrap(), img.pose.clone().unwrap());
+    let (m, pose) = (runway_result(img).unwrap(), img.pose.clone().unwrap());
     let picture = tokio::time::timeout(
         Duration::from_secs(30),
         hub.ask_picture(1, pose.time_boot_ms, pose.image_index, m.picture_bytes),
