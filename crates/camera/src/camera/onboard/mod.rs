@@ -2,9 +2,9 @@
 //! given, made on each picture and sent right after its CAMERA_IMAGE_CAPTURED, and what the
 //! measurement needs of the GCS's messages and of the camera's clock.
 //!
-//! Each measurement is a [`Measurer`] in its own module (the green share: [`green`]; the
+//! Each measurement is a `Measurer` in its own module (the green share: [`green`]; the
 //! runway's cell and 3 × 3 regions, with the grid the GCS announces: [`runway`]), made from
-//! the definition by [`measurer`], the one place that lists them.
+//! the definition by `measurer`, the one place that lists them.
 
 use super::{CameraConfig, SimCamera};
 use anyhow::Context;
