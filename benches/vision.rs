@@ -6,9 +6,9 @@
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use fleetmap::cli::classify::bench_scene;
+use fleetmap_core::vision::fast;
 use fleetmap_core::vision::green::{self, GreenParams};
-use fleetmap_core::vision::runway::{self, RunwayParams};
-use fleetmap_core::vision::{fast, synth};
+use fleetmap_core::vision::runway::{self, RunwayParams, synth};
 use rayon::prelude::*;
 use std::hint::black_box;
 

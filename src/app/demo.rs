@@ -43,7 +43,7 @@ pub struct DemoConfig {
     /// Cameras that classify runway pictures on board with this definition (the mission's:
     /// [`crate::app::runway::runway_definition_of`]) and send each picture's cell and region
     /// counts instead of the picture; `None`: every picture is sent whole.
-    pub onboard: Option<fleetmap_core::vision::onboard_runway::RunwayDefinition>,
+    pub onboard: Option<fleetmap_core::vision::runway::onboard::RunwayDefinition>,
     /// Each vehicle behind its own telemetry radio (budget counted in simulated time), the
     /// fleet told its budget (`sim_fleet::fleet_config`); `None`: links that carry everything.
     pub radio: Option<RadioConfig>,

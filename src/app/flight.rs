@@ -547,23 +547,14 @@ pub async fn capture(
     })
 }
 
-/// The image index of the picture an on-board result (DEBUG_FLOAT_ARRAY "fm.green" or
-/// "fm.rwy", not a status) is of. The result carries its low 16 bits; the high ones are
+/// The image index of the picture an on-board result (any DEBUG_FLOAT_ARRAY of
+/// [`fleetmap_core::vision::onboard::Onboard`]'s, not a status) is of. The result carries its low 16 bits; the high ones are
 /// those of the index nearest `after` (the vehicle's last picture) with those low bits.
 pub(crate) fn measured_index(
     d: &mavlink::dialects::ardupilotmega::DEBUG_FLOAT_ARRAY_DATA,
     after: Option<i32>,
 ) -> Option<i32> {
-    use fleetmap_core::vision::onboard::OnboardMeasurement;
-    use fleetmap_core::vision::onboard_runway::RunwayMeasurement;
-    let lo = match OnboardMeasurement::from_message(d) {
-        Some(m) => m.image_index_lo,
-        None => {
-            RunwayMeasurement::from_message(d)
-                .filter(|m| !m.is_status())?
-                .image_index_lo
-        }
-    };
+    let (_, lo) = fleetmap_core::vision::onboard::Onboard::from_message(d)?.capture()?;
     let lo = i32::from(lo);
     Some(match after {
         Some(a) if a >= 0 => {

@@ -13,22 +13,18 @@
 //! time_boot_ms, image_index) — from CAMERA_IMAGE_CAPTURED, or from the metadata the JPEG
 //! carries ([`fleetmap_core::vision::meta`]).
 //!
-//! **On-board measurements** ([`fleetmap_core::vision::onboard`]): a camera that measures its pictures
-//! itself sends, after a capture's CAMERA_IMAGE_CAPTURED, a DEBUG_FLOAT_ARRAY with the green
-//! share, and keeps the picture. When the measurement was made with the definition the run
-//! accepts ([`ImageHub::accept_onboard`], by fingerprint) it is delivered as a
-//! [`ReceivedImage`] without bytes; otherwise the intake asks the camera for the picture (a
-//! DATA_TRANSMISSION_HANDSHAKE naming its size) and the picture is delivered when it arrives.
-//!
-//! **Runway pictures classified on board** ([`fleetmap_core::vision::onboard_runway`]): a
-//! camera given the runway mission sends each picture's cell and five region counts
-//! (DEBUG_FLOAT_ARRAY `"fm.rwy"`) and keeps the picture. A run that accepts them
-//! ([`ImageHub::accept_runway`]) announces its grid to the cameras until each confirms it
-//! (`announce`), delivers the results made with its definition as [`ReceivedImage`]s
-//! without bytes ([`ReceivedImage::runway`]), and asks for the picture of any other (a camera
-//! without the grid, or with another definition). A runner may ask for a picture it has the
-//! result of ([`ImageHub::ask_picture`], an audit): it comes back to the one who asked, never
-//! on the stream.
+//! **On-board measurements** ([`fleetmap_core::vision::onboard::Onboard`], any of the list's:
+//! the green share, the runway's cell and five region counts): a camera that measures its
+//! pictures itself sends, after a capture's CAMERA_IMAGE_CAPTURED, a DEBUG_FLOAT_ARRAY with
+//! its result, and keeps the picture. A run accepts one definition per measurement
+//! ([`ImageHub::accept_onboard`], by fingerprint), and may have it announced to the cameras
+//! until each confirms it (`announce`: the runway's grid, which a camera may not know). A
+//! result made with the accepted definition is delivered as a [`ReceivedImage`] without
+//! bytes ([`ReceivedImage::onboard`]); for any other (a camera without the grid, or with
+//! another definition) the intake asks the camera for the picture (a
+//! DATA_TRANSMISSION_HANDSHAKE naming its size) and the picture is delivered when it
+//! arrives. A runner may ask for a picture it has the result of ([`ImageHub::ask_picture`],
+//! an audit): it comes back to the one who asked, never on the stream.
 //!
 //! **Pose** ([`CapturePose`]): where the camera says it took the picture. CAMERA_IMAGE_CAPTURED
 //! (the camera protocol's record of the shutter: lat, lon, relative_alt, attitude `q`) is
@@ -44,8 +40,7 @@ use fleetmap_core::proto::image_transfer::{
 };
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::meta::{ImageMeta, read_meta};
-use fleetmap_core::vision::onboard::OnboardMeasurement;
-use fleetmap_core::vision::onboard_runway::RunwayMeasurement;
+use fleetmap_core::vision::onboard::{Onboard, OnboardKind};
 use mavlink::dialects::ardupilotmega::{CAMERA_IMAGE_CAPTURED_DATA, MavMessage};
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
@@ -53,7 +48,7 @@ use std::sync::Arc;
 pub(crate) mod announce;
 mod hub;
 use self::announce::Announcer;
-pub use self::announce::RunwayAccept;
+pub use self::announce::{Announcement, OnboardAccept};
 pub use self::hub::{ImageHub, image_hub, spawn};
 
 /// An image that did not arrive, and why: what the intake logs (its `Display` is the log
@@ -139,11 +134,8 @@ pub struct ReceivedImage {
     /// board and kept it (`onboard`).
     pub bytes: Arc<Vec<u8>>,
     /// The camera's own measurement of the picture, with a definition the run accepts
-    /// ([`ImageHub::accept_onboard`]).
-    pub onboard: Option<OnboardMeasurement>,
-    /// The camera's runway classification of the picture, with the definition the run
-    /// accepts ([`ImageHub::accept_runway`]).
-    pub runway: Option<RunwayMeasurement>,
+    /// ([`ImageHub::accept_onboard`]; [`Onboard::get`] gives the measurement's own type).
+    pub onboard: Option<Onboard>,
     /// The capture pose, when the camera told it.
     pub pose: Option<CapturePose>,
     /// When it was complete, on the fleet's clock.
@@ -155,27 +147,11 @@ pub struct ReceivedImage {
 /// A capture counted as delivered: (system, time_boot_ms, image_index).
 type CaptureKey = (u8, u32, i32);
 
-/// A camera's on-board message about one picture: the green share or the runway regions.
-#[derive(Clone, Copy, Debug, PartialEq)]
-enum Measured {
-    Green(OnboardMeasurement),
-    Runway(RunwayMeasurement),
-}
-
-impl Measured {
-    fn is_of(&self, time_boot_ms: u32, image_index: i32) -> bool {
-        match self {
-            Measured::Green(m) => m.is_of(time_boot_ms, image_index),
-            Measured::Runway(m) => m.is_of(time_boot_ms, image_index),
-        }
-    }
-
-    fn picture_bytes(&self) -> u32 {
-        match self {
-            Measured::Green(m) => m.picture_bytes,
-            Measured::Runway(m) => m.picture_bytes,
-        }
-    }
+/// A definition the run accepts results of, and its announcements to the cameras.
+#[derive(Debug)]
+struct Accepted {
+    fingerprint: u32,
+    announcer: Option<Announcer>,
 }
 
 /// Pictures asked for by [`Intake::want_picture`] and not arrived, at most this many (the
@@ -249,13 +225,10 @@ pub struct Intake {
     /// transmission, whose JPEG metadata names the capture), at most [`CAPTURED_KEPT`].
     captured: VecDeque<(CaptureKey, CapturePose)>,
     /// On-board measurements whose CAMERA_IMAGE_CAPTURED has not arrived: (camera, measurement).
-    measured: VecDeque<(Endpoint, Measured)>,
-    /// The fingerprint of the on-board measurement definition the run uses (`None`: none;
-    /// every on-board measurement is then replaced by its picture).
-    accept: Option<u32>,
-    /// The runway definition the run accepts, and the announcements of its grid (`None`:
-    /// every runway result is replaced by its picture).
-    runway: Option<Announcer>,
+    measured: VecDeque<(Endpoint, Onboard)>,
+    /// The definition the run accepts of each on-board measurement, and its announcements
+    /// (a measurement without one: each result is replaced by its picture).
+    accepted: BTreeMap<OnboardKind, Accepted>,
     /// Pictures asked for whose results were delivered: (system, time_boot_ms, image_index).
     wanted: VecDeque<CaptureKey>,
     /// Pictures asked for that arrived.
@@ -285,8 +258,7 @@ impl Intake {
             delivered: VecDeque::new(),
             captured: VecDeque::new(),
             measured: VecDeque::new(),
-            accept: None,
-            runway: None,
+            accepted: BTreeMap::new(),
             wanted: VecDeque::new(),
             asked: VecDeque::new(),
             requests: VecDeque::new(),
@@ -296,22 +268,31 @@ impl Intake {
         }
     }
 
-    /// Use on-board measurements made with the definition of fingerprint `spec`
-    /// ([`fleetmap_core::vision::onboard::GreenSpec::fingerprint`]); `None`: ask for every picture.
-    pub fn accept_onboard(&mut self, spec: Option<u32>) {
-        self.accept = spec;
+    /// Use the cameras' results of measurement `kind` made with `accept`'s definition,
+    /// announcing it to them from `now` on when it says so (`announce`); `None`: ask for
+    /// the picture of every result of `kind`.
+    pub fn accept_onboard(&mut self, kind: OnboardKind, accept: Option<OnboardAccept>, now: Time) {
+        match accept {
+            Some(a) => {
+                let accepted = Accepted {
+                    fingerprint: a.fingerprint,
+                    announcer: a.announce.map(|m| Announcer::new(a.fingerprint, m, now)),
+                };
+                self.accepted.insert(kind, accepted);
+            }
+            None => {
+                self.accepted.remove(&kind);
+            }
+        }
     }
 
-    /// Use the cameras' runway results made with `accept`'s definition, announcing its grid
-    /// to them from `now` on (`announce`); `None`: ask for the picture of every runway
-    /// result.
-    pub fn accept_runway(&mut self, accept: Option<RunwayAccept>, now: Time) {
-        self.runway = accept.map(|a| Announcer::new(a, now));
-    }
-
-    /// Whether the camera of vehicle `sysid` confirmed the accepted runway definition.
-    pub fn runway_confirmed(&self, sysid: u8) -> bool {
-        self.runway.as_ref().is_some_and(|a| a.is_confirmed(sysid))
+    /// Whether the camera of vehicle `sysid` confirmed the announced definition of
+    /// measurement `kind`.
+    pub fn confirmed(&self, kind: OnboardKind, sysid: u8) -> bool {
+        self.accepted
+            .get(&kind)
+            .and_then(|a| a.announcer.as_ref())
+            .is_some_and(|a| a.is_confirmed(sysid))
     }
 
     /// Ask the camera of vehicle `sysid` for the picture of `size` bytes it took at
@@ -336,29 +317,22 @@ impl Intake {
 
     /// An on-board measurement `m` from camera `cam` whose capture's pose is `pose`: delivered
     /// when its definition is the accepted one, else the picture is asked for.
-    fn measured(&mut self, cam: Endpoint, m: Measured, pose: CapturePose, now: Time) {
+    fn measured(&mut self, cam: Endpoint, m: Onboard, pose: CapturePose, now: Time) {
         let key = (cam.sysid, pose.time_boot_ms, pose.image_index);
         if self.delivered.contains(&key) {
             return;
         }
-        let (onboard, runway) = match m {
-            Measured::Green(g) => (Some(g).filter(|g| self.accept == Some(g.spec)), None),
-            Measured::Runway(r) => {
-                let ok = r.regions.is_some()
-                    && self
-                        .runway
-                        .as_ref()
-                        .is_some_and(|a| a.fingerprint == r.spec);
-                (None, Some(r).filter(|_| ok))
-            }
-        };
-        if onboard.is_some() || runway.is_some() {
+        let accepted = m.has_result()
+            && self
+                .accepted
+                .get(&m.kind())
+                .is_some_and(|a| a.fingerprint == m.spec());
+        if accepted {
             self.seen(key);
             self.out.push_back(ReceivedImage {
                 sysid: cam.sysid,
                 bytes: Arc::new(Vec::new()),
-                onboard,
-                runway,
+                onboard: Some(m),
                 pose: Some(pose),
                 received: now,
                 source: "on board".into(),
@@ -405,19 +379,19 @@ impl Intake {
                 self.drain(from, now);
             }
             MavMessage::DEBUG_FLOAT_ARRAY(d) => {
-                let m = if let Some(g) = OnboardMeasurement::from_message(d) {
-                    Measured::Green(g)
-                } else if let Some(r) = RunwayMeasurement::from_message(d) {
-                    if let Some(a) = self.runway.as_mut() {
-                        a.heard(from.sysid, r.spec, now);
-                    }
-                    if r.is_status() {
-                        return;
-                    }
-                    Measured::Runway(r)
-                } else {
+                let Some(m) = Onboard::from_message(d) else {
                     return;
                 };
+                if let Some(a) = self
+                    .accepted
+                    .get_mut(&m.kind())
+                    .and_then(|a| a.announcer.as_mut())
+                {
+                    a.heard(from.sysid, m.spec(), now);
+                }
+                if m.capture().is_none() {
+                    return; // a status: about no picture
+                }
                 let pose = self
                     .captured
                     .iter()
@@ -503,7 +477,6 @@ impl Intake {
                     sysid: key.0,
                     bytes: Arc::new(bytes),
                     onboard: None,
-                    runway: None,
                     pose: Some(pose),
                     received: heard,
                     source: url,
@@ -539,7 +512,6 @@ impl Intake {
                                 sysid: cam.sysid,
                                 bytes: Arc::new(jpeg),
                                 onboard: None,
-                                runway: None,
                                 pose: Some(pose_of_meta(m)),
                                 received: now,
                                 source: "mavlink (asked for)".into(),
@@ -564,7 +536,6 @@ impl Intake {
                         sysid: cam.sysid,
                         bytes: Arc::new(jpeg),
                         onboard: None,
-                        runway: None,
                         pose,
                         received: now,
                         source: "mavlink".into(),
@@ -589,15 +560,21 @@ impl Intake {
         self.receivers
             .values()
             .filter_map(ImageReceiver::poll_timeout)
-            .chain(self.runway.as_ref().and_then(Announcer::poll_timeout))
+            .chain(
+                self.accepted
+                    .values()
+                    .filter_map(|a| a.announcer.as_ref()?.poll_timeout()),
+            )
             .min()
     }
 
-    /// Run the receivers' timers, and announce the runway grid when it is due.
+    /// Run the receivers' timers, and announce an accepted definition when it is due.
     pub fn handle_timeout(&mut self, now: Time) {
-        if let Some(m) = self.runway.as_mut().and_then(|a| a.handle_timeout(now)) {
-            // untargeted: every camera behind every link hears it
-            self.requests.push_back((Endpoint::new(0, 0), m));
+        for a in self.accepted.values_mut() {
+            if let Some(m) = a.announcer.as_mut().and_then(|a| a.handle_timeout(now)) {
+                // untargeted: every camera behind every link hears it
+                self.requests.push_back((Endpoint::new(0, 0), m));
+            }
         }
         let cams: Vec<Endpoint> = self.receivers.keys().copied().collect();
         for cam in cams {
@@ -731,10 +708,10 @@ mod tests {
         use fleetmap_core::vision::camera::CameraModel;
         use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
         use fleetmap_core::vision::onboard::OnboardSpec;
-        use fleetmap_core::vision::onboard_runway::{
-            OnboardRegions, RunwayDefinition, RunwaySpec, ShutterPose,
-        };
         use fleetmap_core::vision::runway::RunwayParams;
+        use fleetmap_core::vision::runway::onboard::{
+            OnboardRegions, RunwayDefinition, RunwayMeasurement, RunwaySpec, ShutterPose,
+        };
         let world = fleetmap_core::world::World::from_toml(crate::app::demo::RUNWAY_WORLD).unwrap();
         let model = CameraModel {
             width_px: 120,
@@ -764,11 +741,9 @@ mod tests {
         let from = Endpoint::new(1, fleetmap_core::proto::CAMERA_COMPID);
         let mut intake = Intake::new(Endpoint::gcs());
         let t0 = Time::from_secs(10);
-        intake.accept_runway(
-            Some(RunwayAccept {
-                spec: spec.clone(),
-                cameras: vec![1],
-            }),
+        intake.accept_onboard(
+            OnboardKind::Runway,
+            Some(crate::app::runway::onboard_accept(&spec, vec![1])),
             t0,
         );
         // over the runway's edge, a little tilted
@@ -816,7 +791,7 @@ mod tests {
         );
         feed(&mut intake, &out, 1);
         assert!(intake.poll_image().is_none());
-        assert!(!intake.runway_confirmed(1));
+        assert!(!intake.confirmed(OnboardKind::Runway, 1));
         let asked = requests(&mut intake);
         let ask = asked
             .iter()
@@ -831,7 +806,7 @@ mod tests {
         let picture: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();
         feed(&mut intake, &picture, 1);
         let img = intake.poll_image().expect("the picture arrives");
-        assert!(img.runway.is_none() && !img.bytes.is_empty());
+        assert!(img.onboard.is_none() && !img.bytes.is_empty());
         // the camera said it had no grid: announced again (after the minimum gap)
         intake.handle_timeout(t0 + std::time::Duration::from_secs(2));
         let again = requests(&mut intake);
@@ -842,16 +817,20 @@ mod tests {
             .1
             .clone();
         cam.handle_gcs_message(&grid);
-        assert_eq!(cam.runway_fingerprint(), Some(spec.fingerprint()));
+        assert_eq!(cam.onboard_fingerprint(), Some(spec.fingerprint()));
         let status: Vec<_> = std::iter::from_fn(|| cam.poll_transmit()).collect();
         feed(&mut intake, &status, 2);
-        assert!(intake.runway_confirmed(1));
+        assert!(intake.confirmed(OnboardKind::Runway, 1));
         // classified on board: delivered without the picture, nothing asked
         let out = shot(&mut cam, 3);
         feed(&mut intake, &out, 3);
         let img = intake.poll_image().expect("the result");
-        let m = img.runway.expect("a runway result");
-        assert!(img.bytes.is_empty() && img.onboard.is_none());
+        let m = *img
+            .onboard
+            .as_ref()
+            .and_then(Onboard::get::<RunwayMeasurement>)
+            .expect("a runway result");
+        assert!(img.bytes.is_empty());
         assert_eq!(img.source, "on board");
         assert!(requests(&mut intake).is_empty());
         let pose = img.pose.clone().unwrap();
@@ -874,8 +853,8 @@ mod tests {
         };
         let ours = spec.measure(&decoded, &shutter).unwrap();
         assert_eq!(OnboardRegions::of(&ours), m.regions);
-        let c = m.classification(&spec.params).unwrap();
-        assert_eq!(c, ours.classification);
+        let c = m.reading(&spec.params).unwrap();
+        assert_eq!(c, ours.reading);
         // the picture straddles the runway's edge: both classes in it
         assert!(c.counts.black.iter().any(|&b| b > 0), "{c:?}");
     }

@@ -17,7 +17,7 @@ use anyhow::Context;
 use clap::Args;
 use fleetmap_core::vision::green::{self, GreenParams};
 use fleetmap_core::vision::load::LoadLimits;
-use fleetmap_core::vision::runway::{self, Classification, RunwayParams};
+use fleetmap_core::vision::runway::{self, RegionReading, RunwayParams};
 use fleetmap_core::vision::{VisionError, fast, reference};
 use fleetmap_io::files::load_image_file;
 use rayon::prelude::*;
@@ -102,7 +102,7 @@ fn parse_hsv(s: &str) -> Result<[u8; 3], BadHsv> {
 
 /// What one image gave.
 struct Outcome {
-    classification: Classification,
+    reading: RegionReading,
     width: u32,
     height: u32,
     green: Option<(f64, bool)>,
@@ -155,9 +155,9 @@ pub fn run(args: ClassifyArgs) -> anyhow::Result<ExitCode> {
                 if args.json {
                     let mut v = json!({
                         "image": shown,
-                        "fractions": o.classification.fractions,
-                        "labels": o.classification.labels,
-                        "heading_deg": o.classification.heading_deg,
+                        "fractions": o.reading.fractions,
+                        "labels": o.reading.labels,
+                        "heading_deg": o.reading.heading_deg,
                         "width": o.width,
                         "height": o.height,
                     });
@@ -210,7 +210,7 @@ fn classify_one(
 ) -> Result<Outcome, ClassifyError> {
     let img = load_image_file(path, limits)?;
     let counts = runway::analyse_in(ws, &img, params)?;
-    let classification = runway::classification_from_counts(counts, args.heading, params)?;
+    let reading = runway::reading_from_counts(counts, args.heading, params)?;
     let green = args.green.then(|| {
         let f = green::green_fraction(&img, green_params);
         (f, f >= green_params.min_fraction)
@@ -227,7 +227,7 @@ fn classify_one(
         .map_err(ClassifyError::Debug)?;
     }
     Ok(Outcome {
-        classification,
+        reading,
         width: img.width(),
         height: img.height(),
         green,
@@ -270,8 +270,8 @@ fn write_debug(
 }
 
 fn human_line(path: &str, o: &Outcome) -> String {
-    let f = &o.classification.fractions;
-    let l = &o.classification.labels;
+    let f = &o.reading.fractions;
+    let l = &o.reading.labels;
     let mark = |b: bool| if b { "runway" } else { "-" };
     let mut s = format!(
         "{path}: black center {:.4} top {:.4} left {:.4} bottom {:.4} right {:.4} | \
@@ -354,8 +354,8 @@ pub fn bench_scene(
     height: u32,
     seed: u64,
     i: usize,
-) -> fleetmap_core::vision::synth::RunwayScene {
-    use fleetmap_core::vision::synth::{RunwayScene, RunwayStrip};
+) -> fleetmap_core::vision::runway::synth::RunwayScene {
+    use fleetmap_core::vision::runway::synth::{RunwayScene, RunwayStrip};
     let side = f64::from(width.min(height));
     let k = i as f64;
     let mut scene = RunwayScene::grass(
@@ -401,7 +401,7 @@ pub fn bench(args: BenchClassifyArgs) -> anyhow::Result<ExitCode> {
         (0..args.images)
             .into_par_iter()
             .map(|i| {
-                fleetmap_core::vision::synth::render_runway(&bench_scene(
+                fleetmap_core::vision::runway::synth::render_runway(&bench_scene(
                     args.width,
                     args.height,
                     args.seed,

@@ -7,7 +7,8 @@
 
 use fleetmap::app::images;
 use fleetmap::fleet::{self, FleetConfig};
-use fleetmap_core::vision::onboard::OnboardSpec;
+use fleetmap_core::vision::onboard::{Onboard, OnboardKind, OnboardMeasurement, OnboardSpec};
+use fleetmap_core::vision::runway::onboard::RunwayMeasurement;
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -18,6 +19,19 @@ use std::time::Duration;
 use tokio::net::UdpSocket;
 
 use crate::common;
+
+/// The GCS accepts green shares of the definition `fingerprint` (nothing to announce).
+fn green_accept(fingerprint: u32) -> images::OnboardAccept {
+    images::OnboardAccept {
+        fingerprint,
+        announce: None,
+    }
+}
+
+/// The camera's runway result a received image carries.
+fn runway_result(img: &images::ReceivedImage) -> Option<RunwayMeasurement> {
+    img.onboard.as_ref()?.get::<RunwayMeasurement>().copied()
+}
 use fleetmap_test_kit::router::{self, End};
 use fleetmap_test_kit::{Guard, free_udp_port, sim};
 
@@ -93,7 +107,7 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
     let sim = sim::autopilot_for_a_camera(None, Some((37.195, -80.58)), router_vehicle, 1.0).await;
     let fleet = fleet::spawn(vec![link], ev_rx, FleetConfig::default(), sim.clock());
     let hub = images::spawn(&fleet);
-    hub.accept_onboard(Some(spec.fingerprint()));
+    hub.accept_onboard(OnboardKind::Green, Some(green_accept(spec.fingerprint())));
     let mut rx = hub.subscribe();
     fleet
         .wait_vehicle(1, Duration::from_secs(30))
@@ -122,7 +136,11 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
         }
     }
     for (img, colour) in got.iter().zip(colours) {
-        let m = img.onboard.expect("measured on board");
+        let m = *img
+            .onboard
+            .as_ref()
+            .and_then(Onboard::get::<OnboardMeasurement>)
+            .expect("measured on board");
         assert!(img.bytes.is_empty(), "no picture on the link");
         assert_eq!(img.source, "on board");
         let want = if colour == GREEN { 1.0 } else { 0.0 };
@@ -134,7 +152,10 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
     }
 
     // A GCS that measures differently asks for the picture and measures it itself.
-    hub.accept_onboard(Some(spec.fingerprint() ^ 1));
+    hub.accept_onboard(
+        OnboardKind::Green,
+        Some(green_accept(spec.fingerprint() ^ 1)),
+    );
     fleet.send(start_capture(1.0)).await.unwrap();
     let img = tokio::time::timeout(Duration::from_secs(30), rx.recv())
         .await
@@ -164,10 +185,9 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
 /// classified by the GCS exactly as the camera did.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn the_camera_program_classifies_runway_pictures_on_board() {
-    use fleetmap::app::images::RunwayAccept;
     use fleetmap_core::geo::{Grid, LatLon};
     use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
-    use fleetmap_core::vision::onboard_runway::{OnboardRegions, RunwaySpec, ShutterPose};
+    use fleetmap_core::vision::runway::onboard::{OnboardRegions, RunwaySpec, ShutterPose};
     let root = env!("CARGO_MANIFEST_DIR");
     let mission = format!("{root}/missions/runway-field-test.toml");
     let world_file = format!("{root}/assets/worlds/runway.toml");
@@ -222,10 +242,10 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
         camera: def.camera,
         grid: Grid::new(LatLon::new(home.lat, home.lon), def.cell_m).unwrap(),
     };
-    hub.accept_runway(Some(RunwayAccept {
-        spec: spec.clone(),
-        cameras: vec![1],
-    }));
+    hub.accept_onboard(
+        OnboardKind::Runway,
+        Some(fleetmap::app::runway::onboard_accept(&spec, vec![1])),
+    );
     fleet.takeoff(1, 12.0).await.unwrap();
     fleet
         .wait_until(1, Duration::from_secs(120), |v| {
@@ -254,7 +274,7 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
         }
     }
     for img in &got {
-        let m = img.runway.expect("classified on board");
+        let m = runway_result(img).expect("classified on board");
         assert!(img.bytes.is_empty(), "no picture on the link");
         let pose = img.pose.as_ref().expect("the capture's pose");
         let shutter = ShutterPose {
@@ -268,7 +288,7 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
     }
     // asked for, the last picture comes back, and the GCS classifies it as the camera did
     let img = got.last().unwrap();
-    let (m, pose) = (img.runway.unwrap(), img.pose.clone().unwrap());
+    let (m, pose) = (runway_result(img).unwrap(), img.pose.clone().unwrap());
     let picture = tokio::time::timeout(
         Duration::from_secs(30),
         hub.ask_picture(1, pose.time_boot_ms, pose.image_index, m.picture_bytes),

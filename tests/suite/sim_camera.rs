@@ -12,7 +12,7 @@ use fleetmap_core::proto::image_transfer::{ImageEvent, ImageReceiver, ReceiverCo
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::camera::CameraModel;
 use fleetmap_core::vision::meta::read_meta;
-use fleetmap_core::vision::runway::{Classification, NeighbourLabels, RunwayParams, classify};
+use fleetmap_core::vision::runway::{NeighbourLabels, RegionReading, RunwayParams, classify};
 use fleetmap_core::world::{Surface, World, grid_cell_center};
 use fleetmap_io::files::read_file_url;
 use fleetmap_io::link::codec::Codec;
@@ -35,7 +35,7 @@ fn runway() -> World {
 
 /// The runway paper's classifier (src/vision, §7: grey, threshold 150, 7 dilations, 3×3
 /// regions) on the image as the GCS receives it: JPEG at the camera's quality, decoded.
-fn classify_as_received(img: &RgbImage, heading_deg: f64) -> Classification {
+fn classify_as_received(img: &RgbImage, heading_deg: f64) -> RegionReading {
     let mut jpeg = Vec::new();
     image::codecs::jpeg::JpegEncoder::new_with_quality(&mut jpeg, 85)
         .encode_image(img)
@@ -99,7 +99,7 @@ fn runway_images_classify_as_the_ground_truth_says() {
         v.iter().step_by(step).take(n).copied().collect()
     };
     let mut k = 0u64;
-    let mut shoot = |r: i32, c: i32, heading_deg: f64| -> Classification {
+    let mut shoot = |r: i32, c: i32, heading_deg: f64| -> RegionReading {
         k += 1;
         let (lat, lon) = grid_cell_center(origin, 4.0, r, c);
         let pose = CameraPose {
@@ -124,7 +124,7 @@ fn runway_images_classify_as_the_ground_truth_says() {
     };
     let as_array = |l: &NeighbourLabels| [l.center, l.north, l.west, l.south, l.east];
     let (mut agree, mut decided) = (0, 0);
-    let mut tally = |r: i32, c: i32, got: &Classification| {
+    let mut tally = |r: i32, c: i32, got: &RegionReading| {
         for (want, got) in truth(r, c).iter().zip(as_array(&got.labels)) {
             if let Some(w) = want {
                 decided += 1;

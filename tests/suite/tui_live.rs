@@ -18,7 +18,7 @@ use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::regions::RegionFractions;
 use fleetmap_core::vision::runway::NeighbourLabels;
-use fleetmap_core::vision::votes::Detection;
+use fleetmap_core::vision::runway::votes::Detection;
 use ratatui::Terminal;
 use ratatui::backend::TestBackend;
 

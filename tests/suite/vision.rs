@@ -12,9 +12,10 @@ use fleetmap_core::vision::camera::CameraModel;
 use fleetmap_core::vision::green::{self, GreenParams};
 use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
 use fleetmap_core::vision::onboard::{GreenShare, GreenSpec, OnboardMeasurement};
+use fleetmap_core::vision::runway::synth::{RunwayScene, RunwayStrip, render_runway};
+use fleetmap_core::vision::runway::votes::{CellState, Detection, VoteBook, VoteParams};
 use fleetmap_core::vision::runway::{self, RunwayParams};
-use fleetmap_core::vision::synth::{self, RunwayScene, RunwayStrip, TileScene};
-use fleetmap_core::vision::votes::{CellState, Detection, VoteBook, VoteParams};
+use fleetmap_core::vision::synth::{self, TileScene};
 use fleetmap_core::vision::{VisionError, fast};
 use fleetmap_io::files::load_image_file;
 use image::RgbImage;
@@ -42,7 +43,7 @@ fn strip(angle_deg: f64, offset_px: f64, width_px: f64) -> RunwayStrip {
 /// The sample images: name → how to render it.
 fn samples() -> Vec<(&'static str, RgbImage)> {
     let g = RunwayScene::grass;
-    let runway = |s: RunwayScene| synth::render_runway(&s);
+    let runway = |s: RunwayScene| render_runway(&s);
     let tile = |w, h, seed, green, shift, exposure| {
         synth::render_tile(&TileScene {
             width: w,
@@ -520,9 +521,9 @@ fn votes_from_classified_images_map_a_runway() {
             let centre = left_px + 120.0 - 180.0;
             let scene = RunwayScene::grass(360, 360, (col as u64).wrapping_mul(31) + shot)
                 .with_runway(strip(0.0, centre, 240.0));
-            let img = synth::render_runway(&scene);
+            let img = render_runway(&scene);
             let counts = runway::analyse_in(&mut ws, &img, &params).unwrap();
-            let c = runway::classification_from_counts(counts, 0.0, &params).unwrap();
+            let c = runway::reading_from_counts(counts, 0.0, &params).unwrap();
             book.record(Detection {
                 image_id: format!("{col}-{shot}"),
                 vehicle: 1,
@@ -617,17 +618,17 @@ fn onboard_measurement_round_trips_through_a_mavlink_frame() {
     assert!(!m.is_of(1_234_567, 70_001));
 }
 
-/// A runway result and the grid announcement ([`fleetmap_core::vision::onboard_runway`])
+/// A runway result and the grid announcement ([`fleetmap_core::vision::runway::onboard`])
 /// through the GCS's MAVLink codec: at most 84 bytes for a result (fewer when its last
 /// numbers are zeros: a picture of grass), 92 for a grid north of the equator, both decoded
 /// back to what was sent.
 #[test]
 fn onboard_runway_messages_round_trip_through_mavlink_frames() {
     use fleetmap_core::geo::{Cell, Grid, LatLon};
-    use fleetmap_core::vision::onboard_runway::{
+    use fleetmap_core::vision::runway::NeighbourLabels;
+    use fleetmap_core::vision::runway::onboard::{
         GridAnnouncement, OnboardRegions, RunwayMeasurement, RunwaySpec,
     };
-    use fleetmap_core::vision::runway::NeighbourLabels;
     use mavlink::dialects::ardupilotmega::MavMessage;
     let decode = |m: &MavMessage| {
         let mut codec = fleetmap_io::link::codec::Codec::new();

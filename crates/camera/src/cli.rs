@@ -11,7 +11,7 @@
 //! sends when a GCS asks for it (image transmission's request form, paced to
 //! `--image-rate`): a spatial-classification mission's green share
 //! ([`fleetmap_core::vision::onboard`], 52 bytes) or a runway mission's cell and 3 × 3 regions
-//! ([`fleetmap_core::vision::onboard_runway`], 84 bytes; with `origin = "vehicle"` the grid
+//! ([`fleetmap_core::vision::runway::onboard`], 84 bytes; with `origin = "vehicle"` the grid
 //! comes from the GCS when the run starts). Without, it pushes every picture by MAVLink
 //! image transmission, paced to `--image-rate`.
 //!

@@ -70,7 +70,7 @@
 //! component), and the request reaches every camera here once per autopilot. Each camera is
 //! offered it; only the one holding a picture of the size it names answers, once
 //! (`SimCamera::handle_handshake_request`). The runway run's grid announcement
-//! (DEBUG_FLOAT_ARRAY `"fm.grid"`, [`fleetmap_core::vision::onboard_runway`]) is untargeted
+//! (DEBUG_FLOAT_ARRAY `"fm.grid"`, [`fleetmap_core::vision::runway::onboard`]) is untargeted
 //! too: every camera classifying runway pictures takes it and answers with its status
 //! ([`SimCamera::handle_gcs_message`]).
 
@@ -1048,10 +1048,10 @@ mod tests {
     fn every_paired_camera_takes_the_runway_grid() {
         use fleetmap_core::geo::{Grid, LatLon};
         use fleetmap_core::vision::onboard::OnboardSpec;
-        use fleetmap_core::vision::onboard_runway::{
+        use fleetmap_core::vision::runway::RunwayParams;
+        use fleetmap_core::vision::runway::onboard::{
             RunwayDefinition, RunwayMeasurement, RunwaySpec,
         };
-        use fleetmap_core::vision::runway::RunwayParams;
         let def = RunwayDefinition {
             params: RunwayParams::default(),
             camera: fleetmap_core::vision::camera::CameraModel::paper(),

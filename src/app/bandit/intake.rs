@@ -4,6 +4,7 @@
 use super::*;
 use crate::app::error::RunnerResult;
 use fleetmap_core::vision::VisionError;
+use fleetmap_core::vision::onboard::{Onboard, OnboardMeasurement};
 
 /// Why a received picture does not count: journalled (its `Display`) as the reason of
 /// [`BanditEvent::ImageIgnored`] or, for a picture that could not be measured,
@@ -59,7 +60,7 @@ pub fn measure_image(
 /// `green_spec` gives for its runs — or `None` for another kind of mission.
 pub fn green_spec_of(def: &fleetmap_core::mission::definition::MissionDef) -> Option<GreenSpec> {
     // the camera crate's, which the companion computer's camera reads its mission with
-    fleetmap_camera::mission::green_spec_of(def)
+    fleetmap_camera::camera::onboard::green::spec_of(def)
 }
 
 /// The run's measurement definition, as a camera that measures on board must be given it
@@ -271,7 +272,13 @@ pub(super) async fn take_images(
     // definition): nothing to decode.
     let mut onboard = BTreeMap::new();
     for (i, p) in pre.iter().enumerate() {
-        if let (Some(Ok(_)), Some(m)) = (p, &batch[i].onboard) {
+        if let (Some(Ok(_)), Some(m)) = (
+            p,
+            batch[i]
+                .onboard
+                .as_ref()
+                .and_then(Onboard::get::<OnboardMeasurement>),
+        ) {
             onboard.insert(i, Ok((m.value.share, m.value.positive(&params.green))));
         }
     }

@@ -488,7 +488,13 @@ pub async fn run(
     let drones: Vec<u8> = state.drones.iter().map(|d| d.sysid).collect();
     // Cameras that measure on board with this run's definition send the green share, not
     // the picture.
-    hub.accept_onboard(Some(green_spec(&state).fingerprint()));
+    hub.accept_onboard(
+        fleetmap_core::vision::onboard::OnboardKind::Green,
+        Some(crate::app::images::OnboardAccept {
+            fingerprint: green_spec(&state).fingerprint(),
+            announce: None,
+        }),
+    );
     let core = RunCore::new(
         state,
         run_dir,

@@ -1,24 +1,25 @@
-//! Telling the cameras the runway run's grid (pure; the image intake drives it).
+//! Telling the cameras the definition a run accepts of an on-board measurement (pure; the
+//! image intake drives it).
 //!
-//! A camera started with a runway mission whose grid origin is the first vehicle's home
-//! cannot cut its pictures on the grid until it knows where that home is: the GCS announces
-//! the run's grid and the fingerprint of the definition it accepts
-//! ([`fleetmap_core::vision::onboard_runway::GridAnnouncement`], DEBUG_FLOAT_ARRAY
-//! `"fm.grid"`, without a target: the autopilots forward it to their companion ports) when
-//! the run starts, and again every [`REPEAT`] while a camera of the run has not confirmed it,
-//! at most [`REPEATS`] times in a row. A camera confirms by sending anything runway-related
-//! with that fingerprint — its answer to the announcement, or a picture's result. A camera
-//! of the run that says it has no grid (fingerprint 0: restarted with its vehicle) is
-//! announced to again at once (at most once per [`MIN_GAP`]) with a fresh budget of repeats;
-//! one that sends another fingerprint (an older grid, or another definition: it answers an
-//! announcement with it when its classifier or camera differ from the run's) is announced to
-//! again within what is left of the budget, so that a camera that cannot agree is not
-//! answered forever. A camera that never answers (one that does not classify on board)
-//! costs the link [`REPEATS`] frames of at most 96 bytes per start, no more; cameras of
-//! vehicles not in the run are not listened to.
+//! A camera may not know all of the run's definition when it starts: one given a runway
+//! mission whose grid origin is the first vehicle's home cannot cut its pictures on the grid
+//! until it knows where that home is. The run then has the GCS announce it (an
+//! [`Announcement`]: for the runway, the grid and the fingerprint of the definition it
+//! accepts, DEBUG_FLOAT_ARRAY `"fm.grid"`, without a target: the autopilots forward it to
+//! their companion ports) when the run starts, and again every [`REPEAT`] while a camera of
+//! the run has not confirmed it, at most [`REPEATS`] times in a row. A camera confirms by
+//! sending any message of that measurement with that fingerprint — its answer to the
+//! announcement, or a picture's result. A camera of the run that says it has no definition
+//! (fingerprint 0: restarted with its vehicle) is announced to again at once (at most once
+//! per [`MIN_GAP`]) with a fresh budget of repeats; one that sends another fingerprint (an
+//! older grid, or another definition: it answers an announcement with it when its
+//! classifier or camera differ from the run's) is announced to again within what is left of
+//! the budget, so that a camera that cannot agree is not answered forever. A camera that
+//! never answers (one that does not measure on board) costs the link [`REPEATS`] frames per
+//! start (the runway's grid: at most 96 bytes each), no more; cameras of vehicles not in the
+//! run are not listened to.
 
 use fleetmap_core::time::Time;
-use fleetmap_core::vision::onboard_runway::RunwaySpec;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::BTreeSet;
 use std::time::Duration;
@@ -31,24 +32,33 @@ pub(crate) const REPEATS: u32 = 10;
 /// Shortest time between two announcements.
 pub(crate) const MIN_GAP: Duration = Duration::from_secs(1);
 
-/// The runway definition a run accepts on-board results of, and the cameras it expects
-/// (the run's drones, by system id).
+/// The definition a run accepts on-board results of, for one measurement.
 #[derive(Clone, Debug, PartialEq)]
-pub struct RunwayAccept {
-    /// The definition (the run's classifier, camera and grid).
-    pub spec: RunwaySpec,
-    /// System ids of the vehicles whose cameras should confirm it.
+pub struct OnboardAccept {
+    /// The definition's fingerprint (what the results carry).
+    pub fingerprint: u32,
+    /// What to tell the cameras until each confirms the fingerprint (`None`: nothing, they
+    /// were given the whole definition).
+    pub announce: Option<Announcement>,
+}
+
+/// A message announcing the run's definition, and the cameras that should confirm it.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Announcement {
+    /// The message, sent untargeted (the runway's grid announcement).
+    pub message: MavMessage,
+    /// System ids of the vehicles whose cameras should confirm it (the run's drones).
     pub cameras: Vec<u8>,
 }
 
-/// The state of the announcements of one run's grid.
+/// The state of the announcements of one run's definition.
 #[derive(Debug)]
 pub(crate) struct Announcer {
-    /// What is accepted.
-    pub(crate) accept: RunwayAccept,
-    /// Its fingerprint.
+    /// The fingerprint the cameras should confirm.
     pub(crate) fingerprint: u32,
     message: MavMessage,
+    /// The cameras expected to confirm it.
+    cameras: Vec<u8>,
     /// Cameras that confirmed the fingerprint.
     confirmed: BTreeSet<u8>,
     /// When to announce next (`None`: not until a camera speaks).
@@ -62,12 +72,12 @@ pub(crate) struct Announcer {
 }
 
 impl Announcer {
-    /// Announce `accept` from `now` on.
-    pub(crate) fn new(accept: RunwayAccept, now: Time) -> Announcer {
+    /// Announce `a`, for the definition of `fingerprint`, from `now` on.
+    pub(crate) fn new(fingerprint: u32, a: Announcement, now: Time) -> Announcer {
         Announcer {
-            fingerprint: accept.spec.fingerprint(),
-            message: accept.spec.announcement().to_message(),
-            accept,
+            fingerprint,
+            message: a.message,
+            cameras: a.cameras,
             confirmed: BTreeSet::new(),
             next: Some(now),
             left: REPEATS,
@@ -84,7 +94,7 @@ impl Announcer {
     /// The camera of vehicle `sysid` said at `now` that it classifies with fingerprint `spec`
     /// (0: it has no grid).
     pub(crate) fn heard(&mut self, sysid: u8, spec: u32, now: Time) {
-        if !self.accept.cameras.contains(&sysid) {
+        if !self.cameras.contains(&sysid) {
             return;
         }
         if spec == self.fingerprint {
@@ -112,11 +122,7 @@ impl Announcer {
         if self.next.is_none_or(|t| t > now) {
             return None;
         }
-        let waiting = self
-            .accept
-            .cameras
-            .iter()
-            .any(|s| !self.confirmed.contains(s));
+        let waiting = self.cameras.iter().any(|s| !self.confirmed.contains(s));
         if !waiting || self.left == 0 {
             self.next = None;
             return None;
@@ -135,16 +141,20 @@ mod tests {
     use fleetmap_core::geo::{Grid, LatLon};
     use fleetmap_core::vision::camera::CameraModel;
     use fleetmap_core::vision::runway::RunwayParams;
+    use fleetmap_core::vision::runway::onboard::RunwaySpec;
 
-    fn accept() -> RunwayAccept {
-        RunwayAccept {
-            spec: RunwaySpec {
-                params: RunwayParams::default(),
-                camera: CameraModel::paper(),
-                grid: Grid::new(LatLon::new(37.0, -80.0), 4.0).unwrap(),
-            },
+    /// The runway's grid, announced to cameras 1 and 2.
+    fn announcer(now: Time) -> Announcer {
+        let spec = RunwaySpec {
+            params: RunwayParams::default(),
+            camera: CameraModel::paper(),
+            grid: Grid::new(LatLon::new(37.0, -80.0), 4.0).unwrap(),
+        };
+        let a = Announcement {
+            message: spec.announcement().to_message(),
             cameras: vec![1, 2],
-        }
+        };
+        Announcer::new(spec.fingerprint(), a, now)
     }
 
     fn run(a: &mut Announcer, from: u64, to: u64) -> Vec<u64> {
@@ -162,7 +172,7 @@ mod tests {
     /// definition.
     #[test]
     fn announces_until_every_camera_confirms() {
-        let mut a = Announcer::new(accept(), Time::ZERO);
+        let mut a = announcer(Time::ZERO);
         let fp = a.fingerprint;
         assert_eq!(run(&mut a, 0, 6_000), vec![0, 3_000, 6_000]);
         a.heard(1, fp, Time::from_millis(6_500));
@@ -179,11 +189,11 @@ mod tests {
         a.heard(2, 0, Time::from_millis(43_200));
         assert_eq!(a.poll_timeout(), Some(Time::from_millis(44_000)));
         // a camera that never answers: ten announcements, then silence
-        let mut b = Announcer::new(accept(), Time::ZERO);
+        let mut b = announcer(Time::ZERO);
         assert_eq!(run(&mut b, 0, 100_000).len() as u32, REPEATS);
         assert_eq!(b.sent, u64::from(REPEATS));
         // one that answers every announcement with another definition: within the budget
-        let mut c = Announcer::new(accept(), Time::ZERO);
+        let mut c = announcer(Time::ZERO);
         let mut sent = 0;
         for ms in (0..100_000u64).step_by(100) {
             if c.handle_timeout(Time::from_millis(ms)).is_some() {

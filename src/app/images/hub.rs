@@ -2,13 +2,13 @@
 //! requests out through the fleet, its images onto a broadcast stream, and what the runners
 //! ask of it ([`ImageHub`]).
 
-use super::{Intake, MAX_IMAGE_FILE, ReceivedImage, RunwayAccept};
+use super::{Intake, MAX_IMAGE_FILE, OnboardAccept, ReceivedImage};
 use crate::fleet::{FleetHandle, Incoming};
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::image_transfer::{FileUrlError, ReceiverConfig};
 use fleetmap_core::time::Time;
+use fleetmap_core::vision::onboard::OnboardKind;
 use fleetmap_io::files::read_file_url;
-use fleetmap_io::watch;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::BTreeMap;
 use std::sync::Arc;
@@ -30,8 +30,7 @@ struct Ask {
 #[derive(Clone, Debug)]
 pub struct ImageHub {
     tx: broadcast::Sender<Arc<ReceivedImage>>,
-    accept: Arc<watch::Sender<Option<u32>>>,
-    runway: Arc<watch::Sender<Option<RunwayAccept>>>,
+    accepts: mpsc::UnboundedSender<(OnboardKind, Option<OnboardAccept>)>,
     asks: mpsc::UnboundedSender<Ask>,
     /// When each vehicle's camera last sent anything of a picture (a capture's record, its
     /// on-board result, or image-transmission data), on the fleet's clock.
@@ -44,18 +43,12 @@ impl ImageHub {
         self.tx.subscribe()
     }
 
-    /// Use the cameras' on-board measurements made with the definition of fingerprint `spec`
-    /// ([`fleetmap_core::vision::onboard::GreenSpec::fingerprint`]); `None` (the start): ask for the
-    /// picture of every on-board measurement.
-    pub fn accept_onboard(&self, spec: Option<u32>) {
-        self.accept.send_replace(spec);
-    }
-
-    /// Use the cameras' runway results made with `accept`'s definition and announce its grid
-    /// to `accept.cameras` until they confirm it (`super::announce`); `None` (the start):
-    /// ask for the picture of every runway result.
-    pub fn accept_runway(&self, accept: Option<RunwayAccept>) {
-        self.runway.send_replace(accept);
+    /// Use the cameras' results of on-board measurement `kind` made with `accept`'s
+    /// definition, and announce it to `accept`'s cameras until they confirm it when it says
+    /// so (`super::announce`); `None` (the start): ask for the picture of every result of
+    /// `kind`.
+    pub fn accept_onboard(&self, kind: OnboardKind, accept: Option<OnboardAccept>) {
+        let _ = self.accepts.send((kind, accept));
     }
 
     /// When vehicle `sysid`'s camera last sent anything of a picture (CAMERA_IMAGE_CAPTURED,
@@ -99,14 +92,12 @@ pub fn spawn(fleet: &FleetHandle) -> ImageHub {
 /// [`spawn`] with the image receivers' configuration.
 pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHub {
     let (tx, _) = broadcast::channel(256);
-    let (accept, mut accepted) = watch::channel(None);
-    let (runway, mut runway_accepted) = watch::channel(None);
+    let (accepts, mut accepted) = mpsc::unbounded_channel();
     let (asks, mut asked) = mpsc::unbounded_channel::<Ask>();
     let traffic = Arc::new(std::sync::Mutex::new(BTreeMap::new()));
     let hub = ImageHub {
         tx: tx.clone(),
-        accept: Arc::new(accept),
-        runway: Arc::new(runway),
+        accepts,
         asks,
         traffic: traffic.clone(),
     };
@@ -148,11 +139,9 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
                     }
                     Err(broadcast::error::RecvError::Closed) => return,
                 },
-                Ok(()) = accepted.changed() => intake.accept_onboard(*accepted.borrow_and_update()),
-                Ok(()) = runway_accepted.changed() => {
-                    let a = runway_accepted.borrow_and_update().clone();
+                Some((kind, a)) = accepted.recv() => {
                     let now = fleet.clock().now();
-                    intake.accept_runway(a, now);
+                    intake.accept_onboard(kind, a, now);
                     // the first announcement now, not at the next timer
                     intake.handle_timeout(now);
                 }
@@ -184,7 +173,7 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
             while let Some((cam, msg)) = intake.poll_transmit() {
                 match &msg {
                     MavMessage::DEBUG_FLOAT_ARRAY(_) => {
-                        tracing::debug!("announcing the runway grid to the cameras")
+                        tracing::debug!("announcing the run's definition to the cameras")
                     }
                     _ => tracing::debug!(
                         "asking camera {}/{} to send its image again",
@@ -192,7 +181,7 @@ pub(crate) fn spawn_with(fleet: &FleetHandle, config: ReceiverConfig) -> ImageHu
                         cam.compid
                     ),
                 }
-                // The grid announcement is for every camera; a request for a picture only
+                // An announcement is for every camera; a request for a picture only
                 // for the vehicle of the camera that holds it (on a radio: bulk traffic,
                 // behind that vehicle's commands and mission transfers).
                 let sent = if cam.sysid == 0 {

@@ -4,19 +4,20 @@
 use super::*;
 use crate::app::blocking::run_blocking;
 use crate::app::error::RunnerResult;
-use crate::app::images::{CapturePose, RunwayAccept};
+use crate::app::images::{Announcement, CapturePose, OnboardAccept};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::vision::VisionError;
-use fleetmap_core::vision::onboard_runway::{
+use fleetmap_core::vision::onboard::OnboardKind;
+use fleetmap_core::vision::runway::onboard::{
     OnboardRegions, RunwayDefinition, RunwayMeasurement, RunwaySpec, ShutterPose,
 };
 
-pub(super) fn labels5(c: &Classification) -> [bool; 5] {
+pub(super) fn labels5(c: &RegionReading) -> [bool; 5] {
     let l = c.labels;
     [l.center, l.north, l.west, l.south, l.east]
 }
 
-pub(super) fn fractions5(c: &Classification) -> [f64; 5] {
+pub(super) fn fractions5(c: &RegionReading) -> [f64; 5] {
     let f = c.fractions;
     [f.center, f.top, f.left, f.bottom, f.right]
 }
@@ -52,7 +53,7 @@ pub(crate) fn classify_cut(
     params: &RunwayParams,
     camera: &CameraModel,
     cell_m: f64,
-) -> Result<Classification, VisionError> {
+) -> Result<RegionReading, VisionError> {
     let img = load_image_bytes(bytes, &LoadLimits::default())?;
     match cut {
         Cut::Centre {
@@ -75,10 +76,10 @@ pub(crate) fn classify_cut(
 
 /// The on-board definition of the runway mission `def` (what `fleetmap camera --mission`
 /// and the simulated cameras are given): the camera crate's
-/// [`fleetmap_camera::mission::runway_definition_of`], which the companion computer's camera
+/// [`fleetmap_camera::camera::onboard::runway::definition_of`], which the companion computer's camera
 /// reads its mission with. `None` for another kind of mission.
 pub fn runway_definition_of(def: &MissionDef) -> Option<RunwayDefinition> {
-    fleetmap_camera::mission::runway_definition_of(def)
+    fleetmap_camera::camera::onboard::runway::definition_of(def)
 }
 
 /// The definition a run accepts the cameras' on-board results of: its classifier, camera and
@@ -90,6 +91,24 @@ pub(super) fn runway_spec(s: &MappingState) -> Option<RunwaySpec> {
         camera: s.params.camera,
         grid: s.grid.clone(),
     })
+}
+
+/// What a run accepts of the cameras' results: those of `spec`, whose grid is announced to
+/// the cameras of `cameras` (the run's drones) until each confirms it.
+pub fn onboard_accept(spec: &RunwaySpec, cameras: Vec<u8>) -> OnboardAccept {
+    OnboardAccept {
+        fingerprint: spec.fingerprint(),
+        announce: Some(Announcement {
+            message: spec.announcement().to_message(),
+            cameras,
+        }),
+    }
+}
+
+/// The camera's result of a picture, when it measured it on board with the run's
+/// definition.
+pub(super) fn onboard_result(img: &ReceivedImage) -> Option<RunwayMeasurement> {
+    img.onboard.as_ref()?.get::<RunwayMeasurement>().copied()
 }
 
 /// Longest wait for an audited picture, nominal seconds (a 50 kB picture over a radio that
@@ -115,10 +134,11 @@ impl Onboard {
     /// grid), through `hub`.
     pub(super) fn start(hub: &ImageHub, state: &MappingState) -> Onboard {
         let spec = runway_spec(state);
-        hub.accept_runway(spec.clone().map(|spec| RunwayAccept {
-            spec,
-            cameras: state.robots.iter().map(|r| r.sysid).collect(),
-        }));
+        let cameras = state.robots.iter().map(|r| r.sysid).collect();
+        hub.accept_onboard(
+            OnboardKind::Runway,
+            spec.as_ref().map(|s| onboard_accept(s, cameras)),
+        );
         Onboard {
             hub: hub.clone(),
             spec,
@@ -163,7 +183,7 @@ impl Onboard {
         &self,
         m: &RunwayMeasurement,
         pose: Option<&CapturePose>,
-    ) -> Result<(Cell, Classification), String> {
+    ) -> Result<(Cell, RegionReading), String> {
         let spec = self
             .spec
             .as_ref()
@@ -179,19 +199,19 @@ impl Onboard {
                 r.cell
             ));
         }
-        let c = m.classification(&spec.params).map_err(|e| e.to_string())?;
+        let c = m.reading(&spec.params).map_err(|e| e.to_string())?;
         Ok((r.cell, c))
     }
 
     /// [`Onboard::credited`] for a picture taken over `cell`: the camera's cell must be
     /// `cell` (the cell under the camera is the one visited when the picture passed the
     /// sanity check; otherwise it is taken again).
-    fn classification(
+    fn reading(
         &self,
         m: &RunwayMeasurement,
         pose: Option<&CapturePose>,
         cell: Cell,
-    ) -> Result<Classification, PictureFailure> {
+    ) -> Result<RegionReading, PictureFailure> {
         let (under, c) = self
             .credited(m, pose)
             .map_err(|why| PictureFailure::Unreadable(format!("cell {cell}: {why}")))?;
@@ -263,7 +283,7 @@ async fn audit_picture(
     .await
     .map_err(|e| e.to_string())?
     .map_err(|e| format!("the picture: {e}"))?;
-    let c = &r.classification;
+    let c = &r.reading;
     let l = c.labels;
     let ours = [l.center, l.north, l.west, l.south, l.east];
     Ok((ours, OnboardRegions::of(&r) == m.regions))
@@ -428,7 +448,8 @@ impl Pilot {
                 }
                 // announced with its index and measured on board: the next visit may
                 // take its pictures several at a time
-                self.in_flight_ok = shot.image.pose.is_some() && shot.image.runway.is_some();
+                self.in_flight_ok =
+                    shot.image.pose.is_some() && onboard_result(&shot.image).is_some();
                 self.camera.last_picture = Some(self.fleet().clock().now());
                 Ok(shot)
             }
@@ -514,12 +535,12 @@ impl Pilot {
         };
         // The camera's own classification when it made one with the run's definition,
         // else the GCS's of the picture.
-        let onboard = shot.image.runway;
+        let onboard = onboard_result(&shot.image);
         let result = match &onboard {
             Some(m) => self
                 .shared
                 .onboard
-                .classification(m, shot.image.pose.as_ref(), cell),
+                .reading(m, shot.image.pose.as_ref(), cell),
             None => {
                 let cut = match pose.attitude {
                     Some(attitude) => Cut::Ortho {

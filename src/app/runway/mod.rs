@@ -68,11 +68,11 @@ use fleetmap_core::vision::camera::CameraModel;
 use fleetmap_core::vision::crop::crop_to_cells;
 use fleetmap_core::vision::geometry::{self, OrthoRequest};
 use fleetmap_core::vision::load::{LoadLimits, load_image_bytes};
-use fleetmap_core::vision::runway::{Classification, RunwayParams, classify};
+use fleetmap_core::vision::runway::votes::{Detection, GeoPosition};
+use fleetmap_core::vision::runway::{RegionReading, RunwayParams, classify};
 use fleetmap_core::vision::sanity::{
     CaptureClaim, CaptureLimits, SWEEP_MAX_TILT_DEG, check_capture,
 };
-use fleetmap_core::vision::votes::{Detection, GeoPosition};
 use fleetmap_io::watch;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use nalgebra::UnitQuaternion;
@@ -98,8 +98,8 @@ mod sweep;
 mod visit_captures;
 
 pub use self::events::*;
-pub use self::intake::runway_definition_of;
 pub(crate) use self::intake::*;
+pub use self::intake::{onboard_accept, runway_definition_of};
 pub use self::runner::*;
 
 /// The run kind in `run.json`.
@@ -155,7 +155,7 @@ pub struct RunOptions {
     /// 5 = as many as a visit's own images: a healthy camera fails a picture rarely (a late
     /// image, a gust), so more than half a visit's captures failing is no transient.
     pub max_retakes: u32,
-    /// Limits of the image sanity check (`None`: [`CaptureLimits::runway`] of
+    /// Limits of the image sanity check (`None`: [`CaptureLimits::hover`] of
     /// `tolerance_m`, i.e. 1.0 m, 1.5 m, 10°, 10°).
     pub capture_limits: Option<CaptureLimits>,
 }

@@ -9,7 +9,7 @@ use crate::panes::{
 use fleetmap_core::explore::dfs::VertexState;
 use fleetmap_core::explore::mapping::{self, MappingState, RobotStatus};
 use fleetmap_core::geo::Cell;
-use fleetmap_core::vision::votes::CellState as VoteState;
+use fleetmap_core::vision::runway::votes::CellState as VoteState;
 use std::collections::BTreeMap;
 
 /// The cell states of a runway map, in legend order: not yet imaged, negative, then the DFS

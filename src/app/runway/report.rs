@@ -18,7 +18,7 @@ use fleetmap_core::explore::dfs::ExplorerConfig;
 use fleetmap_core::explore::dfs::VertexState;
 use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState, OnboardTally};
 use fleetmap_core::geo::{Cell, GeoError, Grid, LatLon};
-use fleetmap_core::vision::votes::CellState;
+use fleetmap_core::vision::runway::votes::CellState;
 use fleetmap_core::world::{Surface, World};
 use image::{Rgb, RgbImage};
 use serde::Serialize;
@@ -88,8 +88,8 @@ pub struct Counts {
     pub false_negatives: u64,
 }
 
-impl From<fleetmap_core::vision::votes::Confusion> for Counts {
-    fn from(c: fleetmap_core::vision::votes::Confusion) -> Counts {
+impl From<fleetmap_core::vision::runway::votes::Confusion> for Counts {
+    fn from(c: fleetmap_core::vision::runway::votes::Confusion) -> Counts {
         Counts {
             true_positives: c.true_positives,
             false_positives: c.false_positives,

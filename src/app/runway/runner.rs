@@ -142,7 +142,7 @@ pub async fn run(
         max_retakes: opts.max_retakes,
         limits: opts
             .capture_limits
-            .unwrap_or_else(|| CaptureLimits::runway(opts.tolerance_m)),
+            .unwrap_or_else(|| CaptureLimits::hover(opts.tolerance_m)),
         roi,
         doing: std::sync::Mutex::new(HashMap::new()),
         onboard,

@@ -345,8 +345,9 @@ impl Pilot {
         // The camera's own classification when it made one with the run's definition: the
         // cell under the camera, the orthophoto centred on it. Else the GCS's, of the cell
         // its optical axis met.
-        let measured = img.runway.is_some();
-        let result = match &img.runway {
+        let onboard = super::intake::onboard_result(img);
+        let measured = onboard.is_some();
+        let result = match &onboard {
             Some(m) => self.shared.onboard.credited(m, img.pose.as_ref()),
             None => {
                 let cut = match (pose.attitude, looked) {

@@ -207,7 +207,11 @@ impl Pilot {
         }
         // a picture without its on-board result (the camera lost the run's grid): one at a
         // time again until one comes measured
-        if visit.shots.iter().any(|s| s.image.runway.is_none()) {
+        if visit
+            .shots
+            .iter()
+            .any(|s| super::intake::onboard_result(&s.image).is_none())
+        {
             self.in_flight_ok = false;
         }
         let got = visit.shots.len();

@@ -2,13 +2,13 @@
 //! outside), the degraded sensor, JPEG with metadata, CAMERA_IMAGE_CAPTURED and the on-board
 //! measurement.
 
+use super::onboard::Picture;
 use super::{FRAME_OVERHEAD, RECENT_IMAGES, SimCamera};
 use crate::pose::CameraPose;
 #[cfg(feature = "render")]
 use crate::render::{Disturbances, render};
 use fleetmap_core::time::Time;
 use fleetmap_core::vision::meta::{ImageMeta, insert_meta};
-use fleetmap_core::vision::onboard::{OnboardMeasurement, OnboardSpec};
 use fleetmap_core::world::World;
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
@@ -198,12 +198,7 @@ impl SimCamera {
             self.sysid, self.boot, index
         );
         let mut jpeg = None;
-        let mut green = None;
         if let Some(img) = img {
-            // measured at the altitude the capture message reports, as the GCS would
-            if let Some(OnboardSpec::Green(spec)) = &self.config.onboard {
-                green = Some((spec.fingerprint(), spec.measure(img, ctx.reported.2)));
-            }
             let mut raw = Vec::new();
             let ok = image::codecs::jpeg::JpegEncoder::new_with_quality(
                 &mut raw,
@@ -242,19 +237,14 @@ impl SimCamera {
             file_url: url.as_str().into(),
         };
         // the result goes right after the capture's announcement, which carries its pose
-        let result = match (&jpeg, green) {
-            (Some(j), Some((spec, value))) => Some(
-                OnboardMeasurement {
-                    time_boot_ms: ctx.time_boot_ms,
-                    image_index_lo: index as u16,
-                    spec,
-                    picture_bytes: j.len() as u32,
-                    value,
-                }
-                .to_message(),
-            ),
-            (Some(j), None) => self.runway_result(j, &captured).map(|m| m.to_message()),
-            (None, _) => None,
+        let result = match (&jpeg, img) {
+            (Some(j), Some(image)) => self.onboard_result(&Picture {
+                image,
+                jpeg: j,
+                captured: &captured,
+                alt_rel_m: ctx.reported.2,
+            }),
+            _ => None,
         };
         let measured = result.is_some();
         let messages: Vec<MavMessage> =

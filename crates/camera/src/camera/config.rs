@@ -42,7 +42,7 @@ pub struct CameraConfig {
     /// Measure every picture on board with this definition and send the result
     /// (DEBUG_FLOAT_ARRAY after CAMERA_IMAGE_CAPTURED) instead of pushing the picture: the
     /// bandit mission's green share ([`fleetmap_core::vision::onboard`], `"fm.green"`) or the
-    /// runway mission's 3 × 3 regions ([`fleetmap_core::vision::onboard_runway`], `"fm.rwy"`;
+    /// runway mission's 3 × 3 regions ([`fleetmap_core::vision::runway::onboard`], `"fm.rwy"`;
     /// a definition without a grid waits for the GCS's announcement, and announces its
     /// pictures unclassified meanwhile). The picture is kept ([`RECENT_IMAGES`]) and sent when
     /// a GCS asks for it. `None` (the default): no measurement, pictures pushed as

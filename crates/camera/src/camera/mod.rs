@@ -61,16 +61,15 @@
 
 mod capture;
 mod config;
-mod onboard;
+pub mod onboard;
 mod pacer;
 mod requests;
 mod transfer;
 mod trigger;
 
-use self::onboard::runway_of;
+use self::onboard::{Measurer, measurer};
 use self::pacer::Pacer;
 use fleetmap_core::time::Time;
-use fleetmap_core::vision::onboard_runway::RunwayDefinition;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::VecDeque;
@@ -125,11 +124,9 @@ pub struct SimCamera {
     images: VecDeque<CapturedImage>,
     /// Shots waiting for their picture from outside ([`CameraConfig::external`]).
     shots: VecDeque<Shot>,
-    /// The runway definition the camera classifies with, its grid once known
-    /// ([`CameraConfig::onboard`]; the grid the GCS announced replaces the mission file's).
-    runway: Option<RunwayDefinition>,
-    /// When the camera last said it has no grid (on its clock).
-    last_status: Option<Time>,
+    /// What the camera measures on board ([`CameraConfig::onboard`]), with what it learnt
+    /// since it booted (the runway's grid).
+    onboard: Option<Box<dyn Measurer>>,
     /// The latest captures' announcements and on-board results, to send again
     /// ([`requests`]).
     kept: VecDeque<requests::KeptCapture>,
@@ -164,8 +161,7 @@ impl SimCamera {
                 .map(Pacer::new),
             images: VecDeque::new(),
             shots: VecDeque::new(),
-            runway: runway_of(&config),
-            last_status: None,
+            onboard: measurer(&config),
             kept: VecDeque::new(),
             last_capture_seq: None,
             config,
@@ -224,8 +220,7 @@ impl SimCamera {
         self.in_flight = None;
         self.shots.clear();
         // a companion computer powered by the vehicle's battery forgets the announced grid
-        self.runway = runway_of(&self.config);
-        self.last_status = None;
+        self.onboard = measurer(&self.config);
         self.kept.clear();
         self.last_capture_seq = None;
     }

@@ -1,6 +1,6 @@
 //! What a vehicle's camera has done, counted from its own messages: the pictures it took
-//! (CAMERA_IMAGE_CAPTURED) and the measurements it made on board and sent
-//! ([`crate::vision::onboard`]'s `"fm.green"`, [`crate::vision::onboard_runway`]'s `"fm.rwy"`).
+//! (CAMERA_IMAGE_CAPTURED) and the measurements it made on board and sent (any of
+//! [`crate::vision::onboard::Onboard`]'s: `"fm.green"`, `"fm.rwy"`).
 //!
 //! A GCS hears some of these more than once: it asks again for a capture record or a result
 //! it missed (MAV_CMD_REQUEST_MESSAGE with the image index, as the MAVLink camera protocol
@@ -13,23 +13,13 @@
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::collections::VecDeque;
 
-use crate::vision::onboard::OnboardMeasurement;
-use crate::vision::onboard_runway::RunwayMeasurement;
+use crate::vision::onboard::{Onboard, OnboardKind};
 
 /// How many recent keys are remembered to tell a resend from a new picture.
 pub const REMEMBERED: usize = 256;
 
 /// What the measurement was of: the capture's (time_boot_ms, image index) and which kind.
-type MeasurementKey = (u32, u16, MeasurementKind);
-
-/// The on-board measurements fleetmap's cameras send.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-enum MeasurementKind {
-    /// A spatial-classification green share.
-    Green,
-    /// A runway picture's 3 × 3 regions.
-    Runway,
-}
+type MeasurementKey = (u32, u16, OnboardKind);
 
 /// The counts of one camera, from every message its component sent.
 #[derive(Clone, Debug, Default)]
@@ -62,15 +52,13 @@ impl CameraTally {
                 self.pictures = self.pictures.saturating_add(u32::from(new));
             }
             MavMessage::DEBUG_FLOAT_ARRAY(d) => {
-                let key = if let Some(m) = OnboardMeasurement::from_message(d) {
-                    (m.time_boot_ms, m.image_index_lo, MeasurementKind::Green)
-                } else if let Some(m) = RunwayMeasurement::from_message(d)
-                    && !m.is_status()
-                {
-                    (m.time_boot_ms, m.image_index_lo, MeasurementKind::Runway)
-                } else {
+                let Some(m) = Onboard::from_message(d) else {
                     return;
                 };
+                let Some((time_boot_ms, index_lo)) = m.capture() else {
+                    return; // a status: about no picture
+                };
+                let key = (time_boot_ms, index_lo, m.kind());
                 let new = first_time(&mut self.recent_measurements, key);
                 self.measurements = self.measurements.saturating_add(u32::from(new));
             }
@@ -83,8 +71,8 @@ impl CameraTally {
         self.pictures
     }
 
-    /// Measurements the camera made on board and sent (distinct results heard; runway
-    /// statuses, which carry no picture, are not measurements).
+    /// Measurements the camera made on board and sent (distinct results heard; statuses,
+    /// which carry no picture, are not measurements).
     pub fn measurements(&self) -> u32 {
         self.measurements
     }
@@ -93,7 +81,8 @@ impl CameraTally {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::vision::onboard::GreenShare;
+    use crate::vision::onboard::{GreenShare, OnboardMeasurement};
+    use crate::vision::runway::onboard::RunwayMeasurement;
     use mavlink::dialects::ardupilotmega as mav;
 
     fn captured(time_boot_ms: u32, image_index: i32) -> MavMessage {

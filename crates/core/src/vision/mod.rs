@@ -7,17 +7,17 @@
 //! |---|---|
 //! | [`runway::classify`] | one image + heading → black fractions of the 5 regions and labels of the cell and its 4 neighbours (runway paper §7) |
 //! | `runway::classify_many` | the same for several images in parallel (rayon) |
-//! | [`votes::VoteBook`] | 3-of-5 votes per cell and visit, sticky positives, every detection kept |
+//! | [`runway::votes::VoteBook`] | 3-of-5 votes per cell and visit, sticky positives, every detection kept |
 //! | [`green::green_fraction`], [`green::measure`] | share of green pixels, one Bernoulli measurement per image (bandit paper §V) |
 //! | [`crop::crop_to_cells`], [`crop::crop_to_cell`] | the centre crops both missions measure (3 × 3 cells; a share of one cell) |
 //! | [`meta::ImageMeta`] | what a capture says about itself, in a JPEG COM segment |
 //! | [`onboard::OnboardMeasurement`] | a green share measured on board, as a DEBUG_FLOAT_ARRAY |
-//! | [`onboard_runway::RunwaySpec`], [`onboard_runway::RunwayMeasurement`] | a runway picture classified on board (cell, five region counts, labels) and the run's grid announced to the cameras, as DEBUG_FLOAT_ARRAYs |
+//! | [`runway::onboard::RunwaySpec`], [`runway::onboard::RunwayMeasurement`] | a runway picture classified on board (cell, five region counts, labels) and the run's grid announced to the cameras, as DEBUG_FLOAT_ARRAYs |
 //! | [`camera::CameraModel`] | footprint and the altitude at which the centre ninth covers one cell |
 //! | [`geometry::orthophoto`], [`geometry::CameraView`] | pinhole camera at the capture attitude (nalgebra): ground ↔ pixel, the 3 × 3 cells resampled north-up |
 //! | [`sanity::check_capture`] | whether a picture was taken where it is credited (position, altitude, tilt, heading) |
 //! | [`load::load_image_bytes`] | PNG/JPEG bytes → RGB image, dimensions checked before decoding |
-//! | [`synth`] | deterministic synthetic runway / grass / green-tile images for tests and benches |
+//! | [`synth`], [`runway::synth`] | deterministic synthetic green-tile and runway / grass images for tests and benches |
 //!
 //! Every step that OpenCV also does is pixel-exact with OpenCV (see [`color`] and
 //! [`runway`]); `tests/py/test_vision_opencv.py` checks it against `cv2`.
@@ -31,13 +31,21 @@ pub mod green;
 pub mod load;
 pub mod meta;
 pub mod onboard;
-pub mod onboard_runway;
 pub mod reference;
 pub mod regions;
 pub mod runway;
 pub mod sanity;
 pub mod synth;
-pub mod votes;
+
+/// FNV-1a over `bytes`, folded to 24 bits so that a 32-bit float holds it exactly: the
+/// fingerprints of the on-board definitions ([`onboard::GreenSpec::fingerprint`],
+/// [`runway::onboard::RunwaySpec::fingerprint`]).
+pub(crate) fn fingerprint24(bytes: &[u8]) -> u32 {
+    let h = bytes.iter().fold(0x811c_9dc5_u32, |h, &b| {
+        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
+    });
+    (h >> 24) ^ (h & 0x00ff_ffff)
+}
 
 /// Errors of the vision module.
 #[derive(Debug, thiserror::Error)]

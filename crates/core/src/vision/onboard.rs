@@ -37,8 +37,8 @@
 
 use crate::vision::camera::CameraModel;
 use crate::vision::crop::crop_to_cell;
+use crate::vision::fingerprint24;
 use crate::vision::green::{GreenParams, green_fraction};
-use crate::vision::onboard_runway::fingerprint24;
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -116,16 +116,137 @@ impl GreenSpec {
     }
 }
 
-/// What a camera that measures on board is given: the definition of one mission's
-/// measurement.
-#[derive(Clone, Debug, PartialEq)]
-pub enum OnboardSpec {
-    /// The spatial-classification mission's green share ([`GreenSpec`], `"fm.green"`).
-    Green(GreenSpec),
-    /// The runway mission's 3 × 3 regions
-    /// ([`crate::vision::onboard_runway::RunwayDefinition`], `"fm.rwy"`).
-    Runway(crate::vision::onboard_runway::RunwayDefinition),
+/// One message type of an on-board measurement, as the list below registers it.
+pub trait OnboardMessage: Sized {
+    /// The message, when `o` is one of this type.
+    fn of(o: &Onboard) -> Option<&Self>;
 }
+
+/// The list of on-board measurements: one line each, `Name(definition, message)`. It
+/// declares what a camera is given ([`OnboardSpec`]), which measurement a message is
+/// ([`OnboardKind`]) and any camera's message ([`Onboard`]), whose methods call the
+/// message type's own: `from_message`, `to_message`, `capture()` (the capture it is about;
+/// `None`: a status, about no picture), `has_result()` (whether the GCS can use it instead
+/// of the picture), and its fields `spec` (the definition's fingerprint) and
+/// `picture_bytes`. Messages are read in the list's order.
+macro_rules! measurements {
+    ($($(#[$doc:meta])* $name:ident($spec:ty, $msg:ty)),+ $(,)?) => {
+        /// What a camera that measures on board is given: the definition of one mission's
+        /// measurement.
+        #[derive(Clone, Debug, PartialEq)]
+        pub enum OnboardSpec {
+            $($(#[$doc])* $name($spec),)+
+        }
+
+        /// Which on-board measurement a message is.
+        #[derive(Clone, Copy, Debug, PartialEq, Eq, PartialOrd, Ord, Hash)]
+        pub enum OnboardKind {
+            $($(#[$doc])* $name,)+
+        }
+
+        /// A message a camera sent about a picture it measured on board (or a status).
+        #[derive(Clone, Copy, Debug, PartialEq)]
+        pub enum Onboard {
+            $($(#[$doc])* $name($msg),)+
+        }
+
+        impl OnboardSpec {
+            /// Which measurement this is.
+            pub fn kind(&self) -> OnboardKind {
+                match self {
+                    $(OnboardSpec::$name(_) => OnboardKind::$name,)+
+                }
+            }
+        }
+
+        impl Onboard {
+            /// Read a DEBUG_FLOAT_ARRAY: `None` when it is no on-board message of a known
+            /// layout.
+            pub fn from_message(d: &mav::DEBUG_FLOAT_ARRAY_DATA) -> Option<Onboard> {
+                $(if let Some(m) = <$msg>::from_message(d) {
+                    return Some(Onboard::$name(m));
+                })+
+                None
+            }
+
+            /// Which measurement this is.
+            pub fn kind(&self) -> OnboardKind {
+                match self {
+                    $(Onboard::$name(_) => OnboardKind::$name,)+
+                }
+            }
+
+            /// The DEBUG_FLOAT_ARRAY that carries it.
+            pub fn to_message(&self) -> MavMessage {
+                match self {
+                    $(Onboard::$name(m) => m.to_message(),)+
+                }
+            }
+
+            /// The capture it is about, (time_boot_ms, image index's low 16 bits); `None`: a
+            /// status, about no picture.
+            pub fn capture(&self) -> Option<(u32, u16)> {
+                match self {
+                    $(Onboard::$name(m) => m.capture(),)+
+                }
+            }
+
+            /// Whether it is the result of the capture (`time_boot_ms`, `image_index`).
+            pub fn is_of(&self, time_boot_ms: u32, image_index: i32) -> bool {
+                self.capture() == Some((time_boot_ms, image_index as u16))
+            }
+
+            /// Whether it carries a result the GCS can use instead of the picture.
+            pub fn has_result(&self) -> bool {
+                match self {
+                    $(Onboard::$name(m) => m.has_result(),)+
+                }
+            }
+
+            /// The fingerprint of the definition the camera measured with (0: none).
+            pub fn spec(&self) -> u32 {
+                match self {
+                    $(Onboard::$name(m) => m.spec,)+
+                }
+            }
+
+            /// Size of the picture, bytes (what to ask for to get it; 0 in a status).
+            pub fn picture_bytes(&self) -> u32 {
+                match self {
+                    $(Onboard::$name(m) => m.picture_bytes,)+
+                }
+            }
+
+            /// The message, when it is of type `M`.
+            pub fn get<M: OnboardMessage>(&self) -> Option<&M> {
+                M::of(self)
+            }
+        }
+
+        $(impl OnboardMessage for $msg {
+            #[allow(unreachable_patterns)]
+            fn of(o: &Onboard) -> Option<&Self> {
+                match o {
+                    Onboard::$name(m) => Some(m),
+                    _ => None,
+                }
+            }
+        }
+
+        impl From<$msg> for Onboard {
+            fn from(m: $msg) -> Onboard {
+                Onboard::$name(m)
+            }
+        })+
+    };
+}
+
+measurements!(
+    /// The spatial-classification mission's green share ([`GreenSpec`], `"fm.green"`).
+    Green(GreenSpec, OnboardMeasurement),
+    /// The runway mission's 3 × 3 regions (`vision::runway::onboard`, `"fm.rwy"`).
+    Runway(crate::vision::runway::onboard::RunwayDefinition, crate::vision::runway::onboard::RunwayMeasurement),
+);
 
 /// A measurement made on board, tied to its picture.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -146,6 +267,18 @@ impl OnboardMeasurement {
     /// Whether this measurement is of the capture (`time_boot_ms`, `image_index`).
     pub fn is_of(&self, time_boot_ms: u32, image_index: i32) -> bool {
         self.time_boot_ms == time_boot_ms && self.image_index_lo == image_index as u16
+    }
+
+    /// The capture it is about: (time_boot_ms, image index's low 16 bits); a green share is
+    /// always about a picture.
+    pub fn capture(&self) -> Option<(u32, u16)> {
+        Some((self.time_boot_ms, self.image_index_lo))
+    }
+
+    /// Whether the GCS can use it instead of the picture: always (a share of 0 pixels is a
+    /// measurement too).
+    pub fn has_result(&self) -> bool {
+        true
     }
 
     /// The DEBUG_FLOAT_ARRAY that carries it (layout in the module documentation).

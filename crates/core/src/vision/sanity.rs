@@ -14,7 +14,7 @@
 //! * the camera's heading is within [`CaptureLimits::max_heading_error_deg`] of the
 //!   vehicle's (when both are known).
 //!
-//! Why these defaults ([`CaptureLimits::runway`]): the runner flies to a cell until the
+//! Why these defaults ([`CaptureLimits::hover`]): the runner flies to a cell until the
 //! vehicle is within its arrival tolerance (0.5 m) and 1 m of altitude and slower than
 //! 0.3 m/s, turns it to the grid within 3°, and only then takes pictures, so a camera that
 //! reports the vehicle's own estimate stays inside those bounds; the check adds a margin for
@@ -64,10 +64,11 @@ pub const SWEEP_MAX_TILT_DEG: f64 = 20.0;
 pub(crate) const MAX_HEADING_ERROR_DEG: f64 = 10.0;
 
 impl CaptureLimits {
-    /// The runway runner's limits for a vehicle "there" within `arrival_tolerance_m` of a
-    /// cell centre: the arrival tolerance plus `HOVER_MARGIN_M` horizontally,
-    /// [`VERTICAL_M`], [`MAX_TILT_DEG`], `MAX_HEADING_ERROR_DEG`.
-    pub fn runway(arrival_tolerance_m: f64) -> CaptureLimits {
+    /// The limits for a picture taken hovering over a cell centre the vehicle arrived at
+    /// within `arrival_tolerance_m` (the runway runner's): the arrival tolerance plus
+    /// `HOVER_MARGIN_M` horizontally, [`VERTICAL_M`], [`MAX_TILT_DEG`],
+    /// `MAX_HEADING_ERROR_DEG`.
+    pub fn hover(arrival_tolerance_m: f64) -> CaptureLimits {
         CaptureLimits {
             horizontal_m: arrival_tolerance_m.max(0.0) + HOVER_MARGIN_M,
             vertical_m: VERTICAL_M,
@@ -254,7 +255,7 @@ mod tests {
 
     #[test]
     fn a_picture_taken_there_passes() {
-        let l = CaptureLimits::runway(0.5);
+        let l = CaptureLimits::hover(0.5);
         assert_eq!(l.horizontal_m, 1.0);
         assert_eq!(check_capture(&good(), 12.0, &l), Ok(()));
         // nothing known: nothing to reject
@@ -263,7 +264,7 @@ mod tests {
 
     #[test]
     fn each_limit_rejects_with_its_reason() {
-        let l = CaptureLimits::runway(0.5);
+        let l = CaptureLimits::hover(0.5);
         let far = CaptureClaim {
             horizontal_offset_m: Some(31.0),
             ..good()
@@ -323,7 +324,7 @@ mod tests {
     fn headings_wrap() {
         assert!((heading_difference_deg(359.0, 1.0) - 2.0).abs() < 1e-12);
         assert!((heading_difference_deg(-90.0, 270.0)).abs() < 1e-12);
-        let l = CaptureLimits::runway(0.5);
+        let l = CaptureLimits::hover(0.5);
         let c = CaptureClaim {
             heading_deg: Some(355.0),
             expected_heading_deg: Some(3.0),
@@ -343,7 +344,7 @@ mod tests {
             yaw in 0.0f64..360.0,
             vehicle in 0.0f64..360.0,
         ) {
-            let l = CaptureLimits::runway(0.5);
+            let l = CaptureLimits::hover(0.5);
             let att = attitude_from_euler_deg(roll, pitch, yaw);
             let c = CaptureClaim {
                 horizontal_offset_m: Some(d),

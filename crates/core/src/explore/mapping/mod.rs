@@ -47,8 +47,8 @@ use crate::mission::definition::{MissionDef, MissionKind, SweepBox};
 use crate::time::Time;
 use crate::vision::camera::CameraModel;
 use crate::vision::regions::RegionFractions;
+use crate::vision::runway::votes::{CellState, CellUpdate, Detection, VoteBook, VoteParams};
 use crate::vision::runway::{NeighbourLabels, RunwayParams};
-use crate::vision::votes::{CellState, CellUpdate, Detection, VoteBook, VoteParams};
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeSet;
 

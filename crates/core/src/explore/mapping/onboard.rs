@@ -4,7 +4,7 @@ use super::MappingState;
 use serde::{Deserialize, Serialize};
 
 /// Counts of the pictures classified on board
-/// ([`crate::vision::onboard_runway`]) and of their audits: when a visit's decision was won
+/// ([`crate::vision::runway::onboard`]) and of their audits: when a visit's decision was won
 /// by one vote, the GCS may ask for one of its pictures and classify it itself.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Serialize, Deserialize)]
 pub struct OnboardTally {

@@ -1,5 +1,5 @@
 use super::*;
-use crate::vision::votes::Detection;
+use crate::vision::runway::votes::Detection;
 
 fn def(drones: usize) -> MissionDef {
     let mut text = std::fs::read_to_string(concat!(

@@ -49,7 +49,7 @@
 //!
 //! Every number is a whole number below 2²⁴, exact in a 32-bit float. With MAVLink 2's
 //! truncation of the trailing zero floats it is 84 bytes on the wire (72 of payload). The
-//! GCS rebuilds the counts, fractions and labels exactly ([`RunwayMeasurement::classification`]).
+//! GCS rebuilds the counts, fractions and labels exactly ([`RunwayMeasurement::reading`]).
 //! A camera without the grid still announces each picture (fingerprint 0, not classified),
 //! so the GCS asks for the picture; and while it has none it says so every
 //! [`STATUS_PERIOD_S`] seconds (a status: `time_usec` 0, size 0), so the GCS tells it the
@@ -73,14 +73,13 @@
 //! result; a message of our own dialect would be dropped by routers built without it. Its
 //! own name keeps it apart from the green share.
 
-use super::VisionError;
-use super::camera::CameraModel;
-use super::geometry::{OrthoRequest, attitude_of_quaternion, orthophoto};
-use super::regions::{RegionCounts, RegionGrid};
-use super::runway::{
-    Classification, NeighbourLabels, RunwayParams, analyse, classification_from_counts,
-};
+use super::{NeighbourLabels, RegionReading, RunwayParams, analyse, reading_from_counts};
 use crate::geo::{Cell, Grid, Hemisphere, LatLon};
+use crate::vision::VisionError;
+use crate::vision::camera::CameraModel;
+use crate::vision::fingerprint24;
+use crate::vision::geometry::{OrthoRequest, attitude_of_quaternion, orthophoto};
+use crate::vision::regions::{Region, RegionCounts, RegionGrid};
 use image::RgbImage;
 use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
@@ -97,16 +96,6 @@ const FORMAT_VERSION: f32 = 1.0;
 pub const STATUS_PERIOD_S: f64 = 10.0;
 /// Largest whole number a 32-bit float holds exactly with all smaller ones: 2²⁴.
 const EXACT_MAX: f32 = 16_777_216.0;
-
-/// FNV-1a over `bytes`, folded to 24 bits so that a 32-bit float holds it exactly: the
-/// fingerprints of both on-board definitions ([`crate::vision::onboard::GreenSpec::fingerprint`],
-/// [`RunwaySpec::fingerprint`]).
-pub(crate) fn fingerprint24(bytes: &[u8]) -> u32 {
-    let h = bytes.iter().fold(0x811c_9dc5_u32, |h, &b| {
-        (h ^ u32::from(b)).wrapping_mul(0x0100_0193)
-    });
-    (h >> 24) ^ (h & 0x00ff_ffff)
-}
 
 /// Where and how a picture was taken, as CAMERA_IMAGE_CAPTURED carries it: the numbers both
 /// the camera and the GCS compute the cut from.
@@ -167,7 +156,7 @@ pub struct RunwayResult {
     /// Size of the classified orthophoto, pixels (width, height).
     pub size: (u32, u32),
     /// Counts, fractions and labels (heading 0: the orthophoto is north-up).
-    pub classification: Classification,
+    pub reading: RegionReading,
 }
 
 impl RunwaySpec {
@@ -238,7 +227,7 @@ impl RunwaySpec {
         Ok(RunwayResult {
             cell: cut.cell,
             size: o.image.dimensions(),
-            classification: classification_from_counts(counts, 0.0, &self.params)?,
+            reading: reading_from_counts(counts, 0.0, &self.params)?,
         })
     }
 
@@ -383,12 +372,12 @@ pub struct RunwayMeasurement {
     pub spec: u32,
     /// Size of the picture, bytes (what to ask for to get it); 0: a status, no picture.
     pub picture_bytes: u32,
-    /// The classification; `None`: the picture was not classified (no grid, or no pose to
+    /// The reading; `None`: the picture was not classified (no grid, or no pose to
     /// cut it by): the GCS asks for it.
     pub regions: Option<OnboardRegions>,
 }
 
-/// The classification of one picture as it travels: enough to rebuild it exactly.
+/// The reading of one picture as it travels: enough to rebuild it exactly.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct OnboardRegions {
     /// The cell under the camera.
@@ -426,7 +415,7 @@ impl OnboardRegions {
     /// index beyond 2²⁴, an orthophoto larger than 2²⁴ pixels a side).
     pub fn of(r: &RunwayResult) -> Option<OnboardRegions> {
         let fits = |v: i64| v.unsigned_abs() <= EXACT_MAX as u64;
-        let c = &r.classification.counts;
+        let c = &r.reading.counts;
         let ok = fits(i64::from(r.cell.row))
             && fits(i64::from(r.cell.col))
             && fits(i64::from(r.size.0))
@@ -436,7 +425,7 @@ impl OnboardRegions {
             cell: r.cell,
             size: r.size,
             black: c.black.map(|b| b as u32),
-            labels: r.classification.labels,
+            labels: r.reading.labels,
         })
     }
 }
@@ -445,6 +434,16 @@ impl RunwayMeasurement {
     /// Whether this is a status (no picture).
     pub fn is_status(&self) -> bool {
         self.picture_bytes == 0
+    }
+
+    /// The capture it is about: (time_boot_ms, image index's low 16 bits); `None`: a status.
+    pub fn capture(&self) -> Option<(u32, u16)> {
+        (!self.is_status()).then_some((self.time_boot_ms, self.image_index_lo))
+    }
+
+    /// Whether the GCS can use it instead of the picture: the camera classified it.
+    pub fn has_result(&self) -> bool {
+        self.regions.is_some()
     }
 
     /// Whether this is the result of the capture (`time_boot_ms`, `image_index`).
@@ -466,17 +465,17 @@ impl RunwayMeasurement {
         }
     }
 
-    /// The classification the camera made, rebuilt with `params` (the definition's, which the
+    /// The reading the camera made, rebuilt with `params` (the definition's, which the
     /// fingerprint vouches for): counts, fractions and labels exactly as
-    /// [`RunwaySpec::measure`] gave them. Errors: no classification, counts that do not fit
+    /// [`RunwaySpec::measure`] gave them. Errors: no reading, counts that do not fit
     /// the orthophoto's size, labels that do not follow from the counts.
-    pub fn classification(&self, params: &RunwayParams) -> Result<Classification, VisionError> {
+    pub fn reading(&self, params: &RunwayParams) -> Result<RegionReading, VisionError> {
         let r = self.regions.ok_or_else(|| {
             VisionError::InvalidParams("the camera did not classify this picture".into())
         })?;
         let grid = RegionGrid::new(r.size.0, r.size.1);
         let mut counts = RegionCounts::default();
-        for (i, region) in super::regions::Region::ALL.into_iter().enumerate() {
+        for (i, region) in Region::ALL.into_iter().enumerate() {
             let (rows, cols) = grid.bounds(region);
             let pixels = u64::from(rows.end - rows.start) * u64::from(cols.end - cols.start);
             if u64::from(r.black[i]) > pixels {
@@ -488,7 +487,7 @@ impl RunwayMeasurement {
             counts.black[region as usize] = u64::from(r.black[i]);
             counts.pixels[region as usize] = pixels;
         }
-        let c = classification_from_counts(counts, 0.0, params)?;
+        let c = reading_from_counts(counts, 0.0, params)?;
         if c.labels != r.labels {
             return Err(VisionError::InvalidParams(format!(
                 "the camera's labels {:?} do not follow from its counts ({:?})",
@@ -557,9 +556,9 @@ impl RunwayMeasurement {
 
 #[cfg(test)]
 mod tests {
+    use super::super::synth::{RunwayScene, RunwayStrip, render_runway};
     use super::*;
     use crate::vision::geometry::attitude_from_euler_deg;
-    use crate::vision::synth::{RunwayScene, RunwayStrip, render_runway};
     use proptest::prelude::*;
 
     pub(crate) fn spec() -> RunwaySpec {
@@ -688,7 +687,7 @@ mod tests {
             unreachable!()
         };
         assert_eq!(RunwayMeasurement::from_message(&good), Some(m));
-        let c = m.classification(&RunwayParams::default()).unwrap();
+        let c = m.reading(&RunwayParams::default()).unwrap();
         assert_eq!(c.counts.pixels, [9; 5]);
         assert_eq!(c.fractions.left, 3.0 / 9.0);
         let mut green = good.clone();
@@ -706,15 +705,15 @@ mod tests {
         // more black pixels than the region holds, or labels the counts do not give
         let mut too_many = m;
         too_many.regions.as_mut().unwrap().black[0] = 10;
-        assert!(too_many.classification(&RunwayParams::default()).is_err());
+        assert!(too_many.reading(&RunwayParams::default()).is_err());
         let mut wrong = m;
         wrong.regions.as_mut().unwrap().labels.north = true;
-        assert!(wrong.classification(&RunwayParams::default()).is_err());
+        assert!(wrong.reading(&RunwayParams::default()).is_err());
         // a status ties to no capture
         let st = RunwayMeasurement::status(7);
         assert!(st.is_status() && !st.is_of(0, 0));
         assert!(m.is_of(10, 1) && !m.is_of(10, 2));
-        assert!(st.classification(&RunwayParams::default()).is_err());
+        assert!(st.reading(&RunwayParams::default()).is_err());
     }
 
     proptest! {
@@ -763,8 +762,8 @@ mod tests {
             let MavMessage::DEBUG_FLOAT_ARRAY(d) = m.to_message() else { unreachable!() };
             let back = RunwayMeasurement::from_message(&d).unwrap();
             prop_assert_eq!(back, m);
-            let rebuilt = back.classification(&s.params).unwrap();
-            prop_assert_eq!(rebuilt, gcs.classification);
+            let rebuilt = back.reading(&s.params).unwrap();
+            prop_assert_eq!(rebuilt, gcs.reading);
             prop_assert_eq!(back.regions.unwrap().cell, gcs.cell);
         }
     }

@@ -31,11 +31,11 @@
 //!   (serde), so it is persisted with the exploration state and false positives / negatives
 //!   are counted afterwards against ground truth ([`VoteBook::evaluate`]).
 
-use super::VisionError;
-use super::regions::RegionFractions;
-use super::runway::NeighbourLabels;
+use super::NeighbourLabels;
 use crate::geo::{Cell, Dir4};
 use crate::time::Time;
+use crate::vision::VisionError;
+use crate::vision::regions::RegionFractions;
 use serde::{Deserialize, Serialize};
 use std::collections::BTreeMap;
 

@@ -34,13 +34,21 @@
 //! treated as the nearest one — the paper flies along the grid, and the 3×3 regions cannot
 //! say more than which neighbour is closest to a region's centre anyway.
 //!
-//! The work is done by the fast bit-packed pipeline ([`super::fast`]);
-//! [`analyse_reference`] runs the plain reference implementation ([`super::reference`])
-//! for tests and checks.
+//! The work is done by the fast bit-packed pipeline ([`crate::vision::fast`]);
+//! [`analyse_reference`] runs the plain reference implementation
+//! ([`crate::vision::reference`]) for tests and checks.
+//!
+//! The runway's other vision lives here too: the pictures classified on board and the grid
+//! announced to the cameras ([`onboard`]), the 3-of-5 vote book ([`votes`]) and the
+//! synthetic runway scene ([`synth`]).
 
-use super::regions::{Region, RegionCounts, RegionFractions};
-use super::{VisionError, fast, reference};
+pub mod onboard;
+pub mod synth;
+pub mod votes;
+
 use crate::geo::Dir4;
+use crate::vision::regions::{Region, RegionCounts, RegionFractions};
+use crate::vision::{VisionError, fast, reference};
 use image::RgbImage;
 use serde::{Deserialize, Serialize};
 
@@ -171,9 +179,10 @@ pub fn labels(
     Ok(out)
 }
 
-/// Result of classifying one image.
+/// What one image says (a *reading*): the black fractions and counts of its five regions
+/// and the labels they give the cell under the camera and its four neighbours.
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
-pub struct Classification {
+pub struct RegionReading {
     /// Black fractions in image coordinates.
     pub fractions: RegionFractions,
     /// Labels of the current cell and its neighbours (grid coordinates, heading applied).
@@ -249,22 +258,22 @@ pub fn classify(
     img: &RgbImage,
     heading_deg: f64,
     params: &RunwayParams,
-) -> Result<Classification, VisionError> {
+) -> Result<RegionReading, VisionError> {
     let counts = analyse(img, params)?;
-    classification_from_counts(counts, heading_deg, params)
+    reading_from_counts(counts, heading_deg, params)
 }
 
-/// The classification that follows from region counts (steps 5–6).
-pub fn classification_from_counts(
+/// The reading that follows from region counts (steps 5–6).
+pub fn reading_from_counts(
     counts: RegionCounts,
     heading_deg: f64,
     params: &RunwayParams,
-) -> Result<Classification, VisionError> {
+) -> Result<RegionReading, VisionError> {
     params.validate()?;
     let turns = quarter_turns(heading_deg).ok_or(VisionError::InvalidHeading(heading_deg))?;
     let fractions = counts.fractions();
     let labels = labels(&fractions, heading_deg, params.black_fraction_threshold)?;
-    Ok(Classification {
+    Ok(RegionReading {
         fractions,
         labels,
         counts,
@@ -278,13 +287,13 @@ pub fn classification_from_counts(
 pub(crate) fn classify_many(
     images: &[(&RgbImage, f64)],
     params: &RunwayParams,
-) -> Vec<Result<Classification, VisionError>> {
+) -> Vec<Result<RegionReading, VisionError>> {
     use rayon::prelude::*;
     images
         .par_iter()
         .map_init(fast::Workspace::default, |ws, (img, heading)| {
             let counts = analyse_in(ws, img, params)?;
-            classification_from_counts(counts, *heading, params)
+            reading_from_counts(counts, *heading, params)
         })
         .collect()
 }
@@ -356,7 +365,7 @@ mod tests {
 
     #[test]
     fn classify_many_equals_one_by_one() {
-        use crate::vision::synth::{RunwayScene, RunwayStrip, render_runway};
+        use super::synth::{RunwayScene, RunwayStrip, render_runway};
         let p = RunwayParams::default();
         let imgs: Vec<RgbImage> = (0..6)
             .map(|i| {

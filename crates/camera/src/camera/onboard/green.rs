@@ -1,0 +1,41 @@
+//! The green share measured on board ([`fleetmap_core::vision::onboard`], `"fm.green"`): the
+//! spatial-classification mission's measurement of each picture.
+
+use super::{Measurer, Picture};
+use fleetmap_core::mission::definition::{MissionDef, MissionKind};
+use fleetmap_core::vision::onboard::{GreenSpec, OnboardMeasurement};
+use mavlink::dialects::ardupilotmega::MavMessage;
+
+/// The measurement definition of the spatial-classification mission `def` (its green box,
+/// camera, cell size and the planner's crop), or `None` for another kind of mission.
+pub fn spec_of(def: &MissionDef) -> Option<GreenSpec> {
+    (def.kind == MissionKind::SpatialClassification).then(|| GreenSpec {
+        green: fleetmap_core::planner::sortie::green_params(def),
+        camera: def.camera,
+        cell_m: def.grid.cell_size_m,
+        crop_fraction: fleetmap_core::planner::sortie::CROP_FRACTION,
+    })
+}
+
+/// A camera measuring the green share of its pictures.
+#[derive(Debug)]
+pub(super) struct Green(pub(super) GreenSpec);
+
+impl Measurer for Green {
+    /// Measured on the picture as taken, at the altitude the capture message reports (as
+    /// the GCS would).
+    fn measure(&self, p: &Picture<'_>) -> Option<MavMessage> {
+        let m = OnboardMeasurement {
+            time_boot_ms: p.captured.time_boot_ms,
+            image_index_lo: p.captured.image_index as u16,
+            spec: self.0.fingerprint(),
+            picture_bytes: p.jpeg.len() as u32,
+            value: self.0.measure(p.image, p.alt_rel_m),
+        };
+        Some(m.to_message())
+    }
+
+    fn fingerprint(&self) -> Option<u32> {
+        Some(self.0.fingerprint())
+    }
+}
