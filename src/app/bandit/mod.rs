@@ -69,6 +69,8 @@ use tokio::sync::{broadcast, mpsc};
 
 use fleetmap_core::planner::sortie::KIND;
 
+#[cfg(feature = "sim")]
+pub mod demo;
 mod events;
 mod kind;
 pub mod report;
@@ -77,6 +79,8 @@ mod intake;
 mod members;
 mod pilot;
 mod runner;
+#[cfg(feature = "sim")]
+pub mod sim;
 mod sortie;
 mod stragglers;
 mod summary;
