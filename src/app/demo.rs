@@ -5,7 +5,7 @@
 //! the simulated team, the on-board measurement, the report's lines and what counts as
 //! success) and its own flags; `fleetmap demo` (`src/cli/demo.rs`) is written once over them,
 //! the kind chosen through the registry ([`crate::app::kinds`]). This file holds the flags
-//! every demo shares ([`DemoArgs`], [`RadioArgs`], `--fault`) and the simulated cameras'
+//! every demo shares ([`DemoOptions`], [`RadioArgs`], `--fault`) and the simulated cameras'
 //! pacing behind a radio.
 
 use crate::app::error::SimStartError;
@@ -19,10 +19,10 @@ use fleetmap_sim::fault::ScheduledFault;
 use fleetmap_sim::server::SimHandle;
 use std::path::PathBuf;
 
-/// Arguments of `fleetmap demo`: the flags every demo shares, and each kind's own
-/// ([`DemoKind::Flags`], where the kind's flag chooses its demo).
+/// The flags of `fleetmap demo` every demo shares (with [`RadioArgs`] and `--fault`); each
+/// kind has its own besides ([`DemoKind::Flags`], one of which chooses its demo).
 #[derive(Debug, Args)]
-pub struct DemoArgs {
+pub struct DemoOptions {
     /// No terminal UI: progress lines and the final report on stdout.
     #[arg(long)]
     pub headless: bool,
@@ -58,28 +58,26 @@ pub struct DemoArgs {
     /// region inside the mission's sweep box).
     #[arg(long, value_name = "FILE")]
     pub world: Option<PathBuf>,
-    /// Each kind's own flags, in the registry's order.
-    #[command(flatten)]
-    pub(crate) kinds: crate::app::kinds::DemoFlags,
-    /// Every vehicle behind its own simulated telemetry radio. On a radio the runway
-    /// cameras classify their pictures on board, as the spatial-classification cameras
-    /// always do.
-    #[command(flatten)]
-    pub radio: RadioArgs,
-    /// A scheduled fault in the simulator, `TARGET:FAULT[@START[..END]]` (repeatable): e.g.
-    /// `2:battery=20@300s`, `1:camera=off@200s..400s`, `all:outage@120s..420s`, `5:stuck@100s`
-    /// (as `fleetmap sim --fault`; docs/simulator.md, "Scheduled faults").
-    #[arg(long = "fault", value_name = "SPEC")]
-    pub faults: Vec<String>,
 }
 
-impl DemoArgs {
+/// What every demo is given from the command line.
+pub(crate) struct DemoInputs<'a> {
+    /// The shared flags.
+    pub options: &'a DemoOptions,
+    /// `--radio`, `--radio-loss`.
+    pub radio: &'a RadioArgs,
+    /// `--fault` (each occurrence as given).
+    pub faults: &'a [String],
+}
+
+impl DemoInputs<'_> {
     /// Refuse a speed-up outside (0, 50] and a battery under 3 minutes (every demo's limits).
     pub(crate) fn check_pace(&self) -> anyhow::Result<()> {
-        if !(self.speedup.is_finite() && self.speedup > 0.0 && self.speedup <= 50.0) {
+        let o = self.options;
+        if !(o.speedup.is_finite() && o.speedup > 0.0 && o.speedup <= 50.0) {
             bail!("--speedup must be in (0, 50]");
         }
-        if !(self.battery_minutes.is_finite() && self.battery_minutes >= 3.0) {
+        if !(o.battery_minutes.is_finite() && o.battery_minutes >= 3.0) {
             bail!("--battery-minutes must be at least 3");
         }
         Ok(())
@@ -90,7 +88,7 @@ impl DemoArgs {
     pub(crate) fn settings(&self) -> RunSettings {
         RunSettings {
             on_blocker: crate::app::preflight::OnBlocker::unless_ignored(
-                self.ignore_check,
+                self.options.ignore_check,
                 crate::app::preflight::OnBlocker::Stop,
             ),
             ..RunSettings::default()
@@ -201,11 +199,11 @@ pub(crate) trait DemoKind: RunKind {
     /// Why `flags` cannot be given when another kind's demo flies (`None`: they can).
     fn misplaced(flags: &Self::Flags) -> Option<String>;
     /// Check the arguments and decide what the demo flies: the world, the mission, the team.
-    fn plan(args: &DemoArgs, flags: &Self::Flags) -> anyhow::Result<DemoPlan<Self::Team>>;
+    fn plan(args: &DemoInputs<'_>, flags: &Self::Flags) -> anyhow::Result<DemoPlan<Self::Team>>;
     /// Start the simulator with the team and a fleet connected to it.
     async fn start(team: Self::Team) -> Result<DemoTeam, SimStartError>;
     /// The run's settings, the simulator started.
-    fn settings(args: &DemoArgs, team: &DemoTeam) -> RunSettings;
+    fn settings(args: &DemoInputs<'_>, team: &DemoTeam) -> RunSettings;
     /// The report's lines printed at the end, headless.
     fn summary(report: &Self::Report) -> Vec<String>;
     /// Whether the demo succeeded (headless: exit status 0).
@@ -328,6 +326,11 @@ impl<K: DemoKind, R: DemoFlagList> DemoFlagList for KindFlags<K, R> {
     }
 }
 
-// The unit tests of files that name the built-in missions by their former paths.
+// The built-in missions at their former paths, for unit tests written before they moved
+// into their kinds' folders (to go when those tests name the new paths).
 #[cfg(test)]
-pub(crate) use crate::app::runway::demo::{PLUME_MISSION, RUNWAY_MISSION, RUNWAY_WORLD};
+mod former {
+    pub(crate) use crate::app::runway::demo::{PLUME_MISSION, RUNWAY_MISSION, RUNWAY_WORLD};
+}
+#[cfg(test)]
+pub(crate) use former::*;

@@ -3,18 +3,40 @@
 //! mission, team and report are the kind's ([`crate::app::demo::DemoKind`], chosen by its
 //! flags through the registry); this file starts and flies it, written once for every kind.
 
-use crate::app::demo::{DemoFlagList, DemoKind, DemoVisitor};
+use crate::app::demo::{DemoFlagList, DemoInputs, DemoKind, DemoOptions, DemoVisitor};
 use crate::app::kind::RunSettings;
 use crate::app::launch::{NewRun, Start, finish_exports, prepare};
 use crate::cli::vehicles::block_on;
 use anyhow::bail;
+use clap::Args;
 use fleetmap_io::clock::unix_ms;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-pub(crate) use crate::app::demo::fault_schedule;
-pub use crate::app::demo::{DemoArgs, RadioArgs};
+pub(crate) use crate::app::demo::{RadioArgs, fault_schedule};
+
+/// Arguments of `fleetmap demo`: the flags every demo shares, and each kind's own (in the
+/// registry's order; one of them chooses the kind's demo instead of the first kind's).
+#[derive(Debug, Args)]
+pub struct DemoArgs {
+    /// The flags every demo shares.
+    #[command(flatten)]
+    pub options: DemoOptions,
+    /// Each kind's own flags, in the registry's order.
+    #[command(flatten)]
+    pub(crate) kinds: crate::app::kinds::DemoFlags,
+    /// Every vehicle behind its own simulated telemetry radio. On a radio the runway
+    /// cameras classify their pictures on board, as the spatial-classification cameras
+    /// always do.
+    #[command(flatten)]
+    pub radio: RadioArgs,
+    /// A scheduled fault in the simulator, `TARGET:FAULT[@START[..END]]` (repeatable): e.g.
+    /// `2:battery=20@300s`, `1:camera=off@200s..400s`, `all:outage@120s..420s`, `5:stuck@100s`
+    /// (as `fleetmap sim --fault`; docs/simulator.md, "Scheduled faults").
+    #[arg(long = "fault", value_name = "SPEC")]
+    pub faults: Vec<String>,
+}
 
 /// Run `fleetmap demo`: the demo the flags choose.
 pub fn run(args: DemoArgs) -> anyhow::Result<ExitCode> {
@@ -31,9 +53,14 @@ impl DemoVisitor for Fly<'_> {
         if let Some(why) = args.kinds.misplaced(K::KIND) {
             bail!("{why}");
         }
-        let plan = K::plan(args, flags)?;
-        let tui = !args.headless && crate::cli::tui::interactive();
-        let dir = args.run_dir.clone().unwrap_or_else(|| {
+        let inputs = DemoInputs {
+            options: &args.options,
+            radio: &args.radio,
+            faults: &args.faults,
+        };
+        let plan = K::plan(&inputs, flags)?;
+        let tui = !args.options.headless && crate::cli::tui::interactive();
+        let dir = args.options.run_dir.clone().unwrap_or_else(|| {
             PathBuf::from("runs").join(format!("{}-{}", K::RUN_DIR_PREFIX, unix_ms() / 1000))
         });
         block_on(async move {
@@ -41,7 +68,7 @@ impl DemoVisitor for Fly<'_> {
             if !tui {
                 println!("{}", plan.intro);
             }
-            let settings = K::settings(args, &team);
+            let settings = K::settings(&inputs, &team);
             let demo = Demo {
                 new: NewRun {
                     run_dir: Some(dir),
@@ -49,7 +76,7 @@ impl DemoVisitor for Fly<'_> {
                 },
                 tui,
                 auto_start: plan.auto_start,
-                json: args.json,
+                json: args.options.json,
                 label: plan.label,
             };
             demo.fly::<K>(team.fleet, team.sim, &settings).await

@@ -6,37 +6,16 @@
 //! set (scored against the world's green tiles). Headless, the exit status is 0 when every
 //! cell is classified and the keep set is the green tiles.
 
-use super::Classification;
 use super::report::ClassificationReport;
 use super::sim::{self, SimSetup};
-use crate::app::demo::{DemoArgs, DemoKind, DemoPlan, DemoTeam, fault_schedule};
+use super::{BoundArg, Classification};
+use crate::app::demo::{DemoInputs, DemoKind, DemoPlan, DemoTeam, fault_schedule};
 use crate::app::error::SimStartError;
 use crate::app::kind::{Outcome, RunKind, RunSettings};
 use crate::app::launch::NewRun;
 use anyhow::{Context as _, bail};
 use fleetmap_core::mission::definition::MissionDef;
-use fleetmap_core::planner::bandit::ConfidenceBound;
 use fleetmap_core::world::World;
-
-/// The confidence interval behind the goal score (3) and the labels (4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
-pub enum BoundArg {
-    /// The paper's (3b), as printed.
-    Paper,
-    /// The KL form of the beta-binomial mixture confidence sequence: the same guarantee
-    /// (Prop. 1 at the same δ), fewer samples (docs/results/bandit-bound.md).
-    Kl,
-}
-
-impl BoundArg {
-    /// The planner's bound.
-    pub fn bound(self) -> ConfidenceBound {
-        match self {
-            BoundArg::Paper => ConfidenceBound::Paper,
-            BoundArg::Kl => ConfidenceBound::Kl,
-        }
-    }
-}
 
 /// The flags of `fleetmap demo` for the spatial-classification demo.
 #[derive(Debug, clap::Args)]
@@ -77,7 +56,7 @@ impl DemoKind for Classification {
     }
 
     fn plan(
-        args: &DemoArgs,
+        args: &DemoInputs<'_>,
         flags: &ClassificationDemoFlags,
     ) -> anyhow::Result<DemoPlan<Self::Team>> {
         args.check_pace()?;
@@ -104,15 +83,15 @@ impl DemoKind for Classification {
         let def = MissionDef::parse(&text, "hardware-6x6.toml (built in)")
             .map_err(|e| anyhow::anyhow!("{e}"))?;
         let setup = SimSetup {
-            speedup: args.speedup,
-            seed: args.seed,
+            speedup: args.options.speedup,
+            seed: args.options.seed,
             camera_px: flags.camera_px,
-            battery_minutes: args.battery_minutes,
+            battery_minutes: args.options.battery_minutes,
             sensor_flip,
             // a field camera measures on board: the green share, not the picture, on the link
             onboard: super::green_spec_of(&def),
             radio: args.radio.config()?,
-            faults: fault_schedule(&args.faults)?,
+            faults: fault_schedule(args.faults)?,
             ..SimSetup::default()
         };
         Ok(DemoPlan {
@@ -147,7 +126,7 @@ impl DemoKind for Classification {
         })
     }
 
-    fn settings(args: &DemoArgs, _: &DemoTeam) -> RunSettings {
+    fn settings(args: &DemoInputs, _: &DemoTeam) -> RunSettings {
         args.settings()
     }
 

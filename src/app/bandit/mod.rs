@@ -69,6 +69,7 @@ use tokio::sync::{broadcast, mpsc};
 
 use fleetmap_core::planner::sortie::KIND;
 
+mod args;
 #[cfg(feature = "sim")]
 pub mod demo;
 mod events;
@@ -88,6 +89,7 @@ mod summary;
 mod tests;
 mod upload;
 
+pub use self::args::{BoundArg, ModelArg};
 pub use self::events::*;
 pub use self::intake::*;
 

@@ -10,7 +10,7 @@
 //! mission is flown to the end (battery swaps included when `--battery-minutes` is short
 //! enough), sped up to finish within minutes.
 
-use crate::app::demo::{DemoArgs, DemoKind, DemoPlan, DemoTeam, camera_rate};
+use crate::app::demo::{DemoInputs, DemoKind, DemoPlan, DemoTeam, camera_rate};
 use crate::app::error::SimStartError;
 use crate::app::kind::{Outcome, RunSettings};
 use crate::app::launch::NewRun;
@@ -248,22 +248,22 @@ impl DemoKind for Runway {
         None
     }
 
-    fn plan(args: &DemoArgs, _: &Self::Flags) -> anyhow::Result<DemoPlan<Self::Team>> {
-        if !(1..=8).contains(&args.drones) {
+    fn plan(args: &DemoInputs, _: &Self::Flags) -> anyhow::Result<DemoPlan<Self::Team>> {
+        if !(1..=8).contains(&args.options.drones) {
             bail!("--drones must be between 1 and 8");
         }
         args.check_pace()?;
         let mut cfg = DemoConfig {
-            drones: args.drones,
-            speedup: args.speedup,
-            seed: args.seed,
-            battery_minutes: args.battery_minutes,
-            altitude_separation_m: args.separation,
+            drones: args.options.drones,
+            speedup: args.options.speedup,
+            seed: args.options.seed,
+            battery_minutes: args.options.battery_minutes,
+            altitude_separation_m: args.options.separation,
             radio: args.radio.config()?,
-            faults: crate::app::demo::fault_schedule(&args.faults)?,
+            faults: crate::app::demo::fault_schedule(args.faults)?,
             ..DemoConfig::default()
         };
-        let (world_text, world) = match &args.world {
+        let (world_text, world) = match &args.options.world {
             Some(p) => fleetmap_io::files::read_world(p)?,
             None => {
                 let text = RUNWAY_WORLD.to_string();
@@ -285,7 +285,7 @@ impl DemoKind for Runway {
                 "DEMO: {} simulated ArduPilot copter(s), {}x real time",
                 cfg.drones, cfg.speedup
             ),
-            auto_start: !args.manual,
+            auto_start: !args.options.manual,
             new: NewRun {
                 def,
                 text,
@@ -307,10 +307,10 @@ impl DemoKind for Runway {
         })
     }
 
-    fn settings(args: &DemoArgs, team: &DemoTeam) -> RunSettings {
+    fn settings(args: &DemoInputs, team: &DemoTeam) -> RunSettings {
         // A moving region is where the world file draws it at the simulator's start.
         RunSettings {
-            auto_resume: !args.manual,
+            auto_resume: !args.options.manual,
             roi_epoch_unix_ms: Some(team.started_unix_ms),
             ..args.settings()
         }

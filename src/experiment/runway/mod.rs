@@ -29,6 +29,7 @@
 //! last landing against the team size, beside one drone's time divided by the team size and
 //! the goals).
 
+pub mod cli;
 pub mod output;
 pub(crate) mod plot;
 
