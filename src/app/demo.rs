@@ -329,8 +329,8 @@ impl<K: DemoKind, R: DemoFlagList> DemoFlagList for KindFlags<K, R> {
 // The built-in missions at their former paths, for unit tests written before they moved
 // into their kinds' folders (to go when those tests name the new paths).
 #[cfg(test)]
+pub(crate) use former::*;
+#[cfg(test)]
 mod former {
     pub(crate) use crate::app::runway::demo::{PLUME_MISSION, RUNWAY_MISSION, RUNWAY_WORLD};
 }
-#[cfg(test)]
-pub(crate) use former::*;

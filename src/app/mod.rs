@@ -42,9 +42,9 @@ pub(crate) mod terrain;
 // The simulated team at its former path, for unit tests written before it moved into its
 // kind's folder (to go when those tests name the new path).
 #[cfg(test)]
+pub(crate) use former::*;
+#[cfg(test)]
 mod former {
     #[cfg(feature = "sim")]
     pub(crate) use super::bandit::sim as bandit_sim;
 }
-#[cfg(test)]
-pub(crate) use former::*;
