@@ -1,7 +1,7 @@
 //! `fleetmap demo`: a mission kind flown on the embedded simulator, the station in the same
 //! process (async shell).
 //!
-//! Each kind brings its own demo ([`DemoKind`], in its folder: the built-in world and mission,
+//! Each kind brings its own demo (`DemoKind`, in its folder: the built-in world and mission,
 //! the simulated team, the on-board measurement, the report's lines and what counts as
 //! success) and its own flags; `fleetmap demo` (`src/cli/demo.rs`) is written once over them,
 //! the kind chosen through the registry ([`crate::app::kinds`]). This file holds the flags
@@ -20,7 +20,7 @@ use fleetmap_sim::server::SimHandle;
 use std::path::PathBuf;
 
 /// The flags of `fleetmap demo` every demo shares (with [`RadioArgs`] and `--fault`); each
-/// kind has its own besides ([`DemoKind::Flags`], one of which chooses its demo).
+/// kind has its own besides (`DemoKind::Flags`, one of which chooses its demo).
 #[derive(Debug, Args)]
 pub struct DemoOptions {
     /// No terminal UI: progress lines and the final report on stdout.

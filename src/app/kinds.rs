@@ -4,8 +4,8 @@
 //! Code that works on "a run of whatever kind" is written once, generic over
 //! [`RunKind`], as a `KindVisitor`; `by_name` and `of_mission` call it with the kind
 //! a run directory or a mission file names. With the simulator, every kind is also a
-//! [`crate::app::demo::DemoKind`]: `fleetmap demo` takes each kind's flags
-//! ([`DemoFlags`]) and flies the demo they choose.
+//! `crate::app::demo::DemoKind`: `fleetmap demo` takes each kind's flags
+//! (`DemoFlags`) and flies the demo they choose.
 
 use crate::app::kind::RunKind;
 use fleetmap_core::mission::definition::MissionDef;

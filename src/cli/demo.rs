@@ -1,6 +1,6 @@
 //! `fleetmap demo [--headless] [--run-dir DIR]`: the embedded default — a mission kind's
 //! built-in demo on the simulator in-process, flown to the end. Which kind flies, its world,
-//! mission, team and report are the kind's ([`crate::app::demo::DemoKind`], chosen by its
+//! mission, team and report are the kind's (`crate::app::demo::DemoKind`, chosen by its
 //! flags through the registry); this file starts and flies it, written once for every kind.
 
 use crate::app::demo::{DemoFlagList, DemoInputs, DemoKind, DemoOptions, DemoVisitor};
