@@ -712,7 +712,8 @@ mod tests {
         use fleetmap_core::vision::runway::onboard::{
             OnboardRegions, RunwayDefinition, RunwayMeasurement, RunwaySpec, ShutterPose,
         };
-        let world = fleetmap_core::world::World::from_toml(crate::app::demo::RUNWAY_WORLD).unwrap();
+        let world =
+            fleetmap_core::world::World::from_toml(crate::app::runway::demo::RUNWAY_WORLD).unwrap();
         let model = CameraModel {
             width_px: 120,
             height_px: 120,

@@ -3,7 +3,9 @@
 //!
 //! Code that works on "a run of whatever kind" is written once, generic over
 //! [`RunKind`], as a `KindVisitor`; `by_name` and `of_mission` call it with the kind
-//! a run directory or a mission file names.
+//! a run directory or a mission file names. With the simulator, every kind is also a
+//! `crate::app::demo::DemoKind`: `fleetmap demo` takes each kind's flags
+//! (`DemoFlags`) and flies the demo they choose.
 
 use crate::app::kind::RunKind;
 use fleetmap_core::mission::definition::MissionDef;
@@ -26,7 +28,19 @@ pub(crate) struct UnknownKind {
     pub known: String,
 }
 
-/// The registration: every kind, once. `by_name` tries them in this order.
+/// The list of kinds' demo flags for `registry!`: `KindFlags<K1, KindFlags<K2, … NoFlags>>`.
+#[cfg(feature = "sim")]
+macro_rules! demo_flags {
+    ($kind:ty) => {
+        crate::app::demo::KindFlags<$kind, crate::app::demo::NoFlags>
+    };
+    ($kind:ty, $($rest:ty),+) => {
+        crate::app::demo::KindFlags<$kind, demo_flags!($($rest),+)>
+    };
+}
+
+/// The registration: every kind, once. `by_name` tries them in this order; `fleetmap demo`
+/// flies the first unless another kind's flags choose it.
 macro_rules! registry {
     ($($kind:ty),+ $(,)?) => {
         /// The names ([`RunKind::KIND`]) of every kind this build flies.
@@ -44,6 +58,10 @@ macro_rules! registry {
                 known: NAMES.join(" and "),
             })
         }
+
+        /// Every kind's own flags of `fleetmap demo`, in this order.
+        #[cfg(feature = "sim")]
+        pub(crate) type DemoFlags = demo_flags!($($kind),+);
     };
 }
 

@@ -17,13 +17,10 @@
 //! | `command` | what an operator asks of a run or a vehicle ([`crate::tui::Command`], `Target`) and why it was not done (`CommandError`): the UI sends them, the kinds answer them |
 //! | `blocking` | blocking work (the classifier, run-directory files) run off the async reactor |
 //! | [`error`] | the layer's typed errors ([`error::RunError`] wrapping [`error::RunnerError`]): what failed, in which step, on which file or vehicle, with its cause |
-//! | [`demo`] | (feature `sim`) `fleetmap demo`: the embedded simulator and the station in one process |
+//! | [`demo`] | (feature `sim`) `fleetmap demo`: what a kind's demo on the embedded simulator supplies (`demo::DemoKind`, in the kind's folder), and the flags every demo shares |
 //! | [`sim_fleet`] | (feature `sim`) the embedded simulator and a fleet on it, started together over loopback UDP or in-process links (the demo, the bandit team, tests) |
-//! | [`bandit_sim`] | (feature `sim`) the embedded simulator with drones and charging rovers (`fleetmap demo --bandit`, tests) |
 
 pub mod bandit;
-#[cfg(feature = "sim")]
-pub mod bandit_sim;
 pub(crate) mod blocking;
 pub(crate) mod command;
 #[cfg(feature = "sim")]

@@ -19,9 +19,10 @@ pub enum BenchCommand {
     Classify(crate::cli::classify::BenchClassifyArgs),
     /// Terminal UI: full-frame redraws of a generated fleet, frames per second.
     Tui(super::tui::TuiBenchArgs),
-    /// Per-epoch solve time of the bandit planner's IP on the 10×10 default.
     #[cfg(feature = "sim")]
-    Plan(super::bandit::BenchPlanArgs),
+    #[command(flatten)]
+    #[allow(missing_docs)]
+    Kind(crate::experiment::KindBenches),
     /// Mission round trips (upload + download) against the simulator's ArduPilot and PX4
     /// mission protocol at several losses each way, in virtual seconds.
     #[cfg(feature = "sim")]
@@ -38,7 +39,7 @@ pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
         BenchCommand::Classify(a) => crate::cli::classify::bench(a),
         BenchCommand::Tui(a) => super::tui::bench(a),
         #[cfg(feature = "sim")]
-        BenchCommand::Plan(a) => super::bandit::run_bench(a),
+        BenchCommand::Kind(b) => b.run(super::plan::emit),
         #[cfg(feature = "sim")]
         BenchCommand::Transfer(a) => super::bench_transfer::run(a),
         #[cfg(feature = "sim")]

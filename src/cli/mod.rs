@@ -5,8 +5,6 @@
 //! Commands return an [`ExitCode`]; an `Err` is printed by `main` as one line on stderr
 //! and exits with status 1.
 
-#[cfg(feature = "sim")]
-pub mod bandit;
 pub mod bench;
 #[cfg(feature = "sim")]
 pub(crate) mod bench_fleet;
@@ -158,7 +156,9 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
     let log_file = match &cli.command {
         Command::Tui(args) if cli.log_file.is_none() => tui::default_log_file(args),
         #[cfg(feature = "sim")]
-        Command::Demo(args) if cli.log_file.is_none() && !args.headless && tui::interactive() => {
+        Command::Demo(args)
+            if cli.log_file.is_none() && !args.options.headless && tui::interactive() =>
+        {
             tui::ui_log_file()
         }
         Command::Run(args)

@@ -2,7 +2,7 @@
 //! low-level planner (the IP (11), Algorithm 2) for a scenario file (docs/ip-scenario.md).
 
 use anyhow::Context;
-use clap::{Args, ValueEnum};
+use clap::Args;
 use fleetmap_core::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
 use fleetmap_core::planner::scenario::Scenario;
 use fleetmap_core::planner::scenario::ScenarioError;
@@ -11,14 +11,7 @@ use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-/// Which formulation to solve.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum ModelArg {
-    /// The reformulated model (same optimum, much faster).
-    Fast,
-    /// The paper's model exactly as written (slow; the reference).
-    Plain,
-}
+pub use crate::app::bandit::ModelArg;
 
 /// Arguments of `fleetmap plan`.
 #[derive(Debug, Args)]

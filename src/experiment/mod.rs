@@ -1,6 +1,60 @@
 //! Monte Carlo studies that reproduce the papers' tables and figures (CSV, JSON, PNG).
+//!
+//! A mission kind's studies live in its folder (`bandit/`, `runway/`), each with its
+//! subcommands of `fleetmap experiment` (`cli::Studies`) and of `fleetmap bench`
+//! (`bench::Benches`); `kinds!` below lists them once, and the command line flattens the lists
+//! it makes ([`KindStudies`], [`KindBenches`]) into its own.
 
 pub mod bandit;
 pub mod dfs;
-pub mod fastplain;
 pub mod runway;
+
+/// Print a command's result on stdout, as the command line does (a closed pipe is not an
+/// error).
+pub(crate) type Emit = fn(&str) -> anyhow::Result<()>;
+
+/// The kinds whose folders hold studies (`<kind>::cli::Studies`) and benchmarks
+/// (`<kind>::bench::Benches`), in the order `--help` lists them.
+macro_rules! kinds {
+    (studies: [$($s:ident),+], benches: [$($b:ident),+]) => {
+        /// Every kind's studies, subcommands of `fleetmap experiment`.
+        #[derive(Debug, clap::Subcommand)]
+        #[allow(non_camel_case_types, missing_docs)]
+        pub enum KindStudies {
+            $(
+                #[command(flatten)]
+                $s($s::cli::Studies),
+            )+
+        }
+
+        impl KindStudies {
+            /// Run the study; `emit` prints a result on stdout.
+            pub(crate) fn run(self, emit: Emit) -> anyhow::Result<std::process::ExitCode> {
+                match self {
+                    $(KindStudies::$s(s) => s.run(emit),)+
+                }
+            }
+        }
+
+        /// Every kind's benchmarks, subcommands of `fleetmap bench`.
+        #[derive(Debug, clap::Subcommand)]
+        #[allow(non_camel_case_types, missing_docs)]
+        pub enum KindBenches {
+            $(
+                #[command(flatten)]
+                $b($b::bench::Benches),
+            )+
+        }
+
+        impl KindBenches {
+            /// Run the benchmark; `emit` prints its figures on stdout.
+            pub(crate) fn run(self, emit: Emit) -> anyhow::Result<std::process::ExitCode> {
+                match self {
+                    $(KindBenches::$b(b) => b.run(emit),)+
+                }
+            }
+        }
+    };
+}
+
+kinds!(studies: [bandit, runway], benches: [bandit]);

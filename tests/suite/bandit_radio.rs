@@ -7,8 +7,8 @@
 //! tiles, no labelling error, and no more epochs than the same flight on unlimited links.
 
 use fleetmap::app::bandit::report as bandit_report;
+use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
 use fleetmap::app::bandit::{self, RunOptions};
-use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;

@@ -21,8 +21,8 @@
 //! 6-minute charger, so the drones do not sit waiting for a charge between every epoch.
 
 use fleetmap::app::bandit::report as bandit_report;
+use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
 use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
-use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::geo::Cell;
 use fleetmap_core::mission::definition::MissionDef;

@@ -17,8 +17,8 @@
 
 use crate::common;
 
+use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
 use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
-use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
 use fleetmap::store::RunDir;
 use fleetmap_core::planner::sortie::{ClassificationState, Role};

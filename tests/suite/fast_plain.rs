@@ -5,7 +5,7 @@
 //! experiment fast-plain`, recorded in docs/results/fast-plain.md; it takes half an hour, too
 //! long for CI.
 
-use fleetmap::experiment::fastplain::{
+use fleetmap::experiment::bandit::fastplain::{
     self, FastPlainConfig, Generated, GoalSet, Row, Verdict, compare,
 };
 use fleetmap_core::geo::Cell;

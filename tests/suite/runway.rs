@@ -7,9 +7,9 @@
 //! take-off ≤ DFS start ≤ complete map ≤ last landing, each drone's shares adding up to the
 //! mission time, and the figures carried across a resume.
 
-use fleetmap::app::demo::{self, DemoConfig};
 use fleetmap::app::images;
 use fleetmap::app::kind::{OperatorTask, Outcome};
+use fleetmap::app::runway::demo::{self, DemoConfig};
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::store::{RunDir, RunMeta};

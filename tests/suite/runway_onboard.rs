@@ -11,9 +11,9 @@
 //! frames: within a point of the best possible, and complete in at most 1.15 times the time
 //! of the same seed on plain links.
 
-use fleetmap::app::demo::{self, DemoConfig};
 use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
+use fleetmap::app::runway::demo::{self, DemoConfig};
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::store::RunDir;

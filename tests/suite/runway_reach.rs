@@ -10,10 +10,10 @@
 //!   labelled for giving up (every decision in the book is a 3-of-5 vote).
 //! * A region drifting slowly (0.2 m/s) is still mapped to the end as before.
 
-use fleetmap::app::demo::{self, DemoConfig};
 use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
 use fleetmap::app::kind::RunKind;
+use fleetmap::app::runway::demo::{self, DemoConfig};
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::store::{RunDir, RunMeta};

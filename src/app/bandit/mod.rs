@@ -69,6 +69,9 @@ use tokio::sync::{broadcast, mpsc};
 
 use fleetmap_core::planner::sortie::KIND;
 
+mod args;
+#[cfg(feature = "sim")]
+pub mod demo;
 mod events;
 mod kind;
 pub mod report;
@@ -79,6 +82,8 @@ mod panes;
 mod pilot;
 mod runner;
 pub mod sample;
+#[cfg(feature = "sim")]
+pub mod sim;
 mod sortie;
 mod stragglers;
 mod summary;
@@ -86,6 +91,7 @@ mod summary;
 mod tests;
 mod upload;
 
+pub use self::args::{BoundArg, ModelArg};
 pub use self::events::*;
 pub use self::intake::*;
 

@@ -9,7 +9,7 @@ use image::RgbImage;
 #[test]
 fn a_drone_is_on_the_nearest_station() {
     use fleetmap_core::mission::definition::{MissionDef, Origin};
-    let def = MissionDef::parse(super::super::bandit_sim::HARDWARE_MISSION, "h.toml").unwrap();
+    let def = MissionDef::parse(super::sim::HARDWARE_MISSION, "h.toml").unwrap();
     let Origin::Coordinates(o) = def.grid.origin else {
         panic!("fixed origin");
     };

@@ -83,6 +83,8 @@ use std::time::Duration;
 use tokio::sync::{broadcast, mpsc};
 
 mod camera;
+#[cfg(feature = "sim")]
+pub mod demo;
 mod events;
 mod grounded;
 pub(crate) mod kind;

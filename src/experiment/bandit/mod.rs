@@ -30,6 +30,9 @@
 //! A study can be split into parts that run anywhere and join again ([`shard`]); what it writes
 //! and prints, with the paper's row under each of ours, is in [`table`] and [`paper`].
 
+pub mod bench;
+pub mod cli;
+pub mod fastplain;
 mod field;
 pub mod paper;
 pub(crate) mod plot;

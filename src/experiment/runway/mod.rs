@@ -8,7 +8,7 @@
 //!
 //! **The clock** (`--speedup`). By default (`virtual`) a trial runs in virtual time, as the
 //! end-to-end tests do: the simulator behind in-process links
-//! ([`crate::app::demo::start_virtual`]) on a current-thread runtime whose clock is paused,
+//! ([`crate::app::runway::demo::start_virtual`]) on a current-thread runtime whose clock is paused,
 //! so time moves only when every task waits, and the GCS's own work (decoding and
 //! classifying ~600 pictures) takes no simulated time — as at 1× in the field, where it is a
 //! few milliseconds a picture against seconds of flight. The figures then describe the
@@ -29,14 +29,16 @@
 //! last landing against the team size, beside one drone's time divided by the team size and
 //! the goals).
 
+pub mod cli;
 pub mod output;
 pub(crate) mod plot;
 
 use crate::app::flight::Patience;
+use crate::app::images;
 use crate::app::kind::Outcome;
+use crate::app::runway::demo;
 use crate::app::runway::report::{MappingReport, truth_coverage};
 use crate::app::runway::{self, RunOptions};
-use crate::app::{demo, images};
 use crate::store::{RunDir, RunMeta};
 use anyhow::Context as _;
 use fleetmap_core::explore::dfs::{Allocation, Sharing};

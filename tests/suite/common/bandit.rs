@@ -1,7 +1,7 @@
 //! Driving a spatial-classification run in a test.
 
+use fleetmap::app::bandit::sim as bandit_sim;
 use fleetmap::app::bandit::{self, RunOptions};
-use fleetmap::app::bandit_sim;
 use fleetmap::fleet::FleetHandle;
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::mission::definition::MissionDef;

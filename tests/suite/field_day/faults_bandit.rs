@@ -19,8 +19,8 @@
 //! counted twice, and the operator told of the fault, naming the vehicle.
 
 use crate::common::bandit::run_until;
+use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
 use fleetmap::app::bandit::{self, BanditEvent};
-use fleetmap::app::bandit_sim::{self, SimSetup};
 use fleetmap::fleet::FleetHandle;
 use fleetmap::store::RunDir;
 use fleetmap_core::planner::sortie::ClassificationState;

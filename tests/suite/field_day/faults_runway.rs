@@ -20,8 +20,8 @@
 //! the operator of the fault, naming the vehicle. The small world keeps the file's wall time
 //! small (about 20 s a run); the 3-drone field test takes minutes a run.
 
-use fleetmap::app::demo::{self, DemoConfig};
 use fleetmap::app::kind::Outcome;
+use fleetmap::app::runway::demo::{self, DemoConfig};
 use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
 use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::fleet::FleetHandle;

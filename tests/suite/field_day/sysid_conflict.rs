@@ -6,7 +6,7 @@
 //! GCS sent); a fleet where every autopilot has its own id is not flagged and starts.
 
 use fleetmap::app::bandit;
-use fleetmap::app::bandit_sim::{self, SimSetup};
+use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
 use fleetmap::app::error::RunnerError;
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
 use fleetmap_core::explore::dfs::Sharing;

@@ -17,11 +17,11 @@
 //!   (`planned`'s `seconds`, `planner_s`, and the progress line's "planner … s"), a
 //!   measurement of this machine: those fields are left out of the comparison, nothing else.
 
+use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
 use fleetmap::app::bandit::{self, BanditEvent};
-use fleetmap::app::bandit_sim::{self, SimSetup};
-use fleetmap::app::demo::{self, DemoConfig};
 use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
+use fleetmap::app::runway::demo::{self, DemoConfig};
 use fleetmap::app::runway::report::{report, truth_coverage};
 use fleetmap::app::runway::{self, RunOptions};
 use fleetmap::store::RunDir;

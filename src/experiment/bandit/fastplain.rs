@@ -40,7 +40,7 @@
 //! epochs before an instance are planned by the study's [`run_trial`], which times them with
 //! its own stopwatch; those times are discarded and never change a plan.)
 
-use super::bandit::{Field, Spread, StudyConfig, mix, run_trial};
+use super::{Field, Spread, StudyConfig, mix, run_trial};
 use fleetmap_core::planner::check::{CheckOptions, check_plan_with};
 use fleetmap_core::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
 use fleetmap_core::planner::scenario::Instance;

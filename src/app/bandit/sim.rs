@@ -16,15 +16,15 @@ use fleetmap_sim::pace::Speed;
 use fleetmap_sim::server::{SimHandle, SimTask};
 
 /// The hardware field world (`assets/worlds/hardware-6x6.toml`).
-pub const HARDWARE_WORLD: &str = include_str!("../../assets/worlds/hardware-6x6.toml");
+pub const HARDWARE_WORLD: &str = include_str!("../../../assets/worlds/hardware-6x6.toml");
 /// The hardware test mission (`missions/hardware-6x6.toml`).
-pub const HARDWARE_MISSION: &str = include_str!("../../missions/hardware-6x6.toml");
+pub const HARDWARE_MISSION: &str = include_str!("../../../missions/hardware-6x6.toml");
 /// The team of the hardware mission: 4 drones (sysids 1–4) and 2 rovers (5–6).
 pub const HARDWARE_TEAM: &str = "4xcopter:ardupilot,2xrover:ardupilot";
 /// The 10×10 simulation default's world (`assets/worlds/sim-10x10.toml`).
-pub const SIM10_WORLD: &str = include_str!("../../assets/worlds/sim-10x10.toml");
+pub const SIM10_WORLD: &str = include_str!("../../../assets/worlds/sim-10x10.toml");
 /// The 10×10 simulation default's mission (`missions/sim-10x10.toml`).
-pub const SIM10_MISSION: &str = include_str!("../../missions/sim-10x10.toml");
+pub const SIM10_MISSION: &str = include_str!("../../../missions/sim-10x10.toml");
 /// Its team: 10 drones (sysids 1–10) and 5 rovers (11–15).
 pub const SIM10_TEAM: &str = "10xcopter:ardupilot,5xrover:ardupilot";
 

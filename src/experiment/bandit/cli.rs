@@ -1,25 +1,46 @@
-//! `fleetmap experiment bandit` (the bandit paper's Monte Carlo study, §VI) and
-//! `fleetmap bench plan` (per-epoch IP solve time on the 10×10 default).
+//! The spatial classification's studies on the command line: `fleetmap experiment bandit`
+//! (the bandit paper's Monte Carlo study, §VI), `experiment merge` (the parts of a study run
+//! with `--shard`) and `experiment fast-plain` (both IP models on the same epochs).
 
-use crate::experiment::bandit::shard::{self, SHARD_FORMAT, Shard, ShardFile};
-use crate::experiment::bandit::{
-    self as study, Field, Preset, Sensing, Study, StudyConfig, TrialResult, VariantSummary, paper,
-    plot, table,
-};
+use super::fastplain::{self, FastPlainConfig};
+use super::shard::{self, SHARD_FORMAT, Shard, ShardFile};
+use super::{Preset, Sensing, Study, StudyConfig, TrialResult, VariantSummary, paper, plot, table};
+use crate::app::bandit::BoundArg;
+use crate::experiment::Emit;
 use anyhow::Context;
-use clap::{Args, ValueEnum};
+use clap::{Args, Subcommand, ValueEnum};
 use fleetmap_core::planner::bandit::{ConfidenceBound, LogBase};
 use fleetmap_core::planner::baselines::GoalRule;
-use fleetmap_core::planner::ip::{Model, PlanOptions, solve_instance};
 use fleetmap_io::files::atomic_write;
 use indicatif::{ProgressBar, ProgressDrawTarget, ProgressStyle};
-use rand::SeedableRng;
-use rand_chacha::ChaCha8Rng;
 use rayon::prelude::*;
-use serde::Serialize;
-use std::fmt::Write as _;
 use std::path::{Path, PathBuf};
 use std::process::ExitCode;
+
+/// The spatial classification's studies, subcommands of `fleetmap experiment`.
+#[derive(Debug, Subcommand)]
+pub enum Studies {
+    /// The bandit paper's Monte Carlo study (Tables I–IV, Fig. 5, Fig. 6).
+    Bandit(ExperimentBanditArgs),
+    /// Join the parts of a bandit study run with `experiment bandit --shard K/N` (e.g. the
+    /// tasks of a cluster's job array) into the study's CSV, summary, table and plot.
+    Merge(MergeArgs),
+    /// Fast = plain at the bandit paper's scale: both IP models on random
+    /// Algorithm 1 epochs (10×10, 10 drones, 5 stations, Td = 8, Tc = 4, C = 1, 2, 3); exit
+    /// status 1 on any difference.
+    FastPlain(FastPlainArgs),
+}
+
+impl Studies {
+    /// Run the study; `emit` prints a result on stdout.
+    pub(crate) fn run(self, emit: Emit) -> anyhow::Result<ExitCode> {
+        match self {
+            Studies::Bandit(a) => run_experiment(a, emit),
+            Studies::Merge(a) => run_merge(a, emit),
+            Studies::FastPlain(a) => run_fast_plain(a),
+        }
+    }
+}
 
 /// The presets of `fleetmap experiment bandit`.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -95,26 +116,6 @@ pub enum LogBaseArg {
     /// Base-10 logarithms.
     #[value(name = "10")]
     Ten,
-}
-
-/// The confidence interval behind the goal score (3) and the labels (4).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
-pub enum BoundArg {
-    /// The paper's (3b), as printed.
-    Paper,
-    /// The KL form of the beta-binomial mixture confidence sequence: the same guarantee
-    /// (Prop. 1 at the same δ), fewer samples (docs/results/bandit-bound.md).
-    Kl,
-}
-
-impl BoundArg {
-    /// The planner's bound.
-    pub fn bound(self) -> ConfidenceBound {
-        match self {
-            BoundArg::Paper => ConfidenceBound::Paper,
-            BoundArg::Kl => ConfidenceBound::Kl,
-        }
-    }
 }
 
 /// The paper's tables and figure, as `--table` names them.
@@ -315,7 +316,7 @@ fn command_line() -> String {
 
 /// Run `fleetmap experiment bandit`: the whole study (outputs in --out, the table on stdout),
 /// or one part of it (`--shard`: a shard file in --out).
-pub(crate) fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitCode> {
+fn run_experiment(args: ExperimentBanditArgs, emit: Emit) -> anyhow::Result<ExitCode> {
     let study = study_of(&args)?;
     let shard = args.shard.unwrap_or(Shard::WHOLE);
     let out_dir = args
@@ -368,7 +369,7 @@ pub(crate) fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitC
         let path = out_dir.join(shard.file_name());
         let json = serde_json::to_vec(&file)?;
         atomic_write(&path, &json).with_context(|| format!("cannot write {}", path.display()))?;
-        super::plan::emit(&format!(
+        emit(&format!(
             "part {shard} of the study: {} trials in {}; join the {} parts with `fleetmap experiment merge PART... --out DIR`\n",
             file.results.len(),
             path.display(),
@@ -376,7 +377,7 @@ pub(crate) fn run_experiment(args: ExperimentBanditArgs) -> anyhow::Result<ExitC
         ))?;
         return Ok(ExitCode::SUCCESS);
     }
-    write_study(&study, &results, &out_dir, &command_line(), args.json)?;
+    write_study(&study, &results, &out_dir, &command_line(), args.json, emit)?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -404,7 +405,7 @@ fn shard_files(p: &Path) -> anyhow::Result<Vec<PathBuf>> {
 
 /// Run `fleetmap experiment merge`: join the parts of a study and write what the undivided
 /// run would have written.
-pub(crate) fn run_merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
+fn run_merge(args: MergeArgs, emit: Emit) -> anyhow::Result<ExitCode> {
     let mut parts = Vec::new();
     for p in &args.parts {
         for f in shard_files(p)? {
@@ -418,7 +419,14 @@ pub(crate) fn run_merge(args: MergeArgs) -> anyhow::Result<ExitCode> {
     let (study, results) = shard::merge(parts)?;
     std::fs::create_dir_all(&args.out)
         .with_context(|| format!("cannot create output directory {}", args.out.display()))?;
-    write_study(&study, &results, &args.out, &command_line(), args.json)?;
+    write_study(
+        &study,
+        &results,
+        &args.out,
+        &command_line(),
+        args.json,
+        emit,
+    )?;
     Ok(ExitCode::SUCCESS)
 }
 
@@ -429,6 +437,7 @@ fn write_study(
     out_dir: &Path,
     command: &str,
     json: bool,
+    emit: Emit,
 ) -> anyhow::Result<()> {
     let summaries: Vec<VariantSummary> = study.summarise(results);
     let write = |name: &str, bytes: &[u8]| -> anyhow::Result<()> {
@@ -458,162 +467,139 @@ fn write_study(
         700,
     )?;
     write("progress.png", &png)?;
-    super::plan::emit(&if json { summary_json + "\n" } else { printed })
+    emit(&if json { summary_json + "\n" } else { printed })
 }
 
-/// Arguments of `fleetmap bench plan`.
+/// Arguments of `fleetmap experiment fast-plain` (defaults: the paper's §VI setting).
 #[derive(Debug, Args)]
-pub struct BenchPlanArgs {
-    /// How many epochs to time.
-    #[arg(long, default_value_t = 100)]
-    pub epochs: usize,
-    /// Seed of the μ draws and the sensing.
+pub struct FastPlainArgs {
+    /// Instances per capacity.
+    #[arg(long, default_value_t = 50)]
+    pub instances: usize,
+    /// Charger capacities C of eq. (10), comma-separated.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,3")]
+    pub capacity: Vec<usize>,
+    /// Seed of the worlds, epochs and measurements.
     #[arg(long, default_value_t = 1)]
     pub seed: u64,
-    /// HiGHS threads per solve.
-    #[arg(long, default_value_t = 1)]
-    pub threads: u32,
-    /// The IP formulation to time.
-    #[arg(long, value_enum, default_value_t = super::plan::ModelArg::Fast)]
-    pub model: super::plan::ModelArg,
-    /// Time limit per epoch in seconds (for the plain model).
-    #[arg(long, value_name = "SECONDS")]
-    pub time_limit: Option<f64>,
-    /// The confidence interval of the bandit that generates the epochs.
-    #[arg(long, value_enum, default_value_t = BoundArg::Paper)]
-    pub bound: BoundArg,
-    /// Print the figures as JSON.
+    /// HiGHS time limit per solve, seconds (a time-limited solve counts as unknown, not as a
+    /// difference).
+    #[arg(long, default_value_t = 120.0)]
+    pub time_limit: f64,
+    /// Grid side (cells).
+    #[arg(long, default_value_t = 10)]
+    pub size: usize,
+    /// Obstacles per world.
+    #[arg(long, default_value_t = 16)]
+    pub obstacles: usize,
+    /// Drones N_d (cut to C·N_c when fewer fit on the chargers).
+    #[arg(long, default_value_t = 10)]
+    pub drones: usize,
+    /// Stations N_c.
+    #[arg(long, default_value_t = 5)]
+    pub stations: usize,
+    /// Goals per epoch, D.
+    #[arg(long, default_value_t = 8)]
+    pub goals: usize,
+    /// Drone steps per sensing cycle, T_d.
+    #[arg(long, default_value_t = 8)]
+    pub td: usize,
+    /// Station steps per sensing cycle, T_c.
+    #[arg(long, default_value_t = 4)]
+    pub tc: usize,
+    /// Bounds K on the cycles, comma-separated; instance n uses the (n mod len)-th.
+    #[arg(long, value_delimiter = ',', default_value = "1,2,3")]
+    pub cycles: Vec<usize>,
+    /// Instance n's team comes from Algorithm 1's epoch p, drawn from 0 ..= this.
+    #[arg(long, default_value_t = 12)]
+    pub max_epoch: usize,
+    /// Print the whole study as JSON on stdout instead of the table.
     #[arg(long)]
     pub json: bool,
+    /// Directory for fast_plain.csv, fast_plain.json and the scenario file of every difference
+    /// and every unknown instance (created if missing).
+    #[arg(long, value_name = "DIR", default_value = "experiment-fast-plain")]
+    pub out: std::path::PathBuf,
 }
 
-/// The output of `fleetmap bench plan --json`.
-#[derive(Debug, Serialize)]
-struct BenchPlanOutput {
-    scenario: &'static str,
-    model: &'static str,
-    epochs: usize,
-    threads: u32,
-    median_seconds: f64,
-    q10_seconds: f64,
-    q90_seconds: f64,
-    max_seconds: f64,
-    mean_seconds: f64,
-    multi_cycle_epochs: usize,
-    max_variables: usize,
-}
-
-/// Run `fleetmap bench plan`: the epochs of Algorithm 1 on the 10×10 default of docs/fixtures.md
-/// (Nd = 10, Nc = 5, Td = 8, Tc = 4, D = 8, 16 obstacles; μ drawn as in §VI with
-/// μ_worst = 0.8; the team carried over between epochs), solved one after the other, the
-/// solve time of each epoch recorded. Trials restart with new μ until `--epochs` are timed.
-pub(crate) fn run_bench(args: BenchPlanArgs) -> anyhow::Result<ExitCode> {
-    if args.epochs == 0 {
-        anyhow::bail!("--epochs must be at least 1");
+/// `fleetmap experiment fast-plain`: print each instance as it is decided (stdout, or stderr
+/// with `--json`), write the CSV, the JSON study and one scenario file per difference
+/// atomically into `--out`, print the summary, and exit with status 1 on any difference.
+fn run_fast_plain(args: FastPlainArgs) -> anyhow::Result<ExitCode> {
+    let cfg = FastPlainConfig {
+        instances: args.instances,
+        capacities: args.capacity,
+        seed: args.seed,
+        time_limit: Some(args.time_limit),
+        size: args.size,
+        obstacles: args.obstacles,
+        drones: args.drones,
+        stations: args.stations,
+        goals: args.goals,
+        td: args.td,
+        tc: args.tc,
+        cycles: args.cycles,
+        max_epoch: args.max_epoch,
+    };
+    fastplain::validate(&cfg)?;
+    std::fs::create_dir_all(&args.out)
+        .with_context(|| format!("cannot create {}", args.out.display()))?;
+    let json = args.json;
+    let line = |s: String| {
+        if json {
+            eprintln!("{s}");
+        } else {
+            println!("{s}");
+        }
+    };
+    line(fastplain::header());
+    let clock = fleetmap_io::clock::stopwatch();
+    let study = fastplain::run(&cfg, &clock, &mut |r| line(fastplain::row_line(r)))?;
+    let write = |name: &str, bytes: &[u8]| -> anyhow::Result<std::path::PathBuf> {
+        let path = args.out.join(name);
+        fleetmap_io::files::atomic_write(&path, bytes)
+            .with_context(|| format!("cannot write {}", path.display()))?;
+        Ok(path)
+    };
+    let mut files = vec![
+        write("fast_plain.csv", fastplain::rows_csv(&study).as_bytes())?,
+        write(
+            "fast_plain.json",
+            serde_json::to_string_pretty(&study)?.as_bytes(),
+        )?,
+    ];
+    for r in &study.rows {
+        if let Some(scen) = &r.scenario {
+            let kind = match r.verdict {
+                fastplain::Verdict::Difference(_) => "difference",
+                _ => "unknown",
+            };
+            files.push(write(
+                &format!("{kind}-C{}-{}.json", r.capacity, r.index),
+                scen.as_bytes(),
+            )?);
+        }
     }
-    let cfg = StudyConfig {
-        bound: args.bound.bound(),
-        ..StudyConfig::default()
-    };
-    let opts = PlanOptions {
-        model: match args.model {
-            super::plan::ModelArg::Fast => Model::Fast,
-            super::plan::ModelArg::Plain => Model::Plain,
-        },
-        threads: args.threads.max(1),
-        time_limit: args.time_limit,
-        ..PlanOptions::default()
-    };
-    let mut times: Vec<f64> = Vec::new();
-    let mut multi = 0;
-    let mut max_vars = 0;
-    let mut trial = 0u64;
-    let bar = if args.json {
-        ProgressBar::hidden()
+    if json {
+        println!("{}", serde_json::to_string_pretty(&study)?);
+        eprint!("{}", fastplain::summary_lines(&study));
     } else {
-        ProgressBar::with_draw_target(Some(args.epochs as u64), ProgressDrawTarget::stderr())
-    };
-    while times.len() < args.epochs {
-        let seed = study::mix(args.seed ^ study::mix(trial));
-        let mut rng = ChaCha8Rng::seed_from_u64(seed);
-        let world = Field::default_10x10(cfg.mu_worst, cfg.theta, &mut rng);
-        let mut cfg_t = cfg.clone();
-        cfg_t.max_epochs = args.epochs - times.len();
-        // Epochs are generated by the fast model (what Algorithm 1 runs); each epoch's
-        // instance is then timed with the requested model.
-        study::run_trial(
-            &cfg_t,
-            &world,
-            "bench",
-            trial as usize,
-            seed,
-            seed ^ 1,
-            |inst, out| {
-                let o = if opts.model == Model::Fast && opts.threads == 1 {
-                    out.clone()
-                } else {
-                    // The plain model with K = (fast optimum + 1), so that it still has to prove
-                    // the optimum over λ, and a time limit (it is the slow reference).
-                    let mut inst = inst.clone();
-                    if opts.model == Model::Plain {
-                        inst.k_max = out.plan.as_ref().map_or(1, |p| p.cycles) + 1;
-                    }
-                    solve_instance(&inst, &opts, &fleetmap_io::clock::stopwatch())
-                };
-                times.push(o.solve_seconds);
-                max_vars = max_vars.max(o.variables);
-                if o.plan.as_ref().is_some_and(|p| p.cycles > 1) {
-                    multi += 1;
-                }
-                bar.inc(1);
-            },
-        );
-        trial += 1;
+        print!("{}", fastplain::summary_lines(&study));
+        for f in &files {
+            println!("wrote {}", f.display());
+        }
     }
-    bar.finish_and_clear();
-    times.truncate(args.epochs);
-    let q = |p: f64| study::quantile(&times, p).unwrap_or(f64::NAN);
-    let result = BenchPlanOutput {
-        scenario: "sim-10x10 default (docs/fixtures.md), Algorithm 1 epochs, mu_worst = 0.8",
-        model: match opts.model {
-            Model::Fast => "fast",
-            Model::Plain => "plain",
-        },
-        epochs: times.len(),
-        threads: opts.threads,
-        median_seconds: q(0.5),
-        q10_seconds: q(0.1),
-        q90_seconds: q(0.9),
-        max_seconds: times.iter().copied().fold(0.0, f64::max),
-        mean_seconds: times.iter().sum::<f64>() / times.len() as f64,
-        multi_cycle_epochs: multi,
-        max_variables: max_vars,
-    };
-    let mut out = String::new();
-    if args.json {
-        out.push_str(&serde_json::to_string(&result)?);
-        out.push('\n');
+    if study.summary.differences == 0 {
+        Ok(ExitCode::SUCCESS)
     } else {
-        writeln!(
-            out,
-            "IP solve per epoch, {} model, {} epochs of Algorithm 1 on the 10×10 default, HiGHS threads {}:",
-            result.model, result.epochs, result.threads
-        )?;
-        writeln!(
-            out,
-            "  median {:.3} s   q0.1 {:.3} s   q0.9 {:.3} s   max {:.3} s   mean {:.3} s",
-            result.median_seconds,
-            result.q10_seconds,
-            result.q90_seconds,
-            result.max_seconds,
-            result.mean_seconds
-        )?;
-        writeln!(
-            out,
-            "  {} epochs needed 2+ sensing cycles; largest model {} variables",
-            result.multi_cycle_epochs, result.max_variables
-        )?;
+        for r in &study.rows {
+            if let fastplain::Verdict::Difference(why) = &r.verdict {
+                eprintln!(
+                    "fleetmap: DIFFERENCE at C = {}, instance {} (world seed {}, K = {}): {why}",
+                    r.capacity, r.index, r.world_seed, r.k_max
+                );
+            }
+        }
+        Ok(ExitCode::FAILURE)
     }
-    super::plan::emit(&out)?;
-    Ok(ExitCode::SUCCESS)
 }
