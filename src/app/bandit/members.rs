@@ -2,9 +2,10 @@
 //! [`fleetmap_core::planner::sortie::Sidelined`]): taking them back once their telemetry says
 //! they are ready, and waiting for them when the run cannot go on without them.
 
+use super::error::BanditError;
 use super::pilot::dock;
 use super::*;
-use crate::app::error::{Check, RunnerResult};
+use crate::app::error::RunnerResult;
 
 impl Runner {
     /// Whether member `sysid` is ready to take part again, by its telemetry: heard, booted,
@@ -189,7 +190,7 @@ impl Runner {
                     .join("; ")
             };
             if outs.iter().all(|(_, o)| o.fix.is_some()) {
-                return Err(Check::MembersNeedPerson {
+                return Err(BanditError::MembersNeedPerson {
                     why: why.to_string(),
                     members: list(),
                 }
@@ -228,7 +229,7 @@ impl Runner {
                     .collect()
             })
             .await;
-        Err(Check::MembersNotReady {
+        Err(BanditError::MembersNotReady {
             why: why.to_string(),
             tries: TRIES,
             members: outs.join("; "),

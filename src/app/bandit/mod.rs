@@ -33,9 +33,9 @@
 //! dead GCS had acknowledged is in the state; images taken while no GCS listened are lost, as
 //! they would be with any ground station.
 
+use self::error::SortieRejected;
 use crate::app::error::Context as _;
 use crate::app::error::RunnerResult;
-use crate::app::error::SortieRejected;
 use crate::app::flight::{self, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
@@ -69,6 +69,7 @@ use tokio::sync::{broadcast, mpsc};
 
 use fleetmap_core::planner::sortie::KIND;
 
+pub mod error;
 mod events;
 mod kind;
 pub mod report;

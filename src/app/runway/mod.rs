@@ -83,6 +83,7 @@ use std::time::Duration;
 use tokio::sync::{broadcast, mpsc};
 
 mod camera;
+pub mod error;
 mod events;
 mod grounded;
 pub(crate) mod kind;
