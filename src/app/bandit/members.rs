@@ -182,7 +182,7 @@ impl Runner {
                     .map(|(sysid, o)| {
                         format!(
                             "{} {sysid}: {}",
-                            o.role.name(),
+                            o.role,
                             o.fix.as_deref().unwrap_or(&o.reason)
                         )
                     })
@@ -225,7 +225,7 @@ impl Runner {
             .read(|s| {
                 s.out
                     .iter()
-                    .map(|(k, o)| format!("{} {k}: {}", o.role.name(), o.reason))
+                    .map(|(k, o)| format!("{} {k}: {}", o.role, o.reason))
                     .collect()
             })
             .await;

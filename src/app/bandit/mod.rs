@@ -42,13 +42,14 @@ use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, VehicleSnapshot};
 use crate::store::RunDir;
 use fleetmap_core::geo::{Cell, LatLon, local};
+use fleetmap_core::mission::definition::Role;
 use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::planner::bandit::Label;
 use fleetmap_core::planner::ip::{PlanOptions, PlanStatus, solve_instance};
 use fleetmap_core::planner::sortie::missions::{self, AreaRules};
 use fleetmap_core::planner::sortie::{
     CaptureKey, ClassificationState, CycleEnd, CyclePhase, EpochStats, MAX_K, Measurement, Next,
-    Role, Separation, Sidelined, TeamConfig,
+    Separation, Sidelined, TeamConfig,
 };
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::Command;

@@ -406,7 +406,7 @@ impl Runner {
                 Progress::warning(format!(
                     "{} {sysid} cannot start ({reason}): the sortie of epoch {p}, cycle {k} is \
                      planned again without it — {then}",
-                    role.name()
+                    role
                 ))
                 .about(*sysid),
             );
