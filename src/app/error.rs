@@ -112,8 +112,8 @@ pub enum RunError {
 
 /// The causes the run layer meets itself that are variants of the layer below
 /// ([`RunnerError`]), so that each cause is one variant: the run store (opening, loading, a
-/// run directory's files), the blocking tasks it runs its file work in, the runway state
-/// (an operator's swap on resume) and the grid (a report scored against its world). They
+/// run directory's files), the blocking tasks it runs its file work in and the grid (a
+/// report scored against its world); a kind's own are its (`app::<kind>::error`). They
 /// read as themselves.
 macro_rules! through_runner {
     ($($cause:ty => $variant:ident),* $(,)?) => {$(
@@ -128,7 +128,6 @@ macro_rules! through_runner {
 through_runner! {
     StoreError => Store,
     BlockingError => Blocking,
-    fleetmap_core::explore::mapping::MappingError => Mapping,
     fleetmap_core::geo::GeoError => Geo,
 }
 
@@ -218,9 +217,6 @@ pub enum RunnerError {
     /// The mission grid or a position on it could not be computed.
     #[error(transparent)]
     Geo(#[from] fleetmap_core::geo::GeoError),
-    /// The runway-mapping state could not be made from the mission, or refused a change.
-    #[error(transparent)]
-    Mapping(#[from] fleetmap_core::explore::mapping::MappingError),
     /// A vehicle's autopilot has no mode for what the runner needs.
     #[error(transparent)]
     Flavour(#[from] fleetmap_core::proto::flavour::FlavourError),
