@@ -18,7 +18,6 @@ use crate::store::StoreError;
 use fleetmap_core::mission::definition::DefErrors;
 use fleetmap_io::files::WorldFileError;
 use std::path::PathBuf;
-use std::time::Duration;
 
 /// A blocking task (`app::blocking::run_blocking`: the classifier, file I/O)
 /// panicked or was cancelled.
@@ -113,8 +112,8 @@ pub enum RunError {
 
 /// The causes the run layer meets itself that are variants of the layer below
 /// ([`RunnerError`]), so that each cause is one variant: the run store (opening, loading, a
-/// run directory's files), the blocking tasks it runs its file work in, the runway state
-/// (an operator's swap on resume) and the grid (a report scored against its world). They
+/// run directory's files), the blocking tasks it runs its file work in and the grid (a
+/// report scored against its world); a kind's own are its (`app::<kind>::error`). They
 /// read as themselves.
 macro_rules! through_runner {
     ($($cause:ty => $variant:ident),* $(,)?) => {$(
@@ -129,7 +128,6 @@ macro_rules! through_runner {
 through_runner! {
     StoreError => Store,
     BlockingError => Blocking,
-    fleetmap_core::explore::mapping::MappingError => Mapping,
     fleetmap_core::geo::GeoError => Geo,
 }
 
@@ -147,9 +145,10 @@ pub enum PlotError {
     Encode(#[from] image::ImageError),
 }
 
-/// Why a step of a run stopped: connecting to its team, a runner (runway or bandit), its
+/// Why a step of a run stopped: connecting to its team, a mission kind's runner, its
 /// pilots, the run store under them. A vehicle that refused or did not answer, a task that
-/// failed, a check on the way that did not hold ([`Check`]), a vehicle late ([`Overdue`]).
+/// failed, a check on the way that did not hold ([`Check`]), the kind's own failure
+/// ([`RunnerError::Kind`]), a vehicle late ([`RunnerError::Overdue`]).
 /// A cause is wrapped in the step the runner was in ([`RunnerError::Context`], a [`Step`]),
 /// so the one-line report reads "step: why: deeper why".
 #[derive(Debug, thiserror::Error)]
@@ -209,9 +208,6 @@ pub enum RunnerError {
     /// A flight step (take-off, a move, a capture) failed.
     #[error(transparent)]
     Flight(#[from] crate::app::flight::FlightError),
-    /// The vehicles refused the sortie's missions.
-    #[error(transparent)]
-    Rejected(#[from] SortieRejected),
     /// The fleet's event channel closed: the fleet stopped under the runner.
     #[error("the fleet stopped")]
     FleetStopped,
@@ -221,18 +217,9 @@ pub enum RunnerError {
     /// The mission grid or a position on it could not be computed.
     #[error(transparent)]
     Geo(#[from] fleetmap_core::geo::GeoError),
-    /// The runway-mapping state could not be made from the mission, or refused a change.
-    #[error(transparent)]
-    Mapping(#[from] fleetmap_core::explore::mapping::MappingError),
-    /// The bandit planner could not make or check a sortie.
-    #[error(transparent)]
-    Sortie(#[from] fleetmap_core::planner::sortie::SortieError),
     /// A vehicle's autopilot has no mode for what the runner needs.
     #[error(transparent)]
     Flavour(#[from] fleetmap_core::proto::flavour::FlavourError),
-    /// The explorer (the runway's next cells) refused a step.
-    #[error(transparent)]
-    Explore(#[from] fleetmap_core::explore::ExploreError),
     /// The run store's thread is gone (a save panicked): nothing more can be saved.
     // The store's own message (`StoreGone` is crate-private, so not a source here).
     #[error("{}", crate::store::task::StoreGone)]
@@ -261,28 +248,21 @@ pub enum RunnerError {
         #[source]
         source: fleetmap_core::mission::wire::ItemsDiffer,
     },
-    /// A bandit mission would cross a no-fly cell (or leave the area, or a station its
-    /// roads), before upload or as the vehicle read it back.
-    #[error("{role} {sysid}: the mission{} is unsafe", if *.read_back { " as read back" } else { "" })]
-    UnsafeMission {
-        /// The vehicle's role ("drone", "station", "vehicle").
-        role: &'static str,
-        /// The vehicle.
-        sysid: u8,
-        /// Whether the list checked is the one the vehicle returned.
-        read_back: bool,
-        /// The first violation.
-        #[source]
-        source: fleetmap_core::planner::sortie::missions::UnsafeMission,
-    },
     /// A check the runner makes on its way did not hold. A person must see to it
     /// (`RunnerError::needs_person`).
     #[error(transparent)]
     Check(#[from] Check),
-    /// A vehicle did not get where it was going, or a sortie did not end, in time: a link
-    /// outage or a slow rendezvous, which trying again may get past.
+    /// What the mission kind's runner met that is the kind's own (its planner's or its
+    /// explorer's refusal, a check of its own that did not hold): the kind's error
+    /// (`app::<kind>::error`), read typed with [`RunnerError::kind`]. A person must see to
+    /// it (`RunnerError::needs_person`).
     #[error(transparent)]
-    Overdue(#[from] Overdue),
+    Kind(KindError),
+    /// A vehicle did not get where it was going, or did not end what it flew, in time: a
+    /// link outage or a slow rendezvous, which trying again may get past. The kind's own
+    /// delay (`app::<kind>::error`), read typed with [`RunnerError::kind`].
+    #[error(transparent)]
+    Overdue(KindError),
     /// The step the runner was in (and its vehicle) when `source` failed.
     #[error("{step}")]
     Context {
@@ -292,6 +272,36 @@ pub enum RunnerError {
         #[source]
         source: Box<RunnerError>,
     },
+}
+
+/// A mission kind's own error (`app::<kind>::error`), boxed so that the runner's layer
+/// names no kind: it reads as itself (its message, then its causes) and
+/// [`KindError::get`] reads it back typed.
+#[derive(Debug)]
+pub struct KindError(Box<dyn std::error::Error + Send + Sync + 'static>);
+
+impl KindError {
+    /// `e`, a kind's error, as the runner's layer carries it.
+    pub(crate) fn new(e: impl std::error::Error + Send + Sync + 'static) -> KindError {
+        KindError(Box::new(e))
+    }
+
+    /// The kind's error, if it is an `E`.
+    pub fn get<E: std::error::Error + 'static>(&self) -> Option<&E> {
+        self.0.downcast_ref()
+    }
+}
+
+impl std::fmt::Display for KindError {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        self.0.fmt(f)
+    }
+}
+
+impl std::error::Error for KindError {
+    fn source(&self) -> Option<&(dyn std::error::Error + 'static)> {
+        self.0.source()
+    }
 }
 
 /// The step of a run an error is wrapped in ([`RunnerError::Context`]); it reads as the
@@ -345,9 +355,6 @@ pub enum Check {
     /// The vehicle's autopilot has no mode that flies a mission.
     #[error("no mission mode")]
     NoMissionMode,
-    /// The runway state has no explorer to say where a vehicle observes.
-    #[error("observing without an explorer")]
-    NoExplorer,
     /// A vehicle the runner needs is not in the fleet's snapshot.
     #[error("vehicle {sysid} is not heard")]
     NotHeard {
@@ -379,174 +386,6 @@ pub enum Check {
     BadPosition {
         /// The vehicle.
         sysid: u8,
-    },
-    /// A runway vehicle has no position to aim at a moving region from.
-    #[error("vehicle {sysid}: no position to aim from")]
-    NoAimPosition {
-        /// The vehicle.
-        sysid: u8,
-    },
-    /// A charging station reports no position to land on.
-    #[error("station {station} reports no position")]
-    StationPosition {
-        /// The station.
-        station: u8,
-    },
-    /// A drone has no station to land on.
-    #[error("no landing station")]
-    NoLandingStation,
-    /// The run's state has no sortie where the step needs one.
-    #[error("{0}")]
-    NoSortie(SortieStage),
-    /// A vehicle is not where its start cell is.
-    #[error(
-        "vehicle {sysid} is {distance_m:.1} m from the centre of its start cell {cell}: place \
-         it there (or fix `start` in the mission file)"
-    )]
-    Misplaced {
-        /// The vehicle.
-        sysid: u8,
-        /// How far from the cell's centre, metres.
-        distance_m: f64,
-        /// Its start cell.
-        cell: fleetmap_core::geo::Cell,
-    },
-    /// A drone's charge does not rise on its station.
-    #[error(
-        "drone {sysid} is not charging (stuck at {pct} %, the sortie needs {need_pct:.0} %): put \
-         it on its station's charger or swap its battery{nearest}"
-    )]
-    NotCharging {
-        /// The drone.
-        sysid: u8,
-        /// Its charge, percent (-1: unknown).
-        pct: i8,
-        /// What the sortie needs, percent.
-        need_pct: f64,
-        /// Where the nearest station is, as a sentence after the advice (empty: unknown).
-        nearest: String,
-    },
-    /// The planner found no plan from where the team is.
-    #[error(
-        "epoch {epoch}: the planner found no plan ({status}{}): the goals cannot be reached \
-         from where the team is within {cycles} sensing cycles",
-        if message.is_empty() { String::new() } else { format!(": {message}") }
-    )]
-    NoPlan {
-        /// The epoch.
-        epoch: u64,
-        /// The solver's status.
-        status: &'static str,
-        /// The solver's message (empty: none).
-        message: String,
-        /// The sensing cycles planned for.
-        cycles: usize,
-    },
-    /// The run cannot go on without members a person must fix.
-    #[error("{why}: a person must fix {members}")]
-    MembersNeedPerson {
-        /// Why the run needs them.
-        why: String,
-        /// Each member out and what to fix, "role sysid: fix; …".
-        members: String,
-    },
-    /// The run cannot go on without members, none of which came back.
-    #[error("{why}, and after {tries} tries none of them is ready: {members}")]
-    MembersNotReady {
-        /// Why the run needs them.
-        why: String,
-        /// How many times they were tried.
-        tries: u32,
-        /// Each member out and why, "role sysid: reason; …".
-        members: String,
-    },
-    /// Epochs in a row had capture visits and no measurement: the pictures do not arrive.
-    #[error(
-        "no measurement reached the GCS in the last {epochs} epochs ({visits} capture visits): \
-         the drones' pictures (or their cameras' on-board measurements) do not arrive — \
-         check that each drone's camera takes its pictures and that its messages \
-         (CAMERA_IMAGE_CAPTURED with DEBUG_FLOAT_ARRAY, or image transmission) reach the \
-         GCS, then `fleetmap resume` the run"
-    )]
-    NoMeasurements {
-        /// The epochs without a measurement.
-        epochs: usize,
-        /// The capture visits they had.
-        visits: u64,
-    },
-}
-
-/// Where in a sortie's life a step needed one ([`Check::NoSortie`]).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum SortieStage {
-    /// Uploading a planned sortie.
-    Prepared,
-    /// Starting a verified sortie.
-    Verified,
-    /// Waiting for a flying sortie to end.
-    Flying,
-    /// Recording where an ended sortie left the team.
-    Ended,
-}
-
-impl std::fmt::Display for SortieStage {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        f.write_str(match self {
-            SortieStage::Prepared => "no sortie is prepared",
-            SortieStage::Verified => "no sortie is verified",
-            SortieStage::Flying => "no sortie is flying",
-            SortieStage::Ended => "no sortie",
-        })
-    }
-}
-
-/// A vehicle late: what trying again may get past (a link outage, a slow rendezvous).
-#[derive(Clone, Debug, PartialEq, thiserror::Error)]
-pub enum Overdue {
-    /// A sortie did not end within its budget.
-    #[error("epoch {epoch} cycle {cycle}: the sortie did not end within {budget_s:.0} s")]
-    Sortie {
-        /// The epoch.
-        epoch: u64,
-        /// The sensing cycle.
-        cycle: usize,
-        /// Its budget, seconds.
-        budget_s: f64,
-    },
-    /// A drone's mission did not end by the sortie's deadline.
-    #[error("drone {sysid}: its mission did not end in time (at step {step})")]
-    Mission {
-        /// The drone.
-        sysid: u8,
-        /// The last mission step it reached.
-        step: usize,
-    },
-    /// A drone's station never came to the rendezvous.
-    #[error("drone {sysid}: station {station} never reached the rendezvous")]
-    Rendezvous {
-        /// The drone.
-        sysid: u8,
-        /// Its station.
-        station: u8,
-    },
-    /// A drone its autopilot took out of its mission has not landed.
-    #[error(
-        "drone {sysid}: taken out of its mission by its autopilot ({mode}), it has not landed \
-         by the end of the sortie"
-    )]
-    TakenOut {
-        /// The drone.
-        sysid: u8,
-        /// The mode it was in.
-        mode: String,
-    },
-    /// A drone did not land in time.
-    #[error("drone {sysid}: did not land within {wait:?}")]
-    Landing {
-        /// The drone.
-        sysid: u8,
-        /// How long the runner waited.
-        wait: Duration,
     },
 }
 
@@ -580,6 +419,15 @@ impl RunnerError {
         match self {
             RunnerError::Context { source, .. } => source.cause(),
             other => other,
+        }
+    }
+
+    /// The mission kind's own error under the steps ([`RunnerError::Kind`],
+    /// [`RunnerError::Overdue`]), if it is an `E`.
+    pub fn kind<E: std::error::Error + 'static>(&self) -> Option<&E> {
+        match self.cause() {
+            RunnerError::Kind(e) | RunnerError::Overdue(e) => e.get(),
+            _ => None,
         }
     }
 
@@ -635,23 +483,6 @@ impl<T, E: Into<RunnerError>> Context<T> for Result<T, E> {
     fn context(self, step: Step) -> RunnerResult<T> {
         self.map_err(|e| e.into().context(step))
     }
-}
-
-/// Why a sortie stopped before take-off.
-#[derive(Debug, thiserror::Error)]
-#[error(
-    "the sortie of epoch {epoch}, cycle {cycle} stopped before take-off: vehicle {sysid} \
-     rejected its mission: {reason}"
-)]
-pub struct SortieRejected {
-    /// Epoch p.
-    pub epoch: u64,
-    /// Cycle.
-    pub cycle: usize,
-    /// The vehicle.
-    pub sysid: u8,
-    /// Why.
-    pub reason: String,
 }
 
 /// Why a simulated fleet (the demo's, the bandit's) could not be started.
@@ -718,6 +549,8 @@ pub fn chain(e: &(dyn std::error::Error + 'static)) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::app::bandit::error::{BanditError, Overdue, SortieStage};
+    use std::time::Duration;
 
     /// A runner's error keeps its whole context chain through [`RunError`]: the session's
     /// log ([`chain`]) prints "step: why: deeper why", outermost step first, down to the
@@ -757,7 +590,7 @@ mod tests {
     fn typed_checks_read_as_the_operator_read_them() {
         let cases: [(String, &str); 7] = [
             (
-                Check::NotCharging {
+                BanditError::NotCharging {
                     sysid: 3,
                     pct: 41,
                     need_pct: 79.6,
@@ -768,7 +601,7 @@ mod tests {
                  station's charger or swap its battery It is 2.5 m from station 5.",
             ),
             (
-                Check::NoPlan {
+                BanditError::NoPlan {
                     epoch: 2,
                     status: "infeasible",
                     message: String::new(),
@@ -779,7 +612,7 @@ mod tests {
                  from where the team is within 8 sensing cycles",
             ),
             (
-                Check::NoPlan {
+                BanditError::NoPlan {
                     epoch: 2,
                     status: "error",
                     message: "time limit".into(),
@@ -790,7 +623,7 @@ mod tests {
                  reached from where the team is within 8 sensing cycles",
             ),
             (
-                Check::Misplaced {
+                BanditError::Misplaced {
                     sysid: 1,
                     distance_m: 9.31,
                     cell: fleetmap_core::geo::Cell { row: 0, col: 2 },
@@ -839,7 +672,7 @@ mod tests {
         .context(Step::Pilot { sysid: 2 });
         assert!(e.is_transient());
         assert!(
-            !RunnerError::from(Check::NoSortie(SortieStage::Ended))
+            !RunnerError::from(BanditError::NoSortie(SortieStage::Ended))
                 .context(Step::Pilot { sysid: 2 })
                 .is_transient()
         );
@@ -931,7 +764,7 @@ mod tests {
                 reasons: vec!["pre-arm failure reported: PreArm: Compass not calibrated".into()],
             })
             .context(Step::Pilot { sysid: 4 }),
-            RunnerError::from(Check::NotCharging {
+            RunnerError::from(BanditError::NotCharging {
                 sysid: 3,
                 pct: 40,
                 need_pct: 80.0,

@@ -27,9 +27,8 @@ pub use map::{CellState, MapError, MapKind, MapModel, Track};
 pub use mission::{DfsProgress, MissionKind, MissionModel, Phase, RunStatus, Stat};
 pub use run::{Animation, KindLook, Panes, RunInfo, Sample};
 pub(crate) use run::{copter, log_line};
-pub use vehicle::{
-    Battery, CameraHealth, Gps, GpsFix, LinkState, MissionProgress, Role, VehicleRow,
-};
+pub(crate) use vehicle::Role;
+pub use vehicle::{Battery, CameraHealth, Gps, GpsFix, LinkState, MissionProgress, VehicleRow};
 
 use fleetmap_core::time::Time;
 use serde::{Deserialize, Serialize};

@@ -4,26 +4,10 @@
 use fleetmap_core::geo::Cell;
 use serde::{Deserialize, Serialize};
 
-/// A vehicle's role in the mission.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, Hash, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Role {
-    /// A drone that takes images.
-    #[default]
-    Drone,
-    /// A mobile charging station (a rover).
-    Station,
-}
-
-impl Role {
-    /// Lower-case name shown in the fleet table.
-    pub fn name(self) -> &'static str {
-        match self {
-            Role::Drone => "drone",
-            Role::Station => "station",
-        }
-    }
-}
+/// A vehicle's role in the mission, the mission file's: replay files spell it as the
+/// mission file does, `"drone"` or `"station"`, and a row without one reads as a drone
+/// ([`VehicleRow::default`]).
+pub(crate) use fleetmap_core::mission::definition::Role;
 
 /// The autopilot firmware, from HEARTBEAT.autopilot: the protocol layer's vocabulary.
 pub(crate) use fleetmap_core::proto::flavour::Autopilot;
@@ -213,7 +197,7 @@ pub struct MissionProgress {
 }
 
 /// One row of the fleet pane.
-#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(default)]
 pub struct VehicleRow {
     /// MAVLink system id.
@@ -248,4 +232,27 @@ pub struct VehicleRow {
     pub activity: Option<String>,
     /// Its camera; `None` when no camera component was ever heard on this system.
     pub camera: Option<CameraHealth>,
+}
+
+/// A row of nothing heard yet: a drone (the role a replay's row without one reads as).
+impl Default for VehicleRow {
+    fn default() -> Self {
+        VehicleRow {
+            sysid: 0,
+            role: Role::Drone,
+            autopilot: Autopilot::default(),
+            vehicle_type: VehicleClass::default(),
+            mode: String::new(),
+            armed: false,
+            battery: Battery::default(),
+            gps: Gps::default(),
+            alt_m: None,
+            speed_mps: None,
+            mission: None,
+            link: LinkState::default(),
+            cell: None,
+            activity: None,
+            camera: None,
+        }
+    }
 }

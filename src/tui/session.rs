@@ -151,10 +151,10 @@ trait ShowRun: Send + Sync {
     fn is_finished(&self) -> bool;
 }
 
-/// A state of kind `K`.
-struct Shown<K: RunKind>(Arc<K::State>);
+/// A state of kind `K`, as the panes draw it: the state they last drew.
+struct KindState<K: RunKind>(Arc<K::State>);
 
-impl<K: RunKind> ShowRun for Shown<K> {
+impl<K: RunKind> ShowRun for KindState<K> {
     fn panes(&self, info: &RunInfo) -> Panes {
         K::panes(&self.0, info)
     }
@@ -225,7 +225,7 @@ impl<K: RunKind> Attach for KindRun<K> {
     }
 
     fn view(&self) -> RunState {
-        Arc::new(Shown::<K>(Arc::new(self.state.clone())))
+        Arc::new(KindState::<K>(Arc::new(self.state.clone())))
     }
 
     fn fly(
@@ -242,7 +242,7 @@ impl<K: RunKind> Attach for KindRun<K> {
             relay.spawn(async move {
                 while vrx.changed().await.is_ok() {
                     let s = vrx.borrow_and_update().clone();
-                    let _ = view_tx.send(Some(Arc::new(Shown::<K>(s))));
+                    let _ = view_tx.send(Some(Arc::new(KindState::<K>(s))));
                 }
             });
             let path = m.run_dir.path().to_path_buf();

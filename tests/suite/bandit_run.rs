@@ -358,7 +358,10 @@ async fn a_vehicle_that_rejects_its_mission_stops_the_sortie_before_take_off() {
         "{msg}"
     );
     assert!(
-        matches!(err, fleetmap::app::error::RunnerError::Rejected(_)),
+        matches!(
+            err.kind::<fleetmap::app::bandit::error::BanditError>(),
+            Some(fleetmap::app::bandit::error::BanditError::Rejected(_))
+        ),
         "{msg}"
     );
     // Nothing took off, nothing drove.

@@ -12,7 +12,7 @@ use fleetmap::tui::*;
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::geo::{Cell, Dir4, Grid, LatLon};
-use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::mission::definition::{MissionDef, Role};
 use fleetmap_core::proto::heartbeat::Beat;
 use fleetmap_core::proto::severity::Severity;
 use fleetmap_core::time::Time;

@@ -251,7 +251,7 @@ impl RunKind for Classification {
         for (sysid, o) in &r.out {
             lines.push(format!(
                 "  {} {sysid} out of the run since epoch {}: {}{}",
-                o.role.name(),
+                o.role,
                 o.epoch,
                 o.reason,
                 o.fix

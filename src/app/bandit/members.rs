@@ -2,9 +2,10 @@
 //! [`fleetmap_core::planner::sortie::Sidelined`]): taking them back once their telemetry says
 //! they are ready, and waiting for them when the run cannot go on without them.
 
+use super::error::BanditError;
 use super::pilot::dock;
 use super::*;
-use crate::app::error::{Check, RunnerResult};
+use crate::app::error::RunnerResult;
 
 impl Runner {
     /// Whether member `sysid` is ready to take part again, by its telemetry: heard, booted,
@@ -181,7 +182,7 @@ impl Runner {
                     .map(|(sysid, o)| {
                         format!(
                             "{} {sysid}: {}",
-                            o.role.name(),
+                            o.role,
                             o.fix.as_deref().unwrap_or(&o.reason)
                         )
                     })
@@ -189,7 +190,7 @@ impl Runner {
                     .join("; ")
             };
             if outs.iter().all(|(_, o)| o.fix.is_some()) {
-                return Err(Check::MembersNeedPerson {
+                return Err(BanditError::MembersNeedPerson {
                     why: why.to_string(),
                     members: list(),
                 }
@@ -224,11 +225,11 @@ impl Runner {
             .read(|s| {
                 s.out
                     .iter()
-                    .map(|(k, o)| format!("{} {k}: {}", o.role.name(), o.reason))
+                    .map(|(k, o)| format!("{} {k}: {}", o.role, o.reason))
                     .collect()
             })
             .await;
-        Err(Check::MembersNotReady {
+        Err(BanditError::MembersNotReady {
             why: why.to_string(),
             tries: TRIES,
             members: outs.join("; "),

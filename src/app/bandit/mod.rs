@@ -33,22 +33,23 @@
 //! dead GCS had acknowledged is in the state; images taken while no GCS listened are lost, as
 //! they would be with any ground station.
 
+use self::error::SortieRejected;
 use crate::app::error::Context as _;
 use crate::app::error::RunnerResult;
-use crate::app::error::SortieRejected;
 use crate::app::flight::{self, Patience};
 use crate::app::images::{ImageHub, ReceivedImage};
 use crate::app::run::{Progress, RunCore};
 use crate::fleet::{FleetHandle, VehicleSnapshot};
 use crate::store::RunDir;
 use fleetmap_core::geo::{Cell, LatLon, local};
+use fleetmap_core::mission::definition::Role;
 use fleetmap_core::mission::item::{MissionItem, MissionType};
 use fleetmap_core::planner::bandit::Label;
 use fleetmap_core::planner::ip::{PlanOptions, PlanStatus, solve_instance};
 use fleetmap_core::planner::sortie::missions::{self, AreaRules};
 use fleetmap_core::planner::sortie::{
     CaptureKey, ClassificationState, CycleEnd, CyclePhase, EpochStats, MAX_K, Measurement, Next,
-    Role, Separation, Sidelined, TeamConfig,
+    Separation, Sidelined, TeamConfig,
 };
 use fleetmap_core::proto::Endpoint;
 use fleetmap_core::proto::command::Command;
@@ -72,6 +73,7 @@ use fleetmap_core::planner::sortie::KIND;
 mod args;
 #[cfg(feature = "sim")]
 pub mod demo;
+pub mod error;
 mod events;
 mod kind;
 pub mod report;

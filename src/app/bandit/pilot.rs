@@ -1,8 +1,9 @@
 //! One drone's pilot during a sortie (follow its mission, land at the end) and the docking
 //! on a charging rover's pad.
 
+use super::error::{BanditError, Overdue};
 use super::*;
-use crate::app::error::{Check, Overdue, RunnerResult};
+use crate::app::error::RunnerResult;
 
 impl DronePilot {
     pub(super) fn fleet(&self) -> &FleetHandle {
@@ -78,7 +79,7 @@ impl DronePilot {
             .shared
             .read(|s| s.landing_station(sysid).map(|st| st.sysid))
             .await
-            .ok_or(Check::NoLandingStation)?;
+            .ok_or(BanditError::NoLandingStation)?;
         let mut told = false;
         loop {
             let arrived = self
@@ -376,7 +377,7 @@ pub(super) async fn land_on(
         let pos = fleet
             .vehicle(station)
             .and_then(|v| v.position)
-            .ok_or(Check::StationPosition { station })?;
+            .ok_or(BanditError::StationPosition { station })?;
         Ok(local::offset(pos.lat, pos.lon, north, east))
     };
     let mut at = target()?;

@@ -2,8 +2,9 @@
 //! the run through [`ClassificationState::next`] until every cell is classified; also the
 //! airborne-time tracker and the run's start and final save.
 
+use super::error::{BanditError, SortieStage};
 use super::*;
-use crate::app::error::{Check, RunnerError, RunnerResult, SortieStage, Step};
+use crate::app::error::{Check, RunnerError, RunnerResult, Step};
 
 impl Runner {
     pub(super) fn fleet(&self) -> &FleetHandle {
@@ -101,7 +102,7 @@ impl Runner {
             let c = grid.cell_center(cell);
             let d = local::distance(p.lat, p.lon, c.lat, c.lon);
             if d > 0.75 * grid.cell_size() {
-                return Err(Check::Misplaced {
+                return Err(BanditError::Misplaced {
                     sysid,
                     distance_m: d,
                     cell,
@@ -205,7 +206,7 @@ impl Runner {
                     k = k0.max(1);
                 }
                 (status, _) => {
-                    return Err(Check::NoPlan {
+                    return Err(BanditError::NoPlan {
                         epoch: p,
                         status: status.as_str(),
                         message: out.message.clone(),
@@ -231,7 +232,7 @@ impl Runner {
                     };
                     for d in c.drones.iter().filter(|d| d.flies) {
                         missions::check_mission(&s.grid, &rules(false), d.path[0], &d.items)
-                            .map_err(|source| RunnerError::UnsafeMission {
+                            .map_err(|source| BanditError::UnsafeMission {
                                 role: "drone",
                                 sysid: d.sysid,
                                 read_back: false,
@@ -240,7 +241,7 @@ impl Runner {
                     }
                     for st in c.stations.iter().filter(|st| st.drives) {
                         missions::check_mission(&s.grid, &rules(true), st.path[0], &st.items)
-                            .map_err(|source| RunnerError::UnsafeMission {
+                            .map_err(|source| BanditError::UnsafeMission {
                                 role: "station",
                                 sysid: st.sysid,
                                 read_back: false,
@@ -277,7 +278,7 @@ impl Runner {
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
             .await;
-        let cycle = cycle.ok_or(Check::NoSortie(SortieStage::Prepared))?;
+        let cycle = cycle.ok_or(BanditError::NoSortie(SortieStage::Prepared))?;
         let state = Arc::new(self.shared.read(|s| s.clone()).await);
         let mut tasks = tokio::task::JoinSet::new();
         // Drones and the stations that drive: (sysid, items, start cell, is a station).
@@ -407,7 +408,7 @@ pub(super) async fn no_measurement_stop(runner: &Runner, since: usize) -> Runner
         })
         .await;
     if dry >= MAX {
-        return Err(Check::NoMeasurements {
+        return Err(BanditError::NoMeasurements {
             epochs: dry,
             visits,
         }

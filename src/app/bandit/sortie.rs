@@ -1,9 +1,10 @@
 //! Flying one sortie: wait for the charge, start every drone, follow them to the end with
 //! their pilots and the lock-step barriers.
 
+use super::error::{BanditError, Overdue, SortieStage};
 use super::pilot::dock;
 use super::*;
-use crate::app::error::{Check, Overdue, RunnerError, RunnerResult, SortieStage};
+use crate::app::error::{RunnerError, RunnerResult};
 
 impl Runner {
     /// Wait until every drone that flies the sortie has the charge it needs. Returns the
@@ -76,7 +77,7 @@ impl Runner {
                             let wh = self.nearest_station(sysid).await;
                             flat.push((
                                 sysid,
-                                Check::NotCharging {
+                                BanditError::NotCharging {
                                     sysid,
                                     pct: now_pct,
                                     need_pct: need,
@@ -146,7 +147,7 @@ impl Runner {
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
             .await;
-        let cycle = cycle.ok_or(Check::NoSortie(SortieStage::Verified))?;
+        let cycle = cycle.ok_or(BanditError::NoSortie(SortieStage::Verified))?;
         if !flat.is_empty() {
             return self.drop_start(p, cycle.k, flat).await;
         }
@@ -405,7 +406,7 @@ impl Runner {
                 Progress::warning(format!(
                     "{} {sysid} cannot start ({reason}): the sortie of epoch {p}, cycle {k} is \
                      planned again without it — {then}",
-                    role.name()
+                    role
                 ))
                 .about(*sysid),
             );
@@ -427,7 +428,7 @@ impl Runner {
             .shared
             .read(|s| (s.bandit.epoch, s.cycle().cloned()))
             .await;
-        let cycle = cycle.ok_or(Check::NoSortie(SortieStage::Flying))?;
+        let cycle = cycle.ok_or(BanditError::NoSortie(SortieStage::Flying))?;
         let lock_step = self
             .shared
             .read(|s| s.params.separation == Separation::LockStep)
@@ -577,7 +578,7 @@ impl Runner {
             .shared
             .read(|s| s.cycle().map(|c| c.planned_end()))
             .await
-            .ok_or(Check::NoSortie(SortieStage::Ended))?;
+            .ok_or(BanditError::NoSortie(SortieStage::Ended))?;
         let st = self.shared.read(|s| s.clone()).await;
         let actual = observed_config(&st, &snap, &planned)?;
         let (end, seconds, k) = self

@@ -2,6 +2,7 @@
 //! configuration it ended in), time and charge estimates, and the verified upload of
 //! missions and fences with retries of transient failures.
 
+use super::error::BanditError;
 use super::*;
 use crate::app::error::{Check, RunnerError, RunnerResult};
 
@@ -230,7 +231,7 @@ pub(super) async fn upload_once(
             roads: station.then_some(state.layout.roads.as_slice()),
         };
         missions::check_mission(&state.grid, &rules, start, &back).map_err(|source| {
-            RunnerError::UnsafeMission {
+            BanditError::UnsafeMission {
                 role: "vehicle",
                 sysid,
                 read_back: true,

@@ -85,6 +85,7 @@ use tokio::sync::{broadcast, mpsc};
 mod camera;
 #[cfg(feature = "sim")]
 pub mod demo;
+pub mod error;
 mod events;
 mod grounded;
 pub(crate) mod kind;

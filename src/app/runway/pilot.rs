@@ -3,7 +3,7 @@
 //! The pictures of a visit are in [`super::intake`], the sweep in [`super::sweep`].
 
 use super::*;
-use crate::app::error::{Check, RunnerResult};
+use crate::app::error::RunnerResult;
 use crate::app::kind::OperatorTask;
 use fleetmap_core::explore::reach::Reach;
 
@@ -195,7 +195,7 @@ impl Pilot {
                             .map(|e| e.robot_cell(fleetmap_core::explore::dfs::RobotId(sysid)))
                     })
                     .await
-                    .ok_or(Check::NoExplorer)??;
+                    .ok_or(super::error::RunwayError::NoExplorer)??;
                 if self.take_images(cell).await? {
                     let now = self.shared.now();
                     let added = self
@@ -553,7 +553,7 @@ impl Pilot {
         let grid = self.shared.read(|s| s.grid.clone()).await;
         let (e, n) = self
             .vehicle_xy(&grid)?
-            .ok_or(Check::NoAimPosition { sysid: self.sysid })?;
+            .ok_or(super::error::RunwayError::NoAimPosition { sysid: self.sysid })?;
         let now = self.shared.now();
         let (me, mn) = roi.intercept((e, n), now, cell, grid.cell_size(), speed, lead_s)?;
         Ok(Some(grid.from_xy(me, mn)?))

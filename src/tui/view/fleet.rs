@@ -34,7 +34,7 @@ fn id(v: &VehicleRow, _: &App) -> (String, Style) {
 }
 
 fn role(v: &VehicleRow, _: &App) -> (String, Style) {
-    s(v.role.name().to_string())
+    s(v.role.to_string())
 }
 
 fn kind_full(v: &VehicleRow, _: &App) -> (String, Style) {

@@ -45,11 +45,11 @@ mod records;
 
 pub use layout::{Layout, Member, SortiePlan, TeamConfig};
 pub use measure::ImageMismatch;
-pub use out::{Role, Sidelined};
+pub use out::Sidelined;
 pub use records::*;
 
 use crate::geo::{Cell, Grid as GeoGrid};
-use crate::mission::definition::{MissionDef, MissionKind};
+use crate::mission::definition::{MissionDef, MissionKind, Role};
 use crate::mission::item::MissionItem;
 use crate::planner::bandit::{self, BanditState, Label};
 use crate::planner::grid::PlannerGrid;

@@ -28,26 +28,6 @@
 
 use super::*;
 
-/// A team member's role.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
-#[serde(rename_all = "snake_case")]
-pub enum Role {
-    /// A drone.
-    Drone,
-    /// A charging station (rover).
-    Station,
-}
-
-impl Role {
-    /// "drone" or "station".
-    pub fn name(self) -> &'static str {
-        match self {
-            Role::Drone => "drone",
-            Role::Station => "station",
-        }
-    }
-}
-
 /// A member out of the run for now (see the module docs).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct Sidelined {

@@ -1,0 +1,56 @@
+//! Runway mapping's own errors: what its runner meets that no other kind does — the
+//! mapping state's and the explorer's refusals, an observation with no explorer, a vehicle
+//! with no position to aim at a moving region from ([`RunwayError`]). The runner's layer
+//! carries them boxed ([`RunnerError::Kind`]) and reads them back typed
+//! ([`RunnerError::kind`]); each reads as the operator read it before it moved here.
+
+use crate::app::error::{KindError, RunError, RunnerError};
+use fleetmap_core::explore::ExploreError;
+use fleetmap_core::explore::mapping::MappingError;
+
+/// What the runway-mapping runner meets that is its own. A person must see to it.
+#[derive(Debug, thiserror::Error)]
+pub enum RunwayError {
+    /// The mapping state could not be made from the mission, or refused a change (an
+    /// operator's swap on resume).
+    #[error(transparent)]
+    Mapping(#[from] MappingError),
+    /// The explorer (the next cells) refused a step.
+    #[error(transparent)]
+    Explore(#[from] ExploreError),
+    /// The state has no explorer to say where a vehicle observes.
+    #[error("observing without an explorer")]
+    NoExplorer,
+    /// A vehicle has no position to aim at a moving region from.
+    #[error("vehicle {sysid}: no position to aim from")]
+    NoAimPosition {
+        /// The vehicle.
+        sysid: u8,
+    },
+}
+
+impl From<RunwayError> for RunnerError {
+    fn from(e: RunwayError) -> Self {
+        RunnerError::Kind(KindError::new(e))
+    }
+}
+
+/// The causes that are [`RunwayError`]s as they are met (`?`), in the runner's layer and
+/// in the run layer above it (the mapping state made or changed on start and resume).
+macro_rules! through_runway {
+    ($($cause:ty),* $(,)?) => {$(
+        impl From<$cause> for RunnerError {
+            fn from(e: $cause) -> Self {
+                RunwayError::from(e).into()
+            }
+        }
+
+        impl From<$cause> for RunError {
+            fn from(e: $cause) -> Self {
+                RunError::Runner(e.into())
+            }
+        }
+    )*};
+}
+
+through_runway!(ExploreError, MappingError);
