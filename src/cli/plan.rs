@@ -3,7 +3,7 @@
 
 use anyhow::Context;
 use clap::Args;
-use fleetmap_core::planner::ip::{Model, PlanOptions, PlanOutcome, PlanStatus, solve_instance};
+use fleetmap_core::planner::ip::{PlanOptions, PlanOutcome, PlanStatus, solve_instance};
 use fleetmap_core::planner::scenario::Scenario;
 use fleetmap_core::planner::scenario::ScenarioError;
 use std::fmt::Write as _;
@@ -60,10 +60,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
         anyhow::bail!("--time-limit must be a positive number of seconds, got {t}");
     }
     let opts = PlanOptions {
-        model: match args.model {
-            ModelArg::Fast => Model::Fast,
-            ModelArg::Plain => Model::Plain,
-        },
+        model: args.model.into(),
         threads: args.threads.max(1),
         time_limit: args.time_limit,
         repair: !args.no_repair,

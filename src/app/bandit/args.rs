@@ -4,6 +4,7 @@
 
 use clap::ValueEnum;
 use fleetmap_core::planner::bandit::ConfidenceBound;
+use fleetmap_core::planner::ip::Model;
 
 /// The confidence interval behind the goal score (3) and the labels (4).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, ValueEnum)]
@@ -32,4 +33,13 @@ pub enum ModelArg {
     Fast,
     /// The paper's model exactly as written (slow; the reference).
     Plain,
+}
+
+impl From<ModelArg> for Model {
+    fn from(m: ModelArg) -> Model {
+        match m {
+            ModelArg::Fast => Model::Fast,
+            ModelArg::Plain => Model::Plain,
+        }
+    }
 }

@@ -85,10 +85,7 @@ fn run_bench(args: BenchPlanArgs, emit: Emit) -> anyhow::Result<ExitCode> {
         ..StudyConfig::default()
     };
     let opts = PlanOptions {
-        model: match args.model {
-            ModelArg::Fast => Model::Fast,
-            ModelArg::Plain => Model::Plain,
-        },
+        model: args.model.into(),
         threads: args.threads.max(1),
         time_limit: args.time_limit,
         ..PlanOptions::default()
