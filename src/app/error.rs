@@ -131,6 +131,31 @@ through_runner! {
     fleetmap_core::geo::GeoError => Geo,
 }
 
+/// The causes that are a kind's own error (`$kind`, in `app::<kind>::error`) as they are met
+/// (`?`): each converts into the kind's error and so into [`RunnerError::Kind`]. With `run`
+/// first, each also converts into [`RunError`] (a cause the run layer meets itself, on start
+/// and resume).
+macro_rules! kind_causes {
+    ($kind:ty: $($cause:ty),* $(,)?) => {$(
+        impl From<$cause> for $crate::app::error::RunnerError {
+            fn from(e: $cause) -> Self {
+                <$kind>::from(e).into()
+            }
+        }
+    )*};
+    (run $kind:ty: $($cause:ty),* $(,)?) => {
+        $crate::app::error::kind_causes!($kind: $($cause),*);
+        $(
+            impl From<$cause> for $crate::app::error::RunError {
+                fn from(e: $cause) -> Self {
+                    $crate::app::error::RunError::Runner(e.into())
+                }
+            }
+        )*
+    };
+}
+pub(crate) use kind_causes;
+
 /// A figure (the bandit report's plot) could not be drawn.
 #[derive(Debug, thiserror::Error)]
 pub enum PlotError {

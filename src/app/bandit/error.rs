@@ -5,7 +5,7 @@
 //! them boxed ([`RunnerError::Kind`], [`RunnerError::Overdue`]) and reads them back typed
 //! ([`RunnerError::kind`]); each reads as the operator read it before it moved here.
 
-use crate::app::error::{KindError, RunnerError};
+use crate::app::error::{KindError, RunnerError, kind_causes};
 use fleetmap_core::planner::sortie::SortieError;
 use std::time::Duration;
 
@@ -134,18 +134,7 @@ impl From<Overdue> for RunnerError {
     }
 }
 
-/// The causes that are [`BanditError`]s as they are met (`?`).
-macro_rules! through_bandit {
-    ($($cause:ty),* $(,)?) => {$(
-        impl From<$cause> for RunnerError {
-            fn from(e: $cause) -> Self {
-                BanditError::from(e).into()
-            }
-        }
-    )*};
-}
-
-through_bandit!(SortieRejected, SortieError);
+kind_causes!(BanditError: SortieRejected, SortieError);
 
 /// Where in a sortie's life a step needed one ([`BanditError::NoSortie`]).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

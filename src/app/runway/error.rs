@@ -4,7 +4,7 @@
 //! carries them boxed ([`RunnerError::Kind`]) and reads them back typed
 //! ([`RunnerError::kind`]); each reads as the operator read it before it moved here.
 
-use crate::app::error::{KindError, RunError, RunnerError};
+use crate::app::error::{KindError, RunnerError, kind_causes};
 use fleetmap_core::explore::ExploreError;
 use fleetmap_core::explore::mapping::MappingError;
 
@@ -35,22 +35,5 @@ impl From<RunwayError> for RunnerError {
     }
 }
 
-/// The causes that are [`RunwayError`]s as they are met (`?`), in the runner's layer and
-/// in the run layer above it (the mapping state made or changed on start and resume).
-macro_rules! through_runway {
-    ($($cause:ty),* $(,)?) => {$(
-        impl From<$cause> for RunnerError {
-            fn from(e: $cause) -> Self {
-                RunwayError::from(e).into()
-            }
-        }
-
-        impl From<$cause> for RunError {
-            fn from(e: $cause) -> Self {
-                RunError::Runner(e.into())
-            }
-        }
-    )*};
-}
-
-through_runway!(ExploreError, MappingError);
+// The mapping state is made or changed in the run layer too, on start and resume.
+kind_causes!(run RunwayError: ExploreError, MappingError);
