@@ -160,6 +160,64 @@ def free_udp_port():
     return port
 
 
+def udp_inodes(port):
+    """Socket inodes bound to local UDP `port` (Linux's /proc/net/udp), or None where there is
+    no /proc."""
+    try:
+        rows = open("/proc/net/udp").read().splitlines()[1:]
+    except OSError:
+        return None
+    inodes = set()
+    for row in rows:
+        f = row.split()
+        if len(f) > 9 and int(f[1].rsplit(":", 1)[1], 16) == port:
+            inodes.add(f[9])
+    return inodes
+
+
+def owns_socket(pid, inodes):
+    try:
+        fds = os.listdir(f"/proc/{pid}/fd")
+    except OSError:
+        return False
+    for fd in fds:
+        try:
+            link = os.readlink(f"/proc/{pid}/fd/{fd}")
+        except OSError:
+            continue
+        if link.startswith("socket:[") and link[8:-1] in inodes:
+            return True
+    return False
+
+
+def serve(make_cmd, log, port=None, tries=5):
+    """Start a fleetmap process that listens on a UDP port (`make_cmd(port)` builds its
+    command line) and wait until it holds that port: returns (Proc, port).
+
+    A port found free may be taken by any other process before ours binds it (a test beside
+    this one, another runner), and a process restarted on its old port finds it taken the
+    same way. Our process then exits ("Address already in use") while the commands pointed at
+    the port would talk to whatever holds it, another vehicle perhaps. So the port counts only
+    once /proc shows our process holding it; otherwise the next free port is tried."""
+    why = ""
+    for _ in range(tries):
+        port = port or free_udp_port()
+        proc = Proc(make_cmd(port), log)
+        deadline = time.monotonic() + 30
+        while proc.p.poll() is None and time.monotonic() < deadline:
+            inodes = udp_inodes(port)
+            if inodes is None:
+                time.sleep(0.3)  # no /proc: the old way, a moment to bind
+                return proc, port
+            if owns_socket(proc.p.pid, inodes):
+                return proc, port
+            time.sleep(0.02)
+        proc.stop()
+        why = last_line(open(log, errors="replace").read()) or f"not listening on {port} after 30 s"
+        port = None
+    sys.exit(f"could not start {make_cmd(0)[1]} on a free port: {why}")
+
+
 def offset(lat, lon, north, east):
     """The point `north`/`east` metres from (lat, lon), on a sphere (fine for tens of metres)."""
     r = 6371000.0
@@ -213,22 +271,22 @@ class Bench:
         self.work = work
         self.sim = None
         self.relay = None
-        self.relay_port = free_udp_port()
+        self.relay_port = None
         if target.startswith("sim:"):
             flavour = target[4:]
             ap, _, klass = flavour.partition("-")
             self.autopilot = {"ardupilot": "ArduPilot", "px4": "PX4"}.get(ap)
             if self.autopilot is None or klass not in ("copter", "rover"):
                 sys.exit(f"unknown simulator {target!r}: sim:ardupilot-copter, sim:ardupilot-rover or sim:px4-copter")
-            port = free_udp_port()
             # PX4 as on the SITL's GCS link (its 50 Hz streams, no RADIO_STATUS throttling):
             # what these checks compare with
             link = "@sitl" if ap == "px4" else ""
-            self.sim = Proc(
-                [BIN, "sim", "--vehicles", f"1x{klass}:{ap}{link}", "--connect", f"udpin:127.0.0.1:{port}",
-                 f"--home={HOME[0]},{HOME[1]}", "--speedup", str(speedup), "--seed", "1",
-                 # the simulator stops by itself if this runner dies without stopping it
-                 "--duration", str(int(7200 * speedup))],
+            self.sim, port = serve(
+                lambda port: [BIN, "sim", "--vehicles", f"1x{klass}:{ap}{link}", "--connect",
+                              f"udpin:127.0.0.1:{port}", f"--home={HOME[0]},{HOME[1]}", "--speedup",
+                              str(speedup), "--seed", "1",
+                              # the simulator stops by itself if this runner dies without stopping it
+                              "--duration", str(int(7200 * speedup))],
                 os.path.join(work, "sim.log"),
             )
             self.vehicle = f"udpout:127.0.0.1:{port}"
@@ -239,24 +297,25 @@ class Bench:
         # only the first address that spoke to its GCS port (`MavlinkReceiver`: the partner is
         # set once), and an ArduPilot TCP port takes one client. The lossy relay in front of
         # it is restarted for every loss level; the base relay serves every peer it hears.
-        self.base_port = free_udp_port()
-        self.base = Proc(
-            [BIN, "relay", "--gcs", f"udpin:127.0.0.1:{self.base_port}", "--vehicle", self.vehicle,
-             "--report-every", "0"],
+        self.base, self.base_port = serve(
+            lambda port: [BIN, "relay", "--gcs", f"udpin:127.0.0.1:{port}", "--vehicle", self.vehicle,
+                          "--report-every", "0"],
             os.path.join(work, "relay-base.log"),
         )
         self.set_loss(0.0)
 
     def set_loss(self, loss, dup=0.0):
+        """Restart the lossy relay with `loss` and `dup`, on its port if it is still free
+        (else on another: `conn` follows)."""
         if self.relay:
             self.relay.stop()
-        self.relay = Proc(
-            [BIN, "relay", "--gcs", f"udpin:127.0.0.1:{self.relay_port}",
-             "--vehicle", f"udpout:127.0.0.1:{self.base_port}",
-             "--loss", str(loss), "--dup", str(dup), "--report-every", "0", "--seed", "7"],
+        self.relay, self.relay_port = serve(
+            lambda port: [BIN, "relay", "--gcs", f"udpin:127.0.0.1:{port}",
+                          "--vehicle", f"udpout:127.0.0.1:{self.base_port}",
+                          "--loss", str(loss), "--dup", str(dup), "--report-every", "0", "--seed", "7"],
             os.path.join(self.work, f"relay-{int(loss * 100)}.log"),
+            port=self.relay_port,
         )
-        time.sleep(0.3)
 
     def conn(self, *extra):
         return ["--connect", f"udpout:127.0.0.1:{self.relay_port}", *extra]
@@ -344,6 +403,14 @@ def json_lines(text):
     return out
 
 
+def first_difference(sent, read):
+    """Where two lists of `read_wpl` rows first differ, for a failure's message."""
+    for i, (a, b) in enumerate(zip(sent, read)):
+        if a != b:
+            return f"item {i + 1} of {len(sent)}: sent {a}, read back {b}; {len(read)} read back"
+    return f"{len(sent)} sent, {len(read)} read back"
+
+
 def read_wpl(path):
     rows = [l.split("\t") for l in open(path).read().splitlines()[1:] if l.strip()]
     return [(int(r[3]), round(float(r[8]), 6), round(float(r[9]), 6), round(float(r[10]), 2)) for r in rows[1:]]
@@ -427,8 +494,10 @@ class Checks:
         code, out, err, t_down = run(["mission", "download", *self.b.conn(*sysid), back], timeout=1800)
         if code != 0:
             return False, f"download: {last_line(err)}", t_up + t_down, bool(last_line(err))
-        if read_wpl(back) != read_wpl(up):
-            return False, "WRONG MISSION: the list read back differs from the one sent", t_up + t_down, False
+        sent, read = read_wpl(up), read_wpl(back)
+        if read != sent:
+            return False, ("WRONG MISSION: the list read back differs from the one sent ("
+                           + first_difference(sent, read) + ")"), t_up + t_down, False
         return True, last_line(out), t_up + t_down, True
 
     def transfer(self):
@@ -591,12 +660,12 @@ def runway_check(checks):
     if b.sim is not None:
         # A simulator of its own, over the world, at --runway-speedup (the transfers were judged
         # at real time above); its crew swaps batteries 5 s after a landing.
-        port = free_udp_port()
         ap, _, klass = b.target[4:].partition("-")
-        sim = Proc([BIN, "sim", "--vehicles", f"1x{klass}:{ap}", "--world", world,
-                    "--connect", f"udpin:127.0.0.1:{port}", "--speedup", str(args.runway_speedup),
-                    "--seed", "2", "--swap-after", "5", "--duration", str(int(7200 * args.runway_speedup))],
-                   os.path.join(work, "sim.log"))
+        sim, port = serve(
+            lambda port: [BIN, "sim", "--vehicles", f"1x{klass}:{ap}", "--world", world,
+                          "--connect", f"udpin:127.0.0.1:{port}", "--speedup", str(args.runway_speedup),
+                          "--seed", "2", "--swap-after", "5", "--duration", str(int(7200 * args.runway_speedup))],
+            os.path.join(work, "sim.log"))
         camera = None
         conn = ["--connect", f"udpout:127.0.0.1:{port}"]
         crew = None
