@@ -27,6 +27,7 @@ pub mod budget;
 pub mod explore;
 pub mod geo;
 mod identity;
+mod kinds;
 pub mod mission;
 pub mod planner;
 pub mod preflight;

@@ -2,7 +2,8 @@
 //! sweep box and the classifier's settings.
 
 use crate::app::kind::plural;
-use fleetmap_core::mission::definition::{MissionDef, SweepBox};
+use fleetmap_core::mission::definition::MissionDef;
+use fleetmap_core::mission::definition::runway::SweepBox;
 
 /// The summary lines of `def`'s runway section, label first (`cells       …`).
 pub(crate) fn summary_lines(def: &MissionDef) -> Vec<String> {

@@ -33,9 +33,17 @@ pub mod meta;
 pub mod onboard;
 pub mod reference;
 pub mod regions;
-pub mod runway;
 pub mod sanity;
 pub mod synth;
+
+/// The kinds' own vision modules (the runway classifier, its votes and its on-board
+/// measurement: `runway`), from the list of kinds ([`crate::for_each_kind!`]).
+macro_rules! kind_modules {
+    ($([$($module:ident)?])+) => {
+        $($(pub mod $module;)?)+
+    };
+}
+crate::for_each_kind!(vision => kind_modules);
 
 /// FNV-1a over `bytes`, folded to 24 bits so that a 32-bit float holds it exactly: the
 /// fingerprints of the on-board definitions ([`onboard::GreenSpec::fingerprint`],

@@ -122,7 +122,9 @@ pub trait OnboardMessage: Sized {
     fn of(o: &Onboard) -> Option<&Self>;
 }
 
-/// The list of on-board measurements: one line each, `Name(definition, message)`. It
+/// The on-board measurements, one per kind that has one, from the list of kinds
+/// ([`crate::for_each_kind!`]'s `onboard` part: `Name(definition, message)` and the camera's
+/// module that makes it; the kind's documentation documents its variants). It
 /// declares what a camera is given ([`OnboardSpec`]), which measurement a message is
 /// ([`OnboardKind`]) and any camera's message ([`Onboard`]), whose methods call the
 /// message type's own: `from_message`, `to_message`, `capture()` (the capture it is about;
@@ -130,7 +132,7 @@ pub trait OnboardMessage: Sized {
 /// of the picture), and its fields `spec` (the definition's fingerprint) and
 /// `picture_bytes`. Messages are read in the list's order.
 macro_rules! measurements {
-    ($($(#[$doc:meta])* $name:ident($spec:ty, $msg:ty)),+ $(,)?) => {
+    ($([$(#[$doc:meta])*] [$name:ident ($spec:path) ($msg:path) $camera:ident])+) => {
         /// What a camera that measures on board is given: the definition of one mission's
         /// measurement.
         #[derive(Clone, Debug, PartialEq)]
@@ -241,12 +243,7 @@ macro_rules! measurements {
     };
 }
 
-measurements!(
-    /// The spatial-classification mission's green share ([`GreenSpec`], `"fm.green"`).
-    Green(GreenSpec, OnboardMeasurement),
-    /// The runway mission's 3 × 3 regions (`vision::runway::onboard`, `"fm.rwy"`).
-    Runway(crate::vision::runway::onboard::RunwayDefinition, crate::vision::runway::onboard::RunwayMeasurement),
-);
+crate::for_each_kind!(onboard => measurements);
 
 /// A measurement made on board, tied to its picture.
 #[derive(Clone, Copy, Debug, PartialEq)]

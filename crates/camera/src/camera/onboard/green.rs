@@ -3,8 +3,9 @@
 
 use super::{Measurer, Picture};
 use fleetmap_core::mission::definition::{MissionDef, MissionKind};
-use fleetmap_core::vision::onboard::{GreenSpec, OnboardMeasurement};
+use fleetmap_core::vision::onboard::{GreenSpec, OnboardMeasurement, OnboardSpec};
 use mavlink::dialects::ardupilotmega::MavMessage;
+use std::path::Path;
 
 /// The measurement definition of the spatial-classification mission `def` (its green box,
 /// camera, cell size and the planner's crop), or `None` for another kind of mission.
@@ -17,9 +18,20 @@ pub fn spec_of(def: &MissionDef) -> Option<GreenSpec> {
     })
 }
 
+/// [`spec_of`] as a camera is given it (a mission file read from `path` cannot fail to give
+/// its green share).
+pub(super) fn onboard_spec(def: &MissionDef, _path: &Path) -> anyhow::Result<Option<OnboardSpec>> {
+    Ok(spec_of(def).map(OnboardSpec::Green))
+}
+
+/// A camera starting with `spec`.
+pub(super) fn measurer(spec: &GreenSpec) -> Box<dyn Measurer> {
+    Box::new(Green(*spec))
+}
+
 /// A camera measuring the green share of its pictures.
 #[derive(Debug)]
-pub(super) struct Green(pub(super) GreenSpec);
+struct Green(GreenSpec);
 
 impl Measurer for Green {
     /// Measured on the picture as taken, at the altitude the capture message reports (as

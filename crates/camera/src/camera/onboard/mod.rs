@@ -16,9 +16,6 @@ use mavlink::dialects::ardupilotmega as mav;
 use mavlink::dialects::ardupilotmega::MavMessage;
 use std::path::Path;
 
-pub mod green;
-pub mod runway;
-
 /// One picture, as the camera has it when it measures it.
 pub(crate) struct Picture<'a> {
     /// The picture as rendered or read.
@@ -50,24 +47,32 @@ pub(crate) trait Measurer: std::fmt::Debug + Send + Sync {
     fn fingerprint(&self) -> Option<u32>;
 }
 
-/// The measurer of `config`'s on-board definition, as the camera starts with it: the list of
-/// measurements, one line each.
-pub(super) fn measurer(config: &CameraConfig) -> Option<Box<dyn Measurer>> {
-    Some(match config.onboard.as_ref()? {
-        OnboardSpec::Green(s) => Box::new(green::Green(*s)),
-        OnboardSpec::Runway(d) => Box::new(runway::Runway::new(d.clone())),
-    })
-}
+/// Each kind's measurement, in its own module (named by the list of kinds,
+/// [`fleetmap_core::for_each_kind!`]), which supplies `measurer` (a camera starting with the
+/// definition) and `onboard_spec` (the definition a mission file gives, if any).
+macro_rules! measurers {
+    ($([$(#[$doc:meta])*] [$name:ident ($spec:path) ($msg:path) $module:ident])+) => {
+        $(pub mod $module;)+
 
-/// What the mission `def` (read from `path`) has a camera measure on board: the first
-/// measurement of the list that reads one from it. An error for a mission whose
-/// measurement a camera cannot make.
-pub(crate) fn spec_of(def: &MissionDef, path: &Path) -> anyhow::Result<Option<OnboardSpec>> {
-    if let Some(s) = green::spec_of(def) {
-        return Ok(Some(OnboardSpec::Green(s)));
-    }
-    runway::spec_of(def, path)
+        /// The measurer of `config`'s on-board definition, as the camera starts with it.
+        pub(super) fn measurer(config: &CameraConfig) -> Option<Box<dyn Measurer>> {
+            Some(match config.onboard.as_ref()? {
+                $(OnboardSpec::$name(d) => $module::measurer(d),)+
+            })
+        }
+
+        /// What the mission `def` (read from `path`) has a camera measure on board: the
+        /// first measurement of the list that reads one from it. An error for a mission
+        /// whose measurement a camera cannot make.
+        pub(crate) fn spec_of(def: &MissionDef, path: &Path) -> anyhow::Result<Option<OnboardSpec>> {
+            $(if let Some(s) = $module::onboard_spec(def, path)? {
+                return Ok(Some(s));
+            })+
+            Ok(None)
+        }
+    };
 }
+fleetmap_core::for_each_kind!(onboard => measurers);
 
 /// [`spec_of`], `None` being an error.
 pub(crate) fn required_spec_of(def: &MissionDef, path: &Path) -> anyhow::Result<OnboardSpec> {

@@ -60,7 +60,7 @@ pub fn definition_of(def: &MissionDef) -> Option<RunwayDefinition> {
 /// The on-board definition of the runway mission `def` read from `path`; an error when its
 /// region moves (its pictures are credited in the region's frame, which the camera cannot
 /// follow: they stay on the picture path).
-pub(super) fn spec_of(def: &MissionDef, path: &Path) -> anyhow::Result<Option<OnboardSpec>> {
+pub(super) fn onboard_spec(def: &MissionDef, path: &Path) -> anyhow::Result<Option<OnboardSpec>> {
     if def
         .runway
         .as_ref()
@@ -84,14 +84,12 @@ pub(super) struct Runway {
     last_status: Option<Time>,
 }
 
-impl Runway {
-    /// A camera starting with `def`.
-    pub(super) fn new(def: RunwayDefinition) -> Runway {
-        Runway {
-            def,
-            last_status: None,
-        }
-    }
+/// A camera starting with `def`.
+pub(super) fn measurer(def: &RunwayDefinition) -> Box<dyn Measurer> {
+    Box::new(Runway {
+        def: def.clone(),
+        last_status: None,
+    })
 }
 
 impl Measurer for Runway {

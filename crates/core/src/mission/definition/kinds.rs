@@ -35,7 +35,7 @@ pub(super) trait KindSection: Sync {
 /// of a file whose `kind` is missing or wrong (validation then drops the rules that depend
 /// on the kind).
 macro_rules! kinds {
-    ($($(#[$doc:meta])* $variant:ident = $name:literal => $module:ident,)+) => {
+    ($([$(#[$doc:meta])*] [$variant:ident $name:literal $module:ident $def:ident])+) => {
         /// Which field mission a definition describes.
         #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
         pub enum MissionKind {
@@ -109,13 +109,7 @@ macro_rules! kinds {
     };
 }
 
-kinds! {
-    /// Runway mapping (runway paper): lawnmower sweep, then the multi-robot recursive DFS.
-    RunwayMapping = "runway-mapping" => runway,
-    /// Spatial classification (bandit paper): UCB bandit + integer-program sorties with
-    /// mobile charging stations.
-    SpatialClassification = "spatial-classification" => classification,
-}
+crate::for_each_kind!(file => kinds);
 
 impl fmt::Display for MissionKind {
     fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {

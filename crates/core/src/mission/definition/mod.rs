@@ -53,17 +53,13 @@
 //! in a run directory); a test checks that the serde path and the reader agree on every
 //! example file. [`MissionDef::validate`] runs step 3 on a definition built in code.
 
-mod classification;
 mod errors;
 mod kinds;
 mod reader;
-mod runway;
 mod validate;
 
-pub use classification::{ClassificationDef, GreenDef};
 pub use errors::{DefError, DefErrors};
 pub use kinds::MissionKind;
-pub use runway::{RunwayDef, SweepBox};
 
 use crate::budget::LinkBudget;
 use crate::geo::Cell;
@@ -297,44 +293,55 @@ impl Default for AreaDef {
     }
 }
 
-/// A mission definition file, parsed and validated (see the module documentation).
-#[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct MissionDef {
-    /// Free-text name, shown in the UI and stored with runs.
-    pub name: String,
-    /// Which mission.
-    pub kind: MissionKind,
-    /// Longer free text.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub description: Option<String>,
-    /// The grid.
-    pub grid: GridDef,
-    /// Altitudes and speeds.
-    pub flight: FlightDef,
-    /// The drones' camera (default: [`CameraModel::paper`], 53.13° square, 480 px).
-    #[serde(default = "CameraModel::paper")]
-    pub camera: CameraModel,
-    /// Battery limits.
-    #[serde(default)]
-    pub battery: BatteryDef,
-    /// The team, in order (the first one is the grid origin with `origin = "vehicle"`).
-    pub vehicles: Vec<VehicleDef>,
-    /// Cells: search area, obstacles, roads.
-    #[serde(default)]
-    pub area: AreaDef,
-    /// Runway-mapping parameters (present exactly for that kind).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub runway: Option<RunwayDef>,
-    /// Spatial-classification parameters (present exactly for that kind; filled with the
-    /// defaults when the file has no `[classification]` table).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub classification: Option<ClassificationDef>,
-    /// What every vehicle's link carries (`link = "radio:2000"`), unless a vehicle says
-    /// otherwise; `None`: not said (unlimited until a radio reports itself).
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub link: Option<LinkBudget>,
+/// Every kind's module (its table and how it is read and checked, `Section`), and the
+/// definition with each kind's table as a field, from the list of kinds
+/// ([`crate::for_each_kind!`]).
+macro_rules! tables {
+    ($([$(#[$doc:meta])*] [$variant:ident $name:literal $module:ident $def:ident])+) => {
+        $(
+            pub mod $module;
+            pub use $module::$def;
+        )+
+
+        /// A mission definition file, parsed and validated (see the module documentation).
+        #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
+        #[serde(deny_unknown_fields)]
+        pub struct MissionDef {
+            /// Free-text name, shown in the UI and stored with runs.
+            pub name: String,
+            /// Which mission.
+            pub kind: MissionKind,
+            /// Longer free text.
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub description: Option<String>,
+            /// The grid.
+            pub grid: GridDef,
+            /// Altitudes and speeds.
+            pub flight: FlightDef,
+            /// The drones' camera (default: [`CameraModel::paper`], 53.13° square, 480 px).
+            #[serde(default = "CameraModel::paper")]
+            pub camera: CameraModel,
+            /// Battery limits.
+            #[serde(default)]
+            pub battery: BatteryDef,
+            /// The team, in order (the first one is the grid origin with `origin = "vehicle"`).
+            pub vehicles: Vec<VehicleDef>,
+            /// Cells: search area, obstacles, roads.
+            #[serde(default)]
+            pub area: AreaDef,
+            $(
+                #[doc = concat!("The `[", stringify!($module), "]` table: present exactly in a ", $name, " mission ([`", stringify!($def), "`]).")]
+                #[serde(default, skip_serializing_if = "Option::is_none")]
+                pub $module: Option<$def>,
+            )+    /// What every vehicle's link carries (`link = "radio:2000"`), unless a vehicle says
+            /// otherwise; `None`: not said (unlimited until a radio reports itself).
+            #[serde(default, skip_serializing_if = "Option::is_none")]
+            pub link: Option<LinkBudget>,
+        }
+    };
 }
+
+crate::for_each_kind!(file => tables);
 
 impl MissionDef {
     /// What the link of vehicle `sysid` carries, as the mission says: its own `link`, else
