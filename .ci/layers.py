@@ -33,6 +33,8 @@ END = "<!-- layers end -->"
 LAYERS = [
     ["cli"],
     ["tui", "experiment"],
+    ["kinds"],
+    ["launch"],
     ["app"],
     ["fleet"],
     ["store"],

@@ -11,7 +11,7 @@ use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
-pub use crate::app::bandit::ModelArg;
+pub use crate::kinds::bandit::ModelArg;
 
 /// Arguments of `fleetmap plan`.
 #[derive(Debug, Args)]
