@@ -66,7 +66,7 @@ KINDS = {
     },
 }
 # Today's counts (lines outside the kind's folders); the goal is 1, the registry line.
-CEILING = {"runway-mapping": 29, "spatial-classification": 9}
+CEILING = {"runway-mapping": 14, "spatial-classification": 9}
 GOAL = 1
 
 

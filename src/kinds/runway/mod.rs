@@ -83,6 +83,7 @@ use std::time::Duration;
 use tokio::sync::{broadcast, mpsc};
 
 mod camera;
+pub mod classify;
 #[cfg(feature = "sim")]
 pub mod demo;
 pub mod error;
