@@ -12,8 +12,9 @@ by .ci/module_cycles.py's lexical reader; for a crate, a `fleetmap_B::…` path 
 fleetmap_B`). Code under `#[cfg(test)]` is skipped (tests may reach anywhere), and the binary's
 `main.rs` is the entry, not a module.
 
-LAYERS below is the intended order, highest first (the documentation's `cli → tui → app →
-fleet → store`, with `panes`, the data the UI draws and the kinds fill, at the bottom): an edge to a module of a higher layer is upward, drawn with ▲ in the diagram
+LAYERS below is the intended order, highest first (the documentation's `cli → tui → kinds →
+launch → app → fleet → store`: a kind's demo implements `launch::demo::DemoKind`, so the kinds
+sit above the start-up; `panes`, the data the UI draws and the kinds fill, at the bottom): an edge to a module of a higher layer is upward, drawn with ▲ in the diagram
 and printed here with each file:line that makes it. An upward edge does not fail CI (the code is
 drawn as it is); a diagram that is not the code's does, and so does a top-level module or crate
 that LAYERS does not place.
@@ -33,6 +34,8 @@ END = "<!-- layers end -->"
 LAYERS = [
     ["cli"],
     ["tui", "experiment"],
+    ["kinds"],
+    ["launch"],
     ["app"],
     ["fleet"],
     ["store"],

@@ -5,7 +5,7 @@
 //! same run for the comparison.
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
-use fleetmap::cli::classify::bench_scene;
+use fleetmap::kinds::runway::classify::bench_scene;
 use fleetmap_core::vision::fast;
 use fleetmap_core::vision::green::{self, GreenParams};
 use fleetmap_core::vision::runway::{self, RunwayParams, synth};

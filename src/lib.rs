@@ -14,7 +14,9 @@
 //! | [`cli`] | the `fleetmap` command line: one file per subcommand, `mod.rs` declares and dispatches |
 //! | [`tui`] | the ratatui operator interface: pure update, one view per pane, replay files |
 //! | [`experiment`] | (feature `sim`) the Monte Carlo studies that reproduce the papers' tables and figures |
-//! | [`app`] | the runs: one mission kind ([`app::kind::RunKind`]) and their registry, the run core, the runway-mapping and spatial-classification runners, the image hub, flight steps, the live session; with `sim`, the demos |
+//! | [`kinds`] | the mission kinds, one folder each, and their registry: the runway-mapping run ([`kinds::runway`]) and the spatial-classification run ([`kinds::bandit`]) |
+//! | [`launch`] | the one way to start or resume a run, for every door (`run`, `resume`, `tui`, `demo`); with `sim`, the demos and the embedded simulator's fleet |
+//! | [`app`] | the run engine: what a mission kind is ([`app::kind::RunKind`]), the run core, the image hub, flight steps, terrain, the team, the preflight gate, the layer's errors |
 //! | [`fleet`] | the fleet actor: one task owning every vehicle's state and protocol machines, and its handle |
 //! | [`store`] | the crash-safe run directory: atomic snapshots, the append-only journal, the store task |
 //! | [`panes`] | what a run shows: the view-model the UI draws and each mission kind fills, plain `serde` data |
@@ -29,6 +31,8 @@ pub mod cli;
 #[cfg(feature = "sim")]
 pub mod experiment;
 pub mod fleet;
+pub mod kinds;
+pub mod launch;
 pub mod panes;
 mod plot;
 pub mod store;

@@ -574,7 +574,7 @@ pub fn chain(e: &(dyn std::error::Error + 'static)) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::app::bandit::error::{BanditError, Overdue, SortieStage};
+    use crate::kinds::bandit::error::{BanditError, Overdue, SortieStage};
     use std::time::Duration;
 
     /// A runner's error keeps its whole context chain through [`RunError`]: the session's

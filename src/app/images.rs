@@ -713,7 +713,8 @@ mod tests {
             OnboardRegions, RunwayDefinition, RunwayMeasurement, RunwaySpec, ShutterPose,
         };
         let world =
-            fleetmap_core::world::World::from_toml(crate::app::runway::demo::RUNWAY_WORLD).unwrap();
+            fleetmap_core::world::World::from_toml(crate::kinds::runway::demo::RUNWAY_WORLD)
+                .unwrap();
         let model = CameraModel {
             width_px: 120,
             height_px: 120,
@@ -744,7 +745,7 @@ mod tests {
         let t0 = Time::from_secs(10);
         intake.accept_onboard(
             OnboardKind::Runway,
-            Some(crate::app::runway::onboard_accept(&spec, vec![1])),
+            Some(crate::kinds::runway::onboard_accept(&spec, vec![1])),
             t0,
         );
         // over the runway's edge, a little tilted

@@ -2,7 +2,7 @@
 //! and the demo need of a runner, so that each of them is written once for every mission.
 //!
 //! Each kind is a folder of `src/app/` (its runner, its `RunKind`, its panes) registered in
-//! [`crate::app::kinds`]. A run directory remembers its kind (`run.json`'s `kind`, the
+//! [`crate::kinds`]. A run directory remembers its kind (`run.json`'s `kind`, the
 //! kind's [`RunKind::KIND`]); the commands dispatch on it once, through the registry.
 
 use crate::app::command::{Command, CommandError, Target};
@@ -179,7 +179,7 @@ impl Default for RunSettings {
 }
 
 /// A mission kind (see the module docs). Its methods are the parts in which the two missions
-/// differ; the generic commands (`crate::app::launch`, `cli::run`) do the rest once.
+/// differ; the generic commands (`crate::launch`, `cli::run`) do the rest once.
 pub trait RunKind: Send + Sync + 'static {
     /// The `kind` in `run.json`.
     const KIND: &'static str;

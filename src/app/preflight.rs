@@ -3,7 +3,7 @@
 //! sysid watch's verdict, a camera's heartbeat, home, link, a few parameters by name through
 //! [`fleetmap_core::proto::params`]), run the pure check, and gate a run's start on it.
 //!
-//! Every door that starts or resumes a run goes through [`crate::app::launch::prepare`],
+//! Every door that starts or resumes a run goes through [`crate::launch::prepare`],
 //! which calls [`gate`]: the findings are logged, and a blocker stops the start unless the
 //! operator said `--ignore-check`. `fleetmap check --connect` prints them ([`run_check`]).
 //! In the terminal UI with a run the operator starts, the findings are in the log pane and

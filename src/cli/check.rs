@@ -132,7 +132,7 @@ fn sysids<'a>(
 /// A kind's own summary lines ([`crate::app::kind::RunKind::summary_lines`]).
 struct SummaryLines<'a>(&'a MissionDef);
 
-impl crate::app::kinds::KindVisitor for SummaryLines<'_> {
+impl crate::kinds::KindVisitor for SummaryLines<'_> {
     type Output = Vec<String>;
     fn visit<K: crate::app::kind::RunKind>(self) -> Vec<String> {
         K::summary_lines(self.0)
@@ -205,7 +205,7 @@ pub fn summary(def: &MissionDef, file: &str) -> String {
         def.battery.flight_time_min, def.battery.rtl_reserve_pct
     );
     // What only this kind's section of the file says: the kind's own lines.
-    match crate::app::kinds::of_mission(def, SummaryLines(def)) {
+    match crate::kinds::of_mission(def, SummaryLines(def)) {
         Ok(lines) => {
             for l in lines {
                 let _ = writeln!(s, "  {l}");

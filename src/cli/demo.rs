@@ -1,12 +1,12 @@
 //! `fleetmap demo [--headless] [--run-dir DIR]`: the embedded default — a mission kind's
 //! built-in demo on the simulator in-process, flown to the end. Which kind flies, its world,
-//! mission, team and report are the kind's (`crate::app::demo::DemoKind`, chosen by its
+//! mission, team and report are the kind's (`crate::launch::demo::DemoKind`, chosen by its
 //! flags through the registry); this file starts and flies it, written once for every kind.
 
-use crate::app::demo::{DemoFlagList, DemoInputs, DemoKind, DemoOptions, DemoVisitor};
 use crate::app::kind::RunSettings;
-use crate::app::launch::{NewRun, Start, finish_exports, prepare};
 use crate::cli::vehicles::block_on;
+use crate::launch::demo::{DemoFlagList, DemoInputs, DemoKind, DemoOptions, DemoVisitor};
+use crate::launch::{NewRun, Start, finish_exports, prepare};
 use anyhow::bail;
 use clap::Args;
 use fleetmap_io::clock::unix_ms;
@@ -14,7 +14,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use std::time::Duration;
 
-pub(crate) use crate::app::demo::{RadioArgs, fault_schedule};
+pub(crate) use crate::launch::demo::{RadioArgs, fault_schedule};
 
 /// Arguments of `fleetmap demo`: the flags every demo shares, and each kind's own (in the
 /// registry's order; one of them chooses the kind's demo instead of the first kind's).
@@ -25,7 +25,7 @@ pub struct DemoArgs {
     pub options: DemoOptions,
     /// Each kind's own flags, in the registry's order.
     #[command(flatten)]
-    pub(crate) kinds: crate::app::kinds::DemoFlags,
+    pub(crate) kinds: crate::kinds::DemoFlags,
     /// Every vehicle behind its own simulated telemetry radio. On a radio the runway
     /// cameras classify their pictures on board, as the spatial-classification cameras
     /// always do.
@@ -97,7 +97,7 @@ struct Demo {
 }
 
 impl Demo {
-    /// Start the run on the simulated fleet ([`crate::app::launch`], as `fleetmap run` does)
+    /// Start the run on the simulated fleet ([`crate::launch`], as `fleetmap run` does)
     /// and fly it to its end. Headless, the report's summary lines (or its JSON) are
     /// printed, and [`DemoKind::succeeded`] says whether the exit status is 0.
     async fn fly<K: DemoKind>(

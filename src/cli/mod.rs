@@ -1,7 +1,9 @@
 //! The `fleetmap` command line: one subcommand per user task.
 //!
 //! Each subcommand's arguments and entry point live in a file of this module
-//! (`src/cli/<task>.rs`); this file only declares the command tree and dispatches.
+//! (`src/cli/<task>.rs`), except a mission kind's own commands, which are in the kind's folder
+//! (`fleetmap classify`: `src/kinds/runway/classify.rs`; `fleetmap plan`:
+//! `src/kinds/bandit/plan.rs`); this file only declares the command tree and dispatches.
 //! Commands return an [`ExitCode`]; an `Err` is printed by `main` as one line on stderr
 //! and exits with status 1.
 
@@ -11,7 +13,6 @@ pub(crate) mod bench_fleet;
 #[cfg(feature = "sim")]
 pub(crate) mod bench_transfer;
 pub mod check;
-pub mod classify;
 pub mod command;
 #[cfg(feature = "sim")]
 pub mod demo;
@@ -19,7 +20,6 @@ pub mod demo;
 pub mod experiment;
 pub mod grid;
 pub mod mission;
-pub mod plan;
 pub mod relay;
 pub mod run;
 pub mod signing;
@@ -28,6 +28,9 @@ pub mod sim;
 pub mod tui;
 pub mod vehicles;
 
+// The kinds' own commands, each in its kind's folder: `fleetmap classify` (the runway
+// classifier on image files) and `fleetmap plan` (the spatial classification's planner).
+use crate::kinds::{bandit::plan, runway::classify};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -9,8 +9,8 @@
 //! a terminal; `fleetmap bench tui` measures the redraw rate.
 
 use crate::app::kind::{RunKind, RunSettings};
-use crate::app::launch::{NewRun, Start, prepare};
 use crate::app::preflight::OnBlocker;
+use crate::launch::{NewRun, Start, prepare};
 use crate::panes::{Animation, Model, Sample};
 use crate::store::RunDir;
 use crate::tui;
@@ -357,7 +357,7 @@ fn live_start(args: &TuiArgs) -> anyhow::Result<(Option<Start>, Vec<ConnSpec>)> 
 
 /// `fleetmap tui --connect CONN [--mission FILE | --resume RUN_DIR]`: the UI on live
 /// vehicles, with a run (runway mapping or spatial classification) the operator starts. The
-/// run starts as `fleetmap run` starts one ([`crate::app::launch`]).
+/// run starts as `fleetmap run` starts one ([`crate::launch`]).
 fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow::Result<ExitCode> {
     if !interactive() {
         bail!("the terminal UI needs an interactive terminal on stdin and stdout");
@@ -407,11 +407,10 @@ fn run_live(args: TuiArgs, config: UiConfig, log_file: Option<&Path>) -> anyhow:
         conn,
         ..live
     };
-    crate::app::kinds::by_name(&kind, live)
-        .map_err(|e| anyhow!("{e}: cannot be flown from the UI"))?
+    crate::kinds::by_name(&kind, live).map_err(|e| anyhow!("{e}: cannot be flown from the UI"))?
 }
 
-/// A LIVE session with a run, for [`crate::app::kinds::by_name`].
+/// A LIVE session with a run, for [`crate::kinds::by_name`].
 struct Live {
     settings: RunSettings,
     connections: Vec<String>,
@@ -420,11 +419,11 @@ struct Live {
     start: Option<Start>,
 }
 
-impl crate::app::kinds::KindVisitor for Live {
+impl crate::kinds::KindVisitor for Live {
     type Output = anyhow::Result<ExitCode>;
 
     /// Open the links, make the run ready (its vehicles heard within a minute, as
-    /// [`crate::app::launch::prepare`] does for `fleetmap run`) and fly it in the UI; the
+    /// [`crate::launch::prepare`] does for `fleetmap run`) and fly it in the UI; the
     /// operator STARTs it.
     fn visit<K: RunKind>(self) -> anyhow::Result<ExitCode> {
         let Live {
@@ -622,7 +621,7 @@ mod tests {
         assert_eq!(meta.created_unix_ms, t);
         assert_eq!(
             dir,
-            crate::app::launch::default_run_dir(&tui.def.name, t),
+            crate::launch::default_run_dir(&tui.def.name, t),
             "the default run directory"
         );
         assert_eq!(dir, run_dir);

@@ -180,7 +180,7 @@ impl FleetError {
     ///
     /// Every other variant is final: refusals (`ArmRefused`, a `Command` or `Mission`
     /// rejection, a read-back that differs), `Flavour`, `NotReady`, `Booting`, `NoVehicle`
-    /// `SysidConflict` and `Stopped`. This is the rule the bandit runner applies (`app::bandit`, its
+    /// `SysidConflict` and `Stopped`. This is the rule the bandit runner applies (`kinds::bandit`, its
     /// `transient` function) when it decides whether to retry an upload.
     pub(crate) fn is_transient(&self) -> bool {
         match self {

@@ -1,11 +1,11 @@
-//! The mission kinds as the UI sees them, through the registry (`crate::app::kinds`): how
+//! The mission kinds as the UI sees them, through the registry (`crate::kinds`): how
 //! each looks, to draw a model that names its kind only (a replay file records the map's
 //! label and the mission's name, not the legend), and each one's built-in sample. The first
 //! kind registered is the default: its look before a mission is loaded, its sample without
 //! `--sample`.
 
 use crate::app::kind::RunKind;
-use crate::app::kinds::{self, KindVisitor};
+use crate::kinds::{self, KindVisitor};
 use crate::panes::{KindLook, MapKind, MissionKind, Sample};
 
 /// Every registered kind's look, in registry order.
@@ -78,8 +78,8 @@ pub(crate) fn default_look() -> KindLook {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::app::bandit::Classification;
-    use crate::app::runway::Runway;
+    use crate::kinds::bandit::Classification;
+    use crate::kinds::runway::Runway;
     use crate::panes::CellState;
     use std::borrow::Cow;
 

@@ -5,8 +5,8 @@
 //! visits are short of their images, and stops after three epochs in a row without a
 //! measurement, with a reason, instead of flying the same goals for ever.
 
-use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
-use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
+use fleetmap::kinds::bandit::sim::{self as bandit_sim, SimSetup};
+use fleetmap::kinds::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::store::RunDir;
 use fleetmap_core::planner::sortie::{ClassificationState, MAX_EPOCHS_WITHOUT_MEASUREMENT};
 use fleetmap_core::world::World;

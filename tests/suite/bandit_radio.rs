@@ -6,10 +6,10 @@
 //! green share (52 bytes) instead of the picture. The mission ends with keep = the green
 //! tiles, no labelling error, and no more epochs than the same flight on unlimited links.
 
-use fleetmap::app::bandit::report as bandit_report;
-use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
-use fleetmap::app::bandit::{self, RunOptions};
 use fleetmap::fleet;
+use fleetmap::kinds::bandit::report as bandit_report;
+use fleetmap::kinds::bandit::sim::{self as bandit_sim, SimSetup};
+use fleetmap::kinds::bandit::{self, RunOptions};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;
 use fleetmap_io::link::radio::{RadioConfig, RadioStats};

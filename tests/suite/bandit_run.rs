@@ -20,9 +20,9 @@
 //! field of view as the paper's 480-pixel camera: the measurement crops to the cell) and a
 //! 6-minute charger, so the drones do not sit waiting for a charge between every epoch.
 
-use fleetmap::app::bandit::report as bandit_report;
-use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
-use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
+use fleetmap::kinds::bandit::report as bandit_report;
+use fleetmap::kinds::bandit::sim::{self as bandit_sim, SimSetup};
+use fleetmap::kinds::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::geo::Cell;
 use fleetmap_core::mission::definition::MissionDef;
@@ -359,8 +359,8 @@ async fn a_vehicle_that_rejects_its_mission_stops_the_sortie_before_take_off() {
     );
     assert!(
         matches!(
-            err.kind::<fleetmap::app::bandit::error::BanditError>(),
-            Some(fleetmap::app::bandit::error::BanditError::Rejected(_))
+            err.kind::<fleetmap::kinds::bandit::error::BanditError>(),
+            Some(fleetmap::kinds::bandit::error::BanditError::Rejected(_))
         ),
         "{msg}"
     );

@@ -17,9 +17,9 @@
 
 use crate::common;
 
-use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
-use fleetmap::app::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
+use fleetmap::kinds::bandit::sim::{self as bandit_sim, SimSetup};
+use fleetmap::kinds::bandit::{self, BanditEvent, RunOptions};
 use fleetmap::store::RunDir;
 use fleetmap_core::mission::definition::Role;
 use fleetmap_core::planner::sortie::ClassificationState;

@@ -163,7 +163,7 @@ async fn the_camera_program_measures_a_folder_of_pictures_on_board() {
         .unwrap();
     assert!(img.onboard.is_none());
     assert_eq!(img.source, "mavlink");
-    let share = fleetmap::app::bandit::measure_image(
+    let share = fleetmap::kinds::bandit::measure_image(
         &img.bytes,
         &spec.green,
         &spec.camera,
@@ -244,7 +244,7 @@ async fn the_camera_program_classifies_runway_pictures_on_board() {
     };
     hub.accept_onboard(
         OnboardKind::Runway,
-        Some(fleetmap::app::runway::onboard_accept(&spec, vec![1])),
+        Some(fleetmap::kinds::runway::onboard_accept(&spec, vec![1])),
     );
     fleet.takeoff(1, 12.0).await.unwrap();
     fleet

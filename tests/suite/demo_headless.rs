@@ -489,7 +489,7 @@ fn runway_demo_headless_report_and_exports() {
 /// first and better on the second.
 #[test]
 fn plume_demo_headless_maps_the_moving_plume() {
-    use fleetmap::app::runway::report::{iou, truth_coverage};
+    use fleetmap::kinds::runway::report::{iou, truth_coverage};
     use fleetmap_core::explore::mapping::MappingState;
     let tmp = tempfile::tempdir().unwrap();
     let run = tmp.path().join("run");

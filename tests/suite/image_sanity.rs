@@ -21,9 +21,9 @@
 
 use fleetmap::app::images;
 use fleetmap::app::kind::{OperatorTask, Outcome};
-use fleetmap::app::runway::report::truth_coverage;
-use fleetmap::app::runway::{self, MappingEvent, RunOptions};
 use fleetmap::fleet::{self, FleetConfig};
+use fleetmap::kinds::runway::report::truth_coverage;
+use fleetmap::kinds::runway::{self, MappingEvent, RunOptions};
 use fleetmap::store::RunDir;
 use fleetmap_camera::pose::CameraPose;
 use fleetmap_camera::render::{Disturbances, render};

@@ -1,5 +1,5 @@
 //! Runway mapping end to end on the embedded simulator: the GCS's runway run
-//! (`fleetmap::app::runway`) flies simulated ArduPilot copters over the runway world through
+//! (`fleetmap::kinds::runway`) flies simulated ArduPilot copters over the runway world through
 //! the real fleet, link codec and image transfer, on tokio's paused clock — fully virtual
 //! time, so a flight of an hour and more takes only the CPU time of its work.
 //!
@@ -9,9 +9,9 @@
 
 use fleetmap::app::images;
 use fleetmap::app::kind::{OperatorTask, Outcome};
-use fleetmap::app::runway::demo::{self, DemoConfig};
-use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent, RunOptions};
+use fleetmap::kinds::runway::demo::{self, DemoConfig};
+use fleetmap::kinds::runway::report::{MappingReport, report, truth_coverage};
+use fleetmap::kinds::runway::{self, MappingEvent, RunOptions};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{MappingState, MilestoneKind, RobotStatus};
@@ -23,7 +23,7 @@ use crate::common;
 
 struct Finished {
     state: MappingState,
-    report: fleetmap::app::runway::report::MappingReport,
+    report: fleetmap::kinds::runway::report::MappingReport,
     events: Vec<MappingEvent>,
     fleet: fleetmap::fleet::FleetHandle,
 }
@@ -292,7 +292,7 @@ async fn the_mission_time_survives_a_resume() {
         .await
         .unwrap();
     let mut state =
-        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+        fleetmap::kinds::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
             .await
             .unwrap();
     let tmp = tempfile::tempdir().unwrap();

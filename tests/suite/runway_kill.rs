@@ -10,7 +10,7 @@
 //! the test is about losing nothing, not about the classifier's edge cases, and it keeps CI
 //! short.
 
-use fleetmap::app::runway::report::truth_coverage;
+use fleetmap::kinds::runway::report::truth_coverage;
 use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::world::World;

@@ -13,9 +13,9 @@
 
 use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
-use fleetmap::app::runway::demo::{self, DemoConfig};
-use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent, RunOptions};
+use fleetmap::kinds::runway::demo::{self, DemoConfig};
+use fleetmap::kinds::runway::report::{MappingReport, report, truth_coverage};
+use fleetmap::kinds::runway::{self, MappingEvent, RunOptions};
 use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::world::World;

@@ -13,9 +13,9 @@
 use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
 use fleetmap::app::kind::RunKind;
-use fleetmap::app::runway::demo::{self, DemoConfig};
-use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent};
+use fleetmap::kinds::runway::demo::{self, DemoConfig};
+use fleetmap::kinds::runway::report::{MappingReport, report, truth_coverage};
+use fleetmap::kinds::runway::{self, MappingEvent};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::{FinishReason, GaveUp, MappingState, Phase, RobotStatus};
@@ -114,7 +114,7 @@ async fn fly(world_text: &str, text: &str, drones: u8, minutes: f64, seed: u64) 
             .await
             .unwrap();
     let mut state =
-        fleetmap::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+        fleetmap::kinds::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
             .await
             .unwrap();
     // The simulator and the fleet clock started together: the region's epoch (its world time
@@ -313,7 +313,7 @@ async fn a_region_drifting_within_reach_is_still_mapped() {
     );
     // The map is where the plume was at the epoch, not where it is at the end.
     let end_s = r.state.clock.elapsed_s + r.state.clock.before_takeoff_s;
-    let at_end = fleetmap::app::runway::report::iou(
+    let at_end = fleetmap::kinds::runway::report::iou(
         &r.state.book.positive_cells().into_iter().collect(),
         &truth_coverage(&r.state.grid, &r.world, end_s).unwrap(),
     );

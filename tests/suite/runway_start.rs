@@ -9,9 +9,9 @@
 //! (ten minutes with auto-resume), then the run ends saying what a person must fix.
 
 use fleetmap::app::kind::{OperatorTask, Outcome};
-use fleetmap::app::runway::MappingEvent;
-use fleetmap::app::runway::report::{report, truth_coverage};
 use fleetmap::fleet::FleetHandle;
+use fleetmap::kinds::runway::MappingEvent;
+use fleetmap::kinds::runway::report::{report, truth_coverage};
 use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::mission::definition::MissionDef;
@@ -38,7 +38,7 @@ fn team(world: &World, drones: usize, compass: (u8, f64)) -> (FleetHandle, SimTa
         }
     }
     let sim = Sim::new(sc, Time::ZERO).unwrap();
-    fleetmap::app::sim_fleet::serve_virtual(sim, None)
+    fleetmap::launch::sim_fleet::serve_virtual(sim, None)
 }
 
 #[tokio::test(flavor = "current_thread", start_paused = true)]

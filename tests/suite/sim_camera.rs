@@ -809,8 +809,8 @@ fn paired_camera_wakes_a_silent_arducopter() {
 /// measured with the parameters the GCS's run takes from the hardware mission.
 #[test]
 fn a_flipped_image_is_measured_as_the_other_class_by_the_gcs() {
-    use fleetmap::app::bandit::measure_image;
-    use fleetmap::app::bandit::sim::{HARDWARE_MISSION, HARDWARE_WORLD};
+    use fleetmap::kinds::bandit::measure_image;
+    use fleetmap::kinds::bandit::sim::{HARDWARE_MISSION, HARDWARE_WORLD};
     use fleetmap_camera::camera::{CaptureContext, SimCamera};
     use fleetmap_core::geo::{Grid, LatLon};
     use fleetmap_core::mission::definition::{MissionDef, Origin};

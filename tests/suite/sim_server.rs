@@ -286,8 +286,8 @@ async fn camera_for_a_real_autopilot() {
 /// runs at about 2×; the fleet follows its time.
 #[tokio::test(flavor = "multi_thread", worker_threads = 2)]
 async fn a_starved_simulator_still_answers_commands_in_time() {
-    use fleetmap::app::bandit::sim::HARDWARE_TEAM;
     use fleetmap::fleet::FleetConfig;
+    use fleetmap::kinds::bandit::sim::HARDWARE_TEAM;
     use fleetmap_io::clock::MonotonicClock;
 
     use std::time::Instant;

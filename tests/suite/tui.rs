@@ -23,8 +23,8 @@ use common::pty;
 
 /// The fixtures: the kinds' own (from their folders) and the generated fleet.
 mod sample {
-    pub(super) use fleetmap::app::bandit::sample::fixture as classification_fixture;
-    pub(super) use fleetmap::app::runway::sample::fixture as runway_fixture;
+    pub(super) use fleetmap::kinds::bandit::sample::fixture as classification_fixture;
+    pub(super) use fleetmap::kinds::runway::sample::fixture as runway_fixture;
     pub(super) use fleetmap::tui::sample::generated;
 }
 

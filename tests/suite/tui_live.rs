@@ -2,10 +2,10 @@
 //! as the operator sees them — snapshots of the map, mission, fleet and log panes at 80×24 and
 //! 250×70 from a state built by the run's own state machine.
 
-use fleetmap::app::bandit::Classification;
 use fleetmap::app::kind::RunKind;
-use fleetmap::app::runway::Runway;
 use fleetmap::fleet::{FleetSnapshot, GeoPoint, StatusText, VehicleSnapshot};
+use fleetmap::kinds::bandit::Classification;
+use fleetmap::kinds::runway::Runway;
 use fleetmap::panes::*;
 use fleetmap::tui::live::{LiveLog, build_model};
 use fleetmap::tui::*;

@@ -1,15 +1,15 @@
 //! `run`, `resume`, `report` and `export` written once, for any [`RunKind`].
 //!
-//! A run starts and flies through [`crate::app::launch`] (as `tui --mission` and the demo
+//! A run starts and flies through [`crate::launch`] (as `tui --mission` and the demo
 //! do); this module adds what the command line shows: progress lines, the report, exit codes.
 
 use super::dir::{connections_label, remembered_connections};
 use super::{ExportArgs, ReportArgs, ResumeArgs, RunArgs};
 use crate::app::kind::{Outcome, RunKind, RunSettings, report_json};
-use crate::app::launch::{NewRun, Ready, Start, finish_exports, prepare, run_world};
 use crate::app::run::Progress;
 use crate::cli::vehicles::{ConnectArgs, Session, block_on};
 use crate::fleet::FleetHandle;
+use crate::launch::{NewRun, Ready, Start, finish_exports, prepare, run_world};
 use crate::store::RunDir;
 use anyhow::{Context as _, bail};
 use fleetmap_io::link::ConnSpec;
@@ -33,7 +33,7 @@ pub(crate) fn print_progress() -> (
     (tx, task)
 }
 
-/// Fly a ready run ([`crate::app::launch::prepare`]) headless (progress lines, then the
+/// Fly a ready run ([`crate::launch::prepare`]) headless (progress lines, then the
 /// report), or in the terminal UI when there is a terminal and `headless` is not asked for;
 /// prints how it ended. `run` and `resume` fly through here.
 pub(super) async fn fly<K: RunKind>(

@@ -1,8 +1,8 @@
 //! `fleetmap run MISSION.toml --connect CONN`, `fleetmap resume RUN_DIR`,
 //! `fleetmap report RUN_DIR [--json]`, `fleetmap export RUN_DIR --format geojson|kml|png`.
 //!
-//! Both mission kinds: runway mapping ([`crate::app::runway`]) and spatial classification
-//! ([`crate::app::bandit`]), each a [`crate::app::kind::RunKind`]: the commands are written
+//! Both mission kinds: runway mapping ([`crate::kinds::runway`]) and spatial classification
+//! ([`crate::kinds::bandit`]), each a [`crate::app::kind::RunKind`]: the commands are written
 //! once (`flow`) and dispatch on the kind once — `run` on the mission file's, `resume`,
 //! `report` and `export` on the one in `run.json`.
 //!
@@ -15,9 +15,9 @@ mod dir;
 pub(crate) mod flow;
 
 use crate::app::kind::{self, RunKind, RunSettings};
-use crate::app::kinds::{self, KindVisitor};
-use crate::app::launch::NewRun;
 use crate::cli::vehicles::ConnectArgs;
+use crate::kinds::{self, KindVisitor};
+use crate::launch::NewRun;
 use crate::store::RunDir;
 use anyhow::Context as _;
 use clap::{Args, ValueEnum};

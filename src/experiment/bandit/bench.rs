@@ -1,8 +1,8 @@
 //! `fleetmap bench plan`: the per-epoch solve time of the spatial classification's IP on the
 //! 10×10 default.
 
-use crate::app::bandit::{BoundArg, ModelArg};
 use crate::experiment::Emit;
+use crate::kinds::bandit::{BoundArg, ModelArg};
 use clap::{Args, Subcommand};
 use fleetmap_core::planner::ip::{Model, PlanOptions, solve_instance};
 use indicatif::{ProgressBar, ProgressDrawTarget};

@@ -5,8 +5,8 @@
 use super::fastplain::{self, FastPlainConfig};
 use super::shard::{self, SHARD_FORMAT, Shard, ShardFile};
 use super::{Preset, Sensing, Study, StudyConfig, TrialResult, VariantSummary, paper, plot, table};
-use crate::app::bandit::BoundArg;
 use crate::experiment::Emit;
+use crate::kinds::bandit::BoundArg;
 use anyhow::Context;
 use clap::{Args, Subcommand, ValueEnum};
 use fleetmap_core::planner::bandit::{ConfidenceBound, LogBase};

@@ -4,11 +4,11 @@
 //! world `assets/worlds/runway.toml`) with a team of simulated ArduPilot copters, the GCS in
 //! the same process: 12-minute batteries swapped by the simulated crew 30 s after a landing,
 //! the runner resuming by itself. Every figure is in simulated seconds — the report's mission
-//! time ([`crate::app::runway::report::MissionTime`]).
+//! time ([`crate::kinds::runway::report::MissionTime`]).
 //!
 //! **The clock** (`--speedup`). By default (`virtual`) a trial runs in virtual time, as the
 //! end-to-end tests do: the simulator behind in-process links
-//! ([`crate::app::runway::demo::start_virtual`]) on a current-thread runtime whose clock is paused,
+//! ([`crate::kinds::runway::demo::start_virtual`]) on a current-thread runtime whose clock is paused,
 //! so time moves only when every task waits, and the GCS's own work (decoding and
 //! classifying ~600 pictures) takes no simulated time — as at 1× in the field, where it is a
 //! few milliseconds a picture against seconds of flight. The figures then describe the
@@ -36,9 +36,9 @@ pub(crate) mod plot;
 use crate::app::flight::Patience;
 use crate::app::images;
 use crate::app::kind::Outcome;
-use crate::app::runway::demo;
-use crate::app::runway::report::{MappingReport, truth_coverage};
-use crate::app::runway::{self, RunOptions};
+use crate::kinds::runway::demo;
+use crate::kinds::runway::report::{MappingReport, truth_coverage};
+use crate::kinds::runway::{self, RunOptions};
 use crate::store::{RunDir, RunMeta};
 use anyhow::Context as _;
 use fleetmap_core::explore::dfs::{Allocation, Sharing};
@@ -173,7 +173,7 @@ pub struct TrialRow {
 }
 
 /// One drone of one trial: where its mission time went, simulated seconds
-/// ([`crate::app::runway::report::RobotTimeReport`]).
+/// ([`crate::kinds::runway::report::RobotTimeReport`]).
 #[derive(Clone, Debug, Serialize)]
 pub(crate) struct DroneRow {
     /// Team size.
@@ -431,7 +431,7 @@ fn saved_report(dir: &Path) -> Option<MappingReport> {
     let state: MappingState = RunDir::open(dir).ok()?.load_state().ok()??;
     let world = World::from_toml(demo::RUNWAY_WORLD).ok()?;
     let cov = truth_coverage(&state.grid, &world, 0.0).ok()?;
-    Some(crate::app::runway::report::report(&state, Some(&cov)))
+    Some(crate::kinds::runway::report::report(&state, Some(&cov)))
 }
 
 /// Fly one trial: `drones` copters, simulator seed `seed`, the run directory `dir`.
@@ -474,7 +474,7 @@ async fn fly(
     };
     let result = async {
         let state =
-            crate::app::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
+            crate::kinds::runway::new_mapping(&fleet, &def, Sharing::Gcs, Duration::from_secs(60))
                 .await?;
         let mut meta = RunMeta::new(runway::KIND, unix_ms());
         meta.mission_path = Some("built-in runway-field-test.toml".into());

@@ -1,8 +1,8 @@
 //! Driving a spatial-classification run in a test.
 
-use fleetmap::app::bandit::sim as bandit_sim;
-use fleetmap::app::bandit::{self, RunOptions};
 use fleetmap::fleet::FleetHandle;
+use fleetmap::kinds::bandit::sim as bandit_sim;
+use fleetmap::kinds::bandit::{self, RunOptions};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::planner::sortie::ClassificationState;

@@ -131,7 +131,7 @@ pub const STRIP_CENTRE: (f64, f64) = (37.196800, -80.578100);
 /// [`STRIP_CENTRE`] instead of the vehicle's first position, so that the map does not depend on
 /// where the simulated GPS puts home.
 pub fn strip_mission() -> String {
-    let field_test = fleetmap::app::runway::demo::RUNWAY_MISSION;
+    let field_test = fleetmap::kinds::runway::demo::RUNWAY_MISSION;
     let (lat, lon) = STRIP_CENTRE;
     let fixed = field_test.replacen(
         "\norigin = \"vehicle\"",

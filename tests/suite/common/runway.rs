@@ -2,10 +2,10 @@
 
 use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
-use fleetmap::app::runway::KIND;
-use fleetmap::app::runway::MappingEvent;
-use fleetmap::app::runway::{self, RunOptions};
 use fleetmap::fleet::FleetHandle;
+use fleetmap::kinds::runway::KIND;
+use fleetmap::kinds::runway::MappingEvent;
+use fleetmap::kinds::runway::{self, RunOptions};
 use fleetmap::store::{RunDir, RunMeta};
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::explore::mapping::MappingState;
@@ -63,7 +63,7 @@ pub async fn new_run(
     def: &MissionDef,
     text: &str,
 ) -> super::NewRun<MappingState> {
-    let state = fleetmap::app::runway::new_mapping(
+    let state = fleetmap::kinds::runway::new_mapping(
         fleet,
         def,
         Sharing::Gcs,

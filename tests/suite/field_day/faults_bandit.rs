@@ -19,9 +19,9 @@
 //! counted twice, and the operator told of the fault, naming the vehicle.
 
 use crate::common::bandit::run_until;
-use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
-use fleetmap::app::bandit::{self, BanditEvent};
 use fleetmap::fleet::FleetHandle;
+use fleetmap::kinds::bandit::sim::{self as bandit_sim, SimSetup};
+use fleetmap::kinds::bandit::{self, BanditEvent};
 use fleetmap::store::RunDir;
 use fleetmap_core::planner::sortie::ClassificationState;
 use fleetmap_sim::fault::parse_faults;

@@ -21,10 +21,10 @@
 //! small (about 20 s a run); the 3-drone field test takes minutes a run.
 
 use fleetmap::app::kind::Outcome;
-use fleetmap::app::runway::demo::{self, DemoConfig};
-use fleetmap::app::runway::report::{MappingReport, report, truth_coverage};
-use fleetmap::app::runway::{self, MappingEvent};
 use fleetmap::fleet::FleetHandle;
+use fleetmap::kinds::runway::demo::{self, DemoConfig};
+use fleetmap::kinds::runway::report::{MappingReport, report, truth_coverage};
+use fleetmap::kinds::runway::{self, MappingEvent};
 use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::geo::Cell;

@@ -5,10 +5,10 @@
 //! and says what to do, before any upload, arming or mode change (checked on every frame the
 //! GCS sent); a fleet where every autopilot has its own id is not flagged and starts.
 
-use fleetmap::app::bandit;
-use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
 use fleetmap::app::error::RunnerError;
 use fleetmap::fleet::{self, FleetConfig, FleetHandle};
+use fleetmap::kinds::bandit;
+use fleetmap::kinds::bandit::sim::{self as bandit_sim, SimSetup};
 use fleetmap_core::explore::dfs::Sharing;
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
@@ -163,7 +163,7 @@ fn two_drones() -> MissionDef {
 async fn runway_run_refuses_two_autopilots_on_one_system_id() {
     let (fleet, _sim, sent) = wire(strip_sim(true));
     let t0 = tokio::time::Instant::now();
-    let r = fleetmap::app::runway::new_mapping(
+    let r = fleetmap::kinds::runway::new_mapping(
         &fleet,
         &two_drones(),
         Sharing::Gcs,
@@ -186,7 +186,7 @@ async fn runway_run_refuses_two_autopilots_on_one_system_id() {
 #[tokio::test(flavor = "current_thread", start_paused = true)]
 async fn runway_run_starts_on_a_clean_fleet() {
     let (fleet, _sim, _sent) = wire(strip_sim(false));
-    let state = fleetmap::app::runway::new_mapping(
+    let state = fleetmap::kinds::runway::new_mapping(
         &fleet,
         &two_drones(),
         Sharing::Gcs,

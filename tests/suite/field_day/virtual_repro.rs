@@ -17,13 +17,13 @@
 //!   (`planned`'s `seconds`, `planner_s`, and the progress line's "planner … s"), a
 //!   measurement of this machine: those fields are left out of the comparison, nothing else.
 
-use fleetmap::app::bandit::sim::{self as bandit_sim, SimSetup};
-use fleetmap::app::bandit::{self, BanditEvent};
 use fleetmap::app::images;
 use fleetmap::app::kind::Outcome;
-use fleetmap::app::runway::demo::{self, DemoConfig};
-use fleetmap::app::runway::report::{report, truth_coverage};
-use fleetmap::app::runway::{self, RunOptions};
+use fleetmap::kinds::bandit::sim::{self as bandit_sim, SimSetup};
+use fleetmap::kinds::bandit::{self, BanditEvent};
+use fleetmap::kinds::runway::demo::{self, DemoConfig};
+use fleetmap::kinds::runway::report::{report, truth_coverage};
+use fleetmap::kinds::runway::{self, RunOptions};
 use fleetmap::store::RunDir;
 use fleetmap_core::explore::mapping::MappingState;
 use fleetmap_core::mission::definition::MissionDef;

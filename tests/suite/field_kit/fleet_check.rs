@@ -15,7 +15,7 @@ use fleetmap_test_kit::Guard;
 
 /// The runway field-test mission with drones 1..=n.
 fn mission(n: u8) -> tempfile::NamedTempFile {
-    let text = fleetmap::app::runway::demo::RUNWAY_MISSION;
+    let text = fleetmap::kinds::runway::demo::RUNWAY_MISSION;
     let at = 1 + text
         .find("\n[runway]")
         .expect("the mission's [runway] table");

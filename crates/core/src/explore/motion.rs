@@ -154,7 +154,7 @@ impl RoiMotion {
     /// Where and when a robot at ground point (`east`, `north`) at time `now`, flying
     /// straight at `robot_speed`, meets the centre of ROI-frame `cell`: (seconds of flight,
     /// ground (east, north) of the meeting point). The experiments' model of a visit to a
-    /// translating ROI, and where the field runner flies for one (`app::runway`'s
+    /// translating ROI, and where the field runner flies for one (`kinds::runway`'s
     /// `RoiClock::intercept`).
     pub fn intercept(
         &self,

@@ -413,7 +413,7 @@ impl BanditState {
     /// cells classified now.
     ///
     /// A deviation from Algorithm 1, which applies (4) once per epoch (step 5): the field
-    /// runner (`app::bandit`) applies it after every measurement, so that a cell
+    /// runner (`kinds::bandit`) applies it after every measurement, so that a cell
     /// settled in the middle of an epoch is not imaged again in the epoch's later sensing
     /// cycles. Prop. 1 still holds: (15) — [19, Lem. 1], a law-of-the-iterated-logarithm
     /// bound — holds for every sample count n simultaneously, so (4) may be checked after

@@ -17,7 +17,7 @@
 //! states after the vertex's five images, so a neighbour found positive by any earlier visit
 //! is a child too.
 //!
-//! The runner (the async shell in `app::runway`) asks [`MappingState::directive`] what
+//! The runner (the async shell in `kinds::runway`) asks [`MappingState::directive`] what
 //! each robot should do, carries it out with the fleet, reports back with the `on_*` methods,
 //! and persists the whole state after every call. Robots are identified by MAVLink system id;
 //! [`RobotId`] in the explorer is the same number.

@@ -1,6 +1,6 @@
 //! The spatial-classification run on a real fleet as a pure, serialisable state machine
 //! (bandit paper Algorithm 1 with Algorithm 2 as the low-level planner): no I/O, no clock —
-//! every time is a parameter, and the async shell (`app::bandit`) saves the state
+//! every time is a parameter, and the async shell (`kinds::bandit`) saves the state
 //! after every change, so a run killed at any moment resumes from its last acknowledged
 //! measurement.
 //!

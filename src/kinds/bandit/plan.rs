@@ -1,6 +1,7 @@
 //! `fleetmap plan --scenario FILE.json [--json]`: solve one epoch of the bandit paper's
 //! low-level planner (the IP (11), Algorithm 2) for a scenario file (docs/ip-scenario.md).
 
+use super::ModelArg;
 use anyhow::Context;
 use clap::Args;
 use fleetmap_core::planner::ip::{PlanOptions, PlanOutcome, PlanStatus, solve_instance};
@@ -10,8 +11,6 @@ use std::fmt::Write as _;
 use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
-
-pub use crate::app::bandit::ModelArg;
 
 /// Arguments of `fleetmap plan`.
 #[derive(Debug, Args)]

@@ -5,8 +5,8 @@
 //! end-to-end tests fly.
 
 use crate::app::error::SimStartError;
-use crate::app::sim_fleet::{UdpWiring, serve_udp, serve_virtual};
 use crate::fleet::FleetHandle;
+use crate::launch::sim_fleet::{UdpWiring, serve_udp, serve_virtual};
 use fleetmap_core::time::Time;
 use fleetmap_core::world::World;
 use fleetmap_io::link::radio::RadioConfig;
@@ -48,7 +48,7 @@ pub struct SimSetup {
     /// [`fleetmap_camera::camera::CameraConfig::misclassify_probability`].
     pub sensor_flip: f64,
     /// Cameras that measure on board with this definition (the mission's:
-    /// [`crate::app::bandit::green_spec_of`]) and send the green share instead of the
+    /// [`crate::kinds::bandit::green_spec_of`]) and send the green share instead of the
     /// picture; `None`: every picture is sent whole.
     pub onboard: Option<fleetmap_core::vision::onboard::GreenSpec>,
     /// Each vehicle behind its own telemetry radio (budget counted in simulated time), the
@@ -93,7 +93,7 @@ pub fn sim_config(spec: &str, world: &World, setup: &SimSetup) -> Result<SimConf
             c.onboard = setup
                 .onboard
                 .map(fleetmap_core::vision::onboard::OnboardSpec::Green);
-            c.transfer_rate_bps = crate::app::demo::camera_rate(setup.radio.as_ref());
+            c.transfer_rate_bps = crate::launch::demo::camera_rate(setup.radio.as_ref());
         }
     }
     Ok(match &setup.radio {

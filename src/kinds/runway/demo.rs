@@ -10,14 +10,14 @@
 //! mission is flown to the end (battery swaps included when `--battery-minutes` is short
 //! enough), sped up to finish within minutes.
 
-use crate::app::demo::{DemoInputs, DemoKind, DemoPlan, DemoTeam, camera_rate};
 use crate::app::error::SimStartError;
 use crate::app::kind::{Outcome, RunSettings};
-use crate::app::launch::NewRun;
-use crate::app::runway::Runway;
-use crate::app::runway::report::{MappingReport, ROI_SURFACES};
-use crate::app::sim_fleet::{UdpWiring, serve_udp, serve_virtual};
 use crate::fleet::FleetHandle;
+use crate::kinds::runway::Runway;
+use crate::kinds::runway::report::{MappingReport, ROI_SURFACES};
+use crate::launch::NewRun;
+use crate::launch::demo::{DemoInputs, DemoKind, DemoPlan, DemoTeam, camera_rate};
+use crate::launch::sim_fleet::{UdpWiring, serve_udp, serve_virtual};
 use anyhow::{Context as _, bail};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::time::Time;
@@ -49,7 +49,7 @@ pub struct DemoConfig {
     /// Altitude separation between drones, metres (0: all at 12 m).
     pub altitude_separation_m: f64,
     /// Cameras that classify runway pictures on board with this definition (the mission's:
-    /// [`crate::app::runway::runway_definition_of`]) and send each picture's cell and region
+    /// [`crate::kinds::runway::runway_definition_of`]) and send each picture's cell and region
     /// counts instead of the picture; `None`: every picture is sent whole.
     pub onboard: Option<fleetmap_core::vision::runway::onboard::RunwayDefinition>,
     /// Each vehicle behind its own telemetry radio (budget counted in simulated time), the
@@ -235,7 +235,7 @@ pub(crate) async fn start_at(
 /// (or the plume mission over a moving region), the team `--drones` ArduPilot copters; on a
 /// radio the cameras classify their pictures on board.
 impl DemoKind for Runway {
-    type Flags = crate::app::demo::NoFlags;
+    type Flags = crate::launch::demo::NoFlags;
     /// The simulator's vehicles (`--drones` copters), the world, the set-up.
     type Team = (String, World, DemoConfig);
     const RUN_DIR_PREFIX: &'static str = "demo";
@@ -260,7 +260,7 @@ impl DemoKind for Runway {
             battery_minutes: args.options.battery_minutes,
             altitude_separation_m: args.options.separation,
             radio: args.radio.config()?,
-            faults: crate::app::demo::fault_schedule(args.faults)?,
+            faults: crate::launch::demo::fault_schedule(args.faults)?,
             ..DemoConfig::default()
         };
         let (world_text, world) = match &args.options.world {

@@ -406,7 +406,7 @@ pub fn report(state: &MappingState, coverage: Option<&BTreeMap<Cell, f64>>) -> M
         ground_share: team_share(|t| t.ground_s),
     };
     MappingReport {
-        kind: crate::app::runway::KIND,
+        kind: crate::kinds::runway::KIND,
         mission: state.mission.clone(),
         allocation: ExplorerConfig {
             sharing: state.params.sharing,

@@ -766,7 +766,7 @@ mod tests {
     /// A moving region's run accepts none; another kind of mission gives none.
     #[test]
     fn the_cameras_definition_is_the_runs() {
-        let def = MissionDef::parse(crate::app::runway::demo::RUNWAY_MISSION, "field").unwrap();
+        let def = MissionDef::parse(crate::kinds::runway::demo::RUNWAY_MISSION, "field").unwrap();
         let home = LatLon {
             lat: 37.1965,
             lon: -80.5785,
@@ -778,7 +778,7 @@ mod tests {
         assert_eq!(d.adopt(&spec.announcement()), spec.fingerprint());
         assert_eq!(d.spec(), Some(spec));
         // a fixed origin: the camera has the grid from the file
-        let fixed = crate::app::runway::demo::RUNWAY_MISSION.replacen(
+        let fixed = crate::kinds::runway::demo::RUNWAY_MISSION.replacen(
             "\norigin = \"vehicle\"",
             "\norigin = { lat = 37.1965, lon = -80.5785 }",
             1,
@@ -788,10 +788,10 @@ mod tests {
         let d = runway_definition_of(&def).unwrap();
         assert_eq!(d.spec(), runway_spec(&state));
         // a region that moves: its pictures stay on the picture path
-        let plume = MissionDef::parse(crate::app::runway::demo::PLUME_MISSION, "plume").unwrap();
+        let plume = MissionDef::parse(crate::kinds::runway::demo::PLUME_MISSION, "plume").unwrap();
         let state = MappingState::new(&plume, Grid::new(home, 4.0).unwrap(), Sharing::Gcs).unwrap();
         assert_eq!(runway_spec(&state), None);
-        let bandit = MissionDef::parse(crate::app::bandit::sim::HARDWARE_MISSION, "6x6").unwrap();
+        let bandit = MissionDef::parse(crate::kinds::bandit::sim::HARDWARE_MISSION, "6x6").unwrap();
         assert_eq!(runway_definition_of(&bandit), None);
     }
 }

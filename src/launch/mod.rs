@@ -2,12 +2,24 @@
 //! and `resume`, `fleetmap tui --mission` and `--resume`, and `fleetmap demo`.
 //!
 //! A door parses its own options and opens its own fleet (real links, or the demo's
-//! simulator: the simulator's start-up stays in the demo), then calls [`prepare`] with the
-//! connected fleet and what to start ([`Start`]), and [`Ready::fly`] with how to fly it
-//! ([`Face`]). What every run directory gets is therefore decided here once: the creation
-//! time, the default directory name (`runs/NAME-YYYYMMDD-HHMMSS`), the connections, and the
-//! simulated world, which is kept in the run directory as `world.toml` so that `fleetmap
-//! report` scores it later wherever the run directory goes.
+//! simulator: the simulator's start-up stays in the demo), then calls `prepare` with the
+//! connected fleet and what to start (`Start`), and flies the run it gets back
+//! (`Ready::fly_headless`, or `tui::session::fly` in the UI). What every run directory gets
+//! is therefore decided here once: the creation time, the default directory name
+//! (`runs/NAME-YYYYMMDD-HHMMSS`), the connections, and the simulated world, which is kept in
+//! the run directory as `world.toml` so that `fleetmap report` scores it later wherever the
+//! run directory goes.
+//!
+//! | module | what |
+//! |---|---|
+//! | this file | the one way to start or resume a run (`prepare`, then `Ready::fly_headless` or the UI's `tui::session::fly`), for `run`, `resume`, `tui --mission` and `demo` |
+//! | [`demo`] | (feature `sim`) `fleetmap demo`: what a kind's demo on the embedded simulator supplies (`demo::DemoKind`, in the kind's folder), and the flags every demo shares |
+//! | [`sim_fleet`] | (feature `sim`) the embedded simulator and a fleet on it, started together over loopback UDP or in-process links (the demo, the bandit team, tests) |
+
+#[cfg(feature = "sim")]
+pub mod demo;
+#[cfg(feature = "sim")]
+pub mod sim_fleet;
 
 use crate::app::blocking::run_blocking;
 use crate::app::error::RunError;

@@ -2,7 +2,7 @@
 //! around [`MappingState`].
 //!
 //! One **pilot** task per drone asks the state what to do ([`MappingState::directive`]),
-//! does it through the fleet ([`super::flight`]) and reports back; every report is saved
+//! does it through the fleet ([`crate::app::flight`]) and reports back; every report is saved
 //! before the pilot goes on (`state.json` replaced atomically, then one journal record in
 //! `events.jsonl`), so a GCS killed at any moment resumes from the last acknowledged step
 //! (`fleetmap resume RUN_DIR`) with every counted image kept. The vehicles need nothing
@@ -83,6 +83,7 @@ use std::time::Duration;
 use tokio::sync::{broadcast, mpsc};
 
 mod camera;
+pub mod classify;
 #[cfg(feature = "sim")]
 pub mod demo;
 pub mod error;

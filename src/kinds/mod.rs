@@ -1,11 +1,20 @@
-//! The mission kinds this build flies: the one list a new kind is registered in
-//! (`registry!` below; CONTRIBUTING.md, "Adding a mission kind").
+//! The mission kinds this build flies (async shell), each one folder, and the one list a new
+//! kind is registered in (`registry!` below; CONTRIBUTING.md, "Adding a mission kind"): a
+//! kind's `mod` line and its registry line are both in this file.
+//!
+//! | module | what |
+//! |---|---|
+//! | [`runway`] | the runway-mapping run (sweep, confirmation, DFS, battery swaps, resume): events, pilot, intake, sweep, runner; its report and GeoJSON / KML / PNG exports, IoU against a simulated world |
+//! | [`bandit`] | the spatial-classification run (epochs, sorties with charging rovers, measurements, resume): events, runner, sortie, pilot, intake, upload; its report (keep / reject / errors, per-epoch figures) and the progress PNG (Fig. 4) |
 //!
 //! Code that works on "a run of whatever kind" is written once, generic over
 //! [`RunKind`], as a `KindVisitor`; `by_name` and `of_mission` call it with the kind
 //! a run directory or a mission file names. With the simulator, every kind is also a
-//! `crate::app::demo::DemoKind`: `fleetmap demo` takes each kind's flags
+//! `crate::launch::demo::DemoKind`: `fleetmap demo` takes each kind's flags
 //! (`DemoFlags`) and flies the demo they choose.
+
+pub mod bandit;
+pub mod runway;
 
 use crate::app::kind::RunKind;
 use fleetmap_core::mission::definition::MissionDef;
@@ -32,10 +41,10 @@ pub(crate) struct UnknownKind {
 #[cfg(feature = "sim")]
 macro_rules! demo_flags {
     ($kind:ty) => {
-        crate::app::demo::KindFlags<$kind, crate::app::demo::NoFlags>
+        crate::launch::demo::KindFlags<$kind, crate::launch::demo::NoFlags>
     };
     ($kind:ty, $($rest:ty),+) => {
-        crate::app::demo::KindFlags<$kind, demo_flags!($($rest),+)>
+        crate::launch::demo::KindFlags<$kind, demo_flags!($($rest),+)>
     };
 }
 
@@ -66,8 +75,8 @@ macro_rules! registry {
 }
 
 registry!(
-    crate::app::runway::Runway,
-    crate::app::bandit::Classification
+    crate::kinds::runway::Runway,
+    crate::kinds::bandit::Classification
 );
 
 /// Call `v` with the kind of the mission `def`.

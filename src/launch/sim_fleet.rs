@@ -1,7 +1,7 @@
 //! The embedded simulator and a fleet connected to it, started together (async shell): over
 //! loopback UDP on the simulator's own time ([`serve_udp`]), or over in-process links on the
-//! runtime's clock (`serve_virtual`). The runway demo ([`crate::app::runway::demo`]), the simulated
-//! bandit team ([`crate::app::bandit::sim`]) and the tests start theirs here.
+//! runtime's clock (`serve_virtual`). The runway demo ([`crate::kinds::runway::demo`]), the simulated
+//! bandit team ([`crate::kinds::bandit::sim`]) and the tests start theirs here.
 
 use crate::app::error::SimStartError;
 use crate::fleet::{self, FleetConfig, FleetHandle};

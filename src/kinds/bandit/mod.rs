@@ -82,6 +82,7 @@ mod intake;
 mod members;
 mod panes;
 mod pilot;
+pub mod plan;
 mod runner;
 pub mod sample;
 #[cfg(feature = "sim")]

@@ -9,10 +9,10 @@
 use super::report::ClassificationReport;
 use super::sim::{self, SimSetup};
 use super::{BoundArg, Classification};
-use crate::app::demo::{DemoInputs, DemoKind, DemoPlan, DemoTeam, fault_schedule};
 use crate::app::error::SimStartError;
 use crate::app::kind::{Outcome, RunKind, RunSettings};
-use crate::app::launch::NewRun;
+use crate::launch::NewRun;
+use crate::launch::demo::{DemoInputs, DemoKind, DemoPlan, DemoTeam, fault_schedule};
 use anyhow::{Context as _, bail};
 use fleetmap_core::mission::definition::MissionDef;
 use fleetmap_core::world::World;

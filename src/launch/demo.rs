@@ -4,14 +4,14 @@
 //! Each kind brings its own demo (`DemoKind`, in its folder: the built-in world and mission,
 //! the simulated team, the on-board measurement, the report's lines and what counts as
 //! success) and its own flags; `fleetmap demo` (`src/cli/demo.rs`) is written once over them,
-//! the kind chosen through the registry ([`crate::app::kinds`]). This file holds the flags
+//! the kind chosen through the registry ([`crate::kinds`]). This file holds the flags
 //! every demo shares ([`DemoOptions`], [`RadioArgs`], `--fault`) and the simulated cameras'
 //! pacing behind a radio.
 
 use crate::app::error::SimStartError;
 use crate::app::kind::{Outcome, RunKind, RunSettings};
-use crate::app::launch::NewRun;
 use crate::fleet::FleetHandle;
+use crate::launch::NewRun;
 use anyhow::{Context as _, bail};
 use clap::Args;
 use fleetmap_io::link::radio::RadioConfig;
@@ -218,7 +218,7 @@ pub(crate) trait DemoVisitor {
     fn visit<K: DemoKind>(self, flags: &K::Flags) -> Self::Output;
 }
 
-/// Every kind's demo flags, as one list ([`crate::app::kinds::DemoFlags`]: [`KindFlags`]
+/// Every kind's demo flags, as one list ([`crate::kinds::DemoFlags`]: [`KindFlags`]
 /// ending in [`NoFlags`]).
 pub(crate) trait DemoFlagList: clap::Args + std::fmt::Debug {
     /// `v` with the first kind of the list whose flags choose it; `Err(v)` when none does.
