@@ -15,8 +15,9 @@ pub struct BenchArgs {
 /// The benchmarks.
 #[derive(Debug, Subcommand)]
 pub enum BenchCommand {
-    /// Images per second of the runway classifier (`--width 1920 --height 1080 --images N`).
-    Classify(crate::cli::classify::BenchClassifyArgs),
+    #[command(flatten)]
+    #[allow(missing_docs)]
+    KindTool(crate::kinds::KindBenchCommands),
     /// Terminal UI: full-frame redraws of a generated fleet, frames per second.
     Tui(super::tui::TuiBenchArgs),
     #[cfg(feature = "sim")]
@@ -36,10 +37,10 @@ pub enum BenchCommand {
 /// Run a benchmark.
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     match args.what {
-        BenchCommand::Classify(a) => crate::cli::classify::bench(a),
+        BenchCommand::KindTool(b) => b.run(),
         BenchCommand::Tui(a) => super::tui::bench(a),
         #[cfg(feature = "sim")]
-        BenchCommand::Kind(b) => b.run(super::plan::emit),
+        BenchCommand::Kind(b) => b.run(crate::kinds::emit),
         #[cfg(feature = "sim")]
         BenchCommand::Transfer(a) => super::bench_transfer::run(a),
         #[cfg(feature = "sim")]

@@ -26,7 +26,7 @@ pub enum ExperimentCommand {
 pub fn run(args: ExperimentArgs) -> anyhow::Result<ExitCode> {
     match args.which {
         ExperimentCommand::Dfs(a) => run_dfs(a),
-        ExperimentCommand::Kind(s) => s.run(super::plan::emit),
+        ExperimentCommand::Kind(s) => s.run(crate::kinds::emit),
     }
 }
 

@@ -28,9 +28,6 @@ pub mod sim;
 pub mod tui;
 pub mod vehicles;
 
-// The kinds' own commands, each in its kind's folder: `fleetmap classify` (the runway
-// classifier on image files) and `fleetmap plan` (the spatial classification's planner).
-use crate::kinds::{bandit::plan, runway::classify};
 use clap::{Parser, Subcommand};
 use std::path::PathBuf;
 use std::process::ExitCode;
@@ -68,13 +65,12 @@ pub enum Command {
     Camera(Box<fleetmap_camera::cli::CameraArgs>),
     /// Convert between mission-grid cells and GPS/UTM coordinates; export cells as GeoJSON/KML.
     Grid(grid::GridArgs),
-    /// Classify images with the runway sensing model (and the green-pixel measurement).
-    Classify(classify::ClassifyArgs),
+    #[command(flatten)]
+    #[allow(missing_docs)]
+    Kind(crate::kinds::KindCommands),
     /// The operator's terminal UI: live on MAVLink connections (`--connect`), with a mission to
     /// start (`--mission`) or a run to continue (`--resume`); or a built-in sample or a replay file.
     Tui(tui::TuiArgs),
-    /// Solve one epoch of the bandit planner's integer program for a scenario file.
-    Plan(plan::PlanArgs),
     /// List the vehicles heard on MAVLink connections and their state.
     Vehicles(vehicles::VehiclesArgs),
     /// Upload, download, clear or fly a mission (also fence and rally lists).
@@ -186,9 +182,8 @@ pub fn run(cli: Cli) -> anyhow::Result<ExitCode> {
         Command::Sim(args) => sim::run(*args),
         Command::Camera(args) => fleetmap_camera::cli::run(*args),
         Command::Grid(args) => grid::run(args),
-        Command::Classify(args) => classify::run(args),
+        Command::Kind(c) => c.run(),
         Command::Tui(args) => tui::run(args, log_file.as_deref()),
-        Command::Plan(args) => plan::run(args),
         Command::Vehicles(args) => vehicles::run(args),
         Command::Mission(args) => mission::run(args),
         Command::Command(args) => command::run(args),

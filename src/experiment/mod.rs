@@ -5,18 +5,19 @@
 //! (`bench::Benches`); `kinds!` below lists them once, and the command line flattens the lists
 //! it makes ([`KindStudies`], [`KindBenches`]) into its own.
 
-pub mod bandit;
 pub mod dfs;
-pub mod runway;
 
 /// Print a command's result on stdout, as the command line does (a closed pipe is not an
 /// error).
 pub(crate) type Emit = fn(&str) -> anyhow::Result<()>;
 
-/// The kinds whose folders hold studies (`<kind>::cli::Studies`) and benchmarks
-/// (`<kind>::bench::Benches`), in the order `--help` lists them.
+/// Every kind's folder of studies (`<kind>::cli::Studies`) and, for the kinds that have them,
+/// benchmarks (`<kind>::bench::Benches`), from the list of kinds
+/// ([`fleetmap_core::for_each_kind!`]'s `study` part), in its order.
 macro_rules! kinds {
-    (studies: [$($s:ident),+], benches: [$($b:ident),+]) => {
+    ($([$s:ident $($b:ident)?])+) => {
+        $(pub mod $s;)+
+
         /// Every kind's studies, subcommands of `fleetmap experiment`.
         #[derive(Debug, clap::Subcommand)]
         #[allow(non_camel_case_types, missing_docs)]
@@ -40,21 +41,21 @@ macro_rules! kinds {
         #[derive(Debug, clap::Subcommand)]
         #[allow(non_camel_case_types, missing_docs)]
         pub enum KindBenches {
-            $(
+            $($(
                 #[command(flatten)]
                 $b($b::bench::Benches),
-            )+
+            )?)+
         }
 
         impl KindBenches {
             /// Run the benchmark; `emit` prints its figures on stdout.
             pub(crate) fn run(self, emit: Emit) -> anyhow::Result<std::process::ExitCode> {
                 match self {
-                    $(KindBenches::$b(b) => b.run(emit),)+
+                    $($(KindBenches::$b(b) => b.run(emit),)?)+
                 }
             }
         }
     };
 }
 
-kinds!(studies: [bandit, runway], benches: [bandit]);
+fleetmap_core::for_each_kind!(study => kinds);

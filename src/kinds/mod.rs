@@ -13,9 +13,6 @@
 //! `crate::launch::demo::DemoKind`: `fleetmap demo` takes each kind's flags
 //! (`DemoFlags`) and flies the demo they choose.
 
-pub mod bandit;
-pub mod runway;
-
 use crate::app::kind::RunKind;
 use fleetmap_core::mission::definition::MissionDef;
 
@@ -74,10 +71,71 @@ macro_rules! registry {
     };
 }
 
-registry!(
-    crate::kinds::runway::Runway,
-    crate::kinds::bandit::Classification
-);
+/// Every kind's module and its [`RunKind`], from the list of kinds
+/// ([`fleetmap_core::for_each_kind!`]'s `run` part), with the registration and the kinds'
+/// own subcommands (`<kind>::commands`).
+macro_rules! kinds {
+    ($([$module:ident $kind:ident])+) => {
+        $(pub mod $module;)+
+
+        registry!($($module::$kind),+);
+
+        /// Every kind's own subcommands of `fleetmap` (`fleetmap classify`, `fleetmap plan`).
+        #[derive(Debug, clap::Subcommand)]
+        #[allow(non_camel_case_types, missing_docs)]
+        pub enum KindCommands {
+            $(
+                #[command(flatten)]
+                $module($module::commands::Commands),
+            )+
+        }
+
+        impl KindCommands {
+            /// Run the command.
+            pub(crate) fn run(self) -> anyhow::Result<std::process::ExitCode> {
+                match self {
+                    $(KindCommands::$module(c) => c.run(),)+
+                }
+            }
+        }
+
+        /// Every kind's own subcommands of `fleetmap bench` that need no simulator (the
+        /// studies' benchmarks are `crate::experiment::KindBenches`).
+        #[derive(Debug, clap::Subcommand)]
+        #[allow(non_camel_case_types, missing_docs)]
+        pub enum KindBenchCommands {
+            $(
+                #[command(flatten)]
+                $module($module::commands::BenchCommands),
+            )+
+        }
+
+        impl KindBenchCommands {
+            /// Run the benchmark.
+            pub(crate) fn run(self) -> anyhow::Result<std::process::ExitCode> {
+                match self {
+                    $(KindBenchCommands::$module(c) => c.run(),)+
+                }
+            }
+        }
+    };
+}
+
+fleetmap_core::for_each_kind!(run => kinds);
+
+/// Write `text` to stdout, as the kinds' commands and studies print their results; a closed
+/// pipe (`fleetmap plan … | head`) is not an error.
+pub(crate) fn emit(text: &str) -> anyhow::Result<()> {
+    use std::io::Write as _;
+    let mut stdout = std::io::stdout().lock();
+    match stdout
+        .write_all(text.as_bytes())
+        .and_then(|_| stdout.flush())
+    {
+        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
+        _ => Ok(()),
+    }
+}
 
 /// Call `v` with the kind of the mission `def`.
 pub(crate) fn of_mission<V: KindVisitor>(def: &MissionDef, v: V) -> Result<V::Output, UnknownKind> {

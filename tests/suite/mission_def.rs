@@ -4,9 +4,8 @@
 //! `fleetmap check` reports them end to end.
 
 use fleetmap_core::geo::Cell;
-use fleetmap_core::mission::definition::{
-    DefError, MissionDef, MissionKind, Origin, Role, SweepBox,
-};
+use fleetmap_core::mission::definition::runway::SweepBox;
+use fleetmap_core::mission::definition::{DefError, MissionDef, MissionKind, Origin, Role};
 use fleetmap_io::files::load_mission;
 use proptest::prelude::*;
 use std::path::{Path, PathBuf};

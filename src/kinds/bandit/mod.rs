@@ -71,6 +71,7 @@ use tokio::sync::{broadcast, mpsc};
 use fleetmap_core::planner::sortie::KIND;
 
 mod args;
+pub mod commands;
 #[cfg(feature = "sim")]
 pub mod demo;
 pub mod error;

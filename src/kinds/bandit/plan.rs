@@ -8,7 +8,6 @@ use fleetmap_core::planner::ip::{PlanOptions, PlanOutcome, PlanStatus, solve_ins
 use fleetmap_core::planner::scenario::Scenario;
 use fleetmap_core::planner::scenario::ScenarioError;
 use std::fmt::Write as _;
-use std::io::Write as _;
 use std::path::PathBuf;
 use std::process::ExitCode;
 
@@ -137,7 +136,7 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
             }
         }
     }
-    emit(&out)?;
+    crate::kinds::emit(&out)?;
     Ok(if outcome.status == PlanStatus::Error {
         ExitCode::FAILURE
     } else {
@@ -145,14 +144,3 @@ pub fn run(args: PlanArgs) -> anyhow::Result<ExitCode> {
     })
 }
 
-/// Write `text` to stdout; a closed pipe (`fleetmap plan … | head`) is not an error.
-pub(crate) fn emit(text: &str) -> anyhow::Result<()> {
-    let mut stdout = std::io::stdout().lock();
-    match stdout
-        .write_all(text.as_bytes())
-        .and_then(|_| stdout.flush())
-    {
-        Err(e) if e.kind() != std::io::ErrorKind::BrokenPipe => Err(e.into()),
-        _ => Ok(()),
-    }
-}

@@ -84,6 +84,7 @@ use tokio::sync::{broadcast, mpsc};
 
 mod camera;
 pub mod classify;
+pub mod commands;
 #[cfg(feature = "sim")]
 pub mod demo;
 pub mod error;
