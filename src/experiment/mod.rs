@@ -2,8 +2,8 @@
 //!
 //! A mission kind's studies live in its folder (`bandit/`, `runway/`), each with its
 //! subcommands of `fleetmap experiment` (`cli::Studies`) and of `fleetmap bench`
-//! (`bench::Benches`); `kinds!` below lists them once, and the command line flattens the lists
-//! it makes ([`KindStudies`], [`KindBenches`]) into its own.
+//! (`bench::Benches`); `kinds!` below makes the lists from the core's list of kinds, and the
+//! command line flattens them ([`KindStudies`], [`KindBenches`]) into its own.
 
 pub mod dfs;
 

@@ -1,6 +1,7 @@
-//! The mission kinds this build flies (async shell), each one folder, and the one list a new
-//! kind is registered in (`registry!` below; CONTRIBUTING.md, "Adding a mission kind"): a
-//! kind's `mod` line and its registry line are both in this file.
+//! The mission kinds this build flies (async shell), each one folder, and their registry:
+//! the folders' `mod` lines, the registry (`registry!` below) and the kinds' own commands are
+//! generated from the core's list of kinds ([`fleetmap_core::for_each_kind!`];
+//! CONTRIBUTING.md, "Adding a mission kind").
 //!
 //! | module | what |
 //! |---|---|

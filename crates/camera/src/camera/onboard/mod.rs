@@ -4,7 +4,8 @@
 //!
 //! Each measurement is a `Measurer` in its own module (the green share: [`green`]; the
 //! runway's cell and 3 × 3 regions, with the grid the GCS announces: [`runway`]), made from
-//! the definition by `measurer`, the one place that lists them.
+//! the definition by `measurer`; the modules and `measurer` come from the core's list of kinds
+//! ([`fleetmap_core::for_each_kind!`]).
 
 use super::{CameraConfig, SimCamera};
 use anyhow::Context;

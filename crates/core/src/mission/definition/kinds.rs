@@ -1,5 +1,5 @@
-//! The mission kinds a mission file may name: the one list (`kinds!` below, a line per kind)
-//! and what a kind's file supplies, [`KindSection`]: its table of the mission file, read and
+//! The mission kinds a mission file may name (`MissionKind`, made by `kinds!` below from the
+//! list of kinds, [`crate::for_each_kind!`]) and what a kind's file supplies, [`KindSection`]: its table of the mission file, read and
 //! checked by the kind's own module. The generic reader and checks loop over the list and
 //! name no kind.
 
@@ -29,8 +29,8 @@ pub(super) trait KindSection: Sync {
     fn has_stations(&self) -> bool;
 }
 
-/// The list: for each kind its variant of [`MissionKind`], its name in mission files, and
-/// the one name of its module here, its table in the file and its field of [`MissionDef`]
+/// From the list's `file` part: for each kind its variant of [`MissionKind`], its name in
+/// mission files, and the one name of its module here, its table in the file and its field of [`MissionDef`]
 /// (the module holds `Section`, its [`KindSection`]). The first kind stands in for the kind
 /// of a file whose `kind` is missing or wrong (validation then drops the rules that depend
 /// on the kind).
