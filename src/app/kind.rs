@@ -1,7 +1,7 @@
 //! One mission kind: everything `fleetmap run`, `resume`, `report`, `export`, the TUI session
 //! and the demo need of a runner, so that each of them is written once for every mission.
 //!
-//! Each kind is a folder of `src/app/` (its runner, its `RunKind`, its panes) registered in
+//! Each kind is a folder of `src/kinds/` (its runner, its `RunKind`, its panes) registered in
 //! [`crate::kinds`]. A run directory remembers its kind (`run.json`'s `kind`, the
 //! kind's [`RunKind::KIND`]); the commands dispatch on it once, through the registry.
 
