@@ -3,7 +3,9 @@
 what its `pub use` statements (which may span lines) bring in, and which modules are public.
 
 Not a Rust front end: comments are not removed, and a file is read up to its
-`#[cfg(test)] mod` (the tests may reach anywhere). The GCS's and the camera program's `main.rs` are no modules.
+`#[cfg(test)] mod` (the tests may reach anywhere). What the list of kinds generates where a
+module asks for a part of it (`for_each_kind!(part => …)`: the kinds' `pub mod`s) and the types a file's own macros declare are read as
+the compiler expands them. The GCS's and the camera program's `main.rs` are no modules.
 """
 import os
 import re
@@ -18,6 +20,27 @@ CRATES = {
 ITEM = re.compile(r"^pub (?:async |const |unsafe )*(fn|struct|enum|trait|type|const|static|mod) (\w+)", re.M)
 MOD = re.compile(r"^(pub )?mod (\w+);", re.M)
 USE = re.compile(r"^pub use ([^;]*);", re.S | re.M)
+# Types a macro in the file declares (indented `pub struct`, `pub enum`… in its body): a file
+# that defines a `macro_rules!` and invokes it declares them.
+MACRO_TYPE = re.compile(r"^\s+pub (struct|enum|trait|type) (\w+)", re.M)
+KIND_LIST = "crates/core/src/kinds.rs"
+KIND_PART = re.compile(r"for_each_kind!\((\w+) =>")
+
+
+def kind_modules():
+    """The modules each part of the list of kinds (`for_each_kind!` in KIND_LIST) declares in
+    the module that asks for it (`pub mod` each, generated): part -> [module]."""
+    text = open(KIND_LIST, encoding="utf-8").read()
+    parts = {"file": [], "vision": [], "onboard": [], "run": [], "study": []}
+    for entry in re.findall(r'^\s*\w+ = "[a-z-]+" \{(.*)\}\s*$', text, re.M):
+        parts["file"].append(re.search(r"file: (\w+)::", entry).group(1))
+        vision = re.search(r"vision: (\w+)", entry)
+        if vision:
+            parts["vision"].append(vision.group(1))
+        parts["onboard"].append(re.search(r"\) in (\w+)", entry).group(1))
+        parts["run"].append(re.search(r"run: (\w+)::", entry).group(1))
+        parts["study"].append(re.search(r"study: (\w+)", entry).group(1))
+    return parts
 
 
 def module_path(root, path):
@@ -72,6 +95,7 @@ def load():
     (kind, name), its `pub use` paths as (segments, name), and its child modules with whether
     each is declared `pub`."""
     mods = {}
+    generated = kind_modules()
     for crate, root in CRATES.items():
         for dirpath, _, files in os.walk(root):
             for f in files:
@@ -87,6 +111,11 @@ def load():
                 m["uses"] = [u for s in USE.findall(text) for u in expand(s)]
                 for d in MOD.finditer(text):
                     m["children"][d.group(2)] = bool(d.group(1))
+                if "macro_rules!" in text:
+                    m["items"].extend(MACRO_TYPE.findall(text))
+                for part in KIND_PART.findall(text):
+                    for module in generated.get(part, []):
+                        m["children"][module] = True
     return mods
 
 

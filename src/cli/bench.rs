@@ -17,13 +17,13 @@ pub struct BenchArgs {
 pub enum BenchCommand {
     #[command(flatten)]
     #[allow(missing_docs)]
-    KindTool(crate::kinds::KindBenchCommands),
+    Kind(crate::kinds::KindBenchCommands),
     /// Terminal UI: full-frame redraws of a generated fleet, frames per second.
     Tui(super::tui::TuiBenchArgs),
     #[cfg(feature = "sim")]
     #[command(flatten)]
     #[allow(missing_docs)]
-    Kind(crate::experiment::KindBenches),
+    KindStudy(crate::experiment::KindBenches),
     /// Mission round trips (upload + download) against the simulator's ArduPilot and PX4
     /// mission protocol at several losses each way, in virtual seconds.
     #[cfg(feature = "sim")]
@@ -37,10 +37,10 @@ pub enum BenchCommand {
 /// Run a benchmark.
 pub fn run(args: BenchArgs) -> anyhow::Result<ExitCode> {
     match args.what {
-        BenchCommand::KindTool(b) => b.run(),
+        BenchCommand::Kind(b) => b.run(),
         BenchCommand::Tui(a) => super::tui::bench(a),
         #[cfg(feature = "sim")]
-        BenchCommand::Kind(b) => b.run(crate::kinds::emit),
+        BenchCommand::KindStudy(b) => b.run(crate::kinds::emit),
         #[cfg(feature = "sim")]
         BenchCommand::Transfer(a) => super::bench_transfer::run(a),
         #[cfg(feature = "sim")]

@@ -49,7 +49,8 @@ impl Default for GreenDef {
 }
 
 /// `[classification]`: the bandit high-level planner (eq. 3–4) and the IP low-level planner
-/// (eq. 7–11). Defaults are the paper's simulation defaults (§VI and Fig. 2).
+/// (eq. 7–11). Defaults are the paper's simulation defaults (§VI and Fig. 2); a definition of
+/// this kind whose file has no `[classification]` table gets them all.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 #[serde(deny_unknown_fields)]
 pub struct ClassificationDef {

@@ -298,10 +298,7 @@ impl Default for AreaDef {
 /// ([`crate::for_each_kind!`]).
 macro_rules! tables {
     ($([$(#[$doc:meta])*] [$variant:ident $name:literal $module:ident $def:ident])+) => {
-        $(
-            pub mod $module;
-            pub use $module::$def;
-        )+
+        $(pub mod $module;)+
 
         /// A mission definition file, parsed and validated (see the module documentation).
         #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
@@ -330,10 +327,11 @@ macro_rules! tables {
             #[serde(default)]
             pub area: AreaDef,
             $(
-                #[doc = concat!("The `[", stringify!($module), "]` table: present exactly in a ", $name, " mission ([`", stringify!($def), "`]).")]
+                #[doc = concat!("The `[", stringify!($module), "]` table: present exactly in a ", $name, " mission ([`", stringify!($module), "::", stringify!($def), "`]).")]
                 #[serde(default, skip_serializing_if = "Option::is_none")]
-                pub $module: Option<$def>,
-            )+    /// What every vehicle's link carries (`link = "radio:2000"`), unless a vehicle says
+                pub $module: Option<$module::$def>,
+            )+
+            /// What every vehicle's link carries (`link = "radio:2000"`), unless a vehicle says
             /// otherwise; `None`: not said (unlimited until a radio reports itself).
             #[serde(default, skip_serializing_if = "Option::is_none")]
             pub link: Option<LinkBudget>,
