@@ -4,8 +4,9 @@ what its `pub use` statements (which may span lines) bring in, and which modules
 
 Not a Rust front end: comments are not removed, and a file is read up to its
 `#[cfg(test)] mod` (the tests may reach anywhere). What the list of kinds generates where a
-module asks for a part of it (`for_each_kind!(part => …)`: the kinds' `pub mod`s) and the types a file's own macros declare are read as
-the compiler expands them. The GCS's and the camera program's `main.rs` are no modules.
+module asks for a part of it (`for_each_kind!(part => …)`: the kinds' `pub mod`s) and the types
+a file's own macros declare are read as the compiler expands them. The GCS's and the camera
+program's `main.rs` are no modules.
 """
 import os
 import re
