@@ -321,6 +321,11 @@ impl SysidWatch {
                     && now.saturating_since(at) <= ttl
                     && s.advanced.saturating_sub(stamp) < 128 =>
             {
+                // Collisions that stopped for `ttl` were a restart's (below): two restarts
+                // unseen within the window are not one long run of collisions.
+                if s.collisions.back().is_some_and(|t| now.saturating_since(*t) > ttl) {
+                    s.collisions.clear();
+                }
                 s.collisions.push_back(now);
             }
             _ => {}
@@ -333,9 +338,9 @@ impl SysidWatch {
         {
             s.collisions.pop_front();
         }
-        // Spread over more than `ttl`: a reboot's new count collides with the old one only
-        // for `ttl` after it (even when the restart was not seen, its first frames lost);
-        // two counters in step go on colliding.
+        // Spread over more than `ttl` without a pause of `ttl`: a reboot's new count collides
+        // with the old one only for `ttl` after it (even when the restart was not seen, its
+        // first frames lost), and then stops; two counters in step go on colliding.
         if s.collisions.len() >= cfg.collisions
             && let (Some(first), Some(last)) = (s.collisions.front(), s.collisions.back())
             && last.saturating_since(*first) > ttl
