@@ -323,7 +323,10 @@ impl SysidWatch {
             {
                 // Collisions that stopped for `ttl` were a restart's (below): two restarts
                 // unseen within the window are not one long run of collisions.
-                if s.collisions.back().is_some_and(|t| now.saturating_since(*t) > ttl) {
+                if s.collisions
+                    .back()
+                    .is_some_and(|t| now.saturating_since(*t) > ttl)
+                {
                     s.collisions.clear();
                 }
                 s.collisions.push_back(now);
