@@ -37,8 +37,8 @@ import sys
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from layers import code_files  # noqa: E402
 from module_cycles import strip  # noqa: E402
+from rust_modules import KIND_LIST as REGISTRY, kind_entries  # noqa: E402
 
-REGISTRY = "crates/core/src/kinds.rs"
 ROOTS = ["src", "crates/core/src", "crates/io/src", "crates/sim/src", "crates/camera/src"]
 KINDS = {
     "runway-mapping": {
@@ -71,13 +71,8 @@ GOAL = 1
 
 
 def registered():
-    """The kinds' names in mission files, in the list's order: the entries `Variant = "name" {`
-    of `for_each_kind!`."""
-    text = open(REGISTRY, encoding="utf-8").read()
-    m = re.search(r"macro_rules! for_each_kind \{(.*?)\n\}", text, re.S)
-    if m is None:
-        sys.exit(f"kind_mentions: no for_each_kind! in {REGISTRY}")
-    names = re.findall(r'^\s*\w+ = "([a-z-]+)" \{', m.group(1), re.M)
+    """The kinds' names in mission files, in the list's order."""
+    names = [name for name, _ in kind_entries()]
     if not names:
         sys.exit(f"kind_mentions: for_each_kind! in {REGISTRY} lists no kind")
     return names

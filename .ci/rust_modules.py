@@ -28,12 +28,21 @@ KIND_LIST = "crates/core/src/kinds.rs"
 KIND_PART = re.compile(r"for_each_kind!\((\w+) =>")
 
 
-def kind_modules():
-    """The modules each part of the list of kinds (`for_each_kind!` in KIND_LIST) declares in
-    the module that asks for it (`pub mod` each, generated): part -> [module]."""
+def kind_entries():
+    """The list of kinds (`for_each_kind!` in KIND_LIST), in its order: (the kind's name in
+    mission files, the rest of its entry's line)."""
     text = open(KIND_LIST, encoding="utf-8").read()
+    m = re.search(r"macro_rules! for_each_kind \{(.*?)\n\}", text, re.S)
+    if m is None:
+        raise SystemExit(f"no for_each_kind! in {KIND_LIST}")
+    return re.findall(r'^\s*\w+ = "([a-z-]+)" \{(.*)\}\s*$', m.group(1), re.M)
+
+
+def kind_modules():
+    """The modules each part of the list of kinds declares in the module that asks for it
+    (`pub mod` each, generated): part -> [module]."""
     parts = {"file": [], "vision": [], "onboard": [], "run": [], "study": []}
-    for entry in re.findall(r'^\s*\w+ = "[a-z-]+" \{(.*)\}\s*$', text, re.M):
+    for _, entry in kind_entries():
         parts["file"].append(re.search(r"file: (\w+)::", entry).group(1))
         vision = re.search(r"vision: (\w+)", entry)
         if vision:
