@@ -1415,22 +1415,21 @@ def radio_relays(args, work, members, gcs_ports):
     relays, ports = {}, []
     try:
         for (sysid, kind, _), gcs in zip(members, gcs_ports):
-            port = free_udp_port()
             speedup = (args.px4_speedup or args.speedup) if kind == "px4" else args.speedup
             dark = blackouts_for(args.faults, sysid)
-            relays[sysid] = Proc(
-                [BIN, "relay", "--gcs", f"udpout:127.0.0.1:{gcs}", "--vehicle", f"udpin:127.0.0.1:{port}",
-                 "--radio", str(args.radio), "--loss", f"{args.radio_loss:g}", "--clock", f"speedup:{speedup:g}",
-                 "--seed", str(sysid), "--report-every", "0",
-                 *(["--blackout", dark] if dark else []),
-                 "--stats", os.path.join(work, f"radio-{sysid}.json")],
+            relays[sysid], port = serve(
+                lambda port, gcs=gcs, speedup=speedup, dark=dark, sysid=sysid: [
+                    BIN, "relay", "--gcs", f"udpout:127.0.0.1:{gcs}", "--vehicle", f"udpin:127.0.0.1:{port}",
+                    "--radio", str(args.radio), "--loss", f"{args.radio_loss:g}", "--clock", f"speedup:{speedup:g}",
+                    "--seed", str(sysid), "--report-every", "0",
+                    *(["--blackout", dark] if dark else []),
+                    "--stats", os.path.join(work, f"radio-{sysid}.json")],
                 os.path.join(work, f"radio-{sysid}.log"))
             ports.append(port)
     except BaseException:
         for r in relays.values():
             r.stop()
         raise
-    time.sleep(0.3)
     return relays, ports
 
 
